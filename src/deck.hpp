@@ -1,0 +1,76 @@
+// A scene deck: one YAML file describing one simulation (mesh, material, constraints,
+// time stepping, solver, output, extra PETSc options). The format is documented in docs/decks.md.
+#pragma once
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "mesh.hpp"
+
+namespace hyperqn {
+
+struct MeshSpec {
+  std::string file;                  // .mesh (Medit) or .msh (Gmsh); resolved relative to the deck
+  bool is_box = false;               // generated box instead of a file
+  std::array<double, 3> box_size{1, 1, 1};
+  std::array<int, 3> box_cells{1, 1, 1};
+  MeshTransform transform;
+};
+
+struct MaterialSpec {
+  std::string model = "corotated";   // corotated | neohookean
+  double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
+  bool has_density = false;
+  double density = 1000;             // mass per unit volume, or
+  double total_mass = 0;             // total mass (used when has_density is false)
+  double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
+  double laplacian_weight = 0;       // 0: the material's own weight; > 0: override
+};
+
+struct BoxRegion {
+  std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
+  int line = 0;                      // deck line, for error messages
+};
+
+struct TimeSpec {
+  double dt = 1.0 / 30.0;
+  int frames = 100;
+  double damping = 0;                // v <- (1 - damping) v after each step
+};
+
+struct SolverSpec {
+  std::string type = "lbfgs";
+  int iterations = 10;               // per frame
+  double grad_atol = 0;              // stop when ||grad g|| <= grad_atol, or
+  double grad_rtol = 1e-6;           //   ||grad g|| <= grad_rtol * ||grad g(x0)||
+  int history = 5;                   // L-BFGS pairs
+  std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
+  std::string warm_start = "inertial";       // inertial (x0 = y) | previous (x0 = x_n)
+};
+
+struct OutputSpec {
+  std::string directory;             // "" -> output/<deck name>
+  int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
+  bool vtk = true;
+  bool iterations_csv = true;
+};
+
+struct Deck {
+  std::string path;                  // the deck file
+  std::string name;                  // deck file name without directory and extension
+  MeshSpec mesh;
+  MaterialSpec material;
+  std::vector<BoxRegion> fixed;
+  std::array<double, 3> gravity{0, -9.81, 0};
+  TimeSpec time;
+  SolverSpec solver;
+  OutputSpec output;
+  std::vector<std::pair<std::string, std::string>> petsc_options;  // "-key", "value" (petsc: section)
+};
+
+// Parses and validates a deck. Unknown keys, wrong types and impossible values throw
+// InputError naming the file, line and dotted key.
+Deck load_deck(const std::string& path);
+
+}  // namespace hyperqn

@@ -1,0 +1,40 @@
+// Hyperelastic material interface: strain energy density psi(F) per unit rest volume,
+// first Piola-Kirchhoff stress P = dpsi/dF, its derivative dP/dF, and the weight w used in
+// the constant matrix L = sum_e w V_e (G_e^T G_e (x) I3).
+#pragma once
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+
+namespace hyperqn {
+
+using Mat3 = Eigen::Matrix3d;
+using Vec3 = Eigen::Vector3d;
+// dP/dF as a 9x9 matrix acting on vec(F) in column-major order (Eigen's default):
+// vec(dP) = dPdF * vec(dF), index of F(i,j) is i + 3*j.
+using Mat9 = Eigen::Matrix<double, 9, 9>;
+
+class Material {
+ public:
+  virtual ~Material() = default;
+  virtual std::string name() const = 0;
+  // Energy density psi(F). Finite for every F, including inverted (det F < 0) and det F = 0.
+  virtual double energy(const Mat3& F) const = 0;
+  // Energy density and first Piola-Kirchhoff stress P = dpsi/dF in one call (shares the SVD).
+  virtual double energy_and_stress(const Mat3& F, Mat3& P) const = 0;
+  // dP/dF (the exact, possibly indefinite, Hessian of psi w.r.t. F). Symmetric.
+  virtual Mat9 stress_derivative(const Mat3& F) const = 0;
+  // Weight of this material in L (stiffness of the stress-strain curve near rest).
+  virtual double laplacian_weight() const = 0;
+};
+
+// Lame parameters from Young's modulus and Poisson ratio.
+inline double lame_mu(double E, double nu) { return E / (2.0 * (1.0 + nu)); }
+inline double lame_lambda(double E, double nu) { return E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)); }
+
+// psi = mu ||F - R||^2 + lambda/2 (tr(R^T F) - 3)^2, R from the signed polar decomposition.
+std::unique_ptr<Material> make_corotated(double mu, double lambda);
+// psi = mu/2 (I1 - 3) - mu f(J) + lambda/2 f(J)^2, f = log J above J0, C2 quadratic below.
+std::unique_ptr<Material> make_neohookean(double mu, double lambda, double J0);
+
+}  // namespace hyperqn
