@@ -12,6 +12,8 @@ class InputError : public std::runtime_error {
   // key: dotted deck key or mesh section ("" if none).
   InputError(const std::string& file, int line, const std::string& key, const std::string& what)
       : std::runtime_error(format(file, line, key, what)) {}
+  // A message already formatted (e.g. received from another rank).
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
 
  private:
   static std::string format(const std::string& file, int line, const std::string& key,

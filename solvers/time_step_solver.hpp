@@ -1,0 +1,38 @@
+// The one interface every time-step solver implements: minimize the step's g(x) from an
+// initial guess, reporting each iteration as it happens.
+#pragma once
+#include <petscvec.h>
+
+#include <functional>
+#include <string>
+
+namespace hyperqn {
+
+struct IterationRecord {
+  PetscInt iteration = 0;    // 0 = the initial guess
+  double time_s = 0;         // wall time since this frame's solve started
+  double energy = 0;         // g(x_k)
+  double grad_norm = 0;      // ||grad g(x_k)||_2 over the free dofs
+  double step = 0;           // line-search step length that produced x_k (0 at iteration 0)
+  PetscInt evaluations = 0;  // g / grad g evaluations so far in this frame
+};
+
+struct FrameResult {
+  PetscInt iterations = 0;
+  double energy = 0, grad_norm = 0;
+  bool converged = false;    // met the gradient tolerance (otherwise: iteration budget, or failure)
+  bool failed = false;       // the solver could not decrease g (line search failure, NaN, ...)
+  std::string reason;        // solver's own words
+};
+
+using IterationCallback = std::function<void(const IterationRecord&)>;
+
+class TimeStepSolver {
+ public:
+  virtual ~TimeStepSolver() = default;
+  virtual std::string name() const = 0;
+  // x: in, the initial guess; out, the accepted iterate.
+  virtual PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) = 0;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,209 @@
+#include "distributed_mesh.hpp"
+
+#include <metis.h>
+#include <petscsf.h>
+
+#include <algorithm>
+#include <numeric>
+
+namespace hyperqn {
+
+// Element partition of the serial mesh: METIS k-way on the dual graph (tets sharing a face).
+static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
+  idx_t ne = (idx_t)mesh.num_tets(), nn = (idx_t)mesh.num_vertices();
+  std::vector<PetscInt> part(ne, 0);
+  if (nparts == 1 || ne == 0) return part;
+  std::vector<idx_t> eptr(ne + 1), eind(mesh.tets.begin(), mesh.tets.end());
+  for (idx_t e = 0; e <= ne; ++e) eptr[e] = 4 * e;
+  idx_t ncommon = 3, np = nparts, objval = 0;
+  idx_t opts[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(opts);
+  opts[METIS_OPTION_SEED] = 7;  // fixed seed: the same partition on every run
+  std::vector<idx_t> epart(ne), npart(nn);
+  int status = METIS_PartMeshDual(&ne, &nn, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &np,
+                                  nullptr, opts, &objval, epart.data(), npart.data());
+  if (status != METIS_OK) return {};
+  std::copy(epart.begin(), epart.end(), part.begin());
+  return part;
+}
+
+// Rank 0 computes the METIS partition and gives it to the shell partitioner; the other ranks
+// hold no cells and pass empty sizes.
+static PetscErrorCode set_metis_partition(DM dm, const TetMesh& serial) {
+  PetscMPIInt size, rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)dm), &size));
+  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)dm), &rank));
+  std::vector<PetscInt> sizes(size, 0), points;
+  if (rank == 0) {
+    std::vector<PetscInt> part = metis_partition(serial, size);
+    PetscCheck(part.size() == (size_t)serial.num_tets(), PETSC_COMM_SELF, PETSC_ERR_LIB, "METIS partitioning failed");
+    for (PetscInt p : part) sizes[p]++;
+    std::vector<PetscInt> start(size, 0);
+    for (int p = 1; p < size; ++p) start[p] = start[p - 1] + sizes[p - 1];
+    points.resize(part.size());
+    for (PetscInt c = 0; c < (PetscInt)part.size(); ++c) points[start[part[c]]++] = c;
+  }
+  PetscPartitioner partitioner;
+  PetscCall(DMPlexGetPartitioner(dm, &partitioner));
+  PetscCall(PetscPartitionerSetType(partitioner, PETSCPARTITIONERSHELL));
+  PetscCall(PetscPartitionerShellSetPartition(partitioner, size, sizes.data(), points.data()));
+  PetscFunctionReturn(0);
+}
+
+// Section with 3 dofs on free vertices and none on fixed ones.
+static PetscErrorCode create_dof_section(DistributedMesh& m) {
+  PetscSection s;
+  PetscInt pStart, pEnd, vStart, vEnd;
+  PetscFunctionBeginUser;
+  PetscCall(PetscSectionCreate(PetscObjectComm((PetscObject)m.dm), &s));
+  PetscCall(PetscSectionSetNumFields(s, 1));
+  PetscCall(PetscSectionSetFieldName(s, 0, "position"));
+  PetscCall(PetscSectionSetFieldComponents(s, 0, 3));
+  PetscCall(DMPlexGetChart(m.dm, &pStart, &pEnd));
+  PetscCall(PetscSectionSetChart(s, pStart, pEnd));
+  PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
+  for (PetscInt v = vStart; v < vEnd; ++v) {
+    PetscInt ndof = m.fixed[v - vStart] ? 0 : 3;
+    PetscCall(PetscSectionSetDof(s, v, ndof));
+    PetscCall(PetscSectionSetFieldDof(s, v, 0, ndof));
+  }
+  PetscCall(PetscSectionSetUp(s));
+  PetscCall(DMSetLocalSection(m.dm, s));
+  PetscCall(PetscSectionDestroy(&s));
+  PetscFunctionReturn(0);
+}
+
+// Fills the flat per-rank arrays from the distributed DM. point_value[p] is the input element
+// tag of cell p or the input vertex index of vertex p; point_fixed[p] marks fixed vertices.
+static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<int64_t>& point_value,
+                                        const std::vector<char>& point_fixed) {
+  PetscInt cStart, cEnd, vStart, vEnd;
+  PetscFunctionBeginUser;
+  PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
+  PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
+  m.num_cells = cEnd - cStart;
+  m.num_vertices = vEnd - vStart;
+
+  m.cells.resize(4 * m.num_cells);
+  m.cell_tags.resize(m.num_cells);
+  for (PetscInt c = cStart; c < cEnd; ++c) {
+    const PetscInt* cone;
+    PetscInt n;
+    PetscCall(DMPlexGetConeSize(m.dm, c, &n));
+    PetscCheck(n == 4, PETSC_COMM_SELF, PETSC_ERR_PLIB, "cell %" PetscInt_FMT " has %" PetscInt_FMT " vertices", c, n);
+    PetscCall(DMPlexGetCone(m.dm, c, &cone));
+    for (int k = 0; k < 4; ++k) m.cells[4 * (c - cStart) + k] = cone[k] - vStart;
+    m.cell_tags[c - cStart] = (int32_t)point_value[c];
+  }
+
+  Vec coords;
+  const PetscScalar* xc;
+  PetscCall(DMGetCoordinatesLocal(m.dm, &coords));
+  PetscCall(VecGetArrayRead(coords, &xc));
+  m.rest.assign(xc, xc + 3 * m.num_vertices);
+  PetscCall(VecRestoreArrayRead(coords, &xc));
+
+  m.vertex_ids.assign(point_value.begin() + vStart, point_value.begin() + vEnd);
+  m.fixed.assign(point_fixed.begin() + vStart, point_fixed.begin() + vEnd);
+
+  // Ownership: a vertex that is a leaf of the point SF belongs to another rank.
+  PetscSF point_sf;
+  PetscInt nleaves;
+  const PetscInt* ilocal;
+  m.owned.assign(m.num_vertices, 1);
+  PetscCall(DMGetPointSF(m.dm, &point_sf));
+  PetscCall(PetscSFGetGraph(point_sf, nullptr, &nleaves, &ilocal, nullptr));
+  for (PetscInt i = 0; i < nleaves; ++i) {
+    PetscInt p = ilocal ? ilocal[i] : i;
+    if (p >= vStart && p < vEnd) m.owned[p - vStart] = 0;
+  }
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode fill_dof_numbers(DistributedMesh& m) {
+  PetscSection ls, gs;
+  PetscInt vStart, vEnd;
+  PetscFunctionBeginUser;
+  PetscCall(DMGetLocalSection(m.dm, &ls));
+  PetscCall(DMGetGlobalSection(m.dm, &gs));
+  PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
+  m.local_dof.assign(m.num_vertices, -1);
+  m.global_dof.assign(m.num_vertices, -1);
+  for (PetscInt v = vStart; v < vEnd; ++v) {
+    if (m.fixed[v - vStart]) continue;
+    PetscInt loff, goff;
+    PetscCall(PetscSectionGetOffset(ls, v, &loff));
+    PetscCall(PetscSectionGetOffset(gs, v, &goff));
+    m.local_dof[v - vStart] = loff;
+    m.global_dof[v - vStart] = goff >= 0 ? goff : -(goff + 1);  // ghosts are stored as -(offset+1)
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<char>& fixed_serial,
+                               DistributedMesh& out) {
+  PetscMPIInt rank, size;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+
+  // The whole mesh is created on rank 0 (no interpolation: vertex dofs need no edges or faces).
+  const PetscInt ncells = rank == 0 ? (PetscInt)serial.num_tets() : 0;
+  const PetscInt nverts = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
+  std::vector<PetscInt> cells(serial.tets.begin(), serial.tets.end());
+  DM dm;
+  PetscCall(DMPlexCreateFromCellListPetsc(comm, 3, ncells, nverts, 4, PETSC_FALSE, cells.data(), 3,
+                                          serial.coords.data(), &dm));
+  PetscCall(DMPlexDistributeSetDefault(dm, PETSC_FALSE));  // never re-partition behind our back
+
+  // Per serial point (cells first, then vertices): the data that travels with it.
+  std::vector<int64_t> point_value(ncells + nverts);
+  std::vector<char> point_fixed(ncells + nverts, 0);
+  for (PetscInt c = 0; c < ncells; ++c) point_value[c] = serial.tet_tags[c];
+  for (PetscInt v = 0; v < nverts; ++v) {
+    point_value[ncells + v] = serial.vertex_ids[v];
+    point_fixed[ncells + v] = fixed_serial[v];
+  }
+
+  if (size > 1) {
+    PetscSF migration;
+    DM dist;
+    PetscInt pStart, pEnd;
+    PetscCall(set_metis_partition(dm, serial));
+    PetscCall(DMPlexDistribute(dm, 0, &migration, &dist));
+    PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
+    // The migration SF's roots are the serial points on rank 0, its leaves the new local points.
+    std::vector<int64_t> value(pEnd - pStart);
+    std::vector<char> fixed(pEnd - pStart);
+    PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastBegin(migration, MPI_CHAR, point_fixed.data(), fixed.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(migration, MPI_CHAR, point_fixed.data(), fixed.data(), MPI_REPLACE));
+    PetscCall(PetscSFDestroy(&migration));
+    PetscCall(DMDestroy(&dm));
+    dm = dist;
+    point_value.swap(value);
+    point_fixed.swap(fixed);
+  }
+  out.dm = dm;
+  PetscCall(fill_local_arrays(out, point_value, point_fixed));
+  PetscCall(create_dof_section(out));
+  PetscCall(fill_dof_numbers(out));
+
+  // Global counts.
+  PetscInt local[3] = {out.num_cells, 0, 0}, global[3];
+  for (PetscInt v = 0; v < out.num_vertices; ++v)
+    if (out.owned[v]) {
+      local[1]++;
+      if (out.fixed[v]) local[2]++;
+    }
+  PetscCallMPI(MPI_Allreduce(local, global, 3, MPIU_INT, MPI_SUM, comm));
+  out.global_cells = global[0];
+  out.global_vertices = global[1];
+  out.global_fixed_vertices = global[2];
+  out.global_dofs = 3 * (global[1] - global[2]);
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,42 @@
+// The mesh distributed over MPI ranks: a DMPlex partitioned by METIS (computed on rank 0 and
+// handed to DMPlexDistribute through PetscPartitionerShell), plus flat per-rank arrays that the
+// element loops use directly.
+//
+// Unknowns: 3 position dofs per free vertex. Fixed vertices carry no dof at all (they are
+// eliminated), so the global vectors hold exactly the free unknowns.
+#pragma once
+#include <petscdmplex.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "deck.hpp"
+#include "mesh.hpp"
+
+namespace hyperqn {
+
+struct DistributedMesh {
+  DM dm = nullptr;                   // distributed, non-interpolated DMPlex with the dof section
+  PetscInt num_vertices = 0;         // local vertices (owned + ghost)
+  PetscInt num_cells = 0;            // local cells (each cell lives on exactly one rank)
+  std::vector<double> rest;          // 3 per local vertex: rest positions
+  std::vector<PetscInt> cells;       // 4 local vertex indices per local cell, positively oriented
+  std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
+  std::vector<int32_t> cell_tags;    // per local cell: the input element tag
+  std::vector<char> fixed;           // per local vertex: 1 if in a fixed region
+  std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)
+  std::vector<PetscInt> local_dof;   // per local vertex: offset of its x dof in the local Vec, -1 if fixed
+  std::vector<PetscInt> global_dof;  // per local vertex: global index of its x dof, -1 if fixed
+  // Global counts (same on every rank).
+  PetscInt global_vertices = 0, global_cells = 0, global_dofs = 0, global_fixed_vertices = 0;
+
+  ~DistributedMesh() { DMDestroy(&dm); }
+};
+
+// Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
+// METIS into one part per rank, distributes it, and builds the dof layout with the vertices
+// flagged in fixed_serial (one flag per serial vertex, rank 0) eliminated.
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<char>& fixed_serial,
+                               DistributedMesh& out);
+
+}  // namespace hyperqn

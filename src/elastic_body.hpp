@@ -1,0 +1,60 @@
+// The elastic body on this rank: per-element rest shape, the material, the lumped mass and the
+// constant matrix L. Evaluates the elastic energy E(x) and its gradient over the local cells.
+#pragma once
+#include <petscdmplex.h>
+
+#include <memory>
+#include <vector>
+
+#include "deck.hpp"
+#include "distributed_mesh.hpp"
+#include "materials/material.hpp"
+
+namespace hyperqn {
+
+class ElasticBody {
+ public:
+  ElasticBody(const DistributedMesh& mesh, const MaterialSpec& spec);
+  ~ElasticBody() { VecDestroy(&local_); }
+  ElasticBody(const ElasticBody&) = delete;
+  ElasticBody& operator=(const ElasticBody&) = delete;
+
+  const DistributedMesh& mesh() const { return mesh_; }
+  const Material& material() const { return *material_; }
+  double laplacian_weight() const { return weight_; }
+
+  // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
+  // ones from their prescribed positions.
+  PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
+  // Local values of a global velocity vector (fixed vertices do not move: 0).
+  PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
+  // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
+  PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
+  // det F per local cell at the given local positions.
+  void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
+
+  // Lumped mass per dof (global vector layout): each vertex gets a quarter of its tets' mass.
+  PetscErrorCode lumped_mass(Vec mass) const;
+  // Total mass of the body (all vertices, fixed included).
+  double total_mass() const { return total_mass_; }
+  // A += scale * L with L = sum_e w V_e (G_e^T G_e (x) I3), restricted to free dofs.
+  PetscErrorCode add_laplacian(Mat A, PetscReal scale) const;
+  // Positions of the rest shape as a global vector of free dofs.
+  PetscErrorCode rest_positions(Vec x) const;
+
+ private:
+  // out = fixed_values, then the free vertices' entries overwritten from the global vector.
+  PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
+
+  const DistributedMesh& mesh_;
+  std::unique_ptr<Material> material_;
+  double weight_ = 0;
+  double density_ = 0;               // mass per rest volume (from density or total mass)
+  double total_mass_ = 0;
+  std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix
+  std::vector<double> volume_;       // per local cell: rest volume
+  mutable Vec local_ = nullptr;      // work: local (ghosted) vector
+  mutable std::vector<double> pos_;  // work: local positions
+};
+
+}  // namespace hyperqn

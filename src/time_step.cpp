@@ -1,0 +1,70 @@
+#include "time_step.hpp"
+
+namespace hyperqn {
+
+TimeStep::TimeStep(ElasticBody& body, double dt, const std::array<double, 3>& gravity)
+    : body_(body), dt_(dt), gravity_(gravity) {}
+
+TimeStep::~TimeStep() {
+  VecDestroy(&mass_);
+  VecDestroy(&y_);
+  VecDestroy(&gravity_step_);
+  VecDestroy(&work_);
+  VecDestroy(&diff_);
+}
+
+PetscErrorCode TimeStep::setup() {
+  DM dm = body_.mesh().dm;
+  PetscInt lo, hi;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateGlobalVector(dm, &mass_));
+  PetscCall(PetscObjectSetName((PetscObject)mass_, "mass"));
+  PetscCall(body_.lumped_mass(mass_));
+  PetscCall(VecDuplicate(mass_, &y_));
+  PetscCall(VecDuplicate(mass_, &work_));
+  PetscCall(VecDuplicate(mass_, &diff_));
+  // h^2 * gravity, repeated for every free vertex (dofs are interleaved x, y, z).
+  PetscCall(VecDuplicate(mass_, &gravity_step_));
+  PetscCall(VecGetOwnershipRange(gravity_step_, &lo, &hi));
+  PetscCall(VecGetArray(gravity_step_, &a));
+  for (PetscInt i = lo; i < hi; ++i) a[i - lo] = dt_ * dt_ * gravity_[i % 3];
+  PetscCall(VecRestoreArray(gravity_step_, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode TimeStep::set_inertial_target(Vec x_n, Vec v_n) {
+  PetscFunctionBeginUser;
+  PetscCall(VecWAXPY(y_, dt_, v_n, x_n));
+  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode TimeStep::objective(Vec x, PetscReal* g, Vec grad) {
+  PetscReal E, inertia;
+  PetscFunctionBeginUser;
+  const double t0 = MPI_Wtime();
+  ++evaluations_;
+  PetscCall(body_.energy_gradient(x, &E, grad));
+  PetscCall(VecWAXPY(diff_, -1.0, y_, x));                // x - y
+  PetscCall(VecPointwiseMult(work_, diff_, mass_));       // M (x - y)
+  PetscCall(VecDot(work_, diff_, &inertia));
+  *g = 0.5 * inertia + dt_ * dt_ * E;
+  if (grad) PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
+  objective_s_ += MPI_Wtime() - t0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode TimeStep::assemble_constant_matrix(Mat* A) const {
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateMatrix(body_.mesh().dm, A));
+  PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscCall(body_.add_laplacian(*A, dt_ * dt_));
+  PetscCall(MatAssemblyBegin(*A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(*A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
+  PetscCall(MatSetOption(*A, MAT_SPD, PETSC_TRUE));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,48 @@
+// One implicit Euler step as a minimization over the free positions x:
+//   g(x) = 1/2 (x - y)^T M (x - y) + h^2 E(x),   y = x_n + h v_n + h^2 a_gravity
+// (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2, so g and grad g are in units of M x).
+// The solvers only see this interface: g, grad g, and the constant matrix A = M + h^2 L.
+#pragma once
+#include <petscvec.h>
+
+#include <array>
+
+#include "elastic_body.hpp"
+
+namespace hyperqn {
+
+class TimeStep {
+ public:
+  TimeStep(ElasticBody& body, double dt, const std::array<double, 3>& gravity);
+  ~TimeStep();
+  TimeStep(const TimeStep&) = delete;
+  TimeStep& operator=(const TimeStep&) = delete;
+  PetscErrorCode setup();  // mass vector, work vectors
+
+  ElasticBody& body() { return body_; }
+  double dt() const { return dt_; }
+  Vec mass() const { return mass_; }
+  // A template global vector of free dofs.
+  Vec layout() const { return mass_; }
+
+  // y = x_n + h v_n + h^2 g for the step about to be taken.
+  PetscErrorCode set_inertial_target(Vec x_n, Vec v_n);
+  Vec inertial_target() const { return y_; }
+  // g(x) and, if grad is not null, its gradient. Counts evaluations.
+  PetscErrorCode objective(Vec x, PetscReal* g, Vec grad);
+  PetscInt evaluations() const { return evaluations_; }
+  double objective_seconds() const { return objective_s_; }  // total, over the whole run
+  void reset_evaluations() { evaluations_ = 0; }
+  // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene).
+  PetscErrorCode assemble_constant_matrix(Mat* A) const;
+
+ private:
+  ElasticBody& body_;
+  double dt_;
+  std::array<double, 3> gravity_;
+  Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
+  PetscInt evaluations_ = 0;
+  double objective_s_ = 0;
+};
+
+}  // namespace hyperqn
