@@ -1,0 +1,92 @@
+// Inversion-safe Neo-Hookean: psi = mu/2 (tr(F^T F) - 3) - mu f(J) + lambda/2 f(J)^2, J = det F,
+// with f = log J above J0 and its C2 quadratic extension below (finite for J <= 0).
+// Written with the cofactor matrix cof(F) = dJ/dF (= J F^{-T}), which needs no inverse and is
+// defined at J = 0, so no SVD is needed either.
+#include <cmath>
+
+#include "materials/material.hpp"
+
+namespace hyperqn {
+namespace {
+
+// cof(F) = dJ/dF: its columns are cross products of the other two columns of F.
+Mat3 cofactor(const Mat3& F) {
+  Mat3 C;
+  C.col(0) = F.col(1).cross(F.col(2));
+  C.col(1) = F.col(2).cross(F.col(0));
+  C.col(2) = F.col(0).cross(F.col(1));
+  return C;
+}
+
+// Levi-Civita symbol.
+double eps3(int i, int j, int k) { return 0.5 * (i - j) * (j - k) * (k - i); }
+
+// d cof(F) / dF = d^2 J / dF^2 (9x9, linear in F): d cof_ij / d F_kl = sum_mn e_ikm e_jln F_mn.
+// Each entry has exactly one nonzero term, so the matrix is exactly symmetric.
+Mat9 cofactor_derivative(const Mat3& F) {
+  Mat9 D = Mat9::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) {
+          if (i == k || j == l) continue;
+          const int m = 3 - i - k, n = 3 - j - l;
+          D(i + 3 * j, k + 3 * l) = eps3(i, k, m) * eps3(j, l, n) * F(m, n);
+        }
+  return D;
+}
+
+// f(J) and its first two derivatives.
+struct LogExt {
+  double f, df, d2f;
+};
+
+class NeoHookean final : public Material {
+ public:
+  NeoHookean(double mu, double lambda, double J0) : mu_(mu), lambda_(lambda), J0_(J0) {}
+  std::string name() const override { return "neohookean"; }
+
+  double energy(const Mat3& F) const override {
+    const double f = log_ext(F.determinant()).f;
+    return 0.5 * mu_ * (F.squaredNorm() - 3.0) - mu_ * f + 0.5 * lambda_ * f * f;
+  }
+
+  double energy_and_stress(const Mat3& F, Mat3& P) const override {
+    const LogExt g = log_ext(F.determinant());
+    P = mu_ * F + (lambda_ * g.f - mu_) * g.df * cofactor(F);
+    return 0.5 * mu_ * (F.squaredNorm() - 3.0) - mu_ * g.f + 0.5 * lambda_ * g.f * g.f;
+  }
+
+  Mat9 stress_derivative(const Mat3& F) const override {
+    const LogExt g = log_ext(F.determinant());
+    const Mat3 C = cofactor(F);
+    const Eigen::Map<const Eigen::Matrix<double, 9, 1>> c(C.data());
+    // d/dF of mu F + h(J) cof, with h = (lambda f - mu) f':  mu I + h'(J) c c^T + h d cof/dF.
+    const double h = (lambda_ * g.f - mu_) * g.df;
+    const double dh = lambda_ * g.df * g.df + (lambda_ * g.f - mu_) * g.d2f;
+    return mu_ * Mat9::Identity() + dh * c * c.transpose() + h * cofactor_derivative(F);
+  }
+
+  // The reference code's hard-coded "10% window" fit of the stress-strain slope near rest
+  // (paper section 4.1; algorithm.md section 4, reference-implementation.md section 3). A plain
+  // least-squares fit over stretch in [0.9, 1.1] gives 2.0060 mu + 1.0111 lambda; we keep the
+  // reference constants so L matches the authors' code.
+  double laplacian_weight() const override { return 2.0066 * mu_ + 1.0122 * lambda_; }
+
+ private:
+  LogExt log_ext(double J) const {
+    if (J > J0_) return {std::log(J), 1.0 / J, -1.0 / (J * J)};
+    // Quadratic matching log's value, slope and curvature at J0.
+    const double r = J / J0_ - 1.0;
+    return {std::log(J0_) + (J - J0_) / J0_ - 0.5 * r * r, (1.0 - r) / J0_, -1.0 / (J0_ * J0_)};
+  }
+  double mu_, lambda_, J0_;
+};
+
+}  // namespace
+
+std::unique_ptr<Material> make_neohookean(double mu, double lambda, double J0) {
+  return std::make_unique<NeoHookean>(mu, lambda, J0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,67 @@
+// Signed ("rotation-variant") SVD of a 3x3 deformation gradient and the assembly of dP/dF for
+// isotropic energies written in its singular values. Header-only: the build lists no svd3.cpp.
+#pragma once
+#include <Eigen/SVD>
+#include <cmath>
+
+#include "materials/material.hpp"
+
+namespace hyperqn {
+
+// F = U diag(sigma) V^T with U, V proper rotations. |sigma_1| >= |sigma_2| >= |sigma_3|, sigma_1,2 >= 0,
+// and sigma_3 < 0 exactly when det F < 0 (so inversion shows up in the singular values, not in U or V).
+struct SignedSVD {
+  Mat3 U, V;
+  Vec3 sigma;
+  Mat3 rotation() const { return U * V.transpose(); }  // R of the polar decomposition F = R S
+};
+
+inline SignedSVD signed_svd(const Mat3& F) {
+  Eigen::JacobiSVD<Mat3> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  SignedSVD s{svd.matrixU(), svd.matrixV(), svd.singularValues()};
+  // Move each reflection into the smallest singular value so that U and V become rotations.
+  if (s.U.determinant() < 0) {
+    s.U.col(2) *= -1.0;
+    s.sigma(2) *= -1.0;
+  }
+  if (s.V.determinant() < 0) {
+    s.V.col(2) *= -1.0;
+    s.sigma(2) *= -1.0;
+  }
+  return s;
+}
+
+// Index of F(i,j) in vec(F) (column-major).
+constexpr int vec_index(int i, int j) { return i + 3 * j; }
+
+// The three off-diagonal pairs (i,j), i < j, in the order used by the pair coefficient arrays below.
+constexpr int kPairI[3] = {0, 0, 1};
+constexpr int kPairJ[3] = {1, 2, 2};
+
+// dP/dF of psi(F) = Psi(sigma) for an isotropic Psi of the signed singular values.
+// In the rotated frame F_hat = U^T F V = diag(sigma) the Hessian decouples (Teran et al. 2005,
+// "Robust quasistatic finite elements"):
+//  - the diagonal entries F_hat(i,i) couple through d2psi = d^2 Psi / d sigma^2 (3x3);
+//  - each pair (F_hat(i,j), F_hat(j,i)) is a 2x2 block with eigenvector (1,1)/sqrt2 (symmetric
+//    stretch) of eigenvalue sym[k] = (Psi_i - Psi_j)/(sigma_i - sigma_j), and eigenvector
+//    (1,-1)/sqrt2 (rotation) of eigenvalue skew[k] = (Psi_i + Psi_j)/(sigma_i + sigma_j).
+// The caller supplies sym/skew so it can take the limits sigma_i -> sigma_j analytically.
+// Then dP/dF = W H_hat W^T with W = V (x) U, since vec(U X V^T) = (V (x) U) vec(X).
+inline Mat9 isotropic_stress_derivative(const SignedSVD& s, const Mat3& d2psi, const Vec3& sym,
+                                        const Vec3& skew) {
+  Mat9 H = Mat9::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) H(vec_index(i, i), vec_index(j, j)) = d2psi(i, j);
+  for (int k = 0; k < 3; ++k) {
+    const int a = vec_index(kPairI[k], kPairJ[k]), b = vec_index(kPairJ[k], kPairI[k]);
+    H(a, a) = H(b, b) = 0.5 * (sym(k) + skew(k));
+    H(a, b) = H(b, a) = 0.5 * (sym(k) - skew(k));
+  }
+  Mat9 W;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) W.block<3, 3>(3 * i, 3 * j) = s.V(i, j) * s.U;
+  Mat9 dPdF = W * H * W.transpose();
+  return 0.5 * (dPdF + dPdF.transpose());  // exact Hessian is symmetric; remove round-off asymmetry
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,430 @@
+// Unit test of the serial mesh code: Medit reader, box generator, transform, cleaning.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "check.hpp"
+#include "input_error.hpp"
+#include "mesh.hpp"
+
+using namespace hyperqn;
+namespace fs = std::filesystem;
+
+namespace {
+
+// det[X1-X0, X2-X0, X3-X0] of tet e (6 * signed volume).
+double tet_det(const TetMesh& m, int64_t e) {
+  const double* x[4];
+  for (int k = 0; k < 4; ++k) x[k] = &m.coords[3 * size_t(m.tets[4 * e + k])];
+  double a[3], b[3], c[3];
+  for (int d = 0; d < 3; ++d) {
+    a[d] = x[1][d] - x[0][d];
+    b[d] = x[2][d] - x[0][d];
+    c[d] = x[3][d] - x[0][d];
+  }
+  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+// Compensated (Kahan) sum: a plain sum of 480k tet volumes drifts past the 1e-12 check.
+double total_volume(const TetMesh& m) {
+  double sum = 0, carry = 0;
+  for (int64_t e = 0; e < m.num_tets(); ++e) {
+    const double y = std::fabs(tet_det(m, e)) / 6 - carry;
+    const double t = sum + y;
+    carry = (t - sum) - y;
+    sum = t;
+  }
+  return sum;
+}
+
+int64_t count_nonpositive(const TetMesh& m) {
+  int64_t n = 0;
+  for (int64_t e = 0; e < m.num_tets(); ++e) n += !(tet_det(m, e) > 0);
+  return n;
+}
+
+bool indices_in_range(const TetMesh& m) {
+  for (int32_t v : m.tets)
+    if (v < 0 || v >= m.num_vertices()) return false;
+  return true;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// Runs f and checks that it throws an InputError whose message contains every part.
+template <class F>
+void expect_input_error(const std::string& name, F f, const std::vector<std::string>& parts) {
+  try {
+    f();
+    CHECK_MSG(false, name + ": no InputError thrown");
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    for (const auto& p : parts) CHECK_MSG(contains(what, p), name + ": '" + p + "' not in: " + what);
+  } catch (const std::exception& e) {
+    CHECK_MSG(false, name + ": wrong exception type: " + e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// Every interior face is shared by exactly two tets, and the faces seen once are exactly the
+// triangles of the box surface.
+void check_conformity(const TetMesh& m, const std::array<double, 3>& size, const std::array<int, 3>& n) {
+  std::vector<std::array<int32_t, 3>> faces;
+  faces.reserve(4 * size_t(m.num_tets()));
+  static const int face_of[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  for (int64_t e = 0; e < m.num_tets(); ++e)
+    for (const auto& f : face_of) {
+      std::array<int32_t, 3> t{m.tets[4 * e + f[0]], m.tets[4 * e + f[1]], m.tets[4 * e + f[2]]};
+      std::sort(t.begin(), t.end());
+      faces.push_back(t);
+    }
+  std::sort(faces.begin(), faces.end());
+
+  int64_t boundary = 0, overused = 0, boundary_off_surface = 0;
+  for (size_t i = 0; i < faces.size();) {
+    size_t j = i;
+    while (j < faces.size() && faces[j] == faces[i]) ++j;
+    if (j - i == 1) {
+      ++boundary;
+      // All three vertices on one of the six box planes.
+      bool on_plane = false;
+      for (int d = 0; d < 3; ++d)
+        for (double plane : {0.0, size[d]}) {
+          bool all = true;
+          for (int32_t v : faces[i]) all = all && m.coords[3 * size_t(v) + d] == plane;
+          on_plane = on_plane || all;
+        }
+      boundary_off_surface += !on_plane;
+    } else if (j - i > 2) {
+      ++overused;
+    }
+    i = j;
+  }
+  const int64_t expect_boundary = 4 * (int64_t(n[0]) * n[1] + int64_t(n[1]) * n[2] + int64_t(n[0]) * n[2]);
+  CHECK_MSG(boundary == expect_boundary,
+            std::to_string(boundary) + " boundary faces, expected " + std::to_string(expect_boundary));
+  CHECK(overused == 0);
+  CHECK(boundary_off_surface == 0);
+}
+
+void test_box(const std::array<double, 3>& size, const std::array<int, 3>& n, bool conformity) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TetMesh m = generate_box(size, n);
+  const double t_gen = seconds_since(t0);
+  const int64_t nv = int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), nt = int64_t(6) * n[0] * n[1] * n[2];
+  CHECK(m.num_vertices() == nv);
+  CHECK(m.num_tets() == nt);
+  CHECK((int64_t)m.tet_tags.size() == nt);
+  CHECK((int64_t)m.vertex_ids.size() == nv);
+  CHECK(indices_in_range(m));
+  const double vol = size[0] * size[1] * size[2];
+  CHECK_NEAR(total_volume(m), vol, 1e-12 * vol);
+  CHECK(count_nonpositive(m) == 0);
+  // All tets of a cube have the same volume.
+  const double tet_vol = vol / nt;
+  double worst = 0;
+  for (int64_t e = 0; e < m.num_tets(); ++e) worst = std::max(worst, std::fabs(tet_det(m, e) / 6 - tet_vol));
+  CHECK(worst <= 1e-12 * tet_vol);
+  if (conformity) check_conformity(m, size, n);
+  // Nothing to clean in a generated box.
+  const CleanReport r = clean_mesh(m, "box");
+  CHECK(r.dropped_vertices == 0 && r.reoriented_tets == 0);
+  std::printf("box %dx%dx%d: %lld tets, generated in %.3f s\n", n[0], n[1], n[2], (long long)nt, t_gen);
+}
+
+void test_boxes() {
+  test_box({1, 1, 1}, {1, 1, 1}, true);
+  test_box({2.0, 0.5, 1.5}, {3, 4, 5}, true);
+  test_box({7, 1, 3}, {7, 2, 1}, true);
+  test_box({10, 1, 1}, {200, 20, 20}, false);  // the big benchmark box
+}
+
+// ---------------------------------------------------------------------------------------------
+
+void check_point(const TetMesh& m, int64_t v, std::array<double, 3> expect, const char* what) {
+  for (int d = 0; d < 3; ++d)
+    CHECK_MSG(std::fabs(m.coords[3 * v + d] - expect[d]) <= 1e-12,
+              std::string(what) + ": component " + std::to_string(d) + " = " + std::to_string(m.coords[3 * v + d]));
+}
+
+void test_transform() {
+  // Three points, transformed one at a time with known results.
+  TetMesh p;
+  p.coords = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+  TetMesh a = p;
+  MeshTransform t;
+  t.scale = 2;
+  t.rotate_deg = {0, 0, 90};
+  t.translate = {1, 2, 3};
+  apply_transform(a, t);
+  check_point(a, 0, {1, 4, 3}, "scale 2, Rz 90, translate");  // (1,0,0) -> (2,0,0) -> (0,2,0) -> (1,4,3)
+
+  // Order: x first, then y, then z. (0,1,0) -Rx90-> (0,0,1) -Ry90-> (1,0,0) -Rz90-> (0,1,0);
+  // any other order gives a different point.
+  TetMesh b = p;
+  MeshTransform r;
+  r.rotate_deg = {90, 90, 0};
+  apply_transform(b, r);
+  check_point(b, 1, {1, 0, 0}, "Rx90 then Ry90");
+  b = p;
+  r.rotate_deg = {90, 90, 90};
+  apply_transform(b, r);
+  check_point(b, 1, {0, 1, 0}, "Rx90 Ry90 Rz90");
+  check_point(b, 0, {0, 0, -1}, "Rx90 Ry90 Rz90 of e_x");  // e_x -Rx-> e_x -Ry-> -e_z -Rz-> -e_z
+
+  // Identity leaves the points alone.
+  TetMesh c = p;
+  apply_transform(c, MeshTransform{});
+  CHECK(c.coords == p.coords);
+
+  // Volume scales by scale^3, rotations keep the orientation.
+  TetMesh box = generate_box({1, 2, 3}, {2, 3, 4});
+  MeshTransform s;
+  s.scale = 0.5;
+  s.rotate_deg = {30, -45, 120};
+  s.translate = {-3, 7, 0.25};
+  apply_transform(box, s);
+  CHECK_NEAR(total_volume(box), 6 * 0.125, 1e-12);
+  CHECK(count_nonpositive(box) == 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// The cleaned mesh maps back to the raw one: coordinates through vertex_ids, and each tet to
+// the same vertex set (the order may be swapped by reorientation) with the same tag.
+void check_maps_back(const TetMesh& raw, const TetMesh& m, const std::string& name) {
+  bool coords_ok = (int64_t)m.vertex_ids.size() == m.num_vertices(), tets_ok = m.num_tets() == raw.num_tets();
+  for (int64_t v = 0; coords_ok && v < m.num_vertices(); ++v) {
+    const int64_t id = m.vertex_ids[v];
+    coords_ok = id >= 0 && id < raw.num_vertices() && (v == 0 || id > m.vertex_ids[v - 1]);
+    for (int d = 0; coords_ok && d < 3; ++d) coords_ok = m.coords[3 * v + d] == raw.coords[3 * id + d];
+  }
+  for (int64_t e = 0; tets_ok && e < m.num_tets(); ++e) {
+    std::array<int64_t, 4> a, b;
+    for (int k = 0; k < 4; ++k) {
+      a[k] = m.vertex_ids[m.tets[4 * e + k]];
+      b[k] = raw.tets[4 * e + k];
+    }
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    tets_ok = a == b && m.tet_tags[e] == raw.tet_tags[e];
+  }
+  CHECK_MSG(coords_ok, name + ": vertex_ids do not map back to the input coordinates");
+  CHECK_MSG(tets_ok, name + ": cleaned tets do not map back to the input tets");
+}
+
+// Flips every other tet of a real mesh; cleaning must flip exactly those back.
+void test_reorient_real(const TetMesh& raw) {
+  TetMesh m = raw;
+  for (int64_t e = 0; e < m.num_tets(); e += 2) std::swap(m.tets[4 * e], m.tets[4 * e + 1]);
+  const TetMesh flipped = m;
+  const CleanReport r = clean_mesh(m, "bar990 flipped");
+  CHECK(r.reoriented_tets == (raw.num_tets() + 1) / 2);
+  CHECK(count_nonpositive(m) == 0);
+  CHECK_NEAR(total_volume(m), 3.0, 3e-6);
+  check_maps_back(flipped, m, "bar990 flipped");
+}
+
+struct Expected {
+  const char* file;
+  int64_t vertices, tets;  // as in the file header
+  int64_t dropped;         // -1: not checked
+  double volume, rel_tol;
+};
+
+void test_shared_meshes() {
+  const fs::path dir = HYPERQN_SHARED_MESHES;
+  if (!fs::is_directory(dir)) {
+    std::printf("SKIP: shared meshes not found at %s\n", dir.string().c_str());
+    return;
+  }
+  // Counts and (rounded) volumes from reference-implementation.md section 7.1. bar4099 and
+  // bar66792 are 3 only to 1e-4 (2.99967 and 2.99996; checked with an independent script).
+  const Expected expected[] = {
+      {"bar990.mesh", 369, 990, 8, 3.0, 1e-6},          {"bar4099.mesh", 1430, 4099, 8, 3.0, 1e-3},
+      {"bar16660.mesh", 5650, 16600, 8, 3.0, 1e-6},     {"bar66792.mesh", 22490, 66792, 8, 3.0, 1e-3},
+      {"bunny.mesh", 6308, 26096, -1, 1.496, 1e-3},     {"bunny_small.mesh", 1839, 5891, -1, 199.7, 1e-3},
+      {"cube.mesh", 792, 2911, -1, 1000, 1e-6},         {"sphere_uniform.mesh", 2340, 10671, -1, 4.155, 1e-3},
+      {"torus.mesh", 469, 1396, 27, 4.775, 1e-3},       {"tet.mesh", 4, 1, 0, 1.0, 1e-12},
+  };
+  for (const Expected& x : expected) {
+    const std::string path = (dir / x.file).string();
+    if (!fs::exists(path)) {
+      std::printf("SKIP: %s not found\n", path.c_str());
+      continue;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    TetMesh m = read_medit(path);
+    const TetMesh raw = m;
+    const CleanReport r = clean_mesh(m, path);
+    const double t = seconds_since(t0);
+    const std::string name = x.file;
+    CHECK_MSG(raw.num_vertices() == x.vertices, name + ": " + std::to_string(raw.num_vertices()) + " vertices");
+    CHECK_MSG(raw.num_tets() == x.tets, name + ": " + std::to_string(raw.num_tets()) + " tets");
+    if (x.dropped >= 0)
+      CHECK_MSG(r.dropped_vertices == x.dropped, name + ": dropped " + std::to_string(r.dropped_vertices));
+    CHECK(m.num_vertices() == raw.num_vertices() - r.dropped_vertices);
+    CHECK(m.num_tets() == raw.num_tets());
+    CHECK(indices_in_range(m));
+    CHECK_MSG(count_nonpositive(m) == 0, name + ": non-positive tets after cleaning");
+    const double vol = total_volume(m);
+    CHECK_MSG(std::fabs(vol - x.volume) <= x.rel_tol * x.volume, name + ": volume " + std::to_string(vol));
+    check_maps_back(raw, m, name);
+    // Cleaning is idempotent.
+    TetMesh again = m;
+    const CleanReport r2 = clean_mesh(again, path);
+    CHECK(r2.dropped_vertices == 0 && r2.reoriented_tets == 0 && again.coords == m.coords && again.tets == m.tets);
+    std::printf("%s: %lld vertices (%lld dropped), %lld tets (%lld reoriented), volume %.6g, read+clean %.3f s\n", x.file,
+                (long long)raw.num_vertices(), (long long)r.dropped_vertices, (long long)raw.num_tets(),
+                (long long)r.reoriented_tets, vol, t);
+    // The shipped meshes have det[X1-X4, X2-X4, X3-X4] < 0 (reference section 6.2), which is
+    // det[X1-X0, X2-X0, X3-X0] > 0 in our numbering: nothing to flip.
+    CHECK_MSG(r.reoriented_tets == 0, name + ": reoriented " + std::to_string(r.reoriented_tets));
+    if (name == "bar990.mesh") test_reorient_real(raw);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+void test_project_meshes() {
+  const fs::path dir = fs::path(HYPERQN_SOURCE_DIR) / "input" / "meshes";
+
+  TetMesh one = read_medit((dir / "tet.mesh").string());
+  CHECK(one.num_vertices() == 4 && one.num_tets() == 1);
+  CHECK(one.tet_tags == std::vector<int32_t>{1});
+  CHECK(one.vertex_ids == (std::vector<int64_t>{0, 1, 2, 3}));
+  CleanReport r1 = clean_mesh(one, "tet.mesh");
+  CHECK(r1.dropped_vertices == 0 && r1.reoriented_tets == 0);
+  CHECK_NEAR(total_volume(one), 1.0 / 6, 1e-15);
+
+  const TetMesh raw = read_medit((dir / "two_tets.mesh").string());
+  CHECK(raw.num_vertices() == 6 && raw.num_tets() == 2);
+  CHECK(raw.tets == (std::vector<int32_t>{0, 1, 3, 4, 0, 1, 3, 5}));
+  CHECK(raw.tet_tags == (std::vector<int32_t>{1, 2}));
+  CHECK(raw.coords[3 * 2] == 9 && raw.coords[3 * 5 + 2] == -1);
+  CHECK(tet_det(raw, 0) > 0 && tet_det(raw, 1) < 0);
+  TetMesh two = raw;
+  CleanReport r2 = clean_mesh(two, "two_tets.mesh");
+  CHECK(r2.dropped_vertices == 1 && r2.reoriented_tets == 1);
+  CHECK(two.num_vertices() == 5);
+  CHECK(two.vertex_ids == (std::vector<int64_t>{0, 1, 3, 4, 5}));
+  CHECK(count_nonpositive(two) == 0);
+  CHECK_NEAR(total_volume(two), 1.0 / 3, 1e-15);
+  check_maps_back(raw, two, "two_tets.mesh");
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// Writes text to dir/name and returns the path.
+std::string write(const fs::path& dir, const std::string& name, const std::string& text) {
+  const fs::path p = dir / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+void test_errors(const fs::path& dir) {
+  const std::string head = "MeshVersionFormatted 2\nDimension 3\n";  // lines 1-2
+  const std::string verts = "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n";  // lines 3-8
+
+  const std::string missing = (dir / "does_not_exist.mesh").string();
+  expect_input_error("missing file", [&] { read_medit(missing); }, {missing, "cannot open"});
+
+  // "Tetrahedra" on line 8 where the 4th vertex should be.
+  std::string p = write(dir, "truncated.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\nTetrahedra\n1\n1 2 3 4 0\nEnd\n");
+  expect_input_error("truncated Vertices", [&] { read_medit(p); }, {p + ":8:", "'Vertices'", "declares 4", "after 3", "'Tetrahedra'"});
+
+  // File ends (line 6) inside the Vertices section.
+  p = write(dir, "truncated_eof.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0\n\n");
+  expect_input_error("truncated at end of file", [&] { read_medit(p); }, {p + ":6:", "'Vertices'", "end of the file"});
+
+  // Tet 2, on line 12, names vertex 5 of 4.
+  p = write(dir, "range.mesh", head + verts + "Tetrahedra\n2\n1 2 3 4 0\n1 2 5 4 0\nEnd\n");
+  expect_input_error("index out of range", [&] { read_medit(p); }, {p + ":12:", "tet 2", "index 5", "1..4"});
+  p = write(dir, "zero_index.mesh", head + verts + "Tetrahedra\n1\n0 1 2 3 0\n");
+  expect_input_error("index 0", [&] { read_medit(p); }, {p + ":11:", "tet 1", "index 0"});
+
+  // Non-numeric coordinate on line 6.
+  p = write(dir, "text.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 x1 0\n0 1 0 0\n0 0 1 0\n");
+  expect_input_error("non-numeric token", [&] { read_medit(p); }, {p + ":6:", "'x1'"});
+  // A fractional vertex index on line 11.
+  p = write(dir, "fraction.mesh", head + verts + "Tetrahedra\n1\n1 2.5 3 4 0\n");
+  expect_input_error("fractional index", [&] { read_medit(p); }, {p + ":11:", "integer", "'2.5'"});
+
+  // Non-finite coordinate on line 7.
+  p = write(dir, "nan.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\nnan 1 0 0\n0 0 1 0\n");
+  expect_input_error("non-finite coordinate", [&] { read_medit(p); }, {p + ":7:", "non-finite"});
+
+  // Degenerate tet 2: four coplanar points.
+  p = write(dir, "flat.mesh", head + "Vertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n1 1 0 0\n"
+                                     "Tetrahedra\n2\n1 2 3 4 0\n1 2 3 5 0\n");
+  TetMesh flat = read_medit(p);
+  const TetMesh flat_copy = flat;
+  expect_input_error("degenerate tet", [&] { clean_mesh(flat, p); }, {p, "tet 2 ", "degenerate"});
+  CHECK(flat.coords == flat_copy.coords && flat.tets == flat_copy.tets);  // untouched on error
+  // A tiny but well-shaped tet is not degenerate: the test is relative to its size.
+  TetMesh tiny = read_medit((fs::path(HYPERQN_SOURCE_DIR) / "input" / "meshes" / "tet.mesh").string());
+  apply_transform(tiny, MeshTransform{1e-9, {0, 0, 0}, {0, 0, 0}});
+  CHECK(clean_mesh(tiny, "tiny").reoriented_tets == 0);
+
+  p = write(dir, "dim2.mesh", "MeshVersionFormatted 2\nDimension 2\nVertices\n3\n0 0 0\n1 0 0\n0 1 0\n");
+  expect_input_error("Dimension 2", [&] { read_medit(p); }, {p + ":2:", "Dimension 2"});
+
+  p = write(dir, "unknown.mesh", head + verts + "Foo\n1\n1\nTetrahedra\n1\n1 2 3 4 0\n");
+  expect_input_error("unknown keyword", [&] { read_medit(p); }, {p + ":9:", "'Foo'"});
+  p = write(dir, "no_tets.mesh", head + verts + "End\n");
+  expect_input_error("no Tetrahedra", [&] { read_medit(p); }, {p, "no Tetrahedra"});
+  p = write(dir, "no_verts.mesh", head + "End\n");
+  expect_input_error("no Vertices", [&] { read_medit(p); }, {p, "no Vertices"});
+  // A count larger than the records, but the next keyword is a number: it shows up as a
+  // stray number after the section.
+  p = write(dir, "extra.mesh", head + verts + "Tetrahedra\n1\n1 2 3 4 0\n1 2 3 4 0\n");
+  expect_input_error("extra record", [&] { read_medit(p); }, {p + ":12:", "outside any section"});
+  // An empty Tetrahedra section reads, and cleaning rejects it.
+  p = write(dir, "zero_tets.mesh", head + verts + "Tetrahedra\n0\nEnd\n");
+  TetMesh empty = read_medit(p);
+  CHECK(empty.num_tets() == 0);
+  expect_input_error("no tets to clean", [&] { clean_mesh(empty, p); }, {p, "no tetrahedra"});
+
+  // Comments anywhere, CRLF line ends, counts on the keyword line, no End, text after End.
+  p = write(dir, "quirks.mesh",
+            "# header\r\nMeshVersionFormatted 1 # trailing\r\nDimension\r\n3\r\nVertices 4\r\n0 0 0 0#x\r\n"
+            "1 0 0 0\r\n0 1 0 0\r\n0 0 1 0\r\nCorners 2 1 2\r\nEdges 1\r\n1 2 0\r\nTetrahedra 1\r\n1 2 3 4 7\r\n");
+  TetMesh q = read_medit(p);
+  CHECK(q.num_vertices() == 4 && q.num_tets() == 1 && q.tet_tags[0] == 7);
+  p = write(dir, "after_end.mesh", head + verts + "Tetrahedra\n1\n1 2 3 4 0\nEnd\nanything goes here\n");
+  CHECK(read_medit(p).num_tets() == 1);
+}
+
+}  // namespace
+
+int main() {
+  test_boxes();
+  test_transform();
+  test_project_meshes();
+  test_shared_meshes();
+
+  // Error files go to a private temp directory, removed at the end.
+  const fs::path dir = fs::temp_directory_path() / ("hyperqn_test_mesh_" + std::to_string(std::random_device{}()));
+  fs::create_directories(dir);
+  try {
+    test_errors(dir);
+  } catch (const std::exception& e) {
+    CHECK_MSG(false, std::string("unexpected exception: ") + e.what());
+  }
+  fs::remove_all(dir);
+
+  return check::summary("test_mesh");
+}
