@@ -1,0 +1,367 @@
+// Unit test of the deck parser: valid decks give the values as written (or the defaults),
+// and each validation rule rejects a bad deck with an InputError naming file, line and key.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "check.hpp"
+#include "deck.hpp"
+#include "input_error.hpp"
+
+namespace fs = std::filesystem;
+using hyperqn::Deck;
+using hyperqn::InputError;
+using hyperqn::load_deck;
+
+namespace {
+
+fs::path g_dir;  // a fresh temporary directory for all decks and meshes of this run
+
+fs::path write_file(const fs::path& rel, const std::string& text) {
+  fs::path p = g_dir / rel;
+  fs::create_directories(p.parent_path());
+  std::ofstream(p) << text;
+  return p;
+}
+
+// Lines 1-2 of a valid deck; decks that test another section append to it from line 3.
+const std::string kHead =
+    "mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}}\n"
+    "material: {youngs_modulus: 1.0e5, poisson_ratio: 0.3, density: 1000}\n";
+const std::string kMesh = "mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}}\n";
+const std::string kMaterial = "material: {youngs_modulus: 1.0e5, poisson_ratio: 0.3, density: 1000}\n";
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// Writes the deck and checks that load_deck rejects it with an InputError whose message names
+// the file and line ("path:7:"), the dotted key ("'time.dt':") and, if given, a further text.
+void expect_error(const std::string& name, const std::string& text, const std::string& key, int line,
+                  const std::string& also = "") {
+  fs::path p = write_file(name + ".yaml", text);
+  try {
+    load_deck(p.string());
+    CHECK_MSG(false, name + ": the deck was accepted");
+  } catch (const InputError& e) {
+    std::string what = e.what();
+    std::string place = p.string() + ":" + (line > 0 ? std::to_string(line) + ":" : "");
+    CHECK_MSG(contains(what, place), name + ": expected '" + place + "' in: " + what);
+    if (!key.empty()) CHECK_MSG(contains(what, "'" + key + "':"), name + ": expected key '" + key + "' in: " + what);
+    if (!also.empty()) CHECK_MSG(contains(what, also), name + ": expected '" + also + "' in: " + what);
+  } catch (const std::exception& e) {
+    CHECK_MSG(false, name + ": not an InputError: " + e.what());
+  }
+}
+
+Deck load_ok(const std::string& name, const std::string& text) {
+  fs::path p = write_file(name + ".yaml", text);
+  try {
+    return load_deck(p.string());
+  } catch (const std::exception& e) {
+    CHECK_MSG(false, name + ": rejected: " + e.what());
+    return Deck();
+  }
+}
+
+void test_full_deck() {
+  Deck d = load_ok("full", R"(# every key, none at its default
+name: full_bar
+mesh:
+  file: meshes/bar.mesh
+  transform: {scale: 2.0, rotate: [0, 0, 90], translate: [1, 2, 3]}
+material:
+  model: neohookean
+  youngs_modulus: 1.0e5
+  poisson_ratio: 0.3
+  density: 1200
+  J0: 0.2
+  laplacian_weight: 5.0e4
+fixed:
+  - box: {min: [-1, -1, -1], max: [0.01, 2, 2]}
+  - box:
+      min: [3.99, -1, -1]
+      max: [5, 2, 2]
+gravity: [0, 0, -9.81]
+time: {dt: 0.01, frames: 250, damping: 0.05}
+solver:
+  type: lbfgs
+  iterations: 20
+  grad_atol: 1.0e-8
+  grad_rtol: 1.0e-5
+  history: 7
+  line_search: armijo
+  warm_start: previous
+output: {directory: out/full, every: 5, vtk: false, iterations_csv: false}
+petsc:
+  tao_ls_type: armijo
+  tao:
+    max_it: 50
+    view:
+  ksp_monitor: True
+  pc_type: "none"
+)");
+  CHECK(d.path == (g_dir / "full.yaml").string());
+  CHECK(d.name == "full_bar");
+  CHECK(!d.mesh.is_box);
+  CHECK(d.mesh.file == (g_dir / "meshes/bar.mesh").string());
+  CHECK(d.mesh.transform.scale == 2.0);
+  CHECK((d.mesh.transform.rotate_deg == std::array<double, 3>{0, 0, 90}));
+  CHECK((d.mesh.transform.translate == std::array<double, 3>{1, 2, 3}));
+  CHECK(d.material.model == "neohookean");
+  CHECK_NEAR(d.material.mu, 1.0e5 / 2.6, 1e-9);
+  CHECK_NEAR(d.material.lambda, 1.0e5 * 0.3 / (1.3 * 0.4), 1e-9);
+  CHECK(d.material.has_density);
+  CHECK(d.material.density == 1200);
+  CHECK(d.material.J0 == 0.2);
+  CHECK(d.material.laplacian_weight == 5.0e4);
+  CHECK(d.fixed.size() == 2);
+  if (d.fixed.size() == 2) {
+    CHECK((d.fixed[0].min == std::array<double, 3>{-1, -1, -1}));
+    CHECK((d.fixed[0].max == std::array<double, 3>{0.01, 2, 2}));
+    CHECK(d.fixed[0].line == 14);
+    CHECK((d.fixed[1].min == std::array<double, 3>{3.99, -1, -1}));
+    CHECK((d.fixed[1].max == std::array<double, 3>{5, 2, 2}));
+    CHECK(d.fixed[1].line == 15);
+  }
+  CHECK((d.gravity == std::array<double, 3>{0, 0, -9.81}));
+  CHECK(d.time.dt == 0.01);
+  CHECK(d.time.frames == 250);
+  CHECK(d.time.damping == 0.05);
+  CHECK(d.solver.type == "lbfgs");
+  CHECK(d.solver.iterations == 20);
+  CHECK(d.solver.grad_atol == 1.0e-8);
+  CHECK(d.solver.grad_rtol == 1.0e-5);
+  CHECK(d.solver.history == 7);
+  CHECK(d.solver.line_search == "armijo");
+  CHECK(d.solver.warm_start == "previous");
+  CHECK(d.output.directory == "out/full");
+  CHECK(d.output.every == 5);
+  CHECK(!d.output.vtk);
+  CHECK(!d.output.iterations_csv);
+  // Nested maps join with '_', in deck order; booleans normalised, empty values give "".
+  using Opts = std::vector<std::pair<std::string, std::string>>;
+  Opts expected = {{"-tao_ls_type", "armijo"}, {"-tao_max_it", "50"}, {"-tao_view", ""},
+                   {"-ksp_monitor", "true"}, {"-pc_type", "none"}};
+  CHECK(d.petsc_options == expected);
+}
+
+void test_defaults() {
+  Deck d = load_ok("minimal", kMesh + "material: {mu: 10, lambda: 0, total_mass: 2.5}\n");
+  CHECK(d.name == "minimal");
+  CHECK(d.mesh.is_box);
+  CHECK(d.mesh.file.empty());
+  CHECK((d.mesh.box_size == std::array<double, 3>{1, 1, 1}));
+  CHECK(d.mesh.transform.scale == 1.0);
+  CHECK((d.mesh.transform.rotate_deg == std::array<double, 3>{0, 0, 0}));
+  CHECK(d.material.model == "corotated");
+  CHECK(d.material.mu == 10);
+  CHECK(d.material.lambda == 0);  // lambda = 0 is allowed when given directly
+  CHECK(!d.material.has_density);
+  CHECK(d.material.total_mass == 2.5);
+  CHECK(d.material.J0 == hyperqn::MaterialSpec().J0);
+  CHECK(d.material.laplacian_weight == 0);
+  CHECK(d.fixed.empty());
+  CHECK((d.gravity == std::array<double, 3>{0, -9.81, 0}));
+  const hyperqn::TimeSpec t;
+  CHECK(d.time.dt == t.dt && d.time.frames == t.frames && d.time.damping == t.damping);
+  const hyperqn::SolverSpec s;
+  CHECK(d.solver.type == s.type && d.solver.iterations == s.iterations);
+  CHECK(d.solver.grad_atol == s.grad_atol && d.solver.grad_rtol == s.grad_rtol);
+  CHECK(d.solver.history == s.history && d.solver.line_search == s.line_search);
+  CHECK(d.solver.warm_start == s.warm_start);
+  CHECK(d.output.directory.empty() && d.output.every == 1 && d.output.vtk && d.output.iterations_csv);
+  CHECK(d.petsc_options.empty());
+
+  // Empty sections mean "all defaults"; integers are decimal even with a leading zero.
+  Deck e = load_ok("empty_sections", kHead + "fixed:\ntime:\n  frames: 010\nsolver:\noutput:\npetsc:\n");
+  CHECK(e.fixed.empty());
+  CHECK(e.time.frames == 10);
+  CHECK(e.petsc_options.empty());
+}
+
+void test_elastic_constants() {
+  Deck d = load_ok("enu", kMesh + "material: {youngs_modulus: 2.0e6, poisson_ratio: 0.45, density: 1}\n");
+  const double E = 2.0e6, nu = 0.45;
+  CHECK_NEAR(d.material.mu, E / (2 * (1 + nu)), 1e-6);
+  CHECK_NEAR(d.material.lambda, E * nu / ((1 + nu) * (1 - 2 * nu)), 1e-6);
+  // A negative Poisson ratio is physical (auxetic) and accepted above -1.
+  Deck a = load_ok("auxetic", kMesh + "material: {youngs_modulus: 1, poisson_ratio: -0.5, density: 1}\n");
+  CHECK_NEAR(a.material.mu, 1.0, 1e-12);
+  CHECK_NEAR(a.material.lambda, -0.5 / (0.5 * 2.0), 1e-12);
+}
+
+void test_mesh_paths() {
+  const std::string material = "material: {mu: 1, lambda: 1, density: 1}\n";
+  // Relative to the deck's directory, normalised.
+  Deck up = load_ok("decks/up", "mesh: {file: ../meshes/bar.mesh}\n" + material);
+  CHECK(up.mesh.file == (g_dir / "meshes/bar.mesh").string());
+  CHECK(up.name == "up");
+  // Absolute paths are kept as they are.
+  std::string abs = (g_dir / "meshes/bar.msh").string();
+  Deck a = load_ok("decks/abs", "mesh: {file: '" + abs + "'}\n" + material);
+  CHECK(a.mesh.file == abs);
+
+  // Not relative to the working directory: meshes/bar.mesh exists from g_dir but not from decks/.
+  fs::path cwd = fs::current_path();
+  fs::current_path(g_dir);
+  write_file("decks/cwd.yaml", "mesh: {file: meshes/bar.mesh}\n" + material);
+  try {
+    load_deck("decks/cwd.yaml");
+    CHECK_MSG(false, "mesh path resolved against the working directory");
+  } catch (const InputError& e) {
+    CHECK_MSG(contains(e.what(), "decks/meshes/bar.mesh"), e.what());
+  }
+  // A deck given by a relative path gives a mesh path relative to the same working directory.
+  try {
+    CHECK(load_deck("decks/up.yaml").mesh.file == "meshes/bar.mesh");
+  } catch (const std::exception& e) {
+    CHECK_MSG(false, e.what());
+  }
+  fs::current_path(cwd);
+}
+
+void test_invalid_decks() {
+  // Structure and types.
+  expect_error("unknown_section", kHead + "gravty: [0, -9.81, 0]\n", "gravty", 3, "allowed:");
+  expect_error("unknown_key", kMesh + "material:\n  youngs_modulus: 1.0e5\n  poisson_ration: 0.3\n  density: 1\n",
+               "material.poisson_ration", 4, "allowed: model, youngs_modulus, poisson_ratio");
+  expect_error("duplicate_key", kHead + "time:\n  dt: 0.1\n  dt: 0.2\n", "time.dt", 5, "duplicate");
+  expect_error("dt_string", kHead + "time:\n  dt: fast\n", "time.dt", 4, "expected a number");
+  expect_error("dt_empty", kHead + "time:\n  dt:\n", "time.dt", 4, "empty value");
+  expect_error("quoted_number", kMesh + "material: {youngs_modulus: 1, poisson_ratio: \"0.3\", density: 1}\n",
+               "material.poisson_ratio", 2, "quoted");
+  expect_error("gravity_short", kHead + "gravity: [0, -9.81]\n", "gravity", 3, "list of 3 numbers");
+  expect_error("gravity_element", kHead + "gravity:\n  - 0\n  - down\n  - 0\n", "gravity[1]", 5);
+  expect_error("frames_fraction", kHead + "time: {frames: 10.5}\n", "time.frames", 3, "integer");
+  expect_error("vtk_not_bool", kHead + "output:\n  vtk: sometimes\n", "output.vtk", 4, "true or false");
+  expect_error("section_not_map", kHead + "time: 0.1\n", "time", 3, "expected a map");
+  expect_error("root_not_map", "just text\n", "", 1, "expected a map");
+  expect_error("missing_mesh", kMaterial, "mesh", 1, "missing");
+  expect_error("missing_material", kMesh, "material", 1, "missing");
+  expect_error("empty_deck", "", "mesh", 0, "missing");
+  expect_error("two_documents", kHead + "---\n" + kHead, "", 4, "one YAML document");
+  expect_error("name_slash", kHead + "name: a/b\n", "name", 3);
+
+  // Mesh.
+  write_file("meshes/bar.mesh", "MeshVersionFormatted 2\nDimension 3\nEnd\n");
+  write_file("meshes/bar.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
+  write_file("meshes/bar.stl", "solid bar\nendsolid bar\n");
+  expect_error("file_and_box", kMaterial + "mesh:\n  file: meshes/bar.mesh\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n",
+               "mesh", 2, "not both");
+  expect_error("no_file_no_box", kMaterial + "mesh:\n  transform: {scale: 2}\n", "mesh", 2);
+  expect_error("mesh_not_found", kMaterial + "mesh: {file: meshes/nothere.mesh}\n", "mesh.file", 2,
+               (g_dir / "meshes/nothere.mesh").string());
+  expect_error("mesh_extension", kMaterial + "mesh: {file: meshes/bar.stl}\n", "mesh.file", 2, ".msh");
+  expect_error("box_cells_zero", kMaterial + "mesh:\n  box:\n    size: [4, 1, 1]\n    cells: [20, 0, 5]\n",
+               "mesh.box.cells[1]", 5, ">= 1");
+  expect_error("box_cells_fraction", kMaterial + "mesh: {box: {size: [4, 1, 1], cells: [2.5, 1, 1]}}\n",
+               "mesh.box.cells[0]", 2, "integer");
+  expect_error("box_size_zero", kMaterial + "mesh:\n  box:\n    size: [0, 1, 1]\n    cells: [1, 1, 1]\n",
+               "mesh.box.size[0]", 4, "> 0");
+  expect_error("box_missing_cells", kMaterial + "mesh:\n  box:\n    size: [4, 1, 1]\n", "mesh.box.cells", 3);
+  expect_error("scale_zero", kMaterial + "mesh:\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n  transform: {scale: 0}\n",
+               "mesh.transform.scale", 4, "> 0");
+  expect_error("rotate_short", kMaterial + "mesh:\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n  transform:\n    rotate: [0, 90]\n",
+               "mesh.transform.rotate", 5);
+
+  // Material.
+  const std::string m = kMesh + "material:\n";  // material keys start at line 3
+  expect_error("both_pairs", m + "  youngs_modulus: 1\n  poisson_ratio: 0.3\n  mu: 1\n  lambda: 1\n  density: 1\n",
+               "material.mu", 5, "not both");
+  expect_error("E_without_nu", m + "  youngs_modulus: 1\n  density: 1\n", "material.poisson_ratio", 3);
+  expect_error("lambda_without_mu", m + "  density: 1\n  lambda: 1\n", "material.mu", 4);
+  expect_error("no_elastic_constants", m + "  density: 1\n", "material", 2, "youngs_modulus");
+  expect_error("nu_half", m + "  youngs_modulus: 1\n  poisson_ratio: 0.5\n  density: 1\n", "material.poisson_ratio", 4);
+  expect_error("nu_minus_one", m + "  youngs_modulus: 1\n  poisson_ratio: -1\n  density: 1\n", "material.poisson_ratio", 4);
+  expect_error("E_zero", m + "  youngs_modulus: 0\n  poisson_ratio: 0.3\n  density: 1\n", "material.youngs_modulus", 3);
+  expect_error("mu_zero", m + "  mu: 0\n  lambda: 1\n  density: 1\n", "material.mu", 3, "> 0");
+  expect_error("lambda_negative", m + "  mu: 1\n  lambda: -1\n  density: 1\n", "material.lambda", 4, ">= 0");
+  expect_error("density_and_mass", m + "  mu: 1\n  lambda: 1\n  density: 1\n  total_mass: 1\n",
+               "material.total_mass", 6, "not both");
+  expect_error("no_mass", m + "  mu: 1\n  lambda: 1\n", "material", 2, "density or total_mass");
+  expect_error("density_zero", m + "  mu: 1\n  lambda: 1\n  density: 0\n", "material.density", 5);
+  expect_error("total_mass_negative", m + "  mu: 1\n  lambda: 1\n  total_mass: -2\n", "material.total_mass", 5);
+  expect_error("unknown_model", m + "  model: stvk\n  mu: 1\n  lambda: 1\n  density: 1\n", "material.model", 3,
+               "allowed: corotated, neohookean");
+  expect_error("J0_one", m + "  model: neohookean\n  mu: 1\n  lambda: 1\n  density: 1\n  J0: 1\n", "material.J0", 7);
+  expect_error("J0_corotated", m + "  mu: 1\n  lambda: 1\n  density: 1\n  J0: 0.2\n", "material.J0", 6, "neohookean");
+  expect_error("laplacian_weight_zero", m + "  mu: 1\n  lambda: 1\n  density: 1\n  laplacian_weight: 0\n",
+               "material.laplacian_weight", 6);
+
+  // Fixed regions.
+  expect_error("fixed_min_gt_max",
+               kHead + "fixed:\n  - box: {min: [0, 0, 0], max: [1, 1, 1]}\n  - box: {min: [0, 2, 0], max: [1, 1, 1]}\n",
+               "fixed[1].box", 5, "along y");
+  expect_error("fixed_not_list", kHead + "fixed:\n  box: {min: [0, 0, 0], max: [1, 1, 1]}\n", "fixed", 3, "list");
+  expect_error("fixed_missing_max", kHead + "fixed:\n  - box: {min: [0, 0, 0]}\n", "fixed[0].box.max", 4);
+  expect_error("fixed_unknown_shape", kHead + "fixed:\n  - sphere: {center: [0, 0, 0]}\n", "fixed[0].sphere", 4);
+
+  // Time, solver, output.
+  expect_error("dt_zero", kHead + "time: {dt: 0}\n", "time.dt", 3, "> 0");
+  expect_error("frames_zero", kHead + "time:\n  dt: 0.1\n  frames: 0\n", "time.frames", 5, ">= 1");
+  expect_error("damping_one", kHead + "time: {damping: 1}\n", "time.damping", 3, "[0, 1)");
+  expect_error("damping_negative", kHead + "time: {damping: -0.1}\n", "time.damping", 3);
+  expect_error("unknown_solver", kHead + "solver:\n  type: newton\n", "solver.type", 4, "allowed: lbfgs");
+  expect_error("iterations_zero", kHead + "solver: {iterations: 0}\n", "solver.iterations", 3);
+  expect_error("history_negative", kHead + "solver:\n  history: -1\n", "solver.history", 4);
+  expect_error("grad_atol_negative", kHead + "solver: {grad_atol: -1.0e-9}\n", "solver.grad_atol", 3);
+  expect_error("grad_rtol_negative", kHead + "solver:\n\n  grad_rtol: -1.0e-6\n", "solver.grad_rtol", 5);
+  expect_error("unknown_line_search", kHead + "solver: {line_search: wolfe}\n", "solver.line_search", 3,
+               "allowed: more-thuente, armijo, unit");
+  expect_error("unknown_warm_start", kHead + "solver: {warm_start: zero}\n", "solver.warm_start", 3,
+               "allowed: inertial, previous");
+  expect_error("every_zero", kHead + "output: {every: 0}\n", "output.every", 3);
+
+  // PETSc options.
+  expect_error("petsc_list", kHead + "petsc:\n  tao:\n    ls_type: [a, b]\n", "petsc.tao.ls_type", 5);
+  expect_error("petsc_dash", kHead + "petsc:\n  -tao_view:\n", "petsc.-tao_view", 4, "leading '-'");
+
+  // YAML syntax: yaml-cpp's line (the badly indented key).
+  expect_error("syntax_error", kHead + "time:\n  dt: 0.1\n   frames: 3\n", "", 5, "YAML syntax error");
+
+  // The deck file itself.
+  std::string missing = (g_dir / "no_such_deck.yaml").string();
+  try {
+    load_deck(missing);
+    CHECK_MSG(false, "missing deck accepted");
+  } catch (const InputError& e) {
+    CHECK_MSG(contains(e.what(), missing) && contains(e.what(), "not found"), e.what());
+  }
+}
+
+#ifdef HYPERQN_SOURCE_DIR
+// The shipped default deck must stay valid.
+void test_default_deck() {
+  Deck d = load_deck(std::string(HYPERQN_SOURCE_DIR) + "/input/bar.yaml");
+  CHECK(d.name == "bar");
+  CHECK(d.mesh.is_box);
+  CHECK((d.mesh.box_cells == std::array<int, 3>{24, 6, 6}));
+  CHECK(d.material.model == "neohookean");
+  CHECK(d.fixed.size() == 1);
+}
+#endif
+
+}  // namespace
+
+int main() {
+  std::random_device rd;
+  g_dir = fs::temp_directory_path() /
+          ("hyperqn_test_deck_" + std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()) +
+           "_" + std::to_string(rd()));
+  fs::create_directories(g_dir);
+  write_file("meshes/bar.mesh", "MeshVersionFormatted 2\nDimension 3\nEnd\n");
+  write_file("meshes/bar.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
+
+  test_full_deck();
+  test_defaults();
+  test_elastic_constants();
+  test_mesh_paths();
+  test_invalid_decks();
+#ifdef HYPERQN_SOURCE_DIR
+  test_default_deck();
+#endif
+
+  fs::remove_all(g_dir);
+  return check::summary("test_deck");
+}
