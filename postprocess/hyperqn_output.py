@@ -1,0 +1,76 @@
+"""Reading hyperqn's output directories: the .pvd/.vtu/.pvtu frames, iterations.csv, summary.json.
+
+VTK files are read with meshio (an independent reader); a .pvtu is read piece by piece and the
+pieces are merged by vertex_id, so runs at different rank counts can be compared vertex by vertex.
+"""
+import csv
+import json
+import os
+import xml.etree.ElementTree as ET
+
+import meshio
+import numpy as np
+
+
+def read_summary(outdir):
+    with open(os.path.join(outdir, "summary.json")) as f:
+        return json.load(f)
+
+
+def read_iterations(outdir):
+    """Rows of iterations.csv as dicts with numeric values."""
+    rows = []
+    with open(os.path.join(outdir, "iterations.csv")) as f:
+        for row in csv.DictReader(f):
+            rows.append({k: (int(v) if k in ("frame", "iteration", "evaluations") else float(v))
+                         for k, v in row.items()})
+    return rows
+
+
+def read_pvd(path):
+    """[(time, absolute file path)] in the order written."""
+    root = ET.parse(path).getroot()
+    base = os.path.dirname(path)
+    return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+
+
+def piece_files(path):
+    """The .vtu files that make up a frame: the file itself, or a .pvtu's pieces."""
+    if path.endswith(".pvtu"):
+        base = os.path.dirname(path)
+        return [os.path.join(base, p.get("Source")) for p in ET.parse(path).getroot().iter("Piece")]
+    return [path]
+
+
+class Frame:
+    """One output frame, merged over pieces and sorted by vertex_id."""
+
+    def __init__(self, path):
+        ids, points, disp, vel = [], [], [], []
+        self.num_cells = 0
+        self.J = []
+        self.ranks = []
+        for piece in piece_files(path):
+            m = meshio.read(piece)
+            ids.append(np.asarray(m.point_data["vertex_id"]).reshape(-1))
+            points.append(m.points)
+            disp.append(m.point_data["displacement"])
+            vel.append(m.point_data["velocity"])
+            self.num_cells += sum(len(c.data) for c in m.cells)
+            self.J.append(np.concatenate([np.ravel(a) for a in m.cell_data["J"]]))
+            self.ranks.append(np.concatenate([np.ravel(a) for a in m.cell_data["rank"]]))
+        ids = np.concatenate(ids)
+        self.vertex_id, first = np.unique(ids, return_index=True)  # ghosts appear in several pieces
+        self.points = np.concatenate(points)[first]
+        self.displacement = np.concatenate(disp)[first]
+        self.velocity = np.concatenate(vel)[first]
+        self.J = np.concatenate(self.J)
+        self.ranks = np.concatenate(self.ranks)
+        self.num_pieces = len(piece_files(path))
+
+
+def final_frame(outdir):
+    pvd = [f for f in os.listdir(outdir) if f.endswith(".pvd")]
+    if len(pvd) != 1:
+        raise FileNotFoundError(f"{outdir}: expected one .pvd file, found {pvd}")
+    return Frame(read_pvd(os.path.join(outdir, pvd[0]))[-1][1])
