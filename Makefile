@@ -1,0 +1,38 @@
+# hyperqn front door. On a fresh Debian 12 (as root):
+#   make run    install dependencies, build, run the default deck on 2 MPI ranks
+#   make test   install dependencies, build, run the whole test suite (ctest)
+BUILD   ?= build
+NP      ?= 2
+DECK    ?= input/bar.yaml
+MPIEXEC ?= mpiexec
+PYTHON  ?= /usr/bin/python3
+JOBS    ?= $(shell nproc)
+ARGS    ?=
+
+# Open MPI refuses to run as root without these; harmless for other users.
+export OMPI_ALLOW_RUN_AS_ROOT = 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM = 1
+export OMPI_MCA_rmaps_base_oversubscribe = 1
+
+.PHONY: all deps build run test bench clean
+
+all: build
+
+deps:
+	bash scripts/install-deps.sh
+
+build: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DHYPERQN_PYTHON=$(PYTHON)
+	cmake --build $(BUILD) -j $(JOBS)
+
+run: build
+	$(MPIEXEC) -n $(NP) $(BUILD)/hyperqn $(DECK) $(ARGS)
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure
+
+bench: build
+	$(PYTHON) bench/bench.py $(ARGS)
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""Measures the L-BFGS defaults on a deck: warm start (inertial y vs previous x_n) and the TAO line
+search (more-thuente, armijo, unit). Two views per combination:
+  - budget: the deck's 10 iterations per frame -> mean final |grad g| and ms/frame;
+  - converge: up to 500 iterations until |grad g| <= --atol -> mean iterations, evaluations and
+    ms per frame, and how many frames reached the tolerance.
+Prints a table and writes solver_defaults.csv in --out."""
+import argparse
+import csv
+import os
+import subprocess
+import sys
+
+import yaml
+
+REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.join(REPO, "postprocess"))
+from hyperqn_output import read_iterations, read_summary  # noqa: E402
+
+
+def run(deck, outdir, ranks, hyperqn, mpiexec):
+    path = os.path.join(outdir, "deck.yaml")
+    os.makedirs(outdir, exist_ok=True)
+    with open(path, "w") as f:
+        yaml.safe_dump(deck, f)
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    subprocess.run([mpiexec, "-n", str(ranks), hyperqn, path, "-o", outdir], check=True, env=env,
+                   stdout=subprocess.DEVNULL)
+    return read_summary(outdir), read_iterations(outdir)
+
+
+def mean_final_grad(rows):
+    last = {}
+    for r in rows:
+        last[r["frame"]] = r["grad_norm"]
+    return sum(last.values()) / len(last)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__)
+    p.add_argument("--deck", default=os.path.join(REPO, "input/bar.yaml"))
+    p.add_argument("--frames", type=int, default=50)
+    p.add_argument("--ranks", type=int, default=1)
+    p.add_argument("--atol", type=float, default=1e-6)
+    p.add_argument("--out", default=os.path.join(REPO, "output/solver_defaults"))
+    p.add_argument("--hyperqn", default=os.path.join(REPO, "build/hyperqn"))
+    p.add_argument("--mpiexec", default="mpiexec")
+    args = p.parse_args()
+    with open(args.deck) as f:
+        base = yaml.safe_load(f)
+    if "file" in base["mesh"]:
+        base["mesh"]["file"] = os.path.join(os.path.dirname(os.path.abspath(args.deck)), base["mesh"]["file"])
+    base["time"]["frames"] = args.frames
+    base["output"] = {"vtk": False}
+    rows = []
+    for warm in ("inertial", "previous"):
+        for ls in ("more-thuente", "armijo", "unit"):
+            row = {"warm_start": warm, "line_search": ls}
+            for mode, its, atol in (("budget", 10, 0.0), ("converge", 500, args.atol)):
+                deck = dict(base)
+                deck["solver"] = {**base.get("solver", {}), "warm_start": warm, "line_search": ls,
+                                  "iterations": its, "grad_atol": atol, "grad_rtol": 0.0}
+                s, it = run(deck, os.path.join(args.out, f"{warm}_{ls}_{mode}"), args.ranks, args.hyperqn, args.mpiexec)
+                if mode == "budget":
+                    row.update(budget_final_grad=mean_final_grad(it), budget_ms_per_frame=s["ms_per_frame"],
+                               budget_evals_per_frame=s["evaluations"] / s["frames"])
+                else:
+                    row.update(converge_iterations=s["mean_iterations"], converge_evals_per_frame=s["evaluations"] / s["frames"],
+                               converge_ms_per_frame=s["ms_per_frame"], converged_frames=s["converged_frames"])
+            rows.append(row)
+            print(f"{warm:9s} {ls:13s} budget: |g| {row['budget_final_grad']:.2e} "
+                  f"{row['budget_evals_per_frame']:5.1f} evals {row['budget_ms_per_frame']:7.2f} ms | "
+                  f"converge: {row['converge_iterations']:6.1f} it {row['converge_evals_per_frame']:6.1f} evals "
+                  f"{row['converge_ms_per_frame']:7.2f} ms ({row['converged_frames']}/{args.frames} frames)", flush=True)
+    with open(os.path.join(args.out, "solver_defaults.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()

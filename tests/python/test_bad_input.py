@@ -1,0 +1,106 @@
+"""Bad decks, meshes and options: a non-zero exit, a message naming the file and key or line,
+and no output directory left behind."""
+import pytest
+
+from conftest import run_hyperqn, write_deck
+
+GOOD = {
+    "mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
+    "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+    "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+    "time": {"dt": 0.01, "frames": 2},
+}
+
+TET_HEADER = "MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+BAD_MESHES = {
+    # name: (file text, expected fragments of the message)
+    "truncated": ("MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n", ["truncated.mesh", "Vertices"]),
+    "out_of_range": (TET_HEADER + "Tetrahedra\n1\n1 2 3 9 0\nEnd\n", ["out_of_range.mesh", "tet 1"]),
+    "degenerate": (TET_HEADER + "Tetrahedra\n1\n1 2 3 3 0\nEnd\n", ["degenerate.mesh", "degenerate"]),
+    "not_a_number": (TET_HEADER.replace("1 0 0 0", "1 zero 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                     ["not_a_number.mesh", ":6"]),
+}
+
+
+def deck_with(**changes):
+    """GOOD with section.key=value changes ('section.key': value)."""
+    import copy
+    deck = copy.deepcopy(GOOD)
+    for dotted, value in changes.items():
+        node = deck
+        *path, last = dotted.split(".")
+        for p in path:
+            node = node.setdefault(p, {})
+        if value is None:
+            node.pop(last, None)
+        else:
+            node[last] = value
+    return deck
+
+
+BAD_DECKS = {
+    "nu_half": (deck_with(**{"material.poisson_ratio": 0.5}), ["material.poisson_ratio"]),
+    "dt_zero": (deck_with(**{"time.dt": 0.0}), ["time.dt"]),
+    "frames_text": (deck_with(**{"time.frames": "ten"}), ["time.frames"]),
+    "unknown_key": (deck_with(**{"material.youngs": 3.0}), ["material.youngs"]),
+    "no_material": (deck_with(material=None), ["material"]),
+    "missing_mesh_file": (deck_with(mesh={"file": "nowhere/bar.mesh"}), ["mesh.file", "bar.mesh"]),
+    "empty_fixed_region": (deck_with(fixed=[{"box": {"min": [5, 5, 5], "max": [6, 6, 6]}}]),
+                           ["fixed[0].box", "selects no vertex"]),
+    "everything_fixed": (deck_with(fixed=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}}]),
+                         ["every vertex is fixed"]),
+    "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
+}
+
+
+def assert_clean_failure(proc, outdir, fragments):
+    assert proc.returncode != 0, proc.stdout
+    for fragment in fragments:
+        assert fragment in proc.stdout, f"{fragment!r} not in:\n{proc.stdout[-3000:]}"
+    assert "hyperqn: error" in proc.stdout
+    assert not outdir.exists(), "an output directory was left behind"
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DECKS))
+def test_bad_deck(tmp_path, case):
+    deck, fragments = BAD_DECKS[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("case", sorted(BAD_MESHES))
+def test_bad_mesh(tmp_path, case, ranks):
+    text, fragments = BAD_MESHES[case]
+    (tmp_path / f"{case}.mesh").write_text(text)
+    deck = deck_with(mesh={"file": f"{case}.mesh"}, fixed=[])
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, fragments)
+
+
+def test_yaml_syntax_error(tmp_path):
+    path = tmp_path / "broken.yaml"
+    path.write_text("mesh:\n  box: {size: [1, 1, 1], cells: [1, 1, 1]\nmaterial: {}\n")
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["broken.yaml"])
+
+
+def test_missing_deck(tmp_path):
+    proc = run_hyperqn([tmp_path / "absent.yaml", "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["absent.yaml"])
+
+
+def test_no_deck_given(tmp_path):
+    proc = run_hyperqn([], ranks=None, check=False, timeout=60)
+    assert proc.returncode != 0 and "usage" in proc.stdout
+
+
+def test_unknown_petsc_line_search_option(tmp_path):
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-tao_ls_type", "bogus"], ranks=None, check=False, timeout=60)
+    assert proc.returncode != 0 and "bogus" in proc.stdout
+    assert not (tmp_path / "out").exists()

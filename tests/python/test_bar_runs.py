@@ -1,0 +1,97 @@
+"""The default bar deck, 20 frames, at 1 and 2 ranks: same answer, one factorization,
+monotone energy within each frame, and output files an independent reader accepts."""
+import os
+import re
+
+import numpy as np
+import pytest
+
+from conftest import load_deck, run_hyperqn, write_deck
+from compare_runs import relative_difference
+from hyperqn_output import Frame, read_iterations, read_pvd, read_summary
+
+FRAMES = 20
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """{ranks: (outdir, PETSc log text)} for 1 and 2 ranks."""
+    tmp = tmp_path_factory.mktemp("bar")
+    deck = load_deck("input/bar.yaml")
+    deck["time"]["frames"] = FRAMES
+    deck_path = write_deck(tmp / "bar.yaml", deck)
+    out = {}
+    for ranks in (1, 2):
+        outdir = tmp / f"np{ranks}"
+        log = tmp / f"log_view_np{ranks}.txt"
+        run_hyperqn([deck_path, "-o", outdir, "-log_view", f":{log}"], ranks=ranks)
+        out[ranks] = (str(outdir), log.read_text())
+    return out
+
+
+def test_parallel_matches_serial(runs):
+    # Stated tolerance: positions agree to 1e-8 of the largest displacement (measured: ~1e-15).
+    rel, diff, scale = relative_difference(runs[1][0], runs[2][0])
+    assert scale > 0.1, "the bar should sag visibly"
+    assert rel <= 1e-8, f"1 vs 2 ranks differ by {rel:.3e} of the largest displacement"
+
+
+def event_count(log_text, event):
+    """Call count of a PETSc -log_view event (max over ranks)."""
+    m = re.search(rf"^{event}\s+(\d+)", log_text, re.M)
+    return int(m.group(1)) if m else 0
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_exactly_one_factorization(runs, ranks):
+    outdir, log_text = runs[ranks]
+    s = read_summary(outdir)
+    assert s["frames"] == FRAMES and s["status"] == "ok"
+    assert s["factorizations"] == 1
+    # Independent of our own counter: PETSc's event log over the whole run.
+    assert event_count(log_text, "MatCholFctrNum") == 1
+    assert event_count(log_text, "MatCholFctrSym") == 1
+    # A^{-1} was applied once per L-BFGS iteration.
+    assert s["h0_solves"] == s["iterations"] > 0
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_energy_never_increases_within_a_frame(runs, ranks):
+    rows = read_iterations(runs[ranks][0])
+    assert {r["frame"] for r in rows} == set(range(1, FRAMES + 1))
+    for prev, cur in zip(rows, rows[1:]):
+        if cur["frame"] == prev["frame"]:
+            assert cur["iteration"] == prev["iteration"] + 1
+            assert cur["energy"] <= prev["energy"], f"g increased in frame {cur['frame']}: {prev} -> {cur}"
+            assert cur["time_s"] >= prev["time_s"]
+            assert cur["evaluations"] > prev["evaluations"]
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_vtk_read_back_by_meshio(runs, ranks):
+    outdir = runs[ranks][0]
+    s = read_summary(outdir)
+    frames = read_pvd(os.path.join(outdir, "bar.pvd"))
+    assert len(frames) == FRAMES + 1  # frame 0 plus every frame
+    assert frames[-1][0] == pytest.approx(FRAMES * s["dt"])
+    first, last = Frame(frames[0][1]), Frame(frames[-1][1])
+    assert last.num_pieces == ranks
+    assert len(last.vertex_id) == s["vertices"]
+    assert np.array_equal(last.vertex_id, np.arange(s["vertices"]))
+    assert last.num_cells == s["tets"]
+    assert set(np.unique(last.ranks)) == set(range(ranks))
+    assert np.allclose(first.displacement, 0) and np.allclose(first.J, 1)
+    assert np.all(np.isfinite(last.points)) and np.all(last.J > 0)
+    assert np.allclose(last.points - last.displacement, first.points)
+    # The clamped end (x = 0) does not move.
+    clamped = first.points[:, 0] < 1e-9
+    assert clamped.any() and np.all(last.displacement[clamped] == 0)
+
+
+def test_summary_has_the_contract_keys(runs):
+    s = read_summary(runs[2][0])
+    for key in ("ranks", "vertices", "tets", "dofs", "frames", "solver", "factorizations", "factor_s",
+                "wall_s", "ms_per_frame", "mean_iterations", "peak_rss_mb", "status"):
+        assert key in s, key
+    assert s["ranks"] == 2 and s["solver"] == "lbfgs"
+    assert s["dofs"] == 3 * (s["vertices"] - s["fixed_vertices"])

@@ -1,0 +1,218 @@
+// The distributed building blocks at 1 or N ranks: lumped mass, L, A = M + h^2 L, and the
+// assembled energy gradient against finite differences of the assembled energy.
+#include <petscdmplex.h>
+
+#include <random>
+
+#include "check.hpp"
+#include "distributed_mesh.hpp"
+#include "elastic_body.hpp"
+#include "fixed_regions.hpp"
+#include "time_step.hpp"
+
+using namespace hyperqn;
+
+namespace {
+
+struct TestScene {
+  DistributedMesh mesh;
+  std::unique_ptr<ElasticBody> body;
+  std::unique_ptr<TimeStep> step;
+};
+
+// A 2 x 1 x 1 box of 4 x 2 x 2 cubes, optionally fixed at x = 0.
+PetscErrorCode make_scene(const std::string& model, bool fix_end, TestScene& s) {
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  TetMesh serial;
+  std::vector<char> fixed;
+  if (rank == 0) {
+    serial = generate_box({2.0, 1.0, 1.0}, {4, 2, 2});
+    std::vector<BoxRegion> boxes;
+    if (fix_end) boxes.push_back({{-0.1, -0.1, -0.1}, {0.01, 1.1, 1.1}, 0});
+    fixed = select_fixed_vertices(serial, boxes, "test");
+  }
+  PetscCall(distribute_mesh(PETSC_COMM_WORLD, serial, fixed, s.mesh));
+  MaterialSpec mat;
+  mat.model = model;
+  mat.mu = 3.0;
+  mat.lambda = 5.0;
+  mat.has_density = false;
+  mat.total_mass = 7.5;
+  s.body = std::make_unique<ElasticBody>(s.mesh, mat);
+  s.step = std::make_unique<TimeStep>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
+  PetscCall(s.step->setup());
+  PetscFunctionReturn(0);
+}
+
+// Rest positions plus a smooth, rank-independent deformation and a random-looking wiggle
+// that depends only on the vertex's input index.
+PetscErrorCode deformed_positions(const TestScene& s, Vec x, double amplitude) {
+  Vec xl;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+  PetscCall(VecGetArray(xl, &a));
+  for (PetscInt v = 0; v < s.mesh.num_vertices; ++v) {
+    const PetscInt off = s.mesh.local_dof[v];
+    if (off < 0) continue;
+    const double* X = &s.mesh.rest[3 * v];
+    std::mt19937 gen((unsigned)s.mesh.vertex_ids[v]);
+    std::uniform_real_distribution<double> u(-1, 1);
+    a[off + 0] = X[0] + amplitude * (0.3 * X[1] * X[0] + 0.1 * u(gen));
+    a[off + 1] = X[1] + amplitude * (-0.2 * X[0] * X[0] + 0.1 * u(gen));
+    a[off + 2] = X[2] + amplitude * (0.4 * X[2] * X[1] + 0.1 * u(gen));
+  }
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, x));
+  PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode check_mass_and_laplacian(const std::string& model) {
+  TestScene s;
+  Mat A;
+  Vec ones, Aones;
+  PetscReal mass_sum, residual, anorm;
+  PetscBool symmetric;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, false, s));
+  // Lumped mass: each dof carries its vertex's mass, so the sum is 3 x total mass.
+  PetscCall(VecSum(s.step->mass(), &mass_sum));
+  CHECK_NEAR(mass_sum / 3.0, 7.5, 1e-12 * 7.5);
+  CHECK_NEAR(s.body->total_mass(), 7.5, 1e-12 * 7.5);
+
+  // Without fixed vertices, (A - M) 1 = h^2 L 1 = 0: L's rows sum to zero.
+  PetscCall(s.step->assemble_constant_matrix(&A));
+  PetscCall(MatCreateVecs(A, &ones, &Aones));
+  PetscCall(VecSet(ones, 1.0));
+  PetscCall(MatMult(A, ones, Aones));
+  PetscCall(VecAXPY(Aones, -1.0, s.step->mass()));
+  PetscCall(VecNorm(Aones, NORM_INFINITY, &residual));
+  PetscCall(MatNorm(A, NORM_INFINITY, &anorm));
+  CHECK_MSG(residual <= 1e-13 * anorm, model + ": L row sums " + std::to_string(residual));
+  PetscCall(MatIsSymmetric(A, 1e-14, &symmetric));
+  CHECK_MSG(symmetric, model + ": A symmetric");
+  PetscCall(VecDestroy(&ones));
+  PetscCall(VecDestroy(&Aones));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
+// A with fixed vertices eliminated is SPD: MUMPS LDL^T finds no negative and no null pivot.
+PetscErrorCode check_spd() {
+  TestScene s;
+  Mat A, F;
+  MatFactorInfo info;
+  PetscInt negative, null_pivots;
+  PetscBool symmetric;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene("neohookean", true, s));
+  PetscCall(s.step->assemble_constant_matrix(&A));
+  PetscCall(MatIsSymmetric(A, 1e-14, &symmetric));
+  CHECK(symmetric);
+  PetscCall(MatSetOption(A, MAT_SPD, PETSC_FALSE));  // LDL^T, so the inertia is counted
+  PetscCall(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &F));
+  PetscCall(MatMumpsSetIcntl(F, 24, 1));  // detect null pivots
+  PetscCall(MatFactorInfoInitialize(&info));
+  PetscCall(MatCholeskyFactorSymbolic(F, A, nullptr, &info));
+  PetscCall(MatCholeskyFactorNumeric(F, A, &info));
+  PetscCall(MatMumpsGetInfog(F, 12, &negative));
+  PetscCall(MatMumpsGetInfog(F, 28, &null_pivots));
+  CHECK_MSG(negative == 0, "negative pivots: " + std::to_string(negative));
+  CHECK_MSG(null_pivots == 0, "null pivots: " + std::to_string(null_pivots));
+  PetscCall(MatDestroy(&F));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
+// Directional derivative of the assembled E and g against central differences.
+PetscErrorCode check_gradients(const std::string& model, double amplitude) {
+  TestScene s;
+  Vec x, grad, dir, xp;
+  PetscRandom rnd;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, true, s));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  PetscCall(VecDuplicate(x, &grad));
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(VecDuplicate(x, &xp));
+  PetscCall(deformed_positions(s, x, amplitude));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
+  PetscCall(VecSetRandom(dir, rnd));
+  PetscCall(PetscRandomDestroy(&rnd));
+
+  // Inertial target from a nonzero velocity, so both parts of g are exercised.
+  PetscCall(s.step->set_inertial_target(x, dir));
+  for (int which = 0; which < 2; ++which) {
+    auto eval = [&](Vec at, PetscReal* f, Vec g) -> PetscErrorCode {
+      return which == 0 ? s.body->energy_gradient(at, f, g) : s.step->objective(at, f, g);
+    };
+    PetscReal f, fp, fm, analytic;
+    PetscCall(eval(x, &f, grad));
+    PetscCall(VecDot(grad, dir, &analytic));
+    const double eps = 1e-6;
+    PetscCall(VecWAXPY(xp, eps, dir, x));
+    PetscCall(eval(xp, &fp, nullptr));
+    PetscCall(VecWAXPY(xp, -eps, dir, x));
+    PetscCall(eval(xp, &fm, nullptr));
+    const double fd = (fp - fm) / (2 * eps);
+    const double err = std::fabs(fd - analytic) / std::fmax(1e-8, std::fabs(analytic));
+    CHECK_MSG(err < 1e-6, model + (which ? " g" : " E") + " amplitude " + std::to_string(amplitude) +
+                              ": directional derivative " + std::to_string(analytic) + " vs FD " + std::to_string(fd));
+  }
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&grad));
+  PetscCall(VecDestroy(&dir));
+  PetscCall(VecDestroy(&xp));
+  PetscFunctionReturn(0);
+}
+
+// At the rest shape E = 0 and dE/dx = 0.
+PetscErrorCode check_rest(const std::string& model) {
+  TestScene s;
+  Vec x, grad;
+  PetscReal E, gnorm;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, true, s));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  PetscCall(VecDuplicate(x, &grad));
+  PetscCall(s.body->rest_positions(x));
+  PetscCall(s.body->energy_gradient(x, &E, grad));
+  PetscCall(VecNorm(grad, NORM_INFINITY, &gnorm));
+  CHECK_NEAR(E, 0.0, 1e-12);
+  CHECK_NEAR(gnorm, 0.0, 1e-12);
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&grad));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  for (const char* model : {"corotated", "neohookean"}) {
+    PetscCall(check_mass_and_laplacian(model));
+    PetscCall(check_rest(model));
+    PetscCall(check_gradients(model, 0.05));
+    PetscCall(check_gradients(model, 0.5));  // large deformation, inverted elements likely
+  }
+  PetscCall(check_spd());
+  // Every rank must agree on the outcome.
+  int local = check::failures(), total = 0;
+  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
+  check::failures() = total;
+  const std::string name = "test_assembly (" + std::to_string(size) + " ranks)";
+  PetscMPIInt rank;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  int code = 0;
+  if (rank == 0) code = check::summary(name.c_str());
+  else code = total == 0 ? 0 : 1;
+  PetscCall(PetscFinalize());
+  return code;
+}
