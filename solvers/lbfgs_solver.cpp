@@ -21,7 +21,15 @@ PetscErrorCode LbfgsSolver::monitor(Tao tao, void* ctx) {
   r.grad_norm = gnorm;
   r.step = r.iteration == 0 ? 0.0 : step;
   r.evaluations = self->step_.evaluations();
-  if (self->on_iteration_ && *self->on_iteration_) (*self->on_iteration_)(r);
+  if (self->on_iteration_ && *self->on_iteration_) self->stop_requested_ = (*self->on_iteration_)(r);
+  PetscFunctionReturn(0);
+}
+
+// TAO's own test, plus a stop the iteration callback asked for.
+PetscErrorCode LbfgsSolver::convergence_test(Tao tao, void* ctx) {
+  PetscFunctionBeginUser;
+  PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
+  if (static_cast<LbfgsSolver*>(ctx)->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   PetscFunctionReturn(0);
 }
 
@@ -49,7 +57,14 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
   PetscCall(set_default_option("-tao_lmvm_mat_lmvm_hist_size", std::to_string(spec.history)));
   PetscCall(TaoSetMonitor(tao_, monitor, this, nullptr));
+  PetscCall(TaoSetConvergenceTest(tao_, convergence_test, this));
   PetscCall(TaoSetFromOptions(tao_));
+  // Allocate TAO's work space now, so the first frame's timing holds only its iterations.
+  Vec x;
+  PetscCall(VecDuplicate(step_.layout(), &x));
+  PetscCall(TaoSetSolution(tao_, x));
+  PetscCall(TaoSetUp(tao_));
+  PetscCall(VecDestroy(&x));
   PetscFunctionReturn(0);
 }
 
@@ -58,6 +73,7 @@ PetscErrorCode LbfgsSolver::solve(Vec x, const IterationCallback& on_iteration, 
   PetscFunctionBeginUser;
   step_.reset_evaluations();
   on_iteration_ = &on_iteration;
+  stop_requested_ = false;
   start_ = MPI_Wtime();
   PetscCall(TaoSetSolution(tao_, x));
   PetscCall(TaoSolve(tao_));

@@ -1,16 +1,28 @@
 #include "solver_factory.hpp"
 
 #include "lbfgs_solver.hpp"
+#include "newton_solver.hpp"
+#include "pd_solver.hpp"
 
 namespace hyperqn {
 
-bool solver_uses_constant_matrix(const std::string& type) { return type == "lbfgs"; }
+bool solver_uses_constant_matrix(const std::string& type) { return type == "lbfgs" || type == "pd"; }
 
 PetscErrorCode create_solver(const SolverSpec& spec, TimeStep& step, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   PetscFunctionBeginUser;
-  if (spec.type == "lbfgs") {
-    auto s = std::make_unique<LbfgsSolver>(step, h0);
+  PetscCheck(!solver_uses_constant_matrix(spec.type) || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL,
+             "solver %s needs the factored M + h^2 L", spec.type.c_str());
+  if (spec.type == "lbfgs" || spec.type == "lbfgs-identity") {
+    auto s = std::make_unique<LbfgsSolver>(step, spec.type == "lbfgs" ? h0 : nullptr);
+    PetscCall(s->setup(spec));
+    solver = std::move(s);
+  } else if (spec.type == "newton") {
+    auto s = std::make_unique<NewtonSolver>(step);
+    PetscCall(s->setup(spec));
+    solver = std::move(s);
+  } else if (spec.type == "pd") {
+    auto s = std::make_unique<PdSolver>(step, *h0);
     PetscCall(s->setup(spec));
     solver = std::move(s);
   } else {

@@ -25,7 +25,9 @@ struct FrameResult {
   std::string reason;        // solver's own words
 };
 
-using IterationCallback = std::function<void(const IterationRecord&)>;
+// Called at iteration 0 and after every iteration; returning true asks the solver to stop after
+// this iteration (used by the study's time limit).
+using IterationCallback = std::function<bool(const IterationRecord&)>;
 
 class TimeStepSolver {
  public:

@@ -21,7 +21,10 @@ using Names = std::vector<std::string>;
 
 // Allowed names, one table each, so a new model or solver type is one entry here.
 const Names kModels = {"corotated", "neohookean"};
-const Names kSolverTypes = {"lbfgs"};
+const Names kSolverTypes = {"lbfgs", "lbfgs-identity", "newton", "pd"};
+const Names kNewtonMethods = {"nls", "ntr"};
+const Names kLinearSolvers = {"mumps", "cg-amg"};
+const Names kNewtonHessians = {"projected", "exact"};
 const Names kLineSearches = {"more-thuente", "armijo", "unit"};
 const Names kWarmStarts = {"inertial", "previous"};
 
@@ -312,7 +315,8 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
 }
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
-  Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start"});
+  Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
+                   "newton_method", "linear_solver", "newton_hessian"});
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
     sv.iterations = r.integer(*x);
@@ -332,6 +336,48 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   }
   if (const Value* x = s.find("line_search")) sv.line_search = r.choice(*x, kLineSearches);
   if (const Value* x = s.find("warm_start")) sv.warm_start = r.choice(*x, kWarmStarts);
+  if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
+  if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
+  if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
+}
+
+void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
+  Section s(r, v, {"frames", "solvers", "iterations", "time_limit", "reference_rtol", "trajectory",
+                   "trajectory_iterations"});
+  if (const Value* x = s.find("frames")) {
+    st.frames.clear();
+    for (const Value& item : r.items(*x)) {
+      st.frames.push_back(r.integer(item));
+      r.check(st.frames.back() >= 1 && st.frames.back() <= scene_frames, item,
+              "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
+    }
+    r.check(!st.frames.empty(), *x, "a non-empty list");
+  }
+  if (const Value* x = s.find("solvers")) {
+    st.solvers.clear();
+    for (const Value& item : r.items(*x)) st.solvers.push_back(r.choice(item, kSolverTypes));
+    r.check(!st.solvers.empty(), *x, "a non-empty list");
+  }
+  if (const Value* x = s.find("iterations")) {
+    st.iterations = r.integer(*x);
+    r.check(st.iterations >= 1, *x, ">= 1");
+  }
+  if (const Value* x = s.find("time_limit")) {
+    st.time_limit = r.number(*x);
+    r.check(st.time_limit > 0, *x, "> 0");
+  }
+  if (const Value* x = s.find("reference_rtol")) {
+    st.reference_rtol = r.number(*x);
+    r.check(st.reference_rtol > 0 && st.reference_rtol < 1, *x, "in (0, 1)");
+  }
+  if (const Value* x = s.find("trajectory")) st.trajectory = r.boolean(*x);
+  if (const Value* x = s.find("trajectory_iterations")) {
+    Section t(r, *x, kSolverTypes);
+    for (const auto& [name, item] : t.entries()) {
+      st.trajectory_iterations[name] = r.integer(item);
+      r.check(st.trajectory_iterations[name] >= 1, item, ">= 1");
+    }
+  }
 }
 
 void read_output(const Reader& r, const Value& v, OutputSpec& o) {
@@ -376,7 +422,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "fixed", "gravity", "time", "solver", "output", "petsc"});
+            {"name", "mesh", "material", "fixed", "gravity", "time", "solver", "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory name (output/<name>).
@@ -390,6 +436,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
+  if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck.petsc_options);
   return deck;
 }

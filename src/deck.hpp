@@ -40,13 +40,28 @@ struct TimeSpec {
 };
 
 struct SolverSpec {
-  std::string type = "lbfgs";
+  std::string type = "lbfgs";        // lbfgs | lbfgs-identity | newton | pd
   int iterations = 10;               // per frame
   double grad_atol = 0;              // stop when ||grad g|| <= grad_atol, or
   double grad_rtol = 1e-6;           //   ||grad g|| <= grad_rtol * ||grad g(x0)||
   int history = 5;                   // L-BFGS pairs
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
   std::string warm_start = "inertial";       // inertial (x0 = y) | previous (x0 = x_n)
+  std::string newton_method = "nls";         // newton: TAO method, nls | ntr
+  std::string linear_solver = "mumps";       // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
+  std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact
+};
+
+// The error-against-time study (hyperqn study DECK): at each of `frames`, every solver in
+// `solvers` starts from the same state; a converged Newton solve gives the reference g*.
+struct StudySpec {
+  std::vector<int> frames{1};
+  std::vector<std::string> solvers{"lbfgs", "lbfgs-identity", "pd", "newton"};
+  int iterations = 200;              // cap per solver and frame in the per-frame study
+  double time_limit = 60;            // seconds per solver and frame
+  double reference_rtol = 1e-10;     // reference Newton: ||grad g|| <= reference_rtol ||grad g(x0)||
+  bool trajectory = true;            // also compare whole trajectories against converged Newton
+  std::map<std::string, int> trajectory_iterations;  // per solver; default solver.iterations
 };
 
 struct OutputSpec {
@@ -66,6 +81,7 @@ struct Deck {
   TimeSpec time;
   SolverSpec solver;
   OutputSpec output;
+  StudySpec study;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // "-key", "value" (petsc: section)
 };
 

@@ -15,6 +15,28 @@ static Mat3 edge_matrix(const double* pos, const PetscInt* cell) {
   return D;
 }
 
+// dvec(F)/dx_e (9 x 12, vec column-major): F = sum_k x_k g_k^T, so entry (i + 3j, 3k + i) is
+// g_k[j], with g_1..g_3 the rows of Dm^{-1} and g_0 = -(g_1 + g_2 + g_3) (the G of add_laplacian).
+static Eigen::Matrix<double, 9, 12> deformation_jacobian(const Mat3& Dm_inv) {
+  Eigen::Matrix<double, 9, 12> B = Eigen::Matrix<double, 9, 12>::Zero();
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 3; ++j) {
+      const double g = k == 0 ? -Dm_inv.col(j).sum() : Dm_inv(k - 1, j);
+      for (int i = 0; i < 3; ++i) B(i + 3 * j, 3 * k + i) = g;
+    }
+  return B;
+}
+
+// The symmetric C with its negative eigenvalues clamped to 0. Done on the 9x9 dP/dF rather than
+// the 12x12 element Hessian: a smaller eigenproblem, and B^T C B is PSD whenever C is. (The
+// mass term then makes M + h^2 K SPD.) Fixed-size Eigen types: no heap allocation.
+static Mat9 project_psd(const Mat9& C) {
+  if (Eigen::LLT<Mat9>(C).info() == Eigen::Success) return C;  // positive definite: cheap exit
+  const Eigen::SelfAdjointEigenSolver<Mat9> eig(C);
+  if (eig.eigenvalues()(0) >= 0) return C;  // sorted ascending; PSD already, keep it exact
+  return eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+}
+
 ElasticBody::ElasticBody(const DistributedMesh& mesh, const MaterialSpec& spec) : mesh_(mesh) {
   material_ = make_material(spec.model, spec.mu, spec.lambda, spec.J0);
   weight_ = spec.laplacian_weight > 0 ? spec.laplacian_weight : material_->laplacian_weight();
@@ -146,6 +168,30 @@ PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale) const {
       for (int j = 0; j < 4; ++j)
         for (int d = 0; d < 3; ++d) vals[(3 * i + d) * 12 + 3 * j + d] = Le(i, j);
     PetscCall(MatSetValues(A, 12, idx, 12, idx, vals, ADD_VALUES));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ElasticBody::add_hessian(Vec x, Mat H, PetscReal scale, bool psd) const {
+  Eigen::Matrix<double, 12, 12, Eigen::RowMajor> Ke;  // row-major: the layout MatSetValues reads
+  PetscInt idx[12];
+  PetscFunctionBeginUser;
+  PetscCall(local_positions(x, pos_));
+  for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
+    const PetscInt* cell = &mesh_.cells[4 * c];
+    const Mat3 F = edge_matrix(pos_.data(), cell) * Dm_inv_[c];
+    const Mat9 dPdF = material_->stress_derivative(F);
+    const Mat9 C = psd ? project_psd(dPdF) : dPdF;
+    const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dm_inv_[c]);
+    Ke.noalias() = (scale * volume_[c]) * (B.transpose() * (C * B));
+    // Average with the transpose so H is exactly symmetric whatever the rounding above.
+    for (int i = 0; i < 12; ++i)
+      for (int j = 0; j < i; ++j) Ke(i, j) = Ke(j, i) = 0.5 * (Ke(i, j) + Ke(j, i));
+    for (int k = 0; k < 4; ++k) {
+      const PetscInt g = mesh_.global_dof[cell[k]];
+      for (int d = 0; d < 3; ++d) idx[3 * k + d] = g < 0 ? -1 : g + d;  // fixed dofs: ignored
+    }
+    PetscCall(MatSetValues(H, 12, idx, 12, idx, Ke.data(), ADD_VALUES));
   }
   PetscFunctionReturn(0);
 }

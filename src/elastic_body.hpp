@@ -39,6 +39,10 @@ class ElasticBody {
   double total_mass() const { return total_mass_; }
   // A += scale * L with L = sum_e w V_e (G_e^T G_e (x) I3), restricted to free dofs.
   PetscErrorCode add_laplacian(Mat A, PetscReal scale) const;
+  // H += scale * K(x) on the free dofs, K = sum_e V_e B_e^T C_e B_e with B_e = dvec(F_e)/dx_e.
+  // C_e = dP/dF(F_e) made positive semi-definite (psd, the Newton baseline) or exact
+  // (the true Hessian of E, possibly indefinite; for tests). Adds into H's existing pattern.
+  PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
   // Positions of the rest shape as a global vector of free dofs.
   PetscErrorCode rest_positions(Vec x) const;
 

@@ -67,4 +67,26 @@ PetscErrorCode TimeStep::assemble_constant_matrix(Mat* A) const {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode TimeStep::create_hessian(Mat* H) const {
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateMatrix(body_.mesh().dm, H));
+  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode TimeStep::assemble_hessian(Vec x, Mat H, bool exact) {
+  PetscFunctionBeginUser;
+  const double t0 = MPI_Wtime();
+  PetscCall(MatZeroEntries(H));  // keeps the pattern
+  PetscCall(body_.add_hessian(x, H, dt_ * dt_, !exact));
+  PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatDiagonalSet(H, mass_, ADD_VALUES));
+  // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
+  PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(H, MAT_SPD, exact ? PETSC_FALSE : PETSC_TRUE));
+  hessian_s_ += MPI_Wtime() - t0;
+  PetscFunctionReturn(0);
+}
+
 }  // namespace hyperqn

@@ -35,6 +35,13 @@ class TimeStep {
   void reset_evaluations() { evaluations_ = 0; }
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene).
   PetscErrorCode assemble_constant_matrix(Mat* A) const;
+  // A new matrix with the Hessian's nonzero pattern (the mesh's dof graph); inserting outside it
+  // is an error, so the pattern, and hence a direct solver's symbolic analysis, never changes.
+  PetscErrorCode create_hessian(Mat* H) const;
+  // H = M + h^2 K(x) in place (K with the per-element PSD fix; exact = true: the true,
+  // possibly indefinite Hessian of g, for tests). Flags H SPD (or only symmetric if exact).
+  PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false);
+  double hessian_seconds() const { return hessian_s_; }  // total, over the whole run
 
  private:
   ElasticBody& body_;
@@ -43,6 +50,7 @@ class TimeStep {
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   PetscInt evaluations_ = 0;
   double objective_s_ = 0;
+  double hessian_s_ = 0;
 };
 
 }  // namespace hyperqn

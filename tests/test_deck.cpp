@@ -302,7 +302,10 @@ void test_invalid_decks() {
   expect_error("frames_zero", kHead + "time:\n  dt: 0.1\n  frames: 0\n", "time.frames", 5, ">= 1");
   expect_error("damping_one", kHead + "time: {damping: 1}\n", "time.damping", 3, "[0, 1)");
   expect_error("damping_negative", kHead + "time: {damping: -0.1}\n", "time.damping", 3);
-  expect_error("unknown_solver", kHead + "solver:\n  type: newton\n", "solver.type", 4, "allowed: lbfgs");
+  expect_error("unknown_solver", kHead + "solver:\n  type: gauss-seidel\n", "solver.type", 4, "allowed: lbfgs, lbfgs-identity, newton, pd");
+  expect_error("unknown_linear_solver", kHead + "solver: {linear_solver: lu}\n", "solver.linear_solver", 3, "allowed: mumps, cg-amg");
+  expect_error("study_frame_beyond_scene", kHead + "time: {frames: 5}\nstudy: {frames: [6]}\n", "study.frames[0]", 4, "[1, time.frames = 5]");
+  expect_error("study_unknown_solver", kHead + "study:\n  solvers: [lbfgs, cg]\n", "study.solvers[1]", 4);
   expect_error("iterations_zero", kHead + "solver: {iterations: 0}\n", "solver.iterations", 3);
   expect_error("history_negative", kHead + "solver:\n  history: -1\n", "solver.history", 4);
   expect_error("grad_atol_negative", kHead + "solver: {grad_atol: -1.0e-9}\n", "solver.grad_atol", 3);

@@ -202,6 +202,10 @@ void check_factory() {
   CHECK_MSG(threw, "make_material(neohookean, J0 = 0) should throw std::invalid_argument");
   CHECK_NEAR(make_corotated(1.3, 2.1)->laplacian_weight(), 2.0 * 1.3 + 2.1, 1e-15);
   CHECK_NEAR(make_neohookean(1.3, 2.1, 0.1)->laplacian_weight(), 2.0066 * 1.3 + 1.0122 * 2.1, 1e-15);
+  // PD is exact for ARAP (corotated, lambda = 0) only.
+  CHECK(make_corotated(1.3, 0.0)->projective_dynamics_exact());
+  CHECK(!make_corotated(1.3, 2.1)->projective_dynamics_exact());
+  CHECK(!make_neohookean(1.3, 0.0, 0.1)->projective_dynamics_exact());
 }
 
 }  // namespace

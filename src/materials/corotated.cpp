@@ -47,6 +47,8 @@ class Corotated final : public Material {
 
   // Slope of the 1-D stress-strain curve at rest (paper section 4.1; algorithm.md section 4).
   double laplacian_weight() const override { return 2.0 * mu_ + lambda_; }
+  // lambda = 0 is ARAP: psi = mu ||F - R||^2 with R the projection of F onto rotations, w = 2 mu.
+  bool projective_dynamics_exact() const override { return lambda_ == 0.0; }
 
  private:
   double energy_of(const Vec3& sigma) const {

@@ -26,6 +26,10 @@ class Material {
   virtual Mat9 stress_derivative(const Mat3& F) const = 0;
   // Weight of this material in L (stiffness of the stress-strain curve near rest).
   virtual double laplacian_weight() const = 0;
+  // True if E is a Projective Dynamics energy with L as its global matrix, i.e. psi is a squared
+  // distance to a constraint manifold (w/2 ||F - P(F)||^2) and laplacian_weight() == w. Then the
+  // step x - A^{-1} grad g(x) is exactly PD's local-global step and never increases g.
+  virtual bool projective_dynamics_exact() const = 0;
 };
 
 // Lame parameters from Young's modulus and Poisson ratio.

@@ -72,6 +72,8 @@ class NeoHookean final : public Material {
   // least-squares fit over stretch in [0.9, 1.1] gives 2.0060 mu + 1.0111 lambda; we keep the
   // reference constants so L matches the authors' code.
   double laplacian_weight() const override { return 2.0066 * mu_ + 1.0122 * lambda_; }
+  // Not a squared distance to a constraint set (its weight is a fit): PD is only approximate.
+  bool projective_dynamics_exact() const override { return false; }
 
  private:
   LogExt log_ext(double J) const {

@@ -1,0 +1,137 @@
+#include "pd_solver.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace hyperqn {
+
+namespace {
+// Backtracking Armijo line search (used only where PD is not exact).
+constexpr double kArmijoC1 = 1e-4;
+constexpr double kBacktrack = 0.5;
+constexpr int kMaxHalvings = 30;
+}  // namespace
+
+PdSolver::~PdSolver() {
+  VecDestroy(&grad_);
+  VecDestroy(&dir_);
+  VecDestroy(&trial_);
+  VecDestroy(&trial_grad_);
+}
+
+PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
+  const ElasticBody& body = step_.body();
+  const Material& material = body.material();
+  MPI_Comm comm = PetscObjectComm((PetscObject)step_.layout());
+  PetscFunctionBeginUser;
+  spec_ = spec;
+  // The step is PD's local-global step only if A was built with the material's own weight
+  // (2 mu for ARAP); a deck's laplacian_weight override makes it an approximation again.
+  const bool own_weight = body.laplacian_weight() == material.laplacian_weight();
+  exact_ = material.projective_dynamics_exact() && own_weight;
+  if (exact_) {
+    PetscCall(PetscPrintf(comm, "pd: %s with lambda = 0 (ARAP) is a Projective Dynamics energy: exact local-global "
+                                "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
+                          material.name().c_str()));
+  } else {
+    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s%s); running its "
+                                "quasi-Newton step x <- x - alpha A^{-1} grad g with a backtracking Armijo line search "
+                                "(L-BFGS with m = 0)\n",
+                          material.name().c_str(),
+                          material.projective_dynamics_exact() ? ", laplacian_weight overridden" : ""));
+  }
+  PetscCall(VecDuplicate(step_.layout(), &grad_));
+  PetscCall(VecDuplicate(step_.layout(), &dir_));
+  PetscCall(VecDuplicate(step_.layout(), &trial_));
+  PetscCall(VecDuplicate(step_.layout(), &trial_grad_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
+  PetscReal g, gnorm, gnorm0, slope, g_trial = 0;
+  PetscInt k = 0;
+  double alpha = 0;
+  PetscFunctionBeginUser;
+  step_.reset_evaluations();
+  const double start = MPI_Wtime();
+  const auto report = [&]() {
+    IterationRecord r;
+    r.iteration = k;
+    r.time_s = MPI_Wtime() - start;
+    r.energy = g;
+    r.grad_norm = gnorm;
+    r.step = alpha;
+    r.evaluations = step_.evaluations();
+    return on_iteration ? on_iteration(r) : false;
+  };
+
+  result = FrameResult{};
+  PetscCall(step_.objective(x, &g, grad_));
+  PetscCall(VecNorm(grad_, NORM_2, &gnorm));
+  gnorm0 = gnorm;
+  bool stop = report();
+  for (;;) {
+    // Same tests, in the same order and with the same (in)equalities as TAO's default
+    // convergence test, so pd and TAO's L-BFGS with m = 0 stop at the same iterate.
+    if (!std::isfinite(g) || !std::isfinite(gnorm)) {
+      result.failed = true;
+      result.reason = "DIVERGED_NAN";
+      break;
+    }
+    if (gnorm <= spec_.grad_atol) {
+      result.converged = true;
+      result.reason = "CONVERGED_GATOL";
+      break;
+    }
+    if (gnorm0 != 0 && gnorm / gnorm0 < spec_.grad_rtol) {
+      result.converged = true;
+      result.reason = "CONVERGED_GTTOL";
+      break;
+    }
+    if (stop) {
+      result.reason = "STOPPED_BY_CALLER";
+      break;
+    }
+    if (k >= spec_.iterations) {
+      result.reason = "MAX_ITERATIONS";
+      break;
+    }
+
+    // Global step: d = -A^{-1} grad g(x). With a PD energy, x + d is the local step (projection
+    // of every element onto its constraint set, inside grad g) followed by the global solve.
+    PetscCall(A_.solve(grad_, dir_));
+    PetscCall(VecScale(dir_, -1.0));
+    PetscCall(VecDot(grad_, dir_, &slope));
+    bool accepted = false;
+    alpha = 1.0;
+    for (int halvings = 0; halvings <= kMaxHalvings; ++halvings, alpha *= kBacktrack) {
+      PetscCall(VecWAXPY(trial_, alpha, dir_, x));
+      PetscCall(step_.objective(trial_, &g_trial, trial_grad_));
+      // Exact PD never increases g, so its step is taken as is (g is evaluated for the log and
+      // the next gradient); a non-finite g is never a decrease.
+      if (exact_ || (std::isfinite(g_trial) && g_trial <= g + kArmijoC1 * alpha * slope)) {
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) {
+      alpha = 0;  // x, g and grad g stay at the last accepted iterate
+      result.failed = true;
+      result.reason = "LINE_SEARCH_FAILURE";
+      break;
+    }
+    // Accept: the trial point's gradient is the next iteration's G (one evaluation per iteration).
+    PetscCall(VecCopy(trial_, x));
+    std::swap(grad_, trial_grad_);
+    g = g_trial;
+    PetscCall(VecNorm(grad_, NORM_2, &gnorm));
+    ++k;
+    stop = report();
+  }
+  result.iterations = k;
+  result.energy = g;
+  result.grad_norm = gnorm;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn
