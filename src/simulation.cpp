@@ -7,90 +7,15 @@
 #include <functional>
 #include <memory>
 
-#include "distributed_mesh.hpp"
-#include "elastic_body.hpp"
-#include "factored_system.hpp"
-#include "fixed_regions.hpp"
 #include "input_error.hpp"
-#include "mesh_gmsh.hpp"
 #include "run_log.hpp"
+#include "scene.hpp"
 #include "solver_factory.hpp"
-#include "time_step.hpp"
 #include "vtk_writer.hpp"
 
 namespace hyperqn {
 
 namespace {
-
-// Runs fn on rank 0 only; an InputError there is re-thrown on every rank, so all ranks stop
-// together with the same message.
-void on_root(MPI_Comm comm, const std::function<void()>& fn) {
-  int rank;
-  MPI_Comm_rank(comm, &rank);
-  std::string error;
-  if (rank == 0) {
-    try {
-      fn();
-    } catch (const InputError& e) {
-      error = e.what();
-      if (error.empty()) error = "input error";
-    }
-  }
-  int n = (int)error.size();
-  MPI_Bcast(&n, 1, MPI_INT, 0, comm);
-  if (n == 0) return;
-  error.resize(n);
-  MPI_Bcast(error.data(), n, MPI_CHAR, 0, comm);
-  throw InputError(error);
-}
-
-bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-}  // namespace
-
-TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck) {
-  TetMesh mesh;
-  on_root(comm, [&] {
-    const MeshSpec& spec = deck.mesh;
-    if (spec.is_box)
-      mesh = generate_box(spec.box_size, spec.box_cells);
-    else if (ends_with(spec.file, ".msh"))
-      mesh = read_gmsh(spec.file);
-    else
-      mesh = read_medit(spec.file);
-    apply_transform(mesh, spec.transform);
-    clean_mesh(mesh, spec.is_box ? deck.path : spec.file);
-  });
-  return mesh;
-}
-
-namespace {
-
-// Everything a run holds, in construction order (destroyed in reverse).
-struct Scene {
-  DistributedMesh mesh;
-  std::unique_ptr<ElasticBody> body;
-  std::unique_ptr<TimeStep> step;
-  std::unique_ptr<FactoredSystem> factored;
-  std::unique_ptr<TimeStepSolver> solver;
-};
-
-PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, const TetMesh& serial, const std::vector<char>& fixed,
-                           Scene& s) {
-  PetscFunctionBeginUser;
-  PetscCall(distribute_mesh(comm, serial, fixed, s.mesh));
-  s.body = std::make_unique<ElasticBody>(s.mesh, deck.material);
-  s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
-  PetscCall(s.step->setup());
-  if (solver_uses_constant_matrix(deck.solver.type)) {
-    s.factored = std::make_unique<FactoredSystem>();
-    PetscCall(s.factored->setup(*s.step));
-  }
-  PetscCall(create_solver(deck.solver, *s.step, s.factored.get(), s.solver));
-  PetscFunctionReturn(0);
-}
 
 double global_min(MPI_Comm comm, const std::vector<double>& v) {
   double local = HUGE_VAL, global;
@@ -102,8 +27,8 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
 }  // namespace
 
 // The frame loop. Returns false (with summary.status set) if the run cannot continue.
-static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, VtkWriter* vtk, IterationLog& log,
-                                RunSummary& summary, bool& ok) {
+static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeStepSolver& solver, VtkWriter* vtk,
+                                IterationLog& log, RunSummary& summary, bool& ok) {
   PetscMPIInt rank;
   Vec x, v, x_prev;
   std::vector<double> pos, vel, J;
@@ -136,7 +61,10 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, VtkWr
 
     FrameResult r;
     const double t0 = MPI_Wtime();
-    PetscCall(s.solver->solve(x, [&](const IterationRecord& it) { log.append(frame, it); }, r));
+    PetscCall(solver.solve(x, [&](const IterationRecord& it) {
+      log.append(frame, it);
+      return false;
+    }, r));
     const double ms = 1e3 * (MPI_Wtime() - t0);
     summary.solve_s += ms / 1e3;
     summary.iterations += r.iterations;
@@ -175,18 +103,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   MPI_Comm_size(comm, &size);
 
   // 1. Everything that can be wrong with the input is checked before any output exists.
-  TetMesh serial;
-  std::vector<char> fixed;
+  SceneInput input;
   try {
-    serial = load_scene_mesh(comm, deck);
-    on_root(comm, [&] {
-      fixed = select_fixed_vertices(serial, deck.fixed, deck.path);
-      size_t nfixed = 0;
-      for (char f : fixed) nfixed += f;
-      if (nfixed == fixed.size())
-        throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
-                         "every vertex is fixed: nothing to simulate");
-    });
+    input = load_scene_input(comm, deck);
   } catch (const InputError& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
     return 1;
@@ -194,15 +113,16 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 
   // 2. Distribute, assemble, factor.
   Scene scene;
-  if (build_scene(comm, deck, serial, fixed, scene)) {
+  std::unique_ptr<TimeStepSolver> solver;
+  if (build_scene(comm, deck, input, solver_uses_constant_matrix(deck.solver.type), scene) ||
+      create_solver(deck.solver, *scene.step, scene.factored.get(), solver)) {
     PetscPrintf(comm, "hyperqn: error: setting up the scene failed (see PETSc's message above)\n");
     return 1;
   }
-  serial = TetMesh();  // the serial copy is no longer needed
 
   RunSummary summary;
   summary.deck = deck.path;
-  summary.solver = scene.solver->name();
+  summary.solver = solver->name();
   summary.ranks = size;
   summary.vertices = scene.mesh.global_vertices;
   summary.tets = scene.mesh.global_cells;
@@ -228,7 +148,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     MPI_Barrier(comm);
     if (deck.output.vtk) vtk = std::make_unique<VtkWriter>(comm, scene.mesh, outdir, deck.name);
     if (deck.output.iterations_csv) log.open(outdir + "/iterations.csv", rank);
-    if (time_loop(comm, deck, scene, vtk.get(), log, summary, ok)) {
+    if (time_loop(comm, deck, scene, *solver, vtk.get(), log, summary, ok)) {
       summary.status = "error: PETSc error during the time loop";
       ok = false;
     }

@@ -6,13 +6,8 @@
 #include <string>
 
 #include "deck.hpp"
-#include "mesh.hpp"
 
 namespace hyperqn {
-
-// Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it.
-// Throws InputError. Other ranks get an empty mesh.
-TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck);
 
 // Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the
 // run could not continue (summary.json says why).

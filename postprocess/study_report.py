@@ -1,0 +1,176 @@
+#!/usr/bin/env python3
+"""Turns `hyperqn study` outputs into the paper's error-against-time figures and tables.
+
+For every study directory given (each holds study.csv, trajectory.csv, study.json):
+  - error_vs_time.png: relative error e = (g - g*)/(g(x0) - g*) (log) against wall time, one
+    panel per study frame, one curve per solver;
+  - trajectory.png: RMS vertex error against the converged-Newton trajectory (relative to the
+    bounding-box diagonal) against cumulative run time, one curve per solver.
+Then one Markdown report (--out, default: report.md beside the first directory's parent) with,
+per study and frame, each solver's time to reach e <= 1e-1, 1e-2, 1e-3, 1e-4, 1e-6 and the
+speed-up over Newton at each level, plus the trajectory errors and times, and an overview figure
+(one panel per study).
+"""
+import argparse
+import csv
+import json
+import math
+import os
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
+FLOOR = 1e-16  # e below round-off is drawn at this level on the log axis
+STYLE = {"lbfgs": ("C0", "-"), "newton": ("C3", "-"), "pd": ("C2", "--"), "lbfgs-identity": ("C1", ":"),
+         "reference": ("0.6", "-")}
+
+
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def load_study(directory):
+    """{'meta', 'curves': {frame: {solver: [(t, e, grad, it)]}}, 'trajectory': {solver: [(frame, t, err)]}}"""
+    curves = defaultdict(lambda: defaultdict(list))
+    for r in read_csv(os.path.join(directory, "study.csv")):
+        curves[int(r["frame"])][r["solver"]].append(
+            (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"])))
+    trajectory = defaultdict(list)
+    tpath = os.path.join(directory, "trajectory.csv")
+    if os.path.exists(tpath):
+        for r in read_csv(tpath):
+            trajectory[r["solver"]].append((int(r["frame"]), float(r["time_s"]), float(r["rel_rms_error"])))
+    meta = {}
+    if os.path.exists(os.path.join(directory, "study.json")):
+        with open(os.path.join(directory, "study.json")) as f:
+            meta = json.load(f)
+    meta.setdefault("title", os.path.basename(os.path.normpath(directory)))
+    return {"dir": directory, "meta": meta, "curves": curves, "trajectory": trajectory}
+
+
+def time_to_reach(points, level):
+    """Wall time of the first iterate with e <= level, or None."""
+    for t, e, _, _ in points:
+        if e <= level:
+            return t
+    return None
+
+
+def plot_curves(ax, by_solver, title):
+    for solver, pts in sorted(by_solver.items()):
+        if solver == "reference":
+            continue
+        color, ls = STYLE.get(solver, (None, "-"))
+        ax.semilogy([1e3 * p[0] for p in pts], [max(p[1], FLOOR) for p in pts], color=color, ls=ls,
+                    marker=".", ms=3, label=solver)
+    ax.set_xlabel("wall time (ms)")
+    ax.set_ylabel("relative error e")
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+
+
+def study_figures(study):
+    frames = sorted(study["curves"])
+    fig, axes = plt.subplots(1, len(frames), figsize=(5 * len(frames), 4), squeeze=False)
+    for ax, frame in zip(axes[0], frames):
+        plot_curves(ax, study["curves"][frame], f"{study['meta']['title']}, frame {frame}")
+    fig.tight_layout()
+    fig.savefig(os.path.join(study["dir"], "error_vs_time.png"), dpi=120)
+    plt.close(fig)
+    if study["trajectory"]:
+        fig, ax = plt.subplots(figsize=(5, 4))
+        for solver, pts in sorted(study["trajectory"].items()):
+            color, ls = STYLE.get(solver, (None, "-"))
+            ax.semilogy([p[1] for p in pts], [max(p[2], FLOOR) for p in pts], color=color, ls=ls, label=solver)
+        ax.set_xlabel("cumulative solve time (s)")
+        ax.set_ylabel("RMS vertex error / bbox diagonal")
+        ax.set_title(f"{study['meta']['title']}: trajectory vs converged Newton", fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(os.path.join(study["dir"], "trajectory.png"), dpi=120)
+        plt.close(fig)
+
+
+def fmt_ms(t):
+    return "—" if t is None else f"{1e3 * t:.1f}"
+
+
+def frame_table(by_solver):
+    head = "| solver | " + " | ".join(f"t(e≤{lv:g}) ms" for lv in LEVELS) + " | " + \
+        " | ".join(f"speed-up@{lv:g}" for lv in LEVELS) + " |"
+    lines = [head, "|" + "---|" * (1 + 2 * len(LEVELS))]
+    newton = by_solver.get("newton")
+    for solver in sorted(s for s in by_solver if s != "reference"):
+        times = [time_to_reach(by_solver[solver], lv) for lv in LEVELS]
+        speed = []
+        for lv, t in zip(LEVELS, times):
+            tn = time_to_reach(newton, lv) if newton else None
+            speed.append("—" if t is None or tn is None or t == 0 else f"{tn / t:.1f}×")
+        lines.append(f"| {solver} | " + " | ".join(fmt_ms(t) for t in times) + " | " + " | ".join(speed) + " |")
+    return lines
+
+
+def trajectory_table(traj):
+    lines = ["| solver | frames | total solve time (s) | final RMS error / diag | max RMS error / diag |", "|---|---|---|---|---|"]
+    for solver, pts in sorted(traj.items()):
+        lines.append(f"| {solver} | {pts[-1][0]} | {pts[-1][1]:.3f} | {pts[-1][2]:.2e} | {max(p[2] for p in pts):.2e} |")
+    return lines
+
+
+def overview_figure(studies, path):
+    n = len(studies)
+    cols = min(n, 4)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 3.8 * rows), squeeze=False)
+    for ax, study in zip(axes.flat, studies):
+        frame = max(study["curves"])
+        plot_curves(ax, study["curves"][frame], f"{study['meta']['title']}, frame {frame}")
+    for ax in list(axes.flat)[n:]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("studies", nargs="+", help="study output directories")
+    p.add_argument("--out", help="Markdown report path (default: <parent of first>/report.md)")
+    args = p.parse_args()
+    studies = [load_study(d) for d in args.studies]
+    out = args.out or os.path.join(os.path.dirname(os.path.normpath(args.studies[0])), "report.md")
+    lines = ["# Error against time", "",
+             "e = (g − g*)/(g(x₀) − g*), g* from Newton converged to ‖∇g‖ ≤ reference_rtol·‖∇g(x₀)‖ "
+             "(or the lowest g any solver reached). Times are wall-clock ms from the frame's start; "
+             "speed-up = Newton's time / the solver's time to reach the same e.", ""]
+    for study in studies:
+        study_figures(study)
+        m = study["meta"]
+        lines += [f"## {m['title']}", ""]
+        desc = ", ".join(f"{k} {m[k]}" for k in ("material", "ranks", "vertices", "tets", "dt") if k in m)
+        if desc:
+            lines += [desc, ""]
+        rel = os.path.relpath(study["dir"], os.path.dirname(out))
+        for frame in sorted(study["curves"]):
+            lines += [f"### frame {frame}", ""] + frame_table(study["curves"][frame]) + [""]
+        lines += [f"![error vs time]({rel}/error_vs_time.png)", ""]
+        if study["trajectory"]:
+            lines += ["### trajectory against converged Newton", ""] + trajectory_table(study["trajectory"]) + \
+                     ["", f"![trajectory]({rel}/trajectory.png)", ""]
+    overview = os.path.join(os.path.dirname(out), "overview.png")
+    overview_figure(studies, overview)
+    lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]
+    with open(out, "w") as f:
+        f.write("\n".join(lines))
+    print(f"wrote {out} and {overview}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,85 @@
+#include "scene.hpp"
+
+#include <functional>
+
+#include "fixed_regions.hpp"
+#include "input_error.hpp"
+#include "mesh_gmsh.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+// Runs fn on rank 0 only; an InputError there is re-thrown on every rank, so all ranks stop
+// together with the same message.
+void on_root(MPI_Comm comm, const std::function<void()>& fn) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string error;
+  if (rank == 0) {
+    try {
+      fn();
+    } catch (const InputError& e) {
+      error = e.what();
+      if (error.empty()) error = "input error";
+    }
+  }
+  int n = (int)error.size();
+  MPI_Bcast(&n, 1, MPI_INT, 0, comm);
+  if (n == 0) return;
+  error.resize(n);
+  MPI_Bcast(error.data(), n, MPI_CHAR, 0, comm);
+  throw InputError(error);
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck) {
+  TetMesh mesh;
+  on_root(comm, [&] {
+    const MeshSpec& spec = deck.mesh;
+    if (spec.is_box)
+      mesh = generate_box(spec.box_size, spec.box_cells);
+    else if (ends_with(spec.file, ".msh"))
+      mesh = read_gmsh(spec.file);
+    else
+      mesh = read_medit(spec.file);
+    apply_transform(mesh, spec.transform);
+    clean_mesh(mesh, spec.is_box ? deck.path : spec.file);
+  });
+  return mesh;
+}
+
+SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
+  SceneInput in;
+  in.mesh = load_scene_mesh(comm, deck);
+  on_root(comm, [&] {
+    in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
+    size_t nfixed = 0;
+    for (char f : in.fixed) nfixed += f;
+    if (nfixed == in.fixed.size())
+      throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
+                       "every vertex is fixed: nothing to simulate");
+  });
+  return in;
+}
+
+PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& s) {
+  PetscFunctionBeginUser;
+  PetscCall(distribute_mesh(comm, input.mesh, input.fixed, s.mesh));
+  input = SceneInput();  // the serial copy is no longer needed
+  s.body = std::make_unique<ElasticBody>(s.mesh, deck.material);
+  s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
+  PetscCall(s.step->setup());
+  if (factor) {
+    s.factored = std::make_unique<FactoredSystem>();
+    PetscCall(s.factored->setup(*s.step));
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

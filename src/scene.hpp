@@ -1,0 +1,40 @@
+// A scene built from a deck: the input checked, the mesh distributed, the body, the time-step
+// objective and (when a solver needs it) the factored M + h^2 L. Shared by the simulation and
+// the study.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "deck.hpp"
+#include "distributed_mesh.hpp"
+#include "elastic_body.hpp"
+#include "factored_system.hpp"
+#include "mesh.hpp"
+#include "time_step.hpp"
+
+namespace hyperqn {
+
+// Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it.
+// Throws InputError. Other ranks get an empty mesh.
+TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck);
+
+// The serial mesh and its fixed-vertex flags (rank 0). Throws InputError on every rank if the
+// input is wrong; nothing has been written at that point.
+struct SceneInput {
+  TetMesh mesh;
+  std::vector<char> fixed;
+};
+SceneInput load_scene_input(MPI_Comm comm, const Deck& deck);
+
+struct Scene {
+  DistributedMesh mesh;
+  std::unique_ptr<ElasticBody> body;
+  std::unique_ptr<TimeStep> step;
+  std::unique_ptr<FactoredSystem> factored;  // only if a solver needs M + h^2 L
+};
+
+// Distributes the input (which it frees), assembles, and factors M + h^2 L if factor is true.
+PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& scene);
+
+}  // namespace hyperqn

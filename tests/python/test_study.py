@@ -1,0 +1,84 @@
+"""`hyperqn study`: the relative errors come from the logged energies and the reference, the
+HDF5 file holds the same data, the trajectories are compared with converged Newton, and the
+report script turns it all into PNGs and a Markdown table."""
+import csv
+import os
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import REPO, run_hyperqn
+
+SOLVERS = {"lbfgs", "lbfgs-identity", "pd", "newton"}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("study") / "small"
+    proc = run_hyperqn(["study", os.path.join(REPO, "tests/decks/study_small.yaml"), "-o", out], ranks=2)
+    assert "study written" in proc.stdout
+    with open(out / "study.csv") as f:
+        rows = list(csv.DictReader(f))
+    with open(out / "trajectory.csv") as f:
+        traj = list(csv.DictReader(f))
+    return out, rows, traj
+
+
+def test_every_solver_at_every_frame(study):
+    _, rows, _ = study
+    seen = {(r["solver"], int(r["frame"])) for r in rows}
+    assert seen == {(s, f) for s in SOLVERS | {"reference"} for f in (5, 15)}
+
+
+def test_relative_error_recomputed_from_the_csv(study):
+    _, rows, _ = study
+    for frame in (5, 15):
+        at = [r for r in rows if int(r["frame"]) == frame]
+        ref = [r for r in at if r["solver"] == "reference"]
+        g0 = float(ref[0]["energy"])
+        g_star = min(float(r["energy"]) for r in at)  # the lowest g anyone reached
+        assert g_star <= float(ref[-1]["energy"])
+        # The reference converged: its last gradient is tiny compared with its first.
+        assert float(ref[-1]["grad_norm"]) <= 1e-8 * float(ref[0]["grad_norm"])
+        for r in at:
+            expected = (float(r["energy"]) - g_star) / (g0 - g_star)
+            assert float(r["rel_error"]) == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        # Every solver starts from the same state.
+        starts = {float(r["energy"]) for r in at if r["iteration"] == "0"}
+        assert max(starts) - min(starts) <= 1e-12 * abs(g0)
+        # lbfgs gets to e <= 1e-6 within the budget.
+        lbfgs = [float(r["rel_error"]) for r in at if r["solver"] == "lbfgs"]
+        assert min(lbfgs) <= 1e-6
+
+
+def test_hdf5_matches_csv(study):
+    out, rows, _ = study
+    with h5py.File(out / "study.h5") as h5:
+        g = h5["frames/frame_00015/lbfgs"]
+        csv_energy = [float(r["energy"]) for r in rows if r["solver"] == "lbfgs" and r["frame"] == "15"]
+        assert np.array_equal(g["energy"][:], np.array(csv_energy))
+        assert g.attrs["g_star"] <= g["energy"][-1]
+        assert set(h5["trajectory"]) == SOLVERS
+
+
+def test_trajectories(study):
+    _, _, traj = study
+    last = {r["solver"]: r for r in traj if r["frame"] == "20"}
+    assert set(last) == SOLVERS
+    for r in last.values():
+        assert np.isfinite(float(r["rel_rms_error"])) and float(r["time_s"]) > 0
+    # At the same 10 iterations per frame, lbfgs tracks converged Newton more closely than PD.
+    assert float(last["lbfgs"]["rel_rms_error"]) < float(last["pd"]["rel_rms_error"])
+
+
+def test_report(study):
+    out, _, _ = study
+    report = out.parent / "report.md"
+    subprocess.run(["/usr/bin/python3", os.path.join(REPO, "postprocess/study_report.py"), str(out), "--out", str(report)],
+                   check=True)
+    text = report.read_text()
+    assert "| lbfgs |" in text and "speed-up@0.001" in text
+    for png in (out / "error_vs_time.png", out / "trajectory.png", out.parent / "overview.png"):
+        assert png.stat().st_size > 10000
