@@ -14,7 +14,10 @@ export OMPI_ALLOW_RUN_AS_ROOT = 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM = 1
 export OMPI_MCA_rmaps_base_oversubscribe = 1
 
-.PHONY: all deps build run test bench clean
+STUDY_DECKS ?= $(wildcard input/study/*.yaml)
+STUDY_RANKS ?= 1 2
+
+.PHONY: all deps build run test bench study clean
 
 all: build
 
@@ -33,6 +36,15 @@ test: build
 
 bench: build
 	$(PYTHON) bench/bench.py $(ARGS)
+
+# Every deck in input/study/ at 1 and 2 ranks, then plots and tables in output/study/.
+study: build
+	@set -e; dirs=""; for deck in $(STUDY_DECKS); do for n in $(STUDY_RANKS); do \
+	  out=output/study/$$(basename $$deck .yaml)-np$$n; \
+	  echo "== $$deck on $$n rank(s) -> $$out"; \
+	  $(MPIEXEC) -n $$n $(BUILD)/hyperqn study $$deck -o $$out $(ARGS); \
+	  dirs="$$dirs $$out"; done; done; \
+	$(PYTHON) postprocess/study_report.py $$dirs --out output/study/report.md
 
 clean:
 	rm -rf $(BUILD)
