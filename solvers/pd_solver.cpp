@@ -21,24 +21,21 @@ PdSolver::~PdSolver() {
 
 PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
   const ElasticBody& body = step_.body();
-  const Material& material = body.material();
   MPI_Comm comm = PetscObjectComm((PetscObject)step_.layout());
   PetscFunctionBeginUser;
   spec_ = spec;
   // The step is PD's local-global step only if A was built with the material's own weight
   // (2 mu for ARAP); a deck's laplacian_weight override makes it an approximation again.
-  const bool own_weight = body.laplacian_weight() == material.laplacian_weight();
-  exact_ = material.projective_dynamics_exact() && own_weight;
+  exact_ = body.projective_dynamics_exact();
   if (exact_) {
     PetscCall(PetscPrintf(comm, "pd: %s with lambda = 0 (ARAP) is a Projective Dynamics energy: exact local-global "
                                 "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
-                          material.name().c_str()));
+                          body.material_names().c_str()));
   } else {
-    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s%s); running its "
-                                "quasi-Newton step x <- x - alpha A^{-1} grad g with a backtracking Armijo line search "
-                                "(L-BFGS with m = 0)\n",
-                          material.name().c_str(),
-                          material.projective_dynamics_exact() ? ", laplacian_weight overridden" : ""));
+    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s; exact needs ARAP with "
+                                "its own laplacian_weight); running its quasi-Newton step x <- x - alpha A^{-1} grad g "
+                                "with a backtracking Armijo line search (L-BFGS with m = 0)\n",
+                          body.material_names().c_str()));
   }
   PetscCall(VecDuplicate(step_.layout(), &grad_));
   PetscCall(VecDuplicate(step_.layout(), &dir_));

@@ -281,20 +281,77 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   }
 }
 
+BoxRegion read_box(const Reader& r, const Value& v) {
+  Section box(r, v, {"min", "max"});
+  const Value &min = box.need("min"), &max = box.need("max");
+  BoxRegion b;
+  b.min = r.numbers3(min);
+  b.max = r.numbers3(max);
+  b.line = v.line;
+  for (int i = 0; i < 3; ++i)
+    if (b.min[i] > b.max[i])
+      r.fail(box.value(), std::string("min > max along ") + "xyz"[i] + ": " + r.items(min)[i].node.Scalar() +
+                              " > " + r.items(max)[i].node.Scalar());
+  return b;
+}
+
+Motion read_motion(const Reader& r, const Value& v) {
+  Section s(r, v, {"rotate", "translate", "start", "end"});
+  Motion m;
+  m.active = true;
+  if (const Value* x = s.find("rotate")) {
+    Section rot(r, *x, {"axis", "center", "rate"});
+    const Value& axis = rot.need("axis");
+    m.axis = r.numbers3(axis);
+    r.check(m.axis[0] * m.axis[0] + m.axis[1] * m.axis[1] + m.axis[2] * m.axis[2] > 0, axis, "a nonzero vector");
+    if (const Value* c = rot.find("center")) m.center = r.numbers3(*c);
+    m.rate_deg = r.number(rot.need("rate"));
+  }
+  if (const Value* x = s.find("translate")) {
+    Section tr(r, *x, {"velocity"});
+    m.velocity = r.numbers3(tr.need("velocity"));
+  }
+  if (const Value* x = s.find("start")) {
+    m.start = r.number(*x);
+    r.check(m.start >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("end")) {
+    m.end = r.number(*x);
+    r.check(m.end >= m.start, *x, ">= motion.start");
+  }
+  return m;
+}
+
 void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) {
   for (const Value& item : r.items(v)) {
-    Section region(r, item, {"box"});
-    Section box(r, region.need("box"), {"min", "max"});
-    const Value &min = box.need("min"), &max = box.need("max");
-    BoxRegion b;
-    b.min = r.numbers3(min);
-    b.max = r.numbers3(max);
+    Section region(r, item, {"box", "motion"});
+    BoxRegion b = read_box(r, region.need("box"));
     b.line = item.line;
-    for (int i = 0; i < 3; ++i)
-      if (b.min[i] > b.max[i])
-        r.fail(box.value(), std::string("min > max along ") + "xyz"[i] + ": " +
-                                r.items(min)[i].node.Scalar() + " > " + r.items(max)[i].node.Scalar());
+    if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
     fixed.push_back(b);
+  }
+}
+
+void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
+  for (const Value& item : r.items(v)) {
+    Section s(r, item, {"box", "tags", "material"});
+    MaterialRegion region;
+    region.line = item.line;
+    const Value *box = s.find("box"), *tags = s.find("tags");
+    if (!box == !tags) r.fail(item, "give either box or tags");
+    if (box) {
+      region.box = read_box(r, *box);
+    } else {
+      region.by_box = false;
+      for (const Value& t : r.items(*tags)) region.tags.push_back(r.integer(t));
+      r.check(!region.tags.empty(), *tags, "a non-empty list of element tags");
+    }
+    const Value& mat = s.need("material");
+    read_material(r, mat, region.material);
+    // Masses are per unit volume when the body has several materials.
+    if (!region.material.has_density || !base.has_density)
+      r.fail(mat, "with regions, every material (the default one too) gives density, not total_mass");
+    regions.push_back(region);
   }
 }
 
@@ -422,7 +479,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "fixed", "gravity", "time", "solver", "output", "study", "petsc"});
+            {"name", "mesh", "material", "regions", "fixed", "gravity", "time", "solver", "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory name (output/<name>).
@@ -431,6 +488,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   }
   read_mesh(r, s.need("mesh"), fs::path(path).parent_path(), deck.mesh);
   read_material(r, s.need("material"), deck.material);
+  if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);

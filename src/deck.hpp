@@ -28,9 +28,32 @@ struct MaterialSpec {
   double laplacian_weight = 0;       // 0: the material's own weight; > 0: override
 };
 
+// Prescribed motion of a fixed region: rotation about an axis through a centre at a constant
+// rate, plus a translation at a constant velocity, both active for t in [start, end] and held
+// afterwards. Position at time t: c + R(rate * tau) (X - c) + velocity * tau,
+// tau = clamp(t, start, end) - start.
+struct Motion {
+  bool active = false;
+  std::array<double, 3> axis{1, 0, 0}, center{0, 0, 0};
+  double rate_deg = 0;               // degrees per unit time
+  std::array<double, 3> velocity{0, 0, 0};
+  double start = 0, end = 1e300;
+};
+
 struct BoxRegion {
   std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
   int line = 0;                      // deck line, for error messages
+  Motion motion;                     // fixed regions only
+};
+
+// Elements with a material other than the deck's default one: those whose centroid lies in a
+// box, or whose mesh element tag is listed. Later regions override earlier ones.
+struct MaterialRegion {
+  bool by_box = true;
+  BoxRegion box;
+  std::vector<int> tags;
+  MaterialSpec material;
+  int line = 0;
 };
 
 struct TimeSpec {
@@ -75,7 +98,8 @@ struct Deck {
   std::string path;                  // the deck file
   std::string name;                  // deck file name without directory and extension
   MeshSpec mesh;
-  MaterialSpec material;
+  MaterialSpec material;                 // the default material
+  std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;

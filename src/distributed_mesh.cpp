@@ -75,9 +75,10 @@ static PetscErrorCode create_dof_section(DistributedMesh& m) {
 }
 
 // Fills the flat per-rank arrays from the distributed DM. point_value[p] is the input element
-// tag of cell p or the input vertex index of vertex p; point_fixed[p] marks fixed vertices.
+// tag of cell p or the input vertex index of vertex p; point_flag[p] is the material of cell p
+// or the fixed flag of vertex p.
 static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<int64_t>& point_value,
-                                        const std::vector<char>& point_fixed) {
+                                        const std::vector<int32_t>& point_flag) {
   PetscInt cStart, cEnd, vStart, vEnd;
   PetscFunctionBeginUser;
   PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
@@ -87,6 +88,7 @@ static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<in
 
   m.cells.resize(4 * m.num_cells);
   m.cell_tags.resize(m.num_cells);
+  m.cell_material.assign(point_flag.begin() + cStart, point_flag.begin() + cEnd);
   for (PetscInt c = cStart; c < cEnd; ++c) {
     const PetscInt* cone;
     PetscInt n;
@@ -105,7 +107,7 @@ static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<in
   PetscCall(VecRestoreArrayRead(coords, &xc));
 
   m.vertex_ids.assign(point_value.begin() + vStart, point_value.begin() + vEnd);
-  m.fixed.assign(point_fixed.begin() + vStart, point_fixed.begin() + vEnd);
+  m.fixed.assign(point_flag.begin() + vStart, point_flag.begin() + vEnd);
 
   // Ownership: a vertex that is a leaf of the point SF belongs to another rank.
   PetscSF point_sf;
@@ -141,8 +143,8 @@ static PetscErrorCode fill_dof_numbers(DistributedMesh& m) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<char>& fixed_serial,
-                               DistributedMesh& out) {
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                               const std::vector<int32_t>& cell_material, DistributedMesh& out) {
   PetscMPIInt rank, size;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
@@ -159,11 +161,14 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
 
   // Per serial point (cells first, then vertices): the data that travels with it.
   std::vector<int64_t> point_value(ncells + nverts);
-  std::vector<char> point_fixed(ncells + nverts, 0);
-  for (PetscInt c = 0; c < ncells; ++c) point_value[c] = serial.tet_tags[c];
+  std::vector<int32_t> point_flag(ncells + nverts, 0);
+  for (PetscInt c = 0; c < ncells; ++c) {
+    point_value[c] = serial.tet_tags[c];
+    point_flag[c] = cell_material.empty() ? 0 : cell_material[c];
+  }
   for (PetscInt v = 0; v < nverts; ++v) {
     point_value[ncells + v] = serial.vertex_ids[v];
-    point_fixed[ncells + v] = fixed_serial[v];
+    point_flag[ncells + v] = fixed_serial[v];
   }
 
   if (size > 1) {
@@ -175,19 +180,19 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
     PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
     // The migration SF's roots are the serial points on rank 0, its leaves the new local points.
     std::vector<int64_t> value(pEnd - pStart);
-    std::vector<char> fixed(pEnd - pStart);
+    std::vector<int32_t> flag(pEnd - pStart);
     PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastBegin(migration, MPI_CHAR, point_fixed.data(), fixed.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastEnd(migration, MPI_CHAR, point_fixed.data(), fixed.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
     PetscCall(PetscSFDestroy(&migration));
     PetscCall(DMDestroy(&dm));
     dm = dist;
     point_value.swap(value);
-    point_fixed.swap(fixed);
+    point_flag.swap(flag);
   }
   out.dm = dm;
-  PetscCall(fill_local_arrays(out, point_value, point_fixed));
+  PetscCall(fill_local_arrays(out, point_value, point_flag));
   PetscCall(create_dof_section(out));
   PetscCall(fill_dof_numbers(out));
 

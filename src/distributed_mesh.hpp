@@ -23,7 +23,8 @@ struct DistributedMesh {
   std::vector<PetscInt> cells;       // 4 local vertex indices per local cell, positively oriented
   std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
   std::vector<int32_t> cell_tags;    // per local cell: the input element tag
-  std::vector<char> fixed;           // per local vertex: 1 if in a fixed region
+  std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
+  std::vector<int32_t> cell_material;  // per local cell: 0 default material, k + 1 region k
   std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)
   std::vector<PetscInt> local_dof;   // per local vertex: offset of its x dof in the local Vec, -1 if fixed
   std::vector<PetscInt> global_dof;  // per local vertex: global index of its x dof, -1 if fixed
@@ -35,8 +36,9 @@ struct DistributedMesh {
 
 // Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
 // METIS into one part per rank, distributes it, and builds the dof layout with the vertices
-// flagged in fixed_serial (one flag per serial vertex, rank 0) eliminated.
-PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<char>& fixed_serial,
-                               DistributedMesh& out);
+// flagged in fixed_serial (rank 0: per serial vertex, see select_fixed_vertices) eliminated;
+// cell_material (rank 0: per serial tet) travels with the cells.
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                               const std::vector<int32_t>& cell_material, DistributedMesh& out);
 
 }  // namespace hyperqn

@@ -1,5 +1,8 @@
 #include "elastic_body.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "materials/material_factory.hpp"
 
 namespace hyperqn {
@@ -37,9 +40,11 @@ static Mat9 project_psd(const Mat9& C) {
   return eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
 }
 
-ElasticBody::ElasticBody(const DistributedMesh& mesh, const MaterialSpec& spec) : mesh_(mesh) {
-  material_ = make_material(spec.model, spec.mu, spec.lambda, spec.J0);
-  weight_ = spec.laplacian_weight > 0 ? spec.laplacian_weight : material_->laplacian_weight();
+ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& specs) : mesh_(mesh) {
+  for (const MaterialSpec& spec : specs) {
+    materials_.push_back(make_material(spec.model, spec.mu, spec.lambda, spec.J0));
+    weights_.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : materials_.back()->laplacian_weight());
+  }
 
   Dm_inv_.resize(mesh.num_cells);
   volume_.resize(mesh.num_cells);
@@ -51,9 +56,57 @@ ElasticBody::ElasticBody(const DistributedMesh& mesh, const MaterialSpec& spec) 
     local_volume += volume_[c];
   }
   double volume = 0;
-  MPI_Allreduce(&local_volume, &volume, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
-  density_ = spec.has_density ? spec.density : spec.total_mass / volume;
-  total_mass_ = density_ * volume;
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
+  MPI_Allreduce(&local_volume, &volume, 1, MPI_DOUBLE, MPI_SUM, comm);
+  // A total mass (single-material bodies only) is spread evenly over the rest volume.
+  for (const MaterialSpec& spec : specs) densities_.push_back(spec.has_density ? spec.density : spec.total_mass / volume);
+  double local_mass = 0;
+  for (PetscInt c = 0; c < mesh.num_cells; ++c) local_mass += densities_[mesh.cell_material[c]] * volume_[c];
+  MPI_Allreduce(&local_mass, &total_mass_, 1, MPI_DOUBLE, MPI_SUM, comm);
+  fixed_pos_ = mesh.rest;
+  fixed_vel_.assign(3 * mesh.num_vertices, 0.0);
+}
+
+bool ElasticBody::projective_dynamics_exact() const {
+  for (size_t k = 0; k < materials_.size(); ++k)
+    if (!materials_[k]->projective_dynamics_exact() || weights_[k] != materials_[k]->laplacian_weight()) return false;
+  return true;
+}
+
+std::string ElasticBody::material_names() const {
+  std::string s;
+  for (const auto& m : materials_) s += (s.empty() ? "" : ", ") + m->name();
+  return s;
+}
+
+bool ElasticBody::has_moving_boundary() const {
+  for (const BoxRegion& b : fixed_regions_)
+    if (b.motion.active) return true;
+  return false;
+}
+
+// Position at time t of a point X moved by the motion (see Motion in deck.hpp).
+static Vec3 moved(const Motion& m, const Vec3& X, double t) {
+  const double tau = std::min(std::max(t, m.start), m.end) - m.start;
+  const Vec3 axis = Vec3(m.axis[0], m.axis[1], m.axis[2]).normalized();
+  const Vec3 c(m.center[0], m.center[1], m.center[2]);
+  const Eigen::AngleAxisd R(m.rate_deg * M_PI / 180.0 * tau, axis);
+  return c + R * (X - c) + tau * Vec3(m.velocity[0], m.velocity[1], m.velocity[2]);
+}
+
+void ElasticBody::set_time(double t) {
+  const double dt = t - time_;
+  for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
+    const int32_t region = mesh_.fixed[v];
+    if (region == 0 || !fixed_regions_[region - 1].motion.active) continue;
+    const Vec3 X(&mesh_.rest[3 * v]);
+    const Vec3 p = moved(fixed_regions_[region - 1].motion, X, t);
+    for (int d = 0; d < 3; ++d) {
+      fixed_vel_[3 * v + d] = dt > 0 ? (p[d] - fixed_pos_[3 * v + d]) / dt : 0.0;
+      fixed_pos_[3 * v + d] = p[d];
+    }
+  }
+  time_ = t;
 }
 
 PetscErrorCode ElasticBody::scatter_to_local(Vec global, const std::vector<double>& fixed_values,
@@ -75,13 +128,13 @@ PetscErrorCode ElasticBody::scatter_to_local(Vec global, const std::vector<doubl
 
 PetscErrorCode ElasticBody::local_positions(Vec x, std::vector<double>& pos) const {
   PetscFunctionBeginUser;
-  PetscCall(scatter_to_local(x, mesh_.rest, pos));  // fixed vertices stay at rest
+  PetscCall(scatter_to_local(x, fixed_pos_, pos));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode ElasticBody::local_velocities(Vec v, std::vector<double>& vel) const {
   PetscFunctionBeginUser;
-  PetscCall(scatter_to_local(v, std::vector<double>(3 * mesh_.num_vertices, 0.0), vel));
+  PetscCall(scatter_to_local(v, fixed_vel_, vel));
   PetscFunctionReturn(0);
 }
 
@@ -99,10 +152,10 @@ PetscErrorCode ElasticBody::energy_gradient(Vec x, PetscReal* energy, Vec grad) 
     const PetscInt* cell = &mesh_.cells[4 * c];
     const Mat3 F = edge_matrix(pos_.data(), cell) * Dm_inv_[c];
     if (!grad) {
-      e_local += volume_[c] * material_->energy(F);
+      e_local += volume_[c] * materials_[mesh_.cell_material[c]]->energy(F);
       continue;
     }
-    e_local += volume_[c] * material_->energy_and_stress(F, P);
+    e_local += volume_[c] * materials_[mesh_.cell_material[c]]->energy_and_stress(F, P);
     // dE/dx_k = V P Dm^{-T} e_k for k = 1..3; vertex 0 gets minus their sum.
     const Mat3 H = volume_[c] * P * Dm_inv_[c].transpose();
     const Vec3 f0 = -H.rowwise().sum();
@@ -139,7 +192,7 @@ PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
     for (int k = 0; k < 4; ++k) {
       const PetscInt off = mesh_.local_dof[mesh_.cells[4 * c + k]];
       if (off < 0) continue;
-      for (int d = 0; d < 3; ++d) a[off + d] += 0.25 * density_ * volume_[c];
+      for (int d = 0; d < 3; ++d) a[off + d] += 0.25 * densities_[mesh_.cell_material[c]] * volume_[c];
     }
   PetscCall(VecRestoreArray(ml, &a));
   PetscCall(VecSet(mass, 0.0));
@@ -156,7 +209,7 @@ PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale) const {
     Eigen::Matrix<double, 3, 4> G;
     G.rightCols<3>() = Dm_inv_[c].transpose();
     G.col(0) = -G.rightCols<3>().rowwise().sum();
-    const Eigen::Matrix4d Le = (scale * weight_ * volume_[c]) * (G.transpose() * G);
+    const Eigen::Matrix4d Le = (scale * weights_[mesh_.cell_material[c]] * volume_[c]) * (G.transpose() * G);
     PetscInt idx[12];
     PetscScalar vals[144] = {0};
     for (int i = 0; i < 4; ++i)
@@ -180,7 +233,7 @@ PetscErrorCode ElasticBody::add_hessian(Vec x, Mat H, PetscReal scale, bool psd)
   for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
     const PetscInt* cell = &mesh_.cells[4 * c];
     const Mat3 F = edge_matrix(pos_.data(), cell) * Dm_inv_[c];
-    const Mat9 dPdF = material_->stress_derivative(F);
+    const Mat9 dPdF = materials_[mesh_.cell_material[c]]->stress_derivative(F);
     const Mat9 C = psd ? project_psd(dPdF) : dPdF;
     const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dm_inv_[c]);
     Ke.noalias() = (scale * volume_[c]) * (B.transpose() * (C * B));

@@ -14,19 +14,30 @@ namespace hyperqn {
 
 class ElasticBody {
  public:
-  ElasticBody(const DistributedMesh& mesh, const MaterialSpec& spec);
+  // materials[0] is the default material, materials[k + 1] that of material region k
+  // (mesh.cell_material says which cell has which).
+  ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials);
+  ElasticBody(const DistributedMesh& mesh, const MaterialSpec& material)
+      : ElasticBody(mesh, std::vector<MaterialSpec>{material}) {}
   ~ElasticBody() { VecDestroy(&local_); }
   ElasticBody(const ElasticBody&) = delete;
   ElasticBody& operator=(const ElasticBody&) = delete;
 
   const DistributedMesh& mesh() const { return mesh_; }
-  const Material& material() const { return *material_; }
-  double laplacian_weight() const { return weight_; }
+  // True if every material is a Projective Dynamics energy (ARAP) with its own weight in L.
+  bool projective_dynamics_exact() const;
+  std::string material_names() const;  // e.g. "corotated, neohookean"
+
+  // Prescribed motion of the fixed regions (fixed[k] moves the vertices fixed by region k).
+  void set_fixed_motion(const std::vector<BoxRegion>& fixed) { fixed_regions_ = fixed; }
+  // Moves the fixed vertices to their prescribed positions at time t (rest positions if none).
+  void set_time(double t);
+  bool has_moving_boundary() const;
 
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.
   PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
-  // Local values of a global velocity vector (fixed vertices do not move: 0).
+  // Local values of a global velocity vector (fixed vertices: their prescribed velocity).
   PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
   // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
   PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
@@ -51,10 +62,14 @@ class ElasticBody {
   PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
 
   const DistributedMesh& mesh_;
-  std::unique_ptr<Material> material_;
-  double weight_ = 0;
-  double density_ = 0;               // mass per rest volume (from density or total mass)
+  std::vector<std::unique_ptr<Material>> materials_;  // by mesh.cell_material
+  std::vector<double> weights_;      // weight in L, per material
+  std::vector<double> densities_;    // mass per rest volume, per material
   double total_mass_ = 0;
+  std::vector<BoxRegion> fixed_regions_;
+  std::vector<double> fixed_pos_;    // 3 per local vertex: prescribed positions (free: unused)
+  std::vector<double> fixed_vel_;    // 3 per local vertex: prescribed velocities (free: 0)
+  double time_ = 0;
   std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix
   std::vector<double> volume_;       // per local cell: rest volume
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector

@@ -2,7 +2,7 @@
 
 #include <functional>
 
-#include "fixed_regions.hpp"
+#include "regions.hpp"
 #include "input_error.hpp"
 #include "mesh_gmsh.hpp"
 
@@ -59,8 +59,9 @@ SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
   in.mesh = load_scene_mesh(comm, deck);
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
+    in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
     size_t nfixed = 0;
-    for (char f : in.fixed) nfixed += f;
+    for (int32_t f : in.fixed) nfixed += f != 0;
     if (nfixed == in.fixed.size())
       throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
                        "every vertex is fixed: nothing to simulate");
@@ -70,9 +71,12 @@ SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
 
 PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& s) {
   PetscFunctionBeginUser;
-  PetscCall(distribute_mesh(comm, input.mesh, input.fixed, s.mesh));
+  PetscCall(distribute_mesh(comm, input.mesh, input.fixed, input.cell_material, s.mesh));
   input = SceneInput();  // the serial copy is no longer needed
-  s.body = std::make_unique<ElasticBody>(s.mesh, deck.material);
+  std::vector<MaterialSpec> materials{deck.material};
+  for (const MaterialRegion& r : deck.regions) materials.push_back(r.material);
+  s.body = std::make_unique<ElasticBody>(s.mesh, materials);
+  s.body->set_fixed_motion(deck.fixed);
   s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
   PetscCall(s.step->setup());
   if (factor) {

@@ -23,7 +23,8 @@ TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck);
 // input is wrong; nothing has been written at that point.
 struct SceneInput {
   TetMesh mesh;
-  std::vector<char> fixed;
+  std::vector<int32_t> fixed;          // per vertex, see select_fixed_vertices
+  std::vector<int32_t> cell_material;  // per tet, see select_material_regions
 };
 SceneInput load_scene_input(MPI_Comm comm, const Deck& deck);
 

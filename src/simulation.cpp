@@ -55,6 +55,7 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeS
 
   const double h = deck.time.dt;
   for (int frame = 1; frame <= deck.time.frames; ++frame) {
+    s.body->set_time(frame * h);  // prescribed positions of the fixed vertices at t_{n+1}
     PetscCall(s.step->set_inertial_target(x, v));
     PetscCall(VecCopy(x, x_prev));
     if (deck.solver.warm_start == "inertial") PetscCall(VecCopy(s.step->inertial_target(), x));

@@ -8,7 +8,7 @@
 
 #include "distributed_mesh.hpp"
 #include "elastic_body.hpp"
-#include "fixed_regions.hpp"
+#include "regions.hpp"
 #include "time_step.hpp"
 
 namespace test_scene {
@@ -27,14 +27,14 @@ inline PetscErrorCode make_scene(const std::string& model, bool fix_end, TestSce
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   TetMesh serial;
-  std::vector<char> fixed;
+  std::vector<int32_t> fixed;
   if (rank == 0) {
     serial = generate_box({2.0, 1.0, 1.0}, {4, 2, 2});
     std::vector<BoxRegion> boxes;
     if (fix_end) boxes.push_back({{-0.1, -0.1, -0.1}, {0.01, 1.1, 1.1}, 0});
     fixed = select_fixed_vertices(serial, boxes, "test");
   }
-  PetscCall(distribute_mesh(PETSC_COMM_WORLD, serial, fixed, s.mesh));
+  PetscCall(distribute_mesh(PETSC_COMM_WORLD, serial, fixed, {}, s.mesh));
   MaterialSpec mat;
   mat.model = model;
   mat.mu = 3.0;

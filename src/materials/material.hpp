@@ -8,6 +8,8 @@
 
 namespace hyperqn {
 
+class ScalarFunction;  // materials/scalar_function.hpp
+
 using Mat3 = Eigen::Matrix3d;
 using Vec3 = Eigen::Vector3d;
 // dP/dF as a 9x9 matrix acting on vec(F) in column-major order (Eigen's default):
@@ -40,5 +42,26 @@ inline double lame_lambda(double E, double nu) { return E * nu / ((1.0 + nu) * (
 std::unique_ptr<Material> make_corotated(double mu, double lambda);
 // psi = mu/2 (I1 - 3) - mu f(J) + lambda/2 f(J)^2, f = log J above J0, C2 quadratic below.
 std::unique_ptr<Material> make_neohookean(double mu, double lambda, double J0);
+// St. Venant-Kirchhoff, psi = mu ||E||^2 + lambda/2 (tr E)^2, E = (F^T F - I)/2, plus the reference
+// code's compression term kappa (1 - J)^3 / 2592 for J < 1 (kappa >= 0; 0 disables it).
+std::unique_ptr<Material> make_stvk(double mu, double lambda, double kappa);
+// Principal-stretch material (Xu, Sin, Zhu, Barbic 2015) in the signed singular values:
+// psi = sum_i f(sigma_i) + sum_{i<j} g(sigma_i sigma_j) + h(sigma_1 sigma_2 sigma_3). A null function
+// is the zero function. Throws std::invalid_argument if all three are null or if the rest
+// stiffness f''(1) + 2 g''(1) + h''(1) (its Laplacian weight) is negative.
+std::unique_ptr<Material> make_principal_stretch(std::shared_ptr<const ScalarFunction> f,
+                                                 std::shared_ptr<const ScalarFunction> g,
+                                                 std::shared_ptr<const ScalarFunction> h);
+// Principal-stretch sanity materials with polynomial f, g, h:
+// exactly corotated: f(x) = (mu + lambda/2)(x-1)^2 - 2 lambda (x-1), g(y) = lambda (y-1), h = 0;
+std::unique_ptr<Material> make_principal_stretch_corotated(double mu, double lambda);
+// polynomial Neo-Hookean, same rest Hessian as make_neohookean:
+// psi = mu/2 (I1 - 3) - mu (J-1) + (mu+lambda)/2 (J-1)^2, i.e. f(x) = mu/2 (x^2 - 1), g = 0,
+// h(J) = -mu (J-1) + (mu+lambda)/2 (J-1)^2.
+std::unique_ptr<Material> make_principal_stretch_neohookean_like(double mu, double lambda);
+// Anisotropic fibre term on top of any material: psi = base(F) + k/2 (||F d|| - 1)^2, d the unit
+// fibre direction in the rest configuration (normalized here). Throws std::invalid_argument for a
+// null base, a zero or non-finite direction, or k < 0.
+std::unique_ptr<Material> make_fiber(std::unique_ptr<Material> base, const Vec3& direction, double k);
 
 }  // namespace hyperqn

@@ -4,11 +4,30 @@
 #include <string>
 
 #include "materials/material.hpp"
+#include "materials/scalar_function.hpp"
 
 namespace hyperqn {
 
-// model: "corotated" or "neohookean" (J0 is used by "neohookean" only and must be > 0).
-// Throws std::invalid_argument for any other name or an invalid J0.
+// Everything a material may need; each model reads only its own fields.
+struct MaterialParams {
+  std::string model = "corotated";  // "corotated", "neohookean", "stvk" or "principal-stretch"
+  double mu = 0.0, lambda = 0.0;    // Lame parameters (not used by "principal-stretch")
+  double J0 = 0.1;                  // "neohookean": start of the quadratic log extension, > 0
+  double kappa = 0.0;               // "stvk": compression term kappa (1 - J)^3 / 2592 for J < 1, >= 0
+  // "principal-stretch": psi = sum f(sigma_i) + sum g(sigma_i sigma_j) + h(J); null = zero function,
+  // at least one must be set.
+  std::shared_ptr<ScalarFunction> f, g, h;
+  // Optional fibre term k/2 (||F d|| - 1)^2 on top of any model (d is normalized, k >= 0).
+  bool has_fiber = false;
+  Vec3 fiber_direction = Vec3::UnitX();
+  double fiber_stiffness = 0.0;
+};
+
+// Throws std::invalid_argument for an unknown model or invalid parameters.
+std::unique_ptr<Material> make_material(const MaterialParams& params);
+
+// Shorthand for make_material({model, mu, lambda, J0}) with the other fields at their defaults
+// (so "stvk" has kappa = 0 and "principal-stretch", having no f, g, h, throws).
 std::unique_ptr<Material> make_material(const std::string& model, double mu, double lambda, double J0);
 
 }  // namespace hyperqn

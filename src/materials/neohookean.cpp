@@ -4,37 +4,11 @@
 // defined at J = 0, so no SVD is needed either.
 #include <cmath>
 
+#include "materials/cofactor.hpp"
 #include "materials/material.hpp"
 
 namespace hyperqn {
 namespace {
-
-// cof(F) = dJ/dF: its columns are cross products of the other two columns of F.
-Mat3 cofactor(const Mat3& F) {
-  Mat3 C;
-  C.col(0) = F.col(1).cross(F.col(2));
-  C.col(1) = F.col(2).cross(F.col(0));
-  C.col(2) = F.col(0).cross(F.col(1));
-  return C;
-}
-
-// Levi-Civita symbol.
-double eps3(int i, int j, int k) { return 0.5 * (i - j) * (j - k) * (k - i); }
-
-// d cof(F) / dF = d^2 J / dF^2 (9x9, linear in F): d cof_ij / d F_kl = sum_mn e_ikm e_jln F_mn.
-// Each entry has exactly one nonzero term, so the matrix is exactly symmetric.
-Mat9 cofactor_derivative(const Mat3& F) {
-  Mat9 D = Mat9::Zero();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        for (int l = 0; l < 3; ++l) {
-          if (i == k || j == l) continue;
-          const int m = 3 - i - k, n = 3 - j - l;
-          D(i + 3 * j, k + 3 * l) = eps3(i, k, m) * eps3(j, l, n) * F(m, n);
-        }
-  return D;
-}
 
 // f(J) and its first two derivatives.
 struct LogExt {

@@ -1,0 +1,90 @@
+// St. Venant-Kirchhoff: psi = mu ||E||^2 + lambda/2 (tr E)^2, E = (F^T F - I)/2 (Green strain),
+// plus the reference code's compression term psi_k = kappa (1 - J)^3 / 2592 for J < 1
+// (reference-implementation.md section 2.3). Plain StVK has no resistance to collapse: its energy
+// goes back to 0 at F = 0 and is the same for F and -F, so a compressed element can pass through
+// J = 0 and invert for free; psi_k grows like |J|^3 as J -> -inf to push back. (1 - J)^3 has zero
+// value, slope and curvature at J = 1, so adding it only below J = 1 keeps psi C2.
+// P_k and dP_k/dF use the cofactor cof(F) = dJ/dF instead of J F^{-T} (the reference forms F^{-1}),
+// so J = 0 is an ordinary point.
+#include <stdexcept>
+#include <string>
+
+#include "materials/cofactor.hpp"
+#include "materials/material.hpp"
+
+namespace hyperqn {
+namespace {
+
+constexpr double kKappaScale = 1.0 / 2592.0;  // (kappa/12) ((1 - J)/6)^3 = kappa (1 - J)^3 / 2592
+
+class StVK final : public Material {
+ public:
+  StVK(double mu, double lambda, double kappa) : mu_(mu), lambda_(lambda), kappa_(kappa) {}
+  std::string name() const override { return "stvk"; }
+
+  double energy(const Mat3& F) const override { return energy_of(F, green_strain(F)); }
+
+  double energy_and_stress(const Mat3& F, Mat3& P) const override {
+    const Mat3 E = green_strain(F);
+    P = F * (2.0 * mu_ * E + lambda_ * E.trace() * Mat3::Identity());
+    const double J = F.determinant();
+    if (J < 1.0) P += compression_slope(J) * cofactor(F);
+    return energy_of(F, E);
+  }
+
+  Mat9 stress_derivative(const Mat3& F) const override {
+    const Mat3 E = green_strain(F);
+    const Mat3 S = 2.0 * mu_ * E + lambda_ * E.trace() * Mat3::Identity();  // second Piola-Kirchhoff
+    // dP = dF S + F (2 mu dE + lambda tr(dE) I), dE = sym(F^T dF): linear in dF, so column k of
+    // dP/dF is dP for dF = the k-th unit matrix (exact, no differencing).
+    Mat9 H;
+    for (int k = 0; k < 9; ++k) {
+      Mat3 dF = Mat3::Zero();
+      dF(k) = 1.0;
+      const Mat3 FtdF = F.transpose() * dF;
+      const Mat3 dE = 0.5 * (FtdF + FtdF.transpose());
+      const Mat3 dP = dF * S + F * (2.0 * mu_ * dE + lambda_ * dE.trace() * Mat3::Identity());
+      H.col(k) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(dP.data());
+    }
+    const double J = F.determinant();
+    if (J < 1.0) {
+      // d/dF of psi_k'(J) cof(F): psi_k''(J) c c^T + psi_k'(J) dcof/dF.
+      const Mat3 C = cofactor(F);
+      const Eigen::Map<const Eigen::Matrix<double, 9, 1>> c(C.data());
+      H += kappa_ * (1.0 - J) / 432.0 * c * c.transpose() + compression_slope(J) * cofactor_derivative(F);
+    }
+    return 0.5 * (H + H.transpose());  // exactly symmetric in exact arithmetic; remove round-off
+  }
+
+  // The reference code's "10% window" fit (reference-implementation.md section 3). The exact rest
+  // slope is 2 mu + lambda (same linearization as corotated: E ~ sym(dF) at F = I, and psi_k has
+  // zero curvature at J = 1); docs/materials.md has the derivation. kappa is ignored, as there.
+  double laplacian_weight() const override { return 2.0 * mu_ + 1.0033 * lambda_; }
+  bool projective_dynamics_exact() const override { return false; }
+
+ private:
+  static Mat3 green_strain(const Mat3& F) { return 0.5 * (F.transpose() * F - Mat3::Identity()); }
+
+  // d psi_k / dJ = -kappa (1 - J)^2 / 864 (J < 1).
+  double compression_slope(double J) const { return -kappa_ * (1.0 - J) * (1.0 - J) / 864.0; }
+
+  double energy_of(const Mat3& F, const Mat3& E) const {
+    const double tr = E.trace();
+    double psi = mu_ * E.squaredNorm() + 0.5 * lambda_ * tr * tr;
+    const double J = F.determinant();
+    if (J < 1.0) psi += kappa_ * kKappaScale * (1.0 - J) * (1.0 - J) * (1.0 - J);
+    return psi;
+  }
+
+  double mu_, lambda_, kappa_;
+};
+
+}  // namespace
+
+std::unique_ptr<Material> make_stvk(double mu, double lambda, double kappa) {
+  // A negative kappa would reward compression below J = 1 instead of resisting it.
+  if (!(kappa >= 0.0)) throw std::invalid_argument("stvk: kappa must be >= 0, got " + std::to_string(kappa));
+  return std::make_unique<StVK>(mu, lambda, kappa);
+}
+
+}  // namespace hyperqn
