@@ -4,8 +4,10 @@ namespace hyperqn {
 
 FactoredSystem::~FactoredSystem() {
   MatDestroy(&shell_);
+  MatDestroy(&rhs_);
+  MatDestroy(&sol_);
   MatDestroy(&factor_);
-  MatDestroy(&A_);
+  MatDestroy(&A1_);
 }
 
 static PetscErrorCode shell_solve(Mat S, Vec b, Vec x) {
@@ -20,42 +22,96 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   FactoredSystem* sys;
   PetscFunctionBeginUser;
   PetscCall(MatShellGetContext(S, &sys));
-  PetscCall(MatMult(sys->matrix(), x, y));
+  PetscCall(sys->mult(x, y));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::setup(const TimeStep& step) {
   MatFactorInfo info;
-  PetscInt m, n, M, N;
+  PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   double t0 = MPI_Wtime();
-  PetscCall(step.assemble_constant_matrix(&A_));
+  PetscCall(step.assemble_constant_matrix(&A1_, 1));
   assembly_s_ = MPI_Wtime() - t0;
 
   t0 = MPI_Wtime();
-  PetscCall(MatGetFactor(A_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
+  PetscCall(MatGetFactor(A1_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
   PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
   PetscCall(MatSetFromOptions(factor_));
   PetscCall(MatFactorInfoInitialize(&info));
-  PetscCall(MatCholeskyFactorSymbolic(factor_, A_, nullptr, &info));
-  PetscCall(MatCholeskyFactorNumeric(factor_, A_, &info));
+  PetscCall(MatCholeskyFactorSymbolic(factor_, A1_, nullptr, &info));
+  PetscCall(MatCholeskyFactorNumeric(factor_, A1_, &info));
   ++factorizations_;
   factor_s_ = MPI_Wtime() - t0;
 
-  PetscCall(MatGetLocalSize(A_, &m, &n));
-  PetscCall(MatGetSize(A_, &M, &N));
-  PetscCall(MatCreateShell(PetscObjectComm((PetscObject)A_), m, n, M, N, this, &shell_));
+  MPI_Comm comm = PetscObjectComm((PetscObject)A1_);
+  PetscCall(MatGetLocalSize(A1_, &n, nullptr));
+  PetscCall(MatGetSize(A1_, &N, nullptr));
+  PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &rhs_));
+  PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &sol_));
+  m = 3 * n;
+  M = 3 * N;
+  PetscCall(MatCreateShell(comm, m, m, M, M, this, &shell_));
   PetscCall(MatShellSetOperation(shell_, MATOP_SOLVE, (void (*)(void))shell_solve));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::to_columns(Vec v, Mat cols) const {
+  const PetscScalar* a;
+  PetscScalar* c;
+  PetscInt n, lda;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetLocalSize(cols, &n, nullptr));
+  PetscCall(MatDenseGetLDA(cols, &lda));
+  PetscCall(VecGetArrayRead(v, &a));
+  PetscCall(MatDenseGetArrayWrite(cols, &c));
+  for (PetscInt i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) c[i + d * lda] = a[3 * i + d];
+  PetscCall(MatDenseRestoreArrayWrite(cols, &c));
+  PetscCall(VecRestoreArrayRead(v, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::from_columns(Mat cols, Vec v) const {
+  const PetscScalar* c;
+  PetscScalar* a;
+  PetscInt n, lda;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetLocalSize(cols, &n, nullptr));
+  PetscCall(MatDenseGetLDA(cols, &lda));
+  PetscCall(MatDenseGetArrayRead(cols, &c));
+  PetscCall(VecGetArrayWrite(v, &a));
+  for (PetscInt i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) a[3 * i + d] = c[i + d * lda];
+  PetscCall(VecRestoreArrayWrite(v, &a));
+  PetscCall(MatDenseRestoreArrayRead(cols, &c));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   const double t0 = MPI_Wtime();
-  PetscCall(MatSolve(factor_, b, x));
+  PetscCall(to_columns(b, rhs_));
+  PetscCall(MatMatSolve(factor_, rhs_, sol_));
+  PetscCall(from_columns(sol_, x));
   ++solves_;
   solve_s_ += MPI_Wtime() - t0;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
+  PetscFunctionBeginUser;
+  PetscCall(to_columns(x, rhs_));
+  for (PetscInt d = 0; d < 3; ++d) {
+    Vec in, out;
+    PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
+    PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
+    PetscCall(MatMult(A1_, in, out));
+    PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
+    PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
+  }
+  PetscCall(from_columns(sol_, y));
   PetscFunctionReturn(0);
 }
 

@@ -1,5 +1,9 @@
-// The constant SPD matrix A = M + h^2 L of a scene, assembled and factored once by MUMPS
-// Cholesky, then applied as A^{-1} as often as needed (L-BFGS initial Hessian, PD global step).
+// The constant SPD matrix A = M + h^2 L of a scene, factored once by MUMPS Cholesky, then
+// applied as A^{-1} as often as needed (L-BFGS initial Hessian, PD global step).
+//
+// A = A1 (x) I3 (the same scalar matrix for x, y and z), so only the vertex matrix
+// A1 = M1 + h^2 L1 is factored, and A^{-1} b is one solve with A1 for the three right-hand
+// sides b_x, b_y, b_z: a third of the unknowns and a ninth of the nonzeros of A.
 #pragma once
 #include <petscmat.h>
 
@@ -14,11 +18,12 @@ class FactoredSystem {
   FactoredSystem(const FactoredSystem&) = delete;
   FactoredSystem& operator=(const FactoredSystem&) = delete;
 
-  // Assembles A and computes its Cholesky factorization (the only factorization of a run).
+  // Assembles A1 and computes its Cholesky factorization (the only factorization of a run).
   PetscErrorCode setup(const TimeStep& step);
-  // x = A^{-1} b.
+  // x = A^{-1} b (dof layout: x, y, z per free vertex).
   PetscErrorCode solve(Vec b, Vec x) const;
-  Mat matrix() const { return A_; }
+  // y = A x.
+  PetscErrorCode mult(Vec x, Vec y) const;
   // A shell matrix whose MatSolve applies A^{-1} and whose MatMult applies A: the form
   // TaoLMVMSetH0 takes.
   Mat inverse_operator() const { return shell_; }
@@ -30,7 +35,12 @@ class FactoredSystem {
   double solve_seconds() const { return solve_s_; }
 
  private:
-  Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;
+  // Dof vector <-> the n x 3 dense matrix of its x, y, z columns.
+  PetscErrorCode to_columns(Vec v, Mat cols) const;
+  PetscErrorCode from_columns(Mat cols, Vec v) const;
+
+  Mat A1_ = nullptr, factor_ = nullptr, shell_ = nullptr;
+  Mat rhs_ = nullptr, sol_ = nullptr;  // n x 3 dense work matrices
   int factorizations_ = 0;
   double assembly_s_ = 0, factor_s_ = 0;
   mutable PetscInt solves_ = 0;

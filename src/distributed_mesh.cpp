@@ -51,25 +51,25 @@ static PetscErrorCode set_metis_partition(DM dm, const TetMesh& serial) {
   PetscFunctionReturn(0);
 }
 
-// Section with 3 dofs on free vertices and none on fixed ones.
-static PetscErrorCode create_dof_section(DistributedMesh& m) {
+// Section with `components` dofs on free vertices and none on fixed ones.
+static PetscErrorCode create_dof_section(DM dm, const DistributedMesh& m, PetscInt components) {
   PetscSection s;
   PetscInt pStart, pEnd, vStart, vEnd;
   PetscFunctionBeginUser;
-  PetscCall(PetscSectionCreate(PetscObjectComm((PetscObject)m.dm), &s));
+  PetscCall(PetscSectionCreate(PetscObjectComm((PetscObject)dm), &s));
   PetscCall(PetscSectionSetNumFields(s, 1));
   PetscCall(PetscSectionSetFieldName(s, 0, "position"));
-  PetscCall(PetscSectionSetFieldComponents(s, 0, 3));
-  PetscCall(DMPlexGetChart(m.dm, &pStart, &pEnd));
+  PetscCall(PetscSectionSetFieldComponents(s, 0, components));
+  PetscCall(DMPlexGetChart(dm, &pStart, &pEnd));
   PetscCall(PetscSectionSetChart(s, pStart, pEnd));
-  PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
+  PetscCall(DMPlexGetDepthStratum(dm, 0, &vStart, &vEnd));
   for (PetscInt v = vStart; v < vEnd; ++v) {
-    PetscInt ndof = m.fixed[v - vStart] ? 0 : 3;
+    PetscInt ndof = m.fixed[v - vStart] ? 0 : components;
     PetscCall(PetscSectionSetDof(s, v, ndof));
     PetscCall(PetscSectionSetFieldDof(s, v, 0, ndof));
   }
   PetscCall(PetscSectionSetUp(s));
-  PetscCall(DMSetLocalSection(m.dm, s));
+  PetscCall(DMSetLocalSection(dm, s));
   PetscCall(PetscSectionDestroy(&s));
   PetscFunctionReturn(0);
 }
@@ -193,7 +193,10 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   }
   out.dm = dm;
   PetscCall(fill_local_arrays(out, point_value, point_flag));
-  PetscCall(create_dof_section(out));
+  PetscCall(create_dof_section(out.dm, out, 3));
+  // Same points, same order, 1 dof instead of 3: vertex dof i of vertex_dm is dof 3i of dm.
+  PetscCall(DMClone(out.dm, &out.vertex_dm));
+  PetscCall(create_dof_section(out.vertex_dm, out, 1));
   PetscCall(fill_dof_numbers(out));
 
   // Global counts.

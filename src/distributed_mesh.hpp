@@ -17,6 +17,7 @@ namespace hyperqn {
 
 struct DistributedMesh {
   DM dm = nullptr;                   // distributed, non-interpolated DMPlex with the dof section
+  DM vertex_dm = nullptr;            // the same mesh with 1 dof per free vertex (for A1 of A = A1 (x) I3)
   PetscInt num_vertices = 0;         // local vertices (owned + ghost)
   PetscInt num_cells = 0;            // local cells (each cell lives on exactly one rank)
   std::vector<double> rest;          // 3 per local vertex: rest positions
@@ -31,7 +32,10 @@ struct DistributedMesh {
   // Global counts (same on every rank).
   PetscInt global_vertices = 0, global_cells = 0, global_dofs = 0, global_fixed_vertices = 0;
 
-  ~DistributedMesh() { DMDestroy(&dm); }
+  ~DistributedMesh() {
+    DMDestroy(&vertex_dm);
+    DMDestroy(&dm);
+  }
 };
 
 // Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with

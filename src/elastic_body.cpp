@@ -201,7 +201,7 @@ PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale) const {
+PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale, int components) const {
   PetscFunctionBeginUser;
   for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
     const PetscInt* cell = &mesh_.cells[4 * c];
@@ -210,6 +210,16 @@ PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale) const {
     G.rightCols<3>() = Dm_inv_[c].transpose();
     G.col(0) = -G.rightCols<3>().rowwise().sum();
     const Eigen::Matrix4d Le = (scale * weights_[mesh_.cell_material[c]] * volume_[c]) * (G.transpose() * G);
+    if (components == 1) {
+      PetscInt vidx[4];
+      for (int i = 0; i < 4; ++i) {
+        const PetscInt g = mesh_.global_dof[cell[i]];
+        vidx[i] = g < 0 ? -1 : g / 3;  // vertex index in vertex_dm's layout
+      }
+      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Lr = Le;
+      PetscCall(MatSetValues(A, 4, vidx, 4, vidx, Lr.data(), ADD_VALUES));
+      continue;
+    }
     PetscInt idx[12];
     PetscScalar vals[144] = {0};
     for (int i = 0; i < 4; ++i)

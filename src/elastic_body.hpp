@@ -48,8 +48,10 @@ class ElasticBody {
   PetscErrorCode lumped_mass(Vec mass) const;
   // Total mass of the body (all vertices, fixed included).
   double total_mass() const { return total_mass_; }
-  // A += scale * L with L = sum_e w V_e (G_e^T G_e (x) I3), restricted to free dofs.
-  PetscErrorCode add_laplacian(Mat A, PetscReal scale) const;
+  // A += scale * L with L = L1 (x) I3, L1 = sum_e w V_e G_e^T G_e, restricted to free dofs.
+  // components = 3: A has the dof layout (3 per free vertex); components = 1: A has the vertex
+  // layout of mesh.vertex_dm and receives scale * L1.
+  PetscErrorCode add_laplacian(Mat A, PetscReal scale, int components = 3) const;
   // H += scale * K(x) on the free dofs, K = sum_e V_e B_e^T C_e B_e with B_e = dvec(F_e)/dx_e.
   // C_e = dP/dF(F_e) made positive semi-definite (psd, the Newton baseline) or exact
   // (the true Hessian of E, possibly indefinite; for tests). Adds into H's existing pattern.

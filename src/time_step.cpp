@@ -55,14 +55,31 @@ PetscErrorCode TimeStep::objective(Vec x, PetscReal* g, Vec grad) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode TimeStep::assemble_constant_matrix(Mat* A) const {
+PetscErrorCode TimeStep::assemble_constant_matrix(Mat* A, int components) const {
   PetscFunctionBeginUser;
-  PetscCall(DMCreateMatrix(body_.mesh().dm, A));
+  PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
+  PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-  PetscCall(body_.add_laplacian(*A, dt_ * dt_));
+  PetscCall(body_.add_laplacian(*A, dt_ * dt_, components));
   PetscCall(MatAssemblyBegin(*A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(*A, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
+  if (components == 3) {
+    PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
+  } else {
+    Vec vertex_mass;  // the x component of the lumped mass: one entry per free vertex
+    const PetscScalar* m3;
+    PetscScalar* m1;
+    PetscInt n1;
+    PetscCall(MatCreateVecs(*A, &vertex_mass, nullptr));
+    PetscCall(VecGetLocalSize(vertex_mass, &n1));
+    PetscCall(VecGetArrayRead(mass_, &m3));
+    PetscCall(VecGetArray(vertex_mass, &m1));
+    for (PetscInt i = 0; i < n1; ++i) m1[i] = m3[3 * i];  // local vertex i holds local dofs 3i..3i+2
+    PetscCall(VecRestoreArray(vertex_mass, &m1));
+    PetscCall(VecRestoreArrayRead(mass_, &m3));
+    PetscCall(MatDiagonalSet(*A, vertex_mass, ADD_VALUES));
+    PetscCall(VecDestroy(&vertex_mass));
+  }
   PetscCall(MatSetOption(*A, MAT_SPD, PETSC_TRUE));
   PetscFunctionReturn(0);
 }

@@ -3,6 +3,7 @@
 #include <petscdmplex.h>
 
 #include "check.hpp"
+#include "factored_system.hpp"
 #include "test_scene.hpp"
 
 using namespace hyperqn;
@@ -135,6 +136,46 @@ PetscErrorCode check_rest(const std::string& model) {
 
 }  // namespace
 
+// The factored system works on A1 (A = A1 (x) I3): its solve must invert the full 3n x 3n A and
+// its mult must equal A's.
+PetscErrorCode check_factored_system(const std::string& model) {
+  TestScene s;
+  Mat A;
+  Vec b, x, Ax, Ab;
+  PetscRandom rnd;
+  PetscReal residual, bnorm, diff;
+  FactoredSystem sys;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, true, s));
+  PetscCall(s.step->assemble_constant_matrix(&A));
+  PetscCall(sys.setup(*s.step));
+  PetscCall(MatCreateVecs(A, &b, &x));
+  PetscCall(VecDuplicate(b, &Ax));
+  PetscCall(VecDuplicate(b, &Ab));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(VecSetRandom(b, rnd));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(sys.solve(b, x));
+  PetscCall(MatMult(A, x, Ax));
+  PetscCall(VecAXPY(Ax, -1.0, b));
+  PetscCall(VecNorm(Ax, NORM_2, &residual));
+  PetscCall(VecNorm(b, NORM_2, &bnorm));
+  CHECK_MSG(residual <= 1e-12 * bnorm, model + ": |A A^{-1} b - b| / |b| = " + std::to_string(residual / bnorm));
+  PetscCall(sys.mult(b, Ax));
+  PetscCall(MatMult(A, b, Ab));
+  PetscCall(VecAXPY(Ax, -1.0, Ab));
+  PetscCall(VecNorm(Ax, NORM_2, &diff));
+  PetscCall(VecNorm(Ab, NORM_2, &bnorm));
+  CHECK_MSG(diff <= 1e-13 * bnorm, model + ": A1 (x) I3 mult differs from A");
+  CHECK(sys.factorizations() == 1);
+  PetscCall(VecDestroy(&b));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&Ax));
+  PetscCall(VecDestroy(&Ab));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   PetscMPIInt size;
@@ -142,6 +183,7 @@ int main(int argc, char** argv) {
   for (const char* model : {"corotated", "neohookean"}) {
     PetscCall(check_mass_and_laplacian(model));
     PetscCall(check_rest(model));
+    PetscCall(check_factored_system(model));
     PetscCall(check_gradients(model, 0.05));
     PetscCall(check_gradients(model, 0.5));  // large deformation, inverted elements likely
   }
