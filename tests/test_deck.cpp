@@ -335,6 +335,39 @@ void test_invalid_decks() {
 
 #ifdef HYPERQN_SOURCE_DIR
 // The shipped default deck must stay valid.
+void test_regions_and_motion() {
+  Deck d = load_ok("regions", kHead + R"(regions:
+  - box: {min: [0, 0, 0], max: [0.5, 1, 1]}
+    material: {model: neohookean, mu: 2, lambda: 3, density: 7}
+  - tags: [2, 5]
+    material: {mu: 1, lambda: 1, density: 1}
+fixed:
+  - box: {min: [0, 0, 0], max: [0, 1, 1]}
+    motion:
+      rotate: {axis: [0, 0, 2], center: [1, 2, 3], rate: 90}
+      translate: {velocity: [0.5, 0, 0]}
+      start: 0.5
+      end: 2
+)");
+  CHECK(d.regions.size() == 2);
+  CHECK(d.regions[0].by_box && d.regions[0].material.model == "neohookean");
+  CHECK_NEAR(d.regions[0].material.density, 7, 0);
+  CHECK(!d.regions[1].by_box && d.regions[1].tags == std::vector<int>({2, 5}));
+  CHECK(d.regions[1].line == 6);
+  const hyperqn::Motion& m = d.fixed[0].motion;
+  CHECK(m.active && m.axis[2] == 2 && m.center[1] == 2 && m.rate_deg == 90 && m.velocity[0] == 0.5);
+  CHECK(m.start == 0.5 && m.end == 2);
+  const std::string region = "regions:\n  - box: {min: [0, 0, 0], max: [1, 1, 1]}\n    material: {mu: 1, lambda: 1, ";
+  expect_error("region_total_mass", kHead + region + "total_mass: 1}\n", "regions[0].material", 5, "density");
+  expect_error("region_box_and_tags", kHead + "regions:\n  - {box: {min: [0, 0, 0], max: [1, 1, 1]}, tags: [1], material: {mu: 1, lambda: 1, density: 1}}\n",
+               "regions[0]", 4, "either box or tags");
+  expect_error("region_no_material", kHead + "regions:\n  - tags: [1]\n", "regions[0].material", 4, "missing");
+  const std::string fixed = "fixed:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n    motion:\n";
+  expect_error("motion_zero_axis", kHead + fixed + "      rotate: {axis: [0, 0, 0], rate: 1}\n", "fixed[0].motion.rotate.axis", 6);
+  expect_error("motion_end_before_start", kHead + fixed + "      start: 2\n      end: 1\n", "fixed[0].motion.end", 7);
+  expect_error("motion_unknown_key", kHead + fixed + "      spin: 1\n", "fixed[0].motion.spin", 6);
+}
+
 void test_default_deck() {
   Deck d = load_deck(std::string(HYPERQN_SOURCE_DIR) + "/input/bar.yaml");
   CHECK(d.name == "bar");
@@ -362,6 +395,7 @@ int main() {
   test_mesh_paths();
   test_invalid_decks();
 #ifdef HYPERQN_SOURCE_DIR
+  test_regions_and_motion();
   test_default_deck();
 #endif
 
