@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "input_error.hpp"
+#include "material_params.hpp"
 #include "materials/material.hpp"
 
 namespace hyperqn {
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 using Names = std::vector<std::string>;
 
 // Allowed names, one table each, so a new model or solver type is one entry here.
-const Names kModels = {"corotated", "neohookean"};
+const Names kModels = {"corotated", "neohookean", "stvk", "principal-stretch"};
 const Names kSolverTypes = {"lbfgs", "lbfgs-identity", "newton", "pd"};
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
@@ -251,11 +252,61 @@ void read_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) 
   }
 }
 
+// f: {polynomial: [c0, c1, ...]} or f: {spline: {x: [...], y: [...]}}
+FunctionSpec read_function(const Reader& r, const Value& v) {
+  Section s(r, v, {"polynomial", "spline"});
+  const Value *poly = s.find("polynomial"), *spline = s.find("spline");
+  if (!poly == !spline) r.fail(v, "give either polynomial or spline");
+  FunctionSpec f;
+  if (poly) {
+    f.kind = "polynomial";
+    for (const Value& c : r.items(*poly)) f.coefficients.push_back(r.number(c));
+    r.check(!f.coefficients.empty(), *poly, "a non-empty list of coefficients of (x - 1)^k");
+  } else {
+    f.kind = "spline";
+    Section sp(r, *spline, {"x", "y"});
+    const Value &x = sp.need("x"), &y = sp.need("y");
+    for (const Value& c : r.items(x)) f.x.push_back(r.number(c));
+    for (const Value& c : r.items(y)) f.y.push_back(r.number(c));
+    r.check(f.x.size() >= 2 && f.x.size() == f.y.size(), y, "as many values as x (at least 2)");
+    for (size_t i = 1; i < f.x.size(); ++i) r.check(f.x[i] > f.x[i - 1], x, "strictly increasing");
+  }
+  return f;
+}
+
 void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
-  Section s(r, v, {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density",
-                   "total_mass", "J0", "laplacian_weight"});
+  Section s(r, v, {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density", "total_mass", "J0",
+                   "laplacian_weight", "kappa", "f", "g", "h", "fiber"});
   if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
-  read_elastic_constants(r, s, m);
+  const bool principal = m.model == "principal-stretch";
+  if (principal) {
+    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda"})
+      if (const Value* x = s.find(key)) r.fail(*x, "principal-stretch takes f, g, h instead of elastic constants");
+    if (const Value* x = s.find("f")) m.f = read_function(r, *x);
+    if (const Value* x = s.find("g")) m.g = read_function(r, *x);
+    if (const Value* x = s.find("h")) m.h = read_function(r, *x);
+    if (m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty()) r.fail(v, "principal-stretch needs f, g or h");
+  } else {
+    for (const char* key : {"f", "g", "h"})
+      if (const Value* x = s.find(key)) r.fail(*x, std::string(key) + " applies to model principal-stretch only");
+    read_elastic_constants(r, s, m);
+  }
+  if (const Value* x = s.find("kappa")) {
+    if (m.model != "stvk") r.fail(*x, "kappa applies to model stvk only (model is " + m.model + ")");
+    m.kappa = r.number(*x);
+    r.check(m.kappa >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("fiber")) {
+    Section fs(r, *x, {"direction", "stiffness"});
+    const Value& dir = fs.need("direction");
+    m.fiber_direction = r.numbers3(dir);
+    const auto& d = m.fiber_direction;
+    r.check(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0, dir, "a nonzero vector");
+    const Value& k = fs.need("stiffness");
+    m.fiber_stiffness = r.number(k);
+    r.check(m.fiber_stiffness >= 0, k, ">= 0");
+    m.has_fiber = true;
+  }
 
   const Value *density = s.find("density"), *total = s.find("total_mass");
   if (density && total) r.fail(*total, "give either density or total_mass, not both");
@@ -278,6 +329,12 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   if (const Value* x = s.find("laplacian_weight")) {
     m.laplacian_weight = r.number(*x);
     r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the material's own weight)");
+  }
+  // The material's own checks (e.g. spline shapes) with the deck's place in the message.
+  try {
+    make_material(m);
+  } catch (const std::invalid_argument& e) {
+    r.fail(v, e.what());
   }
 }
 

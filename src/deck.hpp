@@ -18,9 +18,21 @@ struct MeshSpec {
   MeshTransform transform;
 };
 
+// A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
+// or a monotone cubic spline through control points (x_i, y_i) of its derivative.
+struct FunctionSpec {
+  std::string kind;                  // "" (absent) | polynomial | spline
+  std::vector<double> coefficients, x, y;
+};
+
 struct MaterialSpec {
-  std::string model = "corotated";   // corotated | neohookean
+  std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch
   double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
+  double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
+  FunctionSpec f, g, h;              // principal-stretch: psi = sum f(s_i) + sum g(s_i s_j) + h(J)
+  bool has_fiber = false;            // fibre term k/2 (|F d| - 1)^2 on top of the model
+  std::array<double, 3> fiber_direction{1, 0, 0};
+  double fiber_stiffness = 0;
   bool has_density = false;
   double density = 1000;             // mass per unit volume, or
   double total_mass = 0;             // total mass (used when has_density is false)

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "materials/material_factory.hpp"
+#include "material_params.hpp"
 
 namespace hyperqn {
 
@@ -42,7 +42,7 @@ static Mat9 project_psd(const Mat9& C) {
 
 ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& specs) : mesh_(mesh) {
   for (const MaterialSpec& spec : specs) {
-    materials_.push_back(make_material(spec.model, spec.mu, spec.lambda, spec.J0));
+    materials_.push_back(make_material(spec));
     weights_.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : materials_.back()->laplacian_weight());
   }
 

@@ -282,8 +282,17 @@ void test_invalid_decks() {
   expect_error("no_mass", m + "  mu: 1\n  lambda: 1\n", "material", 2, "density or total_mass");
   expect_error("density_zero", m + "  mu: 1\n  lambda: 1\n  density: 0\n", "material.density", 5);
   expect_error("total_mass_negative", m + "  mu: 1\n  lambda: 1\n  total_mass: -2\n", "material.total_mass", 5);
-  expect_error("unknown_model", m + "  model: stvk\n  mu: 1\n  lambda: 1\n  density: 1\n", "material.model", 3,
-               "allowed: corotated, neohookean");
+  expect_error("unknown_model", m + "  model: mooney-rivlin\n  mu: 1\n  lambda: 1\n  density: 1\n", "material.model", 3,
+               "allowed: corotated, neohookean, stvk, principal-stretch");
+  expect_error("kappa_not_stvk", m + "  mu: 1\n  lambda: 1\n  density: 1\n  kappa: 5\n", "material.kappa", 6, "stvk only");
+  expect_error("principal_with_mu", m + "  model: principal-stretch\n  mu: 1\n  density: 1\n", "material.mu", 4);
+  expect_error("principal_without_functions", m + "  model: principal-stretch\n  density: 1\n", "material", 2,
+               "needs f, g or h");
+  expect_error("spline_x_not_increasing",
+               m + "  model: principal-stretch\n  density: 1\n  f: {spline: {x: [1, 0.5], y: [0, 1]}}\n",
+               "material.f.spline.x", 5, "increasing");
+  expect_error("fiber_zero_direction", m + "  mu: 1\n  lambda: 1\n  density: 1\n  fiber: {direction: [0, 0, 0], stiffness: 1}\n",
+               "material.fiber.direction", 6);
   expect_error("J0_one", m + "  model: neohookean\n  mu: 1\n  lambda: 1\n  density: 1\n  J0: 1\n", "material.J0", 7);
   expect_error("J0_corotated", m + "  mu: 1\n  lambda: 1\n  density: 1\n  J0: 0.2\n", "material.J0", 6, "neohookean");
   expect_error("laplacian_weight_zero", m + "  mu: 1\n  lambda: 1\n  density: 1\n  laplacian_weight: 0\n",
@@ -335,6 +344,21 @@ void test_invalid_decks() {
 
 #ifdef HYPERQN_SOURCE_DIR
 // The shipped default deck must stay valid.
+void test_new_materials() {
+  Deck d = load_ok("materials", kMesh + R"(material:
+  model: principal-stretch
+  density: 1
+  f: {polynomial: [0, 0, 2.0]}
+  h: {spline: {x: [0.5, 1.0, 1.5], y: [-2.0, 0.0, 2.0]}}
+  fiber: {direction: [0, 1, 0], stiffness: 3}
+)");
+  CHECK(d.material.model == "principal-stretch" && d.material.f.kind == "polynomial" && d.material.g.kind.empty());
+  CHECK(d.material.h.kind == "spline" && d.material.h.x.size() == 3 && d.material.h.y[2] == 2.0);
+  CHECK(d.material.has_fiber && d.material.fiber_direction[1] == 1 && d.material.fiber_stiffness == 3);
+  Deck s = load_ok("stvk", kMesh + "material: {model: stvk, mu: 1, lambda: 2, kappa: 100, density: 1}\n");
+  CHECK(s.material.model == "stvk" && s.material.kappa == 100);
+}
+
 void test_regions_and_motion() {
   Deck d = load_ok("regions", kHead + R"(regions:
   - box: {min: [0, 0, 0], max: [0.5, 1, 1]}
@@ -395,6 +419,7 @@ int main() {
   test_mesh_paths();
   test_invalid_decks();
 #ifdef HYPERQN_SOURCE_DIR
+  test_new_materials();
   test_regions_and_motion();
   test_default_deck();
 #endif

@@ -6,8 +6,10 @@
 // We therefore write the term as k/2 (q - 2 r(q) + 1) in q = ||a||^2, with r(q) = sqrt(q) for
 // q >= eps^2 and, inside the ball q < eps^2, r = the quadratic Taylor polynomial of sqrt(q) at
 // q = eps^2 (matching value, slope and curvature, so psi stays C2 and is a polynomial in F near
-// a = 0). eps = 1e-3: the energy changes by at most 3 k eps / 8 (fibres compressed below 0.1 % of
-// their length) and |dP/dF| stays below about 1.5 k / eps.
+// a = 0). eps = kFiberEpsilon = 1e-2: only fibres compressed below 1 % of their rest length are
+// affected, their energy by at most 3 k eps / 8 (< 1 % of the k/2 the exact term has there), and
+// |dP_fibre/dF| stays below about 1.5 k / eps = 150 k. A smaller eps is no more physical (such a
+// fibre is crushed either way) but makes dP/dF stiffer and its third derivative ~k/eps^2 larger.
 // Only the base term is isotropic: psi(QF) = psi(F) for rotations Q, but not psi(FQ).
 #include <cmath>
 #include <stdexcept>
@@ -17,8 +19,6 @@
 
 namespace hyperqn {
 namespace {
-
-constexpr double kFiberEps = 1e-3;
 
 class Fiber final : public Material {
  public:
@@ -66,20 +66,20 @@ class Fiber final : public Material {
   };
   static Terms terms(const Vec3& a) {
     const double q = a.squaredNorm();
-    if (q >= kFiberEps * kFiberEps) {
+    if (q >= kFiberEpsilon * kFiberEpsilon) {
       const double s = std::sqrt(q);
       return {(s - 1.0) / s, 1.0 / (s * s * s)};
     }
-    const double e = kFiberEps, dq = q - e * e;
+    const double e = kFiberEpsilon, dq = q - e * e;
     return {1.0 - 1.0 / e + dq / (2.0 * e * e * e), 1.0 / (e * e * e)};
   }
   double fiber_energy(const Vec3& a) const {
     const double q = a.squaredNorm();
-    if (q >= kFiberEps * kFiberEps) {
+    if (q >= kFiberEpsilon * kFiberEpsilon) {
       const double s = std::sqrt(q);
       return 0.5 * k_ * (s - 1.0) * (s - 1.0);
     }
-    const double e = kFiberEps, dq = q - e * e;
+    const double e = kFiberEpsilon, dq = q - e * e;
     const double r = e + dq / (2.0 * e) - dq * dq / (8.0 * e * e * e);
     return 0.5 * k_ * (q - 2.0 * r + 1.0);
   }

@@ -63,5 +63,7 @@ std::unique_ptr<Material> make_principal_stretch_neohookean_like(double mu, doub
 // fibre direction in the rest configuration (normalized here). Throws std::invalid_argument for a
 // null base, a zero or non-finite direction, or k < 0.
 std::unique_ptr<Material> make_fiber(std::unique_ptr<Material> base, const Vec3& direction, double k);
+// The fibre term is regularized where ||F d|| < this (see fiber.cpp).
+inline constexpr double kFiberEpsilon = 1e-2;
 
 }  // namespace hyperqn

@@ -1,9 +1,10 @@
 // St. Venant-Kirchhoff: psi = mu ||E||^2 + lambda/2 (tr E)^2, E = (F^T F - I)/2 (Green strain),
 // plus the reference code's compression term psi_k = kappa (1 - J)^3 / 2592 for J < 1
-// (reference-implementation.md section 2.3). Plain StVK has no resistance to collapse: its energy
-// goes back to 0 at F = 0 and is the same for F and -F, so a compressed element can pass through
-// J = 0 and invert for free; psi_k grows like |J|^3 as J -> -inf to push back. (1 - J)^3 has zero
-// value, slope and curvature at J = 1, so adding it only below J = 1 keeps psi C2.
+// (reference-implementation.md section 2.3). Plain StVK softens under compression: P = F S -> 0 as
+// F -> 0 (crushing costs only the finite 3 mu/4 + 9 lambda/8), and psi depends on F^T F only, so an
+// inverted element has the energy of its mirror image and nothing pushes it back. psi_k grows like
+// |J|^3 as J -> -inf to resist collapse and inversion. (1 - J)^3 has zero value, slope and curvature
+// at J = 1, so adding it only below J = 1 keeps psi C2.
 // P_k and dP_k/dF use the cofactor cof(F) = dJ/dF instead of J F^{-T} (the reference forms F^{-1}),
 // so J = 0 is an ordinary point.
 #include <stdexcept>
