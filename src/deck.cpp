@@ -389,6 +389,33 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) 
   }
 }
 
+void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
+  Section s(r, v, {"squash", "collapse", "random", "invert"});
+  if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
+  const auto& [kind, x] = s.entries()[0];
+  auto read_axis = [&](const Section& sec) {
+    const Value& a = sec.need("axis");
+    in.axis = r.integer(a);
+    r.check(in.axis >= 0 && in.axis <= 2, a, "0, 1 or 2");
+  };
+  in.kind = kind;
+  if (kind == "squash") {
+    Section sq(r, x, {"axis", "factor"});
+    read_axis(sq);
+    const Value& f = sq.need("factor");
+    in.factor = r.number(f);
+    r.check(in.factor >= 0, f, ">= 0");
+  } else if (kind == "collapse") {
+    if (!r.boolean(x)) in.kind.clear();
+  } else if (kind == "random") {
+    Section rs(r, x, {"seed"});
+    if (const Value* seed = rs.find("seed")) in.seed = r.integer(*seed);
+  } else {
+    Section inv(r, x, {"axis"});
+    read_axis(inv);
+  }
+}
+
 void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
   for (const Value& item : r.items(v)) {
     Section s(r, item, {"box", "tags", "material"});
@@ -536,7 +563,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "regions", "fixed", "gravity", "time", "solver", "output", "study", "petsc"});
+            {"name", "mesh", "material", "regions", "fixed", "initial", "gravity", "time", "solver", "output",
+             "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory name (output/<name>).
@@ -546,6 +574,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   read_mesh(r, s.need("mesh"), fs::path(path).parent_path(), deck.mesh);
   read_material(r, s.need("material"), deck.material);
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
+  if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);

@@ -106,6 +106,15 @@ struct OutputSpec {
   bool iterations_csv = true;
 };
 
+// An extreme initial state (positions at frame 0; the rest shape stays the mesh). c is the
+// centre of the rest bounding box; fixed vertices stay where they are.
+struct InitialSpec {
+  std::string kind;                  // "" (rest) | squash | collapse | random | invert
+  int axis = 1;                      // squash, invert: the coordinate axis (0, 1, 2)
+  double factor = 0;                 // squash: x_A = c_A + factor (X_A - c_A)
+  long seed = 1;                     // random: uniform in the rest bounding box, per vertex id
+};
+
 struct Deck {
   std::string path;                  // the deck file
   std::string name;                  // deck file name without directory and extension
@@ -113,6 +122,7 @@ struct Deck {
   MaterialSpec material;                 // the default material
   std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
+  InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
   SolverSpec solver;

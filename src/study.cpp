@@ -6,6 +6,7 @@
 #include <fstream>
 #include <memory>
 
+#include "initial_state.hpp"
 #include "input_error.hpp"
 #include "scene.hpp"
 #include "solver_factory.hpp"
@@ -91,6 +92,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
   PetscCall(VecDuplicate(x_ref, &v0));
   PetscCall(VecDuplicate(x_ref, &work));
   PetscCall(scene.body->rest_positions(x_ref));
+  PetscCall(apply_initial_state(deck.initial, *scene.body, x_ref));
   PetscCall(VecSet(v_ref, 0.0));
   for (auto& c : contenders) {
     // A trajectory's run time includes the one factorization of M + h^2 L its solver needs.

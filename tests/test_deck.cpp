@@ -359,6 +359,18 @@ void test_new_materials() {
   CHECK(s.material.model == "stvk" && s.material.kappa == 100);
 }
 
+void test_initial_state() {
+  CHECK(load_ok("init_squash", kHead + "initial: {squash: {axis: 2, factor: 0.5}}\n").initial.kind == "squash");
+  Deck r = load_ok("init_random", kHead + "initial: {random: {seed: 7}}\n");
+  CHECK(r.initial.kind == "random" && r.initial.seed == 7);
+  CHECK(load_ok("init_no_collapse", kHead + "initial: {collapse: false}\n").initial.kind.empty());
+  CHECK(load_ok("init_invert", kHead + "initial: {invert: {axis: 0}}\n").initial.axis == 0);
+  expect_error("init_two_forms", kHead + "initial: {collapse: true, invert: {axis: 0}}\n", "initial", 3, "exactly one");
+  expect_error("init_bad_axis", kHead + "initial: {invert: {axis: 3}}\n", "initial.invert.axis", 3, "0, 1 or 2");
+  expect_error("init_negative_factor", kHead + "initial: {squash: {axis: 1, factor: -1}}\n", "initial.squash.factor", 3);
+  expect_error("init_unknown", kHead + "initial: {explode: true}\n", "initial.explode", 3);
+}
+
 void test_regions_and_motion() {
   Deck d = load_ok("regions", kHead + R"(regions:
   - box: {min: [0, 0, 0], max: [0.5, 1, 1]}
@@ -420,6 +432,7 @@ int main() {
   test_invalid_decks();
 #ifdef HYPERQN_SOURCE_DIR
   test_new_materials();
+  test_initial_state();
   test_regions_and_motion();
   test_default_deck();
 #endif
