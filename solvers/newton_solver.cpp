@@ -1,11 +1,14 @@
 #include "newton_solver.hpp"
 
+#include <cmath>
+
 namespace hyperqn {
 
 NewtonSolver::~NewtonSolver() {
   TaoDestroy(&tao_);
   MatDestroy(&H_);
   VecDestroy(&coords_);
+  VecDestroy(&last_x_);
 }
 
 PetscErrorCode NewtonSolver::objective_gradient(Tao, Vec x, PetscReal* f, Vec g, void* ctx) {
@@ -36,8 +39,17 @@ PetscErrorCode NewtonSolver::monitor(Tao tao, void* ctx) {
   auto* self = static_cast<NewtonSolver*>(ctx);
   IterationRecord r;
   PetscReal f, gnorm, step;
+  Vec x;
   PetscFunctionBeginUser;
   PetscCall(TaoGetSolutionStatus(tao, &r.iteration, &f, &gnorm, nullptr, &step, nullptr));
+  // A rejected point (non-finite g or grad g) is not an iterate: the convergence test stops TAO.
+  self->bad_point_ = TimeStep::rejected(f) || !std::isfinite(gnorm);
+  if (self->bad_point_) PetscFunctionReturn(0);
+  PetscCall(TaoGetSolution(tao, &x));
+  PetscCall(VecCopy(x, self->last_x_));
+  self->last_f_ = f;
+  self->last_gnorm_ = gnorm;
+  self->reported_ = r.iteration;
   r.time_s = MPI_Wtime() - self->start_;
   r.energy = f;
   r.grad_norm = gnorm;
@@ -50,8 +62,10 @@ PetscErrorCode NewtonSolver::monitor(Tao tao, void* ctx) {
 // TAO's own test, plus a stop the iteration callback asked for.
 PetscErrorCode NewtonSolver::convergence_test(Tao tao, void* ctx) {
   PetscFunctionBeginUser;
+  auto* self = static_cast<NewtonSolver*>(ctx);
   PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
-  if (static_cast<NewtonSolver*>(ctx)->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
+  if (self->bad_point_) PetscCall(TaoSetConvergedReason(tao, self->reported_ < 0 ? TAO_DIVERGED_NAN : TAO_DIVERGED_LS_FAILURE));
+  if (self->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   PetscFunctionReturn(0);
 }
 
@@ -62,6 +76,7 @@ PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
   PC pc;
   PetscFunctionBeginUser;
   exact_ = spec.newton_hessian == "exact";
+  PetscCall(VecDuplicate(step_.layout(), &last_x_));
   PetscCall(step_.create_hessian(&H_));
   PetscCall(TaoCreate(PetscObjectComm((PetscObject)step_.layout()), &tao_));
   PetscCall(TaoSetType(tao_, trust_region ? TAONTR : TAONLS));
@@ -101,20 +116,37 @@ PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
   PetscFunctionReturn(0);
 }
 
+// Guardrails: TAONLS has its own fallbacks after a failed line search (Newton -> scaled
+// gradient -> gradient step); a frame where they all fail ends with DIVERGED_LS_FAILURE, x at the
+// last accepted iterate, and is reported failed. A rejected point accepted by a line search
+// without a test (unit) is undone and the frame reported failed too.
 PetscErrorCode NewtonSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
   TaoConvergedReason reason;
   PetscFunctionBeginUser;
   step_.reset_evaluations();
+  result = FrameResult{};
   on_iteration_ = &on_iteration;
-  stop_requested_ = false;
+  stop_requested_ = bad_point_ = false;
+  reported_ = -1;
   start_ = MPI_Wtime();
   PetscCall(TaoSetSolution(tao_, x));
   PetscCall(TaoSolve(tao_));
   on_iteration_ = nullptr;
-  PetscCall(TaoGetSolutionStatus(tao_, &result.iterations, &result.energy, &result.grad_norm, nullptr, nullptr, &reason));
+  PetscCall(TaoGetConvergedReason(tao_, &reason));
+  if (reported_ < 0) {  // the initial guess is rejected
+    result.failed = true;
+    result.reason = "REJECTED_INITIAL_GUESS";
+    result.energy = TimeStep::kRejectedEnergy;
+    PetscFunctionReturn(0);
+  }
+  if (bad_point_) PetscCall(VecCopy(last_x_, x));
+  result.iterations = reported_;
+  result.energy = last_f_;
+  result.grad_norm = last_gnorm_;
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
   result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
-  result.reason = TaoConvergedReasons[reason];
+  result.ls_failures = reason == TAO_DIVERGED_LS_FAILURE;
+  result.reason = reason == TAO_DIVERGED_LS_FAILURE ? "LINE_SEARCH_FAILURE" : TaoConvergedReasons[reason];
   PetscFunctionReturn(0);
 }
 

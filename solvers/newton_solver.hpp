@@ -33,6 +33,12 @@ class NewtonSolver : public TimeStepSolver {
   const IterationCallback* on_iteration_ = nullptr;
   double start_ = 0;
   bool stop_requested_ = false;
+  // Guardrail: a line search without a sufficient-decrease test (unit) may accept a rejected
+  // point (non-finite g); the last reported iterate is kept to undo that step.
+  Vec last_x_ = nullptr;
+  PetscReal last_f_ = 0, last_gnorm_ = 0;
+  PetscInt reported_ = -1;
+  bool bad_point_ = false;
 };
 
 }  // namespace hyperqn

@@ -1,7 +1,10 @@
 #include "pd_solver.hpp"
 
 #include <cmath>
+#include <string>
 #include <utility>
+
+#include "line_search.hpp"
 
 namespace hyperqn {
 
@@ -45,7 +48,7 @@ PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
 }
 
 PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
-  PetscReal g, gnorm, gnorm0, slope, g_trial = 0;
+  PetscReal g, gnorm, gnorm0, g_trial = 0;
   PetscInt k = 0;
   double alpha = 0;
   PetscFunctionBeginUser;
@@ -66,15 +69,17 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   PetscCall(step_.objective(x, &g, grad_));
   PetscCall(VecNorm(grad_, NORM_2, &gnorm));
   gnorm0 = gnorm;
-  bool stop = report();
+  // A rejected initial guess (non-finite g or grad g) is not an iterate: nothing to log.
+  bool stop = TimeStep::rejected(g) ? false : report();
+  bool after_retry = false;  // the last iteration was a retry along -grad g
   for (;;) {
-    // Same tests, in the same order and with the same (in)equalities as TAO's default
-    // convergence test, so pd and TAO's L-BFGS with m = 0 stop at the same iterate.
-    if (!std::isfinite(g) || !std::isfinite(gnorm)) {
+    if (TimeStep::rejected(g) || !std::isfinite(gnorm)) {
       result.failed = true;
-      result.reason = "DIVERGED_NAN";
+      result.reason = "REJECTED_INITIAL_GUESS";
       break;
     }
+    // Same tests, in the same order and with the same (in)equalities as TAO's default
+    // convergence test, so pd and TAO's L-BFGS with m = 0 stop at the same iterate.
     if (gnorm <= spec_.grad_atol) {
       result.converged = true;
       result.reason = "CONVERGED_GATOL";
@@ -98,26 +103,43 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
     // of every element onto its constraint set, inside grad g) followed by the global solve.
     PetscCall(A_.solve(grad_, dir_));
     PetscCall(VecScale(dir_, -1.0));
-    PetscCall(VecDot(grad_, dir_, &slope));
+    // Exact PD never increases g, so its step is taken as is (g is evaluated for the log and
+    // the next gradient) unless g is rejected (non-finite); otherwise Armijo backtracking.
     bool accepted = false;
-    alpha = 1.0;
-    for (int halvings = 0; halvings <= kMaxHalvings; ++halvings, alpha *= kBacktrack) {
-      PetscCall(VecWAXPY(trial_, alpha, dir_, x));
-      PetscCall(step_.objective(trial_, &g_trial, trial_grad_));
-      // Exact PD never increases g, so its step is taken as is (g is evaluated for the log and
-      // the next gradient); a non-finite g is never a decrease.
-      if (exact_ || (std::isfinite(g_trial) && g_trial <= g + kArmijoC1 * alpha * slope)) {
-        accepted = true;
+    Backtracking armijo;
+    armijo.c1 = kArmijoC1;
+    armijo.shrink = kBacktrack;
+    armijo.max_halvings = kMaxHalvings;
+    const PetscInt rejected_before = step_.rejected_evaluations();
+    PetscCall(backtrack(step_, x, g, grad_, dir_, 1.0, armijo, exact_, trial_, &g_trial, trial_grad_, &alpha,
+                        &accepted));
+    if (!accepted) {
+      // Guardrail: if the backtracking met rejected (non-finite) points, retry from the last
+      // accepted iterate along -grad g (-A^{-1} grad g just failed), first trial as long as the
+      // failed step. Not when every trial was finite (g stalled at round-off: measured on the
+      // bar, a retry there costs up to 51 evaluations and does not help), nor right after a
+      // retry. x, g and grad g stay put if there is no retry or it fails too.
+      PetscReal dir_norm;
+      bool recovered = false;
+      std::string along;
+      ++result.ls_failures;
+      PetscCall(VecNorm(dir_, NORM_2, &dir_norm));
+      if (!after_retry && step_.rejected_evaluations() > rejected_before)
+        PetscCall(retry_descent(step_, nullptr, dir_norm, x, &g, grad_, &alpha, &along, &recovered));
+      after_retry = true;
+      if (!recovered) {
+        alpha = 0;
+        result.failed = true;
+        result.reason = "LINE_SEARCH_FAILURE";
         break;
       }
-    }
-    if (!accepted) {
-      alpha = 0;  // x, g and grad g stay at the last accepted iterate
-      result.failed = true;
-      result.reason = "LINE_SEARCH_FAILURE";
-      break;
+      PetscCall(VecNorm(grad_, NORM_2, &gnorm));
+      ++k;
+      stop = report();
+      continue;
     }
     // Accept: the trial point's gradient is the next iteration's G (one evaluation per iteration).
+    after_retry = false;
     PetscCall(VecCopy(trial_, x));
     std::swap(grad_, trial_grad_);
     g = g_trial;

@@ -23,6 +23,10 @@ struct FrameResult {
   bool converged = false;    // met the gradient tolerance (otherwise: iteration budget, or failure)
   bool failed = false;       // the solver could not decrease g (line search failure, NaN, ...)
   std::string reason;        // solver's own words
+  // Line searches that failed in this frame (each one followed by the retries of
+  // solvers/line_search.hpp, or by TAONLS's own fallbacks). failed = false with ls_failures > 0:
+  // the frame recovered.
+  PetscInt ls_failures = 0;
 };
 
 // Called at iteration 0 and after every iteration; returning true asks the solver to stop after

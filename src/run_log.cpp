@@ -47,6 +47,11 @@ static std::string quoted(const std::string& s) {
 }
 
 void write_summary(const std::string& path, const RunSummary& s) {
+  std::string flagged = "[";
+  for (const auto& [frame, reason] : s.flagged_frames)
+    flagged += std::string(flagged.size() > 1 ? ", " : "") + "{\"frame\": " + std::to_string(frame) +
+               ", \"reason\": " + quoted(reason) + "}";
+  flagged += "]";
   std::ofstream out(path);
   out << "{\n"
       << "  \"deck\": " << quoted(s.deck) << ",\n"
@@ -75,6 +80,9 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"h0_solve_s\": " << number(s.h0_solve_s) << ",\n"
       << "  \"converged_frames\": " << s.converged_frames << ",\n"
       << "  \"failed_frames\": " << s.failed_frames << ",\n"
+      << "  \"flagged_frames\": " << flagged << ",\n"
+      << "  \"ls_failures\": " << s.ls_failures << ",\n"
+      << "  \"rejected_evaluations\": " << s.rejected_evaluations << ",\n"
       << "  \"final_energy\": " << number(s.final_energy) << ",\n"
       << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"
       << "  \"min_J\": " << number(s.min_J) << ",\n"

@@ -3,6 +3,8 @@
 #pragma once
 #include <cstdio>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "time_step_solver.hpp"
 
@@ -30,6 +32,11 @@ struct RunSummary {
   long long iterations = 0, evaluations = 0, h0_solves = 0;
   double objective_s = 0, h0_solve_s = 0;     // time in g / grad g evaluations and in A^{-1} solves
   long long converged_frames = 0, failed_frames = 0;
+  // Guardrails: line searches that failed (each followed by a retry), evaluations rejected for a
+  // non-finite g or grad g, and the frames that could not decrease g (or stopped the run), with
+  // the solver's reason.
+  long long ls_failures = 0, rejected_evaluations = 0;
+  std::vector<std::pair<int, std::string>> flagged_frames;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
 };

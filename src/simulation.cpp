@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 
+#include "initial_state.hpp"
 #include "input_error.hpp"
 #include "run_log.hpp"
 #include "scene.hpp"
@@ -26,11 +27,30 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
 
 }  // namespace
 
+// Whether every entry of a global vector is finite, on all ranks.
+static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
+  const PetscScalar* a;
+  PetscInt n;
+  int local = 1, global;
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(x, &n));
+  PetscCall(VecGetArrayRead(x, &a));
+  for (PetscInt i = 0; i < n; ++i) local &= std::isfinite(a[i]) ? 1 : 0;
+  PetscCall(VecRestoreArrayRead(x, &a));
+  PetscCallMPI(MPI_Allreduce(&local, &global, 1, MPI_INT, MPI_MIN, comm));
+  *finite = global == 1;
+  PetscFunctionReturn(0);
+}
+
 // The frame loop. Returns false (with summary.status set) if the run cannot continue.
+// Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
+// flagged_frames) and the run goes on from its last accepted iterate; a frame that leaves no
+// finite state (rejected g at every point tried, non-finite positions) stops the run: the last
+// good frame is written (even if it is not an output frame) and nothing non-finite ever is.
 static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeStepSolver& solver, VtkWriter* vtk,
                                 IterationLog& log, RunSummary& summary, bool& ok) {
   PetscMPIInt rank;
-  Vec x, v, x_prev;
+  Vec x, v, x_prev, v_prev;
   std::vector<double> pos, vel, J;
   PetscFunctionBeginUser;
   ok = true;
@@ -38,62 +58,118 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeS
   PetscCall(VecDuplicate(s.step->layout(), &x));
   PetscCall(VecDuplicate(x, &v));
   PetscCall(VecDuplicate(x, &x_prev));
+  PetscCall(VecDuplicate(x, &v_prev));
   PetscCall(s.body->rest_positions(x));
+  PetscCall(apply_initial_state(deck.initial, *s.body, x));
   PetscCall(VecSet(v, 0.0));
 
-  auto write_frame = [&](int frame) -> PetscErrorCode {
+  int last_written = -1;
+  // Writes frame `frame` from x and v, unless a position, velocity or J is not finite.
+  auto write_frame = [&](int frame, bool* written) -> PetscErrorCode {
     PetscFunctionBeginUser;
     PetscCall(s.body->local_positions(x, pos));
     PetscCall(s.body->local_velocities(v, vel));
     s.body->cell_jacobians(pos, J);
+    int local = 1, finite;
+    for (const auto* values : {&pos, &vel, &J})
+      for (double a : *values) local &= std::isfinite(a) ? 1 : 0;
+    PetscCallMPI(MPI_Allreduce(&local, &finite, 1, MPI_INT, MPI_MIN, comm));
+    *written = finite == 1;
+    if (!*written) PetscFunctionReturn(0);
     summary.min_J = std::fmin(summary.min_J, global_min(comm, J));
     if (vtk) vtk->write({frame, frame * deck.time.dt, &pos, &vel, &J});
+    last_written = frame;
     PetscFunctionReturn(0);
   };
   summary.min_J = HUGE_VAL;
-  PetscCall(write_frame(0));
+  bool written = false;
+  PetscCall(write_frame(0, &written));
 
   const double h = deck.time.dt;
   for (int frame = 1; frame <= deck.time.frames; ++frame) {
     s.body->set_time(frame * h);  // prescribed positions of the fixed vertices at t_{n+1}
     PetscCall(s.step->set_inertial_target(x, v));
     PetscCall(VecCopy(x, x_prev));
-    if (deck.solver.warm_start == "inertial") PetscCall(VecCopy(s.step->inertial_target(), x));
+    PetscCall(VecCopy(v, v_prev));
+    const bool inertial = deck.solver.warm_start == "inertial";
+    if (inertial) PetscCall(VecCopy(s.step->inertial_target(), x));
 
     FrameResult r;
-    const double t0 = MPI_Wtime();
-    PetscCall(solver.solve(x, [&](const IterationRecord& it) {
-      log.append(frame, it);
+    const auto log_iteration = [&](const IterationRecord& it) {
+      if (!TimeStep::rejected(it.energy) && std::isfinite(it.grad_norm)) log.append(frame, it);  // never NaN
       return false;
-    }, r));
+    };
+    const double t0 = MPI_Wtime();
+    PetscCall(solver.solve(x, log_iteration, r));
+    summary.evaluations += s.step->evaluations();
+    if (inertial && r.reason == "REJECTED_INITIAL_GUESS") {
+      // g is not finite at y (e.g. y inverts elements of a material without an extension):
+      // start from x_n instead.
+      PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; starting from x_n\n", frame));
+      PetscCall(VecCopy(x_prev, x));
+      PetscCall(solver.solve(x, log_iteration, r));
+      summary.evaluations += s.step->evaluations();
+    }
     const double ms = 1e3 * (MPI_Wtime() - t0);
     summary.solve_s += ms / 1e3;
     summary.iterations += r.iterations;
-    summary.evaluations += s.step->evaluations();
     summary.converged_frames += r.converged;
     summary.failed_frames += r.failed;
-    summary.frames = frame;
-    summary.final_energy = r.energy;
-    summary.final_grad_norm = r.grad_norm;
+    summary.ls_failures += r.ls_failures;
+    if (r.failed) summary.flagged_frames.emplace_back(frame, r.reason);
 
-    // v_{n+1} = (x_{n+1} - x_n) / h, then optional damping.
-    PetscCall(VecWAXPY(v, -1.0, x_prev, x));
-    PetscCall(VecScale(v, (1.0 - deck.time.damping) / h));
-    PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s\n", frame, (int)r.iterations,
-                          r.energy, r.grad_norm, ms, r.reason.c_str()));
+    // Can the run continue from this frame's x?
+    std::string why;
+    bool finite_x = false;
+    PetscCall(all_finite(comm, x, &finite_x));
+    if (TimeStep::rejected(r.energy) || !std::isfinite(r.grad_norm))
+      why = "non-finite energy or gradient at every point tried (" + r.reason + ")";
+    else if (!finite_x)
+      why = "the solver left non-finite positions (" + r.reason + ")";
 
-    if (!std::isfinite(r.energy) || !std::isfinite(r.grad_norm)) {
-      summary.status = "error: non-finite energy or gradient at frame " + std::to_string(frame) +
-                       "; output stops at the last finite frame";
-      ok = false;
-      break;
+    std::string note;
+    if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
+    if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
+    if (why.empty()) {
+      // v_{n+1} = (x_{n+1} - x_n) / h, then optional damping.
+      PetscCall(VecWAXPY(v, -1.0, x_prev, x));
+      PetscCall(VecScale(v, (1.0 - deck.time.damping) / h));
+      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
+                            (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));
+      summary.frames = frame;
+      summary.final_energy = r.energy;
+      summary.final_grad_norm = r.grad_norm;
+      const bool last = frame == deck.time.frames;
+      if (frame % deck.output.every == 0 || last) {
+        PetscCall(write_frame(frame, &written));
+        if (!written) why = "non-finite positions, velocities or J";
+      }
+      if (why.empty()) continue;
+    } else {
+      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
+                            r.reason.c_str(), note.c_str()));
     }
-    const bool last = frame == deck.time.frames;
-    if (frame % deck.output.every == 0 || last) PetscCall(write_frame(frame));
+
+    // The run cannot continue: back to the last good frame, which is written if it was not.
+    if (!r.failed) {
+      ++summary.failed_frames;
+      summary.flagged_frames.emplace_back(frame, why);
+    }
+    summary.frames = frame - 1;
+    PetscCall(VecCopy(x_prev, x));
+    PetscCall(VecCopy(v_prev, v));
+    s.body->set_time((frame - 1) * h);
+    if (last_written != frame - 1) PetscCall(write_frame(frame - 1, &written));
+    summary.status = "error: frame " + std::to_string(frame) + ": " + why + "; stopped, the last frame written is " +
+                     std::to_string(last_written);
+    ok = false;
+    break;
   }
+  summary.rejected_evaluations = s.step->rejected_evaluations();
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&v));
   PetscCall(VecDestroy(&x_prev));
+  PetscCall(VecDestroy(&v_prev));
   PetscFunctionReturn(0);
 }
 
@@ -187,7 +263,10 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
       ok = false;
     }
   }
-  if (!ok) PetscPrintf(comm, "hyperqn: error: %s\n", summary.status.c_str());
+  if (!ok) {  // the status already says "error: ..." (unless only summary.json could not be written)
+    const bool says_error = summary.status.rfind("error", 0) == 0;
+    PetscPrintf(comm, "hyperqn: %s%s\n", says_error ? "" : "error: ", summary.status.c_str());
+  }
   return ok ? 0 : 1;
 }
 

@@ -1,5 +1,7 @@
 #include "time_step.hpp"
 
+#include <cmath>
+
 namespace hyperqn {
 
 TimeStep::TimeStep(ElasticBody& body, double dt, const std::array<double, 3>& gravity)
@@ -30,6 +32,8 @@ PetscErrorCode TimeStep::setup() {
   PetscCall(VecGetArray(gravity_step_, &a));
   for (PetscInt i = lo; i < hi; ++i) a[i - lo] = dt_ * dt_ * gravity_[i % 3];
   PetscCall(VecRestoreArray(gravity_step_, &a));
+  PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-hyperqn_test_nan_energy_beyond", &test_nan_beyond_, nullptr));
+  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-hyperqn_test_nan_energy_from_step", &test_nan_from_step_, nullptr));
   PetscFunctionReturn(0);
 }
 
@@ -37,6 +41,7 @@ PetscErrorCode TimeStep::set_inertial_target(Vec x_n, Vec v_n) {
   PetscFunctionBeginUser;
   PetscCall(VecWAXPY(y_, dt_, v_n, x_n));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
+  ++steps_;
   PetscFunctionReturn(0);
 }
 
@@ -48,9 +53,39 @@ PetscErrorCode TimeStep::objective(Vec x, PetscReal* g, Vec grad) {
   PetscCall(body_.energy_gradient(x, &E, grad));
   PetscCall(VecWAXPY(diff_, -1.0, y_, x));                // x - y
   PetscCall(VecPointwiseMult(work_, diff_, mass_));       // M (x - y)
+  if (grad) {
+    // A non-finite entry of dE/dx on this rank poisons this rank's part of the inertia dot
+    // product, so g (reduced over all ranks) says on every rank that the point is rejected,
+    // without a reduction of its own.
+    const PetscScalar* dE;
+    PetscInt n;
+    bool finite = true;
+    PetscCall(VecGetLocalSize(grad, &n));
+    PetscCall(VecGetArrayRead(grad, &dE));
+    for (PetscInt i = 0; i < n; ++i) finite = finite && std::isfinite(dE[i]);
+    PetscCall(VecRestoreArrayRead(grad, &dE));
+    if (!finite && n > 0) {
+      PetscScalar* w;
+      PetscCall(VecGetArray(work_, &w));
+      w[0] = NAN;
+      PetscCall(VecRestoreArray(work_, &w));
+    }
+  }
   PetscCall(VecDot(work_, diff_, &inertia));
   *g = 0.5 * inertia + dt_ * dt_ * E;
-  if (grad) PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
+  if (test_nan_beyond_ >= 0) {
+    PetscReal dist;
+    PetscCall(VecNorm(diff_, NORM_INFINITY, &dist));
+    if (dist > test_nan_beyond_) *g = NAN;
+  }
+  if (test_nan_from_step_ >= 0 && steps_ >= test_nan_from_step_) *g = NAN;
+  if (rejected(*g)) {
+    ++rejected_;
+    *g = kRejectedEnergy;
+    if (grad) PetscCall(VecSet(grad, 0.0));
+  } else if (grad) {
+    PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
+  }
   objective_s_ += MPI_Wtime() - t0;
   PetscFunctionReturn(0);
 }

@@ -29,7 +29,16 @@ class TimeStep {
   PetscErrorCode set_inertial_target(Vec x_n, Vec v_n);
   Vec inertial_target() const { return y_; }
   // g(x) and, if grad is not null, its gradient. Counts evaluations.
+  // Guardrail: if g or any entry of grad g is not finite (NaN/Inf), the point is *rejected*: g is
+  // reported as kRejectedEnergy and grad g as 0, and the rejection is counted. kRejectedEnergy is
+  // finite (TAO raises an error on a NaN/Inf objective in its monitor and at the initial point)
+  // and larger than any real energy, so every sufficient-decrease test (TAO's More-Thuente and
+  // Armijo, ours) rejects the point; a line search that accepts without a test (unit) is caught
+  // by the solvers with TimeStep::rejected.
   PetscErrorCode objective(Vec x, PetscReal* g, Vec grad);
+  static constexpr double kRejectedEnergy = PETSC_MAX_REAL / 4;  // = PETSC_INFINITY, TAO's own "inf"
+  static bool rejected(double g) { return !(g < kRejectedEnergy); }  // true for NaN too
+  PetscInt rejected_evaluations() const { return rejected_; }  // over the whole run
   PetscInt evaluations() const { return evaluations_; }
   double objective_seconds() const { return objective_s_; }  // total, over the whole run
   void reset_evaluations() { evaluations_ = 0; }
@@ -50,7 +59,12 @@ class TimeStep {
   double dt_;
   std::array<double, 3> gravity_;
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
-  PetscInt evaluations_ = 0;
+  PetscInt evaluations_ = 0, rejected_ = 0;
+  // Test hooks (PETSc options, for tests/python/test_guardrails.py only): make g NaN where
+  // ||x - y||_inf > test_nan_beyond_ (-hyperqn_test_nan_energy_beyond <distance>), or everywhere
+  // from the test_nan_from_step_-th time step on (-hyperqn_test_nan_energy_from_step <n>).
+  PetscReal test_nan_beyond_ = -1;
+  PetscInt test_nan_from_step_ = -1, steps_ = 0;
   double objective_s_ = 0;
   double hessian_s_ = 0;
 };
