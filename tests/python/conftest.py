@@ -1,5 +1,6 @@
 """Shared helpers for the end-to-end tests: where the binary is, and how to run it under MPI."""
 import os
+import re
 import subprocess
 import sys
 
@@ -26,6 +27,23 @@ def run_hyperqn(args, ranks=1, timeout=600, check=True):
     if check and proc.returncode != 0:
         raise AssertionError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-4000:]}")
     return proc
+
+
+def run_at_1_and_2_ranks(deck_path, tmp):
+    """Runs the deck at 1 and 2 ranks with -log_view; returns {ranks: (outdir, PETSc log text)}."""
+    out = {}
+    for ranks in (1, 2):
+        outdir = tmp / f"np{ranks}"
+        log = tmp / f"log_view_np{ranks}.txt"
+        run_hyperqn([deck_path, "-o", outdir, "-log_view", f":{log}"], ranks=ranks)
+        out[ranks] = (str(outdir), log.read_text())
+    return out
+
+
+def event_count(log_text, event):
+    """Call count of a PETSc -log_view event (max over ranks)."""
+    m = re.search(rf"^{event}\s+(\d+)", log_text, re.M)
+    return int(m.group(1)) if m else 0
 
 
 def write_deck(path, deck):

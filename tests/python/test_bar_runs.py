@@ -1,12 +1,11 @@
 """The default bar deck, 20 frames, at 1 and 2 ranks: same answer, one factorization,
 monotone energy within each frame, and output files an independent reader accepts."""
 import os
-import re
 
 import numpy as np
 import pytest
 
-from conftest import load_deck, run_hyperqn, write_deck
+from conftest import event_count, run_at_1_and_2_ranks, load_deck, run_hyperqn, write_deck
 from compare_runs import relative_difference
 from hyperqn_output import Frame, read_iterations, read_pvd, read_summary
 
@@ -20,13 +19,7 @@ def runs(tmp_path_factory):
     deck = load_deck("input/bar.yaml")
     deck["time"]["frames"] = FRAMES
     deck_path = write_deck(tmp / "bar.yaml", deck)
-    out = {}
-    for ranks in (1, 2):
-        outdir = tmp / f"np{ranks}"
-        log = tmp / f"log_view_np{ranks}.txt"
-        run_hyperqn([deck_path, "-o", outdir, "-log_view", f":{log}"], ranks=ranks)
-        out[ranks] = (str(outdir), log.read_text())
-    return out
+    return run_at_1_and_2_ranks(deck_path, tmp)
 
 
 def test_parallel_matches_serial(runs):
@@ -35,11 +28,6 @@ def test_parallel_matches_serial(runs):
     assert scale > 0.1, "the bar should sag visibly"
     assert rel <= 1e-8, f"1 vs 2 ranks differ by {rel:.3e} of the largest displacement"
 
-
-def event_count(log_text, event):
-    """Call count of a PETSc -log_view event (max over ranks)."""
-    m = re.search(rf"^{event}\s+(\d+)", log_text, re.M)
-    return int(m.group(1)) if m else 0
 
 
 @pytest.mark.parametrize("ranks", [1, 2])

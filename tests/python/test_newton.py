@@ -3,13 +3,12 @@ exact Hessian; the default (PSD-projected Hessian, MUMPS Cholesky) giving the sa
 1 and 2 ranks with one symbolic factorization per run; cg-amg and ntr converging to the same
 answer."""
 import os
-import re
 from collections import defaultdict
 
 import numpy as np
 import pytest
 
-from conftest import REPO, load_deck, run_hyperqn, write_deck
+from conftest import event_count, run_at_1_and_2_ranks, REPO, load_deck, run_hyperqn, write_deck
 from compare_runs import relative_difference
 from hyperqn_output import read_iterations, read_summary
 
@@ -23,11 +22,6 @@ def grad_norms_by_frame(outdir):
         frames[row["frame"]].append(row["grad_norm"])
     return {f: np.array(g) for f, g in frames.items()}
 
-
-def event_count(log_text, event):
-    """Call count of a PETSc -log_view event (max over ranks)."""
-    m = re.search(rf"^{event}\s+(\d+)", log_text, re.M)
-    return int(m.group(1)) if m else 0
 
 
 def test_quadratic_convergence_with_exact_hessian(tmp_path):
@@ -80,13 +74,7 @@ def mumps_runs(tmp_path_factory):
     """{ranks: (outdir, PETSc log text)} for the default Newton (NLS + MUMPS) at 1 and 2 ranks."""
     tmp = tmp_path_factory.mktemp("newton")
     deck = moderate_deck(tmp)
-    out = {}
-    for ranks in (1, 2):
-        outdir = tmp / f"np{ranks}"
-        log = tmp / f"log_view_np{ranks}.txt"
-        run_hyperqn([deck, "-o", outdir, "-log_view", f":{log}"], ranks=ranks)
-        out[ranks] = (str(outdir), log.read_text())
-    return out
+    return run_at_1_and_2_ranks(deck, tmp)
 
 
 def test_mumps_parallel_matches_serial(mumps_runs):
