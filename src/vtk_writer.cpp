@@ -9,7 +9,7 @@ namespace hyperqn {
 
 namespace {
 
-// One array of the appended-data block: its XML declaration and its raw bytes.
+// One data array: its XML attributes and its raw bytes.
 struct Array {
   std::string type, name;
   int components;
@@ -21,11 +21,33 @@ Array make_array(const std::string& type, const std::string& name, int component
   return {type, name, components, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T))};
 }
 
-std::string declaration(const Array& a, uint64_t offset) {
+std::string base64(const char* data, size_t n) {
+  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve(4 * ((n + 2) / 3));
+  for (size_t i = 0; i < n; i += 3) {
+    const uint32_t b0 = (unsigned char)data[i], b1 = i + 1 < n ? (unsigned char)data[i + 1] : 0,
+                   b2 = i + 2 < n ? (unsigned char)data[i + 2] : 0;
+    const uint32_t v = (b0 << 16) | (b1 << 8) | b2;
+    out += table[(v >> 18) & 63];
+    out += table[(v >> 12) & 63];
+    out += i + 1 < n ? table[(v >> 6) & 63] : '=';
+    out += i + 2 < n ? table[v & 63] : '=';
+  }
+  return out;
+}
+
+// Inline binary DataArray: base64 of the UInt64 byte count, then base64 of the bytes, encoded
+// separately as VTK does. (Raw appended data would be smaller, but readers that strip
+// whitespace around the appended block corrupt arrays that start or end with bytes 9-13 or 32,
+// such as the tetra cell type 10.)
+std::string data_array(const Array& a) {
   std::ostringstream s;
   s << "<DataArray type=\"" << a.type << "\"";
   if (!a.name.empty()) s << " Name=\"" << a.name << "\"";
-  s << " NumberOfComponents=\"" << a.components << "\" format=\"appended\" offset=\"" << offset << "\"/>\n";
+  const uint64_t n = a.bytes.size();
+  s << " NumberOfComponents=\"" << a.components << "\" format=\"binary\">\n"
+    << base64(reinterpret_cast<const char*>(&n), sizeof n) << base64(a.bytes.data(), n) << "\n</DataArray>\n";
   return s.str();
 }
 
@@ -64,37 +86,20 @@ void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
                                     make_array("Int64", "offsets", 1, offsets),
                                     make_array("UInt8", "types", 1, types)};
 
-  uint64_t offset = 0;
   std::string xml;
-  auto declare = [&](const Array& a) {
-    xml += declaration(a, offset);
-    offset += sizeof(uint64_t) + a.bytes.size();
-  };
   xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n";
   xml += "<Piece NumberOfPoints=\"" + std::to_string(nv) + "\" NumberOfCells=\"" + std::to_string(nc) + "\">\n";
   xml += "<PointData>\n";
-  for (const Array& a : point_data) declare(a);
+  for (const Array& a : point_data) xml += data_array(a);
   xml += "</PointData>\n<CellData>\n";
-  for (const Array& a : cell_data) declare(a);
-  xml += "</CellData>\n<Points>\n";
-  declare(points);
-  xml += "</Points>\n<Cells>\n";
-  for (const Array& a : cells) declare(a);
-  xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_";
+  for (const Array& a : cell_data) xml += data_array(a);
+  xml += "</CellData>\n<Points>\n" + data_array(points) + "</Points>\n<Cells>\n";
+  for (const Array& a : cells) xml += data_array(a);
+  xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
 
   std::ofstream out(path, std::ios::binary);
   out << xml;
-  auto append = [&](const Array& a) {
-    const uint64_t n = a.bytes.size();
-    out.write(reinterpret_cast<const char*>(&n), sizeof n);
-    out.write(a.bytes.data(), (std::streamsize)n);
-  };
-  for (const Array& a : point_data) append(a);
-  for (const Array& a : cell_data) append(a);
-  append(points);
-  for (const Array& a : cells) append(a);
-  out << "\n</AppendedData>\n</VTKFile>\n";
   out.close();
   check_stream(out, path);
 }

@@ -1,5 +1,5 @@
 // ParaView output: per output frame one .vtu (1 rank) or a .pvtu with one .vtu piece per rank,
-// and a .pvd collection listing all frames with their times. XML VTK, appended raw binary.
+// and a .pvd collection listing all frames with their times. XML VTK, inline base64 binary.
 // Points are the deformed positions; point fields displacement, velocity, vertex_id; cell
 // fields rank and J (det F).
 #pragma once

@@ -7,7 +7,7 @@ import pytest
 
 from conftest import event_count, run_at_1_and_2_ranks, load_deck, run_hyperqn, write_deck
 from compare_runs import relative_difference
-from hyperqn_output import Frame, read_iterations, read_pvd, read_summary
+from hyperqn_output import Frame, final_frame, read_iterations, read_pvd, read_summary
 
 FRAMES = 20
 
@@ -83,3 +83,15 @@ def test_summary_has_the_contract_keys(runs):
         assert key in s, key
     assert s["ranks"] == 2 and s["solver"] == "lbfgs"
     assert s["dofs"] == 3 * (s["vertices"] - s["fixed_vertices"])
+
+
+def test_tiny_box_read_back(tmp_path):
+    # A regression test: every array of a small mesh (e.g. the cell types, all 10 = '\n') must
+    # survive an independent reader.
+    deck = {"mesh": {"box": {"size": [1, 0.25, 0.25], "cells": [4, 1, 1]}},
+            "material": {"model": "corotated", "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000},
+            "time": {"frames": 1}}
+    out = tmp_path / "out"
+    run_hyperqn([write_deck(tmp_path / "tiny.yaml", deck), "-o", out], ranks=None)
+    f = final_frame(out)
+    assert len(f.vertex_id) == 20 and f.num_cells == 24 and np.all(f.J > 0)
