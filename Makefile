@@ -16,8 +16,10 @@ export OMPI_MCA_rmaps_base_oversubscribe = 1
 
 STUDY_DECKS ?= $(wildcard input/study/*.yaml)
 STUDY_RANKS ?= 1 2
+STABILITY_DECKS ?= $(wildcard input/stability/*.yaml)
+STABILITY_NP    ?= 1
 
-.PHONY: all deps build run test bench study clean
+.PHONY: all deps build run test bench study stability clean
 
 all: build
 
@@ -45,6 +47,12 @@ study: build
 	  $(MPIEXEC) -n $$n $(BUILD)/hyperqn study $$deck -o $$out $(ARGS); \
 	  dirs="$$dirs $$out"; done; done; \
 	$(PYTHON) postprocess/study_report.py $$dirs --out output/study/report.md
+
+# Every deck in input/stability/ with every solver, judged: output/stability/stability.md,
+# stability.csv and PNGs (see README, "Stability suite").
+stability: build
+	$(PYTHON) postprocess/stability.py $(STABILITY_DECKS) --out output/stability --bin $(BUILD)/hyperqn \
+	  --np $(STABILITY_NP) --mpiexec $(MPIEXEC) $(ARGS)
 
 clean:
 	rm -rf $(BUILD)

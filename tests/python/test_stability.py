@@ -1,0 +1,214 @@
+"""Stability suite, fast version: reduced copies (tests/decks/stability_*.yaml, 24 to 96 tets) of a
+few cases of input/stability/ (the full suite is `make stability`, see README "Stability suite"),
+measured with the same code (postprocess/stability.py).
+
+A run is *stable* (`assert_stable`) when hyperqn exits 0 with status ok after every frame, nothing
+in iterations.csv, summary.json or the VTK frames is NaN/Inf, g never rises within a frame beyond
+its round-off, no line search failed except at round-off, no element is inverted in the last frame
+and the body stays within 10 bounding-box diagonals of its rest shape.
+
+Recovery tolerance: a case that must settle (spin: its clamped end turns a full turn and stops
+where it started; a free body released from a squashed or inverted start) must end within 1e-2 of
+the rest bounding-box diagonal (RMS over vertices, after the best rigid motion for a free body) of
+its rest shape. Measured: spin 3e-4 (lbfgs); squash 5e-10 (lbfgs); invert 7e-10 (newton).
+
+The `initial:` tests skip if hyperqn rejects the `initial` key (semantics: INITIAL_SEMANTICS in
+postprocess/stability.py). Two known failures are marked xfail (not strict, so a fix shows up as
+XPASS): lbfgs from the inverted and from the random start, at the default 10 iterations.
+"""
+import csv
+import math
+import os
+
+import numpy as np
+import pytest
+
+from conftest import HYPERQN, MPIEXEC, REPO
+import stability as S
+
+TIMEOUT = 120
+
+
+def run_case(tmp_path, name, solver="lbfgs", **solver_keys):
+    """Runs tests/decks/stability_<name>.yaml with solver.type = solver (and solver_keys);
+    returns (run, analysis, deck as run)."""
+    path = os.path.join(REPO, "tests", "decks", f"stability_{name}.yaml")
+    deck = S.load_yaml(path)
+    out = str(tmp_path / "-".join([name, solver] + [f"{k}={v}" for k, v in solver_keys.items()]))
+    run = S.run_deck(deck, path, {"type": solver, **solver_keys}, out, HYPERQN, 1, MPIEXEC, TIMEOUT)
+    assert not run["timed_out"], f"{name}/{solver}: timed out after {TIMEOUT} s"
+    run["rejected"] = S.rejection(run["output"]) if run["returncode"] == 1 else None
+    ran = S.load_yaml(os.path.join(out, "deck.yaml"))
+    return run, S.analyse_run(out, ran), ran
+
+
+def skip_if_initial_rejected(run):
+    if run["rejected"] and "'initial'" in run["rejected"]:
+        pytest.skip(f"hyperqn does not take the deck key 'initial' yet: {run['rejected']}")
+
+
+def assert_completes_without_nan(run, a, name):
+    assert run["returncode"] == 0, f"{name}: exit {run['returncode']}\n{run['output'][-3000:]}"
+    assert a["summary"]["status"] == "ok", f"{name}: {a['summary']['status']}"
+    assert a["frames_completed"] == a["expected_frames"], f"{name}: {a['frames_completed']} frames"
+    assert not a["nan"], f"{name}: NaN/Inf in {a['nan']}"
+    assert not a["vtk_error"], f"{name}: {a['vtk_error']}"
+    assert len(a["frames"]) == a["expected_frames"] + 1, f"{name}: VTK frames missing"
+
+
+def assert_monotone(a, name):
+    assert not a["monotone_bad"], (f"{name}: g rose above round-off ({a['monotone_floor']:.3g}) "
+                                   f"within frames {a['monotone_bad']}")
+
+
+def assert_stable(run, a, name, align=False):
+    assert_completes_without_nan(run, a, name)
+    assert_monotone(a, name)
+    assert a["ls_judged"] == 0, (f"{name}: {a['ls_failures']} line-search failure(s), "
+                                 f"{len(a['ls_roundoff_frames'])} frame(s) of them at round-off")
+    last = a["frames"][-1][1]
+    assert last.J.min() > 0, f"{name}: inverted elements in the last frame (min J {last.J.min():.3g})"
+    assert S.rest_distance(last, align) < S.BLOWUP_TOL, f"{name}: diverged"
+
+
+def test_stiff_x1e4_lbfgs(tmp_path):
+    run, a, _ = run_case(tmp_path, "stiff_x1e4")
+    assert_stable(run, a, "stiff_x1e4/lbfgs")
+
+
+def test_nu_0p499_lbfgs(tmp_path):
+    run, a, _ = run_case(tmp_path, "nu_0p499")
+    assert_stable(run, a, "nu_0p499/lbfgs")
+
+
+def test_h1_lbfgs_default_budget_completes_without_nan(tmp_path):
+    """h = 1 s with the default 10 iterations: the solver falls behind and the bar runs away
+    (stability.md: every solver 'failed: diverged' on the full-size deck), but the run must still
+    complete without NaN and with g never rising within a frame."""
+    run, a, _ = run_case(tmp_path, "dt_1")
+    assert_completes_without_nan(run, a, "dt_1/lbfgs")
+    assert_monotone(a, "dt_1/lbfgs")
+
+
+def test_h1_lbfgs_with_enough_iterations_matches_converged_newton(tmp_path):
+    """h = 1 s is stable for lbfgs given the iterations (measured: 62 per frame of 100 at most), and
+    after 20 s the bar hangs where the converged Newton run has it, within 1e-3 of the diagonal."""
+    run, a, _ = run_case(tmp_path, "dt_1", iterations=100)
+    assert_stable(run, a, "dt_1/lbfgs, 100 iterations")
+    reference = {k: v for k, v in S.REFERENCE_SOLVER.items() if k != "type"}
+    _, ref, _ = run_case(tmp_path, "dt_1", S.REFERENCE_SOLVER["type"], **reference)
+    assert S.reference_ok(ref), ref["summary"]["status"]
+    assert S.reference_distance(a, ref) < 1e-3
+
+
+def section_angles(frame, x, centre=(0.125, 0.125)):
+    """Angles (degrees) by which the vertices of the cross-section at x turned about the bar axis."""
+    rest = frame.points - frame.displacement
+    on = np.abs(rest[:, 0] - x) < 1e-9
+    a = rest[on][:, 1:] - centre
+    b = frame.points[on][:, 1:] - centre
+    return np.degrees(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1)))
+
+
+@pytest.mark.parametrize("solver", ["lbfgs", "newton"])
+def test_twist_two_turns(tmp_path, solver):
+    run, a, deck = run_case(tmp_path, "twist", solver)
+    assert_stable(run, a, f"twist/{solver}")
+    # The twist really happened: when the ends stop (frame 20, one full turn each), the quarter
+    # sections have turned by about half a turn (measured 153 to 175 degrees).
+    frames = dict(a["frames"])
+    assert deck["time"]["dt"] * 20 == pytest.approx(deck["fixed"][0]["motion"]["end"], rel=1e-6)
+    for x in (0.5, 1.5):
+        assert np.abs(section_angles(frames[20], x)).min() > 120, section_angles(frames[20], x)
+    # and the end faces are back where they started
+    for x in (0.0, 2.0):
+        assert np.abs(section_angles(frames[20], x)).max() < 1e-6
+
+
+def test_spin_settles_back_at_rest(tmp_path):
+    run, a, _ = run_case(tmp_path, "spin")
+    assert_stable(run, a, "spin/lbfgs")
+    assert S.expectation(os.path.join(REPO, "tests/decks/stability_spin.yaml"), {}) == "rest"
+    assert S.rest_distance(a["frames"][-1][1], align=False) < S.REST_TOL
+
+
+@pytest.mark.parametrize("kind", ["squash", "collapse", "random", "invert"])
+def test_initial_state_runs_cleanly(tmp_path, kind):
+    """From every extreme start lbfgs completes, without NaN and with g never rising in a frame
+    (line-search failures are allowed: the guardrails retry them)."""
+    run, a, _ = run_case(tmp_path, f"initial_{kind}")
+    skip_if_initial_rejected(run)
+    name = f"initial_{kind}/lbfgs"
+    assert_completes_without_nan(run, a, name)
+    assert_monotone(a, name)
+    first = a["frames"][0][1]
+    if kind == "collapse":
+        assert np.ptp(first.points, axis=0).max() == 0, f"{name}: frame 0 is not collapsed"
+    else:
+        assert S.rest_distance(first, align=True) > 0.05, f"{name}: frame 0 is not the {kind} start"
+
+
+def assert_recovers(run, a, name):
+    """Back at the rest shape (up to a rigid motion) within REST_TOL, nothing inverted or flat."""
+    last = a["frames"][-1][1]
+    assert last.J.min() > 0, f"{name}: inverted or flat elements at the end (min J {last.J.min():.3g})"
+    err = S.rest_distance(last, align=True)
+    assert err < S.REST_TOL, f"{name}: {err:.3g} of the diagonal from the rest shape at the end"
+
+
+@pytest.mark.parametrize("kind,solver", [("squash", "lbfgs"), ("squash", "newton"), ("invert", "newton")])
+def test_initial_state_recovers(tmp_path, kind, solver):
+    """Measured: squash 5e-10 (lbfgs) and 6e-11 (newton), invert 7e-10 (newton) of the diagonal."""
+    run, a, _ = run_case(tmp_path, f"initial_{kind}", solver)
+    skip_if_initial_rejected(run)
+    assert_completes_without_nan(run, a, f"initial_{kind}/{solver}")
+    assert_recovers(run, a, f"initial_{kind}/{solver}")
+
+
+@pytest.mark.xfail(reason="known (stability.md): at the default budget of 10 iterations lbfgs does not "
+                          "recover from the inverted start; its line searches fail and the bar runs away "
+                          "(measured: 60 diagonals from rest after 60 frames)", strict=False)
+def test_initial_invert_recovers_with_lbfgs(tmp_path):
+    run, a, _ = run_case(tmp_path, "initial_invert")
+    skip_if_initial_rejected(run)
+    assert_recovers(run, a, "initial_invert/lbfgs")
+
+
+@pytest.mark.xfail(reason="known (stability.md): from random positions lbfgs at the default budget runs away "
+                          "(measured: 51 diagonals from rest), while converged Newton (exact Hessian) recovers "
+                          "(9e-8 of the diagonal)", strict=False)
+def test_initial_random_stays_bounded_with_lbfgs(tmp_path):
+    run, a, _ = run_case(tmp_path, "initial_random")
+    skip_if_initial_rejected(run)
+    assert S.rest_distance(a["frames"][-1][1], align=True) < S.BLOWUP_TOL
+
+
+def test_suite_runner_end_to_end(tmp_path):
+    """postprocess/stability.py on two reduced decks: the CSV, Markdown and PNGs, a verdict for every
+    case and solver, and 'not run' with hyperqn's message while `initial` is rejected."""
+    decks = [os.path.join(REPO, "tests", "decks", f"stability_{n}.yaml") for n in ("stiff_x1e4", "initial_squash")]
+    out = tmp_path / "suite"
+    assert S.main(decks + ["--out", str(out), "--bin", HYPERQN, "--solvers", "lbfgs", "newton", "--jobs", "2"]) == 0
+    with open(out / "stability.csv") as f:
+        rows = list(csv.DictReader(f))
+    for column in ("case", "solver", "frames_completed", "nan", "min_J", "monotone", "ls_failures",
+                   "max_final_grad_norm", "rest_error", "verdict"):
+        assert column in rows[0]
+    assert {(r["case"], r["solver"]) for r in rows} == {
+        (c, s) for c in ("stability_stiff_x1e4", "stability_initial_squash") for s in ("lbfgs", "newton")}
+    by = {(r["case"], r["solver"]): r for r in rows}
+    for s in ("lbfgs", "newton"):
+        r = by[("stability_stiff_x1e4", s)]
+        assert r["verdict"] == "ok", r
+        assert r["nan"] == "no" and r["monotone"] == "yes" and int(r["frames_completed"]) == 20
+        assert 0 < float(r["min_J"]) <= 1 and math.isfinite(float(r["ref_error"]))
+        squash = by[("stability_initial_squash", s)]
+        rejected = S.rejection(open(out / "runs" / "stability_initial_squash" / s / "run.log").read())
+        assert (squash["verdict"] == "not run") == bool(rejected)
+        if rejected:
+            assert "initial" in squash["reason"]
+    assert (out / "stability.md").exists() and (out / "verdicts.png").exists()
+    assert (out / "grad_stability_stiff_x1e4.png").exists()
+    with open(out / "stability.md") as f:
+        text = f.read()
+    assert "Assumed semantics of `initial:`" in text and "| stability_stiff_x1e4 | lbfgs |" in text
