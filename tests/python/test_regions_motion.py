@@ -69,3 +69,28 @@ def test_moving_boundary_same_at_1_and_2_ranks(tmp_path):
     a, b = run(tmp_path, "np1", deck, ranks=1), run(tmp_path, "np2", deck, ranks=2)
     rel, _, _ = relative_difference(a, b)
     assert rel <= 1e-8
+
+
+GMSH_DECK = {
+    "mesh": {"file": "two_tets.msh"},
+    "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+    "fixed": [{"box": {"min": [-0.1, -0.1, -0.1], "max": [0.1, 1.1, 1.1]}}],
+    "time": {"frames": 3},
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_gmsh_mesh_with_physical_groups_as_region_tags(tmp_path, ranks):
+    import os
+    import shutil
+    from conftest import REPO
+    shutil.copy(os.path.join(REPO, "input/meshes/two_tets.msh"), tmp_path)
+    deck = dict(GMSH_DECK, regions=[{"tags": [2], "material": dict(GMSH_DECK["material"], youngs_modulus=1.0e7)}])
+    out = run(tmp_path, "gmsh", deck, ranks=ranks)
+    f = final_frame(out)
+    assert len(f.vertex_id) == 5 and f.num_cells == 2 and np.all(np.isfinite(f.points))
+    # A tag no element carries is an input error naming the region.
+    bad = dict(GMSH_DECK, regions=[{"tags": [3], "material": GMSH_DECK["material"]}])
+    proc = run_hyperqn([write_deck(tmp_path / "bad.yaml", bad), "-o", tmp_path / "bad"], ranks=ranks, check=False)
+    assert proc.returncode != 0 and "regions[0]" in proc.stdout and "selects no element" in proc.stdout
+    assert not (tmp_path / "bad").exists()
