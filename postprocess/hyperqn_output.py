@@ -42,6 +42,12 @@ def piece_files(path):
     return [path]
 
 
+def is_empty_piece(path):
+    with open(path, "rb") as f:
+        head = f.read(400)
+    return b'NumberOfPoints="0"' in head
+
+
 class Frame:
     """One output frame, merged over pieces and sorted by vertex_id."""
 
@@ -51,6 +57,8 @@ class Frame:
         self.J = []
         self.ranks = []
         for piece in piece_files(path):
+            if is_empty_piece(piece):  # a rank without cells (tiny meshes); meshio cannot read it
+                continue
             m = meshio.read(piece)
             ids.append(np.asarray(m.point_data["vertex_id"]).reshape(-1))
             points.append(m.points)
