@@ -228,7 +228,7 @@ PetscErrorCode LbfgsSolver::solve(Vec x, const IterationCallback& on_iteration, 
   result.grad_norm = last_gnorm_;
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
   result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
-  result.reason = reason == TAO_DIVERGED_LS_FAILURE ? "LINE_SEARCH_FAILURE" : TaoConvergedReasons[reason];
+  result.reason = reason_text(reason);
   PetscFunctionReturn(0);
 }
 

@@ -146,7 +146,7 @@ PetscErrorCode NewtonSolver::solve(Vec x, const IterationCallback& on_iteration,
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
   result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
   result.ls_failures = reason == TAO_DIVERGED_LS_FAILURE;
-  result.reason = reason == TAO_DIVERGED_LS_FAILURE ? "LINE_SEARCH_FAILURE" : TaoConvergedReasons[reason];
+  result.reason = reason_text(reason);
   PetscFunctionReturn(0);
 }
 

@@ -1,7 +1,7 @@
 // The one interface every time-step solver implements: minimize the step's g(x) from an
 // initial guess, reporting each iteration as it happens.
 #pragma once
-#include <petscvec.h>
+#include <petsctao.h>
 
 #include <functional>
 #include <string>
@@ -31,6 +31,14 @@ struct FrameResult {
 
 // Called at iteration 0 and after every iteration; returning true asks the solver to stop after
 // this iteration (used by the study's time limit).
+// TAO's reason in the words the logs use for every solver: the iteration budget is
+// MAX_ITERATIONS (not TAO's "DIVERGED_MAXITS": using the budget is the normal case).
+inline std::string reason_text(TaoConvergedReason reason) {
+  if (reason == TAO_DIVERGED_MAXITS) return "MAX_ITERATIONS";
+  if (reason == TAO_DIVERGED_LS_FAILURE) return "LINE_SEARCH_FAILURE";
+  return TaoConvergedReasons[reason];
+}
+
 using IterationCallback = std::function<bool(const IterationRecord&)>;
 
 class TimeStepSolver {
