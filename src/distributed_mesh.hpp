@@ -38,6 +38,9 @@ struct DistributedMesh {
   }
 };
 
+// Bounding box of the rest positions over all ranks.
+void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);
+
 // Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
 // METIS into one part per rank, distributes it, and builds the dof layout with the vertices
 // flagged in fixed_serial (rank 0: per serial vertex, see select_fixed_vertices) eliminated;

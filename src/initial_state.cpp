@@ -13,16 +13,8 @@ PetscErrorCode apply_initial_state(const InitialSpec& initial, const ElasticBody
   PetscFunctionBeginUser;
   if (initial.kind.empty()) PetscFunctionReturn(0);
   // The rest bounding box over all ranks, and its centre c.
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (PetscInt v = 0; v < m.num_vertices; ++v)
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], m.rest[3 * v + d]);
-      hi[d] = std::max(hi[d], m.rest[3 * v + d]);
-    }
-  MPI_Comm comm = PetscObjectComm((PetscObject)m.dm);
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm));
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm));
-  double c[3];
+  double lo[3], hi[3], c[3];
+  rest_bounding_box(m, lo, hi);
   for (int d = 0; d < 3; ++d) c[d] = 0.5 * (lo[d] + hi[d]);
 
   PetscCall(DMGetLocalVector(m.dm, &xl));

@@ -69,6 +69,16 @@ SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
   return in;
 }
 
+bool load_scene_input_or_report(MPI_Comm comm, const Deck& deck, SceneInput& input) {
+  try {
+    input = load_scene_input(comm, deck);
+    return true;
+  } catch (const InputError& e) {
+    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+    return false;
+  }
+}
+
 PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& s) {
   PetscFunctionBeginUser;
   PetscCall(distribute_mesh(comm, input.mesh, input.fixed, input.cell_material, s.mesh));

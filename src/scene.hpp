@@ -27,6 +27,8 @@ struct SceneInput {
   std::vector<int32_t> cell_material;  // per tet, see select_material_regions
 };
 SceneInput load_scene_input(MPI_Comm comm, const Deck& deck);
+// The same, but an input error is printed ("hyperqn: error: ...") and reported as false.
+bool load_scene_input_or_report(MPI_Comm comm, const Deck& deck, SceneInput& input);
 
 struct Scene {
   DistributedMesh mesh;

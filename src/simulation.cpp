@@ -181,12 +181,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 
   // 1. Everything that can be wrong with the input is checked before any output exists.
   SceneInput input;
-  try {
-    input = load_scene_input(comm, deck);
-  } catch (const InputError& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
-    return 1;
-  }
+  if (!load_scene_input_or_report(comm, deck, input)) return 1;
 
   // 2. Distribute, assemble, factor.
   Scene scene;

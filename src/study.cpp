@@ -43,17 +43,11 @@ PetscErrorCode advance(const Deck& deck, TimeStep& step, TimeStepSolver& solver,
   PetscFunctionReturn(0);
 }
 
-double rest_bbox_diagonal(MPI_Comm comm, const DistributedMesh& m) {
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, glo[3], ghi[3];
-  for (PetscInt v = 0; v < m.num_vertices; ++v)
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], m.rest[3 * v + d]);
-      hi[d] = std::max(hi[d], m.rest[3 * v + d]);
-    }
-  MPI_Allreduce(lo, glo, 3, MPI_DOUBLE, MPI_MIN, comm);
-  MPI_Allreduce(hi, ghi, 3, MPI_DOUBLE, MPI_MAX, comm);
-  return std::sqrt((ghi[0] - glo[0]) * (ghi[0] - glo[0]) + (ghi[1] - glo[1]) * (ghi[1] - glo[1]) +
-                   (ghi[2] - glo[2]) * (ghi[2] - glo[2]));
+double rest_bbox_diagonal(const DistributedMesh& m) {
+  double lo[3], hi[3];
+  rest_bounding_box(m, lo, hi);
+  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
 SolverSpec spec_for(const Deck& deck, const std::string& type, int iterations, double rtol) {
@@ -102,7 +96,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
     PetscCall(VecCopy(x_ref, c->x));
     PetscCall(VecSet(c->v, 0.0));
   }
-  const double diag = rest_bbox_diagonal(comm, scene.mesh);
+  const double diag = rest_bbox_diagonal(scene.mesh);
   const PetscInt free_vertices = scene.mesh.global_dofs / 3;
   const int last_frame = st.trajectory ? deck.time.frames : *std::max_element(st.frames.begin(), st.frames.end());
 
@@ -196,12 +190,7 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   const StudySpec& st = deck.study;
 
   SceneInput input;
-  try {
-    input = load_scene_input(comm, deck);
-  } catch (const InputError& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
-    return 1;
-  }
+  if (!load_scene_input_or_report(comm, deck, input)) return 1;
   bool factor = false;
   for (const std::string& s : st.solvers) factor = factor || solver_uses_constant_matrix(s);
 
