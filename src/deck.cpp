@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 using Names = std::vector<std::string>;
 
 // Allowed names, one table each, so a new model or solver type is one entry here.
-const Names kModels = {"corotated", "neohookean", "stvk", "principal-stretch"};
+const Names kModels = {"corotated", "neohookean", "stvk", "principal-stretch", "mass-spring"};
 const Names kSolverTypes = {"lbfgs", "lbfgs-identity", "newton", "pd"};
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
@@ -276,10 +276,19 @@ FunctionSpec read_function(const Reader& r, const Value& v) {
 
 void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   Section s(r, v, {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density", "total_mass", "J0",
-                   "laplacian_weight", "kappa", "f", "g", "h", "fiber"});
+                   "laplacian_weight", "kappa", "f", "g", "h", "fiber", "spring_stiffness"});
   if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
-  const bool principal = m.model == "principal-stretch";
-  if (principal) {
+  const bool principal = m.model == "principal-stretch", springs = m.model == "mass-spring";
+  if (const Value* x = s.find("spring_stiffness")) {
+    if (!springs) r.fail(*x, "spring_stiffness applies to model mass-spring only");
+  }
+  if (springs) {
+    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda", "f", "g", "h", "fiber", "laplacian_weight"})
+      if (const Value* x = s.find(key)) r.fail(*x, "mass-spring takes spring_stiffness only");
+    const Value& k = s.need("spring_stiffness");
+    m.spring_stiffness = r.number(k);
+    r.check(m.spring_stiffness > 0, k, "> 0");
+  } else if (principal) {
     for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda"})
       if (const Value* x = s.find(key)) r.fail(*x, "principal-stretch takes f, g, h instead of elastic constants");
     if (const Value* x = s.find("f")) m.f = read_function(r, *x);
@@ -332,7 +341,7 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   }
   // The material's own checks (e.g. spline shapes) with the deck's place in the message.
   try {
-    make_material(m);
+    if (!springs) make_material(m);
   } catch (const std::invalid_argument& e) {
     r.fail(v, e.what());
   }

@@ -26,9 +26,10 @@ struct FunctionSpec {
 };
 
 struct MaterialSpec {
-  std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch
+  std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch | mass-spring
   double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
   double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
+  double spring_stiffness = 0;       // mass-spring: k of the spring on each edge of each tet
   FunctionSpec f, g, h;              // principal-stretch: psi = sum f(s_i) + sum g(s_i s_j) + h(J)
   bool has_fiber = false;            // fibre term k/2 (|F d| - 1)^2 on top of the model
   std::array<double, 3> fiber_direction{1, 0, 0};

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "material_params.hpp"
+#include "materials/tet_springs.hpp"
 
 namespace hyperqn {
 
@@ -42,16 +43,20 @@ static Mat9 project_psd(const Mat9& C) {
 
 ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& specs) : mesh_(mesh) {
   for (const MaterialSpec& spec : specs) {
-    materials_.push_back(make_material(spec));
-    weights_.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : materials_.back()->laplacian_weight());
+    const bool springs = spec.model == "mass-spring";
+    materials_.push_back(springs ? nullptr : make_material(spec));
+    spring_k_.push_back(springs ? spec.spring_stiffness : 0.0);
+    weights_.push_back(springs ? 0.0 : spec.laplacian_weight > 0 ? spec.laplacian_weight : materials_.back()->laplacian_weight());
   }
 
   Dm_inv_.resize(mesh.num_cells);
+  Dm_.resize(mesh.num_cells);
   volume_.resize(mesh.num_cells);
   double local_volume = 0;
   for (PetscInt c = 0; c < mesh.num_cells; ++c) {
     Mat3 Dm = edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]);
     Dm_inv_[c] = Dm.inverse();
+    Dm_[c] = Dm;
     volume_[c] = Dm.determinant() / 6.0;  // cells are positively oriented by clean_mesh
     local_volume += volume_[c];
   }
@@ -68,14 +73,16 @@ ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<Material
 }
 
 bool ElasticBody::projective_dynamics_exact() const {
-  for (size_t k = 0; k < materials_.size(); ++k)
+  for (size_t k = 0; k < materials_.size(); ++k) {
+    if (spring_k_[k] > 0) continue;  // springs are a Projective Dynamics energy with L = their own
     if (!materials_[k]->projective_dynamics_exact() || weights_[k] != materials_[k]->laplacian_weight()) return false;
+  }
   return true;
 }
 
 std::string ElasticBody::material_names() const {
   std::string s;
-  for (const auto& m : materials_) s += (s.empty() ? "" : ", ") + m->name();
+  for (const auto& m : materials_) s += (s.empty() ? "" : ", ") + (m ? m->name() : std::string("mass-spring"));
   return s;
 }
 
@@ -151,13 +158,16 @@ PetscErrorCode ElasticBody::energy_gradient(Vec x, PetscReal* energy, Vec grad) 
   for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
     const PetscInt* cell = &mesh_.cells[4 * c];
     const Mat3 F = edge_matrix(pos_.data(), cell) * Dm_inv_[c];
+    const int m = mesh_.cell_material[c];
+    // Continuum materials give an energy density (times V); springs an element energy (times 1).
+    const double k = spring_k_[m], w = k > 0 ? 1.0 : volume_[c];
     if (!grad) {
-      e_local += volume_[c] * materials_[mesh_.cell_material[c]]->energy(F);
+      e_local += w * (k > 0 ? tet_springs::energy(F, Dm_[c], k) : materials_[m]->energy(F));
       continue;
     }
-    e_local += volume_[c] * materials_[mesh_.cell_material[c]]->energy_and_stress(F, P);
-    // dE/dx_k = V P Dm^{-T} e_k for k = 1..3; vertex 0 gets minus their sum.
-    const Mat3 H = volume_[c] * P * Dm_inv_[c].transpose();
+    e_local += w * (k > 0 ? tet_springs::energy_and_stress(F, Dm_[c], k, P) : materials_[m]->energy_and_stress(F, P));
+    // dE/dx_k = w P Dm^{-T} e_k for k = 1..3; vertex 0 gets minus their sum.
+    const Mat3 H = w * P * Dm_inv_[c].transpose();
     const Vec3 f0 = -H.rowwise().sum();
     for (int k = 0; k < 4; ++k) {
       const PetscInt off = mesh_.local_dof[cell[k]];
@@ -209,7 +219,9 @@ PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale, int components
     Eigen::Matrix<double, 3, 4> G;
     G.rightCols<3>() = Dm_inv_[c].transpose();
     G.col(0) = -G.rightCols<3>().rowwise().sum();
-    const Eigen::Matrix4d Le = (scale * weights_[mesh_.cell_material[c]] * volume_[c]) * (G.transpose() * G);
+    const int m = mesh_.cell_material[c];
+    const Eigen::Matrix4d Le = spring_k_[m] > 0 ? (scale * tet_springs::laplacian(spring_k_[m])).eval()
+                                                 : ((scale * weights_[m] * volume_[c]) * (G.transpose() * G)).eval();
     if (components == 1) {
       PetscInt vidx[4];
       for (int i = 0; i < 4; ++i) {
@@ -243,10 +255,12 @@ PetscErrorCode ElasticBody::add_hessian(Vec x, Mat H, PetscReal scale, bool psd)
   for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
     const PetscInt* cell = &mesh_.cells[4 * c];
     const Mat3 F = edge_matrix(pos_.data(), cell) * Dm_inv_[c];
-    const Mat9 dPdF = materials_[mesh_.cell_material[c]]->stress_derivative(F);
-    const Mat9 C = psd ? project_psd(dPdF) : dPdF;
+    const int m = mesh_.cell_material[c];
+    const double k = spring_k_[m];
+    const Mat9 C = k > 0 ? tet_springs::stress_derivative(F, Dm_[c], k, psd)
+                         : psd ? project_psd(materials_[m]->stress_derivative(F)) : materials_[m]->stress_derivative(F);
     const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dm_inv_[c]);
-    Ke.noalias() = (scale * volume_[c]) * (B.transpose() * (C * B));
+    Ke.noalias() = (scale * (k > 0 ? 1.0 : volume_[c])) * (B.transpose() * (C * B));
     // Average with the transpose so H is exactly symmetric whatever the rounding above.
     for (int i = 0; i < 12; ++i)
       for (int j = 0; j < i; ++j) Ke(i, j) = Ke(j, i) = 0.5 * (Ke(i, j) + Ke(j, i));

@@ -66,6 +66,7 @@ class ElasticBody {
   const DistributedMesh& mesh_;
   std::vector<std::unique_ptr<Material>> materials_;  // by mesh.cell_material
   std::vector<double> weights_;      // weight in L, per material
+  std::vector<double> spring_k_;     // per material: > 0 for mass-spring (materials_ entry null)
   std::vector<double> densities_;    // mass per rest volume, per material
   double total_mass_ = 0;
   std::vector<BoxRegion> fixed_regions_;
@@ -73,6 +74,7 @@ class ElasticBody {
   std::vector<double> fixed_vel_;    // 3 per local vertex: prescribed velocities (free: 0)
   double time_ = 0;
   std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix
+  std::vector<Mat3> Dm_;             // per local cell: rest edge matrix (for mass-spring cells)
   std::vector<double> volume_;       // per local cell: rest volume
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions

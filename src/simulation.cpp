@@ -8,7 +8,6 @@
 #include <memory>
 
 #include "initial_state.hpp"
-#include "input_error.hpp"
 #include "run_log.hpp"
 #include "scene.hpp"
 #include "solver_factory.hpp"

@@ -7,7 +7,6 @@
 #include <memory>
 
 #include "initial_state.hpp"
-#include "input_error.hpp"
 #include "scene.hpp"
 #include "solver_factory.hpp"
 #include "study_writer.hpp"

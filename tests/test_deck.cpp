@@ -355,6 +355,13 @@ void test_new_materials() {
   CHECK(d.material.model == "principal-stretch" && d.material.f.kind == "polynomial" && d.material.g.kind.empty());
   CHECK(d.material.h.kind == "spline" && d.material.h.x.size() == 3 && d.material.h.y[2] == 2.0);
   CHECK(d.material.has_fiber && d.material.fiber_direction[1] == 1 && d.material.fiber_stiffness == 3);
+  Deck ms = load_ok("springs", kMesh + "material: {model: mass-spring, spring_stiffness: 40, density: 2}\n");
+  CHECK(ms.material.model == "mass-spring" && ms.material.spring_stiffness == 40);
+  expect_error("springs_without_k", kMesh + "material:\n  model: mass-spring\n  density: 1\n", "material.spring_stiffness", 2);
+  expect_error("springs_with_E", kMesh + "material:\n  model: mass-spring\n  spring_stiffness: 1\n  youngs_modulus: 1\n  density: 1\n",
+               "material.youngs_modulus", 5, "spring_stiffness only");
+  expect_error("k_not_springs", kMesh + "material:\n  mu: 1\n  lambda: 1\n  density: 1\n  spring_stiffness: 5\n",
+               "material.spring_stiffness", 6, "mass-spring only");
   Deck s = load_ok("stvk", kMesh + "material: {model: stvk, mu: 1, lambda: 2, kappa: 100, density: 1}\n");
   CHECK(s.material.model == "stvk" && s.material.kappa == 100);
 }
