@@ -390,10 +390,14 @@ Motion read_motion(const Reader& r, const Value& v) {
 
 void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) {
   for (const Value& item : r.items(v)) {
-    Section region(r, item, {"box", "motion"});
+    Section region(r, item, {"box", "motion", "release"});
     BoxRegion b = read_box(r, region.need("box"));
     b.line = item.line;
     if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
+    if (const Value* x = region.find("release")) {
+      b.release = r.number(*x);
+      r.check(b.release > 0, *x, "> 0 (a time)");
+    }
     fixed.push_back(b);
   }
 }

@@ -57,6 +57,7 @@ struct BoxRegion {
   std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
   int line = 0;                      // deck line, for error messages
   Motion motion;                     // fixed regions only
+  double release = -1;               // fixed regions: time at which its vertices become free (< 0: never)
 };
 
 // Elements with a material other than the deck's default one: those whose centroid lies in a

@@ -46,29 +46,104 @@ static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
 // flagged_frames) and the run goes on from its last accepted iterate; a frame that leaves no
 // finite state (rejected g at every point tried, non-finite positions) stops the run: the last
 // good frame is written (even if it is not an output frame) and nothing non-finite ever is.
-static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeStepSolver& solver, VtkWriter* vtk,
-                                IterationLog& log, RunSummary& summary, bool& ok) {
+// Counters of a scene's objects, added to the summary when the scene is replaced or at the end.
+static void add_scene_counters(const Scene& s, RunSummary& summary) {
+  summary.objective_s += s.step->objective_seconds();
+  summary.rejected_evaluations += s.step->rejected_evaluations();
+  if (s.factored) {
+    summary.h0_solves += s.factored->solves();
+    summary.h0_solve_s += s.factored->solve_seconds();
+  }
+}
+
+// Frees the vertices of the fixed regions whose release time has come: the scene is rebuilt
+// from the kept serial input with those vertices free (same partition, so the same local
+// vertices), M + h^2 L is factored again, and x, v carry over (a released vertex keeps its
+// prescribed position and velocity).
+static PetscErrorCode release_regions(MPI_Comm comm, const Deck& deck, const SceneInput& kept, double t,
+                                      std::vector<char>& released, std::unique_ptr<Scene>& s,
+                                      std::unique_ptr<TimeStepSolver>& solver, Vec* x, Vec* v, VtkWriter* vtk,
+                                      RunSummary& summary) {
+  std::vector<double> pos, vel;
+  PetscFunctionBeginUser;
+  PetscCall(s->body->local_positions(*x, pos));
+  PetscCall(s->body->local_velocities(*v, vel));
+  SceneInput input = kept;
+  for (int32_t& f : input.fixed)
+    if (f > 0 && released[f - 1]) f = 0;
+  auto fresh = std::make_unique<Scene>();
+  std::unique_ptr<TimeStepSolver> fresh_solver;
+  PetscCall(build_scene(comm, deck, input, solver_uses_constant_matrix(deck.solver.type), *fresh));
+  PetscCall(create_solver(deck.solver, *fresh->step, fresh->factored.get(), fresh_solver));
+  fresh->body->set_time(t);
+  // The partition is the same, so the local vertices are too; check rather than assume.
+  PetscCheck(fresh->mesh.vertex_ids == s->mesh.vertex_ids, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the local vertices changed when fixed regions were released");
+  Vec xl, vl;
+  PetscScalar *a, *b;
+  PetscCall(DMGetLocalVector(fresh->mesh.dm, &xl));
+  PetscCall(DMGetLocalVector(fresh->mesh.dm, &vl));
+  PetscCall(VecGetArray(xl, &a));
+  PetscCall(VecGetArray(vl, &b));
+  for (PetscInt i = 0; i < fresh->mesh.num_vertices; ++i) {
+    const PetscInt off = fresh->mesh.local_dof[i];
+    if (off < 0) continue;
+    for (int d = 0; d < 3; ++d) {
+      a[off + d] = pos[3 * i + d];
+      b[off + d] = vel[3 * i + d];
+    }
+  }
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecRestoreArray(vl, &b));
+  PetscCall(VecDestroy(x));
+  PetscCall(VecDestroy(v));
+  PetscCall(DMCreateGlobalVector(fresh->mesh.dm, x));
+  PetscCall(VecDuplicate(*x, v));
+  PetscCall(DMLocalToGlobal(fresh->mesh.dm, xl, INSERT_VALUES, *x));
+  PetscCall(DMLocalToGlobal(fresh->mesh.dm, vl, INSERT_VALUES, *v));
+  PetscCall(DMRestoreLocalVector(fresh->mesh.dm, &xl));
+  PetscCall(DMRestoreLocalVector(fresh->mesh.dm, &vl));
+
+  add_scene_counters(*s, summary);
+  if (fresh->factored) {
+    summary.factorizations += fresh->factored->factorizations();
+    summary.factor_s += fresh->factored->factor_seconds();
+  }
+  summary.dofs = fresh->mesh.global_dofs;
+  summary.fixed_vertices = fresh->mesh.global_fixed_vertices;
+  if (vtk) vtk->set_mesh(fresh->mesh);
+  solver.reset();  // it refers to the old scene
+  s = std::move(fresh);
+  solver = std::move(fresh_solver);
+  PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released (free from this step on); %lld dofs now, M + h^2 L factored again\n", t,
+                        (long long)summary.dofs));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInput& kept, std::unique_ptr<Scene>& s,
+                                std::unique_ptr<TimeStepSolver>& solver, VtkWriter* vtk, IterationLog& log,
+                                RunSummary& summary, bool& ok) {
   PetscMPIInt rank;
   Vec x, v, x_prev, v_prev;
   std::vector<double> pos, vel, J;
   PetscFunctionBeginUser;
   ok = true;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  PetscCall(VecDuplicate(s.step->layout(), &x));
+  PetscCall(VecDuplicate(s->step->layout(), &x));
   PetscCall(VecDuplicate(x, &v));
   PetscCall(VecDuplicate(x, &x_prev));
   PetscCall(VecDuplicate(x, &v_prev));
-  PetscCall(s.body->rest_positions(x));
-  PetscCall(apply_initial_state(deck.initial, *s.body, x));
+  PetscCall(s->body->rest_positions(x));
+  PetscCall(apply_initial_state(deck.initial, *s->body, x));
   PetscCall(VecSet(v, 0.0));
 
   int last_written = -1;
   // Writes frame `frame` from x and v, unless a position, velocity or J is not finite.
   auto write_frame = [&](int frame, bool* written) -> PetscErrorCode {
     PetscFunctionBeginUser;
-    PetscCall(s.body->local_positions(x, pos));
-    PetscCall(s.body->local_velocities(v, vel));
-    s.body->cell_jacobians(pos, J);
+    PetscCall(s->body->local_positions(x, pos));
+    PetscCall(s->body->local_velocities(v, vel));
+    s->body->cell_jacobians(pos, J);
     int local = 1, finite;
     for (const auto* values : {&pos, &vel, &J})
       for (double a : *values) local &= std::isfinite(a) ? 1 : 0;
@@ -85,13 +160,27 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeS
   PetscCall(write_frame(0, &written));
 
   const double h = deck.time.dt;
+  std::vector<char> released(deck.fixed.size(), 0);
   for (int frame = 1; frame <= deck.time.frames; ++frame) {
-    s.body->set_time(frame * h);  // prescribed positions of the fixed vertices at t_{n+1}
-    PetscCall(s.step->set_inertial_target(x, v));
+    bool release_now = false;
+    for (size_t k = 0; k < deck.fixed.size(); ++k)
+      if (!released[k] && deck.fixed[k].release > 0 && deck.fixed[k].release <= frame * h + 1e-12 * h) {
+        released[k] = 1;
+        release_now = true;
+      }
+    if (release_now) {
+      PetscCall(VecDestroy(&x_prev));
+      PetscCall(VecDestroy(&v_prev));
+      PetscCall(release_regions(comm, deck, kept, (frame - 1) * h, released, s, solver, &x, &v, vtk, summary));
+      PetscCall(VecDuplicate(x, &x_prev));
+      PetscCall(VecDuplicate(x, &v_prev));
+    }
+    s->body->set_time(frame * h);  // prescribed positions of the fixed vertices at t_{n+1}
+    PetscCall(s->step->set_inertial_target(x, v));
     PetscCall(VecCopy(x, x_prev));
     PetscCall(VecCopy(v, v_prev));
     const bool inertial = deck.solver.warm_start == "inertial";
-    if (inertial) PetscCall(VecCopy(s.step->inertial_target(), x));
+    if (inertial) PetscCall(VecCopy(s->step->inertial_target(), x));
 
     FrameResult r;
     const auto log_iteration = [&](const IterationRecord& it) {
@@ -99,15 +188,15 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeS
       return false;
     };
     const double t0 = MPI_Wtime();
-    PetscCall(solver.solve(x, log_iteration, r));
-    summary.evaluations += s.step->evaluations();
+    PetscCall(solver->solve(x, log_iteration, r));
+    summary.evaluations += s->step->evaluations();
     if (inertial && r.reason == "REJECTED_INITIAL_GUESS") {
       // g is not finite at y (e.g. y inverts elements of a material without an extension):
       // start from x_n instead.
       PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; starting from x_n\n", frame));
       PetscCall(VecCopy(x_prev, x));
-      PetscCall(solver.solve(x, log_iteration, r));
-      summary.evaluations += s.step->evaluations();
+      PetscCall(solver->solve(x, log_iteration, r));
+      summary.evaluations += s->step->evaluations();
     }
     const double ms = 1e3 * (MPI_Wtime() - t0);
     summary.solve_s += ms / 1e3;
@@ -157,14 +246,13 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, Scene& s, TimeS
     summary.frames = frame - 1;
     PetscCall(VecCopy(x_prev, x));
     PetscCall(VecCopy(v_prev, v));
-    s.body->set_time((frame - 1) * h);
+    s->body->set_time((frame - 1) * h);
     if (last_written != frame - 1) PetscCall(write_frame(frame - 1, &written));
     summary.status = "error: frame " + std::to_string(frame) + ": " + why + "; stopped, the last frame written is " +
                      std::to_string(last_written);
     ok = false;
     break;
   }
-  summary.rejected_evaluations = s.step->rejected_evaluations();
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&v));
   PetscCall(VecDestroy(&x_prev));
@@ -182,8 +270,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
 
-  // 2. Distribute, assemble, factor.
-  Scene scene;
+  // 2. Distribute, assemble, factor. (Fixed regions that are released later need the serial
+  // input again then.)
+  bool releases = false;
+  for (const BoxRegion& b : deck.fixed) releases = releases || b.release > 0;
+  const SceneInput kept = releases ? input : SceneInput();
+  auto scene_ptr = std::make_unique<Scene>();
+  Scene& scene = *scene_ptr;
   std::unique_ptr<TimeStepSolver> solver;
   if (build_scene(comm, deck, input, solver_uses_constant_matrix(deck.solver.type), scene) ||
       create_solver(deck.solver, *scene.step, scene.factored.get(), solver)) {
@@ -219,7 +312,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     MPI_Barrier(comm);
     if (deck.output.vtk) vtk = std::make_unique<VtkWriter>(comm, scene.mesh, outdir, deck.name);
     if (deck.output.iterations_csv) log.open(outdir + "/iterations.csv", rank);
-    if (time_loop(comm, deck, scene, *solver, vtk.get(), log, summary, ok)) {
+    if (time_loop(comm, deck, kept, scene_ptr, solver, vtk.get(), log, summary, ok)) {
       summary.status = "error: PETSc error during the time loop";
       ok = false;
     }
@@ -235,12 +328,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     summary.mean_iterations = (double)summary.iterations / summary.frames;
   }
   if (summary.iterations > 0) summary.ms_per_iteration = 1e3 * summary.solve_s / summary.iterations;
-  summary.objective_s = scene.step->objective_seconds();
-  if (scene.factored) {
-    summary.h0_solves = scene.factored->solves();
-    summary.h0_solve_s = scene.factored->solve_seconds();
-    summary.factorizations = scene.factored->factorizations();
-  }
+  add_scene_counters(*scene_ptr, summary);  // the scene in use at the end (see release_regions)
   double rss = peak_rss_mb();
   MPI_Allreduce(&rss, &summary.peak_rss_mb, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);

@@ -33,6 +33,7 @@ struct Contender {
 PetscErrorCode advance(const Deck& deck, TimeStep& step, TimeStepSolver& solver, Vec x, Vec v, Vec work,
                        const IterationCallback& cb, FrameResult& r) {
   PetscFunctionBeginUser;
+  // (The caller has set the prescribed positions of moving fixed regions for this step.)
   PetscCall(step.set_inertial_target(x, v));
   PetscCall(VecCopy(x, work));  // x_n
   if (deck.solver.warm_start == "inertial") PetscCall(VecCopy(step.inertial_target(), x));
@@ -101,6 +102,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
 
   for (int frame = 1; frame <= last_frame; ++frame) {
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
+    scene.body->set_time(frame * deck.time.dt);  // moving fixed regions (release is not supported here)
     std::vector<StudyCurve> curves;
     auto recorder = [&](StudyCurve& curve) {
       return [&curve, &st](const IterationRecord& r) {
@@ -190,6 +192,8 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
+  for (const BoxRegion& b : deck.fixed)
+    if (b.release > 0) PetscPrintf(comm, "study: fixed regions are not released in a study (release %g ignored)\n", b.release);
   bool factor = false;
   for (const std::string& s : st.solvers) factor = factor || solver_uses_constant_matrix(s);
 

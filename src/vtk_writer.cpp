@@ -64,22 +64,22 @@ void check_stream(const std::ofstream& out, const std::string& path) {
 }  // namespace
 
 VtkWriter::VtkWriter(MPI_Comm comm, const DistributedMesh& mesh, std::string directory, std::string name)
-    : comm_(comm), mesh_(mesh), dir_(std::move(directory)), name_(std::move(name)) {}
+    : comm_(comm), mesh_(&mesh), dir_(std::move(directory)), name_(std::move(name)) {}
 
 void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
-  const PetscInt nv = mesh_.num_vertices, nc = mesh_.num_cells;
+  const PetscInt nv = mesh_->num_vertices, nc = mesh_->num_cells;
   int rank;
   MPI_Comm_rank(comm_, &rank);
   std::vector<double> disp(3 * nv);
-  for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_.rest[i];
-  std::vector<int64_t> conn(mesh_.cells.begin(), mesh_.cells.end()), offsets(nc);
+  for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
+  std::vector<int64_t> conn(mesh_->cells.begin(), mesh_->cells.end()), offsets(nc);
   for (PetscInt c = 0; c < nc; ++c) offsets[c] = 4 * (c + 1);
   std::vector<uint8_t> types(nc, 10);  // VTK_TETRA
   std::vector<int32_t> ranks(nc, rank);
 
   const std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                          make_array("Float64", "velocity", 3, *f.velocities),
-                                         make_array("Int64", "vertex_id", 1, mesh_.vertex_ids)};
+                                         make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
   const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, *f.J)};
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),

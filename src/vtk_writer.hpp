@@ -27,6 +27,8 @@ class VtkWriter {
   // Writes one frame and rewrites the .pvd so it is valid even if the run stops later.
   // Throws std::runtime_error if a file cannot be written.
   void write(const VtkFrame& f);
+  // The mesh whose local arrays the next frames hold (after fixed regions were released).
+  void set_mesh(const DistributedMesh& mesh) { mesh_ = &mesh; }
 
  private:
   void write_piece(const std::string& path, const VtkFrame& f) const;
@@ -34,7 +36,7 @@ class VtkWriter {
   void write_pvd() const;
 
   MPI_Comm comm_;
-  const DistributedMesh& mesh_;
+  const DistributedMesh* mesh_;
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
 };

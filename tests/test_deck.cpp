@@ -408,6 +408,9 @@ fixed:
   const std::string fixed = "fixed:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n    motion:\n";
   expect_error("motion_zero_axis", kHead + fixed + "      rotate: {axis: [0, 0, 0], rate: 1}\n", "fixed[0].motion.rotate.axis", 6);
   expect_error("motion_end_before_start", kHead + fixed + "      start: 2\n      end: 1\n", "fixed[0].motion.end", 7);
+  Deck rel = load_ok("release", kHead + "fixed:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n    release: 2.5\n");
+  CHECK(rel.fixed[0].release == 2.5);
+  expect_error("release_zero", kHead + "fixed:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n    release: 0\n", "fixed[0].release", 5);
   expect_error("motion_unknown_key", kHead + fixed + "      spin: 1\n", "fixed[0].motion.spin", 6);
 }
 
