@@ -86,12 +86,6 @@ std::string ElasticBody::material_names() const {
   return s;
 }
 
-bool ElasticBody::has_moving_boundary() const {
-  for (const BoxRegion& b : fixed_regions_)
-    if (b.motion.active) return true;
-  return false;
-}
-
 // Position at time t of a point X moved by the motion (see Motion in deck.hpp).
 static Vec3 moved(const Motion& m, const Vec3& X, double t) {
   const double tau = std::min(std::max(t, m.start), m.end) - m.start;

@@ -32,7 +32,6 @@ class ElasticBody {
   void set_fixed_motion(const std::vector<BoxRegion>& fixed) { fixed_regions_ = fixed; }
   // Moves the fixed vertices to their prescribed positions at time t (rest positions if none).
   void set_time(double t);
-  bool has_moving_boundary() const;
 
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.

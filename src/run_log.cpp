@@ -78,6 +78,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"objective_s\": " << number(s.objective_s) << ",\n"
       << "  \"h0_solves\": " << s.h0_solves << ",\n"
       << "  \"h0_solve_s\": " << number(s.h0_solve_s) << ",\n"
+      << "  \"hessian_s\": " << number(s.hessian_s) << ",\n"
       << "  \"converged_frames\": " << s.converged_frames << ",\n"
       << "  \"failed_frames\": " << s.failed_frames << ",\n"
       << "  \"flagged_frames\": " << flagged << ",\n"

@@ -31,6 +31,7 @@ struct RunSummary {
   double ms_per_frame = 0, ms_per_iteration = 0, mean_iterations = 0;
   long long iterations = 0, evaluations = 0, h0_solves = 0;
   double objective_s = 0, h0_solve_s = 0;     // time in g / grad g evaluations and in A^{-1} solves
+  double hessian_s = 0;                       // newton: time assembling M + h^2 K
   long long converged_frames = 0, failed_frames = 0;
   // Guardrails: line searches that failed (each followed by a retry), evaluations rejected for a
   // non-finite g or grad g, and the frames that could not decrease g (or stopped the run), with

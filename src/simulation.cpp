@@ -49,6 +49,7 @@ static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
 // Counters of a scene's objects, added to the summary when the scene is replaced or at the end.
 static void add_scene_counters(const Scene& s, RunSummary& summary) {
   summary.objective_s += s.step->objective_seconds();
+  summary.hessian_s += s.step->hessian_seconds();
   summary.rejected_evaluations += s.step->rejected_evaluations();
   if (s.factored) {
     summary.h0_solves += s.factored->solves();
