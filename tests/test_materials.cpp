@@ -548,9 +548,33 @@ void check_factory() {
   CHECK(!make_fiber(make_corotated(1.3, 0.0), Vec3::UnitX(), 1.0)->projective_dynamics_exact());
 }
 
+// The fast signed SVD (eigen-decomposition of F^T F) against the Jacobi one on random
+// well-conditioned poses: the same singular values and the same polar rotation U V^T.
+void check_fast_svd() {
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  double worst = 0;
+  for (int n = 0; n < 1000; ++n) {
+    Mat3 F = Mat3::Identity();
+    for (int i = 0; i < 9; ++i) F(i % 3, i / 3) += u(gen);
+    if (n % 3 == 0) F = Eigen::AngleAxisd(3.0 * u(gen), Vec3(u(gen), u(gen), 1).normalized()) * F;
+    if (F.determinant() <= 0) continue;
+    const SignedSVD a = signed_svd(F), b = signed_svd_jacobi(F);
+    worst = std::max({worst, (a.sigma - b.sigma).cwiseAbs().maxCoeff(), (a.rotation() - b.rotation()).cwiseAbs().maxCoeff(),
+                      (a.U * a.sigma.asDiagonal() * a.V.transpose() - F).cwiseAbs().maxCoeff()});
+  }
+  CHECK_MSG(worst < 1e-12, "fast signed SVD differs from Jacobi by " + std::to_string(worst));
+  // Exactly at rest (a triple singular value) and under uniform scaling.
+  for (double c : {1.0, 0.5, 2.0}) {
+    const SignedSVD a = signed_svd(c * Mat3::Identity());
+    CHECK((a.rotation() - Mat3::Identity()).cwiseAbs().maxCoeff() < 1e-14 && std::fabs(a.sigma(2) - c) < 1e-14);
+  }
+}
+
 }  // namespace
 
 int main() {
+  check_fast_svd();
   const std::vector<Pose> poses = make_poses();
   for (const Pose& p : poses) check_signed_svd(p);
   check_polynomial();
