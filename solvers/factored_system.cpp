@@ -57,44 +57,40 @@ PetscErrorCode FactoredSystem::setup(const TimeStep& step) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::to_columns(Vec v, Mat cols) const {
-  const PetscScalar* a;
-  PetscScalar* c;
+// Dof vector (x, y, z per vertex) <-> n x 3 dense matrix of its x, y, z columns.
+PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) const {
   PetscInt n, lda;
   PetscFunctionBeginUser;
   PetscCall(MatGetLocalSize(cols, &n, nullptr));
   PetscCall(MatDenseGetLDA(cols, &lda));
-  PetscCall(VecGetArrayRead(v, &a));
-  PetscCall(MatDenseGetArrayWrite(cols, &c));
-  for (PetscInt i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d) c[i + d * lda] = a[3 * i + d];
-  PetscCall(MatDenseRestoreArrayWrite(cols, &c));
-  PetscCall(VecRestoreArrayRead(v, &a));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode FactoredSystem::from_columns(Mat cols, Vec v) const {
-  const PetscScalar* c;
-  PetscScalar* a;
-  PetscInt n, lda;
-  PetscFunctionBeginUser;
-  PetscCall(MatGetLocalSize(cols, &n, nullptr));
-  PetscCall(MatDenseGetLDA(cols, &lda));
-  PetscCall(MatDenseGetArrayRead(cols, &c));
-  PetscCall(VecGetArrayWrite(v, &a));
-  for (PetscInt i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d) a[3 * i + d] = c[i + d * lda];
-  PetscCall(VecRestoreArrayWrite(v, &a));
-  PetscCall(MatDenseRestoreArrayRead(cols, &c));
+  if (to_columns) {  // read v, write cols (v's state stays unchanged)
+    const PetscScalar* a;
+    PetscScalar* c;
+    PetscCall(VecGetArrayRead(v, &a));
+    PetscCall(MatDenseGetArrayWrite(cols, &c));
+    for (PetscInt i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) c[i + d * lda] = a[3 * i + d];
+    PetscCall(MatDenseRestoreArrayWrite(cols, &c));
+    PetscCall(VecRestoreArrayRead(v, &a));
+  } else {
+    const PetscScalar* c;
+    PetscScalar* a;
+    PetscCall(MatDenseGetArrayRead(cols, &c));
+    PetscCall(VecGetArrayWrite(v, &a));
+    for (PetscInt i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) a[3 * i + d] = c[i + d * lda];
+    PetscCall(VecRestoreArrayWrite(v, &a));
+    PetscCall(MatDenseRestoreArrayRead(cols, &c));
+  }
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   const double t0 = MPI_Wtime();
-  PetscCall(to_columns(b, rhs_));
+  PetscCall(copy_columns(b, rhs_, true));
   PetscCall(MatMatSolve(factor_, rhs_, sol_));
-  PetscCall(from_columns(sol_, x));
+  PetscCall(copy_columns(x, sol_, false));
   ++solves_;
   solve_s_ += MPI_Wtime() - t0;
   PetscFunctionReturn(0);
@@ -102,7 +98,7 @@ PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
 
 PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
   PetscFunctionBeginUser;
-  PetscCall(to_columns(x, rhs_));
+  PetscCall(copy_columns(x, rhs_, true));
   for (PetscInt d = 0; d < 3; ++d) {
     Vec in, out;
     PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
@@ -111,7 +107,7 @@ PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
     PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
     PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
   }
-  PetscCall(from_columns(sol_, y));
+  PetscCall(copy_columns(y, sol_, false));
   PetscFunctionReturn(0);
 }
 

@@ -35,9 +35,8 @@ class FactoredSystem {
   double solve_seconds() const { return solve_s_; }
 
  private:
-  // Dof vector <-> the n x 3 dense matrix of its x, y, z columns.
-  PetscErrorCode to_columns(Vec v, Mat cols) const;
-  PetscErrorCode from_columns(Mat cols, Vec v) const;
+  // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
+  PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
   Mat A1_ = nullptr, factor_ = nullptr, shell_ = nullptr;
   Mat rhs_ = nullptr, sol_ = nullptr;  // n x 3 dense work matrices

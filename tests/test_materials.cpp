@@ -29,6 +29,17 @@ using namespace hyperqn;
 
 namespace {
 
+// True if make() throws std::invalid_argument (the materials' way to reject parameters).
+template <typename F>
+bool throws(F make) {
+  try {
+    make();
+  } catch (const std::invalid_argument&) {
+    return true;
+  }
+  return false;
+}
+
 constexpr double kStep = 1e-6;  // central-difference step on entries of F
 
 struct Pose {
@@ -287,14 +298,6 @@ void check_spline() {
     CHECK_NEAR(line.value(x), x * x - x, 1e-13);  // integral_1^x (2t - 1) dt
   }
   // Invalid input.
-  auto throws = [](auto make) {
-    try {
-      make();
-    } catch (const std::invalid_argument&) {
-      return true;
-    }
-    return false;
-  };
   CHECK(throws([] { MonotoneSplineFunction({1.0}, {0.0}); }));
   CHECK(throws([] { MonotoneSplineFunction({0.0, 1.0}, {0.0}); }));
   CHECK(throws([] { MonotoneSplineFunction({0.0, 1.0, 1.0}, {0.0, 1.0, 2.0}); }));
@@ -481,14 +484,6 @@ void check_factory() {
   CHECK(make_material("corotated", 1.3, 2.1, 0.1)->name() == "corotated");
   CHECK(make_material("neohookean", 1.3, 2.1, 0.1)->name() == "neohookean");
   CHECK(make_material("stvk", 1.3, 2.1, 0.1)->name() == "stvk");
-  auto throws = [](auto make) {
-    try {
-      make();
-    } catch (const std::invalid_argument&) {
-      return true;
-    }
-    return false;
-  };
   CHECK_MSG(throws([] { make_material("mooney-rivlin", 1.0, 1.0, 0.1); }), "unknown model should throw");
   CHECK_MSG(throws([] { make_material("neohookean", 1.0, 1.0, 0.0); }), "neohookean, J0 = 0 should throw");
   CHECK_MSG(throws([] { make_material("principal-stretch", 1.0, 1.0, 0.1); }), "principal-stretch without f, g, h");
