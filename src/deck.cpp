@@ -28,6 +28,7 @@ const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
 const Names kLineSearches = {"more-thuente", "armijo", "unit"};
 const Names kWarmStarts = {"inertial", "previous"};
+const Names kMeshEdges = {"ignore", "strands"};
 
 std::string join(const Names& names) {
   std::string s;
@@ -193,11 +194,31 @@ std::string resolve_mesh_file(const Reader& r, const Value& v, const fs::path& d
 }
 
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
-  Section s(r, v, {"file", "box", "transform"});
-  const Value *file = s.find("file"), *box = s.find("box");
+  Section s(r, v, {"file", "box", "transform", "edges", "strands"});
+  const Value *file = s.find("file"), *box = s.find("box"), *strands = s.find("strands");
   if (file && box) r.fail(v, "give either file or box, not both");
-  if (!file && !box) r.fail(v, "missing the mesh: give file (a .mesh or .msh path) or box");
+  if (!file && !box && !strands) r.fail(v, "missing the mesh: give file (a .mesh or .msh path), box or strands");
   if (file) m.file = resolve_mesh_file(r, *file, deck_dir);
+  if (const Value* x = s.find("edges")) {
+    m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
+    if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh"))
+      r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
+  }
+  if (strands) {
+    for (const Value& item : r.items(*strands)) {
+      Section st(r, item, {"from", "to", "segments"});
+      StrandLine line;
+      line.line = item.line;
+      line.from = r.numbers3(st.need("from"));
+      line.to = r.numbers3(st.need("to"));
+      const Value& n = st.need("segments");
+      line.segments = r.integer(n);
+      r.check(line.segments >= 1, n, ">= 1");
+      if (line.from == line.to) r.fail(st.need("to"), "a strand needs distinct from and to points");
+      m.strands.push_back(line);
+    }
+    if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
+  }
   if (box) {
     Section b(r, *box, {"size", "cells"});
     m.is_box = true;
@@ -220,6 +241,15 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     if (const Value* x = ts.find("rotate")) m.transform.rotate_deg = r.numbers3(*x);
     if (const Value* x = ts.find("translate")) m.transform.translate = r.numbers3(*x);
   }
+}
+
+void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
+  Section s(r, v, {"axial_stiffness", "linear_density"});
+  const Value &k = s.need("axial_stiffness"), &rho = s.need("linear_density");
+  m.axial_stiffness = r.number(k);
+  r.check(m.axial_stiffness > 0, k, "> 0");
+  m.linear_density = r.number(rho);
+  r.check(m.linear_density > 0, rho, "> 0");
 }
 
 // A pair of keys that only make sense together: the missing one is reported at the other's line.
@@ -576,16 +606,38 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "regions", "fixed", "initial", "gravity", "time", "solver", "output",
-             "study", "petsc"});
+            {"name", "mesh", "material", "strand_material", "regions", "fixed", "initial", "gravity", "time", "solver",
+             "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory name (output/<name>).
     if (deck.name.empty() || deck.name.find_first_of("/\\") != std::string::npos)
       r.fail(*x, "must be a non-empty name without '/' or '\\'");
   }
-  read_mesh(r, s.need("mesh"), fs::path(path).parent_path(), deck.mesh);
-  read_material(r, s.need("material"), deck.material);
+  const Value& mesh = s.need("mesh");
+  read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
+  // material (and regions) describe the tets, strand_material the strand segments: each is
+  // required exactly when the mesh has that kind of element. Whether a Medit file read for its
+  // edges also has tets is only known once it is read (load_scene_mesh checks).
+  const bool may_be_strands_only = deck.mesh.edges_as_strands;
+  if (const Value* x = s.find("material"); x && deck.mesh.has_solid()) {
+    read_material(r, *x, deck.material);
+    deck.has_material = true;
+  } else if (deck.mesh.has_solid() && !may_be_strands_only) {
+    s.need("material");
+  } else if (!deck.mesh.has_solid()) {
+    for (const char* key : {"material", "regions"})
+      if (const Value* x = s.find(key))
+        r.fail(*x, "the mesh is strands only (no file or box): " + std::string(key) +
+                       " describes tets; the strands take strand_material");
+  }
+  if (deck.mesh.has_strands()) {
+    if (!s.find("strand_material"))
+      r.fail(mesh.line, "strand_material", "missing required key 'strand_material': the mesh has strands");
+    read_strand_material(r, *s.find("strand_material"), deck.strand_material);
+  } else if (const Value* x = s.find("strand_material")) {
+    r.fail(*x, "the mesh has no strands (give mesh.strands, or mesh.edges: strands with a Medit file)");
+  }
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);

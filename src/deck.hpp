@@ -15,7 +15,18 @@ struct MeshSpec {
   bool is_box = false;               // generated box instead of a file
   std::array<double, 3> box_size{1, 1, 1};
   std::array<int, 3> box_cells{1, 1, 1};
-  MeshTransform transform;
+  MeshTransform transform;           // applied to the file or box mesh (not to the strands below)
+  bool edges_as_strands = false;     // Medit file: its Edges section becomes strand segments
+  std::vector<StrandLine> strands;   // generated strands, world coordinates, after the transform
+  bool has_strands() const { return edges_as_strands || !strands.empty(); }
+  bool has_solid() const { return is_box || !file.empty(); }
+};
+
+// The material of all strand segments: a segment of rest length L stores
+// E = EA/(2L) (l - L)^2 = L/2 EA (l/L - 1)^2 and carries linear_density * L of mass.
+struct StrandMaterial {
+  double axial_stiffness = 0;        // EA: force per unit strain (N)
+  double linear_density = 0;         // mass per unit rest length (kg/m)
 };
 
 // A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
@@ -121,7 +132,9 @@ struct Deck {
   std::string path;                  // the deck file
   std::string name;                  // deck file name without directory and extension
   MeshSpec mesh;
-  MaterialSpec material;                 // the default material
+  MaterialSpec material;                 // the default material (of the tets)
+  bool has_material = false;             // material given (needed iff the mesh has tets)
+  StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
   std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
   InitialSpec initial;

@@ -9,14 +9,18 @@
 
 namespace hyperqn {
 
-// Element partition of the serial mesh: METIS k-way on the dual graph (tets sharing a face).
+// Element partition of the serial mesh (tets, then segments): METIS k-way on the dual graph.
+// Tets are neighbours when they share a face; with strands, elements sharing a vertex are, since
+// consecutive segments share only that.
 static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
-  idx_t ne = (idx_t)mesh.num_tets(), nn = (idx_t)mesh.num_vertices();
+  const idx_t nt = (idx_t)mesh.num_tets(), ns = (idx_t)mesh.num_segments();
+  idx_t ne = nt + ns, nn = (idx_t)mesh.num_vertices();
   std::vector<PetscInt> part(ne, 0);
   if (nparts == 1 || ne == 0) return part;
   std::vector<idx_t> eptr(ne + 1), eind(mesh.tets.begin(), mesh.tets.end());
-  for (idx_t e = 0; e <= ne; ++e) eptr[e] = 4 * e;
-  idx_t ncommon = 3, np = nparts, objval = 0;
+  eind.insert(eind.end(), mesh.segments.begin(), mesh.segments.end());
+  for (idx_t e = 0; e <= ne; ++e) eptr[e] = e <= nt ? 4 * e : 4 * nt + 2 * (e - nt);
+  idx_t ncommon = ns > 0 ? 1 : 3, np = nparts, objval = 0;
   idx_t opts[METIS_NOPTIONS];
   METIS_SetDefaultOptions(opts);
   opts[METIS_OPTION_SEED] = 7;  // fixed seed: the same partition on every run
@@ -26,6 +30,43 @@ static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
   if (status != METIS_OK) return {};
   std::copy(epart.begin(), epart.end(), part.begin());
   return part;
+}
+
+// The serial DMPlex on rank 0 (empty elsewhere): non-interpolated (vertex dofs need no edges or
+// faces), points = tets, segments, vertices.
+static PetscErrorCode create_serial_plex(MPI_Comm comm, const TetMesh& serial, DM* dm) {
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const PetscInt nt = rank == 0 ? (PetscInt)serial.num_tets() : 0;
+  const PetscInt ns = rank == 0 ? (PetscInt)serial.num_segments() : 0;
+  const PetscInt nv = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
+  const PetscInt nc = nt + ns;
+  PetscInt num_points[2] = {nv, nc};  // by depth: vertices, cells
+  std::vector<PetscInt> cone_size(nc + nv, 0), cones, orientations;
+  for (PetscInt c = 0; c < nc; ++c) cone_size[c] = c < nt ? 4 : 2;
+  cones.reserve(4 * nt + 2 * ns);
+  for (int32_t v : serial.tets) cones.push_back(nc + v);  // vertex points come after the cells
+  for (int32_t v : serial.segments) cones.push_back(nc + v);
+  orientations.assign(cones.size(), 0);
+  PetscCall(DMCreate(comm, dm));
+  PetscCall(DMSetType(*dm, DMPLEX));
+  PetscCall(DMSetDimension(*dm, 3));
+  PetscCall(DMPlexCreateFromDAG(*dm, 1, num_points, cone_size.data(), cones.data(), orientations.data(),
+                                serial.coords.data()));
+  // DMPlexDistribute orders the migrated points of a non-interpolated mesh by the dimension of
+  // their cell type, cells (3) and vertices (0) only: a segment, typed as a 1-dimensional
+  // polytope, would get no place (PETSc 3.18 then fails with duplicate SF leaves). A segment is a
+  // cell of this mesh like a tet, so it is typed like one; nothing else reads the cell type.
+  if (ns > 0) {
+    DMLabel cell_type;
+    PetscCall(DMPlexGetCellTypeLabel(*dm, &cell_type));
+    for (PetscInt c = nt; c < nc; ++c) {
+      PetscCall(DMLabelClearValue(cell_type, c, DM_POLYTOPE_SEGMENT));
+      PetscCall(DMLabelSetValue(cell_type, c, DM_POLYTOPE_TETRAHEDRON));
+    }
+  }
+  PetscFunctionReturn(0);
 }
 
 // Rank 0 computes the METIS partition and gives it to the shell partitioner; the other ranks
@@ -38,7 +79,8 @@ static PetscErrorCode set_metis_partition(DM dm, const TetMesh& serial) {
   std::vector<PetscInt> sizes(size, 0), points;
   if (rank == 0) {
     std::vector<PetscInt> part = metis_partition(serial, size);
-    PetscCheck(part.size() == (size_t)serial.num_tets(), PETSC_COMM_SELF, PETSC_ERR_LIB, "METIS partitioning failed");
+    PetscCheck(part.size() == (size_t)(serial.num_tets() + serial.num_segments()), PETSC_COMM_SELF, PETSC_ERR_LIB,
+               "METIS partitioning failed");
     for (PetscInt p : part) sizes[p]++;
     std::vector<PetscInt> start(size, 0);
     for (int p = 1; p < size; ++p) start[p] = start[p - 1] + sizes[p - 1];
@@ -84,21 +126,27 @@ static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<in
   PetscFunctionBeginUser;
   PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
   PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
-  m.num_cells = cEnd - cStart;
   m.num_vertices = vEnd - vStart;
 
-  m.cells.resize(4 * m.num_cells);
-  m.cell_tags.resize(m.num_cells);
-  m.cell_material.assign(point_flag.begin() + cStart, point_flag.begin() + cEnd);
+  // Cells of 4 vertices are tets, of 2 strand segments.
+  m.cells.clear();
+  m.cell_tags.clear();
+  m.cell_material.clear();
+  m.segments.clear();
+  m.segment_tags.clear();
   for (PetscInt c = cStart; c < cEnd; ++c) {
     const PetscInt* cone;
     PetscInt n;
     PetscCall(DMPlexGetConeSize(m.dm, c, &n));
-    PetscCheck(n == 4, PETSC_COMM_SELF, PETSC_ERR_PLIB, "cell %" PetscInt_FMT " has %" PetscInt_FMT " vertices", c, n);
+    PetscCheck(n == 4 || n == 2, PETSC_COMM_SELF, PETSC_ERR_PLIB, "cell %" PetscInt_FMT " has %" PetscInt_FMT " vertices", c, n);
     PetscCall(DMPlexGetCone(m.dm, c, &cone));
-    for (int k = 0; k < 4; ++k) m.cells[4 * (c - cStart) + k] = cone[k] - vStart;
-    m.cell_tags[c - cStart] = (int32_t)point_value[c];
+    std::vector<PetscInt>& vertices = n == 4 ? m.cells : m.segments;
+    for (int k = 0; k < n; ++k) vertices.push_back(cone[k] - vStart);
+    (n == 4 ? m.cell_tags : m.segment_tags).push_back((int32_t)point_value[c]);
+    if (n == 4) m.cell_material.push_back(point_flag[c]);
   }
+  m.num_cells = (PetscInt)m.cell_tags.size();
+  m.num_segments = (PetscInt)m.segment_tags.size();
 
   Vec coords;
   const PetscScalar* xc;
@@ -166,21 +214,20 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
 
-  // The whole mesh is created on rank 0 (no interpolation: vertex dofs need no edges or faces).
-  const PetscInt ncells = rank == 0 ? (PetscInt)serial.num_tets() : 0;
+  // The whole mesh is created on rank 0, then distributed.
+  const PetscInt nt = rank == 0 ? (PetscInt)serial.num_tets() : 0;
+  const PetscInt ncells = nt + (rank == 0 ? (PetscInt)serial.num_segments() : 0);
   const PetscInt nverts = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
-  std::vector<PetscInt> cells(serial.tets.begin(), serial.tets.end());
   DM dm;
-  PetscCall(DMPlexCreateFromCellListPetsc(comm, 3, ncells, nverts, 4, PETSC_FALSE, cells.data(), 3,
-                                          serial.coords.data(), &dm));
+  PetscCall(create_serial_plex(comm, serial, &dm));
   PetscCall(DMPlexDistributeSetDefault(dm, PETSC_FALSE));  // never re-partition behind our back
 
   // Per serial point (cells first, then vertices): the data that travels with it.
   std::vector<int64_t> point_value(ncells + nverts);
   std::vector<int32_t> point_flag(ncells + nverts, 0);
   for (PetscInt c = 0; c < ncells; ++c) {
-    point_value[c] = serial.tet_tags[c];
-    point_flag[c] = cell_material.empty() ? 0 : cell_material[c];
+    point_value[c] = c < nt ? serial.tet_tags[c] : serial.segment_tags[c - nt];
+    point_flag[c] = c < nt && !cell_material.empty() ? cell_material[c] : 0;
   }
   for (PetscInt v = 0; v < nverts; ++v) {
     point_value[ncells + v] = serial.vertex_ids[v];
@@ -216,16 +263,17 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   PetscCall(fill_dof_numbers(out));
 
   // Global counts.
-  PetscInt local[3] = {out.num_cells, 0, 0}, global[3];
+  PetscInt local[4] = {out.num_cells, 0, 0, out.num_segments}, global[4];
   for (PetscInt v = 0; v < out.num_vertices; ++v)
     if (out.owned[v]) {
       local[1]++;
       if (out.fixed[v]) local[2]++;
     }
-  PetscCallMPI(MPI_Allreduce(local, global, 3, MPIU_INT, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(local, global, 4, MPIU_INT, MPI_SUM, comm));
   out.global_cells = global[0];
   out.global_vertices = global[1];
   out.global_fixed_vertices = global[2];
+  out.global_segments = global[3];
   out.global_dofs = 3 * (global[1] - global[2]);
   PetscFunctionReturn(0);
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "material_params.hpp"
+#include "materials/spring.hpp"
 #include "materials/tet_springs.hpp"
 
 namespace hyperqn {
@@ -17,6 +18,11 @@ static Mat3 edge_matrix(const double* pos, const PetscInt* cell) {
     for (int d = 0; d < 3; ++d) D(d, k - 1) = xk[d] - x0[d];
   }
   return D;
+}
+
+// Deformed edge x_b - x_a of a segment (a, b).
+static Vec3 segment_edge(const double* pos, const PetscInt* seg) {
+  return Vec3(&pos[3 * seg[1]]) - Vec3(&pos[3 * seg[0]]);
 }
 
 // dvec(F)/dx_e (9 x 12, vec column-major): F = sum_k x_k g_k^T, so entry (i + 3j, 3k + i) is
@@ -41,7 +47,9 @@ static Mat9 project_psd(const Mat9& C) {
   return eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
 }
 
-ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& specs) : mesh_(mesh) {
+ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& specs,
+                         const StrandMaterial& strands)
+    : mesh_(mesh), strands_(strands) {
   for (const MaterialSpec& spec : specs) {
     const bool springs = spec.model == "mass-spring";
     materials_.push_back(springs ? nullptr : make_material(spec));
@@ -64,9 +72,15 @@ ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<Material
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   MPI_Allreduce(&local_volume, &volume, 1, MPI_DOUBLE, MPI_SUM, comm);
   // A total mass (single-material bodies only) is spread evenly over the rest volume.
-  for (const MaterialSpec& spec : specs) densities_.push_back(spec.has_density ? spec.density : spec.total_mass / volume);
+  for (const MaterialSpec& spec : specs)
+    densities_.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
   double local_mass = 0;
   for (PetscInt c = 0; c < mesh.num_cells; ++c) local_mass += densities_[mesh.cell_material[c]] * volume_[c];
+  segment_length_.resize(mesh.num_segments);
+  for (PetscInt s = 0; s < mesh.num_segments; ++s) {
+    segment_length_[s] = segment_edge(mesh.rest.data(), &mesh.segments[2 * s]).norm();
+    local_mass += strands.linear_density * segment_length_[s];
+  }
   MPI_Allreduce(&local_mass, &total_mass_, 1, MPI_DOUBLE, MPI_SUM, comm);
   fixed_pos_ = mesh.rest;
   fixed_vel_.assign(3 * mesh.num_vertices, 0.0);
@@ -82,7 +96,9 @@ bool ElasticBody::projective_dynamics_exact() const {
 
 std::string ElasticBody::material_names() const {
   std::string s;
-  for (const auto& m : materials_) s += (s.empty() ? "" : ", ") + (m ? m->name() : std::string("mass-spring"));
+  if (mesh_.global_cells > 0)
+    for (const auto& m : materials_) s += (s.empty() ? "" : ", ") + (m ? m->name() : std::string("mass-spring"));
+  if (mesh_.global_segments > 0) s += std::string(s.empty() ? "" : ", ") + "strand";
   return s;
 }
 
@@ -170,6 +186,19 @@ PetscErrorCode ElasticBody::energy_gradient(Vec x, PetscReal* energy, Vec grad) 
       for (int d = 0; d < 3; ++d) gl[off + d] += f[d];
     }
   }
+  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
+    const PetscInt* seg = &mesh_.segments[2 * s];
+    const Vec3 u = segment_edge(pos_.data(), seg);
+    const double L = segment_length_[s], k = strands_.axial_stiffness / L;
+    e_local += spring::energy(u, L, k);
+    if (!grad) continue;
+    const Vec3 f = spring::gradient(u, L, k);  // dE/dx_b; dE/dx_a = -f
+    for (int j = 0; j < 2; ++j) {
+      const PetscInt off = mesh_.local_dof[seg[j]];
+      if (off < 0) continue;
+      for (int d = 0; d < 3; ++d) gl[off + d] += j == 0 ? -f[d] : f[d];
+    }
+  }
   PetscCallMPI(MPI_Allreduce(&e_local, energy, 1, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   if (grad) {
     PetscCall(VecRestoreArray(local_, &gl));
@@ -185,6 +214,12 @@ void ElasticBody::cell_jacobians(const std::vector<double>& pos, std::vector<dou
     J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv_[c]).determinant();
 }
 
+void ElasticBody::segment_stretches(const std::vector<double>& pos, std::vector<double>& stretch) const {
+  stretch.resize(mesh_.num_segments);
+  for (PetscInt s = 0; s < mesh_.num_segments; ++s)
+    stretch[s] = segment_edge(pos.data(), &mesh_.segments[2 * s]).norm() / segment_length_[s];
+}
+
 PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
   Vec ml;
   PetscScalar* a;
@@ -198,6 +233,12 @@ PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
       if (off < 0) continue;
       for (int d = 0; d < 3; ++d) a[off + d] += 0.25 * densities_[mesh_.cell_material[c]] * volume_[c];
     }
+  for (PetscInt s = 0; s < mesh_.num_segments; ++s)
+    for (int j = 0; j < 2; ++j) {
+      const PetscInt off = mesh_.local_dof[mesh_.segments[2 * s + j]];
+      if (off < 0) continue;
+      for (int d = 0; d < 3; ++d) a[off + d] += 0.5 * strands_.linear_density * segment_length_[s];
+    }
   PetscCall(VecRestoreArray(ml, &a));
   PetscCall(VecSet(mass, 0.0));
   PetscCall(DMLocalToGlobal(mesh_.dm, ml, ADD_VALUES, mass));
@@ -205,38 +246,54 @@ PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
   PetscFunctionReturn(0);
 }
 
+// A += Le (x) I3 (components = 3, dof layout) or A += Le (components = 1, vertex_dm layout) for
+// the element matrix Le (n x n, row-major) on the local vertices verts; fixed vertices skipped.
+template <int n>
+static PetscErrorCode add_element_laplacian(const DistributedMesh& mesh, Mat A, const PetscInt* verts,
+                                            const Eigen::Matrix<double, n, n, Eigen::RowMajor>& Le, int components) {
+  PetscFunctionBeginUser;
+  if (components == 1) {
+    PetscInt vidx[n];
+    for (int i = 0; i < n; ++i) {
+      const PetscInt g = mesh.global_dof[verts[i]];
+      vidx[i] = g < 0 ? -1 : g / 3;  // vertex index in vertex_dm's layout
+    }
+    PetscCall(MatSetValues(A, n, vidx, n, vidx, Le.data(), ADD_VALUES));
+    PetscFunctionReturn(0);
+  }
+  PetscInt idx[3 * n];
+  PetscScalar vals[9 * n * n] = {0};
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) {
+      const PetscInt g = mesh.global_dof[verts[i]];
+      idx[3 * i + d] = g < 0 ? -1 : g + d;  // negative indices are ignored by MatSetValues
+    }
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int d = 0; d < 3; ++d) vals[(3 * i + d) * 3 * n + 3 * j + d] = Le(i, j);
+  PetscCall(MatSetValues(A, 3 * n, idx, 3 * n, idx, vals, ADD_VALUES));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale, int components) const {
   PetscFunctionBeginUser;
   for (PetscInt c = 0; c < mesh_.num_cells; ++c) {
-    const PetscInt* cell = &mesh_.cells[4 * c];
     // Gradients of the 4 barycentric shape functions: rows of Dm^{-1}, and minus their sum.
     Eigen::Matrix<double, 3, 4> G;
     G.rightCols<3>() = Dm_inv_[c].transpose();
     G.col(0) = -G.rightCols<3>().rowwise().sum();
     const int m = mesh_.cell_material[c];
-    const Eigen::Matrix4d Le = spring_k_[m] > 0 ? (scale * tet_springs::laplacian(spring_k_[m])).eval()
-                                                 : ((scale * weights_[m] * volume_[c]) * (G.transpose() * G)).eval();
-    if (components == 1) {
-      PetscInt vidx[4];
-      for (int i = 0; i < 4; ++i) {
-        const PetscInt g = mesh_.global_dof[cell[i]];
-        vidx[i] = g < 0 ? -1 : g / 3;  // vertex index in vertex_dm's layout
-      }
-      const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Lr = Le;
-      PetscCall(MatSetValues(A, 4, vidx, 4, vidx, Lr.data(), ADD_VALUES));
-      continue;
-    }
-    PetscInt idx[12];
-    PetscScalar vals[144] = {0};
-    for (int i = 0; i < 4; ++i)
-      for (int d = 0; d < 3; ++d) {
-        const PetscInt g = mesh_.global_dof[cell[i]];
-        idx[3 * i + d] = g < 0 ? -1 : g + d;  // negative indices are ignored by MatSetValues
-      }
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j)
-        for (int d = 0; d < 3; ++d) vals[(3 * i + d) * 12 + 3 * j + d] = Le(i, j);
-    PetscCall(MatSetValues(A, 12, idx, 12, idx, vals, ADD_VALUES));
+    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Le =
+        spring_k_[m] > 0 ? (scale * tet_springs::laplacian(spring_k_[m])).eval()
+                         : ((scale * weights_[m] * volume_[c]) * (G.transpose() * G)).eval();
+    PetscCall(add_element_laplacian<4>(mesh_, A, &mesh_.cells[4 * c], Le, components));
+  }
+  // A segment's spring k = EA / L: its L is exact, as for the mass-spring tets.
+  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
+    const double k = scale * strands_.axial_stiffness / segment_length_[s];
+    Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
+    Le << k, -k, -k, k;
+    PetscCall(add_element_laplacian<2>(mesh_, A, &mesh_.segments[2 * s], Le, components));
   }
   PetscFunctionReturn(0);
 }
@@ -263,6 +320,19 @@ PetscErrorCode ElasticBody::add_hessian(Vec x, Mat H, PetscReal scale, bool psd)
       for (int d = 0; d < 3; ++d) idx[3 * k + d] = g < 0 ? -1 : g + d;  // fixed dofs: ignored
     }
     PetscCall(MatSetValues(H, 12, idx, 12, idx, Ke.data(), ADD_VALUES));
+  }
+  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
+    const PetscInt* seg = &mesh_.segments[2 * s];
+    const double L = segment_length_[s];
+    const Mat3 K = scale * spring::stiffness(segment_edge(pos_.data(), seg), L, strands_.axial_stiffness / L, psd);
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> Ks;  // d2E/dx2 for x = (x_a, x_b): [K -K; -K K]
+    Ks << K, -K, -K, K;
+    PetscInt sidx[6];
+    for (int j = 0; j < 2; ++j) {
+      const PetscInt g = mesh_.global_dof[seg[j]];
+      for (int d = 0; d < 3; ++d) sidx[3 * j + d] = g < 0 ? -1 : g + d;
+    }
+    PetscCall(MatSetValues(H, 6, sidx, 6, sidx, Ks.data(), ADD_VALUES));
   }
   PetscFunctionReturn(0);
 }

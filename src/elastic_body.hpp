@@ -1,5 +1,6 @@
 // The elastic body on this rank: per-element rest shape, the material, the lumped mass and the
-// constant matrix L. Evaluates the elastic energy E(x) and its gradient over the local cells.
+// constant matrix L. Evaluates the elastic energy E(x) and its gradient over the local cells:
+// tets (continuum materials or mass-spring tets) and strand segments (one axial spring each).
 #pragma once
 #include <petscdmplex.h>
 
@@ -15,8 +16,9 @@ namespace hyperqn {
 class ElasticBody {
  public:
   // materials[0] is the default material, materials[k + 1] that of material region k
-  // (mesh.cell_material says which cell has which).
-  ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials);
+  // (mesh.cell_material says which tet has which); strands is the material of every segment.
+  ElasticBody(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials,
+              const StrandMaterial& strands = StrandMaterial());
   ElasticBody(const DistributedMesh& mesh, const MaterialSpec& material)
       : ElasticBody(mesh, std::vector<MaterialSpec>{material}) {}
   ~ElasticBody() { VecDestroy(&local_); }
@@ -40,20 +42,25 @@ class ElasticBody {
   PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
   // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
   PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
-  // det F per local cell at the given local positions.
+  // det F per local tet at the given local positions.
   void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
+  // Stretch l / L per local strand segment at the given local positions.
+  void segment_stretches(const std::vector<double>& pos, std::vector<double>& stretch) const;
 
-  // Lumped mass per dof (global vector layout): each vertex gets a quarter of its tets' mass.
+  // Lumped mass per dof (global vector layout): each vertex gets a quarter of its tets' mass
+  // and half of its segments' mass.
   PetscErrorCode lumped_mass(Vec mass) const;
   // Total mass of the body (all vertices, fixed included).
   double total_mass() const { return total_mass_; }
-  // A += scale * L with L = L1 (x) I3, L1 = sum_e w V_e G_e^T G_e, restricted to free dofs.
+  // A += scale * L with L = L1 (x) I3, L1 = sum_e w V_e G_e^T G_e over the tets plus
+  // sum_s k_s (e_a - e_b)(e_a - e_b)^T over the segments (k_s = EA / L_s), on the free dofs.
   // components = 3: A has the dof layout (3 per free vertex); components = 1: A has the vertex
   // layout of mesh.vertex_dm and receives scale * L1.
   PetscErrorCode add_laplacian(Mat A, PetscReal scale, int components = 3) const;
-  // H += scale * K(x) on the free dofs, K = sum_e V_e B_e^T C_e B_e with B_e = dvec(F_e)/dx_e.
-  // C_e = dP/dF(F_e) made positive semi-definite (psd, the Newton baseline) or exact
-  // (the true Hessian of E, possibly indefinite; for tests). Adds into H's existing pattern.
+  // H += scale * K(x) on the free dofs, K = sum_e V_e B_e^T C_e B_e with B_e = dvec(F_e)/dx_e,
+  // plus the segments' spring stiffnesses. C_e = dP/dF(F_e) made positive semi-definite (psd, the
+  // Newton baseline; springs: transverse stiffness clamped at 0) or exact (the true Hessian of E,
+  // possibly indefinite; for tests). Adds into H's existing pattern.
   PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
   // Positions of the rest shape as a global vector of free dofs.
   PetscErrorCode rest_positions(Vec x) const;
@@ -75,6 +82,8 @@ class ElasticBody {
   std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix
   std::vector<Mat3> Dm_;             // per local cell: rest edge matrix (for mass-spring cells)
   std::vector<double> volume_;       // per local cell: rest volume
+  StrandMaterial strands_;
+  std::vector<double> segment_length_;  // per local segment: rest length L
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions
 };

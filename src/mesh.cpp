@@ -116,12 +116,12 @@ int skipped_record_size(const Token& t) {
 
 class MeditReader {
  public:
-  MeditReader(const std::string& path, const std::string& text)
-      : path_(path), tok_(text), text_size_(text.size()) {}
+  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands)
+      : path_(path), tok_(text), text_size_(text.size()), edges_as_strands_(edges_as_strands) {}
 
   TetMesh read() {
     TetMesh mesh;
-    bool have_vertices = false, have_tets = false;
+    bool have_vertices = false, have_tets = false, have_edges = false;
     Token t;
     while (tok_.next(t)) {
       if (t.is("End")) break;
@@ -139,8 +139,13 @@ class MeditReader {
         if (have_tets) throw InputError(path_, t.line, "Tetrahedra", "second Tetrahedra section");
         if (!have_vertices)
           throw InputError(path_, t.line, "Tetrahedra", "Tetrahedra section comes before the Vertices section");
-        read_tets(t, mesh);
+        read_elements(t, 4, "tet", mesh.num_vertices(), mesh.tets, mesh.tet_tags);
         have_tets = true;
+      } else if (t.is("Edges") && edges_as_strands_) {
+        if (have_edges) throw InputError(path_, t.line, "Edges", "second Edges section");
+        if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
+        read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags);
+        have_edges = true;
       } else if (int size = skipped_record_size(t)) {
         Section s = open_section(t);
         for (long long i = 0; i < s.count; ++i)
@@ -157,7 +162,9 @@ class MeditReader {
       }
     }
     if (!have_vertices) throw InputError(path_, 0, "Vertices", "no Vertices section in the mesh file");
-    if (!have_tets) throw InputError(path_, 0, "Tetrahedra", "no Tetrahedra section in the mesh file");
+    if (edges_as_strands_ && !have_edges)
+      throw InputError(path_, 0, "Edges", "no Edges section in the mesh file (the deck asks for its edges as strands)");
+    if (!have_tets && !have_edges) throw InputError(path_, 0, "Tetrahedra", "no Tetrahedra section in the mesh file");
     return mesh;
   }
 
@@ -237,25 +244,26 @@ class MeditReader {
     for (long long i = 0; i < s.count; ++i) mesh.vertex_ids[i] = i;
   }
 
-  void read_tets(const Token& key, TetMesh& mesh) {
+  // A section of elements of n vertices each plus a reference tag ("tet", "edge" in messages).
+  void read_elements(const Token& key, int n, const char* what, long long nv, std::vector<int32_t>& vertices,
+                     std::vector<int32_t>& tags) {
     Section s = open_section(key);
-    const long long nv = mesh.num_vertices();
-    mesh.tets.reserve(4 * capacity(s, 5));
-    mesh.tet_tags.reserve(capacity(s, 5));
+    vertices.reserve(n * capacity(s, n + 1));
+    tags.reserve(capacity(s, n + 1));
     for (long long i = 0; i < s.count; ++i) {
-      for (int k = 0; k < 4; ++k) {
+      const std::string element = std::string(what) + " " + std::to_string(i + 1);
+      for (int k = 0; k < n; ++k) {
         long long v;
         Token t = integer(s, i, v);
         if (v < 1 || v > nv)
-          throw InputError(path_, t.line, s.name, "tet " + std::to_string(i + 1) + ": vertex index " + t.str() +
-                                                      " is out of range 1.." + std::to_string(nv));
-        mesh.tets.push_back(int32_t(v - 1));
+          throw InputError(path_, t.line, s.name, element + ": vertex index " + t.str() + " is out of range 1.." + std::to_string(nv));
+        vertices.push_back(int32_t(v - 1));
       }
       long long ref;
       Token t = integer(s, i, ref);
       if (ref < std::numeric_limits<int32_t>::min() || ref > std::numeric_limits<int32_t>::max())
-        throw InputError(path_, t.line, s.name, "tet " + std::to_string(i + 1) + ": reference " + t.str() + " is too large");
-      mesh.tet_tags.push_back(int32_t(ref));
+        throw InputError(path_, t.line, s.name, element + ": reference " + t.str() + " is too large");
+      tags.push_back(int32_t(ref));
     }
   }
 
@@ -268,6 +276,7 @@ class MeditReader {
   std::string path_;
   Tokenizer tok_;
   size_t text_size_;
+  bool edges_as_strands_;
 };
 
 // det[X1-X0, X2-X0, X3-X0] = 6 * signed volume.
@@ -284,9 +293,9 @@ double distance(const double* p, const double* q) {
 
 }  // namespace
 
-TetMesh read_medit(const std::string& path) {
+TetMesh read_medit(const std::string& path, bool edges_as_strands) {
   const std::string text = read_file(path);
-  return MeditReader(path, text).read();
+  return MeditReader(path, text, edges_as_strands).read();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -344,6 +353,56 @@ TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>
 
 // ---------------------------------------------------------------------------------------------
 
+double bounding_box_diagonal(const TetMesh& mesh) {
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], mesh.coords[v + d]);
+      hi[d] = std::max(hi[d], mesh.coords[v + d]);
+    }
+  if (mesh.coords.empty()) return 0;
+  return distance(lo, hi);
+}
+
+void add_strand(TetMesh& mesh, const StrandLine& strand) {
+  const int n = strand.segments;
+  if (n < 1) throw std::invalid_argument("add_strand: need at least one segment");
+  const int64_t nv = mesh.num_vertices();
+  if (mesh.vertex_ids.size() != size_t(nv)) {  // hand-built meshes: ids are the indices
+    mesh.vertex_ids.resize(size_t(nv));
+    for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
+  }
+  const double tol = 1e-9 * std::max(bounding_box_diagonal(mesh), distance(strand.from.data(), strand.to.data()));
+  auto existing = [&](const double* x) -> int64_t {
+    for (int64_t v = 0; v < nv; ++v)
+      if (distance(&mesh.coords[3 * v], x) <= tol) return v;
+    return -1;
+  };
+  const int64_t first = existing(strand.from.data()), last = existing(strand.to.data());
+  int64_t next_id = 0;
+  for (int64_t id : mesh.vertex_ids) next_id = std::max(next_id, id + 1);
+  // The strand's points 0..n; reused ends keep their index, the others are appended.
+  std::vector<int64_t> index(size_t(n) + 1);
+  for (int i = 0; i <= n; ++i) {
+    if ((i == 0 && first >= 0) || (i == n && last >= 0)) {
+      index[i] = i == 0 ? first : last;
+      continue;
+    }
+    const double s = double(i) / n;
+    for (int d = 0; d < 3; ++d) mesh.coords.push_back((1 - s) * strand.from[d] + s * strand.to[d]);
+    index[i] = mesh.num_vertices() - 1;
+    mesh.vertex_ids.push_back(next_id++);
+  }
+  if (mesh.num_vertices() > std::numeric_limits<int32_t>::max()) throw std::invalid_argument("add_strand: too many vertices");
+  for (int i = 0; i < n; ++i) {
+    mesh.segments.push_back(int32_t(index[i]));
+    mesh.segments.push_back(int32_t(index[i + 1]));
+    mesh.segment_tags.push_back(0);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
 void apply_transform(TetMesh& mesh, const MeshTransform& t) {
   const double deg = std::acos(-1.0) / 180.0;
   const double cx = std::cos(t.rotate_deg[0] * deg), sx = std::sin(t.rotate_deg[0] * deg);
@@ -369,13 +428,14 @@ void apply_transform(TetMesh& mesh, const MeshTransform& t) {
 // ---------------------------------------------------------------------------------------------
 
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
-  const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets();
-  if (nt == 0) throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra");
+  const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments();
+  if (nt == 0 && ns == 0) throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments)");
   if ((int64_t)mesh.vertex_ids.size() != nv) {  // e.g. hand-built meshes: ids are the indices
     mesh.vertex_ids.resize(size_t(nv));
     for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
   }
   if ((int64_t)mesh.tet_tags.size() != nt) mesh.tet_tags.resize(size_t(nt), 0);
+  if ((int64_t)mesh.segment_tags.size() != ns) mesh.segment_tags.resize(size_t(ns), 0);
 
   // Validate everything before changing anything, so a throw leaves the mesh untouched.
   std::vector<char> flip(size_t(nt), 0);
@@ -402,6 +462,23 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     }
     flip[e] = det < 0;
   }
+  const double min_length = 1e-12 * bounding_box_diagonal(mesh);
+  for (int64_t e = 0; e < ns; ++e) {
+    const int32_t* seg = &mesh.segments[2 * e];
+    for (int k = 0; k < 2; ++k) {
+      if (seg[k] < 0 || seg[k] >= nv)
+        throw InputError(source, 0, "Edges", "segment " + std::to_string(e + 1) + " has vertex index " +
+                                                 std::to_string(seg[k] + 1) + " out of range 1.." + std::to_string(nv));
+      used[seg[k]] = 1;
+    }
+    const double length = distance(X + 3 * seg[0], X + 3 * seg[1]);
+    if (!(length > min_length)) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "segment %lld (1-based, as in the input) is degenerate: length %.3g",
+                    (long long)(e + 1), length);
+      throw InputError(source, 0, "Edges", msg);
+    }
+  }
 
   CleanReport report;
   std::vector<int32_t> new_index(size_t(nv), -1);
@@ -417,6 +494,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
   mesh.coords.resize(3 * size_t(kept));
   mesh.vertex_ids.resize(size_t(kept));
 
+  for (int32_t& v : mesh.segments) v = new_index[v];
   for (int64_t e = 0; e < nt; ++e) {
     int32_t* t = &mesh.tets[4 * e];
     for (int k = 0; k < 4; ++k) t[k] = new_index[t[k]];

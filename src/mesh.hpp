@@ -1,4 +1,5 @@
-// Serial tetrahedral mesh as read from a file or generated, before partitioning.
+// Serial mesh as read from a file or generated, before partitioning: tetrahedra (solids) and
+// strand segments (two-vertex line elements: ropes, hair), either or both.
 // Lives on rank 0 only; the distributed mesh is built from it.
 #pragma once
 #include <array>
@@ -12,15 +13,32 @@ struct TetMesh {
   std::vector<double> coords;        // 3 per vertex, x y z
   std::vector<int32_t> tets;         // 4 vertex indices (0-based) per tet
   std::vector<int32_t> tet_tags;     // element reference tag per tet (Medit "ref"; 0 if none)
+  std::vector<int32_t> segments;     // 2 vertex indices (0-based) per strand segment
+  std::vector<int32_t> segment_tags; // element reference tag per segment (Medit "ref"; 0 if none)
   std::vector<int64_t> vertex_ids;   // per vertex: its 0-based index in the input file
   int64_t num_vertices() const { return (int64_t)coords.size() / 3; }
   int64_t num_tets() const { return (int64_t)tets.size() / 4; }
+  int64_t num_segments() const { return (int64_t)segments.size() / 2; }
 };
 
-// Reads the Vertices and Tetrahedra sections of an INRIA Medit .mesh file (1-based indices);
-// other sections and '#' comments are skipped. Counts, indices and truncation are checked:
-// throws InputError naming the file and line.
-TetMesh read_medit(const std::string& path);
+// Reads the Vertices and Tetrahedra sections of an INRIA Medit .mesh file (1-based indices),
+// and its Edges section as strand segments if edges_as_strands (otherwise Edges, which tet mesh
+// generators write for feature lines, are skipped like the other sections and '#' comments).
+// Counts, indices and truncation are checked: throws InputError naming the file and line.
+TetMesh read_medit(const std::string& path, bool edges_as_strands = false);
+
+// Diagonal of the bounding box of the vertices (0 for an empty mesh).
+double bounding_box_diagonal(const TetMesh& mesh);
+
+// A straight strand from `from` to `to` cut into `segments` equal segments. An end that lies
+// on an existing vertex (within 1e-9 of the bounding-box diagonal) is joined to it, which is
+// how a strand is attached to a body or to another strand.
+struct StrandLine {
+  std::array<double, 3> from{0, 0, 0}, to{0, 0, 0};
+  int segments = 1;
+  int line = 0;                      // deck line, for error messages
+};
+void add_strand(TetMesh& mesh, const StrandLine& strand);
 
 // Axis-aligned box [0,size] split into cells[0] x cells[1] x cells[2] cubes of 6 tets each
 // (Kuhn subdivision, conforming across cubes).
@@ -35,12 +53,14 @@ struct MeshTransform {
 void apply_transform(TetMesh& mesh, const MeshTransform& t);
 
 struct CleanReport {
-  int64_t dropped_vertices = 0;   // vertices referenced by no tet
+  int64_t dropped_vertices = 0;   // vertices referenced by no tet and no segment
   int64_t reoriented_tets = 0;    // tets whose orientation was flipped to positive
 };
 // Drops unreferenced vertices (a massless vertex without stiffness makes M + h^2 L singular),
 // reorients tets to positive volume det[X1-X0, X2-X0, X3-X0] > 0, and rejects degenerate tets
-// (|volume| <= 1e-12 * (mean edge length)^3) with an InputError naming the tet (1-based) and file.
+// (|volume| <= 1e-12 * (mean edge length)^3) and segments (length <= 1e-12 of the bounding-box
+// diagonal) with an InputError naming the element (1-based) and file. A mesh with neither tets
+// nor segments is an error too.
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source);
 
 }  // namespace hyperqn

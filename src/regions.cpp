@@ -7,18 +7,6 @@
 
 namespace hyperqn {
 
-static double bbox_diagonal(const TetMesh& mesh) {
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], mesh.coords[3 * v + d]);
-      hi[d] = std::max(hi[d], mesh.coords[3 * v + d]);
-    }
-  double s = 0;
-  for (int d = 0; d < 3; ++d) s += (hi[d] - lo[d]) * (hi[d] - lo[d]);
-  return std::sqrt(s);
-}
-
 static bool inside(const double* p, const BoxRegion& box, double tol) {
   for (int d = 0; d < 3; ++d)
     if (p[d] < box.min[d] - tol || p[d] > box.max[d] + tol) return false;
@@ -27,7 +15,7 @@ static bool inside(const double* p, const BoxRegion& box, double tol) {
 
 std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path) {
-  const double tol = 1e-9 * bbox_diagonal(mesh);
+  const double tol = 1e-9 * bounding_box_diagonal(mesh);
   std::vector<int32_t> fixed(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
@@ -45,7 +33,7 @@ std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vecto
 
 std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
                                              const std::string& deck_path) {
-  const double tol = 1e-9 * bbox_diagonal(mesh);
+  const double tol = 1e-9 * bounding_box_diagonal(mesh);
   std::vector<int32_t> material(mesh.num_tets(), 0);
   for (size_t k = 0; k < regions.size(); ++k) {
     const MaterialRegion& region = regions[k];

@@ -46,10 +46,14 @@ TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck) {
       mesh = generate_box(spec.box_size, spec.box_cells);
     else if (ends_with(spec.file, ".msh"))
       mesh = read_gmsh(spec.file);
-    else
-      mesh = read_medit(spec.file);
+    else if (!spec.file.empty())
+      mesh = read_medit(spec.file, spec.edges_as_strands);
     apply_transform(mesh, spec.transform);
-    clean_mesh(mesh, spec.is_box ? deck.path : spec.file);
+    for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
+    clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    if (mesh.num_tets() > 0 && !deck.has_material)
+      throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
+                                                     std::to_string(mesh.num_tets()) + " tetrahedra");
   });
   return mesh;
 }
@@ -85,7 +89,7 @@ PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, b
   input = SceneInput();  // the serial copy is no longer needed
   std::vector<MaterialSpec> materials{deck.material};
   for (const MaterialRegion& r : deck.regions) materials.push_back(r.material);
-  s.body = std::make_unique<ElasticBody>(s.mesh, materials);
+  s.body = std::make_unique<ElasticBody>(s.mesh, materials, deck.strand_material);
   s.body->set_fixed_motion(deck.fixed);
   s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
   PetscCall(s.step->setup());

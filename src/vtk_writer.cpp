@@ -1,5 +1,7 @@
 #include "vtk_writer.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -67,20 +69,33 @@ VtkWriter::VtkWriter(MPI_Comm comm, const DistributedMesh& mesh, std::string dir
     : comm_(comm), mesh_(&mesh), dir_(std::move(directory)), name_(std::move(name)) {}
 
 void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
-  const PetscInt nv = mesh_->num_vertices, nc = mesh_->num_cells;
+  const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, nc = nt + mesh_->num_segments;
   int rank;
   MPI_Comm_rank(comm_, &rank);
   std::vector<double> disp(3 * nv);
   for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
+  // Tets, then strand segments as lines; cell field J: det F of a tet, l / L of a segment.
   std::vector<int64_t> conn(mesh_->cells.begin(), mesh_->cells.end()), offsets(nc);
-  for (PetscInt c = 0; c < nc; ++c) offsets[c] = 4 * (c + 1);
+  conn.insert(conn.end(), mesh_->segments.begin(), mesh_->segments.end());
+  for (PetscInt c = 0; c < nc; ++c) offsets[c] = c < nt ? 4 * (c + 1) : 4 * nt + 2 * (c - nt + 1);
   std::vector<uint8_t> types(nc, 10);  // VTK_TETRA
+  std::fill(types.begin() + nt, types.end(), 3);  // VTK_LINE
   std::vector<int32_t> ranks(nc, rank);
+  std::vector<double> J(f.J->begin(), f.J->begin() + nt);
+  auto length = [](const double* p, PetscInt a, PetscInt b) {
+    double s = 0;
+    for (int d = 0; d < 3; ++d) s += (p[3 * b + d] - p[3 * a + d]) * (p[3 * b + d] - p[3 * a + d]);
+    return std::sqrt(s);
+  };
+  for (PetscInt s = 0; s < mesh_->num_segments; ++s) {
+    const PetscInt a = mesh_->segments[2 * s], b = mesh_->segments[2 * s + 1];
+    J.push_back(length(f.positions->data(), a, b) / length(mesh_->rest.data(), a, b));
+  }
 
   const std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                          make_array("Float64", "velocity", 3, *f.velocities),
                                          make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
-  const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, *f.J)};
+  const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),

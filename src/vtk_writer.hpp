@@ -1,7 +1,8 @@
 // ParaView output: per output frame one .vtu (1 rank) or a .pvtu with one .vtu piece per rank,
 // and a .pvd collection listing all frames with their times. XML VTK, inline base64 binary.
-// Points are the deformed positions; point fields displacement, velocity, vertex_id; cell
-// fields rank and J (det F).
+// Points are the deformed positions; point fields displacement, velocity, vertex_id; cells are
+// the tets (VTK_TETRA) then the strand segments (VTK_LINE), with cell fields rank and J (det F of
+// a tet, stretch l / L of a segment).
 #pragma once
 #include <petscsys.h>
 
@@ -18,7 +19,7 @@ struct VtkFrame {
   double time = 0;
   const std::vector<double>* positions = nullptr;   // 3 per local vertex
   const std::vector<double>* velocities = nullptr;  // 3 per local vertex
-  const std::vector<double>* J = nullptr;           // per local cell
+  const std::vector<double>* J = nullptr;           // per local tet
 };
 
 class VtkWriter {

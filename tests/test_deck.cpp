@@ -426,6 +426,43 @@ void test_default_deck() {
 
 }  // namespace
 
+// Strands: generated or from a Medit file's Edges, with their own material section.
+void test_strand_decks() {
+  const std::string strand = "mesh:\n  strands:\n    - {from: [0, 0, 0], to: [0, -1, 0], segments: 10}\n";  // lines 1-3
+  const std::string strand_material = "strand_material: {axial_stiffness: 50, linear_density: 0.1}\n";
+  Deck d = load_ok("strand_only", strand + strand_material);
+  CHECK(d.mesh.strands.size() == 1 && d.mesh.strands[0].segments == 10 && d.mesh.strands[0].to[1] == -1.0);
+  CHECK(d.mesh.has_strands() && !d.mesh.has_solid() && d.strand_material.axial_stiffness == 50);
+  CHECK(d.mesh.strands[0].line == 3);
+  d = load_ok("box_and_strand", "mesh:\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n  strands:\n"
+                                "    - {from: [1, 1, 1], to: [1, 2, 1], segments: 3}\n" + kMaterial + strand_material);
+  CHECK(d.mesh.is_box && d.mesh.strands.size() == 1 && d.strand_material.linear_density == 0.1);
+  d = load_ok("medit_edges", "mesh: {file: meshes/bar.mesh, edges: strands}\n" + kMaterial + strand_material);
+  CHECK(d.mesh.edges_as_strands && d.mesh.has_strands() && d.has_material);
+  // A Medit file read for its edges may hold strands only: material is then optional here (the
+  // scene checks it once the file is read).
+  d = load_ok("medit_edges_no_material", "mesh: {file: meshes/bar.mesh, edges: strands}\n" + strand_material);
+  CHECK(d.mesh.edges_as_strands && !d.has_material);
+  CHECK(!load_ok("medit_ignore", "mesh: {file: meshes/bar.mesh, edges: ignore}\n" + kMaterial).mesh.has_strands());
+
+  expect_error("strand_no_material", strand, "strand_material", 1, "the mesh has strands");
+  expect_error("strand_material_without_strands", kHead + strand_material, "strand_material", 3, "no strands");
+  expect_error("strand_with_material", strand + strand_material + kMaterial, "material", 5, "strands only");
+  expect_error("strand_stiffness", strand + "strand_material: {axial_stiffness: 0, linear_density: 0.1}\n",
+               "strand_material.axial_stiffness", 4, "> 0");
+  expect_error("strand_density_missing", strand + "strand_material: {axial_stiffness: 5}\n",
+               "strand_material.linear_density", 4, "missing");
+  expect_error("strand_segments", "mesh:\n  strands:\n    - {from: [0, 0, 0], to: [0, -1, 0], segments: 0}\n" + strand_material,
+               "mesh.strands[0].segments", 3, ">= 1");
+  expect_error("strand_same_points", "mesh:\n  strands:\n    - {from: [0, 0, 0], to: [0, 0, 0], segments: 2}\n" + strand_material,
+               "mesh.strands[0].to", 3, "distinct");
+  expect_error("strand_empty_list", "mesh:\n  strands: []\n" + strand_material, "mesh.strands", 2, "non-empty");
+  expect_error("edges_with_box", "mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}, edges: strands}\n" + kMaterial,
+               "mesh.edges", 1, "Medit");
+  expect_error("edges_value", "mesh: {file: meshes/bar.mesh, edges: lines}\n" + kMaterial, "mesh.edges", 1, "allowed: ignore, strands");
+  expect_error("no_mesh_at_all", "mesh: {}\n" + kMaterial, "mesh", 1, "box or strands");
+}
+
 int main() {
   std::random_device rd;
   g_dir = fs::temp_directory_path() /
@@ -440,6 +477,7 @@ int main() {
   test_elastic_constants();
   test_mesh_paths();
   test_invalid_decks();
+  test_strand_decks();
 #ifdef HYPERQN_SOURCE_DIR
   test_new_materials();
   test_initial_state();

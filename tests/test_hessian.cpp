@@ -222,7 +222,8 @@ int main(int argc, char** argv) {
   PetscRandom rnd;
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
-  for (const char* model : {"corotated", "neohookean"})
+  // "+strands": strand segments (axial springs) in the same body, their Hessian blocks and PSD fix.
+  for (const char* model : {"corotated", "neohookean", "neohookean+strands"})
     for (Pose pose : {Pose::rest, Pose::scaled, Pose::general, Pose::inverted}) PetscCall(check_pose(model, pose, rnd));
   PetscCall(PetscRandomDestroy(&rnd));
   // Every rank must agree on the outcome.

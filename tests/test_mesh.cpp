@@ -1,4 +1,4 @@
-// Unit test of the serial mesh code: Medit reader, box generator, transform, cleaning.
+// Unit test of the serial mesh code: Medit reader, box generator, transform, cleaning, strands.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -408,6 +408,50 @@ void test_errors(const fs::path& dir) {
   CHECK(read_medit(p).num_tets() == 1);
 }
 
+// Strand segments: Medit Edges (only when asked for), generated strands, their cleaning.
+void test_strands(const fs::path& dir) {
+  const std::string head = "MeshVersionFormatted 2\nDimension 3\n";                         // lines 1-2
+  const std::string verts = "Vertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 2 0\n";  // lines 3-9
+  // A tet with a strand hanging off vertex 4 (lines 10-12: Edges), plus an unused vertex 6.
+  std::string p = write(dir, "tet_and_edge.mesh", head + "Vertices\n6\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 2 0\n9 9 9 0\n" +
+                                                      "Edges\n2\n4 5 3\n2 1 4\nTetrahedra\n1\n1 2 3 4 7\n");
+  CHECK(read_medit(p).num_segments() == 0);  // Edges of a tet mesh are feature lines unless asked for
+  TetMesh m = read_medit(p, true);
+  CHECK(m.num_segments() == 2 && m.num_tets() == 1);
+  CHECK(m.segments == std::vector<int32_t>({3, 4, 1, 0}) && m.segment_tags == std::vector<int32_t>({3, 4}));
+  const CleanReport r = clean_mesh(m, p);
+  CHECK(r.dropped_vertices == 1 && m.num_vertices() == 5);  // vertex 6 only; vertex 5 is on a segment
+  CHECK(m.segments == std::vector<int32_t>({3, 4, 1, 0}));
+
+  // Strands only: no Tetrahedra section at all.
+  p = write(dir, "strand_only.mesh", head + verts + "Edges\n2\n4 5 0\n5 1 0\n");
+  expect_input_error("strand-only file read as a tet mesh", [&] { read_medit(p); }, {p, "no Tetrahedra"});
+  TetMesh only = read_medit(p, true);
+  clean_mesh(only, p);
+  CHECK(only.num_tets() == 0 && only.num_segments() == 2 && only.num_vertices() == 3);
+
+  p = write(dir, "no_edges.mesh", head + verts + "Tetrahedra\n1\n1 2 3 4 0\n");
+  expect_input_error("strands asked, no Edges", [&] { read_medit(p, true); }, {p, "no Edges section"});
+  p = write(dir, "edge_range.mesh", head + verts + "Edges\n1\n4 6 0\n");
+  expect_input_error("edge index out of range", [&] { read_medit(p, true); }, {p + ":12:", "edge 1", "index 6", "1..5"});
+  p = write(dir, "edge_degenerate.mesh", head + verts + "Edges\n2\n4 5 0\n5 5 0\n");
+  TetMesh degenerate = read_medit(p, true);
+  expect_input_error("degenerate segment", [&] { clean_mesh(degenerate, p); }, {p, "segment 2 ", "degenerate"});
+
+  // Generated strands: an end on an existing vertex is joined to it, the points are equally spaced.
+  TetMesh box = generate_box({1, 1, 1}, {1, 1, 1});
+  const int64_t nv = box.num_vertices();
+  add_strand(box, {{1, 1, 1}, {1, 3, 1}, 4, 0});  // starts at the box's corner vertex 7
+  CHECK(box.num_vertices() == nv + 4 && box.num_segments() == 4);
+  CHECK(box.segments[0] == 7 && box.segments[1] == nv && box.segments[7] == nv + 3);
+  CHECK_NEAR(box.coords[3 * nv + 1], 1.5, 1e-15);
+  CHECK(box.vertex_ids[nv] == nv && box.vertex_ids[nv + 3] == nv + 3);
+  add_strand(box, {{5, 5, 5}, {1, 3, 1}, 2, 0});  // a second strand ending on the first one's end
+  CHECK(box.num_vertices() == nv + 6 && box.segments.back() == nv + 3);
+  clean_mesh(box, "box with strands");
+  CHECK(box.num_segments() == 6 && box.num_vertices() == nv + 6);
+}
+
 }  // namespace
 
 int main() {
@@ -421,6 +465,7 @@ int main() {
   fs::create_directories(dir);
   try {
     test_errors(dir);
+    test_strands(dir);
   } catch (const std::exception& e) {
     CHECK_MSG(false, std::string("unexpected exception: ") + e.what());
   }

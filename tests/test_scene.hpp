@@ -21,15 +21,31 @@ struct TestScene {
   std::unique_ptr<TimeStep> step;
 };
 
-// A 2 x 1 x 1 box of 4 x 2 x 2 cubes, optionally fixed at x = 0.
-inline PetscErrorCode make_scene(const std::string& model, bool fix_end, TestScene& s) {
+// Strands of the scene with_strands: one hanging off the box's corner (2, 1, 1), one free.
+constexpr double kStrandLength = 1.2 + 0.5;  // total rest length of the two strands
+constexpr double kStrandDensity = 0.4, kStrandStiffness = 20.0;
+
+inline bool with_strands(const std::string& scene) {
+  return scene.size() > 8 && scene.compare(scene.size() - 8, 8, "+strands") == 0;
+}
+inline double expected_mass(const std::string& scene) { return 7.5 + (with_strands(scene) ? kStrandDensity * kStrandLength : 0.0); }
+
+// A 2 x 1 x 1 box of 4 x 2 x 2 cubes of material `scene` (total mass 7.5), optionally fixed at
+// x = 0; scene "<model>+strands" adds the strands above (total mass kStrandDensity * kStrandLength).
+inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestScene& s) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
+  const bool strands = with_strands(scene);
+  const std::string model = strands ? scene.substr(0, scene.size() - 8) : scene;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   TetMesh serial;
   std::vector<int32_t> fixed;
   if (rank == 0) {
     serial = generate_box({2.0, 1.0, 1.0}, {4, 2, 2});
+    if (strands) {
+      add_strand(serial, {{2.0, 1.0, 1.0}, {2.72, 1.96, 1.0}, 5, 0});  // length 1.2
+      add_strand(serial, {{0.0, 1.5, 0.0}, {0.3, 1.5, 0.4}, 3, 0});    // length 0.5
+    }
     std::vector<BoxRegion> boxes;
     if (fix_end) boxes.push_back({{-0.1, -0.1, -0.1}, {0.01, 1.1, 1.1}, 0});
     fixed = select_fixed_vertices(serial, boxes, "test");
@@ -41,7 +57,10 @@ inline PetscErrorCode make_scene(const std::string& model, bool fix_end, TestSce
   mat.lambda = 5.0;
   mat.has_density = false;
   mat.total_mass = 7.5;
-  s.body = std::make_unique<ElasticBody>(s.mesh, mat);
+  StrandMaterial strand_material;
+  strand_material.axial_stiffness = kStrandStiffness;
+  strand_material.linear_density = kStrandDensity;
+  s.body = std::make_unique<ElasticBody>(s.mesh, std::vector<MaterialSpec>{mat}, strand_material);
   s.step = std::make_unique<TimeStep>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
   PetscCall(s.step->setup());
   PetscFunctionReturn(0);

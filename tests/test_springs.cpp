@@ -1,8 +1,10 @@
-// Mass-spring tets (materials/tet_springs): P and dP/dF against finite differences, the PSD fix,
-// and the spring Laplacian.
+// Springs: one spring (materials/spring, also the strand segment) and the mass-spring tets
+// (materials/tet_springs): gradients and Hessians against finite differences, the PSD fix, and
+// the spring Laplacian.
 #include <random>
 
 #include "check.hpp"
+#include "materials/spring.hpp"
 #include "materials/tet_springs.hpp"
 
 using namespace hyperqn;
@@ -38,7 +40,45 @@ static void check_pose(const std::string& name, const Mat3& F, const Mat3& Dm, d
   CHECK_MSG(min_eig >= -1e-10 * Cpsd.norm(), name + ": PSD-fixed dP/dF has eigenvalue " + std::to_string(min_eig));
 }
 
+// One spring k/2 (|u| - L)^2 at edge u: dE/du and d2E/du2 against central differences.
+static void check_spring(const std::string& name, const Vec3& u, double L, double k) {
+  const double h = 1e-6 * std::max(1.0, u.norm());
+  const Vec3 g = spring::gradient(u, L, k);
+  const Mat3 K = spring::stiffness(u, L, k, false);
+  double errg = 0, errK = 0;
+  for (int i = 0; i < 3; ++i) {
+    Vec3 up = u, um = u;
+    up[i] += h;
+    um[i] -= h;
+    errg = std::max(errg, rel((spring::energy(up, L, k) - spring::energy(um, L, k)) / (2 * h), g[i]));
+    const Vec3 dg = (spring::gradient(up, L, k) - spring::gradient(um, L, k)) / (2 * h);
+    for (int a = 0; a < 3; ++a) errK = std::max(errK, rel(dg[a], K(a, i)));
+  }
+  CHECK_MSG(errg < 1e-6, name + ": spring gradient vs FD " + std::to_string(errg));
+  CHECK_MSG(errK < 1e-5, name + ": spring stiffness vs FD " + std::to_string(errK));
+  CHECK_MSG((K - K.transpose()).norm() <= 1e-14 * K.norm(), name + ": spring stiffness symmetric");
+  const double min_eig = Eigen::SelfAdjointEigenSolver<Mat3>(spring::stiffness(u, L, k, true)).eigenvalues().minCoeff();
+  CHECK_MSG(min_eig >= -1e-12 * k, name + ": PSD-fixed spring stiffness has eigenvalue " + std::to_string(min_eig));
+}
+
+static void test_single_spring() {
+  const double k = 7.0, L = 0.8;
+  CHECK_NEAR(spring::energy(Vec3(0, L, 0), L, k), 0.0, 0.0);
+  CHECK_NEAR(spring::gradient(Vec3(0, 0, L), L, k).norm(), 0.0, 1e-15);
+  check_spring("stretched", Vec3(0.3, 1.1, -0.2), L, k);
+  check_spring("compressed", Vec3(0.1, -0.3, 0.2), L, k);  // transverse k (1 - L/l) < 0: the PSD fix acts
+  const double negative = Eigen::SelfAdjointEigenSolver<Mat3>(spring::stiffness(Vec3(0.1, -0.3, 0.2), L, k, false))
+                              .eigenvalues()
+                              .minCoeff();
+  CHECK_MSG(negative < 0, "a compressed spring's exact stiffness is indefinite");
+  // A collapsed edge: energy k L^2 / 2, force and stiffness finite.
+  const Vec3 zero = Vec3::Zero();
+  CHECK_NEAR(spring::energy(zero, L, k), 0.5 * k * L * L, 1e-10);  // the length is floored at 1e-12 L
+  CHECK(spring::gradient(zero, L, k).allFinite() && spring::stiffness(zero, L, k, true).allFinite());
+}
+
 int main() {
+  test_single_spring();
   std::mt19937 gen(3);
   std::uniform_real_distribution<double> u(-1, 1);
   Mat3 Dm;

@@ -1,16 +1,12 @@
 #include "materials/tet_springs.hpp"
 
-#include <algorithm>
-#include <cmath>
+#include "materials/spring.hpp"
 
 namespace hyperqn {
 namespace tet_springs {
 
 namespace {
 constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-// Below this fraction of its rest length a spring's direction is undefined; the length is
-// floored there so the force stays finite (it vanishes with the edge).
-constexpr double kTinyLength = 1e-12;
 }  // namespace
 
 void rest_edges(const Mat3& Dm, Vec3 D[6]) {
@@ -26,9 +22,8 @@ double energy_and_stress(const Mat3& F, const Mat3& Dm, double k, Mat3& P) {
   for (const Vec3& Dj : D) {
     const double L = Dj.norm();
     const Vec3 u = F * Dj;
-    const double l = std::max(u.norm(), kTinyLength * L);
-    e += 0.5 * k * (l - L) * (l - L);
-    P += (k * (l - L) / l) * u * Dj.transpose();  // d/dF of k/2 (|F D| - L)^2
+    e += spring::energy(u, L, k);
+    P += spring::gradient(u, L, k) * Dj.transpose();  // d/dF of k/2 (|F D| - L)^2, u = F D
   }
   return e;
 }
@@ -43,13 +38,7 @@ Mat9 stress_derivative(const Mat3& F, const Mat3& Dm, double k, bool psd) {
   rest_edges(Dm, D);
   Mat9 C = Mat9::Zero();
   for (const Vec3& Dj : D) {
-    const double L = Dj.norm();
-    const Vec3 u = F * Dj;
-    const double l = std::max(u.norm(), kTinyLength * L);
-    const Vec3 n = u / l;
-    double transverse = k * (1.0 - L / l);  // negative when the spring is compressed
-    if (psd) transverse = std::max(transverse, 0.0);
-    const Mat3 K = k * n * n.transpose() + transverse * (Mat3::Identity() - n * n.transpose());
+    const Mat3 K = spring::stiffness(F * Dj, Dj.norm(), k, psd);
     // d vec(P) = (D D^T (x) K) d vec(F) for P = k (l - L) u D^T / l.
     const Mat3 DDt = Dj * Dj.transpose();
     for (int a = 0; a < 3; ++a)
