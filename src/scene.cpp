@@ -100,4 +100,66 @@ PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, b
   PetscFunctionReturn(0);
 }
 
+bool deck_releases_regions(const Deck& deck) {
+  for (const BoxRegion& b : deck.fixed)
+    if (b.release > 0) return true;
+  return false;
+}
+
+bool regions_due(const Deck& deck, int frame, std::vector<char>& released) {
+  const double h = deck.time.dt;
+  released.resize(deck.fixed.size(), 0);
+  bool any = false;
+  for (size_t k = 0; k < deck.fixed.size(); ++k)
+    if (!released[k] && deck.fixed[k].release > 0 && deck.fixed[k].release <= frame * h + 1e-12 * h) {
+      released[k] = 1;
+      any = true;
+    }
+  return any;
+}
+
+PetscErrorCode build_released_scene(MPI_Comm comm, const Deck& deck, const SceneInput& kept,
+                                    const std::vector<char>& released, double t, bool factor, Scene& fresh) {
+  PetscFunctionBeginUser;
+  SceneInput input = kept;
+  for (int32_t& f : input.fixed)
+    if (f > 0 && released[f - 1]) f = 0;
+  PetscCall(build_scene(comm, deck, input, factor, fresh));
+  fresh.body->set_time(t);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode carry_state(const Scene& from, Vec x, Vec v, const Scene& to, Vec* x_to, Vec* v_to) {
+  std::vector<double> pos, vel;
+  Vec xl, vl;
+  PetscScalar *a, *b;
+  PetscFunctionBeginUser;
+  // The partition is the same, so the local vertices are too; check rather than assume.
+  PetscCheck(to.mesh.vertex_ids == from.mesh.vertex_ids, PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the local vertices changed when fixed regions were released");
+  PetscCall(from.body->local_positions(x, pos));
+  PetscCall(from.body->local_velocities(v, vel));
+  PetscCall(DMGetLocalVector(to.mesh.dm, &xl));
+  PetscCall(DMGetLocalVector(to.mesh.dm, &vl));
+  PetscCall(VecGetArray(xl, &a));
+  PetscCall(VecGetArray(vl, &b));
+  for (PetscInt i = 0; i < to.mesh.num_vertices; ++i) {
+    const PetscInt off = to.mesh.local_dof[i];
+    if (off < 0) continue;
+    for (int d = 0; d < 3; ++d) {
+      a[off + d] = pos[3 * i + d];
+      b[off + d] = vel[3 * i + d];
+    }
+  }
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecRestoreArray(vl, &b));
+  PetscCall(DMCreateGlobalVector(to.mesh.dm, x_to));
+  PetscCall(VecDuplicate(*x_to, v_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, xl, INSERT_VALUES, *x_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, vl, INSERT_VALUES, *v_to));
+  PetscCall(DMRestoreLocalVector(to.mesh.dm, &xl));
+  PetscCall(DMRestoreLocalVector(to.mesh.dm, &vl));
+  PetscFunctionReturn(0);
+}
+
 }  // namespace hyperqn

@@ -40,4 +40,18 @@ struct Scene {
 // Distributes the input (which it frees), assembles, and factors M + h^2 L if factor is true.
 PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& scene);
 
+// Fixed regions with a release time (fixed[].release). At the start of step `frame`
+// (t = (frame - 1) dt) every region whose release time is <= frame dt becomes free; the scene is
+// rebuilt from the kept serial input with those vertices free (same partition, so the same local
+// vertices) and M + h^2 L is factored again. Used by the simulation and the study alike.
+bool deck_releases_regions(const Deck& deck);
+// Marks the regions due at step `frame` in released (one flag per fixed region); true if any is new.
+bool regions_due(const Deck& deck, int frame, std::vector<char>& released);
+// fresh = the scene with the released regions' vertices free, its fixed motion set to time t.
+PetscErrorCode build_released_scene(MPI_Comm comm, const Deck& deck, const SceneInput& kept,
+                                    const std::vector<char>& released, double t, bool factor, Scene& fresh);
+// x, v of scene `from` as new vectors x_to, v_to of scene `to` (same local vertices): every vertex
+// keeps its position and velocity; a vertex freed in `to` keeps the prescribed ones it had.
+PetscErrorCode carry_state(const Scene& from, Vec x, Vec v, const Scene& to, Vec* x_to, Vec* v_to);
+
 }  // namespace hyperqn

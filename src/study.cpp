@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 
 #include "initial_state.hpp"
@@ -74,35 +75,78 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
 
 }  // namespace
 
-static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, TimeStepSolver& reference,
-                                 std::vector<std::unique_ptr<Contender>>& contenders, StudyWriter& out) {
+// Everything a study runs with; replaced as a whole when fixed regions are released.
+struct StudyScene {
+  std::unique_ptr<Scene> scene;
+  std::unique_ptr<TimeStepSolver> reference;
+};
+
+// Builds the reference solver and every contender's two solvers on scene.
+using SolverMaker = std::function<PetscErrorCode(StudyScene&, std::vector<std::unique_ptr<Contender>>&)>;
+
+// Replaces the vectors *x, *v of the old scene by the same state in the new one.
+static PetscErrorCode carry(const Scene& from, const Scene& to, Vec* x, Vec* v) {
+  Vec x_new, v_new;
+  PetscFunctionBeginUser;
+  PetscCall(carry_state(from, *x, *v, to, &x_new, &v_new));
+  PetscCall(VecDestroy(x));
+  PetscCall(VecDestroy(v));
+  *x = x_new;
+  *v = v_new;
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInput& kept, bool factor, StudyScene& ss,
+                                 const SolverMaker& make_solvers, std::vector<std::unique_ptr<Contender>>& contenders,
+                                 StudyWriter& out) {
   const StudySpec& st = deck.study;
-  TimeStep& step = *scene.step;
   Vec x_ref, v_ref, x0, v0, work;
   PetscFunctionBeginUser;
-  PetscCall(VecDuplicate(step.layout(), &x_ref));
+  PetscCall(VecDuplicate(ss.scene->step->layout(), &x_ref));
   PetscCall(VecDuplicate(x_ref, &v_ref));
-  PetscCall(VecDuplicate(x_ref, &x0));
-  PetscCall(VecDuplicate(x_ref, &v0));
-  PetscCall(VecDuplicate(x_ref, &work));
-  PetscCall(scene.body->rest_positions(x_ref));
-  PetscCall(apply_initial_state(deck.initial, *scene.body, x_ref));
+  PetscCall(ss.scene->body->rest_positions(x_ref));
+  PetscCall(apply_initial_state(deck.initial, *ss.scene->body, x_ref));
   PetscCall(VecSet(v_ref, 0.0));
   for (auto& c : contenders) {
     // A trajectory's run time includes the one factorization of M + h^2 L its solver needs.
-    if (solver_uses_constant_matrix(c->type)) c->time_s = scene.factored->factor_seconds();
+    if (solver_uses_constant_matrix(c->type)) c->time_s = ss.scene->factored->factor_seconds();
     PetscCall(VecDuplicate(x_ref, &c->x));
     PetscCall(VecDuplicate(x_ref, &c->v));
     PetscCall(VecCopy(x_ref, c->x));
     PetscCall(VecSet(c->v, 0.0));
   }
-  const double diag = rest_bbox_diagonal(scene.mesh);
-  const PetscInt free_vertices = scene.mesh.global_dofs / 3;
+  const double diag = rest_bbox_diagonal(ss.scene->mesh);
   const int last_frame = st.trajectory ? deck.time.frames : *std::max_element(st.frames.begin(), st.frames.end());
+  std::vector<char> released(deck.fixed.size(), 0);
+  bool warmed_up = false;  // one untimed per-frame run per set of solvers
 
   for (int frame = 1; frame <= last_frame; ++frame) {
+    if (regions_due(deck, frame, released)) {
+      // The same rebuild as the simulation's, then every state moves to the new scene.
+      const double t = (frame - 1) * deck.time.dt;
+      StudyScene fresh;
+      fresh.scene = std::make_unique<Scene>();
+      PetscCall(build_released_scene(comm, deck, kept, released, t, factor, *fresh.scene));
+      PetscCall(carry(*ss.scene, *fresh.scene, &x_ref, &v_ref));
+      for (auto& c : contenders) {
+        PetscCall(carry(*ss.scene, *fresh.scene, &c->x, &c->v));
+        if (solver_uses_constant_matrix(c->type)) c->time_s += fresh.scene->factored->factor_seconds();
+      }
+      PetscCall(make_solvers(fresh, contenders));  // the old solvers refer to the old scene
+      ss.reference = std::move(fresh.reference);   // so the old reference goes before the old scene
+      ss.scene = std::move(fresh.scene);
+      warmed_up = false;
+      PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released; %lld dofs now, M + h^2 L factored again\n", t,
+                            (long long)ss.scene->mesh.global_dofs));
+    }
+    Scene& scene = *ss.scene;
+    TimeStep& step = *scene.step;
+    const PetscInt free_vertices = scene.mesh.global_dofs / 3;
+    PetscCall(VecDuplicate(x_ref, &x0));
+    PetscCall(VecDuplicate(x_ref, &v0));
+    PetscCall(VecDuplicate(x_ref, &work));
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
-    scene.body->set_time(frame * deck.time.dt);  // moving fixed regions (release is not supported here)
+    scene.body->set_time(frame * deck.time.dt);  // prescribed positions of moving fixed regions
     std::vector<StudyCurve> curves;
     auto recorder = [&](StudyCurve& curve) {
       return [&curve, &st](const IterationRecord& r) {
@@ -114,13 +158,14 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
     // The per-frame comparison starts every solver from the reference state (x_ref, v_ref).
     // One untimed run first, so one-time costs (allocations, Newton's symbolic analysis) are not
     // charged to the first compared frame.
-    if (compare_here && frame == *std::min_element(st.frames.begin(), st.frames.end())) {
+    if (compare_here && !warmed_up) {
       for (auto& c : contenders) {
         FrameResult r;
         PetscCall(VecCopy(x_ref, x0));
         PetscCall(VecCopy(v_ref, v0));
         PetscCall(advance(deck, step, *c->per_frame, x0, v0, work, IterationCallback(), r));
       }
+      warmed_up = true;
     }
     if (compare_here) {
       for (auto& c : contenders) {
@@ -136,7 +181,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
     // The converged reference step; at a compared frame it also gives g*.
     StudyCurve ref_curve{"reference", frame, {}, 0, 0};
     FrameResult ref_result;
-    PetscCall(advance(deck, step, reference, x_ref, v_ref, work, recorder(ref_curve), ref_result));
+    PetscCall(advance(deck, step, *ss.reference, x_ref, v_ref, work, recorder(ref_curve), ref_result));
     if (compare_here) {
       // g* is the lowest g anyone reached (the reference's, unless another solver went below it
       // by round-off); g0 is the common starting value.
@@ -176,12 +221,12 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, Scene& scene, 
         out.add(p);
       }
     }
+    PetscCall(VecDestroy(&x0));
+    PetscCall(VecDestroy(&v0));
+    PetscCall(VecDestroy(&work));
   }
   PetscCall(VecDestroy(&x_ref));
   PetscCall(VecDestroy(&v_ref));
-  PetscCall(VecDestroy(&x0));
-  PetscCall(VecDestroy(&v0));
-  PetscCall(VecDestroy(&work));
   PetscFunctionReturn(0);
 }
 
@@ -192,36 +237,36 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
-  for (const BoxRegion& b : deck.fixed)
-    if (b.release > 0) PetscPrintf(comm, "study: fixed regions are not released in a study (release %g ignored)\n", b.release);
   bool factor = false;
   for (const std::string& s : st.solvers) factor = factor || solver_uses_constant_matrix(s);
+  // Released fixed regions rebuild the scene from the serial input, so it is kept for them.
+  const SceneInput kept = deck_releases_regions(deck) ? input : SceneInput();
 
-  Scene scene;
-  std::unique_ptr<TimeStepSolver> reference;
+  StudyScene ss;
   std::vector<std::unique_ptr<Contender>> contenders;
-  auto setup = [&]() -> PetscErrorCode {
+  const SolverMaker make_solvers = [&](StudyScene& s, std::vector<std::unique_ptr<Contender>>& cs) -> PetscErrorCode {
     PetscFunctionBeginUser;
-    PetscCall(build_scene(comm, deck, input, factor, scene));
     // The reference: Newton with the exact Hessian converges quadratically (the PSD fix would
     // make it linear wherever it is active near the solution).
     SolverSpec ref = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
     ref.newton_hessian = "exact";
-    PetscCall(create_solver(ref, *scene.step, nullptr, reference));
-    for (const std::string& type : st.solvers) {
-      auto c = std::make_unique<Contender>();
-      c->type = type;
-      auto budget = st.trajectory_iterations.find(type);
+    PetscCall(create_solver(ref, *s.scene->step, nullptr, s.reference));
+    for (auto& c : cs) {
+      auto budget = st.trajectory_iterations.find(c->type);
       const int traj_its = budget != st.trajectory_iterations.end() ? budget->second : deck.solver.iterations;
-      PetscCall(create_solver(spec_for(deck, type, st.iterations, st.reference_rtol), *scene.step, scene.factored.get(),
-                              c->per_frame));
-      PetscCall(create_solver(spec_for(deck, type, traj_its, deck.solver.grad_rtol), *scene.step, scene.factored.get(),
-                              c->trajectory));
-      contenders.push_back(std::move(c));
+      PetscCall(create_solver(spec_for(deck, c->type, st.iterations, st.reference_rtol), *s.scene->step,
+                              s.scene->factored.get(), c->per_frame));
+      PetscCall(create_solver(spec_for(deck, c->type, traj_its, deck.solver.grad_rtol), *s.scene->step,
+                              s.scene->factored.get(), c->trajectory));
     }
     PetscFunctionReturn(0);
   };
-  if (setup()) {
+  for (const std::string& type : st.solvers) {
+    contenders.push_back(std::make_unique<Contender>());
+    contenders.back()->type = type;
+  }
+  ss.scene = std::make_unique<Scene>();
+  if (build_scene(comm, deck, input, factor, *ss.scene) || make_solvers(ss, contenders)) {
     PetscPrintf(comm, "hyperqn: error: setting up the study failed (see PETSc's message above)\n");
     return 1;
   }
@@ -230,8 +275,8 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (rank == 0) std::filesystem::create_directories(outdir);
     MPI_Barrier(comm);
     StudyWriter out(outdir, rank);
-    if (rank == 0) write_study_meta(outdir, deck, scene);
-    if (study_loop(comm, deck, scene, *reference, contenders, out)) {
+    if (rank == 0) write_study_meta(outdir, deck, *ss.scene);
+    if (study_loop(comm, deck, kept, factor, ss, make_solvers, contenders, out)) {
       PetscPrintf(comm, "hyperqn: error: the study failed (see PETSc's message above)\n");
       return 1;
     }
