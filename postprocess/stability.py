@@ -51,7 +51,8 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
 REST_TOL = 1.0e-2   # a case that must settle at its rest shape: RMS distance from it at the last frame
 REF_TOL = 5.0e-2    # a case with a converged reference: RMS distance from the reference's last frame
 BLOWUP_TOL = 10.0   # any case: farther than this from rest at the last frame = diverged (nothing in
-                    # these decks can physically move more than about one diagonal from rest)
+                    # these decks can physically move more than about one diagonal from rest); a
+                    # backstop: hyperqn stops a diverging run itself (README, "Guardrails")
 # g may rise by round-off between iterates. g = 1/2 |x - y|_M^2 + h^2 E sums per-element energies of
 # size (mu + lambda) V_e h^2 with cancellation (tr F^T F - 3, log J), so its round-off is about
 # eps h^2 (mu + lambda) V even where g itself is much smaller. An increase counts when it exceeds
@@ -368,9 +369,10 @@ def analyse_run(outdir, deck, log_text=None):
     else:
         a["ls_failures"], a["ls_source"] = None, ""
 
-    # Line-search failures at round-off: the solver stopped on a failed line search in a frame
-    # where no decrease of g above g's round-off was left. With H = M + h^2 K >= m_min I (K >= 0
-    # near a stable state), g - g* <= |grad g|^2 / (2 m_min).
+    # Line-search failures at round-off: frames with failed line searches that ended where no
+    # decrease of g above g's round-off was left, whether the solver stopped on the failure or
+    # converged after a retry (which near round-off only finds decreases of g's noise). With
+    # H = M + h^2 K >= m_min I (K >= 0 near a stable state), g - g* <= |grad g|^2 / (2 m_min).
     if log_text is None and os.path.exists(os.path.join(outdir, "run.log")):
         with open(os.path.join(outdir, "run.log")) as f:
             log_text = f.read()
@@ -378,8 +380,8 @@ def analyse_run(outdir, deck, log_text=None):
     m_min = min_vertex_mass_bound(read_pvd(glob.glob(os.path.join(outdir, "*.pvd"))[0])[0][1], deck) \
         if frames else None
     stalls = []
-    for fr, (reason, _) in reasons.items():
-        if stopped_by_line_search(reason) and fr in by_frame and m_min:
+    for fr, (_, count) in reasons.items():
+        if count and fr in by_frame and m_min:
             g, grad = by_frame[fr][-1]["energy"], by_frame[fr][-1]["grad_norm"]
             if 0.5 * grad * grad / m_min <= MONOTONE_RTOL * abs(g) + floor:
                 stalls.append(fr)
@@ -408,9 +410,15 @@ def reference_distance(a, ref):
     return float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / diag
 
 
+def completed(status):
+    """Whether summary.json's status is that of a run that went through every frame: "ok", or
+    "flagged: ..." (some frames could not decrease g; they count as line-search failures)."""
+    return status == "ok" or status.startswith("flagged")
+
+
 def reference_ok(ref):
     s = ref["summary"]
-    return (s is not None and s.get("status") == "ok" and not ref["nan"]
+    return (s is not None and completed(s.get("status", "")) and not ref["nan"]
             and ref["frames_completed"] == ref["expected_frames"] and bool(ref["frames"]))
 
 
@@ -431,14 +439,14 @@ def verdict(run, a, expect, ref, align):
     if s is None:
         tail = [l for l in run["output"].strip().splitlines() if l.strip()][-1:] or ["no output"]
         return "failed", f"crash (exit code {run['returncode']}): {tail[0][:200]}", rest_error, ref_error
-    if s.get("status") != "ok":
+    if not completed(s.get("status", "")):
         return "failed", s.get("status", "no status"), rest_error, ref_error
     if a["nan"]:
         return "failed", "NaN/Inf in " + ", ".join(a["nan"]), rest_error, ref_error
     if a["frames_completed"] < a["expected_frames"]:
         return "failed", f"completed {a['frames_completed']}/{a['expected_frames']} frames", rest_error, ref_error
     if run["returncode"] != 0:
-        return "failed", f"exit code {run['returncode']} with status ok", rest_error, ref_error
+        return "failed", f"exit code {run['returncode']} with status {s['status']}", rest_error, ref_error
     if a["vtk_error"]:
         return "failed", "unreadable VTK: " + a["vtk_error"], rest_error, ref_error
     if rest_error is not None and rest_error > BLOWUP_TOL:
@@ -451,7 +459,7 @@ def verdict(run, a, expect, ref, align):
     if a["ls_judged"]:
         stalls = len(a["ls_roundoff_frames"])
         reasons.append(f"{a['ls_judged']} line-search failure(s) ({a['ls_source']}"
-                       + (f"; not counting {stalls} frame(s) stopped at round-off" if stalls else "") + ")")
+                       + (f"; not counting {stalls} frame(s) ended at round-off" if stalls else "") + ")")
     if a["monotone_bad"]:
         bad = a["monotone_bad"]
         reasons.append(f"g increased within {len(bad)} frame(s) (first: {bad[0]})")
@@ -686,10 +694,11 @@ def write_markdown(rows, cases, solvers, meta, path):
           "is of that size even when g itself is much smaller). Rises below that are counted in the CSV "
           "(`roundoff_increase_frames`), not judged.",
           "- **LS fail.**: summary.json `ls_failures` when present, else `failed_frames`. In parentheses: frames "
-          "whose solver stopped on a failed line search *at round-off* (not judged): no decrease of g above "
-          "its round-off (as for monotone) was left, by the bound g − g* ≤ ‖∇g‖²/(2 m_min) that holds where "
-          "H = M + h²K ⪰ m_min·I (m_min: smallest density × smallest tet volume / 4). Newton near rest stops "
-          "like this.",
+          "with failed line searches that ended *at round-off* (their failures are not judged), whether the "
+          "solver stopped on the failure or converged after a retry: no decrease of g above its round-off (as "
+          "for monotone) was left at the frame's last iterate, by the bound g − g* ≤ ‖∇g‖²/(2 m_min) that "
+          "holds where H = M + h²K ⪰ m_min·I (m_min: smallest density × smallest tet volume / 4). Newton near "
+          "rest stops like this.",
           "- **max final ‖∇g‖**: the largest over frames of the last logged ‖∇g‖ of the frame (in g's units, "
           "g = ½‖x − y‖²_M + h²E; not comparable between cases), and **max final/initial** the same relative to "
           "the frame's initial ‖∇g‖ (1e-6 = converged at the default tolerance).",
@@ -702,11 +711,13 @@ def write_markdown(rows, cases, solvers, meta, path):
           "deck otherwise), divided by the diagonal; – when the case has no reference or the reference did not "
           "complete cleanly.",
           "", "## Judgement", "",
-          "- **failed**: the run did not finish: hyperqn crashed or timed out, summary.json's `status` is not "
-          "`ok` (its text is the reason), a NaN/Inf appears anywhere, or fewer frames than asked were completed; "
-          f"or it diverged: its last frame is more than {BLOWUP_TOL:g} diagonals (rest err. > {BLOWUP_TOL:g}) "
-          "from the rest shape, where no case can physically be (summary.json still says `ok` then: hyperqn "
-          "does not detect this).",
+          "- **failed**: the run did not finish: hyperqn crashed or timed out, summary.json's `status` is an "
+          "error (its text is the reason; hyperqn stops a run that diverged, an element edge longer than 10 rest "
+          "bounding-box diagonals, with `error: frame N: diverged: ...`), a NaN/Inf appears anywhere, or fewer "
+          f"frames than asked were completed; or its last frame is more than {BLOWUP_TOL:g} diagonals "
+          f"(rest err. > {BLOWUP_TOL:g}) from the rest shape, where no case can physically be. A status "
+          "`flagged: ...` (frames that could not decrease g) is a completed run; those frames are line-search "
+          "failures.",
           "- **degraded**: it finished, but with line-search failures, g increasing within a frame, "
           "inverted or flat elements (J ≤ 0) in the last frame, or a wrong end state: "
           f"for cases that must return to rest, rest err. > {REST_TOL:g}; for the others, ref. err. > {REF_TOL:g}.",

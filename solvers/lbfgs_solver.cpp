@@ -164,22 +164,11 @@ PetscErrorCode LbfgsSolver::solve(Vec x, const IterationCallback& on_iteration, 
     PetscCall(step_.objective(x, &g, grad_));  // x is the last accepted iterate
     if (have_rejected_trial_) {
       // The line search stopped at a rejected point: backtrack along its direction from there.
-      Vec dir, trial, trial_grad;
-      PetscReal g_trial;
+      Vec dir;
       PetscCall(VecDuplicate(x, &dir));
-      PetscCall(VecDuplicate(x, &trial));
-      PetscCall(VecDuplicate(x, &trial_grad));
       PetscCall(VecWAXPY(dir, -1.0, x, rejected_trial_));
-      PetscCall(backtrack(step_, x, g, grad_, dir, 0.5, Backtracking{}, false, trial, &g_trial, trial_grad, &alpha,
-                          &recovered));
-      if (recovered) {
-        PetscCall(VecCopy(trial, x));
-        PetscCall(VecCopy(trial_grad, grad_));
-        g = g_trial;
-      }
+      PetscCall(backtrack_and_move(step_, x, &g, grad_, dir, 0.5, Backtracking{}, &alpha, &recovered));
       PetscCall(VecDestroy(&dir));
-      PetscCall(VecDestroy(&trial));
-      PetscCall(VecDestroy(&trial_grad));
     }
     if (!recovered) {  // a line-search failure proper
       ++result.ls_failures;

@@ -27,23 +27,38 @@ PetscErrorCode backtrack(TimeStep& step, Vec x, PetscReal g, Vec grad, Vec dir, 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode backtrack_and_move(TimeStep& step, Vec x, PetscReal* g, Vec grad, Vec dir, double alpha0,
+                                  const Backtracking& ls, double* alpha, bool* accepted) {
+  Vec trial, trial_grad;
+  PetscReal g_trial = 0;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &trial));
+  PetscCall(VecDuplicate(x, &trial_grad));
+  PetscCall(backtrack(step, x, *g, grad, dir, alpha0, ls, false, trial, &g_trial, trial_grad, alpha, accepted));
+  if (*accepted) {
+    PetscCall(VecCopy(trial, x));
+    PetscCall(VecCopy(trial_grad, grad));
+    *g = g_trial;
+  }
+  PetscCall(VecDestroy(&trial));
+  PetscCall(VecDestroy(&trial_grad));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode retry_descent(TimeStep& step, const FactoredSystem* h0, double gradient_length, Vec x, PetscReal* g,
                              Vec grad, double* alpha, std::string* along, bool* recovered) {
-  Vec dir, trial, trial_grad;
-  PetscReal gnorm, g_trial = 0;
+  Vec dir;
+  PetscReal gnorm;
   PetscFunctionBeginUser;
   *recovered = false;
   *alpha = 0;
   PetscCall(VecDuplicate(x, &dir));
-  PetscCall(VecDuplicate(x, &trial));
-  PetscCall(VecDuplicate(x, &trial_grad));
   PetscCall(VecNorm(grad, NORM_2, &gnorm));
   if (h0) {
     PetscCall(h0->solve(grad, dir));
     PetscCall(VecScale(dir, -1.0));
     PetscCall(VecNorm(dir, NORM_2, &gradient_length));
-    PetscCall(backtrack(step, x, *g, grad, dir, 1.0, Backtracking{}, false, trial, &g_trial, trial_grad, alpha,
-                        recovered));
+    PetscCall(backtrack_and_move(step, x, g, grad, dir, 1.0, Backtracking{}, alpha, recovered));
     *along = "-H0 grad g";
   }
   if (!*recovered && gnorm > 0) {
@@ -52,17 +67,10 @@ PetscErrorCode retry_descent(TimeStep& step, const FactoredSystem* h0, double gr
     PetscCall(VecCopy(grad, dir));
     PetscCall(VecScale(dir, -1.0));  // dir = -grad g
     const double alpha0 = gradient_length > 0 && std::isfinite(gradient_length) ? gradient_length / gnorm : 1.0;
-    PetscCall(backtrack(step, x, *g, grad, dir, alpha0, ls, false, trial, &g_trial, trial_grad, alpha, recovered));
+    PetscCall(backtrack_and_move(step, x, g, grad, dir, alpha0, ls, alpha, recovered));
     *along = "-grad g";
   }
-  if (*recovered) {
-    PetscCall(VecCopy(trial, x));
-    PetscCall(VecCopy(trial_grad, grad));
-    *g = g_trial;
-  }
   PetscCall(VecDestroy(&dir));
-  PetscCall(VecDestroy(&trial));
-  PetscCall(VecDestroy(&trial_grad));
   PetscFunctionReturn(0);
 }
 

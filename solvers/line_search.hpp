@@ -3,7 +3,7 @@
 // A point whose g or grad g is not finite is reported by TimeStep::objective as
 // TimeStep::kRejectedEnergy, so it never passes a sufficient-decrease test and is never accepted.
 // After a failed line search the solvers call retry_descent: a backtracking Armijo line search
-// from the last accepted iterate along -H0 grad g, then along -grad g.
+// from the last accepted iterate along -H0 grad g (or their own direction), then along -grad g.
 #pragma once
 #include <petscvec.h>
 
@@ -28,6 +28,10 @@ struct Backtracking {
 PetscErrorCode backtrack(TimeStep& step, Vec x, PetscReal g, Vec grad, Vec dir, double alpha0,
                          const Backtracking& ls, bool accept_first, Vec trial, PetscReal* g_trial, Vec trial_grad,
                          double* alpha, bool* accepted);
+
+// backtrack with accept_first = false, and on success x, *g and grad become the accepted point.
+PetscErrorCode backtrack_and_move(TimeStep& step, Vec x, PetscReal* g, Vec grad, Vec dir, double alpha0,
+                                  const Backtracking& ls, double* alpha, bool* accepted);
 
 // Recovery from a line-search failure at x (g and grad g at x given): backtracking along
 // d = -H0 grad g (if h0 is not null; alpha0 = 1), then along d = -grad g with a first trial of the

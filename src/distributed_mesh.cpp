@@ -207,6 +207,12 @@ void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]) {
   MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);
 }
 
+double rest_diagonal(const DistributedMesh& m) {
+  double lo[3], hi[3];
+  rest_bounding_box(m, lo, hi);
+  return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+}
+
 PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
                                const std::vector<int32_t>& cell_material, DistributedMesh& out) {
   PetscMPIInt rank, size;

@@ -41,8 +41,9 @@ struct DistributedMesh {
   }
 };
 
-// Bounding box of the rest positions over all ranks.
+// Bounding box of the rest positions over all ranks, and its diagonal.
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);
+double rest_diagonal(const DistributedMesh& m);
 
 // Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
 // METIS into one part per rank, distributes it, and builds the dof layout with the vertices

@@ -60,6 +60,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"ranks\": " << s.ranks << ",\n"
       << "  \"vertices\": " << s.vertices << ",\n"
       << "  \"tets\": " << s.tets << ",\n"
+      << "  \"segments\": " << s.segments << ",\n"
       << "  \"dofs\": " << s.dofs << ",\n"
       << "  \"fixed_vertices\": " << s.fixed_vertices << ",\n"
       << "  \"frames\": " << s.frames << ",\n"

@@ -22,9 +22,12 @@ class IterationLog {
 };
 
 struct RunSummary {
-  std::string deck, solver, status = "ok";
+  std::string deck, solver;
+  // "ok"; "flagged: N of M frames could not decrease g (first: frame K)" (completed, exit 0); or
+  // "error: ..." (the run stopped, exit 1).
+  std::string status = "ok";
   int ranks = 0;
-  long long vertices = 0, tets = 0, dofs = 0, fixed_vertices = 0;
+  long long vertices = 0, tets = 0, segments = 0, dofs = 0, fixed_vertices = 0;
   int frames = 0, factorizations = 0;
   double dt = 0;
   double setup_s = 0, assembly_s = 0, factor_s = 0, solve_s = 0, wall_s = 0;

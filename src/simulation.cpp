@@ -3,6 +3,7 @@
 #include <petscdmplex.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -24,6 +25,45 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
   return global;
 }
 
+// Divergence: an element edge (tet edge or strand segment) longer than this many rest bounding-box
+// diagonals D. At rest every edge is at most D long and rigid motions (free fall, prescribed
+// rotation or translation, pieces moving apart) keep edge lengths, so a longer edge needs the body
+// itself stretched about that much. Measured on the stability suite: at most 0.91 D in the runs
+// that stay bounded (random start), up to 1e9 D in those that run away. README, "Guardrails".
+constexpr double kDivergenceLimit = 10.0;
+
+// Longest element edge (tet edge or strand segment) over all ranks at the local positions pos.
+double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vector<double>& pos) {
+  static const int tet_edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  double local = 0, global;
+  const auto measure = [&](PetscInt a, PetscInt b) {
+    local = std::fmax(local, std::hypot(pos[3 * a] - pos[3 * b], pos[3 * a + 1] - pos[3 * b + 1],
+                                        pos[3 * a + 2] - pos[3 * b + 2]));
+  };
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    for (const auto& e : tet_edges) measure(mesh.cells[4 * c + e[0]], mesh.cells[4 * c + e[1]]);
+  for (PetscInt k = 0; k < mesh.num_segments; ++k) measure(mesh.segments[2 * k], mesh.segments[2 * k + 1]);
+  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm);
+  return global;
+}
+
+// Why the run has diverged when its longest edge is `edge` rest diagonals long, or "".
+std::string divergence(double edge, double limit) {
+  if (edge <= limit) return "";
+  char text[120];
+  std::snprintf(text, sizeof text, "diverged: an element edge is %.4g rest bounding-box diagonals long (limit %g)", edge,
+                limit);
+  return text;
+}
+
+// summary.json's status of a run that completed: "ok", or how many frames were flagged.
+std::string completed_status(const RunSummary& summary) {
+  const auto& flagged = summary.flagged_frames;
+  if (flagged.empty()) return "ok";
+  return "flagged: " + std::to_string(flagged.size()) + " of " + std::to_string(summary.frames) +
+         " frames could not decrease g (first: frame " + std::to_string(flagged.front().first) + ")";
+}
+
 }  // namespace
 
 // Whether every entry of a global vector is finite, on all ranks.
@@ -41,11 +81,6 @@ static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
   PetscFunctionReturn(0);
 }
 
-// The frame loop. Returns false (with summary.status set) if the run cannot continue.
-// Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
-// flagged_frames) and the run goes on from its last accepted iterate; a frame that leaves no
-// finite state (rejected g at every point tried, non-finite positions) stops the run: the last
-// good frame is written (even if it is not an output frame) and nothing non-finite ever is.
 // Counters of a scene's objects, added to the summary when the scene is replaced or at the end.
 static void add_scene_counters(const Scene& s, RunSummary& summary) {
   summary.objective_s += s.step->objective_seconds();
@@ -57,53 +92,24 @@ static void add_scene_counters(const Scene& s, RunSummary& summary) {
   }
 }
 
-// Frees the vertices of the fixed regions whose release time has come: the scene is rebuilt
-// from the kept serial input with those vertices free (same partition, so the same local
-// vertices), M + h^2 L is factored again, and x, v carry over (a released vertex keeps its
-// prescribed position and velocity).
+// Frees the vertices of the fixed regions whose release time has come (see
+// build_released_scene): the scene is rebuilt and factored again, x and v carry over, and the
+// solver and the VTK writer move to the new scene.
 static PetscErrorCode release_regions(MPI_Comm comm, const Deck& deck, const SceneInput& kept, double t,
-                                      std::vector<char>& released, std::unique_ptr<Scene>& s,
+                                      const std::vector<char>& released, std::unique_ptr<Scene>& s,
                                       std::unique_ptr<TimeStepSolver>& solver, Vec* x, Vec* v, VtkWriter* vtk,
                                       RunSummary& summary) {
-  std::vector<double> pos, vel;
-  PetscFunctionBeginUser;
-  PetscCall(s->body->local_positions(*x, pos));
-  PetscCall(s->body->local_velocities(*v, vel));
-  SceneInput input = kept;
-  for (int32_t& f : input.fixed)
-    if (f > 0 && released[f - 1]) f = 0;
   auto fresh = std::make_unique<Scene>();
   std::unique_ptr<TimeStepSolver> fresh_solver;
-  PetscCall(build_scene(comm, deck, input, solver_uses_constant_matrix(deck.solver.type), *fresh));
+  Vec x_new, v_new;
+  PetscFunctionBeginUser;
+  PetscCall(build_released_scene(comm, deck, kept, released, t, solver_uses_constant_matrix(deck.solver.type), *fresh));
   PetscCall(create_solver(deck.solver, *fresh->step, fresh->factored.get(), fresh_solver));
-  fresh->body->set_time(t);
-  // The partition is the same, so the local vertices are too; check rather than assume.
-  PetscCheck(fresh->mesh.vertex_ids == s->mesh.vertex_ids, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-             "the local vertices changed when fixed regions were released");
-  Vec xl, vl;
-  PetscScalar *a, *b;
-  PetscCall(DMGetLocalVector(fresh->mesh.dm, &xl));
-  PetscCall(DMGetLocalVector(fresh->mesh.dm, &vl));
-  PetscCall(VecGetArray(xl, &a));
-  PetscCall(VecGetArray(vl, &b));
-  for (PetscInt i = 0; i < fresh->mesh.num_vertices; ++i) {
-    const PetscInt off = fresh->mesh.local_dof[i];
-    if (off < 0) continue;
-    for (int d = 0; d < 3; ++d) {
-      a[off + d] = pos[3 * i + d];
-      b[off + d] = vel[3 * i + d];
-    }
-  }
-  PetscCall(VecRestoreArray(xl, &a));
-  PetscCall(VecRestoreArray(vl, &b));
+  PetscCall(carry_state(*s, *x, *v, *fresh, &x_new, &v_new));
   PetscCall(VecDestroy(x));
   PetscCall(VecDestroy(v));
-  PetscCall(DMCreateGlobalVector(fresh->mesh.dm, x));
-  PetscCall(VecDuplicate(*x, v));
-  PetscCall(DMLocalToGlobal(fresh->mesh.dm, xl, INSERT_VALUES, *x));
-  PetscCall(DMLocalToGlobal(fresh->mesh.dm, vl, INSERT_VALUES, *v));
-  PetscCall(DMRestoreLocalVector(fresh->mesh.dm, &xl));
-  PetscCall(DMRestoreLocalVector(fresh->mesh.dm, &vl));
+  *x = x_new;
+  *v = v_new;
 
   add_scene_counters(*s, summary);
   if (fresh->factored) {
@@ -121,6 +127,12 @@ static PetscErrorCode release_regions(MPI_Comm comm, const Deck& deck, const Sce
   PetscFunctionReturn(0);
 }
 
+// The frame loop; ok = false (with summary.status set) if the run cannot continue.
+// Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
+// flagged_frames and status) and the run goes on from its last accepted iterate; a frame that
+// leaves no finite state (rejected g at every point tried, non-finite positions) or a diverged one
+// (kDivergenceLimit) stops the run: the last good frame is written (even if it is not an output
+// frame) and nothing non-finite ever is.
 static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInput& kept, std::unique_ptr<Scene>& s,
                                 std::unique_ptr<TimeStepSolver>& solver, VtkWriter* vtk, IterationLog& log,
                                 RunSummary& summary, bool& ok) {
@@ -161,15 +173,12 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInpu
   PetscCall(write_frame(0, &written));
 
   const double h = deck.time.dt;
+  const double diagonal = rest_diagonal(s->mesh);
+  PetscReal limit = kDivergenceLimit;  // <= 0: no divergence check
+  PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-hyperqn_divergence_limit", &limit, nullptr));
   std::vector<char> released(deck.fixed.size(), 0);
   for (int frame = 1; frame <= deck.time.frames; ++frame) {
-    bool release_now = false;
-    for (size_t k = 0; k < deck.fixed.size(); ++k)
-      if (!released[k] && deck.fixed[k].release > 0 && deck.fixed[k].release <= frame * h + 1e-12 * h) {
-        released[k] = 1;
-        release_now = true;
-      }
-    if (release_now) {
+    if (regions_due(deck, frame, released)) {
       PetscCall(VecDestroy(&x_prev));
       PetscCall(VecDestroy(&v_prev));
       PetscCall(release_regions(comm, deck, kept, (frame - 1) * h, released, s, solver, &x, &v, vtk, summary));
@@ -211,20 +220,29 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInpu
     std::string why;
     bool finite_x = false;
     PetscCall(all_finite(comm, x, &finite_x));
-    if (TimeStep::rejected(r.energy) || !std::isfinite(r.grad_norm))
+    const bool finite_g = !TimeStep::rejected(r.energy) && std::isfinite(r.grad_norm);
+    if (!finite_g) {
       why = "non-finite energy or gradient at every point tried (" + r.reason + ")";
-    else if (!finite_x)
+    } else if (!finite_x) {
       why = "the solver left non-finite positions (" + r.reason + ")";
+    } else if (limit > 0) {
+      PetscCall(s->body->local_positions(x, pos));
+      why = divergence(longest_edge(comm, s->mesh, pos) / diagonal, limit);
+    }
 
     std::string note;
     if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
     if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
+    if (finite_g)
+      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
+                            (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));
+    else
+      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
+                            r.reason.c_str(), note.c_str()));
     if (why.empty()) {
       // v_{n+1} = (x_{n+1} - x_n) / h, then optional damping.
       PetscCall(VecWAXPY(v, -1.0, x_prev, x));
       PetscCall(VecScale(v, (1.0 - deck.time.damping) / h));
-      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
-                            (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;
@@ -234,9 +252,6 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInpu
         if (!written) why = "non-finite positions, velocities or J";
       }
       if (why.empty()) continue;
-    } else {
-      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
-                            r.reason.c_str(), note.c_str()));
     }
 
     // The run cannot continue: back to the last good frame, which is written if it was not.
@@ -254,6 +269,7 @@ static PetscErrorCode time_loop(MPI_Comm comm, const Deck& deck, const SceneInpu
     ok = false;
     break;
   }
+  if (ok) summary.status = completed_status(summary);
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&v));
   PetscCall(VecDestroy(&x_prev));
@@ -273,9 +289,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 
   // 2. Distribute, assemble, factor. (Fixed regions that are released later need the serial
   // input again then.)
-  bool releases = false;
-  for (const BoxRegion& b : deck.fixed) releases = releases || b.release > 0;
-  const SceneInput kept = releases ? input : SceneInput();
+  const SceneInput kept = deck_releases_regions(deck) ? input : SceneInput();
   auto scene_ptr = std::make_unique<Scene>();
   Scene& scene = *scene_ptr;
   std::unique_ptr<TimeStepSolver> solver;
@@ -291,6 +305,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   summary.ranks = size;
   summary.vertices = scene.mesh.global_vertices;
   summary.tets = scene.mesh.global_cells;
+  summary.segments = scene.mesh.global_segments;
   summary.dofs = scene.mesh.global_dofs;
   summary.fixed_vertices = scene.mesh.global_fixed_vertices;
   summary.dt = deck.time.dt;
@@ -300,8 +315,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     summary.factor_s = scene.factored->factor_seconds();
   }
   summary.setup_s = MPI_Wtime() - t_start;
-  PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %lld tets, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
-              deck.name.c_str(), summary.vertices, summary.fixed_vertices, summary.tets, summary.dofs, size,
+  const std::string segments = summary.segments ? ", " + std::to_string(summary.segments) + " strand segments" : "";
+  PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %lld tets%s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
+              deck.name.c_str(), summary.vertices, summary.fixed_vertices, summary.tets, segments.c_str(), summary.dofs, size,
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
 
   // 3. Output directory and logs.

@@ -44,13 +44,6 @@ PetscErrorCode advance(const Deck& deck, TimeStep& step, TimeStepSolver& solver,
   PetscFunctionReturn(0);
 }
 
-double rest_bbox_diagonal(const DistributedMesh& m) {
-  double lo[3], hi[3];
-  rest_bounding_box(m, lo, hi);
-  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
-}
-
 SolverSpec spec_for(const Deck& deck, const std::string& type, int iterations, double rtol) {
   SolverSpec s = deck.solver;
   s.type = type;
@@ -68,7 +61,8 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   out << "{\n  \"title\": \"" << deck.name << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
       << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \"" << deck.material.model << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
-      << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"dt\": " << deck.time.dt << ",\n"
+      << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"segments\": " << scene.mesh.global_segments << ",\n"
+      << "  \"dt\": " << deck.time.dt << ",\n"
       << "  \"factor_s\": " << (scene.factored ? scene.factored->factor_seconds() : 0.0) << "\n}\n";
   if (!out) throw std::runtime_error("cannot write " + outdir + "/study.json");
 }
@@ -115,7 +109,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
     PetscCall(VecCopy(x_ref, c->x));
     PetscCall(VecSet(c->v, 0.0));
   }
-  const double diag = rest_bbox_diagonal(ss.scene->mesh);
+  const double diag = rest_diagonal(ss.scene->mesh);
   const int last_frame = st.trajectory ? deck.time.frames : *std::max_element(st.frames.begin(), st.frames.end());
   std::vector<char> released(deck.fixed.size(), 0);
   bool warmed_up = false;  // one untimed per-frame run per set of solvers

@@ -38,7 +38,7 @@ def test_hanging_rope_profile(tmp_path, solver, ranks):
     outdir = tmp_path / "out"
     run_hyperqn([write_deck(tmp_path / "rope.yaml", deck), "-o", outdir], ranks=ranks)
     summary = read_summary(outdir)
-    assert summary["status"] == "ok" and summary["tets"] == 0
+    assert summary["status"] == "ok" and summary["tets"] == 0 and summary["segments"] == 20
     assert rope_profile_error(outdir) < 1e-6
 
 
