@@ -1,0 +1,198 @@
+#include "guarded_tao_solver.hpp"
+
+#include <cmath>
+
+#include "line_search.hpp"
+
+namespace hyperqn {
+
+GuardedTaoSolver::~GuardedTaoSolver() {
+  TaoDestroy(&tao_);
+  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_}) VecDestroy(v);
+}
+
+PetscErrorCode GuardedTaoSolver::create_tao(const SolverSpec& spec, TaoType type, bool line_search) {
+  PetscFunctionBeginUser;
+  line_search_ = line_search;
+  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_}) PetscCall(VecDuplicate(step_.layout(), v));
+  PetscCall(TaoCreate(PetscObjectComm((PetscObject)step_.layout()), &tao_));
+  PetscCall(TaoSetType(tao_, type));
+  PetscCall(TaoSetObjectiveAndGradient(tao_, nullptr, objective_gradient, this));
+  PetscCall(TaoSetTolerances(tao_, spec.grad_atol, 0.0, spec.grad_rtol));
+  PetscCall(TaoSetMaximumIterations(tao_, spec.iterations));
+  PetscCall(TaoSetMaximumFunctionEvaluations(tao_, 100 * spec.iterations + 100));
+  if (line_search) {
+    TaoLineSearch ls;
+    PetscCall(TaoGetLineSearch(tao_, &ls));
+    PetscCall(TaoLineSearchSetType(ls, spec.line_search.c_str()));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode GuardedTaoSolver::finish_setup() {
+  PetscFunctionBeginUser;
+  PetscCall(TaoSetMonitor(tao_, monitor, this, nullptr));
+  PetscCall(TaoSetConvergenceTest(tao_, convergence_test, this));
+  PetscCall(TaoSetFromOptions(tao_));
+  PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
+  PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode GuardedTaoSolver::objective_gradient(Tao, Vec x, PetscReal* f, Vec g, void* ctx) {
+  auto* self = static_cast<GuardedTaoSolver*>(ctx);
+  PetscFunctionBeginUser;
+  PetscCall(self->step_.objective(x, f, g));
+  if (self->line_search_ && TimeStep::rejected(*f) && !self->have_rejected_trial_) {
+    PetscCall(VecCopy(x, self->rejected_trial_));
+    self->have_rejected_trial_ = true;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode GuardedTaoSolver::report(PetscInt iteration, Vec x, PetscReal f, PetscReal gnorm, double step,
+                                        bool* stop) {
+  IterationRecord r;
+  PetscFunctionBeginUser;
+  r.iteration = iteration;
+  r.time_s = MPI_Wtime() - start_;
+  r.energy = f;
+  r.grad_norm = gnorm;
+  r.step = iteration == 0 ? 0.0 : step;  // NTR reports its trust-region radius as the step
+  r.evaluations = step_.evaluations();
+  PetscCall(VecCopy(x, last_x_));
+  last_f_ = f;
+  last_gnorm_ = gnorm;
+  reported_ = iteration;
+  if (iteration == 0) gnorm0_ = gnorm;
+  *stop = on_iteration_ && *on_iteration_ && (*on_iteration_)(r);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
+  auto* self = static_cast<GuardedTaoSolver*>(ctx);
+  PetscReal f, gnorm, step;
+  PetscInt it;
+  TaoConvergedReason reason;
+  Vec x;
+  PetscFunctionBeginUser;
+  PetscCall(TaoGetSolutionStatus(tao, &it, &f, &gnorm, nullptr, &step, &reason));
+  // Not iterates of the frame, so not reported: a rejected point (the initial guess, or a point a
+  // line search without a test accepted), a point found by a line search that met a rejected
+  // trial (More-Thuente then accepts only steps that collapsed towards 0, which may even increase
+  // g by its 1e-10 relative slack) -- for these the convergence test stops TAO and solve() undoes
+  // the step --, TAOLMVM's record of a failed line search (the same point again, step 0; solve()
+  // retries), and the first point of a TaoSolve that resumes the frame (already reported).
+  self->bad_point_ = TimeStep::rejected(f) || !std::isfinite(gnorm) || (it > 0 && self->have_rejected_trial_);
+  if (self->bad_point_ || reason == TAO_DIVERGED_LS_FAILURE || (self->restarted_ && it == 0)) PetscFunctionReturn(0);
+  self->have_rejected_trial_ = false;  // a new iterate: a new line search follows
+  PetscCall(TaoGetSolution(tao, &x));
+  PetscCall(self->report(self->offset_ + it, x, f, gnorm, step, &self->stop_requested_));
+  PetscFunctionReturn(0);
+}
+
+// TAO's own test, plus: a stop the iteration callback asked for; a rejected point ends the solve
+// (solve() takes over); after a recovery the relative tolerance stays relative to the frame's
+// first gradient (TAO's gttol would restart from the resumed point's).
+PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
+  auto* self = static_cast<GuardedTaoSolver*>(ctx);
+  TaoConvergedReason reason;
+  PetscReal gnorm;
+  PetscFunctionBeginUser;
+  PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
+  PetscCall(TaoGetSolutionStatus(tao, nullptr, nullptr, &gnorm, nullptr, nullptr, &reason));
+  if (self->bad_point_) {
+    PetscCall(TaoSetConvergedReason(tao, self->reported_ < 0 ? TAO_DIVERGED_NAN : TAO_DIVERGED_LS_FAILURE));
+  } else if (self->restarted_ && reason == TAO_CONTINUE_ITERATING && self->gnorm0_ != 0 &&
+             gnorm / self->gnorm0_ < self->gttol_) {
+    PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_GTTOL));
+  }
+  if (self->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
+  PetscFunctionReturn(0);
+}
+
+// Guardrails. TAO 3.18's More-Thuente never accepts a rejected point, but does not backtrack from
+// one either (measured: its interpolation collapses to step 0 and it reports a failure), and TAO's
+// own fallbacks do not help (see the solvers' retry()). So a failed line search ends the TaoSolve,
+// with x at the last accepted iterate (a step onto or just past a rejected point, which a line
+// search without a test (unit) may take, is undone first), and here, from there:
+//  1. if the line search stopped at a rejected point, backtrack (Armijo, halving) along its
+//     direction, from half that point;
+//  2. otherwise, or if that fails (a line-search failure proper, counted), retry() along the
+//     solver's own directions (solvers/line_search.hpp), but not if TAO could not take a single
+//     step since the last retry (g stalled at round-off: more retries would only burn evaluations);
+// and, once g decreased, report the new point and resume TAO from it (a new TaoSolve, which clears
+// TAO's history). A frame where nothing decreases g is reported failed (LINE_SEARCH_FAILURE).
+PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
+  TaoConvergedReason reason;
+  PetscFunctionBeginUser;
+  step_.reset_evaluations();
+  result = FrameResult{};
+  on_iteration_ = &on_iteration;
+  stop_requested_ = restarted_ = bad_point_ = false;
+  offset_ = 0;
+  reported_ = -1;
+  start_ = MPI_Wtime();
+  PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, gttol_));
+  PetscCall(TaoSetMaximumIterations(tao_, max_it_));
+  PetscInt last_retry = -1;  // iteration index of the last retry()
+  for (;;) {
+    have_rejected_trial_ = false;
+    PetscCall(TaoSetSolution(tao_, x));
+    PetscCall(TaoSolve(tao_));
+    PetscCall(TaoGetConvergedReason(tao_, &reason));
+    if (reported_ < 0) break;  // the initial guess itself is rejected: nothing to recover from
+    if (bad_point_) {          // undo the step (see monitor)
+      PetscCall(VecCopy(last_x_, x));
+      bad_point_ = false;
+      reason = TAO_DIVERGED_LS_FAILURE;
+    }
+    if (reason != TAO_DIVERGED_LS_FAILURE || stop_requested_) break;
+
+    PetscReal g, gnorm;
+    double alpha = 0;
+    bool recovered = false, stop;
+    PetscCall(step_.objective(x, &g, grad_));  // x is the last accepted iterate
+    if (have_rejected_trial_) {  // 1.
+      PetscCall(VecWAXPY(dir_, -1.0, x, rejected_trial_));
+      PetscCall(backtrack_and_move(step_, x, &g, grad_, dir_, 0.5, Backtracking{}, &alpha, &recovered));
+    }
+    if (!recovered) {  // 2.
+      ++result.ls_failures;
+      if (reported_ != last_retry) PetscCall(retry(x, &g, &alpha, &recovered));
+      last_retry = reported_ + 1;
+    }
+    if (!recovered) break;
+    PetscCall(VecNorm(grad_, NORM_2, &gnorm));
+    PetscCall(report(reported_ + 1, x, g, gnorm, alpha, &stop));
+    if (stop) {
+      reason = TAO_CONVERGED_USER;
+      break;
+    }
+    if (reported_ >= max_it_) {
+      reason = TAO_DIVERGED_MAXITS;
+      break;
+    }
+    // Resume: a new TaoSolve, whose first point is this one.
+    offset_ = reported_;
+    restarted_ = true;
+    PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, 0.0));  // gttol: convergence_test
+    PetscCall(TaoSetMaximumIterations(tao_, max_it_ - offset_));
+  }
+  on_iteration_ = nullptr;
+  if (reported_ < 0) {
+    result.failed = true;
+    result.reason = "REJECTED_INITIAL_GUESS";
+    result.energy = TimeStep::kRejectedEnergy;
+    PetscFunctionReturn(0);
+  }
+  result.iterations = reported_;
+  result.energy = last_f_;
+  result.grad_norm = last_gnorm_;
+  result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
+  result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
+  result.reason = reason_text(reason);
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn
