@@ -28,16 +28,16 @@ PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
   PetscFunctionBeginUser;
   spec_ = spec;
   // The step is PD's local-global step only if A was built with the material's own weight
-  // (2 mu for ARAP); a deck's laplacian_weight override makes it an approximation again.
+  // (2 mu for ARAP, k for springs); a deck's laplacian_weight override makes it an approximation again.
   exact_ = body.projective_dynamics_exact();
   if (exact_) {
-    PetscCall(PetscPrintf(comm, "pd: %s with lambda = 0 (ARAP) is a Projective Dynamics energy: exact local-global "
+    PetscCall(PetscPrintf(comm, "pd: %s is a Projective Dynamics energy (ARAP, or springs): exact local-global "
                                 "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
                           body.material_names().c_str()));
   } else {
-    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s; exact needs ARAP with "
-                                "its own laplacian_weight); running its quasi-Newton step x <- x - alpha A^{-1} grad g "
-                                "with a backtracking Armijo line search (L-BFGS with m = 0)\n",
+    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s; exact needs ARAP or "
+                                "springs, each with its own laplacian_weight); running its quasi-Newton step "
+                                "x <- x - alpha A^{-1} grad g with a backtracking Armijo line search (L-BFGS with m = 0)\n",
                           body.material_names().c_str()));
   }
   PetscCall(VecDuplicate(step_.layout(), &grad_));

@@ -244,12 +244,16 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
 }
 
 void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
-  Section s(r, v, {"axial_stiffness", "linear_density"});
+  Section s(r, v, {"axial_stiffness", "linear_density", "laplacian_weight"});
   const Value &k = s.need("axial_stiffness"), &rho = s.need("linear_density");
   m.axial_stiffness = r.number(k);
   r.check(m.axial_stiffness > 0, k, "> 0");
   m.linear_density = r.number(rho);
   r.check(m.linear_density > 0, rho, "> 0");
+  if (const Value* x = s.find("laplacian_weight")) {
+    m.laplacian_weight = r.number(*x);
+    r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the strands' own weight, axial_stiffness)");
+  }
 }
 
 // A pair of keys that only make sense together: the missing one is reported at the other's line.
@@ -313,8 +317,8 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
     if (!springs) r.fail(*x, "spring_stiffness applies to model mass-spring only");
   }
   if (springs) {
-    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda", "f", "g", "h", "fiber", "laplacian_weight"})
-      if (const Value* x = s.find(key)) r.fail(*x, "mass-spring takes spring_stiffness only");
+    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda", "f", "g", "h", "fiber"})
+      if (const Value* x = s.find(key)) r.fail(*x, "mass-spring takes spring_stiffness (and laplacian_weight) only");
     const Value& k = s.need("spring_stiffness");
     m.spring_stiffness = r.number(k);
     r.check(m.spring_stiffness > 0, k, "> 0");

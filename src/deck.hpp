@@ -27,6 +27,7 @@ struct MeshSpec {
 struct StrandMaterial {
   double axial_stiffness = 0;        // EA: force per unit strain (N)
   double linear_density = 0;         // mass per unit rest length (kg/m)
+  double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
 };
 
 // A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
@@ -49,7 +50,7 @@ struct MaterialSpec {
   double density = 1000;             // mass per unit volume, or
   double total_mass = 0;             // total mass (used when has_density is false)
   double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
-  double laplacian_weight = 0;       // 0: the material's own weight; > 0: override
+  double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
 };
 
 // Prescribed motion of a fixed region: rotation about an axis through a centre at a constant

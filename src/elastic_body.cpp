@@ -54,7 +54,9 @@ ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<Material
     const bool springs = spec.model == "mass-spring";
     materials_.push_back(springs ? nullptr : make_material(spec));
     spring_k_.push_back(springs ? spec.spring_stiffness : 0.0);
-    weights_.push_back(springs ? 0.0 : spec.laplacian_weight > 0 ? spec.laplacian_weight : materials_.back()->laplacian_weight());
+    // A spring's own weight in L is its stiffness k (see add_laplacian).
+    const double own = springs ? spec.spring_stiffness : materials_.back()->laplacian_weight();
+    weights_.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
   }
 
   Dm_inv_.resize(mesh.num_cells);
@@ -87,9 +89,15 @@ ElasticBody::ElasticBody(const DistributedMesh& mesh, const std::vector<Material
 }
 
 bool ElasticBody::projective_dynamics_exact() const {
+  // Springs are a Projective Dynamics energy whose L is their own (weight k, strands EA).
+  if (mesh_.global_segments > 0 && strand_weight() != strands_.axial_stiffness) return false;
+  if (mesh_.global_cells == 0) return true;
   for (size_t k = 0; k < materials_.size(); ++k) {
-    if (spring_k_[k] > 0) continue;  // springs are a Projective Dynamics energy with L = their own
-    if (!materials_[k]->projective_dynamics_exact() || weights_[k] != materials_[k]->laplacian_weight()) return false;
+    if (spring_k_[k] > 0) {
+      if (weights_[k] != spring_k_[k]) return false;
+    } else if (!materials_[k]->projective_dynamics_exact() || weights_[k] != materials_[k]->laplacian_weight()) {
+      return false;
+    }
   }
   return true;
 }
@@ -284,13 +292,13 @@ PetscErrorCode ElasticBody::add_laplacian(Mat A, PetscReal scale, int components
     G.col(0) = -G.rightCols<3>().rowwise().sum();
     const int m = mesh_.cell_material[c];
     const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Le =
-        spring_k_[m] > 0 ? (scale * tet_springs::laplacian(spring_k_[m])).eval()
+        spring_k_[m] > 0 ? (scale * tet_springs::laplacian(weights_[m])).eval()
                          : ((scale * weights_[m] * volume_[c]) * (G.transpose() * G)).eval();
     PetscCall(add_element_laplacian<4>(mesh_, A, &mesh_.cells[4 * c], Le, components));
   }
   // A segment's spring k = EA / L: its L is exact, as for the mass-spring tets.
   for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
-    const double k = scale * strands_.axial_stiffness / segment_length_[s];
+    const double k = scale * strand_weight() / segment_length_[s];
     Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
     Le << k, -k, -k, k;
     PetscCall(add_element_laplacian<2>(mesh_, A, &mesh_.segments[2 * s], Le, components));

@@ -66,6 +66,8 @@ class ElasticBody {
   PetscErrorCode rest_positions(Vec x) const;
 
  private:
+  // The strands' stiffness in L: EA, or the deck's override.
+  double strand_weight() const { return strands_.laplacian_weight > 0 ? strands_.laplacian_weight : strands_.axial_stiffness; }
   // out = fixed_values, then the free vertices' entries overwritten from the global vector.
   PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
 

@@ -357,9 +357,11 @@ void test_new_materials() {
   CHECK(d.material.has_fiber && d.material.fiber_direction[1] == 1 && d.material.fiber_stiffness == 3);
   Deck ms = load_ok("springs", kMesh + "material: {model: mass-spring, spring_stiffness: 40, density: 2}\n");
   CHECK(ms.material.model == "mass-spring" && ms.material.spring_stiffness == 40);
+  ms = load_ok("springs_weight", kMesh + "material: {model: mass-spring, spring_stiffness: 40, density: 2, laplacian_weight: 80}\n");
+  CHECK(ms.material.laplacian_weight == 80);
   expect_error("springs_without_k", kMesh + "material:\n  model: mass-spring\n  density: 1\n", "material.spring_stiffness", 2);
   expect_error("springs_with_E", kMesh + "material:\n  model: mass-spring\n  spring_stiffness: 1\n  youngs_modulus: 1\n  density: 1\n",
-               "material.youngs_modulus", 5, "spring_stiffness only");
+               "material.youngs_modulus", 5, "mass-spring takes spring_stiffness");
   expect_error("k_not_springs", kMesh + "material:\n  mu: 1\n  lambda: 1\n  density: 1\n  spring_stiffness: 5\n",
                "material.spring_stiffness", 6, "mass-spring only");
   Deck s = load_ok("stvk", kMesh + "material: {model: stvk, mu: 1, lambda: 2, kappa: 100, density: 1}\n");
@@ -450,6 +452,10 @@ void test_strand_decks() {
   expect_error("strand_with_material", strand + strand_material + kMaterial, "material", 5, "strands only");
   expect_error("strand_stiffness", strand + "strand_material: {axial_stiffness: 0, linear_density: 0.1}\n",
                "strand_material.axial_stiffness", 4, "> 0");
+  CHECK(load_ok("strand_weight", strand + "strand_material: {axial_stiffness: 5, linear_density: 1, laplacian_weight: 9}\n")
+            .strand_material.laplacian_weight == 9);
+  expect_error("strand_weight_zero", strand + "strand_material: {axial_stiffness: 5, linear_density: 1, laplacian_weight: 0}\n",
+               "strand_material.laplacian_weight", 4, "> 0");
   expect_error("strand_density_missing", strand + "strand_material: {axial_stiffness: 5}\n",
                "strand_material.linear_density", 4, "missing");
   expect_error("strand_segments", "mesh:\n  strands:\n    - {from: [0, 0, 0], to: [0, -1, 0], segments: 0}\n" + strand_material,

@@ -103,6 +103,9 @@ def test_arap_pd_is_lbfgs_with_history_0(arap, line_search):
     ({"model": "corotated", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000}, False),
     # ARAP, but A built with another weight than 2 mu: no longer the local-global step.
     ({"model": "corotated", "mu": 5.0e5, "lambda": 0, "density": 1000, "laplacian_weight": 2.0e6}, False),
+    # Springs: exact with their own stiffness in L, not with another one.
+    ({"model": "mass-spring", "spring_stiffness": 2.0e4, "density": 1000}, True),
+    ({"model": "mass-spring", "spring_stiffness": 2.0e4, "density": 1000, "laplacian_weight": 4.0e4}, False),
 ])
 def test_pd_says_which_mode_runs(tmp_path, material, exact):
     deck = load_deck(ARAP_DECK)

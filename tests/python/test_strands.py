@@ -42,6 +42,21 @@ def test_hanging_rope_profile(tmp_path, solver, ranks):
     assert rope_profile_error(outdir) < 1e-6
 
 
+def test_strand_laplacian_weight_override(tmp_path):
+    """L built with another stiffness than EA: pd is no longer exact and says so; lbfgs still
+    converges to the same static profile."""
+    deck = load_deck(ROPE_DECK)
+    deck["strand_material"]["laplacian_weight"] = 2 * EA
+    for solver in ("pd", "lbfgs"):
+        deck["solver"]["type"] = solver
+        outdir = tmp_path / solver
+        proc = run_hyperqn([write_deck(tmp_path / f"{solver}.yaml", deck), "-o", outdir], ranks=1)
+        if solver == "pd":
+            assert "Projective Dynamics is not exact" in proc.stdout
+        assert rope_profile_error(outdir) < 1e-6
+    assert read_summary(tmp_path / "lbfgs")["mean_iterations"] > 1  # L is no longer the exact Hessian
+
+
 def test_rope_from_medit_edges(tmp_path):
     """The rope of hanging_rope.yaml written as a Medit file (Vertices + Edges, no tets)."""
     n = 20
