@@ -10,7 +10,9 @@ import argparse, csv, datetime, json, os, platform, signal, subprocess, sys, tim
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MESHES = os.path.normpath(os.path.join(REPO, "..", "shared", "meshes"))
 
-# name -> ("file", path) or ("box", (nx, ny, nz)).  Boxes: 6 tets per cell.
+# name -> ("file", path), ("box", (nx, ny, nz)) or ("hair", (n, segments)).  Boxes: 6 tets per
+# cell.  Hair: an n x 2 x n box (1 x 2/n x 1) with a strand of `segments` segments and length 0.5
+# on every vertex of its top face, (n + 1)^2 strands in all.
 CASES = {
     "bar990": ("file", "bar990.mesh"),
     "bar4099": ("file", "bar4099.mesh"),
@@ -21,6 +23,7 @@ CASES = {
     "box50k": ("box", (70, 12, 10)),     # 50,400 tets
     "box130k": ("box", (100, 15, 15)),   # 135,000 tets
     "box480k": ("box", (200, 20, 20)),   # 480,000 tets
+    "hair84k": ("hair", (40, 50)),       # 19,200 tets + 1,681 strands of 50 segments
 }
 QUICK = ["bar990", "bar4099", "box10k"]
 
@@ -67,6 +70,14 @@ def write_deck(name, deckdir, frames):
             return None
         lo, hi = medit_bbox(path)
         mesh = f"mesh: {{file: {path}}}"
+    elif kind == "hair":
+        n, segments = arg
+        size = [1.0, 2.0 / n, 1.0]
+        lo, hi = [0.0] * 3, size
+        strands = "".join(f"\n    - {{from: {vec([i / n, size[1], k / n])}, to: {vec([i / n + 0.2, size[1] + 0.45, k / n])}, "
+                          f"segments: {segments}}}" for i in range(n + 1) for k in range(n + 1))
+        mesh = (f"mesh:\n  box: {{size: {vec(size)}, cells: [{n}, 2, {n}]}}\n  strands:{strands}\n"
+                "strand_material: {axial_stiffness: 100, linear_density: 0.01}")
     else:
         # Cubic cells of edge 1/ny, so the box is [nx/ny, 1, nz/ny] long.
         size = [c / arg[1] for c in arg]
