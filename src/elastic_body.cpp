@@ -222,12 +222,6 @@ void ElasticBody::cell_jacobians(const std::vector<double>& pos, std::vector<dou
     J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv_[c]).determinant();
 }
 
-void ElasticBody::segment_stretches(const std::vector<double>& pos, std::vector<double>& stretch) const {
-  stretch.resize(mesh_.num_segments);
-  for (PetscInt s = 0; s < mesh_.num_segments; ++s)
-    stretch[s] = segment_edge(pos.data(), &mesh_.segments[2 * s]).norm() / segment_length_[s];
-}
-
 PetscErrorCode ElasticBody::lumped_mass(Vec mass) const {
   Vec ml;
   PetscScalar* a;

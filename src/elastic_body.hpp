@@ -44,8 +44,6 @@ class ElasticBody {
   PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
   // det F per local tet at the given local positions.
   void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
-  // Stretch l / L per local strand segment at the given local positions.
-  void segment_stretches(const std::vector<double>& pos, std::vector<double>& stretch) const;
 
   // Lumped mass per dof (global vector layout): each vertex gets a quarter of its tets' mass
   // and half of its segments' mass.

@@ -98,6 +98,9 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(ss.scene->step->layout(), &x_ref));
   PetscCall(VecDuplicate(x_ref, &v_ref));
+  PetscCall(VecDuplicate(x_ref, &x0));
+  PetscCall(VecDuplicate(x_ref, &v0));
+  PetscCall(VecDuplicate(x_ref, &work));
   PetscCall(ss.scene->body->rest_positions(x_ref));
   PetscCall(apply_initial_state(deck.initial, *ss.scene->body, x_ref));
   PetscCall(VecSet(v_ref, 0.0));
@@ -126,6 +129,10 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
         PetscCall(carry(*ss.scene, *fresh.scene, &c->x, &c->v));
         if (solver_uses_constant_matrix(c->type)) c->time_s += fresh.scene->factored->factor_seconds();
       }
+      for (Vec* w : {&x0, &v0, &work}) {  // work vectors in the new layout
+        PetscCall(VecDestroy(w));
+        PetscCall(VecDuplicate(x_ref, w));
+      }
       PetscCall(make_solvers(fresh, contenders));  // the old solvers refer to the old scene
       ss.reference = std::move(fresh.reference);   // so the old reference goes before the old scene
       ss.scene = std::move(fresh.scene);
@@ -136,9 +143,6 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
     Scene& scene = *ss.scene;
     TimeStep& step = *scene.step;
     const PetscInt free_vertices = scene.mesh.global_dofs / 3;
-    PetscCall(VecDuplicate(x_ref, &x0));
-    PetscCall(VecDuplicate(x_ref, &v0));
-    PetscCall(VecDuplicate(x_ref, &work));
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
     scene.body->set_time(frame * deck.time.dt);  // prescribed positions of moving fixed regions
     std::vector<StudyCurve> curves;
@@ -215,12 +219,12 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
         out.add(p);
       }
     }
-    PetscCall(VecDestroy(&x0));
-    PetscCall(VecDestroy(&v0));
-    PetscCall(VecDestroy(&work));
   }
   PetscCall(VecDestroy(&x_ref));
   PetscCall(VecDestroy(&v_ref));
+  PetscCall(VecDestroy(&x0));
+  PetscCall(VecDestroy(&v0));
+  PetscCall(VecDestroy(&work));
   PetscFunctionReturn(0);
 }
 
