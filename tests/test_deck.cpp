@@ -423,10 +423,12 @@ void test_default_deck() {
   CHECK((d.mesh.box_cells == std::array<int, 3>{24, 6, 6}));
   CHECK(d.material.model == "neohookean");
   CHECK(d.fixed.size() == 1);
+  // The strands example: a cube on a rope.
+  d = load_deck(std::string(HYPERQN_SOURCE_DIR) + "/input/strands.yaml");
+  CHECK(d.mesh.is_box && d.mesh.strands.size() == 1 && d.mesh.strands[0].segments == 40);
+  CHECK(d.has_material && d.strand_material.axial_stiffness == 2.0e4);
 }
 #endif
-
-}  // namespace
 
 // Strands: generated or from a Medit file's Edges, with their own material section.
 void test_strand_decks() {
@@ -468,6 +470,8 @@ void test_strand_decks() {
   expect_error("edges_value", "mesh: {file: meshes/bar.mesh, edges: lines}\n" + kMaterial, "mesh.edges", 1, "allowed: ignore, strands");
   expect_error("no_mesh_at_all", "mesh: {}\n" + kMaterial, "mesh", 1, "box or strands");
 }
+
+}  // namespace
 
 int main() {
   std::random_device rd;
