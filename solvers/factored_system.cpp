@@ -1,4 +1,4 @@
-#include "factored_system.hpp"
+#include "solvers/factored_system.hpp"
 
 namespace hyperqn {
 

@@ -7,7 +7,7 @@
 #pragma once
 #include <petscmat.h>
 
-#include "time_step.hpp"
+#include "model/time_step.hpp"
 
 namespace hyperqn {
 

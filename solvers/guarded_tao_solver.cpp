@@ -1,8 +1,8 @@
-#include "guarded_tao_solver.hpp"
+#include "solvers/guarded_tao_solver.hpp"
 
 #include <cmath>
 
-#include "line_search.hpp"
+#include "solvers/line_search.hpp"
 
 namespace hyperqn {
 

@@ -4,9 +4,9 @@
 #pragma once
 #include <petsctao.h>
 
-#include "deck.hpp"
-#include "time_step.hpp"
-#include "time_step_solver.hpp"
+#include "app/deck.hpp"
+#include "model/time_step.hpp"
+#include "solvers/time_step_solver.hpp"
 
 namespace hyperqn {
 

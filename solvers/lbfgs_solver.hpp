@@ -6,9 +6,9 @@
 #pragma once
 #include <petsctao.h>
 
-#include "deck.hpp"
-#include "factored_system.hpp"
-#include "guarded_tao_solver.hpp"
+#include "app/deck.hpp"
+#include "solvers/factored_system.hpp"
+#include "solvers/guarded_tao_solver.hpp"
 
 namespace hyperqn {
 

@@ -1,4 +1,4 @@
-#include "line_search.hpp"
+#include "solvers/line_search.hpp"
 
 #include <cmath>
 

@@ -9,8 +9,8 @@
 
 #include <string>
 
-#include "factored_system.hpp"
-#include "time_step.hpp"
+#include "solvers/factored_system.hpp"
+#include "model/time_step.hpp"
 
 namespace hyperqn {
 

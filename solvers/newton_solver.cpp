@@ -1,8 +1,8 @@
-#include "newton_solver.hpp"
+#include "solvers/newton_solver.hpp"
 
 #include <string>
 
-#include "line_search.hpp"
+#include "solvers/line_search.hpp"
 
 namespace hyperqn {
 

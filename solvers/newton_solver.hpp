@@ -5,8 +5,8 @@
 #pragma once
 #include <petsctao.h>
 
-#include "deck.hpp"
-#include "guarded_tao_solver.hpp"
+#include "app/deck.hpp"
+#include "solvers/guarded_tao_solver.hpp"
 
 namespace hyperqn {
 

@@ -1,10 +1,10 @@
-#include "pd_solver.hpp"
+#include "solvers/pd_solver.hpp"
 
 #include <cmath>
 #include <string>
 #include <utility>
 
-#include "line_search.hpp"
+#include "solvers/line_search.hpp"
 
 namespace hyperqn {
 

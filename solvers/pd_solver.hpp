@@ -4,10 +4,10 @@
 // step alpha = 1 is the local-global step and decreases g monotonically; for other materials
 // the same direction is used with a backtracking line search (said in the log).
 #pragma once
-#include "deck.hpp"
-#include "factored_system.hpp"
-#include "time_step_solver.hpp"
-#include "time_step.hpp"
+#include "app/deck.hpp"
+#include "solvers/factored_system.hpp"
+#include "solvers/time_step_solver.hpp"
+#include "model/time_step.hpp"
 
 namespace hyperqn {
 

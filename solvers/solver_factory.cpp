@@ -1,8 +1,8 @@
-#include "solver_factory.hpp"
+#include "solvers/solver_factory.hpp"
 
-#include "lbfgs_solver.hpp"
-#include "newton_solver.hpp"
-#include "pd_solver.hpp"
+#include "solvers/lbfgs_solver.hpp"
+#include "solvers/newton_solver.hpp"
+#include "solvers/pd_solver.hpp"
 
 namespace hyperqn {
 

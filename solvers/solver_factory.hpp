@@ -2,9 +2,9 @@
 #pragma once
 #include <memory>
 
-#include "deck.hpp"
-#include "factored_system.hpp"
-#include "time_step_solver.hpp"
+#include "app/deck.hpp"
+#include "solvers/factored_system.hpp"
+#include "solvers/time_step_solver.hpp"
 
 namespace hyperqn {
 

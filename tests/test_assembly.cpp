@@ -3,7 +3,7 @@
 #include <petscdmplex.h>
 
 #include "check.hpp"
-#include "factored_system.hpp"
+#include "solvers/factored_system.hpp"
 #include "test_scene.hpp"
 
 using namespace hyperqn;

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "check.hpp"
-#include "deck.hpp"
-#include "input_error.hpp"
+#include "app/deck.hpp"
+#include "io/input_error.hpp"
 
 namespace fs = std::filesystem;
 using hyperqn::Deck;

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "check.hpp"
-#include "input_error.hpp"
-#include "mesh.hpp"
+#include "io/input_error.hpp"
+#include "mesh/mesh.hpp"
 
 using namespace hyperqn;
 namespace fs = std::filesystem;

@@ -6,10 +6,10 @@
 #include <memory>
 #include <random>
 
-#include "distributed_mesh.hpp"
-#include "elastic_body.hpp"
-#include "regions.hpp"
-#include "time_step.hpp"
+#include "mesh/distributed_mesh.hpp"
+#include "model/elastic_body.hpp"
+#include "model/regions.hpp"
+#include "model/time_step.hpp"
 
 namespace test_scene {
 

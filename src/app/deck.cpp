@@ -1,0 +1,679 @@
+// Deck parsing and validation with yaml-cpp. Every problem becomes an InputError naming the
+// deck file, the line and the dotted key, so a user can fix a deck without reading this code.
+#include "app/deck.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "io/input_error.hpp"
+#include "app/material_params.hpp"
+#include "materials/material.hpp"
+
+namespace hyperqn {
+namespace {
+
+namespace fs = std::filesystem;
+using Names = std::vector<std::string>;
+
+// Allowed names, one table each, so a new model or solver type is one entry here.
+const Names kModels = {"corotated", "neohookean", "stvk", "principal-stretch", "mass-spring"};
+const Names kSolverTypes = {"lbfgs", "lbfgs-identity", "newton", "pd"};
+const Names kNewtonMethods = {"nls", "ntr"};
+const Names kLinearSolvers = {"mumps", "cg-amg"};
+const Names kNewtonHessians = {"projected", "exact"};
+const Names kLineSearches = {"more-thuente", "armijo", "unit"};
+const Names kWarmStarts = {"inertial", "previous"};
+const Names kMeshEdges = {"ignore", "strands"};
+
+std::string join(const Names& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+int line_of(const YAML::Node& n) { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
+
+// What a node holds, for "expected X, got Y" messages.
+std::string describe(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Null: return "an empty value";
+    case YAML::NodeType::Scalar:
+      // yaml-cpp tags quoted scalars "!": say so, since "1.0" in quotes is text, not a number.
+      return n.Tag() == "!" ? "the quoted string \"" + n.Scalar() + "\"" : "'" + n.Scalar() + "'";
+    case YAML::NodeType::Sequence: return "a list of " + std::to_string(n.size()) + " items";
+    case YAML::NodeType::Map: return "a map";
+    default: return "nothing";
+  }
+}
+
+// A YAML value with its dotted key and the line to report. Map entries report the key's line:
+// an empty value or a block map has no useful line of its own.
+struct Value {
+  YAML::Node node;
+  std::string key;
+  int line = 0;
+};
+
+// Typed reading of values; every failure throws InputError for this deck file.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(int line, const std::string& key, const std::string& msg) const {
+    throw InputError(file_, line, key, msg);
+  }
+  [[noreturn]] void fail(const Value& v, const std::string& msg) const { fail(v.line, v.key, msg); }
+  // Range checks: rule reads after "must be", e.g. "> 0".
+  void check(bool ok, const Value& v, const std::string& rule) const {
+    if (!ok) fail(v, "must be " + rule + ", got " + v.node.Scalar());
+  }
+
+  double number(const Value& v) const {
+    double x = 0;
+    if (!plain_scalar(v.node) || !YAML::convert<double>::decode(v.node, x) || !std::isfinite(x))
+      fail(v, "expected a number, got " + describe(v.node));
+    return x;
+  }
+  // Decimal only: yaml-cpp's own conversion would read "010" as octal 8.
+  int integer(const Value& v) const {
+    std::string s = plain_scalar(v.node) ? v.node.Scalar() : "";
+    if (!s.empty() && s[0] == '+') s.erase(0, 1);
+    int x = 0;
+    auto [end, err] = std::from_chars(s.data(), s.data() + s.size(), x);
+    if (s.empty() || err != std::errc() || end != s.data() + s.size())
+      fail(v, "expected an integer, got " + describe(v.node));
+    return x;
+  }
+  bool boolean(const Value& v) const {
+    bool b = false;
+    if (!plain_scalar(v.node) || !YAML::convert<bool>::decode(v.node, b))
+      fail(v, "expected true or false, got " + describe(v.node));
+    return b;
+  }
+  std::string text(const Value& v) const {
+    if (!v.node.IsScalar()) fail(v, "expected a string, got " + describe(v.node));
+    return v.node.Scalar();
+  }
+  std::string choice(const Value& v, const Names& allowed) const {
+    std::string s = text(v);
+    for (const auto& a : allowed)
+      if (s == a) return s;
+    fail(v, "unknown value '" + s + "'; allowed: " + join(allowed));
+  }
+
+  // The items of a list (an empty value is an empty list), each keyed "key[i]".
+  std::vector<Value> items(const Value& v) const {
+    if (v.node.IsNull()) return {};
+    if (!v.node.IsSequence()) fail(v, "expected a list, got " + describe(v.node));
+    std::vector<Value> out;
+    for (std::size_t i = 0; i < v.node.size(); ++i) {
+      YAML::Node n = v.node[i];
+      out.push_back({n, v.key + "[" + std::to_string(i) + "]", n.IsNull() ? v.line : line_of(n)});
+    }
+    return out;
+  }
+  std::vector<Value> triple(const Value& v, const char* what) const {
+    if (!v.node.IsSequence() || v.node.size() != 3)
+      fail(v, std::string("expected a list of 3 ") + what + ", got " + describe(v.node));
+    return items(v);
+  }
+  std::array<double, 3> numbers3(const Value& v) const {
+    auto it = triple(v, "numbers");
+    return {number(it[0]), number(it[1]), number(it[2])};
+  }
+  std::array<int, 3> integers3(const Value& v) const {
+    auto it = triple(v, "integers");
+    return {integer(it[0]), integer(it[1]), integer(it[2])};
+  }
+
+ private:
+  static bool plain_scalar(const YAML::Node& n) { return n.IsScalar() && n.Tag() != "!"; }
+  std::string file_;
+};
+
+// One YAML map of the deck. Construction rejects non-maps, unknown and duplicate keys
+// (yaml-cpp would silently keep the first of two equal keys); an empty value is an empty map.
+class Section {
+ public:
+  // allowed: the keys accepted here; empty means any key (the petsc section).
+  Section(const Reader& r, const Value& v, const Names& allowed) : r_(r), value_(v) {
+    if (v.node.IsNull()) return;
+    if (!v.node.IsMap()) r.fail(v, "expected a map of 'key: value' entries, got " + describe(v.node));
+    for (auto it = v.node.begin(); it != v.node.end(); ++it) {
+      if (!it->first.IsScalar()) r.fail(line_of(it->first), v.key, "keys must be plain names");
+      std::string name = it->first.Scalar();
+      Value entry{it->second, path(name), line_of(it->first)};
+      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end())
+        r.fail(entry, "unknown key '" + name + "'" + (v.key.empty() ? "" : " in " + v.key) +
+                          "; allowed: " + join(allowed));
+      if (find(name)) r.fail(entry, "duplicate key '" + name + "'");
+      entries_.push_back({name, entry});
+    }
+  }
+
+  const Value* find(const std::string& name) const {
+    for (const auto& [n, v] : entries_)
+      if (n == name) return &v;
+    return nullptr;
+  }
+  const Value& need(const std::string& name) const {
+    if (const Value* v = find(name)) return *v;
+    r_.fail(value_.line, path(name), "missing required key '" + name + "'" +
+                                         (value_.key.empty() ? "" : " in " + value_.key));
+  }
+  const std::vector<std::pair<std::string, Value>>& entries() const { return entries_; }
+  const Value& value() const { return value_; }
+  std::string path(const std::string& name) const {
+    return value_.key.empty() ? name : value_.key + "." + name;
+  }
+
+ private:
+  const Reader& r_;
+  Value value_;
+  std::vector<std::pair<std::string, Value>> entries_;
+};
+
+// Relative mesh paths are relative to the deck's directory (not the working directory), so a
+// deck and its meshes can be moved together.
+std::string resolve_mesh_file(const Reader& r, const Value& v, const fs::path& deck_dir) {
+  fs::path file = r.text(v);
+  if (file.empty()) r.fail(v, "empty mesh file name");
+  if (file.extension() != ".mesh" && file.extension() != ".msh")
+    r.fail(v, "unsupported mesh file '" + file.string() +
+                  "': expected .mesh (Medit) or .msh (Gmsh)");
+  fs::path resolved = file.is_absolute() ? file : (deck_dir / file).lexically_normal();
+  std::error_code ec;
+  if (!fs::is_regular_file(resolved, ec))
+    r.fail(v, "mesh file not found: '" + resolved.string() + "'");
+  return resolved.string();
+}
+
+void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
+  Section s(r, v, {"file", "box", "transform", "edges", "strands"});
+  const Value *file = s.find("file"), *box = s.find("box"), *strands = s.find("strands");
+  if (file && box) r.fail(v, "give either file or box, not both");
+  if (!file && !box && !strands) r.fail(v, "missing the mesh: give file (a .mesh or .msh path), box or strands");
+  if (file) m.file = resolve_mesh_file(r, *file, deck_dir);
+  if (const Value* x = s.find("edges")) {
+    m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
+    if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh"))
+      r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
+  }
+  if (strands) {
+    for (const Value& item : r.items(*strands)) {
+      Section st(r, item, {"from", "to", "segments"});
+      StrandLine line;
+      line.line = item.line;
+      line.from = r.numbers3(st.need("from"));
+      line.to = r.numbers3(st.need("to"));
+      const Value& n = st.need("segments");
+      line.segments = r.integer(n);
+      r.check(line.segments >= 1, n, ">= 1");
+      if (line.from == line.to) r.fail(st.need("to"), "a strand needs distinct from and to points");
+      m.strands.push_back(line);
+    }
+    if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
+  }
+  if (box) {
+    Section b(r, *box, {"size", "cells"});
+    m.is_box = true;
+    const Value& size = b.need("size");
+    const Value& cells = b.need("cells");
+    m.box_size = r.numbers3(size);
+    m.box_cells = r.integers3(cells);
+    std::vector<Value> size_items = r.items(size), cells_items = r.items(cells);
+    for (int i = 0; i < 3; ++i) {
+      r.check(m.box_size[i] > 0, size_items[i], "> 0");
+      r.check(m.box_cells[i] >= 1, cells_items[i], ">= 1");
+    }
+  }
+  if (const Value* t = s.find("transform")) {
+    Section ts(r, *t, {"scale", "rotate", "translate"});
+    if (const Value* x = ts.find("scale")) {
+      m.transform.scale = r.number(*x);
+      r.check(m.transform.scale > 0, *x, "> 0");
+    }
+    if (const Value* x = ts.find("rotate")) m.transform.rotate_deg = r.numbers3(*x);
+    if (const Value* x = ts.find("translate")) m.transform.translate = r.numbers3(*x);
+  }
+}
+
+void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
+  Section s(r, v, {"axial_stiffness", "linear_density", "laplacian_weight"});
+  const Value &k = s.need("axial_stiffness"), &rho = s.need("linear_density");
+  m.axial_stiffness = r.number(k);
+  r.check(m.axial_stiffness > 0, k, "> 0");
+  m.linear_density = r.number(rho);
+  r.check(m.linear_density > 0, rho, "> 0");
+  if (const Value* x = s.find("laplacian_weight")) {
+    m.laplacian_weight = r.number(*x);
+    r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the strands' own weight, axial_stiffness)");
+  }
+}
+
+// A pair of keys that only make sense together: the missing one is reported at the other's line.
+void need_both(const Reader& r, const Section& s, const char* a, const char* b) {
+  const Value *va = s.find(a), *vb = s.find(b);
+  if (va && !vb) r.fail(va->line, s.path(b), std::string("missing; ") + a + " is given, so " + b + " is needed too");
+  if (vb && !va) r.fail(vb->line, s.path(a), std::string("missing; ") + b + " is given, so " + a + " is needed too");
+}
+
+void read_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) {
+  const Value *E = s.find("youngs_modulus"), *nu = s.find("poisson_ratio");
+  const Value *mu = s.find("mu"), *lambda = s.find("lambda");
+  if ((E || nu) && (mu || lambda))
+    r.fail(mu ? *mu : *lambda, "give either youngs_modulus and poisson_ratio, or mu and lambda, not both");
+  if (!E && !nu && !mu && !lambda)
+    r.fail(s.value(), "missing elastic constants: give youngs_modulus and poisson_ratio, or mu and lambda");
+  if (E || nu) {
+    need_both(r, s, "youngs_modulus", "poisson_ratio");
+    double e = r.number(*E), n = r.number(*nu);
+    r.check(e > 0, *E, "> 0");
+    r.check(n > -1 && n < 0.5, *nu, "in (-1, 0.5)");
+    m.mu = lame_mu(e, n);
+    m.lambda = lame_lambda(e, n);
+  } else {
+    need_both(r, s, "mu", "lambda");
+    m.mu = r.number(*mu);
+    m.lambda = r.number(*lambda);
+    r.check(m.mu > 0, *mu, "> 0");
+    r.check(m.lambda >= 0, *lambda, ">= 0");
+  }
+}
+
+// f: {polynomial: [c0, c1, ...]} or f: {spline: {x: [...], y: [...]}}
+FunctionSpec read_function(const Reader& r, const Value& v) {
+  Section s(r, v, {"polynomial", "spline"});
+  const Value *poly = s.find("polynomial"), *spline = s.find("spline");
+  if (!poly == !spline) r.fail(v, "give either polynomial or spline");
+  FunctionSpec f;
+  if (poly) {
+    f.kind = "polynomial";
+    for (const Value& c : r.items(*poly)) f.coefficients.push_back(r.number(c));
+    r.check(!f.coefficients.empty(), *poly, "a non-empty list of coefficients of (x - 1)^k");
+  } else {
+    f.kind = "spline";
+    Section sp(r, *spline, {"x", "y"});
+    const Value &x = sp.need("x"), &y = sp.need("y");
+    for (const Value& c : r.items(x)) f.x.push_back(r.number(c));
+    for (const Value& c : r.items(y)) f.y.push_back(r.number(c));
+    r.check(f.x.size() >= 2 && f.x.size() == f.y.size(), y, "as many values as x (at least 2)");
+    for (size_t i = 1; i < f.x.size(); ++i) r.check(f.x[i] > f.x[i - 1], x, "strictly increasing");
+  }
+  return f;
+}
+
+void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
+  Section s(r, v, {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density", "total_mass", "J0",
+                   "laplacian_weight", "kappa", "f", "g", "h", "fiber", "spring_stiffness"});
+  if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
+  const bool principal = m.model == "principal-stretch", springs = m.model == "mass-spring";
+  if (const Value* x = s.find("spring_stiffness")) {
+    if (!springs) r.fail(*x, "spring_stiffness applies to model mass-spring only");
+  }
+  if (springs) {
+    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda", "f", "g", "h", "fiber"})
+      if (const Value* x = s.find(key)) r.fail(*x, "mass-spring takes spring_stiffness (and laplacian_weight) only");
+    const Value& k = s.need("spring_stiffness");
+    m.spring_stiffness = r.number(k);
+    r.check(m.spring_stiffness > 0, k, "> 0");
+  } else if (principal) {
+    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda"})
+      if (const Value* x = s.find(key)) r.fail(*x, "principal-stretch takes f, g, h instead of elastic constants");
+    if (const Value* x = s.find("f")) m.f = read_function(r, *x);
+    if (const Value* x = s.find("g")) m.g = read_function(r, *x);
+    if (const Value* x = s.find("h")) m.h = read_function(r, *x);
+    if (m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty()) r.fail(v, "principal-stretch needs f, g or h");
+  } else {
+    for (const char* key : {"f", "g", "h"})
+      if (const Value* x = s.find(key)) r.fail(*x, std::string(key) + " applies to model principal-stretch only");
+    read_elastic_constants(r, s, m);
+  }
+  if (const Value* x = s.find("kappa")) {
+    if (m.model != "stvk") r.fail(*x, "kappa applies to model stvk only (model is " + m.model + ")");
+    m.kappa = r.number(*x);
+    r.check(m.kappa >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("fiber")) {
+    Section fs(r, *x, {"direction", "stiffness"});
+    const Value& dir = fs.need("direction");
+    m.fiber_direction = r.numbers3(dir);
+    const auto& d = m.fiber_direction;
+    r.check(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0, dir, "a nonzero vector");
+    const Value& k = fs.need("stiffness");
+    m.fiber_stiffness = r.number(k);
+    r.check(m.fiber_stiffness >= 0, k, ">= 0");
+    m.has_fiber = true;
+  }
+
+  const Value *density = s.find("density"), *total = s.find("total_mass");
+  if (density && total) r.fail(*total, "give either density or total_mass, not both");
+  if (!density && !total) r.fail(v, "missing the mass: give density or total_mass");
+  m.has_density = density != nullptr;
+  if (density) {
+    m.density = r.number(*density);
+    r.check(m.density > 0, *density, "> 0");
+  } else {
+    m.total_mass = r.number(*total);
+    r.check(m.total_mass > 0, *total, "> 0");
+  }
+
+  // J0 under another model would be silently ignored: reject it instead.
+  if (const Value* x = s.find("J0")) {
+    if (m.model != "neohookean") r.fail(*x, "J0 applies to model neohookean only (model is " + m.model + ")");
+    m.J0 = r.number(*x);
+    r.check(m.J0 > 0 && m.J0 < 1, *x, "in (0, 1)");
+  }
+  if (const Value* x = s.find("laplacian_weight")) {
+    m.laplacian_weight = r.number(*x);
+    r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the material's own weight)");
+  }
+  // The material's own checks (e.g. spline shapes) with the deck's place in the message.
+  try {
+    if (!springs) make_material(m);
+  } catch (const std::invalid_argument& e) {
+    r.fail(v, e.what());
+  }
+}
+
+BoxRegion read_box(const Reader& r, const Value& v) {
+  Section box(r, v, {"min", "max"});
+  const Value &min = box.need("min"), &max = box.need("max");
+  BoxRegion b;
+  b.min = r.numbers3(min);
+  b.max = r.numbers3(max);
+  b.line = v.line;
+  for (int i = 0; i < 3; ++i)
+    if (b.min[i] > b.max[i])
+      r.fail(box.value(), std::string("min > max along ") + "xyz"[i] + ": " + r.items(min)[i].node.Scalar() +
+                              " > " + r.items(max)[i].node.Scalar());
+  return b;
+}
+
+Motion read_motion(const Reader& r, const Value& v) {
+  Section s(r, v, {"rotate", "translate", "start", "end"});
+  Motion m;
+  m.active = true;
+  if (const Value* x = s.find("rotate")) {
+    Section rot(r, *x, {"axis", "center", "rate"});
+    const Value& axis = rot.need("axis");
+    m.axis = r.numbers3(axis);
+    r.check(m.axis[0] * m.axis[0] + m.axis[1] * m.axis[1] + m.axis[2] * m.axis[2] > 0, axis, "a nonzero vector");
+    if (const Value* c = rot.find("center")) m.center = r.numbers3(*c);
+    m.rate_deg = r.number(rot.need("rate"));
+  }
+  if (const Value* x = s.find("translate")) {
+    Section tr(r, *x, {"velocity"});
+    m.velocity = r.numbers3(tr.need("velocity"));
+  }
+  if (const Value* x = s.find("start")) {
+    m.start = r.number(*x);
+    r.check(m.start >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("end")) {
+    m.end = r.number(*x);
+    r.check(m.end >= m.start, *x, ">= motion.start");
+  }
+  return m;
+}
+
+void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) {
+  for (const Value& item : r.items(v)) {
+    Section region(r, item, {"box", "motion", "release"});
+    BoxRegion b = read_box(r, region.need("box"));
+    b.line = item.line;
+    if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
+    if (const Value* x = region.find("release")) {
+      b.release = r.number(*x);
+      r.check(b.release > 0, *x, "> 0 (a time)");
+    }
+    fixed.push_back(b);
+  }
+}
+
+void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
+  Section s(r, v, {"squash", "collapse", "random", "invert"});
+  if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
+  const auto& [kind, x] = s.entries()[0];
+  auto read_axis = [&](const Section& sec) {
+    const Value& a = sec.need("axis");
+    in.axis = r.integer(a);
+    r.check(in.axis >= 0 && in.axis <= 2, a, "0, 1 or 2");
+  };
+  in.kind = kind;
+  if (kind == "squash") {
+    Section sq(r, x, {"axis", "factor"});
+    read_axis(sq);
+    const Value& f = sq.need("factor");
+    in.factor = r.number(f);
+    r.check(in.factor >= 0, f, ">= 0");
+  } else if (kind == "collapse") {
+    if (!r.boolean(x)) in.kind.clear();
+  } else if (kind == "random") {
+    Section rs(r, x, {"seed"});
+    if (const Value* seed = rs.find("seed")) in.seed = r.integer(*seed);
+  } else {
+    Section inv(r, x, {"axis"});
+    read_axis(inv);
+  }
+}
+
+void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
+  for (const Value& item : r.items(v)) {
+    Section s(r, item, {"box", "tags", "material"});
+    MaterialRegion region;
+    region.line = item.line;
+    const Value *box = s.find("box"), *tags = s.find("tags");
+    if (!box == !tags) r.fail(item, "give either box or tags");
+    if (box) {
+      region.box = read_box(r, *box);
+    } else {
+      region.by_box = false;
+      for (const Value& t : r.items(*tags)) region.tags.push_back(r.integer(t));
+      r.check(!region.tags.empty(), *tags, "a non-empty list of element tags");
+    }
+    const Value& mat = s.need("material");
+    read_material(r, mat, region.material);
+    // Masses are per unit volume when the body has several materials.
+    if (!region.material.has_density || !base.has_density)
+      r.fail(mat, "with regions, every material (the default one too) gives density, not total_mass");
+    regions.push_back(region);
+  }
+}
+
+void read_time(const Reader& r, const Value& v, TimeSpec& t) {
+  Section s(r, v, {"dt", "frames", "damping"});
+  if (const Value* x = s.find("dt")) {
+    t.dt = r.number(*x);
+    r.check(t.dt > 0, *x, "> 0");
+  }
+  if (const Value* x = s.find("frames")) {
+    t.frames = r.integer(*x);
+    r.check(t.frames >= 1, *x, ">= 1");
+  }
+  if (const Value* x = s.find("damping")) {
+    t.damping = r.number(*x);
+    r.check(t.damping >= 0 && t.damping < 1, *x, "in [0, 1)");
+  }
+}
+
+void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
+  Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
+                   "newton_method", "linear_solver", "newton_hessian"});
+  if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
+  if (const Value* x = s.find("iterations")) {
+    sv.iterations = r.integer(*x);
+    r.check(sv.iterations >= 1, *x, ">= 1");
+  }
+  if (const Value* x = s.find("grad_atol")) {
+    sv.grad_atol = r.number(*x);
+    r.check(sv.grad_atol >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("grad_rtol")) {
+    sv.grad_rtol = r.number(*x);
+    r.check(sv.grad_rtol >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("history")) {
+    sv.history = r.integer(*x);
+    r.check(sv.history >= 0, *x, ">= 0");
+  }
+  if (const Value* x = s.find("line_search")) sv.line_search = r.choice(*x, kLineSearches);
+  if (const Value* x = s.find("warm_start")) sv.warm_start = r.choice(*x, kWarmStarts);
+  if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
+  if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
+  if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
+}
+
+void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
+  Section s(r, v, {"frames", "solvers", "iterations", "time_limit", "reference_rtol", "trajectory",
+                   "trajectory_iterations"});
+  if (const Value* x = s.find("frames")) {
+    st.frames.clear();
+    for (const Value& item : r.items(*x)) {
+      st.frames.push_back(r.integer(item));
+      r.check(st.frames.back() >= 1 && st.frames.back() <= scene_frames, item,
+              "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
+    }
+    r.check(!st.frames.empty(), *x, "a non-empty list");
+  }
+  if (const Value* x = s.find("solvers")) {
+    st.solvers.clear();
+    for (const Value& item : r.items(*x)) st.solvers.push_back(r.choice(item, kSolverTypes));
+    r.check(!st.solvers.empty(), *x, "a non-empty list");
+  }
+  if (const Value* x = s.find("iterations")) {
+    st.iterations = r.integer(*x);
+    r.check(st.iterations >= 1, *x, ">= 1");
+  }
+  if (const Value* x = s.find("time_limit")) {
+    st.time_limit = r.number(*x);
+    r.check(st.time_limit > 0, *x, "> 0");
+  }
+  if (const Value* x = s.find("reference_rtol")) {
+    st.reference_rtol = r.number(*x);
+    r.check(st.reference_rtol > 0 && st.reference_rtol < 1, *x, "in (0, 1)");
+  }
+  if (const Value* x = s.find("trajectory")) st.trajectory = r.boolean(*x);
+  if (const Value* x = s.find("trajectory_iterations")) {
+    Section t(r, *x, kSolverTypes);
+    for (const auto& [name, item] : t.entries()) {
+      st.trajectory_iterations[name] = r.integer(item);
+      r.check(st.trajectory_iterations[name] >= 1, item, ">= 1");
+    }
+  }
+}
+
+void read_output(const Reader& r, const Value& v, OutputSpec& o) {
+  Section s(r, v, {"directory", "every", "vtk", "iterations_csv"});
+  if (const Value* x = s.find("directory")) o.directory = r.text(*x);
+  if (const Value* x = s.find("every")) {
+    o.every = r.integer(*x);
+    r.check(o.every >= 1, *x, ">= 1");
+  }
+  if (const Value* x = s.find("vtk")) o.vtk = r.boolean(*x);
+  if (const Value* x = s.find("iterations_csv")) o.iterations_csv = r.boolean(*x);
+}
+
+// petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
+// spelled true/false and an empty value is "" (an option without argument).
+void read_petsc(const Reader& r, const Value& v, const std::string& prefix,
+                std::vector<std::pair<std::string, std::string>>& out) {
+  Section s(r, v, {});
+  for (const auto& [name, x] : s.entries()) {
+    if (name.empty() || name[0] == '-' || name.find_first_of(" \t") != std::string::npos)
+      r.fail(x, "PETSc option names are written without the leading '-' and without spaces");
+    std::string option = prefix.empty() ? name : prefix + "_" + name;
+    if (x.node.IsMap()) {
+      read_petsc(r, x, option, out);
+    } else if (x.node.IsNull()) {
+      out.emplace_back("-" + option, "");
+    } else if (x.node.IsScalar()) {
+      std::string value = x.node.Scalar();
+      bool b = false;
+      if (x.node.Tag() != "!" && YAML::convert<bool>::decode(x.node, b)) value = b ? "true" : "false";
+      out.emplace_back("-" + option, value);
+    } else {
+      r.fail(x, "expected a single value or a nested map, got " + describe(x.node) +
+                    " (write PETSc lists as a comma-separated string)");
+    }
+  }
+}
+
+Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
+  Deck deck;
+  deck.path = path;
+  deck.name = fs::path(path).stem().string();
+
+  Section s(r, Value{root, "", line_of(root)},
+            {"name", "mesh", "material", "strand_material", "regions", "fixed", "initial", "gravity", "time", "solver",
+             "output", "study", "petsc"});
+  if (const Value* x = s.find("name")) {
+    deck.name = r.text(*x);
+    // The name becomes a directory name (output/<name>).
+    if (deck.name.empty() || deck.name.find_first_of("/\\") != std::string::npos)
+      r.fail(*x, "must be a non-empty name without '/' or '\\'");
+  }
+  const Value& mesh = s.need("mesh");
+  read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
+  // material (and regions) describe the tets, strand_material the strand segments: each is
+  // required exactly when the mesh has that kind of element. Whether a Medit file read for its
+  // edges also has tets is only known once it is read (load_scene_mesh checks).
+  const bool may_be_strands_only = deck.mesh.edges_as_strands;
+  if (const Value* x = s.find("material"); x && deck.mesh.has_solid()) {
+    read_material(r, *x, deck.material);
+    deck.has_material = true;
+  } else if (deck.mesh.has_solid() && !may_be_strands_only) {
+    s.need("material");
+  } else if (!deck.mesh.has_solid()) {
+    for (const char* key : {"material", "regions"})
+      if (const Value* x = s.find(key))
+        r.fail(*x, "the mesh is strands only (no file or box): " + std::string(key) +
+                       " describes tets; the strands take strand_material");
+  }
+  if (deck.mesh.has_strands()) {
+    if (!s.find("strand_material"))
+      r.fail(mesh.line, "strand_material", "missing required key 'strand_material': the mesh has strands");
+    read_strand_material(r, *s.find("strand_material"), deck.strand_material);
+  } else if (const Value* x = s.find("strand_material")) {
+    r.fail(*x, "the mesh has no strands (give mesh.strands, or mesh.edges: strands with a Medit file)");
+  }
+  if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
+  if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
+  if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
+  if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
+  if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
+  if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
+  if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
+  if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
+  if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck.petsc_options);
+  return deck;
+}
+
+}  // namespace
+
+Deck load_deck(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path, 0, "", "deck file not found");
+  if (fs::is_directory(path, ec)) throw InputError(path, 0, "", "is a directory, not a deck file");
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "", "cannot read the deck file");
+
+  Reader r(path);
+  try {
+    std::vector<YAML::Node> docs = YAML::LoadAll(in);
+    if (docs.size() > 1) r.fail(line_of(docs[1]), "", "a deck holds one YAML document (found a second one)");
+    return parse(r, docs.empty() ? YAML::Node() : docs[0], path);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(path, e.mark.line + 1, "", "YAML syntax error: " + e.msg);
+  } catch (const YAML::Exception& e) {
+    // Anything yaml-cpp rejects that the checks above did not foresee.
+    throw InputError(path, e.mark.line >= 0 ? e.mark.line + 1 : 0, "", e.msg);
+  }
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,16 @@
+// Runs one deck: load and check the mesh, distribute it, set up the time step and solver,
+// then step through the frames writing VTK, iterations.csv and summary.json.
+#pragma once
+#include <petscsys.h>
+
+#include <string>
+
+#include "app/deck.hpp"
+
+namespace hyperqn {
+
+// Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the
+// run could not continue (summary.json says why).
+int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir);
+
+}  // namespace hyperqn

@@ -1,0 +1,104 @@
+#include "io/run_log.hpp"
+
+#include <sys/resource.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+namespace hyperqn {
+
+void IterationLog::open(const std::string& path, int rank) {
+  if (rank != 0) return;
+  file_ = std::fopen(path.c_str(), "w");
+  if (!file_) throw std::runtime_error("cannot write " + path);
+  std::fprintf(file_, "frame,iteration,time_s,energy,grad_norm,step,evaluations\n");
+}
+
+void IterationLog::append(int frame, const IterationRecord& r) {
+  if (!file_) return;
+  std::fprintf(file_, "%d,%d,%.9e,%.17g,%.17g,%.17g,%d\n", frame, (int)r.iteration, r.time_s, r.energy,
+               r.grad_norm, r.step, (int)r.evaluations);
+}
+
+IterationLog::~IterationLog() {
+  if (file_) std::fclose(file_);
+}
+
+// JSON has no NaN or Inf: write null for them.
+static std::string number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+static std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    if (c == '\n') {
+      q += "\\n";
+      continue;
+    }
+    q += c;
+  }
+  return q + "\"";
+}
+
+void write_summary(const std::string& path, const RunSummary& s) {
+  std::string flagged = "[";
+  for (const auto& [frame, reason] : s.flagged_frames)
+    flagged += std::string(flagged.size() > 1 ? ", " : "") + "{\"frame\": " + std::to_string(frame) +
+               ", \"reason\": " + quoted(reason) + "}";
+  flagged += "]";
+  std::ofstream out(path);
+  out << "{\n"
+      << "  \"deck\": " << quoted(s.deck) << ",\n"
+      << "  \"status\": " << quoted(s.status) << ",\n"
+      << "  \"solver\": " << quoted(s.solver) << ",\n"
+      << "  \"ranks\": " << s.ranks << ",\n"
+      << "  \"vertices\": " << s.vertices << ",\n"
+      << "  \"tets\": " << s.tets << ",\n"
+      << "  \"segments\": " << s.segments << ",\n"
+      << "  \"dofs\": " << s.dofs << ",\n"
+      << "  \"fixed_vertices\": " << s.fixed_vertices << ",\n"
+      << "  \"frames\": " << s.frames << ",\n"
+      << "  \"dt\": " << number(s.dt) << ",\n"
+      << "  \"factorizations\": " << s.factorizations << ",\n"
+      << "  \"setup_s\": " << number(s.setup_s) << ",\n"
+      << "  \"assembly_s\": " << number(s.assembly_s) << ",\n"
+      << "  \"factor_s\": " << number(s.factor_s) << ",\n"
+      << "  \"solve_s\": " << number(s.solve_s) << ",\n"
+      << "  \"wall_s\": " << number(s.wall_s) << ",\n"
+      << "  \"ms_per_frame\": " << number(s.ms_per_frame) << ",\n"
+      << "  \"ms_per_iteration\": " << number(s.ms_per_iteration) << ",\n"
+      << "  \"iterations\": " << s.iterations << ",\n"
+      << "  \"mean_iterations\": " << number(s.mean_iterations) << ",\n"
+      << "  \"evaluations\": " << s.evaluations << ",\n"
+      << "  \"objective_s\": " << number(s.objective_s) << ",\n"
+      << "  \"h0_solves\": " << s.h0_solves << ",\n"
+      << "  \"h0_solve_s\": " << number(s.h0_solve_s) << ",\n"
+      << "  \"hessian_s\": " << number(s.hessian_s) << ",\n"
+      << "  \"converged_frames\": " << s.converged_frames << ",\n"
+      << "  \"failed_frames\": " << s.failed_frames << ",\n"
+      << "  \"flagged_frames\": " << flagged << ",\n"
+      << "  \"ls_failures\": " << s.ls_failures << ",\n"
+      << "  \"rejected_evaluations\": " << s.rejected_evaluations << ",\n"
+      << "  \"final_energy\": " << number(s.final_energy) << ",\n"
+      << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"
+      << "  \"min_J\": " << number(s.min_J) << ",\n"
+      << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
+      << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << "\n"
+      << "}\n";
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+double peak_rss_mb() {
+  struct rusage ru;
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_maxrss / 1024.0;  // Linux reports KiB
+}
+
+}  // namespace hyperqn

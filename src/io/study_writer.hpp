@@ -1,0 +1,51 @@
+// Writes the study's results (rank 0): study.csv and trajectory.csv, and the same data in
+// study.h5 (HDF5: /frames/frame_NNNNN/<solver>/..., /trajectory/<solver>/...).
+#pragma once
+#include <hdf5.h>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "solvers/time_step_solver.hpp"
+
+namespace hyperqn {
+
+// One solver's iterations at one study frame, with the errors relative to the reference.
+struct StudyCurve {
+  std::string solver;
+  int frame = 0;
+  std::vector<IterationRecord> iterations;
+  double g0 = 0, g_star = 0;  // g at the common start, reference minimum
+  double rel_error(const IterationRecord& r) const { return (r.energy - g_star) / (g0 - g_star); }
+};
+
+struct TrajectoryPoint {
+  std::string solver;
+  int frame = 0;
+  double time_s = 0;         // cumulative solve time up to and including this frame
+  long long iterations = 0;  // cumulative
+  double rms_error = 0;      // RMS over free vertices of |x - x_ref|
+  double rel_rms_error = 0;  // rms_error / rest bounding-box diagonal
+};
+
+class StudyWriter {
+ public:
+  // Opens the files (rank 0 only; other ranks: no-op). Throws std::runtime_error.
+  StudyWriter(const std::string& outdir, int rank);
+  ~StudyWriter();
+  StudyWriter(const StudyWriter&) = delete;
+  StudyWriter& operator=(const StudyWriter&) = delete;
+  void add(const StudyCurve& c);
+  void add(const TrajectoryPoint& p);
+  // Writes the trajectory datasets and closes everything.
+  void finish();
+
+ private:
+  bool active_ = false;
+  std::FILE *study_csv_ = nullptr, *trajectory_csv_ = nullptr;
+  hid_t h5_ = -1;
+  std::vector<TrajectoryPoint> trajectory_;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,176 @@
+#include "io/vtk_writer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace hyperqn {
+
+namespace {
+
+// One data array: its XML attributes and its raw bytes.
+struct Array {
+  std::string type, name;
+  int components;
+  std::string bytes;
+};
+
+template <typename T>
+Array make_array(const std::string& type, const std::string& name, int components, const std::vector<T>& v) {
+  return {type, name, components, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T))};
+}
+
+std::string base64(const char* data, size_t n) {
+  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve(4 * ((n + 2) / 3));
+  for (size_t i = 0; i < n; i += 3) {
+    const uint32_t b0 = (unsigned char)data[i], b1 = i + 1 < n ? (unsigned char)data[i + 1] : 0,
+                   b2 = i + 2 < n ? (unsigned char)data[i + 2] : 0;
+    const uint32_t v = (b0 << 16) | (b1 << 8) | b2;
+    out += table[(v >> 18) & 63];
+    out += table[(v >> 12) & 63];
+    out += i + 1 < n ? table[(v >> 6) & 63] : '=';
+    out += i + 2 < n ? table[v & 63] : '=';
+  }
+  return out;
+}
+
+// Inline binary DataArray: base64 of the UInt64 byte count, then base64 of the bytes, encoded
+// separately as VTK does. (Raw appended data would be smaller, but readers that strip
+// whitespace around the appended block corrupt arrays that start or end with bytes 9-13 or 32,
+// such as the tetra cell type 10.)
+std::string data_array(const Array& a) {
+  std::ostringstream s;
+  s << "<DataArray type=\"" << a.type << "\"";
+  if (!a.name.empty()) s << " Name=\"" << a.name << "\"";
+  const uint64_t n = a.bytes.size();
+  s << " NumberOfComponents=\"" << a.components << "\" format=\"binary\">\n"
+    << base64(reinterpret_cast<const char*>(&n), sizeof n) << base64(a.bytes.data(), n) << "\n</DataArray>\n";
+  return s.str();
+}
+
+std::string frame_stem(const std::string& name, int frame) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "_%05d", frame);
+  return name + buf;
+}
+
+void check_stream(const std::ofstream& out, const std::string& path) {
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+}  // namespace
+
+VtkWriter::VtkWriter(MPI_Comm comm, const DistributedMesh& mesh, std::string directory, std::string name)
+    : comm_(comm), mesh_(&mesh), dir_(std::move(directory)), name_(std::move(name)) {}
+
+void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
+  const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, nc = nt + mesh_->num_segments;
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  std::vector<double> disp(3 * nv);
+  for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
+  // Tets, then strand segments as lines; cell field J: det F of a tet, l / L of a segment.
+  std::vector<int64_t> conn(mesh_->cells.begin(), mesh_->cells.end()), offsets(nc);
+  conn.insert(conn.end(), mesh_->segments.begin(), mesh_->segments.end());
+  for (PetscInt c = 0; c < nc; ++c) offsets[c] = c < nt ? 4 * (c + 1) : 4 * nt + 2 * (c - nt + 1);
+  std::vector<uint8_t> types(nc, 10);  // VTK_TETRA
+  std::fill(types.begin() + nt, types.end(), 3);  // VTK_LINE
+  std::vector<int32_t> ranks(nc, rank);
+  std::vector<double> J(f.J->begin(), f.J->begin() + nt);
+  auto length = [](const double* p, PetscInt a, PetscInt b) {
+    double s = 0;
+    for (int d = 0; d < 3; ++d) s += (p[3 * b + d] - p[3 * a + d]) * (p[3 * b + d] - p[3 * a + d]);
+    return std::sqrt(s);
+  };
+  for (PetscInt s = 0; s < mesh_->num_segments; ++s) {
+    const PetscInt a = mesh_->segments[2 * s], b = mesh_->segments[2 * s + 1];
+    J.push_back(length(f.positions->data(), a, b) / length(mesh_->rest.data(), a, b));
+  }
+
+  const std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
+                                         make_array("Float64", "velocity", 3, *f.velocities),
+                                         make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
+  const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
+  const Array points = make_array("Float64", "", 3, *f.positions);
+  const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
+                                    make_array("Int64", "offsets", 1, offsets),
+                                    make_array("UInt8", "types", 1, types)};
+
+  std::string xml;
+  xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+         "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n";
+  xml += "<Piece NumberOfPoints=\"" + std::to_string(nv) + "\" NumberOfCells=\"" + std::to_string(nc) + "\">\n";
+  xml += "<PointData>\n";
+  for (const Array& a : point_data) xml += data_array(a);
+  xml += "</PointData>\n<CellData>\n";
+  for (const Array& a : cell_data) xml += data_array(a);
+  xml += "</CellData>\n<Points>\n" + data_array(points) + "</Points>\n<Cells>\n";
+  for (const Array& a : cells) xml += data_array(a);
+  xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+
+  std::ofstream out(path, std::ios::binary);
+  out << xml;
+  out.close();
+  check_stream(out, path);
+}
+
+void VtkWriter::write_pvtu(const std::string& path, const std::string& stem, int nranks) const {
+  std::ofstream out(path);
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
+         "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
+         "<PPointData>\n"
+         "<PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n"
+         "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>\n"
+         "<PDataArray type=\"Int64\" Name=\"vertex_id\" NumberOfComponents=\"1\"/>\n"
+         "</PPointData>\n<PCellData>\n"
+         "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
+         "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
+         "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+  for (int r = 0; r < nranks; ++r) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
+  out << "</PUnstructuredGrid>\n</VTKFile>\n";
+  out.close();
+  check_stream(out, path);
+}
+
+void VtkWriter::write_pvd() const {
+  const std::string path = dir_ + "/" + name_ + ".pvd";
+  std::ofstream out(path);
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n";
+  out.precision(17);
+  for (const auto& [t, file] : written_) out << "<DataSet timestep=\"" << t << "\" part=\"0\" file=\"" << file << "\"/>\n";
+  out << "</Collection>\n</VTKFile>\n";
+  out.close();
+  check_stream(out, path);
+}
+
+void VtkWriter::write(const VtkFrame& f) {
+  int rank, size;
+  MPI_Comm_rank(comm_, &rank);
+  MPI_Comm_size(comm_, &size);
+  const std::string stem = frame_stem(name_, f.frame);
+  const std::string file = stem + (size == 1 ? ".vtu" : ".pvtu");
+  std::string error;
+  try {
+    if (size == 1) {
+      write_piece(dir_ + "/" + file, f);
+    } else {
+      write_piece(dir_ + "/" + stem + "_" + std::to_string(rank) + ".vtu", f);
+      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, size);
+    }
+    written_.emplace_back(f.time, file);
+    if (rank == 0) write_pvd();
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  // Every rank must learn of a failure on any rank, or the others would wait forever later.
+  int bad = !error.empty(), any_bad = 0;
+  MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, comm_);
+  if (any_bad) throw std::runtime_error(error.empty() ? "VTK output failed on another rank" : error);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,56 @@
+// The mesh distributed over MPI ranks: a DMPlex partitioned by METIS (computed on rank 0 and
+// handed to DMPlexDistribute through PetscPartitionerShell), plus flat per-rank arrays that the
+// element loops use directly.
+//
+// Unknowns: 3 position dofs per free vertex. Fixed vertices carry no dof at all (they are
+// eliminated), so the global vectors hold exactly the free unknowns.
+#pragma once
+#include <petscdmplex.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "app/deck.hpp"
+#include "mesh/mesh.hpp"
+
+namespace hyperqn {
+
+struct DistributedMesh {
+  DM dm = nullptr;                   // distributed, non-interpolated DMPlex with the dof section
+  DM vertex_dm = nullptr;            // the same mesh with 1 dof per free vertex (for A1 of A = A1 (x) I3)
+  PetscInt num_vertices = 0;         // local vertices (owned + ghost)
+  PetscInt num_cells = 0;            // local tets (each cell lives on exactly one rank)
+  PetscInt num_segments = 0;         // local strand segments (cells of 2 vertices; also on one rank each)
+  std::vector<double> rest;          // 3 per local vertex: rest positions
+  std::vector<PetscInt> cells;       // 4 local vertex indices per local tet, positively oriented
+  std::vector<PetscInt> segments;    // 2 local vertex indices per local segment
+  std::vector<int32_t> segment_tags; // per local segment: the input element tag
+  std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
+  std::vector<int32_t> cell_tags;    // per local tet: the input element tag
+  std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
+  std::vector<int32_t> cell_material;  // per local tet: 0 default material, k + 1 region k
+  std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)
+  std::vector<PetscInt> local_dof;   // per local vertex: offset of its x dof in the local Vec, -1 if fixed
+  std::vector<PetscInt> global_dof;  // per local vertex: global index of its x dof, -1 if fixed
+  // Global counts (same on every rank).
+  PetscInt global_vertices = 0, global_cells = 0, global_segments = 0, global_dofs = 0, global_fixed_vertices = 0;
+
+  ~DistributedMesh() {
+    DMDestroy(&vertex_dm);
+    DMDestroy(&dm);
+  }
+};
+
+// Bounding box of the rest positions over all ranks, and its diagonal.
+void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);
+double rest_diagonal(const DistributedMesh& m);
+
+// Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
+// METIS into one part per rank, distributes it, and builds the dof layout with the vertices
+// flagged in fixed_serial (rank 0: per serial vertex, see select_fixed_vertices) eliminated;
+// cell_material (rank 0: per serial tet) travels with the cells. Tets and strand segments are
+// both cells of the DMPlex (of 4 and 2 vertices), partitioned together.
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                               const std::vector<int32_t>& cell_material, DistributedMesh& out);
+
+}  // namespace hyperqn

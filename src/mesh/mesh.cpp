@@ -1,0 +1,509 @@
+// Serial tet mesh: Medit reader, box generator, transform and cleaning.
+#include "mesh/mesh.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "io/input_error.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Medit reader
+
+// Whole file in memory: real meshes are a few MB, and scanning a buffer is much faster than
+// iostream extraction per token.
+std::string read_file(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw InputError(path, 0, "", std::string("cannot open mesh file: ") + std::strerror(errno));
+  std::string text;
+  char chunk[1 << 16];
+  size_t n;
+  while ((n = std::fread(chunk, 1, sizeof chunk, f)) > 0) text.append(chunk, n);
+  const bool failed = std::ferror(f);
+  const int err = errno;
+  std::fclose(f);
+  if (failed) throw InputError(path, 0, "", std::string("cannot read mesh file: ") + std::strerror(err));
+  return text;
+}
+
+struct Token {
+  const char* begin = nullptr;
+  const char* end = nullptr;
+  int line = 0;
+  std::string str() const { return std::string(begin, end); }
+  bool is(const char* s) const {
+    const size_t n = std::strlen(s);
+    return size_t(end - begin) == n && std::memcmp(begin, s, n) == 0;
+  }
+};
+
+// Splits the text into whitespace-separated tokens, dropping '#' comments and counting lines.
+class Tokenizer {
+ public:
+  explicit Tokenizer(const std::string& text) : p_(text.data()), end_(text.data() + text.size()) {}
+
+  bool next(Token& t) {
+    skip_blank();
+    if (p_ == end_) return false;
+    t.begin = p_;
+    t.line = line_;
+    while (p_ != end_ && !is_space(*p_) && *p_ != '#') ++p_;
+    t.end = p_;
+    last_line_ = line_;
+    return true;
+  }
+  // Line of the last token read: where an unexpected end of file is reported.
+  int last_line() const { return last_line_; }
+
+ private:
+  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  void skip_blank() {
+    while (p_ != end_) {
+      if (*p_ == '\n') {
+        ++line_;
+        ++p_;
+      } else if (is_space(*p_)) {
+        ++p_;
+      } else if (*p_ == '#') {
+        while (p_ != end_ && *p_ != '\n') ++p_;
+      } else {
+        return;
+      }
+    }
+  }
+  const char* p_;
+  const char* end_;
+  int line_ = 1;
+  int last_line_ = 1;
+};
+
+// The token is a whole number; strtod/strtoll stop at whitespace or '#', so they cannot read
+// past the token (the buffer is also NUL-terminated).
+bool parse_double(const Token& t, double& v) {
+  char* e = nullptr;
+  v = std::strtod(t.begin, &e);
+  return e == t.end && e != t.begin;
+}
+bool parse_int(const Token& t, long long& v) {
+  char* e = nullptr;
+  errno = 0;
+  v = std::strtoll(t.begin, &e, 10);
+  return e == t.end && e != t.begin && errno == 0;
+}
+
+// Tokens per record of the sections we skip; anything else is rejected so that a typo or an
+// unsupported section is reported instead of silently desynchronizing the stream.
+int skipped_record_size(const Token& t) {
+  static const struct { const char* name; int size; } table[] = {
+      {"Triangles", 4},       {"Edges", 3},           {"Corners", 1},
+      {"RequiredVertices", 1}, {"RequiredEdges", 1},   {"RequiredTriangles", 1},
+      {"Ridges", 1},          {"Quadrilaterals", 5},  {"Hexahedra", 9},
+      {"Prisms", 7},          {"Normals", 3},         {"Tangents", 3},
+      {"NormalAtVertices", 2}, {"TangentAtVertices", 2}};
+  for (const auto& s : table)
+    if (t.is(s.name)) return s.size;
+  return 0;
+}
+
+class MeditReader {
+ public:
+  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands)
+      : path_(path), tok_(text), text_size_(text.size()), edges_as_strands_(edges_as_strands) {}
+
+  TetMesh read() {
+    TetMesh mesh;
+    bool have_vertices = false, have_tets = false, have_edges = false;
+    Token t;
+    while (tok_.next(t)) {
+      if (t.is("End")) break;
+      if (t.is("MeshVersionFormatted")) {
+        header_int(t);
+      } else if (t.is("Dimension")) {
+        Token v;
+        if (header_int(t, &v) != 3)
+          throw InputError(path_, v.line, "Dimension", "only 3D meshes are supported, found Dimension " + v.str());
+      } else if (t.is("Vertices")) {
+        if (have_vertices) throw InputError(path_, t.line, "Vertices", "second Vertices section");
+        read_vertices(t, mesh);
+        have_vertices = true;
+      } else if (t.is("Tetrahedra")) {
+        if (have_tets) throw InputError(path_, t.line, "Tetrahedra", "second Tetrahedra section");
+        if (!have_vertices)
+          throw InputError(path_, t.line, "Tetrahedra", "Tetrahedra section comes before the Vertices section");
+        read_elements(t, 4, "tet", mesh.num_vertices(), mesh.tets, mesh.tet_tags);
+        have_tets = true;
+      } else if (t.is("Edges") && edges_as_strands_) {
+        if (have_edges) throw InputError(path_, t.line, "Edges", "second Edges section");
+        if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
+        read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags);
+        have_edges = true;
+      } else if (int size = skipped_record_size(t)) {
+        Section s = open_section(t);
+        for (long long i = 0; i < s.count; ++i)
+          for (int k = 0; k < size; ++k) {
+            double unused;
+            number(s, i, unused);
+          }
+      } else {
+        double unused;
+        if (parse_double(t, unused))
+          throw InputError(path_, t.line, "", "unexpected number '" + t.str() +
+                                                  "' outside any section (does a section count match its records?)");
+        throw InputError(path_, t.line, "", "unknown keyword '" + t.str() + "'");
+      }
+    }
+    if (!have_vertices) throw InputError(path_, 0, "Vertices", "no Vertices section in the mesh file");
+    if (edges_as_strands_ && !have_edges)
+      throw InputError(path_, 0, "Edges", "no Edges section in the mesh file (the deck asks for its edges as strands)");
+    if (!have_tets && !have_edges) throw InputError(path_, 0, "Tetrahedra", "no Tetrahedra section in the mesh file");
+    return mesh;
+  }
+
+ private:
+  struct Section {
+    std::string name;
+    int line;          // of the keyword
+    long long count;   // declared number of records
+  };
+
+  // Next token of record i of section s; running out of tokens or meeting a keyword means the
+  // section holds fewer records than it declares.
+  Token record_token(const Section& s, long long i) {
+    Token t;
+    if (!tok_.next(t))
+      throw InputError(path_, tok_.last_line(), s.name, truncated(s, i) + " before the end of the file");
+    return t;
+  }
+  std::string truncated(const Section& s, long long i) const {
+    return "section (line " + std::to_string(s.line) + ") declares " + std::to_string(s.count) +
+           " records but ends after " + std::to_string(i);
+  }
+  [[noreturn]] void bad_token(const Section& s, long long i, const Token& t, const char* expected) {
+    const char c = *t.begin;
+    if ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z')) {
+      // A word that is not a number ("nan" is one) is the next keyword: the section ended early.
+      double unused;
+      if (!parse_double(t, unused)) throw InputError(path_, t.line, s.name, truncated(s, i) + " at '" + t.str() + "'");
+    }
+    throw InputError(path_, t.line, s.name, std::string("expected ") + expected + ", found '" + t.str() + "'");
+  }
+  Token number(const Section& s, long long i, double& v) {
+    Token t = record_token(s, i);
+    if (!parse_double(t, v)) bad_token(s, i, t, "a number");
+    return t;
+  }
+  Token integer(const Section& s, long long i, long long& v) {
+    Token t = record_token(s, i);
+    if (!parse_int(t, v)) bad_token(s, i, t, "an integer");
+    return t;
+  }
+
+  // "Keyword N" header line: returns N.
+  long long header_int(const Token& key, Token* where = nullptr) {
+    Token t;
+    long long v;
+    if (!tok_.next(t)) throw InputError(path_, tok_.last_line(), key.str(), "missing value at the end of the file");
+    if (!parse_int(t, v)) throw InputError(path_, t.line, key.str(), "expected an integer, found '" + t.str() + "'");
+    if (where) *where = t;
+    return v;
+  }
+  Section open_section(const Token& key) {
+    Section s{key.str(), key.line, 0};
+    Token t;
+    const long long n = header_int(key, &t);
+    if (n < 0 || n > std::numeric_limits<int32_t>::max())
+      throw InputError(path_, t.line, s.name, "invalid record count " + t.str());
+    s.count = n;
+    return s;
+  }
+
+  void read_vertices(const Token& key, TetMesh& mesh) {
+    Section s = open_section(key);
+    mesh.coords.reserve(3 * capacity(s, 4));
+    for (long long i = 0; i < s.count; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        double x;
+        Token t = number(s, i, x);
+        if (!std::isfinite(x))
+          throw InputError(path_, t.line, s.name, "vertex " + std::to_string(i + 1) + " has a non-finite coordinate '" + t.str() + "'");
+        mesh.coords.push_back(x);
+      }
+      double ref;  // vertex refs are not used
+      number(s, i, ref);
+    }
+    mesh.vertex_ids.resize(size_t(s.count));
+    for (long long i = 0; i < s.count; ++i) mesh.vertex_ids[i] = i;
+  }
+
+  // A section of elements of n vertices each plus a reference tag ("tet", "edge" in messages).
+  void read_elements(const Token& key, int n, const char* what, long long nv, std::vector<int32_t>& vertices,
+                     std::vector<int32_t>& tags) {
+    Section s = open_section(key);
+    vertices.reserve(n * capacity(s, n + 1));
+    tags.reserve(capacity(s, n + 1));
+    for (long long i = 0; i < s.count; ++i) {
+      const std::string element = std::string(what) + " " + std::to_string(i + 1);
+      for (int k = 0; k < n; ++k) {
+        long long v;
+        Token t = integer(s, i, v);
+        if (v < 1 || v > nv)
+          throw InputError(path_, t.line, s.name, element + ": vertex index " + t.str() + " is out of range 1.." + std::to_string(nv));
+        vertices.push_back(int32_t(v - 1));
+      }
+      long long ref;
+      Token t = integer(s, i, ref);
+      if (ref < std::numeric_limits<int32_t>::min() || ref > std::numeric_limits<int32_t>::max())
+        throw InputError(path_, t.line, s.name, element + ": reference " + t.str() + " is too large");
+      tags.push_back(int32_t(ref));
+    }
+  }
+
+  // Reserve no more records than the file could hold (a record takes >= 2 bytes per token), so
+  // a corrupt count gives a truncation error rather than a huge allocation.
+  size_t capacity(const Section& s, int tokens_per_record) const {
+    return std::min(size_t(s.count), text_size_ / (2 * size_t(tokens_per_record)) + 1);
+  }
+
+  std::string path_;
+  Tokenizer tok_;
+  size_t text_size_;
+  bool edges_as_strands_;
+};
+
+// det[X1-X0, X2-X0, X3-X0] = 6 * signed volume.
+double tet_det(const double* x0, const double* x1, const double* x2, const double* x3) {
+  const double a[3] = {x1[0] - x0[0], x1[1] - x0[1], x1[2] - x0[2]};
+  const double b[3] = {x2[0] - x0[0], x2[1] - x0[1], x2[2] - x0[2]};
+  const double c[3] = {x3[0] - x0[0], x3[1] - x0[1], x3[2] - x0[2]};
+  return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+}
+
+double distance(const double* p, const double* q) {
+  return std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+}
+
+}  // namespace
+
+TetMesh read_medit(const std::string& path, bool edges_as_strands) {
+  const std::string text = read_file(path);
+  return MeditReader(path, text, edges_as_strands).read();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>& cells) {
+  for (int d = 0; d < 3; ++d) {
+    if (!(size[d] > 0) || !std::isfinite(size[d])) throw std::invalid_argument("generate_box: box size must be positive");
+    if (cells[d] < 1) throw std::invalid_argument("generate_box: need at least one cell per axis");
+  }
+  const int64_t n[3] = {cells[0] + int64_t(1), cells[1] + int64_t(1), cells[2] + int64_t(1)};
+  const int64_t nv = n[0] * n[1] * n[2];
+  const int64_t nt = int64_t(6) * cells[0] * cells[1] * cells[2];
+  if (nv > std::numeric_limits<int32_t>::max() || 4 * nt > std::numeric_limits<int32_t>::max())
+    throw std::invalid_argument("generate_box: too many cells");
+
+  TetMesh mesh;
+  mesh.coords.resize(3 * size_t(nv));
+  mesh.vertex_ids.resize(size_t(nv));
+  for (int64_t k = 0, v = 0; k < n[2]; ++k)
+    for (int64_t j = 0; j < n[1]; ++j)
+      for (int64_t i = 0; i < n[0]; ++i, ++v) {
+        // i * size / cells rather than accumulating h: the far faces land exactly on size.
+        mesh.coords[3 * v + 0] = size[0] * double(i) / cells[0];
+        mesh.coords[3 * v + 1] = size[1] * double(j) / cells[1];
+        mesh.coords[3 * v + 2] = size[2] * double(k) / cells[2];
+        mesh.vertex_ids[v] = v;
+      }
+
+  // Kuhn subdivision: for each permutation (p,q,r) of the axes, the tet walks from corner 000
+  // to corner 111 stepping along p, then q, then r. Every cube is cut the same way, so the
+  // diagonals of shared faces match. det = sign of the permutation, so odd ones get their last
+  // two vertices swapped.
+  static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+  const int32_t stride[3] = {1, int32_t(n[0]), int32_t(n[0] * n[1])};
+  mesh.tets.resize(4 * size_t(nt));
+  mesh.tet_tags.assign(size_t(nt), 0);
+  int32_t* out = mesh.tets.data();
+  for (int k = 0; k < cells[2]; ++k)
+    for (int j = 0; j < cells[1]; ++j)
+      for (int i = 0; i < cells[0]; ++i) {
+        const int32_t v0 = i * stride[0] + j * stride[1] + k * stride[2];
+        for (int p = 0; p < 6; ++p) {
+          const int32_t v1 = v0 + stride[perms[p][0]];
+          const int32_t v2 = v1 + stride[perms[p][1]];
+          const int32_t v3 = v2 + stride[perms[p][2]];
+          const bool odd = p >= 3;
+          *out++ = v0;
+          *out++ = v1;
+          *out++ = odd ? v3 : v2;
+          *out++ = odd ? v2 : v3;
+        }
+      }
+  return mesh;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+double bounding_box_diagonal(const TetMesh& mesh) {
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], mesh.coords[v + d]);
+      hi[d] = std::max(hi[d], mesh.coords[v + d]);
+    }
+  if (mesh.coords.empty()) return 0;
+  return distance(lo, hi);
+}
+
+void add_strand(TetMesh& mesh, const StrandLine& strand) {
+  const int n = strand.segments;
+  if (n < 1) throw std::invalid_argument("add_strand: need at least one segment");
+  const int64_t nv = mesh.num_vertices();
+  if (mesh.vertex_ids.size() != size_t(nv)) {  // hand-built meshes: ids are the indices
+    mesh.vertex_ids.resize(size_t(nv));
+    for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
+  }
+  const double tol = 1e-9 * std::max(bounding_box_diagonal(mesh), distance(strand.from.data(), strand.to.data()));
+  auto existing = [&](const double* x) -> int64_t {
+    for (int64_t v = 0; v < nv; ++v)
+      if (distance(&mesh.coords[3 * v], x) <= tol) return v;
+    return -1;
+  };
+  const int64_t first = existing(strand.from.data()), last = existing(strand.to.data());
+  int64_t next_id = 0;
+  for (int64_t id : mesh.vertex_ids) next_id = std::max(next_id, id + 1);
+  // The strand's points 0..n; reused ends keep their index, the others are appended.
+  std::vector<int64_t> index(size_t(n) + 1);
+  for (int i = 0; i <= n; ++i) {
+    if ((i == 0 && first >= 0) || (i == n && last >= 0)) {
+      index[i] = i == 0 ? first : last;
+      continue;
+    }
+    const double s = double(i) / n;
+    for (int d = 0; d < 3; ++d) mesh.coords.push_back((1 - s) * strand.from[d] + s * strand.to[d]);
+    index[i] = mesh.num_vertices() - 1;
+    mesh.vertex_ids.push_back(next_id++);
+  }
+  if (mesh.num_vertices() > std::numeric_limits<int32_t>::max()) throw std::invalid_argument("add_strand: too many vertices");
+  for (int i = 0; i < n; ++i) {
+    mesh.segments.push_back(int32_t(index[i]));
+    mesh.segments.push_back(int32_t(index[i + 1]));
+    mesh.segment_tags.push_back(0);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+void apply_transform(TetMesh& mesh, const MeshTransform& t) {
+  const double deg = std::acos(-1.0) / 180.0;
+  const double cx = std::cos(t.rotate_deg[0] * deg), sx = std::sin(t.rotate_deg[0] * deg);
+  const double cy = std::cos(t.rotate_deg[1] * deg), sy = std::sin(t.rotate_deg[1] * deg);
+  const double cz = std::cos(t.rotate_deg[2] * deg), sz = std::sin(t.rotate_deg[2] * deg);
+  const double Rx[3][3] = {{1, 0, 0}, {0, cx, -sx}, {0, sx, cx}};
+  const double Ry[3][3] = {{cy, 0, sy}, {0, 1, 0}, {-sy, 0, cy}};
+  const double Rz[3][3] = {{cz, -sz, 0}, {sz, cz, 0}, {0, 0, 1}};
+  auto mul = [](const double A[3][3], const double B[3][3], double C[3][3]) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) C[r][c] = A[r][0] * B[0][c] + A[r][1] * B[1][c] + A[r][2] * B[2][c];
+  };
+  double RyRx[3][3], R[3][3];
+  mul(Ry, Rx, RyRx);
+  mul(Rz, RyRx, R);
+  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3) {
+    double* x = &mesh.coords[v];
+    const double p[3] = {t.scale * x[0], t.scale * x[1], t.scale * x[2]};
+    for (int r = 0; r < 3; ++r) x[r] = R[r][0] * p[0] + R[r][1] * p[1] + R[r][2] * p[2] + t.translate[r];
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
+  const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments();
+  if (nt == 0 && ns == 0) throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments)");
+  if ((int64_t)mesh.vertex_ids.size() != nv) {  // e.g. hand-built meshes: ids are the indices
+    mesh.vertex_ids.resize(size_t(nv));
+    for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
+  }
+  if ((int64_t)mesh.tet_tags.size() != nt) mesh.tet_tags.resize(size_t(nt), 0);
+  if ((int64_t)mesh.segment_tags.size() != ns) mesh.segment_tags.resize(size_t(ns), 0);
+
+  // Validate everything before changing anything, so a throw leaves the mesh untouched.
+  std::vector<char> flip(size_t(nt), 0);
+  std::vector<char> used(size_t(nv), 0);
+  const double* X = mesh.coords.data();
+  for (int64_t e = 0; e < nt; ++e) {
+    const int32_t* t = &mesh.tets[4 * e];
+    for (int k = 0; k < 4; ++k) {
+      if (t[k] < 0 || t[k] >= nv)
+        throw InputError(source, 0, "Tetrahedra", "tet " + std::to_string(e + 1) + " has vertex index " +
+                                                      std::to_string(t[k] + 1) + " out of range 1.." + std::to_string(nv));
+      used[t[k]] = 1;
+    }
+    const double* x[4] = {X + 3 * t[0], X + 3 * t[1], X + 3 * t[2], X + 3 * t[3]};
+    const double det = tet_det(x[0], x[1], x[2], x[3]);
+    const double h = (distance(x[0], x[1]) + distance(x[0], x[2]) + distance(x[0], x[3]) + distance(x[1], x[2]) +
+                      distance(x[1], x[3]) + distance(x[2], x[3])) / 6;
+    // Scale-free test; written as !(a > b) so NaN coordinates are rejected too.
+    if (!(std::fabs(det) > 1e-12 * h * h * h * 6)) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "tet %lld (1-based, as in the input) is degenerate: volume %.3g, mean edge length %.3g",
+                    (long long)(e + 1), det / 6, h);
+      throw InputError(source, 0, "Tetrahedra", msg);
+    }
+    flip[e] = det < 0;
+  }
+  const double min_length = 1e-12 * bounding_box_diagonal(mesh);
+  for (int64_t e = 0; e < ns; ++e) {
+    const int32_t* seg = &mesh.segments[2 * e];
+    for (int k = 0; k < 2; ++k) {
+      if (seg[k] < 0 || seg[k] >= nv)
+        throw InputError(source, 0, "Edges", "segment " + std::to_string(e + 1) + " has vertex index " +
+                                                 std::to_string(seg[k] + 1) + " out of range 1.." + std::to_string(nv));
+      used[seg[k]] = 1;
+    }
+    const double length = distance(X + 3 * seg[0], X + 3 * seg[1]);
+    if (!(length > min_length)) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "segment %lld (1-based, as in the input) is degenerate: length %.3g",
+                    (long long)(e + 1), length);
+      throw InputError(source, 0, "Edges", msg);
+    }
+  }
+
+  CleanReport report;
+  std::vector<int32_t> new_index(size_t(nv), -1);
+  int32_t kept = 0;
+  for (int64_t v = 0; v < nv; ++v) {
+    if (!used[v]) continue;
+    new_index[v] = kept;
+    for (int k = 0; k < 3; ++k) mesh.coords[3 * kept + k] = mesh.coords[3 * v + k];
+    mesh.vertex_ids[kept] = mesh.vertex_ids[v];
+    ++kept;
+  }
+  report.dropped_vertices = nv - kept;
+  mesh.coords.resize(3 * size_t(kept));
+  mesh.vertex_ids.resize(size_t(kept));
+
+  for (int32_t& v : mesh.segments) v = new_index[v];
+  for (int64_t e = 0; e < nt; ++e) {
+    int32_t* t = &mesh.tets[4 * e];
+    for (int k = 0; k < 4; ++k) t[k] = new_index[t[k]];
+    if (flip[e]) {
+      std::swap(t[2], t[3]);
+      ++report.reoriented_tets;
+    }
+  }
+  return report;
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,23 @@
+// Parts of the mesh selected by the deck's regions: fixed (Dirichlet) vertices and the elements
+// of each material region. Decided once, on the serial mesh (rank 0), before distribution.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "app/deck.hpp"
+#include "mesh/mesh.hpp"
+
+namespace hyperqn {
+
+// Per vertex: 0 if free, k + 1 if fixed by boxes[k] (the last box containing it wins).
+// A box that selects no vertex is an input error naming the deck line. Boxes are inclusive,
+// widened by 1e-9 of the mesh's bounding-box diagonal against round-off.
+std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                           const std::string& deck_path);
+
+// Per tet: 0 for the default material, k + 1 for regions[k] (by centroid in its box, or by
+// element tag; later regions win). A region that selects no element is an input error.
+std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
+                                             const std::string& deck_path);
+
+}  // namespace hyperqn
