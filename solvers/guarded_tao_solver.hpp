@@ -4,7 +4,7 @@
 #pragma once
 #include <petsctao.h>
 
-#include "app/deck.hpp"
+#include "solvers/solver_spec.hpp"
 #include "model/time_step.hpp"
 #include "solvers/time_step_solver.hpp"
 

@@ -6,7 +6,7 @@
 #pragma once
 #include <petsctao.h>
 
-#include "app/deck.hpp"
+#include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/guarded_tao_solver.hpp"
 

@@ -5,7 +5,7 @@
 #pragma once
 #include <petsctao.h>
 
-#include "app/deck.hpp"
+#include "solvers/solver_spec.hpp"
 #include "solvers/guarded_tao_solver.hpp"
 
 namespace hyperqn {

@@ -23,7 +23,7 @@ PdSolver::~PdSolver() {
 }
 
 PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
-  const ElasticBody& body = step_.body();
+  const Body& body = step_.body();
   MPI_Comm comm = PetscObjectComm((PetscObject)step_.layout());
   PetscFunctionBeginUser;
   spec_ = spec;

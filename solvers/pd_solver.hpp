@@ -4,7 +4,7 @@
 // step alpha = 1 is the local-global step and decreases g monotonically; for other materials
 // the same direction is used with a backtracking line search (said in the log).
 #pragma once
-#include "app/deck.hpp"
+#include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/time_step_solver.hpp"
 #include "model/time_step.hpp"

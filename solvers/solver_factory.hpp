@@ -2,7 +2,7 @@
 #pragma once
 #include <memory>
 
-#include "app/deck.hpp"
+#include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/time_step_solver.hpp"
 

@@ -7,7 +7,8 @@
 #include <random>
 
 #include "mesh/distributed_mesh.hpp"
-#include "model/elastic_body.hpp"
+#include "model/body.hpp"
+#include "model/elastic_terms.hpp"
 #include "model/regions.hpp"
 #include "model/time_step.hpp"
 
@@ -17,7 +18,7 @@ using namespace hyperqn;
 
 struct TestScene {
   DistributedMesh mesh;
-  std::unique_ptr<ElasticBody> body;
+  std::unique_ptr<Body> body;
   std::unique_ptr<TimeStep> step;
 };
 
@@ -60,7 +61,7 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   StrandMaterial strand_material;
   strand_material.axial_stiffness = kStrandStiffness;
   strand_material.linear_density = kStrandDensity;
-  s.body = std::make_unique<ElasticBody>(s.mesh, std::vector<MaterialSpec>{mat}, strand_material);
+  s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, {mat}, strand_material));
   s.step = std::make_unique<TimeStep>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
   PetscCall(s.step->setup());
   PetscFunctionReturn(0);

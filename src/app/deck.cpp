@@ -11,7 +11,7 @@
 #include <fstream>
 
 #include "io/input_error.hpp"
-#include "app/material_params.hpp"
+#include "model/material_params.hpp"
 #include "materials/material.hpp"
 
 namespace hyperqn {

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "app/deck.hpp"
+#include "mesh/mesh_spec.hpp"
 #include "mesh/mesh.hpp"
 
 namespace hyperqn {

@@ -6,7 +6,7 @@
 
 namespace hyperqn {
 
-PetscErrorCode apply_initial_state(const InitialSpec& initial, const ElasticBody& body, Vec x) {
+PetscErrorCode apply_initial_state(const InitialSpec& initial, const Body& body, Vec x) {
   const DistributedMesh& m = body.mesh();
   Vec xl;
   PetscScalar* a;

@@ -3,13 +3,13 @@
 #pragma once
 #include <petscvec.h>
 
-#include "app/deck.hpp"
-#include "model/elastic_body.hpp"
+#include "model/scene_spec.hpp"
+#include "model/body.hpp"
 
 namespace hyperqn {
 
 // Overwrites the free positions x (global vector) according to the deck's initial: section.
 // Rank-independent: the random state is drawn per input vertex id.
-PetscErrorCode apply_initial_state(const InitialSpec& initial, const ElasticBody& body, Vec x);
+PetscErrorCode apply_initial_state(const InitialSpec& initial, const Body& body, Vec x);
 
 }  // namespace hyperqn

@@ -1,13 +1,45 @@
 // Parts of the mesh selected by the deck's regions: fixed (Dirichlet) vertices and the elements
-// of each material region. Decided once, on the serial mesh (rank 0), before distribution.
+// of each material region, and how fixed regions move. Decided once, on the serial mesh (rank 0), before distribution.
 #pragma once
+#include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
-#include "app/deck.hpp"
 #include "mesh/mesh.hpp"
+#include "model/material_spec.hpp"
 
 namespace hyperqn {
+
+// Prescribed motion of a fixed region: rotation about an axis through a centre at a constant
+// rate, plus a translation at a constant velocity, both active for t in [start, end] and held
+// afterwards. Position at time t: c + R(rate * tau) (X - c) + velocity * tau,
+// tau = clamp(t, start, end) - start.
+struct Motion {
+  bool active = false;
+  std::array<double, 3> axis{1, 0, 0}, center{0, 0, 0};
+  double rate_deg = 0;               // degrees per unit time
+  std::array<double, 3> velocity{0, 0, 0};
+  double start = 0, end = 1e300;
+};
+
+struct BoxRegion {
+  std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
+  int line = 0;                      // deck line, for error messages
+  Motion motion;                     // fixed regions only
+  double release = -1;               // fixed regions: time at which its vertices become free (< 0: never)
+};
+
+// Elements with a material other than the deck's default one: those whose centroid lies in a
+// box, or whose mesh element tag is listed. Later regions override earlier ones.
+struct MaterialRegion {
+  bool by_box = true;
+  BoxRegion box;
+  std::vector<int> tags;
+  MaterialSpec material;
+  int line = 0;
+};
+
 
 // Per vertex: 0 if free, k + 1 if fixed by boxes[k] (the last box containing it wins).
 // A box that selects no vertex is an input error naming the deck line. Boxes are inclusive,

@@ -2,6 +2,7 @@
 
 #include <functional>
 
+#include "model/elastic_terms.hpp"
 #include "model/regions.hpp"
 #include "io/input_error.hpp"
 #include "mesh/mesh_gmsh.hpp"
@@ -38,7 +39,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck) {
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck) {
   TetMesh mesh;
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
@@ -58,7 +59,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const Deck& deck) {
   return mesh;
 }
 
-SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
+SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
   SceneInput in;
   in.mesh = load_scene_mesh(comm, deck);
   on_root(comm, [&] {
@@ -73,7 +74,7 @@ SceneInput load_scene_input(MPI_Comm comm, const Deck& deck) {
   return in;
 }
 
-bool load_scene_input_or_report(MPI_Comm comm, const Deck& deck, SceneInput& input) {
+bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input) {
   try {
     input = load_scene_input(comm, deck);
     return true;
@@ -83,13 +84,13 @@ bool load_scene_input_or_report(MPI_Comm comm, const Deck& deck, SceneInput& inp
   }
 }
 
-PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, bool factor, Scene& s) {
+PetscErrorCode build_scene(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factor, Scene& s) {
   PetscFunctionBeginUser;
   PetscCall(distribute_mesh(comm, input.mesh, input.fixed, input.cell_material, s.mesh));
   input = SceneInput();  // the serial copy is no longer needed
   std::vector<MaterialSpec> materials{deck.material};
   for (const MaterialRegion& r : deck.regions) materials.push_back(r.material);
-  s.body = std::make_unique<ElasticBody>(s.mesh, materials, deck.strand_material);
+  s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, materials, deck.strand_material));
   s.body->set_fixed_motion(deck.fixed);
   s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
   PetscCall(s.step->setup());
@@ -100,13 +101,13 @@ PetscErrorCode build_scene(MPI_Comm comm, const Deck& deck, SceneInput& input, b
   PetscFunctionReturn(0);
 }
 
-bool deck_releases_regions(const Deck& deck) {
+bool deck_releases_regions(const SceneSpec& deck) {
   for (const BoxRegion& b : deck.fixed)
     if (b.release > 0) return true;
   return false;
 }
 
-bool regions_due(const Deck& deck, int frame, std::vector<char>& released) {
+bool regions_due(const SceneSpec& deck, int frame, std::vector<char>& released) {
   const double h = deck.time.dt;
   released.resize(deck.fixed.size(), 0);
   bool any = false;
@@ -118,7 +119,7 @@ bool regions_due(const Deck& deck, int frame, std::vector<char>& released) {
   return any;
 }
 
-PetscErrorCode build_released_scene(MPI_Comm comm, const Deck& deck, const SceneInput& kept,
+PetscErrorCode build_released_scene(MPI_Comm comm, const SceneSpec& deck, const SceneInput& kept,
                                     const std::vector<char>& released, double t, bool factor, Scene& fresh) {
   PetscFunctionBeginUser;
   SceneInput input = kept;

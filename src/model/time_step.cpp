@@ -4,7 +4,7 @@
 
 namespace hyperqn {
 
-TimeStep::TimeStep(ElasticBody& body, double dt, const std::array<double, 3>& gravity)
+TimeStep::TimeStep(Body& body, double dt, const std::array<double, 3>& gravity)
     : body_(body), dt_(dt), gravity_(gravity) {}
 
 TimeStep::~TimeStep() {

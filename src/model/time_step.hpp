@@ -7,19 +7,19 @@
 
 #include <array>
 
-#include "model/elastic_body.hpp"
+#include "model/body.hpp"
 
 namespace hyperqn {
 
 class TimeStep {
  public:
-  TimeStep(ElasticBody& body, double dt, const std::array<double, 3>& gravity);
+  TimeStep(Body& body, double dt, const std::array<double, 3>& gravity);
   ~TimeStep();
   TimeStep(const TimeStep&) = delete;
   TimeStep& operator=(const TimeStep&) = delete;
   PetscErrorCode setup();  // mass vector, work vectors
 
-  ElasticBody& body() { return body_; }
+  Body& body() { return body_; }
   double dt() const { return dt_; }
   Vec mass() const { return mass_; }
   // A template global vector of free dofs.
@@ -55,7 +55,7 @@ class TimeStep {
   double hessian_seconds() const { return hessian_s_; }  // total, over the whole run
 
  private:
-  ElasticBody& body_;
+  Body& body_;
   double dt_;
   std::array<double, 3> gravity_;
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;

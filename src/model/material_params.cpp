@@ -1,4 +1,4 @@
-#include "app/material_params.hpp"
+#include "model/material_params.hpp"
 
 namespace hyperqn {
 

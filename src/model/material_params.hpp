@@ -2,7 +2,7 @@
 #pragma once
 #include <memory>
 
-#include "app/deck.hpp"
+#include "model/material_spec.hpp"
 #include "materials/material_factory.hpp"
 
 namespace hyperqn {

@@ -1,0 +1,23 @@
+// Where a scene's mesh comes from: a file or a generated box, its transform, and strands.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "mesh/mesh.hpp"
+
+namespace hyperqn {
+
+struct MeshSpec {
+  std::string file;                  // .mesh (Medit) or .msh (Gmsh); resolved relative to the deck
+  bool is_box = false;               // generated box instead of a file
+  std::array<double, 3> box_size{1, 1, 1};
+  std::array<int, 3> box_cells{1, 1, 1};
+  MeshTransform transform;           // applied to the file or box mesh (not to the strands below)
+  bool edges_as_strands = false;     // Medit file: its Edges section becomes strand segments
+  std::vector<StrandLine> strands;   // generated strands, world coordinates, after the transform
+  bool has_strands() const { return edges_as_strands || !strands.empty(); }
+  bool has_solid() const { return is_box || !file.empty(); }
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,174 @@
+#include "model/body.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "terms/element_kernels.hpp"
+
+namespace hyperqn {
+
+Body::Body(const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>> terms)
+    : mesh_(mesh), terms_(std::move(terms)) {
+  Dm_inv_.resize(mesh.num_cells);
+  for (PetscInt c = 0; c < mesh.num_cells; ++c) Dm_inv_[c] = edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).inverse();
+  double local_mass = 0;
+  for (const auto& t : terms_) local_mass += t->local_mass();
+  MPI_Allreduce(&local_mass, &total_mass_, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
+  fixed_pos_ = mesh.rest;
+  fixed_vel_.assign(3 * mesh.num_vertices, 0.0);
+}
+
+bool Body::projective_dynamics_exact() const {
+  for (const auto& t : terms_)
+    if (!t->projective_dynamics_exact()) return false;
+  return true;
+}
+
+std::string Body::material_names() const {
+  std::string s;
+  for (const auto& t : terms_) s += (s.empty() ? "" : ", ") + t->name();
+  return s;
+}
+
+// Position at time t of a point X moved by the motion (see Motion in model/regions.hpp).
+static Vec3 moved(const Motion& m, const Vec3& X, double t) {
+  const double tau = std::min(std::max(t, m.start), m.end) - m.start;
+  const Vec3 axis = Vec3(m.axis[0], m.axis[1], m.axis[2]).normalized();
+  const Vec3 c(m.center[0], m.center[1], m.center[2]);
+  const Eigen::AngleAxisd R(m.rate_deg * M_PI / 180.0 * tau, axis);
+  return c + R * (X - c) + tau * Vec3(m.velocity[0], m.velocity[1], m.velocity[2]);
+}
+
+void Body::set_time(double t) {
+  const double dt = t - time_;
+  for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
+    const int32_t region = mesh_.fixed[v];
+    if (region == 0 || !fixed_regions_[region - 1].motion.active) continue;
+    const Vec3 X(&mesh_.rest[3 * v]);
+    const Vec3 p = moved(fixed_regions_[region - 1].motion, X, t);
+    for (int d = 0; d < 3; ++d) {
+      fixed_vel_[3 * v + d] = dt > 0 ? (p[d] - fixed_pos_[3 * v + d]) / dt : 0.0;
+      fixed_pos_[3 * v + d] = p[d];
+    }
+  }
+  time_ = t;
+}
+
+PetscErrorCode Body::begin_step(double t, Vec y) {
+  PetscFunctionBeginUser;
+  for (auto& term : terms_) PetscCall(term->begin_step(t, y));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const {
+  const PetscScalar* xl;
+  PetscFunctionBeginUser;
+  if (!local_) PetscCall(DMCreateLocalVector(mesh_.dm, &local_));
+  PetscCall(DMGlobalToLocal(mesh_.dm, global, INSERT_VALUES, local_));
+  PetscCall(VecGetArrayRead(local_, &xl));
+  out = fixed_values;
+  for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
+    const PetscInt off = mesh_.local_dof[v];
+    if (off >= 0)
+      for (int d = 0; d < 3; ++d) out[3 * v + d] = xl[off + d];
+  }
+  PetscCall(VecRestoreArrayRead(local_, &xl));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::local_positions(Vec x, std::vector<double>& pos) const {
+  PetscFunctionBeginUser;
+  PetscCall(scatter_to_local(x, fixed_pos_, pos));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::local_velocities(Vec v, std::vector<double>& vel) const {
+  PetscFunctionBeginUser;
+  PetscCall(scatter_to_local(v, fixed_vel_, vel));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
+  PetscScalar* gl = nullptr;
+  PetscFunctionBeginUser;
+  PetscCall(local_positions(x, pos_));
+  if (grad) {
+    PetscCall(VecSet(local_, 0.0));
+    PetscCall(VecGetArray(local_, &gl));
+  }
+  double e_local = 0;
+  for (const auto& term : terms_) PetscCall(term->add_energy(x, pos_, &e_local, gl));
+  PetscCallMPI(MPI_Allreduce(&e_local, energy, 1, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  if (grad) {
+    PetscCall(VecRestoreArray(local_, &gl));
+    PetscCall(VecSet(grad, 0.0));
+    PetscCall(DMLocalToGlobal(mesh_.dm, local_, ADD_VALUES, grad));
+  }
+  PetscFunctionReturn(0);
+}
+
+void Body::cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const {
+  J.resize(mesh_.num_cells);
+  for (PetscInt c = 0; c < mesh_.num_cells; ++c)
+    J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv_[c]).determinant();
+}
+
+bool Body::bounds_steps() const {
+  for (const auto& t : terms_)
+    if (t->bounds_steps()) return true;
+  return false;
+}
+
+PetscErrorCode Body::limit_step(Vec x, Vec dir, double* alpha) const {
+  PetscFunctionBeginUser;
+  double local = *alpha;
+  for (const auto& t : terms_)
+    if (t->bounds_steps()) PetscCall(t->limit_step(x, dir, &local));
+  PetscCallMPI(MPI_Allreduce(&local, alpha, 1, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::lumped_mass(Vec mass) const {
+  Vec ml;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(DMGetLocalVector(mesh_.dm, &ml));
+  PetscCall(VecSet(ml, 0.0));
+  PetscCall(VecGetArray(ml, &a));
+  for (const auto& term : terms_) term->add_lumped_mass(a);
+  PetscCall(VecRestoreArray(ml, &a));
+  PetscCall(VecSet(mass, 0.0));
+  PetscCall(DMLocalToGlobal(mesh_.dm, ml, ADD_VALUES, mass));
+  PetscCall(DMRestoreLocalVector(mesh_.dm, &ml));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::add_laplacian(Mat A, PetscReal scale, int components) const {
+  PetscFunctionBeginUser;
+  for (const auto& term : terms_) PetscCall(term->add_laplacian(A, scale, components));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::add_hessian(Vec x, Mat H, PetscReal scale, bool psd) const {
+  PetscFunctionBeginUser;
+  PetscCall(local_positions(x, pos_));
+  for (const auto& term : terms_) PetscCall(term->add_hessian(pos_, H, scale, psd));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::rest_positions(Vec x) const {
+  Vec xl;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(DMGetLocalVector(mesh_.dm, &xl));
+  PetscCall(VecGetArray(xl, &a));
+  for (PetscInt v = 0; v < mesh_.num_vertices; ++v)
+    if (mesh_.local_dof[v] >= 0)
+      for (int d = 0; d < 3; ++d) a[mesh_.local_dof[v] + d] = mesh_.rest[3 * v + d];
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(DMLocalToGlobal(mesh_.dm, xl, INSERT_VALUES, x));
+  PetscCall(DMRestoreLocalVector(mesh_.dm, &xl));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,79 @@
+// The body on this rank: its distributed mesh, the prescribed motion of its fixed vertices, and
+// the energy terms of the scene. E(x) is the sum of the terms; the body gathers positions for
+// them (free vertices from the global vector, fixed ones at their prescribed positions), reduces
+// their energies over the ranks, and sums their gradients, Hessians, L and lumped masses.
+#pragma once
+#include <petscdmplex.h>
+
+#include <memory>
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "materials/material.hpp"
+#include "model/regions.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+class Body {
+ public:
+  Body(const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>> terms);
+  ~Body() { VecDestroy(&local_); }
+  Body(const Body&) = delete;
+  Body& operator=(const Body&) = delete;
+
+  const DistributedMesh& mesh() const { return mesh_; }
+  const std::vector<std::unique_ptr<EnergyTerm>>& terms() const { return terms_; }
+  // True if every term is exactly a Projective Dynamics energy with its own L.
+  bool projective_dynamics_exact() const;
+  std::string material_names() const;  // the terms' names, e.g. "corotated, neohookean, strand"
+
+  // Prescribed motion of the fixed regions (fixed[k] moves the vertices fixed by region k).
+  void set_fixed_motion(const std::vector<BoxRegion>& fixed) { fixed_regions_ = fixed; }
+  // Moves the fixed vertices to their prescribed positions at time t (rest positions if none).
+  void set_time(double t);
+  // The terms' per-step update: t is the time at the end of the step, y its inertial target.
+  PetscErrorCode begin_step(double t, Vec y);
+
+  // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
+  // ones from their prescribed positions.
+  PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
+  // Local values of a global velocity vector (fixed vertices: their prescribed velocity).
+  PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
+  // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
+  PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
+  // det F per local tet at the given local positions.
+  void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
+  // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
+  bool bounds_steps() const;
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const;
+
+  // Lumped mass per dof (global vector layout), summed over the terms.
+  PetscErrorCode lumped_mass(Vec mass) const;
+  // Total mass of the body (all vertices, fixed included).
+  double total_mass() const { return total_mass_; }
+  // A += scale * L, L the sum of the terms' (see EnergyTerm::add_laplacian for components).
+  PetscErrorCode add_laplacian(Mat A, PetscReal scale, int components = 3) const;
+  // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
+  // exact. Adds into H's existing pattern.
+  PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
+  // Positions of the rest shape as a global vector of free dofs.
+  PetscErrorCode rest_positions(Vec x) const;
+
+ private:
+  // out = fixed_values, then the free vertices' entries overwritten from the global vector.
+  PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
+
+  const DistributedMesh& mesh_;
+  std::vector<std::unique_ptr<EnergyTerm>> terms_;
+  std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix (for J)
+  double total_mass_ = 0;
+  std::vector<BoxRegion> fixed_regions_;
+  std::vector<double> fixed_pos_;    // 3 per local vertex: prescribed positions (free: unused)
+  std::vector<double> fixed_vel_;    // 3 per local vertex: prescribed velocities (free: 0)
+  double time_ = 0;
+  mutable Vec local_ = nullptr;      // work: local (ghosted) vector
+  mutable std::vector<double> pos_;  // work: local positions
+};
+
+}  // namespace hyperqn

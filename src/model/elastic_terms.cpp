@@ -1,0 +1,48 @@
+#include "model/elastic_terms.hpp"
+
+#include "model/material_params.hpp"
+#include "terms/continuum_tets.hpp"
+#include "terms/element_kernels.hpp"
+#include "terms/mass_spring_tets.hpp"
+#include "terms/strand_segments.hpp"
+
+namespace hyperqn {
+
+// The rest volume of all tets, over all ranks.
+static double rest_volume(const DistributedMesh& mesh) {
+  double local = 0, volume = 0;
+  for (PetscInt c = 0; c < mesh.num_cells; ++c) local += edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant() / 6.0;
+  MPI_Allreduce(&local, &volume, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
+  return volume;
+}
+
+std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
+                                                       const std::vector<MaterialSpec>& materials,
+                                                       const StrandMaterial& strands) {
+  std::vector<std::unique_ptr<EnergyTerm>> terms;
+  if (mesh.global_cells > 0) {
+    const double volume = rest_volume(mesh);
+    std::vector<std::unique_ptr<Material>> continuum;
+    std::vector<double> stiffness, weight, density;
+    bool any_continuum = false, any_springs = false;
+    for (const MaterialSpec& spec : materials) {
+      const bool springs = spec.model == "mass-spring";
+      continuum.push_back(springs ? nullptr : make_material(spec));
+      stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
+      // A spring's own weight in L is its stiffness k.
+      const double own = springs ? spec.spring_stiffness : continuum.back()->laplacian_weight();
+      weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
+      density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
+      any_continuum = any_continuum || !springs;
+      any_springs = any_springs || springs;
+    }
+    if (any_continuum) terms.push_back(std::make_unique<ContinuumTets>(mesh, std::move(continuum), weight, density));
+    if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
+  }
+  if (mesh.global_segments > 0)
+    terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
+                                                     strands.laplacian_weight));
+  return terms;
+}
+
+}  // namespace hyperqn

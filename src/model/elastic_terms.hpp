@@ -1,0 +1,20 @@
+// The elastic energy terms of a scene, from its materials: continuum tets (one term for every
+// hyperelastic material), mass-spring tets, strand segments; only those the mesh uses.
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "model/material_spec.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+// materials[0] is the default material, materials[k + 1] that of material region k
+// (mesh.cell_material says which tet has which); strands is the material of every segment.
+// A material given by total_mass (single-material bodies only) spreads it evenly over the rest volume.
+std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
+                                                       const std::vector<MaterialSpec>& materials,
+                                                       const StrandMaterial& strands);
+
+}  // namespace hyperqn

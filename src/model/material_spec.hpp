@@ -1,0 +1,41 @@
+// A material as a scene describes it: the model and its parameters, its mass, and its weight in
+// L; and the material of strand segments. (materials/ holds the constitutive models themselves.)
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+namespace hyperqn {
+
+// The material of all strand segments: a segment of rest length L stores
+// E = EA/(2L) (l - L)^2 = L/2 EA (l/L - 1)^2 and carries linear_density * L of mass.
+struct StrandMaterial {
+  double axial_stiffness = 0;        // EA: force per unit strain (N)
+  double linear_density = 0;         // mass per unit rest length (kg/m)
+  double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
+};
+
+// A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
+// or a monotone cubic spline through control points (x_i, y_i) of its derivative.
+struct FunctionSpec {
+  std::string kind;                  // "" (absent) | polynomial | spline
+  std::vector<double> coefficients, x, y;
+};
+
+struct MaterialSpec {
+  std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch | mass-spring
+  double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
+  double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
+  double spring_stiffness = 0;       // mass-spring: k of the spring on each edge of each tet
+  FunctionSpec f, g, h;              // principal-stretch: psi = sum f(s_i) + sum g(s_i s_j) + h(J)
+  bool has_fiber = false;            // fibre term k/2 (|F d| - 1)^2 on top of the model
+  std::array<double, 3> fiber_direction{1, 0, 0};
+  double fiber_stiffness = 0;
+  bool has_density = false;
+  double density = 1000;             // mass per unit volume, or
+  double total_mass = 0;             // total mass (used when has_density is false)
+  double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
+  double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
+};
+
+}  // namespace hyperqn

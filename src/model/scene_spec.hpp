@@ -1,0 +1,44 @@
+// A scene as the deck describes it: mesh, materials, regions, initial state, gravity and time
+// stepping. The deck (app/deck.hpp) is a scene plus how to run it (solver, output, study); the
+// model builds from this alone.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "mesh/mesh_spec.hpp"
+#include "model/material_spec.hpp"
+#include "model/regions.hpp"
+
+namespace hyperqn {
+
+struct TimeSpec {
+  double dt = 1.0 / 30.0;
+  int frames = 100;
+  double damping = 0;                // v <- (1 - damping) v after each step
+};
+
+// An extreme initial state (positions at frame 0; the rest shape stays the mesh). c is the
+// centre of the rest bounding box; fixed vertices stay where they are.
+struct InitialSpec {
+  std::string kind;                  // "" (rest) | squash | collapse | random | invert
+  int axis = 1;                      // squash, invert: the coordinate axis (0, 1, 2)
+  double factor = 0;                 // squash: x_A = c_A + factor (X_A - c_A)
+  long seed = 1;                     // random: uniform in the rest bounding box, per vertex id
+};
+
+struct SceneSpec {
+  std::string path;                      // the deck file (input errors name it)
+  std::string name;                      // deck file name without directory and extension
+  MeshSpec mesh;
+  MaterialSpec material;                 // the default material (of the tets)
+  bool has_material = false;             // material given (needed iff the mesh has tets)
+  StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
+  std::vector<MaterialRegion> regions;   // per-region materials
+  std::vector<BoxRegion> fixed;
+  InitialSpec initial;
+  std::array<double, 3> gravity{0, -9.81, 0};
+  TimeSpec time;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,30 @@
+// Tets of hyperelastic materials (corotated, Neo-Hookean, StVK, principal-stretch, fibres):
+// E = sum_e V_e psi_m(F_e), and L_e = w_m V_e G_e^T G_e with G_e the gradients of the 4
+// barycentric shape functions and w_m the material's weight (or the deck's laplacian_weight).
+#pragma once
+#include <memory>
+
+#include "terms/tet_elements.hpp"
+
+namespace hyperqn {
+
+class ContinuumTets : public TetElements {
+ public:
+  // materials[m]: the material of cells with cell_material m, or null where another term holds
+  // them; weight[m] its weight in L; density[m] its mass per rest volume.
+  ContinuumTets(const DistributedMesh& mesh, std::vector<std::unique_ptr<Material>> materials,
+                std::vector<double> weight, std::vector<double> density);
+  std::string name() const override;
+  bool projective_dynamics_exact() const override;
+
+ private:
+  double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
+  Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
+  double element_weight(PetscInt k) const override { return volume_[k]; }
+
+  std::vector<std::unique_ptr<Material>> materials_;
+  std::vector<double> weight_;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,52 @@
+// One contribution to the elastic energy E(x) of a scene: g(x) = 1/2 |x - y|_M^2 + h^2 sum_t E_t(x).
+//
+// Every kind of element (continuum tets, mass-spring tets, strand segments) is a term, and so
+// will be contact, attachments and cloth. A term works on the local elements of this rank: it
+// adds its local energy and gradient into the body's accumulators, and the body reduces over the
+// ranks once for all terms. A scene holds only the terms it uses (model/elastic_terms.hpp), so a
+// scene without strands runs no strand code. docs/architecture.md, "Add an energy term".
+#pragma once
+#include <petscmat.h>
+
+#include <string>
+#include <vector>
+
+namespace hyperqn {
+
+class EnergyTerm {
+ public:
+  virtual ~EnergyTerm() = default;
+  // What the logs call it, e.g. "corotated, neohookean" or "strand".
+  virtual std::string name() const = 0;
+
+  // Adds the term's energy over this rank's elements to *energy (not reduced over ranks) and, if
+  // gradient is not null, dE/dx to it: the local (ghosted) array of free dofs, 3 per free local
+  // vertex at mesh.local_dof. x is the global vector of free dofs, pos the local positions of all
+  // local vertices (fixed ones at their prescribed positions).
+  virtual PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy,
+                                    PetscScalar* gradient) const = 0;
+  // H += scale * d2E/dx2 at pos on the free dofs (global indices), with the per-element
+  // definiteness fix (psd, Newton) or exact (possibly indefinite; tests, the study's reference).
+  virtual PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const = 0;
+
+  // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
+  // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
+  virtual PetscErrorCode add_laplacian(Mat /*A*/, double /*scale*/, int /*components*/) const { return 0; }
+  // Lumped mass of this rank's elements: added per free dof to mass (local ghosted array), and
+  // the total over all of them, fixed vertices included.
+  virtual void add_lumped_mass(PetscScalar* /*mass*/) const {}
+  virtual double local_mass() const { return 0; }
+  // True if the term is exactly a Projective Dynamics energy whose global matrix is its own
+  // add_laplacian (so x - A^{-1} grad g is the local-global step and never increases g).
+  virtual bool projective_dynamics_exact() const = 0;
+
+  // Called at the start of every time step, with the time t at its end and its inertial target y
+  // (global free dofs): moving obstacles, attachments and the like update here.
+  virtual PetscErrorCode begin_step(double /*t*/, Vec /*y*/) { return 0; }
+  // Largest alpha <= *alpha such that x + alpha dir is admissible (e.g. no vertex crosses an
+  // obstacle); the line searches never try beyond it. Unbounded terms leave *alpha alone.
+  virtual bool bounds_steps() const { return false; }
+  virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,30 @@
+// Strand segments: one axial spring per two-vertex segment of rest length L,
+// E = EA/(2L) (l - L)^2, mass linear_density * L lumped half to each end, and weight EA/L in L
+// (exact for springs, so Projective Dynamics is exact unless the deck overrides the weight).
+#pragma once
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+class StrandSegments : public EnergyTerm {
+ public:
+  // axial_stiffness EA, linear_density, laplacian_weight (0: EA) as in the deck's strand_material.
+  StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density, double laplacian_weight);
+  std::string name() const override { return "strand"; }
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  void add_lumped_mass(PetscScalar* mass) const override;
+  double local_mass() const override;
+  bool projective_dynamics_exact() const override { return weight_ == axial_stiffness_; }
+
+ private:
+  const DistributedMesh& mesh_;
+  double axial_stiffness_, linear_density_, weight_;
+  std::vector<double> length_;  // per local segment: rest length L
+};
+
+}  // namespace hyperqn

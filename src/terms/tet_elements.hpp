@@ -1,0 +1,51 @@
+// What the two kinds of tet terms share: elements whose energy is a function of the deformation
+// gradient F = Ds Dm^{-1}, so forces are w P Dm^{-T} and stiffnesses w B^T (dP/dF) B, w the
+// element's weight (its rest volume for an energy density, 1 for an energy per element). A term
+// (continuum_tets, mass_spring_tets) says which cells it holds and what one element stores.
+#pragma once
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+#include "terms/element_kernels.hpp"
+
+namespace hyperqn {
+
+class TetElements : public EnergyTerm {
+ public:
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  void add_lumped_mass(PetscScalar* mass) const override;
+  double local_mass() const override;
+
+ protected:
+  // cells: the local tets of this term (indices into mesh.cells), in mesh order; density: mass
+  // per rest volume of each material (by mesh.cell_material).
+  TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density);
+  // Per element k of this term (cell cells_[k], material m): its energy, with P = dE/dF if P is
+  // not null; dP/dF; and its 4 x 4 vertex matrix in L (scaled by scale).
+  virtual double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const = 0;
+  virtual Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const = 0;
+  virtual Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const = 0;
+  // Weight of element k's energy: its rest volume (energy densities) or 1 (element energies).
+  virtual double element_weight(PetscInt k) const = 0;
+
+  const DistributedMesh& mesh_;
+  std::vector<PetscInt> cells_;  // local cell index per element
+  std::vector<Mat3> Dm_inv_;     // per element: inverse rest edge matrix
+  std::vector<Mat3> Dm_;         // per element: rest edge matrix
+  std::vector<double> volume_;   // per element: rest volume
+  std::vector<double> density_;  // per material
+};
+
+// The local cells whose material m satisfies pick(m), in mesh order.
+template <class Pick>
+std::vector<PetscInt> cells_where(const DistributedMesh& mesh, Pick pick) {
+  std::vector<PetscInt> cells;
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    if (pick(mesh.cell_material[c])) cells.push_back(c);
+  return cells;
+}
+
+}  // namespace hyperqn
