@@ -26,7 +26,7 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const TimeStep& step) {
+PetscErrorCode FactoredSystem::setup(const Objective& step) {
   MatFactorInfo info;
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;

@@ -7,7 +7,7 @@
 #pragma once
 #include <petscmat.h>
 
-#include "model/time_step.hpp"
+#include "solvers/objective.hpp"
 
 namespace hyperqn {
 
@@ -19,7 +19,7 @@ class FactoredSystem {
   FactoredSystem& operator=(const FactoredSystem&) = delete;
 
   // Assembles A1 and computes its Cholesky factorization (the only factorization of a run).
-  PetscErrorCode setup(const TimeStep& step);
+  PetscErrorCode setup(const Objective& step);
   // x = A^{-1} b (dof layout: x, y, z per free vertex).
   PetscErrorCode solve(Vec b, Vec x) const;
   // y = A x.

@@ -43,7 +43,7 @@ PetscErrorCode GuardedTaoSolver::objective_gradient(Tao, Vec x, PetscReal* f, Ve
   auto* self = static_cast<GuardedTaoSolver*>(ctx);
   PetscFunctionBeginUser;
   PetscCall(self->step_.objective(x, f, g));
-  if (self->line_search_ && TimeStep::rejected(*f) && !self->have_rejected_trial_) {
+  if (self->line_search_ && Objective::rejected(*f) && !self->have_rejected_trial_) {
     PetscCall(VecCopy(x, self->rejected_trial_));
     self->have_rejected_trial_ = true;
   }
@@ -83,7 +83,7 @@ PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
   // g by its 1e-10 relative slack) -- for these the convergence test stops TAO and solve() undoes
   // the step --, TAOLMVM's record of a failed line search (the same point again, step 0; solve()
   // retries), and the first point of a TaoSolve that resumes the frame (already reported).
-  self->bad_point_ = TimeStep::rejected(f) || !std::isfinite(gnorm) || (it > 0 && self->have_rejected_trial_);
+  self->bad_point_ = Objective::rejected(f) || !std::isfinite(gnorm) || (it > 0 && self->have_rejected_trial_);
   if (self->bad_point_ || reason == TAO_DIVERGED_LS_FAILURE || (self->restarted_ && it == 0)) PetscFunctionReturn(0);
   self->have_rejected_trial_ = false;  // a new iterate: a new line search follows
   PetscCall(TaoGetSolution(tao, &x));
@@ -183,7 +183,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
   if (reported_ < 0) {
     result.failed = true;
     result.reason = "REJECTED_INITIAL_GUESS";
-    result.energy = TimeStep::kRejectedEnergy;
+    result.energy = Objective::kRejectedEnergy;
     PetscFunctionReturn(0);
   }
   result.iterations = reported_;

@@ -5,14 +5,14 @@
 #include <petsctao.h>
 
 #include "solvers/solver_spec.hpp"
-#include "model/time_step.hpp"
+#include "solvers/objective.hpp"
 #include "solvers/time_step_solver.hpp"
 
 namespace hyperqn {
 
 class GuardedTaoSolver : public TimeStepSolver {
  public:
-  explicit GuardedTaoSolver(TimeStep& step) : step_(step) {}
+  explicit GuardedTaoSolver(Objective& step) : step_(step) {}
   ~GuardedTaoSolver() override;
   PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
 
@@ -25,7 +25,7 @@ class GuardedTaoSolver : public TimeStepSolver {
   // On success x, *g and grad_ are the new point and *alpha its step.
   virtual PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) = 0;
 
-  TimeStep& step_;
+  Objective& step_;
   Tao tao_ = nullptr;
   Vec grad_ = nullptr, dir_ = nullptr;  // work vectors: a gradient, a search direction
 

@@ -15,7 +15,7 @@ namespace hyperqn {
 class LbfgsSolver : public GuardedTaoSolver {
  public:
   // h0: the factored M + h^2 L, or nullptr for TAO's default H0.
-  LbfgsSolver(TimeStep& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
+  LbfgsSolver(Objective& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
   PetscErrorCode setup(const SolverSpec& spec);
   std::string name() const override { return h0_ ? "lbfgs" : "lbfgs-identity"; }
 

@@ -4,7 +4,7 @@
 
 namespace hyperqn {
 
-PetscErrorCode backtrack(TimeStep& step, Vec x, PetscReal g, Vec grad, Vec dir, double alpha0,
+PetscErrorCode backtrack(Objective& step, Vec x, PetscReal g, Vec grad, Vec dir, double alpha0,
                          const Backtracking& ls, bool accept_first, Vec trial, PetscReal* g_trial, Vec trial_grad,
                          double* alpha, bool* accepted) {
   PetscReal slope;
@@ -14,10 +14,11 @@ PetscErrorCode backtrack(TimeStep& step, Vec x, PetscReal g, Vec grad, Vec dir, 
   PetscCall(VecDot(grad, dir, &slope));
   if (!(slope < 0)) PetscFunctionReturn(0);  // not a descent direction (or NaN): no decrease to find
   double a = alpha0;
+  if (step.bounds_steps()) PetscCall(step.limit_step(x, dir, &a));  // e.g. no vertex crosses an obstacle
   for (int halvings = 0; halvings <= ls.max_halvings; ++halvings, a *= ls.shrink) {
     PetscCall(VecWAXPY(trial, a, dir, x));
     PetscCall(step.objective(trial, g_trial, trial_grad));
-    if (TimeStep::rejected(*g_trial)) continue;  // non-finite g or grad g: never accepted
+    if (Objective::rejected(*g_trial)) continue;  // non-finite g or grad g: never accepted
     if ((accept_first && halvings == 0) || *g_trial <= g + ls.c1 * a * slope) {
       *accepted = true;
       *alpha = a;
@@ -27,7 +28,7 @@ PetscErrorCode backtrack(TimeStep& step, Vec x, PetscReal g, Vec grad, Vec dir, 
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode backtrack_and_move(TimeStep& step, Vec x, PetscReal* g, Vec grad, Vec dir, double alpha0,
+PetscErrorCode backtrack_and_move(Objective& step, Vec x, PetscReal* g, Vec grad, Vec dir, double alpha0,
                                   const Backtracking& ls, double* alpha, bool* accepted) {
   Vec trial, trial_grad;
   PetscReal g_trial = 0;
@@ -45,7 +46,7 @@ PetscErrorCode backtrack_and_move(TimeStep& step, Vec x, PetscReal* g, Vec grad,
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode retry_descent(TimeStep& step, const FactoredSystem* h0, double gradient_length, Vec x, PetscReal* g,
+PetscErrorCode retry_descent(Objective& step, const FactoredSystem* h0, double gradient_length, Vec x, PetscReal* g,
                              Vec grad, double* alpha, std::string* along, bool* recovered) {
   Vec dir;
   PetscReal gnorm;

@@ -12,7 +12,7 @@ namespace hyperqn {
 
 class NewtonSolver : public GuardedTaoSolver {
  public:
-  explicit NewtonSolver(TimeStep& step) : GuardedTaoSolver(step) {}
+  explicit NewtonSolver(Objective& step) : GuardedTaoSolver(step) {}
   ~NewtonSolver() override;
   PetscErrorCode setup(const SolverSpec& spec);
   std::string name() const override { return "newton"; }

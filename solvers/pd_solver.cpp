@@ -23,22 +23,21 @@ PdSolver::~PdSolver() {
 }
 
 PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
-  const Body& body = step_.body();
   MPI_Comm comm = PetscObjectComm((PetscObject)step_.layout());
   PetscFunctionBeginUser;
   spec_ = spec;
   // The step is PD's local-global step only if A was built with the material's own weight
   // (2 mu for ARAP, k for springs); a deck's laplacian_weight override makes it an approximation again.
-  exact_ = body.projective_dynamics_exact();
+  exact_ = step_.projective_dynamics_exact();
   if (exact_) {
     PetscCall(PetscPrintf(comm, "pd: %s is a Projective Dynamics energy (ARAP, or springs): exact local-global "
                                 "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
-                          body.material_names().c_str()));
+                          step_.energy_names().c_str()));
   } else {
     PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s; exact needs ARAP or "
                                 "springs, each with its own laplacian_weight); running its quasi-Newton step "
                                 "x <- x - alpha A^{-1} grad g with a backtracking Armijo line search (L-BFGS with m = 0)\n",
-                          body.material_names().c_str()));
+                          step_.energy_names().c_str()));
   }
   PetscCall(VecDuplicate(step_.layout(), &grad_));
   PetscCall(VecDuplicate(step_.layout(), &dir_));
@@ -70,10 +69,10 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   PetscCall(VecNorm(grad_, NORM_2, &gnorm));
   gnorm0 = gnorm;
   // A rejected initial guess (non-finite g or grad g) is not an iterate: nothing to log.
-  bool stop = TimeStep::rejected(g) ? false : report();
+  bool stop = Objective::rejected(g) ? false : report();
   bool after_retry = false;  // the last iteration was a retry along -grad g
   for (;;) {
-    if (TimeStep::rejected(g) || !std::isfinite(gnorm)) {
+    if (Objective::rejected(g) || !std::isfinite(gnorm)) {
       result.failed = true;
       result.reason = "REJECTED_INITIAL_GUESS";
       break;

@@ -7,20 +7,20 @@
 #include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/time_step_solver.hpp"
-#include "model/time_step.hpp"
+#include "solvers/objective.hpp"
 
 namespace hyperqn {
 
 class PdSolver : public TimeStepSolver {
  public:
-  PdSolver(TimeStep& step, const FactoredSystem& A) : step_(step), A_(A) {}
+  PdSolver(Objective& step, const FactoredSystem& A) : step_(step), A_(A) {}
   ~PdSolver() override;
   PetscErrorCode setup(const SolverSpec& spec);
   std::string name() const override { return "pd"; }
   PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
 
  private:
-  TimeStep& step_;
+  Objective& step_;
   const FactoredSystem& A_;
   SolverSpec spec_;
   bool exact_ = false;  // PD energy with its own L: alpha = 1, no line search

@@ -8,7 +8,7 @@ namespace hyperqn {
 
 bool solver_uses_constant_matrix(const std::string& type) { return type == "lbfgs" || type == "pd"; }
 
-PetscErrorCode create_solver(const SolverSpec& spec, TimeStep& step, const FactoredSystem* h0,
+PetscErrorCode create_solver(const SolverSpec& spec, Objective& step, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   PetscFunctionBeginUser;
   PetscCheck(!solver_uses_constant_matrix(spec.type) || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL,

@@ -12,7 +12,7 @@ namespace hyperqn {
 bool solver_uses_constant_matrix(const std::string& type);
 
 // h0 may be nullptr when solver_uses_constant_matrix(spec.type) is false.
-PetscErrorCode create_solver(const SolverSpec& spec, TimeStep& step, const FactoredSystem* h0,
+PetscErrorCode create_solver(const SolverSpec& spec, Objective& step, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver);
 
 }  // namespace hyperqn

@@ -6,16 +6,10 @@
 #include <functional>
 #include <string>
 
+#include "io/records.hpp"
+
 namespace hyperqn {
 
-struct IterationRecord {
-  PetscInt iteration = 0;    // 0 = the initial guess
-  double time_s = 0;         // wall time since this frame's solve started
-  double energy = 0;         // g(x_k)
-  double grad_norm = 0;      // ||grad g(x_k)||_2 over the free dofs
-  double step = 0;           // line-search step length that produced x_k (0 at iteration 0)
-  PetscInt evaluations = 0;  // g / grad g evaluations so far in this frame
-};
 
 struct FrameResult {
   PetscInt iterations = 0;

@@ -91,7 +91,7 @@ PetscErrorCode check_gradients(const std::string& model, double amplitude) {
   PetscCall(PetscRandomDestroy(&rnd));
 
   // Inertial target from a nonzero velocity, so both parts of g are exercised.
-  PetscCall(s.step->set_inertial_target(x, dir));
+  PetscCall(set_inertial_target(s, x, dir));
   for (int which = 0; which < 2; ++which) {
     auto eval = [&](Vec at, PetscReal* f, Vec g) -> PetscErrorCode {
       return which == 0 ? s.body->energy_gradient(at, f, g) : s.step->objective(at, f, g);

@@ -160,7 +160,7 @@ PetscErrorCode check_pose(const std::string& model, Pose pose, PetscRandom rnd) 
 
   // Exact H = M + h^2 K against differences of grad g (with a nonzero inertial target).
   PetscCall(VecSetRandom(v, rnd));
-  PetscCall(s.step->set_inertial_target(x, v));
+  PetscCall(set_inertial_target(s, x, v));
   PetscCall(s.step->create_hessian(&H));
   PetscCall(s.step->assemble_hessian(x, H, true));
   PetscCall(fd_error(H, x, [&](Vec at, Vec g) { PetscReal f; return s.step->objective(at, &f, g); }, rnd, &err_H));

@@ -10,7 +10,7 @@
 #include "model/body.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/regions.hpp"
-#include "model/time_step.hpp"
+#include "model/implicit_euler.hpp"
 
 namespace test_scene {
 
@@ -19,7 +19,7 @@ using namespace hyperqn;
 struct TestScene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
-  std::unique_ptr<TimeStep> step;
+  std::unique_ptr<ImplicitEuler> step;
 };
 
 // Strands of the scene with_strands: one hanging off the box's corner (2, 1, 1), one free.
@@ -62,8 +62,20 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   strand_material.axial_stiffness = kStrandStiffness;
   strand_material.linear_density = kStrandDensity;
   s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, {mat}, strand_material));
-  s.step = std::make_unique<TimeStep>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
+  s.step = std::make_unique<ImplicitEuler>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
   PetscCall(s.step->setup());
+  PetscFunctionReturn(0);
+}
+
+// Begins a time step from positions x and velocities v, so that g has the inertial target
+// y = x + h v + h^2 g (the state itself is not kept).
+inline PetscErrorCode set_inertial_target(TestScene& s, Vec x, Vec v) {
+  State state;
+  PetscFunctionBeginUser;
+  PetscCall(state.create(x));
+  PetscCall(VecCopy(x, state.x));
+  PetscCall(VecCopy(v, state.v));
+  PetscCall(s.step->begin_step(state));
   PetscFunctionReturn(0);
 }
 

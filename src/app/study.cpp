@@ -7,7 +7,7 @@
 #include <functional>
 #include <memory>
 
-#include "model/initial_state.hpp"
+#include "app/run_options.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_factory.hpp"
 #include "io/study_writer.hpp"
@@ -17,30 +17,23 @@ namespace hyperqn {
 namespace {
 
 // A solver under study: one instance for the per-frame comparison, one at its trajectory
-// budget with its own state (x, v).
+// budget with its own state.
 struct Contender {
   std::string type;
   std::unique_ptr<TimeStepSolver> per_frame, trajectory;
-  Vec x = nullptr, v = nullptr;
+  State state;
   double time_s = 0;
   long long iterations = 0;
-  ~Contender() {
-    VecDestroy(&x);
-    VecDestroy(&v);
-  }
 };
 
-// Takes one implicit Euler step of (x, v) with the solver; records its iterations.
-PetscErrorCode advance(const Deck& deck, TimeStep& step, TimeStepSolver& solver, Vec x, Vec v, Vec work,
-                       const IterationCallback& cb, FrameResult& r) {
+// One implicit Euler step of s with the solver, reporting its iterations.
+PetscErrorCode advance(ImplicitEuler& integrator, TimeStepSolver& solver, State& s, const IterationCallback& cb,
+                       FrameResult& r) {
+  StepSolve step;
   PetscFunctionBeginUser;
-  // (The caller has set the prescribed positions of moving fixed regions for this step.)
-  PetscCall(step.set_inertial_target(x, v));
-  PetscCall(VecCopy(x, work));  // x_n
-  if (deck.solver.warm_start == "inertial") PetscCall(VecCopy(step.inertial_target(), x));
-  PetscCall(solver.solve(x, cb, r));
-  PetscCall(VecWAXPY(v, -1.0, work, x));
-  PetscCall(VecScale(v, (1.0 - deck.time.damping) / deck.time.dt));
+  PetscCall(integrator.solve_step(solver, s, cb, step));
+  PetscCall(integrator.end_step(s));
+  r = step.result;
   PetscFunctionReturn(0);
 }
 
@@ -67,84 +60,83 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   if (!out) throw std::runtime_error("cannot write " + outdir + "/study.json");
 }
 
-}  // namespace
-
-// Everything a study runs with; replaced as a whole when fixed regions are released.
-struct StudyScene {
-  std::unique_ptr<Scene> scene;
+// Everything a study holds while it runs.
+struct Study {
+  MPI_Comm comm;
+  const Deck& deck;
+  LiveScene scene;
   std::unique_ptr<TimeStepSolver> reference;
+  std::vector<std::unique_ptr<Contender>> contenders;
+  State ref, probe;  // the converged trajectory; a per-frame start copied from it
+
+  Study(MPI_Comm c, const Deck& d) : comm(c), deck(d) {}
+
+  // The reference solver and every contender's two solvers, on scene s.
+  PetscErrorCode make_solvers(Scene& s) {
+    const StudySpec& st = deck.study;
+    PetscFunctionBeginUser;
+    // The reference: Newton with the exact Hessian converges quadratically (the PSD fix would
+    // make it linear wherever it is active near the solution).
+    SolverSpec spec = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
+    spec.newton_hessian = "exact";
+    PetscCall(create_solver(spec, *s.integrator, nullptr, reference));
+    for (auto& c : contenders) {
+      auto budget = st.trajectory_iterations.find(c->type);
+      const int traj_its = budget != st.trajectory_iterations.end() ? budget->second : deck.solver.iterations;
+      PetscCall(create_solver(spec_for(deck, c->type, st.iterations, st.reference_rtol), *s.integrator, s.factored.get(),
+                              c->per_frame));
+      PetscCall(create_solver(spec_for(deck, c->type, traj_its, deck.solver.grad_rtol), *s.integrator,
+                              s.factored.get(), c->trajectory));
+    }
+    PetscFunctionReturn(0);
+  }
+
+  // After a release: the solvers move to the new scene; a trajectory's time includes the new
+  // factorization its solver needs.
+  PetscErrorCode rebind(const Scene&, Scene& fresh) {
+    PetscFunctionBeginUser;
+    for (auto& c : contenders) {
+      c->per_frame.reset();
+      c->trajectory.reset();
+      if (solver_uses_constant_matrix(c->type)) c->time_s += fresh.factored->factor_seconds();
+    }
+    reference.reset();
+    PetscCall(make_solvers(fresh));
+    PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released; %lld dofs now, M + h^2 L factored again\n",
+                          ref.time, (long long)fresh.mesh.global_dofs));
+    PetscFunctionReturn(0);
+  }
+
+  PetscErrorCode run(StudyWriter& out);
 };
 
-// Builds the reference solver and every contender's two solvers on scene.
-using SolverMaker = std::function<PetscErrorCode(StudyScene&, std::vector<std::unique_ptr<Contender>>&)>;
+}  // namespace
 
-// Replaces the vectors *x, *v of the old scene by the same state in the new one.
-static PetscErrorCode carry(const Scene& from, const Scene& to, Vec* x, Vec* v) {
-  Vec x_new, v_new;
-  PetscFunctionBeginUser;
-  PetscCall(carry_state(from, *x, *v, to, &x_new, &v_new));
-  PetscCall(VecDestroy(x));
-  PetscCall(VecDestroy(v));
-  *x = x_new;
-  *v = v_new;
-  PetscFunctionReturn(0);
-}
-
-static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInput& kept, bool factor, StudyScene& ss,
-                                 const SolverMaker& make_solvers, std::vector<std::unique_ptr<Contender>>& contenders,
-                                 StudyWriter& out) {
+PetscErrorCode Study::run(StudyWriter& out) {
   const StudySpec& st = deck.study;
-  Vec x_ref, v_ref, x0, v0, work;
   PetscFunctionBeginUser;
-  PetscCall(VecDuplicate(ss.scene->step->layout(), &x_ref));
-  PetscCall(VecDuplicate(x_ref, &v_ref));
-  PetscCall(VecDuplicate(x_ref, &x0));
-  PetscCall(VecDuplicate(x_ref, &v0));
-  PetscCall(VecDuplicate(x_ref, &work));
-  PetscCall(ss.scene->body->rest_positions(x_ref));
-  PetscCall(apply_initial_state(deck.initial, *ss.scene->body, x_ref));
-  PetscCall(VecSet(v_ref, 0.0));
+  PetscCall(scene.initial_state(ref));
+  PetscCall(probe.copy_from(ref));
   for (auto& c : contenders) {
     // A trajectory's run time includes the one factorization of M + h^2 L its solver needs.
-    if (solver_uses_constant_matrix(c->type)) c->time_s = ss.scene->factored->factor_seconds();
-    PetscCall(VecDuplicate(x_ref, &c->x));
-    PetscCall(VecDuplicate(x_ref, &c->v));
-    PetscCall(VecCopy(x_ref, c->x));
-    PetscCall(VecSet(c->v, 0.0));
+    if (solver_uses_constant_matrix(c->type)) c->time_s = scene.current().factored->factor_seconds();
+    PetscCall(c->state.copy_from(ref));
   }
-  const double diag = rest_diagonal(ss.scene->mesh);
+  const double diag = rest_diagonal(scene.current().mesh);
   const int last_frame = st.trajectory ? deck.time.frames : *std::max_element(st.frames.begin(), st.frames.end());
-  std::vector<char> released(deck.fixed.size(), 0);
+  std::vector<State*> carried{&probe};
+  for (auto& c : contenders) carried.push_back(&c->state);
+  const LiveScene::Rebind rebind_study = [this](const Scene& o, Scene& f) { return rebind(o, f); };
   bool warmed_up = false;  // one untimed per-frame run per set of solvers
 
-  for (int frame = 1; frame <= last_frame; ++frame) {
-    if (regions_due(deck, frame, released)) {
-      // The same rebuild as the simulation's, then every state moves to the new scene.
-      const double t = (frame - 1) * deck.time.dt;
-      StudyScene fresh;
-      fresh.scene = std::make_unique<Scene>();
-      PetscCall(build_released_scene(comm, deck, kept, released, t, factor, *fresh.scene));
-      PetscCall(carry(*ss.scene, *fresh.scene, &x_ref, &v_ref));
-      for (auto& c : contenders) {
-        PetscCall(carry(*ss.scene, *fresh.scene, &c->x, &c->v));
-        if (solver_uses_constant_matrix(c->type)) c->time_s += fresh.scene->factored->factor_seconds();
-      }
-      for (Vec* w : {&x0, &v0, &work}) {  // work vectors in the new layout
-        PetscCall(VecDestroy(w));
-        PetscCall(VecDuplicate(x_ref, w));
-      }
-      PetscCall(make_solvers(fresh, contenders));  // the old solvers refer to the old scene
-      ss.reference = std::move(fresh.reference);   // so the old reference goes before the old scene
-      ss.scene = std::move(fresh.scene);
-      warmed_up = false;
-      PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released; %lld dofs now, M + h^2 L factored again\n", t,
-                            (long long)ss.scene->mesh.global_dofs));
-    }
-    Scene& scene = *ss.scene;
-    TimeStep& step = *scene.step;
-    const PetscInt free_vertices = scene.mesh.global_dofs / 3;
+  while (ref.frame < last_frame) {
+    const int frame = ref.frame + 1;
+    bool released;
+    PetscCall(scene.release_due(ref, carried, rebind_study, &released));
+    if (released) warmed_up = false;
+    ImplicitEuler& integrator = *scene.current().integrator;
+    const PetscInt free_vertices = scene.current().mesh.global_dofs / 3;
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
-    scene.body->set_time(frame * deck.time.dt);  // prescribed positions of moving fixed regions
     std::vector<StudyCurve> curves;
     auto recorder = [&](StudyCurve& curve) {
       return [&curve, &st](const IterationRecord& r) {
@@ -153,15 +145,14 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
       };
     };
 
-    // The per-frame comparison starts every solver from the reference state (x_ref, v_ref).
-    // One untimed run first, so one-time costs (allocations, Newton's symbolic analysis) are not
-    // charged to the first compared frame.
+    // The per-frame comparison starts every solver from the reference state. One untimed run
+    // first, so one-time costs (allocations, Newton's symbolic analysis) are not charged to the
+    // first compared frame.
     if (compare_here && !warmed_up) {
       for (auto& c : contenders) {
         FrameResult r;
-        PetscCall(VecCopy(x_ref, x0));
-        PetscCall(VecCopy(v_ref, v0));
-        PetscCall(advance(deck, step, *c->per_frame, x0, v0, work, IterationCallback(), r));
+        PetscCall(probe.copy_from(ref));
+        PetscCall(advance(integrator, *c->per_frame, probe, IterationCallback(), r));
       }
       warmed_up = true;
     }
@@ -169,9 +160,8 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
       for (auto& c : contenders) {
         StudyCurve curve{c->type, frame, {}, 0, 0};
         FrameResult r;
-        PetscCall(VecCopy(x_ref, x0));
-        PetscCall(VecCopy(v_ref, v0));
-        PetscCall(advance(deck, step, *c->per_frame, x0, v0, work, recorder(curve), r));
+        PetscCall(probe.copy_from(ref));
+        PetscCall(advance(integrator, *c->per_frame, probe, recorder(curve), r));
         curves.push_back(std::move(curve));
       }
     }
@@ -179,7 +169,7 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
     // The converged reference step; at a compared frame it also gives g*.
     StudyCurve ref_curve{"reference", frame, {}, 0, 0};
     FrameResult ref_result;
-    PetscCall(advance(deck, step, *ss.reference, x_ref, v_ref, work, recorder(ref_curve), ref_result));
+    PetscCall(advance(integrator, *reference, ref, recorder(ref_curve), ref_result));
     if (compare_here) {
       // g* is the lowest g anyone reached (the reference's, unless another solver went below it
       // by round-off); g0 is the common starting value.
@@ -203,11 +193,11 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
       for (auto& c : contenders) {
         FrameResult r;
         const double t0 = MPI_Wtime();
-        PetscCall(advance(deck, step, *c->trajectory, c->x, c->v, work, IterationCallback(), r));
+        PetscCall(advance(integrator, *c->trajectory, c->state, IterationCallback(), r));
         c->time_s += MPI_Wtime() - t0;
         PetscReal dist;
-        PetscCall(VecWAXPY(work, -1.0, x_ref, c->x));
-        PetscCall(VecNorm(work, NORM_2, &dist));
+        PetscCall(VecWAXPY(probe.x, -1.0, ref.x, c->state.x));
+        PetscCall(VecNorm(probe.x, NORM_2, &dist));
         TrajectoryPoint p;
         p.solver = c->type;
         p.frame = frame;
@@ -220,11 +210,6 @@ static PetscErrorCode study_loop(MPI_Comm comm, const Deck& deck, const SceneInp
       }
     }
   }
-  PetscCall(VecDestroy(&x_ref));
-  PetscCall(VecDestroy(&v_ref));
-  PetscCall(VecDestroy(&x0));
-  PetscCall(VecDestroy(&v0));
-  PetscCall(VecDestroy(&work));
   PetscFunctionReturn(0);
 }
 
@@ -237,34 +222,16 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
   bool factor = false;
   for (const std::string& s : st.solvers) factor = factor || solver_uses_constant_matrix(s);
-  // Released fixed regions rebuild the scene from the serial input, so it is kept for them.
-  const SceneInput kept = deck_releases_regions(deck) ? input : SceneInput();
+  RunOptions options;
+  if (read_run_options(comm, &options)) return 1;
 
-  StudyScene ss;
-  std::vector<std::unique_ptr<Contender>> contenders;
-  const SolverMaker make_solvers = [&](StudyScene& s, std::vector<std::unique_ptr<Contender>>& cs) -> PetscErrorCode {
-    PetscFunctionBeginUser;
-    // The reference: Newton with the exact Hessian converges quadratically (the PSD fix would
-    // make it linear wherever it is active near the solution).
-    SolverSpec ref = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
-    ref.newton_hessian = "exact";
-    PetscCall(create_solver(ref, *s.scene->step, nullptr, s.reference));
-    for (auto& c : cs) {
-      auto budget = st.trajectory_iterations.find(c->type);
-      const int traj_its = budget != st.trajectory_iterations.end() ? budget->second : deck.solver.iterations;
-      PetscCall(create_solver(spec_for(deck, c->type, st.iterations, st.reference_rtol), *s.scene->step,
-                              s.scene->factored.get(), c->per_frame));
-      PetscCall(create_solver(spec_for(deck, c->type, traj_its, deck.solver.grad_rtol), *s.scene->step,
-                              s.scene->factored.get(), c->trajectory));
-    }
-    PetscFunctionReturn(0);
-  };
+  Study study(comm, deck);
   for (const std::string& type : st.solvers) {
-    contenders.push_back(std::make_unique<Contender>());
-    contenders.back()->type = type;
+    study.contenders.push_back(std::make_unique<Contender>());
+    study.contenders.back()->type = type;
   }
-  ss.scene = std::make_unique<Scene>();
-  if (build_scene(comm, deck, input, factor, *ss.scene) || make_solvers(ss, contenders)) {
+  if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, factor)) ||
+      study.make_solvers(study.scene.current())) {
     PetscPrintf(comm, "hyperqn: error: setting up the study failed (see PETSc's message above)\n");
     return 1;
   }
@@ -273,8 +240,8 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (rank == 0) std::filesystem::create_directories(outdir);
     MPI_Barrier(comm);
     StudyWriter out(outdir, rank);
-    if (rank == 0) write_study_meta(outdir, deck, *ss.scene);
-    if (study_loop(comm, deck, kept, factor, ss, make_solvers, contenders, out)) {
+    if (rank == 0) write_study_meta(outdir, deck, study.scene.current());
+    if (study.run(out)) {
       PetscPrintf(comm, "hyperqn: error: the study failed (see PETSc's message above)\n");
       return 1;
     }

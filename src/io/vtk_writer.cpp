@@ -65,10 +65,10 @@ void check_stream(const std::ofstream& out, const std::string& path) {
 
 }  // namespace
 
-VtkWriter::VtkWriter(MPI_Comm comm, const DistributedMesh& mesh, std::string directory, std::string name)
-    : comm_(comm), mesh_(&mesh), dir_(std::move(directory)), name_(std::move(name)) {}
+VtkSeries::VtkSeries(MPI_Comm comm, std::string directory, std::string name)
+    : comm_(comm), dir_(std::move(directory)), name_(std::move(name)) {}
 
-void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
+void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, nc = nt + mesh_->num_segments;
   int rank;
   MPI_Comm_rank(comm_, &rank);
@@ -119,7 +119,7 @@ void VtkWriter::write_piece(const std::string& path, const VtkFrame& f) const {
   check_stream(out, path);
 }
 
-void VtkWriter::write_pvtu(const std::string& path, const std::string& stem, int nranks) const {
+void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, int nranks) const {
   std::ofstream out(path);
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
@@ -137,7 +137,7 @@ void VtkWriter::write_pvtu(const std::string& path, const std::string& stem, int
   check_stream(out, path);
 }
 
-void VtkWriter::write_pvd() const {
+void VtkSeries::write_pvd() const {
   const std::string path = dir_ + "/" + name_ + ".pvd";
   std::ofstream out(path);
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n";
@@ -148,7 +148,7 @@ void VtkWriter::write_pvd() const {
   check_stream(out, path);
 }
 
-void VtkWriter::write(const VtkFrame& f) {
+void VtkSeries::write_frame(const FrameData& f) {
   int rank, size;
   MPI_Comm_rank(comm_, &rank);
   MPI_Comm_size(comm_, &size);

@@ -10,34 +10,27 @@
 #include <utility>
 #include <vector>
 
+#include "io/output_writer.hpp"
 #include "mesh/distributed_mesh.hpp"
 
 namespace hyperqn {
 
-struct VtkFrame {
-  int frame = 0;
-  double time = 0;
-  const std::vector<double>* positions = nullptr;   // 3 per local vertex
-  const std::vector<double>* velocities = nullptr;  // 3 per local vertex
-  const std::vector<double>* J = nullptr;           // per local tet
-};
-
-class VtkWriter {
+class VtkSeries : public OutputWriter {
  public:
-  VtkWriter(MPI_Comm comm, const DistributedMesh& mesh, std::string directory, std::string name);
+  VtkSeries(MPI_Comm comm, std::string directory, std::string name);
+  void begin_run(const DistributedMesh& mesh) override { mesh_ = &mesh; }
   // Writes one frame and rewrites the .pvd so it is valid even if the run stops later.
-  // Throws std::runtime_error if a file cannot be written.
-  void write(const VtkFrame& f);
+  void write_frame(const FrameData& f) override;
   // The mesh whose local arrays the next frames hold (after fixed regions were released).
-  void set_mesh(const DistributedMesh& mesh) { mesh_ = &mesh; }
+  void set_mesh(const DistributedMesh& mesh) override { mesh_ = &mesh; }
 
  private:
-  void write_piece(const std::string& path, const VtkFrame& f) const;
+  void write_piece(const std::string& path, const FrameData& f) const;
   void write_pvtu(const std::string& path, const std::string& stem, int nranks) const;
   void write_pvd() const;
 
   MPI_Comm comm_;
-  const DistributedMesh* mesh_;
+  const DistributedMesh* mesh_ = nullptr;
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
 };

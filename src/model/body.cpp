@@ -43,7 +43,7 @@ void Body::set_time(double t) {
   const double dt = t - time_;
   for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
     const int32_t region = mesh_.fixed[v];
-    if (region == 0 || !fixed_regions_[region - 1].motion.active) continue;
+    if (region == 0 || region > (int32_t)fixed_regions_.size() || !fixed_regions_[region - 1].motion.active) continue;
     const Vec3 X(&mesh_.rest[3 * v]);
     const Vec3 p = moved(fixed_regions_[region - 1].motion, X, t);
     for (int d = 0; d < 3; ++d) {

@@ -3,6 +3,7 @@
 #include <functional>
 
 #include "model/elastic_terms.hpp"
+#include "model/initial_state.hpp"
 #include "model/regions.hpp"
 #include "io/input_error.hpp"
 #include "mesh/mesh_gmsh.hpp"
@@ -84,62 +85,63 @@ bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput
   }
 }
 
-PetscErrorCode build_scene(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factor, Scene& s) {
+PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput input, SceneOptions options) {
   PetscFunctionBeginUser;
-  PetscCall(distribute_mesh(comm, input.mesh, input.fixed, input.cell_material, s.mesh));
+  comm_ = comm;
+  spec_ = &spec;
+  options_ = std::move(options);
+  bool releases = false;
+  for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
+  if (releases) kept_ = input;  // a release rebuilds the scene from the serial input
+  scene_ = std::make_unique<Scene>();
+  PetscCall(build(std::move(input), *scene_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
+  const SceneSpec& spec = *spec_;
+  PetscFunctionBeginUser;
+  PetscCall(distribute_mesh(comm_, input.mesh, input.fixed, input.cell_material, s.mesh));
   input = SceneInput();  // the serial copy is no longer needed
-  std::vector<MaterialSpec> materials{deck.material};
-  for (const MaterialRegion& r : deck.regions) materials.push_back(r.material);
-  s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, materials, deck.strand_material));
-  s.body->set_fixed_motion(deck.fixed);
-  s.step = std::make_unique<TimeStep>(*s.body, deck.time.dt, deck.gravity);
-  PetscCall(s.step->setup());
-  if (factor) {
+  std::vector<MaterialSpec> materials{spec.material};
+  for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
+  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material);
+  if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
+  s.body = std::make_unique<Body>(s.mesh, std::move(terms));
+  s.body->set_fixed_motion(spec.fixed);
+  s.integrator = std::make_unique<ImplicitEuler>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
+                                                 options_.inertial_warm_start);
+  PetscCall(s.integrator->setup());
+  if (options_.factor) {
     s.factored = std::make_unique<FactoredSystem>();
-    PetscCall(s.factored->setup(*s.step));
+    PetscCall(s.factored->setup(*s.integrator));
   }
   PetscFunctionReturn(0);
 }
 
-bool deck_releases_regions(const SceneSpec& deck) {
-  for (const BoxRegion& b : deck.fixed)
-    if (b.release > 0) return true;
-  return false;
-}
-
-bool regions_due(const SceneSpec& deck, int frame, std::vector<char>& released) {
-  const double h = deck.time.dt;
-  released.resize(deck.fixed.size(), 0);
-  bool any = false;
-  for (size_t k = 0; k < deck.fixed.size(); ++k)
-    if (!released[k] && deck.fixed[k].release > 0 && deck.fixed[k].release <= frame * h + 1e-12 * h) {
-      released[k] = 1;
-      any = true;
-    }
-  return any;
-}
-
-PetscErrorCode build_released_scene(MPI_Comm comm, const SceneSpec& deck, const SceneInput& kept,
-                                    const std::vector<char>& released, double t, bool factor, Scene& fresh) {
+PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscFunctionBeginUser;
-  SceneInput input = kept;
-  for (int32_t& f : input.fixed)
-    if (f > 0 && released[f - 1]) f = 0;
-  PetscCall(build_scene(comm, deck, input, factor, fresh));
-  fresh.body->set_time(t);
+  PetscCall(s.create(scene_->integrator->layout()));
+  PetscCall(scene_->body->rest_positions(s.x));
+  PetscCall(apply_initial_state(spec_->initial, *scene_->body, s.x));
+  s.frame = 0;
+  s.time = 0;
+  s.released.assign(spec_->fixed.size(), 0);
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode carry_state(const Scene& from, Vec x, Vec v, const Scene& to, Vec* x_to, Vec* v_to) {
+// x, v of scene `from` as new vectors of scene `to` (same local vertices): every vertex keeps its
+// position and velocity; a vertex freed in `to` keeps the prescribed ones it had.
+static PetscErrorCode carry_state(const Scene& from, const Scene& to, State& s) {
   std::vector<double> pos, vel;
-  Vec xl, vl;
+  Vec xl, vl, x_to, v_to;
   PetscScalar *a, *b;
   PetscFunctionBeginUser;
   // The partition is the same, so the local vertices are too; check rather than assume.
   PetscCheck(to.mesh.vertex_ids == from.mesh.vertex_ids, PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "the local vertices changed when fixed regions were released");
-  PetscCall(from.body->local_positions(x, pos));
-  PetscCall(from.body->local_velocities(v, vel));
+  PetscCall(from.body->local_positions(s.x, pos));
+  PetscCall(from.body->local_velocities(s.v, vel));
   PetscCall(DMGetLocalVector(to.mesh.dm, &xl));
   PetscCall(DMGetLocalVector(to.mesh.dm, &vl));
   PetscCall(VecGetArray(xl, &a));
@@ -154,12 +156,44 @@ PetscErrorCode carry_state(const Scene& from, Vec x, Vec v, const Scene& to, Vec
   }
   PetscCall(VecRestoreArray(xl, &a));
   PetscCall(VecRestoreArray(vl, &b));
-  PetscCall(DMCreateGlobalVector(to.mesh.dm, x_to));
-  PetscCall(VecDuplicate(*x_to, v_to));
-  PetscCall(DMLocalToGlobal(to.mesh.dm, xl, INSERT_VALUES, *x_to));
-  PetscCall(DMLocalToGlobal(to.mesh.dm, vl, INSERT_VALUES, *v_to));
+  PetscCall(DMCreateGlobalVector(to.mesh.dm, &x_to));
+  PetscCall(VecDuplicate(x_to, &v_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, xl, INSERT_VALUES, x_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, vl, INSERT_VALUES, v_to));
   PetscCall(DMRestoreLocalVector(to.mesh.dm, &xl));
   PetscCall(DMRestoreLocalVector(to.mesh.dm, &vl));
+  s.replace(x_to, v_to);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& others, const Rebind& rebind,
+                                      bool* released) {
+  const double h = spec_->time.dt;
+  PetscFunctionBeginUser;
+  *released = false;
+  main.released.resize(spec_->fixed.size(), 0);
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) {
+    const double release = spec_->fixed[k].release;
+    if (!main.released[k] && release > 0 && release <= (main.frame + 1) * h + 1e-12 * h) {
+      main.released[k] = 1;
+      *released = true;
+    }
+  }
+  if (!*released) PetscFunctionReturn(0);
+
+  SceneInput input = kept_;
+  for (int32_t& f : input.fixed)
+    if (f > 0 && main.released[f - 1]) f = 0;
+  auto fresh = std::make_unique<Scene>();
+  PetscCall(build(std::move(input), *fresh));
+  fresh->body->set_time(main.frame * h);
+  PetscCall(carry_state(*scene_, *fresh, main));
+  for (State* s : others) {
+    PetscCall(carry_state(*scene_, *fresh, *s));
+    s->released = main.released;
+  }
+  PetscCall(rebind(*scene_, *fresh));
+  scene_ = std::move(fresh);
   PetscFunctionReturn(0);
 }
 

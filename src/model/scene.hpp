@@ -1,7 +1,8 @@
-// A scene built from a deck: the input checked, the mesh distributed, the body, the time-step
-// objective and (when a solver needs it) the factored M + h^2 L. Shared by the simulation and
-// the study.
+// A scene built from its description: the input checked, the mesh distributed, the body with its
+// energy terms, the integrator and (when a solver needs it) the factored M + h^2 L. Shared by the
+// simulation and the study.
 #pragma once
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -9,9 +10,10 @@
 #include "mesh/distributed_mesh.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
+#include "model/implicit_euler.hpp"
+#include "model/state.hpp"
 #include "solvers/factored_system.hpp"
 #include "mesh/mesh.hpp"
-#include "model/time_step.hpp"
 
 namespace hyperqn {
 
@@ -33,25 +35,47 @@ bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput
 struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
-  std::unique_ptr<TimeStep> step;
+  std::unique_ptr<ImplicitEuler> integrator;
   std::unique_ptr<FactoredSystem> factored;  // only if a solver needs M + h^2 L
 };
 
-// Distributes the input (which it frees), assembles, and factors M + h^2 L if factor is true.
-PetscErrorCode build_scene(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factor, Scene& scene);
+// How to build a scene beside its description.
+struct SceneOptions {
+  bool factor = false;               // factor M + h^2 L (a solver needs it)
+  bool inertial_warm_start = true;   // each step starts from y (else from x_n)
+  // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
+  std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
+};
 
-// Fixed regions with a release time (fixed[].release). At the start of step `frame`
-// (t = (frame - 1) dt) every region whose release time is <= frame dt becomes free; the scene is
-// rebuilt from the kept serial input with those vertices free (same partition, so the same local
-// vertices) and M + h^2 L is factored again. Used by the simulation and the study alike.
-bool deck_releases_regions(const SceneSpec& deck);
-// Marks the regions due at step `frame` in released (one flag per fixed region); true if any is new.
-bool regions_due(const SceneSpec& deck, int frame, std::vector<char>& released);
-// fresh = the scene with the released regions' vertices free, its fixed motion set to time t.
-PetscErrorCode build_released_scene(MPI_Comm comm, const SceneSpec& deck, const SceneInput& kept,
-                                    const std::vector<char>& released, double t, bool factor, Scene& fresh);
-// x, v of scene `from` as new vectors x_to, v_to of scene `to` (same local vertices): every vertex
-// keeps its position and velocity; a vertex freed in `to` keeps the prescribed ones it had.
-PetscErrorCode carry_state(const Scene& from, Vec x, Vec v, const Scene& to, Vec* x_to, Vec* v_to);
+// The scene of a run as time goes on. Fixed regions with a release time (fixed[].release) become
+// free at the start of the step that reaches it: the scene is rebuilt from the kept serial input
+// with those vertices free (same partition, so the same local vertices), M + h^2 L is factored
+// again, and the states carry over. Used by the simulation and the study alike.
+class LiveScene {
+ public:
+  // Distributes the input (which it takes), assembles, and factors M + h^2 L if asked.
+  PetscErrorCode setup(MPI_Comm comm, const SceneSpec& spec, SceneInput input, SceneOptions options);
+  Scene& current() { return *scene_; }
+  const SceneSpec& spec() const { return *spec_; }
+  // s at frame 0: rest positions, then the spec's initial state; zero velocity; nothing released.
+  PetscErrorCode initial_state(State& s) const;
+
+  // Called before the step from main (frame n to n + 1). If a region is due (release time
+  // <= (n + 1) h) that main has not released yet, the scene is rebuilt with its vertices free,
+  // main and every state in others move to the new scene (each vertex keeps its position and
+  // velocity; a freed vertex the prescribed ones it had), and rebind(old, fresh) moves what refers
+  // to the old scene (solvers, writers, counters) before the old scene goes. *released: it happened.
+  using Rebind = std::function<PetscErrorCode(const Scene& old_scene, Scene& fresh)>;
+  PetscErrorCode release_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* released);
+
+ private:
+  PetscErrorCode build(SceneInput input, Scene& s) const;
+
+  MPI_Comm comm_ = MPI_COMM_NULL;
+  const SceneSpec* spec_ = nullptr;
+  SceneOptions options_;
+  SceneInput kept_;  // the serial input, if a region is released later (rank 0)
+  std::unique_ptr<Scene> scene_;
+};
 
 }  // namespace hyperqn

@@ -1,0 +1,53 @@
+// What a time-step solver minimizes: the integrator's g(x) over the free dofs, with its gradient,
+// its Hessian, and the constant matrix A = M + h^2 L of the quasi-Newton methods. The solvers see
+// only this (model/implicit_euler.hpp implements it).
+#pragma once
+#include <petscmat.h>
+
+#include <string>
+
+namespace hyperqn {
+
+class Objective {
+ public:
+  virtual ~Objective() = default;
+
+  // A template global vector of free dofs.
+  virtual Vec layout() const = 0;
+  // g(x) and, if grad is not null, its gradient. Counts evaluations.
+  // Guardrail: if g or any entry of grad g is not finite (NaN/Inf), the point is *rejected*: g is
+  // reported as kRejectedEnergy and grad g as 0, and the rejection is counted. kRejectedEnergy is
+  // finite (TAO raises an error on a NaN/Inf objective in its monitor and at the initial point)
+  // and larger than any real energy, so every sufficient-decrease test (TAO's More-Thuente and
+  // Armijo, ours) rejects the point; a line search that accepts without a test (unit) is caught
+  // by the solvers with rejected().
+  virtual PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) = 0;
+  static constexpr double kRejectedEnergy = PETSC_MAX_REAL / 4;  // = PETSC_INFINITY, TAO's own "inf"
+  static bool rejected(double g) { return !(g < kRejectedEnergy); }  // true for NaN too
+  virtual PetscInt evaluations() const = 0;           // since reset_evaluations()
+  virtual void reset_evaluations() = 0;
+  virtual PetscInt rejected_evaluations() const = 0;  // over the whole run
+
+  // Largest alpha <= *alpha such that x + alpha dir is admissible (energy terms that bound steps,
+  // e.g. contact); bounds_steps() is false when no term does, and then nothing need be asked.
+  virtual bool bounds_steps() const = 0;
+  virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
+
+  // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since
+  // A = A1 (x) I3, components = 1 assembles only the vertex matrix A1 = M1 + h^2 L1 (in the
+  // vertex layout): a third of the rows, a ninth of the nonzeros.
+  virtual PetscErrorCode assemble_constant_matrix(Mat* A, int components) const = 0;
+  // A new matrix with the Hessian's nonzero pattern (the mesh's dof graph); inserting outside it
+  // is an error, so the pattern, and hence a direct solver's symbolic analysis, never changes.
+  virtual PetscErrorCode create_hessian(Mat* H) const = 0;
+  // H = M + h^2 K(x) in place (K with the per-element PSD fix; exact = true: the true,
+  // possibly indefinite Hessian of g). Flags H SPD (or only symmetric if exact).
+  virtual PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact) = 0;
+
+  // True if every energy term is a Projective Dynamics energy with its own L (PD is then exact).
+  virtual bool projective_dynamics_exact() const = 0;
+  // The energy terms' names, for messages, e.g. "corotated, strand".
+  virtual std::string energy_names() const = 0;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,34 @@
+#include "app/run_options.hpp"
+
+#include "terms/nan_injection.hpp"
+
+namespace hyperqn {
+
+PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, nullptr, "hyperqn options", "hyperqn");
+  PetscCall(PetscOptionsReal("-hyperqn_divergence_limit",
+                             "Stop the run when an element edge is longer than this many rest bounding-box diagonals "
+                             "(<= 0: never)", "docs/guardrails.md", o->divergence_limit, &o->divergence_limit, nullptr));
+  PetscCall(PetscOptionsReal("-hyperqn_test_nan_energy_beyond",
+                             "Tests only: g = NaN where ||x - y||_inf exceeds this distance (< 0: off)",
+                             "terms/nan_injection.hpp", o->nan_beyond, &o->nan_beyond, nullptr));
+  PetscCall(PetscOptionsInt("-hyperqn_test_nan_energy_from_step",
+                            "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
+                            "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
+  PetscOptionsEnd();
+  PetscFunctionReturn(0);
+}
+
+SceneOptions scene_options(const Deck& deck, const RunOptions& o, bool factor) {
+  SceneOptions s;
+  s.factor = factor;
+  s.inertial_warm_start = deck.solver.warm_start == "inertial";
+  if (o.nan_beyond >= 0 || o.nan_from_step >= 0)
+    s.extra_terms = [o](const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+      terms.push_back(std::make_unique<NanInjection>(o.nan_beyond, o.nan_from_step));
+    };
+  return s;
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,33 @@
+// hyperqn's own PETSc options (-hyperqn_*), declared in one PetscOptionsBegin block so that
+// -help lists them with their defaults, and what the deck and these options make of a scene's
+// build (the guardrail tests' NaN injection is a term the scene then holds).
+#pragma once
+#include <petscsys.h>
+
+#include "app/deck.hpp"
+#include "model/scene.hpp"
+
+namespace hyperqn {
+
+struct RunOptions {
+  // Divergence: an element edge (tet edge or strand segment) longer than this many rest
+  // bounding-box diagonals D stops the run. At rest every edge is at most D long and rigid motions
+  // (free fall, prescribed rotation or translation, pieces moving apart) keep edge lengths, so a
+  // longer edge needs the body itself stretched about that much. Measured on the stability suite:
+  // at most 0.91 D in the runs that stay bounded (random start), up to 1e9 D in those that run
+  // away (docs/guardrails.md). <= 0: no check.
+  PetscReal divergence_limit = 10.0;
+  // Test hooks (tests/python/test_guardrails.py, terms/nan_injection.hpp): g = NaN where
+  // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
+  PetscReal nan_beyond = -1;
+  PetscInt nan_from_step = -1;
+};
+
+// Reads the options (collective). With -help, PETSc prints them.
+PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options);
+
+// How the scene of this deck is built: factored if a solver needs M + h^2 L (factor), the
+// deck's warm start, and the test hooks' term if one is asked for.
+SceneOptions scene_options(const Deck& deck, const RunOptions& options, bool factor);
+
+}  // namespace hyperqn

@@ -1,0 +1,36 @@
+// Where a run's frames go. The simulation calls every writer the deck asked for: begin_run once,
+// write_frame at each output frame (and at the last good frame when a run stops early), set_mesh
+// when the scene was rebuilt (fixed regions released), end_run with the run's summary. The VTK
+// series is one writer; a checkpoint or another format is another. docs/architecture.md, "Add an
+// output writer".
+#pragma once
+#include <vector>
+
+#include "io/records.hpp"
+#include "mesh/distributed_mesh.hpp"
+
+namespace hyperqn {
+
+struct State;
+
+// One frame, as local arrays of this rank (all already finite).
+struct FrameData {
+  int frame = 0;
+  double time = 0;
+  const State* state = nullptr;                     // the run's state (global vectors)
+  const std::vector<double>* positions = nullptr;   // 3 per local vertex
+  const std::vector<double>* velocities = nullptr;  // 3 per local vertex
+  const std::vector<double>* J = nullptr;           // per local tet
+};
+
+class OutputWriter {
+ public:
+  virtual ~OutputWriter() = default;
+  // Throw std::runtime_error if something cannot be written.
+  virtual void begin_run(const DistributedMesh& /*mesh*/) {}
+  virtual void write_frame(const FrameData& f) = 0;
+  virtual void set_mesh(const DistributedMesh& mesh) = 0;
+  virtual void end_run(const RunSummary& /*summary*/) {}
+};
+
+}  // namespace hyperqn

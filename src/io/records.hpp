@@ -1,0 +1,45 @@
+// The records of a run: one per solver iteration (iterations.csv, the study's curves) and the
+// run's summary (summary.json). Plain data: solvers produce them, writers write them.
+#pragma once
+#include <petscsys.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace hyperqn {
+
+struct IterationRecord {
+  PetscInt iteration = 0;    // 0 = the initial guess
+  double time_s = 0;         // wall time since this frame's solve started
+  double energy = 0;         // g(x_k)
+  double grad_norm = 0;      // ||grad g(x_k)||_2 over the free dofs
+  double step = 0;           // line-search step length that produced x_k (0 at iteration 0)
+  PetscInt evaluations = 0;  // g / grad g evaluations so far in this frame
+};
+
+struct RunSummary {
+  std::string deck, solver;
+  // "ok"; "flagged: N of M frames could not decrease g (first: frame K)" (completed, exit 0); or
+  // "error: ..." (the run stopped, exit 1).
+  std::string status = "ok";
+  int ranks = 0;
+  long long vertices = 0, tets = 0, segments = 0, dofs = 0, fixed_vertices = 0;
+  int frames = 0, factorizations = 0;
+  double dt = 0;
+  double setup_s = 0, assembly_s = 0, factor_s = 0, solve_s = 0, wall_s = 0;
+  double ms_per_frame = 0, ms_per_iteration = 0, mean_iterations = 0;
+  long long iterations = 0, evaluations = 0, h0_solves = 0;
+  double objective_s = 0, h0_solve_s = 0;     // time in g / grad g evaluations and in A^{-1} solves
+  double hessian_s = 0;                       // newton: time assembling M + h^2 K
+  long long converged_frames = 0, failed_frames = 0;
+  // Guardrails: line searches that failed (each followed by a retry), evaluations rejected for a
+  // non-finite g or grad g, and the frames that could not decrease g (or stopped the run), with
+  // the solver's reason.
+  long long ls_failures = 0, rejected_evaluations = 0;
+  std::vector<std::pair<int, std::string>> flagged_frames;
+  double final_energy = 0, final_grad_norm = 0, min_J = 0;
+  double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,84 @@
+// Implicit Euler, the one time integrator, as a minimization per step over the free positions x:
+//   g(x) = 1/2 (x - y)^T M (x - y) + h^2 E(x),   y = x_n + h v_n + h^2 a_gravity
+// (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2, so g and grad g are in units of M x),
+// then v_{n+1} = (1 - damping) (x_{n+1} - x_n) / h. begin_step and end_step hold all of it; the
+// solvers see g through the Objective interface. The simulation and the study both step with it.
+#pragma once
+#include <petscvec.h>
+
+#include <array>
+
+#include "model/body.hpp"
+#include "model/state.hpp"
+#include "solvers/objective.hpp"
+#include "solvers/time_step_solver.hpp"
+
+namespace hyperqn {
+
+// How a step's solve went (see ImplicitEuler::solve_step).
+struct StepSolve {
+  FrameResult result;
+  PetscInt evaluations = 0;      // of g / grad g, over both solves if there were two
+  double seconds = 0;            // wall time of the solve(s)
+  bool restarted = false;        // g was not finite at y: solved again from x_n
+};
+
+class ImplicitEuler : public Objective {
+ public:
+  // inertial_warm_start: each step starts from y (else from x_n).
+  ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
+                bool inertial_warm_start = true);
+  ~ImplicitEuler() override;
+  ImplicitEuler(const ImplicitEuler&) = delete;
+  ImplicitEuler& operator=(const ImplicitEuler&) = delete;
+  PetscErrorCode setup();  // mass vector, work vectors
+
+  Body& body() { return body_; }
+  double dt() const { return dt_; }
+  Vec mass() const { return mass_; }
+
+  // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
+  // prescribed positions at t_{n+1}, y is formed, the energy terms update for the step, and s.x
+  // becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and undo_step.
+  PetscErrorCode begin_step(State& s);
+  Vec inertial_target() const { return y_; }
+  // The initial guess again, from x_n (when g is not finite at y).
+  PetscErrorCode restart_from_previous(State& s) const { return VecCopy(x_n_, s.x); }
+  // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
+  // elements of a material without an extension), once more from x_n. Then end_step or undo_step.
+  PetscErrorCode solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration, StepSolve& out);
+  // Completes the step with the solver's s.x: v, frame and time advance.
+  PetscErrorCode end_step(State& s);
+  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
+  PetscErrorCode undo_step(State& s);
+
+  // Objective: g of the current step.
+  Vec layout() const override { return mass_; }
+  PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override;
+  PetscInt evaluations() const override { return evaluations_; }
+  void reset_evaluations() override { evaluations_ = 0; }
+  PetscInt rejected_evaluations() const override { return rejected_; }
+  bool bounds_steps() const override { return body_.bounds_steps(); }
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
+  PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3) const override;
+  PetscErrorCode create_hessian(Mat* H) const override;
+  PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;
+  bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
+  std::string energy_names() const override { return body_.material_names(); }
+
+  double objective_seconds() const { return objective_s_; }  // total, over the whole run
+  double hessian_seconds() const { return hessian_s_; }      // total, over the whole run
+
+ private:
+  Body& body_;
+  double dt_, damping_;
+  std::array<double, 3> gravity_;
+  bool inertial_warm_start_;
+  Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
+  Vec x_n_ = nullptr, v_n_ = nullptr;
+  PetscInt evaluations_ = 0, rejected_ = 0;
+  double objective_s_ = 0;
+  double hessian_s_ = 0;
+};
+
+}  // namespace hyperqn
