@@ -1,5 +1,7 @@
 #include "solvers/factored_system.hpp"
 
+#include "io/log_events.hpp"
+
 namespace hyperqn {
 
 FactoredSystem::~FactoredSystem() {
@@ -30,19 +32,21 @@ PetscErrorCode FactoredSystem::setup(const Objective& step) {
   MatFactorInfo info;
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
-  double t0 = MPI_Wtime();
+  PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A1_, 1));
-  assembly_s_ = MPI_Wtime() - t0;
+  PetscCall(event_end(&LogEvents::h0_assembly));
 
-  t0 = MPI_Wtime();
+  const double before = event_seconds(log_events().h0_factor);
+  PetscCall(event_begin(&LogEvents::h0_factor));
   PetscCall(MatGetFactor(A1_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
   PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
   PetscCall(MatSetFromOptions(factor_));
   PetscCall(MatFactorInfoInitialize(&info));
   PetscCall(MatCholeskyFactorSymbolic(factor_, A1_, nullptr, &info));
   PetscCall(MatCholeskyFactorNumeric(factor_, A1_, &info));
+  PetscCall(event_end(&LogEvents::h0_factor));
   ++factorizations_;
-  factor_s_ = MPI_Wtime() - t0;
+  factor_s_ = event_seconds(log_events().h0_factor) - before;
 
   MPI_Comm comm = PetscObjectComm((PetscObject)A1_);
   PetscCall(MatGetLocalSize(A1_, &n, nullptr));
@@ -87,12 +91,11 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
 
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
-  const double t0 = MPI_Wtime();
+  PetscCall(event_begin(&LogEvents::h0_solve));
   PetscCall(copy_columns(b, rhs_, true));
   PetscCall(MatMatSolve(factor_, rhs_, sol_));
   PetscCall(copy_columns(x, sol_, false));
-  ++solves_;
-  solve_s_ += MPI_Wtime() - t0;
+  PetscCall(event_end(&LogEvents::h0_solve));
   PetscFunctionReturn(0);
 }
 

@@ -28,11 +28,9 @@ class FactoredSystem {
   // TaoLMVMSetH0 takes.
   Mat inverse_operator() const { return shell_; }
 
-  int factorizations() const { return factorizations_; }
-  double assembly_seconds() const { return assembly_s_; }
+  // Time of this system's factorization (the run's totals are the log events hqnH0*).
   double factor_seconds() const { return factor_s_; }
-  PetscInt solves() const { return solves_; }
-  double solve_seconds() const { return solve_s_; }
+  int factorizations() const { return factorizations_; }
 
  private:
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
@@ -40,10 +38,8 @@ class FactoredSystem {
 
   Mat A1_ = nullptr, factor_ = nullptr, shell_ = nullptr;
   Mat rhs_ = nullptr, sol_ = nullptr;  // n x 3 dense work matrices
+  double factor_s_ = 0;
   int factorizations_ = 0;
-  double assembly_s_ = 0, factor_s_ = 0;
-  mutable PetscInt solves_ = 0;
-  mutable double solve_s_ = 0;
 };
 
 }  // namespace hyperqn

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "io/log_events.hpp"
+
 namespace hyperqn {
 
 PetscErrorCode backtrack(Objective& step, Vec x, PetscReal g, Vec grad, Vec dir, double alpha0,
@@ -13,6 +15,7 @@ PetscErrorCode backtrack(Objective& step, Vec x, PetscReal g, Vec grad, Vec dir,
   *alpha = 0;
   PetscCall(VecDot(grad, dir, &slope));
   if (!(slope < 0)) PetscFunctionReturn(0);  // not a descent direction (or NaN): no decrease to find
+  PetscCall(event_begin(&LogEvents::backtrack));
   double a = alpha0;
   if (step.bounds_steps()) PetscCall(step.limit_step(x, dir, &a));  // e.g. no vertex crosses an obstacle
   for (int halvings = 0; halvings <= ls.max_halvings; ++halvings, a *= ls.shrink) {
@@ -25,6 +28,7 @@ PetscErrorCode backtrack(Objective& step, Vec x, PetscReal g, Vec grad, Vec dir,
       break;
     }
   }
+  PetscCall(event_end(&LogEvents::backtrack));
   PetscFunctionReturn(0);
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "app/deck.hpp"
+#include "app/run_options.hpp"
 #include "io/input_error.hpp"
 #include "app/simulation.hpp"
 #include "app/study.hpp"
@@ -73,7 +74,11 @@ int main(int argc, char** argv) {
   try {
     const CommandLine cl = parse_command_line(argc, argv);
     if (cl.help) {
-      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", usage));
+      // PETSc prints every option read in a PetscOptionsBegin block when -help is set.
+      hyperqn::RunOptions options;
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s\n", usage));
+      PetscCall(PetscOptionsSetValue(nullptr, "-help", nullptr));
+      PetscCall(hyperqn::read_run_options(PETSC_COMM_WORLD, &options));
     } else {
       const hyperqn::Deck deck = hyperqn::load_deck(cl.deck);
       PetscCall(insert_deck_options(deck));

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "app/run_options.hpp"
+#include "io/log_events.hpp"
 #include "io/run_log.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_factory.hpp"
@@ -74,15 +75,17 @@ static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
   PetscFunctionReturn(0);
 }
 
-// Counters of a scene's objects, added to the summary when the scene is replaced or at the end.
-static void add_scene_counters(const Scene& s, RunSummary& summary) {
-  summary.objective_s += s.integrator->objective_seconds();
-  summary.hessian_s += s.integrator->hessian_seconds();
-  summary.rejected_evaluations += s.integrator->rejected_evaluations();
-  if (s.factored) {
-    summary.h0_solves += s.factored->solves();
-    summary.h0_solve_s += s.factored->solve_seconds();
-  }
+// The run's timings and counts so far, from the log events (over every scene of the run).
+static void read_log_events(RunSummary& s) {
+  const LogEvents& e = log_events();
+  s.assembly_s = event_seconds(e.h0_assembly);
+  s.factor_s = event_seconds(e.h0_factor);
+  s.factorizations = event_count(e.h0_factor);
+  s.solve_s = event_seconds(e.step);
+  s.objective_s = event_seconds(e.objective);
+  s.h0_solve_s = event_seconds(e.h0_solve);
+  s.h0_solves = event_count(e.h0_solve);
+  s.hessian_s = event_seconds(e.hessian);
 }
 
 namespace {
@@ -118,7 +121,9 @@ struct Run {
     *written = finite == 1;
     if (!*written) PetscFunctionReturn(0);
     summary.min_J = std::fmin(summary.min_J, global_min(comm, J));
+    PetscCall(event_begin(&LogEvents::output));
     for (auto& w : writers) w->write_frame({frame, frame * deck.time.dt, &state, &pos, &vel, &J});
+    PetscCall(event_end(&LogEvents::output));
     last_written = frame;
     PetscFunctionReturn(0);
   }
@@ -129,11 +134,7 @@ struct Run {
     PetscFunctionBeginUser;
     solver.reset();  // it refers to the old scene
     PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.factored.get(), solver));
-    add_scene_counters(old_scene, summary);
-    if (fresh.factored) {
-      summary.factorizations += fresh.factored->factorizations();
-      summary.factor_s += fresh.factored->factor_seconds();
-    }
+    summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
@@ -181,7 +182,6 @@ PetscErrorCode Run::time_loop(bool& ok) {
       PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; started again from x_n\n", frame));
     const double ms = 1e3 * step.seconds;
     summary.evaluations += step.evaluations;
-    summary.solve_s += step.seconds;
     summary.iterations += r.iterations;
     summary.converged_frames += r.converged;
     summary.failed_frames += r.failed;
@@ -275,11 +275,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   summary.dofs = scene.mesh.global_dofs;
   summary.fixed_vertices = scene.mesh.global_fixed_vertices;
   summary.dt = deck.time.dt;
-  if (scene.factored) {
-    summary.factorizations = scene.factored->factorizations();
-    summary.assembly_s = scene.factored->assembly_seconds();
-    summary.factor_s = scene.factored->factor_seconds();
-  }
+  read_log_events(summary);
   summary.setup_s = MPI_Wtime() - t_start;
   const std::string segments = summary.segments ? ", " + std::to_string(summary.segments) + " strand segments" : "";
   PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %lld tets%s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
@@ -304,13 +300,14 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   }
 
   // 4. Summary.
+  read_log_events(summary);
+  summary.rejected_evaluations += run.scene.current().integrator->rejected_evaluations();  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
   if (summary.frames > 0) {
     summary.ms_per_frame = 1e3 * summary.solve_s / summary.frames;
     summary.mean_iterations = (double)summary.iterations / summary.frames;
   }
   if (summary.iterations > 0) summary.ms_per_iteration = 1e3 * summary.solve_s / summary.iterations;
-  add_scene_counters(run.scene.current(), summary);  // the scene in use at the end (see Run::rebind)
   double rss = peak_rss_mb();
   MPI_Allreduce(&rss, &summary.peak_rss_mb, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);

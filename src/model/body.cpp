@@ -40,6 +40,7 @@ static Vec3 moved(const Motion& m, const Vec3& X, double t) {
 }
 
 void Body::set_time(double t) {
+  if (t == time_) return;  // the velocities stay those of the step that reached t
   const double dt = t - time_;
   for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
     const int32_t region = mesh_.fixed[v];

@@ -30,7 +30,9 @@ class Body {
 
   // Prescribed motion of the fixed regions (fixed[k] moves the vertices fixed by region k).
   void set_fixed_motion(const std::vector<BoxRegion>& fixed) { fixed_regions_ = fixed; }
-  // Moves the fixed vertices to their prescribed positions at time t (rest positions if none).
+  // Moves the fixed vertices to their prescribed positions at time t (rest positions if none);
+  // their velocities become the mean over the step from the previous time. Again at the same t:
+  // nothing changes (the study steps several states to the same t).
   void set_time(double t);
   // The terms' per-step update: t is the time at the end of the step, y its inertial target.
   PetscErrorCode begin_step(double t, Vec y);

@@ -1,5 +1,7 @@
 #include "model/implicit_euler.hpp"
 
+#include "io/log_events.hpp"
+
 #include <cmath>
 
 namespace hyperqn {
@@ -52,7 +54,8 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
   PetscFunctionBeginUser;
   out = StepSolve{};
   PetscCall(begin_step(s));
-  const double t0 = MPI_Wtime();
+  const double before = event_seconds(log_events().step);
+  PetscCall(event_begin(&LogEvents::step));
   PetscCall(solver.solve(s.x, on_iteration, out.result));
   out.evaluations = evaluations_;
   if (inertial_warm_start_ && out.result.reason == "REJECTED_INITIAL_GUESS") {
@@ -61,7 +64,8 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
     PetscCall(solver.solve(s.x, on_iteration, out.result));
     out.evaluations += evaluations_;
   }
-  out.seconds = MPI_Wtime() - t0;
+  PetscCall(event_end(&LogEvents::step));
+  out.seconds = event_seconds(log_events().step) - before;
   PetscFunctionReturn(0);
 }
 
@@ -85,7 +89,7 @@ PetscErrorCode ImplicitEuler::undo_step(State& s) {
 PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
   PetscReal E, inertia;
   PetscFunctionBeginUser;
-  const double t0 = MPI_Wtime();
+  PetscCall(event_begin(&LogEvents::objective));
   ++evaluations_;
   PetscCall(body_.energy_gradient(x, &E, grad));
   PetscCall(VecWAXPY(diff_, -1.0, y_, x));                // x - y
@@ -117,7 +121,7 @@ PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
   } else if (grad) {
     PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
   }
-  objective_s_ += MPI_Wtime() - t0;
+  PetscCall(event_end(&LogEvents::objective));
   PetscFunctionReturn(0);
 }
 
@@ -159,7 +163,7 @@ PetscErrorCode ImplicitEuler::create_hessian(Mat* H) const {
 
 PetscErrorCode ImplicitEuler::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
-  const double t0 = MPI_Wtime();
+  PetscCall(event_begin(&LogEvents::hessian));
   PetscCall(MatZeroEntries(H));  // keeps the pattern
   PetscCall(body_.add_hessian(x, H, dt_ * dt_, !exact));
   PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
@@ -168,7 +172,7 @@ PetscErrorCode ImplicitEuler::assemble_hessian(Vec x, Mat H, bool exact) {
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(H, MAT_SPD, exact ? PETSC_FALSE : PETSC_TRUE));
-  hessian_s_ += MPI_Wtime() - t0;
+  PetscCall(event_end(&LogEvents::hessian));
   PetscFunctionReturn(0);
 }
 

@@ -66,9 +66,6 @@ class ImplicitEuler : public Objective {
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
   std::string energy_names() const override { return body_.material_names(); }
 
-  double objective_seconds() const { return objective_s_; }  // total, over the whole run
-  double hessian_seconds() const { return hessian_s_; }      // total, over the whole run
-
  private:
   Body& body_;
   double dt_, damping_;
@@ -77,8 +74,6 @@ class ImplicitEuler : public Objective {
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
   PetscInt evaluations_ = 0, rejected_ = 0;
-  double objective_s_ = 0;
-  double hessian_s_ = 0;
 };
 
 }  // namespace hyperqn

@@ -2,6 +2,7 @@
 
 #include <functional>
 
+#include "io/log_events.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
@@ -101,6 +102,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
 PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
   const SceneSpec& spec = *spec_;
   PetscFunctionBeginUser;
+  PetscCall(event_begin(&LogEvents::scene));
   PetscCall(distribute_mesh(comm_, input.mesh, input.fixed, input.cell_material, s.mesh));
   input = SceneInput();  // the serial copy is no longer needed
   std::vector<MaterialSpec> materials{spec.material};
@@ -116,6 +118,7 @@ PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator));
   }
+  PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
 }
 

@@ -1,0 +1,53 @@
+#include "io/log_events.hpp"
+
+namespace hyperqn {
+
+static LogEvents register_events() {
+  LogEvents e;
+  PetscClassId id;
+  // The summary reads the events' times: logging is on in every run, -log_view or not.
+  PetscCallAbort(PETSC_COMM_WORLD, PetscLogDefaultBegin());
+  PetscCallAbort(PETSC_COMM_WORLD, PetscClassIdRegister("hyperqn", &id));
+  const auto add = [id](const char* name, PetscLogEvent* event) {
+    PetscCallAbort(PETSC_COMM_WORLD, PetscLogEventRegister(name, id, event));
+  };
+  add("hqnObjective", &e.objective);
+  add("hqnHessian", &e.hessian);
+  add("hqnH0Assembly", &e.h0_assembly);
+  add("hqnH0Factor", &e.h0_factor);
+  add("hqnH0Solve", &e.h0_solve);
+  add("hqnStep", &e.step);
+  add("hqnBacktrack", &e.backtrack);
+  add("hqnScene", &e.scene);
+  add("hqnOutput", &e.output);
+  return e;
+}
+
+const LogEvents& log_events() {
+  static const LogEvents events = register_events();
+  return events;
+}
+
+PetscErrorCode event_begin(PetscLogEvent LogEvents::*event) {
+  const PetscLogEvent e = log_events().*event;
+  return PetscLogEventBegin(e, 0, 0, 0, 0);
+}
+
+PetscErrorCode event_end(PetscLogEvent LogEvents::*event) {
+  const PetscLogEvent e = log_events().*event;
+  return PetscLogEventEnd(e, 0, 0, 0, 0);
+}
+
+double event_seconds(PetscLogEvent event) {
+  PetscEventPerfInfo info;
+  PetscCallAbort(PETSC_COMM_WORLD, PetscLogEventGetPerfInfo(PETSC_DETERMINE, event, &info));
+  return info.time;
+}
+
+int event_count(PetscLogEvent event) {
+  PetscEventPerfInfo info;
+  PetscCallAbort(PETSC_COMM_WORLD, PetscLogEventGetPerfInfo(PETSC_DETERMINE, event, &info));
+  return info.count;
+}
+
+}  // namespace hyperqn

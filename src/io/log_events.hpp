@@ -1,0 +1,33 @@
+// hyperqn's phases as PETSc log events, so -log_view lists them beside PETSc's own, and the run's
+// summary reads its timings from them (one measurement of each phase). Registering them switches
+// PETSc's logging on.
+#pragma once
+#include <petsclog.h>
+
+namespace hyperqn {
+
+struct LogEvents {
+  PetscLogEvent objective;    // g and grad g at one point (all energy terms)
+  PetscLogEvent hessian;      // Newton: assembling M + h^2 K(x)
+  PetscLogEvent h0_assembly;  // assembling A1 = M1 + h^2 L1
+  PetscLogEvent h0_factor;    // its Cholesky factorization
+  PetscLogEvent h0_solve;     // one A^{-1} b (3 right-hand sides)
+  PetscLogEvent step;         // one time step's solve (solver iterations, line searches)
+  PetscLogEvent backtrack;    // hyperqn's own backtracking line search (PD, retries after failures)
+  PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
+  PetscLogEvent output;       // writing one output frame
+};
+
+// The events, registered on first use.
+const LogEvents& log_events();
+// Begin and end of one of them, e.g. event_begin(&LogEvents::objective). (PETSc's macros test
+// whether logging is on before they evaluate their argument, so the first use must not be inside
+// one: these register first.)
+PetscErrorCode event_begin(PetscLogEvent LogEvents::*event);
+PetscErrorCode event_end(PetscLogEvent LogEvents::*event);
+
+// Time (s) and count of an event on this rank, in the current logging stage.
+double event_seconds(PetscLogEvent event);
+int event_count(PetscLogEvent event);
+
+}  // namespace hyperqn
