@@ -17,7 +17,6 @@ class LbfgsSolver : public GuardedTaoSolver {
   // h0: the factored M + h^2 L, or nullptr for TAO's default H0.
   LbfgsSolver(Objective& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
   PetscErrorCode setup(const SolverSpec& spec);
-  std::string name() const override { return h0_ ? "lbfgs" : "lbfgs-identity"; }
 
  private:
   PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) override;

@@ -15,7 +15,6 @@ class NewtonSolver : public GuardedTaoSolver {
   explicit NewtonSolver(Objective& step) : GuardedTaoSolver(step) {}
   ~NewtonSolver() override;
   PetscErrorCode setup(const SolverSpec& spec);
-  std::string name() const override { return "newton"; }
 
  private:
   static PetscErrorCode hessian(Tao, Vec x, Mat H, Mat Hpre, void* ctx);

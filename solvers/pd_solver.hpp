@@ -16,7 +16,6 @@ class PdSolver : public TimeStepSolver {
   PdSolver(Objective& step, const FactoredSystem& A) : step_(step), A_(A) {}
   ~PdSolver() override;
   PetscErrorCode setup(const SolverSpec& spec);
-  std::string name() const override { return "pd"; }
   PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
 
  private:

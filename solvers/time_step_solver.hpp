@@ -38,7 +38,6 @@ using IterationCallback = std::function<bool(const IterationRecord&)>;
 class TimeStepSolver {
  public:
   virtual ~TimeStepSolver() = default;
-  virtual std::string name() const = 0;
   // x: in, the initial guess; out, the accepted iterate.
   virtual PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) = 0;
 };

@@ -11,7 +11,9 @@
 #include <fstream>
 
 #include "io/input_error.hpp"
+#include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
+#include "solvers/solver_registry.hpp"
 #include "materials/material.hpp"
 
 namespace hyperqn {
@@ -20,9 +22,15 @@ namespace {
 namespace fs = std::filesystem;
 using Names = std::vector<std::string>;
 
-// Allowed names, one table each, so a new model or solver type is one entry here.
-const Names kModels = {"corotated", "neohookean", "stvk", "principal-stretch", "mass-spring"};
-const Names kSolverTypes = {"lbfgs", "lbfgs-identity", "newton", "pd"};
+// Model and solver names come from their registries (materials/material_factory.hpp,
+// solvers/solver_registry.hpp); the other allowed values are the deck's own.
+Names model_names() {
+  Names names;
+  for (const MaterialModel& m : material_models()) names.push_back(m.name);
+  return names;
+}
+const Names kModels = model_names();
+const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
@@ -607,6 +615,7 @@ void read_petsc(const Reader& r, const Value& v, const std::string& prefix,
 Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   Deck deck;
   deck.path = path;
+  deck.study.solvers = solver_names();
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},

@@ -15,7 +15,7 @@ namespace hyperqn {
 // `solvers` starts from the same state; a converged Newton solve gives the reference g*.
 struct StudySpec {
   std::vector<int> frames{1};
-  std::vector<std::string> solvers{"lbfgs", "lbfgs-identity", "pd", "newton"};
+  std::vector<std::string> solvers;  // default (load_deck): every solver, solvers/solver_registry.hpp
   int iterations = 200;              // cap per solver and frame in the per-frame study
   double time_limit = 60;            // seconds per solver and frame
   double reference_rtol = 1e-10;     // reference Newton: ||grad g|| <= reference_rtol ||grad g(x0)||

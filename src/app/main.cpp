@@ -13,10 +13,13 @@
 #include "io/input_error.hpp"
 #include "app/simulation.hpp"
 #include "app/study.hpp"
+#include "materials/material_factory.hpp"
+#include "solvers/solver_registry.hpp"
 
 static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
+    "       hyperqn registry   (the material models and solvers, as JSON)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
     "  solvers of the deck's study: section (error against time, per frame and per trajectory).\n"
     "  -o OUTDIR   output directory (default: the deck's output.directory, else output/<deck name>;\n"
@@ -28,7 +31,7 @@ namespace {
 
 struct CommandLine {
   std::string deck, outdir;
-  bool help = false, study = false;
+  bool help = false, study = false, registry = false;
 };
 
 // Our own arguments: the deck (first argument not starting with '-') and -o OUTDIR.
@@ -39,6 +42,10 @@ CommandLine parse_command_line(int argc, char** argv) {
   if (argc > 1 && std::strcmp(argv[1], "study") == 0) {
     cl.study = true;
     first = 2;
+  }
+  if (argc > 1 && std::strcmp(argv[1], "registry") == 0) {
+    cl.registry = true;
+    return cl;
   }
   for (int i = first; i < argc; ++i) {
     const std::string a = argv[i];
@@ -53,6 +60,38 @@ CommandLine parse_command_line(int argc, char** argv) {
   }
   if (!cl.help && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
+}
+
+// The material models and the solvers, from their registries: for --help (text) and for the
+// Python tools (`hyperqn registry`, JSON).
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
+  return q + "\"";
+}
+
+std::string registry_text() {
+  std::string s = "Material models (material.model):\n";
+  for (const hyperqn::MaterialModel& m : hyperqn::material_models())
+    s += "  " + m.name + ": " + m.summary + "\n      keys: " + m.parameters + "\n";
+  s += "Solvers (solver.type):\n";
+  for (const hyperqn::SolverInfo& v : hyperqn::solver_registry()) s += "  " + v.name + ": " + v.summary + "\n";
+  return s;
+}
+
+std::string registry_json() {
+  std::string s = "{\n  \"materials\": [\n";
+  const auto& models = hyperqn::material_models();
+  for (size_t k = 0; k < models.size(); ++k)
+    s += "    {\"name\": " + quoted(models[k].name) + ", \"summary\": " + quoted(models[k].summary) +
+         ", \"parameters\": " + quoted(models[k].parameters) + "}" + (k + 1 < models.size() ? ",\n" : "\n");
+  s += "  ],\n  \"solvers\": [\n";
+  const auto& solvers = hyperqn::solver_registry();
+  for (size_t k = 0; k < solvers.size(); ++k)
+    s += "    {\"name\": " + quoted(solvers[k].name) + ", \"summary\": " + quoted(solvers[k].summary) +
+         ", \"uses_constant_matrix\": " + (solvers[k].uses_constant_matrix ? "true" : "false") + "}" +
+         (k + 1 < solvers.size() ? ",\n" : "\n");
+  return s + "  ]\n}\n";
 }
 
 // The deck's petsc: options, unless the command line already set them.
@@ -73,10 +112,12 @@ int main(int argc, char** argv) {
   int status = 0;
   try {
     const CommandLine cl = parse_command_line(argc, argv);
-    if (cl.help) {
+    if (cl.registry) {
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", registry_json().c_str()));
+    } else if (cl.help) {
       // PETSc prints every option read in a PetscOptionsBegin block when -help is set.
       hyperqn::RunOptions options;
-      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s\n", usage));
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s\n%s\n", usage, registry_text().c_str()));
       PetscCall(PetscOptionsSetValue(nullptr, "-help", nullptr));
       PetscCall(hyperqn::read_run_options(PETSC_COMM_WORLD, &options));
     } else {

@@ -12,7 +12,7 @@
 #include "io/log_events.hpp"
 #include "io/run_log.hpp"
 #include "model/scene.hpp"
-#include "solvers/solver_factory.hpp"
+#include "solvers/solver_registry.hpp"
 #include "io/vtk_writer.hpp"
 
 namespace hyperqn {
@@ -267,7 +267,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   const Scene& scene = run.scene.current();
   RunSummary& summary = run.summary;
   summary.deck = deck.path;
-  summary.solver = run.solver->name();
+  summary.solver = deck.solver.type;
   summary.ranks = size;
   summary.vertices = scene.mesh.global_vertices;
   summary.tets = scene.mesh.global_cells;

@@ -9,7 +9,7 @@
 
 #include "app/run_options.hpp"
 #include "model/scene.hpp"
-#include "solvers/solver_factory.hpp"
+#include "solvers/solver_registry.hpp"
 #include "io/study_writer.hpp"
 
 namespace hyperqn {

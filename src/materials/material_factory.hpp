@@ -1,7 +1,9 @@
-// Material construction by model name (as written in input decks).
+// The material models by name (as written in decks): one registry entry per model, read by the
+// deck reader, the factory below and --help. docs/architecture.md, "Add a material".
 #pragma once
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "materials/material.hpp"
 #include "materials/scalar_function.hpp"
@@ -22,6 +24,20 @@ struct MaterialParams {
   Vec3 fiber_direction = Vec3::UnitX();
   double fiber_stiffness = 0.0;
 };
+
+struct MaterialModel {
+  std::string name;        // material.model in a deck
+  std::string summary;     // one line: what the energy is
+  std::string parameters;  // its deck keys beside model, the mass, laplacian_weight and fiber
+  // Builds the material (throws std::invalid_argument for invalid parameters); null for a model
+  // that is not an energy density of F (mass-spring: springs on the tet edges, an energy term of
+  // its own, terms/mass_spring_tets.hpp).
+  std::unique_ptr<Material> (*create)(const MaterialParams&);
+};
+// Every model, in the order decks and --help list them.
+const std::vector<MaterialModel>& material_models();
+// The model of that name, or null.
+const MaterialModel* find_material_model(const std::string& name);
 
 // Throws std::invalid_argument for an unknown model or invalid parameters.
 std::unique_ptr<Material> make_material(const MaterialParams& params);

@@ -1,5 +1,6 @@
 #include "model/elastic_terms.hpp"
 
+#include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
 #include "terms/continuum_tets.hpp"
 #include "terms/element_kernels.hpp"
@@ -26,7 +27,8 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
     std::vector<double> stiffness, weight, density;
     bool any_continuum = false, any_springs = false;
     for (const MaterialSpec& spec : materials) {
-      const bool springs = spec.model == "mass-spring";
+      // A model that is not an energy density of F is the mass-spring one (material_factory.hpp).
+      const bool springs = !find_material_model(spec.model)->create;
       continuum.push_back(springs ? nullptr : make_material(spec));
       stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
       // A spring's own weight in L is its stiffness k.

@@ -1,0 +1,38 @@
+// The time-step solvers by name (solver.type in a deck): one registry entry per solver, read by
+// the deck reader, the study, --help and `hyperqn registry` (which the Python tools read).
+// docs/architecture.md, "Add a solver".
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "solvers/factored_system.hpp"
+#include "solvers/objective.hpp"
+#include "solvers/solver_spec.hpp"
+#include "solvers/time_step_solver.hpp"
+
+namespace hyperqn {
+
+struct SolverInfo {
+  std::string name;          // solver.type
+  std::string summary;       // one line
+  bool uses_constant_matrix; // needs the factored M + h^2 L (so the scene factors it once)
+  // Creates and sets it up; h0 is the factored M + h^2 L (null unless uses_constant_matrix).
+  PetscErrorCode (*create)(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
+                           std::unique_ptr<TimeStepSolver>& solver);
+};
+
+// Every solver, in the order decks, the study and --help list them.
+const std::vector<SolverInfo>& solver_registry();
+std::vector<std::string> solver_names();
+// The solver of that name, or null.
+const SolverInfo* find_solver(const std::string& name);
+
+// True if the solver needs the factored M + h^2 L (so the scene factors it once).
+bool solver_uses_constant_matrix(const std::string& type);
+
+// Creates the solver spec.type; h0 may be nullptr when it does not use the constant matrix.
+PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
+                             std::unique_ptr<TimeStepSolver>& solver);
+
+}  // namespace hyperqn
