@@ -13,6 +13,8 @@ ARGS    ?=
 export OMPI_ALLOW_RUN_AS_ROOT = 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM = 1
 export OMPI_MCA_rmaps_base_oversubscribe = 1
+# The Python tools (bench, study, stability) import the package postprocess/hyperqn_tools.
+export PYTHONPATH := $(CURDIR)/postprocess$(if $(PYTHONPATH),:$(PYTHONPATH))
 
 STUDY_DECKS ?= $(wildcard input/study/*.yaml)
 STUDY_RANKS ?= 1 2
@@ -46,12 +48,12 @@ study: build
 	  echo "== $$deck on $$n rank(s) -> $$out"; \
 	  $(MPIEXEC) -n $$n $(BUILD)/hyperqn study $$deck -o $$out $(ARGS); \
 	  dirs="$$dirs $$out"; done; done; \
-	$(PYTHON) postprocess/study_report.py $$dirs --out output/study/report.md
+	$(PYTHON) -m hyperqn_tools.study_report $$dirs --out output/study/report.md
 
 # Every deck in input/stability/ with every solver, judged: output/stability/stability.md,
-# stability.csv and PNGs (see README, "Stability suite").
+# stability.csv and PNGs (see docs/stability.md).
 stability: build
-	$(PYTHON) postprocess/stability.py $(STABILITY_DECKS) --out output/stability --bin $(BUILD)/hyperqn \
+	$(PYTHON) -m hyperqn_tools.stability $(STABILITY_DECKS) --out output/stability --bin $(BUILD)/hyperqn \
 	  --np $(STABILITY_NP) --mpiexec $(MPIEXEC) $(ARGS)
 
 clean:

@@ -4,28 +4,23 @@ search (more-thuente, armijo, unit). Two views per combination:
   - budget: the deck's 10 iterations per frame -> mean final |grad g| and ms/frame;
   - converge: up to 500 iterations until |grad g| <= --atol -> mean iterations, evaluations and
     ms per frame, and how many frames reached the tolerance.
-Prints a table and writes solver_defaults.csv in --out."""
+Prints a table and writes solver_defaults.csv in --out. Needs postprocess/ on PYTHONPATH
+(see bench/README.md)."""
 import argparse
 import csv
 import os
 import subprocess
-import sys
 
-import yaml
-
-REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-sys.path.insert(0, os.path.join(REPO, "postprocess"))
-from hyperqn_output import read_iterations, read_summary  # noqa: E402
+from hyperqn_tools import launch
+from hyperqn_tools.decks import load_deck, portable_copy, write_deck
+from hyperqn_tools.output import read_iterations, read_summary
+from hyperqn_tools.paths import REPO
 
 
 def run(deck, outdir, ranks, hyperqn, mpiexec):
-    path = os.path.join(outdir, "deck.yaml")
     os.makedirs(outdir, exist_ok=True)
-    with open(path, "w") as f:
-        yaml.safe_dump(deck, f)
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    subprocess.run([mpiexec, "-n", str(ranks), hyperqn, path, "-o", outdir], check=True, env=env,
-                   stdout=subprocess.DEVNULL)
+    path = write_deck(os.path.join(outdir, "deck.yaml"), deck)
+    launch.run([path, "-o", outdir], ranks, hyperqn, mpiexec, stdout=subprocess.DEVNULL, stderr=None, check=True)
     return read_summary(outdir), read_iterations(outdir)
 
 
@@ -43,13 +38,10 @@ def main():
     p.add_argument("--ranks", type=int, default=1)
     p.add_argument("--atol", type=float, default=1e-6)
     p.add_argument("--out", default=os.path.join(REPO, "output/solver_defaults"))
-    p.add_argument("--hyperqn", default=os.path.join(REPO, "build/hyperqn"))
-    p.add_argument("--mpiexec", default="mpiexec")
+    p.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
+    p.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
     args = p.parse_args()
-    with open(args.deck) as f:
-        base = yaml.safe_load(f)
-    if "file" in base["mesh"]:
-        base["mesh"]["file"] = os.path.join(os.path.dirname(os.path.abspath(args.deck)), base["mesh"]["file"])
+    base = portable_copy(load_deck(args.deck), args.deck)
     base["time"]["frames"] = args.frames
     base["output"] = {"vtk": False}
     rows = []

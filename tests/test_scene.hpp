@@ -3,6 +3,7 @@
 #pragma once
 #include <petscdmplex.h>
 
+#include <functional>
 #include <memory>
 #include <random>
 
@@ -31,9 +32,15 @@ inline bool with_strands(const std::string& scene) {
 }
 inline double expected_mass(const std::string& scene) { return 7.5 + (with_strands(scene) ? kStrandDensity * kStrandLength : 0.0); }
 
+// Adds terms to a scene's (as SceneOptions::extra_terms does).
+using ExtraTerms = std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)>;
+
 // A 2 x 1 x 1 box of 4 x 2 x 2 cubes of material `scene` (total mass 7.5), optionally fixed at
 // x = 0; scene "<model>+strands" adds the strands above (total mass kStrandDensity * kStrandLength).
-inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestScene& s) {
+// gravity and extra (terms added after the elastic ones) are for tests of new energy terms.
+inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestScene& s,
+                                 std::array<double, 3> gravity = {0, -9.81, 0},
+                                 const ExtraTerms& extra = nullptr) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   const bool strands = with_strands(scene);
@@ -61,8 +68,10 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   StrandMaterial strand_material;
   strand_material.axial_stiffness = kStrandStiffness;
   strand_material.linear_density = kStrandDensity;
-  s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, {mat}, strand_material));
-  s.step = std::make_unique<ImplicitEuler>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
+  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, strand_material);
+  if (extra) extra(s.mesh, terms);
+  s.body = std::make_unique<Body>(s.mesh, std::move(terms));
+  s.step = std::make_unique<ImplicitEuler>(*s.body, 0.05, gravity);
   PetscCall(s.step->setup());
   PetscFunctionReturn(0);
 }

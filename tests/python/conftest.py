@@ -1,31 +1,23 @@
-"""Shared helpers for the end-to-end tests: where the binary is, and how to run it under MPI."""
+"""Shared helpers for the end-to-end tests: where the binary is, and how to run it under MPI.
+Running and deck writing are those of postprocess/hyperqn_tools (on PYTHONPATH; ctest sets it)."""
 import os
 import re
-import subprocess
-import sys
 
 import pytest
-import yaml
 
-REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-sys.path.insert(0, os.path.join(REPO, "postprocess"))
+from hyperqn_tools import decks, launch
+from hyperqn_tools.paths import REPO
 
-HYPERQN = os.environ.get("HYPERQN_BIN", os.path.join(REPO, "build", "hyperqn"))
-MPIEXEC = os.environ.get("MPIEXEC", "mpiexec")
-SHARED_MESHES = os.path.abspath(os.path.join(REPO, "..", "shared", "meshes"))
-MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+HYPERQN = launch.default_binary()
+MPIEXEC = launch.default_mpiexec()
 
 
 def run_hyperqn(args, ranks=1, timeout=600, check=True):
     """Runs `mpiexec -n ranks hyperqn args...` (ranks=None: the binary alone, as a singleton MPI
     process, which starts faster); returns the CompletedProcess (stdout+stderr text)."""
-    launcher = [] if ranks is None else [MPIEXEC, "-n", str(ranks)]
-    cmd = launcher + [HYPERQN] + [str(a) for a in args]
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                          timeout=timeout, env={**os.environ, **MPI_ENV})
+    proc = launch.run(args, ranks, HYPERQN, MPIEXEC, timeout=timeout)
     if check and proc.returncode != 0:
-        raise AssertionError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stdout[-4000:]}")
+        raise AssertionError(f"{' '.join(proc.args)} failed ({proc.returncode}):\n{proc.stdout[-4000:]}")
     return proc
 
 
@@ -47,14 +39,12 @@ def event_count(log_text, event):
 
 
 def write_deck(path, deck):
-    with open(path, "w") as f:
-        yaml.safe_dump(deck, f, sort_keys=False)
-    return str(path)
+    return decks.write_deck(path, deck)
 
 
 def load_deck(name):
-    with open(os.path.join(REPO, name)) as f:
-        return yaml.safe_load(f)
+    """A deck of the repository by its path from the repository root."""
+    return decks.load_deck(os.path.join(REPO, name))
 
 
 @pytest.fixture

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import final_frame, read_iterations, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import final_frame, read_iterations, read_summary
 
 E, NU = 1.0e5, 0.3
 MU, LAMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from conftest import event_count, run_at_1_and_2_ranks, load_deck, run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import Frame, final_frame, read_iterations, read_pvd, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import Frame, final_frame, read_iterations, read_pvd, read_summary
 
 FRAMES = 20
 

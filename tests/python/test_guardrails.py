@@ -1,4 +1,4 @@
-"""Solver guardrails (README, "Guardrails"): non-finite energies are never accepted, failed line
+"""Solver guardrails (docs/guardrails.md): non-finite energies are never accepted, failed line
 searches are retried or flagged (and summary.json's status says so), and a run that cannot
 continue -- non-finite, or diverged -- stops cleanly.
 
@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, load_deck, run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import Frame, is_empty_piece, piece_files, read_iterations, read_pvd, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import Frame, is_empty_piece, piece_files, read_iterations, read_pvd, read_summary
 
 DECK = "tests/decks/guardrails_bar.yaml"
 DIVERGING_DECK = "tests/decks/stability_dt_1.yaml"

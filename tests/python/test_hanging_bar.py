@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO, run_hyperqn
-from hyperqn_output import final_frame, read_summary
+from hyperqn_tools.output import final_frame, read_summary
 
 RHO, G, L, E = 1000.0, 9.81, 1.0, 1.0e6
 

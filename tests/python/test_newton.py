@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from conftest import event_count, run_at_1_and_2_ranks, REPO, load_deck, run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import read_iterations, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import read_iterations, read_summary
 
 DECK = "tests/decks/newton_box.yaml"
 
@@ -26,7 +26,7 @@ def grad_norms_by_frame(outdir):
 
 def test_quadratic_convergence_with_exact_hessian(tmp_path):
     # Without the PSD fix the Hessian is exact, so Newton must converge quadratically. (With the
-    # fix it converges linearly wherever the projection is active near the solution; see README.)
+    # fix it converges linearly wherever the projection is active near the solution; see docs/method.md, "Newton".)
     outdir = tmp_path / "exact"
     deck = load_deck(DECK)
     deck["solver"]["newton_hessian"] = "exact"

@@ -12,8 +12,8 @@ from collections import defaultdict
 import pytest
 
 from conftest import REPO, load_deck, run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import read_iterations, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import read_iterations, read_summary
 
 ARAP_DECK = os.path.join(REPO, "tests/decks/pd_arap.yaml")
 NEOHOOKEAN_DECK = os.path.join(REPO, "tests/decks/pd_neohookean.yaml")

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import final_frame, read_iterations, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import final_frame, read_iterations, read_summary
 
 BAR = {
     "mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
@@ -100,7 +100,7 @@ def test_gmsh_mesh_with_physical_groups_as_region_tags(tmp_path, ranks):
 def test_released_end_untwists(tmp_path, ranks):
     # One end turns half a turn in 0.5 s, is held, and is released at t = 0.6: from then on its
     # vertices are free (one more factorization of M + h^2 L) and the bar untwists.
-    from hyperqn_output import Frame, read_pvd
+    from hyperqn_tools.output import Frame, read_pvd
     deck = dict(BAR, gravity=[0, 0, 0], time={"dt": 0.05, "frames": 30}, solver={"iterations": 30})
     deck["fixed"] = BAR["fixed"] + [{"box": {"min": [1.99, -1, -1], "max": [2.01, 1, 1]},
                                      "motion": {"rotate": {"axis": [1, 0, 0], "center": [2.0, 0.25, 0.25],

@@ -1,6 +1,6 @@
 """Stability suite, fast version: reduced copies (tests/decks/stability_*.yaml, 24 to 96 tets) of a
-few cases of input/stability/ (the full suite is `make stability`, see README "Stability suite"),
-measured with the same code (postprocess/stability.py).
+few cases of input/stability/ (the full suite is `make stability`, see docs/stability.md),
+measured with the same code (postprocess/hyperqn_tools/stability).
 
 A run is *stable* (`assert_stable`) when hyperqn exits 0 after every frame (status ok, or flagged
 frames at round-off only), nothing in iterations.csv, summary.json or the VTK frames is NaN/Inf, g never rises within a frame beyond
@@ -13,9 +13,9 @@ the rest bounding-box diagonal (RMS over vertices, after the best rigid motion f
 its rest shape. Measured: spin 3e-4 (lbfgs); squash 5e-10 (lbfgs); invert 7e-10 (newton).
 
 The `initial:` tests skip if hyperqn rejects the `initial` key (semantics: INITIAL_SEMANTICS in
-postprocess/stability.py). Two known failures are marked xfail (not strict, so a fix shows up as
-XPASS): lbfgs from the inverted and from the random start, at the default 10 iterations (the runs
-diverge and hyperqn stops them).
+postprocess/hyperqn_tools/stability/report.py). Two known failures are marked xfail (not strict,
+so a fix shows up as XPASS): lbfgs from the inverted and from the random start, at the default 10
+iterations (the runs diverge and hyperqn stops them).
 """
 import csv
 import math
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from conftest import HYPERQN, MPIEXEC, REPO
-import stability as S
+import hyperqn_tools.stability as S
 
 TIMEOUT = 120
 
@@ -35,12 +35,12 @@ def run_case(tmp_path, name, solver="lbfgs", **solver_keys):
     """Runs tests/decks/stability_<name>.yaml with solver.type = solver (and solver_keys);
     returns (run, analysis, deck as run)."""
     path = os.path.join(REPO, "tests", "decks", f"stability_{name}.yaml")
-    deck = S.load_yaml(path)
+    deck = S.load_deck(path)
     out = str(tmp_path / "-".join([name, solver] + [f"{k}={v}" for k, v in solver_keys.items()]))
     run = S.run_deck(deck, path, {"type": solver, **solver_keys}, out, HYPERQN, 1, MPIEXEC, TIMEOUT)
     assert not run["timed_out"], f"{name}/{solver}: timed out after {TIMEOUT} s"
     run["rejected"] = S.rejection(run["output"]) if run["returncode"] == 1 else None
-    ran = S.load_yaml(os.path.join(out, "deck.yaml"))
+    ran = S.load_deck(os.path.join(out, "deck.yaml"))
     return run, S.analyse_run(out, ran), ran
 
 
@@ -206,8 +206,9 @@ def test_initial_random_stays_bounded_with_lbfgs(tmp_path):
 
 
 def test_suite_runner_end_to_end(tmp_path):
-    """postprocess/stability.py on two reduced decks: the CSV, Markdown and PNGs, a verdict for every
-    case and solver, and 'not run' with hyperqn's message while `initial` is rejected."""
+    """The suite runner (hyperqn_tools.stability.main) on two reduced decks: the CSV, Markdown and
+    PNGs, a verdict for every case and solver, and 'not run' with hyperqn's message while `initial`
+    is rejected."""
     decks = [os.path.join(REPO, "tests", "decks", f"stability_{n}.yaml") for n in ("stiff_x1e4", "initial_squash")]
     out = tmp_path / "suite"
     assert S.main(decks + ["--out", str(out), "--bin", HYPERQN, "--solvers", "lbfgs", "newton", "--jobs", "2"]) == 0

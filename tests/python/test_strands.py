@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, load_deck, run_hyperqn, write_deck
-from compare_runs import relative_difference
-from hyperqn_output import final_frame, read_summary
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import final_frame, read_summary
 
 ROPE_DECK = os.path.join(REPO, "tests/decks/hanging_rope.yaml")
 BOX_DECK = os.path.join(REPO, "tests/decks/box_on_rope.yaml")

@@ -76,7 +76,7 @@ def test_trajectories(study):
 def test_report(study):
     out, _, _ = study
     report = out.parent / "report.md"
-    subprocess.run(["/usr/bin/python3", os.path.join(REPO, "postprocess/study_report.py"), str(out), "--out", str(report)],
+    subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(report)],
                    check=True)
     text = report.read_text()
     assert "| lbfgs |" in text and "speed-up@0.001" in text
@@ -89,7 +89,7 @@ def test_study_releases_fixed_regions_like_the_simulation(tmp_path):
     simulation does. Its lbfgs trajectory's RMS distance to the converged reference must equal the
     distance between two plain runs of the same deck (lbfgs, and the reference's Newton)."""
     import yaml
-    from hyperqn_output import final_frame, read_summary
+    from hyperqn_tools.output import final_frame, read_summary
     deck = {
         "mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
         "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},

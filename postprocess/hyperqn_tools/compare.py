@@ -3,26 +3,35 @@
 
 Prints the largest position difference relative to the largest displacement of the first run,
 and exits non-zero if it exceeds --rtol.
+
+    python3 -m hyperqn_tools.compare RUN_A RUN_B [--rtol 1e-8]
 """
 import argparse
 import sys
 
 import numpy as np
 
-from hyperqn_output import final_frame
+from hyperqn_tools.output import final_frame
 
 
-def relative_difference(dir_a, dir_b):
+def final_frames(dir_a, dir_b):
+    """The last frames of two runs of the same mesh (raises if their vertex sets differ)."""
     a, b = final_frame(dir_a), final_frame(dir_b)
     if not np.array_equal(a.vertex_id, b.vertex_id):
         raise ValueError("the runs have different vertex sets")
+    return a, b
+
+
+def relative_difference(dir_a, dir_b):
+    """(max |x_a - x_b| / max |u_a|, max |x_a - x_b|, max |u_a|) over the vertices of the last frames."""
+    a, b = final_frames(dir_a, dir_b)
     diff = np.max(np.linalg.norm(a.points - b.points, axis=1))
     scale = np.max(np.linalg.norm(a.displacement, axis=1))
     return diff / scale, diff, scale
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__)
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_a")
     p.add_argument("run_b")
     p.add_argument("--rtol", type=float, default=1e-8)

@@ -2,20 +2,25 @@
 """Turns `hyperqn study` outputs into the paper's error-against-time figures and tables.
 
 For every study directory given (each holds study.csv, trajectory.csv, study.json):
-  - error_vs_time.png: relative error e = (g - g*)/(g(x0) - g*) (log) against wall time, one
-    panel per study frame, one curve per solver;
+  - error_vs_time.png: relative error e = (g - g*)/(g(x0) - g*) against wall time, both on log
+    axes, one panel per study frame, one curve per solver; each curve ends where it reaches
+    round-off (see `until_roundoff`), a circle marks the first iterate with e <= 1e-3 and the
+    legend gives its time in ms;
   - trajectory.png: RMS vertex error against the converged-Newton trajectory (relative to the
     bounding-box diagonal) against cumulative run time, one curve per solver.
 Then one Markdown report (--out, default: report.md beside the first directory's parent) with,
 per study and frame, each solver's time to reach e <= 1e-1, 1e-2, 1e-3, 1e-4, 1e-6 and the
 speed-up over Newton at each level, plus the trajectory errors and times, and an overview figure
 (one panel per study).
+
+    PYTHONPATH=postprocess /usr/bin/python3 -m hyperqn_tools.study_report OUTDIR... --out report.md
 """
 import argparse
 import csv
 import json
 import math
 import os
+import sys
 from collections import defaultdict
 
 import matplotlib
@@ -24,7 +29,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
-FLOOR = 1e-16  # e below round-off is drawn at this level on the log axis
+MARKED_LEVEL = 1e-3  # error_vs_time.png marks where each solver first reaches it
+FLOOR = 1e-16  # e below round-off is drawn at this level on the log axis (trajectory.png)
+# Where a curve of e stops saying anything: e is computed from g, a sum over many elements with
+# cancellation (converged solvers' g jitters by about 40 eps |g| on input/study/bar_neohookean.yaml),
+# so e is noise below ROUNDOFF_G eps |g*| / (g(x0) - g*), and never trusted below ROUNDOFF_E.
+ROUNDOFF_E = 1e-13
+ROUNDOFF_G = 100
 STYLE = {"lbfgs": ("C0", "-"), "newton": ("C3", "-"), "pd": ("C2", "--"), "lbfgs-identity": ("C1", ":"),
          "reference": ("0.6", "-")}
 
@@ -35,11 +46,12 @@ def read_csv(path):
 
 
 def load_study(directory):
-    """{'meta', 'curves': {frame: {solver: [(t, e, grad, it)]}}, 'trajectory': {solver: [(frame, t, err)]}}"""
+    """{'meta', 'curves': {frame: {solver: [(t, e, grad, it, g)]}}, 'trajectory': {solver: [(frame, t, err)]}}"""
     curves = defaultdict(lambda: defaultdict(list))
     for r in read_csv(os.path.join(directory, "study.csv")):
         curves[int(r["frame"])][r["solver"]].append(
-            (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"])))
+            (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"]),
+             float(r["energy"])))
     trajectory = defaultdict(list)
     tpath = os.path.join(directory, "trajectory.csv")
     if os.path.exists(tpath):
@@ -55,24 +67,69 @@ def load_study(directory):
 
 def time_to_reach(points, level):
     """Wall time of the first iterate with e <= level, or None."""
-    for t, e, _, _ in points:
+    for t, e, *_ in points:
         if e <= level:
             return t
     return None
 
 
+def roundoff_level(by_solver):
+    """The e below which a frame's curves are round-off: max(ROUNDOFF_E, ROUNDOFF_G eps |g*| /
+    (g(x0) - g*)), with g(x0) the common start and g* the lowest g any solver reached."""
+    energies = [p[4] for pts in by_solver.values() for p in pts]
+    g0, g_star = next(iter(by_solver.values()))[0][4], min(energies)
+    if not g0 > g_star:
+        return ROUNDOFF_E
+    return max(ROUNDOFF_E, ROUNDOFF_G * sys.float_info.epsilon * abs(g_star) / (g0 - g_star))
+
+
+def until_roundoff(points, level):
+    """A curve up to its first iterate with e <= level (round-off), or, if it never gets there, up
+    to its lowest e: the iterates after that only repeat the same e in noise (or stagnate)."""
+    for i, p in enumerate(points):
+        if p[1] <= level:
+            return points[:i + 1]
+    lowest = min(range(len(points)), key=lambda i: points[i][1])
+    return points[:lowest + 1]
+
+
+def ms_label(t):
+    ms = 1e3 * t
+    return f"{ms:.3g} ms" if ms < 1000 else f"{ms:.0f} ms"
+
+
 def plot_curves(ax, by_solver, title):
-    for solver, pts in sorted(by_solver.items()):
-        if solver == "reference":
-            continue
+    """log e against log wall time, one curve per solver (not the reference), each up to round-off,
+    with its first iterate at e <= MARKED_LEVEL circled and labelled."""
+    level = roundoff_level(by_solver)
+    bottom = level / 10  # e below round-off is drawn here
+    solvers = sorted(s for s in by_solver if s != "reference")
+    t_min, t_max = math.inf, 0.0
+    for solver in solvers:
+        pts = until_roundoff(by_solver[solver], level)
         color, ls = STYLE.get(solver, (None, "-"))
-        ax.semilogy([1e3 * p[0] for p in pts], [max(p[1], FLOOR) for p in pts], color=color, ls=ls,
-                    marker=".", ms=3, label=solver)
+        ts = [1e3 * p[0] for p in pts]
+        t_min, t_max = min(t_min, ts[0]), max(t_max, ts[-1])
+        reached = next((p for p in pts if p[1] <= MARKED_LEVEL), None)
+        # The time goes into the legend: markers of fast solvers lie close together.
+        label = f"{solver}: {ms_label(reached[0])}" if reached else f"{solver}: not reached"
+        line, = ax.loglog(ts, [max(p[1], bottom) for p in pts], color=color, ls=ls, marker=".", ms=3,
+                          label=label)
+        if reached:
+            ax.plot(1e3 * reached[0], max(reached[1], bottom), "o", ms=8, mfc="none", mec=line.get_color(),
+                    mew=1.5)
+    for e, text, ls in ((MARKED_LEVEL, f"e = {MARKED_LEVEL:g}", ":"), (level, "round-off", "--")):
+        ax.axhline(e, color="0.6", lw=0.6, ls=ls)
+        ax.text(0.99, e, text, transform=ax.get_yaxis_transform(), fontsize=7, color="0.4", ha="right",
+                va="bottom")
+    if t_max > 0:
+        ax.set_xlim(t_min / 1.5, t_max * 1.5)
+    ax.set_ylim(bottom, 2.0)
     ax.set_xlabel("wall time (ms)")
     ax.set_ylabel("relative error e")
     ax.set_title(title, fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="lower left", title=f"time to e ≤ {MARKED_LEVEL:g} (○)", title_fontsize=8)
 
 
 def study_figures(study):
@@ -140,7 +197,8 @@ def overview_figure(studies, path):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.study_report", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("studies", nargs="+", help="study output directories")
     p.add_argument("--out", help="Markdown report path (default: <parent of first>/report.md)")
     args = p.parse_args()
@@ -149,7 +207,9 @@ def main():
     lines = ["# Error against time", "",
              "e = (g − g*)/(g(x₀) − g*), g* from Newton converged to ‖∇g‖ ≤ reference_rtol·‖∇g(x₀)‖ "
              "(or the lowest g any solver reached). Times are wall-clock ms from the frame's start; "
-             "speed-up = Newton's time / the solver's time to reach the same e.", ""]
+             "speed-up = Newton's time / the solver's time to reach the same e. In the figures each curve "
+             "ends at its first iterate at round-off (e ≤ max(1e-13, 100 ε|g*|/(g(x₀) − g*)), the dashed "
+             "line) or else at its lowest e; circles mark the first iterate with e ≤ 1e-3.", ""]
     for study in studies:
         study_figures(study)
         m = study["meta"]
@@ -164,6 +224,7 @@ def main():
         if study["trajectory"]:
             lines += ["### trajectory against converged Newton", ""] + trajectory_table(study["trajectory"]) + \
                      ["", f"![trajectory]({rel}/trajectory.png)", ""]
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     overview = os.path.join(os.path.dirname(out), "overview.png")
     overview_figure(studies, overview)
     lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]

@@ -4,8 +4,10 @@ VTK files are read with meshio (an independent reader); a .pvtu is read piece by
 pieces are merged by vertex_id, so runs at different rank counts can be compared vertex by vertex.
 """
 import csv
+import glob
 import json
 import os
+import re
 import xml.etree.ElementTree as ET
 
 import meshio
@@ -25,6 +27,14 @@ def read_iterations(outdir):
             rows.append({k: (int(v) if k in ("frame", "iteration", "evaluations") else float(v))
                          for k, v in row.items()})
     return rows
+
+
+def frames_of_iterations(rows):
+    """{frame: [its rows of iterations.csv]} in order."""
+    frames = {}
+    for r in rows:
+        frames.setdefault(r["frame"], []).append(r)
+    return frames
 
 
 def read_pvd(path):
@@ -52,6 +62,7 @@ class Frame:
     """One output frame, merged over pieces and sorted by vertex_id."""
 
     def __init__(self, path):
+        self.path = path
         ids, points, disp, vel = [], [], [], []
         self.num_cells = 0
         self.J = []
@@ -82,3 +93,22 @@ def final_frame(outdir):
     if len(pvd) != 1:
         raise FileNotFoundError(f"{outdir}: expected one .pvd file, found {pvd}")
     return Frame(read_pvd(os.path.join(outdir, pvd[0]))[-1][1])
+
+
+def rest_diagonal(frame):
+    """Length of the diagonal of the rest shape's bounding box."""
+    rest = frame.points - frame.displacement
+    return float(np.linalg.norm(rest.max(axis=0) - rest.min(axis=0)))
+
+
+def read_frames(outdir):
+    """[(frame number, Frame)] of every VTK frame written, or [] if there is none. Raises on
+    unreadable files (a crash in the middle of writing)."""
+    pvd = glob.glob(os.path.join(outdir, "*.pvd"))
+    if len(pvd) != 1:
+        return []
+    frames = []
+    for _, path in read_pvd(pvd[0]):
+        m = re.search(r"_(\d+)\.p?vtu$", path)
+        frames.append((int(m.group(1)) if m else len(frames), Frame(path)))
+    return frames

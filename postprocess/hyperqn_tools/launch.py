@@ -1,0 +1,83 @@
+"""Runs hyperqn, alone or under mpiexec. Standard library only (bench/bench.py needs no numpy).
+
+The binary is $HYPERQN_BIN, else build/hyperqn in the repository; the launcher is $MPIEXEC, else
+`mpiexec`. Open MPI refuses to run as root and to put more ranks than cores on a machine unless
+the variables of MPI_ENV are set; every run gets them.
+"""
+import json
+import os
+import signal
+import subprocess
+
+from hyperqn_tools.paths import REPO
+
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+STOP_GRACE_S = 10  # after SIGTERM on a timeout, how long mpiexec gets to stop its ranks
+
+
+def default_binary():
+    return os.environ.get("HYPERQN_BIN", os.path.join(REPO, "build", "hyperqn"))
+
+
+def default_mpiexec():
+    return os.environ.get("MPIEXEC", "mpiexec")
+
+
+def command(args, ranks=1, binary=None, mpiexec=None):
+    """`mpiexec -n ranks hyperqn args...`; ranks=None: the binary alone (a singleton MPI process,
+    which starts faster)."""
+    launcher = [] if ranks is None else [mpiexec or default_mpiexec(), "-n", str(ranks)]
+    return launcher + [binary or default_binary()] + [str(a) for a in args]
+
+
+def run(args, ranks=1, binary=None, mpiexec=None, timeout=None, stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, check=False):
+    """Runs hyperqn (see `command`) and returns the CompletedProcess; by default its stdout and
+    stderr are one text in .stdout. stdout/stderr may also be open files or DEVNULL.
+
+    After `timeout` seconds the run is stopped, mpiexec and its ranks with it, and
+    subprocess.TimeoutExpired is raised with the output so far. check=True raises
+    CalledProcessError on a non-zero exit code. OSError when the binary cannot be started."""
+    cmd = command(args, ranks, binary, mpiexec)
+    # Own session, so a hung run can be killed as one process group.
+    proc = subprocess.Popen(cmd, stdout=stdout, stderr=stderr, text=True,
+                            env={**os.environ, **MPI_ENV}, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        stop(proc)
+        out, err = proc.communicate()
+        raise subprocess.TimeoutExpired(cmd, timeout, output=out, stderr=err) from None
+    done = subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+    if check:
+        done.check_returncode()
+    return done
+
+
+def registry(binary=None):
+    """The material models and solvers the binary registers (`hyperqn registry`): a dict with
+    lists "materials" ({name, summary, parameters}) and "solvers" ({name, summary,
+    uses_constant_matrix}), in the binary's order."""
+    done = run(["registry"], ranks=None, binary=binary, stderr=subprocess.DEVNULL, check=True, timeout=60)
+    return json.loads(done.stdout)
+
+
+def solver_names(binary=None):
+    """The names of every registered solver, as decks write them in solver.type."""
+    return [s["name"] for s in registry(binary)["solvers"]]
+
+
+def stop(proc):
+    """SIGTERM (mpiexec forwards it to its ranks), then SIGKILL to whatever is left of the process
+    group, so that no rank keeps running or holds the output pipe open."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=STOP_GRACE_S)
+    except subprocess.TimeoutExpired:
+        pass
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:  # the group is gone already
+        pass
+    proc.wait()

@@ -1,0 +1,135 @@
+"""Stability suite: runs every deck in input/stability/ with every solver and judges each run.
+
+    PYTHONPATH=postprocess /usr/bin/python3 -m hyperqn_tools.stability [DECK.yaml ...]
+        [--out output/stability] [--solvers ...] [--bin build/hyperqn] [--np 1] ...
+
+(`make stability` runs it on input/stability/*.yaml.) For each case (deck) and solver, the deck is
+copied with `solver.type` replaced (nothing else changes: every solver gets the deck's budget,
+the project default of 10 iterations and grad_rtol 1e-6 unless the deck says otherwise) and run
+under output/stability/runs/<case>/<solver>/. Every case also gets a converged reference run
+(Newton with the exact Hessian, up to 100 iterations per frame, grad_rtol 1e-10) in
+runs/<case>/reference/: cases without a simple exact end state are judged against it.
+
+Measured per case and solver (judge.analyse_run): frames completed, any NaN/Inf (iterations.csv,
+summary.json, every VTK frame), min J (summary.json), whether g decreased monotonically within
+every frame (iterations.csv), line-search failures (summary.json `ls_failures`, else
+`failed_frames`), the largest final |grad g| of a frame, the distance of the last frame from the
+rest shape, and for cases with a reference the distance from the reference's last frame.
+Verdicts: ok / degraded / failed / not run (judge.verdict).
+
+Writes stability.csv, stability.md, verdicts.png and one grad_<case>.png per case into --out,
+and the copy of the binary every run used (--out/hyperqn, taken at the start).
+"""
+import argparse
+import concurrent.futures
+import glob
+import os
+import shutil
+import sys
+import time
+
+from hyperqn_tools.decks import load_deck
+from hyperqn_tools.launch import default_binary, default_mpiexec, solver_names
+from hyperqn_tools.paths import REPO
+from hyperqn_tools.stability.judge import analyse_run, reference_ok, rest_distance
+from hyperqn_tools.stability.report import case_figure, fmt, make_row, verdict_figure, write_csv, write_markdown
+from hyperqn_tools.stability.run import (REFERENCE_SOLVER, case_name, case_order, description,
+                                         expectation, rejection, run_deck)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.stability",
+                                description=__doc__.split("\n")[0])
+    p.add_argument("decks", nargs="*", help="decks (default: input/stability/*.yaml)")
+    p.add_argument("--out", default=os.path.join(REPO, "output", "stability"))
+    p.add_argument("--solvers", nargs="+", help="default: every solver the binary registers (hyperqn registry)")
+    p.add_argument("--bin", default=default_binary(), help="hyperqn (default: $HYPERQN_BIN, else build/hyperqn)")
+    p.add_argument("--np", type=int, default=1, help="MPI ranks per run (1: the binary alone, without mpiexec)")
+    p.add_argument("--mpiexec", default=default_mpiexec(),
+                   help="MPI launcher, used when --np > 1 (default: $MPIEXEC, else mpiexec)")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once")
+    p.add_argument("--timeout", type=float, default=600, help="seconds per run")
+    p.add_argument("--no-reference", action="store_true", help="skip the converged reference runs")
+    args = p.parse_args(argv)
+
+    decks = sorted(args.decks or glob.glob(os.path.join(REPO, "input", "stability", "*.yaml")), key=case_order)
+    if not decks:
+        sys.exit("no decks")
+    if not os.access(args.bin, os.X_OK):
+        sys.exit(f"{args.bin}: not an executable (build first: make build)")
+    known = solver_names(args.bin)
+    args.solvers = args.solvers or known
+    unknown = [s for s in args.solvers if s not in known]
+    if unknown:
+        sys.exit(f"--solvers: unknown {', '.join(unknown)}; the binary has {', '.join(known)}")
+    # Every run uses a copy of the binary taken now, so a rebuild during the suite changes nothing.
+    os.makedirs(args.out, exist_ok=True)
+    binary = os.path.join(args.out, "hyperqn")
+    shutil.copy2(args.bin, binary)
+    t_start = time.time()
+    cases = [case_name(d) for d in decks]
+    loaded = {case_name(d): (d, load_deck(d)) for d in decks}
+    expect = {c: expectation(*loaded[c]) for c in cases}
+    runs_dir = os.path.join(args.out, "runs")
+
+    jobs = []
+    for c in cases:
+        for s in args.solvers:
+            jobs.append((c, s, {"type": s}))
+        if not args.no_reference:  # judged against for 'reference' cases, only reported for 'rest' ones
+            jobs.append((c, "reference", REFERENCE_SOLVER))
+    results = {}
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = {pool.submit(run_deck, loaded[c][1], loaded[c][0], section, os.path.join(runs_dir, c, s),
+                               binary, args.np, args.mpiexec, args.timeout): (c, s) for c, s, section in jobs}
+        for fut in concurrent.futures.as_completed(futures):
+            c, s = futures[fut]
+            r = fut.result()
+            r["rejected"] = rejection(r["output"]) if r["returncode"] == 1 and not os.path.exists(
+                os.path.join(runs_dir, c, s, "summary.json")) else None
+            results[(c, s)] = r
+            state = ("rejected" if r["rejected"] else "timeout" if r["timed_out"]
+                     else f"exit {r['returncode']}")
+            print(f"  {c:>18s} {s:<15s} {r['seconds']:6.1f} s  {state}", flush=True)
+
+    rows, meta_refs = [], {}
+    for c in cases:
+        deck_path, deck = loaded[c]
+        expected = int((deck.get("time") or {}).get("frames", 100))
+        align = not deck.get("fixed")
+        ref = None
+        if (c, "reference") in results:
+            ref = analyse_run(os.path.join(runs_dir, c, "reference"), deck)
+            ok = reference_ok(ref) and not results[(c, "reference")]["rejected"]
+            s = ref["summary"] or {}
+            rest_note = ""
+            if expect[c] == "rest" and ref["frames"] and ref["frames"][-1][0] == ref["frames_completed"]:
+                rest_note = f", rest err. {fmt(rest_distance(ref['frames'][-1][1], align))}"
+            meta_refs[c] = (f"completed, {s.get('converged_frames')}/{expected} frames converged{rest_note}" if ok else
+                            "not run" if results[(c, "reference")]["rejected"] else
+                            f"failed ({s.get('status', 'no summary')})")
+        analyses = {}
+        for s in args.solvers:
+            a = analyse_run(os.path.join(runs_dir, c, s), deck)
+            analyses[s] = a
+            rows.append(make_row(c, s, expect[c], results[(c, s)], a, ref, align))
+        if ref is not None:
+            analyses["reference"] = ref
+        verdicts = {r["solver"]: r["verdict"] for r in rows if r["case"] == c}
+        case_figure(c, analyses, verdicts, align, os.path.join(args.out, f"grad_{c}.png"))
+
+    os.makedirs(args.out, exist_ok=True)
+    write_csv(rows, os.path.join(args.out, "stability.csv"))
+    verdict_figure(rows, cases, args.solvers, os.path.join(args.out, "verdicts.png"))
+    meta = {"ranks": args.np, "date": time.strftime("%Y-%m-%d %H:%M"), "seconds": time.time() - t_start,
+            "expect": expect, "descriptions": {c: description(loaded[c][0]) for c in cases}, "references": meta_refs}
+    write_markdown(rows, cases, args.solvers, meta, os.path.join(args.out, "stability.md"))
+
+    width = max(len(c) for c in cases)
+    print(f"\n{'case':<{width}s} " + " ".join(f"{s:>15s}" for s in args.solvers))
+    by = {(r["case"], r["solver"]): r["verdict"] for r in rows}
+    for c in cases:
+        print(f"{c:<{width}s} " + " ".join(f"{by[(c, s)]:>15s}" for s in args.solvers))
+    print(f"\nwrote {os.path.join(args.out, 'stability.md')}, stability.csv, verdicts.png, grad_<case>.png "
+          f"({time.time() - t_start:.0f} s)")
+    return 0
