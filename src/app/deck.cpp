@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 #include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
 #include "solvers/solver_registry.hpp"

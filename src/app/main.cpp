@@ -10,7 +10,7 @@
 
 #include "app/deck.hpp"
 #include "app/run_options.hpp"
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 #include "app/simulation.hpp"
 #include "app/study.hpp"
 #include "materials/material_factory.hpp"

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "solvers/time_step_solver.hpp"
+#include "io/records.hpp"
 
 namespace hyperqn {
 

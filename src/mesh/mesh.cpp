@@ -10,7 +10,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 

@@ -2,7 +2,7 @@
 
 #include <petscdmplex.h>
 
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 

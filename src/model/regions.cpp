@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 

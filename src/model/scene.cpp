@@ -6,7 +6,7 @@
 #include "model/elastic_terms.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 #include "mesh/mesh_gmsh.hpp"
 
 namespace hyperqn {
