@@ -4,7 +4,7 @@ namespace hyperqn {
 
 ContinuumTets::ContinuumTets(const DistributedMesh& mesh, std::vector<std::unique_ptr<Material>> materials,
                              std::vector<double> weight, std::vector<double> density)
-    : TetElements(mesh, cells_where(mesh, [&](int m) { return materials[m] != nullptr; }), std::move(density)),
+    : TetElements(mesh, cells_where(mesh, [&](int m) { return materials[m] != nullptr; }), std::move(density), true),
       materials_(std::move(materials)),
       weight_(std::move(weight)) {}
 

@@ -21,7 +21,6 @@ class ContinuumTets : public TetElements {
   double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
-  double element_weight(PetscInt k) const override { return volume_[k]; }
 
   std::vector<std::unique_ptr<Material>> materials_;
   std::vector<double> weight_;

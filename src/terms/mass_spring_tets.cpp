@@ -6,7 +6,7 @@ namespace hyperqn {
 
 MassSpringTets::MassSpringTets(const DistributedMesh& mesh, std::vector<double> stiffness, std::vector<double> weight,
                                std::vector<double> density)
-    : TetElements(mesh, cells_where(mesh, [&](int m) { return stiffness[m] > 0; }), std::move(density)),
+    : TetElements(mesh, cells_where(mesh, [&](int m) { return stiffness[m] > 0; }), std::move(density), false),
       stiffness_(std::move(stiffness)),
       weight_(std::move(weight)) {}
 

@@ -19,7 +19,6 @@ class MassSpringTets : public TetElements {
   double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
-  double element_weight(PetscInt) const override { return 1.0; }
 
   std::vector<double> stiffness_, weight_;
 };

@@ -2,7 +2,8 @@
 
 namespace hyperqn {
 
-TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density)
+TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density,
+                         bool per_volume)
     : mesh_(mesh), cells_(std::move(cells)), density_(std::move(density)) {
   Dm_inv_.reserve(cells_.size());
   Dm_.reserve(cells_.size());
@@ -12,6 +13,7 @@ TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cell
     Dm_inv_.push_back(Dm.inverse());
     Dm_.push_back(Dm);
     volume_.push_back(Dm.determinant() / 6.0);  // cells are positively oriented by clean_mesh
+    weight_.push_back(per_volume ? volume_.back() : 1.0);
   }
 }
 
@@ -23,7 +25,7 @@ PetscErrorCode TetElements::add_energy(Vec, const std::vector<double>& pos, doub
     const PetscInt* cell = &mesh_.cells[4 * cells_[k]];
     const Mat3 F = edge_matrix(pos.data(), cell) * Dm_inv_[k];
     const int m = mesh_.cell_material[cells_[k]];
-    const double w = element_weight(k);
+    const double w = weight_[k];
     if (!gradient) {
       e += w * element_energy(k, m, F, nullptr);
       continue;
@@ -47,7 +49,7 @@ PetscErrorCode TetElements::add_hessian(const std::vector<double>& pos, Mat H, d
     const Mat3 F = edge_matrix(pos.data(), cell) * Dm_inv_[k];
     const Mat9 C = element_stress_derivative(k, mesh_.cell_material[cells_[k]], F, psd);
     const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dm_inv_[k]);
-    Ke.noalias() = (scale * element_weight(k)) * (B.transpose() * (C * B));
+    Ke.noalias() = (scale * weight_[k]) * (B.transpose() * (C * B));
     // Average with the transpose so H is exactly symmetric whatever the rounding above.
     for (int i = 0; i < 12; ++i)
       for (int j = 0; j < i; ++j) Ke(i, j) = Ke(j, i) = 0.5 * (Ke(i, j) + Ke(j, i));

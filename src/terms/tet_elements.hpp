@@ -21,21 +21,21 @@ class TetElements : public EnergyTerm {
 
  protected:
   // cells: the local tets of this term (indices into mesh.cells), in mesh order; density: mass
-  // per rest volume of each material (by mesh.cell_material).
-  TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density);
+  // per rest volume of each material (by mesh.cell_material); per_volume: the element energies
+  // are densities (weighted by the rest volume) rather than energies per element (weight 1).
+  TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density, bool per_volume);
   // Per element k of this term (cell cells_[k], material m): its energy, with P = dE/dF if P is
   // not null; dP/dF; and its 4 x 4 vertex matrix in L (scaled by scale).
   virtual double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const = 0;
   virtual Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const = 0;
   virtual Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const = 0;
-  // Weight of element k's energy: its rest volume (energy densities) or 1 (element energies).
-  virtual double element_weight(PetscInt k) const = 0;
 
   const DistributedMesh& mesh_;
   std::vector<PetscInt> cells_;  // local cell index per element
   std::vector<Mat3> Dm_inv_;     // per element: inverse rest edge matrix
   std::vector<Mat3> Dm_;         // per element: rest edge matrix
   std::vector<double> volume_;   // per element: rest volume
+  std::vector<double> weight_;   // per element: weight of its energy (rest volume, or 1)
   std::vector<double> density_;  // per material
 };
 

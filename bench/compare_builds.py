@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Two hyperqn builds side by side on the benchmark (bench/bench.py), for "no slowdown" checks:
+
+    PYTHONPATH=$PWD/postprocess /usr/bin/python3 bench/compare_builds.py OLD/hyperqn build/hyperqn --quick
+    PYTHONPATH=$PWD/postprocess /usr/bin/python3 bench/compare_builds.py OLD/hyperqn build/hyperqn --cases bar66792,box130k
+
+The builds take turns, case by case and round by round (--rounds), so that the machine's noise
+falls on both alike; each keeps its fastest run. Prints ms/iteration and ms/frame of both and the
+ratio new/old, and writes compare.csv and compare.json to --out. Arguments after the two binaries
+that bench.py knows (--quick, --cases, --ranks, --frames) pass through to it.
+"""
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+
+from hyperqn_tools.paths import REPO
+
+BENCH = os.path.join(REPO, "bench", "bench.py")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("old")
+    ap.add_argument("new")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-compare"))
+    args, bench_args = ap.parse_known_args()
+    builds = {"old": os.path.abspath(args.old), "new": os.path.abspath(args.new)}
+    best = {}  # (case, ranks, build) -> row of the fastest run
+    for k in range(args.rounds):
+        for label, binary in builds.items():
+            out = os.path.join(args.out, f"{label}-{k}")
+            subprocess.run([sys.executable, BENCH, "--hyperqn", binary, "--out", out] + bench_args, check=True,
+                           stdout=subprocess.DEVNULL)
+            with open(os.path.join(out, "bench.json")) as f:
+                for row in json.load(f)["rows"]:
+                    key = (row["case"], row["ranks"], label)
+                    if row["ms/iter"] != "" and (key not in best or row["ms/iter"] < best[key]["ms/iter"]):
+                        best[key] = row
+    cases = sorted({(c, r) for c, r, _ in best}, key=lambda cr: (list(dict.fromkeys(c for c, _, _ in best)).index(cr[0]), cr[1]))
+    table = []
+    for case, ranks in cases:
+        old, new = best.get((case, ranks, "old")), best.get((case, ranks, "new"))
+        if not old or not new:
+            continue
+        table.append({"case": case, "ranks": ranks, "old ms/iter": old["ms/iter"], "new ms/iter": new["ms/iter"],
+                      "new/old": round(new["ms/iter"] / old["ms/iter"], 3),
+                      "old ms/frame": old["ms/frame"], "new ms/frame": new["ms/frame"]})
+    cols = list(table[0]) if table else []
+    print(" | ".join(cols))
+    for row in table:
+        print(" | ".join(str(row[c]) for c in cols))
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "compare.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=cols)
+        w.writeheader()
+        w.writerows(table)
+    with open(os.path.join(args.out, "compare.json"), "w") as f:
+        json.dump({"builds": builds, "rounds": args.rounds, "bench_args": bench_args, "rows": table}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
