@@ -190,6 +190,7 @@ def main():
     ap.add_argument("--timeout", type=float, default=1800, help="seconds per run")
     ap.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
     ap.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
+    ap.add_argument("--list", action="store_true", help="print the selected case names and stop")
     args = ap.parse_args()
     args.hyperqn = os.path.abspath(args.hyperqn)
     names = QUICK if args.quick else list(CASES)
@@ -200,6 +201,9 @@ def main():
             ap.error(f"unknown case(s) {bad}; known: {','.join(CASES)}")
         names = [n for n in names if n in want]
     ranks = [int(r) for r in args.ranks.split(",")]
+    if args.list:
+        print(",".join(names))
+        return
 
     machine = machine_info()                       # before the runs, so loadavg is the idle load
     built = (datetime.datetime.fromtimestamp(os.path.getmtime(args.hyperqn)).isoformat(timespec="seconds")

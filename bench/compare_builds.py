@@ -4,8 +4,8 @@
     PYTHONPATH=$PWD/postprocess /usr/bin/python3 bench/compare_builds.py OLD/hyperqn build/hyperqn --quick
     PYTHONPATH=$PWD/postprocess /usr/bin/python3 bench/compare_builds.py OLD/hyperqn build/hyperqn --cases bar66792,box130k
 
-The builds take turns, case by case and round by round (--rounds), so that the machine's noise
-falls on both alike; each keeps its fastest run. Prints ms/iteration and ms/frame of both and the
+The builds take turns case by case, round after round (--rounds), so that the machine's noise,
+which comes and goes over tens of seconds here, falls on both alike; each keeps its fastest run. Prints ms/iteration and ms/frame of both and the
 ratio new/old, and writes compare.csv and compare.json to --out. Arguments after the two binaries
 that bench.py knows (--quick, --cases, --ranks, --frames) pass through to it.
 """
@@ -29,20 +29,24 @@ def main():
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-compare"))
     args, bench_args = ap.parse_known_args()
     builds = {"old": os.path.abspath(args.old), "new": os.path.abspath(args.new)}
+    listed = subprocess.run([sys.executable, BENCH, "--list"] + bench_args, check=True, stdout=subprocess.PIPE, text=True)
+    names = listed.stdout.strip().split(",")
+    others = [a for i, a in enumerate(bench_args)  # --cases/--quick are replaced by one case per call
+              if a not in ("--quick", "--cases") and not (i > 0 and bench_args[i - 1] == "--cases")]
     best = {}  # (case, ranks, build) -> row of the fastest run
     for k in range(args.rounds):
-        for label, binary in builds.items():
-            out = os.path.join(args.out, f"{label}-{k}")
-            subprocess.run([sys.executable, BENCH, "--hyperqn", binary, "--out", out] + bench_args, check=True,
-                           stdout=subprocess.DEVNULL)
-            with open(os.path.join(out, "bench.json")) as f:
-                for row in json.load(f)["rows"]:
-                    key = (row["case"], row["ranks"], label)
-                    if row["ms/iter"] != "" and (key not in best or row["ms/iter"] < best[key]["ms/iter"]):
-                        best[key] = row
-    cases = sorted({(c, r) for c, r, _ in best}, key=lambda cr: (list(dict.fromkeys(c for c, _, _ in best)).index(cr[0]), cr[1]))
+        for name in names:
+            for label, binary in builds.items():
+                out = os.path.join(args.out, f"{name}-{label}-{k}")
+                subprocess.run([sys.executable, BENCH, "--hyperqn", binary, "--out", out, "--cases", name] + others,
+                               check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                with open(os.path.join(out, "bench.json")) as f:
+                    for row in json.load(f)["rows"]:
+                        key = (row["case"], row["ranks"], label)
+                        if row["ms/iter"] != "" and (key not in best or row["ms/iter"] < best[key]["ms/iter"]):
+                            best[key] = row
     table = []
-    for case, ranks in cases:
+    for case, ranks in sorted({(c, r) for c, r, _ in best}, key=lambda cr: (names.index(cr[0]), cr[1])):
         old, new = best.get((case, ranks, "old")), best.get((case, ranks, "new"))
         if not old or not new:
             continue

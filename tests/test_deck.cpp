@@ -8,7 +8,7 @@
 
 #include "check.hpp"
 #include "app/deck.hpp"
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 
 namespace fs = std::filesystem;
 using hyperqn::Deck;

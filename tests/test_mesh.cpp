@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "check.hpp"
-#include "io/input_error.hpp"
+#include "mesh/input_error.hpp"
 #include "mesh/mesh.hpp"
 
 using namespace hyperqn;

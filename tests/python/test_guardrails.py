@@ -2,7 +2,7 @@
 searches are retried or flagged (and summary.json's status says so), and a run that cannot
 continue -- non-finite, or diverged -- stops cleanly.
 
-Non-finite energies are provoked with two test hooks, PETSc options read by src/time_step.cpp:
+Non-finite energies are provoked with two test hooks, PETSc options read by src/app/run_options.cpp, a term of src/terms/nan_injection.hpp:
 - -hyperqn_test_nan_energy_beyond d: g = NaN wherever ||x - y||_inf > d. With a d well above a
   frame's displacement only far trial points are hit; here they are made to happen with
   -tao_ls_stepinit 100 (TAO's first trial of every line search 100 times the L-BFGS step), or
@@ -31,7 +31,7 @@ DECK = "tests/decks/guardrails_bar.yaml"
 DIVERGING_DECK = "tests/decks/stability_dt_1.yaml"
 FLING_DECK = "tests/decks/guardrails_fling.yaml"
 FRAMES = 10
-DIVERGENCE_LIMIT = 10  # rest bounding-box diagonals (src/simulation.cpp, kDivergenceLimit)
+DIVERGENCE_LIMIT = 10  # rest bounding-box diagonals (src/app/run_options.hpp, divergence_limit)
 # TAO's More-Thuente accepts a step if g(x + a d) - (g(x) + ftol a g'.d) <= 1e-10 |g(x)| (TAO 3.18),
 # so TAO's own steps may raise g by round-off near the minimizer (also without any guardrail
 # involved); our own backtracking (pd, retries) only takes strict decreases.

@@ -9,7 +9,7 @@ from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_
                                            last_frame, rest_distance, verdict)
 
 # What the decks input/stability/initial_*.yaml assume of the top-level `initial:` key (written
-# before it existed; src/initial_state.cpp now implements it so). A hyperqn that rejects the key
+# before it existed; src/model/initial_state.cpp now implements it so). A hyperqn that rejects the key
 # gets those decks reported as "not run".
 INITIAL_SEMANTICS = """\
 `initial:` (top level, optional; default: start at the rest shape) sets the positions of frame 0
