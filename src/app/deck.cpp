@@ -316,34 +316,62 @@ FunctionSpec read_function(const Reader& r, const Value& v) {
   return f;
 }
 
-void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
-  Section s(r, v, {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density", "total_mass", "J0",
-                   "laplacian_weight", "kappa", "f", "g", "h", "fiber", "spring_stiffness"});
-  if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
-  const bool principal = m.model == "principal-stretch", springs = m.model == "mass-spring";
-  if (const Value* x = s.find("spring_stiffness")) {
-    if (!springs) r.fail(*x, "spring_stiffness applies to model mass-spring only");
+// Which keys a material takes comes from the model registry (materials/material_factory.hpp):
+// every model takes these, the elastic constants go to the models that say so, and each model's
+// own keys to that model alone.
+const Names kEveryMaterial = {"model", "density", "total_mass", "laplacian_weight"};
+const Names kElasticConstants = {"youngs_modulus", "poisson_ratio", "mu", "lambda"};
+
+bool listed(const Names& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+// Every key a material section may hold, for the "unknown key" message.
+Names material_keys() {
+  Names keys = {"model"};
+  keys.insert(keys.end(), kElasticConstants.begin(), kElasticConstants.end());
+  keys.insert(keys.end(), kEveryMaterial.begin() + 1, kEveryMaterial.end());
+  for (const MaterialModel& model : material_models())
+    for (const std::string& key : model.keys)
+      if (!listed(keys, key)) keys.push_back(key);
+  return keys;
+}
+
+// A key the model does not take is an error naming the models that do.
+void check_material_keys(const Reader& r, const Section& s, const MaterialModel& model) {
+  for (const auto& [key, x] : s.entries()) {
+    if (listed(kEveryMaterial, key) || listed(model.keys, key)) continue;
+    if (listed(kElasticConstants, key)) {
+      if (model.elastic_constants) continue;
+      std::string own;
+      for (const std::string& k : model.keys)
+        if (k != "fiber") own += (own.empty() ? "" : ", ") + k;
+      r.fail(x, model.name + " takes " + own + " instead of elastic constants");
+    }
+    std::string owners;
+    for (const MaterialModel& other : material_models())
+      if (listed(other.keys, key)) owners += (owners.empty() ? "" : ", ") + other.name;
+    r.fail(x, key + " applies to model " + owners + " only (model is " + model.name + ")");
   }
-  if (springs) {
-    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda", "f", "g", "h", "fiber"})
-      if (const Value* x = s.find(key)) r.fail(*x, "mass-spring takes spring_stiffness (and laplacian_weight) only");
+}
+
+void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
+  Section s(r, v, material_keys());
+  if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
+  const MaterialModel& model = *find_material_model(m.model);
+  check_material_keys(r, s, model);
+  if (model.elastic_constants) read_elastic_constants(r, s, m);
+  if (listed(model.keys, "spring_stiffness")) {
     const Value& k = s.need("spring_stiffness");
     m.spring_stiffness = r.number(k);
     r.check(m.spring_stiffness > 0, k, "> 0");
-  } else if (principal) {
-    for (const char* key : {"youngs_modulus", "poisson_ratio", "mu", "lambda"})
-      if (const Value* x = s.find(key)) r.fail(*x, "principal-stretch takes f, g, h instead of elastic constants");
-    if (const Value* x = s.find("f")) m.f = read_function(r, *x);
-    if (const Value* x = s.find("g")) m.g = read_function(r, *x);
-    if (const Value* x = s.find("h")) m.h = read_function(r, *x);
-    if (m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty()) r.fail(v, "principal-stretch needs f, g or h");
-  } else {
-    for (const char* key : {"f", "g", "h"})
-      if (const Value* x = s.find(key)) r.fail(*x, std::string(key) + " applies to model principal-stretch only");
-    read_elastic_constants(r, s, m);
   }
+  if (const Value* x = s.find("f")) m.f = read_function(r, *x);
+  if (const Value* x = s.find("g")) m.g = read_function(r, *x);
+  if (const Value* x = s.find("h")) m.h = read_function(r, *x);
+  if (listed(model.keys, "f") && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
+    r.fail(v, m.model + " needs f, g or h");
   if (const Value* x = s.find("kappa")) {
-    if (m.model != "stvk") r.fail(*x, "kappa applies to model stvk only (model is " + m.model + ")");
     m.kappa = r.number(*x);
     r.check(m.kappa >= 0, *x, ">= 0");
   }
@@ -371,9 +399,7 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
     r.check(m.total_mass > 0, *total, "> 0");
   }
 
-  // J0 under another model would be silently ignored: reject it instead.
   if (const Value* x = s.find("J0")) {
-    if (m.model != "neohookean") r.fail(*x, "J0 applies to model neohookean only (model is " + m.model + ")");
     m.J0 = r.number(*x);
     r.check(m.J0 > 0 && m.J0 < 1, *x, "in (0, 1)");
   }
@@ -383,7 +409,7 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   }
   // The material's own checks (e.g. spline shapes) with the deck's place in the message.
   try {
-    if (!springs) make_material(m);
+    if (model.create) make_material(m);
   } catch (const std::invalid_argument& e) {
     r.fail(v, e.what());
   }

@@ -28,7 +28,12 @@ struct MaterialParams {
 struct MaterialModel {
   std::string name;        // material.model in a deck
   std::string summary;     // one line: what the energy is
-  std::string parameters;  // its deck keys beside model, the mass, laplacian_weight and fiber
+  // Its deck keys: the elastic constants (youngs_modulus and poisson_ratio, or mu and lambda) or
+  // not, and its own keys (beside model, the mass and laplacian_weight, which every model takes);
+  // a key of another model is a deck error. parameters documents them, with defaults and ranges.
+  bool elastic_constants;
+  std::vector<std::string> keys;
+  std::string parameters;
   // Builds the material (throws std::invalid_argument for invalid parameters); null for a model
   // that is not an energy density of F (mass-spring: springs on the tet edges, an energy term of
   // its own, terms/mass_spring_tets.hpp).
