@@ -27,6 +27,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from hyperqn_tools.style import solver_style
 
 LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
 MARKED_LEVEL = 1e-3  # error_vs_time.png marks where each solver first reaches it
@@ -36,8 +37,6 @@ FLOOR = 1e-16  # e below round-off is drawn at this level on the log axis (traje
 # so e is noise below ROUNDOFF_G eps |g*| / (g(x0) - g*), and never trusted below ROUNDOFF_E.
 ROUNDOFF_E = 1e-13
 ROUNDOFF_G = 100
-STYLE = {"lbfgs": ("C0", "-"), "newton": ("C3", "-"), "pd": ("C2", "--"), "lbfgs-identity": ("C1", ":"),
-         "reference": ("0.6", "-")}
 
 
 def read_csv(path):
@@ -107,7 +106,7 @@ def plot_curves(ax, by_solver, title):
     t_min, t_max = math.inf, 0.0
     for solver in solvers:
         pts = until_roundoff(by_solver[solver], level)
-        color, ls = STYLE.get(solver, (None, "-"))
+        color, ls = solver_style(solver)
         ts = [1e3 * p[0] for p in pts]
         t_min, t_max = min(t_min, ts[0]), max(t_max, ts[-1])
         reached = next((p for p in pts if p[1] <= MARKED_LEVEL), None)
@@ -143,7 +142,7 @@ def study_figures(study):
     if study["trajectory"]:
         fig, ax = plt.subplots(figsize=(5, 4))
         for solver, pts in sorted(study["trajectory"].items()):
-            color, ls = STYLE.get(solver, (None, "-"))
+            color, ls = solver_style(solver)
             ax.semilogy([p[1] for p in pts], [max(p[2], FLOOR) for p in pts], color=color, ls=ls, label=solver)
         ax.set_xlabel("cumulative solve time (s)")
         ax.set_ylabel("RMS vertex error / bbox diagonal")

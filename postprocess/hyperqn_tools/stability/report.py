@@ -7,6 +7,7 @@ import numpy as np
 
 from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_RTOL, REF_TOL, REST_TOL,
                                            last_frame, rest_distance, verdict)
+from hyperqn_tools.style import solver_style
 
 # What the decks input/stability/initial_*.yaml assume of the top-level `initial:` key (written
 # before it existed; src/model/initial_state.cpp now implements it so). A hyperqn that rejects the key
@@ -85,8 +86,6 @@ def write_csv(rows, path):
                         for k in COLUMNS})
 
 
-STYLE = {"lbfgs": ("C0", "-"), "newton": ("C3", "-"), "pd": ("C2", "--"), "lbfgs-identity": ("C1", ":"),
-         "reference": ("0.5", "-")}
 VERDICT_COLOUR = {"ok": "#4caf50", "degraded": "#ffb300", "failed": "#e53935", "not run": "#9e9e9e"}
 
 
@@ -100,7 +99,7 @@ def case_figure(case, analyses, verdicts, align, path):
     drawn = False
     lowest_J = 0.0
     for solver, a in analyses.items():
-        colour, ls = STYLE.get(solver, ("k", "-"))
+        colour, ls = solver_style(solver)
         lw = 1.0 if solver == "reference" else 1.6
         label = solver + (f" ({verdicts[solver]})" if solver in verdicts else "")
         fg = sorted(a["final_grad"].items())
