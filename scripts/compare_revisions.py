@@ -60,7 +60,8 @@ MIXED_MATERIALS = {
     "solver": {"type": "lbfgs", "iterations": 20},
 }
 
-# (name, deck: a path from the repository root or a dict, rank counts, frames or None: the deck's)
+# (name, deck: a path from the repository root or a dict, rank counts, frames or None: the deck's,
+# and optionally extra command-line options)
 CASES = [
     ("bar", "input/bar.yaml", (1, 2), 20),
     ("strands", "input/strands.yaml", (2,), 30),
@@ -75,6 +76,8 @@ CASES = [
     ("box_on_rope", "tests/decks/box_on_rope.yaml", (1,), None),
     ("mixed_materials", MIXED_MATERIALS, (1, 2), None),
     ("guardrails_bar", "tests/decks/guardrails_bar.yaml", (1,), None),
+    # The guardrails at work: g is NaN at far trial points (the test hook's term), retries recover.
+    ("guardrails_nan", "tests/decks/guardrails_bar.yaml", (1, 2), None, ["-hyperqn_test_nan_energy_beyond", "0.2"]),
 ]
 TIMEOUT_S = 300
 
@@ -92,11 +95,11 @@ def prepared_deck(name, source, frames, deckdir):
     return write_deck(os.path.join(deckdir, f"{name}.yaml"), deck)
 
 
-def run(binary, deck_path, ranks, outdir):
+def run(binary, deck_path, ranks, outdir, options=()):
     """Runs hyperqn into a fresh outdir; returns an error text, or None when it exited 0."""
     shutil.rmtree(outdir, ignore_errors=True)
     try:
-        proc = launch.run([deck_path, "-o", outdir], None if ranks == 1 else ranks, binary, timeout=TIMEOUT_S)
+        proc = launch.run([deck_path, "-o", outdir, *options], None if ranks == 1 else ranks, binary, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired:
         return f"timeout after {TIMEOUT_S} s"
     os.makedirs(outdir, exist_ok=True)
@@ -153,14 +156,15 @@ def compare_binaries(base_bin, new_bin, names, tol, workdir):
     deckdir = os.path.join(workdir, "decks")
     os.makedirs(deckdir, exist_ok=True)
     results = []
-    for name, source, ranks_list, frames in CASES:
+    for name, source, ranks_list, frames, *options in CASES:
+        options = options[0] if options else ()
         if names and name not in names:
             continue
         deck = prepared_deck(name, source, frames, deckdir)
         for ranks in ranks_list:
             t0 = time.time()
             dirs = {side: os.path.join(workdir, "runs", side, f"{name}-np{ranks}") for side in ("base", "new")}
-            errors = {side: run(binary, deck, ranks, dirs[side])
+            errors = {side: run(binary, deck, ranks, dirs[side], options)
                       for side, binary in (("base", base_bin), ("new", new_bin))}
             result = {"deck": name, "ranks": ranks, "deck_file": deck}
             failed = [f"{side} run: {e}" for side, e in errors.items() if e]

@@ -56,7 +56,6 @@ class LiveScene {
   // Distributes the input (which it takes), assembles, and factors M + h^2 L if asked.
   PetscErrorCode setup(MPI_Comm comm, const SceneSpec& spec, SceneInput input, SceneOptions options);
   Scene& current() { return *scene_; }
-  const SceneSpec& spec() const { return *spec_; }
   // s at frame 0: rest positions, then the spec's initial state; zero velocity; nothing released.
   PetscErrorCode initial_state(State& s) const;
 
