@@ -76,8 +76,9 @@ CASES = [
     ("box_on_rope", "tests/decks/box_on_rope.yaml", (1,), None),
     ("mixed_materials", MIXED_MATERIALS, (1, 2), None),
     ("guardrails_bar", "tests/decks/guardrails_bar.yaml", (1,), None),
-    # The guardrails at work: g is NaN at far trial points (the test hook's term), retries recover.
-    ("guardrails_nan", "tests/decks/guardrails_bar.yaml", (1, 2), None, ["-hyperqn_test_nan_energy_beyond", "0.2"]),
+    # The guardrails at work: g is NaN at far trial points (the test hook's term), first trials of 100.
+    ("guardrails_nan", "tests/decks/guardrails_bar.yaml", (1, 2), None,
+     ["-hyperqn_test_nan_energy_beyond", "0.2", "-tao_ls_stepinit", "100"]),
 ]
 TIMEOUT_S = 300
 
