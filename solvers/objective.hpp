@@ -30,6 +30,7 @@ class Objective {
 
   // Largest alpha <= *alpha such that x + alpha dir is admissible (energy terms that bound steps,
   // e.g. contact); bounds_steps() is false when no term does, and then nothing need be asked.
+  // Asked by solvers/line_search.cpp's backtracking.
   virtual bool bounds_steps() const = 0;
   virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
 

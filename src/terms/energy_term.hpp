@@ -44,7 +44,9 @@ class EnergyTerm {
   // (global free dofs): moving obstacles, attachments and the like update here.
   virtual PetscErrorCode begin_step(double /*t*/, Vec /*y*/) { return 0; }
   // Largest alpha <= *alpha such that x + alpha dir is admissible (e.g. no vertex crosses an
-  // obstacle); the line searches never try beyond it. Unbounded terms leave *alpha alone.
+  // obstacle); unbounded terms leave *alpha alone. hyperqn's own backtracking (PD, the retries
+  // after failed line searches) starts no further; TAO's line searches do not ask yet (the
+  // contact terms, which need it, will bound them through the guarded TAO loop).
   virtual bool bounds_steps() const { return false; }
   virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
 };
