@@ -5,6 +5,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdint>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -34,6 +36,18 @@ const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
+// Bounds that keep a deck from exhausting the machine or the floating-point range.
+constexpr double kLargestNumber = 1e100;
+constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
+constexpr int kMaxHistory = 1000;         // L-BFGS pairs: each holds two vectors of all dofs
+constexpr int kMaxIterations = 1000000;   // per frame
+constexpr int kMaxFrames = 100000000;
+constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
+constexpr int kMaxPetscOptions = 1000;      // petsc: section (a YAML alias bomb expands past it)
+constexpr int kMaxPetscDepth = 8;
+constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
+constexpr size_t kMaxNameLength = 100;
+
 const Names kLineSearches = {"more-thuente", "armijo", "unit"};
 const Names kWarmStarts = {"inertial", "previous"};
 const Names kMeshEdges = {"ignore", "strands"};
@@ -85,6 +99,8 @@ class Reader {
     double x = 0;
     if (!plain_scalar(v.node) || !YAML::convert<double>::decode(v.node, x) || !std::isfinite(x))
       fail(v, "expected a number, got " + describe(v.node));
+    if (std::fabs(x) > kLargestNumber)
+      fail(v, "must be at most 1e100 in magnitude (larger values overflow the energies), got " + v.node.Scalar());
     return x;
   }
   // Decimal only: yaml-cpp's own conversion would read "010" as octal 8.
@@ -239,6 +255,9 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
       r.check(m.box_size[i] > 0, size_items[i], "> 0");
       r.check(m.box_cells[i] >= 1, cells_items[i], ">= 1");
     }
+    const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
+    if (tets > kMaxBoxTets)
+      r.fail(cells, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
   }
   if (const Value* t = s.find("transform")) {
     Section ts(r, *t, {"scale", "rotate", "translate"});
@@ -525,10 +544,12 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
   if (const Value* x = s.find("dt")) {
     t.dt = r.number(*x);
     r.check(t.dt > 0, *x, "> 0");
+    r.check(t.dt >= kSmallestStep, *x, ">= 1e-100 (h^2 must not underflow)");
   }
   if (const Value* x = s.find("frames")) {
     t.frames = r.integer(*x);
     r.check(t.frames >= 1, *x, ">= 1");
+    r.check(t.frames <= kMaxFrames, *x, "<= 100000000");
   }
   if (const Value* x = s.find("damping")) {
     t.damping = r.number(*x);
@@ -542,7 +563,7 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
     sv.iterations = r.integer(*x);
-    r.check(sv.iterations >= 1, *x, ">= 1");
+    r.check(sv.iterations >= 1 && sv.iterations <= kMaxIterations, *x, "in [1, 1000000]");
   }
   if (const Value* x = s.find("grad_atol")) {
     sv.grad_atol = r.number(*x);
@@ -554,7 +575,8 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   }
   if (const Value* x = s.find("history")) {
     sv.history = r.integer(*x);
-    r.check(sv.history >= 0, *x, ">= 0");
+    r.check(sv.history >= 0 && sv.history <= kMaxHistory, *x,
+            "in [0, 1000] (each pair holds two vectors of all unknowns; the paper uses 5)");
   }
   if (const Value* x = s.find("line_search")) sv.line_search = r.choice(*x, kLineSearches);
   if (const Value* x = s.find("warm_start")) sv.warm_start = r.choice(*x, kWarmStarts);
@@ -582,7 +604,7 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
   }
   if (const Value* x = s.find("iterations")) {
     st.iterations = r.integer(*x);
-    r.check(st.iterations >= 1, *x, ">= 1");
+    r.check(st.iterations >= 1 && st.iterations <= kMaxIterations, *x, "in [1, 1000000]");
   }
   if (const Value* x = s.find("time_limit")) {
     st.time_limit = r.number(*x);
@@ -616,14 +638,16 @@ void read_output(const Reader& r, const Value& v, OutputSpec& o) {
 // petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
 // spelled true/false and an empty value is "" (an option without argument).
 void read_petsc(const Reader& r, const Value& v, const std::string& prefix,
-                std::vector<std::pair<std::string, std::string>>& out) {
+                std::vector<std::pair<std::string, std::string>>& out, int depth = 0) {
+  if (depth > kMaxPetscDepth) r.fail(v, "nested more than 8 levels deep");
   Section s(r, v, {});
   for (const auto& [name, x] : s.entries()) {
+    if ((int)out.size() >= kMaxPetscOptions) r.fail(x, "more than 1000 PETSc options (YAML aliases repeating maps?)");
     if (name.empty() || name[0] == '-' || name.find_first_of(" \t") != std::string::npos)
       r.fail(x, "PETSc option names are written without the leading '-' and without spaces");
     std::string option = prefix.empty() ? name : prefix + "_" + name;
     if (x.node.IsMap()) {
-      read_petsc(r, x, option, out);
+      read_petsc(r, x, option, out, depth + 1);
     } else if (x.node.IsNull()) {
       out.emplace_back("-" + option, "");
     } else if (x.node.IsScalar()) {
@@ -649,9 +673,14 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
              "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
-    // The name becomes a directory name (output/<name>).
+    // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
     if (deck.name.empty() || deck.name.find_first_of("/\\") != std::string::npos)
       r.fail(*x, "must be a non-empty name without '/' or '\\'");
+    const bool safe = std::all_of(deck.name.begin(), deck.name.end(), [](char c) {
+      return std::isalnum((unsigned char)c) || c == '_' || c == '-' || c == '.' || c == '+';
+    });
+    if (!safe || deck.name.size() > kMaxNameLength || deck.name[0] == '.' || deck.name[0] == '-')
+      r.fail(*x, "must be a file name of at most 100 letters, digits and _ - . + (not starting with . or -)");
   }
   const Value& mesh = s.need("mesh");
   read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
@@ -697,6 +726,7 @@ Deck load_deck(const std::string& path) {
   if (fs::is_directory(path, ec)) throw InputError(path, 0, "", "is a directory, not a deck file");
   std::ifstream in(path);
   if (!in) throw InputError(path, 0, "", "cannot read the deck file");
+  if (fs::file_size(path, ec) > kMaxDeckBytes) throw InputError(path, 0, "", "larger than 10 MB: not a deck");
 
   Reader r(path);
   try {

@@ -5,6 +5,7 @@
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
 #include <petscsys.h>
 
+#include <cstdio>
 #include <cstring>
 #include <string>
 
@@ -94,6 +95,21 @@ std::string registry_json() {
   return s + "  ]\n}\n";
 }
 
+// Options given (command line or the deck's petsc: section) that nothing read: most often a
+// misspelling, or an option of another solver. Said, not fatal: the run is done by now.
+PetscErrorCode warn_unused_options() {
+  PetscInt n;
+  char **names, **values;
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsLeftGet(nullptr, &n, &names, &values));
+  for (PetscInt i = 0; i < n; ++i)
+    if (std::strcmp(names[i], "o") != 0)  // -o OUTDIR is ours
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: warning: option -%s was given but never used (misspelt, or not "
+                                              "an option of this solver?)\n", names[i]));
+  PetscCall(PetscOptionsLeftRestore(nullptr, &n, &names, &values));
+  PetscFunctionReturn(0);
+}
+
 // The deck's petsc: options, unless the command line already set them.
 PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
   PetscFunctionBeginUser;
@@ -131,10 +147,14 @@ int main(int argc, char** argv) {
         if (outdir.empty()) outdir = deck.output.directory.empty() ? "output/" + deck.name : deck.output.directory;
         status = hyperqn::run_simulation(PETSC_COMM_WORLD, deck, outdir);
       }
+      PetscCall(warn_unused_options());
     }
-  } catch (const hyperqn::InputError& e) {
+  } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: error: %s\n", e.what()));
     status = 1;
+  } catch (const std::exception& e) {  // maybe on one rank only: the others must not wait for it
+    std::fprintf(stderr, "hyperqn: error: %s\n", e.what());
+    MPI_Abort(PETSC_COMM_WORLD, 1);
   }
   PetscCall(PetscFinalize());
   return status;

@@ -1,5 +1,8 @@
 #include "app/run_options.hpp"
 
+#include <cmath>
+
+#include "mesh/input_error.hpp"
 #include "terms/nan_injection.hpp"
 
 namespace hyperqn {
@@ -17,6 +20,10 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
   PetscOptionsEnd();
+  // Every rank reads the same options, so every rank throws alike.
+  if (!std::isfinite(o->divergence_limit))
+    throw InputError("option -hyperqn_divergence_limit: must be a finite number (<= 0 turns the check off)");
+  if (!std::isfinite(o->nan_beyond)) throw InputError("option -hyperqn_test_nan_energy_beyond: must be a finite number");
   PetscFunctionReturn(0);
 }
 

@@ -23,7 +23,8 @@ struct RunOptions {
   PetscInt nan_from_step = -1;
 };
 
-// Reads the options (collective). With -help, PETSc prints them.
+// Reads the options (collective). With -help, PETSc prints them. Throws InputError for a value
+// that makes no sense (not finite).
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options);
 
 // How the scene of this deck is built: factored if a solver needs M + h^2 L (factor), the

@@ -187,6 +187,11 @@ PetscErrorCode Run::time_loop(bool& ok) {
     summary.failed_frames += r.failed;
     summary.ls_failures += r.ls_failures;
     if (r.failed) summary.flagged_frames.emplace_back(frame, r.reason);
+    // A solver that was given no iteration (e.g. -tao_max_it 0) did not solve the frame.
+    if (!r.failed && !r.converged && r.iterations == 0) {
+      ++summary.failed_frames;
+      summary.flagged_frames.emplace_back(frame, "the solver took no iteration (" + r.reason + ")");
+    }
 
     // Can the run continue from this frame's x?
     std::string why;

@@ -13,8 +13,8 @@ namespace hyperqn {
 
 namespace {
 
-// Runs fn on rank 0 only; an InputError there is re-thrown on every rank, so all ranks stop
-// together with the same message.
+// Runs fn on rank 0 only; an exception there is re-thrown on every rank as an InputError, so all
+// ranks stop together with the same message.
 void on_root(MPI_Comm comm, const std::function<void()>& fn) {
   int rank;
   MPI_Comm_rank(comm, &rank);
@@ -25,6 +25,10 @@ void on_root(MPI_Comm comm, const std::function<void()>& fn) {
     } catch (const InputError& e) {
       error = e.what();
       if (error.empty()) error = "input error";
+    } catch (const std::bad_alloc&) {
+      error = "out of memory while reading the mesh on rank 0";
+    } catch (const std::exception& e) {  // rank 0 alone must not throw: the others wait below
+      error = std::string("reading the mesh: ") + e.what();
     }
   }
   int n = (int)error.size();

@@ -1,0 +1,82 @@
+"""Reproducers of bad input found by fuzzing (issue "never fail"): each ends with exit 1, a message
+naming the file, line and key (or the option), and nothing written; options that change a run's
+meaning are said, not swallowed."""
+import json
+
+import pytest
+
+from conftest import run_hyperqn, write_deck
+from test_bad_input import GOOD, assert_clean_failure, deck_with
+
+ALIAS_BOMB = """mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}}
+material: {model: corotated, youngs_modulus: 1.0e5, poisson_ratio: 0.3, density: 100}
+petsc:
+  a: &a {x: 1, y: 1, z: 1, w: 1, v: 1, u: 1, t: 1, s: 1, r: 1}
+  b: &b {a: *a, b: *a, c: *a, d: *a, e: *a, f: *a, g: *a, h: *a, i: *a}
+  c: &c {a: *b, b: *b, c: *b, d: *b, e: *b, f: *b, g: *b, h: *b, i: *b}
+  d: &d {a: *c, b: *c, c: *c, d: *c, e: *c, f: *c, g: *c, h: *c, i: *c}
+  e: &e {a: *d, b: *d, c: *d, d: *d, e: *d, f: *d, g: *d, h: *d, i: *d}
+  f: &f {a: *e, b: *e, c: *e, d: *e, e: *e, f: *e, g: *e, h: *e, i: *e}
+  g: &g {a: *f, b: *f, c: *f, d: *f, e: *f, f: *f, g: *f, h: *f, i: *f}
+  h: {a: *g, b: *g, c: *g, d: *g, e: *g, f: *g, g: *g, h: *g, i: *g}
+"""
+
+BAD_DECKS = {
+    # name: (deck, expected fragments of the message)
+    "box_too_many_cells": (deck_with(**{"mesh.box.cells": [1000, 1000, 1000]}), ["mesh.box.cells", "6000000000"]),
+    "history_huge": (deck_with(**{"solver.history": 2147483647}), ["solver.history", "[0, 1000]"]),
+    "iterations_huge": (deck_with(**{"solver.iterations": 2000000000}), ["solver.iterations"]),
+    "youngs_modulus_1e308": (deck_with(**{"material.youngs_modulus": 1.0e308}), ["material.youngs_modulus", "1e100"]),
+    "density_1e308": (deck_with(**{"material.density": 1.0e308}), ["material.density"]),
+    "dt_denormal": (deck_with(**{"time.dt": 1e-320}), ["time.dt", "underflow"]),
+    "name_long": (deck_with(name="a" * 5000), ["'name'"]),
+    "name_newline": (deck_with(name="a\nb"), ["'name'"]),
+    "name_dotdot": (deck_with(name=".."), ["'name'"]),
+    "release_nan": (deck_with(fixed=[{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}, "release": float("nan")}]),
+                    ["fixed[0].release"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DECKS))
+def test_deck_beyond_limits(tmp_path, case):
+    deck, fragments = BAD_DECKS[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [f"{case}.yaml"] + fragments)
+
+
+def test_yaml_alias_bomb_is_refused_quickly(tmp_path):
+    path = tmp_path / "bomb.yaml"
+    path.write_text(ALIAS_BOMB)
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=30)
+    assert_clean_failure(proc, tmp_path / "out", ["bomb.yaml", "petsc", "more than 1000"])
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_divergence_limit_must_be_finite(tmp_path, ranks):
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-hyperqn_divergence_limit", "nan"], ranks=ranks, check=False,
+                       timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["-hyperqn_divergence_limit", "finite"])
+
+
+def test_a_solver_without_iterations_is_not_ok(tmp_path):
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-tao_max_it", "0"], ranks=None, check=False, timeout=60)
+    with open(tmp_path / "out" / "summary.json") as f:
+        summary = json.load(f)
+    assert summary["status"].startswith("flagged: 2 of 2"), summary["status"]
+    assert all("no iteration" in f["reason"] for f in summary["flagged_frames"]), summary["flagged_frames"]
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_unused_options_are_named(tmp_path, ranks):
+    deck = deck_with(petsc={"tao_ls_tipe": "armijo"})
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-h0_mat_mumps_icntl_77", "1", "-tao_ls_type", "armijo"],
+                       ranks=ranks, timeout=60)
+    warnings = [line for line in proc.stdout.splitlines() if line.startswith("hyperqn: warning")]
+    assert any("-tao_ls_tipe" in w for w in warnings), proc.stdout[-2000:]
+    assert any("-h0_mat_mumps_icntl_77" in w for w in warnings), proc.stdout[-2000:]
+    assert not any("-tao_ls_type" in w for w in warnings), warnings  # used: no warning
+    assert len(warnings) == 2, warnings  # one line per option, on rank 0 only
