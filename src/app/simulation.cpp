@@ -86,6 +86,7 @@ static void read_log_events(RunSummary& s) {
   s.h0_solve_s = event_seconds(e.h0_solve);
   s.h0_solves = event_count(e.h0_solve);
   s.hessian_s = event_seconds(e.hessian);
+  s.hessian_assemblies = event_count(e.hessian);
 }
 
 namespace {
@@ -259,11 +260,17 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   // 1. Everything that can be wrong with the input is checked before any output exists.
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
+  const CleanReport repaired = input.repaired;
+  if (repaired.dropped_vertices || repaired.reoriented_tets)
+    PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",
+                (long long)repaired.dropped_vertices, (long long)repaired.reoriented_tets);
 
   // 2. Distribute, assemble, factor.
   RunOptions options;
   if (read_run_options(comm, &options)) return 1;
   Run run(comm, deck, options);
+  run.summary.dropped_vertices = repaired.dropped_vertices;
+  run.summary.reoriented_tets = repaired.reoriented_tets;
   if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, solver_uses_constant_matrix(deck.solver.type))) ||
       create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().factored.get(), run.solver)) {
     PetscPrintf(comm, "hyperqn: error: setting up the scene failed (see PETSc's message above)\n");

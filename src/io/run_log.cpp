@@ -29,7 +29,7 @@ IterationLog::~IterationLog() {
 static std::string number(double v) {
   if (!std::isfinite(v)) return "null";
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
+  std::snprintf(buf, sizeof buf, "%.17g", v);  // full precision: the numbers are read back
   return buf;
 }
 
@@ -63,6 +63,8 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"segments\": " << s.segments << ",\n"
       << "  \"dofs\": " << s.dofs << ",\n"
       << "  \"fixed_vertices\": " << s.fixed_vertices << ",\n"
+      << "  \"dropped_vertices\": " << s.dropped_vertices << ",\n"
+      << "  \"reoriented_tets\": " << s.reoriented_tets << ",\n"
       << "  \"frames\": " << s.frames << ",\n"
       << "  \"dt\": " << number(s.dt) << ",\n"
       << "  \"factorizations\": " << s.factorizations << ",\n"
@@ -80,6 +82,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"h0_solves\": " << s.h0_solves << ",\n"
       << "  \"h0_solve_s\": " << number(s.h0_solve_s) << ",\n"
       << "  \"hessian_s\": " << number(s.hessian_s) << ",\n"
+      << "  \"hessian_assemblies\": " << s.hessian_assemblies << ",\n"
       << "  \"converged_frames\": " << s.converged_frames << ",\n"
       << "  \"failed_frames\": " << s.failed_frames << ",\n"
       << "  \"flagged_frames\": " << flagged << ",\n"

@@ -45,7 +45,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck) {
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired) {
   TetMesh mesh;
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
@@ -57,7 +57,8 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck) {
       mesh = read_medit(spec.file, spec.edges_as_strands);
     apply_transform(mesh, spec.transform);
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
-    clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    if (repaired) *repaired = report;
     if (mesh.num_tets() > 0 && !deck.has_material)
       throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
                                                      std::to_string(mesh.num_tets()) + " tetrahedra");
@@ -67,7 +68,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck) {
 
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
   SceneInput in;
-  in.mesh = load_scene_mesh(comm, deck);
+  in.mesh = load_scene_mesh(comm, deck, &in.repaired);
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
     in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);

@@ -17,9 +17,9 @@
 
 namespace hyperqn {
 
-// Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it.
-// Throws InputError. Other ranks get an empty mesh.
-TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck);
+// Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it
+// (what was repaired in *repaired, on rank 0). Throws InputError. Other ranks get an empty mesh.
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired = nullptr);
 
 // The serial mesh and its fixed-vertex flags (rank 0). Throws InputError on every rank if the
 // input is wrong; nothing has been written at that point.
@@ -27,6 +27,7 @@ struct SceneInput {
   TetMesh mesh;
   std::vector<int32_t> fixed;          // per vertex, see select_fixed_vertices
   std::vector<int32_t> cell_material;  // per tet, see select_material_regions
+  CleanReport repaired;                // what cleaning the mesh changed (rank 0)
 };
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck);
 // The same, but an input error is printed ("hyperqn: error: ...") and reported as false.

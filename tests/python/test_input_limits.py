@@ -80,3 +80,18 @@ def test_unused_options_are_named(tmp_path, ranks):
     assert any("-h0_mat_mumps_icntl_77" in w for w in warnings), proc.stdout[-2000:]
     assert not any("-tao_ls_type" in w for w in warnings), warnings  # used: no warning
     assert len(warnings) == 2, warnings  # one line per option, on rank 0 only
+
+
+def test_mesh_repairs_are_reported(tmp_path):
+    # One vertex of no element, one negatively oriented tet: both repaired, and said.
+    (tmp_path / "repair.mesh").write_text(
+        "MeshVersionFormatted 1\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n5 5 5 0\n"
+        "Tetrahedra\n1\n1 3 2 4 0\nEnd\n")
+    deck = deck_with(mesh={"file": "repair.mesh"}, fixed=[{"box": {"min": [-0.1, -0.1, -0.1], "max": [0.1, 0.1, 0.1]}}])
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, timeout=60)
+    assert "mesh repaired: 1 vertices of no element dropped, 1 tets reoriented" in proc.stdout, proc.stdout[-2000:]
+    with open(tmp_path / "out" / "summary.json") as f:
+        summary = json.load(f)
+    assert summary["dropped_vertices"] == 1 and summary["reoriented_tets"] == 1
+    assert summary["vertices"] == 4
