@@ -119,7 +119,7 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   check_stream(out, path);
 }
 
-void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, int nranks) const {
+void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces) const {
   std::ofstream out(path);
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
@@ -131,7 +131,7 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, int
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
          "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
-  for (int r = 0; r < nranks; ++r) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
+  for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";
   out.close();
   check_stream(out, path);
@@ -159,8 +159,15 @@ void VtkSeries::write_frame(const FrameData& f) {
     if (size == 1) {
       write_piece(dir_ + "/" + file, f);
     } else {
-      write_piece(dir_ + "/" + stem + "_" + std::to_string(rank) + ".vtu", f);
-      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, size);
+      // A rank without elements (a mesh smaller than the rank count) writes no piece: readers
+      // such as meshio cannot read an empty one.
+      const int mine = mesh_->num_cells + mesh_->num_segments > 0;
+      std::vector<int> has(size), pieces;
+      MPI_Allgather(&mine, 1, MPI_INT, has.data(), 1, MPI_INT, comm_);
+      for (int r = 0; r < size; ++r)
+        if (has[r]) pieces.push_back(r);
+      if (mine) write_piece(dir_ + "/" + stem + "_" + std::to_string(rank) + ".vtu", f);
+      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, pieces);
     }
     written_.emplace_back(f.time, file);
     if (rank == 0) write_pvd();

@@ -95,3 +95,21 @@ def test_mesh_repairs_are_reported(tmp_path):
         summary = json.load(f)
     assert summary["dropped_vertices"] == 1 and summary["reoriented_tets"] == 1
     assert summary["vertices"] == 4
+
+
+def test_a_rank_without_elements_writes_no_piece(tmp_path, repo):
+    # One tet on two ranks: one rank holds nothing and writes no (empty, unreadable) .vtu piece.
+    import glob
+    import os
+
+    import meshio
+
+    from hyperqn_tools.output import final_frame
+    deck = deck_with(mesh={"file": os.path.join(repo, "input", "meshes", "tet.mesh")}, fixed=[], gravity=[0, 0, 0])
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    run_hyperqn([path, "-o", tmp_path / "out"], ranks=2, timeout=60)
+    pieces = sorted(glob.glob(str(tmp_path / "out" / "*.vtu")))
+    assert len(pieces) == 3, pieces  # frames 0, 1, 2: one piece each
+    for piece in pieces:
+        assert len(meshio.read(piece).points) == 4
+    assert final_frame(tmp_path / "out").points.shape == (4, 3)
