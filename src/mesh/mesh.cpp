@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -427,6 +428,38 @@ void apply_transform(TetMesh& mesh, const MeshTransform& t) {
 
 // ---------------------------------------------------------------------------------------------
 
+// Two tets on the same four vertices (a duplicated line doubles that element's mass and
+// stiffness), or two used vertices at exactly the same point (the body is split there, or the file
+// holds two copies of it), are almost surely mistakes: an InputError naming both (1-based).
+static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used, const std::string& source) {
+  std::vector<std::pair<std::array<int32_t, 4>, int64_t>> tets(size_t(mesh.num_tets()));
+  for (int64_t e = 0; e < mesh.num_tets(); ++e) {
+    std::array<int32_t, 4> t;
+    std::copy_n(&mesh.tets[4 * e], 4, t.begin());
+    std::sort(t.begin(), t.end());
+    tets[e] = {t, e};
+  }
+  std::sort(tets.begin(), tets.end());
+  for (size_t k = 1; k < tets.size(); ++k)
+    if (tets[k].first == tets[k - 1].first)
+      throw InputError(source, 0, "Tetrahedra", "tets " + std::to_string(tets[k - 1].second + 1) + " and " +
+                                                    std::to_string(tets[k].second + 1) +
+                                                    " have the same four vertices (a duplicated element)");
+  std::vector<int64_t> points;
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+    if (used[v]) points.push_back(v);
+  const auto at = [&](int64_t v) { return std::array<double, 3>{mesh.coords[3 * v], mesh.coords[3 * v + 1], mesh.coords[3 * v + 2]}; };
+  std::sort(points.begin(), points.end(), [&](int64_t a, int64_t b) { return std::make_pair(at(a), a) < std::make_pair(at(b), b); });
+  for (size_t k = 1; k < points.size(); ++k)
+    if (at(points[k]) == at(points[k - 1])) {
+      const int64_t a = std::min(points[k - 1], points[k]), b = std::max(points[k - 1], points[k]);
+      throw InputError(source, 0, "Vertices", "vertices " + std::to_string(mesh.vertex_ids[a] + 1) + " and " +
+                                                  std::to_string(mesh.vertex_ids[b] + 1) +
+                                                  " are at the same point: the body is split there, or the mesh holds two "
+                                                  "copies of it (merge them)");
+    }
+}
+
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
   const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments();
   if (nt == 0 && ns == 0) throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments)");
@@ -479,6 +512,8 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       throw InputError(source, 0, "Edges", msg);
     }
   }
+
+  reject_duplicates(mesh, used, source);
 
   CleanReport report;
   std::vector<int32_t> new_index(size_t(nv), -1);

@@ -113,3 +113,22 @@ def test_a_rank_without_elements_writes_no_piece(tmp_path, repo):
     for piece in pieces:
         assert len(meshio.read(piece).points) == 4
     assert final_frame(tmp_path / "out").points.shape == (4, 3)
+
+
+TWO_TETS = ("MeshVersionFormatted 1\nDimension 3\nVertices\n{n}\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n1 1 1 0\n{extra}"
+            "Tetrahedra\n2\n1 2 3 4 0\n{second} 0\nEnd\n")
+MESH_MISTAKES = {
+    # name: (file text, expected fragments): a duplicated tet line, a duplicated vertex line
+    "duplicate_tet": (TWO_TETS.format(n=5, extra="", second="1 2 3 4"), ["Tetrahedra", "tets 1 and 2"]),
+    "duplicate_vertex": (TWO_TETS.format(n=6, extra="0 1 0 0\n", second="2 6 4 5"), ["Vertices", "vertices 3 and 6"]),
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("case", sorted(MESH_MISTAKES))
+def test_mesh_mistakes_are_refused(tmp_path, case, ranks):
+    text, fragments = MESH_MISTAKES[case]
+    (tmp_path / f"{case}.mesh").write_text(text)
+    path = write_deck(tmp_path / "deck.yaml", deck_with(mesh={"file": f"{case}.mesh"}, fixed=[]))
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [f"{case}.mesh"] + fragments)
