@@ -17,6 +17,7 @@ PetscErrorCode GuardedTaoSolver::create_tao(const SolverSpec& spec, TaoType type
   for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_}) PetscCall(VecDuplicate(step_.layout(), v));
   PetscCall(TaoCreate(PetscObjectComm((PetscObject)step_.layout()), &tao_));
   PetscCall(TaoSetType(tao_, type));
+  requested_type_ = type;
   PetscCall(TaoSetObjectiveAndGradient(tao_, nullptr, objective_gradient, this));
   PetscCall(TaoSetTolerances(tao_, spec.grad_atol, 0.0, spec.grad_rtol));
   PetscCall(TaoSetMaximumIterations(tao_, spec.iterations));
@@ -34,6 +35,12 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   PetscCall(TaoSetMonitor(tao_, monitor, this, nullptr));
   PetscCall(TaoSetConvergenceTest(tao_, convergence_test, this));
   PetscCall(TaoSetFromOptions(tao_));
+  TaoType used;
+  PetscCall(TaoGetType(tao_, &used));
+  if (requested_type_ != used) {
+    overridden_ = std::string("TAO ") + used + " from the options, not " + requested_type_;
+    PetscCall(PetscPrintf(PetscObjectComm((PetscObject)tao_), "hyperqn: warning: the solver runs %s\n", overridden_.c_str()));
+  }
   PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
   PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
   PetscFunctionReturn(0);

@@ -15,6 +15,7 @@ class GuardedTaoSolver : public TimeStepSolver {
   explicit GuardedTaoSolver(Objective& step) : step_(step) {}
   ~GuardedTaoSolver() override;
   PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
+  std::string overridden() const override { return overridden_; }
 
  protected:
   // Creates tao_ with the deck's tolerances, budget and line search (if the type has one).
@@ -36,6 +37,7 @@ class GuardedTaoSolver : public TimeStepSolver {
   // Records x as the frame's iteration and reports it; *stop: the callback asks to stop.
   PetscErrorCode report(PetscInt iteration, Vec x, PetscReal f, PetscReal gnorm, double step, bool* stop);
 
+  std::string requested_type_, overridden_;  // TAO type asked for; what the options made of it
   bool line_search_ = true;  // NTR has none: it shrinks its radius past a rejected trial and goes on
   // TAO's tolerances and iteration budget after TaoSetFromOptions (the deck's, or -tao_gatol,
   // -tao_grtol, -tao_gttol, -tao_max_it): solve() changes them while it resumes a frame.

@@ -40,6 +40,8 @@ class TimeStepSolver {
   virtual ~TimeStepSolver() = default;
   // x: in, the initial guess; out, the accepted iterate.
   virtual PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) = 0;
+  // What runs instead of the method asked for, if options (e.g. -tao_type) changed it; else "".
+  virtual std::string overridden() const { return ""; }
 };
 
 }  // namespace hyperqn

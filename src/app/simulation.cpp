@@ -280,6 +280,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   RunSummary& summary = run.summary;
   summary.deck = deck.path;
   summary.solver = deck.solver.type;
+  if (!run.solver->overridden().empty()) summary.solver += " (" + run.solver->overridden() + ")";
   summary.ranks = size;
   summary.vertices = scene.mesh.global_vertices;
   summary.tets = scene.mesh.global_cells;

@@ -132,3 +132,17 @@ def test_mesh_mistakes_are_refused(tmp_path, case, ranks):
     path = write_deck(tmp_path / "deck.yaml", deck_with(mesh={"file": f"{case}.mesh"}, fixed=[]))
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=ranks, check=False, timeout=60)
     assert_clean_failure(proc, tmp_path / "out", [f"{case}.mesh"] + fragments)
+
+
+def test_an_overridden_solver_is_said(tmp_path):
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-tao_type", "bqnls"], ranks=None, timeout=60)
+    assert "hyperqn: warning: the solver runs TAO bqnls" in proc.stdout, proc.stdout[-2000:]
+    with open(tmp_path / "out" / "summary.json") as f:
+        assert json.load(f)["solver"] == "lbfgs (TAO bqnls from the options, not lmvm)"
+
+
+def test_log_view_in_the_deck(tmp_path):
+    path = write_deck(tmp_path / "deck.yaml", deck_with(petsc={"log_view": None}))
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, timeout=60)
+    assert "hqnObjective" in proc.stdout and "hyperqn: warning" not in proc.stdout
