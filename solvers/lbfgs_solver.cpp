@@ -11,7 +11,12 @@ static PetscErrorCode set_default_option(const char* name, const std::string& va
   PetscBool set;
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
-  if (!set) PetscCall(PetscOptionsSetValue(nullptr, name, value.c_str()));
+  if (!set) {
+    PetscCall(PetscOptionsSetValue(nullptr, name, value.c_str()));
+    // Ours, not the user's: looked up once, so the end-of-run warning about options nobody used
+    // does not name it when another TAO type (-tao_type) ignores it.
+    PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
+  }
   PetscFunctionReturn(0);
 }
 

@@ -637,8 +637,8 @@ void read_output(const Reader& r, const Value& v, OutputSpec& o) {
 
 // petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
 // spelled true/false and an empty value is "" (an option without argument).
-void read_petsc(const Reader& r, const Value& v, const std::string& prefix,
-                std::vector<std::pair<std::string, std::string>>& out, int depth = 0) {
+void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth = 0) {
+  auto& out = deck.petsc_options;
   if (depth > kMaxPetscDepth) r.fail(v, "nested more than 8 levels deep");
   Section s(r, v, {});
   for (const auto& [name, x] : s.entries()) {
@@ -647,14 +647,16 @@ void read_petsc(const Reader& r, const Value& v, const std::string& prefix,
       r.fail(x, "PETSc option names are written without the leading '-' and without spaces");
     std::string option = prefix.empty() ? name : prefix + "_" + name;
     if (x.node.IsMap()) {
-      read_petsc(r, x, option, out, depth + 1);
+      read_petsc(r, x, option, deck, depth + 1);
     } else if (x.node.IsNull()) {
       out.emplace_back("-" + option, "");
+      deck.petsc_option_lines["-" + option] = x.line;
     } else if (x.node.IsScalar()) {
       std::string value = x.node.Scalar();
       bool b = false;
       if (x.node.Tag() != "!" && YAML::convert<bool>::decode(x.node, b)) value = b ? "true" : "false";
       out.emplace_back("-" + option, value);
+      deck.petsc_option_lines["-" + option] = x.line;
     } else {
       r.fail(x, "expected a single value or a nested map, got " + describe(x.node) +
                     " (write PETSc lists as a comma-separated string)");
@@ -714,7 +716,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
-  if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck.petsc_options);
+  if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;
 }
 

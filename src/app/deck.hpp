@@ -35,6 +35,7 @@ struct Deck : SceneSpec {
   OutputSpec output;
   StudySpec study;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // "-key", "value" (petsc: section)
+  std::map<std::string, int> petsc_option_lines;                   // "-key" -> its deck line
 };
 
 // Parses and validates a deck. Unknown keys, wrong types and impossible values throw

@@ -9,6 +9,7 @@
 #include <memory>
 
 #include "app/run_options.hpp"
+#include "app/setup_errors.hpp"
 #include "io/log_events.hpp"
 #include "io/run_log.hpp"
 #include "model/scene.hpp"
@@ -271,10 +272,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   Run run(comm, deck, options);
   run.summary.dropped_vertices = repaired.dropped_vertices;
   run.summary.reoriented_tets = repaired.reoriented_tets;
-  if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, solver_uses_constant_matrix(deck.solver.type))) ||
-      create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().factored.get(), run.solver)) {
-    PetscPrintf(comm, "hyperqn: error: setting up the scene failed (see PETSc's message above)\n");
-    return 1;
+  {
+    SetupErrors errors;
+    if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, solver_uses_constant_matrix(deck.solver.type))) ||
+        create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().factored.get(), run.solver)) {
+      PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
   }
   const Scene& scene = run.scene.current();
   RunSummary& summary = run.summary;

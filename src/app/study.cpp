@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "app/run_options.hpp"
+#include "app/setup_errors.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
 #include "io/study_writer.hpp"
@@ -230,10 +231,13 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     study.contenders.push_back(std::make_unique<Contender>());
     study.contenders.back()->type = type;
   }
-  if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, factor)) ||
-      study.make_solvers(study.scene.current())) {
-    PetscPrintf(comm, "hyperqn: error: setting up the study failed (see PETSc's message above)\n");
-    return 1;
+  {
+    SetupErrors errors;
+    if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, factor)) ||
+        study.make_solvers(study.scene.current())) {
+      PetscPrintf(comm, "hyperqn: error: setting up the study failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
   }
 
   try {

@@ -146,3 +146,23 @@ def test_log_view_in_the_deck(tmp_path):
     path = write_deck(tmp_path / "deck.yaml", deck_with(petsc={"log_view": None}))
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, timeout=60)
     assert "hqnObjective" in proc.stdout and "hyperqn: warning" not in proc.stdout
+
+
+OPTION_ERRORS = {
+    # name: (deck petsc: section, command-line options, expected fragments)
+    "ls_type_list_in_deck": ({"tao_ls_type": "more-thuente,armijo"}, [],
+                             ["option -tao_ls_type more-thuente,armijo", "ls_type_list_in_deck.yaml:", "petsc: section",
+                              "TaoLineSearch type"]),
+    "bad_tao_type": (None, ["-tao_type", "bogus"], ["option -tao_type bogus (command line)", "Tao type bogus"]),
+    "mumps_icntl_text": (None, ["-h0_mat_mumps_icntl_14", "abc"], ["option -h0_mat_mumps_icntl_14 abc (command line)"]),
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("case", sorted(OPTION_ERRORS))
+def test_bad_option_values_are_named(tmp_path, case, ranks):
+    petsc, options, fragments = OPTION_ERRORS[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck_with(petsc=petsc) if petsc else GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out"] + options, ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", fragments)
+    assert "PETSC ERROR" not in proc.stdout, "a PETSc trace instead of the message"

@@ -1,0 +1,49 @@
+#include "app/setup_errors.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <sstream>
+
+namespace hyperqn {
+
+SetupErrors::SetupErrors() { PetscPushErrorHandler(record, this); }
+
+SetupErrors::~SetupErrors() { PetscPopErrorHandler(); }
+
+PetscErrorCode SetupErrors::record(MPI_Comm, int, const char* function, const char*, PetscErrorCode n,
+                                   PetscErrorType type, const char* message, void* ctx) {
+  auto* self = static_cast<SetupErrors*>(ctx);
+  if (type == PETSC_ERROR_INITIAL && self->message_.empty()) {  // the cause, not the calls it went through
+    self->message_ = message ? message : "";
+    self->function_ = function ? function : "";
+  }
+  return n;
+}
+
+std::string SetupErrors::describe(const Deck& deck) const {
+  if (message_.empty()) return "a PETSc error on another rank";
+  std::string text = "PETSc: " + message_ + " (in " + function_ + ")";
+  // The option whose value the message quotes: "-name value" pairs of the options database.
+  char* all = nullptr;
+  if (PetscOptionsGetAll(nullptr, &all) || !all) return text;
+  std::istringstream words(all);
+  PetscFree(all);
+  std::string word, name;
+  while (words >> word) {
+    if (word.size() > 1 && word[0] == '-' && !std::isdigit((unsigned char)word[1])) {
+      name = word;
+    } else if (!name.empty() && message_.find(word) != std::string::npos) {
+      // From the deck only if the deck gave this value (the command line wins over the deck).
+      const bool from_deck =
+          std::find(deck.petsc_options.begin(), deck.petsc_options.end(), std::make_pair(name, word)) !=
+          deck.petsc_options.end();
+      const std::string where = from_deck ? deck.path + ":" + std::to_string(deck.petsc_option_lines.at(name)) +
+                                                ", petsc: section"
+                                          : "command line";
+      return "option " + name + " " + word + " (" + where + "): " + text;
+    }
+  }
+  return text;
+}
+
+}  // namespace hyperqn

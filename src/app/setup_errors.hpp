@@ -1,0 +1,29 @@
+// PETSc errors while a scene and its solvers are set up, said as a user reads them: PETSc's own
+// message, and the option it is about (with its deck line when it came from the deck's petsc:
+// section), instead of a stack trace. Most such errors are bad option values.
+#pragma once
+#include <petscsys.h>
+
+#include <string>
+
+#include "app/deck.hpp"
+
+namespace hyperqn {
+
+class SetupErrors {
+ public:
+  SetupErrors();   // from here on PETSc errors are recorded, not printed
+  ~SetupErrors();  // PETSc's own handler again
+  SetupErrors(const SetupErrors&) = delete;
+  SetupErrors& operator=(const SetupErrors&) = delete;
+
+  // e.g. "option -tao_ls_type (deck.yaml:12): PETSc: Unable to find requested TaoLineSearch type x"
+  std::string describe(const Deck& deck) const;
+
+ private:
+  static PetscErrorCode record(MPI_Comm, int, const char* function, const char*, PetscErrorCode, PetscErrorType type,
+                               const char* message, void* ctx);
+  std::string message_, function_;
+};
+
+}  // namespace hyperqn
