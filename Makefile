@@ -21,7 +21,7 @@ STUDY_RANKS ?= 1 2
 STABILITY_DECKS ?= $(wildcard input/stability/*.yaml)
 STABILITY_NP    ?= 1
 
-.PHONY: all deps build run test bench study stability clean
+.PHONY: all deps build run test bench study stability fuzz clean
 
 all: build
 
@@ -55,6 +55,10 @@ study: build
 stability: build
 	$(PYTHON) -m hyperqn_tools.stability $(STABILITY_DECKS) --out output/stability --bin $(BUILD)/hyperqn \
 	  --np $(STABILITY_NP) --mpiexec $(MPIEXEC) $(ARGS)
+
+# The input fuzzer: 1000 mutated decks, meshes and option sets (see scripts/fuzz.py) -> output/fuzz/.
+fuzz: build
+	$(PYTHON) scripts/fuzz.py --cases 1000 --bin $(BUILD)/hyperqn $(ARGS)
 
 clean:
 	rm -rf $(BUILD)

@@ -9,7 +9,7 @@
 #include <memory>
 
 #include "app/run_options.hpp"
-#include "app/setup_errors.hpp"
+#include "app/petsc_errors.hpp"
 #include "io/log_events.hpp"
 #include "io/run_log.hpp"
 #include "model/scene.hpp"
@@ -273,7 +273,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   run.summary.dropped_vertices = repaired.dropped_vertices;
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
-    SetupErrors errors;
+    PetscErrors errors;
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, solver_uses_constant_matrix(deck.solver.type))) ||
         create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().factored.get(), run.solver)) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
@@ -307,8 +307,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (deck.output.vtk) run.writers.push_back(std::make_unique<VtkSeries>(comm, outdir, deck.name));
     for (auto& w : run.writers) w->begin_run(scene.mesh);
     if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
+    PetscErrors errors;
     if (run.time_loop(ok)) {
-      summary.status = "error: PETSc error during the time loop";
+      summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);
       ok = false;
     }
   } catch (const std::exception& e) {

@@ -8,7 +8,7 @@
 #include <memory>
 
 #include "app/run_options.hpp"
-#include "app/setup_errors.hpp"
+#include "app/petsc_errors.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
 #include "io/study_writer.hpp"
@@ -232,7 +232,7 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     study.contenders.back()->type = type;
   }
   {
-    SetupErrors errors;
+    PetscErrors errors;
     if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, factor)) ||
         study.make_solvers(study.scene.current())) {
       PetscPrintf(comm, "hyperqn: error: setting up the study failed: %s\n", errors.describe(deck).c_str());
@@ -245,8 +245,9 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     MPI_Barrier(comm);
     StudyWriter out(outdir, rank);
     if (rank == 0) write_study_meta(outdir, deck, study.scene.current());
+    PetscErrors errors;
     if (study.run(out)) {
-      PetscPrintf(comm, "hyperqn: error: the study failed (see PETSc's message above)\n");
+      PetscPrintf(comm, "hyperqn: error: the study failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
     out.finish();

@@ -1,6 +1,6 @@
-// PETSc errors while a scene and its solvers are set up, said as a user reads them: PETSc's own
-// message, and the option it is about (with its deck line when it came from the deck's petsc:
-// section), instead of a stack trace. Most such errors are bad option values.
+// PETSc errors while a scene is set up or run, said as a user reads them: PETSc's own message,
+// and the option it is about (with its deck line when it came from the deck's petsc: section),
+// instead of a stack trace. Most such errors are bad option values.
 #pragma once
 #include <petscsys.h>
 
@@ -10,12 +10,12 @@
 
 namespace hyperqn {
 
-class SetupErrors {
+class PetscErrors {
  public:
-  SetupErrors();   // from here on PETSc errors are recorded, not printed
-  ~SetupErrors();  // PETSc's own handler again
-  SetupErrors(const SetupErrors&) = delete;
-  SetupErrors& operator=(const SetupErrors&) = delete;
+  PetscErrors();   // from here on PETSc errors are recorded, not printed
+  ~PetscErrors();  // PETSc's own handler again
+  PetscErrors(const PetscErrors&) = delete;
+  PetscErrors& operator=(const PetscErrors&) = delete;
 
   // e.g. "option -tao_ls_type (deck.yaml:12): PETSc: Unable to find requested TaoLineSearch type x"
   std::string describe(const Deck& deck) const;

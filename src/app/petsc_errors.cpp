@@ -1,4 +1,4 @@
-#include "app/setup_errors.hpp"
+#include "app/petsc_errors.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -6,13 +6,13 @@
 
 namespace hyperqn {
 
-SetupErrors::SetupErrors() { PetscPushErrorHandler(record, this); }
+PetscErrors::PetscErrors() { PetscPushErrorHandler(record, this); }
 
-SetupErrors::~SetupErrors() { PetscPopErrorHandler(); }
+PetscErrors::~PetscErrors() { PetscPopErrorHandler(); }
 
-PetscErrorCode SetupErrors::record(MPI_Comm, int, const char* function, const char*, PetscErrorCode n,
+PetscErrorCode PetscErrors::record(MPI_Comm, int, const char* function, const char*, PetscErrorCode n,
                                    PetscErrorType type, const char* message, void* ctx) {
-  auto* self = static_cast<SetupErrors*>(ctx);
+  auto* self = static_cast<PetscErrors*>(ctx);
   if (type == PETSC_ERROR_INITIAL && self->message_.empty()) {  // the cause, not the calls it went through
     self->message_ = message ? message : "";
     self->function_ = function ? function : "";
@@ -20,7 +20,7 @@ PetscErrorCode SetupErrors::record(MPI_Comm, int, const char* function, const ch
   return n;
 }
 
-std::string SetupErrors::describe(const Deck& deck) const {
+std::string PetscErrors::describe(const Deck& deck) const {
   if (message_.empty()) return "a PETSc error on another rank";
   std::string text = "PETSc: " + message_ + " (in " + function_ + ")";
   // The option whose value the message quotes: "-name value" pairs of the options database.
