@@ -26,6 +26,12 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   if (h0_) PetscCall(TaoLMVMSetH0(tao_, h0_->inverse_operator()));
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
   PetscCall(set_default_option("-tao_lmvm_mat_lmvm_hist_size", std::to_string(spec.history)));
+  // The option may come from the user too: PETSc crashes on a negative size and allocates
+  // without bound on a huge one, so check it before TAO reads it.
+  PetscInt history = spec.history;
+  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-tao_lmvm_mat_lmvm_hist_size", &history, nullptr));
+  PetscCheck(history >= 0 && history <= kMaxHistory, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+             "the L-BFGS history %" PetscInt_FMT " must be in [0, %d]", history, kMaxHistory);
   PetscCall(finish_setup());
   // Allocate TAO's work space now, so the first frame's timing holds only its iterations.
   Vec x;

@@ -4,6 +4,10 @@
 
 namespace hyperqn {
 
+// The most L-BFGS pairs a run may keep (the deck's history, or the option that sets it): each
+// holds two vectors of all unknowns, and the paper uses 5.
+inline constexpr int kMaxHistory = 1000;
+
 struct SolverSpec {
   std::string type = "lbfgs";        // lbfgs | lbfgs-identity | newton | pd
   int iterations = 10;               // per frame

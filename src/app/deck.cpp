@@ -39,7 +39,6 @@ const Names kNewtonHessians = {"projected", "exact"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
 constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
-constexpr int kMaxHistory = 1000;         // L-BFGS pairs: each holds two vectors of all dofs
 constexpr int kMaxIterations = 1000000;   // per frame
 constexpr int kMaxFrames = 100000000;
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32

@@ -20,6 +20,8 @@ PetscErrorCode PetscErrors::record(MPI_Comm, int, const char* function, const ch
   return n;
 }
 
+std::string PetscErrors::describe() const { return describe(Deck()); }
+
 std::string PetscErrors::describe(const Deck& deck) const {
   if (message_.empty()) return "a PETSc error on another rank";
   std::string text = "PETSc: " + message_ + " (in " + function_ + ")";

@@ -19,6 +19,7 @@ class PetscErrors {
 
   // e.g. "option -tao_ls_type (deck.yaml:12): PETSc: Unable to find requested TaoLineSearch type x"
   std::string describe(const Deck& deck) const;
+  std::string describe() const;  // no deck (yet): every option counts as the command line's
 
  private:
   static PetscErrorCode record(MPI_Comm, int, const char* function, const char*, PetscErrorCode, PetscErrorType type,

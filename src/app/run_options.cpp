@@ -2,12 +2,27 @@
 
 #include <cmath>
 
+#include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
 #include "terms/nan_injection.hpp"
 
 namespace hyperqn {
 
+// The PetscOptionsBegin block itself (PETSc errors on a value that is not a number).
+static PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o);
+
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
+  PetscFunctionBeginUser;
+  PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
+  if (parse_run_options(comm, o)) throw InputError(errors.describe());
+  // Every rank reads the same options, so every rank throws alike.
+  if (!std::isfinite(o->divergence_limit))
+    throw InputError("option -hyperqn_divergence_limit: must be a finite number (<= 0 turns the check off)");
+  if (!std::isfinite(o->nan_beyond)) throw InputError("option -hyperqn_test_nan_energy_beyond: must be a finite number");
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, nullptr, "hyperqn options", "hyperqn");
   PetscCall(PetscOptionsReal("-hyperqn_divergence_limit",
@@ -20,10 +35,6 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
   PetscOptionsEnd();
-  // Every rank reads the same options, so every rank throws alike.
-  if (!std::isfinite(o->divergence_limit))
-    throw InputError("option -hyperqn_divergence_limit: must be a finite number (<= 0 turns the check off)");
-  if (!std::isfinite(o->nan_beyond)) throw InputError("option -hyperqn_test_nan_energy_beyond: must be a finite number");
   PetscFunctionReturn(0);
 }
 

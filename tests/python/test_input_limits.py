@@ -155,6 +155,10 @@ OPTION_ERRORS = {
                               "TaoLineSearch type"]),
     "bad_tao_type": (None, ["-tao_type", "bogus"], ["option -tao_type bogus (command line)", "Tao type bogus"]),
     "mumps_icntl_text": (None, ["-h0_mat_mumps_icntl_14", "abc"], ["option -h0_mat_mumps_icntl_14 abc (command line)"]),
+    # found by scripts/fuzz.py: PETSc crashed on a negative history and allocated without bound on a huge one
+    "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
+    "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
+    "divergence_limit_text": (None, ["-hyperqn_divergence_limit", "unit"], ["option -hyperqn_divergence_limit unit"]),
 }
 
 
