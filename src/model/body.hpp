@@ -23,7 +23,6 @@ class Body {
   Body& operator=(const Body&) = delete;
 
   const DistributedMesh& mesh() const { return mesh_; }
-  const std::vector<std::unique_ptr<EnergyTerm>>& terms() const { return terms_; }
   // True if every term is exactly a Projective Dynamics energy with its own L.
   bool projective_dynamics_exact() const;
   std::string material_names() const;  // the terms' names, e.g. "corotated, neohookean, strand"

@@ -41,7 +41,6 @@ class ImplicitEuler : public Objective {
   // prescribed positions at t_{n+1}, y is formed, the energy terms update for the step, and s.x
   // becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and undo_step.
   PetscErrorCode begin_step(State& s);
-  Vec inertial_target() const { return y_; }
   // The initial guess again, from x_n (when g is not finite at y).
   PetscErrorCode restart_from_previous(State& s) const { return VecCopy(x_n_, s.x); }
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
