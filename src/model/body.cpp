@@ -9,8 +9,6 @@ namespace hyperqn {
 
 Body::Body(const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>> terms)
     : mesh_(mesh), terms_(std::move(terms)) {
-  Dm_inv_.resize(mesh.num_cells);
-  for (PetscInt c = 0; c < mesh.num_cells; ++c) Dm_inv_[c] = edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).inverse();
   double local_mass = 0;
   for (const auto& t : terms_) local_mass += t->local_mass();
   MPI_Allreduce(&local_mass, &total_mass_, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
@@ -111,7 +109,8 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
 void Body::cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const {
   J.resize(mesh_.num_cells);
   for (PetscInt c = 0; c < mesh_.num_cells; ++c)
-    J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv_[c]).determinant();
+    J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * edge_matrix(mesh_.rest.data(), &mesh_.cells[4 * c]).inverse())
+               .determinant();  // per output frame only: not worth a stored copy of the terms' Dm^{-1}
 }
 
 bool Body::bounds_steps() const {

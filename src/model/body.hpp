@@ -67,7 +67,6 @@ class Body {
 
   const DistributedMesh& mesh_;
   std::vector<std::unique_ptr<EnergyTerm>> terms_;
-  std::vector<Mat3> Dm_inv_;         // per local cell: inverse rest edge matrix (for J)
   double total_mass_ = 0;
   std::vector<BoxRegion> fixed_regions_;
   std::vector<double> fixed_pos_;    // 3 per local vertex: prescribed positions (free: unused)
