@@ -8,13 +8,14 @@ namespace hyperqn {
 
 GuardedTaoSolver::~GuardedTaoSolver() {
   TaoDestroy(&tao_);
-  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_}) VecDestroy(v);
+  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_, &step_work_}) VecDestroy(v);
 }
 
 PetscErrorCode GuardedTaoSolver::create_tao(const SolverSpec& spec, TaoType type, bool line_search) {
   PetscFunctionBeginUser;
   line_search_ = line_search;
-  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_}) PetscCall(VecDuplicate(step_.layout(), v));
+  max_iterations_ = spec.max_iterations;
+  for (Vec* v : {&last_x_, &grad_, &dir_, &rejected_trial_, &step_work_}) PetscCall(VecDuplicate(step_.layout(), v));
   PetscCall(TaoCreate(PetscObjectComm((PetscObject)step_.layout()), &tao_));
   PetscCall(TaoSetType(tao_, type));
   requested_type_ = type;
@@ -43,6 +44,10 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   }
   PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
   PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
+  SolverSpec budget_spec;
+  budget_spec.max_iterations = max_iterations_;
+  budget_spec.grad_rtol = gttol_;
+  budget_ = FrameBudget(budget_spec, (int)max_it_);
   PetscFunctionReturn(0);
 }
 
@@ -67,11 +72,20 @@ PetscErrorCode GuardedTaoSolver::report(PetscInt iteration, Vec x, PetscReal f, 
   r.grad_norm = gnorm;
   r.step = iteration == 0 ? 0.0 : step;  // NTR reports its trust-region radius as the step
   r.evaluations = step_.evaluations();
+  last_step_ = 0;
+  if (iteration > 0 && iteration >= budget_.budget) {  // only the tests past the budget need it
+    PetscCall(VecWAXPY(step_work_, -1.0, last_x_, x));
+    PetscCall(VecNorm(step_work_, NORM_INFINITY, &last_step_));
+  }
   PetscCall(VecCopy(x, last_x_));
+  last_decrease_ = iteration == 0 ? 0.0 : last_f_ - f;
   last_f_ = f;
   last_gnorm_ = gnorm;
   reported_ = iteration;
-  if (iteration == 0) gnorm0_ = gnorm;
+  if (iteration == 0) {
+    gnorm0_ = gnorm;
+    f0_ = f;
+  }
   *stop = on_iteration_ && *on_iteration_ && (*on_iteration_)(r);
   PetscFunctionReturn(0);
 }
@@ -99,20 +113,37 @@ PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
 }
 
 // TAO's own test, plus: a stop the iteration callback asked for; a rejected point ends the solve
-// (solve() takes over); after a recovery the relative tolerance stays relative to the frame's
-// first gradient (TAO's gttol would restart from the resumed point's).
+// (solve() takes over); the relative tolerance also holds against the step's force scale
+// (frame_budget.hpp), and after a recovery stays relative to the frame's first gradient (TAO's
+// gttol would restart from the resumed point's); past the budget the frame goes on while it is
+// far from converged, up to the cap.
 PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   auto* self = static_cast<GuardedTaoSolver*>(ctx);
   TaoConvergedReason reason;
   PetscReal gnorm;
+  PetscInt it;
+  Vec x;
+  double scale = -1;  // the force scale at x, once needed
   PetscFunctionBeginUser;
   PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
-  PetscCall(TaoGetSolutionStatus(tao, nullptr, nullptr, &gnorm, nullptr, nullptr, &reason));
+  PetscCall(TaoGetSolutionStatus(tao, &it, nullptr, &gnorm, nullptr, nullptr, &reason));
+  PetscCall(TaoGetSolution(tao, &x));
+  const double gnorm0 = self->gnorm0_;
+  const FrameBudget& budget = self->budget_;
   if (self->bad_point_) {
     PetscCall(TaoSetConvergedReason(tao, self->reported_ < 0 ? TAO_DIVERGED_NAN : TAO_DIVERGED_LS_FAILURE));
-  } else if (self->restarted_ && reason == TAO_CONTINUE_ITERATING && self->gnorm0_ != 0 &&
-             gnorm / self->gnorm0_ < self->gttol_) {
-    PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_GTTOL));
+  } else if (reason == TAO_CONVERGED_GTTOL ||
+             (self->restarted_ && reason == TAO_CONTINUE_ITERATING && budget.relative(gnorm, gnorm0))) {
+    PetscCall(self->step_.force_scale(x, &scale));
+    PetscCall(TaoSetConvergedReason(tao, budget.converged(gnorm, gnorm0, scale) ? TAO_CONVERGED_GTTOL
+                                                                                 : TAO_CONTINUE_ITERATING));
+  }
+  PetscCall(TaoGetConvergedReason(tao, &reason));
+  if (!self->bad_point_ && (reason == TAO_CONTINUE_ITERATING || reason == TAO_DIVERGED_MAXITS) &&
+      self->reported_ >= budget.budget) {
+    if (scale < 0) PetscCall(self->step_.force_scale(x, &scale));
+    PetscCall(TaoSetConvergedReason(tao, budget.spent(self->progress(), scale, self->step_.length_scale()) ? TAO_DIVERGED_MAXITS
+                                                                               : TAO_CONTINUE_ITERATING));
   }
   if (self->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   PetscFunctionReturn(0);
@@ -141,7 +172,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
   reported_ = -1;
   start_ = MPI_Wtime();
   PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, gttol_));
-  PetscCall(TaoSetMaximumIterations(tao_, max_it_));
+  PetscCall(TaoSetMaximumIterations(tao_, budget_.cap));
   PetscInt last_retry = -1;  // iteration index of the last retry()
   for (;;) {
     have_rejected_trial_ = false;
@@ -176,15 +207,19 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
       reason = TAO_CONVERGED_USER;
       break;
     }
-    if (reported_ >= max_it_) {
-      reason = TAO_DIVERGED_MAXITS;
-      break;
+    if (reported_ >= budget_.budget) {
+      double scale;
+      PetscCall(step_.force_scale(x, &scale));
+      if (budget_.spent(progress(), scale, step_.length_scale())) {
+        reason = TAO_DIVERGED_MAXITS;
+        break;
+      }
     }
     // Resume: a new TaoSolve, whose first point is this one.
     offset_ = reported_;
     restarted_ = true;
     PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, 0.0));  // gttol: convergence_test
-    PetscCall(TaoSetMaximumIterations(tao_, max_it_ - offset_));
+    PetscCall(TaoSetMaximumIterations(tao_, budget_.cap - offset_));
   }
   on_iteration_ = nullptr;
   if (reported_ < 0) {
@@ -196,6 +231,11 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
   result.iterations = reported_;
   result.energy = last_f_;
   result.grad_norm = last_gnorm_;
+  result.grad_norm0 = gnorm0_;
+  result.energy0 = f0_;
+  result.last_decrease = last_decrease_;
+  result.last_step = last_step_;
+  result.extended = reported_ > budget_.budget;
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
   result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
   result.reason = reason_text(reason);

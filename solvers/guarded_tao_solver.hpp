@@ -4,6 +4,7 @@
 #pragma once
 #include <petsctao.h>
 
+#include "solvers/frame_budget.hpp"
 #include "solvers/solver_spec.hpp"
 #include "solvers/objective.hpp"
 #include "solvers/time_step_solver.hpp"
@@ -36,6 +37,10 @@ class GuardedTaoSolver : public TimeStepSolver {
   static PetscErrorCode convergence_test(Tao tao, void* ctx);
   // Records x as the frame's iteration and reports it; *stop: the callback asks to stop.
   PetscErrorCode report(PetscInt iteration, Vec x, PetscReal f, PetscReal gnorm, double step, bool* stop);
+  // The frame so far, at the last iterate reported.
+  FrameProgress progress() const {
+    return {(int)reported_, f0_, last_f_, last_decrease_, gnorm0_, last_gnorm_, false, last_step_};
+  }
 
   std::string requested_type_, overridden_;  // TAO type asked for; what the options made of it
   bool line_search_ = true;  // NTR has none: it shrinks its radius past a rejected trial and goes on
@@ -43,6 +48,8 @@ class GuardedTaoSolver : public TimeStepSolver {
   // -tao_grtol, -tao_gttol, -tao_max_it): solve() changes them while it resumes a frame.
   PetscReal gatol_ = 0, grtol_ = 0, gttol_ = 0;
   PetscInt max_it_ = 0;
+  int max_iterations_ = 0;  // the deck's fallback cap (SolverSpec::max_iterations)
+  FrameBudget budget_;      // max_it_ as the budget, gttol_ as grad_rtol
   const IterationCallback* on_iteration_ = nullptr;
   double start_ = 0;
   bool stop_requested_ = false;
@@ -51,7 +58,8 @@ class GuardedTaoSolver : public TimeStepSolver {
   // which solve() backtracks when TAO's line search stops at it (More-Thuente does).
   Vec last_x_ = nullptr, rejected_trial_ = nullptr;
   bool have_rejected_trial_ = false;
-  PetscReal last_f_ = 0, last_gnorm_ = 0, gnorm0_ = 0;
+  PetscReal last_f_ = 0, last_gnorm_ = 0, gnorm0_ = 0, f0_ = 0, last_decrease_ = 0, last_step_ = 0;
+  Vec step_work_ = nullptr;
   PetscInt offset_ = 0;     // this frame's iterations before the current TaoSolve (after a recovery)
   PetscInt reported_ = -1;  // index of the last iteration reported in this frame
   bool restarted_ = false;  // the current TaoSolve resumes the frame after a recovery

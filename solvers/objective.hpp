@@ -27,6 +27,13 @@ class Objective {
   virtual PetscInt evaluations() const = 0;           // since reset_evaluations()
   virtual void reset_evaluations() = 0;
   virtual PetscInt rejected_evaluations() const = 0;  // over the whole run
+  // The force scale of the solvers' stopping tests (solvers/frame_budget.hpp) at x:
+  // S = max(||M (x - y)||, W), the impulse over the step of the forces acting (at the answer the
+  // elastic forces balance M (x - y)), at least W, the body's own weight's (standard gravity, even
+  // where the scene has none, so that a free body at rest has a scale too). Collective.
+  virtual PetscErrorCode force_scale(Vec x, double* scale) = 0;
+  // The rest bounding-box diagonal D of the body: the length scale of the same tests.
+  virtual double length_scale() const = 0;
 
   // Largest alpha <= *alpha such that x + alpha dir is admissible (energy terms that bound steps,
   // e.g. contact); bounds_steps() is false when no term does, and then nothing need be asked.

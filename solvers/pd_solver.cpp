@@ -4,6 +4,7 @@
 #include <string>
 #include <utility>
 
+#include "solvers/frame_budget.hpp"
 #include "solvers/line_search.hpp"
 
 namespace hyperqn {
@@ -29,7 +30,8 @@ PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
   // The step is PD's local-global step only if A was built with the material's own weight
   // (2 mu for ARAP, k for springs); a deck's laplacian_weight override makes it an approximation again.
   exact_ = step_.projective_dynamics_exact();
-  if (exact_) {
+  if (spec.quiet) {
+  } else if (exact_) {
     PetscCall(PetscPrintf(comm, "pd: %s is a Projective Dynamics energy (ARAP, or springs): exact local-global "
                                 "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
                           step_.energy_names().c_str()));
@@ -50,10 +52,19 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   PetscReal g, gnorm, gnorm0, g_trial = 0;
   PetscInt k = 0;
   double alpha = 0;
+  FrameProgress progress;  // as of the last report
   PetscFunctionBeginUser;
   step_.reset_evaluations();
   const double start = MPI_Wtime();
   const auto report = [&]() {
+    progress.last_decrease = k == 0 ? 0.0 : progress.g - g;
+    progress.iterations = (int)k;
+    progress.g = g;
+    progress.gnorm = gnorm;
+    if (k == 0) {
+      progress.g0 = g;
+      progress.gnorm0 = gnorm;
+    }
     IterationRecord r;
     r.iteration = k;
     r.time_s = MPI_Wtime() - start;
@@ -65,6 +76,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   };
 
   result = FrameResult{};
+  const FrameBudget budget(spec_, spec_.iterations);
   PetscCall(step_.objective(x, &g, grad_));
   PetscCall(VecNorm(grad_, NORM_2, &gnorm));
   gnorm0 = gnorm;
@@ -77,14 +89,17 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
       result.reason = "REJECTED_INITIAL_GUESS";
       break;
     }
-    // Same tests, in the same order and with the same (in)equalities as TAO's default
-    // convergence test, so pd and TAO's L-BFGS with m = 0 stop at the same iterate.
+    // Same tests, in the same order and with the same (in)equalities as GuardedTaoSolver's
+    // (TAO's default test with frame_budget.hpp's reference and budget), so pd and TAO's
+    // L-BFGS with m = 0 stop at the same iterate.
     if (gnorm <= spec_.grad_atol) {
       result.converged = true;
       result.reason = "CONVERGED_GATOL";
       break;
     }
-    if (gnorm0 != 0 && gnorm / gnorm0 < spec_.grad_rtol) {
+    double scale = -1;  // the force scale at x, once needed
+    if (budget.relative(gnorm, gnorm0)) PetscCall(step_.force_scale(x, &scale));
+    if (scale >= 0 && budget.converged(gnorm, gnorm0, scale)) {
       result.converged = true;
       result.reason = "CONVERGED_GTTOL";
       break;
@@ -93,7 +108,8 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
       result.reason = "STOPPED_BY_CALLER";
       break;
     }
-    if (k >= spec_.iterations) {
+    if (k >= budget.budget && scale < 0) PetscCall(step_.force_scale(x, &scale));
+    if (k >= budget.budget && budget.spent(progress, scale, step_.length_scale())) {
       result.reason = "MAX_ITERATIONS";
       break;
     }
@@ -139,6 +155,12 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
     }
     // Accept: the trial point's gradient is the next iteration's G (one evaluation per iteration).
     after_retry = false;
+    progress.last_step = 0;
+    if (k + 1 >= budget.budget) {  // only the tests past the budget need it
+      PetscReal d;
+      PetscCall(VecNorm(dir_, NORM_INFINITY, &d));
+      progress.last_step = alpha * d;
+    }
     PetscCall(VecCopy(trial_, x));
     std::swap(grad_, trial_grad_);
     g = g_trial;
@@ -149,6 +171,11 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   result.iterations = k;
   result.energy = g;
   result.grad_norm = gnorm;
+  result.grad_norm0 = gnorm0;
+  result.energy0 = progress.g0;
+  result.last_decrease = progress.last_decrease;
+  result.last_step = progress.last_step;
+  result.extended = k > budget.budget;
   PetscFunctionReturn(0);
 }
 

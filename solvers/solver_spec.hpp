@@ -19,6 +19,14 @@ struct SolverSpec {
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
   std::string linear_solver = "mumps";       // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact
+  // The fallback chain of a frame that ends far from converged (docs/guardrails.md#fallback):
+  // iterate on up to max_iterations, then redo the frame in 2, 4, ... 2^max_halvings sub-steps,
+  // then with Newton. max_iterations <= iterations, max_halvings = 0, newton_fallback = false
+  // turn the stages off one by one (the study does: its budgets are the paper's).
+  int max_iterations = 100;
+  int max_halvings = 3;
+  bool newton_fallback = true;
+  bool quiet = false;  // set up without a word (the chain's solvers: the run's own one has spoken)
 };
 
 }  // namespace hyperqn

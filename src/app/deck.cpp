@@ -40,6 +40,7 @@ const Names kNewtonHessians = {"projected", "exact"};
 constexpr double kLargestNumber = 1e100;
 constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
 constexpr int kMaxIterations = 1000000;   // per frame
+constexpr int kMaxHalvings = 10;          // of the time step in the fallback chain
 constexpr int kMaxFrames = 100000000;
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kMaxPetscOptions = 1000;      // petsc: section (a YAML alias bomb expands past it)
@@ -558,7 +559,8 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
-                   "newton_method", "linear_solver", "newton_hessian"});
+                   "newton_method", "linear_solver", "newton_hessian", "max_iterations", "max_halvings",
+                   "newton_fallback"});
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
     sv.iterations = r.integer(*x);
@@ -582,6 +584,16 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
   if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
   if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
+  if (const Value* x = s.find("max_iterations")) {
+    sv.max_iterations = r.integer(*x);
+    r.check(sv.max_iterations >= 0 && sv.max_iterations <= kMaxIterations, *x, "in [0, 1000000]");
+  }
+  if (const Value* x = s.find("max_halvings")) {
+    sv.max_halvings = r.integer(*x);
+    r.check(sv.max_halvings >= 0 && sv.max_halvings <= kMaxHalvings, *x,
+            "in [0, 10] (each halving may factor one more M + h^2 L)");
+  }
+  if (const Value* x = s.find("newton_fallback")) sv.newton_fallback = r.boolean(*x);
 }
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {

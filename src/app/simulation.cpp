@@ -12,6 +12,7 @@
 #include "app/petsc_errors.hpp"
 #include "io/log_events.hpp"
 #include "io/run_log.hpp"
+#include "model/fallback_chain.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
 #include "io/vtk_writer.hpp"
@@ -99,6 +100,7 @@ struct Run {
   LiveScene scene;
   State state;
   std::unique_ptr<TimeStepSolver> solver;
+  std::unique_ptr<FallbackChain> chain;  // around solver
   std::vector<std::unique_ptr<OutputWriter>> writers;
   IterationLog log;
   RunSummary summary;
@@ -134,8 +136,10 @@ struct Run {
   // scene, the old scene's counters go to the summary.
   PetscErrorCode rebind(const Scene& old_scene, Scene& fresh) {
     PetscFunctionBeginUser;
-    solver.reset();  // it refers to the old scene
+    chain.reset();  // they refer to the old scene
+    solver.reset();
     PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.factored.get(), solver));
+    chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver);
     summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
@@ -178,13 +182,16 @@ PetscErrorCode Run::time_loop(bool& ok) {
       if (!Objective::rejected(it.energy) && std::isfinite(it.grad_norm)) log.append(frame, it);  // never NaN
       return false;
     };
-    PetscCall(s.integrator->solve_step(*solver, state, log_iteration, step));
+    PetscCall(chain->solve_frame(state, log_iteration, step));
     const FrameResult& r = step.result;
     if (step.restarted)
       PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; started again from x_n\n", frame));
     const double ms = 1e3 * step.seconds;
     summary.evaluations += step.evaluations;
-    summary.iterations += r.iterations;
+    summary.iterations += step.iterations;
+    summary.extended_frames += step.extended;
+    summary.substepped_frames += step.substeps > 1;
+    summary.newton_frames += step.newton;
     summary.converged_frames += r.converged;
     summary.failed_frames += r.failed;
     summary.ls_failures += r.ls_failures;
@@ -210,6 +217,9 @@ PetscErrorCode Run::time_loop(bool& ok) {
     }
 
     std::string note;
+    if (step.substeps > 1) note += "  [" + std::to_string(step.substeps) + " sub-steps]";
+    if (step.newton) note += "  [newton fallback]";
+    if (step.iterations != r.iterations) note += "  [" + std::to_string(step.iterations) + " iterations in all]";
     if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
     if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
     if (finite_g)
@@ -219,7 +229,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
                             r.reason.c_str(), note.c_str()));
     if (why.empty()) {
-      PetscCall(s.integrator->end_step(state));
+      PetscCall(s.integrator->end_step(state, step.velocity));
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;
@@ -280,6 +290,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
       return 1;
     }
   }
+  run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver);
   const Scene& scene = run.scene.current();
   RunSummary& summary = run.summary;
   summary.deck = deck.path;

@@ -41,6 +41,9 @@ struct RunSummary {
   // the solver's reason.
   long long ls_failures = 0, rejected_evaluations = 0;
   std::vector<std::pair<int, std::string>> flagged_frames;
+  // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that
+  // were solved in sub-steps, and by Newton.
+  long long extended_frames = 0, substepped_frames = 0, newton_frames = 0;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
 };

@@ -33,6 +33,21 @@ PetscErrorCode ImplicitEuler::setup() {
   PetscCall(VecGetArray(gravity_step_, &a));
   for (PetscInt i = lo; i < hi; ++i) a[i - lo] = dt_ * dt_ * gravity_[i % 3];
   PetscCall(VecRestoreArray(gravity_step_, &a));
+  // W = h^2 g0 sqrt(sum of m_i^2 over free vertices) (force_scale); the mass vector repeats m_i
+  // three times.
+  constexpr double kStandardGravity = 9.80665;
+  PetscReal mass_norm;
+  PetscCall(VecNorm(mass_, NORM_2, &mass_norm));
+  weight_scale_ = dt_ * dt_ * kStandardGravity * mass_norm / std::sqrt(3.0);
+  diagonal_ = rest_diagonal(body_.mesh());
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const {
+  PetscFunctionBeginUser;
+  const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
+  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, inertial_warm_start_);
+  PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }
 
@@ -58,21 +73,27 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
   PetscCall(event_begin(&LogEvents::step));
   PetscCall(solver.solve(s.x, on_iteration, out.result));
   out.evaluations = evaluations_;
+  out.iterations = out.result.iterations;
   if (inertial_warm_start_ && out.result.reason == "REJECTED_INITIAL_GUESS") {
     out.restarted = true;
     PetscCall(restart_from_previous(s));
     PetscCall(solver.solve(s.x, on_iteration, out.result));
     out.evaluations += evaluations_;
+    out.iterations += out.result.iterations;
   }
   PetscCall(event_end(&LogEvents::step));
   out.seconds = event_seconds(log_events().step) - before;
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::end_step(State& s) {
+PetscErrorCode ImplicitEuler::end_step(State& s, Vec velocity) {
   PetscFunctionBeginUser;
-  PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
-  PetscCall(VecScale(s.v, (1.0 - damping_) / dt_));
+  if (velocity) {
+    PetscCall(VecCopy(velocity, s.v));
+  } else {
+    PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
+    PetscCall(VecScale(s.v, (1.0 - damping_) / dt_));
+  }
   ++s.frame;
   s.time = s.frame * dt_;
   PetscFunctionReturn(0);
@@ -122,6 +143,16 @@ PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
     PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
   }
   PetscCall(event_end(&LogEvents::objective));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ImplicitEuler::force_scale(Vec x, double* scale) {
+  PetscReal inertia;
+  PetscFunctionBeginUser;
+  PetscCall(VecWAXPY(diff_, -1.0, y_, x));
+  PetscCall(VecPointwiseMult(work_, diff_, mass_));
+  PetscCall(VecNorm(work_, NORM_2, &inertia));
+  *scale = std::fmax(inertia, weight_scale_);
   PetscFunctionReturn(0);
 }
 

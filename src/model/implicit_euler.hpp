@@ -7,6 +7,7 @@
 #include <petscvec.h>
 
 #include <array>
+#include <memory>
 
 #include "model/body.hpp"
 #include "model/state.hpp"
@@ -21,6 +22,13 @@ struct StepSolve {
   PetscInt evaluations = 0;      // of g / grad g, over both solves if there were two
   double seconds = 0;            // wall time of the solve(s)
   bool restarted = false;        // g was not finite at y: solved again from x_n
+  // The fallback chain (model/fallback_chain.hpp): iterations over every attempt, and which
+  // stage produced the step. With sub-steps, velocity is the last sub-step's (for end_step).
+  PetscInt iterations = 0;
+  bool extended = false;         // iterated past the budget
+  int substeps = 1;              // solved in this many sub-steps
+  bool newton = false;           // solved by the Newton fallback
+  Vec velocity = nullptr;
 };
 
 class ImplicitEuler : public Objective {
@@ -32,6 +40,9 @@ class ImplicitEuler : public Objective {
   ImplicitEuler(const ImplicitEuler&) = delete;
   ImplicitEuler& operator=(const ImplicitEuler&) = delete;
   PetscErrorCode setup();  // mass vector, work vectors
+  // The same body and settings with h / parts (damping per sub-step so that `parts` of them damp
+  // as one step does), set up: for the fallback chain's sub-steps.
+  PetscErrorCode create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const;
 
   Body& body() { return body_; }
   double dt() const { return dt_; }
@@ -46,8 +57,9 @@ class ImplicitEuler : public Objective {
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
   // elements of a material without an extension), once more from x_n. Then end_step or undo_step.
   PetscErrorCode solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration, StepSolve& out);
-  // Completes the step with the solver's s.x: v, frame and time advance.
-  PetscErrorCode end_step(State& s);
+  // Completes the step with the solver's s.x: v (or a copy of velocity, if given: the last
+  // sub-step's), frame and time advance.
+  PetscErrorCode end_step(State& s, Vec velocity = nullptr);
   // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
   PetscErrorCode undo_step(State& s);
 
@@ -57,6 +69,8 @@ class ImplicitEuler : public Objective {
   PetscInt evaluations() const override { return evaluations_; }
   void reset_evaluations() override { evaluations_ = 0; }
   PetscInt rejected_evaluations() const override { return rejected_; }
+  PetscErrorCode force_scale(Vec x, double* scale) override;
+  double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3) const override;
@@ -73,6 +87,8 @@ class ImplicitEuler : public Objective {
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
   PetscInt evaluations_ = 0, rejected_ = 0;
+  double weight_scale_ = 0;  // W of force_scale()
+  double diagonal_ = 0;      // length_scale()
 };
 
 }  // namespace hyperqn

@@ -38,6 +38,11 @@ def event_count(log_text, event):
     return int(m.group(1)) if m else 0
 
 
+# solver keys that turn the fallback chain off (docs/guardrails.md#fallback): for the tests of
+# what happens to a frame or a run that the chain would otherwise rescue.
+NO_FALLBACK = {"max_iterations": 0, "max_halvings": 0, "newton_fallback": False}
+
+
 def write_deck(path, deck):
     return decks.write_deck(path, deck)
 

@@ -1,11 +1,12 @@
 """Reproducers of bad input found by fuzzing (issue "never fail"): each ends with exit 1, a message
 naming the file, line and key (or the option), and nothing written; options that change a run's
 meaning are said, not swallowed."""
+import copy
 import json
 
 import pytest
 
-from conftest import run_hyperqn, write_deck
+from conftest import NO_FALLBACK, run_hyperqn, write_deck
 from test_bad_input import GOOD, assert_clean_failure, deck_with
 
 ALIAS_BOMB = """mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}}
@@ -61,12 +62,26 @@ def test_divergence_limit_must_be_finite(tmp_path, ranks):
 
 
 def test_a_solver_without_iterations_is_not_ok(tmp_path):
-    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    """-tao_max_it 0 with the fallback chain off: no frame is solved, and the status says so."""
+    deck = copy.deepcopy(GOOD)
+    deck.setdefault("solver", {}).update(NO_FALLBACK)
+    path = write_deck(tmp_path / "deck.yaml", deck)
     proc = run_hyperqn([path, "-o", tmp_path / "out", "-tao_max_it", "0"], ranks=None, check=False, timeout=60)
     with open(tmp_path / "out" / "summary.json") as f:
         summary = json.load(f)
     assert summary["status"].startswith("flagged: 2 of 2"), summary["status"]
     assert all("no iteration" in f["reason"] for f in summary["flagged_frames"]), summary["flagged_frames"]
+
+
+def test_a_zero_budget_is_made_up_by_the_fallback_chain(tmp_path):
+    """-tao_max_it 0 with the default chain: frames far from converged iterate on, so every frame
+    is solved (iterations past the budget, counted as extended) and the run is ok."""
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    run_hyperqn([path, "-o", tmp_path / "out", "-tao_max_it", "0"], ranks=None, timeout=60)
+    with open(tmp_path / "out" / "summary.json") as f:
+        summary = json.load(f)
+    assert summary["status"] == "ok" and summary["extended_frames"] == summary["frames"] == 2, summary
+    assert summary["iterations"] >= 2, summary
 
 
 @pytest.mark.parametrize("ranks", [None, 2])

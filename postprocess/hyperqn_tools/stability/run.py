@@ -9,8 +9,10 @@ import time
 from hyperqn_tools import launch
 from hyperqn_tools.decks import portable_copy, write_deck
 
+# The converged reference: full steps only (sub-steps of the fallback chain would change the time
+# discretization it is the reference of).
 REFERENCE_SOLVER = {"type": "newton", "newton_hessian": "exact", "iterations": 100, "grad_rtol": 1.0e-10,
-                    "grad_atol": 0.0}
+                    "grad_atol": 0.0, "max_halvings": 0, "newton_fallback": False}
 
 # A deck may state its expectation in a comment line "# stability: expect rest" (or "reference"),
 # overriding the automatic rule (rest when there is no gravity and no moving support): e.g.

@@ -1,0 +1,72 @@
+// When a frame's solve may stop, for every solver (the same tests, so that solvers compare).
+//
+// Converged. TAO's relative test ||grad g|| < grad_rtol ||grad g(x0)|| means little when the
+// initial guess is far off: a warm start y that inverts elements has ||grad g(x0)|| up to 1e15, and
+// "converged" was then reported at ||grad g|| = 5e8. So a frame is converged only when also
+// ||grad g|| <= kFloor S, S the force scale of the step (Objective::force_scale: the impulse of
+// the forces acting, at least the body's own weight's over a step): the residual force is at most
+// 0.1 % of the forces acting.
+//
+// Far from converged (the fallback chain goes on, model/fallback_chain.hpp), unless
+// ||grad g|| <= kFloor S (a residual that small is no reason to work on, e.g. a frame that started
+// almost at its answer and stalled at the round-off of g): the solver could not decrease g, or
+// ||grad g|| is above kFarGradient ||grad g(x0)||, or the last iteration still decreased g by more
+// than kFarDecrease of the frame's whole decrease so far (g is about quadratic near the answer:
+// a relative error of about sqrt(kFarDecrease) in the norm of the Hessian, whatever the
+// stiffness), or it still moved a dof by more than kFarStep D (D the body's rest diagonal). The
+// tests are relative to the frame and to the body's size, not to forces, so a stiff body, whose
+// ||grad g|| stays many times S while its positions are already right, is not "far" for that.
+#pragma once
+#include <algorithm>
+
+#include "solvers/solver_spec.hpp"
+
+namespace hyperqn {
+
+// Where a frame's solve stands after `iterations`.
+struct FrameProgress {
+  int iterations = 0;
+  double g0 = 0, g = 0;     // g at the initial guess and now
+  double last_decrease = 0; // g_{k-1} - g_k of the last iteration
+  double gnorm0 = 0, gnorm = 0;
+  bool failed = false;      // the solver could not decrease g further
+  double last_step = 0;     // largest dof change of the last iteration (computed past the budget only)
+};
+
+struct FrameBudget {
+  // Measured on the stability suite (docs/guardrails.md#fallback), after 10 lbfgs iterations:
+  // ||grad g|| / ||grad g(x0)|| is 2e-2 at most on the stiff, h <= 1/5 and thin cases (median
+  // 1e-2), 0.2 to 34 on those that ran away or ended far from the converged answer; the last
+  // decrease is at most 2e-3 of the frame's decrease on the former, 1e-2 to 0.2 on nu >= 0.49.
+  // kFarStep: 1e-3 left the random start running away, 1e-4 kept every case (docs).
+  static constexpr double kFarGradient = 0.1;
+  static constexpr double kFarDecrease = 1e-2;
+  static constexpr double kFarStep = 1e-4;
+  static constexpr double kFloor = 1e-3;
+
+  int budget = 10;     // iterations the deck gives a frame
+  int cap = 10;        // iterations a frame may take while it is far from converged
+  double rtol = 1e-6;  // the deck's grad_rtol
+
+  FrameBudget() = default;
+  FrameBudget(const SolverSpec& spec, int budget_iterations)
+      : budget(budget_iterations), cap(std::max(budget_iterations, spec.max_iterations)), rtol(spec.grad_rtol) {}
+
+  // TAO's relative test (strict, as TAO's) alone: a force scale is needed only when it holds.
+  bool relative(double gnorm, double gnorm0) const { return gnorm0 != 0 && gnorm / gnorm0 < rtol; }
+  bool converged(double gnorm, double gnorm0, double scale) const {
+    return relative(gnorm, gnorm0) && gnorm <= kFloor * scale;
+  }
+  // scale: the force scale S; length: the body's length scale D.
+  static bool far(const FrameProgress& p, double scale, double length) {
+    if (!(p.gnorm > kFloor * scale)) return false;
+    if (p.iterations == 0 || p.failed || p.gnorm > kFarGradient * p.gnorm0) return true;
+    return p.last_decrease > kFarDecrease * (p.g0 - p.g) || p.last_step > kFarStep * length;
+  }
+  // Past the budget: stop at the cap, or once the frame is not far from converged.
+  bool spent(const FrameProgress& p, double scale, double length) const {
+    return p.iterations >= cap || !far(p, scale, length);
+  }
+};
+
+}  // namespace hyperqn
