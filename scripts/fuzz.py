@@ -42,6 +42,9 @@ BASE = {
 }
 MESH = ("MeshVersionFormatted 1\nDimension 3\nVertices\n5\n0 0 0 1\n1 0 0 1\n0 1 0 1\n0 0 1 1\n1 1 1 1\n"
         "Tetrahedra\n2\n1 2 3 4 1\n2 3 4 5 2\nEdges\n1\n1 2 0\nEnd\n")
+GMSH = ("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 1 1\n1 0 0 0 1 1 1 0 0\n1 0 0 0 1 1 1 1 2 1 1\n"
+        "$EndEntities\n$Nodes\n1 5 1 5\n3 1 0 5\n1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+        "$Elements\n2 3 1 3\n2 1 2 1\n1 1 2 3\n3 1 4 2\n2 1 2 3 4\n3 2 3 4 5\n$EndElements\n")
 
 # Values a fuzzer tries anywhere: wrong types, edges of ranges, overflow, text, structure.
 ODD_VALUES = [0, -1, 1, 2147483647, -2147483648, 1e308, -1e308, 1e-320, float("nan"), float("inf"), 0.5, 1e100,
@@ -81,9 +84,9 @@ def mutate_deck(rng, deck):
     return d
 
 
-def mutate_mesh(rng):
+def mutate_mesh(rng, text):
     """A mesh text with a line changed, removed, duplicated or cut, or bytes flipped."""
-    lines = MESH.splitlines(keepends=True)
+    lines = text.splitlines(keepends=True)
     kind = rng.random()
     i = rng.randrange(len(lines))
     if kind < 0.25:
@@ -93,7 +96,7 @@ def mutate_mesh(rng):
     elif kind < 0.7:
         lines[i] = " ".join(str(rng.choice([0, -1, 7, 1e308, "nan", "x", 99999999999])) for _ in range(rng.randint(1, 6))) + "\n"
     elif kind < 0.85:
-        return "".join(lines)[: rng.randrange(len(MESH))]
+        return "".join(lines)[: rng.randrange(len(text))]
     else:
         text = bytearray("".join(lines), "utf-8")
         for _ in range(rng.randint(1, 5)):
@@ -105,17 +108,22 @@ def mutate_mesh(rng):
 def make_case(rng, k, casedir):
     """Writes case k's files into casedir; returns (command arguments, ranks, what was fuzzed)."""
     os.makedirs(casedir, exist_ok=True)
-    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "options"])
+    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "gmsh", "options"])
     if what == "deck":
         deck = mutate_deck(rng, deck)
     elif what == "mesh":
         with open(os.path.join(casedir, "fuzz.mesh"), "w") as f:
-            f.write(mutate_mesh(rng))
+            f.write(mutate_mesh(rng, MESH))
         deck["mesh"] = {"file": "fuzz.mesh", "edges": rng.choice(["ignore", "strands"])}
         deck["fixed"] = []
         deck["strand_material"] = {"axial_stiffness": 10, "linear_density": 0.1}
         if deck["mesh"]["edges"] == "ignore":
             deck.pop("strand_material")
+    elif what == "gmsh":
+        with open(os.path.join(casedir, "fuzz.msh"), "w") as f:
+            f.write(mutate_mesh(rng, GMSH))
+        deck["mesh"] = {"file": "fuzz.msh"}
+        deck["fixed"] = []
     else:
         for _ in range(rng.randint(1, 3)):
             args += [rng.choice(OPTIONS), rng.choice(OPTION_VALUES)]

@@ -222,7 +222,10 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
   const Value *file = s.find("file"), *box = s.find("box"), *strands = s.find("strands");
   if (file && box) r.fail(v, "give either file or box, not both");
   if (!file && !box && !strands) r.fail(v, "missing the mesh: give file (a .mesh or .msh path), box or strands");
-  if (file) m.file = resolve_mesh_file(r, *file, deck_dir);
+  if (file) {
+    m.file = resolve_mesh_file(r, *file, deck_dir);
+    m.line = file->line;
+  }
   if (const Value* x = s.find("edges")) {
     m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
     if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh"))
@@ -250,6 +253,7 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     const Value& cells = b.need("cells");
     m.box_size = r.numbers3(size);
     m.box_cells = r.integers3(cells);
+    m.line = cells.line;
     std::vector<Value> size_items = r.items(size), cells_items = r.items(cells);
     for (int i = 0; i < 3; ++i) {
       r.check(m.box_size[i] > 0, size_items[i], "> 0");

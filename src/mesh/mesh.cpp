@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "mesh/input_error.hpp"
+#include "mesh/text_tokens.hpp"
 
 namespace hyperqn {
 
@@ -19,87 +20,6 @@ namespace {
 
 // ---------------------------------------------------------------------------------------------
 // Medit reader
-
-// Whole file in memory: real meshes are a few MB, and scanning a buffer is much faster than
-// iostream extraction per token.
-std::string read_file(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw InputError(path, 0, "", std::string("cannot open mesh file: ") + std::strerror(errno));
-  std::string text;
-  char chunk[1 << 16];
-  size_t n;
-  while ((n = std::fread(chunk, 1, sizeof chunk, f)) > 0) text.append(chunk, n);
-  const bool failed = std::ferror(f);
-  const int err = errno;
-  std::fclose(f);
-  if (failed) throw InputError(path, 0, "", std::string("cannot read mesh file: ") + std::strerror(err));
-  return text;
-}
-
-struct Token {
-  const char* begin = nullptr;
-  const char* end = nullptr;
-  int line = 0;
-  std::string str() const { return std::string(begin, end); }
-  bool is(const char* s) const {
-    const size_t n = std::strlen(s);
-    return size_t(end - begin) == n && std::memcmp(begin, s, n) == 0;
-  }
-};
-
-// Splits the text into whitespace-separated tokens, dropping '#' comments and counting lines.
-class Tokenizer {
- public:
-  explicit Tokenizer(const std::string& text) : p_(text.data()), end_(text.data() + text.size()) {}
-
-  bool next(Token& t) {
-    skip_blank();
-    if (p_ == end_) return false;
-    t.begin = p_;
-    t.line = line_;
-    while (p_ != end_ && !is_space(*p_) && *p_ != '#') ++p_;
-    t.end = p_;
-    last_line_ = line_;
-    return true;
-  }
-  // Line of the last token read: where an unexpected end of file is reported.
-  int last_line() const { return last_line_; }
-
- private:
-  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
-  void skip_blank() {
-    while (p_ != end_) {
-      if (*p_ == '\n') {
-        ++line_;
-        ++p_;
-      } else if (is_space(*p_)) {
-        ++p_;
-      } else if (*p_ == '#') {
-        while (p_ != end_ && *p_ != '\n') ++p_;
-      } else {
-        return;
-      }
-    }
-  }
-  const char* p_;
-  const char* end_;
-  int line_ = 1;
-  int last_line_ = 1;
-};
-
-// The token is a whole number; strtod/strtoll stop at whitespace or '#', so they cannot read
-// past the token (the buffer is also NUL-terminated).
-bool parse_double(const Token& t, double& v) {
-  char* e = nullptr;
-  v = std::strtod(t.begin, &e);
-  return e == t.end && e != t.begin;
-}
-bool parse_int(const Token& t, long long& v) {
-  char* e = nullptr;
-  errno = 0;
-  v = std::strtoll(t.begin, &e, 10);
-  return e == t.end && e != t.begin && errno == 0;
-}
 
 // Tokens per record of the sections we skip; anything else is rejected so that a typo or an
 // unsupported section is reported instead of silently desynchronizing the stream.
@@ -118,7 +38,7 @@ int skipped_record_size(const Token& t) {
 class MeditReader {
  public:
   MeditReader(const std::string& path, const std::string& text, bool edges_as_strands)
-      : path_(path), tok_(text), text_size_(text.size()), edges_as_strands_(edges_as_strands) {}
+      : path_(path), tok_(text, '#'), text_size_(text.size()), edges_as_strands_(edges_as_strands) {}
 
   TetMesh read() {
     TetMesh mesh;
@@ -295,7 +215,7 @@ double distance(const double* p, const double* q) {
 }  // namespace
 
 TetMesh read_medit(const std::string& path, bool edges_as_strands) {
-  const std::string text = read_file(path);
+  const std::string text = read_text_file(path);
   return MeditReader(path, text, edges_as_strands).read();
 }
 

@@ -1,4 +1,4 @@
-// Gmsh .msh files, read through PETSc's reader (DMPlexCreateFromFile) on one process.
+// Gmsh .msh files: MSH 4.1 (with or without $Entities) and 2.2, ASCII.
 #pragma once
 #include <string>
 
@@ -6,8 +6,12 @@
 
 namespace hyperqn {
 
-// Reads the tetrahedra of a Gmsh file (2.2 or 4.1 ASCII/binary). Element tags come from the
-// physical groups ("Cell Sets"). Throws InputError naming the file on failure.
+// Reads the nodes and the 4-node tetrahedra (type 4) of a Gmsh file; points, lines and
+// triangles (boundaries) are skipped, any other 3-D element is an error. A tet's tag is the
+// first physical tag of its element (2.2) or of its volume (4.1 with $Entities), else its volume
+// tag (4.1 without $Entities, as meshio writes). Vertex ids are the nodes' 0-based positions in
+// the file. Throws InputError naming the file, line and section for anything malformed,
+// binary files and MSH versions other than 2.x and 4.1 included.
 TetMesh read_gmsh(const std::string& path);
 
 }  // namespace hyperqn

@@ -13,6 +13,7 @@ struct MeshSpec {
   bool is_box = false;               // generated box instead of a file
   std::array<double, 3> box_size{1, 1, 1};
   std::array<int, 3> box_cells{1, 1, 1};
+  int line = 0;                      // deck line of mesh.box.cells or mesh.file (memory check)
   MeshTransform transform;           // applied to the file or box mesh (not to the strands below)
   bool edges_as_strands = false;     // Medit file: its Edges section becomes strand segments
   std::vector<StrandLine> strands;   // generated strands, world coordinates, after the transform

@@ -1,5 +1,6 @@
 #include "model/scene.hpp"
 
+#include <cstdio>
 #include <functional>
 
 #include "io/log_events.hpp"
@@ -8,6 +9,7 @@
 #include "model/regions.hpp"
 #include "mesh/input_error.hpp"
 #include "mesh/mesh_gmsh.hpp"
+#include "model/memory_estimate.hpp"
 
 namespace hyperqn {
 
@@ -39,6 +41,23 @@ void on_root(MPI_Comm comm, const std::function<void()>& fn) {
   throw InputError(error);
 }
 
+// Refuses a mesh of `vertices` vertices whose run would need more memory than there is
+// (estimated_run_bytes against memory_limit_bytes), naming the deck key that sets its size.
+void check_memory(MPI_Comm comm, const SceneSpec& deck, int64_t vertices) {
+  std::string source;
+  const double limit = memory_limit_bytes(&source);
+  int ranks;
+  MPI_Comm_size(comm, &ranks);
+  const double need = estimated_run_bytes(vertices, ranks);
+  if (limit <= 0 || need <= limit) return;
+  char msg[400];
+  std::snprintf(msg, sizeof msg,
+                "the run would need about %.0f MB of memory (estimate for %lld vertices at %d rank(s), docs/guardrails.md) "
+                "but %.0f MB are available (%s); use a coarser mesh",
+                need / 1048576.0, (long long)vertices, ranks, limit / 1048576.0, source.c_str());
+  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : "mesh.file", msg);
+}
+
 bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -49,8 +68,11 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
   TetMesh mesh;
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
-    if (spec.is_box)
+    if (spec.is_box) {
+      const auto& n = spec.box_cells;
+      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1));  // before generating it
       mesh = generate_box(spec.box_size, spec.box_cells);
+    }
     else if (ends_with(spec.file, ".msh"))
       mesh = read_gmsh(spec.file);
     else if (!spec.file.empty())
@@ -58,6 +80,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     apply_transform(mesh, spec.transform);
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
     const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    if (!spec.file.empty()) check_memory(comm, deck, mesh.num_vertices());  // before distributing and factoring it
     if (repaired) *repaired = report;
     if (mesh.num_tets() > 0 && !deck.has_material)
       throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +

@@ -185,3 +185,27 @@ def test_bad_option_values_are_named(tmp_path, case, ranks):
     proc = run_hyperqn([path, "-o", tmp_path / "out"] + options, ranks=ranks, check=False, timeout=60)
     assert_clean_failure(proc, tmp_path / "out", fragments)
     assert "PETSC ERROR" not in proc.stdout, "a PETSc trace instead of the message"
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_box_beyond_the_memory_is_refused(tmp_path, ranks):
+    # 400^3 cells (64 M vertices) need far more than any test machine has; nothing is allocated.
+    deck = deck_with(**{"mesh.box.cells": [400, 400, 400]})
+    path = write_deck(tmp_path / "huge.yaml", deck)
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode == 1, proc.stdout
+    assert_clean_failure(proc, tmp_path / "out", ["huge.yaml:", "'mesh.box.cells'", "MB of memory", "MemAvailable"])
+
+
+def test_memory_limit_from_the_environment(tmp_path, monkeypatch):
+    # 100^3 cells: about 17 GB by the estimate, refused under a 1000 MB limit; a small box passes.
+    monkeypatch.setenv("HYPERQN_MEMORY_LIMIT_MB", "1000")
+    path = write_deck(tmp_path / "big.yaml", deck_with(**{"mesh.box.cells": [100, 100, 100]}))
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1, proc.stdout
+    assert_clean_failure(proc, tmp_path / "out", ["big.yaml:", "'mesh.box.cells'", "1000 MB are available",
+                                                  "HYPERQN_MEMORY_LIMIT_MB"])
+    run_hyperqn([write_deck(tmp_path / "small.yaml", GOOD), "-o", tmp_path / "small"], ranks=None, timeout=60)
+    monkeypatch.setenv("HYPERQN_MEMORY_LIMIT_MB", "lots")
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["HYPERQN_MEMORY_LIMIT_MB", "'lots'"])
