@@ -57,7 +57,7 @@ SUBKEYS = {"mesh": ["box", "file", "transform", "edges", "strands"],
                         "kappa", "laplacian_weight", "fiber", "spring_stiffness", "f"],
            "time": ["dt", "frames", "damping"],
            "solver": ["type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
-                      "newton_method", "linear_solver", "newton_hessian"],
+                      "newton_method", "linear_solver", "newton_hessian", "h0"],
            "output": ["every", "vtk", "iterations_csv", "directory"]}
 OPTIONS = ["-tao_type", "-tao_ls_type", "-tao_max_it", "-tao_gatol", "-tao_lmvm_mat_lmvm_hist_size",
            "-h0_mat_mumps_icntl_7", "-h0_mat_mumps_icntl_14", "-hyperqn_divergence_limit", "-tao_ls_stepinit",

@@ -9,7 +9,7 @@ FactoredSystem::~FactoredSystem() {
   MatDestroy(&rhs_);
   MatDestroy(&sol_);
   MatDestroy(&factor_);
-  MatDestroy(&A1_);
+  MatDestroy(&A_);
 }
 
 static PetscErrorCode shell_solve(Mat S, Vec b, Vec x) {
@@ -28,33 +28,39 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const Objective& step) {
+PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
   MatFactorInfo info;
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
+  kind_ = kind;
+  const int components = kind == ConstantMatrix::laplacian ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
-  PetscCall(step.assemble_constant_matrix(&A1_, 1));
+  PetscCall(step.assemble_constant_matrix(&A_, components, kind));
   PetscCall(event_end(&LogEvents::h0_assembly));
 
   const double before = event_seconds(log_events().h0_factor);
   PetscCall(event_begin(&LogEvents::h0_factor));
-  PetscCall(MatGetFactor(A1_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
+  PetscCall(MatGetFactor(A_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
   PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
   PetscCall(MatSetFromOptions(factor_));
   PetscCall(MatFactorInfoInitialize(&info));
-  PetscCall(MatCholeskyFactorSymbolic(factor_, A1_, nullptr, &info));
-  PetscCall(MatCholeskyFactorNumeric(factor_, A1_, &info));
+  PetscCall(MatCholeskyFactorSymbolic(factor_, A_, nullptr, &info));
+  PetscCall(MatCholeskyFactorNumeric(factor_, A_, &info));
   PetscCall(event_end(&LogEvents::h0_factor));
   ++factorizations_;
   factor_s_ = event_seconds(log_events().h0_factor) - before;
 
-  MPI_Comm comm = PetscObjectComm((PetscObject)A1_);
-  PetscCall(MatGetLocalSize(A1_, &n, nullptr));
-  PetscCall(MatGetSize(A1_, &N, nullptr));
-  PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &rhs_));
-  PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &sol_));
-  m = 3 * n;
-  M = 3 * N;
+  MPI_Comm comm = PetscObjectComm((PetscObject)A_);
+  PetscCall(MatGetLocalSize(A_, &n, nullptr));
+  PetscCall(MatGetSize(A_, &N, nullptr));
+  m = n;
+  M = N;
+  if (components == 1) {
+    PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &rhs_));
+    PetscCall(MatCreateDense(comm, n, PETSC_DECIDE, N, 3, nullptr, &sol_));
+    m = 3 * n;
+    M = 3 * N;
+  }
   PetscCall(MatCreateShell(comm, m, m, M, M, this, &shell_));
   PetscCall(MatShellSetOperation(shell_, MATOP_SOLVE, (void (*)(void))shell_solve));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
@@ -92,21 +98,29 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::h0_solve));
-  PetscCall(copy_columns(b, rhs_, true));
-  PetscCall(MatMatSolve(factor_, rhs_, sol_));
-  PetscCall(copy_columns(x, sol_, false));
+  if (kind_ == ConstantMatrix::laplacian) {
+    PetscCall(copy_columns(b, rhs_, true));
+    PetscCall(MatMatSolve(factor_, rhs_, sol_));
+    PetscCall(copy_columns(x, sol_, false));
+  } else {
+    PetscCall(MatSolve(factor_, b, x));
+  }
   PetscCall(event_end(&LogEvents::h0_solve));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
   PetscFunctionBeginUser;
+  if (kind_ == ConstantMatrix::rest_stiffness) {
+    PetscCall(MatMult(A_, x, y));
+    PetscFunctionReturn(0);
+  }
   PetscCall(copy_columns(x, rhs_, true));
   for (PetscInt d = 0; d < 3; ++d) {
     Vec in, out;
     PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
     PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
-    PetscCall(MatMult(A1_, in, out));
+    PetscCall(MatMult(A_, in, out));
     PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
     PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
   }

@@ -1,9 +1,11 @@
-// The constant SPD matrix A = M + h^2 L of a scene, factored once by MUMPS Cholesky, then
-// applied as A^{-1} as often as needed (L-BFGS initial Hessian, PD global step).
+// The constant SPD matrix A of a scene, factored once by MUMPS Cholesky, then applied as A^{-1}
+// as often as needed (L-BFGS initial Hessian, PD global step).
 //
-// A = A1 (x) I3 (the same scalar matrix for x, y and z), so only the vertex matrix
+// A = M + h^2 L is A1 (x) I3 (the same scalar matrix for x, y and z), so only the vertex matrix
 // A1 = M1 + h^2 L1 is factored, and A^{-1} b is one solve with A1 for the three right-hand
 // sides b_x, b_y, b_z: a third of the unknowns and a ninth of the nonzeros of A.
+// A = M + h^2 K(x_rest) couples x, y and z: the full 3n x 3n matrix is factored and applied to b
+// as one vector.
 #pragma once
 #include <petscmat.h>
 
@@ -18,8 +20,9 @@ class FactoredSystem {
   FactoredSystem(const FactoredSystem&) = delete;
   FactoredSystem& operator=(const FactoredSystem&) = delete;
 
-  // Assembles A1 and computes its Cholesky factorization (the only factorization of a run).
-  PetscErrorCode setup(const Objective& step);
+  // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene).
+  PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian);
+  ConstantMatrix kind() const { return kind_; }
   // x = A^{-1} b (dof layout: x, y, z per free vertex).
   PetscErrorCode solve(Vec b, Vec x) const;
   // y = A x.
@@ -36,8 +39,9 @@ class FactoredSystem {
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
-  Mat A1_ = nullptr, factor_ = nullptr, shell_ = nullptr;
-  Mat rhs_ = nullptr, sol_ = nullptr;  // n x 3 dense work matrices
+  ConstantMatrix kind_ = ConstantMatrix::laplacian;
+  Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
+  Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   double factor_s_ = 0;
   int factorizations_ = 0;
 };

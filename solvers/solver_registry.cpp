@@ -22,20 +22,20 @@ PetscErrorCode set_up(const SolverSpec& spec, std::unique_ptr<TimeStepSolver>& s
 
 const std::vector<SolverInfo>& solver_registry() {
   static const std::vector<SolverInfo> solvers = {
-      {"lbfgs", "L-BFGS (TAO) with the factored M + h^2 L as initial inverse Hessian (Liu, Bouaziz & Kavan 2017)", true,
+      {"lbfgs", "L-BFGS (TAO) with the factored M + h^2 L (or solver.h0) as initial inverse Hessian (Liu, Bouaziz & Kavan 2017)", true, true,
        [](const SolverSpec& spec, Objective& g, const FactoredSystem* h0, std::unique_ptr<TimeStepSolver>& s) {
          return set_up<LbfgsSolver>(spec, s, g, h0);
        }},
-      {"lbfgs-identity", "L-BFGS (TAO) with TAO's own initial Hessian: the ablation of lbfgs", false,
+      {"lbfgs-identity", "L-BFGS (TAO) with TAO's own initial Hessian: the ablation of lbfgs", false, false,
        [](const SolverSpec& spec, Objective& g, const FactoredSystem*, std::unique_ptr<TimeStepSolver>& s) {
          return set_up<LbfgsSolver>(spec, s, g, nullptr);
        }},
       {"newton", "Newton (TAO NLS or NTR) with a per-element PSD fix (or the exact Hessian), MUMPS or CG + BoomerAMG",
-       false,
+       false, false,
        [](const SolverSpec& spec, Objective& g, const FactoredSystem*, std::unique_ptr<TimeStepSolver>& s) {
          return set_up<NewtonSolver>(spec, s, g);
        }},
-      {"pd", "Projective Dynamics / fast mass-springs: x <- x - A^{-1} grad g, exact steps for PD energies", true,
+      {"pd", "Projective Dynamics / fast mass-springs: x <- x - A^{-1} grad g, exact steps for PD energies", true, false,
        [](const SolverSpec& spec, Objective& g, const FactoredSystem* h0, std::unique_ptr<TimeStepSolver>& s) {
          return set_up<PdSolver>(spec, s, g, *h0);
        }},
@@ -60,13 +60,25 @@ bool solver_uses_constant_matrix(const std::string& type) {
   return s && s->uses_constant_matrix;
 }
 
+bool solver_takes_h0(const std::string& type) {
+  const SolverInfo* s = find_solver(type);
+  return s && s->takes_h0;
+}
+
+ConstantMatrix constant_matrix_of(const SolverSpec& spec) {
+  return solver_takes_h0(spec.type) && spec.h0 == "rest-stiffness" ? ConstantMatrix::rest_stiffness
+                                                                    : ConstantMatrix::laplacian;
+}
+
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   const SolverInfo* s = find_solver(spec.type);
   PetscFunctionBeginUser;
   PetscCheck(s, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "unknown solver type %s", spec.type.c_str());
-  PetscCheck(!s->uses_constant_matrix || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL, "solver %s needs the factored M + h^2 L",
+  PetscCheck(!s->uses_constant_matrix || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL, "solver %s needs its factored constant matrix",
              spec.type.c_str());
+  PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(spec), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "solver %s was given the wrong constant matrix", spec.type.c_str());
   PetscCall(s->create(spec, objective, h0, solver));
   PetscFunctionReturn(0);
 }

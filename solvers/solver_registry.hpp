@@ -16,8 +16,9 @@ namespace hyperqn {
 struct SolverInfo {
   std::string name;          // solver.type
   std::string summary;       // one line
-  bool uses_constant_matrix; // needs the factored M + h^2 L (so the scene factors it once)
-  // Creates and sets it up; h0 is the factored M + h^2 L (null unless uses_constant_matrix).
+  bool uses_constant_matrix; // needs a factored constant matrix (so the scene factors it once)
+  bool takes_h0;             // solver.h0 chooses that matrix; otherwise it is M + h^2 L
+  // Creates and sets it up; h0 is its factored constant matrix (null unless uses_constant_matrix).
   PetscErrorCode (*create)(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                            std::unique_ptr<TimeStepSolver>& solver);
 };
@@ -28,8 +29,12 @@ std::vector<std::string> solver_names();
 // The solver of that name, or null.
 const SolverInfo* find_solver(const std::string& name);
 
-// True if the solver needs the factored M + h^2 L (so the scene factors it once).
+// True if the solver needs a factored constant matrix (so the scene factors it once).
 bool solver_uses_constant_matrix(const std::string& type);
+// True if solver.h0 chooses that matrix for this solver (lbfgs); pd is defined by M + h^2 L.
+bool solver_takes_h0(const std::string& type);
+// The constant matrix a solver with these settings factors (if solver_uses_constant_matrix).
+ConstantMatrix constant_matrix_of(const SolverSpec& spec);
 
 // Creates the solver spec.type; h0 may be nullptr when it does not use the constant matrix.
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,

@@ -1,5 +1,6 @@
-// The distributed building blocks at 1 or N ranks: lumped mass, L, A = M + h^2 L, and the
-// assembled energy gradient against finite differences of the assembled energy.
+// The distributed building blocks at 1 or N ranks: lumped mass, L, A = M + h^2 L, the rest
+// stiffness A = M + h^2 K(x_rest) against finite differences of grad g at rest, and the assembled
+// energy gradient against finite differences of the assembled energy.
 #include <petscdmplex.h>
 
 #include "check.hpp"
@@ -46,7 +47,7 @@ PetscErrorCode check_mass_and_laplacian(const std::string& model) {
 }
 
 // A with fixed vertices eliminated is SPD: MUMPS LDL^T finds no negative and no null pivot.
-PetscErrorCode check_spd(const std::string& model) {
+PetscErrorCode check_spd(const std::string& model, ConstantMatrix kind) {
   TestScene s;
   Mat A, F;
   MatFactorInfo info;
@@ -54,9 +55,9 @@ PetscErrorCode check_spd(const std::string& model) {
   PetscBool symmetric;
   PetscFunctionBeginUser;
   PetscCall(make_scene(model, true, s));
-  PetscCall(s.step->assemble_constant_matrix(&A));
+  PetscCall(s.step->assemble_constant_matrix(&A, 3, kind));
   PetscCall(MatIsSymmetric(A, 1e-14, &symmetric));
-  CHECK(symmetric);
+  CHECK_MSG(symmetric, model + ": A symmetric");
   PetscCall(MatSetOption(A, MAT_SPD, PETSC_FALSE));  // LDL^T, so the inertia is counted
   PetscCall(MatSetOption(A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &F));
@@ -66,8 +67,8 @@ PetscErrorCode check_spd(const std::string& model) {
   PetscCall(MatCholeskyFactorNumeric(F, A, &info));
   PetscCall(MatMumpsGetInfog(F, 12, &negative));
   PetscCall(MatMumpsGetInfog(F, 28, &null_pivots));
-  CHECK_MSG(negative == 0, "negative pivots: " + std::to_string(negative));
-  CHECK_MSG(null_pivots == 0, "null pivots: " + std::to_string(null_pivots));
+  CHECK_MSG(negative == 0, model + ": negative pivots: " + std::to_string(negative));
+  CHECK_MSG(null_pivots == 0, model + ": null pivots: " + std::to_string(null_pivots));
   PetscCall(MatDestroy(&F));
   PetscCall(MatDestroy(&A));
   PetscFunctionReturn(0);
@@ -116,6 +117,46 @@ PetscErrorCode check_gradients(const std::string& model, double amplitude) {
   PetscFunctionReturn(0);
 }
 
+// The rest stiffness A = M + h^2 K(x_rest) is the Hessian of g at rest: A d equals
+// (grad g(x_rest + eps d) - grad g(x_rest - eps d)) / (2 eps) for random d. (The per-element PSD
+// fix changes nothing there: dP/dF(I) is PSD for these materials.)
+PetscErrorCode check_rest_stiffness(const std::string& model) {
+  TestScene s;
+  Mat A;
+  Vec x, v, d, Ad, gp, gm, xs;
+  PetscRandom rnd;
+  PetscReal g;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, true, s));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  for (Vec* w : {&v, &d, &Ad, &gp, &gm, &xs}) PetscCall(VecDuplicate(x, w));
+  PetscCall(s.body->rest_positions(x));
+  PetscCall(VecSet(v, 0.0));
+  PetscCall(test_scene::set_inertial_target(s, x, v));
+  PetscCall(s.step->assemble_constant_matrix(&A, 3, ConstantMatrix::rest_stiffness));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  const double eps = 1e-6;
+  for (int trial = 0; trial < 3; ++trial) {
+    PetscReal err, norm;
+    PetscCall(VecSetRandom(d, rnd));
+    PetscCall(MatMult(A, d, Ad));
+    PetscCall(VecWAXPY(xs, eps, d, x));
+    PetscCall(s.step->objective(xs, &g, gp));
+    PetscCall(VecWAXPY(xs, -eps, d, x));
+    PetscCall(s.step->objective(xs, &g, gm));
+    PetscCall(VecAXPY(gp, -1.0, gm));
+    PetscCall(VecScale(gp, 0.5 / eps));
+    PetscCall(VecNorm(gp, NORM_2, &norm));
+    PetscCall(VecAXPY(Ad, -1.0, gp));
+    PetscCall(VecNorm(Ad, NORM_2, &err));
+    CHECK_MSG(err <= 1e-7 * norm, model + ": |A d - FD| / |FD| = " + std::to_string(err / norm));
+  }
+  PetscCall(PetscRandomDestroy(&rnd));
+  for (Vec* w : {&x, &v, &d, &Ad, &gp, &gm, &xs}) PetscCall(VecDestroy(w));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
 // At the rest shape E = 0 and dE/dx = 0.
 PetscErrorCode check_rest(const std::string& model) {
   TestScene s;
@@ -137,9 +178,9 @@ PetscErrorCode check_rest(const std::string& model) {
 
 }  // namespace
 
-// The factored system works on A1 (A = A1 (x) I3): its solve must invert the full 3n x 3n A and
-// its mult must equal A's.
-PetscErrorCode check_factored_system(const std::string& model) {
+// The factored system works on A1 for the Laplacian (A = A1 (x) I3), on the full A for the rest
+// stiffness: its solve must invert the full 3n x 3n A and its mult must equal A's.
+PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix kind) {
   TestScene s;
   Mat A;
   Vec b, x, Ax, Ab;
@@ -148,8 +189,8 @@ PetscErrorCode check_factored_system(const std::string& model) {
   FactoredSystem sys;
   PetscFunctionBeginUser;
   PetscCall(make_scene(model, true, s));
-  PetscCall(s.step->assemble_constant_matrix(&A));
-  PetscCall(sys.setup(*s.step));
+  PetscCall(s.step->assemble_constant_matrix(&A, 3, kind));
+  PetscCall(sys.setup(*s.step, kind));
   PetscCall(MatCreateVecs(A, &b, &x));
   PetscCall(VecDuplicate(b, &Ax));
   PetscCall(VecDuplicate(b, &Ab));
@@ -167,7 +208,7 @@ PetscErrorCode check_factored_system(const std::string& model) {
   PetscCall(VecAXPY(Ax, -1.0, Ab));
   PetscCall(VecNorm(Ax, NORM_2, &diff));
   PetscCall(VecNorm(Ab, NORM_2, &bnorm));
-  CHECK_MSG(diff <= 1e-13 * bnorm, model + ": A1 (x) I3 mult differs from A");
+  CHECK_MSG(diff <= 1e-13 * bnorm, model + ": the factored system's mult differs from A");
   CHECK(sys.factorizations() == 1);
   PetscCall(VecDestroy(&b));
   PetscCall(VecDestroy(&x));
@@ -185,10 +226,13 @@ int main(int argc, char** argv) {
   for (const char* model : {"corotated", "neohookean", "neohookean+strands"}) {
     PetscCall(check_mass_and_laplacian(model));
     PetscCall(check_rest(model));
-    PetscCall(check_factored_system(model));
+    PetscCall(check_factored_system(model, ConstantMatrix::laplacian));
+    PetscCall(check_factored_system(model, ConstantMatrix::rest_stiffness));
+    PetscCall(check_rest_stiffness(model));
     PetscCall(check_gradients(model, 0.05));
     PetscCall(check_gradients(model, 0.5));  // large deformation, inverted elements likely
-    PetscCall(check_spd(model));
+    PetscCall(check_spd(model, ConstantMatrix::laplacian));
+    PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
   }
   // Every rank must agree on the outcome.
   int local = check::failures(), total = 0;

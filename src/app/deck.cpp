@@ -36,6 +36,7 @@ const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
+const Names kH0s = {"laplacian", "rest-stiffness"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
 constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
@@ -563,7 +564,7 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
-                   "newton_method", "linear_solver", "newton_hessian", "max_iterations", "max_halvings",
+                   "newton_method", "linear_solver", "newton_hessian", "h0", "max_iterations", "max_halvings",
                    "newton_fallback"});
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
@@ -588,6 +589,8 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
   if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
   if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
+  // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L).
+  if (const Value* x = s.find("h0")) sv.h0 = r.choice(*x, kH0s);
   if (const Value* x = s.find("max_iterations")) {
     sv.max_iterations = r.integer(*x);
     r.check(sv.max_iterations >= 0 && sv.max_iterations <= kMaxIterations, *x, "in [0, 1000000]");

@@ -4,6 +4,7 @@
 
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
+#include "solvers/solver_registry.hpp"
 #include "terms/nan_injection.hpp"
 
 namespace hyperqn {
@@ -38,9 +39,17 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionReturn(0);
 }
 
-SceneOptions scene_options(const Deck& deck, const RunOptions& o, bool factor) {
+SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vector<std::string>& solvers) {
   SceneOptions s;
-  s.factor = factor;
+  for (const std::string& type : solvers) {
+    if (!solver_uses_constant_matrix(type)) continue;
+    SolverSpec spec = deck.solver;
+    spec.type = type;
+    if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness)
+      s.factor_rest_stiffness = true;
+    else
+      s.factor = true;
+  }
   s.inertial_warm_start = deck.solver.warm_start == "inertial";
   if (o.nan_beyond >= 0 || o.nan_from_step >= 0)
     s.extra_terms = [o](const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>& terms) {

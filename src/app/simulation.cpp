@@ -138,13 +138,13 @@ struct Run {
     PetscFunctionBeginUser;
     chain.reset();  // they refer to the old scene
     solver.reset();
-    PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.factored.get(), solver));
+    PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver);
     summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
-    PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released (free from this step on); %lld dofs now, M + h^2 L factored again\n",
+    PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released (free from this step on); %lld dofs now, constant matrix factored again\n",
                           state.time, (long long)summary.dofs));
     PetscFunctionReturn(0);
   }
@@ -284,8 +284,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
     PetscErrors errors;
-    if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, solver_uses_constant_matrix(deck.solver.type))) ||
-        create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().factored.get(), run.solver)) {
+    if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
+        create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().constant_matrix(deck.solver), run.solver)) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }

@@ -156,6 +156,12 @@ PetscErrorCode Body::add_hessian(Vec x, Mat H, PetscReal scale, bool psd) const 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Body::add_rest_hessian(Mat H, PetscReal scale) const {
+  PetscFunctionBeginUser;
+  for (const auto& term : terms_) PetscCall(term->add_hessian(mesh_.rest, H, scale, true));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::rest_positions(Vec x) const {
   Vec xl;
   PetscScalar* a;

@@ -58,6 +58,9 @@ class Body {
   // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
   // exact. Adds into H's existing pattern.
   PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
+  // H += scale * K(x_rest): the PSD-fixed Hessian at the rest shape (every vertex, fixed ones too,
+  // at its rest position), on the free dofs.
+  PetscErrorCode add_rest_hessian(Mat H, PetscReal scale) const;
   // Positions of the rest shape as a global vector of free dofs.
   PetscErrorCode rest_positions(Vec x) const;
 

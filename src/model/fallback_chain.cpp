@@ -37,7 +37,7 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
     PetscCall(scene_.integrator->create_substep(1 << halvings, l.integrator));
     if (solver_uses_constant_matrix(spec_.type)) {
       l.factored = std::make_unique<FactoredSystem>();
-      PetscCall(l.factored->setup(*l.integrator));
+      PetscCall(l.factored->setup(*l.integrator, constant_matrix_of(spec_)));
     }
     SolverSpec spec = spec_;
     spec.quiet = true;

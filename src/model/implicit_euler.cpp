@@ -156,12 +156,17 @@ PetscErrorCode ImplicitEuler::force_scale(Vec x, double* scale) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components) const {
+PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const {
   PetscFunctionBeginUser;
   PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
+  PetscCheck(kind == ConstantMatrix::laplacian || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
+             "the rest stiffness couples x, y and z: components must be 3");
   PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-  PetscCall(body_.add_laplacian(*A, dt_ * dt_, components));
+  if (kind == ConstantMatrix::laplacian)
+    PetscCall(body_.add_laplacian(*A, dt_ * dt_, components));
+  else
+    PetscCall(body_.add_rest_hessian(*A, dt_ * dt_));
   PetscCall(MatAssemblyBegin(*A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(*A, MAT_FINAL_ASSEMBLY));
   if (components == 3) {

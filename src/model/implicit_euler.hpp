@@ -73,7 +73,8 @@ class ImplicitEuler : public Objective {
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
-  PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3) const override;
+  PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
+                                          ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   PetscErrorCode create_hessian(Mat* H) const override;
   PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }

@@ -10,6 +10,7 @@
 #include "mesh/input_error.hpp"
 #include "mesh/mesh_gmsh.hpp"
 #include "model/memory_estimate.hpp"
+#include "solvers/solver_registry.hpp"
 
 namespace hyperqn {
 
@@ -146,8 +147,17 @@ PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator));
   }
+  if (options_.factor_rest_stiffness) {
+    s.rest_stiffness = std::make_unique<FactoredSystem>();
+    PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness));
+  }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
+}
+
+const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
+  if (!solver_uses_constant_matrix(spec.type)) return nullptr;
+  return (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? rest_stiffness : factored).get();
 }
 
 PetscErrorCode LiveScene::initial_state(State& s) const {

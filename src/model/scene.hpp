@@ -13,6 +13,7 @@
 #include "model/implicit_euler.hpp"
 #include "model/state.hpp"
 #include "solvers/factored_system.hpp"
+#include "solvers/solver_spec.hpp"
 #include "mesh/mesh.hpp"
 
 namespace hyperqn {
@@ -37,12 +38,16 @@ struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
   std::unique_ptr<ImplicitEuler> integrator;
-  std::unique_ptr<FactoredSystem> factored;  // only if a solver needs M + h^2 L
+  std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
+  std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
+  // The factored constant matrix a solver with these settings uses (null if the scene has none).
+  const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
 };
 
 // How to build a scene beside its description.
 struct SceneOptions {
-  bool factor = false;               // factor M + h^2 L (a solver needs it)
+  bool factor = false;                 // factor M + h^2 L (a solver needs it)
+  bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
   bool inertial_warm_start = true;   // each step starts from y (else from x_n)
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
@@ -50,11 +55,11 @@ struct SceneOptions {
 
 // The scene of a run as time goes on. Fixed regions with a release time (fixed[].release) become
 // free at the start of the step that reaches it: the scene is rebuilt from the kept serial input
-// with those vertices free (same partition, so the same local vertices), M + h^2 L is factored
-// again, and the states carry over. Used by the simulation and the study alike.
+// with those vertices free (same partition, so the same local vertices), the constant matrices
+// are factored again, and the states carry over. Used by the simulation and the study alike.
 class LiveScene {
  public:
-  // Distributes the input (which it takes), assembles, and factors M + h^2 L if asked.
+  // Distributes the input (which it takes), assembles, and factors the constant matrices asked for.
   PetscErrorCode setup(MPI_Comm comm, const SceneSpec& spec, SceneInput input, SceneOptions options);
   Scene& current() { return *scene_; }
   // s at frame 0: rest positions, then the spec's initial state; zero velocity; nothing released.

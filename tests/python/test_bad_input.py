@@ -50,6 +50,7 @@ BAD_DECKS = {
     "everything_fixed": (deck_with(fixed=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}}]),
                          ["every vertex is fixed"]),
     "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
+    "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness"]),
 }
 
 
