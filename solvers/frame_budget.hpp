@@ -19,8 +19,6 @@
 #pragma once
 #include <algorithm>
 
-#include "solvers/solver_spec.hpp"
-
 namespace hyperqn {
 
 // Where a frame's solve stands after `iterations`.
@@ -49,8 +47,9 @@ struct FrameBudget {
   double rtol = 1e-6;  // the deck's grad_rtol
 
   FrameBudget() = default;
-  FrameBudget(const SolverSpec& spec, int budget_iterations)
-      : budget(budget_iterations), cap(std::max(budget_iterations, spec.max_iterations)), rtol(spec.grad_rtol) {}
+  // budget_iterations: the deck's solver.iterations, or what the options made of it.
+  FrameBudget(int budget_iterations, int max_iterations, double grad_rtol)
+      : budget(budget_iterations), cap(std::max(budget_iterations, max_iterations)), rtol(grad_rtol) {}
 
   // TAO's relative test (strict, as TAO's) alone: a force scale is needed only when it holds.
   bool relative(double gnorm, double gnorm0) const { return gnorm0 != 0 && gnorm / gnorm0 < rtol; }

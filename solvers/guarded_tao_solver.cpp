@@ -44,10 +44,7 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   }
   PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
   PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
-  SolverSpec budget_spec;
-  budget_spec.max_iterations = max_iterations_;
-  budget_spec.grad_rtol = gttol_;
-  budget_ = FrameBudget(budget_spec, (int)max_it_);
+  budget_ = FrameBudget((int)max_it_, max_iterations_, gttol_);
   PetscFunctionReturn(0);
 }
 

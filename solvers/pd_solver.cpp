@@ -76,7 +76,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   };
 
   result = FrameResult{};
-  const FrameBudget budget(spec_, spec_.iterations);
+  const FrameBudget budget(spec_.iterations, spec_.max_iterations, spec_.grad_rtol);
   PetscCall(step_.objective(x, &g, grad_));
   PetscCall(VecNorm(grad_, NORM_2, &gnorm));
   gnorm0 = gnorm;

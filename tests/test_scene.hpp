@@ -112,4 +112,40 @@ inline PetscErrorCode deformed_positions(const TestScene& s, Vec x, double ampli
   PetscFunctionReturn(0);
 }
 
+using Gradient = std::function<PetscErrorCode(Vec x, Vec grad)>;
+
+// max over 3 random directions d of |H d - FD| / |H d|, FD = (grad(x + eps d) - grad(x - eps d)) / (2 eps).
+inline PetscErrorCode fd_error(Mat H, Vec x, const Gradient& grad, PetscRandom rnd, double* worst) {
+  Vec d, Hd, gp, gm, xs;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &d));
+  PetscCall(VecDuplicate(x, &Hd));
+  PetscCall(VecDuplicate(x, &gp));
+  PetscCall(VecDuplicate(x, &gm));
+  PetscCall(VecDuplicate(x, &xs));
+  *worst = 0;
+  const double eps = 1e-6;
+  for (int trial = 0; trial < 3; ++trial) {
+    PetscReal err, norm;
+    PetscCall(VecSetRandom(d, rnd));
+    PetscCall(MatMult(H, d, Hd));
+    PetscCall(VecWAXPY(xs, eps, d, x));
+    PetscCall(grad(xs, gp));
+    PetscCall(VecWAXPY(xs, -eps, d, x));
+    PetscCall(grad(xs, gm));
+    PetscCall(VecAXPY(gp, -1.0, gm));
+    PetscCall(VecAXPY(Hd, -0.5 / eps, gp));  // H d - FD
+    PetscCall(VecNorm(Hd, NORM_2, &err));
+    PetscCall(VecScale(gp, 0.5 / eps));
+    PetscCall(VecNorm(gp, NORM_2, &norm));
+    *worst = std::fmax(*worst, err / norm);
+  }
+  PetscCall(VecDestroy(&d));
+  PetscCall(VecDestroy(&Hd));
+  PetscCall(VecDestroy(&gp));
+  PetscCall(VecDestroy(&gm));
+  PetscCall(VecDestroy(&xs));
+  PetscFunctionReturn(0);
+}
+
 }  // namespace test_scene

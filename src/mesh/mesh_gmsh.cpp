@@ -224,24 +224,52 @@ class GmshReader {
     expect_end(s, "the " + std::to_string(n) + " nodes it declares");
   }
 
+  // A 4.1 $Nodes or $Elements section is a header (blocks, items, smallest and largest tag) and
+  // blocks, each with its own count of items ("node" or "element").
+  struct Blocks {
+    long long blocks = 0, total = 0;
+  };
+  Blocks read_blocks_header(const Section& s, const std::string& item) {
+    const long long max_count = std::numeric_limits<int32_t>::max();
+    Blocks b;
+    b.blocks = integer(s, "the number of " + item + " blocks", 0, max_count);
+    b.total = integer(s, "the number of " + item + "s", 0, max_count);
+    integer(s, "the smallest " + item + " tag");
+    integer(s, "the largest " + item + " tag");
+    return b;
+  }
+  std::string block_name(const std::string& item, long long b, const Blocks& h) {
+    return item + " block " + std::to_string(b + 1) + " of " + std::to_string(h.blocks);
+  }
+  // The block's count of items, which must fit in what the header leaves after `read`.
+  long long block_count(const Section& s, const std::string& item, const std::string& block, const Blocks& h,
+                        long long read) {
+    int line;
+    const long long count = integer(s, block + ": its number of " + item + "s", &line);
+    if (count < 0 || count > h.total - read)
+      throw InputError(path_, line, s.name, block + " holds " + std::to_string(count) + " " + item + "s, more than the " +
+                                                std::to_string(h.total) + " the section declares in all");
+    return count;
+  }
+  // After the last block: the blocks held what the header declared, and the section ends.
+  void end_blocks(const Section& s, const std::string& item, const Blocks& h, long long read) {
+    if (read != h.total)
+      throw InputError(path_, s.line, s.name, "declares " + std::to_string(h.total) + " " + item +
+                                                  "s but its blocks hold " + std::to_string(read));
+    expect_end(s, "the " + std::to_string(h.blocks) + " " + item + " blocks it declares");
+  }
+
   void read_nodes_v4(const Token& key, TetMesh& mesh) {
     const Section s{key.str(), key.line};
-    const long long max_count = std::numeric_limits<int32_t>::max();
-    const long long blocks = integer(s, "the number of node blocks", 0, max_count);
-    const long long n = integer(s, "the number of nodes", 0, max_count);
-    integer(s, "the smallest node tag");
-    integer(s, "the largest node tag");
+    const Blocks h = read_blocks_header(s, "node");
     long long read = 0;
-    for (long long b = 0; b < blocks; ++b) {
-      const std::string block = "node block " + std::to_string(b + 1) + " of " + std::to_string(blocks);
+    for (long long b = 0; b < h.blocks; ++b) {
+      const std::string block = block_name("node", b, h);
       const long long dim = integer(s, block + ": its entity dimension", 0, 3);
       integer(s, block + ": its entity tag");
       const long long parametric = integer(s, block + ": its parametric flag", 0, 1);
       int line;
-      const long long count = integer(s, block + ": its number of nodes", &line);
-      if (count < 0 || count > n - read)
-        throw InputError(path_, line, s.name, block + " holds " + std::to_string(count) + " nodes, more than the " +
-                                                  std::to_string(n) + " the section declares in all");
+      const long long count = block_count(s, "node", block, h, read);
       // The block lists its node tags, then their coordinates (plus u, v, w when parametric).
       for (long long i = 0; i < count; ++i) {
         const long long tag = integer(s, block + ": node tag " + std::to_string(i + 1), &line);
@@ -254,9 +282,7 @@ class GmshReader {
       }
       read += count;
     }
-    if (read != n)
-      throw InputError(path_, s.line, s.name, "declares " + std::to_string(n) + " nodes but its blocks hold " + std::to_string(read));
-    expect_end(s, "the " + std::to_string(blocks) + " node blocks it declares");
+    end_blocks(s, "node", h, read);
   }
 
   // The element's type; a 3-D element other than a first-order tet is an error.
@@ -312,14 +338,10 @@ class GmshReader {
 
   void read_elements_v4(const Token& key, TetMesh& mesh) {
     const Section s{key.str(), key.line};
-    const long long max_count = std::numeric_limits<int32_t>::max();
-    const long long blocks = integer(s, "the number of element blocks", 0, max_count);
-    const long long n = integer(s, "the number of elements", 0, max_count);
-    integer(s, "the smallest element tag");
-    integer(s, "the largest element tag");
+    const Blocks h = read_blocks_header(s, "element");
     long long read = 0;
-    for (long long b = 0; b < blocks; ++b) {
-      const std::string block = "element block " + std::to_string(b + 1) + " of " + std::to_string(blocks);
+    for (long long b = 0; b < h.blocks; ++b) {
+      const std::string block = block_name("element", b, h);
       const long long dim = integer(s, block + ": its entity dimension", 0, 3);
       int line;
       const long long entity = integer(s, block + ": its entity tag", &line);
@@ -344,10 +366,7 @@ class GmshReader {
           tag = int32_t(entity);
         }
       }
-      const long long count = integer(s, block + ": its number of elements", &line);
-      if (count < 0 || count > n - read)
-        throw InputError(path_, line, s.name, block + " holds " + std::to_string(count) + " elements, more than the " +
-                                                  std::to_string(n) + " the section declares in all");
+      const long long count = block_count(s, "element", block, h, read);
       for (long long i = 0; i < count; ++i) {
         const std::string what = block + ": element " + std::to_string(i + 1);
         integer(s, what + ": its tag");
@@ -355,9 +374,7 @@ class GmshReader {
       }
       read += count;
     }
-    if (read != n)
-      throw InputError(path_, s.line, s.name, "declares " + std::to_string(n) + " elements but its blocks hold " + std::to_string(read));
-    expect_end(s, "the " + std::to_string(blocks) + " element blocks it declares");
+    end_blocks(s, "element", h, read);
   }
 
   std::string path_;
