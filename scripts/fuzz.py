@@ -2,7 +2,7 @@
 """Fuzzes hyperqn's inputs: decks, meshes and command-line options, mutated from a small valid
 scene. Every run must end cleanly:
 
-  - no crash: the exit code is 0 or 1 (a signal, an abort or an MPI abort is a crash);
+  - no crash: the exit code is 0, 1, or 2 with status "inverted" (a signal, an abort or an MPI abort is a crash);
   - no hang: each run finishes within --timeout seconds;
   - rejected input writes nothing: a run that exits 1 before its first frame leaves no output
     directory (a run that started and then stopped, e.g. diverged, has its summary.json);
@@ -135,15 +135,22 @@ def make_case(rng, k, casedir):
 
 
 def judge(proc, outdir, timed_out):
-    """The outcome of one run: 'ok', 'rejected', 'stopped' (ran, then could not continue), or a
-    failure class."""
+    """The outcome of one run: 'ok', 'rejected', 'stopped' (ran, then could not continue),
+    'inverted' (ran to the end with inverted elements, exit 2), or a failure class."""
     if timed_out:
         return "hang"
     out = proc.stdout or ""
-    if proc.returncode not in (0, 1):
+    if proc.returncode not in (0, 1, 2):
         return f"crash (exit {proc.returncode})"
     if "PETSC ERROR" in out:
         return "petsc trace"
+    if proc.returncode == 2:
+        summary = os.path.join(outdir, "summary.json")
+        if not os.path.exists(summary):
+            return "exit 2 without summary"
+        with open(summary) as f:
+            status = json.load(f).get("status", "")
+        return "inverted" if status.startswith("inverted") else "exit 2 with status " + status[:30]
     if proc.returncode == 0:
         return "ok" if os.path.exists(os.path.join(outdir, "summary.json")) else "ok without summary"
     if "hyperqn: error" not in out:
@@ -184,7 +191,7 @@ def main():
         outcome = judge(proc, os.path.join(casedir, "out"), timed_out)
         counts[outcome] = counts.get(outcome, 0) + 1
         run_cases += 1
-        if outcome in ("ok", "rejected", "stopped"):
+        if outcome in ("ok", "rejected", "stopped", "inverted"):
             shutil.rmtree(casedir)
         else:
             failures.append({"case": k, "fuzzed": what, "ranks": ranks or 1, "outcome": outcome,

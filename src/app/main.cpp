@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
         if (outdir.empty()) outdir = deck.output.directory.empty() ? "output/" + deck.name : deck.output.directory;
         status = hyperqn::run_simulation(PETSC_COMM_WORLD, deck, outdir);
       }
-      if (status == 0) PetscCall(warn_unused_options());  // after a failure they may just not be reached
+      if (status == 0 || status == hyperqn::kExitInverted) PetscCall(warn_unused_options());  // after a failure they may just not be reached
     }
   } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: error: %s\n", e.what()));

@@ -19,6 +19,8 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
   // Every rank reads the same options, so every rank throws alike.
   if (!std::isfinite(o->divergence_limit))
     throw InputError("option -hyperqn_divergence_limit: must be a finite number (<= 0 turns the check off)");
+  if (!std::isfinite(o->element_limit))
+    throw InputError("option -hyperqn_element_limit: must be a finite number (<= 0 turns the check off)");
   if (!std::isfinite(o->nan_beyond)) throw InputError("option -hyperqn_test_nan_energy_beyond: must be a finite number");
   PetscFunctionReturn(0);
 }
@@ -29,6 +31,9 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscCall(PetscOptionsReal("-hyperqn_divergence_limit",
                              "Stop the run when an element edge is longer than this many rest bounding-box diagonals "
                              "(<= 0: never)", "docs/guardrails.md", o->divergence_limit, &o->divergence_limit, nullptr));
+  PetscCall(PetscOptionsReal("-hyperqn_element_limit",
+                             "Stop the run when an element's |det F| exceeds this (<= 0: never)", "docs/guardrails.md",
+                             o->element_limit, &o->element_limit, nullptr));
   PetscCall(PetscOptionsReal("-hyperqn_test_nan_energy_beyond",
                              "Tests only: g = NaN where ||x - y||_inf exceeds this distance (< 0: off)",
                              "terms/nan_injection.hpp", o->nan_beyond, &o->nan_beyond, nullptr));

@@ -17,6 +17,10 @@ struct RunOptions {
   // at most 0.91 D in the runs that stay bounded (random start), up to 1e9 D in those that run
   // away (docs/guardrails.md). <= 0: no check.
   PetscReal divergence_limit = 10.0;
+  // Local blow-up: an element whose volume ratio |det F| exceeds this stops the run (a sliver can
+  // grow a thousandfold and stay far below the divergence limit's edge length). No solid these
+  // materials model changes its volume a hundredfold. <= 0: no check.
+  PetscReal element_limit = 100.0;
   // Test hooks (tests/python/test_guardrails.py, terms/nan_injection.hpp): g = NaN where
   // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
   PetscReal nan_beyond = -1;

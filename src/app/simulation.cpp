@@ -52,12 +52,33 @@ std::string divergence(double edge, double limit) {
   return text;
 }
 
-// summary.json's status of a run that completed: "ok", or how many frames were flagged.
-std::string completed_status(const RunSummary& summary) {
+// Why the run has blown up locally when the largest |det F| of its elements is `volume`, or "".
+std::string exploded(double volume, double limit) {
+  if (!(limit > 0 && volume > limit)) return "";
+  char text[120];
+  std::snprintf(text, sizeof text, "elements exploded: |det F| reaches %.4g (limit %g)", volume, limit);
+  return text;
+}
+
+// summary.json's status of a run that completed: "ok"; "inverted: ..." if it ends with inverted
+// elements (inverted_at_end) or, from a start without any, had some in a frame; then how many
+// frames were flagged.
+std::string completed_status(const RunSummary& summary, bool started_inverted, bool inverted_at_end) {
+  std::string status;
+  const auto& inverted = summary.inverted_frames;
+  if (inverted_at_end || (!started_inverted && !inverted.empty())) {
+    char min_J[40];
+    std::snprintf(min_J, sizeof min_J, "%.4g", summary.min_J);
+    status = "inverted: elements with det F < 0 in " + std::to_string(inverted.size()) + " of " +
+             std::to_string(summary.frames) + " frames (first: frame " + std::to_string(inverted.front()) +
+             (inverted_at_end ? ", and the last" : "") + "; min det F " + min_J + ")";
+  }
   const auto& flagged = summary.flagged_frames;
-  if (flagged.empty()) return "ok";
-  return "flagged: " + std::to_string(flagged.size()) + " of " + std::to_string(summary.frames) +
-         " frames could not decrease g (first: frame " + std::to_string(flagged.front().first) + ")";
+  if (!flagged.empty())
+    status += (status.empty() ? "" : "; ") + std::string("flagged: ") + std::to_string(flagged.size()) + " of " +
+              std::to_string(summary.frames) + " frames could not decrease g (first: frame " +
+              std::to_string(flagged.front().first) + ")";
+  return status.empty() ? "ok" : status;
 }
 
 }  // namespace
@@ -149,6 +170,23 @@ struct Run {
     PetscFunctionReturn(0);
   }
 
+  // The smallest det F and the largest |det F| of the elements at the state's positions, over all
+  // ranks (pos and J hold this rank's).
+  PetscErrorCode element_volumes(const Scene& s, double* min_J, double* max_abs_J) {
+    PetscFunctionBeginUser;
+    PetscCall(s.body->local_positions(state.x, pos));
+    s.body->cell_jacobians(pos, J);
+    double local[2] = {HUGE_VAL, -0.0}, global[2];  // {min det F, -max |det F|}: one MIN reduction
+    for (double j : J) {
+      local[0] = std::fmin(local[0], j);
+      local[1] = std::fmin(local[1], -std::fabs(j));
+    }
+    PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MIN, comm));
+    *min_J = global[0];
+    *max_abs_J = -global[1];
+    PetscFunctionReturn(0);
+  }
+
   PetscErrorCode time_loop(bool& ok);
 };
 
@@ -167,6 +205,11 @@ PetscErrorCode Run::time_loop(bool& ok) {
   summary.min_J = HUGE_VAL;
   bool written = false;
   PetscCall(write_frame(0, &written));
+  // A run that the deck starts inverted (initial:) is judged by its last frame only.
+  double min_J = 0, max_abs_J = 0;
+  PetscCall(element_volumes(scene.current(), &min_J, &max_abs_J));
+  const bool started_inverted = min_J < 0;
+  bool inverted_now = started_inverted;
 
   const double diagonal = rest_diagonal(scene.current().mesh);
   const double limit = options.divergence_limit;  // <= 0: no divergence check
@@ -211,9 +254,15 @@ PetscErrorCode Run::time_loop(bool& ok) {
       why = "non-finite energy or gradient at every point tried (" + r.reason + ")";
     } else if (!finite_x) {
       why = "the solver left non-finite positions (" + r.reason + ")";
-    } else if (limit > 0) {
-      PetscCall(s.body->local_positions(state.x, pos));
-      why = divergence(longest_edge(comm, s.mesh, pos) / diagonal, limit);
+    } else {
+      PetscCall(element_volumes(s, &min_J, &max_abs_J));
+      if (limit > 0) why = divergence(longest_edge(comm, s.mesh, pos) / diagonal, limit);
+      if (why.empty()) why = exploded(max_abs_J, options.element_limit);
+      if (why.empty()) {
+        inverted_now = min_J < 0;
+        if (inverted_now) summary.inverted_frames.push_back(frame);
+        summary.min_J = std::fmin(summary.min_J, min_J);
+      }
     }
 
     std::string note;
@@ -258,7 +307,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
     ok = false;
     break;
   }
-  if (ok) summary.status = completed_status(summary);
+  if (ok) summary.status = completed_status(summary, started_inverted, inverted_now);
   PetscFunctionReturn(0);
 }
 
@@ -363,7 +412,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     const bool says_error = summary.status.rfind("error", 0) == 0;
     PetscPrintf(comm, "hyperqn: %s%s\n", says_error ? "" : "error: ", summary.status.c_str());
   }
-  return ok ? 0 : 1;
+  if (!ok) return 1;
+  return summary.status.rfind("inverted", 0) == 0 ? kExitInverted : 0;
 }
 
 }  // namespace hyperqn

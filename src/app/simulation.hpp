@@ -9,8 +9,11 @@
 
 namespace hyperqn {
 
+// A run that went through every frame but has inverted elements (status "inverted: ...").
+inline constexpr int kExitInverted = 2;
+
 // Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the
-// run could not continue (summary.json says why).
+// run could not continue (summary.json says why), kExitInverted.
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir);
 
 }  // namespace hyperqn

@@ -44,6 +44,8 @@ struct RunSummary {
   // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that
   // were solved in sub-steps, and by Newton.
   long long extended_frames = 0, substepped_frames = 0, newton_frames = 0;
+  // Solved frames with an inverted element (det F < 0); the status says so (docs/guardrails.md).
+  std::vector<int> inverted_frames;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
 };

@@ -90,6 +90,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"extended_frames\": " << s.extended_frames << ",\n"
       << "  \"substepped_frames\": " << s.substepped_frames << ",\n"
       << "  \"newton_frames\": " << s.newton_frames << ",\n"
+      << "  \"inverted_frames\": " << s.inverted_frames.size() << ",\n"
       << "  \"rejected_evaluations\": " << s.rejected_evaluations << ",\n"
       << "  \"final_energy\": " << number(s.final_energy) << ",\n"
       << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"

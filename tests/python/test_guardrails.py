@@ -17,6 +17,8 @@ import itertools
 import math
 import os
 import re
+import subprocess
+import sys
 from collections import defaultdict
 
 import meshio
@@ -263,7 +265,9 @@ def test_diverging_run_stops_cleanly(tmp_path, solver, ranks):
     deck["solver"].update(type=solver, **NO_FALLBACK)
     deck["output"]["every"] = 5
     outdir = tmp_path / "out"
-    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir], ranks=ranks, check=False)
+    # The element check (|det F| > 100) would stop it first: this test is about the divergence check.
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir, "-hyperqn_element_limit", 0],
+                       ranks=ranks, check=False)
     assert proc.returncode == 1
     m = re.search(r"^hyperqn: error: frame (\d+): diverged: an element edge is (\S+) rest bounding-box "
                   rf"diagonals long \(limit {DIVERGENCE_LIMIT}\)", proc.stdout, re.M)
@@ -283,15 +287,21 @@ def test_diverging_run_stops_cleanly(tmp_path, solver, ranks):
 
 
 def test_divergence_check_can_be_turned_off(tmp_path):
-    """-hyperqn_divergence_limit 0 (also in a deck's petsc: section): the run-away goes on to the
-    last frame, exit 0, its line-search failures flagged in the status; still nothing NaN."""
+    """-hyperqn_divergence_limit 0 and -hyperqn_element_limit 0 (also in a deck's petsc: section):
+    the run-away goes on to the last frame; its inverted elements and line-search failures are in
+    the status, and the exit code is 2, never 0; still nothing NaN."""
     outdir = tmp_path / "out"
     deck = load_deck(DIVERGING_DECK)
     deck["solver"].update(NO_FALLBACK)
-    run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir, "-hyperqn_divergence_limit", 0])
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir, "-hyperqn_divergence_limit", 0,
+                        "-hyperqn_element_limit", 0], check=False)
+    assert proc.returncode == 2, proc.stdout[-2000:]
     s = read_summary(outdir)
-    assert s["frames"] == 20 and s["failed_frames"] > 0
-    check_status(s)
+    assert s["frames"] == 20 and s["failed_frames"] > 0 and s["inverted_frames"] > 0
+    flagged = s["flagged_frames"]
+    assert s["status"].startswith("inverted: elements with det F < 0 in ")
+    assert s["status"].endswith(f"; flagged: {len(flagged)} of 20 frames could not decrease g "
+                                f"(first: frame {flagged[0]['frame']})")
     check_summary_finite(outdir)
     frames = check_vtk_finite(outdir)
     assert longest_edge(frames[-1][1]) > 10 * DIVERGENCE_LIMIT
@@ -313,3 +323,71 @@ def test_large_rigid_motion_is_not_divergence(tmp_path, solver):
     moved = np.linalg.norm(last.displacement.mean(axis=0)) / np.linalg.norm(rest.max(axis=0) - rest.min(axis=0))
     assert moved > 1.5 * DIVERGENCE_LIMIT
     assert max(longest_edge(path) for _, path in frames) < 0.5
+
+
+# A 1 m cube whose top face is pushed 1.5 m down, through its clamped bottom face: elements must
+# invert (measured: det F < 0 from frame 7 on, min -0.50).
+CRUSH = {
+    "name": "crush",
+    "mesh": {"box": {"size": [1.0, 1.0, 1.0], "cells": [2, 2, 2]}},
+    "material": {"model": "neohookean", "youngs_modulus": 1.0e4, "poisson_ratio": 0.3, "density": 1000},
+    "fixed": [{"box": {"min": [-1, -0.01, -1], "max": [2, 0.01, 2]}},
+              {"box": {"min": [-1, 0.99, -1], "max": [2, 1.01, 2]},
+               "motion": {"translate": {"velocity": [0, -3.0, 0]}, "end": 0.5}}],
+    "gravity": [0, 0, 0],
+    "time": {"dt": 0.05, "frames": 12},
+    "output": {"vtk": False},
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_inverted_elements_are_said_in_status_and_exit_code(tmp_path, ranks):
+    """A run that goes through every frame with inverted elements is not ok: status "inverted:
+    elements with det F < 0 in N of M frames (first: frame K, ...; min det F X)" and exit code 2."""
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "crush.yaml", CRUSH), "-o", outdir], ranks=ranks, check=False)
+    assert proc.returncode == 2, proc.stdout[-2000:]
+    s = read_summary(outdir)
+    assert s["frames"] == 12 and s["min_J"] < 0, s
+    n = s["inverted_frames"]
+    assert 0 < n <= 12
+    assert s["status"].startswith(f"inverted: elements with det F < 0 in {n} of 12 frames (first: frame "), s["status"]
+    assert "and the last" in s["status"]
+
+
+def test_a_start_the_deck_inverts_is_judged_by_its_last_frame(tmp_path):
+    """initial: invert makes every element inverted at frame 0; the run recovers, so it is not
+    "inverted" (exit 0; frames stalled at the round-off of g near rest may be flagged)."""
+    deck = load_deck("tests/decks/stability_initial_invert.yaml")
+    outdir = tmp_path / "out"
+    run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir], ranks=None)
+    s = read_summary(outdir)
+    assert not s["status"].startswith("inverted") and s["min_J"] < 0, s
+
+
+def test_exploding_elements_stop_the_run(tmp_path):
+    """A sliver-laden mesh (scripts/sliver_mesh.py) whose slivers next to the clamped top blow up:
+    an element's |det F| past 100 stops the run (exit 1, "elements exploded", the last good frame
+    written), long before any edge reaches the divergence limit (measured: |det F| 3.1e3 at frame 2;
+    without this check the run went on to frame 10 with min det F -9e4)."""
+    mesh = tmp_path / "slivers.mesh"
+    subprocess.run([sys.executable, os.path.join(REPO, "scripts", "sliver_mesh.py"), str(mesh), "--size", "0.1", "0.5",
+                    "0.1", "--element", "0.05", "--worst", "1e-5", "--fraction", "0.1", "--seed", "3"],
+                   check=True, capture_output=True)
+    deck = {"name": "slivers", "mesh": {"file": str(mesh)},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.4, "density": 1000},
+            "fixed": [{"box": {"min": [-1, 0.475, -1], "max": [1, 1, 1]}}],
+            "time": {"dt": 1 / 30, "frames": 20}, "output": {"every": 5}}
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "slivers.yaml", deck), "-o", outdir], ranks=None, check=False)
+    assert proc.returncode == 1
+    m = re.search(r"^hyperqn: error: frame (\d+): elements exploded: \|det F\| reaches (\S+) \(limit 100\)",
+                  proc.stdout, re.M)
+    assert m, proc.stdout[-2000:]
+    n = int(m.group(1))
+    assert float(m.group(2)) > 100
+    s = read_summary(outdir)
+    assert s["status"].startswith(f"error: frame {n}: elements exploded") and s["frames"] == n - 1
+    frames = check_vtk_finite(outdir)
+    assert frames[-1][0] == pytest.approx((n - 1) / 30)
+    assert np.abs(Frame(frames[-1][1]).J).max() <= 100

@@ -54,11 +54,11 @@ def test_yaml_alias_bomb_is_refused_quickly(tmp_path):
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
-def test_divergence_limit_must_be_finite(tmp_path, ranks):
+@pytest.mark.parametrize("option", ["-hyperqn_divergence_limit", "-hyperqn_element_limit"])
+def test_limit_options_must_be_finite(tmp_path, ranks, option):
     path = write_deck(tmp_path / "deck.yaml", GOOD)
-    proc = run_hyperqn([path, "-o", tmp_path / "out", "-hyperqn_divergence_limit", "nan"], ranks=ranks, check=False,
-                       timeout=60)
-    assert_clean_failure(proc, tmp_path / "out", ["-hyperqn_divergence_limit", "finite"])
+    proc = run_hyperqn([path, "-o", tmp_path / "out", option, "nan"], ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [option, "finite"])
 
 
 def test_a_solver_without_iterations_is_not_ok(tmp_path):

@@ -209,10 +209,20 @@ def reference_distance(a, ref):
     return float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / rest_diagonal(R)
 
 
+# hyperqn's exit code for a run that went through every frame with inverted elements
+# (src/app/simulation.hpp, kExitInverted).
+EXIT_INVERTED = 2
+
+
 def completed(status):
-    """Whether summary.json's status is that of a run that went through every frame: "ok", or
-    "flagged: ..." (some frames could not decrease g; they count as line-search failures)."""
-    return status == "ok" or status.startswith("flagged")
+    """Whether summary.json's status is that of a run that went through every frame: "ok",
+    "flagged: ..." (some frames could not decrease g; they count as line-search failures) or
+    "inverted: ..." (elements with det F < 0; judged below)."""
+    return status == "ok" or status.startswith(("flagged", "inverted"))
+
+
+def expected_returncode(status):
+    return EXIT_INVERTED if status.startswith("inverted") else 0
 
 
 def reference_ok(ref):
@@ -244,7 +254,7 @@ def verdict(run, a, expect, ref, align):
         return "failed", "NaN/Inf in " + ", ".join(a["nan"]), rest_error, ref_error
     if a["frames_completed"] < a["expected_frames"]:
         return "failed", f"completed {a['frames_completed']}/{a['expected_frames']} frames", rest_error, ref_error
-    if run["returncode"] != 0:
+    if run["returncode"] != expected_returncode(s["status"]):
         return "failed", f"exit code {run['returncode']} with status {s['status']}", rest_error, ref_error
     if a["vtk_error"]:
         return "failed", "unreadable VTK: " + a["vtk_error"], rest_error, ref_error
@@ -262,7 +272,9 @@ def verdict(run, a, expect, ref, align):
     if a["monotone_bad"]:
         bad = a["monotone_bad"]
         reasons.append(f"g increased within {len(bad)} frame(s) (first: {bad[0]})")
-    if last is not None and len(last.J) and float(np.min(last.J)) <= 0:
+    if s["status"].startswith("inverted"):
+        reasons.append(s["status"].split("; flagged")[0])
+    elif last is not None and len(last.J) and float(np.min(last.J)) <= 0:
         reasons.append(f"inverted or flat elements in the last frame (min J {float(np.min(last.J)):.3g})")
     if expect == "rest" and rest_error is not None and rest_error > REST_TOL:
         reasons.append(f"not back at rest: RMS distance {rest_error:.2e} of the diagonal > {REST_TOL:g}")
