@@ -160,30 +160,13 @@ struct Run {
     chain.reset();  // they refer to the old scene
     solver.reset();
     PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.constant_matrix(deck.solver), solver));
-    chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver);
+    chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
     summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
     PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released (free from this step on); %lld dofs now, constant matrix factored again\n",
                           state.time, (long long)summary.dofs));
-    PetscFunctionReturn(0);
-  }
-
-  // The smallest det F and the largest |det F| of the elements at the state's positions, over all
-  // ranks (pos and J hold this rank's).
-  PetscErrorCode element_volumes(const Scene& s, double* min_J, double* max_abs_J) {
-    PetscFunctionBeginUser;
-    PetscCall(s.body->local_positions(state.x, pos));
-    s.body->cell_jacobians(pos, J);
-    double local[2] = {HUGE_VAL, -0.0}, global[2];  // {min det F, -max |det F|}: one MIN reduction
-    for (double j : J) {
-      local[0] = std::fmin(local[0], j);
-      local[1] = std::fmin(local[1], -std::fabs(j));
-    }
-    PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MIN, comm));
-    *min_J = global[0];
-    *max_abs_J = -global[1];
     PetscFunctionReturn(0);
   }
 
@@ -207,7 +190,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
   PetscCall(write_frame(0, &written));
   // A run that the deck starts inverted (initial:) is judged by its last frame only.
   double min_J = 0, max_abs_J = 0;
-  PetscCall(element_volumes(scene.current(), &min_J, &max_abs_J));
+  PetscCall(scene.current().body->volume_ratios(state.x, &min_J, &max_abs_J));
   const bool started_inverted = min_J < 0;
   bool inverted_now = started_inverted;
 
@@ -255,8 +238,12 @@ PetscErrorCode Run::time_loop(bool& ok) {
     } else if (!finite_x) {
       why = "the solver left non-finite positions (" + r.reason + ")";
     } else {
-      PetscCall(element_volumes(s, &min_J, &max_abs_J));
-      if (limit > 0) why = divergence(longest_edge(comm, s.mesh, pos) / diagonal, limit);
+      min_J = step.min_J;  // the chain measured them
+      max_abs_J = step.max_abs_J;
+      if (limit > 0) {
+        PetscCall(s.body->local_positions(state.x, pos));
+        why = divergence(longest_edge(comm, s.mesh, pos) / diagonal, limit);
+      }
       if (why.empty()) why = exploded(max_abs_J, options.element_limit);
       if (why.empty()) {
         inverted_now = min_J < 0;
@@ -339,7 +326,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
       return 1;
     }
   }
-  run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver);
+  run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
   RunSummary& summary = run.summary;
   summary.deck = deck.path;

@@ -108,9 +108,24 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
 
 void Body::cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const {
   J.resize(mesh_.num_cells);
-  for (PetscInt c = 0; c < mesh_.num_cells; ++c)
-    J[c] = (edge_matrix(pos.data(), &mesh_.cells[4 * c]) * edge_matrix(mesh_.rest.data(), &mesh_.cells[4 * c]).inverse())
-               .determinant();  // per output frame only: not worth a stored copy of the terms' Dm^{-1}
+  for (PetscInt c = 0; c < mesh_.num_cells; ++c)  // det(Ds Dm^{-1}) = det Ds / det Dm
+    J[c] = edge_matrix(pos.data(), &mesh_.cells[4 * c]).determinant() /
+           edge_matrix(mesh_.rest.data(), &mesh_.cells[4 * c]).determinant();
+}
+
+PetscErrorCode Body::volume_ratios(Vec x, double* min_J, double* max_abs_J) const {
+  PetscFunctionBeginUser;
+  PetscCall(local_positions(x, pos_));
+  cell_jacobians(pos_, J_);
+  double local[2] = {HUGE_VAL, -0.0}, global[2];  // {min det F, -max |det F|}: one MIN reduction
+  for (double j : J_) {
+    local[0] = std::fmin(local[0], j);
+    local[1] = std::fmin(local[1], -std::fabs(j));
+  }
+  PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)x)));
+  *min_J = global[0];
+  *max_abs_J = -global[1];
+  PetscFunctionReturn(0);
 }
 
 bool Body::bounds_steps() const {

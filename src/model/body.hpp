@@ -45,6 +45,8 @@ class Body {
   PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
   // det F per local tet at the given local positions.
   void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
+  // The smallest det F and the largest |det F| of all tets at x, over all ranks (collective).
+  PetscErrorCode volume_ratios(Vec x, double* min_J, double* max_abs_J) const;
   // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
   bool bounds_steps() const;
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const;
@@ -77,6 +79,7 @@ class Body {
   double time_ = 0;
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions
+  mutable std::vector<double> J_;    // work: det F per local tet
 };
 
 }  // namespace hyperqn

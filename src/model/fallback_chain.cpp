@@ -7,8 +7,8 @@
 
 namespace hyperqn {
 
-FallbackChain::FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolver& solver)
-    : scene_(scene), spec_(spec), solver_(solver) {}
+FallbackChain::FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolver& solver, double element_limit)
+    : scene_(scene), spec_(spec), solver_(solver), element_limit_(element_limit) {}
 
 FallbackChain::~FallbackChain() {
   VecDestroy(&kept_x_);
@@ -16,16 +16,19 @@ FallbackChain::~FallbackChain() {
 }
 
 // A solver that could not decrease g very near the answer (a line search stalled at the
-// round-off of g) is acceptable (frame_budget.hpp's floor): no fallback does better there.
-PetscErrorCode FallbackChain::acceptable(const FrameResult& r, Objective& g, Vec x, bool* ok) const {
+// round-off of g) is converged enough (frame_budget.hpp's floor): no fallback does better there.
+PetscErrorCode FallbackChain::judge(const FrameResult& r, Objective& g, Vec x, Outcome* o) const {
   double scale;
   PetscFunctionBeginUser;
-  *ok = false;
+  *o = Outcome{};
   if (Objective::rejected(r.energy) || !std::isfinite(r.grad_norm)) PetscFunctionReturn(0);
+  o->finite = true;
   PetscCall(g.force_scale(x, &scale));
-  *ok = !FrameBudget::far(
+  o->converged_enough = !FrameBudget::far(
       {(int)r.iterations, r.energy0, r.energy, r.last_decrease, r.grad_norm0, r.grad_norm, r.failed, r.last_step},
       scale, g.length_scale());
+  PetscCall(scene_.body->volume_ratios(x, &o->min_J, &o->max_abs_J));
+  o->sound = !(element_limit_ > 0 && o->max_abs_J > element_limit_) && !(o->min_J < 0 && start_min_J_ >= 0);
   PetscFunctionReturn(0);
 }
 
@@ -66,9 +69,8 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
     out.iterations += part.iterations;
     out.evaluations += part.evaluations;
     out.seconds += part.seconds;
-    bool ok;
-    PetscCall(acceptable(part.result, *l->integrator, sub_.x, &ok));
-    if (!ok) PetscFunctionReturn(0);
+    PetscCall(judge(part.result, *l->integrator, sub_.x, &outcome_));
+    if (!outcome_.acceptable()) PetscFunctionReturn(0);
     PetscCall(l->integrator->end_step(sub_));
     out.result = part.result;
   }
@@ -88,13 +90,18 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
     return false;
   };
   PetscFunctionBeginUser;
+  if (!start_known_) {  // else the last frame's end, measured then
+    double unused;
+    PetscCall(scene_.body->volume_ratios(s.x, &start_min_J_, &unused));
+    start_known_ = true;
+  }
   records_.clear();
   PetscCall(g.solve_step(solver_, s, record, out));
   out.extended = out.result.extended;
-  bool first_ok;
-  PetscCall(acceptable(out.result, g, s.x, &first_ok));
-  if (!first_ok && (spec_.max_halvings > 0 || spec_.newton_fallback)) {
+  PetscCall(judge(out.result, g, s.x, &outcome_));
+  if (!outcome_.acceptable() && (spec_.max_halvings > 0 || spec_.newton_fallback)) {
     const FrameResult first = out.result;
+    const Outcome first_outcome = outcome_;
     std::vector<IterationRecord> first_records = std::move(records_);
     if (!kept_x_) PetscCall(VecDuplicate(s.x, &kept_x_));
     PetscCall(VecCopy(s.x, kept_x_));
@@ -122,22 +129,29 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
         PetscCall(g.undo_step(s));
         PetscCall(g.begin_step(s));  // the step again, to keep the first solve's x
       }
-      bool newton_ok = false;
-      if (spec_.newton_fallback) PetscCall(acceptable(newton.result, g, s.x, &newton_ok));
-      const bool newton_better = spec_.newton_fallback && !Objective::rejected(newton.result.energy) &&
-                                 std::isfinite(newton.result.grad_norm) &&
-                                 (newton_ok || Objective::rejected(first.energy) ||
-                                  !(newton.result.grad_norm >= first.grad_norm));
+      // Neither acceptable: the one that is finite, then sound, then nearer its answer.
+      Outcome newton_outcome;
+      if (spec_.newton_fallback) PetscCall(judge(newton.result, g, s.x, &newton_outcome));
+      const auto rank = [](const Outcome& o) { return 4 * o.acceptable() + 2 * o.finite + o.sound; };
+      const bool newton_better =
+          spec_.newton_fallback &&
+          (rank(newton_outcome) > rank(first_outcome) ||
+           (rank(newton_outcome) == rank(first_outcome) && newton.result.grad_norm < first.grad_norm));
       if (newton_better) {
         out.result = newton.result;
         out.newton = true;
+        outcome_ = newton_outcome;
       } else {
         PetscCall(VecCopy(kept_x_, s.x));
         out.result = first;
+        outcome_ = first_outcome;
         records_ = std::move(first_records);
       }
     }
   }
+  out.min_J = outcome_.min_J;
+  out.max_abs_J = outcome_.max_abs_J;
+  start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
   for (const IterationRecord& r : records_) on_iteration(r);
   PetscFunctionReturn(0);
 }

@@ -8,8 +8,10 @@
 //     sub-step size with its own integrator and factored M + (h/k)^2 L, made the first time needed);
 //     a sub-step that fails the same test abandons that size;
 //  3. the frame is redone with Newton (projected Hessian).
-// The first stage whose result is acceptable is kept; if none is, the better of 1 and 3 (smaller
-// ||grad g||: both minimize the frame's own g), flagged by the caller as before.
+// A result is acceptable if it is finite, not far from converged, and sound: no element with
+// |det F| past the run's element limit, none inverted that was not at x_n. The first stage whose
+// result is acceptable is kept; if none is, the better of 1 and 3 (finite, then sound, then
+// smaller ||grad g||: both minimize the frame's own g), and the caller flags or stops the run.
 #pragma once
 #include <memory>
 #include <vector>
@@ -24,7 +26,9 @@ class FallbackChain {
  public:
   // scene and solver (the run's, for the scene's full step) must outlive the chain; a new
   // scene (after a release) needs a new chain.
-  FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolver& solver);
+  // element_limit: a solve that leaves an element with |det F| above it is not acceptable (<= 0:
+  // no limit); nor one that inverts an element when x_n had none.
+  FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolver& solver, double element_limit);
   ~FallbackChain();
   FallbackChain(const FallbackChain&) = delete;
   FallbackChain& operator=(const FallbackChain&) = delete;
@@ -41,8 +45,14 @@ class FallbackChain {
     std::unique_ptr<FactoredSystem> factored;
     std::unique_ptr<TimeStepSolver> solver;
   };
-  // Whether the solve that left x and r is acceptable: finite, and not far from converged.
-  PetscErrorCode acceptable(const FrameResult& r, Objective& g, Vec x, bool* ok) const;
+  // What a solve that left x and r is worth. Acceptable: finite, not far from converged
+  // (solvers/frame_budget.hpp), and sound: no element past the limit, none newly inverted.
+  struct Outcome {
+    bool finite = false, converged_enough = false, sound = false;
+    double min_J = 0, max_abs_J = 0;  // of the tets at x
+    bool acceptable() const { return finite && converged_enough && sound; }
+  };
+  PetscErrorCode judge(const FrameResult& r, Objective& g, Vec x, Outcome* o) const;
   PetscErrorCode level(int halvings, Level** out);
   // Redoes the step from x_n in 2^halvings sub-steps; *ok: every one acceptable (s then holds the
   // end positions and velocity_ the end velocity), else s is back at x_n.
@@ -51,6 +61,10 @@ class FallbackChain {
   Scene& scene_;
   SolverSpec spec_;
   TimeStepSolver& solver_;
+  double element_limit_;
+  double start_min_J_ = 0;  // the smallest det F at x_n
+  bool start_known_ = false;
+  Outcome outcome_;         // of the solve at hand
   std::vector<Level> levels_;               // [k - 1]: h / 2^k
   std::unique_ptr<TimeStepSolver> newton_;  // made the first time needed
   State sub_;                               // the sub-steps' state

@@ -29,6 +29,7 @@ struct StepSolve {
   int substeps = 1;              // solved in this many sub-steps
   bool newton = false;           // solved by the Newton fallback
   Vec velocity = nullptr;
+  double min_J = 0, max_abs_J = 0;  // of the tets at the end (FallbackChain measures them)
 };
 
 class ImplicitEuler : public Objective {
