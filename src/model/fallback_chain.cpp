@@ -8,7 +8,19 @@
 namespace hyperqn {
 
 FallbackChain::FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolver& solver, double element_limit)
-    : scene_(scene), spec_(spec), solver_(solver), element_limit_(element_limit) {}
+    : scene_(scene), spec_(spec), solver_(solver), element_limit_(element_limit) {
+  record_ = [this](const IterationRecord& r) {
+    records_.push_back(r);
+    return false;
+  };
+}
+
+// The cost of another solve of the frame, added to out's.
+static void add_cost(const StepSolve& part, StepSolve& out) {
+  out.iterations += part.iterations;
+  out.evaluations += part.evaluations;
+  out.seconds += part.seconds;
+}
 
 FallbackChain::~FallbackChain() {
   VecDestroy(&kept_x_);
@@ -53,10 +65,6 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
 PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, bool* ok) {
   Level* l;
   const int parts = 1 << halvings;
-  const IterationCallback record = [this](const IterationRecord& r) {
-    records_.push_back(r);
-    return false;
-  };
   PetscFunctionBeginUser;
   *ok = false;
   PetscCall(level(halvings, &l));
@@ -65,10 +73,8 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
   for (int j = 0; j < parts; ++j) {
     StepSolve part;
     records_.clear();
-    PetscCall(l->integrator->solve_step(*l->solver, sub_, record, part));
-    out.iterations += part.iterations;
-    out.evaluations += part.evaluations;
-    out.seconds += part.seconds;
+    PetscCall(l->integrator->solve_step(*l->solver, sub_, record_, part));
+    add_cost(part, out);
     PetscCall(judge(part.result, *l->integrator, sub_.x, &outcome_));
     if (!outcome_.acceptable()) PetscFunctionReturn(0);
     PetscCall(l->integrator->end_step(sub_));
@@ -85,10 +91,6 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
 
 PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out) {
   ImplicitEuler& g = *scene_.integrator;
-  const IterationCallback record = [this](const IterationRecord& r) {
-    records_.push_back(r);
-    return false;
-  };
   PetscFunctionBeginUser;
   if (!start_known_) {  // else the last frame's end, measured then
     double unused;
@@ -96,7 +98,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
     start_known_ = true;
   }
   records_.clear();
-  PetscCall(g.solve_step(solver_, s, record, out));
+  PetscCall(g.solve_step(solver_, s, record_, out));
   out.extended = out.result.extended;
   PetscCall(judge(out.result, g, s.x, &outcome_));
   if (!outcome_.acceptable() && (spec_.max_halvings > 0 || spec_.newton_fallback)) {
@@ -121,10 +123,8 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
         }
         PetscCall(g.undo_step(s));
         records_.clear();
-        PetscCall(g.solve_step(*newton_, s, record, newton));
-        out.iterations += newton.iterations;
-        out.evaluations += newton.evaluations;
-        out.seconds += newton.seconds;
+        PetscCall(g.solve_step(*newton_, s, record_, newton));
+        add_cost(newton, out);
       } else {
         PetscCall(g.undo_step(s));
         PetscCall(g.begin_step(s));  // the step again, to keep the first solve's x

@@ -70,6 +70,7 @@ class FallbackChain {
   State sub_;                               // the sub-steps' state
   Vec kept_x_ = nullptr, velocity_ = nullptr;
   std::vector<IterationRecord> records_;    // the current solve's iterations
+  IterationCallback record_;                // appends to records_
 };
 
 }  // namespace hyperqn
