@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "geometry/motion.hpp"
 #include "terms/element_kernels.hpp"
 
 namespace hyperqn {
@@ -26,15 +27,6 @@ std::string Body::material_names() const {
   std::string s;
   for (const auto& t : terms_) s += (s.empty() ? "" : ", ") + t->name();
   return s;
-}
-
-// Position at time t of a point X moved by the motion (see Motion in model/regions.hpp).
-static Vec3 moved(const Motion& m, const Vec3& X, double t) {
-  const double tau = std::min(std::max(t, m.start), m.end) - m.start;
-  const Vec3 axis = Vec3(m.axis[0], m.axis[1], m.axis[2]).normalized();
-  const Vec3 c(m.center[0], m.center[1], m.center[2]);
-  const Eigen::AngleAxisd R(m.rate_deg * M_PI / 180.0 * tau, axis);
-  return c + R * (X - c) + tau * Vec3(m.velocity[0], m.velocity[1], m.velocity[2]);
 }
 
 void Body::set_time(double t) {

@@ -6,22 +6,11 @@
 #include <string>
 #include <vector>
 
+#include "geometry/motion.hpp"
 #include "mesh/mesh.hpp"
 #include "model/material_spec.hpp"
 
 namespace hyperqn {
-
-// Prescribed motion of a fixed region: rotation about an axis through a centre at a constant
-// rate, plus a translation at a constant velocity, both active for t in [start, end] and held
-// afterwards. Position at time t: c + R(rate * tau) (X - c) + velocity * tau,
-// tau = clamp(t, start, end) - start.
-struct Motion {
-  bool active = false;
-  std::array<double, 3> axis{1, 0, 0}, center{0, 0, 0};
-  double rate_deg = 0;               // degrees per unit time
-  std::array<double, 3> velocity{0, 0, 0};
-  double start = 0, end = 1e300;
-};
 
 struct BoxRegion {
   std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};

@@ -1,0 +1,30 @@
+#include "geometry/motion.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hyperqn {
+
+static double active_time(const Motion& m, double t) { return std::min(std::max(t, m.start), m.end) - m.start; }
+
+Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t) {
+  if (!m.active) return X;
+  const double tau = active_time(m, t);
+  const Eigen::Vector3d axis = Eigen::Vector3d(m.axis[0], m.axis[1], m.axis[2]).normalized();
+  const Eigen::Vector3d c(m.center[0], m.center[1], m.center[2]);
+  const Eigen::AngleAxisd R(m.rate_deg * M_PI / 180.0 * tau, axis);
+  return c + R * (X - c) + tau * Eigen::Vector3d(m.velocity[0], m.velocity[1], m.velocity[2]);
+}
+
+RigidPose pose_at(const Motion& m, double t) {
+  RigidPose pose;
+  if (!m.active) return pose;
+  const double tau = active_time(m, t);
+  const Eigen::Vector3d axis = Eigen::Vector3d(m.axis[0], m.axis[1], m.axis[2]).normalized();
+  const Eigen::Vector3d c(m.center[0], m.center[1], m.center[2]);
+  pose.rotation = Eigen::AngleAxisd(m.rate_deg * M_PI / 180.0 * tau, axis).toRotationMatrix();
+  pose.translation = c - pose.rotation * c + tau * Eigen::Vector3d(m.velocity[0], m.velocity[1], m.velocity[2]);
+  return pose;
+}
+
+}  // namespace hyperqn

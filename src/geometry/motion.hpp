@@ -1,0 +1,33 @@
+// Prescribed rigid motion, shared by fixed regions, attachments and colliders: rotation about an
+// axis through a centre at a constant rate, plus a translation at a constant velocity, both active
+// for t in [start, end] and held afterwards. Position at time t of a point X given at t = 0:
+// c + R(rate * tau) (X - c) + velocity * tau, tau = clamp(t, start, end) - start.
+#pragma once
+#include <Eigen/Dense>
+#include <array>
+
+namespace hyperqn {
+
+struct Motion {
+  bool active = false;
+  std::array<double, 3> axis{1, 0, 0}, center{0, 0, 0};
+  double rate_deg = 0;               // degrees per unit time
+  std::array<double, 3> velocity{0, 0, 0};
+  double start = 0, end = 1e300;
+};
+
+// The motion's rigid map at time t: p = rotation * X + translation (identity if not active).
+struct RigidPose {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& X) const { return rotation * X + translation; }
+  // The point X whose image is p.
+  Eigen::Vector3d inverse(const Eigen::Vector3d& p) const { return rotation.transpose() * (p - translation); }
+};
+RigidPose pose_at(const Motion& m, double t);
+
+// Position at time t of the point X (X itself if the motion is not active): pose_at(m, t).apply(X)
+// up to round-off, computed as c + R (X - c) + velocity tau.
+Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t);
+
+}  // namespace hyperqn
