@@ -8,6 +8,7 @@ namespace hyperqn {
 namespace {
 
 constexpr int kLeafSize = 4;
+constexpr int kMaxStack = 64;  // > depth + 1 for any int triangle count (see closest)
 
 // Squared distance from p to the box (0 inside).
 double box_distance2(const Eigen::Vector3d& p, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
@@ -87,14 +88,13 @@ SurfaceHit TriangleBVH::closest(const Eigen::Vector3d& p) const {
   SurfaceHit best;
   if (nodes_.empty()) return best;
   best.distance2 = std::numeric_limits<double>::infinity();
-  // Explicit stack of (node, lower bound); depth is about log2(n / kLeafSize) so 64 suffices for
-  // balanced trees, but a vector keeps it safe for any input.
-  std::vector<std::pair<int, double>> stack;
-  stack.reserve(64);
-  stack.emplace_back(0, box_distance2(p, nodes_[0].lo, nodes_[0].hi));
-  while (!stack.empty()) {
-    const auto [id, bound] = stack.back();
-    stack.pop_back();
+  // Explicit stack of (node, lower bound), no allocation per query: the median split halves the
+  // count at each level, so the depth is at most 31 and the stack holds at most depth + 1 nodes.
+  std::pair<int, double> stack[kMaxStack];
+  int top = 0;
+  stack[top++] = {0, box_distance2(p, nodes_[0].lo, nodes_[0].hi)};
+  while (top > 0) {
+    const auto [id, bound] = stack[--top];
     if (bound >= best.distance2) continue;
     const Node& node = nodes_[id];
     if (node.count > 0) {
@@ -117,11 +117,11 @@ SurfaceHit TriangleBVH::closest(const Eigen::Vector3d& p) const {
     const double dr = box_distance2(p, nodes_[node.right].lo, nodes_[node.right].hi);
     // Push the farther child first so the nearer one is searched first and tightens the bound.
     if (dl <= dr) {
-      stack.emplace_back(node.right, dr);
-      stack.emplace_back(node.left, dl);
+      stack[top++] = {node.right, dr};
+      stack[top++] = {node.left, dl};
     } else {
-      stack.emplace_back(node.left, dl);
-      stack.emplace_back(node.right, dr);
+      stack[top++] = {node.left, dl};
+      stack[top++] = {node.right, dr};
     }
   }
   return best;
@@ -131,10 +131,11 @@ double TriangleBVH::first_crossing(const Eigen::Vector3d& q0, const Eigen::Vecto
   if (nodes_.empty()) return -1;
   const Eigen::Vector3d d = q1 - q0;
   double best = std::numeric_limits<double>::infinity();
-  std::vector<int> stack{0};
-  while (!stack.empty()) {
-    const int id = stack.back();
-    stack.pop_back();
+  int stack[kMaxStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const int id = stack[--top];
     const Node& node = nodes_[id];
     // Only the part of the segment before the best crossing so far can improve it.
     if (!segment_meets_box(q0, d, std::min(best, 1.0), node.lo, node.hi)) continue;
@@ -147,8 +148,8 @@ double TriangleBVH::first_crossing(const Eigen::Vector3d& q0, const Eigen::Vecto
       }
       continue;
     }
-    stack.push_back(node.right);
-    stack.push_back(node.left);
+    stack[top++] = node.right;
+    stack[top++] = node.left;
   }
   return best <= 1 ? best : -1;
 }
