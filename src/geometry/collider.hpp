@@ -46,8 +46,9 @@ class Collider {
 
   // Continuous collision test along the straight path p(s) = p0 + s (p1 - p0), s in [0, 1], with
   // the obstacle at its current pose and phi(p0) > 0: the smallest s at which phi(p(s)) = 0, or a
-  // value >= 1 if the path stays outside. Exact for the analytic shapes; for triangle surfaces
-  // the first crossing of a triangle.
+  // value >= 1 (+infinity) if the path stays outside. Exact for the analytic shapes (which return
+  // 0 for a start with phi(p0) <= 0); for triangle surfaces the first crossing of a triangle,
+  // either way (a start inside a closed surface gives where the path leaves it).
   double first_contact(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1) const;
 
   double friction() const { return friction_; }
