@@ -490,6 +490,31 @@ void test_mesh_icosphere(const fs::path& dir) {
   check_paths(*c, ctr, 2.5, "mesh icosphere");
 }
 
+// A flat tetrahedron (sharp edges and corners): there the sign needs the pseudo-normals, since
+// p - closest can point against one of the faces along an edge. Convex, so the truth is simple:
+// inside iff below every face plane, and |phi| the distance to the nearest triangle.
+void test_mesh_sliver(const fs::path& dir) {
+  write_file(dir / "sliver.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0.3 0.3 0.04\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n");
+  const auto c = make_collider(mesh_spec(dir / "sliver.obj"), "deck.yaml", 0);
+  const std::vector<Vec3> x{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 0.04}};
+  const int f[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3}};
+  int wrong = 0, inside = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 p = random_point(-0.2, 1.2).cwiseProduct(Vec3(1, 1, 0.15));
+    double d2 = std::numeric_limits<double>::infinity(), plane = -std::numeric_limits<double>::infinity();
+    for (const auto& t : f) {
+      d2 = std::min(d2, (p - closest_on_triangle(p, x[t[0]], x[t[1]], x[t[2]]).point).squaredNorm());
+      const Vec3 n = (x[t[1]] - x[t[0]]).cross(x[t[2]] - x[t[0]]).normalized();
+      plane = std::max(plane, n.dot(p - x[t[0]]));
+    }
+    const double truth = plane <= 0 ? -std::sqrt(d2) : std::sqrt(d2);
+    inside += plane <= 0;
+    if (std::fabs(c->distance(p) - truth) > 1e-12) ++wrong;
+  }
+  CHECK_MSG(wrong == 0, "sliver: " + std::to_string(wrong) + " wrong signed distances");
+  CHECK(inside > 20);
+}
+
 // An open quad z = 0 over [0, 1]^2, normal +z: phi = z over it; paths cross it or pass by.
 void test_mesh_quad(const fs::path& dir) {
   write_file(dir / "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n");
@@ -602,6 +627,7 @@ int main() {
     test_mesh_cube(dir);
     test_mesh_icosphere(dir);
     test_mesh_quad(dir);
+    test_mesh_sliver(dir);
     test_errors(dir);
   } catch (const std::exception& e) {
     CHECK_MSG(false, std::string("unexpected exception: ") + e.what());
