@@ -50,7 +50,7 @@ constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
 const Names kLineSearches = {"more-thuente", "armijo", "unit"};
-const Names kWarmStarts = {"inertial", "previous"};
+const Names kWarmStarts = {"inertial", "previous", "lower"};
 const Names kMeshEdges = {"ignore", "strands"};
 
 std::string join(const Names& names) {
@@ -203,18 +203,18 @@ class Section {
   std::vector<std::pair<std::string, Value>> entries_;
 };
 
-// Relative mesh paths are relative to the deck's directory (not the working directory), so a
-// deck and its meshes can be moved together.
-std::string resolve_mesh_file(const Reader& r, const Value& v, const fs::path& deck_dir) {
+// Relative paths of mesh and obstacle files are relative to the deck's directory (not the working
+// directory), so a deck and its meshes can be moved together. extensions: what kinds are read.
+std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& deck_dir, const Names& extensions,
+                               const std::string& kinds) {
   fs::path file = r.text(v);
-  if (file.empty()) r.fail(v, "empty mesh file name");
-  if (file.extension() != ".mesh" && file.extension() != ".msh")
-    r.fail(v, "unsupported mesh file '" + file.string() +
-                  "': expected .mesh (Medit) or .msh (Gmsh)");
+  if (file.empty()) r.fail(v, "empty file name");
+  if (std::find(extensions.begin(), extensions.end(), file.extension().string()) == extensions.end())
+    r.fail(v, "unsupported file '" + file.string() + "': expected " + kinds);
   fs::path resolved = file.is_absolute() ? file : (deck_dir / file).lexically_normal();
   std::error_code ec;
   if (!fs::is_regular_file(resolved, ec))
-    r.fail(v, "mesh file not found: '" + resolved.string() + "'");
+    r.fail(v, "file not found: '" + resolved.string() + "'");
   return resolved.string();
 }
 
@@ -224,7 +224,7 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
   if (file && box) r.fail(v, "give either file or box, not both");
   if (!file && !box && !strands) r.fail(v, "missing the mesh: give file (a .mesh or .msh path), box or strands");
   if (file) {
-    m.file = resolve_mesh_file(r, *file, deck_dir);
+    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh"}, ".mesh (Medit) or .msh (Gmsh)");
     m.line = file->line;
   }
   if (const Value* x = s.find("edges")) {
@@ -494,6 +494,78 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) 
   }
 }
 
+// colliders: a list of obstacles, each of one type with that type's keys (terms/contact.hpp).
+void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, std::vector<ColliderSpec>& colliders) {
+  static const Names kTypes = {"plane", "sphere", "box", "capsule", "mesh"};
+  for (const Value& item : r.items(v)) {
+    ColliderSpec c;
+    c.line = item.line;
+    {
+      Section probe(r, item, {});  // the type decides which keys are allowed
+      c.type = r.choice(probe.need("type"), kTypes);
+    }
+    Names keys = {"type", "friction", "motion"};
+    if (c.type == "plane") keys.insert(keys.end(), {"point", "normal"});
+    if (c.type == "sphere") keys.insert(keys.end(), {"center", "radius"});
+    if (c.type == "box") keys.insert(keys.end(), {"min", "max"});
+    if (c.type == "capsule") keys.insert(keys.end(), {"a", "b", "radius"});
+    if (c.type == "mesh") keys.insert(keys.end(), {"file"});
+    Section s(r, item, keys);
+    const auto positive_radius = [&] {
+      const Value& x = s.need("radius");
+      c.radius = r.number(x);
+      r.check(c.radius > 0, x, "> 0 (a length)");
+    };
+    if (c.type == "plane") {
+      c.point = r.numbers3(s.need("point"));
+      const Value& n = s.need("normal");
+      c.normal = r.numbers3(n);
+      r.check(std::hypot(c.normal[0], c.normal[1], c.normal[2]) > 0, n, "a nonzero vector");
+    } else if (c.type == "sphere") {
+      c.center = r.numbers3(s.need("center"));
+      positive_radius();
+    } else if (c.type == "box") {
+      const Value &lo = s.need("min"), &hi = s.need("max");
+      c.min = r.numbers3(lo);
+      c.max = r.numbers3(hi);
+      for (int i = 0; i < 3; ++i)
+        if (!(c.min[i] < c.max[i]))
+          r.fail(hi, std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
+    } else if (c.type == "capsule") {
+      c.a = r.numbers3(s.need("a"));
+      c.b = r.numbers3(s.need("b"));
+      positive_radius();
+    } else {
+      c.file = resolve_input_file(r, s.need("file"), deck_dir, {".obj", ".mesh"},
+                                  ".obj (Wavefront) or .mesh (Medit, its Triangles)");
+    }
+    if (const Value* x = s.find("friction")) {
+      c.friction = r.number(*x);
+      r.check(c.friction >= 0 && c.friction <= 100, *x, "in [0, 100] (a Coulomb coefficient)");
+    }
+    if (const Value* x = s.find("motion")) c.motion = read_motion(r, *x);
+    colliders.push_back(c);
+  }
+}
+
+void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
+  Section s(r, v, {"model", "distance", "stiffness", "friction_velocity"});
+  c.line = v.line;
+  if (const Value* x = s.find("model")) c.model = r.choice(*x, {"penalty"});
+  if (const Value* x = s.find("distance")) {
+    c.distance = r.number(*x);
+    r.check(c.distance > 0, *x, "> 0 (a length; omit it for 1e-2 of the body's rest diagonal)");
+  }
+  if (const Value* x = s.find("stiffness")) {
+    c.stiffness = r.number(*x);
+    r.check(c.stiffness >= 1 && c.stiffness <= 1e12, *x, "in [1, 1e12] (force at full penetration, in vertex weights)");
+  }
+  if (const Value* x = s.find("friction_velocity")) {
+    c.friction_velocity = r.number(*x);
+    r.check(c.friction_velocity > 0, *x, "> 0 (a speed; omit it for 1e-3 rest diagonals per second)");
+  }
+}
+
 void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
   Section s(r, v, {"squash", "collapse", "random", "invert"});
   if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
@@ -643,7 +715,7 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
 }
 
 void read_output(const Reader& r, const Value& v, OutputSpec& o) {
-  Section s(r, v, {"directory", "every", "vtk", "iterations_csv"});
+  Section s(r, v, {"directory", "every", "vtk", "iterations_csv", "contact_csv"});
   if (const Value* x = s.find("directory")) o.directory = r.text(*x);
   if (const Value* x = s.find("every")) {
     o.every = r.integer(*x);
@@ -651,6 +723,7 @@ void read_output(const Reader& r, const Value& v, OutputSpec& o) {
   }
   if (const Value* x = s.find("vtk")) o.vtk = r.boolean(*x);
   if (const Value* x = s.find("iterations_csv")) o.iterations_csv = r.boolean(*x);
+  if (const Value* x = s.find("contact_csv")) o.contact_csv = r.boolean(*x);
 }
 
 // petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
@@ -689,8 +762,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "strand_material", "regions", "fixed", "initial", "gravity", "time", "solver",
-             "output", "study", "petsc"});
+            {"name", "mesh", "material", "strand_material", "regions", "fixed", "colliders", "contact", "initial", "gravity",
+             "time", "solver", "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -729,6 +802,11 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
+  if (const Value* x = s.find("colliders")) read_colliders(r, *x, fs::path(path).parent_path(), deck.colliders);
+  if (const Value* x = s.find("contact")) {
+    if (deck.colliders.empty()) r.fail(*x, "contact describes how the body touches colliders, and there are none");
+    read_contact(r, *x, deck.contact);
+  }
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);

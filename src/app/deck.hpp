@@ -28,6 +28,7 @@ struct OutputSpec {
   int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
   bool vtk = true;
   bool iterations_csv = true;
+  bool contact_csv = true;           // contact.csv (scenes with colliders only)
 };
 
 struct Deck : SceneSpec {

@@ -110,6 +110,8 @@ static void read_log_events(RunSummary& s) {
   s.h0_solves = event_count(e.h0_solve);
   s.hessian_s = event_seconds(e.hessian);
   s.hessian_assemblies = event_count(e.hessian);
+  s.contact_s = event_seconds(e.contact);
+  s.contact_evaluations = event_count(e.contact);
 }
 
 namespace {
@@ -124,9 +126,12 @@ struct Run {
   std::unique_ptr<FallbackChain> chain;  // around solver
   std::vector<std::unique_ptr<OutputWriter>> writers;
   IterationLog log;
+  ContactLog contact_log;
   RunSummary summary;
   int last_written = -1;
-  std::vector<double> pos, vel, J;  // work: local arrays of a frame
+  std::vector<double> pos, vel, J, contact_force;  // work: local arrays of a frame
+  Vec force = nullptr;                             // work: contact forces (global free dofs)
+  ~Run() { VecDestroy(&force); }
 
   RunOptions options;
 
@@ -146,10 +151,36 @@ struct Run {
     *written = finite == 1;
     if (!*written) PetscFunctionReturn(0);
     summary.min_J = std::fmin(summary.min_J, global_min(comm, J));
+    const std::vector<double>* contact = nullptr;
+    if (s.contact) {
+      ContactMeasure m;
+      if (!force) PetscCall(VecDuplicate(state.x, &force));
+      PetscCall(s.contact->measure(pos, m, force));
+      PetscCall(s.body->local_values(force, contact_force));
+      contact = &contact_force;
+    }
     PetscCall(event_begin(&LogEvents::output));
-    for (auto& w : writers) w->write_frame({frame, frame * deck.time.dt, &state, &pos, &vel, &J});
+    for (auto& w : writers) w->write_frame({frame, frame * deck.time.dt, &state, &pos, &vel, &J, contact});
     PetscCall(event_end(&LogEvents::output));
     last_written = frame;
+    PetscFunctionReturn(0);
+  }
+
+  // Per frame: contact.csv's rows and the summary's contact extremes (scenes with colliders).
+  PetscErrorCode record_contact(int frame) {
+    const Scene& s = scene.current();
+    PetscFunctionBeginUser;
+    if (!s.contact) PetscFunctionReturn(0);
+    ContactMeasure m;
+    PetscCall(s.body->local_positions(state.x, pos));
+    PetscCall(s.contact->measure(pos, m, nullptr));
+    contact_log.append(frame, state.time, m);
+    long long active = 0;
+    for (size_t c = 0; c < m.active.size(); ++c) {
+      summary.max_penetration = std::fmax(summary.max_penetration, m.penetration[c]);
+      active += m.active[c];
+    }
+    summary.max_active_contacts = std::max(summary.max_active_contacts, active);
     PetscFunctionReturn(0);
   }
 
@@ -159,6 +190,7 @@ struct Run {
     PetscFunctionBeginUser;
     chain.reset();  // they refer to the old scene
     solver.reset();
+    PetscCall(VecDestroy(&force));  // the layout changed
     PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
     summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
@@ -269,6 +301,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;
+      PetscCall(record_contact(frame));
       const bool last = frame == deck.time.frames;
       if (frame % deck.output.every == 0 || last) {
         PetscCall(write_frame(frame, &written));
@@ -354,6 +387,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (deck.output.vtk) run.writers.push_back(std::make_unique<VtkSeries>(comm, outdir, deck.name));
     for (auto& w : run.writers) w->begin_run(scene.mesh);
     if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
+    if (deck.output.contact_csv && scene.contact) run.contact_log.open(outdir + "/contact.csv", rank);
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);

@@ -37,6 +37,7 @@ static LogEvents register_events() {
   add("hqnBacktrack", &e.backtrack);
   add("hqnScene", &e.scene);
   add("hqnOutput", &e.output);
+  add("hqnContact", &e.contact);
   return e;
 }
 

@@ -16,6 +16,7 @@ struct LogEvents {
   PetscLogEvent backtrack;    // hyperqn's own backtracking line search (PD, retries after failures)
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
   PetscLogEvent output;       // writing one output frame
+  PetscLogEvent contact;      // contact and friction: energy, gradient, Hessian, per-step update
 };
 
 // The events, registered on first use.

@@ -21,6 +21,7 @@ struct FrameData {
   const std::vector<double>* positions = nullptr;   // 3 per local vertex
   const std::vector<double>* velocities = nullptr;  // 3 per local vertex
   const std::vector<double>* J = nullptr;           // per local tet
+  const std::vector<double>* contact_force = nullptr;  // 3 per local vertex; null without colliders
 };
 
 class OutputWriter {

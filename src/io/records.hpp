@@ -46,6 +46,11 @@ struct RunSummary {
   long long extended_frames = 0, substepped_frames = 0, newton_frames = 0;
   // Solved frames with an inverted element (det F < 0); the status says so (docs/guardrails.md).
   std::vector<int> inverted_frames;
+  // Contact (scenes with colliders): the deepest penetration of any vertex into any collider at
+  // the end of any frame, the most vertices within the activation distance at the end of a frame,
+  // and the time and count of contact evaluations (0 without colliders: no contact code ran).
+  double max_penetration = 0, contact_s = 0;
+  long long max_active_contacts = 0, contact_evaluations = 0;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
 };

@@ -25,6 +25,25 @@ IterationLog::~IterationLog() {
   if (file_) std::fclose(file_);
 }
 
+void ContactLog::open(const std::string& path, int rank) {
+  if (rank != 0) return;
+  file_ = std::fopen(path.c_str(), "w");
+  if (!file_) throw std::runtime_error("cannot write " + path);
+  std::fprintf(file_, "frame,time,collider,normal_force,friction_force,max_penetration,active\n");
+}
+
+void ContactLog::append(int frame, double time, const ContactMeasure& m) {
+  if (!file_) return;
+  for (size_t c = 0; c < m.normal_force.size(); ++c)
+    std::fprintf(file_, "%d,%.17g,%zu,%.17g,%.17g,%.17g,%ld\n", frame, time, c, m.normal_force[c], m.friction_force[c],
+                 m.penetration[c], m.active[c]);
+  std::fflush(file_);
+}
+
+ContactLog::~ContactLog() {
+  if (file_) std::fclose(file_);
+}
+
 // JSON has no NaN or Inf: write null for them.
 static std::string number(double v) {
   if (!std::isfinite(v)) return "null";
@@ -95,6 +114,10 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"final_energy\": " << number(s.final_energy) << ",\n"
       << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"
       << "  \"min_J\": " << number(s.min_J) << ",\n"
+      << "  \"max_penetration\": " << number(s.max_penetration) << ",\n"
+      << "  \"max_active_contacts\": " << s.max_active_contacts << ",\n"
+      << "  \"contact_s\": " << number(s.contact_s) << ",\n"
+      << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << "\n"
       << "}\n";

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "io/records.hpp"
+#include "terms/contact.hpp"
 
 namespace hyperqn {
 
@@ -14,6 +15,18 @@ class IterationLog {
   void open(const std::string& path, int rank);
   void append(int frame, const IterationRecord& r);
   ~IterationLog();
+
+ private:
+  std::FILE* file_ = nullptr;
+};
+
+// contact.csv: per frame and collider, the total normal and friction force on the body, the
+// deepest penetration and the vertices within the activation distance (rank 0 writes).
+class ContactLog {
+ public:
+  void open(const std::string& path, int rank);
+  void append(int frame, double time, const ContactMeasure& m);
+  ~ContactLog();
 
  private:
   std::FILE* file_ = nullptr;

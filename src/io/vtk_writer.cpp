@@ -92,9 +92,10 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     J.push_back(length(f.positions->data(), a, b) / length(mesh_->rest.data(), a, b));
   }
 
-  const std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
-                                         make_array("Float64", "velocity", 3, *f.velocities),
-                                         make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
+  std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
+                                   make_array("Float64", "velocity", 3, *f.velocities),
+                                   make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
+  if (f.contact_force) point_data.push_back(make_array("Float64", "contact_force", 3, *f.contact_force));
   const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
@@ -119,7 +120,8 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   check_stream(out, path);
 }
 
-void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces) const {
+void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,
+                           bool contact) const {
   std::ofstream out(path);
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
@@ -127,7 +129,8 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
          "<PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>\n"
          "<PDataArray type=\"Int64\" Name=\"vertex_id\" NumberOfComponents=\"1\"/>\n"
-         "</PPointData>\n<PCellData>\n"
+      << (contact ? "<PDataArray type=\"Float64\" Name=\"contact_force\" NumberOfComponents=\"3\"/>\n" : "")
+      << "</PPointData>\n<PCellData>\n"
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
          "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
@@ -167,7 +170,7 @@ void VtkSeries::write_frame(const FrameData& f) {
       for (int r = 0; r < size; ++r)
         if (has[r]) pieces.push_back(r);
       if (mine) write_piece(dir_ + "/" + stem + "_" + std::to_string(rank) + ".vtu", f);
-      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, pieces);
+      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, pieces, f.contact_force != nullptr);
     }
     written_.emplace_back(f.time, file);
     if (rank == 0) write_pvd();

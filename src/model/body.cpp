@@ -45,9 +45,9 @@ void Body::set_time(double t) {
   time_ = t;
 }
 
-PetscErrorCode Body::begin_step(double t, Vec y) {
+PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
-  for (auto& term : terms_) PetscCall(term->begin_step(t, y));
+  for (auto& term : terms_) PetscCall(term->begin_step(step));
   PetscFunctionReturn(0);
 }
 
@@ -70,6 +70,13 @@ PetscErrorCode Body::scatter_to_local(Vec global, const std::vector<double>& fix
 PetscErrorCode Body::local_positions(Vec x, std::vector<double>& pos) const {
   PetscFunctionBeginUser;
   PetscCall(scatter_to_local(x, fixed_pos_, pos));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::local_values(Vec global, std::vector<double>& out) const {
+  PetscFunctionBeginUser;
+  zeros_.assign(3 * mesh_.num_vertices, 0.0);
+  PetscCall(scatter_to_local(global, zeros_, out));
   PetscFunctionReturn(0);
 }
 

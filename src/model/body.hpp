@@ -33,12 +33,14 @@ class Body {
   // their velocities become the mean over the step from the previous time. Again at the same t:
   // nothing changes (the study steps several states to the same t).
   void set_time(double t);
-  // The terms' per-step update: t is the time at the end of the step, y its inertial target.
-  PetscErrorCode begin_step(double t, Vec y);
+  // The terms' per-step update (EnergyTerm::begin_step).
+  PetscErrorCode begin_step(const StepStart& step);
 
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.
   PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
+  // Local values of a global vector of free dofs (fixed vertices: 0).
+  PetscErrorCode local_values(Vec global, std::vector<double>& out) const;
   // Local values of a global velocity vector (fixed vertices: their prescribed velocity).
   PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
   // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
@@ -80,6 +82,7 @@ class Body {
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions
   mutable std::vector<double> J_;    // work: det F per local tet
+  mutable std::vector<double> zeros_;  // work: 0 at every local vertex (local_values)
 };
 
 }  // namespace hyperqn

@@ -7,8 +7,8 @@
 namespace hyperqn {
 
 ImplicitEuler::ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
-                             bool inertial_warm_start)
-    : body_(body), dt_(dt), damping_(damping), gravity_(gravity), inertial_warm_start_(inertial_warm_start) {}
+                             WarmStart warm_start)
+    : body_(body), dt_(dt), damping_(damping), gravity_(gravity), warm_start_(warm_start) {}
 
 ImplicitEuler::~ImplicitEuler() {
   for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_}) VecDestroy(v);
@@ -46,7 +46,7 @@ PetscErrorCode ImplicitEuler::setup() {
 PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const {
   PetscFunctionBeginUser;
   const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
-  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, inertial_warm_start_);
+  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_);
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }
@@ -57,10 +57,16 @@ PetscErrorCode ImplicitEuler::begin_step(State& s) {
   body_.set_time(t);  // prescribed positions of the fixed vertices at t_{n+1}
   PetscCall(VecWAXPY(y_, dt_, s.v, s.x));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step(t, y_));
+  PetscCall(body_.begin_step({t, dt_, s.x, y_}));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
-  if (inertial_warm_start_) PetscCall(VecCopy(y_, s.x));
+  if (warm_start_ == WarmStart::inertial) PetscCall(VecCopy(y_, s.x));
+  if (warm_start_ == WarmStart::lower) {
+    PetscReal g_y, g_n;
+    PetscCall(objective(y_, &g_y, nullptr));
+    PetscCall(objective(x_n_, &g_n, nullptr));
+    if (rejected(g_n) || !(g_n < g_y)) PetscCall(VecCopy(y_, s.x));  // else x stays x_n
+  }
   PetscFunctionReturn(0);
 }
 
@@ -74,7 +80,7 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
   PetscCall(solver.solve(s.x, on_iteration, out.result));
   out.evaluations = evaluations_;
   out.iterations = out.result.iterations;
-  if (inertial_warm_start_ && out.result.reason == "REJECTED_INITIAL_GUESS") {
+  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS") {
     out.restarted = true;
     PetscCall(restart_from_previous(s));
     PetscCall(solver.solve(s.x, on_iteration, out.result));

@@ -32,11 +32,15 @@ struct StepSolve {
   double min_J = 0, max_abs_J = 0;  // of the tets at the end (FallbackChain measures them)
 };
 
+// Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
+// the lower g (two evaluations per step; for contact, where y often lies deep in an obstacle
+// while x_n rests on it).
+enum class WarmStart { inertial, previous, lower };
+
 class ImplicitEuler : public Objective {
  public:
-  // inertial_warm_start: each step starts from y (else from x_n).
   ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
-                bool inertial_warm_start = true);
+                WarmStart warm_start = WarmStart::inertial);
   ~ImplicitEuler() override;
   ImplicitEuler(const ImplicitEuler&) = delete;
   ImplicitEuler& operator=(const ImplicitEuler&) = delete;
@@ -85,7 +89,7 @@ class ImplicitEuler : public Objective {
   Body& body_;
   double dt_, damping_;
   std::array<double, 3> gravity_;
-  bool inertial_warm_start_;
+  WarmStart warm_start_;
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
   PetscInt evaluations_ = 0, rejected_ = 0;

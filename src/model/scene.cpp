@@ -5,6 +5,7 @@
 
 #include "io/log_events.hpp"
 #include "model/elastic_terms.hpp"
+#include "terms/contact.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
 #include "mesh/input_error.hpp"
@@ -102,6 +103,8 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
       throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
                        "every vertex is fixed: nothing to simulate");
   });
+  // Every rank reads the obstacle files (each holds every collider): a bad one fails on all alike.
+  for (size_t c = 0; c < deck.colliders.size(); ++c) make_collider(deck.colliders[c], deck.path, (int)c);
   return in;
 }
 
@@ -138,11 +141,21 @@ PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material);
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
+  s.contact = nullptr;
+  if (!spec.colliders.empty()) {  // no collider, no contact code
+    std::vector<std::unique_ptr<Collider>> colliders;
+    for (size_t c = 0; c < spec.colliders.size(); ++c) colliders.push_back(make_collider(spec.colliders[c], spec.path, (int)c));
+    auto contact = std::make_unique<ContactTerm>(s.mesh, std::move(colliders), resolved_contact(spec.contact, rest_diagonal(s.mesh)),
+                                                 log_events().contact);
+    s.contact = contact.get();
+    terms.push_back(std::move(contact));
+  }
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
   s.integrator = std::make_unique<ImplicitEuler>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
-                                                 options_.inertial_warm_start);
+                                                 options_.warm_start);
   PetscCall(s.integrator->setup());
+  if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
   if (options_.factor) {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator));

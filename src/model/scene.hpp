@@ -13,6 +13,7 @@
 #include "model/implicit_euler.hpp"
 #include "model/state.hpp"
 #include "solvers/factored_system.hpp"
+#include "terms/contact.hpp"
 #include "solvers/solver_spec.hpp"
 #include "mesh/mesh.hpp"
 
@@ -37,6 +38,7 @@ bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput
 struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
+  ContactTerm* contact = nullptr;                  // the body's contact term, if the deck has colliders
   std::unique_ptr<ImplicitEuler> integrator;
   std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
   std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
@@ -48,7 +50,7 @@ struct Scene {
 struct SceneOptions {
   bool factor = false;                 // factor M + h^2 L (a solver needs it)
   bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
-  bool inertial_warm_start = true;   // each step starts from y (else from x_n)
+  WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
 };

@@ -9,6 +9,7 @@
 #include "mesh/mesh_spec.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
+#include "terms/contact.hpp"
 
 namespace hyperqn {
 
@@ -36,6 +37,8 @@ struct SceneSpec {
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
   std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
+  std::vector<ColliderSpec> colliders;   // obstacles (none: no contact code at all)
+  ContactSpec contact;                   // how contact is modelled (if there are colliders)
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;

@@ -13,6 +13,14 @@
 
 namespace hyperqn {
 
+// What a term learns at the start of every time step (sub-steps included).
+struct StepStart {
+  double t = 0;          // time at the end of the step
+  double dt = 0;         // the step's length h
+  Vec x_start = nullptr; // x_n, the positions at its start (global free dofs)
+  Vec y = nullptr;       // its inertial target y (global free dofs)
+};
+
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -40,9 +48,9 @@ class EnergyTerm {
   // add_laplacian (so x - A^{-1} grad g is the local-global step and never increases g).
   virtual bool projective_dynamics_exact() const = 0;
 
-  // Called at the start of every time step, with the time t at its end and its inertial target y
-  // (global free dofs): moving obstacles, attachments and the like update here.
-  virtual PetscErrorCode begin_step(double /*t*/, Vec /*y*/) { return 0; }
+  // Called at the start of every time step: moving obstacles, attachments, lagged friction and
+  // the like update here.
+  virtual PetscErrorCode begin_step(const StepStart& /*step*/) { return 0; }
   // Largest alpha <= *alpha such that x + alpha dir is admissible (e.g. no vertex crosses an
   // obstacle); unbounded terms leave *alpha alone. hyperqn's own backtracking (PD, the retries
   // after failed line searches) starts no further; TAO's line searches do not ask yet (the

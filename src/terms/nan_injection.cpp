@@ -4,8 +4,8 @@
 
 namespace hyperqn {
 
-PetscErrorCode NanInjection::begin_step(double, Vec y) {
-  y_ = y;
+PetscErrorCode NanInjection::begin_step(const StepStart& step) {
+  y_ = step.y;
   ++steps_;
   return 0;
 }

@@ -16,7 +16,7 @@ class NanInjection : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
   bool projective_dynamics_exact() const override { return true; }
-  PetscErrorCode begin_step(double t, Vec y) override;
+  PetscErrorCode begin_step(const StepStart& step) override;
 
  private:
   double beyond_;

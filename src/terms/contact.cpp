@@ -1,0 +1,231 @@
+#include "terms/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hyperqn {
+
+static constexpr double kStandardGravity = 9.80665;
+
+ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
+  if (spec.distance <= 0) spec.distance = 1e-2 * diagonal;
+  if (spec.friction_velocity <= 0) spec.friction_velocity = 1e-3 * diagonal;
+  return spec;
+}
+
+ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
+                         const ContactSpec& spec, PetscLogEvent event)
+    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), event_(event) {
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+    if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
+  const double d = spec_.distance;
+  stiffness_.assign(vertices_.size(), spec_.stiffness * kStandardGravity / (d * d));
+}
+
+PetscErrorCode ContactTerm::set_masses(Vec mass) {
+  const PetscScalar* m;
+  PetscInt lo, hi;
+  PetscFunctionBeginUser;
+  PetscCall(VecGetOwnershipRange(mass, &lo, &hi));
+  PetscCall(VecGetArrayRead(mass, &m));
+  const double d = spec_.distance;
+  for (size_t k = 0; k < vertices_.size(); ++k)
+    stiffness_[k] = spec_.stiffness * m[mesh_.global_dof[vertices_[k]] - lo] * kStandardGravity / (d * d);
+  PetscCall(VecRestoreArrayRead(mass, &m));
+  PetscFunctionReturn(0);
+}
+
+static Mat3 clamp_psd(const Mat3& H) {
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(H);
+  const Vec3 lambda = eig.eigenvalues().cwiseMax(0.0);
+  return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+double ContactTerm::normal_energy(size_t k, size_t c, const Vec3& p, Vec3* grad, Mat3* hess, bool psd) const {
+  Vec3 n;
+  Mat3 curvature;
+  const double phi = colliders_[c]->distance(p, grad || hess ? &n : nullptr, hess ? &curvature : nullptr);
+  const double gap = spec_.distance - phi;  // > 0 inside the activation layer
+  if (!(gap > 0)) {
+    if (grad) grad->setZero();
+    if (hess) hess->setZero();
+    return 0;
+  }
+  const double kk = stiffness_[k];
+  if (grad) *grad = -kk * gap * gap * n;
+  if (hess) {
+    *hess = kk * (2 * gap * n * n.transpose() - gap * gap * curvature);
+    if (psd) *hess = clamp_psd(*hess);
+  }
+  return kk * gap * gap * gap / 3;
+}
+
+double ContactTerm::friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const {
+  const FrictionPoint& fp = friction_[f];
+  const Eigen::Vector2d u = fp.T.transpose() * (p - fp.anchor);
+  const double s = u.norm(), e = eps_h_;
+  // f0(s) and f1(s)/s, f1 = f0' (IPC's C1 mollifier of |u|)
+  const bool sticking = s < e;
+  const double f0 = sticking ? -s * s * s / (3 * e * e) + s * s / e + e / 3 : s;
+  const double f1_over_s = sticking ? 2 / e - s / (e * e) : 1 / s;
+  if (grad) *grad = fp.mu_lambda * f1_over_s * (fp.T * u);
+  if (hess) {
+    Eigen::Matrix2d h2 = f1_over_s * Eigen::Matrix2d::Identity();
+    if (s > 0) {
+      // d(f1/s)/ds / s: -1/(e^2 s) while sticking, -1/s^3 when sliding
+      const double c = sticking ? -1 / (e * e * s) : -1 / (s * s * s);
+      h2 += c * u * u.transpose();
+    }
+    *hess = fp.mu_lambda * fp.T * h2 * fp.T.transpose();  // positive semidefinite as it is
+  }
+  return fp.mu_lambda * f0;
+}
+
+PetscErrorCode ContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  double e = *energy;
+  Vec3 g;
+  for (size_t k = 0; k < vertices_.size(); ++k) {
+    const Vec3 p(&pos[3 * vertices_[k]]);
+    for (size_t c = 0; c < colliders_.size(); ++c) {
+      e += normal_energy(k, c, p, gradient ? &g : nullptr, nullptr, false);
+      if (gradient) add_vertex_vector(mesh_, vertices_[k], g, gradient);
+    }
+  }
+  for (size_t f = 0; f < friction_.size(); ++f) {
+    const PetscInt v = vertices_[friction_[f].slot];
+    e += friction_energy(f, Vec3(&pos[3 * v]), gradient ? &g : nullptr, nullptr);
+    if (gradient) add_vertex_vector(mesh_, v, g, gradient);
+  }
+  *energy = e;
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ContactTerm::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
+  PetscInt idx[3];
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> block;
+  Mat3 h;
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  for (size_t k = 0; k < vertices_.size(); ++k) {
+    const Vec3 p(&pos[3 * vertices_[k]]);
+    for (size_t c = 0; c < colliders_.size(); ++c) {
+      if (normal_energy(k, c, p, nullptr, &h, psd) == 0) continue;
+      block = scale * h;
+      element_dofs<1>(mesh_, &vertices_[k], idx);
+      PetscCall(MatSetValues(H, 3, idx, 3, idx, block.data(), ADD_VALUES));
+    }
+  }
+  for (size_t f = 0; f < friction_.size(); ++f) {
+    const PetscInt v = vertices_[friction_[f].slot];
+    friction_energy(f, Vec3(&pos[3 * v]), nullptr, &h);
+    block = scale * h;
+    element_dofs<1>(mesh_, &v, idx);
+    PetscCall(MatSetValues(H, 3, idx, 3, idx, block.data(), ADD_VALUES));
+  }
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+// An orthonormal basis of the plane orthogonal to the unit vector n.
+static Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n) {
+  const Vec3 helper = std::abs(n[0]) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+  const Vec3 t1 = n.cross(helper).normalized();
+  Eigen::Matrix<double, 3, 2> T;
+  T.col(0) = t1;
+  T.col(1) = n.cross(t1);
+  return T;
+}
+
+PetscErrorCode ContactTerm::begin_step(const StepStart& step) {
+  const PetscScalar* x;
+  PetscInt lo, hi;
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  eps_h_ = spec_.friction_velocity * step.dt;
+  friction_.clear();
+  PetscCall(VecGetOwnershipRange(step.x_start, &lo, &hi));
+  PetscCall(VecGetArrayRead(step.x_start, &x));
+  for (size_t c = 0; c < colliders_.size(); ++c) {
+    Collider& collider = *colliders_[c];
+    collider.set_time(step.t - step.dt);
+    const RigidPose start = collider.pose();
+    collider.set_time(step.t);
+    const double mu = collider.friction();
+    if (!(mu > 0)) continue;
+    const RigidPose end = collider.pose();
+    // Frozen per step: the normal force and tangent plane at x_n, with the obstacle where it was.
+    collider.set_time(step.t - step.dt);
+    for (size_t k = 0; k < vertices_.size(); ++k) {
+      const Vec3 p(&x[mesh_.global_dof[vertices_[k]] - lo]);
+      Vec3 n;
+      const double gap = spec_.distance - collider.distance(p, &n);
+      if (!(gap > 0)) continue;
+      FrictionPoint fp;
+      fp.slot = k;
+      fp.collider = c;
+      fp.mu_lambda = mu * stiffness_[k] * gap * gap;
+      fp.T = tangent_basis(end.rotation * start.rotation.transpose() * n);
+      fp.anchor = end.apply(start.inverse(p));  // x_n carried along by the obstacle
+      friction_.push_back(fp);
+    }
+    collider.set_time(step.t);
+  }
+  PetscCall(VecRestoreArrayRead(step.x_start, &x));
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ContactTerm::measure(const std::vector<double>& pos, ContactMeasure& out, Vec force) const {
+  const size_t nc = colliders_.size();
+  std::vector<double> sums(6 * nc, 0.0), penetration(nc, 0.0);  // per collider: normal, friction force vectors
+  std::vector<long> active(nc, 0);
+  PetscScalar* f = nullptr;
+  PetscInt lo = 0, hi;
+  PetscFunctionBeginUser;
+  if (force) {
+    PetscCall(VecSet(force, 0.0));
+    PetscCall(VecGetOwnershipRange(force, &lo, &hi));
+    PetscCall(VecGetArray(force, &f));
+  }
+  const auto add = [&](size_t c, int part, PetscInt v, const Vec3& g) {  // g: dE/dx, the force is -g
+    for (int d = 0; d < 3; ++d) sums[6 * c + 3 * part + d] -= g[d];
+    if (f)
+      for (int d = 0; d < 3; ++d) f[mesh_.global_dof[v] - lo + d] -= g[d];
+  };
+  Vec3 g;
+  for (size_t k = 0; k < vertices_.size(); ++k) {
+    const PetscInt v = vertices_[k];
+    const Vec3 p(&pos[3 * v]);
+    for (size_t c = 0; c < nc; ++c) {
+      const double phi = colliders_[c]->distance(p);
+      penetration[c] = std::max(penetration[c], -phi);
+      if (phi < spec_.distance) ++active[c];
+      normal_energy(k, c, p, &g, nullptr, false);
+      add(c, 0, v, g);
+    }
+  }
+  for (size_t i = 0; i < friction_.size(); ++i) {
+    const PetscInt v = vertices_[friction_[i].slot];
+    friction_energy(i, Vec3(&pos[3 * v]), &g, nullptr);
+    add(friction_[i].collider, 1, v, g);
+  }
+  if (force) PetscCall(VecRestoreArray(force, &f));
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, sums.data(), (int)sums.size(), MPI_DOUBLE, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, penetration.data(), (int)nc, MPI_DOUBLE, MPI_MAX, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, active.data(), (int)nc, MPI_LONG, MPI_SUM, comm));
+  out.normal_force.resize(nc);
+  out.friction_force.resize(nc);
+  for (size_t c = 0; c < nc; ++c) {
+    out.normal_force[c] = Vec3(&sums[6 * c]).norm();
+    out.friction_force[c] = Vec3(&sums[6 * c + 3]).norm();
+  }
+  out.penetration = penetration;
+  out.active = active;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

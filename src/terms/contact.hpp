@@ -1,0 +1,100 @@
+// Contact of the body's vertices with obstacles (geometry/collider.hpp), and friction, as one
+// energy term. The scene holds it only when the deck has colliders.
+//
+// Normal contact, per free vertex i and collider c with signed distance phi (> 0 outside) and
+// activation distance d (contact.distance), is a smooth one-sided penalty on the gap:
+//   E_ic = k_i / 3 * max(0, d - phi)^3,   k_i = stiffness * m_i * g0 / d^2,
+// twice continuously differentiable, so TAO's line searches see a smooth g. The stiffness is
+// relative to each vertex's weight (m_i g0, g0 = 9.80665): at a penetration of the whole
+// activation distance a vertex pushes back with `stiffness` times its weight, whatever the units,
+// masses and time step. Under a resting load of f times its own weight a vertex sinks into the
+// activation layer by d sqrt(f / stiffness).
+//
+// Friction is IPC's lagged smoothed Coulomb model: at the start of each step, for every vertex
+// within the activation distance of a collider at x_n, the normal force lambda = k_i (d - phi)^2
+// and the tangent plane T (3 x 2) are frozen; the step then adds
+//   D_ic = mu_c lambda f0(|u|),   u = T^T ((x_i - x_n,i) - (obstacle motion of that point over the step)),
+// with f0' = f1 the smoothed sliding indicator: f1(s) = 2 s/(eps h) - s^2/(eps h)^2 below eps h, 1
+// above (eps = contact.friction_velocity). Below eps the contact sticks like a stiff spring.
+//
+// Contact and friction do not enter L: A = M + h^2 L stays factored once per scene.
+#pragma once
+#include <petsclog.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "geometry/collider.hpp"
+#include "mesh/distributed_mesh.hpp"
+#include "terms/element_kernels.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+// The deck's contact: section; 0 means "the default" for the scene-dependent values.
+struct ContactSpec {
+  std::string model = "penalty";    // penalty (the only model so far)
+  double distance = 0;              // activation distance d; 0: 1e-2 of the rest bounding-box diagonal
+  double stiffness = 1e3;           // penalty: force at full penetration of d, in vertex weights
+  double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-3 diagonals per second
+  int line = 0;                     // deck line of the section
+};
+// The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
+ContactSpec resolved_contact(ContactSpec spec, double diagonal);
+
+// What the contact does at one configuration, per collider, over all ranks.
+struct ContactMeasure {
+  std::vector<double> normal_force;    // |sum of the normal contact forces on the body|
+  std::vector<double> friction_force;  // |sum of the friction forces|
+  std::vector<double> penetration;     // max(0, -phi) over the vertices
+  std::vector<long> active;            // vertices with phi < d
+};
+
+class ContactTerm : public EnergyTerm {
+ public:
+  // event: the PETSc log event its work is timed under (hqnContact).
+  ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders, const ContactSpec& spec,
+              PetscLogEvent event);
+  std::string name() const override { return "contact"; }
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  bool projective_dynamics_exact() const override { return false; }
+  PetscErrorCode begin_step(const StepStart& step) override;
+
+  // The lumped mass per free dof (global layout, Body::lumped_mass): sets the per-vertex penalty
+  // stiffness. Until it is called every vertex counts as 1 kg.
+  PetscErrorCode set_masses(Vec mass);
+
+  const ContactSpec& spec() const { return spec_; }
+  size_t num_colliders() const { return colliders_.size(); }
+  const Collider& collider(size_t c) const { return *colliders_[c]; }
+  // Forces per collider at the local positions pos (collective). If force is not null (a global
+  // vector of free dofs) it gets the contact force (normal + friction) on every free vertex.
+  PetscErrorCode measure(const std::vector<double>& pos, ContactMeasure& out, Vec force) const;
+
+ private:
+  // Normal contact of vertex slot k with collider c at p: its energy, and, if not null, its
+  // gradient and Hessian (psd: the obstacle's curvature part clamped to positive semidefinite).
+  double normal_energy(size_t k, size_t c, const Vec3& p, Vec3* grad, Mat3* hess, bool psd) const;
+  // Lagged friction of contact point f at p: energy, gradient, Hessian.
+  double friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const;
+
+  struct FrictionPoint {
+    size_t slot = 0, collider = 0;
+    double mu_lambda = 0;         // mu * lambda
+    Eigen::Matrix<double, 3, 2> T;  // tangent basis at x_n
+    Vec3 anchor;                  // x_n plus the obstacle's motion of that point over the step
+  };
+
+  const DistributedMesh& mesh_;
+  std::vector<std::unique_ptr<Collider>> colliders_;
+  ContactSpec spec_;
+  std::vector<PetscInt> vertices_;   // the owned free local vertices (each vertex on one rank)
+  std::vector<double> stiffness_;    // per slot: k_i
+  std::vector<FrictionPoint> friction_;
+  double eps_h_ = 0;                 // friction_velocity * h of the current step
+  PetscLogEvent event_;
+};
+
+}  // namespace hyperqn

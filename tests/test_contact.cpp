@@ -1,0 +1,157 @@
+// The contact term (terms/contact.hpp) on the shared test box (2 x 1 x 1, fixed at x = 0, mass
+// 7.5): its energy, gradient and Hessian against finite differences, near and away from contact,
+// with friction sticking and sliding; and its measured forces against its gradient. At 1 and N
+// ranks.
+#include <petscdmplex.h>
+
+#include "check.hpp"
+#include "io/log_events.hpp"
+#include "terms/contact.hpp"
+#include "test_scene.hpp"
+
+using namespace hyperqn;
+
+namespace {
+
+using test_scene::TestScene;
+
+constexpr double kDistance = 0.05;
+
+// A floor cutting 0.02 into the bottom face, a sphere pressing into the top, a capsule along the
+// far end: vertices inside, inside the activation layer, and away from every collider.
+std::vector<ColliderSpec> colliders(double friction) {
+  ColliderSpec floor, ball, rod;
+  floor.type = "plane";
+  floor.point = {0, 0.02, 0};
+  floor.normal = {0, 2, 0};  // any length
+  floor.friction = friction;
+  ball.type = "sphere";
+  ball.center = {1.0, 1.3, 0.5};
+  ball.radius = 0.35;
+  ball.friction = friction;
+  rod.type = "capsule";
+  rod.a = {2.1, 0.3, -0.2};
+  rod.b = {2.1, 0.7, 1.2};
+  rod.radius = 0.12;
+  return {floor, ball, rod};
+}
+
+PetscErrorCode make_contact_scene(double friction, TestScene& s, ContactTerm** contact) {
+  PetscFunctionBeginUser;
+  ContactSpec spec;
+  spec.distance = kDistance;
+  spec.stiffness = 1e4;          // contact dominates the elastic forces: the check sees it
+  spec.friction_velocity = 0.2;  // eps h = 0.01: the deformation below both sticks and slides
+  const test_scene::ExtraTerms extra = [&](const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+    std::vector<std::unique_ptr<Collider>> list;
+    int k = 0;
+    for (const ColliderSpec& c : colliders(friction)) list.push_back(make_collider(c, "test", k++));
+    auto term = std::make_unique<ContactTerm>(mesh, std::move(list), spec, log_events().contact);
+    *contact = term.get();
+    terms.push_back(std::move(term));
+  };
+  PetscCall(test_scene::make_scene("corotated", true, s, {0, -9.81, 0}, extra));
+  PetscCall((*contact)->set_masses(s.step->mass()));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode stiffness(const TestScene& s, Vec x, bool psd, Mat* K) {
+  PetscFunctionBeginUser;
+  PetscCall(s.step->create_hessian(K));
+  PetscCall(MatZeroEntries(*K));
+  PetscCall(s.body->add_hessian(x, *K, 1.0, psd));
+  PetscCall(MatAssemblyBegin(*K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(*K, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode check_derivatives(double friction) {
+  TestScene s;
+  ContactTerm* contact = nullptr;
+  Vec x, v, grad, dir, xp;
+  PetscRandom rnd;
+  PetscReal E, Ep, Em, analytic;
+  Mat K;
+  PetscFunctionBeginUser;
+  PetscCall(make_contact_scene(friction, s, &contact));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  for (Vec* w : {&v, &grad, &dir, &xp}) PetscCall(VecDuplicate(x, w));
+  // The step starts at the rest shape (friction freezes its normal forces there), then x moves.
+  PetscCall(s.body->rest_positions(x));
+  PetscCall(VecSet(v, 0.0));
+  PetscCall(test_scene::set_inertial_target(s, x, v));
+  PetscCall(test_scene::deformed_positions(s, x, 0.05));
+
+  ContactMeasure m;
+  std::vector<double> pos;
+  PetscCall(s.body->local_positions(x, pos));
+  PetscCall(contact->measure(pos, m, nullptr));
+  long active = 0;
+  for (long a : m.active) active += a;
+  CHECK_MSG(m.active[0] > 0 && m.active[1] > 0 && m.active[2] > 0, "every collider touches the body");
+  CHECK_MSG(m.penetration[0] > 0 && m.penetration[1] > 0, "the floor and the ball cut into it");
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction %g: %ld vertices in contact; normal forces %.4g %.4g %.4g, friction %.4g %.4g %.4g\n",
+                        friction, active, m.normal_force[0], m.normal_force[1], m.normal_force[2], m.friction_force[0],
+                        m.friction_force[1], m.friction_force[2]));
+  if (friction > 0) CHECK_MSG(m.friction_force[0] > 0, "friction acts on the floor's contacts");
+
+  // Gradient: central differences of E along random directions.
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
+  PetscCall(s.body->energy_gradient(x, &E, grad));
+  for (int trial = 0; trial < 3; ++trial) {
+    PetscCall(VecSetRandom(dir, rnd));
+    PetscCall(VecDot(grad, dir, &analytic));
+    const double eps = 1e-7;
+    PetscCall(VecWAXPY(xp, eps, dir, x));
+    PetscCall(s.body->energy_gradient(xp, &Ep, nullptr));
+    PetscCall(VecWAXPY(xp, -eps, dir, x));
+    PetscCall(s.body->energy_gradient(xp, &Em, nullptr));
+    const double fd = (Ep - Em) / (2 * eps);
+    CHECK_MSG(std::fabs(fd - analytic) <= 1e-6 * std::fabs(analytic),
+              "dE/dx . d " + std::to_string(analytic) + " vs FD " + std::to_string(fd));
+  }
+  // Hessian (exact: with the obstacles' curvature) against differences of the gradient.
+  double err;
+  PetscCall(stiffness(s, x, false, &K));
+  PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd, &err));
+  CHECK_MSG(err < 1e-5, "Hessian vs FD of the gradient: " + std::to_string(err));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction %g: Hessian vs FD: %.2e\n", friction, err));
+  PetscCall(MatDestroy(&K));
+
+  // The measured total forces are minus the contact gradient: compare with the body without it.
+  TestScene plain;
+  Vec g_plain, force;
+  PetscCall(test_scene::make_scene("corotated", true, plain, {0, -9.81, 0}));
+  PetscCall(VecDuplicate(x, &g_plain));
+  PetscCall(VecDuplicate(x, &force));
+  PetscCall(plain.body->energy_gradient(x, &E, g_plain));
+  PetscCall(contact->measure(pos, m, force));
+  PetscCall(VecAXPY(grad, -1.0, g_plain));  // the contact gradient alone
+  PetscCall(VecAXPY(grad, 1.0, force));     // + force: 0
+  PetscReal residual, scale;
+  PetscCall(VecNorm(force, NORM_INFINITY, &scale));
+  PetscCall(VecNorm(grad, NORM_INFINITY, &residual));
+  CHECK_MSG(scale > 0 && residual <= 1e-10 * scale, "measured force = -contact gradient: " + std::to_string(residual));
+  for (Vec* w : {&x, &v, &grad, &dir, &xp, &g_plain, &force}) PetscCall(VecDestroy(w));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
+  PetscCall(check_derivatives(0.0));
+  PetscCall(check_derivatives(0.6));
+  int local = check::failures(), total = 0;
+  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
+  check::failures() = total;
+  PetscMPIInt rank, size;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  const std::string name = "test_contact (" + std::to_string(size) + " ranks)";
+  int code = rank == 0 ? check::summary(name.c_str()) : (total == 0 ? 0 : 1);
+  PetscCall(PetscFinalize());
+  return code;
+}
