@@ -36,6 +36,7 @@ struct SceneSpec {
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
   std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
+  std::vector<AttachmentSpec> attachments;  // soft attachments (springs to moving targets)
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
