@@ -416,6 +416,38 @@ fixed:
   expect_error("motion_unknown_key", kHead + fixed + "      spin: 1\n", "fixed[0].motion.spin", 6);
 }
 
+void test_attachments() {
+  Deck d = load_ok("attachments", kHead + R"(attachments:
+  - {box: {min: [0, 0, 0], max: [0, 1, 1]}, stiffness: 1.0e4}
+  - box: {min: [1, 0, 0], max: [1, 1, 1]}
+    stiffness: 2.5e3
+    motion: {translate: {velocity: [0, 1, 0]}, end: 0.5}
+    release: 1.5
+)");
+  CHECK(d.attachments.size() == 2);
+  if (d.attachments.size() == 2) {
+    const hyperqn::AttachmentSpec &a = d.attachments[0], &b = d.attachments[1];
+    CHECK(a.stiffness == 1.0e4 && a.region.line == 4 && !a.region.motion.active && a.region.release < 0);
+    CHECK((a.region.max == std::array<double, 3>{0, 1, 1}));
+    CHECK(b.stiffness == 2.5e3 && b.region.line == 5 && b.region.release == 1.5);
+    CHECK(b.region.motion.active && b.region.motion.velocity[1] == 1 && b.region.motion.end == 0.5);
+  }
+  const std::string box = "attachments:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n";
+  expect_error("attach_no_stiffness", kHead + box, "attachments[0].stiffness", 4, "missing");
+  expect_error("attach_stiffness_zero", kHead + box + "    stiffness: 0\n", "attachments[0].stiffness", 5, "> 0");
+  expect_error("attach_stiffness_negative", kHead + box + "    stiffness: -1\n", "attachments[0].stiffness", 5, "> 0");
+  expect_error("attach_stiffness_nan", kHead + box + "    stiffness: .nan\n", "attachments[0].stiffness", 5, "number");
+  expect_error("attach_stiffness_huge", kHead + box + "    stiffness: 1e300\n", "attachments[0].stiffness", 5, "1e100");
+  expect_error("attach_release_zero", kHead + box + "    stiffness: 1\n    release: 0\n", "attachments[0].release", 6, "> 0");
+  expect_error("attach_release_text", kHead + box + "    stiffness: 1\n    release: later\n", "attachments[0].release", 6);
+  expect_error("attach_unknown_key", kHead + box + "    stiffness: 1\n    damping: 1\n", "attachments[0].damping", 6, "allowed");
+  expect_error("attach_no_box", kHead + "attachments:\n  - {stiffness: 1}\n", "attachments[0].box", 4, "missing");
+  expect_error("attach_box_min_gt_max", kHead + "attachments:\n  - {box: {min: [0, 2, 0], max: [1, 1, 1]}, stiffness: 1}\n",
+               "attachments[0].box", 4, "along y");
+  expect_error("attach_motion_unknown", kHead + box + "    stiffness: 1\n    motion: {spin: 1}\n", "attachments[0].motion.spin", 6);
+  expect_error("attach_not_list", kHead + "attachments: {stiffness: 1}\n", "attachments", 3, "list");
+}
+
 void test_default_deck() {
   Deck d = load_deck(std::string(HYPERQN_SOURCE_DIR) + "/input/bar.yaml");
   CHECK(d.name == "bar");
@@ -492,6 +524,7 @@ int main() {
   test_new_materials();
   test_initial_state();
   test_regions_and_motion();
+  test_attachments();
   test_default_deck();
 #endif
 

@@ -566,6 +566,25 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   }
 }
 
+// attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
+void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments) {
+  for (const Value& item : r.items(v)) {
+    Section s(r, item, {"box", "stiffness", "motion", "release"});
+    AttachmentSpec a;
+    a.region = read_box(r, s.need("box"));
+    a.region.line = item.line;
+    const Value& k = s.need("stiffness");
+    a.stiffness = r.number(k);  // finite and at most 1e100, like every deck number
+    r.check(a.stiffness > 0, k, "> 0 (N/m per vertex)");
+    if (const Value* x = s.find("motion")) a.region.motion = read_motion(r, *x);
+    if (const Value* x = s.find("release")) {
+      a.region.release = r.number(*x);
+      r.check(a.region.release > 0, *x, "> 0 (a time)");
+    }
+    attachments.push_back(a);
+  }
+}
+
 void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
   Section s(r, v, {"squash", "collapse", "random", "invert"});
   if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
@@ -762,8 +781,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "strand_material", "regions", "fixed", "colliders", "contact", "initial", "gravity",
-             "time", "solver", "output", "study", "petsc"});
+            {"name", "mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders", "contact",
+             "initial", "gravity", "time", "solver", "output", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -807,6 +826,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     if (deck.colliders.empty()) r.fail(*x, "contact describes how the body touches colliders, and there are none");
     read_contact(r, *x, deck.contact);
   }
+  if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);

@@ -197,7 +197,7 @@ struct Run {
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
-    PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released (free from this step on); %lld dofs now, constant matrix factored again\n",
+    PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
                           state.time, (long long)summary.dofs));
     PetscFunctionReturn(0);
   }

@@ -109,7 +109,7 @@ struct Study {
     }
     reference.reset();
     PetscCall(make_solvers(fresh));
-    PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released; %lld dofs now, constant matrix factored again\n",
+    PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released or attachment(s) gone; %lld dofs now, constant matrix factored again\n",
                           ref.time, (long long)fresh.mesh.global_dofs));
     PetscFunctionReturn(0);
   }

@@ -2,6 +2,7 @@
 
 #include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
+#include "terms/attachments.hpp"
 #include "terms/continuum_tets.hpp"
 #include "terms/element_kernels.hpp"
 #include "terms/mass_spring_tets.hpp"
@@ -45,6 +46,25 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
     terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
                                                      strands.laplacian_weight));
   return terms;
+}
+
+std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+                                            const std::vector<char>& released) {
+  const double tol = 1e-9 * rest_diagonal(mesh);
+  std::vector<AttachedVertices> groups;
+  for (size_t k = 0; k < attachments.size(); ++k) {
+    if (k < released.size() && released[k]) continue;
+    AttachedVertices group;
+    group.stiffness = attachments[k].stiffness;
+    group.motion = attachments[k].region.motion;
+    // Fixed vertices are left to their fixed region; ghosts to the rank that owns them.
+    for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && in_box(&mesh.rest[3 * v], attachments[k].region, tol))
+        group.vertices.push_back(v);
+    groups.push_back(std::move(group));
+  }
+  if (groups.empty()) return nullptr;
+  return std::make_unique<Attachments>(mesh, std::move(groups));
 }
 
 }  // namespace hyperqn

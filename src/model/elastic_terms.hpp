@@ -6,6 +6,7 @@
 
 #include "mesh/distributed_mesh.hpp"
 #include "model/material_spec.hpp"
+#include "model/regions.hpp"
 #include "terms/energy_term.hpp"
 
 namespace hyperqn {
@@ -16,5 +17,11 @@ namespace hyperqn {
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
                                                        const StrandMaterial& strands);
+
+// The springs of the attachments not released (released[k] != 0: attachments[k] is gone), on
+// the free vertices this rank owns in each box (in_box with the serial selection's tolerance, so
+// the springs do not depend on the rank count); null if none is left. Collective.
+std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+                                            const std::vector<char>& released);
 
 }  // namespace hyperqn

@@ -7,28 +7,33 @@
 
 namespace hyperqn {
 
-static bool inside(const double* p, const BoxRegion& box, double tol) {
+bool in_box(const double* p, const BoxRegion& box, double tol) {
   for (int d = 0; d < 3; ++d)
     if (p[d] < box.min[d] - tol || p[d] > box.max[d] + tol) return false;
   return true;
 }
 
-std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                           const std::string& deck_path) {
+std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                     const std::string& deck_path, const std::string& section) {
   const double tol = 1e-9 * bounding_box_diagonal(mesh);
-  std::vector<int32_t> fixed(mesh.num_vertices(), 0);
+  std::vector<int32_t> selected(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
     for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-      if (inside(&mesh.coords[3 * v], boxes[b], tol)) {
-        fixed[v] = (int32_t)b + 1;
+      if (in_box(&mesh.coords[3 * v], boxes[b], tol)) {
+        selected[v] = (int32_t)b + 1;
         ++count;
       }
     if (count == 0)
-      throw InputError(deck_path, boxes[b].line, "fixed[" + std::to_string(b) + "].box",
+      throw InputError(deck_path, boxes[b].line, section + "[" + std::to_string(b) + "].box",
                        "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
-  return fixed;
+  return selected;
+}
+
+std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                           const std::string& deck_path) {
+  return select_vertices(mesh, boxes, deck_path, "fixed");
 }
 
 std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
@@ -44,7 +49,7 @@ std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vec
         double c[3] = {0, 0, 0};
         for (int j = 0; j < 4; ++j)
           for (int d = 0; d < 3; ++d) c[d] += 0.25 * mesh.coords[3 * mesh.tets[4 * t + j] + d];
-        selected = inside(c, region.box, tol);
+        selected = in_box(c, region.box, tol);
       } else {
         selected = std::find(region.tags.begin(), region.tags.end(), mesh.tet_tags[t]) != region.tags.end();
       }

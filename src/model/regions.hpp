@@ -1,5 +1,7 @@
-// Parts of the mesh selected by the deck's regions: fixed (Dirichlet) vertices and the elements
-// of each material region, and how fixed regions move. Decided once, on the serial mesh (rank 0), before distribution.
+// Parts of the mesh selected by the deck's regions: fixed (Dirichlet) vertices, attached vertices
+// and the elements of each material region, and how fixed regions and attachments move. Fixed
+// vertices and material regions are decided once, on the serial mesh (rank 0), before
+// distribution; attachments are checked there and selected again on each rank (in_box).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -15,8 +17,17 @@ namespace hyperqn {
 struct BoxRegion {
   std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
   int line = 0;                      // deck line, for error messages
-  Motion motion;                     // fixed regions only
-  double release = -1;               // fixed regions: time at which its vertices become free (< 0: never)
+  Motion motion;                     // fixed regions and attachments only
+  double release = -1;               // fixed regions: time at which its vertices become free (< 0: never);
+                                     // attachments: time at which the springs are gone
+};
+
+// A soft attachment (deck attachments[k]): a zero-rest-length spring of stiffness k (N/m, per
+// vertex) from every free vertex in region's box to its rest position moved by region.motion, until
+// region.release. A vertex in several attachment boxes gets a spring from each.
+struct AttachmentSpec {
+  BoxRegion region;
+  double stiffness = 0;
 };
 
 // Elements with a material other than the deck's default one: those whose centroid lies in a
@@ -30,9 +41,15 @@ struct MaterialRegion {
 };
 
 
-// Per vertex: 0 if free, k + 1 if fixed by boxes[k] (the last box containing it wins).
-// A box that selects no vertex is an input error naming the deck line. Boxes are inclusive,
-// widened by 1e-9 of the mesh's bounding-box diagonal against round-off.
+// Whether the point p lies in the box, inclusive, widened by tol (1e-9 of the mesh's bounding-box
+// diagonal against round-off, for every region).
+bool in_box(const double* p, const BoxRegion& box, double tol);
+
+// Per vertex: 0 if in no box, k + 1 if in boxes[k] (the last box containing it wins). A box that
+// selects no vertex is an input error naming the deck line and the key "<section>[k].box".
+std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                     const std::string& deck_path, const std::string& section);
+// select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].
 std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path);
 

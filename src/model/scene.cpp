@@ -97,6 +97,10 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
     in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
+    // Only the check that every box selects a vertex: each rank selects its own (attachment_term).
+    std::vector<BoxRegion> attachment_boxes;
+    for (const AttachmentSpec& a : deck.attachments) attachment_boxes.push_back(a.region);
+    select_vertices(in.mesh, attachment_boxes, deck.path, "attachments");
     size_t nfixed = 0;
     for (int32_t f : in.fixed) nfixed += f != 0;
     if (nfixed == in.fixed.size())
@@ -125,13 +129,14 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   options_ = std::move(options);
   bool releases = false;
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
+  for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
   if (releases) kept_ = input;  // a release rebuilds the scene from the serial input
   scene_ = std::make_unique<Scene>();
-  PetscCall(build(std::move(input), *scene_));
+  PetscCall(build(std::move(input), {}, *scene_));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
+PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const {
   const SceneSpec& spec = *spec_;
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::scene));
@@ -140,6 +145,7 @@ PetscErrorCode LiveScene::build(SceneInput input, Scene& s) const {
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material);
+  if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
   s.contact = nullptr;
   if (!spec.colliders.empty()) {  // no collider, no contact code
@@ -181,6 +187,7 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   s.frame = 0;
   s.time = 0;
   s.released.assign(spec_->fixed.size(), 0);
+  s.released_attachments.assign(spec_->attachments.size(), 0);
   PetscFunctionReturn(0);
 }
 
@@ -225,26 +232,31 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   const double h = spec_->time.dt;
   PetscFunctionBeginUser;
   *released = false;
-  main.released.resize(spec_->fixed.size(), 0);
-  for (size_t k = 0; k < spec_->fixed.size(); ++k) {
-    const double release = spec_->fixed[k].release;
-    if (!main.released[k] && release > 0 && release <= (main.frame + 1) * h + 1e-12 * h) {
-      main.released[k] = 1;
+  // Marks what the step from main.frame reaches: fixed regions and attachments alike.
+  auto mark_due = [&](double release, char& done) {
+    if (!done && release > 0 && release <= (main.frame + 1) * h + 1e-12 * h) {
+      done = 1;
       *released = true;
     }
-  }
+  };
+  main.released.resize(spec_->fixed.size(), 0);
+  main.released_attachments.resize(spec_->attachments.size(), 0);
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) mark_due(spec_->fixed[k].release, main.released[k]);
+  for (size_t k = 0; k < spec_->attachments.size(); ++k)
+    mark_due(spec_->attachments[k].region.release, main.released_attachments[k]);
   if (!*released) PetscFunctionReturn(0);
 
   SceneInput input = kept_;
   for (int32_t& f : input.fixed)
     if (f > 0 && main.released[f - 1]) f = 0;
   auto fresh = std::make_unique<Scene>();
-  PetscCall(build(std::move(input), *fresh));
+  PetscCall(build(std::move(input), main.released_attachments, *fresh));
   fresh->body->set_time(main.frame * h);
   PetscCall(carry_state(*scene_, *fresh, main));
   for (State* s : others) {
     PetscCall(carry_state(*scene_, *fresh, *s));
     s->released = main.released;
+    s->released_attachments = main.released_attachments;
   }
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);

@@ -58,7 +58,9 @@ struct SceneOptions {
 // The scene of a run as time goes on. Fixed regions with a release time (fixed[].release) become
 // free at the start of the step that reaches it: the scene is rebuilt from the kept serial input
 // with those vertices free (same partition, so the same local vertices), the constant matrices
-// are factored again, and the states carry over. Used by the simulation and the study alike.
+// are factored again, and the states carry over. Attachments with a release time
+// (attachments[].release) go the same way: the scene is rebuilt without their springs (they are
+// in M + h^2 L). Used by the simulation and the study alike.
 class LiveScene {
  public:
   // Distributes the input (which it takes), assembles, and factors the constant matrices asked for.
@@ -67,8 +69,9 @@ class LiveScene {
   // s at frame 0: rest positions, then the spec's initial state; zero velocity; nothing released.
   PetscErrorCode initial_state(State& s) const;
 
-  // Called before the step from main (frame n to n + 1). If a region is due (release time
-  // <= (n + 1) h) that main has not released yet, the scene is rebuilt with its vertices free,
+  // Called before the step from main (frame n to n + 1). If a region or attachment is due (release
+  // time <= (n + 1) h) that main has not released yet, the scene is rebuilt with its vertices free
+  // or its springs gone,
   // main and every state in others move to the new scene (each vertex keeps its position and
   // velocity; a freed vertex the prescribed ones it had), and rebind(old, fresh) moves what refers
   // to the old scene (solvers, writers, counters) before the old scene goes. *released: it happened.
@@ -76,7 +79,8 @@ class LiveScene {
   PetscErrorCode release_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* released);
 
  private:
-  PetscErrorCode build(SceneInput input, Scene& s) const;
+  // The scene without the attachments marked in released_attachments.
+  PetscErrorCode build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const;
 
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;

@@ -39,6 +39,7 @@ struct SceneSpec {
   std::vector<BoxRegion> fixed;
   std::vector<ColliderSpec> colliders;   // obstacles (none: no contact code at all)
   ContactSpec contact;                   // how contact is modelled (if there are colliders)
+  std::vector<AttachmentSpec> attachments;  // soft attachments (springs to moving targets)
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;

@@ -12,6 +12,7 @@ struct State {
   int frame = 0;                 // frames done; the next step goes to frame + 1
   double time = 0;               // frame * dt
   std::vector<char> released;    // per fixed region: 1 once its vertices are free
+  std::vector<char> released_attachments;  // per attachment: 1 once its springs are gone
 
   State() = default;
   ~State() { destroy(); }
@@ -37,6 +38,7 @@ struct State {
     frame = other.frame;
     time = other.time;
     released = other.released;
+    released_attachments = other.released_attachments;
     PetscFunctionReturn(0);
   }
   // Takes x_new and v_new (another layout, e.g. after a release) in place of x and v.

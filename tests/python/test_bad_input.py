@@ -49,6 +49,10 @@ BAD_DECKS = {
                            ["fixed[0].box", "selects no vertex"]),
     "everything_fixed": (deck_with(fixed=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}}]),
                          ["every vertex is fixed"]),
+    "empty_attachment_box": (deck_with(attachments=[{"box": {"min": [5, 5, 5], "max": [6, 6, 6]}, "stiffness": 1.0e3}]),
+                             ["attachments[0].box", "selects no vertex", ".yaml:12:"]),
+    "attachment_stiffness_zero": (deck_with(attachments=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "stiffness": 0}]),
+                                  ["attachments[0].stiffness", "> 0"]),
     "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
     "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness"]),
 }
