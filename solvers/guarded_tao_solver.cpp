@@ -129,6 +129,9 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   const FrameBudget& budget = self->budget_;
   if (self->bad_point_) {
     PetscCall(TaoSetConvergedReason(tao, self->reported_ < 0 ? TAO_DIVERGED_NAN : TAO_DIVERGED_LS_FAILURE));
+  } else if (it == 0 && !self->restarted_ && reason == TAO_CONTINUE_ITERATING) {
+    PetscCall(self->step_.force_scale(x, &scale));
+    if (budget.solved_at_start(gnorm, scale)) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_GATOL));
   } else if (reason == TAO_CONVERGED_GTTOL ||
              (self->restarted_ && reason == TAO_CONTINUE_ITERATING && budget.relative(gnorm, gnorm0))) {
     PetscCall(self->step_.force_scale(x, &scale));
@@ -235,6 +238,13 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
   result.extended = reported_ > budget_.budget;
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;
   result.failed = reason < 0 && reason != TAO_DIVERGED_MAXITS;
+  if (reason == TAO_DIVERGED_LS_FAILURE) {
+    // g stalled at its round-off with a residual that is no reason to work on (FrameBudget::far):
+    // not a failure of the frame (a tight grad_rtol ends so).
+    double scale;
+    PetscCall(step_.force_scale(x, &scale));
+    if (last_gnorm_ <= FrameBudget::kFloor * scale) result.failed = false;
+  }
   result.reason = reason_text(reason);
   PetscFunctionReturn(0);
 }

@@ -29,6 +29,13 @@ def read_iterations(outdir):
     return rows
 
 
+def read_contact(outdir):
+    """contact.csv as {column: numpy array} (one row per frame and collider)."""
+    with open(os.path.join(outdir, "contact.csv")) as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else [])}
+
+
 def frames_of_iterations(rows):
     """{frame: [its rows of iterations.csv]} in order."""
     frames = {}
@@ -63,7 +70,7 @@ class Frame:
 
     def __init__(self, path):
         self.path = path
-        ids, points, disp, vel = [], [], [], []
+        ids, points, disp, vel, force = [], [], [], [], []
         self.num_cells = 0
         self.J = []
         self.ranks = []
@@ -75,6 +82,8 @@ class Frame:
             points.append(m.points)
             disp.append(m.point_data["displacement"])
             vel.append(m.point_data["velocity"])
+            if "contact_force" in m.point_data:  # scenes with colliders
+                force.append(m.point_data["contact_force"])
             self.num_cells += sum(len(c.data) for c in m.cells)
             self.J.append(np.concatenate([np.ravel(a) for a in m.cell_data["J"]]))
             self.ranks.append(np.concatenate([np.ravel(a) for a in m.cell_data["rank"]]))
@@ -83,6 +92,7 @@ class Frame:
         self.points = np.concatenate(points)[first]
         self.displacement = np.concatenate(disp)[first]
         self.velocity = np.concatenate(vel)[first]
+        self.contact_force = np.concatenate(force)[first] if force else None
         self.J = np.concatenate(self.J)
         self.ranks = np.concatenate(self.ranks)
         self.num_pieces = len(piece_files(path))
