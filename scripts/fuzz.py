@@ -51,14 +51,22 @@ ODD_VALUES = [0, -1, 1, 2147483647, -2147483648, 1e308, -1e308, 1e-320, float("n
               "", "x", "0x10", "1e5", "..", "a/b", "a\nb", None, True, [], [1], [1, 2, 3, 4], {}, {"a": 1},
               [[1, 2, 3]], "\0", "é" * 300]
 KEYS = ["name", "mesh", "material", "fixed", "gravity", "time", "solver", "output", "regions", "initial",
-        "strand_material", "study", "petsc", "bogus"]
+        "strand_material", "study", "petsc", "colliders", "contact", "attachments", "bogus"]
+OBJ = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 4 3\nf 1 3 2\n"
+COLLIDERS = [{"type": "plane", "point": [0, -0.1, 0], "normal": [0, 1, 0], "friction": 0.3},
+             {"type": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.2},
+             {"type": "box", "min": [-1, -1, -1], "max": [2, -0.05, 2]},
+             {"type": "capsule", "a": [0, 0.5, -1], "b": [0, 0.5, 2], "radius": 0.1},
+             {"type": "mesh", "file": "fuzz.obj", "friction": 0.2}]
+COLLIDER_KEYS = ["type", "point", "normal", "center", "radius", "min", "max", "a", "b", "file", "friction", "motion"]
 SUBKEYS = {"mesh": ["box", "file", "transform", "edges", "strands"],
            "material": ["model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "density", "total_mass", "J0",
                         "kappa", "laplacian_weight", "fiber", "spring_stiffness", "f"],
            "time": ["dt", "frames", "damping"],
            "solver": ["type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
                       "newton_method", "linear_solver", "newton_hessian", "h0"],
-           "output": ["every", "vtk", "iterations_csv", "directory"]}
+           "output": ["every", "vtk", "iterations_csv", "contact_csv", "directory"],
+           "contact": ["model", "distance", "stiffness", "friction_velocity"]}
 OPTIONS = ["-tao_type", "-tao_ls_type", "-tao_max_it", "-tao_gatol", "-tao_lmvm_mat_lmvm_hist_size",
            "-h0_mat_mumps_icntl_7", "-h0_mat_mumps_icntl_14", "-hyperqn_divergence_limit", "-tao_ls_stepinit",
            "-tao_bogus_option"]
@@ -108,9 +116,20 @@ def mutate_mesh(rng, text):
 def make_case(rng, k, casedir):
     """Writes case k's files into casedir; returns (command arguments, ranks, what was fuzzed)."""
     os.makedirs(casedir, exist_ok=True)
-    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "gmsh", "options"])
+    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "gmsh", "options", "contact"])
     if what == "deck":
         deck = mutate_deck(rng, deck)
+    elif what == "contact":
+        # Colliders of every type, one item or the obstacle file mutated, maybe a contact section.
+        with open(os.path.join(casedir, "fuzz.obj"), "w") as f:
+            f.write(mutate_mesh(rng, OBJ) if rng.random() < 0.3 else OBJ)
+        deck["colliders"] = copy.deepcopy(rng.sample(COLLIDERS, rng.randint(1, len(COLLIDERS))))
+        item = rng.choice(deck["colliders"])
+        for _ in range(rng.randint(0, 2)):
+            item[rng.choice(COLLIDER_KEYS + ["bogus"])] = rng.choice(ODD_VALUES + [rng.uniform(-10, 10)])
+        if rng.random() < 0.5:
+            deck = mutate_deck(rng, deck) if rng.random() < 0.3 else deck
+            deck["contact"] = {rng.choice(SUBKEYS["contact"] + ["bogus"]): rng.choice(ODD_VALUES + [rng.uniform(0, 1)])}
     elif what == "mesh":
         with open(os.path.join(casedir, "fuzz.mesh"), "w") as f:
             f.write(mutate_mesh(rng, MESH))

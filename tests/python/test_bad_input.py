@@ -54,6 +54,22 @@ BAD_DECKS = {
     "attachment_stiffness_zero": (deck_with(attachments=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "stiffness": 0}]),
                                   ["attachments[0].stiffness", "> 0"]),
     "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
+    "collider_zero_normal": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 0]}]),
+                             ["colliders[0].normal", "nonzero"]),
+    "collider_negative_radius": (deck_with(colliders=[{"type": "sphere", "center": [0, 0, 0], "radius": -0.1}]),
+                                 ["colliders[0].radius", "> 0"]),
+    "collider_negative_friction": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                                                         "friction": -0.2}]), ["colliders[0].friction"]),
+    "collider_missing_file": (deck_with(colliders=[{"type": "mesh", "file": "nowhere.obj"}]),
+                              ["colliders[0].file", "nowhere.obj", "not found"]),
+    "collider_unknown_type": (deck_with(colliders=[{"type": "torus"}]), ["colliders[0].type", "plane, sphere"]),
+    "collider_key_of_other_type": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
+                                                         "radius": 1}]), ["colliders[0].radius", "unknown key"]),
+    "collider_box_inside_out": (deck_with(colliders=[{"type": "box", "min": [0, 0, 0], "max": [1, -1, 1]}]),
+                                ["colliders[0].max", "along y"]),
+    "contact_without_colliders": (deck_with(contact={"distance": 0.01}), ["contact", "no", "colliders"]),
+    "contact_zero_distance": (deck_with(colliders=[{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}],
+                                        contact={"distance": 0}), ["contact.distance", "> 0"]),
     "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness"]),
 }
 
@@ -81,6 +97,27 @@ def test_bad_mesh(tmp_path, case, ranks):
     text, fragments = BAD_MESHES[case]
     (tmp_path / f"{case}.mesh").write_text(text)
     deck = deck_with(mesh={"file": f"{case}.mesh"}, fixed=[])
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, fragments)
+
+
+BAD_OBSTACLES = {
+    # name: (file name, text, expected fragments)
+    "obj_bad_index": ("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", ["bad.obj:4"]),
+    "obj_bad_number": ("num.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", ["num.obj:2"]),
+    "obj_no_triangles": ("empty.obj", "v 0 0 0\n", ["empty.obj", "colliders[0].file"]),
+    "medit_truncated": ("cut.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n", ["cut.mesh"]),
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("case", sorted(BAD_OBSTACLES))
+def test_bad_obstacle_file(tmp_path, case, ranks):
+    name, text, fragments = BAD_OBSTACLES[case]
+    (tmp_path / name).write_text(text)
+    deck = deck_with(colliders=[{"type": "mesh", "file": name}])
     path = write_deck(tmp_path / "deck.yaml", deck)
     outdir = tmp_path / "out"
     proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
