@@ -57,6 +57,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-contact-defaults"))
     ap.add_argument("--hyperqn", default=launch.default_binary())
     args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
     scenes = {"rest": cube_on_ground(), "slide": incline("slide"), "stick": incline("stick")}
     rows = []
     for distance in (1e-3, 1e-2):

@@ -51,7 +51,20 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
 PetscErrorCode GuardedTaoSolver::objective_gradient(Tao, Vec x, PetscReal* f, Vec g, void* ctx) {
   auto* self = static_cast<GuardedTaoSolver*>(ctx);
   PetscFunctionBeginUser;
-  PetscCall(self->step_.objective(x, f, g));
+  // A term that bounds steps (the contact barrier: no vertex may cross an obstacle) rejects a
+  // trial point whose straight path from the last iterate it would not admit: TAO's line searches
+  // cannot be told the bound, so they learn it as a rejected point and back off (see solve()).
+  double admitted = 1;
+  if (self->step_.bounds_steps() && self->reported_ >= 0) {
+    PetscCall(VecWAXPY(self->step_work_, -1.0, self->last_x_, x));
+    PetscCall(self->step_.limit_step(self->last_x_, self->step_work_, &admitted));
+  }
+  if (admitted < 1) {
+    *f = Objective::kRejectedEnergy;
+    PetscCall(VecSet(g, 0.0));
+  } else {
+    PetscCall(self->step_.objective(x, f, g));
+  }
   if (self->line_search_ && Objective::rejected(*f) && !self->have_rejected_trial_) {
     PetscCall(VecCopy(x, self->rejected_trial_));
     self->have_rejected_trial_ = true;

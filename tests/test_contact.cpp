@@ -17,35 +17,37 @@ using test_scene::TestScene;
 
 constexpr double kDistance = 0.05;
 
-// A floor cutting 0.02 into the bottom face, a sphere pressing into the top, a capsule along the
-// far end: vertices inside, inside the activation layer, and away from every collider.
-std::vector<ColliderSpec> colliders(double friction) {
+// A floor, a ball above the top face, a capsule along the far end: vertices within the activation
+// layer and away from every collider; for the penalty also inside them (the floor cuts 0.02 into
+// the bottom face, the ball and capsule into the top and the end), for the barrier all outside.
+std::vector<ColliderSpec> colliders(double friction, bool barrier) {
   ColliderSpec floor, ball, rod;
   floor.type = "plane";
-  floor.point = {0, 0.02, 0};
+  floor.point = {0, barrier ? -0.03 : 0.02, 0};
   floor.normal = {0, 2, 0};  // any length
   floor.friction = friction;
   ball.type = "sphere";
   ball.center = {1.0, 1.3, 0.5};
-  ball.radius = 0.35;
+  ball.radius = barrier ? 0.27 : 0.35;
   ball.friction = friction;
   rod.type = "capsule";
   rod.a = {2.1, 0.3, -0.2};
   rod.b = {2.1, 0.7, 1.2};
-  rod.radius = 0.12;
+  rod.radius = barrier ? 0.08 : 0.12;
   return {floor, ball, rod};
 }
 
-PetscErrorCode make_contact_scene(double friction, TestScene& s, ContactTerm** contact) {
+PetscErrorCode make_contact_scene(double friction, const std::string& model, TestScene& s, ContactTerm** contact) {
   PetscFunctionBeginUser;
   ContactSpec spec;
+  spec.model = model;
   spec.distance = kDistance;
   spec.stiffness = 1e4;          // contact dominates the elastic forces: the check sees it
   spec.friction_velocity = 0.2;  // eps h = 0.01: the deformation below both sticks and slides
   const test_scene::ExtraTerms extra = [&](const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
     std::vector<std::unique_ptr<Collider>> list;
     int k = 0;
-    for (const ColliderSpec& c : colliders(friction)) list.push_back(make_collider(c, "test", k++));
+    for (const ColliderSpec& c : colliders(friction, model == "barrier")) list.push_back(make_collider(c, "test", k++));
     auto term = std::make_unique<ContactTerm>(mesh, std::move(list), spec, log_events().contact);
     *contact = term.get();
     terms.push_back(std::move(term));
@@ -65,7 +67,7 @@ PetscErrorCode stiffness(const TestScene& s, Vec x, bool psd, Mat* K) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode check_derivatives(double friction) {
+PetscErrorCode check_derivatives(double friction, const std::string& model) {
   TestScene s;
   ContactTerm* contact = nullptr;
   Vec x, v, grad, dir, xp;
@@ -73,14 +75,15 @@ PetscErrorCode check_derivatives(double friction) {
   PetscReal E, Ep, Em, analytic;
   Mat K;
   PetscFunctionBeginUser;
-  PetscCall(make_contact_scene(friction, s, &contact));
+  PetscCall(make_contact_scene(friction, model, s, &contact));
+  const bool barrier = model == "barrier";
   PetscCall(VecDuplicate(s.step->layout(), &x));
   for (Vec* w : {&v, &grad, &dir, &xp}) PetscCall(VecDuplicate(x, w));
   // The step starts at the rest shape (friction freezes its normal forces there), then x moves.
   PetscCall(s.body->rest_positions(x));
   PetscCall(VecSet(v, 0.0));
   PetscCall(test_scene::set_inertial_target(s, x, v));
-  PetscCall(test_scene::deformed_positions(s, x, 0.05));
+  PetscCall(test_scene::deformed_positions(s, x, barrier ? 0.01 : 0.05));  // the barrier: all outside
 
   ContactMeasure m;
   std::vector<double> pos;
@@ -89,9 +92,12 @@ PetscErrorCode check_derivatives(double friction) {
   long active = 0;
   for (long a : m.active) active += a;
   CHECK_MSG(m.active[0] > 0 && m.active[1] > 0 && m.active[2] > 0, "every collider touches the body");
-  CHECK_MSG(m.penetration[0] > 0 && m.penetration[1] > 0, "the floor and the ball cut into it");
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction %g: %ld vertices in contact; normal forces %.4g %.4g %.4g, friction %.4g %.4g %.4g\n",
-                        friction, active, m.normal_force[0], m.normal_force[1], m.normal_force[2], m.friction_force[0],
+  if (barrier)
+    CHECK_MSG(m.penetration[0] == 0 && m.penetration[1] == 0 && m.penetration[2] == 0, "no vertex inside for the barrier");
+  else
+    CHECK_MSG(m.penetration[0] > 0 && m.penetration[1] > 0, "the floor and the ball cut into it");
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s, friction %g: %ld vertices in contact; normal forces %.4g %.4g %.4g, friction %.4g %.4g %.4g\n",
+                        model.c_str(), friction, active, m.normal_force[0], m.normal_force[1], m.normal_force[2], m.friction_force[0],
                         m.friction_force[1], m.friction_force[2]));
   if (friction > 0) CHECK_MSG(m.friction_force[0] > 0, "friction acts on the floor's contacts");
 
@@ -116,7 +122,7 @@ PetscErrorCode check_derivatives(double friction) {
   PetscCall(stiffness(s, x, false, &K));
   PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd, &err));
   CHECK_MSG(err < 1e-5, "Hessian vs FD of the gradient: " + std::to_string(err));
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction %g: Hessian vs FD: %.2e\n", friction, err));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s, friction %g: Hessian vs FD: %.2e\n", model.c_str(), friction, err));
   PetscCall(MatDestroy(&K));
 
   // The measured total forces are minus the contact gradient: compare with the body without it.
@@ -138,12 +144,43 @@ PetscErrorCode check_derivatives(double friction) {
   PetscFunctionReturn(0);
 }
 
+// The barrier: infinite at and inside an obstacle (the point is rejected), and its step bound
+// stops a straight path short of the first obstacle it would reach.
+PetscErrorCode check_barrier() {
+  TestScene s;
+  ContactTerm* contact = nullptr;
+  Vec x, dir;
+  PetscReal E;
+  PetscFunctionBeginUser;
+  PetscCall(make_contact_scene(0.0, "barrier", s, &contact));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(s.body->rest_positions(x));
+  PetscCall(s.body->energy_gradient(x, &E, nullptr));
+  CHECK_MSG(std::isfinite(E), "finite at the rest shape, all vertices outside");
+  // Everything moves down by 0.1: the bottom face (0.03 above the floor) would cross it.
+  PetscCall(VecSet(dir, 0.0));
+  PetscCall(VecStrideSet(dir, 1, -0.1));
+  double alpha = 1;
+  PetscCall(s.body->limit_step(x, dir, &alpha));
+  CHECK_MSG(std::fabs(alpha - 0.8 * 0.3) < 1e-12, "step bound 0.8 of the time of impact 0.3: " + std::to_string(alpha));
+  PetscCall(VecAXPY(x, 0.5, dir));  // half the way: the bottom face 0.02 below the floor
+  PetscCall(s.body->energy_gradient(x, &E, nullptr));
+  CHECK_MSG(!std::isfinite(E), "the barrier is infinite inside the floor");
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&dir));
+  PetscFunctionReturn(0);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
-  PetscCall(check_derivatives(0.0));
-  PetscCall(check_derivatives(0.6));
+  for (const char* model : {"penalty", "barrier"}) {
+    PetscCall(check_derivatives(0.0, model));
+    PetscCall(check_derivatives(0.6, model));
+  }
+  PetscCall(check_barrier());
   int local = check::failures(), total = 0;
   MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
   check::failures() = total;

@@ -551,7 +551,7 @@ void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, s
 void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   Section s(r, v, {"model", "distance", "stiffness", "friction_velocity"});
   c.line = v.line;
-  if (const Value* x = s.find("model")) c.model = r.choice(*x, {"penalty"});
+  if (const Value* x = s.find("model")) c.model = r.choice(*x, {"penalty", "barrier"});
   if (const Value* x = s.find("distance")) {
     c.distance = r.number(*x);
     r.check(c.distance > 0, *x, "> 0 (a length; omit it for 1e-2 of the body's rest diagonal)");

@@ -15,11 +15,15 @@ ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
 
 ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
                          const ContactSpec& spec, PetscLogEvent event)
-    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), event_(event) {
+    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), event_(event), barrier_(spec.model == "barrier") {
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
+  stiffness_.assign(vertices_.size(), stiffness_per_mass());
+}
+
+double ContactTerm::stiffness_per_mass() const {
   const double d = spec_.distance;
-  stiffness_.assign(vertices_.size(), spec_.stiffness * kStandardGravity / (d * d));
+  return spec_.stiffness * kStandardGravity / (barrier_ ? d : d * d);
 }
 
 PetscErrorCode ContactTerm::set_masses(Vec mass) {
@@ -28,9 +32,7 @@ PetscErrorCode ContactTerm::set_masses(Vec mass) {
   PetscFunctionBeginUser;
   PetscCall(VecGetOwnershipRange(mass, &lo, &hi));
   PetscCall(VecGetArrayRead(mass, &m));
-  const double d = spec_.distance;
-  for (size_t k = 0; k < vertices_.size(); ++k)
-    stiffness_[k] = spec_.stiffness * m[mesh_.global_dof[vertices_[k]] - lo] * kStandardGravity / (d * d);
+  for (size_t k = 0; k < vertices_.size(); ++k) stiffness_[k] = stiffness_per_mass() * m[mesh_.global_dof[vertices_[k]] - lo];
   PetscCall(VecRestoreArrayRead(mass, &m));
   PetscFunctionReturn(0);
 }
@@ -41,23 +43,70 @@ static Mat3 clamp_psd(const Mat3& H) {
   return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
 }
 
+// The normal energy as a function of phi, per unit stiffness: value, first and second derivative
+// (phi < d; infinite for the barrier at phi <= 0).
+void ContactTerm::profile(double phi, double* b, double* db, double* d2b) const {
+  const double d = spec_.distance, gap = d - phi;
+  if (!barrier_) {
+    *b = gap * gap * gap / 3;
+    *db = -gap * gap;
+    *d2b = 2 * gap;
+  } else if (phi > 0) {
+    const double log = std::log(phi / d);
+    *b = -gap * gap * log;
+    *db = 2 * gap * log - gap * gap / phi;
+    *d2b = -2 * log + 4 * gap / phi + gap * gap / (phi * phi);
+  } else {
+    *b = *db = *d2b = HUGE_VAL;
+  }
+}
+
 double ContactTerm::normal_energy(size_t k, size_t c, const Vec3& p, Vec3* grad, Mat3* hess, bool psd) const {
   Vec3 n;
   Mat3 curvature;
   const double phi = colliders_[c]->distance(p, grad || hess ? &n : nullptr, hess ? &curvature : nullptr);
-  const double gap = spec_.distance - phi;  // > 0 inside the activation layer
-  if (!(gap > 0)) {
+  if (!(phi < spec_.distance)) {  // outside the activation layer
     if (grad) grad->setZero();
     if (hess) hess->setZero();
     return 0;
   }
+  double b, db, d2b;
+  profile(phi, &b, &db, &d2b);
+  if (!std::isfinite(b)) {  // the barrier at or inside the obstacle: a rejected point
+    if (grad) grad->setZero();
+    if (hess) hess->setZero();
+    return HUGE_VAL;
+  }
   const double kk = stiffness_[k];
-  if (grad) *grad = -kk * gap * gap * n;
+  if (grad) *grad = kk * db * n;
   if (hess) {
-    *hess = kk * (2 * gap * n * n.transpose() - gap * gap * curvature);
+    *hess = kk * (d2b * n * n.transpose() + db * curvature);
     if (psd) *hess = clamp_psd(*hess);
   }
-  return kk * gap * gap * gap / 3;
+  return kk * b;
+}
+
+PetscErrorCode ContactTerm::limit_step(Vec x, Vec dir, double* alpha) const {
+  const PetscScalar *a, *u;
+  PetscInt lo, hi;
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  PetscCall(VecGetOwnershipRange(x, &lo, &hi));
+  PetscCall(VecGetArrayRead(x, &a));
+  PetscCall(VecGetArrayRead(dir, &u));
+  for (PetscInt v : vertices_) {
+    const PetscInt off = mesh_.global_dof[v] - lo;
+    const Vec3 p0(&a[off]), p1 = p0 + *alpha * Vec3(&u[off]);
+    for (const auto& collider : colliders_) {
+      const double s = collider->first_contact(p0, p1);
+      // Stop short of the obstacle (IPC's 0.8 of the time of impact): the barrier is infinite on it.
+      if (s < 1) *alpha *= 0.8 * s;
+    }
+  }
+  PetscCall(VecRestoreArrayRead(x, &a));
+  PetscCall(VecRestoreArrayRead(dir, &u));
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
 }
 
 double ContactTerm::friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const {
@@ -166,7 +215,10 @@ PetscErrorCode ContactTerm::begin_step(const StepStart& step) {
       FrictionPoint fp;
       fp.slot = k;
       fp.collider = c;
-      fp.mu_lambda = mu * stiffness_[k] * gap * gap;
+      double b, db, d2b;
+      profile(spec_.distance - gap, &b, &db, &d2b);
+      if (!std::isfinite(db)) continue;  // inside the obstacle: no tangent plane to speak of
+      fp.mu_lambda = mu * stiffness_[k] * std::abs(db);
       fp.T = tangent_basis(end.rotation * start.rotation.transpose() * n);
       fp.anchor = end.apply(start.inverse(p));  // x_n carried along by the obstacle
       friction_.push_back(fp);

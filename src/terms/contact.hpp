@@ -2,13 +2,18 @@
 // energy term. The scene holds it only when the deck has colliders.
 //
 // Normal contact, per free vertex i and collider c with signed distance phi (> 0 outside) and
-// activation distance d (contact.distance), is a smooth one-sided penalty on the gap:
-//   E_ic = k_i / 3 * max(0, d - phi)^3,   k_i = stiffness * m_i * g0 / d^2,
-// twice continuously differentiable, so TAO's line searches see a smooth g. The stiffness is
-// relative to each vertex's weight (m_i g0, g0 = 9.80665): at a penetration of the whole
-// activation distance a vertex pushes back with `stiffness` times its weight, whatever the units,
-// masses and time step. Under a resting load of f times its own weight a vertex sinks into the
-// activation layer by d sqrt(f / stiffness).
+// activation distance d (contact.distance), is one of two energies of phi, both zero for phi >= d
+// and twice continuously differentiable there, so TAO's line searches see a smooth g:
+//   penalty: E_ic = k_i / 3 * (d - phi)^3 for phi < d,      k_i = stiffness * m_i * g0 / d^2;
+//   barrier: E_ic = -k_i (phi - d)^2 ln(phi / d) for 0 < phi < d, +inf for phi <= 0,
+//            k_i = stiffness * m_i * g0 / d (IPC's log barrier).
+// The stiffness is relative to each vertex's weight (m_i g0, g0 = 9.80665): at a penetration of
+// the whole activation distance (penalty), or half of it (barrier), a vertex pushes back with about
+// `stiffness` times its weight, whatever the units, masses and time step. Under a resting load of f
+// times its own weight a vertex sinks into the activation layer by d sqrt(f / stiffness) (penalty)
+// or d sqrt(f / (3 stiffness)) (barrier). The barrier's +inf makes a point where a vertex touches
+// or crosses an obstacle a rejected one (solvers/objective.hpp), and limit_step bounds every step
+// by exact continuous collision detection, so no iterate ever has a vertex inside an obstacle.
 //
 // Friction is IPC's lagged smoothed Coulomb model: at the start of each step, for every vertex
 // within the activation distance of a collider at x_n, the normal force lambda = k_i (d - phi)^2
@@ -34,7 +39,7 @@ namespace hyperqn {
 
 // The deck's contact: section; 0 means "the default" for the scene-dependent values.
 struct ContactSpec {
-  std::string model = "penalty";    // penalty (the only model so far)
+  std::string model = "penalty";    // penalty | barrier
   double distance = 0;              // activation distance d; 0: 1e-2 of the rest bounding-box diagonal
   double stiffness = 1e3;           // penalty: force at full penetration of d, in vertex weights
   double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-3 diagonals per second
@@ -60,6 +65,9 @@ class ContactTerm : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   bool projective_dynamics_exact() const override { return false; }
+  // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.
+  bool bounds_steps() const override { return barrier_; }
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode begin_step(const StepStart& step) override;
 
   // The lumped mass per free dof (global layout, Body::lumped_mass): sets the per-vertex penalty
@@ -77,6 +85,9 @@ class ContactTerm : public EnergyTerm {
   // Normal contact of vertex slot k with collider c at p: its energy, and, if not null, its
   // gradient and Hessian (psd: the obstacle's curvature part clamped to positive semidefinite).
   double normal_energy(size_t k, size_t c, const Vec3& p, Vec3* grad, Mat3* hess, bool psd) const;
+  // The normal energy per unit stiffness at phi < d: b, db/dphi, d2b/dphi2 (inf for the barrier at phi <= 0).
+  void profile(double phi, double* b, double* db, double* d2b) const;
+  double stiffness_per_mass() const;  // k_i / m_i
   // Lagged friction of contact point f at p: energy, gradient, Hessian.
   double friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const;
 
@@ -94,6 +105,7 @@ class ContactTerm : public EnergyTerm {
   std::vector<double> stiffness_;    // per slot: k_i
   std::vector<FrictionPoint> friction_;
   double eps_h_ = 0;                 // friction_velocity * h of the current step
+  bool barrier_ = false;
   PetscLogEvent event_;
 };
 

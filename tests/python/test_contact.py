@@ -45,18 +45,21 @@ def cube_on_ground(frames=45):
     }
 
 
-@pytest.mark.parametrize("ranks", [None, 2])
-def test_resting_cube_carries_its_weight(tmp_path, ranks):
-    out = run(tmp_path, "cube", cube_on_ground(), ranks=ranks)
+@pytest.mark.parametrize("model,ranks", [("penalty", None), ("penalty", 2), ("barrier", None), ("barrier", 2)])
+def test_resting_cube_carries_its_weight(tmp_path, model, ranks):
+    deck = cube_on_ground()
+    deck["contact"] = {"model": model}
+    out = run(tmp_path, "cube", deck, ranks=ranks)
     weight = 0.2 ** 3 * 1000 * G
     c = read_contact(out)
     s = read_summary(out)
-    print(f"ranks {ranks}: last normal force / mg = {c['normal_force'][-1] / weight:.6f}, "
+    print(f"{model}, ranks {ranks}: last normal force / mg = {c['normal_force'][-1] / weight:.6f}, "
           f"friction {c['friction_force'][-1]:.3e} N, max penetration {s['max_penetration']:.3e} m, "
           f"{s['mean_iterations']:.2f} iterations/frame")
     assert abs(c["normal_force"][-1] / weight - 1) < 0.01
     assert c["friction_force"][-1] < 1e-3 * weight  # level ground: nothing to hold back
     assert s["max_penetration"] == 0  # resting contact stays within the activation layer
+    assert np.all(c["max_penetration"] == 0)  # at the end of every frame
     frame = final_frame(out)
     assert frame.points[:, 1].min() > 0
     # The VTK field: the contact forces on the vertices add up to the total.
@@ -107,8 +110,10 @@ def sphere_press(frames):
     return deck
 
 
-def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path):
+@pytest.mark.parametrize("model", ["penalty", "barrier"])
+def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path, model):
     deck = sphere_press(30)  # the ball moves down 5 cm/s for 1 s
+    deck["contact"] = {"model": model}
     # Solved to round-off: with the 10-iteration budget the frames end where the iterations stop,
     # and that depends on the order of the sums over ranks (1.4e-4 m apart here; docs/contact.md).
     deck["solver"] = {"type": "lbfgs", "iterations": 300, "grad_rtol": 1.0e-11}
@@ -119,7 +124,7 @@ def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path):
     center = np.array(ball["center"]) + np.array(ball["motion"]["translate"]["velocity"]) * min(t, ball["motion"]["end"])
     for r, frame in frames.items():
         phi = np.linalg.norm(frame.points - center, axis=1) - ball["radius"]
-        print(f"{r} rank(s): min distance to the ball {phi.min():.3e} m; pressed depth "
+        print(f"{model}, {r} rank(s): min distance to the ball {phi.min():.3e} m; pressed depth "
               f"{-frame.displacement[:, 1].min():.4f} m")
         assert phi.min() >= 0, "a vertex ended inside the moving ball"
         assert -frame.displacement[:, 1].min() > 0.02, "the ball should press the block in"
