@@ -8,6 +8,7 @@ MPIEXEC ?= mpiexec
 PYTHON  ?= /usr/bin/python3
 JOBS    ?= $(shell nproc)
 ARGS    ?=
+CONTACT_ARGS ?=
 
 # Open MPI refuses to run as root without these; harmless for other users.
 export OMPI_ALLOW_RUN_AS_ROOT = 1
@@ -40,6 +41,7 @@ test: build
 
 bench: build
 	$(PYTHON) bench/bench.py $(ARGS)
+	$(PYTHON) bench/contact.py $(CONTACT_ARGS)
 
 # Every deck in input/study/ at 1 and 2 ranks, then plots and tables in output/study/.
 study: build

@@ -6,7 +6,7 @@
   (moves less than 1e-3 of its size in 1 s), with mu = 0.2 it slides with acceleration
   g (sin 30 - mu cos 30) within 3 %.
 - A moving ball pressing into a clamped block: no vertex ends inside it; 1 and 2 ranks agree.
-- Every example deck of input/contact runs at 1 and 2 ranks (reduced copies).
+- Every example deck of input/contact runs at 1 and 2 ranks with either model (reduced copies).
 - A scene without colliders runs no contact code and writes no contact output.
 """
 import copy
@@ -155,11 +155,13 @@ EXAMPLES = {
 }
 
 
+@pytest.mark.parametrize("model", ["penalty", "barrier"])
 @pytest.mark.parametrize("ranks", [1, 2])
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
-def test_example_deck_runs(tmp_path, name, ranks):
+def test_example_deck_runs(tmp_path, name, ranks, model):
     deck_dir = os.path.join(REPO, "input", "contact")
     short = shorten(load_deck(os.path.join(deck_dir, f"{name}.yaml")), **EXAMPLES[name])
+    short["contact"] = dict(short.get("contact", {}), model=model)
     # The copy lives elsewhere: its relative mesh and obstacle paths become absolute.
     for item in [short["mesh"]] + short["colliders"]:
         if "file" in item:
@@ -174,7 +176,9 @@ def test_example_deck_runs(tmp_path, name, ranks):
     assert s["contact_evaluations"] > 0 and (s["factorizations"] == 1 or s["substepped_frames"] > 0)
     c = read_contact(out)
     assert len(c["frame"]) == short["time"]["frames"] * len(short["colliders"])
-    print(f"{name} at {ranks} rank(s): {s['mean_iterations']:.2f} iterations/frame, {s['ms_per_frame']:.2f} ms/frame, "
+    if model == "barrier":
+        assert np.all(c["max_penetration"] == 0)
+    print(f"{name} ({model}) at {ranks} rank(s): {s['mean_iterations']:.2f} iterations/frame, {s['ms_per_frame']:.2f} ms/frame, "
           f"max penetration {s['max_penetration']:.2e} m, at most {s['max_active_contacts']} vertices in contact")
 
 
