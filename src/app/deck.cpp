@@ -46,6 +46,7 @@ constexpr int kMaxFrames = 100000000;
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kMaxPetscOptions = 1000;      // petsc: section (a YAML alias bomb expands past it)
 constexpr int kMaxPetscDepth = 8;
+constexpr int kContactHistory = 20;         // solver.history's default with colliders
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
@@ -562,7 +563,7 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   }
   if (const Value* x = s.find("friction_velocity")) {
     c.friction_velocity = r.number(*x);
-    r.check(c.friction_velocity > 0, *x, "> 0 (a speed; omit it for 1e-3 rest diagonals per second)");
+    r.check(c.friction_velocity > 0, *x, "> 0 (a speed; omit it for 1e-2 rest diagonals per second)");
   }
 }
 
@@ -830,6 +831,9 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
+  // Contact's stiff, lagged friction is learnt from more (s, y) pairs (docs/contact.md#what-l-bfgs-does-with-contact).
+  const Value* solver = s.find("solver");
+  if (!deck.colliders.empty() && !(solver && Section(r, *solver, {}).find("history"))) deck.solver.history = kContactHistory;
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);

@@ -378,6 +378,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %lld tets%s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
               deck.name.c_str(), summary.vertices, summary.fixed_vertices, summary.tets, segments.c_str(), summary.dofs, size,
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
+  if (const ContactTerm* contact = scene.contact) {
+    const ContactSpec& c = contact->spec();
+    PetscPrintf(comm, "hyperqn: contact: %zu collider(s), %s, distance %.4g, stiffness %.4g, friction_velocity %.4g\n",
+                contact->num_colliders(), c.model.c_str(), c.distance, c.stiffness, c.friction_velocity);
+  }
 
   // 3. Output directory, writers and logs.
   bool ok = true;

@@ -9,7 +9,7 @@ static constexpr double kStandardGravity = 9.80665;
 
 ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
   if (spec.distance <= 0) spec.distance = 1e-2 * diagonal;
-  if (spec.friction_velocity <= 0) spec.friction_velocity = 1e-3 * diagonal;
+  if (spec.friction_velocity <= 0) spec.friction_velocity = 1e-2 * diagonal;
   return spec;
 }
 

@@ -42,7 +42,7 @@ struct ContactSpec {
   std::string model = "penalty";    // penalty | barrier
   double distance = 0;              // activation distance d; 0: 1e-2 of the rest bounding-box diagonal
   double stiffness = 1e3;           // penalty: force at full penetration of d, in vertex weights
-  double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-3 diagonals per second
+  double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
   int line = 0;                     // deck line of the section
 };
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.

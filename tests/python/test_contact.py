@@ -132,7 +132,10 @@ def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path, model):
     assert np.array_equal(a.vertex_id, b.vertex_id)
     diff = np.abs(a.points - b.points).max()
     print(f"1 vs 2 ranks: max |x1 - x2| = {diff:.3e} m")
-    assert diff < 1e-8
+    # The barrier's frames stall at the round-off of g (its log) before grad_rtol, where the line
+    # search can no longer decrease g, at a residual below 1e-3 of the force scale: measured 6e-11
+    # to 6e-7 m apart, depending on history and grad_rtol (docs/contact.md).
+    assert diff < (1e-8 if model == "penalty" else 1e-6)
 
 
 # Example decks, reduced: (deck, changes to make it short).
