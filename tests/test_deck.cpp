@@ -448,6 +448,44 @@ void test_attachments() {
   expect_error("attach_not_list", kHead + "attachments: {stiffness: 1}\n", "attachments", 3, "list");
 }
 
+// colliders: and contact:, and the solver defaults that colliders change.
+void test_colliders() {
+  write_file("ramp.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n");
+  Deck d = load_ok("colliders", kHead + R"(colliders:
+  - {type: plane, point: [0, -1, 0], normal: [0, 2, 0], friction: 0.4}
+  - type: sphere
+    center: [0, 1, 0]
+    radius: 0.3
+    motion: {translate: {velocity: [0, -0.5, 0]}}
+  - {type: box, min: [-1, -2, -1], max: [1, -1.5, 1]}
+  - {type: capsule, a: [0, 0, 0], b: [1, 0, 0], radius: 0.1}
+  - {type: mesh, file: ramp.obj}
+contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.001}
+)");
+  CHECK(d.colliders.size() == 5);
+  if (d.colliders.size() == 5) {
+    CHECK(d.colliders[0].type == "plane" && d.colliders[0].normal[1] == 2 && d.colliders[0].friction == 0.4);
+    CHECK(d.colliders[1].radius == 0.3 && d.colliders[1].motion.active && d.colliders[1].line == 5);
+    CHECK(d.colliders[2].min[1] == -2 && d.colliders[3].b[0] == 1);
+    CHECK(fs::path(d.colliders[4].file).filename() == "ramp.obj" && fs::exists(d.colliders[4].file));  // resolved beside the deck
+  }
+  CHECK(d.contact.model == "barrier" && d.contact.distance == 0.01 && d.contact.stiffness == 100 &&
+        d.contact.friction_velocity == 0.001);
+  CHECK(d.solver.history == 20);  // contact's default
+  d = load_ok("colliders_history", kHead + "colliders: [{type: plane, point: [0, 0, 0], normal: [0, 1, 0]}]\nsolver: {history: 7}\n");
+  CHECK(d.solver.history == 7);  // given: kept
+  CHECK(load_ok("no_colliders", kHead).solver.history == hyperqn::SolverSpec().history);
+  const std::string plane = "colliders:\n  - {type: plane, point: [0, 0, 0], normal: [0, 1, 0]}\n";
+  expect_error("contact_unknown_model", kHead + plane + "contact: {model: springs}\n", "contact.model", 5, "penalty, barrier");
+  expect_error("contact_stiffness_low", kHead + plane + "contact: {stiffness: 0.5}\n", "contact.stiffness", 5, "[1, 1e12]");
+  expect_error("collider_no_type", kHead + "colliders:\n  - {radius: 1}\n", "colliders[0].type", 4, "missing");
+  expect_error("collider_sphere_no_radius", kHead + "colliders:\n  - {type: sphere, center: [0, 0, 0]}\n",
+               "colliders[0].radius", 4, "missing");
+  expect_error("collider_obj_extension", kHead + "colliders:\n  - {type: mesh, file: ramp.stl}\n", "colliders[0].file", 4, ".obj");
+  expect_error("collider_motion", kHead + "colliders:\n  - {type: sphere, center: [0, 0, 0], radius: 1, motion: {spin: 1}}\n",
+               "colliders[0].motion.spin", 4);
+}
+
 void test_default_deck() {
   Deck d = load_deck(std::string(HYPERQN_SOURCE_DIR) + "/input/bar.yaml");
   CHECK(d.name == "bar");
@@ -525,6 +563,7 @@ int main() {
   test_initial_state();
   test_regions_and_motion();
   test_attachments();
+  test_colliders();
   test_default_deck();
 #endif
 
