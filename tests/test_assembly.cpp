@@ -211,8 +211,6 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
 
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
-  PetscMPIInt size;
-  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   // "+strands": the same box with strand segments attached and free (see test_scene.hpp).
   for (const char* model : {"corotated", "neohookean", "neohookean+strands"}) {
     PetscCall(check_mass_and_laplacian(model));
@@ -225,16 +223,7 @@ int main(int argc, char** argv) {
     PetscCall(check_spd(model, ConstantMatrix::laplacian));
     PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
   }
-  // Every rank must agree on the outcome.
-  int local = check::failures(), total = 0;
-  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
-  check::failures() = total;
-  const std::string name = "test_assembly (" + std::to_string(size) + " ranks)";
-  PetscMPIInt rank;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
-  int code = 0;
-  if (rank == 0) code = check::summary(name.c_str());
-  else code = total == 0 ? 0 : 1;
+  const int code = test_scene::tally("test_assembly");  // every rank agrees on the outcome
   PetscCall(PetscFinalize());
   return code;
 }

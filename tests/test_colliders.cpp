@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "check.hpp"
+#include "input_error_check.hpp"
 #include "geometry/bvh.hpp"
 #include "geometry/collider.hpp"
 #include "geometry/surface_file.hpp"
@@ -37,20 +38,6 @@ Vec3 random_point(double lo, double hi) {
 
 std::array<double, 3> arr(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
-template <class F>
-void expect_input_error(const std::string& name, F f, const std::vector<std::string>& parts) {
-  try {
-    f();
-    CHECK_MSG(false, name + ": no InputError thrown");
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    for (const auto& p : parts) CHECK_MSG(contains(what, p), name + ": '" + p + "' not in: " + what);
-  } catch (const std::exception& e) {
-    CHECK_MSG(false, name + ": wrong exception type: " + e.what());
-  }
-}
 
 void write_file(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 

@@ -57,16 +57,6 @@ PetscErrorCode make_contact_scene(double friction, const std::string& model, Tes
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode stiffness(const TestScene& s, Vec x, bool psd, Mat* K) {
-  PetscFunctionBeginUser;
-  PetscCall(s.step->create_hessian(K));
-  PetscCall(MatZeroEntries(*K));
-  PetscCall(s.body->add_hessian(x, *K, 1.0, psd));
-  PetscCall(MatAssemblyBegin(*K, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(*K, MAT_FINAL_ASSEMBLY));
-  PetscFunctionReturn(0);
-}
-
 PetscErrorCode check_derivatives(double friction, const std::string& model) {
   TestScene s;
   ContactTerm* contact = nullptr;
@@ -119,7 +109,7 @@ PetscErrorCode check_derivatives(double friction, const std::string& model) {
   }
   // Hessian (exact: with the obstacles' curvature) against differences of the gradient.
   double err;
-  PetscCall(stiffness(s, x, false, &K));
+  PetscCall(test_scene::stiffness(s, x, false, &K));
   PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd, &err));
   CHECK_MSG(err < 1e-5, "Hessian vs FD of the gradient: " + std::to_string(err));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s, friction %g: Hessian vs FD: %.2e\n", model.c_str(), friction, err));
@@ -181,14 +171,7 @@ int main(int argc, char** argv) {
     PetscCall(check_derivatives(0.6, model));
   }
   PetscCall(check_barrier());
-  int local = check::failures(), total = 0;
-  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
-  check::failures() = total;
-  PetscMPIInt rank, size;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
-  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
-  const std::string name = "test_contact (" + std::to_string(size) + " ranks)";
-  int code = rank == 0 ? check::summary(name.c_str()) : (total == 0 ? 0 : 1);
+  const int code = test_scene::tally("test_contact");
   PetscCall(PetscFinalize());
   return code;
 }

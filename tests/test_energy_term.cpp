@@ -145,14 +145,7 @@ int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   PetscCall(check_gradient());
   PetscCall(check_same_motion_as_gravity());
-  int local = check::failures(), total = 0;
-  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
-  check::failures() = total;
-  PetscMPIInt rank, size;
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
-  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
-  const std::string name = "test_energy_term (" + std::to_string(size) + " ranks)";
-  int code = rank == 0 ? check::summary(name.c_str()) : (total == 0 ? 0 : 1);
+  const int code = test_scene::tally("test_energy_term");
   PetscCall(PetscFinalize());
   return code;
 }

@@ -68,17 +68,6 @@ PetscErrorCode count_inverted(const TestScene& s, Vec x, int* count) {
   PetscFunctionReturn(0);
 }
 
-// K(x) alone (no mass), exact or with the PSD fix, in the Hessian's pattern.
-PetscErrorCode stiffness(const TestScene& s, Vec x, bool psd, Mat* K) {
-  PetscFunctionBeginUser;
-  PetscCall(s.step->create_hessian(K));
-  PetscCall(MatZeroEntries(*K));
-  PetscCall(s.body->add_hessian(x, *K, 1.0, psd));
-  PetscCall(MatAssemblyBegin(*K, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(*K, MAT_FINAL_ASSEMBLY));
-  PetscFunctionReturn(0);
-}
-
 // Number of negative eigenvalues of K + shift I (MUMPS LDL^T inertia).
 PetscErrorCode negative_eigenvalues(Mat K, double shift, PetscInt* count) {
   Mat A, F;
@@ -116,7 +105,7 @@ PetscErrorCode check_pose(const std::string& model, Pose pose, PetscRandom rnd) 
   else CHECK_MSG(inverted == 0, what + std::to_string(inverted) + " inverted tets");
 
   // Exact K against differences of the assembled dE/dx.
-  PetscCall(stiffness(s, x, false, &K));
+  PetscCall(test_scene::stiffness(s, x, false, &K));
   PetscCall(fd_error(K, x, [&](Vec at, Vec g) { PetscReal E; return s.body->energy_gradient(at, &E, g); }, rnd, &err_K));
   CHECK_MSG(err_K <= 1e-6, what + "K d vs FD, relative error " + std::to_string(err_K));
   PetscCall(MatNorm(K, NORM_INFINITY, &knorm));
@@ -132,7 +121,7 @@ PetscErrorCode check_pose(const std::string& model, Pose pose, PetscRandom rnd) 
   CHECK_MSG(err_H <= 1e-6, what + "H d vs FD, relative error " + std::to_string(err_H));
 
   // PSD fix: d^T K d >= 0 up to round-off; no change at rest, a real change when inverted.
-  PetscCall(stiffness(s, x, true, &Kpsd));
+  PetscCall(test_scene::stiffness(s, x, true, &Kpsd));
   PetscCall(MatIsSymmetric(Kpsd, 1e-14 * knorm, &symmetric));
   CHECK_MSG(symmetric, what + "projected K symmetric");
   double min_curvature = HUGE_VAL;
@@ -181,9 +170,6 @@ PetscErrorCode check_pose(const std::string& model, Pose pose, PetscRandom rnd) 
 
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
-  PetscMPIInt size, rank;
-  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
-  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   PetscRandom rnd;
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
@@ -191,14 +177,7 @@ int main(int argc, char** argv) {
   for (const char* model : {"corotated", "neohookean", "neohookean+strands"})
     for (Pose pose : {Pose::rest, Pose::scaled, Pose::general, Pose::inverted}) PetscCall(check_pose(model, pose, rnd));
   PetscCall(PetscRandomDestroy(&rnd));
-  // Every rank must agree on the outcome.
-  int local = check::failures(), total = 0;
-  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
-  check::failures() = total;
-  const std::string name = "test_hessian (" + std::to_string(size) + " ranks)";
-  int code = 0;
-  if (rank == 0) code = check::summary(name.c_str());
-  else code = total == 0 ? 0 : 1;
+  const int code = test_scene::tally("test_hessian");  // every rank agrees on the outcome
   PetscCall(PetscFinalize());
   return code;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "check.hpp"
+#include "input_error_check.hpp"
 #include "mesh/input_error.hpp"
 #include "mesh/mesh.hpp"
 
@@ -60,21 +61,6 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
-// Runs f and checks that it throws an InputError whose message contains every part.
-template <class F>
-void expect_input_error(const std::string& name, F f, const std::vector<std::string>& parts) {
-  try {
-    f();
-    CHECK_MSG(false, name + ": no InputError thrown");
-  } catch (const InputError& e) {
-    const std::string what = e.what();
-    for (const auto& p : parts) CHECK_MSG(contains(what, p), name + ": '" + p + "' not in: " + what);
-  } catch (const std::exception& e) {
-    CHECK_MSG(false, name + ": wrong exception type: " + e.what());
-  }
-}
 
 // ---------------------------------------------------------------------------------------------
 

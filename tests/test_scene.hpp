@@ -6,6 +6,9 @@
 #include <functional>
 #include <memory>
 #include <random>
+#include <string>
+
+#include "check.hpp"
 
 #include "mesh/distributed_mesh.hpp"
 #include "model/body.hpp"
@@ -146,6 +149,29 @@ inline PetscErrorCode fd_error(Mat H, Vec x, const Gradient& grad, PetscRandom r
   PetscCall(VecDestroy(&gm));
   PetscCall(VecDestroy(&xs));
   PetscFunctionReturn(0);
+}
+
+// K(x) alone (no mass), exact or with the PSD fix, in the Hessian's pattern.
+inline PetscErrorCode stiffness(const TestScene& s, Vec x, bool psd, Mat* K) {
+  PetscFunctionBeginUser;
+  PetscCall(s.step->create_hessian(K));
+  PetscCall(MatZeroEntries(*K));
+  PetscCall(s.body->add_hessian(x, *K, 1.0, psd));
+  PetscCall(MatAssemblyBegin(*K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(*K, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(0);
+}
+
+// The end of an MPI test program: the checks failed on any rank, tallied and printed by rank 0
+// as "<program> (<N> ranks): ..."; the process's exit code (call PetscFinalize after it).
+inline int tally(const std::string& program) {
+  int local = check::failures(), total = 0, rank, size;
+  MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, PETSC_COMM_WORLD);
+  check::failures() = total;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  const std::string name = program + " (" + std::to_string(size) + " ranks)";
+  return rank == 0 ? check::summary(name.c_str()) : (total == 0 ? 0 : 1);
 }
 
 }  // namespace test_scene

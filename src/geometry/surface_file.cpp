@@ -96,19 +96,6 @@ class ObjReader {
   std::vector<int> face_lines_;
 };
 
-// Tokens per record of the Medit sections that do not shape the obstacle; an unknown keyword is
-// an error, so that a typo does not silently desynchronize the stream.
-int medit_skipped_size(const Token& t) {
-  static const struct { const char* name; int size; } table[] = {
-      {"Edges", 3},           {"Tetrahedra", 5},     {"Quadrilaterals", 5}, {"Hexahedra", 9},
-      {"Prisms", 7},          {"Corners", 1},        {"Ridges", 1},         {"RequiredVertices", 1},
-      {"RequiredEdges", 1},   {"RequiredTriangles", 1}, {"Normals", 3},     {"Tangents", 3},
-      {"NormalAtVertices", 2}, {"TangentAtVertices", 2}};
-  for (const auto& s : table)
-    if (t.is(s.name)) return s.size;
-  return 0;
-}
-
 class MeditSurfaceReader {
  public:
   MeditSurfaceReader(const std::string& path, const std::string& text) : path_(path), tok_(text, '#') {}
@@ -151,7 +138,7 @@ class MeditSurfaceReader {
           raw.push_back(ids);
           where.push_back(at);
         }
-      } else if (const int size = medit_skipped_size(t)) {
+      } else if (const int size = medit_record_size(t)) {
         const long long n = count(t);
         for (long long i = 0; i < n * size; ++i) {
           double unused;

@@ -21,20 +21,6 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // Medit reader
 
-// Tokens per record of the sections we skip; anything else is rejected so that a typo or an
-// unsupported section is reported instead of silently desynchronizing the stream.
-int skipped_record_size(const Token& t) {
-  static const struct { const char* name; int size; } table[] = {
-      {"Triangles", 4},       {"Edges", 3},           {"Corners", 1},
-      {"RequiredVertices", 1}, {"RequiredEdges", 1},   {"RequiredTriangles", 1},
-      {"Ridges", 1},          {"Quadrilaterals", 5},  {"Hexahedra", 9},
-      {"Prisms", 7},          {"Normals", 3},         {"Tangents", 3},
-      {"NormalAtVertices", 2}, {"TangentAtVertices", 2}};
-  for (const auto& s : table)
-    if (t.is(s.name)) return s.size;
-  return 0;
-}
-
 class MeditReader {
  public:
   MeditReader(const std::string& path, const std::string& text, bool edges_as_strands)
@@ -67,7 +53,7 @@ class MeditReader {
         if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
         read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags);
         have_edges = true;
-      } else if (int size = skipped_record_size(t)) {
+      } else if (int size = medit_record_size(t)) {
         Section s = open_section(t);
         for (long long i = 0; i < s.count; ++i)
           for (int k = 0; k < size; ++k) {

@@ -63,4 +63,15 @@ bool parse_int(const Token& t, long long& v) {
   return e == t.end && e != t.begin && errno == 0;
 }
 
+int medit_record_size(const Token& t) {
+  static const struct { const char* name; int size; } table[] = {
+      {"Triangles", 4},        {"Tetrahedra", 5},      {"Edges", 3},           {"Corners", 1},
+      {"RequiredVertices", 1}, {"RequiredEdges", 1},   {"RequiredTriangles", 1}, {"Ridges", 1},
+      {"Quadrilaterals", 5},   {"Hexahedra", 9},       {"Prisms", 7},          {"Normals", 3},
+      {"Tangents", 3},         {"NormalAtVertices", 2}, {"TangentAtVertices", 2}};
+  for (const auto& s : table)
+    if (t.is(s.name)) return s.size;
+  return 0;
+}
+
 }  // namespace hyperqn

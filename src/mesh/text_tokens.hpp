@@ -47,4 +47,10 @@ class Tokenizer {
 bool parse_double(const Token& t, double& v);
 bool parse_int(const Token& t, long long& v);
 
+// Tokens per record of the Medit sections a reader may skip (Triangles, Tetrahedra, Edges,
+// Corners, ...), 0 for any other keyword: a reader rejects what it neither reads nor skips, so
+// that a typo or an unsupported section is reported instead of desynchronizing the stream.
+// A reader checks the sections it reads first.
+int medit_record_size(const Token& t);
+
 }  // namespace hyperqn
