@@ -21,13 +21,20 @@ def write_deck(path, deck, header=None):
 
 
 def portable_copy(deck, deck_path):
-    """A deep copy of `deck`, read from deck_path, that runs from any directory: a relative
-    `mesh.file` (relative to the deck's directory) made absolute, and no `output.directory` (the
-    caller's -o says where results go)."""
+    """A deep copy of `deck`, read from deck_path, that runs from any directory: relative
+    `mesh.file` and `colliders[].file` (relative to the deck's directory) made absolute, and no
+    `output.directory` (the caller's -o says where results go)."""
     d = copy.deepcopy(deck)
-    mesh = d.get("mesh") or {}
-    if isinstance(mesh.get("file"), str) and not os.path.isabs(mesh["file"]):
-        mesh["file"] = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(deck_path)), mesh["file"]))
+    base = os.path.dirname(os.path.abspath(deck_path))
+    holders = [d.get("mesh")] + (d["colliders"] if isinstance(d.get("colliders"), list) else [])
+    for h in holders:
+        if isinstance(h, dict) and isinstance(h.get("file"), str):
+            h["file"] = absolute_path(h["file"], base)
     if isinstance(d.get("output"), dict):
         d["output"].pop("directory", None)
     return d
+
+
+def absolute_path(path, base):
+    """path made absolute against the directory base (an absolute path is kept)."""
+    return path if os.path.isabs(path) else os.path.normpath(os.path.join(base, path))
