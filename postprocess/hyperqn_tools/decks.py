@@ -1,14 +1,29 @@
 """Reading and writing decks (YAML) and making copies of a deck that run from another directory."""
 import copy
 import os
+import re
 
 import yaml
 
 
+class Loader(yaml.SafeLoader):
+    """yaml.SafeLoader reading numbers as hyperqn does: PyYAML (YAML 1.1) takes `1e5` for a string,
+    which write_deck would then quote and hyperqn refuse; yaml-cpp reads it as a number."""
+
+
+Loader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$"),
+                             list("-+0123456789."))
+
+
+def load_yaml(path):
+    """A YAML file's content, with Loader."""
+    with open(path) as f:
+        return yaml.load(f, Loader=Loader)
+
+
 def load_deck(path):
     """The deck as a dict ({} for an empty file)."""
-    with open(path) as f:
-        return yaml.safe_load(f) or {}
+    return load_yaml(path) or {}
 
 
 def write_deck(path, deck, header=None):
