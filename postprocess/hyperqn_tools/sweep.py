@@ -106,7 +106,7 @@ def set_dotted(deck, dotted, value, where):
             if not last and node.get(key) is None:
                 node[key] = {}
         else:
-            raise SweepError(f"{where}: '{here}' is {format_value(node)!r} in the base deck, not a map")
+            raise SweepError(f"{where}: '{here}' is {format_value(node)!r}, not a map")
         if last:
             node[key] = value
         else:
