@@ -21,8 +21,9 @@ STUDY_DECKS ?= $(wildcard input/study/*.yaml)
 STUDY_RANKS ?= 1 2
 STABILITY_DECKS ?= $(wildcard input/stability/*.yaml)
 STABILITY_NP    ?= 1
+SWEEP ?= input/sweeps/bar_stiffness.yaml
 
-.PHONY: all deps build run test bench study stability fuzz clean
+.PHONY: all deps build run test bench study stability sweep fuzz clean
 
 all: build
 
@@ -57,6 +58,11 @@ study: build
 stability: build
 	$(PYTHON) -m hyperqn_tools.stability $(STABILITY_DECKS) --out output/stability --bin $(BUILD)/hyperqn \
 	  --np $(STABILITY_NP) --mpiexec $(MPIEXEC) $(ARGS)
+
+# A sweep file's cases, each on NP ranks, -> output/sweep/<sweep name>/<case>/, sweep.csv and
+# sweep.md (see docs/sweeps.md). ARGS="--out DIR", "--case K", "--table-only", "--list".
+sweep: build
+	$(PYTHON) -m hyperqn_tools.sweep $(SWEEP) --np $(NP) --bin $(BUILD)/hyperqn --mpiexec $(MPIEXEC) $(ARGS)
 
 # The input fuzzer: 1000 mutated decks, meshes and option sets (see scripts/fuzz.py) -> output/fuzz/.
 fuzz: build

@@ -1,14 +1,29 @@
 """Reading and writing decks (YAML) and making copies of a deck that run from another directory."""
 import copy
 import os
+import re
 
 import yaml
 
 
+class Loader(yaml.SafeLoader):
+    """yaml.SafeLoader reading numbers as hyperqn does: PyYAML (YAML 1.1) takes `1e5` for a string,
+    which write_deck would then quote and hyperqn refuse; yaml-cpp reads it as a number."""
+
+
+Loader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$"),
+                             list("-+0123456789."))
+
+
+def load_yaml(path):
+    """A YAML file's content, with Loader."""
+    with open(path) as f:
+        return yaml.load(f, Loader=Loader)
+
+
 def load_deck(path):
     """The deck as a dict ({} for an empty file)."""
-    with open(path) as f:
-        return yaml.safe_load(f) or {}
+    return load_yaml(path) or {}
 
 
 def write_deck(path, deck, header=None):
@@ -21,13 +36,20 @@ def write_deck(path, deck, header=None):
 
 
 def portable_copy(deck, deck_path):
-    """A deep copy of `deck`, read from deck_path, that runs from any directory: a relative
-    `mesh.file` (relative to the deck's directory) made absolute, and no `output.directory` (the
-    caller's -o says where results go)."""
+    """A deep copy of `deck`, read from deck_path, that runs from any directory: relative
+    `mesh.file` and `colliders[].file` (relative to the deck's directory) made absolute, and no
+    `output.directory` (the caller's -o says where results go)."""
     d = copy.deepcopy(deck)
-    mesh = d.get("mesh") or {}
-    if isinstance(mesh.get("file"), str) and not os.path.isabs(mesh["file"]):
-        mesh["file"] = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(deck_path)), mesh["file"]))
+    base = os.path.dirname(os.path.abspath(deck_path))
+    holders = [d.get("mesh")] + (d["colliders"] if isinstance(d.get("colliders"), list) else [])
+    for h in holders:
+        if isinstance(h, dict) and isinstance(h.get("file"), str):
+            h["file"] = absolute_path(h["file"], base)
     if isinstance(d.get("output"), dict):
         d["output"].pop("directory", None)
     return d
+
+
+def absolute_path(path, base):
+    """path made absolute against the directory base (an absolute path is kept)."""
+    return path if os.path.isabs(path) else os.path.normpath(os.path.join(base, path))

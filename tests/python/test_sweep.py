@@ -1,0 +1,192 @@
+"""Sweeps (python3 -m hyperqn_tools.sweep, docs/sweeps.md): a 2 x 2 grid runs with a table of its
+cases, a rejected case is listed with hyperqn's message while the others run, --case runs one
+(as a Slurm array task does), --table-only rebuilds the same table, a set of decks with relative
+mesh and obstacle files runs from the case directories, and bad sweep files fail cleanly."""
+import csv
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from conftest import HYPERQN, MPIEXEC, write_deck
+from hyperqn_tools.decks import load_deck
+from hyperqn_tools.output import final_frame
+from hyperqn_tools.paths import REPO
+
+BASE = {
+    "mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
+    "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+    "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+    "time": {"dt": 0.01, "frames": 3},
+}
+# As a user writes it: 1e5 is a number for hyperqn, a string for plain PyYAML.
+GRID = """deck: decks/base.yaml
+sweep:
+  material.youngs_modulus: [1e5, 1.0e6]
+  solver.type: [lbfgs, pd]
+"""
+GRID_NAMES = ["case-000_youngs_modulus-1e5_type-lbfgs", "case-001_youngs_modulus-1e5_type-pd",
+              "case-002_youngs_modulus-1e6_type-lbfgs", "case-003_youngs_modulus-1e6_type-pd"]
+DECK_NAME = re.compile(r"^[A-Za-z0-9_+][A-Za-z0-9_.+-]{0,99}$")  # docs/decks.md, input limits
+
+
+def sweep(*args, check_rc=None):
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.sweep", *map(str, args),
+                           "--bin", HYPERQN, "--mpiexec", MPIEXEC, "--timeout", "120"],
+                          capture_output=True, text=True, timeout=600)
+    if check_rc is not None:
+        assert proc.returncode == check_rc, f"exit {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+    return proc
+
+
+def make_sweep(tmp_path, text, base=BASE):
+    (tmp_path / "decks").mkdir(exist_ok=True)
+    write_deck(tmp_path / "decks" / "base.yaml", base)
+    path = tmp_path / "sweep.yaml"
+    path.write_text(text)
+    return path
+
+
+def read_table(out):
+    with open(out / "sweep.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def test_grid_runs_with_a_table_and_table_only_rebuilds_it(tmp_path):
+    path = make_sweep(tmp_path, GRID)
+    out = tmp_path / "out"
+    sweep(path, "--out", out, check_rc=0)
+    rows = read_table(out)
+    assert [r["case"] for r in rows] == GRID_NAMES
+    assert list(rows[0]) == ["case", "material.youngs_modulus", "solver.type", "status", "frames",
+                             "mean_iterations", "ms_per_frame", "wall_s", "exit_code"]
+    for row, (E, solver) in zip(rows, [(1e5, "lbfgs"), (1e5, "pd"), (1e6, "lbfgs"), (1e6, "pd")]):
+        assert (row["status"], row["frames"], row["exit_code"]) == ("ok", "3", "0"), row
+        assert float(row["material.youngs_modulus"]) == E and row["solver.type"] == solver
+        cdir = out / row["case"]
+        deck = load_deck(cdir / "deck.yaml")
+        assert deck["material"]["youngs_modulus"] == E and isinstance(deck["material"]["youngs_modulus"], float)
+        assert deck["solver"]["type"] == solver and deck["name"] == row["case"]
+        summary = json.loads((cdir / "summary.json").read_text())
+        assert summary["solver"] == solver
+        assert float(row["mean_iterations"]) == summary["mean_iterations"] > 0
+        assert (cdir / "run.log").exists() and (cdir / f"{row['case']}.pvd").exists()
+    # The swept modulus reached the runs: the two moduli end at different positions.
+    soft, stiff = (final_frame(str(out / GRID_NAMES[i])).displacement for i in (0, 2))
+    assert abs(soft - stiff).max() > 1e-9
+    md = (out / "sweep.md").read_text().splitlines()
+    assert len(md) == 2 + 4 and all(name in "".join(md) for name in GRID_NAMES)
+
+    csv_text, md_text = (out / "sweep.csv").read_text(), (out / "sweep.md").read_text()
+    os.remove(out / "sweep.csv")
+    os.remove(out / "sweep.md")
+    sweep(path, "--out", out, "--table-only", check_rc=0)
+    assert (out / "sweep.csv").read_text() == csv_text and (out / "sweep.md").read_text() == md_text
+
+
+def test_rejected_case_is_listed_and_the_others_run(tmp_path):
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  material.poisson_ratio: [0.3, 0.6, 0.4]\n")
+    out = tmp_path / "out"
+    proc = sweep(path, "--out", out, check_rc=2)  # 2: the sweep ran, a case did not exit 0
+    rows = read_table(out)
+    assert [r["status"] for r in rows][0::2] == ["ok", "ok"]
+    bad = rows[1]
+    assert bad["case"] == "case-001_poisson_ratio-0.6" and bad["exit_code"] == "1"
+    assert bad["status"].startswith("failed: deck.yaml:") and "material.poisson_ratio" in bad["status"], bad
+    assert bad["frames"] == "" and not (out / bad["case"] / "summary.json").exists()
+    assert "material.poisson_ratio" in (out / "sweep.md").read_text()
+    assert "case-002_poisson_ratio-0.4" in proc.stdout
+
+
+def test_one_case_at_two_ranks_then_the_table(tmp_path):
+    path = make_sweep(tmp_path, GRID)
+    out = tmp_path / "out"
+    sweep(path, "--out", out, "--case", 2, "--np", 2, check_rc=0)
+    assert sorted(os.listdir(out)) == [GRID_NAMES[2]]  # one case, no table yet
+    assert json.loads((out / GRID_NAMES[2] / "summary.json").read_text())["ranks"] == 2
+    sweep(path, "--out", out, "--table-only", check_rc=0)
+    assert [r["status"] for r in read_table(out)] == ["not run", "not run", "ok", "not run"]
+    proc = sweep(path, "--out", out, "--case", 4, check_rc=1)
+    assert "--case 4" in proc.stderr and "4 cases" in proc.stderr
+
+
+def test_list_names_and_list_index(tmp_path):
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n"
+                                "  fixed.0.box.max: [[0.26, 1, 1]]\n"
+                                "  gravity: [[0, -9.81, 0]]\n"
+                                "  material.density: [100, 100.5, 101, 102, 103, 104, 105, 106, 107, 108, 109]\n"
+                                "  solver.type: [lbfgs]\n"
+                                "  solver.comment_that_is_long_enough_to_cut_the_name_to_one_hundred_chars: [x]\n")
+    proc = sweep(path, "--list", check_rc=0)
+    lines = proc.stdout.splitlines()
+    assert lines[-1] == "11 cases" and len(lines) == 12
+    names = [line.split(" ", 1)[1] for line in lines[:-1]]
+    assert all(DECK_NAME.match(n) for n in names) and len(set(names)) == 11, names
+    assert names[1].startswith("case-001_max-_0.26_1_1__gravity-_0_-9.81_0__density-100.5_type-lbfgs_")
+    assert max(len(n) for n in names) == 100
+    # Run one without the made-up key: hyperqn accepts the name, the list index set the box.
+    path.write_text(path.read_text().replace("  solver.comment", "  # solver.comment"))
+    out = tmp_path / "out"
+    sweep(path, "--out", out, "--case", 1, check_rc=0)
+    [case] = os.listdir(out)
+    assert load_deck(out / case / "deck.yaml")["fixed"][0]["box"]["max"] == [0.26, 1, 1]
+    assert json.loads((out / case / "summary.json").read_text())["status"] == "ok"
+
+
+def test_set_of_decks_with_relative_files(tmp_path):
+    """Relative mesh and obstacle files of base decks in another directory still load from OUT/<case>/."""
+    (tmp_path / "meshes").mkdir()
+    shutil.copy(os.path.join(REPO, "input", "meshes", "tet.mesh"), tmp_path / "meshes")
+    (tmp_path / "decks").mkdir()
+    (tmp_path / "decks" / "ground.obj").write_text("v -5 -0.5 -5\nv 5 -0.5 -5\nv 5 -0.5 5\nv -5 -0.5 5\nf 1 4 3 2\n")
+    write_deck(tmp_path / "decks" / "tet.yaml", {
+        "mesh": {"file": "../meshes/tet.mesh"},
+        "material": {"youngs_modulus": 1.0e4, "poisson_ratio": 0.3, "density": 100},
+        "time": {"dt": 0.01, "frames": 50}})
+    write_deck(tmp_path / "decks" / "ground.yaml", {**BASE, "fixed": [],
+                                                    "colliders": [{"type": "mesh", "file": "ground.obj"}]})
+    path = tmp_path / "sweeps" / "set.yaml"
+    path.parent.mkdir()
+    path.write_text("decks: [../decks/tet.yaml, ../decks/ground.yaml]\nset: {time.frames: 2}\n")
+    out = tmp_path / "elsewhere" / "out"
+    sweep(path, "--out", out, check_rc=0)
+    rows = read_table(out)
+    assert [(r["case"], r["status"], r["frames"]) for r in rows] == [
+        ("case-000_tet", "ok", "2"), ("case-001_ground", "ok", "2")]
+    assert rows[0]["deck"].endswith("decks/tet.yaml")
+    assert load_deck(out / "case-001_ground" / "deck.yaml")["colliders"][0]["file"] == str(tmp_path / "decks" / "ground.obj")
+
+
+BAD_SWEEPS = {
+    # name: (sweep file text, fragments of the message)
+    "unknown_top_key": ("deck: decks/base.yaml\nsweeps: {solver.type: [lbfgs]}\n", ["'sweeps'", "unknown key"]),
+    "empty_values": ("deck: decks/base.yaml\nsweep: {material.youngs_modulus: []}\n",
+                     ["sweep.material.youngs_modulus", "non-empty list"]),
+    "values_not_a_list": ("deck: decks/base.yaml\nsweep: {solver.type: lbfgs}\n", ["sweep.solver.type", "list"]),
+    "missing_base_deck": ("deck: decks/absent.yaml\nsweep: {solver.type: [lbfgs]}\n", ["'deck'", "absent.yaml"]),
+    "missing_deck_of_set": ("decks: [decks/base.yaml, nowhere.yaml]\n", ["'decks[1]'", "nowhere.yaml"]),
+    "path_not_a_map": ("deck: decks/base.yaml\nsweep: {time.dt.x: [1]}\n", ["sweep.time.dt.x", "'time.dt'", "not a map"]),
+    "index_out_of_range": ("deck: decks/base.yaml\nset: {fixed.3.box.min: [0, 0, 0]}\n", ["set.fixed.3.box.min", "'3'"]),
+    "no_deck": ("sweep: {solver.type: [lbfgs]}\n", ["'deck' or 'decks'"]),
+    "not_yaml": ("deck: decks/base.yaml\nsweep: {solver.type: [lbfgs\n", ["not a valid YAML"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_SWEEPS))
+def test_bad_sweep_file(tmp_path, case):
+    text, fragments = BAD_SWEEPS[case]
+    path = make_sweep(tmp_path, text)
+    out = tmp_path / "out"
+    proc = sweep(path, "--out", out, check_rc=1)
+    for fragment in [str(path), "sweep: error:"] + fragments:
+        assert fragment in proc.stderr, f"{fragment!r} not in {proc.stderr!r}"
+    assert not out.exists()
+
+
+def test_missing_sweep_file(tmp_path):
+    proc = sweep(tmp_path / "absent.yaml", "--out", tmp_path / "out", check_rc=1)
+    assert "absent.yaml" in proc.stderr and not (tmp_path / "out").exists()
