@@ -456,23 +456,24 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
               "(%.3f s), wall %.3f s, peak RSS %.0f MB/rank; %s\n",
               deck.name.c_str(), summary.frames, summary.mean_iterations, summary.ms_per_frame, summary.ms_per_iteration,
               summary.factorizations, summary.factor_s, summary.wall_s, summary.peak_rss_mb, summary.status.c_str());
-  std::string error;
+  std::string error;  // every failure is said: each names its path
+  const auto add = [&error](const std::exception& e) { error += (error.empty() ? "" : "; ") + std::string(e.what()); };
   try {
     for (auto& w : run.writers) w->end_run(summary);
   } catch (const std::exception& e) {
-    error = e.what();
+    add(e);
   }
   if (rank == 0 && have_dir) {
     try {
       run.log.flush();  // the rows of a frame that stopped the run
       run.contact_log.flush();
     } catch (const std::exception& e) {
-      if (error.empty()) error = e.what();
+      add(e);
     }
     try {
       write_summary(outdir + "/summary.json", summary);
     } catch (const std::exception& e) {
-      if (error.empty()) error = e.what();
+      add(e);
     }
   }
   try {
