@@ -4,13 +4,14 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <functional>
 #include <memory>
 
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
+#include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
+#include "io/output_directory.hpp"
 #include "io/run_log.hpp"
 #include "model/fallback_chain.hpp"
 #include "model/scene.hpp"
@@ -202,6 +203,19 @@ struct Run {
     PetscFunctionReturn(0);
   }
 
+  // Writes the logs' rows of the frame (whole lines: a kill leaves complete rows). Collective:
+  // a failure on rank 0 ends the run on every rank.
+  void flush_logs() {
+    std::string error;
+    try {
+      log.flush();
+      contact_log.flush();
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    throw_if_any_failed(comm, error);
+  }
+
   PetscErrorCode time_loop(bool& ok);
 };
 
@@ -307,8 +321,12 @@ PetscErrorCode Run::time_loop(bool& ok) {
         PetscCall(write_frame(frame, &written));
         if (!written) why = "non-finite positions, velocities or J";
       }
-      if (why.empty()) continue;
+      if (why.empty()) {
+        flush_logs();
+        continue;
+      }
     }
+    flush_logs();
 
     // The run cannot continue: back to the last good frame, which is written if it was not.
     if (!r.failed) {
@@ -384,15 +402,33 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
                 contact->num_colliders(), c.model.c_str(), c.distance, c.stiffness, c.friction_velocity);
   }
 
-  // 3. Output directory, writers and logs.
+  // 3. Output directory, writers and logs. Every step that one rank does alone is followed by a
+  // collective check, so a failure (unwritable directory, full disk) ends the run on every rank.
   bool ok = true;
+  bool have_dir = false;  // summary.json can be written
   try {
-    if (rank == 0) std::filesystem::create_directories(outdir);
-    MPI_Barrier(comm);
+    create_output_directory(comm, outdir);
+    have_dir = true;
+    std::string error;
+    if (rank == 0) {
+      try {
+        // The frames of two runs must never mix: what an earlier run wrote here goes first.
+        if (const int removed = clear_previous_run(outdir))
+          PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier run's output: %d file(s) removed\n", outdir.c_str(),
+                      removed);
+        if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
+        if (deck.output.contact_csv && scene.contact) run.contact_log.open(outdir + "/contact.csv", rank);
+        // A summary from the start: a run that is killed leaves one that says it did not end.
+        RunSummary started = summary;
+        started.status = "incomplete: the run started and did not end (still running, or killed)";
+        write_summary(outdir + "/summary.json", started);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }
+    throw_if_any_failed(comm, error);
     if (deck.output.vtk) run.writers.push_back(std::make_unique<VtkSeries>(comm, outdir, deck.name));
     for (auto& w : run.writers) w->begin_run(scene.mesh);
-    if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
-    if (deck.output.contact_csv && scene.contact) run.contact_log.open(outdir + "/contact.csv", rank);
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);
@@ -420,24 +456,34 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
               "(%.3f s), wall %.3f s, peak RSS %.0f MB/rank; %s\n",
               deck.name.c_str(), summary.frames, summary.mean_iterations, summary.ms_per_frame, summary.ms_per_iteration,
               summary.factorizations, summary.factor_s, summary.wall_s, summary.peak_rss_mb, summary.status.c_str());
+  std::string error;  // every failure is said: each names its path
+  const auto add = [&error](const std::exception& e) { error += (error.empty() ? "" : "; ") + std::string(e.what()); };
   try {
     for (auto& w : run.writers) w->end_run(summary);
+  } catch (const std::exception& e) {
+    add(e);
+  }
+  if (rank == 0 && have_dir) {
+    try {
+      run.log.flush();  // the rows of a frame that stopped the run
+      run.contact_log.flush();
+    } catch (const std::exception& e) {
+      add(e);
+    }
+    try {
+      write_summary(outdir + "/summary.json", summary);
+    } catch (const std::exception& e) {
+      add(e);
+    }
+  }
+  try {
+    throw_if_any_failed(comm, error);  // every rank exits with 1, rank 0 names the path
   } catch (const std::exception& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
     ok = false;
   }
-  if (rank == 0 && std::filesystem::exists(outdir)) {
-    try {
-      write_summary(outdir + "/summary.json", summary);
-    } catch (const std::exception& e) {
-      PetscPrintf(PETSC_COMM_SELF, "hyperqn: error: %s\n", e.what());
-      ok = false;
-    }
-  }
-  if (!ok) {  // the status already says "error: ..." (unless only summary.json could not be written)
-    const bool says_error = summary.status.rfind("error", 0) == 0;
-    PetscPrintf(comm, "hyperqn: %s%s\n", says_error ? "" : "error: ", summary.status.c_str());
-  }
+  // The status says "error: ..." unless only the last writes failed (said above).
+  if (!ok && summary.status.rfind("error", 0) == 0) PetscPrintf(comm, "hyperqn: %s\n", summary.status.c_str());
   if (!ok) return 1;
   return summary.status.rfind("inverted", 0) == 0 ? kExitInverted : 0;
 }

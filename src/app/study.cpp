@@ -2,8 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <functional>
 #include <memory>
 
@@ -11,6 +10,8 @@
 #include "app/petsc_errors.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
+#include "io/atomic_file.hpp"
+#include "io/output_directory.hpp"
 #include "io/study_writer.hpp"
 
 namespace hyperqn {
@@ -54,7 +55,7 @@ SolverSpec spec_for(const Deck& deck, const std::string& type, int iterations, d
 void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& scene) {
   int size;
   MPI_Comm_size(PetscObjectComm((PetscObject)scene.mesh.dm), &size);
-  std::ofstream out(outdir + "/study.json");
+  std::ostringstream out;
   out << "{\n  \"title\": \"" << deck.name << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
       << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \"" << deck.material.model << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
@@ -64,7 +65,7 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
       << (scene.factored ? scene.factored->factor_seconds() : 0.0) +
              (scene.rest_stiffness ? scene.rest_stiffness->factor_seconds() : 0.0)
       << "\n}\n";
-  if (!out) throw std::runtime_error("cannot write " + outdir + "/study.json");
+  write_file_atomically(outdir + "/study.json", out.str());
 }
 
 // Everything a study holds while it runs.
@@ -246,10 +247,18 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   }
 
   try {
-    if (rank == 0) std::filesystem::create_directories(outdir);
-    MPI_Barrier(comm);
-    StudyWriter out(outdir, rank);
-    if (rank == 0) write_study_meta(outdir, deck, study.scene.current());
+    create_output_directory(comm, outdir);
+    // Rank 0 writes alone: its failure must end the study on every rank.
+    std::unique_ptr<StudyWriter> writer;
+    std::string error;
+    try {
+      writer = std::make_unique<StudyWriter>(outdir, rank);
+      if (rank == 0) write_study_meta(outdir, deck, study.scene.current());
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    throw_if_any_failed(comm, error);
+    StudyWriter& out = *writer;
     PetscErrors errors;
     if (study.run(out)) {
       PetscPrintf(comm, "hyperqn: error: the study failed: %s\n", errors.describe(deck).c_str());

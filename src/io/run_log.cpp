@@ -3,45 +3,42 @@
 #include <sys/resource.h>
 
 #include <cmath>
-#include <fstream>
+#include <cstdio>
+#include <sstream>
 #include <stdexcept>
 
 namespace hyperqn {
 
 void IterationLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) throw std::runtime_error("cannot write " + path);
-  std::fprintf(file_, "frame,iteration,time_s,energy,grad_norm,step,evaluations\n");
+  file_.open(path);
+  file_.add("frame,iteration,time_s,energy,grad_norm,step,evaluations\n");
+  file_.flush();
 }
 
 void IterationLog::append(int frame, const IterationRecord& r) {
-  if (!file_) return;
-  std::fprintf(file_, "%d,%d,%.9e,%.17g,%.17g,%.17g,%d\n", frame, (int)r.iteration, r.time_s, r.energy,
-               r.grad_norm, r.step, (int)r.evaluations);
-}
-
-IterationLog::~IterationLog() {
-  if (file_) std::fclose(file_);
+  if (!file_.is_open()) return;
+  char line[256];
+  std::snprintf(line, sizeof line, "%d,%d,%.9e,%.17g,%.17g,%.17g,%d\n", frame, (int)r.iteration, r.time_s, r.energy,
+                r.grad_norm, r.step, (int)r.evaluations);
+  file_.add(line);
 }
 
 void ContactLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) throw std::runtime_error("cannot write " + path);
-  std::fprintf(file_, "frame,time,collider,normal_force,friction_force,max_penetration,active\n");
+  file_.open(path);
+  file_.add("frame,time,collider,normal_force,friction_force,max_penetration,active\n");
+  file_.flush();
 }
 
 void ContactLog::append(int frame, double time, const ContactMeasure& m) {
-  if (!file_) return;
-  for (size_t c = 0; c < m.normal_force.size(); ++c)
-    std::fprintf(file_, "%d,%.17g,%zu,%.17g,%.17g,%.17g,%ld\n", frame, time, c, m.normal_force[c], m.friction_force[c],
-                 m.penetration[c], m.active[c]);
-  std::fflush(file_);
-}
-
-ContactLog::~ContactLog() {
-  if (file_) std::fclose(file_);
+  if (!file_.is_open()) return;
+  for (size_t c = 0; c < m.normal_force.size(); ++c) {
+    char line[256];
+    std::snprintf(line, sizeof line, "%d,%.17g,%zu,%.17g,%.17g,%.17g,%ld\n", frame, time, c, m.normal_force[c],
+                  m.friction_force[c], m.penetration[c], m.active[c]);
+    file_.add(line);
+  }
 }
 
 // JSON has no NaN or Inf: write null for them.
@@ -71,7 +68,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
     flagged += std::string(flagged.size() > 1 ? ", " : "") + "{\"frame\": " + std::to_string(frame) +
                ", \"reason\": " + quoted(reason) + "}";
   flagged += "]";
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "{\n"
       << "  \"deck\": " << quoted(s.deck) << ",\n"
       << "  \"status\": " << quoted(s.status) << ",\n"
@@ -121,8 +118,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << "\n"
       << "}\n";
-  out.close();
-  if (!out) throw std::runtime_error("cannot write " + path);
+  write_file_atomically(path, out.str());
 }
 
 double peak_rss_mb() {

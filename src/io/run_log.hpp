@@ -1,9 +1,10 @@
-// The run's logs: iterations.csv (one row per solver iteration) and summary.json.
-// Written by rank 0; the values they hold are already global.
+// The run's logs: iterations.csv (one row per solver iteration), contact.csv and summary.json.
+// Written by rank 0; the values they hold are already global. The CSVs are flushed a frame at a
+// time, in whole lines; summary.json is replaced atomically (io/atomic_file.hpp).
 #pragma once
-#include <cstdio>
 #include <string>
 
+#include "io/atomic_file.hpp"
 #include "io/records.hpp"
 #include "terms/contact.hpp"
 
@@ -14,10 +15,11 @@ class IterationLog {
   // Opens path for writing on rank 0 (other ranks: no-op). Throws std::runtime_error on failure.
   void open(const std::string& path, int rank);
   void append(int frame, const IterationRecord& r);
-  ~IterationLog();
+  // Writes the rows appended so far (at the end of every frame). Throws std::runtime_error.
+  void flush() { file_.flush(); }
 
  private:
-  std::FILE* file_ = nullptr;
+  LineFile file_;
 };
 
 // contact.csv: per frame and collider, the total normal and friction force on the body, the
@@ -26,13 +28,14 @@ class ContactLog {
  public:
   void open(const std::string& path, int rank);
   void append(int frame, double time, const ContactMeasure& m);
-  ~ContactLog();
+  void flush() { file_.flush(); }
 
  private:
-  std::FILE* file_ = nullptr;
+  LineFile file_;
 };
 
-// Writes summary.json (rank 0 only). Throws std::runtime_error on failure.
+// Writes summary.json (rank 0 only), atomically: the file on disk is always a whole one. Throws
+// std::runtime_error naming the path on failure, leaving the previous file as it was.
 void write_summary(const std::string& path, const RunSummary& s);
 
 // Peak resident set size of this process in MB.

@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
+
+#include "io/atomic_file.hpp"
 
 namespace hyperqn {
 
@@ -59,10 +60,6 @@ std::string frame_stem(const std::string& name, int frame) {
   return name + buf;
 }
 
-void check_stream(const std::ofstream& out, const std::string& path) {
-  if (!out) throw std::runtime_error("cannot write " + path);
-}
-
 }  // namespace
 
 VtkSeries::VtkSeries(MPI_Comm comm, std::string directory, std::string name)
@@ -114,15 +111,12 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   for (const Array& a : cells) xml += data_array(a);
   xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
 
-  std::ofstream out(path, std::ios::binary);
-  out << xml;
-  out.close();
-  check_stream(out, path);
+  write_file_atomically(path, xml);
 }
 
 void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,
                            bool contact) const {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
          "<PPointData>\n"
@@ -136,19 +130,16 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
          "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";
-  out.close();
-  check_stream(out, path);
+  write_file_atomically(path, out.str());
 }
 
 void VtkSeries::write_pvd() const {
-  const std::string path = dir_ + "/" + name_ + ".pvd";
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n";
   out.precision(17);
   for (const auto& [t, file] : written_) out << "<DataSet timestep=\"" << t << "\" part=\"0\" file=\"" << file << "\"/>\n";
   out << "</Collection>\n</VTKFile>\n";
-  out.close();
-  check_stream(out, path);
+  write_file_atomically(dir_ + "/" + name_ + ".pvd", out.str());
 }
 
 void VtkSeries::write_frame(const FrameData& f) {
@@ -157,7 +148,10 @@ void VtkSeries::write_frame(const FrameData& f) {
   MPI_Comm_size(comm_, &size);
   const std::string stem = frame_stem(name_, f.frame);
   const std::string file = stem + (size == 1 ? ".vtu" : ".pvtu");
+  // Pieces first; then, once every rank's piece is in place, the .pvtu and the .pvd that list
+  // them: so the .pvd never names a frame with a missing or partial file, even after a kill.
   std::string error;
+  std::vector<int> pieces;
   try {
     if (size == 1) {
       write_piece(dir_ + "/" + file, f);
@@ -165,22 +159,26 @@ void VtkSeries::write_frame(const FrameData& f) {
       // A rank without elements (a mesh smaller than the rank count) writes no piece: readers
       // such as meshio cannot read an empty one.
       const int mine = mesh_->num_cells + mesh_->num_segments > 0;
-      std::vector<int> has(size), pieces;
+      std::vector<int> has(size);
       MPI_Allgather(&mine, 1, MPI_INT, has.data(), 1, MPI_INT, comm_);
       for (int r = 0; r < size; ++r)
         if (has[r]) pieces.push_back(r);
       if (mine) write_piece(dir_ + "/" + stem + "_" + std::to_string(rank) + ".vtu", f);
-      if (rank == 0) write_pvtu(dir_ + "/" + file, stem, pieces, f.contact_force != nullptr);
     }
-    written_.emplace_back(f.time, file);
-    if (rank == 0) write_pvd();
   } catch (const std::exception& e) {
     error = e.what();
   }
   // Every rank must learn of a failure on any rank, or the others would wait forever later.
-  int bad = !error.empty(), any_bad = 0;
-  MPI_Allreduce(&bad, &any_bad, 1, MPI_INT, MPI_MAX, comm_);
-  if (any_bad) throw std::runtime_error(error.empty() ? "VTK output failed on another rank" : error);
+  throw_if_any_failed(comm_, error);
+  written_.emplace_back(f.time, file);
+  try {
+    if (rank == 0 && size > 1) write_pvtu(dir_ + "/" + file, stem, pieces, f.contact_force != nullptr);
+    if (rank == 0) write_pvd();
+  } catch (const std::exception& e) {
+    error = e.what();
+    written_.pop_back();  // not listed: a later .pvd must not name it
+  }
+  throw_if_any_failed(comm_, error);
 }
 
 }  // namespace hyperqn

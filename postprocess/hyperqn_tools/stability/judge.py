@@ -245,7 +245,7 @@ def verdict(run, a, expect, ref, align):
     s = a["summary"]
     if run["timed_out"]:
         return "failed", f"timeout after {run['seconds']:.0f} s", rest_error, ref_error
-    if s is None:
+    if s is None or s.get("status", "").startswith("incomplete"):  # the summary of a run that never ended
         tail = [l for l in run["output"].strip().splitlines() if l.strip()][-1:] or ["no output"]
         return "failed", f"crash (exit code {run['returncode']}): {tail[0][:200]}", rest_error, ref_error
     if not completed(s.get("status", "")):

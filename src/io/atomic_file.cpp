@@ -1,0 +1,109 @@
+#include "io/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+namespace hyperqn {
+
+namespace {
+
+std::string failure(const std::string& path, int err) { return "cannot write " + path + ": " + std::strerror(err); }
+
+// write(2) until everything is written; false with errno set on failure.
+bool write_all(int fd, const char* data, size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    data += w;
+    n -= (size_t)w;
+  }
+  return true;
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& contents) {
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const std::string tmp = dir + "." + name + ".tmp-" + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error(failure(path, errno));
+  // A full disk may only show at close (NFS, Lustre): both are checked. No fsync: this guards
+  // against the process dying, not the machine, and fsync per frame is slow on cluster file systems.
+  bool ok = write_all(fd, contents.data(), contents.size());
+  int err = ok ? 0 : errno;
+  if (::close(fd) != 0 && ok) {
+    ok = false;
+    err = errno;
+  }
+  if (ok && ::rename(tmp.c_str(), path.c_str()) != 0) {
+    ok = false;
+    err = errno;
+  }
+  if (!ok) {
+    ::unlink(tmp.c_str());  // frees the space a full disk needs for summary.json
+    throw std::runtime_error(failure(path, err));
+  }
+}
+
+bool is_atomic_temporary(const std::string& name) {
+  const size_t at = name.rfind(".tmp-");
+  if (name.size() < 2 || name[0] != '.' || at == std::string::npos || at + 5 == name.size()) return false;
+  for (size_t i = at + 5; i < name.size(); ++i)
+    if (name[i] < '0' || name[i] > '9') return false;
+  return true;
+}
+
+void throw_if_any_failed(MPI_Comm comm, const std::string& error) {
+  int rank, size;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  const int mine = error.empty() ? size : rank;
+  int first = size;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first == size) return;
+  int n = rank == first ? (int)error.size() : 0;
+  MPI_Bcast(&n, 1, MPI_INT, first, comm);
+  std::vector<char> text(error.begin(), error.end());
+  text.resize(n);
+  MPI_Bcast(text.data(), n, MPI_CHAR, first, comm);
+  throw std::runtime_error(std::string(text.begin(), text.end()));
+}
+
+LineFile::~LineFile() {
+  if (fd_ >= 0) {
+    try {
+      flush();
+    } catch (...) {  // the run has already said what went wrong, or ends with it
+    }
+    ::close(fd_);
+  }
+}
+
+void LineFile::open(const std::string& path) {
+  path_ = path;
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw std::runtime_error(failure(path, errno));
+}
+
+void LineFile::add(const std::string& line) {
+  if (fd_ >= 0) pending_ += line;
+}
+
+void LineFile::flush() {
+  if (fd_ < 0 || pending_.empty()) return;
+  std::string lines;
+  lines.swap(pending_);  // written or not, they are not written twice
+  if (!write_all(fd_, lines.data(), lines.size())) throw std::runtime_error(failure(path_, errno));
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,47 @@
+// Output files that are never seen half-written, and write errors that every rank learns of.
+// Every writer of src/io goes through these (docs/outputs.md, "Guarantees").
+#pragma once
+#include <mpi.h>
+
+#include <string>
+
+namespace hyperqn {
+
+// Writes `contents` to `path` as a whole: into a temporary file beside it (.NAME.tmp-PID, in
+// the same directory so that the rename cannot cross file systems), closed with every error
+// checked, then renamed over `path`. A reader, or a kill at any moment, finds the old file or the
+// new one, never a part of one. On failure throws std::runtime_error naming `path` and the
+// system's reason; the temporary is removed and `path` is left as it was.
+void write_file_atomically(const std::string& path, const std::string& contents);
+
+// Whether a file name (no directory) is a temporary of write_file_atomically: what an
+// interrupted write leaves behind.
+bool is_atomic_temporary(const std::string& name);
+
+// Collective over comm: every rank passes its error ("" if none). If any rank has one, every
+// rank throws std::runtime_error with the message of the lowest such rank, so no rank goes on to
+// wait for another that has failed, and rank 0 (which prints) can name the path.
+void throw_if_any_failed(MPI_Comm comm, const std::string& error);
+
+// A log appended one whole line at a time (iterations.csv, contact.csv): lines are held in
+// memory until flush(), which hands them to the kernel in one write, so a kill leaves only
+// complete lines (unless it lands inside that one write call). Only the rank that opened it
+// writes. Errors throw std::runtime_error naming the path.
+class LineFile {
+ public:
+  LineFile() = default;
+  LineFile(const LineFile&) = delete;
+  LineFile& operator=(const LineFile&) = delete;
+  ~LineFile();
+  // Creates (truncates) path.
+  void open(const std::string& path);
+  bool is_open() const { return fd_ >= 0; }
+  void add(const std::string& line);  // a complete line, with its '\n'
+  void flush();
+
+ private:
+  int fd_ = -1;
+  std::string path_, pending_;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,62 @@
+#include "io/output_directory.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <stdexcept>
+#include <system_error>
+#include <vector>
+
+#include "io/atomic_file.hpp"
+
+namespace hyperqn {
+
+namespace fs = std::filesystem;
+
+void create_output_directory(MPI_Comm comm, const std::string& dir) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string error;
+  if (rank == 0) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) error = "cannot create the output directory " + dir + ": " + ec.message();
+    else if (!fs::is_directory(dir, ec)) error = "cannot create the output directory " + dir + ": not a directory";
+  }
+  throw_if_any_failed(comm, error);
+}
+
+bool is_run_output(const std::string& dir, const std::string& name) {
+  if (is_atomic_temporary(name)) return is_run_output(dir, name.substr(1, name.rfind(".tmp-") - 1));
+  if (name == "summary.json" || name == "iterations.csv" || name == "contact.csv") return true;
+  // Frames: the five-digit frame number (and the rank of a piece) is what marks them as ours.
+  static const std::regex frame(R"(.+_\d{5}(\.p?vtu|_\d+\.vtu))");
+  if (std::regex_match(name, frame)) return true;
+  // A .pvd only if it lists frames of its own name: a user's collection of other files stays.
+  if (name.size() > 4 && name.compare(name.size() - 4, 4, ".pvd") == 0) {
+    std::ifstream in(dir + "/" + name);
+    std::string head(4096, '\0');
+    in.read(&head[0], (std::streamsize)head.size());
+    head.resize((size_t)in.gcount());
+    return head.find("file=\"" + name.substr(0, name.size() - 4) + "_") != std::string::npos;
+  }
+  return false;
+}
+
+int clear_previous_run(const std::string& dir) {
+  std::vector<fs::path> old;  // listed first: removing while listing may skip entries
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (it->is_regular_file(type_ec) && is_run_output(dir, it->path().filename().string())) old.push_back(it->path());
+  }
+  if (ec) throw std::runtime_error("cannot list the output directory " + dir + ": " + ec.message());
+  for (const fs::path& p : old) {
+    std::error_code rm;
+    fs::remove(p, rm);
+    if (rm) throw std::runtime_error("cannot remove " + p.string() + " (a previous run's output): " + rm.message());
+  }
+  return (int)old.size();
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,217 @@
+"""Safe outputs (issue "cluster runs"): every output file appears whole (written to a temporary
+and renamed), iterations.csv holds complete rows after a kill, summary.json is always valid JSON,
+a rerun into a directory replaces the earlier run's files (and only those), and a write failure
+(unwritable directory, full disk) ends the run with exit 1 naming the path, at 1 and 2 ranks,
+without a hang. docs/outputs.md, "Guarantees"."""
+import copy
+import csv
+import json
+import os
+import random
+import signal
+import subprocess
+import time
+import xml.etree.ElementTree as ET
+
+import pytest
+
+from conftest import HYPERQN, MPIEXEC, run_hyperqn, write_deck
+from hyperqn_tools import launch
+from hyperqn_tools.output import read_frames, read_pvd, read_summary
+from test_bad_input import GOOD
+
+ITERATION_COLUMNS = 7
+
+
+def small_deck(name, frames):
+    deck = copy.deepcopy(GOOD)
+    deck["name"] = name
+    deck["time"]["frames"] = frames
+    deck["gravity"] = [0, -9.81, 0]
+    return deck
+
+
+def slow_deck(name):
+    """Some 100-300 ms per frame on one core, every frame written: a kill lands mid-run."""
+    deck = small_deck(name, 60)
+    deck["mesh"] = {"box": {"size": [4.0, 1.0, 1.0], "cells": [24, 6, 6]}}
+    deck["fixed"] = [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 2, 2]}}]
+    deck["solver"] = {"iterations": 40, "grad_rtol": 1e-12, "grad_atol": 1e-14}
+    return deck
+
+
+def parses(path):
+    ET.parse(path)  # raises on a truncated file
+    return True
+
+
+def check_complete(outdir):
+    """Everything hyperqn left in outdir is whole: every .pvd/.pvtu/.vtu parses, the .pvd lists
+    only existing files (no temporaries), iterations.csv has only complete rows, summary.json is
+    absent or valid JSON."""
+    names = os.listdir(outdir)
+    for name in names:
+        if name.endswith((".pvd", ".pvtu", ".vtu")) and not name.startswith("."):
+            assert parses(os.path.join(outdir, name)), name
+    pvds = [n for n in names if n.endswith(".pvd")]
+    assert len(pvds) <= 1, pvds
+    if pvds:
+        for _, path in read_pvd(os.path.join(outdir, pvds[0])):
+            assert not os.path.basename(path).startswith("."), path
+            assert os.path.exists(path), path
+        read_frames(outdir)  # meshio reads every listed frame and piece
+    if "iterations.csv" in names:
+        text = open(os.path.join(outdir, "iterations.csv")).read()
+        assert text == "" or text.endswith("\n"), text[-200:]
+        rows = list(csv.reader(text.splitlines()))
+        assert all(len(r) == ITERATION_COLUMNS for r in rows), [r for r in rows if len(r) != ITERATION_COLUMNS]
+        for r in rows[1:]:
+            [float(x) for x in r]
+    if "summary.json" in names:
+        return json.load(open(os.path.join(outdir, "summary.json")))
+    return None
+
+
+@pytest.mark.parametrize("first_ranks,second_ranks,same_name", [(2, None, False), (None, 2, True)])
+def test_rerun_replaces_the_earlier_run(tmp_path, first_ranks, second_ranks, same_name):
+    out = tmp_path / "out"
+    first = write_deck(tmp_path / "first.yaml", small_deck("first", 6))
+    second_name = "first" if same_name else "second"
+    second = write_deck(tmp_path / "second.yaml", small_deck(second_name, 3))
+    run_hyperqn([first, "-o", out], ranks=first_ranks, timeout=120)
+    # A user's files, and what an interrupted write of the first run would have left.
+    (out / "notes.txt").write_text("mine\n")
+    (out / "scan.vtu").write_text("not hyperqn's\n")
+    (out / "other.pvd").write_text('<VTKFile type="Collection"><Collection>'
+                                   '<DataSet file="scan.vtu"/></Collection></VTKFile>\n')
+    (out / ".first_00004.vtu.tmp-12345").write_text("<VTKFile")
+    proc = run_hyperqn([second, "-o", out], ranks=second_ranks, timeout=120)
+    assert "earlier run's output" in proc.stdout, proc.stdout[-2000:]
+
+    names = set(os.listdir(out))
+    assert (out / "notes.txt").read_text() == "mine\n"
+    assert (out / "scan.vtu").read_text() == "not hyperqn's\n"
+    assert "other.pvd" in names  # it lists no frames of its own name: not hyperqn's
+    assert ".first_00004.vtu.tmp-12345" not in names
+    ours = sorted(n for n in names if n.endswith(".pvd") and n != "other.pvd")
+    assert ours == [f"{second_name}.pvd"]
+    # Only the second run's frames, on disk and in the .pvd.
+    listed = [os.path.basename(p) for _, p in read_pvd(out / ours[0])]
+    ext = ".pvtu" if second_ranks == 2 else ".vtu"
+    assert listed == [f"{second_name}_{k:05d}{ext}" for k in range(4)]
+    frames_on_disk = sorted(n for n in names if n.endswith((".vtu", ".pvtu")) and n != "scan.vtu")
+    pieces = [f"{second_name}_{k:05d}_{r}.vtu" for k in range(4) for r in range(2)] if second_ranks == 2 else []
+    assert frames_on_disk == sorted(listed + pieces)
+    (out / "other.pvd").unlink()  # read_frames wants the one .pvd of the run
+    assert [k for k, _ in read_frames(out)] == [0, 1, 2, 3]
+    summary = read_summary(out)
+    assert summary["frames"] == 3 and summary["status"] == "ok"
+    rows = list(csv.DictReader(open(out / "iterations.csv")))
+    assert {int(r["frame"]) for r in rows} == {1, 2, 3}
+
+
+def hyperqn_pids(session):
+    """The hyperqn processes of a session (mpiexec started with start_new_session)."""
+    pids = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = open(f"/proc/{entry}/stat").read()
+        except OSError:
+            continue
+        comm = stat[stat.index("(") + 1:stat.rindex(")")]
+        fields = stat[stat.rindex(")") + 2:].split()
+        if comm == "hyperqn" and int(fields[3]) == session and fields[0] != "Z":
+            pids.append(int(entry))
+    return pids
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_kill_leaves_complete_files(tmp_path, ranks):
+    deck = write_deck(tmp_path / "slow.yaml", slow_deck("slow"))
+    rng = random.Random(20240611 + (ranks or 1))
+    out = tmp_path / "out"
+    for trial in range(3):
+        cmd = launch.command([deck, "-o", out], ranks, HYPERQN, MPIEXEC)
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+        try:
+            # Wait for the first frame, then kill at a random moment of the next seconds.
+            start = time.time()
+            while not list(out.glob("*.pvd")) and time.time() - start < 60 and proc.poll() is None:
+                time.sleep(0.05)
+            time.sleep(rng.uniform(0.1, 2.0))
+            assert proc.poll() is None, "the run ended before the kill: make the deck slower"
+            pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
+            assert pids, "no hyperqn process found"
+            for pid in pids:
+                os.kill(pid, signal.SIGKILL)
+        finally:
+            # Open MPI may leave mpiexec or another rank running: end them by their ids.
+            deadline = time.time() + 10
+            while time.time() < deadline and (hyperqn_pids(proc.pid) or proc.poll() is None):
+                for pid in hyperqn_pids(proc.pid):
+                    os.kill(pid, signal.SIGKILL)
+                if proc.poll() is None and ranks is not None and not hyperqn_pids(proc.pid):
+                    proc.kill()
+                time.sleep(0.1)
+            proc.wait(timeout=10)
+        assert not hyperqn_pids(proc.pid), "a rank is still running"
+        summary = check_complete(out)
+        if summary is not None:
+            assert summary["status"].startswith("incomplete"), summary["status"]
+        assert list(out.glob("*.pvd")), "the killed run wrote no frame"
+    # The next run starts from that directory and leaves only its own, complete files.
+    run_hyperqn([write_deck(tmp_path / "quick.yaml", small_deck("quick", 2)), "-o", out], ranks=ranks, timeout=120)
+    assert not [n for n in os.listdir(out) if n.startswith(".") or n.startswith("slow")]
+    assert check_complete(out)["status"] == "ok"
+
+
+def assert_write_failure(proc, fragment, outdir):
+    assert proc.returncode == 1, proc.stdout[-3000:]
+    assert "hyperqn: error: cannot " in proc.stdout and fragment in proc.stdout, proc.stdout[-3000:]
+    summary = outdir / "summary.json"
+    if summary.exists():
+        status = json.loads(summary.read_text())["status"]
+        assert status.startswith(("error", "incomplete")), status
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_unwritable_output_directory(tmp_path, ranks):
+    # Root ignores permissions: a path below a regular file cannot be created by anyone.
+    (tmp_path / "afile").write_text("")
+    deck = write_deck(tmp_path / "deck.yaml", small_deck("deck", 2))
+    out = tmp_path / "afile" / "out"
+    proc = run_hyperqn([deck, "-o", out], ranks=ranks, check=False, timeout=60)
+    assert_write_failure(proc, str(out), out)
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 200 kB tmpfs, if this machine lets us mount one."""
+    mnt = tmp_path / "full"
+    mnt.mkdir()
+    try:
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=200k", "tmpfs", str(mnt)],
+                              capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        pytest.skip(f"cannot mount a tmpfs: {e}")
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs: {done.stderr.strip()}")
+    yield mnt
+    subprocess.run(["umount", "-l", str(mnt)], timeout=20)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_full_disk(full_disk, tmp_path, ranks):
+    deck = slow_deck("full")
+    deck["time"]["frames"] = 20
+    deck_path = write_deck(tmp_path / "full.yaml", deck)
+    out = full_disk / "out"
+    start = time.time()
+    proc = run_hyperqn([deck_path, "-o", out], ranks=ranks, check=False, timeout=60)
+    assert time.time() - start < 30
+    assert_write_failure(proc, str(out) + "/full_0000", out)
+    assert "No space left on device" in proc.stdout
+    check_complete(out)
