@@ -34,8 +34,19 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
+PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorInfo info;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
+  PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
+  PetscCall(MatSetFromOptions(factor_));
+  PetscCall(MatFactorInfoInitialize(&info));
+  PetscCall(MatCholeskyFactorSymbolic(factor_, A, nullptr, &info));
+  PetscCall(MatCholeskyFactorNumeric(factor_, A, &info));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
@@ -60,14 +71,15 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind)
     factored = A0_[0];
     PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
   }
-  if (size == 1 || rank == 0) {
-    PetscCall(MatGetFactor(factored, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
-    PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
-    PetscCall(MatSetFromOptions(factor_));
-    PetscCall(MatFactorInfoInitialize(&info));
-    PetscCall(MatCholeskyFactorSymbolic(factor_, factored, nullptr, &info));
-    PetscCall(MatCholeskyFactorNumeric(factor_, factored, &info));
+  PetscErrorCode ierr = 0;
+  if (size == 1 || rank == 0) ierr = factor(factored);
+  if (size > 1) {  // an error on rank 0 (e.g. a bad -h0_mat_mumps_* value) must stop every rank
+    int failed = ierr != 0, any = 0;
+    PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));
+    PetscCall(ierr);
+    PetscCheck(!any, PETSC_COMM_SELF, PETSC_ERR_LIB, "the factorization of the constant matrix failed on rank 0");
   }
+  PetscCall(ierr);
   PetscCall(event_end(&LogEvents::h0_factor));
   ++factorizations_;
   factor_s_ = event_seconds(log_events().h0_factor) - before;

@@ -42,6 +42,8 @@ class FactoredSystem {
   int factorizations() const { return factorizations_; }
 
  private:
+  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_.
+  PetscErrorCode factor(Mat A);
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
