@@ -9,6 +9,12 @@ FactoredSystem::~FactoredSystem() {
   MatDestroy(&rhs_);
   MatDestroy(&sol_);
   MatDestroy(&factor_);
+  MatDestroy(&rhs0_);
+  MatDestroy(&sol0_);
+  VecDestroy(&b0_);
+  VecDestroy(&x0_);
+  VecScatterDestroy(&to_zero_);
+  if (A0_) MatDestroySubMatrices(1, &A0_);
   MatDestroy(&A_);
 }
 
@@ -28,8 +34,19 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
+PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorInfo info;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
+  PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
+  PetscCall(MatSetFromOptions(factor_));
+  PetscCall(MatFactorInfoInitialize(&info));
+  PetscCall(MatCholeskyFactorSymbolic(factor_, A, nullptr, &info));
+  PetscCall(MatCholeskyFactorNumeric(factor_, A, &info));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
@@ -38,19 +55,35 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind)
   PetscCall(step.assemble_constant_matrix(&A_, components, kind));
   PetscCall(event_end(&LogEvents::h0_assembly));
 
+  MPI_Comm comm = PetscObjectComm((PetscObject)A_);
+  PetscMPIInt size, rank;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
   const double before = event_seconds(log_events().h0_factor);
   PetscCall(event_begin(&LogEvents::h0_factor));
-  PetscCall(MatGetFactor(A_, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
-  PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
-  PetscCall(MatSetFromOptions(factor_));
-  PetscCall(MatFactorInfoInitialize(&info));
-  PetscCall(MatCholeskyFactorSymbolic(factor_, A_, nullptr, &info));
-  PetscCall(MatCholeskyFactorNumeric(factor_, A_, &info));
+  Mat factored = A_;
+  if (size > 1) {  // gathered to rank 0, for reproducible solves (see the header)
+    IS all;
+    PetscCall(MatGetSize(A_, &N, nullptr));
+    PetscCall(ISCreateStride(PETSC_COMM_SELF, rank == 0 ? N : 0, 0, 1, &all));
+    PetscCall(MatCreateSubMatrices(A_, 1, &all, &all, MAT_INITIAL_MATRIX, &A0_));
+    PetscCall(ISDestroy(&all));
+    factored = A0_[0];
+    PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
+  }
+  PetscErrorCode ierr = 0;
+  if (size == 1 || rank == 0) ierr = factor(factored);
+  if (size > 1) {  // an error on rank 0 (e.g. a bad -h0_mat_mumps_* value) must stop every rank
+    int failed = ierr != 0, any = 0;
+    PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));
+    PetscCall(ierr);
+    PetscCheck(!any, PETSC_COMM_SELF, PETSC_ERR_LIB, "the factorization of the constant matrix failed on rank 0");
+  }
+  PetscCall(ierr);
   PetscCall(event_end(&LogEvents::h0_factor));
   ++factorizations_;
   factor_s_ = event_seconds(log_events().h0_factor) - before;
 
-  MPI_Comm comm = PetscObjectComm((PetscObject)A_);
   PetscCall(MatGetLocalSize(A_, &n, nullptr));
   PetscCall(MatGetSize(A_, &N, nullptr));
   m = n;
@@ -62,6 +95,17 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind)
     M = 3 * N;
   }
   PetscCall(MatCreateShell(comm, m, m, M, M, this, &shell_));
+  if (size > 1) {
+    Vec layout;
+    PetscCall(MatCreateVecs(shell_, &layout, nullptr));
+    PetscCall(VecScatterCreateToZero(layout, &to_zero_, &b0_));
+    PetscCall(VecDestroy(&layout));
+    PetscCall(VecDuplicate(b0_, &x0_));
+    if (components == 1 && rank == 0) {
+      PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &rhs0_));
+      PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &sol0_));
+    }
+  }
   PetscCall(MatShellSetOperation(shell_, MATOP_SOLVE, (void (*)(void))shell_solve));
   PetscCall(MatShellSetOperation(shell_, MATOP_MULT, (void (*)(void))shell_mult));
   PetscFunctionReturn(0);
@@ -98,7 +142,19 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::h0_solve));
-  if (kind_ == ConstantMatrix::laplacian) {
+  if (to_zero_) {  // more than one rank: solved on rank 0
+    PetscCall(VecScatterBegin(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
+    PetscCall(VecScatterEnd(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
+    if (factor_ && kind_ == ConstantMatrix::laplacian) {
+      PetscCall(copy_columns(b0_, rhs0_, true));
+      PetscCall(MatMatSolve(factor_, rhs0_, sol0_));
+      PetscCall(copy_columns(x0_, sol0_, false));
+    } else if (factor_) {
+      PetscCall(MatSolve(factor_, b0_, x0_));
+    }
+    PetscCall(VecScatterBegin(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
+    PetscCall(VecScatterEnd(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
+  } else if (kind_ == ConstantMatrix::laplacian) {
     PetscCall(copy_columns(b, rhs_, true));
     PetscCall(MatMatSolve(factor_, rhs_, sol_));
     PetscCall(copy_columns(x, sol_, false));

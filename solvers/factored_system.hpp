@@ -6,6 +6,12 @@
 // sides b_x, b_y, b_z: a third of the unknowns and a ninth of the nonzeros of A.
 // A = M + h^2 K(x_rest) couples x, y and z: the full 3n x 3n matrix is factored and applied to b
 // as one vector.
+//
+// On more than one rank A is gathered to rank 0 and factored there by sequential MUMPS; each solve
+// gathers b to rank 0 and scatters x back. Parallel MUMPS is not reproducible: its factorization
+// and solve sum the contribution blocks of a front in the order the other ranks' messages arrive,
+// so two runs of a deck at 2 ranks differed in the last bits of every A^{-1} b and, through
+// L-BFGS, in iteration counts (docs/performance.md#reproducibility).
 #pragma once
 #include <petscmat.h>
 
@@ -36,12 +42,20 @@ class FactoredSystem {
   int factorizations() const { return factorizations_; }
 
  private:
+  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_.
+  PetscErrorCode factor(Mat A);
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
+  // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to
+  // rank 0 and its gathered copy there (length 0 elsewhere).
+  Mat* A0_ = nullptr;  // MatCreateSubMatrices' array of one
+  VecScatter to_zero_ = nullptr;
+  Vec b0_ = nullptr, x0_ = nullptr;
+  Mat rhs0_ = nullptr, sol0_ = nullptr;  // Laplacian, on rank 0: N x 3 dense work matrices
   double factor_s_ = 0;
   int factorizations_ = 0;
 };
