@@ -3,16 +3,56 @@
 #include <sys/resource.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 
 namespace hyperqn {
 
+namespace {
+
+const char kIterationHeader[] = "frame,iteration,time_s,energy,grad_norm,step,evaluations\n";
+const char kContactHeader[] = "frame,time,collider,normal_force,friction_force,max_penetration,active\n";
+
+// A CSV whose rows start with their frame, cut back to the header and the rows of frames <= frame
+// (written to a temporary file and renamed over it), then opened for appending. A missing file
+// starts with the header.
+std::FILE* reopen_cut(const std::string& path, int frame, const char* header) {
+  std::ifstream in(path);
+  std::string kept = header, line;
+  if (in && std::getline(in, line))  // the header
+    while (std::getline(in, line))
+      if (!line.empty() && std::atoi(line.c_str()) <= frame) kept += line + "\n";
+  in.close();
+  const std::string tmp = path + ".tmp";
+  std::ofstream out(tmp, std::ios::binary);
+  out << kept;
+  out.close();
+  if (!out || std::rename(tmp.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot write " + path);
+  std::FILE* f = std::fopen(path.c_str(), "a");
+  if (!f) throw std::runtime_error("cannot write " + path);
+  return f;
+}
+
+}  // namespace
+
+void IterationLog::resume(const std::string& path, int rank, int frame) {
+  if (rank == 0) file_ = reopen_cut(path, frame, kIterationHeader);
+}
+
+void IterationLog::flush() {
+  if (file_) std::fflush(file_);
+}
+
+void ContactLog::resume(const std::string& path, int rank, int frame) {
+  if (rank == 0) file_ = reopen_cut(path, frame, kContactHeader);
+}
+
 void IterationLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
   file_ = std::fopen(path.c_str(), "w");
   if (!file_) throw std::runtime_error("cannot write " + path);
-  std::fprintf(file_, "frame,iteration,time_s,energy,grad_norm,step,evaluations\n");
+  std::fputs(kIterationHeader, file_);
 }
 
 void IterationLog::append(int frame, const IterationRecord& r) {
@@ -29,7 +69,7 @@ void ContactLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
   file_ = std::fopen(path.c_str(), "w");
   if (!file_) throw std::runtime_error("cannot write " + path);
-  std::fprintf(file_, "frame,time,collider,normal_force,friction_force,max_penetration,active\n");
+  std::fputs(kContactHeader, file_);
 }
 
 void ContactLog::append(int frame, double time, const ContactMeasure& m) {
