@@ -65,6 +65,7 @@ CommandLine parse_command_line(int argc, char** argv) {
       cl.deck = a;
     }
   }
+  if (cl.study && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run, not a study");
   if (!cl.help && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
 }

@@ -152,7 +152,7 @@ def test_restart_with_other_physics_is_refused(tmp_path):
 
 
 def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path):
-    frames = 120
+    frames = 300  # a few seconds: the signal comes long before the end
     base = dict(MOTION, name="run", time={"dt": 0.05, "frames": frames}, output={"every": 10})
     base["fixed"] = [CLAMP, dict(MOTION["fixed"][1], release=4.0)]
     ref = tmp_path / "ref"
