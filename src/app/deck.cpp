@@ -746,6 +746,40 @@ void read_output(const Reader& r, const Value& v, OutputSpec& o) {
   if (const Value* x = s.find("contact_csv")) o.contact_csv = r.boolean(*x);
 }
 
+void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) {
+  Section s(r, v, {"every", "seconds", "keep"});
+  if (const Value* x = s.find("every")) {
+    c.every = r.integer(*x);
+    r.check(c.every >= 0, *x, ">= 0 (0: not by frame count)");
+  }
+  if (const Value* x = s.find("seconds")) {
+    c.seconds = r.number(*x);
+    r.check(c.seconds >= 0, *x, ">= 0 (0: not by wall time)");
+  }
+  if (const Value* x = s.find("keep")) {
+    c.keep = r.integer(*x);
+    r.check(c.keep >= 1 && c.keep <= 1000, *x, "in [1, 1000]");
+  }
+}
+
+// The sections that define the physics as YAML text (time without frames, which only says how
+// long to run): what a checkpoint's physics hash is made of. A section the deck leaves out is "".
+std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const char* key : {"mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders",
+                          "contact", "initial", "gravity", "time"}) {
+    const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
+    if (!found || found.IsNull()) {
+      out.emplace_back(key, "");
+      continue;
+    }
+    YAML::Node node = YAML::Clone(found);
+    if (std::string(key) == "time" && node.IsMap()) node.remove("frames");
+    out.emplace_back(key, YAML::Dump(node));
+  }
+  return out;
+}
+
 // petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
 // spelled true/false and an empty value is "" (an option without argument).
 void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth = 0) {
@@ -783,7 +817,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
 
   Section s(r, Value{root, "", line_of(root)},
             {"name", "mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders", "contact",
-             "initial", "gravity", "time", "solver", "output", "study", "petsc"});
+             "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -835,6 +869,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   const Value* solver = s.find("solver");
   if (!deck.colliders.empty() && !(solver && Section(r, *solver, {}).find("history"))) deck.solver.history = kContactHistory;
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
+  if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
+  deck.physics = physics_sections(root);
   if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;

@@ -31,9 +31,21 @@ struct OutputSpec {
   bool contact_csv = true;           // contact.csv (scenes with colliders only)
 };
 
+// When a run writes checkpoints (docs/decks.md#checkpoint): every `every` frames and/or when
+// `seconds` of wall time passed since the last one (0: not by that rule); the newest `keep` remain.
+struct CheckpointSpec {
+  int every = 0;
+  double seconds = 0;
+  int keep = 2;
+};
+
 struct Deck : SceneSpec {
   SolverSpec solver;
   OutputSpec output;
+  CheckpointSpec checkpoint;
+  // (section, its YAML text) of the sections that define the physics (time without frames), in
+  // a fixed order: a restart refuses a checkpoint whose sections' hashes differ.
+  std::vector<std::pair<std::string, std::string>> physics;
   StudySpec study;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // "-key", "value" (petsc: section)
   std::map<std::string, int> petsc_option_lines;                   // "-key" -> its deck line

@@ -1,7 +1,7 @@
 // hyperqn: implicit Euler for elastic solids as energy minimization, solved per time step by
 // L-BFGS whose initial Hessian is the once-factored M + h^2 L (Liu, Bouaziz & Kavan 2017).
 //
-//   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [PETSc options...]
+//   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest] [PETSc options...]
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
 #include <petscsys.h>
 
@@ -18,20 +18,23 @@
 #include "solvers/solver_registry.hpp"
 
 static const char usage[] =
-    "usage: hyperqn DECK.yaml [-o OUTDIR] [PETSc options...]\n"
+    "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn registry   (the material models and solvers, as JSON)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
     "  solvers of the deck's study: section (error against time, per frame and per trajectory).\n"
     "  -o OUTDIR   output directory (default: the deck's output.directory, else output/<deck name>;\n"
     "              for a study output/study/<deck name>)\n"
+    "  --restart PATH|latest   continue the run from a checkpoint file, or from the newest one in\n"
+    "              OUTDIR/checkpoints (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
+    "              SIGUSR1 after writing a checkpoint\n"
     "  PETSc options on the command line override the deck's petsc: section,\n"
     "  e.g. -tao_ls_type armijo -tao_lmvm_mat_lmvm_hist_size 10 -log_view\n";
 
 namespace {
 
 struct CommandLine {
-  std::string deck, outdir;
+  std::string deck, outdir, restart;
   bool help = false, study = false, registry = false;
 };
 
@@ -55,10 +58,14 @@ CommandLine parse_command_line(int argc, char** argv) {
     } else if (a == "-o") {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs a directory");
       cl.outdir = argv[++i];
+    } else if (a == "--restart") {
+      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file or 'latest'");
+      cl.restart = argv[++i];
     } else if (a[0] != '-' && cl.deck.empty() && (i == first || argv[i - 1][0] != '-' || std::strcmp(argv[i - 1], "-o") == 0)) {
       cl.deck = a;
     }
   }
+  if (cl.study && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run, not a study");
   if (!cl.help && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
 }
@@ -103,7 +110,7 @@ PetscErrorCode warn_unused_options() {
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsLeftGet(nullptr, &n, &names, &values));
   for (PetscInt i = 0; i < n; ++i)
-    if (std::strcmp(names[i], "o") != 0)  // -o OUTDIR is ours
+    if (std::strcmp(names[i], "o") != 0 && std::strcmp(names[i], "-restart") != 0)  // -o, --restart are ours
       PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: warning: option -%s was given but never used (misspelt, or not "
                                               "an option of this solver?)\n", names[i]));
   PetscCall(PetscOptionsLeftRestore(nullptr, &n, &names, &values));
@@ -145,9 +152,9 @@ int main(int argc, char** argv) {
         status = hyperqn::run_study(PETSC_COMM_WORLD, deck, outdir);
       } else {
         if (outdir.empty()) outdir = deck.output.directory.empty() ? "output/" + deck.name : deck.output.directory;
-        status = hyperqn::run_simulation(PETSC_COMM_WORLD, deck, outdir);
+        status = hyperqn::run_simulation(PETSC_COMM_WORLD, deck, outdir, cl.restart);
       }
-      if (status == 0 || status == hyperqn::kExitInverted) PetscCall(warn_unused_options());  // after a failure they may just not be reached
+      if (status == 0 || status == hyperqn::kExitInverted || status == hyperqn::kExitInterrupted) PetscCall(warn_unused_options());  // after a failure they may just not be reached
     }
   } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: error: %s\n", e.what()));

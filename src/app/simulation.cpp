@@ -2,6 +2,7 @@
 
 #include <petscdmplex.h>
 
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -10,6 +11,7 @@
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/log_events.hpp"
 #include "io/output_directory.hpp"
 #include "io/run_log.hpp"
@@ -115,6 +117,20 @@ static void read_log_events(RunSummary& s) {
   s.contact_evaluations = event_count(e.contact);
 }
 
+// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop after
+// the current frame with a checkpoint. The handler only records the signal (async-signal-safe);
+// the ranks agree on it once per frame (Run::after_frame).
+static volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void record_stop_signal(int sig) { g_stop_signal = sig; }
+static void catch_stop_signals() {
+  struct sigaction action = {};
+  action.sa_handler = record_stop_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;  // blocking calls (MPI, file writes) go on
+  sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGUSR1, &action, nullptr);
+}
+
 namespace {
 
 // Everything one simulation run holds while its frames are computed.
@@ -136,7 +152,21 @@ struct Run {
 
   RunOptions options;
 
+  // Checkpoints and restart (io/checkpoint.hpp).
+  double t_start = 0;
+  std::string checkpoint_dir;        // OUTDIR/checkpoints
+  CheckpointHeader identity;         // what identifies the scene: physics, mesh, vertex counts
+  const CheckpointHeader* restart = nullptr;  // the checkpoint this run continues, if any
+  std::string restart_path;
+  RunSummary earlier;                // the work (times, factorizations) before the restart
+  double last_checkpoint_wtime = 0;  // rank 0's clock
+  bool interrupted = false;          // stopped by a signal with a checkpoint (kExitInterrupted)
+
   Run(MPI_Comm c, const Deck& d, const RunOptions& o) : comm(c), deck(d), options(o) {}
+
+  PetscErrorCode write_checkpoint(bool started_inverted);
+  PetscErrorCode resume(bool* started_inverted);
+  PetscErrorCode after_frame(int frame, bool started_inverted);
 
   // Writes frame `frame` from the state, unless a position, velocity or J is not finite.
   PetscErrorCode write_frame(int frame, bool* written) {
@@ -230,15 +260,19 @@ struct Run {
 PetscErrorCode Run::time_loop(bool& ok) {
   PetscFunctionBeginUser;
   ok = true;
-  PetscCall(scene.initial_state(state));
-  summary.min_J = HUGE_VAL;
-  bool written = false;
-  PetscCall(write_frame(0, &written));
+  bool written = false, resumed_inverted = false;
+  if (restart) {
+    PetscCall(resume(&resumed_inverted));  // frames up to the checkpoint's were done before
+  } else {
+    PetscCall(scene.initial_state(state));
+    summary.min_J = HUGE_VAL;
+    PetscCall(write_frame(0, &written));
+  }
   // A run that the deck starts inverted (initial:) is judged by its last frame only.
   double min_J = 0, max_abs_J = 0;
   PetscCall(scene.current().body->volume_ratios(state.x, &min_J, &max_abs_J));
-  const bool started_inverted = min_J < 0;
-  bool inverted_now = started_inverted;
+  const bool started_inverted = restart ? resumed_inverted : min_J < 0;
+  bool inverted_now = min_J < 0;
 
   const double diagonal = rest_diagonal(scene.current().mesh);
   const double limit = options.divergence_limit;  // <= 0: no divergence check
@@ -322,7 +356,9 @@ PetscErrorCode Run::time_loop(bool& ok) {
         if (!written) why = "non-finite positions, velocities or J";
       }
       if (why.empty()) {
-        flush_logs();
+        flush_logs();  // before a checkpoint: a restart cuts the logs at its frame
+        PetscCall(after_frame(frame, started_inverted));
+        if (interrupted) break;
         continue;
       }
     }
@@ -345,11 +381,119 @@ PetscErrorCode Run::time_loop(bool& ok) {
     ok = false;
     break;
   }
-  if (ok) summary.status = completed_status(summary, started_inverted, inverted_now);
+  if (ok && !interrupted) summary.status = completed_status(summary, started_inverted, inverted_now);
   PetscFunctionReturn(0);
 }
 
-int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
+// The run's state, the scene's identity and the counters so far into a checkpoint.
+PetscErrorCode Run::write_checkpoint(bool started_inverted) {
+  const Scene& s = scene.current();
+  int size;
+  PetscFunctionBeginUser;
+  MPI_Comm_size(comm, &size);
+  CheckpointHeader h = identity;
+  h.ranks = size;
+  h.frame = state.frame;
+  h.time = state.time;
+  h.body_time = s.body->time();
+  h.dofs = s.mesh.global_dofs;
+  h.released = state.released;
+  h.released_attachments = state.released_attachments;
+  h.started_inverted = started_inverted;
+  h.summary = summary;
+  read_log_events(h.summary);
+  h.summary.wall_s = MPI_Wtime() - t_start;
+  add_earlier_work(h.summary, earlier);
+  h.summary.rejected_evaluations += s.integrator->rejected_evaluations();  // as at the end of a run
+  for (const auto& w : writers)
+    if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
+  PetscCall(s.body->local_positions(state.x, pos));
+  PetscCall(s.body->local_velocities(state.v, vel));
+  log.flush();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
+  std::string path;
+  PetscCall(hyperqn::write_checkpoint(comm, checkpoint_dir, h, s.mesh, pos, vel, deck.checkpoint.keep, &path));
+  last_checkpoint_wtime = MPI_Wtime();
+  PetscCall(PetscPrintf(comm, "hyperqn: checkpoint %s\n", path.c_str()));
+  PetscFunctionReturn(0);
+}
+
+// After a completed frame: a checkpoint if one is due (every N frames, every S seconds) or a
+// signal asked to stop, which every rank learns from one reduction.
+PetscErrorCode Run::after_frame(int frame, bool started_inverted) {
+  int rank;
+  PetscFunctionBeginUser;
+  MPI_Comm_rank(comm, &rank);
+  const CheckpointSpec& c = deck.checkpoint;
+  int local[2] = {(int)g_stop_signal, 0}, global[2];
+  if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime >= c.seconds;  // one clock decides
+  PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, comm));
+  const bool last = frame == deck.time.frames;
+  const bool stop = global[0] != 0 && !last;  // a signal at the last frame: the run is done anyway
+  if (stop || global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint(started_inverted));
+  if (!stop) PetscFunctionReturn(0);
+  interrupted = true;
+  summary.status = std::string("interrupted: ") + (global[0] == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
+                   std::to_string(frame) + " of " + std::to_string(deck.time.frames) +
+                   "; a checkpoint was written: continue with --restart latest";
+  PetscFunctionReturn(0);
+}
+
+// A restart: the state, the fixed vertices' motion and the counters from the checkpoint.
+PetscErrorCode Run::resume(bool* started_inverted) {
+  const Scene& s = scene.current();
+  PetscFunctionBeginUser;
+  PetscCall(state.create(s.integrator->layout()));
+  state.frame = restart->frame;
+  state.time = restart->time;
+  state.released = restart->released;
+  state.released_attachments = restart->released_attachments;
+  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, restart->vertex_slots, pos, vel));
+  PetscCall(s.body->resume(restart->body_time, pos, vel, state.x, state.v));
+  restore_frame_counters(summary, restart->summary);
+  earlier = restart->summary;  // its work counters are added at the end
+  *started_inverted = restart->started_inverted != 0;
+  // As if the run had not stopped: the checkpoint's frame counts as written if it was an output frame.
+  last_written = state.frame % deck.output.every == 0 ? state.frame : -1;
+  last_checkpoint_wtime = MPI_Wtime();
+  PetscFunctionReturn(0);
+}
+
+// What identifies the scene in a checkpoint, as far as the input tells (rank 0's mesh hash is
+// broadcast): the deck's physics sections and the mesh as read.
+static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const SceneInput& input) {
+  CheckpointHeader id;
+  id.physics = physics_fingerprint(deck.physics);
+  const TetMesh& m = input.mesh;
+  auto bytes = [](const auto& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])); };
+  std::string hash = text_hash(bytes(m.coords) + bytes(m.tets) + bytes(m.segments) + bytes(m.vertex_ids));
+  hash.resize(16);
+  MPI_Bcast(hash.data(), 16, MPI_CHAR, 0, comm);
+  id.mesh_hash = hash;
+  return id;
+}
+
+// The checkpoint a restart continues from (restart: a path or "latest"), read and checked
+// against the deck before anything is written; false (said) if it cannot be used.
+static bool open_restart(MPI_Comm comm, const std::string& restart, const std::string& outdir,
+                         const CheckpointHeader& identity, std::string& path, CheckpointHeader& saved) {
+  try {
+    path = restart;
+    if (restart == "latest") {
+      path = latest_checkpoint(comm, outdir + "/checkpoints");
+      if (path.empty()) throw std::runtime_error("--restart latest: no checkpoint in " + outdir + "/checkpoints");
+    }
+    saved = read_checkpoint_header(comm, path);
+  } catch (const std::exception& e) {
+    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+    return false;
+  }
+  const std::string why = checkpoint_mismatch(saved, identity);
+  if (why.empty()) return true;
+  PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", path.c_str(), why.c_str());
+  return false;
+}
+
+int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart) {
   const double t_start = MPI_Wtime();
   int rank, size;
   MPI_Comm_rank(comm, &rank);
@@ -363,15 +507,22 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",
                 (long long)repaired.dropped_vertices, (long long)repaired.reoriented_tets);
 
+  CheckpointHeader identity = scene_identity(comm, deck, input), saved;
+  std::string restart_path;
+  if (!restart.empty() && !open_restart(comm, restart, outdir, identity, restart_path, saved)) return 1;
+
   // 2. Distribute, assemble, factor.
   RunOptions options;
   if (read_run_options(comm, &options)) return 1;
   Run run(comm, deck, options);
+  run.t_start = t_start;
+  run.checkpoint_dir = outdir + "/checkpoints";
   run.summary.dropped_vertices = repaired.dropped_vertices;
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
     PetscErrors errors;
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
+        (!restart.empty() && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().constant_matrix(deck.solver), run.solver)) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
@@ -379,6 +530,26 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   }
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
+  {  // the vertex counts complete the scene's identity (vertex ids are those of the mesh file)
+    long long local_slots = 0;
+    for (int64_t id : scene.mesh.vertex_ids) local_slots = std::max<long long>(local_slots, id + 1);
+    MPI_Allreduce(&local_slots, &identity.vertex_slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+    identity.vertices = scene.mesh.global_vertices;
+    run.identity = identity;
+  }
+  if (!restart.empty()) {
+    std::string why = checkpoint_mismatch(saved, identity);
+    if (why.empty() && saved.dofs != scene.mesh.global_dofs)
+      why = "the scene has " + std::to_string(scene.mesh.global_dofs) + " dofs, the checkpoint's " + std::to_string(saved.dofs);
+    if (!why.empty()) {
+      PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", restart_path.c_str(), why.c_str());
+      return 1;
+    }
+    run.restart = &saved;
+    run.restart_path = restart_path;
+    PetscPrintf(comm, "hyperqn: restart from %s: frame %d (written at %d rank(s))\n", restart_path.c_str(), saved.frame,
+                saved.ranks);
+  }
   RunSummary& summary = run.summary;
   summary.deck = deck.path;
   summary.solver = deck.solver.type;
@@ -412,12 +583,20 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     std::string error;
     if (rank == 0) {
       try {
-        // The frames of two runs must never mix: what an earlier run wrote here goes first.
-        if (const int removed = clear_previous_run(outdir))
-          PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier run's output: %d file(s) removed\n", outdir.c_str(),
-                      removed);
-        if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
-        if (deck.output.contact_csv && scene.contact) run.contact_log.open(outdir + "/contact.csv", rank);
+        // The frames of two runs must never mix: what an earlier run wrote here goes first; a
+        // restart keeps the frames up to its checkpoint instead (below).
+        if (!run.restart)
+          if (const int removed = clear_previous_run(outdir))
+            PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier run's output: %d file(s) removed\n",
+                        outdir.c_str(), removed);
+        const bool contact_csv = deck.output.contact_csv && scene.contact;
+        if (run.restart) {  // the logs as they were at the checkpoint's frame, then continued
+          if (deck.output.iterations_csv) run.log.resume(outdir + "/iterations.csv", rank, saved.frame);
+          if (contact_csv) run.contact_log.resume(outdir + "/contact.csv", rank, saved.frame);
+        } else {
+          if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
+          if (contact_csv) run.contact_log.open(outdir + "/contact.csv", rank);
+        }
         // A summary from the start: a run that is killed leaves one that says it did not end.
         RunSummary started = summary;
         started.status = "incomplete: the run started and did not end (still running, or killed)";
@@ -429,6 +608,17 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     throw_if_any_failed(comm, error);
     if (deck.output.vtk) run.writers.push_back(std::make_unique<VtkSeries>(comm, outdir, deck.name));
     for (auto& w : run.writers) w->begin_run(scene.mesh);
+    if (run.restart) {  // the writers as they were at the checkpoint's frame
+      const int frame = saved.frame;
+      remove_checkpoints_after(comm, run.checkpoint_dir, frame);
+      for (auto& w : run.writers) {
+        std::string state;
+        for (const auto& [key, value] : saved.writers)
+          if (key == w->restart_key()) state = value;
+        w->resume(state, frame);
+      }
+    }
+    catch_stop_signals();
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);
@@ -443,6 +633,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   read_log_events(summary);
   summary.rejected_evaluations += run.scene.current().integrator->rejected_evaluations();  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
+  add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
   if (summary.frames > 0) {
     summary.ms_per_frame = 1e3 * summary.solve_s / summary.frames;
     summary.mean_iterations = (double)summary.iterations / summary.frames;
@@ -485,6 +676,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   // The status says "error: ..." unless only the last writes failed (said above).
   if (!ok && summary.status.rfind("error", 0) == 0) PetscPrintf(comm, "hyperqn: %s\n", summary.status.c_str());
   if (!ok) return 1;
+  if (run.interrupted) return kExitInterrupted;
   return summary.status.rfind("inverted", 0) == 0 ? kExitInverted : 0;
 }
 

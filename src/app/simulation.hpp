@@ -11,9 +11,12 @@ namespace hyperqn {
 
 // A run that went through every frame but has inverted elements (status "inverted: ...").
 inline constexpr int kExitInverted = 2;
+// A run stopped by SIGTERM or SIGUSR1 after writing a checkpoint: `--restart latest` continues it.
+inline constexpr int kExitInterrupted = 3;
 
 // Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the
-// run could not continue (summary.json says why), kExitInverted.
-int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir);
+// run could not continue (summary.json says why), kExitInverted, kExitInterrupted.
+// restart: "" (from frame 0), a checkpoint file, or "latest" (the newest in OUTDIR/checkpoints).
+int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart = "");
 
 }  // namespace hyperqn

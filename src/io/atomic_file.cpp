@@ -95,6 +95,13 @@ void LineFile::open(const std::string& path) {
   if (fd_ < 0) throw std::runtime_error(failure(path, errno));
 }
 
+void LineFile::reopen(const std::string& path, const std::string& contents) {
+  write_file_atomically(path, contents);
+  path_ = path;
+  fd_ = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC);
+  if (fd_ < 0) throw std::runtime_error(failure(path, errno));
+}
+
 void LineFile::add(const std::string& line) {
   if (fd_ >= 0) pending_ += line;
 }

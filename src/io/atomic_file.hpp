@@ -35,6 +35,8 @@ class LineFile {
   ~LineFile();
   // Creates (truncates) path.
   void open(const std::string& path);
+  // Replaces path by `contents` (atomically) and appends from there on (a restart's logs).
+  void reopen(const std::string& path, const std::string& contents);
   bool is_open() const { return fd_ >= 0; }
   void add(const std::string& line);  // a complete line, with its '\n'
   void flush();

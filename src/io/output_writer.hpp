@@ -4,6 +4,7 @@
 // series is one writer; a checkpoint or another format is another. docs/architecture.md, "Add an
 // output writer".
 #pragma once
+#include <string>
 #include <vector>
 
 #include "io/records.hpp"
@@ -32,6 +33,12 @@ class OutputWriter {
   virtual void write_frame(const FrameData& f) = 0;
   virtual void set_mesh(const DistributedMesh& mesh) = 0;
   virtual void end_run(const RunSummary& /*summary*/) {}
+  // Restart (io/checkpoint.hpp): a writer that must remember something to continue an earlier
+  // run's output names it by a key ("": nothing to remember); its state goes into each checkpoint,
+  // and a restarted run hands it back to resume (frame: the checkpoint's; later frames' output goes).
+  virtual std::string restart_key() const { return ""; }
+  virtual std::string restart_state() const { return ""; }
+  virtual void resume(const std::string& /*state*/, int /*frame*/) {}
 };
 
 }  // namespace hyperqn

@@ -4,16 +4,40 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
 namespace hyperqn {
 
+namespace {
+
+const char kIterationHeader[] = "frame,iteration,time_s,energy,grad_norm,step,evaluations\n";
+const char kContactHeader[] = "frame,time,collider,normal_force,friction_force,max_penetration,active\n";
+
+// A restart's CSV: the header and the rows of frames <= frame of the file at path (rows start
+// with their frame; a missing file keeps none).
+std::string rows_up_to(const std::string& path, int frame, const char* header) {
+  std::ifstream in(path);
+  std::string kept = header, line;
+  if (in && std::getline(in, line))  // the header
+    while (std::getline(in, line))
+      if (!line.empty() && std::atoi(line.c_str()) <= frame) kept += line + "\n";
+  return kept;
+}
+
+}  // namespace
+
 void IterationLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
   file_.open(path);
-  file_.add("frame,iteration,time_s,energy,grad_norm,step,evaluations\n");
+  file_.add(kIterationHeader);
   file_.flush();
+}
+
+void IterationLog::resume(const std::string& path, int rank, int frame) {
+  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, kIterationHeader));
 }
 
 void IterationLog::append(int frame, const IterationRecord& r) {
@@ -27,8 +51,12 @@ void IterationLog::append(int frame, const IterationRecord& r) {
 void ContactLog::open(const std::string& path, int rank) {
   if (rank != 0) return;
   file_.open(path);
-  file_.add("frame,time,collider,normal_force,friction_force,max_penetration,active\n");
+  file_.add(kContactHeader);
   file_.flush();
+}
+
+void ContactLog::resume(const std::string& path, int rank, int frame) {
+  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, kContactHeader));
 }
 
 void ContactLog::append(int frame, double time, const ContactMeasure& m) {

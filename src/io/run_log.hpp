@@ -15,6 +15,8 @@ class IterationLog {
   // Opens path for writing on rank 0 (other ranks: no-op). Throws std::runtime_error on failure.
   void open(const std::string& path, int rank);
   void append(int frame, const IterationRecord& r);
+  // A restart: keeps the rows of frames <= frame of an existing file at path and appends to it.
+  void resume(const std::string& path, int rank, int frame);
   // Writes the rows appended so far (at the end of every frame). Throws std::runtime_error.
   void flush() { file_.flush(); }
 
@@ -28,6 +30,7 @@ class ContactLog {
  public:
   void open(const std::string& path, int rank);
   void append(int frame, double time, const ContactMeasure& m);
+  void resume(const std::string& path, int rank, int frame);  // as IterationLog::resume
   void flush() { file_.flush(); }
 
  private:

@@ -1,8 +1,12 @@
 #include "io/vtk_writer.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
@@ -179,6 +183,41 @@ void VtkSeries::write_frame(const FrameData& f) {
     written_.pop_back();  // not listed: a later .pvd must not name it
   }
   throw_if_any_failed(comm_, error);
+}
+
+std::string VtkSeries::restart_state() const {
+  std::string s;
+  char time[40];
+  for (const auto& [t, file] : written_) {
+    std::snprintf(time, sizeof time, "%.17g", t);  // read back exactly
+    s += std::string(time) + " " + file + "\n";
+  }
+  return s;
+}
+
+void VtkSeries::resume(const std::string& state, int frame) {
+  written_.clear();
+  std::istringstream lines(state);
+  for (std::string line; std::getline(lines, line);) {
+    const size_t space = line.find(' ');
+    if (space != std::string::npos) written_.emplace_back(std::strtod(line.c_str(), nullptr), line.substr(space + 1));
+  }
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  if (rank != 0) return;
+  // Files of frames after `frame`: <name>_<5+ digits> then '.' or '_' (.vtu, .pvtu, per-rank pieces).
+  const std::string prefix = name_ + "_";
+  std::vector<std::filesystem::path> later;
+  for (const auto& e : std::filesystem::directory_iterator(dir_)) {
+    const std::string file = e.path().filename().string();
+    if (file.compare(0, prefix.size(), prefix) != 0) continue;
+    size_t end = prefix.size();
+    while (end < file.size() && std::isdigit((unsigned char)file[end])) ++end;
+    if (end - prefix.size() < 5 || end == file.size() || (file[end] != '.' && file[end] != '_')) continue;
+    if (std::atoi(file.substr(prefix.size(), end - prefix.size()).c_str()) > frame) later.push_back(e.path());
+  }
+  for (const auto& p : later) std::filesystem::remove(p);
+  write_pvd();
 }
 
 }  // namespace hyperqn

@@ -23,6 +23,11 @@ class VtkSeries : public OutputWriter {
   void write_frame(const FrameData& f) override;
   // The mesh whose local arrays the next frames hold (after fixed regions were released).
   void set_mesh(const DistributedMesh& mesh) override { mesh_ = &mesh; }
+  // The .pvd's entries ("time file" lines); resume keeps them and removes the files of frames
+  // after `frame` (rank 0), so the series goes on as if the run had not stopped.
+  std::string restart_key() const override { return "vtk_pvd"; }
+  std::string restart_state() const override;
+  void resume(const std::string& state, int frame) override;
 
  private:
   void write_piece(const std::string& path, const FrameData& f) const;

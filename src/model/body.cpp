@@ -45,6 +45,36 @@ void Body::set_time(double t) {
   time_ = t;
 }
 
+PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
+  Vec xl, vl;
+  PetscScalar *a, *b;
+  PetscFunctionBeginUser;
+  time_ = t;
+  PetscCall(DMGetLocalVector(mesh_.dm, &xl));
+  PetscCall(DMGetLocalVector(mesh_.dm, &vl));
+  PetscCall(VecGetArray(xl, &a));
+  PetscCall(VecGetArray(vl, &b));
+  for (PetscInt i = 0; i < mesh_.num_vertices; ++i) {
+    const PetscInt off = mesh_.local_dof[i];
+    for (int d = 0; d < 3; ++d) {
+      if (off >= 0) {
+        a[off + d] = pos[3 * i + d];
+        b[off + d] = vel[3 * i + d];
+      } else {
+        fixed_pos_[3 * i + d] = pos[3 * i + d];
+        fixed_vel_[3 * i + d] = vel[3 * i + d];
+      }
+    }
+  }
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecRestoreArray(vl, &b));
+  PetscCall(DMLocalToGlobal(mesh_.dm, xl, INSERT_VALUES, x));  // ghosts carry the same values
+  PetscCall(DMLocalToGlobal(mesh_.dm, vl, INSERT_VALUES, v));
+  PetscCall(DMRestoreLocalVector(mesh_.dm, &xl));
+  PetscCall(DMRestoreLocalVector(mesh_.dm, &vl));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
   for (auto& term : terms_) PetscCall(term->begin_step(step));

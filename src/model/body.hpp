@@ -33,6 +33,11 @@ class Body {
   // their velocities become the mean over the step from the previous time. Again at the same t:
   // nothing changes (the study steps several states to the same t).
   void set_time(double t);
+  double time() const { return time_; }
+  // A restart (io/checkpoint.hpp): time t and every local vertex's position and velocity (3 each;
+  // fixed vertices: the prescribed ones the checkpointed run had, which set_time from a fresh body
+  // would not give) into the body and the global vectors x, v of free dofs.
+  PetscErrorCode resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v);
   // The terms' per-step update (EnergyTerm::begin_step).
   PetscErrorCode begin_step(const StepStart& step);
 

@@ -227,6 +227,29 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, State& s) 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode LiveScene::rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
+                                  std::unique_ptr<Scene>& fresh) const {
+  PetscFunctionBeginUser;
+  SceneInput input = kept_;
+  for (int32_t& f : input.fixed)
+    if (f > 0 && regions[f - 1]) f = 0;
+  fresh = std::make_unique<Scene>();
+  PetscCall(build(std::move(input), attachments, *fresh));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, const std::vector<char>& attachments) {
+  PetscFunctionBeginUser;
+  PetscCheck(regions.size() == spec_->fixed.size() && attachments.size() == spec_->attachments.size(), comm_,
+             PETSC_ERR_ARG_SIZ, "the checkpoint's released flags do not match the deck's fixed regions and attachments");
+  bool any = false;
+  for (char r : regions) any = any || r;
+  for (char a : attachments) any = any || a;
+  if (!any) PetscFunctionReturn(0);
+  PetscCall(rebuild(regions, attachments, scene_));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& others, const Rebind& rebind,
                                       bool* released) {
   const double h = spec_->time.dt;
@@ -246,11 +269,8 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
     mark_due(spec_->attachments[k].region.release, main.released_attachments[k]);
   if (!*released) PetscFunctionReturn(0);
 
-  SceneInput input = kept_;
-  for (int32_t& f : input.fixed)
-    if (f > 0 && main.released[f - 1]) f = 0;
-  auto fresh = std::make_unique<Scene>();
-  PetscCall(build(std::move(input), main.released_attachments, *fresh));
+  std::unique_ptr<Scene> fresh;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh));
   fresh->body->set_time(main.frame * h);
   PetscCall(carry_state(*scene_, *fresh, main));
   for (State* s : others) {

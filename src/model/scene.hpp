@@ -77,10 +77,16 @@ class LiveScene {
   // to the old scene (solvers, writers, counters) before the old scene goes. *released: it happened.
   using Rebind = std::function<PetscErrorCode(const Scene& old_scene, Scene& fresh)>;
   PetscErrorCode release_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* released);
+  // A restart: the scene as it was with these regions and attachments released (rebuilt if any
+  // is), before anything refers to the scene.
+  PetscErrorCode restore_released(const std::vector<char>& regions, const std::vector<char>& attachments);
 
  private:
   // The scene without the attachments marked in released_attachments.
   PetscErrorCode build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const;
+  // The scene rebuilt from the kept input with these regions free and attachments gone.
+  PetscErrorCode rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
+                         std::unique_ptr<Scene>& fresh) const;
 
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;

@@ -1,0 +1,195 @@
+"""Checkpoints and restart (deck checkpoint:, --restart; io/checkpoint.hpp), end to end.
+
+- 1 and 2 ranks: N frames with a checkpoint, then --restart latest with the deck's 2N frames, equals
+  the uninterrupted 2N-frame run bitwise (positions, velocities, iterations.csv without time_s,
+  the .pvd listing, the summary's frame counts), for a bar with a rotating fixed end released
+  after the checkpoint and for a bar released before it falling onto a plane collider.
+- 2 -> 1 and 1 -> 2 ranks with a tight solver tolerance: to 1e-10 of the rest diagonal (round-off
+  differs between rank counts).
+- A deck whose physics differ is refused (exit 1, the section named, nothing in OUTDIR changed).
+- SIGTERM mid-run: exit 3, a checkpoint, summary status "interrupted"; --restart latest finishes
+  and equals the uninterrupted run.
+- keep: only the newest checkpoints remain, no temporary files; what a checkpoint holds.
+"""
+import copy
+import hashlib
+import os
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import HYPERQN, run_hyperqn, write_deck
+from hyperqn_tools import launch
+from hyperqn_tools.output import final_frame, read_iterations, read_pvd, read_summary, rest_diagonal
+
+FRAMES = 8
+BAR = {
+    "mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
+    "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+    "gravity": [0, -9.81, 0],
+    "time": {"dt": 0.05, "frames": FRAMES},
+    "solver": {"iterations": 50},
+}
+CLAMP = {"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}
+# A rotating end, released at t = 0.25 (the step to frame 5, right after the checkpoint at 4): its
+# vertices go on with the prescribed velocity they had, which the checkpoint must hold.
+MOTION = dict(BAR, fixed=[CLAMP, {
+    "box": {"min": [1.99, -1, -1], "max": [2.01, 1, 1]},
+    "motion": {"rotate": {"axis": [1, 0, 0], "center": [2.0, 0.25, 0.25], "rate": 90.0}},
+    "release": 0.25}])
+# Released at t = 0.1 (before the checkpoint: the restart rebuilds the released scene), falling
+# onto a plane.
+COLLIDER = dict(BAR, fixed=[dict(CLAMP, release=0.1)],
+                colliders=[{"type": "plane", "point": [0, -0.05, 0], "normal": [0, 1, 0], "friction": 0.3}])
+SCENES = {"motion": MOTION, "collider": COLLIDER}
+TIGHT = {"iterations": 300, "max_iterations": 300, "grad_rtol": 1e-12, "grad_atol": 0}
+
+
+def deck_with(base, frames, checkpoint=None, solver=None):
+    d = copy.deepcopy(base)
+    d["time"]["frames"] = frames
+    if checkpoint:
+        d["checkpoint"] = checkpoint
+    if solver:
+        d["solver"] = dict(d["solver"], **solver)
+    return d
+
+
+def run(tmp_path, name, deck, out, ranks=None, extra=(), check=True):
+    path = write_deck(tmp_path / f"{name}.yaml", deck)
+    return run_hyperqn([path, "-o", out, *extra], ranks=ranks, check=check)
+
+
+def interrupted_then_restarted(tmp_path, base, ranks_first, ranks_then, solver=None):
+    """N frames with a checkpoint at N, then --restart latest with 2N frames; the output dir."""
+    out = tmp_path / f"restarted_{ranks_first}_{ranks_then}"
+    run(tmp_path, "first", deck_with(base, FRAMES // 2, {"every": FRAMES // 2}, solver), out, ranks_first)
+    assert os.listdir(out / "checkpoints") == [f"checkpoint_{FRAMES // 2}.h5"]
+    done = run(tmp_path, "then", deck_with(base, FRAMES, solver=solver), out, ranks_then,
+               ["--restart", "latest"])
+    assert f"restart from {out}/checkpoints/checkpoint_{FRAMES // 2}.h5" in done.stdout
+    return out
+
+
+def iteration_rows(out):
+    return [{k: v for k, v in r.items() if k != "time_s"} for r in read_iterations(out)]
+
+
+def pvd_listing(out):
+    return [(t, os.path.basename(f)) for t, f in read_pvd(out / "run.pvd")]
+
+
+def assert_same_run(a, b, exact=True, tol=0.0):
+    fa, fb = final_frame(a), final_frame(b)
+    assert np.array_equal(fa.vertex_id, fb.vertex_id)
+    if exact:
+        assert np.array_equal(fa.points, fb.points)
+        assert np.array_equal(fa.velocity, fb.velocity)
+        assert iteration_rows(a) == iteration_rows(b)
+        assert pvd_listing(a) == pvd_listing(b)
+    else:
+        d = rest_diagonal(fa)
+        assert np.abs(fa.points - fb.points).max() <= tol * d
+    sa, sb = read_summary(a), read_summary(b)
+    assert sa["status"] == sb["status"] == "ok"
+    keys = ["frames", "converged_frames", "failed_frames", "extended_frames", "substepped_frames", "newton_frames"]
+    if exact:
+        keys += ["iterations", "evaluations", "min_J", "final_energy", "max_active_contacts"]
+    assert {k: sa[k] for k in keys} == {k: sb[k] for k in keys}
+
+
+# Bitwise at the same rank count: runs are reproducible (docs/performance.md, "Reproducibility").
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_restart_at_the_same_rank_count_is_bitwise_exact(tmp_path, scene, ranks):
+    base = dict(SCENES[scene], name="run")
+    ref = tmp_path / "uninterrupted"
+    run(tmp_path, "ref", base, ref, ranks)
+    out = interrupted_then_restarted(tmp_path, base, ranks, ranks)
+    assert_same_run(ref, out)
+    assert read_iterations(out)[-1]["frame"] == FRAMES
+
+
+@pytest.mark.parametrize("first,then", [(2, None), (None, 2)])
+def test_restart_at_another_rank_count(tmp_path, first, then):
+    base = dict(MOTION, name="run")
+    ref = tmp_path / "ref"
+    run(tmp_path, "ref", deck_with(base, FRAMES, solver=TIGHT), ref)
+    out = interrupted_then_restarted(tmp_path, base, first, then, solver=TIGHT)
+    assert_same_run(ref, out, exact=False, tol=1e-10)
+    with h5py.File(out / "checkpoints" / "checkpoint_4.h5") as f:
+        assert f.attrs["ranks"] == (2 if first == 2 else 1)
+
+
+def tree_digest(root):
+    """{relative path: sha256} of every file under root."""
+    digest = {}
+    for d, _, files in os.walk(root):
+        for name in files:
+            p = os.path.join(d, name)
+            with open(p, "rb") as f:
+                digest[os.path.relpath(p, root)] = hashlib.sha256(f.read()).hexdigest()
+    return digest
+
+
+def test_restart_with_other_physics_is_refused(tmp_path):
+    base = dict(MOTION, name="run")
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 4, {"every": 2}), out)
+    before = tree_digest(out)
+    other = deck_with(base, FRAMES)
+    other["material"]["youngs_modulus"] = 2.0e5
+    done = run(tmp_path, "other", other, out, extra=["--restart", "latest"], check=False)
+    assert done.returncode == 1
+    assert "the deck's physics differ" in done.stdout and "section(s) material" in done.stdout
+    assert tree_digest(out) == before
+    # time.frames, output and the solver are not physics: that restart is accepted.
+    run(tmp_path, "same", deck_with(base, 6, solver={"iterations": 40}), out, extra=["--restart", "latest"])
+
+
+def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path):
+    frames = 300  # a few seconds: the signal comes long before the end
+    base = dict(MOTION, name="run", time={"dt": 0.05, "frames": frames}, output={"every": 10})
+    base["fixed"] = [CLAMP, dict(MOTION["fixed"][1], release=4.0)]
+    ref = tmp_path / "ref"
+    run(tmp_path, "ref", base, ref)
+    out = tmp_path / "out"
+    path = write_deck(tmp_path / "sig.yaml", base)
+    proc = subprocess.Popen(launch.command([path, "-o", out], None, HYPERQN), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env={**os.environ, **launch.MPI_ENV})
+    deadline = time.time() + 60
+    while not (out / "run_00010.vtu").exists() and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGTERM)
+    text, _ = proc.communicate(timeout=120)
+    assert proc.returncode == 3, text[-2000:]
+    summary = read_summary(out)
+    assert summary["status"].startswith("interrupted: SIGTERM after frame")
+    stopped = summary["frames"]
+    assert 10 <= stopped < frames
+    assert os.listdir(out / "checkpoints") == [f"checkpoint_{stopped}.h5"]
+    run_hyperqn([path, "-o", out, "--restart", "latest"])
+    assert_same_run(ref, out)
+
+
+def test_keep_and_contents(tmp_path):
+    out = tmp_path / "out"
+    run(tmp_path, "keep", deck_with(dict(COLLIDER, name="run"), 6, {"every": 1, "keep": 3}), out, ranks=2)
+    assert sorted(os.listdir(out / "checkpoints")) == ["checkpoint_4.h5", "checkpoint_5.h5", "checkpoint_6.h5"]
+    final = final_frame(out)
+    with h5py.File(out / "checkpoints" / "checkpoint_6.h5") as f:
+        assert f.attrs["frame"] == 6 and f.attrs["ranks"] == 2
+        assert abs(f.attrs["time"] - 0.3) < 1e-15
+        assert f.attrs["vertices"] == len(final.vertex_id) == 81
+        assert f["positions"].shape == (81, 3)
+        # Stored by vertex id whatever the partition: the last frame's positions and velocities.
+        assert np.array_equal(f["positions"][:][final.vertex_id], final.points)
+        assert np.array_equal(f["velocities"][:][final.vertex_id], final.velocity)
+    # By wall time: every frame with a tiny interval; keep defaults to 2.
+    out2 = tmp_path / "seconds"
+    run(tmp_path, "seconds", deck_with(dict(MOTION, name="run"), 5, {"seconds": 1e-6}), out2)
+    assert sorted(os.listdir(out2 / "checkpoints")) == ["checkpoint_4.h5", "checkpoint_5.h5"]
