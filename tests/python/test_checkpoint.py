@@ -10,10 +10,13 @@
 - SIGTERM mid-run: exit 3, a checkpoint, summary status "interrupted"; --restart latest finishes
   and equals the uninterrupted run.
 - keep: only the newest checkpoints remain, no temporary files; what a checkpoint holds.
+- kill -9 at random moments, each time continued with --restart latest: the finished run equals
+  the uninterrupted one bitwise, and every file in the output directory is complete.
 """
 import copy
 import hashlib
 import os
+import random
 import signal
 import subprocess
 import time
@@ -22,6 +25,7 @@ import h5py
 import numpy as np
 import pytest
 
+from test_safe_outputs import check_complete, run_and_kill, slow_deck
 from conftest import HYPERQN, run_hyperqn, write_deck
 from hyperqn_tools import launch
 from hyperqn_tools.output import final_frame, read_iterations, read_pvd, read_summary, rest_diagonal
@@ -193,3 +197,30 @@ def test_keep_and_contents(tmp_path):
     out2 = tmp_path / "seconds"
     run(tmp_path, "seconds", deck_with(dict(MOTION, name="run"), 5, {"seconds": 1e-6}), out2)
     assert sorted(os.listdir(out2 / "checkpoints")) == ["checkpoint_4.h5", "checkpoint_5.h5"]
+
+
+def checkpoint_frames(out):
+    """Frames of the complete checkpoints in out/checkpoints."""
+    where = out / "checkpoints"
+    names = os.listdir(where) if where.exists() else []
+    return [int(n[len("checkpoint_"):-len(".h5")]) for n in names if n.startswith("checkpoint_") and n.endswith(".h5")]
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_killed_and_restarted_run_equals_the_uninterrupted_one(tmp_path, ranks):
+    deck = slow_deck("run")  # 60 frames of 100-300 ms: the kills land mid-run
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "run.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    out = tmp_path / "out"
+    rng = random.Random(7 + (ranks or 1))
+    args = [path, "-o", out]
+    for trial in range(2):  # killed twice, each time after a checkpoint newer than the last
+        newest = max(checkpoint_frames(out), default=0)
+        run_and_kill(args, ranks, lambda: max(checkpoint_frames(out), default=0) > newest, rng)
+        check_complete(out)
+        args = [path, "-o", out, "--restart", "latest"]
+    run_hyperqn(args, ranks=ranks)
+    check_complete(out)
+    assert_same_run(ref, out)

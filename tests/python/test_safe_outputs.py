@@ -127,37 +127,42 @@ def hyperqn_pids(session):
     return pids
 
 
+def run_and_kill(args, ranks, ready, rng):
+    """Starts hyperqn with args, waits until ready() (at most 60 s), then kill -9s every rank at a
+    random moment of the next 0.1-2 s, and makes sure none is left running."""
+    cmd = launch.command(args, ranks, HYPERQN, MPIEXEC)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+    try:
+        start = time.time()
+        while not ready() and time.time() - start < 60 and proc.poll() is None:
+            time.sleep(0.05)
+        time.sleep(rng.uniform(0.1, 2.0))
+        assert proc.poll() is None, "the run ended before the kill: make the deck slower"
+        pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
+        assert pids, "no hyperqn process found"
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+    finally:
+        # Open MPI may leave mpiexec or another rank running: end them by their ids.
+        deadline = time.time() + 10
+        while time.time() < deadline and (hyperqn_pids(proc.pid) or proc.poll() is None):
+            for pid in hyperqn_pids(proc.pid):
+                os.kill(pid, signal.SIGKILL)
+            if proc.poll() is None and ranks is not None and not hyperqn_pids(proc.pid):
+                proc.kill()
+            time.sleep(0.1)
+        proc.wait(timeout=10)
+    assert not hyperqn_pids(proc.pid), "a rank is still running"
+
+
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_kill_leaves_complete_files(tmp_path, ranks):
     deck = write_deck(tmp_path / "slow.yaml", slow_deck("slow"))
     rng = random.Random(20240611 + (ranks or 1))
     out = tmp_path / "out"
     for trial in range(3):
-        cmd = launch.command([deck, "-o", out], ranks, HYPERQN, MPIEXEC)
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
-        try:
-            # Wait for the first frame, then kill at a random moment of the next seconds.
-            start = time.time()
-            while not list(out.glob("*.pvd")) and time.time() - start < 60 and proc.poll() is None:
-                time.sleep(0.05)
-            time.sleep(rng.uniform(0.1, 2.0))
-            assert proc.poll() is None, "the run ended before the kill: make the deck slower"
-            pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
-            assert pids, "no hyperqn process found"
-            for pid in pids:
-                os.kill(pid, signal.SIGKILL)
-        finally:
-            # Open MPI may leave mpiexec or another rank running: end them by their ids.
-            deadline = time.time() + 10
-            while time.time() < deadline and (hyperqn_pids(proc.pid) or proc.poll() is None):
-                for pid in hyperqn_pids(proc.pid):
-                    os.kill(pid, signal.SIGKILL)
-                if proc.poll() is None and ranks is not None and not hyperqn_pids(proc.pid):
-                    proc.kill()
-                time.sleep(0.1)
-            proc.wait(timeout=10)
-        assert not hyperqn_pids(proc.pid), "a rank is still running"
+        run_and_kill([deck, "-o", out], ranks, lambda: list(out.glob("*.pvd")), rng)  # after the first frame
         summary = check_complete(out)
         if summary is not None:
             assert summary["status"].startswith("incomplete"), summary["status"]
