@@ -119,6 +119,7 @@ PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
   self->have_rejected_trial_ = false;  // a new iterate: a new line search follows
   PetscCall(TaoGetSolution(tao, &x));
   PetscCall(self->report(self->offset_ + it, x, f, gnorm, step, &self->stop_requested_));
+  PetscCall(self->after_iterate(self->offset_ + it));
   PetscFunctionReturn(0);
 }
 
@@ -158,6 +159,8 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
     PetscCall(TaoSetConvergedReason(tao, budget.spent(self->progress(), scale, self->step_.length_scale()) ? TAO_DIVERGED_MAXITS
                                                                                : TAO_CONTINUE_ITERATING));
   }
+  if (self->history_reset_requested_ && reason == TAO_CONTINUE_ITERATING)
+    PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));  // solve() resumes with no history
   if (self->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   PetscFunctionReturn(0);
 }
@@ -174,6 +177,16 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
 //     step since the last retry (g stalled at round-off: more retries would only burn evaluations);
 // and, once g decreased, report the new point and resume TAO from it (a new TaoSolve, which clears
 // TAO's history). A frame where nothing decreases g is reported failed (LINE_SEARCH_FAILURE).
+// Resume: a new TaoSolve, whose first point is the last reported iterate.
+PetscErrorCode GuardedTaoSolver::resume_from_last() {
+  PetscFunctionBeginUser;
+  offset_ = reported_;
+  restarted_ = true;
+  PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, 0.0));  // gttol: convergence_test
+  PetscCall(TaoSetMaximumIterations(tao_, budget_.cap - offset_));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
   TaoConvergedReason reason;
   PetscFunctionBeginUser;
@@ -197,6 +210,12 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
       PetscCall(VecCopy(last_x_, x));
       bad_point_ = false;
       reason = TAO_DIVERGED_LS_FAILURE;
+    }
+    const bool reset_history = history_reset_requested_ && reason == TAO_CONVERGED_USER && !stop_requested_;
+    history_reset_requested_ = false;
+    if (reset_history) {  // a new TaoSolve from this iterate: TAOLMVM starts it with no (s, y) pairs
+      PetscCall(resume_from_last());
+      continue;
     }
     if (reason != TAO_DIVERGED_LS_FAILURE || stop_requested_) break;
 
@@ -228,11 +247,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
         break;
       }
     }
-    // Resume: a new TaoSolve, whose first point is this one.
-    offset_ = reported_;
-    restarted_ = true;
-    PetscCall(TaoSetTolerances(tao_, gatol_, grtol_, 0.0));  // gttol: convergence_test
-    PetscCall(TaoSetMaximumIterations(tao_, budget_.cap - offset_));
+    PetscCall(resume_from_last());
   }
   on_iteration_ = nullptr;
   if (reported_ < 0) {

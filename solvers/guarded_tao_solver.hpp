@@ -26,12 +26,16 @@ class GuardedTaoSolver : public TimeStepSolver {
   // After a line-search failure proper at x (*g and grad_ given): the solver's own directions.
   // On success x, *g and grad_ are the new point and *alpha its step.
   virtual PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) = 0;
+  // Called at every accepted iterate (after it is reported); may set history_reset_requested_.
+  virtual PetscErrorCode after_iterate(PetscInt /*iteration*/) { return 0; }
+  bool history_reset_requested_ = false;  // end this TaoSolve and resume from the iterate
 
   Objective& step_;
   Tao tao_ = nullptr;
   Vec grad_ = nullptr, dir_ = nullptr;  // work vectors: a gradient, a search direction
 
  private:
+  PetscErrorCode resume_from_last();
   static PetscErrorCode objective_gradient(Tao, Vec x, PetscReal* f, Vec g, void* ctx);
   static PetscErrorCode monitor(Tao tao, void* ctx);
   static PetscErrorCode convergence_test(Tao tao, void* ctx);

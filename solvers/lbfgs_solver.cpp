@@ -32,6 +32,7 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-tao_lmvm_mat_lmvm_hist_size", &history, nullptr));
   PetscCheck(history >= 0 && history <= kMaxHistory, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
              "the L-BFGS history %" PetscInt_FMT " must be in [0, %d]", history, kMaxHistory);
+  reset_on_contact_change_ = spec.history_reset == "contact-change";
   PetscCall(finish_setup());
   // Allocate TAO's work space now, so the first frame's timing holds only its iterations.
   Vec x;
@@ -51,6 +52,17 @@ PetscErrorCode LbfgsSolver::retry(Vec x, PetscReal* g, double* alpha, bool* reco
   std::string along;
   PetscFunctionBeginUser;
   PetscCall(retry_descent(step_, h0_, -1.0, x, g, grad_, alpha, &along, recovered));
+  PetscFunctionReturn(0);
+}
+
+// solver.history_reset: contact-change: a new TaoSolve (no (s, y) pairs) from an iterate whose set
+// of contacts differs from the previous iterate's.
+PetscErrorCode LbfgsSolver::after_iterate(PetscInt iteration) {
+  PetscFunctionBeginUser;
+  if (!reset_on_contact_change_) PetscFunctionReturn(0);
+  const unsigned long long now = step_.active_set();
+  if (iteration > 0 && now != active_set_) history_reset_requested_ = true;
+  active_set_ = now;
   PetscFunctionReturn(0);
 }
 

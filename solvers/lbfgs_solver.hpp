@@ -20,6 +20,9 @@ class LbfgsSolver : public GuardedTaoSolver {
 
  private:
   PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) override;
+  PetscErrorCode after_iterate(PetscInt iteration) override;
+  bool reset_on_contact_change_ = false;  // SolverSpec::history_reset
+  unsigned long long active_set_ = 0;     // of the last iterate
 
   const FactoredSystem* h0_;
 };

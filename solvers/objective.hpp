@@ -44,6 +44,8 @@ class Objective {
   // e.g. contact); bounds_steps() is false when no term does, and then nothing need be asked.
   // Asked by solvers/line_search.cpp's backtracking.
   virtual bool bounds_steps() const = 0;
+  // A signature of the contact set at the last evaluated point (collective; 0 without contact).
+  virtual unsigned long long active_set() const { return 0; }
   virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
 
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since

@@ -14,6 +14,9 @@ struct SolverSpec {
   double grad_atol = 0;              // stop when ||grad g|| <= grad_atol, or
   double grad_rtol = 1e-6;           //   ||grad g|| <= grad_rtol * ||grad g(x0)||
   int history = 5;                   // L-BFGS pairs
+  // lbfgs: forget the pairs when the set of contacts changes between iterates (measured to cost
+  // iterations, docs/contact.md): never | contact-change
+  std::string history_reset = "never";
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
   std::string warm_start;  // inertial (x0 = y) | previous (x0 = x_n) | lower (of the two); "": inertial, or lower with colliders
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr

@@ -157,6 +157,13 @@ PetscErrorCode Body::volume_ratios(Vec x, double* min_J, double* max_abs_J) cons
   PetscFunctionReturn(0);
 }
 
+unsigned long long Body::active_set() const {
+  unsigned long long local = 0, global = 0;
+  for (const auto& t : terms_) local += t->active_set();
+  MPI_Allreduce(&local, &global, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm));
+  return global;
+}
+
 bool Body::bounds_steps() const {
   for (const auto& t : terms_)
     if (t->bounds_steps()) return true;

@@ -56,6 +56,8 @@ class Body {
   PetscErrorCode volume_ratios(Vec x, double* min_J, double* max_abs_J) const;
   // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
   bool bounds_steps() const;
+  // The terms' active sets at the last evaluated point, over all ranks (collective).
+  unsigned long long active_set() const;
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const;
 
   // Lumped mass per dof (global vector layout), summed over the terms.

@@ -77,6 +77,7 @@ class ImplicitEuler : public Objective {
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
+  unsigned long long active_set() const override { return body_.active_set(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;

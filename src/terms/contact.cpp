@@ -135,10 +135,18 @@ PetscErrorCode ContactTerm::add_energy(Vec, const std::vector<double>& pos, doub
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   double e = *energy;
   Vec3 g;
+  active_set_ = 0;
   for (size_t k = 0; k < vertices_.size(); ++k) {
     const Vec3 p(&pos[3 * vertices_[k]]);
     for (size_t c = 0; c < colliders_.size(); ++c) {
-      e += normal_energy(k, c, p, gradient ? &g : nullptr, nullptr, false);
+      const double ek = normal_energy(k, c, p, gradient ? &g : nullptr, nullptr, false);
+      if (ek > 0) {  // a sum of mixed ids: independent of the order and of the partition
+        unsigned long long z = (unsigned long long)mesh_.vertex_ids[vertices_[k]] * 64 + c + 0x9e3779b97f4a7c15ULL;
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+        active_set_ += z ^ (z >> 31);
+      }
+      e += ek;
       if (gradient) add_vertex_vector(mesh_, vertices_[k], g, gradient);
     }
   }

@@ -67,6 +67,7 @@ class ContactTerm : public EnergyTerm {
   bool projective_dynamics_exact() const override { return false; }
   // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.
   bool bounds_steps() const override { return barrier_; }
+  unsigned long long active_set() const override { return active_set_; }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode begin_step(const StepStart& step) override;
 
@@ -106,6 +107,7 @@ class ContactTerm : public EnergyTerm {
   std::vector<FrictionPoint> friction_;
   double eps_h_ = 0;                 // friction_velocity * h of the current step
   bool barrier_ = false;
+  mutable unsigned long long active_set_ = 0;
   PetscLogEvent event_;
 };
 

@@ -56,6 +56,8 @@ class EnergyTerm {
   // after failed line searches) starts no further; TAO's line searches do not ask yet (the
   // contact terms, which need it, will bound them through the guarded TAO loop).
   virtual bool bounds_steps() const { return false; }
+  // A signature of the term's active set at the last point it evaluated (0: none; contact).
+  virtual unsigned long long active_set() const { return 0; }
   virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
 };
 

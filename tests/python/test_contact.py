@@ -185,6 +185,16 @@ def test_example_deck_runs(tmp_path, name, ranks, model):
           f"max penetration {s['max_penetration']:.2e} m, at most {s['max_active_contacts']} vertices in contact")
 
 
+def test_history_reset_on_contact_change_runs(tmp_path):
+    """solver.history_reset: contact-change (measured in docs/contact.md) runs and resets: the
+    frames take other iterations than with the history kept."""
+    deck = shorten(load_deck("input/contact/bar_on_sphere.yaml"), frames=20)
+    keep = run(tmp_path, "keep", deck)
+    deck["solver"]["history_reset"] = "contact-change"
+    reset = run(tmp_path, "reset", deck)
+    assert read_summary(keep)["iterations"] != read_summary(reset)["iterations"]
+
+
 def test_no_colliders_no_contact_code(tmp_path):
     bar = load_deck("input/bar.yaml")
     bar["mesh"]["box"]["cells"] = [8, 2, 2]
