@@ -57,6 +57,19 @@ PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
     // Cholesky of an SPD matrix whose pattern never changes: MUMPS analyses it once (the first
     // PCSetUp) and only refactors numerically in later iterations and frames.
     PetscCall(KSPSetType(ksp, trust_region_ ? KSPSTCG : KSPPREONLY));
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)tao_), &size));
+    if (size > 1) {
+      // Parallel MUMPS does not give the same answer twice (docs/performance.md#reproducibility):
+      // every rank factors the whole Hessian itself, sequentially and identically (PCREDUNDANT,
+      // one copy per rank; its inner solver takes the options -tao_nls_redundant_*).
+      KSP inner;
+      PetscCall(PCSetType(pc, PCREDUNDANT));
+      PetscCall(PCRedundantSetNumber(pc, size));
+      PetscCall(PCRedundantGetKSP(pc, &inner));
+      PetscCall(KSPSetType(inner, KSPPREONLY));
+      PetscCall(KSPGetPC(inner, &pc));
+    }
     PetscCall(PCSetType(pc, PCCHOLESKY));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
   }
