@@ -30,11 +30,23 @@ bool write_all(int fd, const char* data, size_t n) {
 
 }  // namespace
 
-void write_file_atomically(const std::string& path, const std::string& contents) {
+std::string atomic_temporary(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
   const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  const std::string tmp = dir + "." + name + ".tmp-" + std::to_string(::getpid());
+  return dir + "." + name + ".tmp-" + std::to_string(::getpid());
+}
+
+void commit_temporary(const std::string& tmp, const std::string& path) {
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw std::runtime_error(failure(path, err));
+  }
+}
+
+void write_file_atomically(const std::string& path, const std::string& contents) {
+  const std::string tmp = atomic_temporary(path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw std::runtime_error(failure(path, errno));
   // A full disk may only show at close (NFS, Lustre): both are checked. No fsync: this guards

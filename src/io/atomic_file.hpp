@@ -14,6 +14,12 @@ namespace hyperqn {
 // system's reason; the temporary is removed and `path` is left as it was.
 void write_file_atomically(const std::string& path, const std::string& contents);
 
+// For a file another library writes (HDF5): the temporary name beside `path` to write it under,
+// and the rename that puts it in place once it is closed (throws naming `path`, removing the
+// temporary).
+std::string atomic_temporary(const std::string& path);
+void commit_temporary(const std::string& tmp, const std::string& path);
+
 // Whether a file name (no directory) is a temporary of write_file_atomically: what an
 // interrupted write leaves behind.
 bool is_atomic_temporary(const std::string& name);

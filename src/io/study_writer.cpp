@@ -33,11 +33,10 @@ hid_t group(hid_t parent, const std::string& path) {
   return g;
 }
 
-std::FILE* open_csv(const std::string& path, const char* header) {
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  if (!f) throw std::runtime_error("cannot write " + path);
-  std::fprintf(f, "%s\n", header);
-  return f;
+void open_csv(LineFile& file, const std::string& path, const char* header) {
+  file.open(path);
+  file.add(std::string(header) + "\n");
+  file.flush();
 }
 
 }  // namespace
@@ -45,18 +44,22 @@ std::FILE* open_csv(const std::string& path, const char* header) {
 StudyWriter::StudyWriter(const std::string& outdir, int rank) {
   if (rank != 0) return;
   active_ = true;
-  study_csv_ = open_csv(outdir + "/study.csv", "solver,frame,iteration,time_s,energy,grad_norm,rel_error,evaluations");
-  trajectory_csv_ = open_csv(outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error");
-  h5_ = H5Fcreate((outdir + "/study.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (h5_ < 0) throw std::runtime_error("cannot create " + outdir + "/study.h5");
+  open_csv(study_csv_, outdir + "/study.csv", "solver,frame,iteration,time_s,energy,grad_norm,rel_error,evaluations");
+  open_csv(trajectory_csv_, outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error");
+  h5_path_ = outdir + "/study.h5";
+  h5_tmp_ = atomic_temporary(h5_path_);
+  h5_ = H5Fcreate(h5_tmp_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (h5_ < 0) throw std::runtime_error("cannot create " + h5_path_);
 }
 
 void StudyWriter::add(const StudyCurve& c) {
   if (!active_) return;
   std::vector<double> it, t, e, gn, rel, ev;
+  char line[512];
   for (const IterationRecord& r : c.iterations) {
-    std::fprintf(study_csv_, "%s,%d,%d,%.9e,%.17g,%.17g,%.17g,%d\n", c.solver.c_str(), c.frame, (int)r.iteration,
-                 r.time_s, r.energy, r.grad_norm, c.rel_error(r), (int)r.evaluations);
+    std::snprintf(line, sizeof line, "%s,%d,%d,%.9e,%.17g,%.17g,%.17g,%d\n", c.solver.c_str(), c.frame,
+                  (int)r.iteration, r.time_s, r.energy, r.grad_norm, c.rel_error(r), (int)r.evaluations);
+    study_csv_.add(line);
     it.push_back(r.iteration);
     t.push_back(r.time_s);
     e.push_back(r.energy);
@@ -64,7 +67,7 @@ void StudyWriter::add(const StudyCurve& c) {
     rel.push_back(c.rel_error(r));
     ev.push_back(r.evaluations);
   }
-  std::fflush(study_csv_);
+  study_csv_.flush();
   char frame[32];
   std::snprintf(frame, sizeof frame, "frame_%05d", c.frame);
   hid_t frames = group(h5_, "frames"), f = group(frames, frame), g = group(f, c.solver);
@@ -83,9 +86,11 @@ void StudyWriter::add(const StudyCurve& c) {
 
 void StudyWriter::add(const TrajectoryPoint& p) {
   if (!active_) return;
-  std::fprintf(trajectory_csv_, "%s,%d,%.9e,%lld,%.17g,%.17g\n", p.solver.c_str(), p.frame, p.time_s, p.iterations,
-               p.rms_error, p.rel_rms_error);
-  std::fflush(trajectory_csv_);
+  char line[512];
+  std::snprintf(line, sizeof line, "%s,%d,%.9e,%lld,%.17g,%.17g\n", p.solver.c_str(), p.frame, p.time_s, p.iterations,
+                p.rms_error, p.rel_rms_error);
+  trajectory_csv_.add(line);
+  trajectory_csv_.flush();
   trajectory_.push_back(p);
 }
 
@@ -114,19 +119,17 @@ void StudyWriter::finish() {
     }
     H5Gclose(traj);
   }
-  std::fclose(study_csv_);
-  std::fclose(trajectory_csv_);
-  H5Fclose(h5_);
-  study_csv_ = trajectory_csv_ = nullptr;
+  const herr_t closed = H5Fclose(h5_);
   h5_ = -1;
   active_ = false;
+  if (closed < 0) throw std::runtime_error("cannot write " + h5_path_);
+  commit_temporary(h5_tmp_, h5_path_);
 }
 
 StudyWriter::~StudyWriter() {
-  if (active_) {
-    if (study_csv_) std::fclose(study_csv_);
-    if (trajectory_csv_) std::fclose(trajectory_csv_);
-    if (h5_ >= 0) H5Fclose(h5_);
+  if (h5_ >= 0) {  // finish() was not reached: the unfinished file never takes the name study.h5
+    H5Fclose(h5_);
+    std::remove(h5_tmp_.c_str());
   }
 }
 

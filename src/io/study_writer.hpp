@@ -1,5 +1,6 @@
-// Writes the study's results (rank 0): study.csv and trajectory.csv, and the same data in
-// study.h5 (HDF5: /frames/frame_NNNNN/<solver>/..., /trajectory/<solver>/...).
+// Writes the study's results (rank 0): study.csv and trajectory.csv (whole rows, as each curve is
+// added), and the same data in study.h5 (HDF5: /frames/frame_NNNNN/<solver>/...,
+// /trajectory/<solver>/...), which appears under its name only once finish() has closed it.
 #pragma once
 #include <hdf5.h>
 
@@ -7,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "io/atomic_file.hpp"
 #include "io/records.hpp"
 
 namespace hyperqn {
@@ -43,8 +45,9 @@ class StudyWriter {
 
  private:
   bool active_ = false;
-  std::FILE *study_csv_ = nullptr, *trajectory_csv_ = nullptr;
+  LineFile study_csv_, trajectory_csv_;
   hid_t h5_ = -1;
+  std::string h5_path_, h5_tmp_;  // study.h5 and the temporary it is written under
   std::vector<TrajectoryPoint> trajectory_;
 };
 
