@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/atomic_file.hpp"
+
 namespace fs = std::filesystem;
 
 namespace hyperqn {
@@ -277,7 +279,7 @@ PetscErrorCode read_header(MPI_Comm comm, const std::string& path, CheckpointHea
   PetscFunctionReturn(0);
 }
 
-// Runs fn on rank 0; an exception there is thrown on every rank.
+// Runs fn on rank 0; an exception there is thrown on every rank (throw_if_any_failed).
 void on_rank0(MPI_Comm comm, const std::function<void()>& fn) {
   int rank;
   MPI_Comm_rank(comm, &rank);
@@ -286,16 +288,10 @@ void on_rank0(MPI_Comm comm, const std::function<void()>& fn) {
     try {
       fn();
     } catch (const std::exception& e) {
-      error = e.what();
-      if (error.empty()) error = "checkpoint error";
+      error = *e.what() ? e.what() : "checkpoint error";
     }
   }
-  int n = (int)error.size();
-  MPI_Bcast(&n, 1, MPI_INT, 0, comm);
-  if (n == 0) return;
-  error.resize(n);
-  MPI_Bcast(error.data(), n, MPI_CHAR, 0, comm);
-  throw std::runtime_error(error);
+  throw_if_any_failed(comm, error);
 }
 
 }  // namespace
