@@ -18,7 +18,7 @@ struct SolverSpec {
   // iterations, docs/contact.md): never | contact-change
   std::string history_reset = "never";
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
-  std::string warm_start;  // inertial (x0 = y) | previous (x0 = x_n) | lower (of the two); "": inertial, or lower with colliders
+  std::string warm_start = "inertial";  // inertial (x0 = y) | previous (x0 = x_n) | lower (of the two; the default with colliders)
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
   std::string linear_solver = "mumps";       // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact

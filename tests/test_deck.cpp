@@ -471,7 +471,7 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
   }
   CHECK(d.contact.model == "barrier" && d.contact.distance == 0.01 && d.contact.stiffness == 100 &&
         d.contact.friction_velocity == 0.001);
-  CHECK(d.solver.history == 20);  // contact's default
+  CHECK(d.solver.history == 20 && d.solver.warm_start == "lower");  // contact's defaults
   CHECK(d.solver.history_reset == "never");
   CHECK(load_ok("history_reset", kHead + "solver: {history_reset: contact-change}\n").solver.history_reset == "contact-change");
   expect_error("history_reset_bad", kHead + "solver: {history_reset: always}\n", "solver.history_reset", 3, "never, contact-change");

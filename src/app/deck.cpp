@@ -866,9 +866,14 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) read_time(r, *x, deck.time);
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
-  // Contact's stiff, lagged friction is learnt from more (s, y) pairs (docs/contact.md#what-l-bfgs-does-with-contact).
-  const Value* solver = s.find("solver");
-  if (!deck.colliders.empty() && !(solver && Section(r, *solver, {}).find("history"))) deck.solver.history = kContactHistory;
+  // The solver's defaults with colliders (docs/contact.md#defaults): contact's stiff, lagged
+  // friction is learnt from more (s, y) pairs; y often lies deep inside an obstacle while x_n rests on it.
+  if (!deck.colliders.empty()) {
+    const Value* solver = s.find("solver");
+    const auto given = [&](const char* key) { return solver && Section(r, *solver, {}).find(key); };
+    if (!given("history")) deck.solver.history = kContactHistory;
+    if (!given("warm_start")) deck.solver.warm_start = "lower";
+  }
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   deck.physics = physics_sections(root);

@@ -55,11 +55,8 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     else
       s.factor = true;
   }
-  // Unset: from y, or with colliders from the lower of y and x_n (y often lies inside an obstacle).
   const std::string& w = deck.solver.warm_start;
-  s.warm_start = w == "previous" ? WarmStart::previous
-                 : w == "lower" || (w.empty() && !deck.colliders.empty()) ? WarmStart::lower
-                                                                          : WarmStart::inertial;
+  s.warm_start = w == "previous" ? WarmStart::previous : w == "lower" ? WarmStart::lower : WarmStart::inertial;
   if (o.nan_beyond >= 0 || o.nan_from_step >= 0)
     s.extra_terms = [o](const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
       terms.push_back(std::make_unique<NanInjection>(o.nan_beyond, o.nan_from_step));
