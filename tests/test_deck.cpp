@@ -248,7 +248,7 @@ void test_invalid_decks() {
   write_file("meshes/bar.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
   write_file("meshes/bar.stl", "solid bar\nendsolid bar\n");
   expect_error("file_and_box", kMaterial + "mesh:\n  file: meshes/bar.mesh\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n",
-               "mesh", 2, "not both");
+               "mesh", 2, "one of file, box and sheet");
   expect_error("no_file_no_box", kMaterial + "mesh:\n  transform: {scale: 2}\n", "mesh", 2);
   expect_error("mesh_not_found", kMaterial + "mesh: {file: meshes/nothere.mesh}\n", "mesh.file", 2,
                (g_dir / "meshes/nothere.mesh").string());
@@ -541,7 +541,58 @@ void test_strand_decks() {
   expect_error("edges_with_box", "mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}, edges: strands}\n" + kMaterial,
                "mesh.edges", 1, "Medit");
   expect_error("edges_value", "mesh: {file: meshes/bar.mesh, edges: lines}\n" + kMaterial, "mesh.edges", 1, "allowed: ignore, strands");
-  expect_error("no_mesh_at_all", "mesh: {}\n" + kMaterial, "mesh", 1, "box or strands");
+  expect_error("no_mesh_at_all", "mesh: {}\n" + kMaterial, "mesh", 1, "box, sheet or strands");
+}
+
+// Cloth decks: mesh.sheet, .obj files and surface: cloth, and the cloth section.
+void test_cloth_decks() {
+  const std::string sheet = "mesh: {sheet: {size: [1, 2], cells: [4, 8]}}\n";
+  const std::string springs = "cloth: {model: mass-spring, stretch_stiffness: 100, areal_density: 0.2}\n";
+  Deck d = load_ok("cloth_springs", sheet + springs);
+  CHECK(d.mesh.is_sheet && d.mesh.has_cloth() && !d.mesh.has_solid());
+  CHECK(d.mesh.sheet_size[1] == 2 && d.mesh.sheet_cells[1] == 8);
+  CHECK(d.cloth.model == "mass-spring" && d.cloth.stretch_stiffness == 100 && d.cloth.bending == "none");
+  d = load_ok("cloth_membrane", sheet + "cloth:\n  model: membrane\n  material: corotated\n  youngs_modulus: 1000\n"
+                                        "  poisson_ratio: 0.25\n  bending: {model: dihedral, stiffness: 0.01}\n  areal_density: 0.1\n");
+  CHECK(d.cloth.material == "corotated" && d.cloth.bending == "dihedral" && d.cloth.bending_stiffness == 0.01);
+  CHECK_NEAR(d.cloth.mu, 1000 / 2.5, 1e-12);              // plane stress: E / (2 (1 + nu))
+  CHECK_NEAR(d.cloth.lambda, 1000 * 0.25 / (1 - 0.0625), 1e-9);  // E nu / (1 - nu^2)
+  write_file("meshes/shirt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  d = load_ok("cloth_obj", "mesh: {file: meshes/shirt.obj}\n" + springs);
+  CHECK(d.mesh.surface_as_cloth && d.mesh.has_cloth());
+  d = load_ok("cloth_medit", "mesh: {file: meshes/bar.mesh, surface: cloth}\n" + springs);
+  CHECK(d.mesh.surface_as_cloth && !d.mesh.has_solid());
+
+  expect_error("cloth_missing", sheet, "cloth", 1, "cloth surface");
+  expect_error("cloth_without_cloth_mesh", kHead + springs, "cloth", 3, "not a cloth");
+  expect_error("cloth_with_material", sheet + springs + kMaterial, "material", 3, "cloth");
+  expect_error("cloth_with_strands", "mesh:\n  sheet: {size: [1, 1], cells: [2, 2]}\n  strands:\n"
+               "    - {from: [0, 0, 0], to: [0, 1, 0], segments: 2}\n" + springs, "mesh.strands", 3, "strands");
+  expect_error("sheet_and_box", "mesh:\n  sheet: {size: [1, 1], cells: [2, 2]}\n  box: {size: [1, 1, 1], cells: [1, 1, 1]}\n" + springs,
+               "mesh", 1, "one of file, box and sheet");
+  expect_error("sheet_cells_zero", "mesh: {sheet: {size: [1, 1], cells: [0, 2]}}\n" + springs, "mesh.sheet.cells[0]", 1, ">= 1");
+  expect_error("sheet_size_three", "mesh: {sheet: {size: [1, 1, 1], cells: [2, 2]}}\n" + springs, "mesh.sheet.size", 1, "list of 2");
+  expect_error("sheet_too_big", "mesh: {sheet: {size: [1, 1], cells: [100000, 100000]}}\n" + springs, "mesh.sheet.cells", 1,
+               "triangles");
+  expect_error("surface_without_file", "mesh: {sheet: {size: [1, 1], cells: [2, 2]}, surface: cloth}\n" + springs,
+               "mesh.surface", 1, "mesh.file");
+  expect_error("surface_value", "mesh: {file: meshes/bar.mesh, surface: skin}\n" + springs, "mesh.surface", 1, "allowed: cloth");
+  expect_error("cloth_model", sheet + "cloth: {model: rubber, areal_density: 0.2}\n", "cloth.model", 2,
+               "allowed: mass-spring, membrane");
+  expect_error("cloth_key_of_other_model", sheet + "cloth: {model: membrane, stretch_stiffness: 1, youngs_modulus: 1, "
+               "poisson_ratio: 0.3, areal_density: 0.2}\n", "cloth.stretch_stiffness", 2, "mass-spring");
+  expect_error("cloth_no_stiffness", sheet + "cloth: {model: mass-spring, areal_density: 0.2}\n", "cloth.stretch_stiffness", 2,
+               "missing");
+  expect_error("cloth_density", sheet + "cloth: {model: mass-spring, stretch_stiffness: 1, areal_density: 0}\n",
+               "cloth.areal_density", 2, "> 0");
+  expect_error("cloth_poisson", sheet + "cloth: {model: membrane, youngs_modulus: 1, poisson_ratio: 0.5, areal_density: 1}\n",
+               "cloth.poisson_ratio", 2, "(-1, 0.5)");
+  expect_error("bending_none_stiffness", sheet + "cloth: {model: mass-spring, stretch_stiffness: 1, areal_density: 1, "
+               "bending: {model: none, stiffness: 1}}\n", "cloth.bending.stiffness", 2, "none");
+  expect_error("bending_model", sheet + "cloth: {model: mass-spring, stretch_stiffness: 1, areal_density: 1, "
+               "bending: {model: plate, stiffness: 1}}\n", "cloth.bending.model", 2, "allowed: quadratic");
+  expect_error("bending_negative", sheet + "cloth: {model: mass-spring, stretch_stiffness: 1, areal_density: 1, "
+               "bending: {model: quadratic, stiffness: -1}}\n", "cloth.bending.stiffness", 2, "> 0");
 }
 
 }  // namespace
@@ -561,6 +612,7 @@ int main() {
   test_mesh_paths();
   test_invalid_decks();
   test_strand_decks();
+  test_cloth_decks();
 #ifdef HYPERQN_SOURCE_DIR
   test_new_materials();
   test_initial_state();

@@ -1,4 +1,5 @@
-// Unit test of the serial mesh code: Medit reader, box generator, transform, cleaning, strands.
+// Unit test of the serial mesh code: Medit reader, box and sheet generators, transform, cleaning,
+// strands, cloth surfaces (hinges, edges, Medit and Gmsh triangles).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -438,6 +439,81 @@ void test_strands(const fs::path& dir) {
   CHECK(box.num_segments() == 6 && box.num_vertices() == nv + 6);
 }
 
+// The sheet generator and connect_surface: counts, orientation, hinges and carried edges.
+void test_sheet() {
+  const int nx = 4, nz = 3;
+  TetMesh m = generate_sheet({2.0, 1.5}, {nx, nz});
+  CHECK(m.num_vertices() == (nx + 1) * (nz + 1) && m.num_triangles() == 2 * nx * nz);
+  CHECK_NEAR(m.coords[3 * ((nx + 1) * (nz + 1) - 1)], 2.0, 0);      // far corner at (2, 0, 1.5)
+  CHECK_NEAR(m.coords[3 * ((nx + 1) * (nz + 1) - 1) + 2], 1.5, 0);
+  double area = 0;
+  bool down = true;
+  for (int64_t f = 0; f < m.num_triangles(); ++f) {
+    const double* a = &m.coords[3 * m.triangles[3 * f]];
+    const double* b = &m.coords[3 * m.triangles[3 * f + 1]];
+    const double* c = &m.coords[3 * m.triangles[3 * f + 2]];
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double ny = u[2] * w[0] - u[0] * w[2];  // y component of u x w
+    down = down && ny < 0;
+    area += -0.5 * ny;
+  }
+  CHECK_MSG(down, "every sheet triangle has normal -y");
+  CHECK_NEAR(area, 3.0, 1e-12);
+  const CleanReport r = clean_mesh(m, "sheet");
+  CHECK(r.dropped_vertices == 0);
+  const int64_t edges = int64_t(nx) * (nz + 1) + int64_t(nx + 1) * nz + int64_t(nx) * nz;
+  const int64_t boundary = 2 * (nx + nz);
+  CHECK(m.num_hinges() == edges - boundary);
+  int64_t carried = 0;
+  for (uint8_t bits : m.triangle_edges) carried += (bits & 1) + ((bits >> 1) & 1) + ((bits >> 2) & 1);
+  CHECK_MSG(carried == edges, "every edge carried once: " + std::to_string(carried) + " of " + std::to_string(edges));
+  // A hinge (a, b, c, d): a-b an edge of both triangles (a, b, c) and (., ., d), c != d.
+  bool hinges_ok = true;
+  for (int64_t h = 0; h < m.num_hinges(); ++h) {
+    const int32_t* v = &m.hinges[4 * h];
+    auto has = [&](int32_t x, int32_t y, int32_t z) {
+      for (int64_t f = 0; f < m.num_triangles(); ++f) {
+        std::array<int32_t, 3> t{m.triangles[3 * f], m.triangles[3 * f + 1], m.triangles[3 * f + 2]}, q{x, y, z};
+        std::sort(t.begin(), t.end());
+        std::sort(q.begin(), q.end());
+        if (t == q) return true;
+      }
+      return false;
+    };
+    hinges_ok = hinges_ok && v[2] != v[3] && has(v[0], v[1], v[2]) && has(v[0], v[1], v[3]);
+  }
+  CHECK_MSG(hinges_ok, "every hinge is two triangles on its edge");
+}
+
+void test_surface_errors(const fs::path& dir) {
+  const std::string head = "MeshVersionFormatted 1\nDimension 3\n";
+  const std::string verts = "Vertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n1 1 1 0\n";
+  // Three triangles on the edge 1-2: not a manifold.
+  std::string p = write(dir, "fan.mesh", head + verts + "Triangles\n3\n1 2 3 0\n1 2 4 0\n2 1 5 0\nEnd\n");
+  TetMesh m = read_medit(p, false, true);
+  CHECK(m.num_triangles() == 3 && m.num_tets() == 0);
+  expect_input_error("non-manifold cloth", [&] { clean_mesh(m, p); }, {p, "vertices 1 and 2", "3 triangles", "manifold"});
+  // A degenerate (collinear) triangle, named 1-based.
+  p = write(dir, "flat.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\n2 0 0 0\n0 1 0 0\nTriangles\n2\n1 2 4 0\n1 2 3 0\nEnd\n");
+  m = read_medit(p, false, true);
+  expect_input_error("degenerate triangle", [&] { clean_mesh(m, p); }, {p, "triangle 2", "degenerate"});
+  // The same triangle twice.
+  p = write(dir, "twice.mesh", head + verts + "Triangles\n2\n1 2 3 0\n3 1 2 0\nEnd\n");
+  m = read_medit(p, false, true);
+  expect_input_error("duplicated triangle", [&] { clean_mesh(m, p); }, {p, "triangles 1 and 2", "duplicated"});
+  // No Triangles section when the deck asks for a cloth; a tet file read as cloth skips its tets.
+  p = write(dir, "tets.mesh", head + verts + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n");
+  expect_input_error("no triangles", [&] { read_medit(p, false, true); }, {p, "Triangles", "cloth"});
+  p = write(dir, "both.mesh", head + verts + "Tetrahedra\n1\n1 2 3 4 0\nTriangles\n2\n1 2 3 0\n2 1 5 0\nEnd\n");
+  m = read_medit(p, false, true);
+  const CleanReport r = clean_mesh(m, p);
+  CHECK(m.num_tets() == 0 && m.num_triangles() == 2 && m.num_hinges() == 1 && r.dropped_vertices == 1);
+  // Cloth and tets in one mesh are refused.
+  TetMesh mixed = generate_box({1, 1, 1}, {1, 1, 1});
+  mixed.triangles = {0, 1, 2};
+  expect_input_error("cloth with tets", [&] { clean_mesh(mixed, "mixed"); }, {"mixed", "cloth", "tetrahedra"});
+}
+
 }  // namespace
 
 int main() {
@@ -452,6 +528,8 @@ int main() {
   try {
     test_errors(dir);
     test_strands(dir);
+    test_sheet();
+    test_surface_errors(dir);
   } catch (const std::exception& e) {
     CHECK_MSG(false, std::string("unexpected exception: ") + e.what());
   }

@@ -118,7 +118,7 @@ inline PetscErrorCode deformed_positions(const TestScene& s, Vec x, double ampli
 using Gradient = std::function<PetscErrorCode(Vec x, Vec grad)>;
 
 // max over 3 random directions d of |H d - FD| / |H d|, FD = (grad(x + eps d) - grad(x - eps d)) / (2 eps).
-inline PetscErrorCode fd_error(Mat H, Vec x, const Gradient& grad, PetscRandom rnd, double* worst) {
+inline PetscErrorCode fd_error(Mat H, Vec x, const Gradient& grad, PetscRandom rnd, double* worst, double eps = 1e-6) {
   Vec d, Hd, gp, gm, xs;
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(x, &d));
@@ -127,7 +127,6 @@ inline PetscErrorCode fd_error(Mat H, Vec x, const Gradient& grad, PetscRandom r
   PetscCall(VecDuplicate(x, &gm));
   PetscCall(VecDuplicate(x, &xs));
   *worst = 0;
-  const double eps = 1e-6;
   for (int trial = 0; trial < 3; ++trial) {
     PetscReal err, norm;
     PetscCall(VecSetRandom(d, rnd));

@@ -53,6 +53,10 @@ constexpr size_t kMaxNameLength = 100;
 const Names kLineSearches = {"more-thuente", "armijo", "unit"};
 const Names kWarmStarts = {"inertial", "previous", "lower"};
 const Names kMeshEdges = {"ignore", "strands"};
+const Names kMeshSurfaces = {"cloth"};
+const Names kClothModels = {"mass-spring", "membrane"};
+const Names kMembraneMaterials = {"stvk", "corotated", "neohookean"};
+const Names kBendingModels = {"quadratic", "dihedral", "springs", "none"};
 
 std::string join(const Names& names) {
   std::string s;
@@ -143,11 +147,12 @@ class Reader {
     }
     return out;
   }
-  std::vector<Value> triple(const Value& v, const char* what) const {
-    if (!v.node.IsSequence() || v.node.size() != 3)
-      fail(v, std::string("expected a list of 3 ") + what + ", got " + describe(v.node));
+  std::vector<Value> fixed_list(const Value& v, size_t n, const char* what) const {
+    if (!v.node.IsSequence() || v.node.size() != n)
+      fail(v, "expected a list of " + std::to_string(n) + " " + what + ", got " + describe(v.node));
     return items(v);
   }
+  std::vector<Value> triple(const Value& v, const char* what) const { return fixed_list(v, 3, what); }
   std::array<double, 3> numbers3(const Value& v) const {
     auto it = triple(v, "numbers");
     return {number(it[0]), number(it[1]), number(it[2])};
@@ -155,6 +160,14 @@ class Reader {
   std::array<int, 3> integers3(const Value& v) const {
     auto it = triple(v, "integers");
     return {integer(it[0]), integer(it[1]), integer(it[2])};
+  }
+  std::array<double, 2> numbers2(const Value& v) const {
+    auto it = fixed_list(v, 2, "numbers");
+    return {number(it[0]), number(it[1])};
+  }
+  std::array<int, 2> integers2(const Value& v) const {
+    auto it = fixed_list(v, 2, "integers");
+    return {integer(it[0]), integer(it[1])};
   }
 
  private:
@@ -220,17 +233,43 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
 }
 
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
-  Section s(r, v, {"file", "box", "transform", "edges", "strands"});
-  const Value *file = s.find("file"), *box = s.find("box"), *strands = s.find("strands");
-  if (file && box) r.fail(v, "give either file or box, not both");
-  if (!file && !box && !strands) r.fail(v, "missing the mesh: give file (a .mesh or .msh path), box or strands");
+  Section s(r, v, {"file", "box", "sheet", "surface", "transform", "edges", "strands"});
+  const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
+  if ((file != nullptr) + (box != nullptr) + (sheet != nullptr) > 1) r.fail(v, "give one of file, box and sheet");
+  if (!file && !box && !sheet && !strands)
+    r.fail(v, "missing the mesh: give file (a .mesh, .msh or .obj path), box, sheet or strands");
   if (file) {
-    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh"}, ".mesh (Medit) or .msh (Gmsh)");
+    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj"},
+                                ".mesh (Medit), .msh (Gmsh) or .obj (a cloth surface)");
     m.line = file->line;
+    m.surface_as_cloth = fs::path(m.file).extension() == ".obj";
   }
+  if (const Value* x = s.find("surface")) {
+    r.choice(*x, kMeshSurfaces);
+    if (!file) r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
+    m.surface_as_cloth = true;
+  }
+  if (sheet) {
+    Section b(r, *sheet, {"size", "cells"});
+    m.is_sheet = true;
+    const Value& size = b.need("size");
+    const Value& cells = b.need("cells");
+    m.sheet_size = r.numbers2(size);
+    m.sheet_cells = r.integers2(cells);
+    m.line = cells.line;
+    std::vector<Value> size_items = r.items(size), cells_items = r.items(cells);
+    for (int i = 0; i < 2; ++i) {
+      r.check(m.sheet_size[i] > 0, size_items[i], "> 0");
+      r.check(m.sheet_cells[i] >= 1, cells_items[i], ">= 1");
+    }
+    const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
+    if (3 * triangles > kMaxBoxTets)
+      r.fail(cells, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
+  }
+  if (m.has_cloth() && strands) r.fail(*strands, "a cloth cannot share a mesh with strands");
   if (const Value* x = s.find("edges")) {
     m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
-    if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh"))
+    if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh" || m.surface_as_cloth))
       r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
   }
   if (strands) {
@@ -287,6 +326,45 @@ void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
     m.laplacian_weight = r.number(*x);
     r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the strands' own weight, axial_stiffness)");
   }
+}
+
+// cloth: {model, stretch_stiffness | material + youngs_modulus + poisson_ratio, bending, areal_density}
+void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
+  Section s(r, v, {"model", "stretch_stiffness", "material", "youngs_modulus", "poisson_ratio", "bending", "areal_density"});
+  c.model = r.choice(s.need("model"), kClothModels);
+  const bool springs = c.model == "mass-spring";
+  for (const char* key : {"stretch_stiffness", "material", "youngs_modulus", "poisson_ratio"}) {
+    const bool spring_key = std::string(key) == "stretch_stiffness";
+    if (const Value* x = s.find(key); x && spring_key != springs)
+      r.fail(*x, std::string("is a key of cloth model ") + (spring_key ? "mass-spring" : "membrane") + ", not of " + c.model);
+  }
+  if (springs) {
+    const Value& k = s.need("stretch_stiffness");
+    c.stretch_stiffness = r.number(k);
+    r.check(c.stretch_stiffness > 0, k, "> 0");
+  } else {
+    if (const Value* x = s.find("material")) c.material = r.choice(*x, kMembraneMaterials);
+    const Value &E = s.need("youngs_modulus"), &nu = s.need("poisson_ratio");
+    const double e = r.number(E), n = r.number(nu);
+    r.check(e > 0, E, "> 0 (the sheet's stretching modulus, N/m)");
+    r.check(n > -1 && n < 0.5, nu, "in (-1, 0.5)");
+    c.mu = e / (2 * (1 + n));        // plane stress: the 2-D Lame constants of a thin sheet
+    c.lambda = e * n / (1 - n * n);
+  }
+  if (const Value* b = s.find("bending")) {
+    Section bs(r, *b, {"model", "stiffness"});
+    c.bending = r.choice(bs.need("model"), kBendingModels);
+    if (c.bending != "none") {
+      const Value& k = bs.need("stiffness");
+      c.bending_stiffness = r.number(k);
+      r.check(c.bending_stiffness > 0, k, "> 0");
+    } else if (const Value* k = bs.find("stiffness")) {
+      r.fail(*k, "bending model none takes no stiffness");
+    }
+  }
+  const Value& rho = s.need("areal_density");
+  c.areal_density = r.number(rho);
+  r.check(c.areal_density > 0, rho, "> 0 (kg/m^2)");
 }
 
 // A pair of keys that only make sense together: the missing one is reported at the other's line.
@@ -768,9 +846,10 @@ void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) {
 std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
   std::vector<std::pair<std::string, std::string>> out;
   for (const char* key : {"mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders",
-                          "contact", "initial", "gravity", "time"}) {
+                          "contact", "initial", "gravity", "time", "cloth"}) {
     const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
     if (!found || found.IsNull()) {
+      if (std::string(key) == "cloth") continue;  // added later: decks without one keep their hash
       out.emplace_back(key, "");
       continue;
     }
@@ -817,7 +896,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders", "contact",
+            {"name", "mesh", "material", "strand_material", "cloth", "regions", "fixed", "attachments", "colliders", "contact",
              "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
@@ -841,7 +920,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     deck.has_material = true;
   } else if (deck.mesh.has_solid() && !may_be_strands_only) {
     s.need("material");
-  } else if (!deck.mesh.has_solid()) {
+  } else if (!deck.mesh.has_solid() && !deck.mesh.has_cloth()) {
     for (const char* key : {"material", "regions"})
       if (const Value* x = s.find(key))
         r.fail(*x, "the mesh is strands only (no file or box): " + std::string(key) +
@@ -853,6 +932,15 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     read_strand_material(r, *s.find("strand_material"), deck.strand_material);
   } else if (const Value* x = s.find("strand_material")) {
     r.fail(*x, "the mesh has no strands (give mesh.strands, or mesh.edges: strands with a Medit file)");
+  }
+  if (deck.mesh.has_cloth()) {
+    if (!s.find("cloth")) r.fail(mesh.line, "cloth", "missing required key 'cloth': the mesh is a cloth surface");
+    read_cloth(r, *s.find("cloth"), deck.cloth);
+    for (const char* key : {"material", "regions"})
+      if (const Value* x = s.find(key))
+        r.fail(*x, "the mesh is a cloth surface: " + std::string(key) + " describes tets; the cloth takes cloth");
+  } else if (const Value* x = s.find("cloth")) {
+    r.fail(*x, "the mesh is not a cloth (give mesh.sheet, an .obj file, or mesh.surface: cloth with a .mesh or .msh file)");
   }
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);

@@ -31,7 +31,7 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
   return global;
 }
 
-// Longest element edge (tet edge or strand segment) over all ranks at the local positions pos.
+// Longest element edge (tet edge, strand segment or triangle edge) over all ranks at the local positions pos.
 double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vector<double>& pos) {
   static const int tet_edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
   double local = 0, global;
@@ -42,6 +42,8 @@ double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vecto
   for (PetscInt c = 0; c < mesh.num_cells; ++c)
     for (const auto& e : tet_edges) measure(mesh.cells[4 * c + e[0]], mesh.cells[4 * c + e[1]]);
   for (PetscInt k = 0; k < mesh.num_segments; ++k) measure(mesh.segments[2 * k], mesh.segments[2 * k + 1]);
+  for (PetscInt t = 0; t < mesh.num_triangles; ++t)
+    for (int e = 0; e < 3; ++e) measure(mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]);
   MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm);
   return global;
 }
@@ -558,14 +560,17 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   summary.vertices = scene.mesh.global_vertices;
   summary.tets = scene.mesh.global_cells;
   summary.segments = scene.mesh.global_segments;
+  summary.triangles = scene.mesh.global_triangles;
   summary.dofs = scene.mesh.global_dofs;
   summary.fixed_vertices = scene.mesh.global_fixed_vertices;
   summary.dt = deck.time.dt;
   read_log_events(summary);
   summary.setup_s = MPI_Wtime() - t_start;
-  const std::string segments = summary.segments ? ", " + std::to_string(summary.segments) + " strand segments" : "";
-  PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %lld tets%s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
-              deck.name.c_str(), summary.vertices, summary.fixed_vertices, summary.tets, segments.c_str(), summary.dofs, size,
+  std::string elements = summary.triangles ? "" : std::to_string(summary.tets) + " tets";
+  if (summary.segments) elements += ", " + std::to_string(summary.segments) + " strand segments";
+  if (summary.triangles) elements += std::to_string(summary.triangles) + " cloth triangles";
+  PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
+              deck.name.c_str(), summary.vertices, summary.fixed_vertices, elements.c_str(), summary.dofs, size,
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
   if (const ContactTerm* contact = scene.contact) {
     const ContactSpec& c = contact->spec();

@@ -57,9 +57,11 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   MPI_Comm_size(PetscObjectComm((PetscObject)scene.mesh.dm), &size);
   std::ostringstream out;
   out << "{\n  \"title\": \"" << deck.name << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
-      << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \"" << deck.material.model << "\",\n"
+      << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \""
+      << (deck.mesh.has_cloth() ? "cloth " + deck.cloth.model : deck.material.model) << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
       << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"segments\": " << scene.mesh.global_segments << ",\n"
+      << "  \"triangles\": " << scene.mesh.global_triangles << ",\n"
       << "  \"dt\": " << deck.time.dt << ",\n"
       << "  \"factor_s\": "
       << (scene.factored ? scene.factored->factor_seconds() : 0.0) +

@@ -24,7 +24,7 @@ struct RunSummary {
   // "error: ..." (the run stopped, exit 1).
   std::string status = "ok";
   int ranks = 0;
-  long long vertices = 0, tets = 0, segments = 0, dofs = 0, fixed_vertices = 0;
+  long long vertices = 0, tets = 0, segments = 0, triangles = 0, dofs = 0, fixed_vertices = 0;
   // The mesh as read was repaired: vertices of no element dropped, tets reoriented to positive volume.
   long long dropped_vertices = 0, reoriented_tets = 0;
   long long hessian_assemblies = 0;  // newton: one M + h^2 K(x) assembly and factorization each

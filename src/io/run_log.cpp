@@ -105,6 +105,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"vertices\": " << s.vertices << ",\n"
       << "  \"tets\": " << s.tets << ",\n"
       << "  \"segments\": " << s.segments << ",\n"
+      << "  \"triangles\": " << s.triangles << ",\n"
       << "  \"dofs\": " << s.dofs << ",\n"
       << "  \"fixed_vertices\": " << s.fixed_vertices << ",\n"
       << "  \"dropped_vertices\": " << s.dropped_vertices << ",\n"

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "materials/membrane.hpp"
 
 namespace hyperqn {
 
@@ -70,17 +71,22 @@ VtkSeries::VtkSeries(MPI_Comm comm, std::string directory, std::string name)
     : comm_(comm), dir_(std::move(directory)), name_(std::move(name)) {}
 
 void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
-  const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, nc = nt + mesh_->num_segments;
+  const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, ns = mesh_->num_segments, nf = mesh_->num_triangles;
+  const PetscInt nc = nt + ns + nf;
   int rank;
   MPI_Comm_rank(comm_, &rank);
   std::vector<double> disp(3 * nv);
   for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
-  // Tets, then strand segments as lines; cell field J: det F of a tet, l / L of a segment.
+  // Tets, then strand segments as lines, then cloth triangles; cell field J: det F of a tet,
+  // l / L of a segment, the area ratio of a triangle.
   std::vector<int64_t> conn(mesh_->cells.begin(), mesh_->cells.end()), offsets(nc);
   conn.insert(conn.end(), mesh_->segments.begin(), mesh_->segments.end());
-  for (PetscInt c = 0; c < nc; ++c) offsets[c] = c < nt ? 4 * (c + 1) : 4 * nt + 2 * (c - nt + 1);
-  std::vector<uint8_t> types(nc, 10);  // VTK_TETRA
-  std::fill(types.begin() + nt, types.end(), 3);  // VTK_LINE
+  conn.insert(conn.end(), mesh_->triangles.begin(), mesh_->triangles.end());
+  for (PetscInt c = 0; c < nc; ++c)
+    offsets[c] = c < nt ? 4 * (c + 1) : c < nt + ns ? 4 * nt + 2 * (c - nt + 1) : 4 * nt + 2 * ns + 3 * (c - nt - ns + 1);
+  std::vector<uint8_t> types(nc, 10);                           // VTK_TETRA
+  std::fill(types.begin() + nt, types.begin() + nt + ns, 3);  // VTK_LINE
+  std::fill(types.begin() + nt + ns, types.end(), 5);         // VTK_TRIANGLE
   std::vector<int32_t> ranks(nc, rank);
   std::vector<double> J(f.J->begin(), f.J->begin() + nt);
   auto length = [](const double* p, PetscInt a, PetscInt b) {
@@ -92,12 +98,24 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     const PetscInt a = mesh_->segments[2 * s], b = mesh_->segments[2 * s + 1];
     J.push_back(length(f.positions->data(), a, b) / length(mesh_->rest.data(), a, b));
   }
+  J.insert(J.end(), f.J->begin() + nt, f.J->begin() + nt + nf);
 
   std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                    make_array("Float64", "velocity", 3, *f.velocities),
                                    make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
   if (f.contact_force) point_data.push_back(make_array("Float64", "contact_force", 3, *f.contact_force));
-  const std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
+  std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
+  if (cloth()) {  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
+    std::vector<double> stretch(nf);
+    for (PetscInt t = 0; t < nf; ++t) {
+      const PetscInt* tri = &mesh_->triangles[3 * t];
+      const auto X = [&](const std::vector<double>& p, int k) { return Vec3(&p[3 * tri[k]]); };
+      membrane::Vec9 x;
+      x << X(*f.positions, 0), X(*f.positions, 1), X(*f.positions, 2);
+      stretch[t] = membrane::max_stretch(membrane::rest(X(mesh_->rest, 0), X(mesh_->rest, 1), X(mesh_->rest, 2)), x);
+    }
+    cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
+  }
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
@@ -131,7 +149,8 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
       << "</PPointData>\n<PCellData>\n"
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
-         "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+      << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
+      << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";
   write_file_atomically(path, out.str());
@@ -162,7 +181,7 @@ void VtkSeries::write_frame(const FrameData& f) {
     } else {
       // A rank without elements (a mesh smaller than the rank count) writes no piece: readers
       // such as meshio cannot read an empty one.
-      const int mine = mesh_->num_cells + mesh_->num_segments > 0;
+      const int mine = mesh_->num_cells + mesh_->num_segments + mesh_->num_triangles > 0;
       std::vector<int> has(size);
       MPI_Allgather(&mine, 1, MPI_INT, has.data(), 1, MPI_INT, comm_);
       for (int r = 0; r < size; ++r)

@@ -36,6 +36,7 @@ class VtkSeries : public OutputWriter {
 
   MPI_Comm comm_;
   const DistributedMesh* mesh_ = nullptr;
+  bool cloth() const { return mesh_->global_triangles > 0; }  // then a "stretch" cell field
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
 };

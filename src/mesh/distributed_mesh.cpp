@@ -9,18 +9,35 @@
 
 namespace hyperqn {
 
-// Element partition of the serial mesh (tets, then segments): METIS k-way on the dual graph.
-// Tets are neighbours when they share a face; with strands, elements sharing a vertex are, since
-// consecutive segments share only that.
+// The kinds of cells, in the order the serial DMPlex numbers them.
+enum CellKind : int32_t { kTetCell, kSegmentCell, kTriangleCell, kHingeCell };
+constexpr int kCellSize[4] = {4, 2, 3, 4};
+
+// The serial mesh's elements as cells: per kind, its vertex lists (rank 0).
+struct SerialCells {
+  const std::vector<int32_t>* vertices[4];
+  int64_t count[4];
+  explicit SerialCells(const TetMesh& m)
+      : vertices{&m.tets, &m.segments, &m.triangles, &m.hinges},
+        count{m.num_tets(), m.num_segments(), m.num_triangles(), m.num_hinges()} {}
+  int64_t total() const { return count[0] + count[1] + count[2] + count[3]; }
+};
+
+// Element partition of the serial mesh (cells in the order of SerialCells): METIS k-way on the
+// dual graph. Tets are neighbours when they share a face, triangles (and hinges) an edge; with
+// strands, elements sharing a vertex are, since consecutive segments share only that.
 static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
-  const idx_t nt = (idx_t)mesh.num_tets(), ns = (idx_t)mesh.num_segments();
-  idx_t ne = nt + ns, nn = (idx_t)mesh.num_vertices();
+  const SerialCells cells(mesh);
+  idx_t ne = (idx_t)cells.total(), nn = (idx_t)mesh.num_vertices();
   std::vector<PetscInt> part(ne, 0);
   if (nparts == 1 || ne == 0) return part;
-  std::vector<idx_t> eptr(ne + 1), eind(mesh.tets.begin(), mesh.tets.end());
-  eind.insert(eind.end(), mesh.segments.begin(), mesh.segments.end());
-  for (idx_t e = 0; e <= ne; ++e) eptr[e] = e <= nt ? 4 * e : 4 * nt + 2 * (e - nt);
-  idx_t ncommon = ns > 0 ? 1 : 3, np = nparts, objval = 0;
+  std::vector<idx_t> eptr(1, 0), eind;
+  eind.reserve(4 * size_t(ne));
+  for (int k = 0; k < 4; ++k) {
+    eind.insert(eind.end(), cells.vertices[k]->begin(), cells.vertices[k]->end());
+    for (int64_t e = 0; e < cells.count[k]; ++e) eptr.push_back(eptr.back() + kCellSize[k]);
+  }
+  idx_t ncommon = cells.count[kSegmentCell] > 0 ? 1 : cells.count[kTriangleCell] > 0 ? 2 : 3, np = nparts, objval = 0;
   idx_t opts[METIS_NOPTIONS];
   METIS_SetDefaultOptions(opts);
   opts[METIS_OPTION_SEED] = 7;  // fixed seed: the same partition on every run
@@ -33,21 +50,21 @@ static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
 }
 
 // The serial DMPlex on rank 0 (empty elsewhere): non-interpolated (vertex dofs need no edges or
-// faces), points = tets, segments, vertices.
+// faces), points = cells (tets, segments, triangles, hinges), then vertices.
 static PetscErrorCode create_serial_plex(MPI_Comm comm, const TetMesh& serial, DM* dm) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  const PetscInt nt = rank == 0 ? (PetscInt)serial.num_tets() : 0;
-  const PetscInt ns = rank == 0 ? (PetscInt)serial.num_segments() : 0;
+  const SerialCells cells(serial);
+  const PetscInt nc = rank == 0 ? (PetscInt)cells.total() : 0;
   const PetscInt nv = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
-  const PetscInt nc = nt + ns;
   PetscInt num_points[2] = {nv, nc};  // by depth: vertices, cells
   std::vector<PetscInt> cone_size(nc + nv, 0), cones, orientations;
-  for (PetscInt c = 0; c < nc; ++c) cone_size[c] = c < nt ? 4 : 2;
-  cones.reserve(4 * nt + 2 * ns);
-  for (int32_t v : serial.tets) cones.push_back(nc + v);  // vertex points come after the cells
-  for (int32_t v : serial.segments) cones.push_back(nc + v);
+  if (rank == 0)
+    for (int k = 0, c = 0; k < 4; ++k) {
+      for (int64_t e = 0; e < cells.count[k]; ++e) cone_size[c++] = kCellSize[k];
+      for (int32_t v : *cells.vertices[k]) cones.push_back(nc + v);  // vertex points come after the cells
+    }
   orientations.assign(cones.size(), 0);
   PetscCall(DMCreate(comm, dm));
   PetscCall(DMSetType(*dm, DMPLEX));
@@ -55,14 +72,18 @@ static PetscErrorCode create_serial_plex(MPI_Comm comm, const TetMesh& serial, D
   PetscCall(DMPlexCreateFromDAG(*dm, 1, num_points, cone_size.data(), cones.data(), orientations.data(),
                                 serial.coords.data()));
   // DMPlexDistribute orders the migrated points of a non-interpolated mesh by the dimension of
-  // their cell type, cells (3) and vertices (0) only: a segment, typed as a 1-dimensional
-  // polytope, would get no place (PETSc 3.18 then fails with duplicate SF leaves). A segment is a
-  // cell of this mesh like a tet, so it is typed like one; nothing else reads the cell type.
-  if (ns > 0) {
+  // their cell type, cells (3) and vertices (0) only: a segment or a triangle, typed as a 1- or
+  // 2-dimensional polytope, would get no place (PETSc 3.18 then fails with duplicate SF leaves).
+  // Every element is a cell of this mesh like a tet, so it is typed like one; nothing else reads
+  // the cell type.
+  if (nc > 0) {
     DMLabel cell_type;
     PetscCall(DMPlexGetCellTypeLabel(*dm, &cell_type));
-    for (PetscInt c = nt; c < nc; ++c) {
-      PetscCall(DMLabelClearValue(cell_type, c, DM_POLYTOPE_SEGMENT));
+    for (PetscInt c = 0; c < nc; ++c) {
+      PetscInt type;
+      PetscCall(DMLabelGetValue(cell_type, c, &type));
+      if (type == DM_POLYTOPE_TETRAHEDRON) continue;
+      PetscCall(DMLabelClearValue(cell_type, c, type));
       PetscCall(DMLabelSetValue(cell_type, c, DM_POLYTOPE_TETRAHEDRON));
     }
   }
@@ -79,7 +100,7 @@ static PetscErrorCode set_metis_partition(DM dm, const TetMesh& serial) {
   std::vector<PetscInt> sizes(size, 0), points;
   if (rank == 0) {
     std::vector<PetscInt> part = metis_partition(serial, size);
-    PetscCheck(part.size() == (size_t)(serial.num_tets() + serial.num_segments()), PETSC_COMM_SELF, PETSC_ERR_LIB,
+    PetscCheck(part.size() == (size_t)SerialCells(serial).total(), PETSC_COMM_SELF, PETSC_ERR_LIB,
                "METIS partitioning failed");
     for (PetscInt p : part) sizes[p]++;
     std::vector<PetscInt> start(size, 0);
@@ -118,35 +139,47 @@ static PetscErrorCode create_dof_section(DM dm, const DistributedMesh& m, PetscI
 }
 
 // Fills the flat per-rank arrays from the distributed DM. point_value[p] is the input element
-// tag of cell p or the input vertex index of vertex p; point_flag[p] is the material of cell p
-// or the fixed flag of vertex p.
+// tag of cell p or the input vertex index of vertex p; point_flag[p] is the material of a tet,
+// the carried edges of a triangle, or the fixed flag of vertex p; cell_kind[p] the CellKind of
+// cell p.
 static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<int64_t>& point_value,
-                                        const std::vector<int32_t>& point_flag) {
+                                        const std::vector<int32_t>& point_flag, const std::vector<int32_t>& cell_kind) {
   PetscInt cStart, cEnd, vStart, vEnd;
   PetscFunctionBeginUser;
   PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
   PetscCall(DMPlexGetDepthStratum(m.dm, 0, &vStart, &vEnd));
   m.num_vertices = vEnd - vStart;
 
-  // Cells of 4 vertices are tets, of 2 strand segments.
-  m.cells.clear();
+  std::vector<PetscInt>* vertices[4] = {&m.cells, &m.segments, &m.triangles, &m.hinges};
+  for (std::vector<PetscInt>* v : vertices) v->clear();
   m.cell_tags.clear();
   m.cell_material.clear();
-  m.segments.clear();
   m.segment_tags.clear();
+  m.triangle_tags.clear();
+  m.triangle_edges.clear();
   for (PetscInt c = cStart; c < cEnd; ++c) {
     const PetscInt* cone;
     PetscInt n;
+    const int32_t kind = cell_kind[c];
     PetscCall(DMPlexGetConeSize(m.dm, c, &n));
-    PetscCheck(n == 4 || n == 2, PETSC_COMM_SELF, PETSC_ERR_PLIB, "cell %" PetscInt_FMT " has %" PetscInt_FMT " vertices", c, n);
+    PetscCheck(kind >= 0 && kind < 4 && n == kCellSize[kind], PETSC_COMM_SELF, PETSC_ERR_PLIB,
+               "cell %" PetscInt_FMT " of kind %d has %" PetscInt_FMT " vertices", c, (int)kind, n);
     PetscCall(DMPlexGetCone(m.dm, c, &cone));
-    std::vector<PetscInt>& vertices = n == 4 ? m.cells : m.segments;
-    for (int k = 0; k < n; ++k) vertices.push_back(cone[k] - vStart);
-    (n == 4 ? m.cell_tags : m.segment_tags).push_back((int32_t)point_value[c]);
-    if (n == 4) m.cell_material.push_back(point_flag[c]);
+    for (int k = 0; k < n; ++k) vertices[kind]->push_back(cone[k] - vStart);
+    if (kind == kTetCell) {
+      m.cell_tags.push_back((int32_t)point_value[c]);
+      m.cell_material.push_back(point_flag[c]);
+    } else if (kind == kSegmentCell) {
+      m.segment_tags.push_back((int32_t)point_value[c]);
+    } else if (kind == kTriangleCell) {
+      m.triangle_tags.push_back((int32_t)point_value[c]);
+      m.triangle_edges.push_back((uint8_t)point_flag[c]);
+    }
   }
   m.num_cells = (PetscInt)m.cell_tags.size();
   m.num_segments = (PetscInt)m.segment_tags.size();
+  m.num_triangles = (PetscInt)m.triangle_tags.size();
+  m.num_hinges = (PetscInt)m.hinges.size() / 4;
 
   Vec coords;
   const PetscScalar* xc;
@@ -221,8 +254,8 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   PetscCallMPI(MPI_Comm_size(comm, &size));
 
   // The whole mesh is created on rank 0, then distributed.
-  const PetscInt nt = rank == 0 ? (PetscInt)serial.num_tets() : 0;
-  const PetscInt ncells = nt + (rank == 0 ? (PetscInt)serial.num_segments() : 0);
+  const SerialCells cells(serial);
+  const PetscInt ncells = rank == 0 ? (PetscInt)cells.total() : 0;
   const PetscInt nverts = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
   DM dm;
   PetscCall(create_serial_plex(comm, serial, &dm));
@@ -230,10 +263,16 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
 
   // Per serial point (cells first, then vertices): the data that travels with it.
   std::vector<int64_t> point_value(ncells + nverts);
-  std::vector<int32_t> point_flag(ncells + nverts, 0);
-  for (PetscInt c = 0; c < ncells; ++c) {
-    point_value[c] = c < nt ? serial.tet_tags[c] : serial.segment_tags[c - nt];
-    point_flag[c] = c < nt && !cell_material.empty() ? cell_material[c] : 0;
+  std::vector<int32_t> point_flag(ncells + nverts, 0), cell_kind(ncells + nverts, -1);
+  if (rank == 0) {
+    const std::vector<int32_t>* tags[4] = {&serial.tet_tags, &serial.segment_tags, &serial.triangle_tags, nullptr};
+    for (int k = 0, c = 0; k < 4; ++k)
+      for (int64_t e = 0; e < cells.count[k]; ++e, ++c) {
+        cell_kind[c] = k;
+        point_value[c] = tags[k] ? (*tags[k])[e] : 0;
+        if (k == kTetCell && !cell_material.empty()) point_flag[c] = cell_material[e];
+        if (k == kTriangleCell) point_flag[c] = serial.triangle_edges[e];
+      }
   }
   for (PetscInt v = 0; v < nverts; ++v) {
     point_value[ncells + v] = serial.vertex_ids[v];
@@ -249,19 +288,22 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
     PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
     // The migration SF's roots are the serial points on rank 0, its leaves the new local points.
     std::vector<int64_t> value(pEnd - pStart);
-    std::vector<int32_t> flag(pEnd - pStart);
+    std::vector<int32_t> flag(pEnd - pStart), kind(pEnd - pStart);
     PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
     PetscCall(PetscSFDestroy(&migration));
     PetscCall(DMDestroy(&dm));
     dm = dist;
     point_value.swap(value);
     point_flag.swap(flag);
+    cell_kind.swap(kind);
   }
   out.dm = dm;
-  PetscCall(fill_local_arrays(out, point_value, point_flag));
+  PetscCall(fill_local_arrays(out, point_value, point_flag, cell_kind));
   PetscCall(create_dof_section(out.dm, out, 3));
   // Same points, same order, 1 dof instead of 3: vertex dof i of vertex_dm is dof 3i of dm.
   PetscCall(DMClone(out.dm, &out.vertex_dm));
@@ -269,17 +311,19 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   PetscCall(fill_dof_numbers(out));
 
   // Global counts.
-  PetscInt local[4] = {out.num_cells, 0, 0, out.num_segments}, global[4];
+  PetscInt local[6] = {out.num_cells, 0, 0, out.num_segments, out.num_triangles, out.num_hinges}, global[6];
   for (PetscInt v = 0; v < out.num_vertices; ++v)
     if (out.owned[v]) {
       local[1]++;
       if (out.fixed[v]) local[2]++;
     }
-  PetscCallMPI(MPI_Allreduce(local, global, 4, MPIU_INT, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(local, global, 6, MPIU_INT, MPI_SUM, comm));
   out.global_cells = global[0];
   out.global_vertices = global[1];
   out.global_fixed_vertices = global[2];
   out.global_segments = global[3];
+  out.global_triangles = global[4];
+  out.global_hinges = global[5];
   out.global_dofs = 3 * (global[1] - global[2]);
   PetscFunctionReturn(0);
 }

@@ -21,10 +21,16 @@ struct DistributedMesh {
   PetscInt num_vertices = 0;         // local vertices (owned + ghost)
   PetscInt num_cells = 0;            // local tets (each cell lives on exactly one rank)
   PetscInt num_segments = 0;         // local strand segments (cells of 2 vertices; also on one rank each)
+  PetscInt num_triangles = 0;        // local cloth triangles (cells of 3 vertices)
+  PetscInt num_hinges = 0;           // local cloth hinges (cells of 4 vertices: an interior edge, the two opposite vertices)
   std::vector<double> rest;          // 3 per local vertex: rest positions
   std::vector<PetscInt> cells;       // 4 local vertex indices per local tet, positively oriented
   std::vector<PetscInt> segments;    // 2 local vertex indices per local segment
   std::vector<int32_t> segment_tags; // per local segment: the input element tag
+  std::vector<PetscInt> triangles;   // 3 local vertex indices per local triangle
+  std::vector<int32_t> triangle_tags;   // per local triangle: the input element tag
+  std::vector<uint8_t> triangle_edges;  // per local triangle: the edges it carries (TetMesh::triangle_edges)
+  std::vector<PetscInt> hinges;      // 4 local vertex indices per local hinge (TetMesh::hinges)
   std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
   std::vector<int32_t> cell_tags;    // per local tet: the input element tag
   std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
@@ -34,6 +40,7 @@ struct DistributedMesh {
   std::vector<PetscInt> global_dof;  // per local vertex: global index of its x dof, -1 if fixed
   // Global counts (same on every rank).
   PetscInt global_vertices = 0, global_cells = 0, global_segments = 0, global_dofs = 0, global_fixed_vertices = 0;
+  PetscInt global_triangles = 0, global_hinges = 0;
 
   ~DistributedMesh() {
     DMDestroy(&vertex_dm);
@@ -48,8 +55,9 @@ double rest_diagonal(const DistributedMesh& m);
 // Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
 // METIS into one part per rank, distributes it, and builds the dof layout with the vertices
 // flagged in fixed_serial (rank 0: per serial vertex, see select_fixed_vertices) eliminated;
-// cell_material (rank 0: per serial tet) travels with the cells. Tets and strand segments are
-// both cells of the DMPlex (of 4 and 2 vertices), partitioned together.
+// cell_material (rank 0: per serial tet) travels with the cells. Tets, strand segments, cloth
+// triangles and hinges are all cells of the DMPlex (of 4, 2, 3 and 4 vertices), partitioned
+// together, so every element has its vertices on its rank.
 PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
                                const std::vector<int32_t>& cell_material, DistributedMesh& out);
 

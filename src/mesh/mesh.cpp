@@ -23,12 +23,13 @@ namespace {
 
 class MeditReader {
  public:
-  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands)
-      : path_(path), tok_(text, '#'), text_size_(text.size()), edges_as_strands_(edges_as_strands) {}
+  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands, bool triangles_as_cloth)
+      : path_(path), tok_(text, '#'), text_size_(text.size()), edges_as_strands_(edges_as_strands),
+        triangles_as_cloth_(triangles_as_cloth) {}
 
   TetMesh read() {
     TetMesh mesh;
-    bool have_vertices = false, have_tets = false, have_edges = false;
+    bool have_vertices = false, have_tets = false, have_edges = false, have_triangles = false;
     Token t;
     while (tok_.next(t)) {
       if (t.is("End")) break;
@@ -42,7 +43,13 @@ class MeditReader {
         if (have_vertices) throw InputError(path_, t.line, "Vertices", "second Vertices section");
         read_vertices(t, mesh);
         have_vertices = true;
-      } else if (t.is("Tetrahedra")) {
+      } else if (t.is("Triangles") && triangles_as_cloth_) {
+        if (have_triangles) throw InputError(path_, t.line, "Triangles", "second Triangles section");
+        if (!have_vertices)
+          throw InputError(path_, t.line, "Triangles", "Triangles section comes before the Vertices section");
+        read_elements(t, 3, "triangle", mesh.num_vertices(), mesh.triangles, mesh.triangle_tags);
+        have_triangles = true;
+      } else if (t.is("Tetrahedra") && !triangles_as_cloth_) {
         if (have_tets) throw InputError(path_, t.line, "Tetrahedra", "second Tetrahedra section");
         if (!have_vertices)
           throw InputError(path_, t.line, "Tetrahedra", "Tetrahedra section comes before the Vertices section");
@@ -71,6 +78,11 @@ class MeditReader {
     if (!have_vertices) throw InputError(path_, 0, "Vertices", "no Vertices section in the mesh file");
     if (edges_as_strands_ && !have_edges)
       throw InputError(path_, 0, "Edges", "no Edges section in the mesh file (the deck asks for its edges as strands)");
+    if (triangles_as_cloth_) {
+      if (!have_triangles)
+        throw InputError(path_, 0, "Triangles", "no Triangles section in the mesh file (the deck reads its surface as cloth)");
+      return mesh;
+    }
     if (!have_tets && !have_edges) throw InputError(path_, 0, "Tetrahedra", "no Tetrahedra section in the mesh file");
     return mesh;
   }
@@ -184,6 +196,7 @@ class MeditReader {
   Tokenizer tok_;
   size_t text_size_;
   bool edges_as_strands_;
+  bool triangles_as_cloth_;
 };
 
 // det[X1-X0, X2-X0, X3-X0] = 6 * signed volume.
@@ -200,9 +213,9 @@ double distance(const double* p, const double* q) {
 
 }  // namespace
 
-TetMesh read_medit(const std::string& path, bool edges_as_strands) {
+TetMesh read_medit(const std::string& path, bool edges_as_strands, bool triangles_as_cloth) {
   const std::string text = read_text_file(path);
-  return MeditReader(path, text, edges_as_strands).read();
+  return MeditReader(path, text, edges_as_strands, triangles_as_cloth).read();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -255,6 +268,37 @@ TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>
           *out++ = odd ? v2 : v3;
         }
       }
+  return mesh;
+}
+
+TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 2>& cells) {
+  for (int d = 0; d < 2; ++d) {
+    if (!(size[d] > 0) || !std::isfinite(size[d])) throw std::invalid_argument("generate_sheet: sheet size must be positive");
+    if (cells[d] < 1) throw std::invalid_argument("generate_sheet: need at least one cell per axis");
+  }
+  const int64_t nx = cells[0] + int64_t(1), nz = cells[1] + int64_t(1);
+  if (nx * nz > std::numeric_limits<int32_t>::max() || 6 * int64_t(cells[0]) * cells[1] > std::numeric_limits<int32_t>::max())
+    throw std::invalid_argument("generate_sheet: too many cells");
+  TetMesh mesh;
+  mesh.coords.resize(3 * size_t(nx * nz));
+  mesh.vertex_ids.resize(size_t(nx * nz));
+  for (int64_t k = 0, v = 0; k < nz; ++k)
+    for (int64_t i = 0; i < nx; ++i, ++v) {
+      mesh.coords[3 * v + 0] = size[0] * double(i) / cells[0];
+      mesh.coords[3 * v + 1] = 0;
+      mesh.coords[3 * v + 2] = size[1] * double(k) / cells[1];
+      mesh.vertex_ids[v] = v;
+    }
+  mesh.triangles.reserve(6 * size_t(cells[0]) * cells[1]);
+  for (int32_t k = 0; k < cells[1]; ++k)
+    for (int32_t i = 0; i < cells[0]; ++i) {
+      const int32_t a = int32_t(i + nx * k), b = a + 1, c = int32_t(a + nx), d = c + 1;  // a b along x, c d above
+      // (a, b, d) has normal (x) x (z) = -y; the diagonal alternates like a checkerboard.
+      const int32_t t[2][3] = {{a, b, d}, {a, d, c}}, u[2][3] = {{a, b, c}, {b, d, c}};
+      const int32_t(*cell)[3] = (i + k) % 2 == 0 ? t : u;
+      for (int q = 0; q < 2; ++q) mesh.triangles.insert(mesh.triangles.end(), cell[q], cell[q] + 3);
+    }
+  mesh.triangle_tags.assign(size_t(mesh.num_triangles()), 0);
   return mesh;
 }
 
@@ -337,20 +381,29 @@ void apply_transform(TetMesh& mesh, const MeshTransform& t) {
 // Two tets on the same four vertices (a duplicated line doubles that element's mass and
 // stiffness), or two used vertices at exactly the same point (the body is split there, or the file
 // holds two copies of it), are almost surely mistakes: an InputError naming both (1-based).
-static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used, const std::string& source) {
-  std::vector<std::pair<std::array<int32_t, 4>, int64_t>> tets(size_t(mesh.num_tets()));
-  for (int64_t e = 0; e < mesh.num_tets(); ++e) {
-    std::array<int32_t, 4> t;
-    std::copy_n(&mesh.tets[4 * e], 4, t.begin());
+// Two elements on the same vertex set (sorted), by the kind's name: an InputError naming both.
+template <int N>
+static void reject_same_vertices(const std::vector<int32_t>& elements, const char* section, const char* what,
+                                 const std::string& source) {
+  const int64_t n = (int64_t)elements.size() / N;
+  std::vector<std::pair<std::array<int32_t, N>, int64_t>> sorted(static_cast<size_t>(n));
+  for (int64_t e = 0; e < n; ++e) {
+    std::array<int32_t, N> t;
+    std::copy_n(&elements[N * e], N, t.begin());
     std::sort(t.begin(), t.end());
-    tets[e] = {t, e};
+    sorted[e] = {t, e};
   }
-  std::sort(tets.begin(), tets.end());
-  for (size_t k = 1; k < tets.size(); ++k)
-    if (tets[k].first == tets[k - 1].first)
-      throw InputError(source, 0, "Tetrahedra", "tets " + std::to_string(tets[k - 1].second + 1) + " and " +
-                                                    std::to_string(tets[k].second + 1) +
-                                                    " have the same four vertices (a duplicated element)");
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t k = 1; k < sorted.size(); ++k)
+    if (sorted[k].first == sorted[k - 1].first)
+      throw InputError(source, 0, section, std::string(what) + "s " + std::to_string(sorted[k - 1].second + 1) + " and " +
+                                               std::to_string(sorted[k].second + 1) + " have the same " +
+                                               std::to_string(N) + " vertices (a duplicated element)");
+}
+
+static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used, const std::string& source) {
+  reject_same_vertices<4>(mesh.tets, "Tetrahedra", "tet", source);
+  reject_same_vertices<3>(mesh.triangles, "Triangles", "triangle", source);
   std::vector<int64_t> points;
   for (int64_t v = 0; v < mesh.num_vertices(); ++v)
     if (used[v]) points.push_back(v);
@@ -366,15 +419,54 @@ static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used
     }
 }
 
+// The hinges (interior edges with the two vertices opposite them) and which triangle carries
+// each edge (its first triangle), from the triangles; an edge of three or more triangles is an
+// InputError naming its vertices (1-based ids of the input).
+static void connect_surface(TetMesh& mesh, const std::string& source) {
+  const int64_t nf = mesh.num_triangles();
+  mesh.hinges.clear();
+  mesh.triangle_edges.assign(size_t(nf), 0);
+  // (low vertex, high vertex, triangle, edge slot) per triangle edge, sorted by edge.
+  std::vector<std::array<int64_t, 4>> edges;
+  edges.reserve(3 * size_t(nf));
+  for (int64_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int32_t a = mesh.triangles[3 * f + k], b = mesh.triangles[3 * f + (k + 1) % 3];
+      edges.push_back({std::min(a, b), std::max(a, b), f, k});
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j][0] == edges[i][0] && edges[j][1] == edges[i][1]) ++j;
+    if (j - i > 2)
+      throw InputError(source, 0, "Triangles", "the edge between vertices " + std::to_string(mesh.vertex_ids[edges[i][0]] + 1) +
+                                                   " and " + std::to_string(mesh.vertex_ids[edges[i][1]] + 1) + " is shared by " +
+                                                   std::to_string(j - i) + " triangles: a cloth must be a manifold surface");
+    mesh.triangle_edges[edges[i][2]] |= uint8_t(1u << edges[i][3]);
+    if (j - i == 2) {
+      const int64_t f = edges[i][2], g = edges[i + 1][2];
+      const int k = int(edges[i][3]), l = int(edges[i + 1][3]);
+      const int32_t* t = &mesh.triangles[3 * f];
+      const int32_t* u = &mesh.triangles[3 * g];
+      mesh.hinges.insert(mesh.hinges.end(), {t[k], t[(k + 1) % 3], t[(k + 2) % 3], u[(l + 2) % 3]});
+    }
+    i = j;
+  }
+}
+
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
-  const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments();
-  if (nt == 0 && ns == 0) throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments)");
+  const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments(), nf = mesh.num_triangles();
+  if (nt == 0 && ns == 0 && nf == 0)
+    throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments or cloth triangles)");
+  if (nf > 0 && nt + ns > 0)
+    throw InputError(source, 0, "Triangles", "a cloth surface cannot share a mesh with tetrahedra or strands");
   if ((int64_t)mesh.vertex_ids.size() != nv) {  // e.g. hand-built meshes: ids are the indices
     mesh.vertex_ids.resize(size_t(nv));
     for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
   }
   if ((int64_t)mesh.tet_tags.size() != nt) mesh.tet_tags.resize(size_t(nt), 0);
   if ((int64_t)mesh.segment_tags.size() != ns) mesh.segment_tags.resize(size_t(ns), 0);
+  if ((int64_t)mesh.triangle_tags.size() != nf) mesh.triangle_tags.resize(size_t(nf), 0);
 
   // Validate everything before changing anything, so a throw leaves the mesh untouched.
   std::vector<char> flip(size_t(nt), 0);
@@ -419,6 +511,27 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     }
   }
 
+  for (int64_t e = 0; e < nf; ++e) {
+    const int32_t* f = &mesh.triangles[3 * e];
+    for (int k = 0; k < 3; ++k) {
+      if (f[k] < 0 || f[k] >= nv)
+        throw InputError(source, 0, "Triangles", "triangle " + std::to_string(e + 1) + " has vertex index " +
+                                                     std::to_string(f[k] + 1) + " out of range 1.." + std::to_string(nv));
+      used[f[k]] = 1;
+    }
+    const double *a = X + 3 * f[0], *b = X + 3 * f[1], *c = X + 3 * f[2];
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+    const double area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    const double h = (distance(a, b) + distance(b, c) + distance(c, a)) / 3;
+    if (!(area > 1e-12 * h * h)) {  // NaN coordinates fail too
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "triangle %lld (1-based, as in the input) is degenerate: area %.3g, mean edge length %.3g",
+                    (long long)(e + 1), area, h);
+      throw InputError(source, 0, "Triangles", msg);
+    }
+  }
+
   reject_duplicates(mesh, used, source);
 
   CleanReport report;
@@ -436,6 +549,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
   mesh.vertex_ids.resize(size_t(kept));
 
   for (int32_t& v : mesh.segments) v = new_index[v];
+  for (int32_t& v : mesh.triangles) v = new_index[v];
   for (int64_t e = 0; e < nt; ++e) {
     int32_t* t = &mesh.tets[4 * e];
     for (int k = 0; k < 4; ++k) t[k] = new_index[t[k]];
@@ -444,6 +558,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       ++report.reoriented_tets;
     }
   }
+  connect_surface(mesh, source);
   return report;
 }
 

@@ -1,5 +1,6 @@
 // Serial mesh as read from a file or generated, before partitioning: tetrahedra (solids) and
-// strand segments (two-vertex line elements: ropes, hair), either or both.
+// strand segments (two-vertex line elements: ropes, hair), either or both; or cloth triangles
+// (a surface in 3D) alone.
 // Lives on rank 0 only; the distributed mesh is built from it.
 #pragma once
 #include <array>
@@ -15,17 +16,28 @@ struct TetMesh {
   std::vector<int32_t> tet_tags;     // element reference tag per tet (Medit "ref"; 0 if none)
   std::vector<int32_t> segments;     // 2 vertex indices (0-based) per strand segment
   std::vector<int32_t> segment_tags; // element reference tag per segment (Medit "ref"; 0 if none)
+  std::vector<int32_t> triangles;    // 3 vertex indices (0-based) per cloth triangle
+  std::vector<int32_t> triangle_tags; // element reference tag per triangle (0 if none)
   std::vector<int64_t> vertex_ids;   // per vertex: its 0-based index in the input file
+  // Derived from the triangles by clean_mesh (connect_surface):
+  std::vector<int32_t> hinges;          // 4 per interior edge: its ends a, b; c opposite it in the
+                                        // triangle (a, b, c); d opposite it in the other triangle
+  std::vector<uint8_t> triangle_edges;  // per triangle: bit k if it carries its edge k = (v_k, v_{k+1 mod 3});
+                                        // every edge is carried by exactly one triangle
   int64_t num_vertices() const { return (int64_t)coords.size() / 3; }
   int64_t num_tets() const { return (int64_t)tets.size() / 4; }
   int64_t num_segments() const { return (int64_t)segments.size() / 2; }
+  int64_t num_triangles() const { return (int64_t)triangles.size() / 3; }
+  int64_t num_hinges() const { return (int64_t)hinges.size() / 4; }
 };
 
 // Reads the Vertices and Tetrahedra sections of an INRIA Medit .mesh file (1-based indices),
 // and its Edges section as strand segments if edges_as_strands (otherwise Edges, which tet mesh
 // generators write for feature lines, are skipped like the other sections and '#' comments).
+// With triangles_as_cloth its Triangles section is read as a cloth surface instead, and its
+// Tetrahedra (if any) are skipped.
 // Counts, indices and truncation are checked: throws InputError naming the file and line.
-TetMesh read_medit(const std::string& path, bool edges_as_strands = false);
+TetMesh read_medit(const std::string& path, bool edges_as_strands = false, bool triangles_as_cloth = false);
 
 // Diagonal of the bounding box of the vertices (0 for an empty mesh).
 double bounding_box_diagonal(const TetMesh& mesh);
@@ -44,6 +56,11 @@ void add_strand(TetMesh& mesh, const StrandLine& strand);
 // (Kuhn subdivision, conforming across cubes).
 TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>& cells);
 
+// A flat sheet of cloth in the x-z plane from (0, 0, 0) to (size[0], 0, size[1]): (cells[0] + 1) x
+// (cells[1] + 1) vertices, each cell cut into 2 triangles along alternating diagonals (so the sheet
+// has no preferred shear direction), all oriented with normal -y.
+TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 2>& cells);
+
 struct MeshTransform {
   double scale = 1.0;
   std::array<double, 3> rotate_deg{0, 0, 0};  // applied about x, then y, then z
@@ -58,9 +75,10 @@ struct CleanReport {
 };
 // Drops unreferenced vertices (a massless vertex without stiffness makes M + h^2 L singular),
 // reorients tets to positive volume det[X1-X0, X2-X0, X3-X0] > 0, and rejects degenerate tets
-// (|volume| <= 1e-12 * (mean edge length)^3) and segments (length <= 1e-12 of the bounding-box
-// diagonal) with an InputError naming the element (1-based) and file. A mesh with neither tets
-// nor segments is an error too.
+// (|volume| <= 1e-12 * (mean edge length)^3), segments (length <= 1e-12 of the bounding-box
+// diagonal) and triangles (area <= 1e-12 * (mean edge length)^2) with an InputError naming the
+// element (1-based) and file. A mesh with no element is an error too, and so is a cloth surface
+// whose edge is shared by more than two triangles. Fills hinges and triangle_edges.
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source);
 
 }  // namespace hyperqn

@@ -40,6 +40,7 @@ const ElementType* element_type(long long type) {
 }
 
 constexpr long long kTet = 4;
+constexpr long long kTriangle = 2;
 
 // A token as shown in a message: printable and short (a corrupt file may hold anything).
 std::string shown(const Token& t) {
@@ -50,7 +51,8 @@ std::string shown(const Token& t) {
 
 class GmshReader {
  public:
-  GmshReader(const std::string& path, const std::string& text) : path_(path), tok_(text) {}
+  GmshReader(const std::string& path, const std::string& text, bool triangles_as_cloth)
+      : path_(path), tok_(text), kept_type_(triangles_as_cloth ? kTriangle : kTet) {}
 
   TetMesh read() {
     read_format();
@@ -83,7 +85,9 @@ class GmshReader {
     }
     if (!nodes_line) throw InputError(path_, 0, "$Nodes", "no $Nodes section in the Gmsh file");
     if (!elements_line) throw InputError(path_, 0, "$Elements", "no $Elements section in the Gmsh file");
-    if (mesh.tets.empty())
+    if (kept_type_ == kTriangle && mesh.triangles.empty())
+      throw InputError(path_, elements_line, "$Elements", "no triangles (element type 2): the deck reads this file's surface as cloth");
+    if (kept_type_ == kTet && mesh.tets.empty())
       throw InputError(path_, elements_line, "$Elements", "no tetrahedra (element type 4): a 3-D tetrahedral mesh is needed");
     return mesh;
   }
@@ -299,7 +303,8 @@ class GmshReader {
     return *et;
   }
 
-  // The nodes of an element; a tet's are kept with its tag, other (boundary) elements skipped.
+  // The nodes of an element; those of the kept type (tets, or triangles for a cloth) are kept
+  // with the element's tag, the others skipped.
   void read_element_nodes(const Section& s, const std::string& what, long long type, int nodes, int32_t tag, TetMesh& mesh) {
     int32_t v[4];
     for (int k = 0; k < nodes; ++k) {
@@ -308,11 +313,16 @@ class GmshReader {
       auto it = node_index_.find(node);
       if (it == node_index_.end())
         throw InputError(path_, line, s.name, what + ": node " + std::to_string(node) + " is not in $Nodes");
-      if (type == kTet) v[k] = it->second;
+      if (type == kept_type_) v[k] = it->second;
     }
-    if (type != kTet) return;
-    mesh.tets.insert(mesh.tets.end(), v, v + 4);
-    mesh.tet_tags.push_back(tag);
+    if (type != kept_type_) return;
+    if (type == kTet) {
+      mesh.tets.insert(mesh.tets.end(), v, v + 4);
+      mesh.tet_tags.push_back(tag);
+    } else {
+      mesh.triangles.insert(mesh.triangles.end(), v, v + 3);
+      mesh.triangle_tags.push_back(tag);
+    }
   }
 
   void read_elements_v2(const Token& key, TetMesh& mesh) {
@@ -354,7 +364,7 @@ class GmshReader {
       // Tets take their volume's first physical tag; without $Entities (meshio writes none) the
       // volume's own tag is the only region label the file has.
       int32_t tag = 0;
-      if (type == kTet) {
+      if (type == kTet && kept_type_ == kTet) {
         if (have_entities_) {
           auto it = volume_tag_.find(entity);
           if (it == volume_tag_.end())
@@ -365,6 +375,10 @@ class GmshReader {
             throw InputError(path_, entity_line, s.name, block + ": entity tag " + std::to_string(entity) + " is too large");
           tag = int32_t(entity);
         }
+      } else if (type == kTriangle && kept_type_ == kTriangle) {
+        if (entity < std::numeric_limits<int32_t>::min() || entity > std::numeric_limits<int32_t>::max())
+          throw InputError(path_, entity_line, s.name, block + ": entity tag " + std::to_string(entity) + " is too large");
+        tag = int32_t(entity);
       }
       const long long count = block_count(s, "element", block, h, read);
       for (long long i = 0; i < count; ++i) {
@@ -380,6 +394,7 @@ class GmshReader {
   std::string path_;
   Tokenizer tok_;
   bool version4_ = false;
+  long long kept_type_;  // kTet, or kTriangle for a cloth
   bool have_entities_ = false;
   std::unordered_map<long long, int32_t> volume_tag_;  // 4.1 volume entity -> its tets' tag
   std::unordered_map<long long, int32_t> node_index_;  // node tag -> 0-based position in the file
@@ -387,9 +402,9 @@ class GmshReader {
 
 }  // namespace
 
-TetMesh read_gmsh(const std::string& path) {
+TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth) {
   const std::string text = read_text_file(path);
-  return GmshReader(path, text).read();
+  return GmshReader(path, text, triangles_as_cloth).read();
 }
 
 }  // namespace hyperqn

@@ -11,7 +11,9 @@ namespace hyperqn {
 // first physical tag of its element (2.2) or of its volume (4.1 with $Entities), else its volume
 // tag (4.1 without $Entities, as meshio writes). Vertex ids are the nodes' 0-based positions in
 // the file. Throws InputError naming the file, line and section for anything malformed,
-// binary files and MSH versions other than 2.x and 4.1 included.
-TetMesh read_gmsh(const std::string& path);
+// binary files and MSH versions other than 2.x and 4.1 included. With triangles_as_cloth the
+// 3-node triangles (type 2) are read as a cloth surface instead (tag: the first physical tag in
+// 2.2, the surface entity's tag in 4.1) and the tets are skipped.
+TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth = false);
 
 }  // namespace hyperqn

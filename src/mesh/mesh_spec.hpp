@@ -1,4 +1,4 @@
-// Where a scene's mesh comes from: a file or a generated box, its transform, and strands.
+// Where a scene's mesh comes from: a file, a generated box or sheet, its transform, and strands.
 #pragma once
 #include <array>
 #include <string>
@@ -9,16 +9,21 @@
 namespace hyperqn {
 
 struct MeshSpec {
-  std::string file;                  // .mesh (Medit) or .msh (Gmsh); resolved relative to the deck
+  std::string file;                  // .mesh (Medit) or .msh (Gmsh), or .obj (a cloth); resolved relative to the deck
   bool is_box = false;               // generated box instead of a file
   std::array<double, 3> box_size{1, 1, 1};
   std::array<int, 3> box_cells{1, 1, 1};
-  int line = 0;                      // deck line of mesh.box.cells or mesh.file (memory check)
+  bool is_sheet = false;             // generated cloth sheet instead of a file
+  std::array<double, 2> sheet_size{1, 1};
+  std::array<int, 2> sheet_cells{1, 1};
+  bool surface_as_cloth = false;     // the file's triangles are a cloth (surface: cloth; always for .obj)
+  int line = 0;                      // deck line of mesh.box.cells, mesh.sheet.cells or mesh.file (memory check)
   MeshTransform transform;           // applied to the file or box mesh (not to the strands below)
   bool edges_as_strands = false;     // Medit file: its Edges section becomes strand segments
   std::vector<StrandLine> strands;   // generated strands, world coordinates, after the transform
   bool has_strands() const { return edges_as_strands || !strands.empty(); }
-  bool has_solid() const { return is_box || !file.empty(); }
+  bool has_cloth() const { return is_sheet || surface_as_cloth; }
+  bool has_solid() const { return is_box || (!file.empty() && !surface_as_cloth); }
 };
 
 }  // namespace hyperqn

@@ -136,10 +136,13 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
 }
 
 void Body::cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const {
-  J.resize(mesh_.num_cells);
+  J.resize(mesh_.num_cells + mesh_.num_triangles);
   for (PetscInt c = 0; c < mesh_.num_cells; ++c)  // det(Ds Dm^{-1}) = det Ds / det Dm
     J[c] = edge_matrix(pos.data(), &mesh_.cells[4 * c]).determinant() /
            edge_matrix(mesh_.rest.data(), &mesh_.cells[4 * c]).determinant();
+  for (PetscInt t = 0; t < mesh_.num_triangles; ++t)  // a membrane's J: its area ratio (>= 0; it folds, never inverts)
+    J[mesh_.num_cells + t] = triangle_area(pos.data(), &mesh_.triangles[3 * t]) /
+                             triangle_area(mesh_.rest.data(), &mesh_.triangles[3 * t]);
 }
 
 PetscErrorCode Body::volume_ratios(Vec x, double* min_J, double* max_abs_J) const {

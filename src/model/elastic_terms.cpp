@@ -3,10 +3,14 @@
 #include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
 #include "terms/attachments.hpp"
+#include "terms/cloth_bending.hpp"
+#include "terms/cloth_membrane.hpp"
+#include "terms/cloth_springs.hpp"
 #include "terms/continuum_tets.hpp"
 #include "terms/element_kernels.hpp"
 #include "terms/mass_spring_tets.hpp"
 #include "terms/strand_segments.hpp"
+#include "terms/surface_mass.hpp"
 
 namespace hyperqn {
 
@@ -20,7 +24,7 @@ static double rest_volume(const DistributedMesh& mesh) {
 
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
-                                                       const StrandMaterial& strands) {
+                                                       const StrandMaterial& strands, const ClothSpec& cloth) {
   std::vector<std::unique_ptr<EnergyTerm>> terms;
   if (mesh.global_cells > 0) {
     const double volume = rest_volume(mesh);
@@ -45,6 +49,15 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
   if (mesh.global_segments > 0)
     terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
                                                      strands.laplacian_weight));
+  if (mesh.global_triangles > 0) {
+    terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density));
+    if (cloth.model == "membrane")
+      terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda));
+    else
+      terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness));
+    if (cloth.bending != "none" && mesh.global_hinges > 0)
+      terms.push_back(std::make_unique<ClothBending>(mesh, bending_model(cloth.bending), cloth.bending_stiffness));
+  }
   return terms;
 }
 

@@ -1,5 +1,6 @@
 // The elastic energy terms of a scene, from its materials: continuum tets (one term for every
-// hyperelastic material), mass-spring tets, strand segments; only those the mesh uses.
+// hyperelastic material), mass-spring tets, strand segments, cloth (mass, stretching, bending);
+// only those the mesh uses.
 #pragma once
 #include <memory>
 #include <vector>
@@ -13,10 +14,11 @@ namespace hyperqn {
 
 // materials[0] is the default material, materials[k + 1] that of material region k
 // (mesh.cell_material says which tet has which); strands is the material of every segment.
-// A material given by total_mass (single-material bodies only) spreads it evenly over the rest volume.
+// A material given by total_mass (single-material bodies only) spreads it evenly over the rest
+// volume. cloth is the material of the triangles.
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
-                                                       const StrandMaterial& strands);
+                                                       const StrandMaterial& strands, const ClothSpec& cloth = {});
 
 // The springs of the attachments not released (released[k] != 0: attachments[k] is gone), on
 // the free vertices this rank owns in each box (in_box with the serial selection's tolerance, so

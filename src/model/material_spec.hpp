@@ -1,5 +1,5 @@
 // A material as a scene describes it: the model and its parameters, its mass, and its weight in
-// L; and the material of strand segments. (materials/ holds the constitutive models themselves.)
+// L; and the materials of strand segments and of cloth. (materials/ holds the constitutive models themselves.)
 #pragma once
 #include <array>
 #include <string>
@@ -20,6 +20,18 @@ struct StrandMaterial {
 struct FunctionSpec {
   std::string kind;                  // "" (absent) | polynomial | spline
   std::vector<double> coefficients, x, y;
+};
+
+// The material of a cloth surface (docs/cloth.md): in-plane stretching by springs on the edges
+// (Liu et al. 2013) or a triangle-FEM membrane, bending across interior edges, and areal density.
+struct ClothSpec {
+  std::string model;                 // mass-spring | membrane
+  double stretch_stiffness = 0;      // mass-spring: k of the spring on every edge (N/m)
+  std::string material = "stvk";     // membrane: stvk | corotated | neohookean
+  double mu = 0, lambda = 0;         // membrane: 2-D (plane-stress) Lame parameters (N/m)
+  std::string bending = "none";      // quadratic | dihedral | springs | none
+  double bending_stiffness = 0;      // quadratic, dihedral: a bending modulus (N m); springs: k (N/m)
+  double areal_density = 0;          // mass per unit rest area (kg/m^2)
 };
 
 struct MaterialSpec {

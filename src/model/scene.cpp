@@ -9,6 +9,7 @@
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
 #include "mesh/input_error.hpp"
+#include "geometry/surface_file.hpp"
 #include "mesh/mesh_gmsh.hpp"
 #include "model/memory_estimate.hpp"
 #include "solvers/solver_registry.hpp"
@@ -57,7 +58,18 @@ void check_memory(MPI_Comm comm, const SceneSpec& deck, int64_t vertices) {
                 "the run would need about %.0f MB of memory (estimate for %lld vertices at %d rank(s), docs/guardrails.md) "
                 "but %.0f MB are available (%s); use a coarser mesh",
                 need / 1048576.0, (long long)vertices, ranks, limit / 1048576.0, source.c_str());
-  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : "mesh.file", msg);
+  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : deck.mesh.is_sheet ? "mesh.sheet.cells" : "mesh.file", msg);
+}
+
+// An OBJ surface as a cloth mesh: vertex ids are the vertices' 0-based positions in the file.
+TetMesh surface_mesh(const TriangleSurface& surface) {
+  TetMesh mesh;
+  for (const Eigen::Vector3d& x : surface.vertices) mesh.coords.insert(mesh.coords.end(), x.data(), x.data() + 3);
+  for (const auto& t : surface.triangles) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
+  mesh.triangle_tags.assign(surface.triangles.size(), 0);
+  mesh.vertex_ids.resize(surface.vertices.size());
+  for (size_t v = 0; v < surface.vertices.size(); ++v) mesh.vertex_ids[v] = int64_t(v);
+  return mesh;
 }
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -74,11 +86,17 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
       const auto& n = spec.box_cells;
       check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1));  // before generating it
       mesh = generate_box(spec.box_size, spec.box_cells);
+    } else if (spec.is_sheet) {
+      const auto& n = spec.sheet_cells;
+      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1));
+      mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
+    } else if (ends_with(spec.file, ".obj")) {
+      mesh = surface_mesh(read_triangle_surface(spec.file));
+    } else if (ends_with(spec.file, ".msh")) {
+      mesh = read_gmsh(spec.file, spec.surface_as_cloth);
+    } else if (!spec.file.empty()) {
+      mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
     }
-    else if (ends_with(spec.file, ".msh"))
-      mesh = read_gmsh(spec.file);
-    else if (!spec.file.empty())
-      mesh = read_medit(spec.file, spec.edges_as_strands);
     apply_transform(mesh, spec.transform);
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
     const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
@@ -144,7 +162,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   input = SceneInput();  // the serial copy is no longer needed
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
-  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material);
+  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
   s.contact = nullptr;

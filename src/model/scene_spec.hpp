@@ -35,6 +35,7 @@ struct SceneSpec {
   MaterialSpec material;                 // the default material (of the tets)
   bool has_material = false;             // material given (needed iff the mesh has tets)
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
+  ClothSpec cloth;                       // of the cloth triangles (if the mesh is a cloth)
   std::vector<MaterialRegion> regions;   // per-region materials
   std::vector<BoxRegion> fixed;
   std::vector<ColliderSpec> colliders;   // obstacles (none: no contact code at all)

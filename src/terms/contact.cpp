@@ -15,7 +15,7 @@ ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
 
 ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
                          const ContactSpec& spec, PetscLogEvent event)
-    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), event_(event), barrier_(spec.model == "barrier") {
+    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), barrier_(spec.model == "barrier"), event_(event) {
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
   stiffness_.assign(vertices_.size(), stiffness_per_mass());

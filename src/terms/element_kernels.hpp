@@ -27,6 +27,21 @@ inline Vec3 segment_edge(const double* pos, const PetscInt* seg) {
   return Vec3(&pos[3 * seg[1]]) - Vec3(&pos[3 * seg[0]]);
 }
 
+// Positions of an element's n local vertices, stacked (3n): a triangle's 9, a hinge's 12.
+template <int n>
+Eigen::Matrix<double, 3 * n, 1> element_positions(const double* pos, const PetscInt* verts) {
+  Eigen::Matrix<double, 3 * n, 1> x;
+  for (int i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) x[3 * i + d] = pos[3 * verts[i] + d];
+  return x;
+}
+
+// Area of the triangle (3 local vertex indices).
+inline double triangle_area(const double* pos, const PetscInt* tri) {
+  const Vec3 x0(&pos[3 * tri[0]]);
+  return 0.5 * (Vec3(&pos[3 * tri[1]]) - x0).cross(Vec3(&pos[3 * tri[2]]) - x0).norm();
+}
+
 // dvec(F)/dx_e (9 x 12, vec column-major): F = sum_k x_k g_k^T, so entry (i + 3j, 3k + i) is
 // g_k[j], with g_1..g_3 the rows of Dm^{-1} and g_0 = -(g_1 + g_2 + g_3).
 Eigen::Matrix<double, 9, 12> deformation_jacobian(const Mat3& Dm_inv);
@@ -49,6 +64,25 @@ inline void add_vertex_vector(const DistributedMesh& mesh, PetscInt vertex, cons
   const PetscInt off = mesh.local_dof[vertex];
   if (off < 0) return;
   for (int d = 0; d < 3; ++d) gradient[off + d] += f[d];
+}
+
+// Adds an element gradient (3 per vertex, stacked) of n local vertices into the local gradient array.
+template <int n>
+void add_element_vector(const DistributedMesh& mesh, const PetscInt* verts, const Eigen::Matrix<double, 3 * n, 1>& g,
+                        PetscScalar* gradient) {
+  for (int i = 0; i < n; ++i) add_vertex_vector(mesh, verts[i], g.template segment<3>(3 * i), gradient);
+}
+
+// H += scale * He (3n x 3n) at the global dofs of n local vertices; fixed vertices skipped.
+template <int n>
+PetscErrorCode add_element_hessian(const DistributedMesh& mesh, Mat H, const PetscInt* verts,
+                                   const Eigen::Matrix<double, 3 * n, 3 * n>& He, double scale) {
+  PetscInt idx[3 * n];
+  const Eigen::Matrix<double, 3 * n, 3 * n, Eigen::RowMajor> vals = scale * He;
+  PetscFunctionBeginUser;
+  element_dofs<n>(mesh, verts, idx);
+  PetscCall(MatSetValues(H, 3 * n, idx, 3 * n, idx, vals.data(), ADD_VALUES));
+  PetscFunctionReturn(0);
 }
 
 // A += Le (x) I3 (components = 3, dof layout) or A += Le (components = 1, vertex_dm layout) for

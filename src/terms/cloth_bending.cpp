@@ -1,0 +1,119 @@
+#include "terms/cloth_bending.hpp"
+
+#include <stdexcept>
+
+#include "materials/spring.hpp"
+#include "terms/element_kernels.hpp"
+
+namespace hyperqn {
+
+BendingModel bending_model(const std::string& name) {
+  if (name == "springs") return BendingModel::springs;
+  if (name == "quadratic") return BendingModel::quadratic;
+  if (name == "dihedral") return BendingModel::dihedral;
+  throw std::invalid_argument("unknown bending model '" + name + "'");
+}
+
+std::string ClothBending::name() const {
+  switch (model_) {
+    case BendingModel::springs: return "bending springs";
+    case BendingModel::quadratic: return "quadratic bending";
+    default: return "dihedral bending";
+  }
+}
+
+ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness)
+    : mesh_(mesh), model_(model), k_(stiffness) {
+  const double* X = mesh.rest.data();
+  for (PetscInt h = 0; h < mesh.num_hinges; ++h) {
+    const PetscInt* v = &mesh.hinges[4 * h];
+    if (model == BendingModel::springs) {
+      const PetscInt cd[2] = {v[2], v[3]};
+      length_.push_back(segment_edge(X, cd).norm());
+      continue;
+    }
+    const Vec3 x0(&X[3 * v[0]]), x1(&X[3 * v[1]]), x2(&X[3 * v[2]]), x3(&X[3 * v[3]]);
+    weights_.push_back(hinge::quadratic_weights(x0, x1, x2, x3));
+    coefficient_.push_back(hinge::quadratic_coefficient(x0, x1, x2, x3));
+    if (model == BendingModel::dihedral) rest_.push_back(hinge::hinge_rest(x0, x1, x2, x3));
+  }
+}
+
+PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+  PetscFunctionBeginUser;
+  double e = *energy;
+  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * h];
+    if (model_ == BendingModel::springs) {
+      const PetscInt cd[2] = {v[2], v[3]};
+      const Vec3 u = segment_edge(pos.data(), cd);
+      e += spring::energy(u, length_[h], k_);
+      if (!gradient) continue;
+      const Vec3 f = spring::gradient(u, length_[h], k_);
+      add_vertex_vector(mesh_, v[2], -f, gradient);
+      add_vertex_vector(mesh_, v[3], f, gradient);
+    } else if (model_ == BendingModel::quadratic) {
+      const hinge::Vec12 x = element_positions<4>(pos.data(), v);
+      if (!gradient) {
+        e += hinge::quadratic_energy(k_, weights_[h], coefficient_[h], x);
+        continue;
+      }
+      hinge::Vec12 g;
+      e += hinge::quadratic_energy_gradient(k_, weights_[h], coefficient_[h], x, g);
+      add_element_vector<4>(mesh_, v, g, gradient);
+    } else {
+      const hinge::Vec12 x = element_positions<4>(pos.data(), v);
+      if (!gradient) {
+        e += hinge::dihedral_energy(k_, rest_[h], x);
+        continue;
+      }
+      hinge::Vec12 g;
+      e += hinge::dihedral_energy_gradient(k_, rest_[h], x, g);
+      add_element_vector<4>(mesh_, v, g, gradient);
+    }
+  }
+  *energy = e;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
+  PetscFunctionBeginUser;
+  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * h];
+    if (model_ == BendingModel::springs) {
+      const PetscInt cd[2] = {v[2], v[3]};
+      const Mat3 K = spring::stiffness(segment_edge(pos.data(), cd), length_[h], k_, psd);
+      Eigen::Matrix<double, 6, 6> Ks;
+      Ks << K, -K, -K, K;
+      PetscCall(add_element_hessian<2>(mesh_, H, cd, Ks, scale));
+    } else if (model_ == BendingModel::quadratic) {
+      const hinge::Mat12 He = hinge::quadratic_hessian(k_, weights_[h], coefficient_[h]);
+      PetscCall(add_element_hessian<4>(mesh_, H, v, He, scale));
+    } else {
+      const hinge::Mat12 He = hinge::dihedral_hessian(k_, rest_[h], element_positions<4>(pos.data(), v), psd);
+      PetscCall(add_element_hessian<4>(mesh_, H, v, He, scale));
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ClothBending::add_laplacian(Mat A, double scale, int components) const {
+  PetscFunctionBeginUser;
+  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * h];
+    if (model_ == BendingModel::springs) {
+      const PetscInt cd[2] = {v[2], v[3]};
+      Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
+      Le << 1, -1, -1, 1;
+      Le *= scale * k_;
+      PetscCall(add_element_laplacian<2>(mesh_, A, cd, Le, components));
+      continue;
+    }
+    const Eigen::Map<const Eigen::Vector4d> w(weights_[h].data());
+    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Le = scale * k_ * coefficient_[h] * w * w.transpose();
+    PetscCall(add_element_laplacian<4>(mesh_, A, v, Le, components));
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

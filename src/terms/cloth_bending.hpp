@@ -1,0 +1,46 @@
+// A cloth's bending, one element per hinge (an interior edge a-b with the vertices c, d opposite
+// it; DistributedMesh::hinges), in one of three models:
+//   springs    a spring k/2 (l - L)^2 between c and d (Liu et al. 2013); exact in L;
+//   quadratic  E = k/2 |sum_i w_i x_i|^2 3/(A1 + A2), w the cotangent weights of the rest hinge
+//              (Bergou et al. 2006): constant Hessian, so exact in L; for flat rest shapes;
+//   dihedral   E = k (theta - theta0)^2 3|e|^2/(A1 + A2), theta the dihedral angle (Grinspun et
+//              al. 2003): large folds and curved rest shapes; the quadratic model's matrix is its
+//              weight in L (its Hessian at a flat rest state), not exact.
+// materials/hinge_bending.hpp holds the per-hinge formulas.
+#pragma once
+#include <array>
+#include <string>
+#include <vector>
+
+#include "materials/hinge_bending.hpp"
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+enum class BendingModel { springs, quadratic, dihedral };
+// "springs" | "quadratic" | "dihedral"; throws std::invalid_argument otherwise.
+BendingModel bending_model(const std::string& name);
+
+class ClothBending : public EnergyTerm {
+ public:
+  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness);
+  std::string name() const override;
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  bool projective_dynamics_exact() const override { return model_ != BendingModel::dihedral; }
+
+ private:
+  const DistributedMesh& mesh_;
+  BendingModel model_;
+  double k_;
+  // Per local hinge: springs: the rest length of c-d; quadratic and dihedral: the cotangent
+  // weights and 3 / (A1 + A2); dihedral: its rest angle and weight.
+  std::vector<double> length_;
+  std::vector<std::array<double, 4>> weights_;
+  std::vector<double> coefficient_;
+  std::vector<hinge::HingeRest> rest_;
+};
+
+}  // namespace hyperqn

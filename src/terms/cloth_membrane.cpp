@@ -1,0 +1,65 @@
+#include "terms/cloth_membrane.hpp"
+
+#include <stdexcept>
+
+#include "terms/element_kernels.hpp"
+
+namespace hyperqn {
+
+membrane::Model membrane_model(const std::string& name) {
+  if (name == "stvk") return membrane::Model::stvk;
+  if (name == "corotated") return membrane::Model::corotated;
+  if (name == "neohookean") return membrane::Model::neohookean;
+  throw std::invalid_argument("unknown membrane material '" + name + "'");
+}
+
+ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda)
+    : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda) {
+  rest_.reserve(mesh.num_triangles);
+  for (PetscInt t = 0; t < mesh.num_triangles; ++t) {
+    const PetscInt* tri = &mesh.triangles[3 * t];
+    const double* X = mesh.rest.data();
+    rest_.push_back(membrane::rest(Vec3(&X[3 * tri[0]]), Vec3(&X[3 * tri[1]]), Vec3(&X[3 * tri[2]])));
+  }
+}
+
+PetscErrorCode ClothMembrane::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+  PetscFunctionBeginUser;
+  double e = *energy;
+  membrane::Vec9 g;
+  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
+    const PetscInt* tri = &mesh_.triangles[3 * t];
+    const membrane::Vec9 x = element_positions<3>(pos.data(), tri);
+    if (!gradient) {
+      e += membrane::energy(model_, mu_, lambda_, rest_[t], x);
+      continue;
+    }
+    e += membrane::energy_gradient(model_, mu_, lambda_, rest_[t], x, g);
+    add_element_vector<3>(mesh_, tri, g, gradient);
+  }
+  *energy = e;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ClothMembrane::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
+  PetscFunctionBeginUser;
+  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
+    const PetscInt* tri = &mesh_.triangles[3 * t];
+    const Mat9 He = membrane::hessian(model_, mu_, lambda_, rest_[t], element_positions<3>(pos.data(), tri), psd);
+    PetscCall(add_element_hessian<3>(mesh_, H, tri, He, scale));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ClothMembrane::add_laplacian(Mat A, double scale, int components) const {
+  const double w = scale * membrane::laplacian_weight(model_, mu_, lambda_);
+  PetscFunctionBeginUser;
+  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
+    const std::array<double, 9> gram = membrane::basis_gram(rest_[t]);
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> Le = w * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(gram.data());
+    PetscCall(add_element_laplacian<3>(mesh_, A, &mesh_.triangles[3 * t], Le, components));
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

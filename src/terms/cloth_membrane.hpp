@@ -1,0 +1,34 @@
+// A cloth's in-plane elasticity as a triangle-FEM membrane: E = sum_t A_t psi(F_t), F the 3x2
+// deformation gradient of the triangle, psi StVK, corotated or Neo-Hookean in the 2-D Lame
+// constants (materials/membrane.hpp). Its weight in L is the rest stiffness of the in-plane modes
+// (2 mu + lambda) times the triangle's cotangent Laplacian; not exact, so PD is not offered.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "materials/membrane.hpp"
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+// "stvk" | "corotated" | "neohookean"; throws std::invalid_argument otherwise.
+membrane::Model membrane_model(const std::string& name);
+
+class ClothMembrane : public EnergyTerm {
+ public:
+  ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda);
+  std::string name() const override { return "cloth membrane"; }
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  bool projective_dynamics_exact() const override { return false; }
+
+ private:
+  const DistributedMesh& mesh_;
+  membrane::Model model_;
+  double mu_, lambda_;
+  std::vector<membrane::TriangleRest> rest_;  // per local triangle
+};
+
+}  // namespace hyperqn

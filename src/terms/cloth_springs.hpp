@@ -1,0 +1,30 @@
+// Mass-spring cloth (Liu, Bao, Ladislav, Kavan 2013): a spring E = k/2 (l - L)^2 on every edge of
+// the surface, L its rest length, the same k for all. Each edge is carried by one of its
+// triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
+// weight in L is k: exact, so Projective Dynamics is the paper's local-global solver.
+#pragma once
+#include <array>
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+class ClothSprings : public EnergyTerm {
+ public:
+  ClothSprings(const DistributedMesh& mesh, double stiffness);
+  std::string name() const override { return "cloth springs"; }
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  bool projective_dynamics_exact() const override { return true; }
+
+ private:
+  const DistributedMesh& mesh_;
+  double k_;
+  std::vector<std::array<PetscInt, 2>> edges_;  // local vertex pairs of the springs this rank carries
+  std::vector<double> length_;                  // their rest lengths
+};
+
+}  // namespace hyperqn
