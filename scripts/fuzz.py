@@ -51,7 +51,12 @@ ODD_VALUES = [0, -1, 1, 2147483647, -2147483648, 1e308, -1e308, 1e-320, float("n
               "", "x", "0x10", "1e5", "..", "a/b", "a\nb", None, True, [], [1], [1, 2, 3, 4], {}, {"a": 1},
               [[1, 2, 3]], "\0", "é" * 300]
 KEYS = ["name", "mesh", "material", "fixed", "gravity", "time", "solver", "output", "regions", "initial",
-        "strand_material", "study", "petsc", "colliders", "contact", "attachments", "bogus"]
+        "strand_material", "study", "petsc", "colliders", "contact", "attachments", "cloth", "bogus"]
+CLOTH = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 100.0, "bending": {"model": "quadratic", "stiffness": 1e-3},
+                   "areal_density": 0.2},
+         "fixed": [{"box": {"min": [-0.01, -0.01, 0.49], "max": [0.01, 0.01, 0.51]}}]}
+CLOTH_OBJ = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0.5 0.2 0.5\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\n"
 OBJ = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 4 3\nf 1 3 2\n"
 COLLIDERS = [{"type": "plane", "point": [0, -0.1, 0], "normal": [0, 1, 0], "friction": 0.3},
              {"type": "sphere", "center": [0.5, 0.5, 0.5], "radius": 0.2},
@@ -66,7 +71,9 @@ SUBKEYS = {"mesh": ["box", "file", "transform", "edges", "strands"],
            "solver": ["type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
                       "newton_method", "linear_solver", "newton_hessian", "h0"],
            "output": ["every", "vtk", "iterations_csv", "contact_csv", "directory"],
-           "contact": ["model", "distance", "stiffness", "friction_velocity"]}
+           "contact": ["model", "distance", "stiffness", "friction_velocity"],
+           "cloth": ["model", "stretch_stiffness", "material", "youngs_modulus", "poisson_ratio", "bending",
+                     "areal_density"]}
 OPTIONS = ["-tao_type", "-tao_ls_type", "-tao_max_it", "-tao_gatol", "-tao_lmvm_mat_lmvm_hist_size",
            "-h0_mat_mumps_icntl_7", "-h0_mat_mumps_icntl_14", "-hyperqn_divergence_limit", "-tao_ls_stepinit",
            "-tao_bogus_option"]
@@ -116,8 +123,30 @@ def mutate_mesh(rng, text):
 def make_case(rng, k, casedir):
     """Writes case k's files into casedir; returns (command arguments, ranks, what was fuzzed)."""
     os.makedirs(casedir, exist_ok=True)
-    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "gmsh", "options", "contact"])
-    if what == "deck":
+    deck, args, what = copy.deepcopy(BASE), [], rng.choice(["deck", "deck", "mesh", "gmsh", "options", "contact", "cloth"])
+    if what == "cloth":
+        # A sheet or an OBJ surface (maybe mutated) with the cloth section and mesh keys mutated.
+        deck.pop("material")
+        deck.update(copy.deepcopy(CLOTH))
+        if rng.random() < 0.4:
+            with open(os.path.join(casedir, "fuzz.obj"), "w") as f:
+                f.write(mutate_mesh(rng, CLOTH_OBJ) if rng.random() < 0.6 else CLOTH_OBJ)
+            deck["mesh"] = {"file": "fuzz.obj"}
+            deck["fixed"] = [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.01]}}]
+        if rng.random() < 0.3:
+            deck["cloth"] = {"model": "membrane", "material": rng.choice(["stvk", "corotated", "neohookean"]),
+                             "youngs_modulus": 100.0, "poisson_ratio": 0.3, "areal_density": 0.2,
+                             "bending": {"model": rng.choice(["dihedral", "springs", "none"]), "stiffness": 1e-3}}
+            if deck["cloth"]["bending"]["model"] == "none":
+                deck["cloth"]["bending"].pop("stiffness")
+        if rng.random() < 0.8:
+            deck = mutate_deck(rng, deck) if rng.random() < 0.4 else deck
+            section = rng.choice(["cloth", "mesh"])
+            keys = SUBKEYS["cloth"] if section == "cloth" else ["sheet", "surface", "file", "transform", "strands"]
+            node = deck.setdefault(section, {})
+            if isinstance(node, dict):
+                node[rng.choice(keys + ["bogus"])] = rng.choice(ODD_VALUES + [rng.uniform(-10, 10), rng.randint(-5, 50)])
+    elif what == "deck":
         deck = mutate_deck(rng, deck)
     elif what == "contact":
         # Colliders of every type, one item or the obstacle file mutated, maybe a contact section.
