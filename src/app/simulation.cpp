@@ -467,7 +467,7 @@ static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const Sc
   id.physics = physics_fingerprint(deck.physics);
   const TetMesh& m = input.mesh;
   auto bytes = [](const auto& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])); };
-  std::string hash = text_hash(bytes(m.coords) + bytes(m.tets) + bytes(m.segments) + bytes(m.vertex_ids));
+  std::string hash = text_hash(bytes(m.coords) + bytes(m.tets) + bytes(m.segments) + bytes(m.vertex_ids) + bytes(m.triangles));
   hash.resize(16);
   MPI_Bcast(hash.data(), 16, MPI_CHAR, 0, comm);
   id.mesh_hash = hash;

@@ -49,7 +49,18 @@ MOTION = dict(BAR, fixed=[CLAMP, {
 # onto a plane.
 COLLIDER = dict(BAR, fixed=[dict(CLAMP, release=0.1)],
                 colliders=[{"type": "plane", "point": [0, -0.05, 0], "normal": [0, 1, 0], "friction": 0.3}])
-SCENES = {"motion": MOTION, "collider": COLLIDER}
+# A cloth pinned at one corner and held at another by an attachment released at t = 0.25.
+CLOTH = {
+    "mesh": {"sheet": {"size": [1.0, 0.5], "cells": [8, 4]}},
+    "cloth": {"model": "mass-spring", "stretch_stiffness": 50.0, "bending": {"model": "dihedral", "stiffness": 1e-3},
+              "areal_density": 0.2},
+    "fixed": [{"box": {"min": [-0.01, -0.01, 0.49], "max": [0.01, 0.01, 0.51]}}],
+    "attachments": [{"box": {"min": [0.99, -0.01, 0.49], "max": [1.01, 0.01, 0.51]}, "stiffness": 10.0, "release": 0.25}],
+    "gravity": [0, -9.81, 0],
+    "time": {"dt": 0.05, "frames": FRAMES},
+    "solver": {"iterations": 50},
+}
+SCENES = {"motion": MOTION, "collider": COLLIDER, "cloth": CLOTH}
 TIGHT = {"iterations": 300, "max_iterations": 300, "grad_rtol": 1e-12, "grad_atol": 0}
 
 
