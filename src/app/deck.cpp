@@ -152,23 +152,21 @@ class Reader {
       fail(v, "expected a list of " + std::to_string(n) + " " + what + ", got " + describe(v.node));
     return items(v);
   }
-  std::vector<Value> triple(const Value& v, const char* what) const { return fixed_list(v, 3, what); }
-  std::array<double, 3> numbers3(const Value& v) const {
-    auto it = triple(v, "numbers");
-    return {number(it[0]), number(it[1]), number(it[2])};
+  template <size_t N>
+  std::array<double, N> numbers(const Value& v) const {
+    std::array<double, N> out;
+    auto it = fixed_list(v, N, "numbers");
+    for (size_t i = 0; i < N; ++i) out[i] = number(it[i]);
+    return out;
   }
-  std::array<int, 3> integers3(const Value& v) const {
-    auto it = triple(v, "integers");
-    return {integer(it[0]), integer(it[1]), integer(it[2])};
+  template <size_t N>
+  std::array<int, N> integers(const Value& v) const {
+    std::array<int, N> out;
+    auto it = fixed_list(v, N, "integers");
+    for (size_t i = 0; i < N; ++i) out[i] = integer(it[i]);
+    return out;
   }
-  std::array<double, 2> numbers2(const Value& v) const {
-    auto it = fixed_list(v, 2, "numbers");
-    return {number(it[0]), number(it[1])};
-  }
-  std::array<int, 2> integers2(const Value& v) const {
-    auto it = fixed_list(v, 2, "integers");
-    return {integer(it[0]), integer(it[1])};
-  }
+  std::array<double, 3> numbers3(const Value& v) const { return numbers<3>(v); }
 
  private:
   static bool plain_scalar(const YAML::Node& n) { return n.IsScalar() && n.Tag() != "!"; }
@@ -232,6 +230,23 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
   return resolved.string();
 }
 
+// A generated grid {size: [N numbers > 0], cells: [N integers >= 1]} (box, sheet); returns the
+// cells value (errors about the grid's size name it) and sets line to its line.
+template <size_t N>
+Value read_grid(const Reader& r, const Value& v, std::array<double, N>& size, std::array<int, N>& cells, int& line) {
+  Section g(r, v, {"size", "cells"});
+  const Value &size_value = g.need("size"), &cells_value = g.need("cells");
+  size = r.numbers<N>(size_value);
+  cells = r.integers<N>(cells_value);
+  line = cells_value.line;
+  std::vector<Value> size_items = r.items(size_value), cells_items = r.items(cells_value);
+  for (size_t i = 0; i < N; ++i) {
+    r.check(size[i] > 0, size_items[i], "> 0");
+    r.check(cells[i] >= 1, cells_items[i], ">= 1");
+  }
+  return cells_value;
+}
+
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
   Section s(r, v, {"file", "box", "sheet", "surface", "transform", "edges", "strands"});
   const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
@@ -250,18 +265,8 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     m.surface_as_cloth = true;
   }
   if (sheet) {
-    Section b(r, *sheet, {"size", "cells"});
     m.is_sheet = true;
-    const Value& size = b.need("size");
-    const Value& cells = b.need("cells");
-    m.sheet_size = r.numbers2(size);
-    m.sheet_cells = r.integers2(cells);
-    m.line = cells.line;
-    std::vector<Value> size_items = r.items(size), cells_items = r.items(cells);
-    for (int i = 0; i < 2; ++i) {
-      r.check(m.sheet_size[i] > 0, size_items[i], "> 0");
-      r.check(m.sheet_cells[i] >= 1, cells_items[i], ">= 1");
-    }
+    const Value cells = read_grid(r, *sheet, m.sheet_size, m.sheet_cells, m.line);
     const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
     if (3 * triangles > kMaxBoxTets)
       r.fail(cells, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
@@ -288,18 +293,8 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
   }
   if (box) {
-    Section b(r, *box, {"size", "cells"});
     m.is_box = true;
-    const Value& size = b.need("size");
-    const Value& cells = b.need("cells");
-    m.box_size = r.numbers3(size);
-    m.box_cells = r.integers3(cells);
-    m.line = cells.line;
-    std::vector<Value> size_items = r.items(size), cells_items = r.items(cells);
-    for (int i = 0; i < 3; ++i) {
-      r.check(m.box_size[i] > 0, size_items[i], "> 0");
-      r.check(m.box_cells[i] >= 1, cells_items[i], ">= 1");
-    }
+    const Value cells = read_grid(r, *box, m.box_size, m.box_cells, m.line);
     const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
     if (tets > kMaxBoxTets)
       r.fail(cells, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/triangle_geometry.hpp"
+
 namespace hyperqn {
 namespace hinge {
 
@@ -16,22 +18,12 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kTinyHeight = 1e-12;
 // The edge length is floored at kTinyHeight times the hinge's size too (a collapsed edge: the angle
 // is meaningless there, kept finite); a hinge collapsed to a point has theta = 0 and no derivatives.
-// A rest triangle whose area is below kTinyRestArea times its longest edge squared is collinear up
-// to roundoff (its cotangents would be noise).
-constexpr double kTinyRestArea = 1e-14;
-
-Mat3 cross_matrix(const Vec3& v) {
-  Mat3 m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
 
 Vec3 vertex(const Vec12& x, int i) { return x.segment<3>(3 * i); }
 
 void check_triangle(const Vec3& a, const Vec3& b, const Vec3& c, const char* which) {
-  const double area = 0.5 * (b - a).cross(c - a).norm();
-  const double longest2 = std::max({(b - a).squaredNorm(), (c - a).squaredNorm(), (c - b).squaredNorm()});
-  if (!(area > kTinyRestArea * longest2) || !std::isfinite(area))
+  double area;
+  if (!proper_rest_triangle(a, b, c, &area))
     throw std::invalid_argument(std::string("degenerate rest hinge: triangle ") + which + " has area " +
                                 std::to_string(area));
 }

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/triangle_geometry.hpp"
+
 namespace hyperqn {
 namespace membrane {
 
@@ -20,15 +22,6 @@ using Mat6 = Eigen::Matrix<double, 6, 6>;
 constexpr double kTinyJ = 1e-12;
 // Corotated: s = sigma1 + sigma2 is 0 only at F = 0; floored so 1/s stays finite there.
 constexpr double kTinyStretchSum = 1e-12;
-// A rest triangle whose area is below this fraction of its longest edge squared is collinear up to
-// roundoff (its Dm^-1 would be noise).
-constexpr double kTinyRestArea = 1e-14;
-
-Mat3 cross_matrix(const Vec3& v) {
-  Mat3 m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
 
 // The invariants as functions of the two edges e = (e1, e2) = (x1 - x0, x2 - x0), with their
 // gradients in e (6-vectors); everything is mapped back to x only at the end.
@@ -117,9 +110,7 @@ TriangleRest rest(const Vec3& X0, const Vec3& X1, const Vec3& X2) {
   const Vec3 E1 = X1 - X0, E2 = X2 - X0;
   const Vec3 n = E1.cross(E2);
   TriangleRest r;
-  r.area = 0.5 * n.norm();
-  const double longest2 = std::max({E1.squaredNorm(), E2.squaredNorm(), (X2 - X1).squaredNorm()});
-  if (!(r.area > kTinyRestArea * longest2) || !std::isfinite(r.area))
+  if (!proper_rest_triangle(X0, X1, X2, &r.area))
     throw std::invalid_argument("degenerate rest triangle (area " + std::to_string(r.area) + ")");
   // Orthonormal frame of the rest plane: t1 along E1, t2 = nhat x t1.
   const Vec3 t1 = E1.normalized();
