@@ -34,22 +34,64 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
+const char* factor_package_name(FactorPackage p) { return p == FactorPackage::cholmod ? "cholmod" : "mumps"; }
+
+bool factor_package_available(FactorPackage p) {
+#if defined(PETSC_HAVE_SUITESPARSE)
+  (void)p;
+  return true;
+#else
+  return p != FactorPackage::cholmod;
+#endif
+}
+
+FactorPackage default_factor_package() {
+  return factor_package_available(FactorPackage::cholmod) ? FactorPackage::cholmod : FactorPackage::mumps;
+}
+
 PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorInfo info;
+  MatFactorError failed = MAT_FACTOR_NOERROR;
+  const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
-  PetscCall(MatGetFactor(A, MATSOLVERMUMPS, MAT_FACTOR_CHOLESKY, &factor_));
-  PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_icntl_* tune this factorization
+  PetscCheck(factor_package_available(package_), PETSC_COMM_SELF, PETSC_ERR_SUP,
+             "this PETSc was built without SuiteSparse: no CHOLMOD (use -hyperqn_h0_package mumps)");
+  PetscCall(MatGetFactor(A, package_ == FactorPackage::cholmod ? MATSOLVERCHOLMOD : MATSOLVERMUMPS,
+                         MAT_FACTOR_CHOLESKY, &factor_));
+  PetscCall(MatSetOptionsPrefix(factor_, "h0_"));  // -h0_mat_mumps_* / -h0_mat_cholmod_* tune this factorization
   PetscCall(MatSetFromOptions(factor_));
   PetscCall(MatFactorInfoInitialize(&info));
-  PetscCall(MatCholeskyFactorSymbolic(factor_, A, nullptr, &info));
-  PetscCall(MatCholeskyFactorNumeric(factor_, A, &info));
+  PetscCall(MatCholeskyFactorSymbolic(factor_, A, nullptr, &info));  // reads the package's options
+  // A pivot <= 0: CHOLMOD raises PETSC_ERR_MAT_CH_ZRPVT, MUMPS records it as the factor's error.
+  // Either way the message says what it means for the run (no column numbers: PetscErrors would
+  // take a number in the message for an option value it quotes).
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, nullptr));
+  const PetscErrorCode ierr = MatCholeskyFactorNumeric(factor_, A, &info);
+  PetscCall(PetscPopErrorHandler());
+  if (!ierr) PetscCall(MatFactorGetError(factor_, &failed));
+  const char* kind = kind_ == ConstantMatrix::laplacian ? "laplacian" : "rest-stiffness";
+  PetscCheck(ierr != PETSC_ERR_MAT_CH_ZRPVT && failed != MAT_FACTOR_NUMERIC_ZEROPIVOT, PETSC_COMM_SELF,
+             PETSC_ERR_MAT_CH_ZRPVT,
+             "the constant matrix A (solver.h0: %s) is not positive definite: its Cholesky factorization by %s met a "
+             "zero or negative pivot",
+             kind, name);
+  if (ierr) {  // anything else: the package's own message
+    char* message = nullptr;
+    PetscErrorMessage(ierr, nullptr, &message);
+    SETERRQ(PETSC_COMM_SELF, ierr, "the Cholesky factorization of the constant matrix by %s failed: %s", name,
+            message ? message : "(no message)");
+  }
+  PetscCheck(failed == MAT_FACTOR_NOERROR, PETSC_COMM_SELF, PETSC_ERR_LIB,
+             "the Cholesky factorization of the constant matrix by %s failed (%s)", name,
+             failed == MAT_FACTOR_OUTMEMORY ? "out of memory" : "MatFactorError");
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind) {
+PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind, FactorPackage package) {
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
+  package_ = package;
   const int components = kind == ConstantMatrix::laplacian ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components, kind));
@@ -73,7 +115,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind)
   }
   PetscErrorCode ierr = 0;
   if (size == 1 || rank == 0) ierr = factor(factored);
-  if (size > 1) {  // an error on rank 0 (e.g. a bad -h0_mat_mumps_* value) must stop every rank
+  if (size > 1) {  // an error on rank 0 (e.g. a bad -h0_mat_*_* value) must stop every rank
     int failed = ierr != 0, any = 0;
     PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));
     PetscCall(ierr);

@@ -1,5 +1,6 @@
-// The constant SPD matrix A of a scene, factored once by MUMPS Cholesky, then applied as A^{-1}
-// as often as needed (L-BFGS initial Hessian, PD global step).
+// The constant SPD matrix A of a scene, factored once by a sparse Cholesky (CHOLMOD or MUMPS, see
+// FactorPackage), then applied as A^{-1} as often as needed (L-BFGS initial Hessian, PD global
+// step).
 //
 // A = M + h^2 L is A1 (x) I3 (the same scalar matrix for x, y and z), so only the vertex matrix
 // A1 = M1 + h^2 L1 is factored, and A^{-1} b is one solve with A1 for the three right-hand
@@ -7,17 +8,28 @@
 // A = M + h^2 K(x_rest) couples x, y and z: the full 3n x 3n matrix is factored and applied to b
 // as one vector.
 //
-// On more than one rank A is gathered to rank 0 and factored there by sequential MUMPS; each solve
-// gathers b to rank 0 and scatters x back. Parallel MUMPS is not reproducible: its factorization
-// and solve sum the contribution blocks of a front in the order the other ranks' messages arrive,
-// so two runs of a deck at 2 ranks differed in the last bits of every A^{-1} b and, through
-// L-BFGS, in iteration counts (docs/performance.md#reproducibility).
+// On more than one rank A is gathered to rank 0 and factored there sequentially (by the same
+// package); each solve gathers b to rank 0 and scatters x back. Parallel MUMPS is not
+// reproducible: its factorization and solve sum the contribution blocks of a front in the order
+// the other ranks' messages arrive, so two runs of a deck at 2 ranks differed in the last bits of
+// every A^{-1} b and, through L-BFGS, in iteration counts (docs/performance.md#reproducibility).
 #pragma once
 #include <petscmat.h>
 
 #include "solvers/objective.hpp"
 
 namespace hyperqn {
+
+// The package that factors A (option -hyperqn_h0_package; its options take the prefix h0_:
+// -h0_mat_cholmod_*, -h0_mat_mumps_*). Both compute the same LL^T up to the fill-reducing
+// ordering (results differ in the last bits). CHOLMOD's solve has a far smaller fixed cost per
+// call than MUMPS's (docs/performance.md#h0-package), hence the default when PETSc has it.
+enum class FactorPackage { mumps, cholmod };
+const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod"
+// CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS is always there.
+bool factor_package_available(FactorPackage p);
+// What -hyperqn_h0_package auto means: CHOLMOD if available, else MUMPS.
+FactorPackage default_factor_package();
 
 class FactoredSystem {
  public:
@@ -27,8 +39,11 @@ class FactoredSystem {
   FactoredSystem& operator=(const FactoredSystem&) = delete;
 
   // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene).
-  PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian);
+  // A factorization that fails (A not positive definite) is an error saying so.
+  PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
+                       FactorPackage package = default_factor_package());
   ConstantMatrix kind() const { return kind_; }
+  FactorPackage package() const { return package_; }
   // x = A^{-1} b (dof layout: x, y, z per free vertex).
   PetscErrorCode solve(Vec b, Vec x) const;
   // y = A x.
@@ -48,6 +63,7 @@ class FactoredSystem {
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
+  FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to

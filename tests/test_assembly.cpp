@@ -170,8 +170,10 @@ PetscErrorCode check_rest(const std::string& model) {
 }  // namespace
 
 // The factored system works on A1 for the Laplacian (A = A1 (x) I3), on the full A for the rest
-// stiffness: its solve must invert the full 3n x 3n A and its mult must equal A's.
-PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix kind) {
+// stiffness: its solve must invert the full 3n x 3n A and its mult must equal A's. Each package
+// (MUMPS, CHOLMOD), at 1 and at N ranks (factored on rank 0); both must give the same A^{-1} b.
+PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix kind, FactorPackage package,
+                                     Vec reference = nullptr) {
   TestScene s;
   Mat A;
   Vec b, x, Ax, Ab;
@@ -179,13 +181,17 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
   PetscReal residual, bnorm, diff;
   FactoredSystem sys;
   PetscFunctionBeginUser;
+  const std::string what = model + " (" + factor_package_name(package) + ")";
   PetscCall(make_scene(model, true, s));
   PetscCall(s.step->assemble_constant_matrix(&A, 3, kind));
-  PetscCall(sys.setup(*s.step, kind));
+  PetscCall(sys.setup(*s.step, kind, package));
+  CHECK(sys.package() == package);
   PetscCall(MatCreateVecs(A, &b, &x));
   PetscCall(VecDuplicate(b, &Ax));
   PetscCall(VecDuplicate(b, &Ab));
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetSeed(rnd, 7));
+  PetscCall(PetscRandomSeed(rnd));
   PetscCall(VecSetRandom(b, rnd));
   PetscCall(PetscRandomDestroy(&rnd));
   PetscCall(sys.solve(b, x));
@@ -193,19 +199,92 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
   PetscCall(VecAXPY(Ax, -1.0, b));
   PetscCall(VecNorm(Ax, NORM_2, &residual));
   PetscCall(VecNorm(b, NORM_2, &bnorm));
-  CHECK_MSG(residual <= 1e-12 * bnorm, model + ": |A A^{-1} b - b| / |b| = " + std::to_string(residual / bnorm));
+  CHECK_MSG(residual <= 1e-12 * bnorm, what + ": |A A^{-1} b - b| / |b| = " + std::to_string(residual / bnorm));
+  if (reference) {  // the other package's A^{-1} b for the same b
+    PetscReal xnorm;
+    PetscCall(VecNorm(x, NORM_2, &xnorm));
+    PetscCall(VecAXPY(reference, -1.0, x));
+    PetscCall(VecNorm(reference, NORM_2, &diff));
+    CHECK_MSG(diff <= 1e-12 * xnorm, what + ": A^{-1} b differs from MUMPS's by " + std::to_string(diff / xnorm));
+  }
   PetscCall(sys.mult(b, Ax));
   PetscCall(MatMult(A, b, Ab));
   PetscCall(VecAXPY(Ax, -1.0, Ab));
   PetscCall(VecNorm(Ax, NORM_2, &diff));
   PetscCall(VecNorm(Ab, NORM_2, &bnorm));
-  CHECK_MSG(diff <= 1e-13 * bnorm, model + ": the factored system's mult differs from A");
+  CHECK_MSG(diff <= 1e-13 * bnorm, what + ": the factored system's mult differs from A");
   CHECK(sys.factorizations() == 1);
+  if (package == FactorPackage::mumps && factor_package_available(FactorPackage::cholmod))
+    PetscCall(check_factored_system(model, kind, FactorPackage::cholmod, x));
   PetscCall(VecDestroy(&b));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&Ax));
   PetscCall(VecDestroy(&Ab));
   PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
+// The scene's objective with its constant matrix made singular (the first row and column zero):
+// not positive definite, a zero pivot for LL^T and LDL^T alike.
+class SingularConstantMatrix : public Objective {
+ public:
+  explicit SingularConstantMatrix(Objective& o) : o_(o) {}
+  Vec layout() const override { return o_.layout(); }
+  PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override { return o_.objective(x, g, grad); }
+  PetscInt evaluations() const override { return o_.evaluations(); }
+  void reset_evaluations() override { o_.reset_evaluations(); }
+  PetscInt rejected_evaluations() const override { return o_.rejected_evaluations(); }
+  PetscErrorCode force_scale(Vec x, double* scale) override { return o_.force_scale(x, scale); }
+  double length_scale() const override { return o_.length_scale(); }
+  bool bounds_steps() const override { return o_.bounds_steps(); }
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return o_.limit_step(x, dir, alpha); }
+  PetscErrorCode assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const override {
+    PetscFunctionBeginUser;
+    PetscMPIInt rank;
+    const PetscInt first = 0;
+    PetscCall(o_.assemble_constant_matrix(A, components, kind));
+    PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)*A), &rank));
+    PetscCall(MatZeroRowsColumns(*A, rank == 0 ? 1 : 0, &first, 0.0, nullptr, nullptr));
+    PetscFunctionReturn(0);
+  }
+  PetscErrorCode create_hessian(Mat* H) const override { return o_.create_hessian(H); }
+  PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact) override { return o_.assemble_hessian(x, H, exact); }
+  bool projective_dynamics_exact() const override { return o_.projective_dynamics_exact(); }
+  std::string energy_names() const override { return o_.energy_names(); }
+
+ private:
+  Objective& o_;
+};
+
+// Records the first error message instead of printing a trace.
+PetscErrorCode record_error(MPI_Comm, int, const char*, const char*, PetscErrorCode n, PetscErrorType type,
+                            const char* message, void* ctx) {
+  auto* first = static_cast<std::string*>(ctx);
+  if (type == PETSC_ERROR_INITIAL && first->empty()) *first = message ? message : "";
+  return n;
+}
+
+// A factorization that fails is an error that says the matrix is not positive definite, on every
+// rank (the factorization runs on rank 0), for either package.
+PetscErrorCode check_not_positive_definite(FactorPackage package) {
+  TestScene s;
+  std::string message;
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(make_scene("corotated", true, s));
+  SingularConstantMatrix singular(*s.step);
+  {
+    FactoredSystem sys;
+    PetscCall(PetscPushErrorHandler(record_error, &message));
+    const PetscErrorCode ierr = sys.setup(singular, ConstantMatrix::laplacian, package);
+    PetscCall(PetscPopErrorHandler());
+    CHECK_MSG(ierr != 0, std::string(factor_package_name(package)) + ": factoring a singular A did not fail");
+    if (rank == 0)
+      CHECK_MSG(message.find("not positive definite") != std::string::npos &&
+                    message.find(factor_package_name(package)) != std::string::npos,
+                std::string(factor_package_name(package)) + ": message '" + message + "'");
+  }
   PetscFunctionReturn(0);
 }
 
@@ -215,14 +294,16 @@ int main(int argc, char** argv) {
   for (const char* model : {"corotated", "neohookean", "neohookean+strands"}) {
     PetscCall(check_mass_and_laplacian(model));
     PetscCall(check_rest(model));
-    PetscCall(check_factored_system(model, ConstantMatrix::laplacian));
-    PetscCall(check_factored_system(model, ConstantMatrix::rest_stiffness));
+    PetscCall(check_factored_system(model, ConstantMatrix::laplacian, FactorPackage::mumps));  // then cholmod
+    PetscCall(check_factored_system(model, ConstantMatrix::rest_stiffness, FactorPackage::mumps));
     PetscCall(check_rest_stiffness(model));
     PetscCall(check_gradients(model, 0.05));
     PetscCall(check_gradients(model, 0.5));  // large deformation, inverted elements likely
     PetscCall(check_spd(model, ConstantMatrix::laplacian));
     PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
   }
+  PetscCall(check_not_positive_definite(FactorPackage::mumps));
+  if (factor_package_available(FactorPackage::cholmod)) PetscCall(check_not_positive_definite(FactorPackage::cholmod));
   const int code = test_scene::tally("test_assembly");  // every rank agrees on the outcome
   PetscCall(PetscFinalize());
   return code;

@@ -1,6 +1,7 @@
 #include "app/run_options.hpp"
 
 #include <cmath>
+#include <string>
 
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
@@ -12,8 +13,28 @@ namespace hyperqn {
 // The PetscOptionsBegin block itself (PETSc errors on a value that is not a number).
 static PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o);
 
+// -hyperqn_h0_package's choices, as PetscOptionsEList lists them in -help.
+static const char* const kH0Packages[] = {"auto", "mumps", "cholmod"};
+
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionBeginUser;
+  {  // checked first, for a message that names the choices (PETSc's would not)
+    char value[64] = "";
+    PetscBool set = PETSC_FALSE, known = PETSC_FALSE;
+    PetscCall(PetscOptionsGetString(nullptr, nullptr, "-hyperqn_h0_package", value, sizeof value, &set));
+    for (const char* choice : kH0Packages) {
+      PetscBool same;
+      PetscCall(PetscStrcasecmp(value, choice, &same));
+      known = (PetscBool)(known || same);
+    }
+    if (set && !known)
+      throw InputError(std::string("option -hyperqn_h0_package ") + value + ": unknown package (choose auto, mumps or cholmod)");
+    PetscBool cholmod;
+    PetscCall(PetscStrcasecmp(value, "cholmod", &cholmod));
+    if (set && cholmod && !factor_package_available(FactorPackage::cholmod))
+      throw InputError("option -hyperqn_h0_package cholmod: this PETSc was built without SuiteSparse, so it has no "
+                       "CHOLMOD (use mumps or auto)");
+  }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
   if (parse_run_options(comm, o)) throw InputError(errors.describe());
   // Every rank reads the same options, so every rank throws alike.
@@ -40,6 +61,14 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscCall(PetscOptionsInt("-hyperqn_test_nan_energy_from_step",
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
+  PetscInt package = 0;  // auto
+  if (o->h0_package != default_factor_package()) package = o->h0_package == FactorPackage::cholmod ? 2 : 1;
+  PetscCall(PetscOptionsEList("-hyperqn_h0_package",
+                              "Sparse Cholesky that factors the constant matrix M + h^2 L (or M + h^2 K): auto (cholmod if "
+                              "PETSc has SuiteSparse, else mumps), mumps or cholmod; its options take the prefix h0_ "
+                              "(-h0_mat_cholmod_*, -h0_mat_mumps_*)",
+                              "docs/performance.md", kH0Packages, 3, kH0Packages[package], &package, nullptr));
+  o->h0_package = package == 0 ? default_factor_package() : package == 1 ? FactorPackage::mumps : FactorPackage::cholmod;
   PetscOptionsEnd();
   PetscFunctionReturn(0);
 }
@@ -55,6 +84,7 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     else
       s.factor = true;
   }
+  s.h0_package = o.h0_package;
   const std::string& w = deck.solver.warm_start;
   s.warm_start = w == "previous" ? WarmStart::previous : w == "lower" ? WarmStart::lower : WarmStart::inertial;
   if (o.nan_beyond >= 0 || o.nan_from_step >= 0)

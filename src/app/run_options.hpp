@@ -25,10 +25,13 @@ struct RunOptions {
   // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
   PetscReal nan_beyond = -1;
   PetscInt nan_from_step = -1;
+  // Who factors the constant matrices M + h^2 L and M + h^2 K(x_rest) (-hyperqn_h0_package: auto,
+  // mumps or cholmod; auto is default_factor_package(), CHOLMOD when PETSc has it).
+  FactorPackage h0_package = default_factor_package();
 };
 
 // Reads the options (collective). With -help, PETSc prints them. Throws InputError for a value
-// that makes no sense (not finite).
+// that makes no sense (not finite, not one of the choices, a package this PETSc does not have).
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options);
 
 // How the scene of this deck is built for these solvers (with the deck's solver settings): the

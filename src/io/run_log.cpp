@@ -113,6 +113,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"frames\": " << s.frames << ",\n"
       << "  \"dt\": " << number(s.dt) << ",\n"
       << "  \"factorizations\": " << s.factorizations << ",\n"
+      << "  \"h0_package\": " << (s.h0_package.empty() ? std::string("null") : quoted(s.h0_package)) << ",\n"
       << "  \"setup_s\": " << number(s.setup_s) << ",\n"
       << "  \"assembly_s\": " << number(s.assembly_s) << ",\n"
       << "  \"factor_s\": " << number(s.factor_s) << ",\n"

@@ -51,8 +51,11 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
   if (!l.solver) {
     PetscCall(scene_.integrator->create_substep(1 << halvings, l.integrator));
     if (solver_uses_constant_matrix(spec_.type)) {
+      // By the package that factored the scene's own (-hyperqn_h0_package).
+      const FactoredSystem* scene_matrix = scene_.constant_matrix(spec_);
       l.factored = std::make_unique<FactoredSystem>();
-      PetscCall(l.factored->setup(*l.integrator, constant_matrix_of(spec_)));
+      PetscCall(l.factored->setup(*l.integrator, constant_matrix_of(spec_),
+                                  scene_matrix ? scene_matrix->package() : default_factor_package()));
     }
     SolverSpec spec = spec_;
     spec.quiet = true;

@@ -182,11 +182,11 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
   if (options_.factor) {
     s.factored = std::make_unique<FactoredSystem>();
-    PetscCall(s.factored->setup(*s.integrator));
+    PetscCall(s.factored->setup(*s.integrator, ConstantMatrix::laplacian, options_.h0_package));
   }
   if (options_.factor_rest_stiffness) {
     s.rest_stiffness = std::make_unique<FactoredSystem>();
-    PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness));
+    PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness, options_.h0_package));
   }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);

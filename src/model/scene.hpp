@@ -50,6 +50,7 @@ struct Scene {
 struct SceneOptions {
   bool factor = false;                 // factor M + h^2 L (a solver needs it)
   bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
+  FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;

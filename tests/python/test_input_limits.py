@@ -169,7 +169,12 @@ OPTION_ERRORS = {
                              ["option -tao_ls_type more-thuente,armijo", "ls_type_list_in_deck.yaml:", "petsc: section",
                               "TaoLineSearch type"]),
     "bad_tao_type": (None, ["-tao_type", "bogus"], ["option -tao_type bogus (command line)", "Tao type bogus"]),
-    "mumps_icntl_text": (None, ["-h0_mat_mumps_icntl_14", "abc"], ["option -h0_mat_mumps_icntl_14 abc (command line)"]),
+    "mumps_icntl_text": (None, ["-hyperqn_h0_package", "mumps", "-h0_mat_mumps_icntl_14", "abc"],
+                         ["option -h0_mat_mumps_icntl_14 abc (command line)"]),
+    "cholmod_factor_text": (None, ["-hyperqn_h0_package", "cholmod", "-h0_mat_cholmod_factor", "bogus"],
+                            ["option -h0_mat_cholmod_factor bogus (command line)", "simplicial auto supernodal"]),
+    "h0_package_unknown": (None, ["-hyperqn_h0_package", "umfpack"],
+                           ["option -hyperqn_h0_package umfpack", "auto, mumps or cholmod"]),
     # found by scripts/fuzz.py: PETSc crashed on a negative history and allocated without bound on a huge one
     "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
     "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
