@@ -3,7 +3,7 @@
 
 Generates one deck per case, runs it under mpiexec, collects summary.json and
 prints/writes a table (bench.csv, bench.json).  See bench/README.md.
-Needs postprocess/ on PYTHONPATH (`make bench` sets it) and PyYAML; numpy is not needed.
+Needs postprocess/ on PYTHONPATH (`make bench` sets it), PyYAML and numpy (the bandwidth loop).
 """
 import argparse, csv, datetime, json, os, platform, subprocess, sys, time
 
@@ -33,7 +33,32 @@ CASES = {
 QUICK = ["bar990", "bar4099", "box10k"]
 
 COLUMNS = ["case", "vertices", "elements", "ranks", "factor_s", "ms/frame", "ms/iter",
-           "grad%", "h0%", "other%", "peak MB/rank", "status"]
+           "grad%", "h0%", "other%", "bound ms/iter", "x bound", "peak MB/rank", "status"]
+
+# The streaming bound of one iteration: the factor's values read twice (forward and backward
+# solve) plus one pass over the element data (a record of ~96 B per element: rest data and
+# vertex indices) and the vertex data (positions read, gradient written: 48 B per vertex), at the
+# memory bandwidth measured below. It ignores the L-BFGS vector work and all arithmetic.
+FACTOR_BYTES, ELEMENT_BYTES, VERTEX_BYTES = 2 * 8, 96, 48
+
+
+def stream_bandwidth(n=1 << 25, repeat=5):
+    """Memory bandwidth in bytes/s, STREAM's 'add' (a = b + c, 24 B per element, one core), best of repeat."""
+    import numpy as np
+    b, c = np.ones(n), np.full(n, 2.0)
+    a = np.empty(n)
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        np.add(b, c, out=a)
+        best = min(best, time.perf_counter() - t0)
+    return 24.0 * n / best
+
+
+def streaming_bound_ms(s, bandwidth):
+    elements = s["tets"] + s["segments"] + s.get("triangles", 0)
+    data = FACTOR_BYTES * s.get("h0_factor_nonzeros", 0) + ELEMENT_BYTES * elements + VERTEX_BYTES * s["vertices"]
+    return 1e3 * data / bandwidth
 
 
 def medit_bbox(path):
@@ -146,7 +171,7 @@ def run_case(args, name, deck, ranks, rundir):
     return s, s.get("status", "?")
 
 
-def make_row(name, ranks, s, status):
+def make_row(name, ranks, s, status, bandwidth):
     row = dict.fromkeys(COLUMNS, "")
     row.update(case=name, ranks=ranks, status=status)
     if s:
@@ -161,6 +186,8 @@ def make_row(name, ranks, s, status):
                     "grad%": grad, "h0%": h0,
                     "other%": round(100.0 - grad - h0, 1) if solve > 0 else "",
                     "peak MB/rank": round(s["peak_rss_mb"])})
+        bound = streaming_bound_ms(s, bandwidth)
+        row.update({"bound ms/iter": round(bound, 3), "x bound": round(s["ms_per_iteration"] / bound, 1)})
     return row
 
 
@@ -185,7 +212,7 @@ def machine_info():
     return info
 
 
-FMT = {"factor_s": "{:.3f}", "ms/frame": "{:.1f}", "ms/iter": "{:.2f}",
+FMT = {"factor_s": "{:.3f}", "ms/frame": "{:.1f}", "ms/iter": "{:.2f}", "bound ms/iter": "{:.3f}", "x bound": "{:.1f}",
        "grad%": "{:.1f}", "h0%": "{:.1f}", "other%": "{:.1f}"}
 
 
@@ -226,6 +253,8 @@ def main():
         return
 
     machine = machine_info()                       # before the runs, so loadavg is the idle load
+    machine["bandwidth_GBps"] = round(stream_bandwidth() / 1e9, 2)
+    print(f"memory bandwidth (STREAM add, one core): {machine['bandwidth_GBps']} GB/s", file=sys.stderr)
     built = (datetime.datetime.fromtimestamp(os.path.getmtime(args.hyperqn)).isoformat(timespec="seconds")
              if os.path.exists(args.hyperqn) else None)  # which build was measured
     deckdir = os.path.join(args.out, "decks")
@@ -245,7 +274,7 @@ def main():
                 good = s is not None and not status.startswith("failed")
                 if best is None or (good and (not best[2] or s["wall_s"] < best[0]["wall_s"])):
                     best = (s, status, good)
-            rows.append(make_row(name, r, best[0], best[1]))
+            rows.append(make_row(name, r, best[0], best[1], machine["bandwidth_GBps"] * 1e9))
             raw.append(best[0])
 
     if not rows:

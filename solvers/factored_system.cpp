@@ -84,6 +84,7 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   PetscCheck(failed == MAT_FACTOR_NOERROR, PETSC_COMM_SELF, PETSC_ERR_LIB,
              "the Cholesky factorization of the constant matrix by %s failed (%s)", name,
              failed == MAT_FACTOR_OUTMEMORY ? "out of memory" : "MatFactorError");
+  PetscCall(MatViewFromOptions(factor_, nullptr, "-mat_view"));  // -h0_mat_view ::ascii_info: the factor's size
   PetscFunctionReturn(0);
 }
 
@@ -125,6 +126,13 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   PetscCall(event_end(&LogEvents::h0_factor));
   ++factorizations_;
   factor_s_ = event_seconds(log_events().h0_factor) - before;
+  MatInfo factor_info;
+  factor_nonzeros_ = 0;
+  if (factor_) {
+    PetscCall(MatGetInfo(factor_, MAT_LOCAL, &factor_info));
+    factor_nonzeros_ = factor_info.nz_used;
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // only rank 0 holds it
 
   PetscCall(MatGetLocalSize(A_, &n, nullptr));
   PetscCall(MatGetSize(A_, &N, nullptr));

@@ -54,6 +54,8 @@ class FactoredSystem {
 
   // Time of this system's factorization (the run's totals are the log events hqnH0*).
   double factor_seconds() const { return factor_s_; }
+  // Entries of the Cholesky factor (the package's count; the same on every rank).
+  double factor_nonzeros() const { return factor_nonzeros_; }
   int factorizations() const { return factorizations_; }
 
  private:
@@ -74,6 +76,7 @@ class FactoredSystem {
   Mat rhs0_ = nullptr, sol0_ = nullptr;  // Laplacian, on rank 0: N x 3 dense work matrices
   double factor_s_ = 0;
   int factorizations_ = 0;
+  double factor_nonzeros_ = 0;
 };
 
 }  // namespace hyperqn

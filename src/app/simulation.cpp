@@ -564,7 +564,10 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   summary.dofs = scene.mesh.global_dofs;
   summary.fixed_vertices = scene.mesh.global_fixed_vertices;
   summary.dt = deck.time.dt;
-  if (const FactoredSystem* h0 = scene.constant_matrix(deck.solver)) summary.h0_package = factor_package_name(h0->package());
+  if (const FactoredSystem* h0 = scene.constant_matrix(deck.solver)) {
+    summary.h0_package = factor_package_name(h0->package());
+    summary.h0_factor_nonzeros = h0->factor_nonzeros();
+  }
   read_log_events(summary);
   summary.setup_s = MPI_Wtime() - t_start;
   std::string elements = summary.triangles ? "" : std::to_string(summary.tets) + " tets";

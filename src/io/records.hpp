@@ -30,6 +30,7 @@ struct RunSummary {
   long long hessian_assemblies = 0;  // newton: one M + h^2 K(x) assembly and factorization each
   int frames = 0, factorizations = 0;
   std::string h0_package;  // who factored the constant matrices (-hyperqn_h0_package); "" if none
+  double h0_factor_nonzeros = 0;  // entries of that factor (the benchmark's streaming bound)
   double dt = 0;
   double setup_s = 0, assembly_s = 0, factor_s = 0, solve_s = 0, wall_s = 0;
   double ms_per_frame = 0, ms_per_iteration = 0, mean_iterations = 0;
