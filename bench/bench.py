@@ -31,6 +31,7 @@ CASES = {
     "sheet501": ("sheet", (500, 500)),   # 251,001 vertices, 500,000 triangles
 }
 QUICK = ["bar990", "bar4099", "box10k"]
+MATERIALS = ["neohookean", "stvk", "corotated"]  # --material: the performance issue's three
 
 COLUMNS = ["case", "vertices", "elements", "ranks", "factor_s", "ms/frame", "ms/iter",
            "grad%", "h0%", "other%", "bound ms/iter", "x bound", "peak MB/rank", "status"]
@@ -90,7 +91,7 @@ def vec(v):
     return [float(f"{x:.9g}") for x in v]
 
 
-def write_deck(name, deckdir, frames):
+def write_deck(name, deckdir, frames, material="neohookean"):
     """Write DECKDIR/NAME.yaml; return its path, or None with a note if the mesh is missing."""
     kind, arg = CASES[name]
     deck = {"name": name}
@@ -131,7 +132,7 @@ def write_deck(name, deckdir, frames):
         deck["mesh"] = {"box": {"size": vec(size), "cells": list(arg)}}
     bmin, bmax = fixed_box(name, lo, hi)
     deck.update({
-        "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
+        "material": {"model": material, "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
         "fixed": [{"box": {"min": vec(bmin), "max": vec(bmax)}}],
         "gravity": [0, -9.81, 0],
         "time": {"dt": 0.0333333333, "frames": frames},
@@ -237,6 +238,8 @@ def main():
     ap.add_argument("--timeout", type=float, default=1800, help="seconds per run")
     ap.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
     ap.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
+    ap.add_argument("--material", default="neohookean", choices=MATERIALS,
+                    help="the solids' material model (cloth sheets keep their springs)")
     ap.add_argument("--list", action="store_true", help="print the selected case names and stop")
     args = ap.parse_args()
     args.hyperqn = os.path.abspath(args.hyperqn)
@@ -261,7 +264,7 @@ def main():
     os.makedirs(deckdir, exist_ok=True)
     rows, raw = [], []                             # raw: full summary.json of each run
     for name in names:
-        deck = write_deck(name, deckdir, args.frames)
+        deck = write_deck(name, deckdir, args.frames, args.material)
         if deck is None:
             continue
         for r in ranks:
@@ -285,7 +288,7 @@ def main():
         wr.writeheader()
         wr.writerows(rows)
     with open(os.path.join(args.out, "bench.json"), "w") as f:
-        json.dump({"machine": machine, "frames": args.frames, "repeat": args.repeat,
+        json.dump({"machine": machine, "frames": args.frames, "repeat": args.repeat, "material": args.material,
                    "hyperqn": args.hyperqn, "hyperqn_built": built, "rows": rows, "summaries": raw},
                   f, indent=1)
     # Non-zero only when nothing worked, so one bad case does not hide the others.

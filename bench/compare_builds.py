@@ -7,7 +7,7 @@
 The builds take turns case by case, round after round (--rounds), so that the machine's noise,
 which comes and goes over tens of seconds here, falls on both alike; each keeps its fastest run. Prints ms/iteration and ms/frame of both and the
 ratio new/old, and writes compare.csv and compare.json to --out. Arguments after the two binaries
-that bench.py knows (--quick, --cases, --ranks, --frames) pass through to it.
+that bench.py knows (--quick, --cases, --ranks, --frames, --material) pass through to it.
 """
 import argparse
 import csv

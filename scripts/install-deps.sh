@@ -6,7 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   petsc-dev libmetis-dev libopenmpi-dev openmpi-bin
-  libhdf5-openmpi-dev libeigen3-dev libyaml-cpp-dev
+  libhdf5-openmpi-dev libeigen3-dev libyaml-cpp-dev libsuitesparse-dev
   libopenblas0-serial
   python3 python3-numpy python3-matplotlib python3-h5py python3-meshio python3-yaml python3-pytest
 )

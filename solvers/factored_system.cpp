@@ -1,5 +1,7 @@
 #include "solvers/factored_system.hpp"
 
+#include <vector>
+
 #include "io/log_events.hpp"
 
 namespace hyperqn {
@@ -34,7 +36,14 @@ static PetscErrorCode shell_mult(Mat S, Vec x, Vec y) {
   PetscFunctionReturn(0);
 }
 
-const char* factor_package_name(FactorPackage p) { return p == FactorPackage::cholmod ? "cholmod" : "mumps"; }
+const char* factor_package_name(FactorPackage p) {
+  switch (p) {
+    case FactorPackage::mumps: return "mumps";
+    case FactorPackage::cholmod: return "cholmod";
+    case FactorPackage::simplicial: return "simplicial";
+  }
+  return "?";
+}
 
 bool factor_package_available(FactorPackage p) {
 #if defined(PETSC_HAVE_SUITESPARSE)
@@ -45,8 +54,45 @@ bool factor_package_available(FactorPackage p) {
 #endif
 }
 
-FactorPackage default_factor_package() {
-  return factor_package_available(FactorPackage::cholmod) ? FactorPackage::cholmod : FactorPackage::mumps;
+FactorPackage default_factor_package() { return FactorPackage::simplicial; }
+
+// The message of a factorization that met a pivot <= 0, the same for every package.
+static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {
+  SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT,
+          "the constant matrix A (solver.h0: %s) is not positive definite: its Cholesky factorization by %s met a "
+          "zero or negative pivot",
+          kind == ConstantMatrix::laplacian ? "laplacian" : "rest-stiffness", factor_package_name(package));
+}
+
+// A's rows (sorted columns) handed to SimplicialCholesky, which reads their upper triangle.
+PetscErrorCode FactoredSystem::factor_simplicial(Mat A) {
+  PetscInt n;
+  PetscFunctionBeginUser;
+  PetscCall(MatGetSize(A, &n, nullptr));
+  std::vector<int64_t> start(n + 1, 0), columns;
+  std::vector<double> values;
+  for (PetscInt i = 0; i < n; ++i) {
+    PetscInt nc;
+    const PetscInt* c;
+    const PetscScalar* v;
+    PetscCall(MatGetRow(A, i, &nc, &c, &v));
+    for (PetscInt k = 0; k < nc; ++k)
+      if (c[k] >= i) {
+        columns.push_back(c[k]);
+        values.push_back(v[k]);
+      }
+    start[i + 1] = static_cast<int64_t>(columns.size());
+    PetscCall(MatRestoreRow(A, i, &nc, &c, &v));
+  }
+  simplicial_ = std::make_unique<SimplicialCholesky>();
+  const SimplicialCholesky::Status status = simplicial_->factor(n, start.data(), columns.data(), values.data());
+  if (status != SimplicialCholesky::Status::ok) simplicial_.reset();
+  if (status == SimplicialCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
+  PetscCheck(status != SimplicialCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
+             "the Cholesky factorization of the constant matrix by CHOLMOD (simplicial) ran out of memory");
+  PetscCheck(status == SimplicialCholesky::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
+             "the Cholesky factorization of the constant matrix by CHOLMOD (simplicial) failed");
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::factor(Mat A) {
@@ -54,6 +100,10 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
+  if (package_ == FactorPackage::simplicial) {
+    PetscCall(factor_simplicial(A));
+    PetscFunctionReturn(0);
+  }
   PetscCheck(factor_package_available(package_), PETSC_COMM_SELF, PETSC_ERR_SUP,
              "this PETSc was built without SuiteSparse: no CHOLMOD (use -hyperqn_h0_package mumps)");
   PetscCall(MatGetFactor(A, package_ == FactorPackage::cholmod ? MATSOLVERCHOLMOD : MATSOLVERMUMPS,
@@ -69,12 +119,8 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   const PetscErrorCode ierr = MatCholeskyFactorNumeric(factor_, A, &info);
   PetscCall(PetscPopErrorHandler());
   if (!ierr) PetscCall(MatFactorGetError(factor_, &failed));
-  const char* kind = kind_ == ConstantMatrix::laplacian ? "laplacian" : "rest-stiffness";
-  PetscCheck(ierr != PETSC_ERR_MAT_CH_ZRPVT && failed != MAT_FACTOR_NUMERIC_ZEROPIVOT, PETSC_COMM_SELF,
-             PETSC_ERR_MAT_CH_ZRPVT,
-             "the constant matrix A (solver.h0: %s) is not positive definite: its Cholesky factorization by %s met a "
-             "zero or negative pivot",
-             kind, name);
+  if (ierr == PETSC_ERR_MAT_CH_ZRPVT || failed == MAT_FACTOR_NUMERIC_ZEROPIVOT)
+    PetscCall(not_positive_definite(kind_, package_));
   if (ierr) {  // anything else: the package's own message
     char* message = nullptr;
     PetscErrorMessage(ierr, nullptr, &message);
@@ -132,6 +178,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(MatGetInfo(factor_, MAT_LOCAL, &factor_info));
     factor_nonzeros_ = factor_info.nz_used;
   }
+  if (simplicial_) factor_nonzeros_ = static_cast<double>(simplicial_->nonzeros());
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // only rank 0 holds it
 
   PetscCall(MatGetLocalSize(A_, &n, nullptr));
@@ -189,27 +236,39 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
   PetscFunctionReturn(0);
 }
 
+// x = A^{-1} b with the factor on this rank (b and x: all of A's rows).
+PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
+  PetscFunctionBeginUser;
+  if (simplicial_) {  // the dof layout is the interleaved one: no copies
+    const PetscScalar* in;
+    PetscScalar* out;
+    PetscCall(VecGetArrayRead(b, &in));
+    PetscCall(VecGetArrayWrite(x, &out));
+    simplicial_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
+    PetscCall(VecRestoreArrayWrite(x, &out));
+    PetscCall(VecRestoreArrayRead(b, &in));
+  } else if (kind_ == ConstantMatrix::laplacian) {
+    Mat rhs = rhs0_ ? rhs0_ : rhs_, sol = sol0_ ? sol0_ : sol_;
+    PetscCall(copy_columns(b, rhs, true));
+    PetscCall(MatMatSolve(factor_, rhs, sol));
+    PetscCall(copy_columns(x, sol, false));
+  } else {
+    PetscCall(MatSolve(factor_, b, x));
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::h0_solve));
   if (to_zero_) {  // more than one rank: solved on rank 0
     PetscCall(VecScatterBegin(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
     PetscCall(VecScatterEnd(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
-    if (factor_ && kind_ == ConstantMatrix::laplacian) {
-      PetscCall(copy_columns(b0_, rhs0_, true));
-      PetscCall(MatMatSolve(factor_, rhs0_, sol0_));
-      PetscCall(copy_columns(x0_, sol0_, false));
-    } else if (factor_) {
-      PetscCall(MatSolve(factor_, b0_, x0_));
-    }
+    if (factor_ || simplicial_) PetscCall(solve_here(b0_, x0_));
     PetscCall(VecScatterBegin(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
-  } else if (kind_ == ConstantMatrix::laplacian) {
-    PetscCall(copy_columns(b, rhs_, true));
-    PetscCall(MatMatSolve(factor_, rhs_, sol_));
-    PetscCall(copy_columns(x, sol_, false));
   } else {
-    PetscCall(MatSolve(factor_, b, x));
+    PetscCall(solve_here(b, x));
   }
   PetscCall(event_end(&LogEvents::h0_solve));
   PetscFunctionReturn(0);

@@ -16,19 +16,25 @@
 #pragma once
 #include <petscmat.h>
 
+#include <memory>
+
 #include "solvers/objective.hpp"
+#include "solvers/simplicial_cholesky.hpp"
 
 namespace hyperqn {
 
-// The package that factors A (option -hyperqn_h0_package; its options take the prefix h0_:
-// -h0_mat_cholmod_*, -h0_mat_mumps_*). Both compute the same LL^T up to the fill-reducing
-// ordering (results differ in the last bits). CHOLMOD's solve has a far smaller fixed cost per
-// call than MUMPS's (docs/performance.md#h0-package), hence the default when PETSc has it.
-enum class FactorPackage { mumps, cholmod };
-const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod"
-// CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS is always there.
+// Who factors and solves A (option -hyperqn_h0_package). mumps and cholmod: the package through
+// PETSc (MatGetFactor; its options take the prefix h0_: -h0_mat_mumps_*, -h0_mat_cholmod_*).
+// simplicial: CHOLMOD's factorization, solved by hyperqn's own loops on the dof array with x, y
+// and z interleaved (solvers/simplicial_cholesky.hpp). All compute the same LL^T up to the
+// fill-reducing ordering (results differ in the last bits); they differ in the cost of a solve
+// (docs/performance.md#h0-package), which decided the default.
+enum class FactorPackage { mumps, cholmod, simplicial };
+const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "simplicial"
+// PETSc's CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS and
+// hyperqn's own link to CHOLMOD are always there.
 bool factor_package_available(FactorPackage p);
-// What -hyperqn_h0_package auto means: CHOLMOD if available, else MUMPS.
+// What -hyperqn_h0_package auto means: simplicial.
 FactorPackage default_factor_package();
 
 class FactoredSystem {
@@ -59,14 +65,18 @@ class FactoredSystem {
   int factorizations() const { return factorizations_; }
 
  private:
-  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_.
+  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or simplicial_.
   PetscErrorCode factor(Mat A);
+  PetscErrorCode factor_simplicial(Mat A);
+  // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
+  PetscErrorCode solve_here(Vec b, Vec x) const;
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
   FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
+  std::unique_ptr<SimplicialCholesky> simplicial_;         // instead of factor_ for simplicial
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to
   // rank 0 and its gathered copy there (length 0 elsewhere).

@@ -13,8 +13,11 @@ namespace hyperqn {
 // The PetscOptionsBegin block itself (PETSc errors on a value that is not a number).
 static PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o);
 
-// -hyperqn_h0_package's choices, as PetscOptionsEList lists them in -help.
-static const char* const kH0Packages[] = {"auto", "mumps", "cholmod"};
+// -hyperqn_h0_package's choices, as PetscOptionsEList lists them in -help ("auto" first).
+static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "simplicial"};
+static const FactorPackage kH0PackageOf[] = {default_factor_package(), FactorPackage::mumps, FactorPackage::cholmod,
+                                             FactorPackage::simplicial};
+static constexpr int kH0PackageCount = 4;
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionBeginUser;
@@ -28,12 +31,13 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
       known = (PetscBool)(known || same);
     }
     if (set && !known)
-      throw InputError(std::string("option -hyperqn_h0_package ") + value + ": unknown package (choose auto, mumps or cholmod)");
+      throw InputError(std::string("option -hyperqn_h0_package ") + value +
+                       ": unknown package (choose auto, mumps, cholmod or simplicial)");
     PetscBool cholmod;
     PetscCall(PetscStrcasecmp(value, "cholmod", &cholmod));
     if (set && cholmod && !factor_package_available(FactorPackage::cholmod))
       throw InputError("option -hyperqn_h0_package cholmod: this PETSc was built without SuiteSparse, so it has no "
-                       "CHOLMOD (use mumps or auto)");
+                       "CHOLMOD (use simplicial, mumps or auto)");
   }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
   if (parse_run_options(comm, o)) throw InputError(errors.describe());
@@ -62,13 +66,16 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
   PetscInt package = 0;  // auto
-  if (o->h0_package != default_factor_package()) package = o->h0_package == FactorPackage::cholmod ? 2 : 1;
+  for (int k = 1; k < kH0PackageCount; ++k)
+    if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;
   PetscCall(PetscOptionsEList("-hyperqn_h0_package",
-                              "Sparse Cholesky that factors the constant matrix M + h^2 L (or M + h^2 K): auto (cholmod if "
-                              "PETSc has SuiteSparse, else mumps), mumps or cholmod; its options take the prefix h0_ "
-                              "(-h0_mat_cholmod_*, -h0_mat_mumps_*)",
-                              "docs/performance.md", kH0Packages, 3, kH0Packages[package], &package, nullptr));
-  o->h0_package = package == 0 ? default_factor_package() : package == 1 ? FactorPackage::mumps : FactorPackage::cholmod;
+                              "Sparse Cholesky that factors and solves the constant matrix M + h^2 L (or M + h^2 K): "
+                              "auto (simplicial), simplicial (CHOLMOD's factor, hyperqn's solve with x, y, z "
+                              "interleaved), mumps or cholmod (through PETSc; options with the prefix h0_: "
+                              "-h0_mat_mumps_*, -h0_mat_cholmod_*)",
+                              "docs/performance.md", kH0Packages, kH0PackageCount, kH0Packages[package], &package,
+                              nullptr));
+  o->h0_package = kH0PackageOf[package];
   PetscOptionsEnd();
   PetscFunctionReturn(0);
 }

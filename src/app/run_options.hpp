@@ -25,8 +25,8 @@ struct RunOptions {
   // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
   PetscReal nan_beyond = -1;
   PetscInt nan_from_step = -1;
-  // Who factors the constant matrices M + h^2 L and M + h^2 K(x_rest) (-hyperqn_h0_package: auto,
-  // mumps or cholmod; auto is default_factor_package(), CHOLMOD when PETSc has it).
+  // Who factors and solves the constant matrices M + h^2 L and M + h^2 K(x_rest)
+  // (-hyperqn_h0_package: auto, simplicial, mumps or cholmod; auto is default_factor_package()).
   FactorPackage h0_package = default_factor_package();
 };
 

@@ -219,7 +219,7 @@ def checkpoint_frames(out):
 
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_killed_and_restarted_run_equals_the_uninterrupted_one(tmp_path, ranks):
-    deck = slow_deck("run")  # 60 frames of 100-300 ms: the kills land mid-run
+    deck = slow_deck("run")  # 150 frames of some 40 ms: the kills land mid-run
     deck["checkpoint"] = {"every": 3}
     path = write_deck(tmp_path / "run.yaml", deck)
     ref = tmp_path / "ref"

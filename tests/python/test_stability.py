@@ -27,6 +27,7 @@ import pytest
 
 from conftest import HYPERQN, MPIEXEC, NO_FALLBACK, REPO
 import hyperqn_tools.stability as S
+from hyperqn_tools.output import rest_diagonal
 
 TIMEOUT = 120
 
@@ -58,10 +59,18 @@ def assert_completes_without_nan(run, a, name):
     assert len(a["frames"]) == a["expected_frames"] + 1, f"{name}: VTK frames missing"
 
 
+# The guardrails that stop a run-away (docs/guardrails.md): an element edge longer than the
+# divergence limit ("diverged") or |det F| beyond the element limit ("elements exploded"). Which
+# one trips first depends on the run-away's path, down to the last bits of the A^-1 solve
+# (measured on dt_1 without the fallback chain: "diverged" at frame 8 with PETSc's CHOLMOD solve,
+# "elements exploded" at frame 5 with the simplicial one).
+RUNAWAY_STOP = r"error: frame (\d+): (diverged|elements exploded): "
+
+
 def assert_stopped_as_diverged(run, a, name):
-    """hyperqn stopped the run at its first diverged frame N: exit 1, frames 0 .. N - 1 written
+    """hyperqn stopped the run at its first run-away frame N: exit 1, frames 0 .. N - 1 written
     (every frame is an output frame in these decks), nothing NaN."""
-    m = re.match(r"error: frame (\d+): diverged: ", a["summary"]["status"])
+    m = re.match(RUNAWAY_STOP, a["summary"]["status"])
     assert run["returncode"] == 1 and m, f"{name}: exit {run['returncode']}, {a['summary']['status']}"
     n = int(m.group(1))
     assert a["frames_completed"] == n - 1 and [f for f, _ in a["frames"]] == list(range(n))
@@ -110,7 +119,7 @@ def test_h1_lbfgs_without_fallback_is_stopped_as_diverged(tmp_path):
     assert_monotone(a, "dt_1/lbfgs")
     verdict, reason, _, _ = S.verdict(run, a, S.expectation(os.path.join(REPO, "tests/decks/stability_dt_1.yaml"), deck),
                                       None, False)
-    assert verdict == "failed" and "diverged" in reason
+    assert verdict == "failed" and re.search(RUNAWAY_STOP, reason), reason
 
 
 def test_h1_lbfgs_with_enough_iterations_matches_converged_newton(tmp_path):
@@ -196,11 +205,21 @@ def test_initial_state_recovers(tmp_path, kind, solver):
 
 def test_initial_invert_recovers_with_lbfgs(tmp_path):
     """Without the fallback chain lbfgs at 10 iterations did not recover from the inverted start
-    (its line searches failed and the bar ran away: stopped as diverged at frame 8 of 60)."""
+    (its line searches failed and the bar ran away: stopped as diverged at frame 8 of 60). Now it
+    turns the free bar inside out and comes to rest with every element un-inverted. In which
+    equilibrium is decided by last bits: the mirror image has to pass through flat elements, a
+    symmetric bifurcation. Measured: the rest shape (7e-10 of the diagonal) with PETSc's MUMPS or
+    CHOLMOD solves at 1 rank and with every package at 2 ranks; with the simplicial solve at 1
+    rank a second equilibrium, 0.131 of the diagonal from the rest shape with min J 0.757, the same
+    at frame 60 and at frame 150. So the test asks for un-inverted and settled, not for the rest
+    shape (newton, which converges every frame, is held to the rest shape above)."""
     run, a, _ = run_case(tmp_path, "initial_invert")
     skip_if_initial_rejected(run)
     assert_completes_without_nan(run, a, "initial_invert/lbfgs")
-    assert_recovers(run, a, "initial_invert/lbfgs")
+    last = a["frames"][-1][1]
+    assert last.J.min() > 0, f"initial_invert/lbfgs: inverted or flat elements at the end (min J {last.J.min():.3g})"
+    speed = float(np.sqrt(np.mean(np.sum(last.velocity ** 2, axis=1)))) / rest_diagonal(last)
+    assert speed < 1e-3, f"initial_invert/lbfgs: still moving at the end ({speed:.3g} diagonals per second, RMS)"
 
 
 def test_initial_random_stays_bounded_with_lbfgs(tmp_path):
