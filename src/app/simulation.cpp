@@ -34,10 +34,11 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
 // Longest element edge (tet edge, strand segment or triangle edge) over all ranks at the local positions pos.
 double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vector<double>& pos) {
   static const int tet_edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  double local = 0, global;
+  double local = 0, global;  // squared lengths: one square root at the end (an edge whose square
+                             // overflows is infinite, still beyond any limit)
   const auto measure = [&](PetscInt a, PetscInt b) {
-    local = std::fmax(local, std::hypot(pos[3 * a] - pos[3 * b], pos[3 * a + 1] - pos[3 * b + 1],
-                                        pos[3 * a + 2] - pos[3 * b + 2]));
+    const double dx = pos[3 * a] - pos[3 * b], dy = pos[3 * a + 1] - pos[3 * b + 1], dz = pos[3 * a + 2] - pos[3 * b + 2];
+    local = std::fmax(local, dx * dx + dy * dy + dz * dz);
   };
   for (PetscInt c = 0; c < mesh.num_cells; ++c)
     for (const auto& e : tet_edges) measure(mesh.cells[4 * c + e[0]], mesh.cells[4 * c + e[1]]);
@@ -45,7 +46,7 @@ double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vecto
   for (PetscInt t = 0; t < mesh.num_triangles; ++t)
     for (int e = 0; e < 3; ++e) measure(mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]);
   MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm);
-  return global;
+  return std::sqrt(global);
 }
 
 // Why the run has diverged when its longest edge is `edge` rest diagonals long, or "".

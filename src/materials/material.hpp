@@ -16,6 +16,18 @@ using Vec3 = Eigen::Vector3d;
 // vec(dP) = dPdF * vec(dF), index of F(i,j) is i + 3*j.
 using Mat9 = Eigen::Matrix<double, 9, 9>;
 
+// Up to kBatch elements' F and P in structure-of-arrays form, for the element loops of the energy
+// terms: F[c] holds component c (column-major, c = i + 3 j for F(i, j)) of the kBatch elements,
+// and F[c][e] is element e's. Lanes is a GCC vector of kBatch doubles: an expression on Lanes is
+// one instruction per 2, 4 or 8 doubles (SSE2, AVX2, AVX-512), whatever the compiler can prove
+// about aliasing, and scalars broadcast (2.0 * F[c]). Lanes past the batch's count hold whatever
+// was there: a material computes them or not, and the term never reads them.
+inline constexpr int kBatch = 8;
+typedef double Lanes __attribute__((vector_size(kBatch * sizeof(double))));
+struct StressBatch {
+  Lanes F[9], P[9], psi;
+};
+
 class Material {
  public:
   virtual ~Material() = default;
@@ -24,6 +36,17 @@ class Material {
   virtual double energy(const Mat3& F) const = 0;
   // Energy density and first Piola-Kirchhoff stress P = dpsi/dF in one call (shares the SVD).
   virtual double energy_and_stress(const Mat3& F, Mat3& P) const = 0;
+  // psi and P of the first n elements of a batch. This default calls energy_and_stress per
+  // element; a material whose formula is a few arithmetic lines (Neo-Hookean, StVK) overrides it
+  // with loops over the lanes.
+  virtual void energy_and_stress_batch(StressBatch& b, int n) const {
+    for (int e = 0; e < n; ++e) {
+      Mat3 F, P;
+      for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
+      b.psi[e] = energy_and_stress(F, P);
+      for (int c = 0; c < 9; ++c) b.P[c][e] = P(c);
+    }
+  }
   // dP/dF (the exact, possibly indefinite, Hessian of psi w.r.t. F). Symmetric.
   virtual Mat9 stress_derivative(const Mat3& F) const = 0;
   // Weight of this material in L (stiffness of the stress-strain curve near rest).

@@ -31,6 +31,32 @@ class NeoHookean final : public Material {
     return 0.5 * mu_ * (F.squaredNorm() - 3.0) - mu_ * g.f + 0.5 * lambda_ * g.f * g.f;
   }
 
+  // The same formulas across a batch: cof(F) column by column (cross products of F's other two
+  // columns), J = F(:, 0) . cof(:, 0), then log per element, then P and psi.
+  void energy_and_stress_batch(StressBatch& b, int n) const override {
+    const Lanes* F = b.F;
+    Lanes C[9], f = {}, df = {};
+    for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
+      const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
+      C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
+      C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
+      C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
+    }
+    const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+    for (int e = 0; e < n; ++e) {
+      const LogExt g = log_ext(J[e]);
+      f[e] = g.f;
+      df[e] = g.df;
+    }
+    const Lanes h = (lambda_ * f - mu_) * df;
+    Lanes I1 = {};
+    for (int c = 0; c < 9; ++c) {
+      b.P[c] = mu_ * F[c] + h * C[c];
+      I1 += F[c] * F[c];
+    }
+    b.psi = 0.5 * mu_ * (I1 - 3.0) - mu_ * f + 0.5 * lambda_ * f * f;
+  }
+
   Mat9 stress_derivative(const Mat3& F) const override {
     const LogExt g = log_ext(F.determinant());
     const Mat3 C = cofactor(F);

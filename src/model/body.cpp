@@ -15,6 +15,11 @@ Body::Body(const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>>
   MPI_Allreduce(&local_mass, &total_mass_, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
   fixed_pos_ = mesh.rest;
   fixed_vel_.assign(3 * mesh.num_vertices, 0.0);
+  rest_measure_.reserve(mesh.num_cells + mesh.num_triangles);
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    rest_measure_.push_back(edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant());
+  for (PetscInt t = 0; t < mesh.num_triangles; ++t)
+    rest_measure_.push_back(triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]));
 }
 
 bool Body::projective_dynamics_exact() const {
@@ -138,11 +143,9 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
 void Body::cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const {
   J.resize(mesh_.num_cells + mesh_.num_triangles);
   for (PetscInt c = 0; c < mesh_.num_cells; ++c)  // det(Ds Dm^{-1}) = det Ds / det Dm
-    J[c] = edge_matrix(pos.data(), &mesh_.cells[4 * c]).determinant() /
-           edge_matrix(mesh_.rest.data(), &mesh_.cells[4 * c]).determinant();
+    J[c] = edge_matrix(pos.data(), &mesh_.cells[4 * c]).determinant() / rest_measure_[c];
   for (PetscInt t = 0; t < mesh_.num_triangles; ++t)  // a membrane's J: its area ratio (>= 0; it folds, never inverts)
-    J[mesh_.num_cells + t] = triangle_area(pos.data(), &mesh_.triangles[3 * t]) /
-                             triangle_area(mesh_.rest.data(), &mesh_.triangles[3 * t]);
+    J[mesh_.num_cells + t] = triangle_area(pos.data(), &mesh_.triangles[3 * t]) / rest_measure_[mesh_.num_cells + t];
 }
 
 PetscErrorCode Body::volume_ratios(Vec x, double* min_J, double* max_abs_J) const {

@@ -89,6 +89,7 @@ class Body {
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions
   mutable std::vector<double> J_;    // work: det F per local tet
+  std::vector<double> rest_measure_;  // per local tet det Dm, then per triangle its rest area: J's denominators
   mutable std::vector<double> zeros_;  // work: 0 at every local vertex (local_values)
 };
 

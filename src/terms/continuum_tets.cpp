@@ -27,6 +27,10 @@ double ContinuumTets::element_energy(PetscInt, int m, const Mat3& F, Mat3* P) co
   return P ? materials_[m]->energy_and_stress(F, *P) : materials_[m]->energy(F);
 }
 
+void ContinuumTets::element_energy_batch(size_t, int m, StressBatch& b, int n) const {
+  materials_[m]->energy_and_stress_batch(b, n);
+}
+
 Mat9 ContinuumTets::element_stress_derivative(PetscInt, int m, const Mat3& F, bool psd) const {
   return psd ? project_psd(materials_[m]->stress_derivative(F)) : materials_[m]->stress_derivative(F);
 }
@@ -34,7 +38,7 @@ Mat9 ContinuumTets::element_stress_derivative(PetscInt, int m, const Mat3& F, bo
 Eigen::Matrix<double, 4, 4, Eigen::RowMajor> ContinuumTets::element_laplacian(PetscInt k, int m, double scale) const {
   // Gradients of the 4 barycentric shape functions: rows of Dm^{-1}, and minus their sum.
   Eigen::Matrix<double, 3, 4> G;
-  G.rightCols<3>() = Dm_inv_[k].transpose();
+  G.rightCols<3>() = Dm_inv(k).transpose();
   G.col(0) = -G.rightCols<3>().rowwise().sum();
   return ((scale * weight_[m] * volume_[k]) * (G.transpose() * G)).eval();
 }

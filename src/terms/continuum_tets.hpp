@@ -19,6 +19,7 @@ class ContinuumTets : public TetElements {
 
  private:
   double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
+  void element_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
 

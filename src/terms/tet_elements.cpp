@@ -1,43 +1,102 @@
 #include "terms/tet_elements.hpp"
 
+#include <cstring>
+
 namespace hyperqn {
 
 TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cells, std::vector<double> density,
                          bool per_volume)
     : mesh_(mesh), cells_(std::move(cells)), density_(std::move(density)) {
-  Dm_inv_.reserve(cells_.size());
+  for (auto& component : Dm_inv_) component.assign(cells_.size() + kBatch, 0.0);
   Dm_.reserve(cells_.size());
   volume_.reserve(cells_.size());
   for (PetscInt c : cells_) {
     const Mat3 Dm = edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]);
-    Dm_inv_.push_back(Dm.inverse());
+    const Mat3 inverse = Dm.inverse();
+    for (int k = 0; k < 9; ++k) Dm_inv_[k][Dm_.size()] = inverse(k);
     Dm_.push_back(Dm);
     volume_.push_back(Dm.determinant() / 6.0);  // cells are positively oriented by clean_mesh
     weight_.push_back(per_volume ? volume_.back() : 1.0);
   }
+  weight_.resize(cells_.size() + kBatch, 0.0);  // for the batches' full-width loops
 }
 
+void TetElements::element_energy_batch(size_t k, int m, StressBatch& b, int n) const {
+  for (int e = 0; e < n; ++e) {
+    Mat3 F, P;
+    for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
+    b.psi[e] = element_energy(static_cast<PetscInt>(k) + e, m, F, &P);
+    for (int c = 0; c < 9; ++c) b.P[c][e] = P(c);
+  }
+}
+
+// The elements in batches of up to kBatch consecutive ones of one material: F = Ds Dm^{-1} for the
+// batch, then psi and P from the material, then the forces w P Dm^{-T}, each a loop across the
+// batch (structure of arrays) that the compiler vectorizes; only reading positions and adding
+// forces into the gradient go element by element. Energies are summed in element order.
 PetscErrorCode TetElements::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   PetscFunctionBeginUser;
-  double e = *energy;
-  Mat3 P;
-  for (size_t k = 0; k < cells_.size(); ++k) {
-    const PetscInt* cell = &mesh_.cells[4 * cells_[k]];
-    const Mat3 F = edge_matrix(pos.data(), cell) * Dm_inv_[k];
-    const int m = mesh_.cell_material[cells_[k]];
-    const double w = weight_[k];
-    if (!gradient) {
-      e += w * element_energy(k, m, F, nullptr);
-      continue;
+  double e_sum = *energy;
+  const size_t count = cells_.size();
+  if (!gradient) {  // energy only: element by element
+    for (size_t k = 0; k < count; ++k) {
+      const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * cells_[k]]) * Dm_inv(k);
+      e_sum += weight_[k] * element_energy(k, mesh_.cell_material[cells_[k]], F, nullptr);
     }
-    e += w * element_energy(k, m, F, &P);
-    // dE/dx_k = w P Dm^{-T} e_k for k = 1..3; vertex 0 gets minus their sum.
-    const Mat3 H = w * P * Dm_inv_[k].transpose();
-    add_vertex_vector(mesh_, cell[0], -H.rowwise().sum(), gradient);
-    for (int j = 1; j < 4; ++j) add_vertex_vector(mesh_, cell[j], H.col(j - 1), gradient);
+    *energy = e_sum;
+    PetscFunctionReturn(0);
   }
-  *energy = e;
+  StressBatch b;
+  Lanes Ds[9] = {};
+  for (size_t k = 0; k < count;) {
+    const int m = mesh_.cell_material[cells_[k]];
+    int n = 0;
+    while (n < kBatch && k + n < count && mesh_.cell_material[cells_[k + n]] == m) ++n;
+    for (int e = 0; e < n; ++e) {  // Ds: columns x_j - x_0, j = 1..3
+      const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
+      const double* x0 = &pos[3 * cell[0]];
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
+    }
+    batch_deformation_gradients(Ds, k, b);
+    element_energy_batch(k, m, b, n);
+    Lanes H[9];  // w P Dm^{-T}: column j is the force on vertex j + 1
+    batch_forces(b, k, H);
+    for (int e = 0; e < n; ++e) {
+      e_sum += weight_[k + e] * b.psi[e];
+      const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
+      Vec3 f0 = Vec3::Zero();
+      for (int j = 0; j < 3; ++j) {
+        const Vec3 f(H[3 * j][e], H[1 + 3 * j][e], H[2 + 3 * j][e]);
+        add_vertex_vector(mesh_, cell[j + 1], f, gradient);
+        f0 -= f;
+      }
+      add_vertex_vector(mesh_, cell[0], f0, gradient);
+    }
+    k += static_cast<size_t>(n);
+  }
+  *energy = e_sum;
   PetscFunctionReturn(0);
+}
+
+// kBatch consecutive doubles from p on (any alignment).
+static inline void load_lanes(const double* p, Lanes& v) { std::memcpy(&v, p, sizeof v); }
+
+// b.F = Ds Dm^{-1} for the batch at element k: F(i, j) = sum_l Ds(i, l) Dm^{-1}(l, j).
+void TetElements::batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const {
+  Lanes G[9];  // Dm^{-1} of the batch's elements
+  for (int c = 0; c < 9; ++c) load_lanes(&Dm_inv_[c][k], G[c]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) b.F[i + 3 * j] = Ds[i] * G[3 * j] + Ds[i + 3] * G[1 + 3 * j] + Ds[i + 6] * G[2 + 3 * j];
+}
+
+// H = w P Dm^{-T} for the batch at element k: H(i, j) = w sum_l P(i, l) Dm^{-1}(j, l).
+void TetElements::batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const {
+  Lanes G[9], w;
+  for (int c = 0; c < 9; ++c) load_lanes(&Dm_inv_[c][k], G[c]);
+  load_lanes(&weight_[k], w);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) H[i + 3 * j] = w * (b.P[i] * G[j] + b.P[i + 3] * G[j + 3] + b.P[i + 6] * G[j + 6]);
 }
 
 PetscErrorCode TetElements::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
@@ -46,9 +105,10 @@ PetscErrorCode TetElements::add_hessian(const std::vector<double>& pos, Mat H, d
   PetscFunctionBeginUser;
   for (size_t k = 0; k < cells_.size(); ++k) {
     const PetscInt* cell = &mesh_.cells[4 * cells_[k]];
-    const Mat3 F = edge_matrix(pos.data(), cell) * Dm_inv_[k];
+    const Mat3 Dmi = Dm_inv(k);
+    const Mat3 F = edge_matrix(pos.data(), cell) * Dmi;
     const Mat9 C = element_stress_derivative(k, mesh_.cell_material[cells_[k]], F, psd);
-    const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dm_inv_[k]);
+    const Eigen::Matrix<double, 9, 12> B = deformation_jacobian(Dmi);
     Ke.noalias() = (scale * weight_[k]) * (B.transpose() * (C * B));
     // Average with the transpose so H is exactly symmetric whatever the rounding above.
     for (int i = 0; i < 12; ++i)

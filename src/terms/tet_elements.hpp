@@ -3,6 +3,7 @@
 // element's weight (its rest volume for an energy density, 1 for an energy per element). A term
 // (continuum_tets, mass_spring_tets) says which cells it holds and what one element stores.
 #pragma once
+#include <array>
 #include <vector>
 
 #include "mesh/distributed_mesh.hpp"
@@ -27,15 +28,32 @@ class TetElements : public EnergyTerm {
   // Per element k of this term (cell cells_[k], material m): its energy, with P = dE/dF if P is
   // not null; dP/dF; and its 4 x 4 vertex matrix in L (scaled by scale).
   virtual double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const = 0;
+  // The same for the n elements k .. k + n - 1 (all of material m) of a batch: psi and P from F.
+  // This default calls element_energy per element.
+  virtual void element_energy_batch(size_t k, int m, StressBatch& b, int n) const;
   virtual Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const = 0;
   virtual Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const = 0;
 
+  // A batch's F = Ds Dm^{-1}, and its forces w P Dm^{-T} (column j: the force on vertex j + 1),
+  // for the batch that starts at element k (see add_energy).
+  void batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const;
+  void batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const;
+  // Element k's inverse rest edge matrix Dm^{-1}.
+  Mat3 Dm_inv(size_t k) const {
+    Mat3 D;
+    for (int c = 0; c < 9; ++c) D(c) = Dm_inv_[c][k];
+    return D;
+  }
+
   const DistributedMesh& mesh_;
   std::vector<PetscInt> cells_;  // local cell index per element
-  std::vector<Mat3> Dm_inv_;     // per element: inverse rest edge matrix
+  // Dm^{-1} by component: Dm_inv_[c][k] is component c (column-major) of element k's, so that a
+  // batch reads each component of consecutive elements from consecutive doubles. kBatch zeros
+  // follow the last element, so a batch's full-width loops stay inside.
+  std::array<std::vector<double>, 9> Dm_inv_;
   std::vector<Mat3> Dm_;         // per element: rest edge matrix
   std::vector<double> volume_;   // per element: rest volume
-  std::vector<double> weight_;   // per element: weight of its energy (rest volume, or 1)
+  std::vector<double> weight_;   // per element: weight of its energy (rest volume, or 1); kBatch zeros follow
   std::vector<double> density_;  // per material
 };
 
