@@ -198,7 +198,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(VecScatterCreateToZero(layout, &to_zero_, &b0_));
     PetscCall(VecDestroy(&layout));
     PetscCall(VecDuplicate(b0_, &x0_));
-    if (components == 1 && rank == 0) {
+    if (components == 1 && rank == 0 && !simplicial_) {  // MatMatSolve's columns (simplicial solves in place)
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &rhs0_));
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &sol0_));
     }
