@@ -8,7 +8,10 @@ MassSpringTets::MassSpringTets(const DistributedMesh& mesh, std::vector<double> 
                                std::vector<double> density)
     : TetElements(mesh, cells_where(mesh, [&](int m) { return stiffness[m] > 0; }), std::move(density), false),
       stiffness_(std::move(stiffness)),
-      weight_(std::move(weight)) {}
+      weight_(std::move(weight)) {
+  Dm_.reserve(cells_.size());
+  for (PetscInt c : cells_) Dm_.push_back(edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]));
+}
 
 bool MassSpringTets::projective_dynamics_exact() const {
   for (size_t m = 0; m < stiffness_.size(); ++m)

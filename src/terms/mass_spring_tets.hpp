@@ -21,6 +21,7 @@ class MassSpringTets : public TetElements {
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
 
   std::vector<double> stiffness_, weight_;
+  std::vector<Mat3> Dm_;  // per element: rest edge matrix (the springs' rest lengths)
 };
 
 }  // namespace hyperqn

@@ -8,13 +8,11 @@ TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cell
                          bool per_volume)
     : mesh_(mesh), cells_(std::move(cells)), density_(std::move(density)) {
   for (auto& component : Dm_inv_) component.assign(cells_.size() + kBatch, 0.0);
-  Dm_.reserve(cells_.size());
   volume_.reserve(cells_.size());
   for (PetscInt c : cells_) {
     const Mat3 Dm = edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]);
     const Mat3 inverse = Dm.inverse();
-    for (int k = 0; k < 9; ++k) Dm_inv_[k][Dm_.size()] = inverse(k);
-    Dm_.push_back(Dm);
+    for (int k = 0; k < 9; ++k) Dm_inv_[k][volume_.size()] = inverse(k);
     volume_.push_back(Dm.determinant() / 6.0);  // cells are positively oriented by clean_mesh
     weight_.push_back(per_volume ? volume_.back() : 1.0);
   }

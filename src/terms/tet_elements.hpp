@@ -51,7 +51,6 @@ class TetElements : public EnergyTerm {
   // batch reads each component of consecutive elements from consecutive doubles. kBatch zeros
   // follow the last element, so a batch's full-width loops stay inside.
   std::array<std::vector<double>, 9> Dm_inv_;
-  std::vector<Mat3> Dm_;         // per element: rest edge matrix
   std::vector<double> volume_;   // per element: rest volume
   std::vector<double> weight_;   // per element: weight of its energy (rest volume, or 1); kBatch zeros follow
   std::vector<double> density_;  // per material
