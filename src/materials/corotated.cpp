@@ -23,6 +23,7 @@ class Corotated final : public Material {
 
   double energy_and_stress(const Mat3& F, Mat3& P) const override { return evaluate(F, &P); }
 
+  // dP/dF needs U, V and sigma: the full signed SVD (its U V^T is evaluate's R to round-off).
   Mat9 stress_derivative(const Mat3& F) const override {
     const SignedSVD s = signed_svd(F);
     const double trace_strain = s.sigma.sum() - 3.0;
