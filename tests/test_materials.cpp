@@ -566,6 +566,74 @@ void check_fast_svd() {
   }
 }
 
+// signed_polar_rotation (Newton's polar iteration, the Jacobi SVD where it does not apply) against
+// the exact rotation: F = Q1 diag(sigma) Q2^T with signed sigma, |sigma_1| >= |sigma_2| >= |sigma_3|,
+// has R = Q1 Q2^T (unique while sigma_2 + sigma_3 != 0, also for repeated sigma). Thousands of random
+// F: general, inverted, nearly and exactly flat, repeated and nearly repeated singular values, at
+// scales 1e-3 to 1e3, where Newton needs many steps or runs out of them; and the Jacobi SVD's rotation
+// on random F near rotations, inverted ones included.
+void check_polar_rotation() {
+  std::mt19937 gen(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  auto rotation = [&] {
+    std::normal_distribution<double> n(0.0, 1.0);
+    return Eigen::Quaterniond(n(gen), n(gen), n(gen), n(gen)).normalized().toRotationMatrix();
+  };
+  const std::vector<Vec3> special{
+      {1, 1, 1},         {1.3, 1.3, 1.3},    {1.2, 1.2, 0.7},     {1.2, 0.7, 0.7},   {1.2, 0.7, -0.5},
+      {1, 1, 1 - 1e-9},  {1.1, 0.8, 1e-3},   {1.1, 0.8, 1e-5},    {1.1, 0.8, 1e-9},  {1.1, 0.8, 0.0},
+      {1.1, 0.8, -1e-9}, {1.1, 0.8, -1e-3},  {1.1, 1.1, -1e-9},   {1.2, 0.9, -0.7},  {1.5, 1.5, -1.0},
+      {1.0, 0.3, -0.25}, {4.0, 1e-2, 1e-2},  {3.0, 2.0, 2.0 - 1e-9},
+      {1.1, 0.018, 0.018}, {1.1, 0.012, 0.012}, {1.1, 1.1, 0.018}, {1.1, 1.1, 0.012}, {1.1, 1.1, 1.8e-3}};  // the
+  // last five: cond(F) = ||F|| ||F^-1|| of 86, 130, 86, 130, 860 around the Newton bound of 100
+  double worst = 0.0, worst_svd = 0.0;
+  std::string worst_at;
+  for (int n = 0; n < 6000; ++n) {
+    Vec3 s;
+    if (n < 3 * static_cast<int>(special.size())) {
+      s = special[n % special.size()];
+    } else {  // random signed singular values, sorted by magnitude, third one negative half the time
+      for (int i = 0; i < 3; ++i) s(i) = 0.05 + 2.0 * u(gen);
+      std::sort(s.data(), s.data() + 3, std::greater<double>());
+      if (n % 2) s(2) = -s(2);
+      if (n % 7 == 0) s(2) *= 1e-6;  // nearly flat
+    }
+    const double scale = std::pow(10.0, std::round(6.0 * u(gen)) - 3.0);  // 1e-3 .. 1e3
+    const Mat3 Q1 = rotation(), Q2 = rotation();
+    const Mat3 F = scale * (Q1 * s.asDiagonal() * Q2.transpose());
+    const Mat3 R = signed_polar_rotation(F);
+    // R's condition number is sigma_1 / (sigma_2 + sigma_3), so the error is weighted by its inverse.
+    const double err = (R - Q1 * Q2.transpose()).cwiseAbs().maxCoeff() * (s(1) + s(2)) / s(0);
+    char where[120];
+    std::snprintf(where, sizeof where, "sigma = (%g, %g, %g) * %g", s(0), s(1), s(2), scale);
+    if (err > worst) {
+      worst = err;
+      worst_at = where;
+    }
+    CHECK_MSG(std::abs(R.determinant() - 1.0) <= 1e-13 && (R.transpose() * R - Mat3::Identity()).norm() <= 1e-13,
+              std::string("signed_polar_rotation: not a rotation at ") + where);
+    // Against the Jacobi SVD on F near rotations (I + noise, some reflected).
+    Mat3 G = Mat3::Identity();
+    for (int k = 0; k < 9; ++k) G(k) += 0.8 * (u(gen) - 0.5);
+    G = (n % 3 == 0 ? Mat3(Vec3(1.0, 1.0, -1.0).asDiagonal()) : Mat3::Identity()) * Q1 * G;
+    const SignedSVD j = signed_svd_jacobi(G);
+    const double gap = std::min(j.sigma(1) + j.sigma(2), 1.0) / j.sigma(0);
+    worst_svd = std::max(worst_svd, (signed_polar_rotation(G) - j.rotation()).cwiseAbs().maxCoeff() * gap);
+  }
+  std::printf("signed_polar_rotation: largest |R - R_exact| (sigma_2 + sigma_3)/sigma_1 = %.1e (%s), vs Jacobi %.1e\n",
+              worst, worst_at.c_str(), worst_svd);
+  char msg[200];
+  std::snprintf(msg, sizeof msg, "signed_polar_rotation differs from the exact rotation by %.1e at %s", worst,
+                worst_at.c_str());
+  CHECK_MSG(worst <= 1e-14, msg);
+  std::snprintf(msg, sizeof msg, "signed_polar_rotation differs from the Jacobi SVD by %.1e", worst_svd);
+  CHECK_MSG(worst_svd <= 1e-14, msg);
+  // Exactly the identity at rest; a rotation stays itself.
+  CHECK(signed_polar_rotation(Mat3::Identity()) == Mat3::Identity());
+  const Mat3 Q = rotation();
+  CHECK((signed_polar_rotation(Q) - Q).cwiseAbs().maxCoeff() <= 1e-15);
+}
+
 }  // namespace
 
 // energy_and_stress_batch gives each element what energy_and_stress gives it alone: the poses in
@@ -594,6 +662,7 @@ void check_batch(const Material& m, const std::string& label, const std::vector<
 
 int main() {
   check_fast_svd();
+  check_polar_rotation();
   const std::vector<Pose> poses = make_poses();
   for (const Pose& p : poses) check_signed_svd(p);
   check_polynomial();

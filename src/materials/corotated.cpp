@@ -18,15 +18,12 @@ class Corotated final : public Material {
   Corotated(double mu, double lambda) : mu_(mu), lambda_(lambda) {}
   std::string name() const override { return "corotated"; }
 
-  double energy(const Mat3& F) const override { return energy_of(signed_svd(F).sigma); }
+  // Energy and stress need only the polar rotation R, not the full SVD (svd3.hpp).
+  double energy(const Mat3& F) const override { return evaluate(F, nullptr); }
 
-  double energy_and_stress(const Mat3& F, Mat3& P) const override {
-    const SignedSVD s = signed_svd(F);
-    const Mat3 R = s.rotation();
-    P = 2.0 * mu_ * (F - R) + lambda_ * (s.sigma.sum() - 3.0) * R;  // tr(R^T F) = sum sigma
-    return energy_of(s.sigma);
-  }
+  double energy_and_stress(const Mat3& F, Mat3& P) const override { return evaluate(F, &P); }
 
+  // dP/dF needs U, V and sigma: the full signed SVD (its U V^T is evaluate's R to round-off).
   Mat9 stress_derivative(const Mat3& F) const override {
     const SignedSVD s = signed_svd(F);
     const double trace_strain = s.sigma.sum() - 3.0;
@@ -51,9 +48,12 @@ class Corotated final : public Material {
   bool projective_dynamics_exact() const override { return lambda_ == 0.0; }
 
  private:
-  double energy_of(const Vec3& sigma) const {
-    const double t = sigma.sum() - 3.0;
-    return mu_ * (sigma - Vec3::Ones()).squaredNorm() + 0.5 * lambda_ * t * t;
+  double evaluate(const Mat3& F, Mat3* P) const {
+    const Mat3 R = signed_polar_rotation(F);
+    const Mat3 D = F - R;
+    const double t = R.cwiseProduct(F).sum() - 3.0;  // tr(R^T F) - 3 = sum sigma - 3
+    if (P) *P = 2.0 * mu_ * D + lambda_ * t * R;
+    return mu_ * D.squaredNorm() + 0.5 * lambda_ * t * t;
   }
   double mu_, lambda_;
 };
