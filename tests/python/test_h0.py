@@ -134,11 +134,21 @@ def test_amg_one_and_two_ranks_agree_and_repeat(tmp_path):
     assert steps(two) == steps(again)
 
 
+def test_amg_in_the_fallback_chain(tmp_path):
+    # 2 iterations per frame leave every frame far from converged: the chain redoes it in 2 and 4
+    # sub-steps, each size with its own V-cycle of M + (h/k)^2 L (3 setups in all).
+    deck = load_deck(AMG_DECK)
+    deck["solver"].update({"iterations": 2, "max_iterations": 2, "max_halvings": 2, "newton_fallback": False})
+    _, s = run(tmp_path, "chain", deck)
+    assert s["h0_package"] == "amg" and s["factorizations"] == 3
+
+
 def test_amg_study_reaches_1e3(tmp_path):
-    # The error-against-time study with lbfgs + amg: e <= 1e-3 at both study frames.
+    # The error-against-time study with lbfgs + amg: e <= 1e-3 at both study frames; the pd
+    # contender beside it factors M + h^2 L as always.
     deck = load_deck("tests/decks/study_small.yaml")
     deck["solver"] = {"h0": "amg"}
-    deck["study"].update({"solvers": ["lbfgs"], "trajectory": False})
+    deck["study"].update({"solvers": ["lbfgs", "pd"], "trajectory": False})
     out = tmp_path / "study"
     run_hyperqn(["study", write_deck(tmp_path / "study.yaml", deck), "-o", out], ranks=2)
     with open(out / "study.csv") as f:
