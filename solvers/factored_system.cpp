@@ -8,6 +8,7 @@ namespace hyperqn {
 
 FactoredSystem::~FactoredSystem() {
   MatDestroy(&shell_);
+  KSPDestroy(&ksp_);
   MatDestroy(&rhs_);
   MatDestroy(&sol_);
   MatDestroy(&factor_);
@@ -41,6 +42,7 @@ const char* factor_package_name(FactorPackage p) {
     case FactorPackage::mumps: return "mumps";
     case FactorPackage::cholmod: return "cholmod";
     case FactorPackage::simplicial: return "simplicial";
+    case FactorPackage::amg: return "amg";
   }
   return "?";
 }
@@ -62,6 +64,61 @@ static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage p
           "the constant matrix A (solver.h0: %s) is not positive definite: its Cholesky factorization by %s met a "
           "zero or negative pivot",
           kind == ConstantMatrix::laplacian ? "laplacian" : "rest-stiffness", factor_package_name(package));
+}
+
+// One V-cycle of A1 as a fixed linear operator B: KSPPREONLY applies the preconditioner once from a
+// zero guess, so b -> B b is linear and the same at every call (no Krylov method, no convergence
+// test). GAMG by default (measured against BoomerAMG: docs/performance.md#amg-h0). L-BFGS needs B
+// symmetric positive definite, which both give with their defaults: GAMG smooths with the same
+// Chebyshev polynomial in D^-1 A1 before and after the coarse correction, BoomerAMG with PETSc's
+// default hybrid symmetric Gauss-Seidel (symmetric-SOR/Jacobi) on both sides; both restrict with
+// P^T and solve the coarsest level exactly (tests/test_assembly.cpp checks <Bx, y> = <x, By> and
+// <Bx, x> > 0). Options: prefix h0_ (-h0_pc_type hypre, -h0_pc_gamg_*, -h0_mg_levels_*).
+PetscErrorCode FactoredSystem::setup_amg() {
+  PC pc;
+  PetscBool preonly, mg;
+  PetscFunctionBeginUser;
+  PetscCheck(kind_ == ConstantMatrix::laplacian, PETSC_COMM_SELF, PETSC_ERR_SUP,
+             "solver.h0: amg applies M + h^2 L only");
+  PetscCall(KSPCreate(PetscObjectComm((PetscObject)A_), &ksp_));
+  PetscCall(KSPSetOptionsPrefix(ksp_, "h0_"));
+  PetscCall(KSPSetOperators(ksp_, A_, A_));
+  PetscCall(KSPSetType(ksp_, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp_, &pc));
+  PetscCall(PCSetType(pc, PCGAMG));
+  // Aggregate A1 along its strong connections only (|a_ij| >= 0.05 sqrt(a_ii a_jj)), the coarser
+  // levels along all: on bar66792 lbfgs needed 23, 11, 10, 7, 7 iterations to e <= 1e-3 with
+  // GAMG's default (no filtering) and thresholds 0.01, 0.02, 0.05, 0.1, and on the 2M-tet box 0.05
+  // on every level coarsened slowly (setup 9.1 s instead of 2.2 s), on the finest alone it did not
+  // (docs/performance.md#amg-h0). -h0_pc_gamg_threshold and -h0_pc_gamg_threshold_scale override.
+  PetscReal threshold = 0.05;
+  PetscCall(PCGAMGSetThresholdScale(pc, 0.0));  // before the threshold, as PETSc asks
+  PetscCall(PCGAMGSetThreshold(pc, &threshold, 1));
+  PetscCall(KSPSetFromOptions(ksp_));
+  PetscCall(PetscObjectTypeCompare((PetscObject)ksp_, KSPPREONLY, &preonly));
+  PetscCheck(preonly, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
+             "solver.h0: amg is one V-cycle, a fixed linear operator: -h0_ksp_type must stay preonly");
+  PetscCall(KSPSetUp(ksp_));
+  // The hierarchy's entries, where PETSc holds the levels (PCMG and its GAMG).
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &mg, PCMG, PCGAMG, ""));
+  MatInfo info;
+  factor_nonzeros_ = 0;
+  if (mg) {
+    PetscInt levels;
+    PetscCall(PCMGGetLevels(pc, &levels));
+    for (PetscInt l = 0; l < levels; ++l) {
+      KSP smoother;
+      Mat Al;
+      PetscCall(PCMGGetSmoother(pc, l, &smoother));
+      PetscCall(KSPGetOperators(smoother, &Al, nullptr));
+      PetscCall(MatGetInfo(Al, MAT_GLOBAL_SUM, &info));
+      factor_nonzeros_ += info.nz_used;
+    }
+  } else {
+    PetscCall(MatGetInfo(A_, MAT_GLOBAL_SUM, &info));
+    factor_nonzeros_ = info.nz_used;
+  }
+  PetscFunctionReturn(0);
 }
 
 // A's rows (sorted columns) handed to SimplicialCholesky, which reads their upper triangle.
@@ -148,10 +205,13 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   PetscMPIInt size, rank;
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const bool gathered = size > 1 && package != FactorPackage::amg;  // the V-cycle stays distributed
   const double before = event_seconds(log_events().h0_factor);
   PetscCall(event_begin(&LogEvents::h0_factor));
   Mat factored = A_;
-  if (size > 1) {  // gathered to rank 0, for reproducible solves (see the header)
+  if (package == FactorPackage::amg) {
+    PetscCall(setup_amg());
+  } else if (gathered) {  // gathered to rank 0, for reproducible solves (see the header)
     IS all;
     PetscCall(MatGetSize(A_, &N, nullptr));
     PetscCall(ISCreateStride(PETSC_COMM_SELF, rank == 0 ? N : 0, 0, 1, &all));
@@ -161,8 +221,8 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
   }
   PetscErrorCode ierr = 0;
-  if (size == 1 || rank == 0) ierr = factor(factored);
-  if (size > 1) {  // an error on rank 0 (e.g. a bad -h0_mat_*_* value) must stop every rank
+  if (package != FactorPackage::amg && (!gathered || rank == 0)) ierr = factor(factored);
+  if (gathered) {  // an error on rank 0 (e.g. a bad -h0_mat_*_* value) must stop every rank
     int failed = ierr != 0, any = 0;
     PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));
     PetscCall(ierr);
@@ -173,7 +233,6 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   ++factorizations_;
   factor_s_ = event_seconds(log_events().h0_factor) - before;
   MatInfo factor_info;
-  factor_nonzeros_ = 0;
   if (factor_) {
     PetscCall(MatGetInfo(factor_, MAT_LOCAL, &factor_info));
     factor_nonzeros_ = factor_info.nz_used;
@@ -192,7 +251,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     M = 3 * N;
   }
   PetscCall(MatCreateShell(comm, m, m, M, M, this, &shell_));
-  if (size > 1) {
+  if (gathered) {
     Vec layout;
     PetscCall(MatCreateVecs(shell_, &layout, nullptr));
     PetscCall(VecScatterCreateToZero(layout, &to_zero_, &b0_));
@@ -236,7 +295,7 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
   PetscFunctionReturn(0);
 }
 
-// x = A^{-1} b with the factor on this rank (b and x: all of A's rows).
+// x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
   if (simplicial_) {  // the dof layout is the interleaved one: no copies
@@ -247,6 +306,17 @@ PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
     simplicial_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
+  } else if (ksp_) {  // one V-cycle per column x, y, z
+    PetscCall(copy_columns(b, rhs_, true));
+    for (PetscInt d = 0; d < 3; ++d) {
+      Vec in, out;
+      PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
+      PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
+      PetscCall(KSPSolve(ksp_, in, out));
+      PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
+      PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
+    }
+    PetscCall(copy_columns(x, sol_, false));
   } else if (kind_ == ConstantMatrix::laplacian) {
     Mat rhs = rhs0_ ? rhs0_ : rhs_, sol = sol0_ ? sol0_ : sol_;
     PetscCall(copy_columns(b, rhs, true));

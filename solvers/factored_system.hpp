@@ -8,12 +8,16 @@
 // A = M + h^2 K(x_rest) couples x, y and z: the full 3n x 3n matrix is factored and applied to b
 // as one vector.
 //
+// FactorPackage::amg factors nothing: A1^{-1} is replaced by one algebraic multigrid V-cycle of A1
+// (solver.h0: amg), a fixed symmetric positive definite operator, set up once and kept distributed.
+//
 // On more than one rank A is gathered to rank 0 and factored there sequentially (by the same
 // package); each solve gathers b to rank 0 and scatters x back. Parallel MUMPS is not
 // reproducible: its factorization and solve sum the contribution blocks of a front in the order
 // the other ranks' messages arrive, so two runs of a deck at 2 ranks differed in the last bits of
 // every A^{-1} b and, through L-BFGS, in iteration counts (docs/performance.md#reproducibility).
 #pragma once
+#include <petscksp.h>
 #include <petscmat.h>
 
 #include <memory>
@@ -29,8 +33,12 @@ namespace hyperqn {
 // and z interleaved (solvers/simplicial_cholesky.hpp). All compute the same LL^T up to the
 // fill-reducing ordering (results differ in the last bits); they differ in the cost of a solve
 // (docs/performance.md#h0-package), which decided the default.
-enum class FactorPackage { mumps, cholmod, simplicial };
-const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "simplicial"
+// amg: no factorization; x = B b with B one V-cycle of PETSc's GAMG (or BoomerAMG, -h0_pc_type
+// hypre) on A1, through a KSPPREONLY with the prefix h0_. Not A^{-1}: an approximation L-BFGS can
+// take as H0 (symmetric and positive definite by the choice of smoothers), not PD's exact steps.
+// Chosen by solver.h0 (lbfgs only), not by -hyperqn_h0_package.
+enum class FactorPackage { mumps, cholmod, simplicial, amg };
+const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "simplicial", "amg"
 // PETSc's CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS and
 // hyperqn's own link to CHOLMOD are always there.
 bool factor_package_available(FactorPackage p);
@@ -44,13 +52,14 @@ class FactoredSystem {
   FactoredSystem(const FactoredSystem&) = delete;
   FactoredSystem& operator=(const FactoredSystem&) = delete;
 
-  // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene).
-  // A factorization that fails (A not positive definite) is an error saying so.
+  // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene),
+  // or for amg sets up the V-cycle of A1 (kind must be laplacian). A factorization that fails
+  // (A not positive definite) is an error saying so.
   PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
                        FactorPackage package = default_factor_package());
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
-  // x = A^{-1} b (dof layout: x, y, z per free vertex).
+  // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle per column.
   PetscErrorCode solve(Vec b, Vec x) const;
   // y = A x.
   PetscErrorCode mult(Vec x, Vec y) const;
@@ -58,9 +67,11 @@ class FactoredSystem {
   // TaoLMVMSetH0 takes.
   Mat inverse_operator() const { return shell_; }
 
-  // Time of this system's factorization (the run's totals are the log events hqnH0*).
+  // Time of this system's factorization or AMG setup (the run's totals are the log events hqnH0*).
   double factor_seconds() const { return factor_s_; }
-  // Entries of the Cholesky factor (the package's count; the same on every rank).
+  // Entries of the Cholesky factor (the package's count; the same on every rank). For amg: the
+  // entries of the multigrid hierarchy's matrices, A1 and its coarse levels (PCMG, e.g. GAMG),
+  // or A1's alone where PETSc does not hold them (BoomerAMG).
   double factor_nonzeros() const { return factor_nonzeros_; }
   int factorizations() const { return factorizations_; }
 
@@ -68,6 +79,7 @@ class FactoredSystem {
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or simplicial_.
   PetscErrorCode factor(Mat A);
   PetscErrorCode factor_simplicial(Mat A);
+  PetscErrorCode setup_amg();  // ksp_ on A_
   // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
   PetscErrorCode solve_here(Vec b, Vec x) const;
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
@@ -77,6 +89,7 @@ class FactoredSystem {
   FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SimplicialCholesky> simplicial_;         // instead of factor_ for simplicial
+  KSP ksp_ = nullptr;                                      // instead of a factor for amg
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to
   // rank 0 and its gathered copy there (length 0 elsewhere).

@@ -1,5 +1,6 @@
 // Liu, Bouaziz & Kavan 2017: L-BFGS on g whose initial inverse Hessian is A^{-1} = (M + h^2 L)^{-1},
-// run by PETSc TAO (TAOLMVM) with A's Cholesky factor given as H0. Without h0 it is TAO's
+// run by PETSc TAO (TAOLMVM) with A's Cholesky factor given as H0 (or, with solver.h0: amg, one
+// AMG V-cycle of A, an SPD approximation of A^{-1}). Without h0 it is TAO's
 // L-BFGS with its own default H0 (in PETSc 3.18 a diagonal scaling updated from the (s, y)
 // pairs; -tao_lmvm_mat_lmvm_scale_type scalar gives the classic gamma*I): the ablation
 // "lbfgs-identity".
@@ -14,7 +15,7 @@ namespace hyperqn {
 
 class LbfgsSolver : public GuardedTaoSolver {
  public:
-  // h0: the factored M + h^2 L, or nullptr for TAO's default H0.
+  // h0: the factored M + h^2 L (or its V-cycle), or nullptr for TAO's default H0.
   LbfgsSolver(Objective& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
   PetscErrorCode setup(const SolverSpec& spec);
 

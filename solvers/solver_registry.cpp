@@ -70,6 +70,8 @@ ConstantMatrix constant_matrix_of(const SolverSpec& spec) {
                                                                     : ConstantMatrix::laplacian;
 }
 
+bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "amg"; }
+
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   const SolverInfo* s = find_solver(spec.type);
@@ -79,6 +81,9 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
              spec.type.c_str());
   PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(spec), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
+  PetscCheck(!h0 || !s->uses_constant_matrix || (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
+             PETSC_COMM_SELF, PETSC_ERR_PLIB, "solver %s was given the wrong kind of constant matrix solve (AMG or factor)",
+             spec.type.c_str());
   PetscCall(s->create(spec, objective, h0, solver));
   PetscFunctionReturn(0);
 }

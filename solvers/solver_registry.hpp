@@ -35,6 +35,9 @@ bool solver_uses_constant_matrix(const std::string& type);
 bool solver_takes_h0(const std::string& type);
 // The constant matrix a solver with these settings factors (if solver_uses_constant_matrix).
 ConstantMatrix constant_matrix_of(const SolverSpec& spec);
+// True if that matrix (M + h^2 L) is applied by one AMG V-cycle instead of a factorization
+// (lbfgs with solver.h0: amg).
+bool constant_matrix_by_amg(const SolverSpec& spec);
 
 // Creates the solver spec.type; h0 may be nullptr when it does not use the constant matrix.
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,

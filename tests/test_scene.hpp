@@ -40,10 +40,11 @@ using ExtraTerms = std::function<void(const DistributedMesh&, std::vector<std::u
 
 // A 2 x 1 x 1 box of 4 x 2 x 2 cubes of material `scene` (total mass 7.5), optionally fixed at
 // x = 0; scene "<model>+strands" adds the strands above (total mass kStrandDensity * kStrandLength).
-// gravity and extra (terms added after the elastic ones) are for tests of new energy terms.
+// gravity and extra (terms added after the elastic ones) are for tests of new energy terms; cells
+// refines the box (for solvers that need more than a few dozen vertices, such as multigrid).
 inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestScene& s,
                                  std::array<double, 3> gravity = {0, -9.81, 0},
-                                 const ExtraTerms& extra = nullptr) {
+                                 const ExtraTerms& extra = nullptr, std::array<int, 3> cells = {4, 2, 2}) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   const bool strands = with_strands(scene);
@@ -52,7 +53,7 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   TetMesh serial;
   std::vector<int32_t> fixed;
   if (rank == 0) {
-    serial = generate_box({2.0, 1.0, 1.0}, {4, 2, 2});
+    serial = generate_box({2.0, 1.0, 1.0}, cells);
     if (strands) {
       add_strand(serial, {{2.0, 1.0, 1.0}, {2.72, 1.96, 1.0}, 5, 0});  // length 1.2
       add_strand(serial, {{0.0, 1.5, 0.0}, {0.3, 1.5, 0.4}, 3, 0});    // length 0.5

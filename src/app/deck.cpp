@@ -36,7 +36,7 @@ const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
-const Names kH0s = {"laplacian", "rest-stiffness"};
+const Names kH0s = {"laplacian", "rest-stiffness", "amg"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
 constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
@@ -755,8 +755,14 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
   if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
   if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
-  // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L).
-  if (const Value* x = s.find("h0")) sv.h0 = r.choice(*x, kH0s);
+  // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L). amg would not
+  // be ignored by pd but break it: its steps are exact solves with M + h^2 L.
+  if (const Value* x = s.find("h0")) {
+    sv.h0 = r.choice(*x, kH0s);
+    if (sv.type == "pd" && sv.h0 == "amg")
+      r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
+                 "approximates (give laplacian, or leave h0 out)");
+  }
   if (const Value* x = s.find("max_iterations")) {
     sv.max_iterations = r.integer(*x);
     r.check(sv.max_iterations >= 0 && sv.max_iterations <= kMaxIterations, *x, "in [0, 1000000]");

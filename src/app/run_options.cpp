@@ -88,6 +88,8 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     spec.type = type;
     if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness)
       s.factor_rest_stiffness = true;
+    else if (constant_matrix_by_amg(spec))
+      s.amg = true;
     else
       s.factor = true;
   }

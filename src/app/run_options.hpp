@@ -36,7 +36,7 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options);
 
 // How the scene of this deck is built for these solvers (with the deck's solver settings): the
 // constant matrices they factor (M + h^2 L, or M + h^2 K(x_rest) for lbfgs with solver.h0:
-// rest-stiffness), the deck's warm start, and the test hooks' term if one is asked for.
+// rest-stiffness, or M + h^2 L's V-cycle for h0: amg), the deck's warm start, and the test hooks' term if one is asked for.
 SceneOptions scene_options(const Deck& deck, const RunOptions& options, const std::vector<std::string>& solvers);
 
 }  // namespace hyperqn

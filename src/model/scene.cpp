@@ -188,13 +188,18 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     s.rest_stiffness = std::make_unique<FactoredSystem>();
     PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness, options_.h0_package));
   }
+  if (options_.amg) {
+    s.amg = std::make_unique<FactoredSystem>();
+    PetscCall(s.amg->setup(*s.integrator, ConstantMatrix::laplacian, FactorPackage::amg));
+  }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
 }
 
 const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
   if (!solver_uses_constant_matrix(spec.type)) return nullptr;
-  return (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? rest_stiffness : factored).get();
+  if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness) return rest_stiffness.get();
+  return (constant_matrix_by_amg(spec) ? amg : factored).get();
 }
 
 PetscErrorCode LiveScene::initial_state(State& s) const {

@@ -42,6 +42,7 @@ struct Scene {
   std::unique_ptr<ImplicitEuler> integrator;
   std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
   std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
+  std::unique_ptr<FactoredSystem> amg;             // M + h^2 L by a V-cycle, only if lbfgs uses it (solver.h0)
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
 };
@@ -50,6 +51,7 @@ struct Scene {
 struct SceneOptions {
   bool factor = false;                 // factor M + h^2 L (a solver needs it)
   bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
+  bool amg = false;                    // set up the V-cycle of M + h^2 L (lbfgs with solver.h0: amg)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).

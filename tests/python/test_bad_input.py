@@ -70,7 +70,9 @@ BAD_DECKS = {
     "contact_without_colliders": (deck_with(contact={"distance": 0.01}), ["contact", "no", "colliders"]),
     "contact_zero_distance": (deck_with(colliders=[{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}],
                                         contact={"distance": 0}), ["contact.distance", "> 0"]),
-    "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness"]),
+    "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness, amg"]),
+    # pd's steps are exact solves with M + h^2 L; a V-cycle would silently change the method.
+    "pd_amg": (deck_with(solver={"type": "pd", "h0": "amg"}), ["solver.h0", "amg is for lbfgs", "pd"]),
 }
 
 
