@@ -4,6 +4,8 @@
 
 #include <stdexcept>
 
+#include "materials/lanes.hpp"
+
 namespace hyperqn {
 
 namespace {
@@ -77,8 +79,8 @@ SimplicialCholesky::Status SimplicialCholesky::factor(int64_t n, const int64_t* 
 // L y = w, then L^T z = y, in place on the n x lanes block w (row i: lanes adjacent doubles), every
 // lane in the same pass. Forward: by columns of L (column j, once y_j is known, updates the rows
 // below it). Backward: by rows of L^T, which are L's columns (z_j needs the z of the rows below
-// j). Compiled twice, for x86-64-v3 (AVX2 and FMA: a row of 4 lanes is one register) and for
-// plain x86-64; the loader picks the one the processor runs.
+// j). Compiled for x86-64-v3 (AVX2 and FMA: a row of 4 lanes is one register) and plain x86-64
+// (HYPERQN_VECTOR_CLONES).
 namespace {
 
 // A row of the right-hand-side block: one double, or 4 lanes as one GCC vector (a 256-bit register
@@ -97,7 +99,7 @@ struct RowOf<4> {
 };
 
 template <int lanes>
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void triangular_solves(
+HYPERQN_VECTOR_CLONES void triangular_solves(
     int64_t n, const int64_t* __restrict start, const int32_t* __restrict row, const double* __restrict L,
     double* __restrict block) {
   using Row = typename RowOf<lanes>::type;

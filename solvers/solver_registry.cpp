@@ -72,6 +72,12 @@ ConstantMatrix constant_matrix_of(const SolverSpec& spec) {
 
 bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "amg"; }
 
+bool solver_factors(const SolverSpec& spec) {
+  const bool newton = spec.type == "newton" || spec.newton_fallback;
+  return (solver_uses_constant_matrix(spec.type) && !constant_matrix_by_amg(spec)) ||
+         (newton && spec.linear_solver == "mumps");
+}
+
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   const SolverInfo* s = find_solver(spec.type);

@@ -504,7 +504,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 1. Everything that can be wrong with the input is checked before any output exists.
   SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input)) return 1;
+  if (!load_scene_input_or_report(comm, deck, input, solver_factors(deck.solver))) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)
     PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",

@@ -6,6 +6,8 @@
 #include <memory>
 #include <string>
 
+#include "materials/lanes.hpp"
+
 namespace hyperqn {
 
 class ScalarFunction;  // materials/scalar_function.hpp
@@ -18,12 +20,9 @@ using Mat9 = Eigen::Matrix<double, 9, 9>;
 
 // Up to kBatch elements' F and P in structure-of-arrays form, for the element loops of the energy
 // terms: F[c] holds component c (column-major, c = i + 3 j for F(i, j)) of the kBatch elements,
-// and F[c][e] is element e's. Lanes is a GCC vector of kBatch doubles: an expression on Lanes is
-// one instruction per 2, 4 or 8 doubles (SSE2, AVX2, AVX-512), whatever the compiler can prove
-// about aliasing, and scalars broadcast (2.0 * F[c]). Lanes past the batch's count hold whatever
+// and F[c][e] is element e's (Lanes: materials/lanes.hpp; whole-lane expressions vectorize
+// whatever the compiler can prove about aliasing). Lanes past the batch's count hold whatever
 // was there: a material computes them or not, and the term never reads them.
-inline constexpr int kBatch = 8;
-typedef double Lanes __attribute__((vector_size(kBatch * sizeof(double))));
 struct StressBatch {
   Lanes F[9], P[9], psi;
 };

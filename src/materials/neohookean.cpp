@@ -15,6 +15,39 @@ struct LogExt {
   double f, df, d2f;
 };
 
+// f(J): log J above J0, below it the quadratic matching log's value, slope and curvature at J0.
+LogExt log_ext_at(double J, double J0) {
+  if (J > J0) return {std::log(J), 1.0 / J, -1.0 / (J * J)};
+  const double r = J / J0 - 1.0;
+  return {std::log(J0) + (J - J0) / J0 - 0.5 * r * r, (1.0 - r) / J0, -1.0 / (J0 * J0)};
+}
+
+// psi and P of the first n elements of a batch: cof(F) column by column (cross products of F's
+// other two columns), J = F(:, 0) . cof(:, 0), then f(J) per element, then P and psi.
+HYPERQN_VECTOR_CLONES void neohookean_batch(double mu, double lambda, double J0, StressBatch& b, int n) {
+  const Lanes* F = b.F;
+  Lanes C[9], f = {}, df = {};
+  for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
+    const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
+    C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
+    C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
+    C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
+  }
+  const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+  for (int e = 0; e < n; ++e) {
+    const LogExt g = log_ext_at(J[e], J0);
+    f[e] = g.f;
+    df[e] = g.df;
+  }
+  const Lanes h = (lambda * f - mu) * df;
+  Lanes I1 = {};
+  for (int c = 0; c < 9; ++c) {
+    b.P[c] = mu * F[c] + h * C[c];
+    I1 += F[c] * F[c];
+  }
+  b.psi = 0.5 * mu * (I1 - 3.0) - mu * f + 0.5 * lambda * f * f;
+}
+
 class NeoHookean final : public Material {
  public:
   NeoHookean(double mu, double lambda, double J0) : mu_(mu), lambda_(lambda), J0_(J0) {}
@@ -31,31 +64,8 @@ class NeoHookean final : public Material {
     return 0.5 * mu_ * (F.squaredNorm() - 3.0) - mu_ * g.f + 0.5 * lambda_ * g.f * g.f;
   }
 
-  // The same formulas across a batch: cof(F) column by column (cross products of F's other two
-  // columns), J = F(:, 0) . cof(:, 0), then log per element, then P and psi.
-  void energy_and_stress_batch(StressBatch& b, int n) const override {
-    const Lanes* F = b.F;
-    Lanes C[9], f = {}, df = {};
-    for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
-      const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
-      C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
-      C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
-      C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
-    }
-    const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
-    for (int e = 0; e < n; ++e) {
-      const LogExt g = log_ext(J[e]);
-      f[e] = g.f;
-      df[e] = g.df;
-    }
-    const Lanes h = (lambda_ * f - mu_) * df;
-    Lanes I1 = {};
-    for (int c = 0; c < 9; ++c) {
-      b.P[c] = mu_ * F[c] + h * C[c];
-      I1 += F[c] * F[c];
-    }
-    b.psi = 0.5 * mu_ * (I1 - 3.0) - mu_ * f + 0.5 * lambda_ * f * f;
-  }
+  // The same formulas across a batch (neohookean_batch).
+  void energy_and_stress_batch(StressBatch& b, int n) const override { neohookean_batch(mu_, lambda_, J0_, b, n); }
 
   Mat9 stress_derivative(const Mat3& F) const override {
     const LogExt g = log_ext(F.determinant());
@@ -76,12 +86,7 @@ class NeoHookean final : public Material {
   bool projective_dynamics_exact() const override { return false; }
 
  private:
-  LogExt log_ext(double J) const {
-    if (J > J0_) return {std::log(J), 1.0 / J, -1.0 / (J * J)};
-    // Quadratic matching log's value, slope and curvature at J0.
-    const double r = J / J0_ - 1.0;
-    return {std::log(J0_) + (J - J0_) / J0_ - 0.5 * r * r, (1.0 - r) / J0_, -1.0 / (J0_ * J0_)};
-  }
+  LogExt log_ext(double J) const { return log_ext_at(J, J0_); }
   double mu_, lambda_, J0_;
 };
 

@@ -18,6 +18,38 @@ namespace {
 
 constexpr double kKappaScale = 1.0 / 2592.0;  // (kappa/12) ((1 - J)/6)^3 = kappa (1 - J)^3 / 2592
 
+// psi and P across a batch: E = (F^T F - I)/2, S = 2 mu E + lambda tr(E) I, P = F S, and the
+// compression term through t = max(1 - J, 0) (0 adds nothing where J >= 1), with cof(F) as in
+// Neo-Hookean's batch. Every lane is computed.
+HYPERQN_VECTOR_CLONES void stvk_batch(double mu, double lambda, double kappa, StressBatch& b) {
+  const Lanes* F = b.F;
+  Lanes E[9], C[9];
+  for (int a = 0; a < 3; ++a)  // E(a, c) = (F(:, a) . F(:, c) - delta_ac) / 2, symmetric
+    for (int c = a; c < 3; ++c)
+      E[a + 3 * c] = E[c + 3 * a] =
+          0.5 * (F[3 * a] * F[3 * c] + F[3 * a + 1] * F[3 * c + 1] + F[3 * a + 2] * F[3 * c + 2] - (a == c ? 1.0 : 0.0));
+  const Lanes tr = E[0] + E[4] + E[8];
+  Lanes norm2 = {};
+  for (int c = 0; c < 9; ++c) norm2 += E[c] * E[c];
+  for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
+    const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
+    C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
+    C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
+    C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
+  }
+  const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+  const Lanes zero = {};
+  const Lanes t = J < 1.0 ? 1.0 - J : zero;
+  const Lanes slope = -kappa * t * t / 864.0;
+  b.psi = mu * norm2 + 0.5 * lambda * tr * tr + kappa * kKappaScale * t * t * t;
+  Lanes S[9];  // S = 2 mu E + lambda tr(E) I
+  for (int c = 0; c < 9; ++c) S[c] = 2.0 * mu * E[c];
+  for (int d = 0; d < 3; ++d) S[4 * d] += lambda * tr;
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c)  // P(i, c) = sum_a F(i, a) S(a, c) + slope cof(i, c)
+      b.P[i + 3 * c] = F[i] * S[3 * c] + F[i + 3] * S[1 + 3 * c] + F[i + 6] * S[2 + 3 * c] + slope * C[i + 3 * c];
+}
+
 class StVK final : public Material {
  public:
   StVK(double mu, double lambda, double kappa) : mu_(mu), lambda_(lambda), kappa_(kappa) {}
@@ -33,37 +65,8 @@ class StVK final : public Material {
     return energy_of(F, E);
   }
 
-  // The same formulas across a batch: E = (F^T F - I)/2, S = 2 mu E + lambda tr(E) I, P = F S, and
-  // the compression term through t = max(1 - J, 0) (0 adds nothing where J >= 1), with cof(F) as
-  // in Neo-Hookean's batch.
-  void energy_and_stress_batch(StressBatch& b, int) const override {
-    const Lanes* F = b.F;
-    Lanes E[9], C[9];
-    for (int a = 0; a < 3; ++a)  // E(a, c) = (F(:, a) . F(:, c) - delta_ac) / 2, symmetric
-      for (int c = a; c < 3; ++c)
-        E[a + 3 * c] = E[c + 3 * a] =
-            0.5 * (F[3 * a] * F[3 * c] + F[3 * a + 1] * F[3 * c + 1] + F[3 * a + 2] * F[3 * c + 2] - (a == c ? 1.0 : 0.0));
-    const Lanes tr = E[0] + E[4] + E[8];
-    Lanes norm2 = {};
-    for (int c = 0; c < 9; ++c) norm2 += E[c] * E[c];
-    for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
-      const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
-      C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
-      C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
-      C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
-    }
-    const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
-    const Lanes zero = {};
-    const Lanes t = J < 1.0 ? 1.0 - J : zero;
-    const Lanes slope = -kappa_ * t * t / 864.0;
-    b.psi = mu_ * norm2 + 0.5 * lambda_ * tr * tr + kappa_ * kKappaScale * t * t * t;
-    Lanes S[9];  // S = 2 mu E + lambda tr(E) I
-    for (int c = 0; c < 9; ++c) S[c] = 2.0 * mu_ * E[c];
-    for (int d = 0; d < 3; ++d) S[4 * d] += lambda_ * tr;
-    for (int i = 0; i < 3; ++i)
-      for (int c = 0; c < 3; ++c)  // P(i, c) = sum_a F(i, a) S(a, c) + slope cof(i, c)
-        b.P[i + 3 * c] = F[i] * S[3 * c] + F[i + 3] * S[1 + 3 * c] + F[i + 6] * S[2 + 3 * c] + slope * C[i + 3 * c];
-  }
+  // The same formulas across a batch (stvk_batch).
+  void energy_and_stress_batch(StressBatch& b, int) const override { stvk_batch(mu_, lambda_, kappa_, b); }
 
   Mat9 stress_derivative(const Mat3& F) const override {
     const Mat3 E = green_strain(F);

@@ -9,9 +9,9 @@
 
 namespace hyperqn {
 
-double estimated_run_bytes(int64_t vertices, int ranks) {
+double estimated_run_bytes(int64_t vertices, int ranks, bool factored) {
   const double mb = 1024.0 * 1024.0, v = double(vertices);
-  return 50 * mb * ranks + 5300 * v + 125 * std::pow(v, 4.0 / 3.0);
+  return 50 * mb * ranks + 5300 * v + (factored ? 125 * std::pow(v, 4.0 / 3.0) : 0.0);
 }
 
 double memory_limit_bytes(std::string* source) {

@@ -12,8 +12,9 @@ namespace hyperqn {
 // terms, vectors, L-BFGS history) plus 125 B per vertex^(4/3) (the fill of the factorization
 // of M + h^2 L, which grows like V^(4/3) for 3-D meshes under nested dissection). Fitted to the
 // peak RSS of boxes of 30^3 to 100^3 cells at 1 rank (default solver, MUMPS): within 6% of the
-// measured 10^3 to 100^3 boxes (docs/guardrails.md).
-double estimated_run_bytes(int64_t vertices, int ranks);
+// measured 10^3 to 100^3 boxes (docs/guardrails.md). factored false: no sparse factorization
+// (lbfgs with solver.h0: amg, lbfgs-identity, Newton on CG + AMG), so no fill term.
+double estimated_run_bytes(int64_t vertices, int ranks, bool factored = true);
 
 // The memory a run may take, in bytes: the environment variable HYPERQN_MEMORY_LIMIT_MB if set
 // (a number > 0; anything else is an InputError naming it), else MemAvailable of /proc/meminfo;

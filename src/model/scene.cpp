@@ -46,12 +46,12 @@ void on_root(MPI_Comm comm, const std::function<void()>& fn) {
 
 // Refuses a mesh of `vertices` vertices whose run would need more memory than there is
 // (estimated_run_bytes against memory_limit_bytes), naming the deck key that sets its size.
-void check_memory(MPI_Comm comm, const SceneSpec& deck, int64_t vertices) {
+void check_memory(MPI_Comm comm, const SceneSpec& deck, int64_t vertices, bool factored) {
   std::string source;
   const double limit = memory_limit_bytes(&source);
   int ranks;
   MPI_Comm_size(comm, &ranks);
-  const double need = estimated_run_bytes(vertices, ranks);
+  const double need = estimated_run_bytes(vertices, ranks, factored);
   if (limit <= 0 || need <= limit) return;
   char msg[400];
   std::snprintf(msg, sizeof msg,
@@ -78,17 +78,17 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired) {
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, bool factored) {
   TetMesh mesh;
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
     if (spec.is_box) {
       const auto& n = spec.box_cells;
-      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1));  // before generating it
+      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), factored);  // before generating it
       mesh = generate_box(spec.box_size, spec.box_cells);
     } else if (spec.is_sheet) {
       const auto& n = spec.sheet_cells;
-      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1));
+      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1), factored);
       mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
     } else if (ends_with(spec.file, ".obj")) {
       mesh = surface_mesh(read_triangle_surface(spec.file));
@@ -100,7 +100,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     apply_transform(mesh, spec.transform);
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
     const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
-    if (!spec.file.empty()) check_memory(comm, deck, mesh.num_vertices());  // before distributing and factoring it
+    if (!spec.file.empty()) check_memory(comm, deck, mesh.num_vertices(), factored);  // before distributing and factoring it
     if (repaired) *repaired = report;
     if (mesh.num_tets() > 0 && !deck.has_material)
       throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
@@ -109,9 +109,9 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
   return mesh;
 }
 
-SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
+SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, bool factored) {
   SceneInput in;
-  in.mesh = load_scene_mesh(comm, deck, &in.repaired);
+  in.mesh = load_scene_mesh(comm, deck, &in.repaired, factored);
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
     in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
@@ -130,9 +130,9 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck) {
   return in;
 }
 
-bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input) {
+bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factored) {
   try {
-    input = load_scene_input(comm, deck);
+    input = load_scene_input(comm, deck, factored);
     return true;
   } catch (const InputError& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());

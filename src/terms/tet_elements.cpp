@@ -81,7 +81,7 @@ PetscErrorCode TetElements::add_energy(Vec, const std::vector<double>& pos, doub
 static inline void load_lanes(const double* p, Lanes& v) { std::memcpy(&v, p, sizeof v); }
 
 // b.F = Ds Dm^{-1} for the batch at element k: F(i, j) = sum_l Ds(i, l) Dm^{-1}(l, j).
-void TetElements::batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const {
+HYPERQN_VECTOR_CLONES void TetElements::batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const {
   Lanes G[9];  // Dm^{-1} of the batch's elements
   for (int c = 0; c < 9; ++c) load_lanes(&Dm_inv_[c][k], G[c]);
   for (int i = 0; i < 3; ++i)
@@ -89,7 +89,7 @@ void TetElements::batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, St
 }
 
 // H = w P Dm^{-T} for the batch at element k: H(i, j) = w sum_l P(i, l) Dm^{-1}(j, l).
-void TetElements::batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const {
+HYPERQN_VECTOR_CLONES void TetElements::batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const {
   Lanes G[9], w;
   for (int c = 0; c < 9; ++c) load_lanes(&Dm_inv_[c][k], G[c]);
   load_lanes(&weight_[k], w);

@@ -3,6 +3,7 @@ naming the file, line and key (or the option), and nothing written; options that
 meaning are said, not swallowed."""
 import copy
 import json
+import re
 
 import pytest
 
@@ -200,6 +201,33 @@ def test_box_beyond_the_memory_is_refused(tmp_path, ranks):
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=ranks, check=False, timeout=60)
     assert proc.returncode == 1, proc.stdout
     assert_clean_failure(proc, tmp_path / "out", ["huge.yaml:", "'mesh.box.cells'", "MB of memory", "MemAvailable"])
+
+
+def quoted_estimate_mb(proc):
+    m = re.search(r"would need about (\d+) MB of memory", proc.stdout)
+    assert m, proc.stdout[-2000:]
+    return int(m.group(1))
+
+
+def test_memory_estimate_counts_a_factor_only_when_one_is_made(tmp_path, monkeypatch):
+    # 100^3 cells, 1,030,301 vertices, under a 1000 MB limit: refused either way, but the estimate
+    # quoted counts the factor's fill (125 B per vertex^(4/3), 12.4 GB here) only when a solver
+    # factors: lbfgs with h0: amg and no Newton fallback factors nothing.
+    monkeypatch.setenv("HYPERQN_MEMORY_LIMIT_MB", "1000")
+    estimates = {}
+    for name, solver in {"factor": {"type": "lbfgs"},
+                         "amg_with_newton_fallback": {"type": "lbfgs", "h0": "amg"},
+                         "amg": {"type": "lbfgs", "h0": "amg", "newton_fallback": False},
+                         "newton_cg_amg": {"type": "newton", "linear_solver": "cg-amg", "newton_fallback": False}
+                         }.items():
+        path = write_deck(tmp_path / f"{name}.yaml", deck_with(**{"mesh.box.cells": [100, 100, 100], "solver": solver}))
+        proc = run_hyperqn([path, "-o", tmp_path / name], ranks=None, check=False, timeout=60)
+        assert_clean_failure(proc, tmp_path / name, [f"{name}.yaml:", "'mesh.box.cells'"])
+        estimates[name] = quoted_estimate_mb(proc)
+    without_fill = (50 * 2**20 + 5300 * 1030301) / 2**20
+    assert abs(estimates["amg"] - without_fill) <= 1, estimates
+    assert estimates["newton_cg_amg"] == estimates["amg"], estimates
+    assert estimates["factor"] == estimates["amg_with_newton_fallback"] > 3 * estimates["amg"], estimates
 
 
 def test_memory_limit_from_the_environment(tmp_path, monkeypatch):
