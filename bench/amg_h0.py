@@ -19,6 +19,9 @@ from hyperqn_tools.decks import load_deck, write_deck
 # ~2M tets: 320 x 32 x 32 cubic cells, 6 tets each (1,966,080 tets, 349,569 vertices); the shape
 # of box480k (10 : 1 : 1).
 bench.CASES["box2m"] = ("box", (320, 32, 32))
+# ~10M tets, the same shape: 560 x 56 x 56 cells (10,536,960 tets, 1,822,689 vertices); with the
+# factor it would not fit in 24 GB (the memory estimate refuses it), so amg only (--h0 amg).
+bench.CASES["box10m"] = ("box", (560, 56, 56))
 H0S = ["laplacian", "amg"]
 COLUMNS = ["case", "h0", "ranks", "vertices", "it/frame", "ms/iter", "setup_s", "peak MB/rank", "h0_nonzeros",
            "study it to 1e-3", "study ms to 1e-3", "status"]
@@ -109,6 +112,9 @@ def main():
     ap.add_argument("--timeout", type=float, default=3600, help="seconds per run")
     ap.add_argument("--hyperqn", default=launch.default_binary())
     ap.add_argument("--mpiexec", default=launch.default_mpiexec())
+    ap.add_argument("--fixed-budget", action="store_true",
+                    help="plain runs at exactly 10 iterations per frame: the fallback chain off (no more "
+                         "iterations, sub-steps or Newton, whose factor the memory estimate would count)")
     ap.add_argument("--study-decks", nargs="+", help="study decks to run instead of the cases")
     ap.add_argument("--petsc", default="", help="PETSc options for the amg runs' decks (petsc: section), "
                     "comma list of name=value without '-', e.g. h0_pc_gamg_threshold=0.05")
@@ -127,6 +133,8 @@ def main():
         for h0 in args.h0.split(","):
             deck = load_deck(base)
             deck["solver"]["h0"] = h0
+            if args.fixed_budget:
+                deck["solver"].update({"iterations": 10, "max_iterations": 0, "max_halvings": 0, "newton_fallback": False})
             add_petsc(deck, h0, args.petsc)
             plain = write_deck(os.path.join(deckdir, f"{name}-{h0}.yaml"), deck)
             study = None
