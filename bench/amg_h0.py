@@ -37,6 +37,17 @@ def time_to(study_dir, frame, target=1e-3):
     return None
 
 
+def run_study(args, deck, out, ranks, label):
+    """`hyperqn study deck -o out` on ranks; its exit code, or "timeout"."""
+    t0 = time.time()
+    try:
+        code = launch.run(["study", deck, "-o", out], ranks, args.hyperqn, args.mpiexec, timeout=args.timeout).returncode
+    except subprocess.TimeoutExpired:
+        code = "timeout"
+    print(f"[{time.time() - t0:7.1f} s] study {label} np={ranks}: exit {code}", file=sys.stderr, flush=True)
+    return code
+
+
 def add_petsc(deck, h0, options):
     """--petsc's options into the deck's petsc: section, for amg runs only."""
     if h0 != "amg" or not options:
@@ -64,13 +75,7 @@ def study_decks(args):
             copy = write_deck(os.path.join(args.out, "decks", f"{stem}-{h0}.yaml"), deck)
             for r in [int(x) for x in args.ranks.split(",")]:
                 out = os.path.join(args.out, "studies", f"{stem}-{h0}-np{r}")
-                t0 = time.time()
-                try:
-                    code = launch.run(["study", copy, "-o", out], r, args.hyperqn, args.mpiexec,
-                                      timeout=args.timeout).returncode
-                except subprocess.TimeoutExpired:
-                    code = "timeout"
-                print(f"[{time.time() - t0:7.1f} s] study {stem} {h0} np={r}: exit {code}", file=sys.stderr, flush=True)
+                code = run_study(args, copy, out, r, f"{stem} {h0}")
                 last = {}
                 if code == 0:
                     with open(os.path.join(out, "trajectory.csv")) as f:
@@ -161,14 +166,7 @@ def main():
                                 "peak MB/rank": round(s["peak_rss_mb"]), "h0_nonzeros": int(s["h0_factor_nonzeros"])})
                 if study:
                     out = os.path.join(args.out, "studies", f"{name}-{h0}-np{r}")
-                    t0 = time.time()
-                    try:
-                        code = launch.run(["study", study, "-o", out], r, args.hyperqn, args.mpiexec,
-                                          timeout=args.timeout).returncode
-                    except subprocess.TimeoutExpired:
-                        code = "timeout"
-                    print(f"[{time.time() - t0:7.1f} s] study {name} {h0} np={r}: exit {code}", file=sys.stderr,
-                          flush=True)
+                    code = run_study(args, study, out, r, f"{name} {h0}")
                     reached = time_to(out, args.study_frame) if code == 0 else None
                     if reached:
                         row["study it to 1e-3"], row["study ms to 1e-3"] = reached[0], round(reached[1], 1)

@@ -295,6 +295,23 @@ PetscErrorCode FactoredSystem::copy_columns(Vec v, Mat cols, bool to_columns) co
   PetscFunctionReturn(0);
 }
 
+// y = op(x) column by column: the x, y and z components of the dof vector x, each as a vector of
+// A1's layout, through op into the same component of y.
+PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<PetscErrorCode(Vec, Vec)>& op) const {
+  PetscFunctionBeginUser;
+  PetscCall(copy_columns(x, rhs_, true));
+  for (PetscInt d = 0; d < 3; ++d) {
+    Vec in, out;
+    PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
+    PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
+    PetscCall(op(in, out));
+    PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
+    PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
+  }
+  PetscCall(copy_columns(y, sol_, false));
+  PetscFunctionReturn(0);
+}
+
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
@@ -307,16 +324,7 @@ PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
   } else if (ksp_) {  // one V-cycle per column x, y, z
-    PetscCall(copy_columns(b, rhs_, true));
-    for (PetscInt d = 0; d < 3; ++d) {
-      Vec in, out;
-      PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
-      PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
-      PetscCall(KSPSolve(ksp_, in, out));
-      PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
-      PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
-    }
-    PetscCall(copy_columns(x, sol_, false));
+    PetscCall(by_columns(b, x, [this](Vec in, Vec out) { return KSPSolve(ksp_, in, out); }));
   } else if (kind_ == ConstantMatrix::laplacian) {
     Mat rhs = rhs0_ ? rhs0_ : rhs_, sol = sol0_ ? sol0_ : sol_;
     PetscCall(copy_columns(b, rhs, true));
@@ -350,16 +358,7 @@ PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
     PetscCall(MatMult(A_, x, y));
     PetscFunctionReturn(0);
   }
-  PetscCall(copy_columns(x, rhs_, true));
-  for (PetscInt d = 0; d < 3; ++d) {
-    Vec in, out;
-    PetscCall(MatDenseGetColumnVecRead(rhs_, d, &in));
-    PetscCall(MatDenseGetColumnVecWrite(sol_, d, &out));
-    PetscCall(MatMult(A_, in, out));
-    PetscCall(MatDenseRestoreColumnVecWrite(sol_, d, &out));
-    PetscCall(MatDenseRestoreColumnVecRead(rhs_, d, &in));
-  }
-  PetscCall(copy_columns(y, sol_, false));
+  PetscCall(by_columns(x, y, [this](Vec in, Vec out) { return MatMult(A_, in, out); }));
   PetscFunctionReturn(0);
 }
 

@@ -20,6 +20,7 @@
 #include <petscksp.h>
 #include <petscmat.h>
 
+#include <functional>
 #include <memory>
 
 #include "solvers/objective.hpp"
@@ -82,6 +83,8 @@ class FactoredSystem {
   PetscErrorCode setup_amg();  // ksp_ on A_
   // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
   PetscErrorCode solve_here(Vec b, Vec x) const;
+  // y = op(x) applied to the x, y, z columns of a dof vector one by one (rhs_, sol_ as work).
+  PetscErrorCode by_columns(Vec x, Vec y, const std::function<PetscErrorCode(Vec, Vec)>& op) const;
   // Dof vector <-> the n x 3 dense matrix of its x, y, z columns (either direction).
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 

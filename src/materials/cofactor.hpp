@@ -15,6 +15,19 @@ inline Mat3 cofactor(const Mat3& F) {
   return C;
 }
 
+// The same for a batch (materials/lanes.hpp): C = cof(F) component by component (column-major,
+// as StressBatch), and J = det F = F(:, 0) . cof(:, 0). (Out-parameters: a vector of 8 doubles
+// returned by value would change the calling convention between the x86-64 and AVX clones.)
+inline void cofactor_lanes(const Lanes* F, Lanes* C, Lanes& J) {
+  for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
+    const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
+    C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
+    C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
+    C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
+  }
+  J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+}
+
 // Levi-Civita symbol.
 inline double levi_civita(int i, int j, int k) { return 0.5 * (i - j) * (j - k) * (k - i); }
 

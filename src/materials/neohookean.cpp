@@ -27,13 +27,8 @@ LogExt log_ext_at(double J, double J0) {
 HYPERQN_VECTOR_CLONES void neohookean_batch(double mu, double lambda, double J0, StressBatch& b, int n) {
   const Lanes* F = b.F;
   Lanes C[9], f = {}, df = {};
-  for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
-    const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
-    C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
-    C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
-    C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
-  }
-  const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+  Lanes J;
+  cofactor_lanes(F, C, J);
   for (int e = 0; e < n; ++e) {
     const LogExt g = log_ext_at(J[e], J0);
     f[e] = g.f;

@@ -31,13 +31,8 @@ HYPERQN_VECTOR_CLONES void stvk_batch(double mu, double lambda, double kappa, St
   const Lanes tr = E[0] + E[4] + E[8];
   Lanes norm2 = {};
   for (int c = 0; c < 9; ++c) norm2 += E[c] * E[c];
-  for (int a = 0; a < 3; ++a) {  // cof(:, a) = F(:, a + 1) x F(:, a + 2)
-    const int p = 3 * ((a + 1) % 3), q = 3 * ((a + 2) % 3);
-    C[3 * a] = F[p + 1] * F[q + 2] - F[p + 2] * F[q + 1];
-    C[3 * a + 1] = F[p + 2] * F[q] - F[p] * F[q + 2];
-    C[3 * a + 2] = F[p] * F[q + 1] - F[p + 1] * F[q];
-  }
-  const Lanes J = F[0] * C[0] + F[1] * C[1] + F[2] * C[2];
+  Lanes J;
+  cofactor_lanes(F, C, J);
   const Lanes zero = {};
   const Lanes t = J < 1.0 ? 1.0 - J : zero;
   const Lanes slope = -kappa * t * t / 864.0;

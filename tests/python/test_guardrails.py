@@ -195,14 +195,19 @@ def test_status_says_whether_frames_were_flagged(runs, name):
     assert re.search(rf"hyperqn: .*; {re.escape(s['status'])}$", log, re.M), log[-500:]
 
 
-def test_pd_backtracks_and_retries(runs):
-    """pd with the solution itself constrained by the hook: rejected points are backtracked from,
-    failed line searches retried along -grad g, g strictly decreasing, never NaN."""
+def test_pd_backtracks_from_rejected_points(runs):
+    """pd with the solution itself constrained by the hook: rejected points are backtracked from
+    (the fallback chain sub-steps the frames that need it), g strictly decreasing, never NaN, and
+    the status says whatever frames were flagged. Measured 2026-11-25: 1796 rejected evaluations,
+    6 sub-stepped frames, no line-search failure, status ok. Before the multiply-adds of the
+    AVX2 kernels, frame 1 ended in one line-search failure (flagged) at every radius of the hook,
+    even at 0.02, where it rejects nothing: a stall at round-off, not the hook. Retries along
+    -grad g after failed line searches: test_newton_recovers_then_flags."""
     outdir, log = runs["pd"]
     s = read_summary(outdir)
-    assert s["frames"] == FRAMES and s["status"].startswith("flagged: ")
-    assert s["rejected_evaluations"] > 0 and s["ls_failures"] > 0
-    assert len(s["flagged_frames"]) == s["failed_frames"]
+    assert s["frames"] == FRAMES and s["rejected_evaluations"] > 0
+    assert len(s["flagged_frames"]) == s["failed_frames"] <= s["ls_failures"]
+    assert s["status"] == "ok" if not s["failed_frames"] else s["status"].startswith(f"flagged: {s['failed_frames']} of")
     check_iterations(outdir, 0.0)
     check_vtk_finite(outdir)
 
