@@ -27,6 +27,18 @@ struct StressBatch {
   Lanes F[9], P[9], psi;
 };
 
+// For each of the first n elements e of a batch: psi[e] = f(e, F, P) with F unpacked from its
+// lane and P packed back into it (the per-element fallback of a batch).
+template <class PerElement>
+void per_element(StressBatch& b, int n, PerElement&& f) {
+  for (int e = 0; e < n; ++e) {
+    Mat3 F, P;
+    for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
+    b.psi[e] = f(e, F, P);
+    for (int c = 0; c < 9; ++c) b.P[c][e] = P(c);
+  }
+}
+
 class Material {
  public:
   virtual ~Material() = default;
@@ -39,12 +51,7 @@ class Material {
   // element; a material whose formula is a few arithmetic lines (Neo-Hookean, StVK) overrides it
   // with loops over the lanes.
   virtual void energy_and_stress_batch(StressBatch& b, int n) const {
-    for (int e = 0; e < n; ++e) {
-      Mat3 F, P;
-      for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
-      b.psi[e] = energy_and_stress(F, P);
-      for (int c = 0; c < 9; ++c) b.P[c][e] = P(c);
-    }
+    per_element(b, n, [this](int, const Mat3& F, Mat3& P) { return energy_and_stress(F, P); });
   }
   // dP/dF (the exact, possibly indefinite, Hessian of psi w.r.t. F). Symmetric.
   virtual Mat9 stress_derivative(const Mat3& F) const = 0;

@@ -20,12 +20,7 @@ TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cell
 }
 
 void TetElements::element_energy_batch(size_t k, int m, StressBatch& b, int n) const {
-  for (int e = 0; e < n; ++e) {
-    Mat3 F, P;
-    for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
-    b.psi[e] = element_energy(static_cast<PetscInt>(k) + e, m, F, &P);
-    for (int c = 0; c < 9; ++c) b.P[c][e] = P(c);
-  }
+  per_element(b, n, [&](int e, const Mat3& F, Mat3& P) { return element_energy(static_cast<PetscInt>(k) + e, m, F, &P); });
 }
 
 // The elements in batches of up to kBatch consecutive ones of one material: F = Ds Dm^{-1} for the
