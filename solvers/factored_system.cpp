@@ -41,7 +41,7 @@ const char* factor_package_name(FactorPackage p) {
   switch (p) {
     case FactorPackage::mumps: return "mumps";
     case FactorPackage::cholmod: return "cholmod";
-    case FactorPackage::simplicial: return "simplicial";
+    case FactorPackage::supernodal: return "supernodal";
     case FactorPackage::amg: return "amg";
   }
   return "?";
@@ -56,7 +56,7 @@ bool factor_package_available(FactorPackage p) {
 #endif
 }
 
-FactorPackage default_factor_package() { return FactorPackage::simplicial; }
+FactorPackage default_factor_package() { return FactorPackage::supernodal; }
 
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {
@@ -121,8 +121,8 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PetscFunctionReturn(0);
 }
 
-// A's rows (sorted columns) handed to SimplicialCholesky, which reads their upper triangle.
-PetscErrorCode FactoredSystem::factor_simplicial(Mat A) {
+// A's rows (sorted columns) handed to SupernodalCholesky, which reads their upper triangle.
+PetscErrorCode FactoredSystem::factor_supernodal(Mat A) {
   PetscInt n;
   PetscFunctionBeginUser;
   PetscCall(MatGetSize(A, &n, nullptr));
@@ -141,14 +141,14 @@ PetscErrorCode FactoredSystem::factor_simplicial(Mat A) {
     start[i + 1] = static_cast<int64_t>(columns.size());
     PetscCall(MatRestoreRow(A, i, &nc, &c, &v));
   }
-  simplicial_ = std::make_unique<SimplicialCholesky>();
-  const SimplicialCholesky::Status status = simplicial_->factor(n, start.data(), columns.data(), values.data());
-  if (status != SimplicialCholesky::Status::ok) simplicial_.reset();
-  if (status == SimplicialCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
-  PetscCheck(status != SimplicialCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
-             "the Cholesky factorization of the constant matrix by CHOLMOD (simplicial) ran out of memory");
-  PetscCheck(status == SimplicialCholesky::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
-             "the Cholesky factorization of the constant matrix by CHOLMOD (simplicial) failed");
+  supernodal_ = std::make_unique<SupernodalCholesky>();
+  const SupernodalCholesky::Status status = supernodal_->factor(n, start.data(), columns.data(), values.data());
+  if (status != SupernodalCholesky::Status::ok) supernodal_.reset();
+  if (status == SupernodalCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
+  PetscCheck(status != SupernodalCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
+             "the Cholesky factorization of the constant matrix by CHOLMOD (supernodal) ran out of memory");
+  PetscCheck(status == SupernodalCholesky::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
+             "the Cholesky factorization of the constant matrix by CHOLMOD (supernodal) failed");
   PetscFunctionReturn(0);
 }
 
@@ -157,8 +157,8 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
-  if (package_ == FactorPackage::simplicial) {
-    PetscCall(factor_simplicial(A));
+  if (package_ == FactorPackage::supernodal) {
+    PetscCall(factor_supernodal(A));
     PetscFunctionReturn(0);
   }
   PetscCheck(factor_package_available(package_), PETSC_COMM_SELF, PETSC_ERR_SUP,
@@ -237,7 +237,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(MatGetInfo(factor_, MAT_LOCAL, &factor_info));
     factor_nonzeros_ = factor_info.nz_used;
   }
-  if (simplicial_) factor_nonzeros_ = static_cast<double>(simplicial_->nonzeros());
+  if (supernodal_) factor_nonzeros_ = static_cast<double>(supernodal_->nonzeros());
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // only rank 0 holds it
 
   PetscCall(MatGetLocalSize(A_, &n, nullptr));
@@ -257,7 +257,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(VecScatterCreateToZero(layout, &to_zero_, &b0_));
     PetscCall(VecDestroy(&layout));
     PetscCall(VecDuplicate(b0_, &x0_));
-    if (components == 1 && rank == 0 && !simplicial_) {  // MatMatSolve's columns (simplicial solves in place)
+    if (components == 1 && rank == 0 && !supernodal_) {  // MatMatSolve's columns (supernodal solves in place)
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &rhs0_));
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &sol0_));
     }
@@ -315,12 +315,12 @@ PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<Pets
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
-  if (simplicial_) {  // the dof layout is the interleaved one: no copies
+  if (supernodal_) {  // the dof layout is the interleaved one: no copies
     const PetscScalar* in;
     PetscScalar* out;
     PetscCall(VecGetArrayRead(b, &in));
     PetscCall(VecGetArrayWrite(x, &out));
-    simplicial_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
+    supernodal_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
   } else if (ksp_) {  // one V-cycle per column x, y, z
@@ -342,7 +342,7 @@ PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   if (to_zero_) {  // more than one rank: solved on rank 0
     PetscCall(VecScatterBegin(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
     PetscCall(VecScatterEnd(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
-    if (factor_ || simplicial_) PetscCall(solve_here(b0_, x0_));
+    if (factor_ || supernodal_) PetscCall(solve_here(b0_, x0_));
     PetscCall(VecScatterBegin(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
   } else {

@@ -24,26 +24,26 @@
 #include <memory>
 
 #include "solvers/objective.hpp"
-#include "solvers/simplicial_cholesky.hpp"
+#include "solvers/supernodal_cholesky.hpp"
 
 namespace hyperqn {
 
 // Who factors and solves A (option -hyperqn_h0_package). mumps and cholmod: the package through
 // PETSc (MatGetFactor; its options take the prefix h0_: -h0_mat_mumps_*, -h0_mat_cholmod_*).
-// simplicial: CHOLMOD's factorization, solved by hyperqn's own loops on the dof array with x, y
-// and z interleaved (solvers/simplicial_cholesky.hpp). All compute the same LL^T up to the
+// supernodal: CHOLMOD's factorization, solved by hyperqn's own loops on the dof array with x, y
+// and z interleaved (solvers/supernodal_cholesky.hpp). All compute the same LL^T up to the
 // fill-reducing ordering (results differ in the last bits); they differ in the cost of a solve
 // (docs/performance.md#h0-package), which decided the default.
 // amg: no factorization; x = B b with B one V-cycle of PETSc's GAMG (or BoomerAMG, -h0_pc_type
 // hypre) on A1, through a KSPPREONLY with the prefix h0_. Not A^{-1}: an approximation L-BFGS can
 // take as H0 (symmetric and positive definite by the choice of smoothers), not PD's exact steps.
 // Chosen by solver.h0 (lbfgs only), not by -hyperqn_h0_package.
-enum class FactorPackage { mumps, cholmod, simplicial, amg };
-const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "simplicial", "amg"
+enum class FactorPackage { mumps, cholmod, supernodal, amg };
+const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "supernodal", "amg"
 // PETSc's CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS and
 // hyperqn's own link to CHOLMOD are always there.
 bool factor_package_available(FactorPackage p);
-// What -hyperqn_h0_package auto means: simplicial.
+// What -hyperqn_h0_package auto means: supernodal.
 FactorPackage default_factor_package();
 
 class FactoredSystem {
@@ -77,9 +77,9 @@ class FactoredSystem {
   int factorizations() const { return factorizations_; }
 
  private:
-  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or simplicial_.
+  // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A);
-  PetscErrorCode factor_simplicial(Mat A);
+  PetscErrorCode factor_supernodal(Mat A);
   PetscErrorCode setup_amg();  // ksp_ on A_
   // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
   PetscErrorCode solve_here(Vec b, Vec x) const;
@@ -91,7 +91,7 @@ class FactoredSystem {
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
   FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
-  std::unique_ptr<SimplicialCholesky> simplicial_;         // instead of factor_ for simplicial
+  std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
   KSP ksp_ = nullptr;                                      // instead of a factor for amg
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to

@@ -172,7 +172,7 @@ PetscErrorCode check_rest(const std::string& model) {
 
 // The factored system works on A1 for the Laplacian (A = A1 (x) I3), on the full A for the rest
 // stiffness: its solve must invert the full 3n x 3n A and its mult must equal A's. Each package
-// (MUMPS, CHOLMOD, simplicial), at 1 and at N ranks (factored on rank 0); all must give the same
+// (MUMPS, CHOLMOD, supernodal), at 1 and at N ranks (factored on rank 0); all must give the same
 // A^{-1} b.
 PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix kind, FactorPackage package,
                                      Vec reference = nullptr) {
@@ -217,7 +217,7 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
   CHECK_MSG(diff <= 1e-13 * bnorm, what + ": the factored system's mult differs from A");
   CHECK(sys.factorizations() == 1);
   if (package == FactorPackage::mumps) {  // the others against MUMPS's answer, each on a copy of it
-    for (FactorPackage other : {FactorPackage::cholmod, FactorPackage::simplicial}) {
+    for (FactorPackage other : {FactorPackage::cholmod, FactorPackage::supernodal}) {
       if (!factor_package_available(other)) continue;
       PetscCall(VecCopy(x, Ab));  // check_factored_system subtracts its own answer from the reference
       PetscCall(check_factored_system(model, kind, other, Ab));
@@ -382,7 +382,7 @@ int main(int argc, char** argv) {
   }
   PetscCall(check_not_positive_definite(FactorPackage::mumps));
   if (factor_package_available(FactorPackage::cholmod)) PetscCall(check_not_positive_definite(FactorPackage::cholmod));
-  PetscCall(check_not_positive_definite(FactorPackage::simplicial));
+  PetscCall(check_not_positive_definite(FactorPackage::supernodal));
   PetscCall(check_amg("gamg"));
   PetscCall(check_amg("hypre"));
   const int code = test_scene::tally("test_assembly");  // every rank agrees on the outcome

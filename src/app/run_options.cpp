@@ -14,9 +14,9 @@ namespace hyperqn {
 static PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o);
 
 // -hyperqn_h0_package's choices, as PetscOptionsEList lists them in -help ("auto" first).
-static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "simplicial"};
+static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "supernodal"};
 static const FactorPackage kH0PackageOf[] = {default_factor_package(), FactorPackage::mumps, FactorPackage::cholmod,
-                                             FactorPackage::simplicial};
+                                             FactorPackage::supernodal};
 static constexpr int kH0PackageCount = 4;
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
@@ -32,12 +32,12 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
     }
     if (set && !known)
       throw InputError(std::string("option -hyperqn_h0_package ") + value +
-                       ": unknown package (choose auto, mumps, cholmod or simplicial)");
+                       ": unknown package (choose auto, mumps, cholmod or supernodal)");
     PetscBool cholmod;
     PetscCall(PetscStrcasecmp(value, "cholmod", &cholmod));
     if (set && cholmod && !factor_package_available(FactorPackage::cholmod))
       throw InputError("option -hyperqn_h0_package cholmod: this PETSc was built without SuiteSparse, so it has no "
-                       "CHOLMOD (use simplicial, mumps or auto)");
+                       "CHOLMOD (use supernodal, mumps or auto)");
   }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
   if (parse_run_options(comm, o)) throw InputError(errors.describe());
@@ -70,7 +70,7 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
     if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;
   PetscCall(PetscOptionsEList("-hyperqn_h0_package",
                               "Sparse Cholesky that factors and solves the constant matrix M + h^2 L (or M + h^2 K): "
-                              "auto (simplicial), simplicial (CHOLMOD's factor, hyperqn's solve with x, y, z "
+                              "auto (supernodal), supernodal (CHOLMOD's factor, hyperqn's solve with x, y, z "
                               "interleaved), mumps or cholmod (through PETSc; options with the prefix h0_: "
                               "-h0_mat_mumps_*, -h0_mat_cholmod_*)",
                               "docs/performance.md", kH0Packages, kH0PackageCount, kH0Packages[package], &package,

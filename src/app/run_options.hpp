@@ -26,7 +26,7 @@ struct RunOptions {
   PetscReal nan_beyond = -1;
   PetscInt nan_from_step = -1;
   // Who factors and solves the constant matrices M + h^2 L and M + h^2 K(x_rest)
-  // (-hyperqn_h0_package: auto, simplicial, mumps or cholmod; auto is default_factor_package()).
+  // (-hyperqn_h0_package: auto, supernodal, mumps or cholmod; auto is default_factor_package()).
   FactorPackage h0_package = default_factor_package();
 };
 

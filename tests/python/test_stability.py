@@ -63,7 +63,7 @@ def assert_completes_without_nan(run, a, name):
 # divergence limit ("diverged") or |det F| beyond the element limit ("elements exploded"). Which
 # one trips first depends on the run-away's path, down to the last bits of the A^-1 solve
 # (measured on dt_1 without the fallback chain: "diverged" at frame 8 with PETSc's CHOLMOD solve,
-# "elements exploded" at frame 5 with the simplicial one).
+# "elements exploded" at frame 5 with hyperqn's own solve of CHOLMOD's factor).
 RUNAWAY_STOP = r"error: frame (\d+): (diverged|elements exploded): "
 
 
@@ -82,10 +82,12 @@ def assert_monotone(a, name):
                                    f"within frames {a['monotone_bad']}")
 
 
-def assert_stable(run, a, name, align=False):
+def assert_stable(run, a, name, align=False, ls_failures=0):
+    """ls_failures: line-search failures (not at round-off) allowed; the run recovered from each, or
+    it would not have completed."""
     assert_completes_without_nan(run, a, name)
     assert_monotone(a, name)
-    assert a["ls_judged"] == 0, (f"{name}: {a['ls_failures']} line-search failure(s), "
+    assert a["ls_judged"] <= ls_failures, (f"{name}: {a['ls_failures']} line-search failure(s), "
                                  f"{len(a['ls_roundoff_frames'])} frame(s) of them at round-off")
     last = a["frames"][-1][1]
     assert last.J.min() > 0, f"{name}: inverted elements in the last frame (min J {last.J.min():.3g})"
@@ -104,9 +106,14 @@ def test_nu_0p499_lbfgs(tmp_path):
 
 def test_h1_lbfgs_default_budget_is_kept_by_the_fallback_chain(tmp_path):
     """h = 1 s with the default 10 iterations and the default fallback chain: frames that end far
-    from converged iterate on (docs/guardrails.md#fallback), and the bar hangs stably."""
+    from converged iterate on (docs/guardrails.md#fallback), and the bar hangs stably. One
+    line-search failure is allowed: with the supernodal solve (other last bits than the simplicial
+    one, which had none) frame 5 has one, at its 8th iteration, where L-BFGS is among nearly flat
+    elements (||grad g|| = 3.6e6 against 5.1e4 at the frame's start, steps of 1e-3); the retry
+    along -H0 grad g recovers (g 2.07e5 -> 2.80e4) and the frame ends like the others (51
+    iterations, ||grad g|| = 1.1; measured)."""
     run, a, _ = run_case(tmp_path, "dt_1")
-    assert_stable(run, a, "dt_1/lbfgs")
+    assert_stable(run, a, "dt_1/lbfgs", ls_failures=1)
     assert a["summary"]["extended_frames"] > 0, a["summary"]
 
 
@@ -209,8 +216,8 @@ def test_initial_invert_recovers_with_lbfgs(tmp_path):
     turns the free bar inside out and comes to rest with every element un-inverted. In which
     equilibrium is decided by last bits: the mirror image has to pass through flat elements, a
     symmetric bifurcation. Measured: the rest shape (7e-10 of the diagonal) with PETSc's MUMPS or
-    CHOLMOD solves at 1 rank and with every package at 2 ranks; with the simplicial solve at 1
-    rank a second equilibrium, 0.131 of the diagonal from the rest shape with min J 0.757, the same
+    CHOLMOD solves at 1 rank and with every package at 2 ranks; with hyperqn's own solve of
+    CHOLMOD's factor (then simplicial) at 1 rank a second equilibrium, 0.131 of the diagonal from the rest shape with min J 0.757, the same
     at frame 60 and at frame 150. So the test asks for un-inverted and settled, not for the rest
     shape (newton, which converges every frame, is held to the rest shape above)."""
     run, a, _ = run_case(tmp_path, "initial_invert")

@@ -1,8 +1,8 @@
 // A sparse SPD matrix factored as A = P^T L L^T P by CHOLMOD (its fill-reducing ordering and its
-// supernodal factorization), then held as a simplicial L, column by column, and solved by our own
-// two loops with k right-hand sides interleaved: row i of the n x k block is k adjacent doubles.
-// Each loop reads L once for all k columns, so a solve reads the factor twice (the streaming
-// bound of bench/bench.py), whatever k is. hyperqn's dof vectors are already interleaved (x, y, z
+// supernodal factorization), then held supernode by supernode (dense blocks of columns with one
+// row pattern) and solved by our own two loops with k right-hand sides interleaved: row i of the
+// n x k block is k adjacent doubles. Each loop reads L once for all k columns, so a solve reads
+// the factor twice (the streaming bound of bench/bench.py), whatever k is. hyperqn's dof vectors are already interleaved (x, y, z
 // of a vertex side by side), so A1^{-1} applied to x, y and z is one solve with k = 3 on the dof
 // array itself: no copies into columns, no per-call setup, no BLAS calls on tiny blocks, which
 // is where a package's solve spends its time on the small and medium factors hyperqn has
@@ -16,7 +16,7 @@
 
 namespace hyperqn {
 
-class SimplicialCholesky {
+class SupernodalCholesky {
  public:
   enum class Status { ok, not_positive_definite, out_of_memory, failed };
 
@@ -30,8 +30,17 @@ class SimplicialCholesky {
   void solve(int k, const double* b, double* x) const;
 
   int64_t size() const { return n_; }
-  // Entries of L, the diagonal included (the factor's size, as CHOLMOD counts it).
-  int64_t nonzeros() const { return static_cast<int64_t>(value_.size()); }
+
+  // A supernode: `width` consecutive columns of L from `column`, sharing one row pattern below
+  // them. Its values from value_[value]: the width x width triangle by columns, each row below
+  // (row_[rows], ...) as `width` adjacent values, the triangle by rows (factor() says how).
+  struct Node {
+    int64_t column, value, rows;
+    int32_t width;
+  };
+  // Entries of L, the diagonal included (supernodes are merged only where no zero is added, so
+  // these are L's nonzeros).
+  int64_t nonzeros() const { return entries_; }
 
  private:
   template <int k, int lanes>
@@ -39,9 +48,11 @@ class SimplicialCholesky {
 
   int64_t n_ = 0;
   std::vector<int64_t> perm_;         // row i of L L^T is row perm_[i] of A
-  std::vector<int64_t> column_start_; // L's column j: entries column_start_[j] .. column_start_[j+1]-1,
-  std::vector<int32_t> row_;          //   the diagonal first, then the rows below it
-  std::vector<double> value_;
+  std::vector<Node> nodes_;
+  std::vector<int32_t> row_;          // the rows below each node, node after node
+  int64_t row_end_ = 0;               // row_.size(), where the last node's rows end
+  std::vector<double> value_;         // the nodes' values, a node's triangle twice (see Node)
+  int64_t entries_ = 0;               // L's entries (each triangle counted once)
   mutable std::vector<double> work_;  // the permuted right-hand sides, n x 4 (lanes past k stay 0)
 };
 

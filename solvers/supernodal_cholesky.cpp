@@ -1,0 +1,262 @@
+#include "solvers/supernodal_cholesky.hpp"
+
+#include <cholmod.h>
+
+#include <stdexcept>
+
+#include "materials/lanes.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+// cholmod_common for one factorization, finished whatever way the factorization ends.
+struct Cholmod {
+  cholmod_common c;
+  Cholmod() {
+    cholmod_l_start(&c);
+    c.print = 0;  // the caller reports the status
+    // A supernodal factor, kept as CHOLMOD leaves it: its dense column blocks are what solve() reads.
+    c.supernodal = CHOLMOD_SUPERNODAL;
+    c.final_asis = 1;
+    // Supernodes are merged only where that adds no zeros: every zero would be read and multiplied
+    // by every solve (CHOLMOD's default merges up to 80 % zeros for its BLAS; on strands' chains
+    // that tripled the solve, docs/performance.md#h0-package).
+    for (int i = 0; i < 3; ++i) {
+      c.nrelax[i] = 0;
+      c.zrelax[i] = 0.0;
+    }
+  }
+  ~Cholmod() { cholmod_l_finish(&c); }
+};
+
+SupernodalCholesky::Status status_of(const cholmod_common& c) {
+  if (c.status == CHOLMOD_NOT_POSDEF) return SupernodalCholesky::Status::not_positive_definite;
+  if (c.status == CHOLMOD_OUT_OF_MEMORY) return SupernodalCholesky::Status::out_of_memory;
+  return c.status == CHOLMOD_OK ? SupernodalCholesky::Status::ok : SupernodalCholesky::Status::failed;
+}
+
+}  // namespace
+
+SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* row_start, const int64_t* columns,
+                                                      const double* values) {
+  *this = SupernodalCholesky();
+  Cholmod cm;
+  // A symmetric matrix's rows are its columns: row i is handed over as column i, whose entries
+  // with index >= i are the lower triangle, the part CHOLMOD reads with stype -1.
+  cholmod_sparse A{};
+  A.nrow = A.ncol = static_cast<size_t>(n);
+  A.nzmax = static_cast<size_t>(row_start[n]);
+  A.p = const_cast<int64_t*>(row_start);
+  A.i = const_cast<int64_t*>(columns);
+  A.x = const_cast<double*>(values);
+  A.stype = -1;
+  A.itype = CHOLMOD_LONG;
+  A.xtype = CHOLMOD_REAL;
+  A.dtype = CHOLMOD_DOUBLE;
+  A.sorted = 1;
+  A.packed = 1;
+  cholmod_factor* L = cholmod_l_analyze(&A, &cm.c);
+  if (!L) return status_of(cm.c) == Status::ok ? Status::failed : status_of(cm.c);
+  const int done = cholmod_l_factorize(&A, L, &cm.c);
+  Status status = done ? status_of(cm.c) : Status::failed;
+  if (status == Status::ok && (L->minor < L->n || !L->is_super)) status = Status::failed;
+  if (status == Status::ok && n > INT32_MAX) status = Status::failed;  // rows are held as 32-bit
+  if (status == Status::ok) {
+    const auto* super = static_cast<const int64_t*>(L->super);
+    const auto* pi = static_cast<const int64_t*>(L->pi);
+    const auto* px = static_cast<const int64_t*>(L->px);
+    const auto* s = static_cast<const int64_t*>(L->s);
+    const auto* x = static_cast<const double*>(L->x);
+    const auto* perm = static_cast<const int64_t*>(L->Perm);
+    n_ = n;
+    perm_.assign(perm, perm + n);
+    nodes_.resize(L->nsuper);
+    for (size_t k = 0; k < L->nsuper; ++k) {
+      // CHOLMOD's block: nrows x width, column-major; its first `width` rows are the supernode's
+      // own columns, the rest the rows below.
+      const int64_t width = super[k + 1] - super[k], nrows = pi[k + 1] - pi[k];
+      const double* block = x + px[k];
+      Node& node = nodes_[k];
+      node.column = super[k];
+      node.width = static_cast<int32_t>(width);
+      node.value = static_cast<int64_t>(value_.size());
+      node.rows = static_cast<int64_t>(row_.size());
+      // The triangle column by column (forward), each column's diagonal first and stored as its
+      // reciprocal; the rows below, row by row; the triangle again row by row (backward), each
+      // row's diagonal last, as its reciprocal.
+      for (int64_t j = 0; j < width; ++j) {
+        value_.push_back(1.0 / block[j * nrows + j]);
+        for (int64_t i = j + 1; i < width; ++i) value_.push_back(block[j * nrows + i]);
+      }
+      for (int64_t r = width; r < nrows; ++r) {
+        row_.push_back(static_cast<int32_t>(s[pi[k] + r]));
+        for (int64_t j = 0; j < width; ++j) value_.push_back(block[j * nrows + r]);
+      }
+      for (int64_t i = 0; i < width; ++i) {
+        for (int64_t j = 0; j < i; ++j) value_.push_back(block[j * nrows + i]);
+        value_.push_back(1.0 / block[i * nrows + i]);
+      }
+      entries_ += width * (width + 1) / 2 + (nrows - width) * width;
+    }
+    row_end_ = static_cast<int64_t>(row_.size());
+    work_.assign(static_cast<size_t>(4 * n), 0.0);  // up to 4 lanes, the unused ones 0
+  }
+  cholmod_l_free_factor(&L, &cm.c);
+  if (status != Status::ok) *this = SupernodalCholesky();
+  return status;
+}
+
+// L y = w, then L^T z = y, in place on the n x lanes block w (row i: lanes adjacent doubles), every
+// lane in the same pass, supernode by supernode. A supernode is `width` consecutive columns of L
+// with one row pattern: a dense triangle on those columns and dense rows below them, each row
+// `width` adjacent values under one row index. So an entry costs its value and a multiply-add,
+// and a row index with the load and store of w serves a whole row. The loops are arranged so that
+// no multiply-add waits for the one before (the latency, not the memory, is what bounds a solve
+// of a factor that fits in cache):
+// - forward: the triangle by columns (y_j known, the rows under it updated: independent), then
+//   the rows below four at a time, each a dot product with y on two accumulators;
+// - backward: the rows below add their part to the node's columns, four columns at a time in
+//   registers, then the triangle by rows (z_i known, the columns before it updated).
+// Compiled for x86-64-v3 (AVX2 and FMA: a row of 4 lanes is one register) and plain x86-64
+// (HYPERQN_VECTOR_CLONES).
+namespace {
+
+// A row of the right-hand-side block: one double, or 4 lanes as one GCC vector (a 256-bit register
+// under AVX2, two SSE registers otherwise; unaligned, and allowed to alias the doubles it is read
+// from). Functions name it from `lanes`, never deduce it: deduction drops the typedef's
+// alignment of 8.
+typedef double Lanes4 __attribute__((vector_size(32), aligned(8), may_alias));
+template <int lanes>
+struct RowOf;
+template <>
+struct RowOf<1> {
+  using type = double;
+};
+template <>
+struct RowOf<4> {
+  using type = Lanes4;
+};
+
+// w[row[r]] -= (row r's `width` values) . y for the q <= 4 rows r from `value`.
+template <int q, int lanes>
+inline void dot_rows(typename RowOf<lanes>::type* w, const typename RowOf<lanes>::type* y, const int32_t* row,
+                     const double* value, int width) {
+  using Row = typename RowOf<lanes>::type;
+  Row s[q] = {};
+  for (int j = 0; j < width; ++j) {
+    const Row yj = y[j];
+    for (int u = 0; u < q; ++u) s[u] += value[u * width + j] * yj;
+  }
+  for (int u = 0; u < q; ++u) w[row[u]] -= s[u];
+}
+
+// z[0..q) -= sum over the rows below of (their values at these q <= 4 columns) * w[row], each
+// column's sum in a register of its own.
+template <int q, int lanes>
+inline void subtract_below(typename RowOf<lanes>::type* z, const typename RowOf<lanes>::type* w, const int32_t* row,
+                           int64_t rows, const double* value, int width) {
+  using Row = typename RowOf<lanes>::type;
+  Row t[q] = {};
+  for (int64_t r = 0; r < rows; ++r) {
+    const Row wr = w[row[r]];
+    const double* v = value + r * width;
+    for (int u = 0; u < q; ++u) t[u] += v[u] * wr;
+  }
+  for (int u = 0; u < q; ++u) z[u] -= t[u];
+}
+
+template <int lanes>
+HYPERQN_VECTOR_CLONES void triangular_solves(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
+                                             const int32_t* __restrict row, const double* __restrict L,
+                                             double* __restrict block) {
+  using Row = typename RowOf<lanes>::type;
+  Row* w = reinterpret_cast<Row*>(block);
+  for (int64_t k = 0; k < count; ++k) {
+    const SupernodalCholesky::Node& node = nodes[k];
+    const int width = node.width;
+    Row* y = w + node.column;
+    const double* v = L + node.value;
+    const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
+    const int32_t* below = row + node.rows;
+    if (width == 1) {  // a lone column (chains of strands, leaves): no triangle, no dot products
+      const Row yj = y[0] * v[0];
+      y[0] = yj;
+      for (int64_t r = 0; r < rows; ++r) w[below[r]] -= v[1 + r] * yj;
+      continue;
+    }
+    for (int j = 0; j < width; ++j) {
+      const Row yj = y[j] * *v++;
+      y[j] = yj;
+      for (int i = j + 1; i < width; ++i) y[i] -= *v++ * yj;
+    }
+    int64_t r = 0;
+    for (; r + 4 <= rows; r += 4, v += 4 * width) dot_rows<4, lanes>(w, y, below + r, v, width);
+    switch (rows - r) {
+      case 3: dot_rows<3, lanes>(w, y, below + r, v, width); break;
+      case 2: dot_rows<2, lanes>(w, y, below + r, v, width); break;
+      case 1: dot_rows<1, lanes>(w, y, below + r, v, width); break;
+      default: break;
+    }
+  }
+  for (int64_t k = count - 1; k >= 0; --k) {
+    const SupernodalCholesky::Node& node = nodes[k];
+    const int width = node.width;
+    Row* z = w + node.column;
+    const int64_t triangle = int64_t(width) * (width + 1) / 2;
+    const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
+    const double* v = L + node.value + triangle;  // the rows below
+    const int32_t* below = row + node.rows;
+    if (width == 1) {  // a lone column: one dot product, two partial sums
+      Row s = z[0], t = Row{};
+      int64_t r = 0;
+      for (; r + 1 < rows; r += 2) {
+        s -= v[r] * w[below[r]];
+        t -= v[r + 1] * w[below[r + 1]];
+      }
+      if (r < rows) s -= v[r] * w[below[r]];
+      z[0] = (s + t) * v[rows];
+      continue;
+    }
+    int j = 0;
+    for (; j + 4 <= width; j += 4) subtract_below<4, lanes>(z + j, w, below, rows, v + j, width);
+    switch (width - j) {
+      case 3: subtract_below<3, lanes>(z + j, w, below, rows, v + j, width); break;
+      case 2: subtract_below<2, lanes>(z + j, w, below, rows, v + j, width); break;
+      case 1: subtract_below<1, lanes>(z + j, w, below, rows, v + j, width); break;
+      default: break;
+    }
+    // The triangle by rows, last row first: row i holds L_i0 .. L_i,i-1 and 1 / L_ii, so it
+    // starts i (i + 1) / 2 entries in.
+    const double* t = v + rows * width;
+    for (int i = width - 1; i >= 0; --i) {
+      const double* ri = t + int64_t(i) * (i + 1) / 2;
+      const Row zi = z[i] * ri[i];
+      z[i] = zi;
+      for (int c = 0; c < i; ++c) z[c] -= ri[c] * zi;
+    }
+  }
+}
+
+}  // namespace
+
+// x = P^T (L L^T)^{-1} P b for k interleaved columns, worked on in `lanes` >= k lanes (the others
+// stay 0: 0 - l * 0).
+template <int k, int lanes>
+void SupernodalCholesky::solve_k(const double* b, double* x) const {
+  double* w = work_.data();
+  for (int64_t i = 0; i < n_; ++i)
+    for (int c = 0; c < k; ++c) w[lanes * i + c] = b[k * perm_[i] + c];
+  triangular_solves<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(),
+                           value_.data(), w);
+  for (int64_t i = 0; i < n_; ++i)
+    for (int c = 0; c < k; ++c) x[k * perm_[i] + c] = w[lanes * i + c];
+}
+
+void SupernodalCholesky::solve(int k, const double* b, double* x) const {
+  if (k == 3) return solve_k<3, 4>(b, x);
+  if (k == 1) return solve_k<1, 1>(b, x);
+  throw std::invalid_argument("SupernodalCholesky::solve: k must be 1 or 3");
+}
+
+}  // namespace hyperqn
