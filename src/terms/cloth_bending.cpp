@@ -23,13 +23,13 @@ std::string ClothBending::name() const {
 }
 
 ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness)
-    : mesh_(mesh), model_(model), k_(stiffness) {
+    : mesh_(mesh), model_(model), k_(stiffness), springs_(mesh) {
   const double* X = mesh.rest.data();
   for (PetscInt h = 0; h < mesh.num_hinges; ++h) {
     const PetscInt* v = &mesh.hinges[4 * h];
     if (model == BendingModel::springs) {
       const PetscInt cd[2] = {v[2], v[3]};
-      length_.push_back(segment_edge(X, cd).norm());
+      springs_.add(cd[0], cd[1], segment_edge(X, cd).norm(), stiffness);
       continue;
     }
     const Vec3 x0(&X[3 * v[0]]), x1(&X[3 * v[1]]), x2(&X[3 * v[2]]), x3(&X[3 * v[3]]);
@@ -41,18 +41,14 @@ ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, doub
 
 PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   PetscFunctionBeginUser;
+  if (model_ == BendingModel::springs) {
+    springs_.add_energy(pos.data(), energy, gradient);
+    PetscFunctionReturn(0);
+  }
   double e = *energy;
   for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
     const PetscInt* v = &mesh_.hinges[4 * h];
-    if (model_ == BendingModel::springs) {
-      const PetscInt cd[2] = {v[2], v[3]};
-      const Vec3 u = segment_edge(pos.data(), cd);
-      e += spring::energy(u, length_[h], k_);
-      if (!gradient) continue;
-      const Vec3 f = spring::gradient(u, length_[h], k_);
-      add_vertex_vector(mesh_, v[2], -f, gradient);
-      add_vertex_vector(mesh_, v[3], f, gradient);
-    } else if (model_ == BendingModel::quadratic) {
+    if (model_ == BendingModel::quadratic) {
       const hinge::Vec12 x = element_positions<4>(pos.data(), v);
       if (!gradient) {
         e += hinge::quadratic_energy(k_, weights_[h], coefficient_[h], x);
@@ -82,7 +78,7 @@ PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, 
     const PetscInt* v = &mesh_.hinges[4 * h];
     if (model_ == BendingModel::springs) {
       const PetscInt cd[2] = {v[2], v[3]};
-      const Mat3 K = spring::stiffness(segment_edge(pos.data(), cd), length_[h], k_, psd);
+      const Mat3 K = spring::stiffness(segment_edge(pos.data(), cd), springs_.rest_length(h), k_, psd);
       Eigen::Matrix<double, 6, 6> Ks;
       Ks << K, -K, -K, K;
       PetscCall(add_element_hessian<2>(mesh_, H, cd, Ks, scale));

@@ -15,6 +15,7 @@
 #include "materials/hinge_bending.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
+#include "terms/spring_set.hpp"
 
 namespace hyperqn {
 
@@ -35,9 +36,9 @@ class ClothBending : public EnergyTerm {
   const DistributedMesh& mesh_;
   BendingModel model_;
   double k_;
-  // Per local hinge: springs: the rest length of c-d; quadratic and dihedral: the cotangent
-  // weights and 3 / (A1 + A2); dihedral: its rest angle and weight.
-  std::vector<double> length_;
+  // Per local hinge: springs: the spring c-d (spring h is hinge h's); quadratic and dihedral: the
+  // cotangent weights and 3 / (A1 + A2); dihedral: its rest angle and weight.
+  SpringSet springs_;
   std::vector<std::array<double, 4>> weights_;
   std::vector<double> coefficient_;
   std::vector<hinge::HingeRest> rest_;

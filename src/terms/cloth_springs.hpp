@@ -3,11 +3,9 @@
 // triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
 // weight in L is k: exact, so Projective Dynamics is the paper's local-global solver.
 #pragma once
-#include <array>
-#include <vector>
-
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
+#include "terms/spring_set.hpp"
 
 namespace hyperqn {
 
@@ -23,8 +21,7 @@ class ClothSprings : public EnergyTerm {
  private:
   const DistributedMesh& mesh_;
   double k_;
-  std::vector<std::array<PetscInt, 2>> edges_;  // local vertex pairs of the springs this rank carries
-  std::vector<double> length_;                  // their rest lengths
+  SpringSet springs_;  // the springs this rank carries, between local vertices
 };
 
 }  // namespace hyperqn

@@ -10,26 +10,19 @@ StrandSegments::StrandSegments(const DistributedMesh& mesh, double axial_stiffne
     : mesh_(mesh),
       axial_stiffness_(axial_stiffness),
       linear_density_(linear_density),
-      weight_(laplacian_weight > 0 ? laplacian_weight : axial_stiffness) {
-  length_.resize(mesh.num_segments);
-  for (PetscInt s = 0; s < mesh.num_segments; ++s) length_[s] = segment_edge(mesh.rest.data(), &mesh.segments[2 * s]).norm();
+      weight_(laplacian_weight > 0 ? laplacian_weight : axial_stiffness),
+      springs_(mesh) {
+  for (PetscInt s = 0; s < mesh.num_segments; ++s) {
+    const PetscInt* seg = &mesh.segments[2 * s];
+    const double L = segment_edge(mesh.rest.data(), seg).norm();
+    springs_.add(seg[0], seg[1], L, axial_stiffness / L);
+  }
 }
 
 PetscErrorCode StrandSegments::add_energy(Vec, const std::vector<double>& pos, double* energy,
                                           PetscScalar* gradient) const {
   PetscFunctionBeginUser;
-  double e = *energy;
-  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
-    const PetscInt* seg = &mesh_.segments[2 * s];
-    const Vec3 u = segment_edge(pos.data(), seg);
-    const double L = length_[s], k = axial_stiffness_ / L;
-    e += spring::energy(u, L, k);
-    if (!gradient) continue;
-    const Vec3 f = spring::gradient(u, L, k);  // dE/dx_b; dE/dx_a = -f
-    add_vertex_vector(mesh_, seg[0], -f, gradient);
-    add_vertex_vector(mesh_, seg[1], f, gradient);
-  }
-  *energy = e;
+  springs_.add_energy(pos.data(), energy, gradient);
   PetscFunctionReturn(0);
 }
 
@@ -39,8 +32,7 @@ PetscErrorCode StrandSegments::add_hessian(const std::vector<double>& pos, Mat H
   PetscFunctionBeginUser;
   for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
     const PetscInt* seg = &mesh_.segments[2 * s];
-    const double L = length_[s];
-    const Mat3 K = scale * spring::stiffness(segment_edge(pos.data(), seg), L, axial_stiffness_ / L, psd);
+    const Mat3 K = scale * spring::stiffness(segment_edge(pos.data(), seg), springs_.rest_length(s), springs_.stiffness(s), psd);
     Ks << K, -K, -K, K;
     element_dofs<2>(mesh_, seg, idx);
     PetscCall(MatSetValues(H, 6, idx, 6, idx, Ks.data(), ADD_VALUES));
@@ -52,7 +44,7 @@ PetscErrorCode StrandSegments::add_hessian(const std::vector<double>& pos, Mat H
 PetscErrorCode StrandSegments::add_laplacian(Mat A, double scale, int components) const {
   PetscFunctionBeginUser;
   for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
-    const double k = scale * weight_ / length_[s];
+    const double k = scale * weight_ / springs_.rest_length(s);
     Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
     Le << k, -k, -k, k;
     PetscCall(add_element_laplacian<2>(mesh_, A, &mesh_.segments[2 * s], Le, components));
@@ -65,13 +57,13 @@ void StrandSegments::add_lumped_mass(PetscScalar* mass) const {
     for (int j = 0; j < 2; ++j) {
       const PetscInt off = mesh_.local_dof[mesh_.segments[2 * s + j]];
       if (off < 0) continue;
-      for (int d = 0; d < 3; ++d) mass[off + d] += 0.5 * linear_density_ * length_[s];
+      for (int d = 0; d < 3; ++d) mass[off + d] += 0.5 * linear_density_ * springs_.rest_length(s);
     }
 }
 
 double StrandSegments::local_mass() const {
   double m = 0;
-  for (double L : length_) m += linear_density_ * L;
+  for (size_t s = 0; s < springs_.size(); ++s) m += linear_density_ * springs_.rest_length(s);
   return m;
 }
 

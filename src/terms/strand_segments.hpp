@@ -6,6 +6,7 @@
 
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
+#include "terms/spring_set.hpp"
 
 namespace hyperqn {
 
@@ -24,7 +25,7 @@ class StrandSegments : public EnergyTerm {
  private:
   const DistributedMesh& mesh_;
   double axial_stiffness_, linear_density_, weight_;
-  std::vector<double> length_;  // per local segment: rest length L
+  SpringSet springs_;  // spring s is local segment s: rest length L, stiffness EA / L
 };
 
 }  // namespace hyperqn

@@ -1,0 +1,77 @@
+#include "terms/spring_set.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "materials/lanes.hpp"  // kBatch, HYPERQN_VECTOR_CLONES
+#include "materials/spring.hpp"
+
+namespace hyperqn {
+
+void SpringSet::add(PetscInt a, PetscInt b, double rest_length, double stiffness) {
+  for (auto* v : {&a_, &b_, &dof_a_, &dof_b_}) v->resize(count_);  // drop the padding
+  rest_.resize(count_);
+  k_.resize(count_);
+  a_.push_back(a);
+  b_.push_back(b);
+  dof_a_.push_back(mesh_.local_dof[a]);
+  dof_b_.push_back(mesh_.local_dof[b]);
+  rest_.push_back(rest_length);
+  k_.push_back(stiffness);
+  ++count_;
+  const size_t padded = (count_ + kBatch - 1) / kBatch * kBatch;
+  a_.resize(padded, 0);
+  b_.resize(padded, 0);
+  dof_a_.resize(padded, -1);
+  dof_b_.resize(padded, -1);
+  rest_.resize(padded, 1.0);
+  k_.resize(padded, 0.0);
+}
+
+namespace {
+
+// Energy of the springs [0, count) (count a multiple of kBatch); dE/dx added into gradient at
+// the ends' dofs (dof_a, dof_b; -1: none) unless gradient is null. Each batch: read the edge
+// vectors u, then one loop over the batch for lengths, energies and force factors (vectorized),
+// then add the forces.
+HYPERQN_VECTOR_CLONES double spring_batches(size_t count, const PetscInt* a, const PetscInt* b, const PetscInt* dof_a,
+                                            const PetscInt* dof_b, const double* rest, const double* stiffness,
+                                            const double* pos, PetscScalar* gradient) {
+  double energy[kBatch] = {};
+  for (size_t s = 0; s < count; s += kBatch) {
+    double u[3][kBatch], c[kBatch];
+    for (int l = 0; l < kBatch; ++l)
+      for (int d = 0; d < 3; ++d) u[d][l] = pos[3 * b[s + l] + d] - pos[3 * a[s + l] + d];
+    const double* L = rest + s;
+    const double* k = stiffness + s;
+#pragma omp simd
+    for (int l = 0; l < kBatch; ++l) {
+      // As spring::length, energy and gradient: dE/du = c u.
+      const double length = std::max(std::sqrt(u[0][l] * u[0][l] + u[1][l] * u[1][l] + u[2][l] * u[2][l]),
+                                     spring::kTinyLength * L[l]);
+      const double stretch = length - L[l];
+      energy[l] += 0.5 * k[l] * stretch * stretch;
+      c[l] = k[l] * stretch / length;
+    }
+    if (!gradient) continue;
+    for (int l = 0; l < kBatch; ++l) {
+      const PetscInt da = dof_a[s + l], db = dof_b[s + l];
+      if (da >= 0)
+        for (int d = 0; d < 3; ++d) gradient[da + d] -= c[l] * u[d][l];
+      if (db >= 0)
+        for (int d = 0; d < 3; ++d) gradient[db + d] += c[l] * u[d][l];
+    }
+  }
+  double e = 0;
+  for (int l = 0; l < kBatch; ++l) e += energy[l];
+  return e;
+}
+
+}  // namespace
+
+void SpringSet::add_energy(const double* pos, double* energy, PetscScalar* gradient) const {
+  *energy += spring_batches(a_.size(), a_.data(), b_.data(), dof_a_.data(), dof_b_.data(), rest_.data(), k_.data(),
+                            pos, gradient);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,39 @@
+// A set of linear springs E = k/2 (l - L)^2 between pairs of a rank's local vertices (one spring:
+// materials/spring.hpp), evaluated kBatch springs at a time: the cloth's edge springs, its bending
+// springs and the strand segments. In a batch the lengths, energies and force factors are one
+// vectorized loop; only reading the end points and adding the forces go spring by spring, the
+// latter straight to the ends' dofs, looked up once when the spring is added (a fixed end has
+// none; a release rebuilds the scene and its terms, so the dofs do not change under a term).
+#pragma once
+#include <array>
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+
+namespace hyperqn {
+
+class SpringSet {
+ public:
+  explicit SpringSet(const DistributedMesh& mesh) : mesh_(mesh) {}
+  // A spring between the local vertices a and b.
+  void add(PetscInt a, PetscInt b, double rest_length, double stiffness);
+  size_t size() const { return count_; }
+  std::array<PetscInt, 2> ends(size_t s) const { return {a_[s], b_[s]}; }
+  double rest_length(size_t s) const { return rest_[s]; }
+  double stiffness(size_t s) const { return k_[s]; }
+
+  // *energy += the springs' energy at the local positions pos (3 per local vertex); their gradient
+  // is added into `gradient` (the mesh's local dof array), unless it is null.
+  void add_energy(const double* pos, double* energy, PetscScalar* gradient) const;
+
+ private:
+  const DistributedMesh& mesh_;
+  size_t count_ = 0;
+  // Padded to whole batches with springs of stiffness 0 from vertex 0 to itself (energy and force
+  // 0) whose ends have no dofs.
+  std::vector<PetscInt> a_, b_;          // local vertices
+  std::vector<PetscInt> dof_a_, dof_b_;  // their x dofs in the local dof array, -1 if fixed
+  std::vector<double> rest_, k_;
+};
+
+}  // namespace hyperqn
