@@ -1,12 +1,12 @@
 #!/usr/bin/python3
-"""Who factors and solves the constant matrix (-hyperqn_h0_package): MUMPS, CHOLMOD, simplicial.
+"""Who factors and solves the constant matrix (-hyperqn_h0_package): MUMPS, CHOLMOD, supernodal.
 
 Runs each case with each package at each rank count, --repeat times, interleaved (repeat k runs
 every configuration once before repeat k + 1 starts, so a busy spell on a shared machine hits
 both packages alike), and reports per configuration the minimum over the repeats of
   - the time of one A^{-1} b (hqnH0Solve of -log_view: max over ranks / count; for the Laplacian
     one MatMatSolve with 3 right-hand sides for mumps and cholmod, one interleaved solve for
-    simplicial; plus the gather to rank 0 and scatter back at 2 ranks),
+    supernodal; plus the gather to rank 0 and scatter back at 2 ranks),
   - the factorization time (hqnH0Factor / count: symbolic + numeric, on rank 0),
   - the peak resident memory of the largest rank (summary.json peak_rss_mb) and of all ranks.
 Prints a table, writes h0_solve.csv and h0_solve.json to --out. See bench/README.md.
@@ -30,7 +30,7 @@ CASES = {
     "sheet_corners": ("deck", "input/cloth/sheet_corners.yaml", 30),   # 81 x 81 cloth, 6,561 vertices
     "sheet_large": ("deck", "input/cloth/sheet_large.yaml", 5),        # 501 x 501 cloth, 251,001 vertices
 }
-PACKAGES = ["mumps", "cholmod", "simplicial"]
+PACKAGES = ["mumps", "cholmod", "supernodal"]
 COLUMNS = ["case", "vertices", "ranks", "package", "solve_ms", "solves", "factor_ms", "peak_MB", "peak_MB_total",
            "iterations", "status"]
 EVENT = re.compile(r"^(hqnH0Solve|hqnH0Factor)\s+(\d+)\s+\S+\s+(\S+)")  # name, count, max time (s)
