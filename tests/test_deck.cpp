@@ -473,6 +473,9 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
         d.contact.friction_velocity == 0.001);
   CHECK(d.solver.history == 20 && d.solver.warm_start == "lower");  // contact's defaults
   CHECK(d.solver.history_reset == "never");
+  CHECK(d.solver.upright_guess);  // the default: y pulled back where it would invert elements
+  CHECK(!load_ok("upright_guess", kHead + "solver: {upright_guess: false}\n").solver.upright_guess);
+  expect_error("upright_guess_bad", kHead + "solver: {upright_guess: sometimes}\n", "solver.upright_guess", 3, "true or false");
   CHECK(load_ok("history_reset", kHead + "solver: {history_reset: contact-change}\n").solver.history_reset == "contact-change");
   expect_error("history_reset_bad", kHead + "solver: {history_reset: always}\n", "solver.history_reset", 3, "never, contact-change");
   d = load_ok("colliders_history", kHead + "colliders: [{type: plane, point: [0, 0, 0], normal: [0, 1, 0]}]\nsolver: {history: 7}\n");

@@ -228,6 +228,7 @@ struct Run {
     PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
     summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
+    summary.pulled_back_guesses += old_scene.integrator->pulled_back_guesses();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
@@ -408,6 +409,7 @@ PetscErrorCode Run::write_checkpoint(bool started_inverted) {
   h.summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(h.summary, earlier);
   h.summary.rejected_evaluations += s.integrator->rejected_evaluations();  // as at the end of a run
+  h.summary.pulled_back_guesses += s.integrator->pulled_back_guesses();
   for (const auto& w : writers)
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   PetscCall(s.body->local_positions(state.x, pos));
@@ -642,6 +644,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   // 4. Summary.
   read_log_events(summary);
   summary.rejected_evaluations += run.scene.current().integrator->rejected_evaluations();  // the scene in use at the end
+  summary.pulled_back_guesses += run.scene.current().integrator->pulled_back_guesses();
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
   if (summary.frames > 0) {

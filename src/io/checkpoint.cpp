@@ -36,6 +36,7 @@ const LongField kLongFields[] = {
     {"failed_frames", &RunSummary::failed_frames, false},
     {"ls_failures", &RunSummary::ls_failures, false},
     {"rejected_evaluations", &RunSummary::rejected_evaluations, false},
+    {"pulled_back_guesses", &RunSummary::pulled_back_guesses, false},
     {"extended_frames", &RunSummary::extended_frames, false},
     {"substepped_frames", &RunSummary::substepped_frames, false},
     {"newton_frames", &RunSummary::newton_frames, false},
@@ -253,7 +254,14 @@ PetscErrorCode read_header(MPI_Comm comm, const std::string& path, CheckpointHea
   h.released_attachments = parse_flags(text);
   PetscCall(get_int(v, "started_inverted", h.started_inverted));
   RunSummary& s = h.summary;
-  for (const auto& f : kLongFields) PetscCall(get_long(v, std::string("summary_") + f.name, s.*f.member));
+  for (const auto& f : kLongFields) {
+    const std::string name = std::string("summary_") + f.name;
+    PetscBool has = PETSC_TRUE;
+    // Added after format version 1: a checkpoint written before has none (0).
+    if (f.member == &RunSummary::pulled_back_guesses)
+      PetscCall(PetscViewerHDF5HasAttribute(v, kRoot, name.c_str(), &has));
+    if (has) PetscCall(get_long(v, name, s.*f.member));
+  }
   for (const auto& f : kIntFields) {
     PetscCall(get_long(v, std::string("summary_") + f.name, x));
     s.*f.member = (int)x;

@@ -42,6 +42,9 @@ struct RunSummary {
   // non-finite g or grad g, and the frames that could not decrease g (or stopped the run), with
   // the solver's reason.
   long long ls_failures = 0, rejected_evaluations = 0;
+  // Steps whose initial guess was pulled back from y so as not to invert or blow up elements
+  // (ImplicitEuler::upright_guess; the frame-size steps, not the fallback chain's sub-steps).
+  long long pulled_back_guesses = 0;
   std::vector<std::pair<int, std::string>> flagged_frames;
   // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that
   // were solved in sub-steps, and by Newton.

@@ -40,7 +40,7 @@ enum class WarmStart { inertial, previous, lower };
 class ImplicitEuler : public Objective {
  public:
   ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
-                WarmStart warm_start = WarmStart::inertial);
+                WarmStart warm_start = WarmStart::inertial, bool upright_guess = true);
   ~ImplicitEuler() override;
   ImplicitEuler(const ImplicitEuler&) = delete;
   ImplicitEuler& operator=(const ImplicitEuler&) = delete;
@@ -74,6 +74,8 @@ class ImplicitEuler : public Objective {
   PetscInt evaluations() const override { return evaluations_; }
   void reset_evaluations() override { evaluations_ = 0; }
   PetscInt rejected_evaluations() const override { return rejected_; }
+  // Steps whose initial guess was pulled back from y towards x_n (upright_guess, over the whole run).
+  long long pulled_back_guesses() const { return pulled_back_; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
@@ -87,13 +89,20 @@ class ImplicitEuler : public Objective {
   std::string energy_names() const override { return body_.material_names(); }
 
  private:
+  // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
+  // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
+  PetscErrorCode upright_guess(Vec x);
+
   Body& body_;
   double dt_, damping_;
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
+  bool upright_guess_;
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
   PetscInt evaluations_ = 0, rejected_ = 0;
+  long long pulled_back_ = 0;
+  std::vector<double> pos_, J_n_, J_;  // upright_guess's work space
   double weight_scale_ = 0;  // W of force_scale()
   double diagonal_ = 0;      // length_scale()
 };

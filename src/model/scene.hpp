@@ -56,6 +56,7 @@ struct SceneOptions {
   bool amg = false;                    // set up the V-cycle of M + h^2 L (lbfgs with solver.h0: amg)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
+  bool upright_guess = true;                   // and whether y is pulled back (ImplicitEuler)
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
 };

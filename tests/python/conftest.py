@@ -41,6 +41,10 @@ def event_count(log_text, event):
 # solver keys that turn the fallback chain off (docs/guardrails.md#fallback): for the tests of
 # what happens to a frame or a run that the chain would otherwise rescue.
 NO_FALLBACK = {"max_iterations": 0, "max_halvings": 0, "newton_fallback": False}
+# solver key that starts each step from y itself, not pulled back where y inverts or blows up
+# elements (docs/guardrails.md#element-blow-up-and-inversion): for the tests of run-aways that
+# the pulled-back guess would avoid.
+FROM_Y = {"upright_guess": False}
 
 
 def write_deck(path, deck):

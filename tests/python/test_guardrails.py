@@ -25,7 +25,7 @@ import meshio
 import numpy as np
 import pytest
 
-from conftest import NO_FALLBACK, REPO, load_deck, run_hyperqn, write_deck
+from conftest import FROM_Y, NO_FALLBACK, REPO, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import Frame, is_empty_piece, piece_files, read_iterations, read_pvd, read_summary
 
@@ -261,13 +261,13 @@ def test_run_that_cannot_continue_stops_cleanly(tmp_path, solver, ranks):
 
 @pytest.mark.parametrize("solver,ranks", [("lbfgs", None), ("lbfgs", 2), ("pd", None)])
 def test_diverging_run_stops_cleanly(tmp_path, solver, ranks):
-    """h = 1 s at 10 iterations per frame and no fallback chain: the solvers fall behind and the bar
-    runs away, finite. The first frame with an element edge longer than 10 rest diagonals stops the
+    """h = 1 s at 10 iterations per frame, no fallback chain and each step from y itself: the solvers
+    fall behind and the bar runs away, finite. The first frame with an element edge longer than 10 rest diagonals stops the
     run: exit code 1, "error: frame N: diverged: ..." naming the edge length, frame N - 1 written as
     the last frame although only every 5th frame is an output frame, and it is within the limit;
     no NaN anywhere."""
     deck = load_deck(DIVERGING_DECK)
-    deck["solver"].update(type=solver, **NO_FALLBACK)
+    deck["solver"].update(type=solver, **NO_FALLBACK, **FROM_Y)
     deck["output"]["every"] = 5
     outdir = tmp_path / "out"
     # The element check (|det F| > 100) would stop it first: this test is about the divergence check.
@@ -297,7 +297,7 @@ def test_divergence_check_can_be_turned_off(tmp_path):
     the status, and the exit code is 2, never 0; still nothing NaN."""
     outdir = tmp_path / "out"
     deck = load_deck(DIVERGING_DECK)
-    deck["solver"].update(NO_FALLBACK)
+    deck["solver"].update(NO_FALLBACK, **FROM_Y)
     proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir, "-hyperqn_divergence_limit", 0,
                         "-hyperqn_element_limit", 0], check=False)
     assert proc.returncode == 2, proc.stdout[-2000:]
@@ -372,7 +372,8 @@ def test_a_start_the_deck_inverts_is_judged_by_its_last_frame(tmp_path):
 
 def test_exploding_elements_stop_the_run(tmp_path):
     """A sliver-laden mesh (scripts/sliver_mesh.py) whose slivers next to the clamped top blow up
-    when the fallback chain does not redo the frame: an element's |det F| past 100 stops the run
+    when the fallback chain does not redo the frame and the step starts from y: an element's |det F|
+    past 100 stops the run
     (exit 1, "elements exploded", the last good frame written), long before any edge reaches the
     divergence limit (without this check the run went on to frame 10 with min det F -9e4)."""
     mesh = tmp_path / "slivers.mesh"
@@ -383,7 +384,8 @@ def test_exploding_elements_stop_the_run(tmp_path):
             "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.4, "density": 1000},
             "fixed": [{"box": {"min": [-1, 0.475, -1], "max": [1, 1, 1]}}],
             "time": {"dt": 1 / 30, "frames": 20}, "output": {"every": 5},
-            "solver": dict(NO_FALLBACK)}  # the chain would redo the frame (test_sliver_mesh.py)
+            # the chain would redo the frame, and the pulled-back guess avoids it (test_sliver_mesh.py)
+            "solver": dict(NO_FALLBACK, **FROM_Y)}
     outdir = tmp_path / "out"
     proc = run_hyperqn([write_deck(tmp_path / "slivers.yaml", deck), "-o", outdir], ranks=None, check=False)
     assert proc.returncode == 1
