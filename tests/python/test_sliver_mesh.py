@@ -11,6 +11,7 @@ stopped at frame 1 (|det F| 1.4e4, sub-steps and Newton tried), the 2 mm cells o
 frame sub-stepped); now each takes 10 to 10.1 iterations per frame (docs/guardrails.md has the
 table)."""
 import os
+import re
 import subprocess
 import sys
 
@@ -77,13 +78,14 @@ def test_neohookean_lbfgs_on_slivers(tmp_path, name):
 def test_without_upright_guess_the_slivers_explode(tmp_path):
     """The cause, and the element check: from y itself (solver.upright_guess: false) the 2 m body's
     slivers invert (det F -2953 at y) and no stage of the fallback chain recovers; the run stops
-    with exit 1 and an error status, never ok or flagged."""
+    with exit 1 and an error status, never ok or flagged. At which frame is a matter of last bits
+    (measured: frame 1 with the simplicial solve of A^-1, frame 2 with the supernodal one)."""
     size, element, fraction, seed = MESHES["5cm_2m"]
     mesh = tmp_path / "slivers.mesh"
     make_mesh(mesh, size, element, fraction, seed)
     proc, summary = hanging(tmp_path, size, mesh, {"upright_guess": False})
     assert proc.returncode == 1, proc.stdout[-2000:]
-    assert summary["status"].startswith("error: frame 1: elements exploded"), summary["status"]
+    assert re.match(r"error: frame [12]: elements exploded", summary["status"]), summary["status"]
     assert summary["pulled_back_guesses"] == 0
 
 
