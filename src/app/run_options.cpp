@@ -97,6 +97,7 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
   const std::string& w = deck.solver.warm_start;
   s.warm_start = w == "previous" ? WarmStart::previous : w == "lower" ? WarmStart::lower : WarmStart::inertial;
   s.upright_guess = deck.solver.upright_guess;
+  s.element_limit = o.element_limit;
   if (o.nan_beyond >= 0 || o.nan_from_step >= 0)
     s.extra_terms = [o](const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
       terms.push_back(std::make_unique<NanInjection>(o.nan_beyond, o.nan_from_step));

@@ -7,9 +7,10 @@
 namespace hyperqn {
 
 ImplicitEuler::ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
-                             WarmStart warm_start, bool upright_guess)
+                             WarmStart warm_start, bool upright_guess, double element_limit)
     : body_(body), dt_(dt), damping_(damping), gravity_(gravity), warm_start_(warm_start),
-      upright_guess_(upright_guess) {}
+      upright_guess_(upright_guess),
+      element_limit_(element_limit) {}
 
 ImplicitEuler::~ImplicitEuler() {
   for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_}) VecDestroy(v);
@@ -47,7 +48,8 @@ PetscErrorCode ImplicitEuler::setup() {
 PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const {
   PetscFunctionBeginUser;
   const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
-  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_);
+  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
+                                       element_limit_);
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }
@@ -78,11 +80,10 @@ PetscErrorCode ImplicitEuler::begin_step(State& s) {
 // tests/python/test_sliver_mesh.py, y puts 14 tets at det F down to -2953, where Neo-Hookean's
 // quadratic extension of log J makes g(y) 3.7e11 (its curvature there is ~1e8 times L's), and
 // no solver recovers within the frame. The answer has no such tet, so the guess stops short of
-// y: t halves until no tet upright at x_n is inverted, nor past det F = 100 (the element limit's
-// default) unless it already was. Where y does neither, t = 1 and the guess is y, bit for bit.
+// y: t halves until no tet upright at x_n is inverted, nor past the element limit
+// (-hyperqn_element_limit) unless it already was. Where y does neither, t = 1 and the guess is y, bit for bit.
 PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
   constexpr int kMaxHalvings = 30;
-  constexpr double kVolumeLimit = 100;  // the element limit's default (docs/guardrails.md)
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
   PetscCall(VecCopy(y_, x));
@@ -102,7 +103,7 @@ PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
     body_.cell_jacobians(pos_, J_);
     int local = 0, any;
     for (PetscInt c = 0; c < cells && !local; ++c)
-      local = J_n_[c] > 0 && !(J_[c] > 0 && (J_[c] <= kVolumeLimit || J_n_[c] > kVolumeLimit));
+      local = J_n_[c] > 0 && !(J_[c] > 0 && (element_limit_ <= 0 || J_[c] <= element_limit_ || J_n_[c] > element_limit_));
     PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)x)));
     if (!any) break;
   }

@@ -40,7 +40,8 @@ enum class WarmStart { inertial, previous, lower };
 class ImplicitEuler : public Objective {
  public:
   ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
-                WarmStart warm_start = WarmStart::inertial, bool upright_guess = true);
+                WarmStart warm_start = WarmStart::inertial, bool upright_guess = true,
+                double element_limit = 0);
   ~ImplicitEuler() override;
   ImplicitEuler(const ImplicitEuler&) = delete;
   ImplicitEuler& operator=(const ImplicitEuler&) = delete;
@@ -98,6 +99,7 @@ class ImplicitEuler : public Objective {
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
   bool upright_guess_;
+  double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
   PetscInt evaluations_ = 0, rejected_ = 0;

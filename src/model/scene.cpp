@@ -177,7 +177,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
   s.integrator = std::make_unique<ImplicitEuler>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
-                                                 options_.warm_start, options_.upright_guess);
+                                                 options_.warm_start, options_.upright_guess,
+                                                 options_.element_limit);
   PetscCall(s.integrator->setup());
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
   if (options_.factor) {

@@ -57,6 +57,7 @@ struct SceneOptions {
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (ImplicitEuler)
+  double element_limit = 0;                    // past which |det F| it is pulled back (-hyperqn_element_limit)
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
 };
