@@ -72,6 +72,14 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
     n_ = n;
     perm_.assign(perm, perm + n);
     nodes_.resize(L->nsuper);
+    size_t values = 0, rows = 0;  // reserved exactly: growing would hold up to twice the factor
+    for (size_t k = 0; k < L->nsuper; ++k) {
+      const size_t width = super[k + 1] - super[k], below = pi[k + 1] - pi[k] - width;
+      values += width * (width + 1) + below * width;
+      rows += below;
+    }
+    value_.reserve(values);
+    row_.reserve(rows);
     for (size_t k = 0; k < L->nsuper; ++k) {
       // CHOLMOD's block: nrows x width, column-major; its first `width` rows are the supernode's
       // own columns, the rest the rows below.
