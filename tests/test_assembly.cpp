@@ -366,6 +366,29 @@ PetscErrorCode check_not_positive_definite(FactorPackage package) {
   PetscFunctionReturn(0);
 }
 
+// The run's counters of an integrator take in those of its sub-step integrators (the fallback
+// chain's): a point rejected by a sub-step (g not finite) counts in rejected_evaluations.
+PetscErrorCode check_substep_counts() {
+  TestScene s;
+  Vec x;
+  PetscReal g;
+  std::unique_ptr<ImplicitEuler> sub;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene("neohookean", true, s));
+  PetscCall(s.step->create_substep(2, sub));
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  PetscCall(VecSet(x, NAN));
+  const PetscInt before = s.step->rejected_evaluations();
+  PetscCall(sub->objective(x, &g, nullptr));
+  CHECK(Objective::rejected(g));
+  CHECK_MSG(s.step->rejected_evaluations() == before + 1 && sub->rejected_evaluations() == before + 1,
+            "a sub-step's rejected point is not in the run's count");
+  PetscCall(s.step->objective(x, &g, nullptr));
+  CHECK(sub->rejected_evaluations() == before + 2);
+  PetscCall(VecDestroy(&x));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   // "+strands": the same box with strand segments attached and free (see test_scene.hpp).
@@ -380,6 +403,7 @@ int main(int argc, char** argv) {
     PetscCall(check_spd(model, ConstantMatrix::laplacian));
     PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
   }
+  PetscCall(check_substep_counts());
   PetscCall(check_not_positive_definite(FactorPackage::mumps));
   if (factor_package_available(FactorPackage::cholmod)) PetscCall(check_not_positive_definite(FactorPackage::cholmod));
   PetscCall(check_not_positive_definite(FactorPackage::supernodal));

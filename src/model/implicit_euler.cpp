@@ -50,6 +50,7 @@ PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<Implicit
   const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
   sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
                                        element_limit_);
+  sub->counts_ = counts_;
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }
@@ -107,7 +108,7 @@ PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
     PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)x)));
     if (!any) break;
   }
-  if (t < 1) ++pulled_back_;
+  if (t < 1) ++counts_->pulled_back;
   PetscFunctionReturn(0);
 }
 
@@ -183,7 +184,7 @@ PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
   PetscCall(VecDot(work_, diff_, &inertia));
   *g = 0.5 * inertia + dt_ * dt_ * E;
   if (rejected(*g)) {
-    ++rejected_;
+    ++counts_->rejected;
     *g = kRejectedEnergy;
     if (grad) PetscCall(VecSet(grad, 0.0));
   } else if (grad) {

@@ -74,9 +74,11 @@ class ImplicitEuler : public Objective {
   PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override;
   PetscInt evaluations() const override { return evaluations_; }
   void reset_evaluations() override { evaluations_ = 0; }
-  PetscInt rejected_evaluations() const override { return rejected_; }
-  // Steps whose initial guess was pulled back from y towards x_n (upright_guess, over the whole run).
-  long long pulled_back_guesses() const { return pulled_back_; }
+  // Both over the whole run, and shared with the sub-step integrators made from this one
+  // (create_substep), so that they count the fallback chain's sub-steps too.
+  PetscInt rejected_evaluations() const override { return counts_->rejected; }
+  // Steps whose initial guess was pulled back from y towards x_n (upright_guess).
+  long long pulled_back_guesses() const { return counts_->pulled_back; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
@@ -102,8 +104,12 @@ class ImplicitEuler : public Objective {
   double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr;
-  PetscInt evaluations_ = 0, rejected_ = 0;
-  long long pulled_back_ = 0;
+  PetscInt evaluations_ = 0;
+  struct RunCounts {
+    PetscInt rejected = 0;
+    long long pulled_back = 0;
+  };
+  std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
   std::vector<double> pos_, J_n_, J_;  // upright_guess's work space
   double weight_scale_ = 0;  // W of force_scale()
   double diagonal_ = 0;      // length_scale()
