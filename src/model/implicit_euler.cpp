@@ -82,7 +82,8 @@ PetscErrorCode ImplicitEuler::begin_step(State& s) {
 // quadratic extension of log J makes g(y) 3.7e11 (its curvature there is ~1e8 times L's), and
 // no solver recovers within the frame. The answer has no such tet, so the guess stops short of
 // y: t halves until no tet upright at x_n is inverted, nor past the element limit
-// (-hyperqn_element_limit) unless it already was. Where y does neither, t = 1 and the guess is y, bit for bit.
+// (-hyperqn_element_limit) unless it already was. Where y does neither, t = 1 and the guess is y,
+// bit for bit.
 PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
   constexpr int kMaxHalvings = 30;
   const PetscInt cells = body_.mesh().num_cells;
@@ -104,7 +105,8 @@ PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
     body_.cell_jacobians(pos_, J_);
     int local = 0, any;
     for (PetscInt c = 0; c < cells && !local; ++c)
-      local = J_n_[c] > 0 && !(J_[c] > 0 && (element_limit_ <= 0 || J_[c] <= element_limit_ || J_n_[c] > element_limit_));
+      local = J_n_[c] > 0 &&
+              !(J_[c] > 0 && (element_limit_ <= 0 || J_[c] <= element_limit_ || J_n_[c] > element_limit_));
     PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)x)));
     if (!any) break;
   }

@@ -2,7 +2,6 @@
 
 #include <stdexcept>
 
-#include "materials/spring.hpp"
 #include "terms/element_kernels.hpp"
 
 namespace hyperqn {
@@ -74,15 +73,13 @@ PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, dou
 
 PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
   PetscFunctionBeginUser;
+  if (model_ == BendingModel::springs) {
+    PetscCall(springs_.add_hessian(pos.data(), H, scale, psd));
+    PetscFunctionReturn(0);
+  }
   for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
     const PetscInt* v = &mesh_.hinges[4 * h];
-    if (model_ == BendingModel::springs) {
-      const PetscInt cd[2] = {v[2], v[3]};
-      const Mat3 K = spring::stiffness(segment_edge(pos.data(), cd), springs_.rest_length(h), k_, psd);
-      Eigen::Matrix<double, 6, 6> Ks;
-      Ks << K, -K, -K, K;
-      PetscCall(add_element_hessian<2>(mesh_, H, cd, Ks, scale));
-    } else if (model_ == BendingModel::quadratic) {
+    if (model_ == BendingModel::quadratic) {
       const hinge::Mat12 He = hinge::quadratic_hessian(k_, weights_[h], coefficient_[h]);
       PetscCall(add_element_hessian<4>(mesh_, H, v, He, scale));
     } else {
@@ -95,16 +92,12 @@ PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, 
 
 PetscErrorCode ClothBending::add_laplacian(Mat A, double scale, int components) const {
   PetscFunctionBeginUser;
+  if (model_ == BendingModel::springs) {
+    PetscCall(springs_.add_laplacian(A, scale, components));
+    PetscFunctionReturn(0);
+  }
   for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
     const PetscInt* v = &mesh_.hinges[4 * h];
-    if (model_ == BendingModel::springs) {
-      const PetscInt cd[2] = {v[2], v[3]};
-      Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
-      Le << 1, -1, -1, 1;
-      Le *= scale * k_;
-      PetscCall(add_element_laplacian<2>(mesh_, A, cd, Le, components));
-      continue;
-    }
     const Eigen::Map<const Eigen::Vector4d> w(weights_[h].data());
     const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Le = scale * k_ * coefficient_[h] * w * w.transpose();
     PetscCall(add_element_laplacian<4>(mesh_, A, v, Le, components));

@@ -1,6 +1,5 @@
 #include "terms/cloth_springs.hpp"
 
-#include "materials/spring.hpp"
 #include "terms/element_kernels.hpp"
 
 namespace hyperqn {
@@ -22,25 +21,11 @@ PetscErrorCode ClothSprings::add_energy(Vec, const std::vector<double>& pos, dou
 }
 
 PetscErrorCode ClothSprings::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
-  Eigen::Matrix<double, 6, 6> Ks;
-  PetscFunctionBeginUser;
-  for (size_t s = 0; s < springs_.size(); ++s) {
-    const std::array<PetscInt, 2> ab = springs_.ends(s);
-    const Mat3 K = spring::stiffness(segment_edge(pos.data(), ab.data()), springs_.rest_length(s), k_, psd);
-    Ks << K, -K, -K, K;
-    PetscCall(add_element_hessian<2>(mesh_, H, ab.data(), Ks, scale));
-  }
-  PetscFunctionReturn(0);
+  return springs_.add_hessian(pos.data(), H, scale, psd);
 }
 
 PetscErrorCode ClothSprings::add_laplacian(Mat A, double scale, int components) const {
-  Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
-  Le << 1, -1, -1, 1;
-  Le *= scale * k_;
-  PetscFunctionBeginUser;
-  for (size_t s = 0; s < springs_.size(); ++s)
-    PetscCall(add_element_laplacian<2>(mesh_, A, springs_.ends(s).data(), Le, components));
-  PetscFunctionReturn(0);
+  return springs_.add_laplacian(A, scale, components);
 }
 
 }  // namespace hyperqn

@@ -5,6 +5,7 @@
 
 #include "materials/lanes.hpp"  // kBatch, HYPERQN_VECTOR_CLONES
 #include "materials/spring.hpp"
+#include "terms/element_kernels.hpp"
 
 namespace hyperqn {
 
@@ -68,6 +69,30 @@ HYPERQN_VECTOR_CLONES double spring_batches(size_t count, const PetscInt* a, con
 }
 
 }  // namespace
+
+PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bool psd) const {
+  Eigen::Matrix<double, 6, 6> Ks;  // d2E/dx2 for x = (x_a, x_b): [K -K; -K K]
+  PetscFunctionBeginUser;
+  for (size_t s = 0; s < count_; ++s) {
+    const PetscInt ab[2] = {a_[s], b_[s]};
+    const Mat3 K = spring::stiffness(segment_edge(pos, ab), rest_[s], k_[s], psd);
+    Ks << K, -K, -K, K;
+    PetscCall(add_element_hessian<2>(mesh_, H, ab, Ks, scale));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SpringSet::add_laplacian(Mat A, double scale, int components) const {
+  Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
+  PetscFunctionBeginUser;
+  for (size_t s = 0; s < count_; ++s) {
+    const PetscInt ab[2] = {a_[s], b_[s]};
+    const double w = scale * k_[s];
+    Le << w, -w, -w, w;
+    PetscCall(add_element_laplacian<2>(mesh_, A, ab, Le, components));
+  }
+  PetscFunctionReturn(0);
+}
 
 void SpringSet::add_energy(const double* pos, double* energy, PetscScalar* gradient) const {
   *energy += spring_batches(a_.size(), a_.data(), b_.data(), dof_a_.data(), dof_b_.data(), rest_.data(), k_.data(),

@@ -5,7 +5,6 @@
 // latter straight to the ends' dofs, looked up once when the spring is added (a fixed end has
 // none; a release rebuilds the scene and its terms, so the dofs do not change under a term).
 #pragma once
-#include <array>
 #include <vector>
 
 #include "mesh/distributed_mesh.hpp"
@@ -18,13 +17,15 @@ class SpringSet {
   // A spring between the local vertices a and b.
   void add(PetscInt a, PetscInt b, double rest_length, double stiffness);
   size_t size() const { return count_; }
-  std::array<PetscInt, 2> ends(size_t s) const { return {a_[s], b_[s]}; }
   double rest_length(size_t s) const { return rest_[s]; }
-  double stiffness(size_t s) const { return k_[s]; }
 
   // *energy += the springs' energy at the local positions pos (3 per local vertex); their gradient
   // is added into `gradient` (the mesh's local dof array), unless it is null.
   void add_energy(const double* pos, double* energy, PetscScalar* gradient) const;
+  // H += scale * d2E/dx2 at pos (psd: the transverse terms of compressed springs clamped at 0).
+  PetscErrorCode add_hessian(const double* pos, Mat H, double scale, bool psd) const;
+  // A += scale * (each spring's stiffness) * [1 -1; -1 1] on its ends (EnergyTerm::add_laplacian).
+  PetscErrorCode add_laplacian(Mat A, double scale, int components) const;
 
  private:
   const DistributedMesh& mesh_;

@@ -1,6 +1,5 @@
 #include "terms/strand_segments.hpp"
 
-#include "materials/spring.hpp"
 #include "terms/element_kernels.hpp"
 
 namespace hyperqn {
@@ -27,29 +26,13 @@ PetscErrorCode StrandSegments::add_energy(Vec, const std::vector<double>& pos, d
 }
 
 PetscErrorCode StrandSegments::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
-  Eigen::Matrix<double, 6, 6, Eigen::RowMajor> Ks;  // d2E/dx2 for x = (x_a, x_b): [K -K; -K K]
-  PetscInt idx[6];
-  PetscFunctionBeginUser;
-  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
-    const PetscInt* seg = &mesh_.segments[2 * s];
-    const Mat3 K = scale * spring::stiffness(segment_edge(pos.data(), seg), springs_.rest_length(s), springs_.stiffness(s), psd);
-    Ks << K, -K, -K, K;
-    element_dofs<2>(mesh_, seg, idx);
-    PetscCall(MatSetValues(H, 6, idx, 6, idx, Ks.data(), ADD_VALUES));
-  }
-  PetscFunctionReturn(0);
+  return springs_.add_hessian(pos.data(), H, scale, psd);
 }
 
-// A segment's spring k = EA / L: its L is exact, as for the mass-spring tets.
+// A segment's spring k = EA / L: its L is exact, as for the mass-spring tets. A deck's own weight
+// W makes it W / L, i.e. the springs' k scaled by W / EA.
 PetscErrorCode StrandSegments::add_laplacian(Mat A, double scale, int components) const {
-  PetscFunctionBeginUser;
-  for (PetscInt s = 0; s < mesh_.num_segments; ++s) {
-    const double k = scale * weight_ / springs_.rest_length(s);
-    Eigen::Matrix<double, 2, 2, Eigen::RowMajor> Le;
-    Le << k, -k, -k, k;
-    PetscCall(add_element_laplacian<2>(mesh_, A, &mesh_.segments[2 * s], Le, components));
-  }
-  PetscFunctionReturn(0);
+  return springs_.add_laplacian(A, scale * (weight_ / axial_stiffness_), components);
 }
 
 void StrandSegments::add_lumped_mass(PetscScalar* mass) const {
