@@ -66,16 +66,21 @@ std::string exploded(double volume, double limit) {
   return text;
 }
 
+// Inverted or flat: an element with det F <= 0. A flat one (a body collapsed onto a plane or a
+// point) is no more a solid than an inverted one, and Neo-Hookean's extended energy holds it
+// there: F = 0 is a local minimum of every energy smooth at F = 0 (docs/guardrails.md).
+bool degenerate(double min_J) { return min_J <= 0; }
+
 // summary.json's status of a run that completed: "ok"; "inverted: ..." if it ends with inverted
-// elements (inverted_at_end) or, from a start without any, had some in a frame; then how many
-// frames were flagged.
+// or flat elements (inverted_at_end) or, from a start without any, had some in a frame; then how
+// many frames were flagged.
 std::string completed_status(const RunSummary& summary, bool started_inverted, bool inverted_at_end) {
   std::string status;
   const auto& inverted = summary.inverted_frames;
   if (inverted_at_end || (!started_inverted && !inverted.empty())) {
     char min_J[40];
     std::snprintf(min_J, sizeof min_J, "%.4g", summary.min_J);
-    status = "inverted: elements with det F < 0 in " + std::to_string(inverted.size()) + " of " +
+    status = "inverted: elements with det F <= 0 in " + std::to_string(inverted.size()) + " of " +
              std::to_string(summary.frames) + " frames (first: frame " + std::to_string(inverted.front()) +
              (inverted_at_end ? ", and the last" : "") + "; min det F " + min_J + ")";
   }
@@ -275,8 +280,8 @@ PetscErrorCode Run::time_loop(bool& ok) {
   // A run that the deck starts inverted (initial:) is judged by its last frame only.
   double min_J = 0, max_abs_J = 0;
   PetscCall(scene.current().body->volume_ratios(state.x, &min_J, &max_abs_J));
-  const bool started_inverted = restart ? resumed_inverted : min_J < 0;
-  bool inverted_now = min_J < 0;
+  const bool started_inverted = restart ? resumed_inverted : degenerate(min_J);
+  bool inverted_now = degenerate(min_J);
 
   const double diagonal = rest_diagonal(scene.current().mesh);
   const double limit = options.divergence_limit;  // <= 0: no divergence check
@@ -330,7 +335,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       }
       if (why.empty()) why = exploded(max_abs_J, options.element_limit);
       if (why.empty()) {
-        inverted_now = min_J < 0;
+        inverted_now = degenerate(min_J);
         if (inverted_now) summary.inverted_frames.push_back(frame);
         summary.min_J = std::fmin(summary.min_J, min_J);
       }

@@ -304,7 +304,7 @@ def test_divergence_check_can_be_turned_off(tmp_path):
     s = read_summary(outdir)
     assert s["frames"] == 20 and s["failed_frames"] > 0 and s["inverted_frames"] > 0
     flagged = s["flagged_frames"]
-    assert s["status"].startswith("inverted: elements with det F < 0 in ")
+    assert s["status"].startswith("inverted: elements with det F <= 0 in ")
     assert s["status"].endswith(f"; flagged: {len(flagged)} of 20 frames could not decrease g "
                                 f"(first: frame {flagged[0]['frame']})")
     check_summary_finite(outdir)
@@ -348,7 +348,7 @@ CRUSH = {
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_inverted_elements_are_said_in_status_and_exit_code(tmp_path, ranks):
     """A run that goes through every frame with inverted elements is not ok: status "inverted:
-    elements with det F < 0 in N of M frames (first: frame K, ...; min det F X)" and exit code 2."""
+    elements with det F <= 0 in N of M frames (first: frame K, ...; min det F X)" and exit code 2."""
     outdir = tmp_path / "out"
     proc = run_hyperqn([write_deck(tmp_path / "crush.yaml", CRUSH), "-o", outdir], ranks=ranks, check=False)
     assert proc.returncode == 2, proc.stdout[-2000:]
@@ -356,7 +356,7 @@ def test_inverted_elements_are_said_in_status_and_exit_code(tmp_path, ranks):
     assert s["frames"] == 12 and s["min_J"] < 0, s
     n = s["inverted_frames"]
     assert 0 < n <= 12
-    assert s["status"].startswith(f"inverted: elements with det F < 0 in {n} of 12 frames (first: frame "), s["status"]
+    assert s["status"].startswith(f"inverted: elements with det F <= 0 in {n} of 12 frames (first: frame "), s["status"]
     assert "and the last" in s["status"]
 
 

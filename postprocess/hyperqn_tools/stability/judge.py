@@ -217,7 +217,7 @@ EXIT_INVERTED = 2
 def completed(status):
     """Whether summary.json's status is that of a run that went through every frame: "ok",
     "flagged: ..." (some frames could not decrease g; they count as line-search failures) or
-    "inverted: ..." (elements with det F < 0; judged below)."""
+    "inverted: ..." (elements with det F <= 0; judged below)."""
     return status == "ok" or status.startswith(("flagged", "inverted"))
 
 
