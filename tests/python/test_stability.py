@@ -294,3 +294,20 @@ def test_suite_runner_end_to_end(tmp_path):
     with open(out / "stability.md") as f:
         text = f.read()
     assert "Assumed semantics of `initial:`" in text and "| stability_stiff_x1e4 | lbfgs |" in text
+
+
+def test_largest_reference_distance_sees_the_middle_of_a_run():
+    """max_ref_error is the worst frame, not the last: a run off the reference in the middle and
+    back on it at the end (the phase of a swing) has a last-frame distance of 0 and a largest of
+    the middle frame's."""
+    from types import SimpleNamespace
+    from hyperqn_tools.stability.judge import largest_reference_distance
+    rest = np.array([[0.0, 0, 0], [3.0, 0, 0], [0, 4.0, 0]])  # rest diagonal 5
+    def frame(shift):
+        return SimpleNamespace(vertex_id=np.arange(3), points=rest + shift, displacement=np.full((3, 3), shift))
+    ref = {"frames": [(0, frame(0.0)), (1, frame(0.0)), (2, frame(0.0))]}
+    run = {"frames": [(0, frame(0.0)), (1, frame(0.0)), (2, frame(0.0))]}
+    run["frames"][1] = (1, SimpleNamespace(vertex_id=np.arange(3), points=rest + [1.0, 0, 0], displacement=np.zeros((3, 3))))
+    assert largest_reference_distance(run, ref) == pytest.approx(1.0 / 5)
+    assert S.reference_distance(run, ref) == 0
+    assert largest_reference_distance(run, {"frames": []}) is None

@@ -209,6 +209,22 @@ def reference_distance(a, ref):
     return float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / rest_diagonal(R)
 
 
+def largest_reference_distance(a, ref):
+    """The largest RMS distance over the rest diagonal between a run and its reference at the frames
+    both wrote (vertices matched by vertex_id), or None. The verdict uses the last frame's
+    (reference_distance); this one shows a run that is far off in between and back near the
+    reference at the end by the phase of a swing."""
+    frames = dict(ref["frames"]) if ref else {}
+    worst = None
+    for n, A in a["frames"]:
+        R = frames.get(n)
+        if R is None or not np.array_equal(A.vertex_id, R.vertex_id):
+            continue
+        d = float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / rest_diagonal(R)
+        worst = d if worst is None else max(worst, d)
+    return worst
+
+
 # hyperqn's exit code for a run that went through every frame with inverted elements
 # (src/app/simulation.hpp, kExitInverted).
 EXIT_INVERTED = 2

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_RTOL, REF_TOL, REST_TOL,
-                                           last_frame, rest_distance, verdict)
+                                           largest_reference_distance, last_frame, rest_distance, verdict)
 from hyperqn_tools.style import solver_style
 
 # What the decks input/stability/initial_*.yaml assume of the top-level `initial:` key (written
@@ -39,7 +39,7 @@ factor < 0, a non-integer seed name the deck line, like every other key."""
 COLUMNS = ["case", "solver", "expect", "frames_expected", "frames_completed", "nan", "min_J", "final_min_J",
            "monotone", "g_increase_frames", "roundoff_increase_frames", "ls_failures", "ls_failures_source",
            "ls_roundoff_frames", "converged_frames",
-           "max_final_grad_norm", "max_final_grad_rel", "rest_error", "ref_error", "mean_iterations", "wall_s",
+           "max_final_grad_norm", "max_final_grad_rel", "rest_error", "ref_error", "max_ref_error", "mean_iterations", "wall_s",
            "verdict", "reason"]
 
 
@@ -62,6 +62,7 @@ def make_row(case, solver, expect, run, a, ref, align):
         "max_final_grad_norm": max(a["final_grad"].values(), default=None),
         "max_final_grad_rel": max(a["final_grad_rel"].values(), default=None),
         "rest_error": rest_error, "ref_error": ref_error,
+        "max_ref_error": largest_reference_distance(a, ref) if ref is not None and expect == "reference" else None,
         "mean_iterations": s.get("mean_iterations"), "wall_s": s.get("wall_s"),
         "verdict": v, "reason": reason,
     }
@@ -209,8 +210,8 @@ def write_markdown(rows, cases, solvers, meta, path):
         L.append(f"| {case} | " + " | ".join(cells) + " |")
     L += ["", "## Measurements", "",
           "| case | solver | frames | NaN | min J | final min J | monotone | LS fail. | conv. frames | "
-          "max final ‖∇g‖ | max final/initial | rest err. | ref. err. | it./frame | verdict |",
-          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+          "max final ‖∇g‖ | max final/initial | rest err. | ref. err. | largest ref. err. | it./frame | verdict |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         L.append("| " + " | ".join([
             r["case"], r["solver"], f"{r['frames_completed']}/{r['frames_expected']}", r["nan"], fmt(r["min_J"]),
@@ -219,9 +220,10 @@ def write_markdown(rows, cases, solvers, meta, path):
             + (f" ({r['ls_roundoff_frames']})" if r["ls_roundoff_frames"] else ""),
             fmt(r["converged_frames"]), fmt(r["max_final_grad_norm"]), fmt(r["max_final_grad_rel"]),
             fmt(r["rest_error"]) + (" ◆" if r["expect"] == "rest" else ""),
-            fmt(r["ref_error"]) + (" ◆" if r["expect"] == "reference" else ""),
+            fmt(r["ref_error"]) + (" ◆" if r["expect"] == "reference" else ""), fmt(r["max_ref_error"]),
             fmt(r["mean_iterations"]), f"**{r['verdict']}**"]) + " |")
-    L += ["", "◆ marks the distance a case is judged by. ᶠ: summary.json has no `ls_failures`; "
+    L += ["", "◆ marks the distance a case is judged by (at the last frame); largest ref. err.: the largest "
+          "distance from the converged reference over the frames written. ᶠ: summary.json has no `ls_failures`; "
           "the number is `failed_frames` (frames whose solver stopped on a failure: line search, NaN, ...).", ""]
     bad = [r for r in rows if r["verdict"] != "ok"]
     L += ["## Cells that are not ok", ""]
