@@ -204,7 +204,13 @@ def reference_distance(a, ref):
     vertices matched by vertex_id) over the rest diagonal, or None."""
     fa, A = last_frame(a)
     fr, R = last_frame(ref)
-    if A is None or R is None or fa != fr or not np.array_equal(A.vertex_id, R.vertex_id):
+    return frame_distance(A, R) if fa == fr else None
+
+
+def frame_distance(A, R):
+    """RMS distance between two frames of the same mesh (vertices matched by vertex_id) over R's
+    rest diagonal, or None if either is missing or their vertices differ."""
+    if A is None or R is None or not np.array_equal(A.vertex_id, R.vertex_id):
         return None
     return float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / rest_diagonal(R)
 
@@ -215,14 +221,8 @@ def largest_reference_distance(a, ref):
     (reference_distance); this one shows a run that is far off in between and back near the
     reference at the end by the phase of a swing."""
     frames = dict(ref["frames"]) if ref else {}
-    worst = None
-    for n, A in a["frames"]:
-        R = frames.get(n)
-        if R is None or not np.array_equal(A.vertex_id, R.vertex_id):
-            continue
-        d = float(np.sqrt(np.mean(np.sum((A.points - R.points) ** 2, axis=1)))) / rest_diagonal(R)
-        worst = d if worst is None else max(worst, d)
-    return worst
+    found = [d for d in (frame_distance(A, frames.get(n)) for n, A in a["frames"]) if d is not None]
+    return max(found, default=None)
 
 
 # hyperqn's exit code for a run that went through every frame with inverted elements
