@@ -311,3 +311,25 @@ def test_largest_reference_distance_sees_the_middle_of_a_run():
     assert largest_reference_distance(run, ref) == pytest.approx(1.0 / 5)
     assert S.reference_distance(run, ref) == 0
     assert largest_reference_distance(run, {"frames": []}) is None
+
+
+def test_a_case_the_reference_misses_too_is_said():
+    """A "must settle at rest" case whose converged reference itself ends away from rest (the
+    random and inverted starts of the full suite) says so in the reason: the case's expectation,
+    not the solver; the verdict stays degraded. A reference at rest adds nothing."""
+    from types import SimpleNamespace
+    rest = np.array([[0.0, 0, 0], [3.0, 0, 0], [0, 4.0, 0], [0, 0, 1.0]])
+    def analysis(offset):  # a completed 1-frame run whose last frame is `offset` (3 x 1) from rest
+        d = np.zeros((4, 3)); d[3] = offset
+        f = SimpleNamespace(vertex_id=np.arange(4), points=rest + d, displacement=d, J=np.ones(1))
+        return {"summary": {"status": "ok"}, "nan": [], "frames_completed": 1, "expected_frames": 1,
+                "frames": [(0, SimpleNamespace(vertex_id=np.arange(4), points=rest, displacement=np.zeros((4, 3)),
+                                               J=np.ones(1))), (1, f)],
+                "vtk_error": None, "ls_judged": 0, "ls_roundoff_frames": [], "monotone_bad": [],
+                "ls_failures": 0, "ls_source": "ls_failures"}
+    run = {"rejected": None, "timed_out": False, "returncode": 0, "output": ""}
+    away = [0.0, 0, 1.0]  # moves one vertex by 1 m: not a rigid motion
+    v, reason, rest_error, _ = S.verdict(run, analysis(away), "rest", analysis(away), align=True)
+    assert v == "degraded" and rest_error > S.REST_TOL and "so is the converged reference" in reason, reason
+    v, reason, _, _ = S.verdict(run, analysis(away), "rest", analysis([0.0, 0, 0]), align=True)
+    assert v == "degraded" and "not back at rest" in reason and "converged reference" not in reason, reason
