@@ -360,6 +360,22 @@ def test_inverted_elements_are_said_in_status_and_exit_code(tmp_path, ranks):
     assert "and the last" in s["status"]
 
 
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_body_that_stays_flat_is_not_ok(tmp_path, ranks):
+    """A body collapsed to a point (initial: collapse; det F = 0 everywhere) stays there (F = 0 is a
+    local minimum of Neo-Hookean, docs/stability.md): flat elements count as inverted, so the run
+    ends "inverted: ..." with exit code 2, at 1 and 2 ranks. It used to end "ok" with exit 0."""
+    deck = load_deck("tests/decks/stability_initial_collapse.yaml")
+    deck["output"] = {"vtk": False}
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir], ranks=ranks, check=False)
+    assert proc.returncode == 2, proc.stdout[-2000:]
+    s = read_summary(outdir)
+    assert s["min_J"] == 0 and s["inverted_frames"] == s["frames"], s
+    assert s["status"] == (f"inverted: elements with det F <= 0 in {s['frames']} of {s['frames']} frames "
+                           "(first: frame 1, and the last; min det F 0)"), s["status"]
+
+
 def test_a_start_the_deck_inverts_is_judged_by_its_last_frame(tmp_path):
     """initial: invert makes every element inverted at frame 0; the run recovers, so it is not
     "inverted" (exit 0; frames stalled at the round-off of g near rest may be flagged)."""
