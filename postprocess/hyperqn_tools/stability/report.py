@@ -6,7 +6,8 @@ import math
 import numpy as np
 
 from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_RTOL, REF_TOL, REST_TOL,
-                                           largest_reference_distance, last_frame, rest_distance, verdict)
+                                           largest_reference_distance, last_frame, reference_ok, rest_distance,
+                                           verdict)
 from hyperqn_tools.style import solver_style
 
 # What the decks input/stability/initial_*.yaml assume of the top-level `initial:` key (written
@@ -62,7 +63,8 @@ def make_row(case, solver, expect, run, a, ref, align):
         "max_final_grad_norm": max(a["final_grad"].values(), default=None),
         "max_final_grad_rel": max(a["final_grad_rel"].values(), default=None),
         "rest_error": rest_error, "ref_error": ref_error,
-        "max_ref_error": largest_reference_distance(a, ref) if ref is not None and expect == "reference" else None,
+        "max_ref_error": (largest_reference_distance(a, ref)
+                          if ref is not None and reference_ok(ref) and expect == "reference" else None),
         "mean_iterations": s.get("mean_iterations"), "wall_s": s.get("wall_s"),
         "verdict": v, "reason": reason,
     }
