@@ -89,7 +89,8 @@ PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
   PetscCall(VecCopy(y_, x));
-  if (!upright_guess_) PetscFunctionReturn(0);  // (not on cells == 0: a rank may have none, the others some)
+  // Only tets can invert (not cells == 0 alone: a rank may have none, the others some).
+  if (!upright_guess_ || body_.mesh().global_cells == 0) PetscFunctionReturn(0);
   PetscCall(body_.local_positions(x_n_, pos_));
   body_.cell_jacobians(pos_, J_n_);
   PetscCall(VecWAXPY(work_, -1.0, x_n_, y_));  // y - x_n

@@ -36,6 +36,7 @@ ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, doub
     coefficient_.push_back(hinge::quadratic_coefficient(x0, x1, x2, x3));
     if (model == BendingModel::dihedral) rest_.push_back(hinge::hinge_rest(x0, x1, x2, x3));
   }
+  springs_.arrange();
 }
 
 PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {

@@ -12,6 +12,7 @@ ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness)
         const PetscInt ab[2] = {mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]};
         springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), stiffness);
       }
+  springs_.arrange();
 }
 
 PetscErrorCode ClothSprings::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "materials/lanes.hpp"  // kBatch, HYPERQN_VECTOR_CLONES
 #include "materials/spring.hpp"
@@ -27,6 +28,39 @@ void SpringSet::add(PetscInt a, PetscInt b, double rest_length, double stiffness
   dof_b_.resize(padded, -1);
   rest_.resize(padded, 1.0);
   k_.resize(padded, 0.0);
+}
+
+void SpringSet::arrange() {
+  std::vector<uint64_t> colours_at(static_cast<size_t>(mesh_.num_vertices), 0);  // bit c: colour c used there
+  std::vector<int> colour(count_);
+  std::vector<size_t> order(count_);
+  for (size_t first = 0; first < count_; first += kArrangeRun) {
+    const size_t end = std::min(count_, first + kArrangeRun);
+    for (size_t s = first; s < end; ++s) {
+      const uint64_t used = colours_at[a_[s]] | colours_at[b_[s]];
+      int c = 0;
+      while (c < 63 && (used >> c & 1)) ++c;  // past 63 colours (never on a mesh) they share the last
+      colour[s] = c;
+      colours_at[a_[s]] |= uint64_t(1) << c;
+      colours_at[b_[s]] |= uint64_t(1) << c;
+    }
+    for (size_t s = first; s < end; ++s) {
+      colours_at[a_[s]] = colours_at[b_[s]] = 0;
+      order[s] = s;
+    }
+    std::stable_sort(order.begin() + first, order.begin() + end,
+                     [&](size_t p, size_t q) { return colour[p] < colour[q]; });
+  }
+  auto permute = [&](auto& v) {
+    const auto old = v;
+    for (size_t s = 0; s < count_; ++s) v[s] = old[order[s]];
+  };
+  permute(a_);
+  permute(b_);
+  permute(dof_a_);
+  permute(dof_b_);
+  permute(rest_);
+  permute(k_);
 }
 
 namespace {

@@ -16,6 +16,13 @@ class SpringSet {
   explicit SpringSet(const DistributedMesh& mesh) : mesh_(mesh) {}
   // A spring between the local vertices a and b.
   void add(PetscInt a, PetscInt b, double rest_length, double stiffness);
+  // Reorders the springs, once the last one is added, so that side by side they rarely share a
+  // vertex: the loop that adds the forces then does not wait, spring after spring, for the store
+  // to a shared vertex's gradient before it (sheet81's g and grad g 7 % faster: docs/cloth.md#speed).
+  // Within each run of kArrangeRun springs as added (kept together, so the vertices they touch stay
+  // in cache), springs get the smallest colour none of their ends has yet, and are sorted by it.
+  // Spring indices no longer follow the order of add() afterwards.
+  void arrange();
   size_t size() const { return count_; }
   double rest_length(size_t s) const { return rest_[s]; }
 
@@ -28,6 +35,7 @@ class SpringSet {
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const;
 
  private:
+  static constexpr size_t kArrangeRun = 256;
   const DistributedMesh& mesh_;
   size_t count_ = 0;
   // Padded to whole batches with springs of stiffness 0 from vertex 0 to itself (energy and force
