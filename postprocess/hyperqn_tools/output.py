@@ -122,3 +122,34 @@ def read_frames(outdir):
         m = re.search(r"_(\d+)\.p?vtu$", path)
         frames.append((int(m.group(1)) if m else len(frames), Frame(path)))
     return frames
+
+
+def read_checkpoint(path):
+    """A checkpoint file (src/io/checkpoint.hpp, docs/outputs.md#checkpoints) as a dict: every
+    "key value" line of its header (numbers as int or float, the rest as text), plus "positions" and
+    "velocities" ((slots, 3) arrays in vertex-id order) and its other texts ("physics",
+    "flagged_frames", "inverted_frames", "writer_<key>"). h5py checks the datasets' checksums: a
+    damaged file raises OSError."""
+    import h5py  # only checkpoints need it
+
+    def number(text):
+        for kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                pass
+        return text
+
+    with h5py.File(path, "r") as f:
+        out = {}
+        for name, item in f.items():
+            data = item[()]
+            if name in ("positions", "velocities"):
+                out[name] = data
+            elif name == "header":
+                for line in data.tobytes().decode().splitlines():
+                    key, _, value = line.partition(" ")
+                    out[key] = number(value)
+            else:
+                out[name] = data.tobytes().decode()
+        return out

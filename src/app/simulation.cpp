@@ -11,7 +11,7 @@
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "io/atomic_file.hpp"
-#include "io/checkpoint.hpp"
+#include "io/checkpoint_store.hpp"
 #include "io/log_events.hpp"
 #include "io/output_directory.hpp"
 #include "io/run_log.hpp"
@@ -160,14 +160,15 @@ struct Run {
 
   RunOptions options;
 
-  // Checkpoints and restart (io/checkpoint.hpp).
+  // Checkpoints and restart (io/checkpoint_store.hpp).
   double t_start = 0;
-  std::string checkpoint_dir;        // OUTDIR/checkpoints
-  CheckpointHeader identity;         // what identifies the scene: physics, mesh, vertex counts
+  std::unique_ptr<CheckpointStore> checkpoints;  // OUTDIR/checkpoints
+  CheckpointHeader identity;         // whose run and what scene: run id, physics, mesh, vertex counts
   const CheckpointHeader* restart = nullptr;  // the checkpoint this run continues, if any
   std::string restart_path;
   RunSummary earlier;                // the work (times, factorizations) before the restart
   double last_checkpoint_wtime = 0;  // rank 0's clock
+  int last_checkpoint_frame = -1;    // the frame of the newest checkpoint on disk
   bool interrupted = false;          // stopped by a signal with a checkpoint (kExitInterrupted)
 
   Run(MPI_Comm c, const Deck& d, const RunOptions& o) : comm(c), deck(d), options(o) {}
@@ -175,6 +176,7 @@ struct Run {
   PetscErrorCode write_checkpoint(bool started_inverted);
   PetscErrorCode resume(bool* started_inverted);
   PetscErrorCode after_frame(int frame, bool started_inverted);
+  PetscErrorCode stop_for_signal(int sig, int frame, bool started_inverted);
 
   // Writes frame `frame` from the state, unless a position, velocity or J is not finite.
   PetscErrorCode write_frame(int frame, bool* written) {
@@ -286,7 +288,12 @@ PetscErrorCode Run::time_loop(bool& ok) {
   const double diagonal = rest_diagonal(scene.current().mesh);
   const double limit = options.divergence_limit;  // <= 0: no divergence check
   const LiveScene::Rebind rebind_run = [this](const Scene& o, Scene& f) { return rebind(o, f); };
-  while (state.frame < deck.time.frames) {
+  {  // a signal during setup: the run stops before its first frame, with a checkpoint of its start
+    int sig = (int)g_stop_signal, any;
+    PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, comm));
+    PetscCall(stop_for_signal(any, state.frame, started_inverted));
+  }
+  while (!interrupted && state.frame < deck.time.frames) {
     const int frame = state.frame + 1;
     bool released;
     PetscCall(scene.release_due(state, {}, rebind_run, &released));
@@ -419,16 +426,16 @@ PetscErrorCode Run::write_checkpoint(bool started_inverted) {
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   PetscCall(s.body->local_positions(state.x, pos));
   PetscCall(s.body->local_velocities(state.v, vel));
-  log.flush();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
-  std::string path;
-  PetscCall(hyperqn::write_checkpoint(comm, checkpoint_dir, h, s.mesh, pos, vel, deck.checkpoint.keep, &path));
+  flush_logs();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
+  const std::string path = checkpoints->write(h, s.mesh, pos, vel);
   last_checkpoint_wtime = MPI_Wtime();
+  last_checkpoint_frame = state.frame;
   PetscCall(PetscPrintf(comm, "hyperqn: checkpoint %s\n", path.c_str()));
   PetscFunctionReturn(0);
 }
 
-// After a completed frame: a checkpoint if one is due (every N frames, every S seconds) or a
-// signal asked to stop, which every rank learns from one reduction.
+// After a completed frame: a checkpoint if one is due (every N frames, every S seconds), and a
+// stop if a signal asked for one; every rank learns both from one reduction.
 PetscErrorCode Run::after_frame(int frame, bool started_inverted) {
   int rank;
   PetscFunctionBeginUser;
@@ -437,12 +444,19 @@ PetscErrorCode Run::after_frame(int frame, bool started_inverted) {
   int local[2] = {(int)g_stop_signal, 0}, global[2];
   if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime >= c.seconds;  // one clock decides
   PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, comm));
-  const bool last = frame == deck.time.frames;
-  const bool stop = global[0] != 0 && !last;  // a signal at the last frame: the run is done anyway
-  if (stop || global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint(started_inverted));
-  if (!stop) PetscFunctionReturn(0);
+  if (global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint(started_inverted));
+  PetscCall(stop_for_signal(global[0], frame, started_inverted));
+  PetscFunctionReturn(0);
+}
+
+// A signal `sig` (0: none) asked to stop: a checkpoint of the state after `frame` unless one was
+// just written, and the run ends as interrupted. After the last frame the run is done anyway.
+PetscErrorCode Run::stop_for_signal(int sig, int frame, bool started_inverted) {
+  PetscFunctionBeginUser;
+  if (sig == 0 || frame >= deck.time.frames) PetscFunctionReturn(0);
+  if (last_checkpoint_frame != frame) PetscCall(write_checkpoint(started_inverted));
   interrupted = true;
-  summary.status = std::string("interrupted: ") + (global[0] == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
+  summary.status = std::string("interrupted: ") + (sig == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
                    std::to_string(frame) + " of " + std::to_string(deck.time.frames) +
                    "; a checkpoint was written: continue with --restart latest";
   PetscFunctionReturn(0);
@@ -465,6 +479,7 @@ PetscErrorCode Run::resume(bool* started_inverted) {
   // As if the run had not stopped: the checkpoint's frame counts as written if it was an output frame.
   last_written = state.frame % deck.output.every == 0 ? state.frame : -1;
   last_checkpoint_wtime = MPI_Wtime();
+  last_checkpoint_frame = state.frame;
   PetscFunctionReturn(0);
 }
 
@@ -482,20 +497,55 @@ static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const Sc
   return id;
 }
 
-// The checkpoint a restart continues from (restart: a path or "latest"), read and checked
-// against the deck before anything is written; false (said) if it cannot be used.
+// The VTK series of a run, if the deck asks for one. A restart (saved: its checkpoint) continues
+// the series the run started, under the name it started with, cut back to the checkpoint's frame;
+// if the deck no longer asks for VTK, the series is still cut back, so that its .pvd never lists
+// the abandoned frames. Collective.
+static void add_vtk_series(MPI_Comm comm, const Deck& deck, const std::string& outdir, const CheckpointHeader* saved,
+                           const DistributedMesh& mesh, std::vector<std::unique_ptr<OutputWriter>>& writers) {
+  const std::string* state = nullptr;
+  if (saved)
+    for (const auto& [key, value] : saved->writers)
+      if (key == VtkSeries::kRestartKey) state = &value;
+  const std::string started_as = state ? VtkSeries::series_name(*state) : "";
+  const std::string name = started_as.empty() ? deck.name : started_as;
+  if (!deck.output.vtk && started_as.empty()) return;
+  auto series = std::make_unique<VtkSeries>(comm, outdir, name);
+  series->begin_run(mesh);
+  if (state) {
+    std::string error;
+    try {
+      series->resume(*state, saved->frame);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    throw_if_any_failed(comm, error);
+    if (!deck.output.vtk)
+      PetscPrintf(comm, "hyperqn: output.vtk is false: %s/%s.pvd stays as it was at frame %d\n", outdir.c_str(),
+                  name.c_str(), saved->frame);
+    else if (name != deck.name)
+      PetscPrintf(comm, "hyperqn: the VTK series goes on as %s.pvd, the name it started with (the deck now says %s)\n",
+                  name.c_str(), deck.name.c_str());
+  }
+  if (deck.output.vtk) writers.push_back(std::move(series));
+}
+
+// The checkpoint a restart continues from (restart: a path, "latest" or "auto"), chosen and
+// checked against the deck before anything is written; false (said) if the run cannot go on.
+// restart "auto" without a checkpoint to continue: true with path "" (the deck starts afresh).
 static bool open_restart(MPI_Comm comm, const std::string& restart, const std::string& outdir,
                          const CheckpointHeader& identity, std::string& path, CheckpointHeader& saved) {
-  try {
-    path = restart;
-    if (restart == "latest") {
-      path = latest_checkpoint(comm, outdir + "/checkpoints");
-      if (path.empty()) throw std::runtime_error("--restart latest: no checkpoint in " + outdir + "/checkpoints");
-    }
-    saved = read_checkpoint_header(comm, path);
-  } catch (const std::exception& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+  const RestartChoice choice = choose_restart(comm, restart, outdir);
+  if (!choice.error.empty()) {
+    PetscPrintf(comm, "hyperqn: error: %s\n", choice.error.c_str());
     return false;
+  }
+  path = choice.path;
+  saved = choice.header;
+  if (path.empty()) {
+    PetscPrintf(comm, "hyperqn: --restart auto: %s holds no checkpoint of a run to continue: the deck starts afresh\n",
+                outdir.c_str());
+    return true;
   }
   const std::string why = checkpoint_mismatch(saved, identity);
   if (why.empty()) return true;
@@ -503,8 +553,9 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
   return false;
 }
 
-int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart) {
+int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart_arg) {
   const double t_start = MPI_Wtime();
+  catch_stop_signals();  // from the start: a signal during setup stops the run before its first frame
   int rank, size;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
@@ -519,20 +570,24 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   CheckpointHeader identity = scene_identity(comm, deck, input), saved;
   std::string restart_path;
-  if (!restart.empty() && !open_restart(comm, restart, outdir, identity, restart_path, saved)) return 1;
+  if (!restart_arg.empty() && !open_restart(comm, restart_arg, outdir, identity, restart_path, saved)) return 1;
+  const bool restart = !restart_path.empty();  // else a new run (also --restart auto without a checkpoint)
+  identity.run_id = restart ? saved.run_id : new_run_id(comm);
+  identity.run_started = restart ? saved.run_started : utc_now(comm);
+  identity.deck = restart ? saved.deck : deck.path;
 
   // 2. Distribute, assemble, factor.
   RunOptions options;
   if (read_run_options(comm, &options)) return 1;
   Run run(comm, deck, options);
   run.t_start = t_start;
-  run.checkpoint_dir = outdir + "/checkpoints";
+  run.checkpoints = std::make_unique<CheckpointStore>(comm, outdir + "/checkpoints", deck.checkpoint.keep);
   run.summary.dropped_vertices = repaired.dropped_vertices;
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
     PetscErrors errors;
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
-        (!restart.empty() && run.scene.restore_released(saved.released, saved.released_attachments)) ||
+        (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().constant_matrix(deck.solver), run.solver)) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
@@ -547,7 +602,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     identity.vertices = scene.mesh.global_vertices;
     run.identity = identity;
   }
-  if (!restart.empty()) {
+  if (restart) {
     std::string why = checkpoint_mismatch(saved, identity);
     if (why.empty() && saved.dofs != scene.mesh.global_dofs)
       why = "the scene has " + std::to_string(scene.mesh.global_dofs) + " dofs, the checkpoint's " + std::to_string(saved.dofs);
@@ -562,6 +617,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   }
   RunSummary& summary = run.summary;
   summary.deck = deck.path;
+  summary.run_id = identity.run_id;
   summary.solver = deck.solver.type;
   if (!run.solver->overridden().empty()) summary.solver += " (" + run.solver->overridden() + ")";
   summary.ranks = size;
@@ -600,12 +656,23 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     std::string error;
     if (rank == 0) {
       try {
-        // The frames of two runs must never mix: what an earlier run wrote here goes first; a
-        // restart keeps the frames up to its checkpoint instead (below).
-        if (!run.restart)
-          if (const int removed = clear_previous_run(outdir))
-            PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier run's output: %d file(s) removed\n",
-                        outdir.c_str(), removed);
+        const std::string earlier = summary_run_id(outdir + "/summary.json");
+        // A summary from the start: a run that is killed leaves one that says it did not end. It
+        // names this run, so from here on no restart takes an earlier run's files for this one's.
+        RunSummary started = summary;
+        started.status = "incomplete: the run started and did not end (still running, or killed)";
+        write_summary(outdir + "/summary.json", started);
+        // The frames of two runs must never mix: what an earlier run wrote here goes, its
+        // checkpoints first; a restart keeps the frames up to its checkpoint instead (below).
+        if (!run.restart) {
+          const Cleared cleared = clear_previous_run(outdir);
+          if (cleared.files || cleared.checkpoints)
+            PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier run's output%s: %d file(s) and %d checkpoint(s) removed\n",
+                        outdir.c_str(), earlier.empty() ? "" : (" (run " + earlier + ")").c_str(), cleared.files,
+                        cleared.checkpoints);
+        } else {
+          remove_interrupted_writes(outdir);  // a killed part's temporaries
+        }
         const bool contact_csv = deck.output.contact_csv && scene.contact;
         if (run.restart) {  // the logs as they were at the checkpoint's frame, then continued
           if (deck.output.iterations_csv) run.log.resume(outdir + "/iterations.csv", rank, saved.frame);
@@ -614,27 +681,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
           if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
           if (contact_csv) run.contact_log.open(outdir + "/contact.csv", rank);
         }
-        // A summary from the start: a run that is killed leaves one that says it did not end.
-        RunSummary started = summary;
-        started.status = "incomplete: the run started and did not end (still running, or killed)";
-        write_summary(outdir + "/summary.json", started);
       } catch (const std::exception& e) {
         error = e.what();
       }
     }
     throw_if_any_failed(comm, error);
-    if (deck.output.vtk) run.writers.push_back(std::make_unique<VtkSeries>(comm, outdir, deck.name));
-    for (auto& w : run.writers) w->begin_run(scene.mesh);
-    if (run.restart) {  // the writers as they were at the checkpoint's frame
-      const int frame = saved.frame;
-      remove_checkpoints_after(comm, run.checkpoint_dir, frame);
-      for (auto& w : run.writers) {
-        std::string state;
-        for (const auto& [key, value] : saved.writers)
-          if (key == w->restart_key()) state = value;
-        w->resume(state, frame);
-      }
-    }
+    if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
+    add_vtk_series(comm, deck, outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
     catch_stop_signals();
     PetscErrors errors;
     if (run.time_loop(ok)) {

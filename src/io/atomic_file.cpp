@@ -122,7 +122,13 @@ void LineFile::flush() {
   if (fd_ < 0 || pending_.empty()) return;
   std::string lines;
   lines.swap(pending_);  // written or not, they are not written twice
-  if (!write_all(fd_, lines.data(), lines.size())) throw std::runtime_error(failure(path_, errno));
+  const off_t end = ::lseek(fd_, 0, SEEK_END);
+  if (!write_all(fd_, lines.data(), lines.size())) {
+    const int err = errno;
+    // A full disk may have taken part of the lines: cut the file back to its last whole row.
+    if (end >= 0 && ::ftruncate(fd_, end) == 0) ::lseek(fd_, end, SEEK_SET);
+    throw std::runtime_error(failure(path_, err));
+  }
 }
 
 }  // namespace hyperqn

@@ -31,7 +31,8 @@ void throw_if_any_failed(MPI_Comm comm, const std::string& error);
 
 // A log appended one whole line at a time (iterations.csv, contact.csv): lines are held in
 // memory until flush(), which hands them to the kernel in one write, so a kill leaves only
-// complete lines (unless it lands inside that one write call). Only the rank that opened it
+// complete lines (unless it lands inside that one write call); a failed write (a full disk) cuts
+// the file back to the lines before it. Only the rank that opened it
 // writes. Errors throw std::runtime_error naming the path.
 class LineFile {
  public:

@@ -1,16 +1,17 @@
 #include "io/checkpoint.hpp"
 
-#include <petscviewerhdf5.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/hdf5_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -18,10 +19,9 @@ namespace hyperqn {
 
 namespace {
 
-constexpr const char* kRoot = "/";
 constexpr const char* kPrefix = "checkpoint_";
 constexpr const char* kSuffix = ".h5";
-constexpr const char* kTemporary = ".h5.tmp";
+constexpr int kTagRows = 7031;  // the messages that carry a rank's rows to or from rank 0
 
 // The summary's counters, each stored as summary_<name>. Frame counters describe frames
 // 1..frame and are restored; work counters (times, factorizations, solves) are added to the
@@ -75,70 +75,211 @@ std::vector<char> parse_flags(const std::string& s) {
   return flags;
 }
 
-// Attribute writers and readers on the root group. Strings are never empty in the file (HDF5
-// refuses a string type of size 0 in some versions): "-" stands for "".
-PetscErrorCode put_text(PetscViewer v, const std::string& name, const std::string& text) {
-  PetscFunctionBeginUser;
-  const std::string stored = "-" + text;
-  PetscCall(PetscViewerHDF5WriteAttribute(v, kRoot, name.c_str(), PETSC_STRING, stored.c_str()));
-  PetscFunctionReturn(0);
-}
-PetscErrorCode get_text(PetscViewer v, const std::string& name, std::string& text) {
-  char* value = nullptr;
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5ReadAttribute(v, kRoot, name.c_str(), PETSC_STRING, nullptr, &value));
-  text = value && value[0] ? std::string(value + 1) : std::string();
-  PetscCall(PetscFree(value));
-  PetscFunctionReturn(0);
-}
-PetscErrorCode put_long(PetscViewer v, const std::string& name, long long x) {
-  PetscFunctionBeginUser;
-  long value = (long)x;
-  PetscCall(PetscViewerHDF5WriteAttribute(v, kRoot, name.c_str(), PETSC_LONG, &value));
-  PetscFunctionReturn(0);
-}
-PetscErrorCode get_long(PetscViewer v, const std::string& name, long long& x) {
-  long value = 0;
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5ReadAttribute(v, kRoot, name.c_str(), PETSC_LONG, nullptr, &value));
-  x = value;
-  PetscFunctionReturn(0);
-}
-PetscErrorCode get_int(PetscViewer v, const std::string& name, int& x) {
-  long long value = 0;
-  PetscFunctionBeginUser;
-  PetscCall(get_long(v, name, value));
-  x = (int)value;
-  PetscFunctionReturn(0);
-}
-PetscErrorCode put_real(PetscViewer v, const std::string& name, double x) {
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5WriteAttribute(v, kRoot, name.c_str(), PETSC_DOUBLE, &x));
-  PetscFunctionReturn(0);
-}
-PetscErrorCode get_real(PetscViewer v, const std::string& name, double& x) {
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5ReadAttribute(v, kRoot, name.c_str(), PETSC_DOUBLE, nullptr, &x));
-  PetscFunctionReturn(0);
+// The header as "key value" lines (values on one line; doubles with 17 digits, read back exactly).
+class HeaderLines {
+ public:
+  void put(const std::string& key, const std::string& value) {
+    std::string one_line = value;
+    std::replace(one_line.begin(), one_line.end(), '\n', ' ');
+    text_ += key + " " + one_line + "\n";
+  }
+  void put(const std::string& key, long long x) { put(key, std::to_string(x)); }
+  void put(const std::string& key, double x) {
+    char text[40];
+    std::snprintf(text, sizeof text, "%.17g", x);
+    put(key, std::string(text));
+  }
+  const std::string& text() const { return text_; }
+
+  // Parses text; get* throw std::runtime_error naming a missing or malformed key.
+  explicit HeaderLines(const std::string& text = "") {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      const size_t space = line.find(' ');
+      if (space != std::string::npos) values_[line.substr(0, space)] = line.substr(space + 1);
+    }
+  }
+  bool has(const std::string& key) const { return values_.count(key) > 0; }
+  std::string get(const std::string& key) const {
+    const auto it = values_.find(key);
+    if (it == values_.end()) throw std::runtime_error("its header has no " + key);
+    return it->second;
+  }
+  long long get_long(const std::string& key) const {
+    const std::string v = get(key);
+    char* end = nullptr;
+    const long long x = std::strtoll(v.c_str(), &end, 10);
+    if (v.empty() || *end) throw std::runtime_error("its header's " + key + " is not an integer");
+    return x;
+  }
+  double get_real(const std::string& key) const {
+    const std::string v = get(key);
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end) throw std::runtime_error("its header's " + key + " is not a number");
+    return x;
+  }
+
+ private:
+  std::string text_;
+  std::map<std::string, std::string> values_;
+};
+
+// Every text item of a checkpoint: "header" and the texts that grow with the run.
+std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
+  HeaderLines head;
+  head.put("format_version", (long long)h.version);
+  head.put("run_id", h.run_id);
+  head.put("run_started", h.run_started);
+  head.put("deck", h.deck);
+  head.put("mesh_hash", h.mesh_hash);
+  head.put("vertices", h.vertices);
+  head.put("dofs", h.dofs);
+  head.put("vertex_slots", h.vertex_slots);
+  head.put("ranks", (long long)h.ranks);
+  head.put("frame", (long long)h.frame);
+  head.put("time", h.time);
+  head.put("body_time", h.body_time);
+  head.put("released", flags_text(h.released));
+  head.put("released_attachments", flags_text(h.released_attachments));
+  head.put("started_inverted", (long long)h.started_inverted);
+  const RunSummary& s = h.summary;
+  for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
+  for (const auto& f : kIntFields) head.put(std::string("summary_") + f.name, (long long)(s.*f.member));
+  for (const auto& f : kRealFields) head.put(std::string("summary_") + f.name, s.*f.member);
+  std::string keys;
+  for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
+  head.put("writers", keys);
+
+  std::map<std::string, std::string> texts;
+  texts["header"] = head.text();
+  texts["physics"] = h.physics;
+  std::string flagged, inverted;
+  for (const auto& [frame, reason] : s.flagged_frames) {
+    std::string one_line = reason;
+    std::replace(one_line.begin(), one_line.end(), '\n', ' ');
+    flagged += std::to_string(frame) + "\t" + one_line + "\n";
+  }
+  for (int frame : s.inverted_frames) inverted += std::to_string(frame) + "\n";
+  texts["flagged_frames"] = flagged;
+  texts["inverted_frames"] = inverted;
+  for (const auto& [key, state] : h.writers) texts["writer_" + key] = state;
+  return texts;
 }
 
-// A vector of 3 entries per vertex slot, in PETSc's default layout (the natural order).
-PetscErrorCode create_natural(MPI_Comm comm, long long slots, const char* name, Vec* v) {
+// The header from a checkpoint's texts; throws std::runtime_error saying what is missing.
+CheckpointHeader header_of(const std::function<std::string(const std::string&)>& text) {
+  CheckpointHeader h;
+  const HeaderLines head(text("header"));
+  h.version = (int)head.get_long("format_version");
+  if (h.version != CheckpointHeader::kVersion)
+    throw std::runtime_error("it is of format version " + std::to_string(h.version) + ", this hyperqn reads version " +
+                             std::to_string(CheckpointHeader::kVersion));
+  h.run_id = head.get("run_id");
+  h.run_started = head.get("run_started");
+  h.deck = head.get("deck");
+  h.mesh_hash = head.get("mesh_hash");
+  h.vertices = head.get_long("vertices");
+  h.dofs = head.get_long("dofs");
+  h.vertex_slots = head.get_long("vertex_slots");
+  h.ranks = (int)head.get_long("ranks");
+  h.frame = (int)head.get_long("frame");
+  h.time = head.get_real("time");
+  h.body_time = head.get_real("body_time");
+  h.released = parse_flags(head.get("released"));
+  h.released_attachments = parse_flags(head.get("released_attachments"));
+  h.started_inverted = (int)head.get_long("started_inverted");
+  RunSummary& s = h.summary;
+  for (const auto& f : kLongFields) s.*f.member = head.get_long(std::string("summary_") + f.name);
+  for (const auto& f : kIntFields) s.*f.member = (int)head.get_long(std::string("summary_") + f.name);
+  for (const auto& f : kRealFields) s.*f.member = head.get_real(std::string("summary_") + f.name);
+  h.physics = text("physics");
+  std::istringstream flagged(text("flagged_frames"));
+  for (std::string line; std::getline(flagged, line);) {
+    const size_t tab = line.find('\t');
+    s.flagged_frames.emplace_back(std::atoi(line.substr(0, tab).c_str()), tab == std::string::npos ? "" : line.substr(tab + 1));
+  }
+  std::istringstream inverted(text("inverted_frames"));
+  for (int frame; inverted >> frame;) s.inverted_frames.push_back(frame);
+  std::istringstream keys(head.get("writers"));
+  for (std::string key; keys >> key;) h.writers.emplace_back(key, text("writer_" + key));
+  return h;
+}
+
+// A vector of 3 entries per vertex slot in PETSc's default layout (the natural order): rank r
+// holds a contiguous block of rows, which it sends to or receives from rank 0.
+PetscErrorCode create_natural(MPI_Comm comm, long long slots, Vec* v) {
   PetscFunctionBeginUser;
   PetscCall(VecCreate(comm, v));
   PetscCall(VecSetSizes(*v, PETSC_DECIDE, (PetscInt)(3 * slots)));
   PetscCall(VecSetBlockSize(*v, 3));
   PetscCall(VecSetType(*v, VECSTANDARD));
-  PetscCall(PetscObjectSetName((PetscObject)*v, name));
   PetscFunctionReturn(0);
 }
 
-// Writes local per-vertex values (owned vertices) at their vertex ids.
-PetscErrorCode view_by_vertex_id(PetscViewer viewer, MPI_Comm comm, const DistributedMesh& mesh, long long slots,
-                                 const char* name, const std::vector<double>& values) {
-  Vec natural;
+// Rank 0 receives every rank's rows of `natural` in rank order and hands each block to
+// `write(first_row, rows, data)` (which must not throw).
+using RowsOut = std::function<void(hsize_t, hsize_t, const double*)>;
+PetscErrorCode gather_rows(MPI_Comm comm, Vec natural, const RowsOut& write) {
+  int rank, size;
+  const PetscInt* ranges;
+  const PetscScalar* a;
   PetscFunctionBeginUser;
-  PetscCall(create_natural(comm, slots, name, &natural));
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  PetscCall(VecGetOwnershipRanges(natural, &ranges));
+  PetscCall(VecGetArrayRead(natural, &a));
+  if (rank == 0) {
+    std::vector<double> block;
+    for (int r = 0; r < size; ++r) {
+      const PetscInt n = ranges[r + 1] - ranges[r];
+      const double* data = a;
+      if (r > 0) {
+        block.resize(n);
+        PetscCallMPI(MPI_Recv(block.data(), (int)n, MPI_DOUBLE, r, kTagRows, comm, MPI_STATUS_IGNORE));
+        data = block.data();
+      }
+      write((hsize_t)ranges[r] / 3, (hsize_t)n / 3, data);
+    }
+  } else {
+    PetscCallMPI(MPI_Send(a, (int)(ranges[rank + 1] - ranges[rank]), MPI_DOUBLE, 0, kTagRows, comm));
+  }
+  PetscCall(VecRestoreArrayRead(natural, &a));
+  PetscFunctionReturn(0);
+}
+
+// The reverse: rank 0 fills each rank's block with `read(first_row, rows, data)` (which must
+// not throw, and fills the block even when it fails) and sends it.
+using RowsIn = std::function<void(hsize_t, hsize_t, double*)>;
+PetscErrorCode scatter_rows(MPI_Comm comm, Vec natural, const RowsIn& read) {
+  int rank, size;
+  const PetscInt* ranges;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  PetscCall(VecGetOwnershipRanges(natural, &ranges));
+  PetscCall(VecGetArray(natural, &a));
+  if (rank == 0) {
+    std::vector<double> block;
+    for (int r = 0; r < size; ++r) {
+      const PetscInt n = ranges[r + 1] - ranges[r];
+      block.assign(n, 0.0);
+      read((hsize_t)ranges[r] / 3, (hsize_t)n / 3, r == 0 ? a : block.data());
+      if (r > 0) PetscCallMPI(MPI_Send(block.data(), (int)n, MPI_DOUBLE, r, kTagRows, comm));
+    }
+  } else {
+    PetscCallMPI(MPI_Recv(a, (int)(ranges[rank + 1] - ranges[rank]), MPI_DOUBLE, 0, kTagRows, comm, MPI_STATUS_IGNORE));
+  }
+  PetscCall(VecRestoreArray(natural, &a));
+  PetscFunctionReturn(0);
+}
+
+// Local per-vertex values (owned vertices) at their vertex ids in a natural vector.
+PetscErrorCode to_natural(MPI_Comm comm, const DistributedMesh& mesh, long long slots, const std::vector<double>& values,
+                          Vec* natural) {
+  PetscFunctionBeginUser;
+  PetscCall(create_natural(comm, slots, natural));
   std::vector<PetscInt> rows;
   std::vector<PetscScalar> data;
   for (PetscInt i = 0; i < mesh.num_vertices; ++i) {
@@ -148,24 +289,19 @@ PetscErrorCode view_by_vertex_id(PetscViewer viewer, MPI_Comm comm, const Distri
       data.push_back(values[3 * i + d]);
     }
   }
-  PetscCall(VecSet(natural, 0.0));
-  PetscCall(VecSetValues(natural, (PetscInt)rows.size(), rows.data(), data.data(), INSERT_VALUES));
-  PetscCall(VecAssemblyBegin(natural));
-  PetscCall(VecAssemblyEnd(natural));
-  PetscCall(VecView(natural, viewer));
-  PetscCall(VecDestroy(&natural));
+  PetscCall(VecSet(*natural, 0.0));
+  PetscCall(VecSetValues(*natural, (PetscInt)rows.size(), rows.data(), data.data(), INSERT_VALUES));
+  PetscCall(VecAssemblyBegin(*natural));
+  PetscCall(VecAssemblyEnd(*natural));
   PetscFunctionReturn(0);
 }
 
-// Reads per-vertex values for every local vertex (ghosts included) from their vertex ids.
-PetscErrorCode load_by_vertex_id(PetscViewer viewer, MPI_Comm comm, const DistributedMesh& mesh, long long slots,
-                                 const char* name, std::vector<double>& values) {
-  Vec natural, local;
+// Per-vertex values for every local vertex (ghosts included) from their vertex ids.
+PetscErrorCode from_natural(Vec natural, const DistributedMesh& mesh, std::vector<double>& values) {
+  Vec local;
   IS rows;
   VecScatter scatter;
   PetscFunctionBeginUser;
-  PetscCall(create_natural(comm, slots, name, &natural));
-  PetscCall(VecLoad(natural, viewer));
   std::vector<PetscInt> idx(3 * mesh.num_vertices);
   for (PetscInt i = 0; i < mesh.num_vertices; ++i)
     for (int d = 0; d < 3; ++d) idx[3 * i + d] = (PetscInt)(3 * mesh.vertex_ids[i] + d);
@@ -181,126 +317,10 @@ PetscErrorCode load_by_vertex_id(PetscViewer viewer, MPI_Comm comm, const Distri
   PetscCall(VecScatterDestroy(&scatter));
   PetscCall(ISDestroy(&rows));
   PetscCall(VecDestroy(&local));
-  PetscCall(VecDestroy(&natural));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode write_file(MPI_Comm comm, const std::string& path, const CheckpointHeader& h, const DistributedMesh& mesh,
-                          const std::vector<double>& pos, const std::vector<double>& vel) {
-  PetscViewer v;
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5Open(comm, path.c_str(), FILE_MODE_WRITE, &v));
-  PetscCall(view_by_vertex_id(v, comm, mesh, h.vertex_slots, "positions", pos));
-  PetscCall(view_by_vertex_id(v, comm, mesh, h.vertex_slots, "velocities", vel));
-  PetscCall(put_long(v, "format_version", h.version));
-  PetscCall(put_text(v, "physics", h.physics));
-  PetscCall(put_text(v, "mesh_hash", h.mesh_hash));
-  PetscCall(put_long(v, "vertices", h.vertices));
-  PetscCall(put_long(v, "dofs", h.dofs));
-  PetscCall(put_long(v, "vertex_slots", h.vertex_slots));
-  PetscCall(put_long(v, "ranks", h.ranks));
-  PetscCall(put_long(v, "frame", h.frame));
-  PetscCall(put_real(v, "time", h.time));
-  PetscCall(put_real(v, "body_time", h.body_time));
-  PetscCall(put_text(v, "released", flags_text(h.released)));
-  PetscCall(put_text(v, "released_attachments", flags_text(h.released_attachments)));
-  PetscCall(put_long(v, "started_inverted", h.started_inverted));
-  const RunSummary& s = h.summary;
-  for (const auto& f : kLongFields) PetscCall(put_long(v, std::string("summary_") + f.name, s.*f.member));
-  for (const auto& f : kIntFields) PetscCall(put_long(v, std::string("summary_") + f.name, s.*f.member));
-  for (const auto& f : kRealFields) PetscCall(put_real(v, std::string("summary_") + f.name, s.*f.member));
-  std::string flagged, inverted;
-  for (const auto& [frame, reason] : s.flagged_frames) {
-    std::string one_line = reason;
-    std::replace(one_line.begin(), one_line.end(), '\n', ' ');
-    flagged += std::to_string(frame) + "\t" + one_line + "\n";
-  }
-  for (int frame : s.inverted_frames) inverted += std::to_string(frame) + "\n";
-  PetscCall(put_text(v, "summary_flagged_frames", flagged));
-  PetscCall(put_text(v, "summary_inverted_frames", inverted));
-  std::string keys;
-  for (const auto& [key, state] : h.writers) {
-    keys += key + "\n";
-    PetscCall(put_text(v, "writer_" + key, state));
-  }
-  PetscCall(put_text(v, "writers", keys));
-  PetscCall(PetscViewerDestroy(&v));  // closes the file on every rank
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode read_header(MPI_Comm comm, const std::string& path, CheckpointHeader& h) {
-  PetscViewer v;
-  long long x = 0;
-  PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5Open(comm, path.c_str(), FILE_MODE_READ, &v));
-  PetscCall(get_int(v, "format_version", h.version));
-  if (h.version != CheckpointHeader::kVersion) {
-    PetscCall(PetscViewerDestroy(&v));
-    PetscFunctionReturn(0);  // the caller says so
-  }
-  PetscCall(get_text(v, "physics", h.physics));
-  PetscCall(get_text(v, "mesh_hash", h.mesh_hash));
-  PetscCall(get_long(v, "vertices", h.vertices));
-  PetscCall(get_long(v, "dofs", h.dofs));
-  PetscCall(get_long(v, "vertex_slots", h.vertex_slots));
-  PetscCall(get_int(v, "ranks", h.ranks));
-  PetscCall(get_int(v, "frame", h.frame));
-  PetscCall(get_real(v, "time", h.time));
-  PetscCall(get_real(v, "body_time", h.body_time));
-  std::string text;
-  PetscCall(get_text(v, "released", text));
-  h.released = parse_flags(text);
-  PetscCall(get_text(v, "released_attachments", text));
-  h.released_attachments = parse_flags(text);
-  PetscCall(get_int(v, "started_inverted", h.started_inverted));
-  RunSummary& s = h.summary;
-  for (const auto& f : kLongFields) {
-    const std::string name = std::string("summary_") + f.name;
-    PetscBool has = PETSC_TRUE;
-    // Added after format version 1: a checkpoint written before has none (0).
-    if (f.member == &RunSummary::pulled_back_guesses)
-      PetscCall(PetscViewerHDF5HasAttribute(v, kRoot, name.c_str(), &has));
-    if (has) PetscCall(get_long(v, name, s.*f.member));
-  }
-  for (const auto& f : kIntFields) {
-    PetscCall(get_long(v, std::string("summary_") + f.name, x));
-    s.*f.member = (int)x;
-  }
-  for (const auto& f : kRealFields) PetscCall(get_real(v, std::string("summary_") + f.name, s.*f.member));
-  PetscCall(get_text(v, "summary_flagged_frames", text));
-  std::istringstream flagged(text);
-  for (std::string line; std::getline(flagged, line);) {
-    const size_t tab = line.find('\t');
-    s.flagged_frames.emplace_back(std::atoi(line.substr(0, tab).c_str()), tab == std::string::npos ? "" : line.substr(tab + 1));
-  }
-  PetscCall(get_text(v, "summary_inverted_frames", text));
-  std::istringstream inverted(text);
-  for (int frame; inverted >> frame;) s.inverted_frames.push_back(frame);
-  PetscCall(get_text(v, "writers", text));
-  std::istringstream keys(text);
-  for (std::string key; std::getline(keys, key);) {
-    std::string state;
-    PetscCall(get_text(v, "writer_" + key, state));
-    h.writers.emplace_back(key, state);
-  }
-  PetscCall(PetscViewerDestroy(&v));
-  PetscFunctionReturn(0);
-}
-
-// Runs fn on rank 0; an exception there is thrown on every rank (throw_if_any_failed).
-void on_rank0(MPI_Comm comm, const std::function<void()>& fn) {
-  int rank;
-  MPI_Comm_rank(comm, &rank);
-  std::string error;
-  if (rank == 0) {
-    try {
-      fn();
-    } catch (const std::exception& e) {
-      error = *e.what() ? e.what() : "checkpoint error";
-    }
-  }
-  throw_if_any_failed(comm, error);
-}
+const char* const kVertexSets[] = {"positions", "velocities"};
 
 }  // namespace
 
@@ -349,55 +369,148 @@ std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointH
   return "";
 }
 
-PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& dir, const CheckpointHeader& h,
+PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
                                 const DistributedMesh& mesh, const std::vector<double>& pos,
-                                const std::vector<double>& vel, int keep, std::string* path) {
+                                const std::vector<double>& vel) {
+  int rank;
   PetscFunctionBeginUser;
-  const std::string name = kPrefix + std::to_string(h.frame);
-  const std::string tmp = dir + "/" + name + kTemporary;
-  *path = dir + "/" + name + kSuffix;
-  on_rank0(comm, [&] { fs::create_directories(dir); });
-  PetscCall(write_file(comm, tmp, h, mesh, pos, vel));
-  PetscCallMPI(MPI_Barrier(comm));  // every rank has closed the file
-  on_rank0(comm, [&] {
-    fs::rename(tmp, *path);  // atomic on one file system: the name appears complete
-    std::vector<std::pair<int, fs::path>> all;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      const int frame = checkpoint_frame(e.path().filename().string());
-      if (frame >= 0) all.emplace_back(frame, e.path());
+  MPI_Comm_rank(comm, &rank);
+  const std::string tmp = atomic_temporary(path);
+  std::string error;  // rank 0's first failure; it goes on receiving so that no rank waits
+  std::optional<Hdf5File> file;
+  if (rank == 0) {
+    try {
+      file.emplace(Hdf5File::create(tmp));
+      for (const auto& [name, text] : texts_of(h)) file->write_text(name, text);
+      for (const char* name : kVertexSets) file->create_rows(name, (hsize_t)h.vertex_slots, 3);
+    } catch (const std::exception& e) {
+      error = e.what();
     }
-    std::sort(all.begin(), all.end());
-    for (size_t k = 0; k + keep < all.size(); ++k) fs::remove(all[k].second);
-  });
+  }
+  const std::vector<double>* values[] = {&pos, &vel};
+  for (int k = 0; k < 2; ++k) {
+    Vec natural;
+    PetscCall(to_natural(comm, mesh, h.vertex_slots, *values[k], &natural));
+    PetscCall(gather_rows(comm, natural, [&](hsize_t first, hsize_t rows, const double* data) {
+      if (!error.empty()) return;
+      try {
+        file->write_rows(kVertexSets[k], first, rows, 3, data);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }));
+    PetscCall(VecDestroy(&natural));
+  }
+  if (rank == 0) {
+    try {
+      if (error.empty()) {
+        file->close();
+        commit_temporary(tmp, path);
+      }
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    if (!error.empty()) {
+      file.reset();
+      std::remove(tmp.c_str());  // the space a full disk needs for summary.json
+      // Messages name the checkpoint, not its temporary.
+      for (size_t at; (at = error.find(tmp)) != std::string::npos;) error.replace(at, tmp.size(), path);
+    }
+  }
+  throw_if_any_failed(comm, error);
   PetscFunctionReturn(0);
 }
 
-CheckpointHeader read_checkpoint_header(MPI_Comm comm, const std::string& path) {
-  on_rank0(comm, [&] {
-    std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) throw std::runtime_error("no checkpoint file " + path);
-  });
-  CheckpointHeader h;
-  h.version = -1;
-  PetscPushErrorHandler(PetscIgnoreErrorHandler, nullptr);  // a bad file is said once, below
-  const PetscErrorCode ierr = read_header(comm, path, h);
-  PetscPopErrorHandler();
-  int bad = ierr != 0 || h.version != CheckpointHeader::kVersion, any = 0;
-  MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, comm);
-  if (any)
-    throw std::runtime_error(path + " is not a hyperqn checkpoint of format version " +
-                             std::to_string(CheckpointHeader::kVersion) + " (or cannot be read)");
-  return h;
+std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header, bool data) {
+  try {
+    const Hdf5File file = Hdf5File::open(path);
+    for (const char* name : {"header", "physics", "flagged_frames", "inverted_frames"})
+      if (!file.has(name)) return "not a hyperqn checkpoint (no " + std::string(name) + ")";
+    *header = header_of([&](const std::string& name) { return file.read_text(name); });
+    const int named = checkpoint_frame(fs::path(path).filename().string());
+    if (named >= 0 && named != header->frame)
+      return "its name says frame " + std::to_string(named) + ", its header frame " + std::to_string(header->frame);
+    if (!data) return "";
+    const hsize_t slots = (hsize_t)header->vertex_slots, block = 65536;
+    std::vector<double> rows;
+    for (const char* name : kVertexSets) {
+      if (file.rows(name) != slots)
+        return std::string(name) + " has " + std::to_string(file.rows(name)) + " rows, its header " +
+               std::to_string(slots) + " vertex slots";
+      for (hsize_t first = 0; first < slots; first += block) {  // every chunk read: every checksum checked
+        const hsize_t n = std::min(block, slots - first);
+        rows.resize(3 * n);
+        file.read_rows(name, first, n, 3, rows.data());
+      }
+    }
+  } catch (const std::exception& e) {
+    const std::string prefix = "cannot read " + path + ": ";
+    const std::string what = e.what();
+    return what.compare(0, prefix.size(), prefix) == 0 ? what.substr(prefix.size()) : what;
+  }
+  return "";
+}
+
+CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  // Each text as its length and bytes, in the order of texts_of.
+  std::string packed;
+  if (rank == 0)
+    for (const auto& [name, text] : texts_of(header)) packed += std::to_string(name.size()) + " " + name +
+                                                                std::to_string(text.size()) + " " + text;
+  long long n = (long long)packed.size();
+  MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm);
+  packed.resize((size_t)n);
+  MPI_Bcast(&packed[0], (int)n, MPI_CHAR, 0, comm);
+  if (rank == 0) return header;
+  std::map<std::string, std::string> texts;
+  size_t at = 0;
+  const auto next = [&]() {
+    const size_t space = packed.find(' ', at);
+    const size_t len = std::stoul(packed.substr(at, space - at));
+    std::string s = packed.substr(space + 1, len);
+    at = space + 1 + len;
+    return s;
+  };
+  while (at < packed.size()) {
+    std::string name = next();
+    texts[name] = next();
+  }
+  return header_of([&](const std::string& name) { return texts.at(name); });
 }
 
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
                                         long long vertex_slots, std::vector<double>& pos, std::vector<double>& vel) {
-  PetscViewer v;
+  int rank;
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerHDF5Open(comm, path.c_str(), FILE_MODE_READ, &v));
-  PetscCall(load_by_vertex_id(v, comm, mesh, vertex_slots, "positions", pos));
-  PetscCall(load_by_vertex_id(v, comm, mesh, vertex_slots, "velocities", vel));
-  PetscCall(PetscViewerDestroy(&v));
+  MPI_Comm_rank(comm, &rank);
+  std::string error;
+  std::optional<Hdf5File> file;
+  if (rank == 0) {
+    try {
+      file.emplace(Hdf5File::open(path));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  std::vector<double>* values[] = {&pos, &vel};
+  for (int k = 0; k < 2; ++k) {
+    Vec natural;
+    PetscCall(create_natural(comm, vertex_slots, &natural));
+    PetscCall(scatter_rows(comm, natural, [&](hsize_t first, hsize_t rows, double* data) {
+      if (!error.empty()) return;
+      try {
+        file->read_rows(kVertexSets[k], first, rows, 3, data);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }));
+    PetscCall(from_natural(natural, mesh, *values[k]));
+    PetscCall(VecDestroy(&natural));
+  }
+  file.reset();
+  throw_if_any_failed(comm, error);
   PetscFunctionReturn(0);
 }
 
@@ -411,40 +524,7 @@ int checkpoint_frame(const std::string& filename) {
   return std::atoi(digits.c_str());
 }
 
-std::string latest_checkpoint(MPI_Comm comm, const std::string& dir) {
-  std::string found;
-  on_rank0(comm, [&] {
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) return;
-    int best = -1;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      const int frame = checkpoint_frame(e.path().filename().string());
-      if (frame > best) {
-        best = frame;
-        found = e.path().string();
-      }
-    }
-  });
-  int n = (int)found.size();
-  MPI_Bcast(&n, 1, MPI_INT, 0, comm);
-  found.resize(n);
-  MPI_Bcast(found.data(), n, MPI_CHAR, 0, comm);
-  return found;
-}
-
-void remove_checkpoints_after(MPI_Comm comm, const std::string& dir, int frame) {
-  on_rank0(comm, [&] {
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) return;
-    std::vector<fs::path> gone;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      const std::string name = e.path().filename().string();
-      const bool temporary = name.size() > 4 && name.compare(name.size() - 4, 4, ".tmp") == 0;
-      if (checkpoint_frame(name) > frame || (temporary && name.rfind(kPrefix, 0) == 0)) gone.push_back(e.path());
-    }
-    for (const auto& p : gone) fs::remove(p);
-  });
-}
+std::string checkpoint_name(int frame) { return kPrefix + std::to_string(frame) + kSuffix; }
 
 void restore_frame_counters(RunSummary& s, const RunSummary& saved) {
   for (const auto& f : kLongFields)

@@ -1,18 +1,22 @@
-// Checkpoints: the state of a run in one HDF5 file (PETSc's HDF5 viewer), from which
-// `hyperqn DECK --restart PATH|latest` continues it exactly (docs/outputs.md#checkpoints).
-// The file format is defined here and only here.
+// Checkpoints: the state of a run in one HDF5 file, from which `hyperqn DECK --restart
+// PATH|latest|auto` continues it exactly (docs/outputs.md#checkpoints). The file format is
+// defined here and only here; which checkpoints of a directory a restart may use is
+// io/checkpoint_store.hpp's business.
 //
-// OUTDIR/checkpoints/checkpoint_<frame>.h5 holds
-//  - datasets "positions" and "velocities": (slots, 3) doubles in vertex-id order (row i = the
-//    vertex with vertex_id i in the input mesh; rows of ids that cleaning dropped are 0), every
-//    vertex, fixed ones included: their prescribed position and velocity at the checkpoint's
-//    time (Body::set_time makes a fixed vertex's velocity the mean over the last step, which a
-//    fresh Body cannot know). The order does not depend on the partition, so a checkpoint written
-//    at N ranks restarts at M.
-//  - attributes of the root group: format_version, physics (one "section hash" line per physics
-//    section of the deck), mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time,
-//    released, released_attachments, started_inverted, the run's counters so far (summary_*), and
-//    each output writer's restart state (writer_<key>).
+// OUTDIR/checkpoints/checkpoint_<frame>.h5 holds, every item a dataset with HDF5's Fletcher32
+// checksum (io/hdf5_file.hpp), so that a damaged file is found out when it is read:
+//  - "positions" and "velocities": (slots, 3) doubles in vertex-id order (row i = the vertex with
+//    vertex_id i in the input mesh; rows of ids that cleaning dropped are 0), every vertex, fixed
+//    ones included: their prescribed position and velocity at the checkpoint's time
+//    (Body::set_time makes a fixed vertex's velocity the mean over the last step, which a fresh
+//    Body cannot know). The order does not depend on the partition, so a checkpoint written at N
+//    ranks restarts at M.
+//  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
+//    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
+//    released_attachments, started_inverted, writers, and the run's counters so far (summary_*).
+//  - "physics" (one "section hash" line per physics section of the deck), "flagged_frames",
+//    "inverted_frames", and each output writer's restart state ("writer_<key>"): texts that grow
+//    with the run, as datasets (an HDF5 attribute is limited to 64 KiB).
 #pragma once
 #include <petscsys.h>
 
@@ -26,8 +30,11 @@
 namespace hyperqn {
 
 struct CheckpointHeader {
-  static constexpr int kVersion = 1;
+  static constexpr int kVersion = 2;
   int version = kVersion;
+  // Whose it is: the run's id (summary.json's run_id; a restart keeps it), when the run's first
+  // part started (UTC, ISO 8601) and its deck, for messages about a checkpoint of another run.
+  std::string run_id, run_started, deck;
   std::string physics;    // "section hash" lines (physics_fingerprint)
   std::string mesh_hash;  // of the serial mesh as read (rest positions and elements)
   long long vertices = 0, dofs = 0, vertex_slots = 0;  // dofs of the scene at `frame` (releases free more)
@@ -49,28 +56,31 @@ std::string physics_fingerprint(const std::vector<std::pair<std::string, std::st
 // once now has them: now.vertices > 0).
 std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointHeader& now);
 
-// Writes checkpoint_<frame>.h5 in dir (created if needed) through a temporary name, renamed by
-// rank 0 once every rank has closed it, so the name appears only when the file is complete; then
-// keeps the newest `keep` checkpoints. pos, vel: 3 per local vertex (fixed ones: prescribed).
-// Collective. *path: the file written.
-PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& dir, const CheckpointHeader& h,
+// Writes the checkpoint file `path` through a temporary beside it, renamed once complete, so the
+// name appears only for a whole file. pos, vel: 3 per local vertex (fixed ones: prescribed).
+// Collective; rank 0 alone writes the file and the others send it their rows, so a failure is one
+// rank's and no rank can be left waiting inside HDF5. Throws std::runtime_error on every rank
+// ("cannot write PATH: <reason>"), removing the temporary.
+PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
                                 const DistributedMesh& mesh, const std::vector<double>& pos,
-                                const std::vector<double>& vel, int keep, std::string* path);
+                                const std::vector<double>& vel);
 
-// The attributes of a checkpoint (collective). Throws std::runtime_error naming the file if it is
-// not a readable checkpoint.
-CheckpointHeader read_checkpoint_header(MPI_Comm comm, const std::string& path);
-// Positions and velocities of mesh's local vertices (3 each) from a checkpoint (collective).
+// Rank 0 alone: reads the header of path and, with `data`, every row of its datasets, so that each
+// checksum is checked. Returns "" for a whole checkpoint of this format (its header in *header),
+// else why not.
+std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header, bool data = true);
+
+// Rank 0's header, on every rank (collective).
+CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header);
+
+// Positions and velocities of mesh's local vertices (3 each) from a checkpoint (collective: rank
+// 0 reads, each rank receives its rows). Throws std::runtime_error on every rank if path cannot be read.
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
                                         long long vertex_slots, std::vector<double>& pos, std::vector<double>& vel);
 
-// The newest complete checkpoint in dir (highest frame), or "" (same answer on every rank).
-std::string latest_checkpoint(MPI_Comm comm, const std::string& dir);
-// Frame of a checkpoint file name checkpoint_<frame>.h5, or -1.
+// Frame of a checkpoint file name checkpoint_<frame>.h5, or -1; and the name of a frame's file.
 int checkpoint_frame(const std::string& filename);
-// Removes the checkpoints of frames after `frame` (a restart abandons that future) and leftover
-// temporary files (rank 0; collective).
-void remove_checkpoints_after(MPI_Comm comm, const std::string& dir, int frame);
+std::string checkpoint_name(int frame);
 
 // Restart: the counters of the frames already done (frames, iterations, flagged frames, ...) from
 // a checkpoint's summary into s; the work done (times, factorizations, solves) is added at the end

@@ -1,6 +1,7 @@
 #include "io/output_directory.hpp"
 
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <regex>
 #include <stdexcept>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 
 namespace hyperqn {
 
@@ -43,12 +45,17 @@ bool is_run_output(const std::string& dir, const std::string& name) {
   return false;
 }
 
-int clear_previous_run(const std::string& dir) {
-  std::vector<fs::path> old;  // listed first: removing while listing may skip entries
+namespace {
+
+// The regular files of dir whose names satisfy `ours` (listed first: removing while listing may
+// skip entries), removed; returns how many. A directory that does not exist holds none.
+int remove_files(const std::string& dir, const std::function<bool(const std::string&)>& ours) {
+  std::vector<fs::path> old;
   std::error_code ec;
+  if (!fs::exists(dir, ec)) return 0;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code type_ec;
-    if (it->is_regular_file(type_ec) && is_run_output(dir, it->path().filename().string())) old.push_back(it->path());
+    if (it->is_regular_file(type_ec) && ours(it->path().filename().string())) old.push_back(it->path());
   }
   if (ec) throw std::runtime_error("cannot list the output directory " + dir + ": " + ec.message());
   for (const fs::path& p : old) {
@@ -57,6 +64,25 @@ int clear_previous_run(const std::string& dir) {
     if (rm) throw std::runtime_error("cannot remove " + p.string() + " (a previous run's output): " + rm.message());
   }
   return (int)old.size();
+}
+
+bool is_checkpoint_file(const std::string& name) {
+  const std::string base = is_atomic_temporary(name) ? name.substr(1, name.rfind(".tmp-") - 1) : name;
+  return checkpoint_frame(base) >= 0 || (base.rfind("checkpoint_", 0) == 0 && base.size() > 4 &&
+                                         base.compare(base.size() - 4, 4, ".tmp") == 0);  // format 1's temporaries
+}
+
+}  // namespace
+
+Cleared clear_previous_run(const std::string& dir) {
+  Cleared cleared;
+  cleared.checkpoints = remove_files(dir + "/checkpoints", is_checkpoint_file);
+  cleared.files = remove_files(dir, [&](const std::string& name) { return name != "summary.json" && is_run_output(dir, name); });
+  return cleared;
+}
+
+int remove_interrupted_writes(const std::string& dir) {
+  return remove_files(dir, [&](const std::string& name) { return is_atomic_temporary(name) && is_run_output(dir, name); });
 }
 
 }  // namespace hyperqn

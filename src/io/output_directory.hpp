@@ -16,9 +16,21 @@ void create_output_directory(MPI_Comm comm, const std::string& dir);
 // NAME_ frames, and the temporaries of an interrupted write of any of these.
 bool is_run_output(const std::string& dir, const std::string& name);
 
-// Removes every file of dir for which is_run_output holds, and nothing else; returns how many.
-// Call on one rank. Throws std::runtime_error naming a file that cannot be removed. A restart
-// that continues an earlier run's series would skip this.
-int clear_previous_run(const std::string& dir);
+// What clear_previous_run removed.
+struct Cleared {
+  int files = 0, checkpoints = 0;
+};
+
+// Removes an earlier run's files from dir: first the checkpoints of dir/checkpoints (with the
+// temporaries of interrupted checkpoint writes), so that no checkpoint outlives the frames it
+// refers to, then every file of dir for which is_run_output holds but summary.json (the caller
+// has already replaced it with the new run's, which names the new run: from then on no restart
+// takes the earlier run's leftovers for the directory's run). Nothing else. Call on one rank.
+// Throws std::runtime_error naming a file that cannot be removed.
+Cleared clear_previous_run(const std::string& dir);
+
+// A restart: removes the temporaries that interrupted writes of run outputs left in dir (a
+// killed run's .NAME_00010.vtu.tmp-PID). Call on one rank; returns how many.
+int remove_interrupted_writes(const std::string& dir);
 
 }  // namespace hyperqn

@@ -20,6 +20,8 @@ struct IterationRecord {
 
 struct RunSummary {
   std::string deck, solver;
+  // The run's id (io/checkpoint_store.hpp): which run wrote this directory; a restart keeps it.
+  std::string run_id;
   // "ok"; "flagged: N of M frames could not decrease g (first: frame K)" (completed, exit 0); or
   // "error: ..." (the run stopped, exit 1).
   std::string status = "ok";

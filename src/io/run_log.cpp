@@ -99,6 +99,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
   std::ostringstream out;
   out << "{\n"
       << "  \"deck\": " << quoted(s.deck) << ",\n"
+      << "  \"run_id\": " << quoted(s.run_id) << ",\n"
       << "  \"status\": " << quoted(s.status) << ",\n"
       << "  \"solver\": " << quoted(s.solver) << ",\n"
       << "  \"ranks\": " << s.ranks << ",\n"
@@ -151,6 +152,16 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << "\n"
       << "}\n";
   write_file_atomically(path, out.str());
+}
+
+std::string summary_run_id(const std::string& path) {
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string key = "\n  \"run_id\": \"";  // as write_summary writes it
+  const size_t at = text.find(key);
+  if (at == std::string::npos) return "";
+  const size_t end = text.find('"', at + key.size());
+  return end == std::string::npos ? "" : text.substr(at + key.size(), end - at - key.size());
 }
 
 double peak_rss_mb() {

@@ -41,6 +41,9 @@ class ContactLog {
 // std::runtime_error naming the path on failure, leaving the previous file as it was.
 void write_summary(const std::string& path, const RunSummary& s);
 
+// The run_id of the summary.json at path, or "" if there is none (no file, no such field).
+std::string summary_run_id(const std::string& path);
+
 // Peak resident set size of this process in MB.
 double peak_rss_mb();
 

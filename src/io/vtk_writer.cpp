@@ -214,6 +214,14 @@ std::string VtkSeries::restart_state() const {
   return s;
 }
 
+std::string VtkSeries::series_name(const std::string& state) {
+  const size_t space = state.find(' '), end = state.find('\n');
+  if (space == std::string::npos || end == std::string::npos || end < space) return "";
+  const std::string file = state.substr(space + 1, end - space - 1);  // NAME_NNNNN.vtu or .pvtu
+  const size_t underscore = file.rfind('_');
+  return underscore == std::string::npos ? "" : file.substr(0, underscore);
+}
+
 void VtkSeries::resume(const std::string& state, int frame) {
   written_.clear();
   std::istringstream lines(state);

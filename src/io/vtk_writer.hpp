@@ -25,9 +25,12 @@ class VtkSeries : public OutputWriter {
   void set_mesh(const DistributedMesh& mesh) override { mesh_ = &mesh; }
   // The .pvd's entries ("time file" lines); resume keeps them and removes the files of frames
   // after `frame` (rank 0), so the series goes on as if the run had not stopped.
-  std::string restart_key() const override { return "vtk_pvd"; }
+  static constexpr const char* kRestartKey = "vtk_pvd";
+  std::string restart_key() const override { return kRestartKey; }
   std::string restart_state() const override;
   void resume(const std::string& state, int frame) override;
+  // The name of the series a restart state lists (its files are NAME_NNNNN...), "" if it lists none.
+  static std::string series_name(const std::string& state);
 
  private:
   void write_piece(const std::string& path, const FrameData& f) const;

@@ -21,14 +21,13 @@ import signal
 import subprocess
 import time
 
-import h5py
 import numpy as np
 import pytest
 
 from test_safe_outputs import check_complete, run_and_kill, slow_deck
 from conftest import HYPERQN, run_hyperqn, write_deck
 from hyperqn_tools import launch
-from hyperqn_tools.output import final_frame, read_iterations, read_pvd, read_summary, rest_diagonal
+from hyperqn_tools.output import final_frame, read_checkpoint, read_iterations, read_pvd, read_summary, rest_diagonal
 
 FRAMES = 8
 BAR = {
@@ -136,8 +135,7 @@ def test_restart_at_another_rank_count(tmp_path, first, then):
     run(tmp_path, "ref", deck_with(base, FRAMES, solver=TIGHT), ref)
     out = interrupted_then_restarted(tmp_path, base, first, then, solver=TIGHT)
     assert_same_run(ref, out, exact=False, tol=1e-10)
-    with h5py.File(out / "checkpoints" / "checkpoint_4.h5") as f:
-        assert f.attrs["ranks"] == (2 if first == 2 else 1)
+    assert read_checkpoint(out / "checkpoints" / "checkpoint_4.h5")["ranks"] == (2 if first == 2 else 1)
 
 
 def tree_digest(root):
@@ -196,14 +194,15 @@ def test_keep_and_contents(tmp_path):
     run(tmp_path, "keep", deck_with(dict(COLLIDER, name="run"), 6, {"every": 1, "keep": 3}), out, ranks=2)
     assert sorted(os.listdir(out / "checkpoints")) == ["checkpoint_4.h5", "checkpoint_5.h5", "checkpoint_6.h5"]
     final = final_frame(out)
-    with h5py.File(out / "checkpoints" / "checkpoint_6.h5") as f:
-        assert f.attrs["frame"] == 6 and f.attrs["ranks"] == 2
-        assert abs(f.attrs["time"] - 0.3) < 1e-15
-        assert f.attrs["vertices"] == len(final.vertex_id) == 81
-        assert f["positions"].shape == (81, 3)
-        # Stored by vertex id whatever the partition: the last frame's positions and velocities.
-        assert np.array_equal(f["positions"][:][final.vertex_id], final.points)
-        assert np.array_equal(f["velocities"][:][final.vertex_id], final.velocity)
+    c = read_checkpoint(out / "checkpoints" / "checkpoint_6.h5")
+    assert c["frame"] == 6 and c["ranks"] == 2 and c["format_version"] == 2
+    assert abs(c["time"] - 0.3) < 1e-15
+    assert c["vertices"] == len(final.vertex_id) == 81
+    assert c["positions"].shape == (81, 3)
+    assert c["run_id"] == read_summary(out)["run_id"] and len(c["run_id"]) == 32
+    # Stored by vertex id whatever the partition: the last frame's positions and velocities.
+    assert np.array_equal(c["positions"][final.vertex_id], final.points)
+    assert np.array_equal(c["velocities"][final.vertex_id], final.velocity)
     # By wall time: every frame with a tiny interval; keep defaults to 2.
     out2 = tmp_path / "seconds"
     run(tmp_path, "seconds", deck_with(dict(MOTION, name="run"), 5, {"seconds": 1e-6}), out2)

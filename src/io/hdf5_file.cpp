@@ -1,0 +1,172 @@
+#include "io/hdf5_file.hpp"
+
+
+#include <algorithm>
+#include <stdexcept>
+#include <vector>
+
+namespace hyperqn {
+
+namespace {
+
+// Rows (or bytes) per chunk: each chunk carries its own checksum and is read whole.
+constexpr hsize_t kChunkRows = 8192;
+constexpr hsize_t kChunkBytes = 65536;
+
+// HDF5 prints its error stack to stderr unless told not to; we turn it into the message.
+void silence_hdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+
+herr_t collect(unsigned n, const H5E_error2_t* e, void* out) {
+  auto& descriptions = *static_cast<std::vector<std::string>*>(out);
+  (void)n;
+  descriptions.push_back(e->desc ? e->desc : "");
+  return 0;
+}
+
+// The reason of the last failure: the system's message if a file operation failed (HDF5 quotes
+// it as "error message = '...'"), else the innermost description ("Fletcher32 checksum error ...").
+std::string hdf5_reason() {
+  std::vector<std::string> descriptions;  // innermost first
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, collect, &descriptions);
+  H5Eclear2(H5E_DEFAULT);
+  const std::string quote = "error message = '";
+  for (const std::string& d : descriptions) {
+    const size_t at = d.find(quote);
+    if (at != std::string::npos) {
+      const size_t end = d.find('\'', at + quote.size());
+      return d.substr(at + quote.size(), end == std::string::npos ? std::string::npos : end - at - quote.size());
+    }
+  }
+  for (const std::string& d : descriptions)
+    if (!d.empty()) return d;
+  return "HDF5 error";
+}
+
+// Closes an HDF5 identifier when it goes out of scope.
+struct Handle {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  ~Handle() {
+    if (id >= 0) close(id);
+  }
+};
+
+}  // namespace
+
+Hdf5File Hdf5File::create(const std::string& path) {
+  silence_hdf5();
+  Handle fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+  // The 1.8 format and later: checksummed superblock and object headers.
+  if (fapl.id < 0 || H5Pset_libver_bounds(fapl.id, H5F_LIBVER_V18, H5F_LIBVER_LATEST) < 0)
+    throw std::runtime_error("cannot write " + path + ": " + hdf5_reason());
+  const hid_t id = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id);
+  if (id < 0) throw std::runtime_error("cannot write " + path + ": " + hdf5_reason());
+  return Hdf5File(id, path, true);
+}
+
+Hdf5File Hdf5File::open(const std::string& path) {
+  silence_hdf5();
+  const hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (id < 0) throw std::runtime_error("cannot read " + path + ": " + hdf5_reason());
+  return Hdf5File(id, path, false);
+}
+
+Hdf5File::Hdf5File(Hdf5File&& other) noexcept : id_(other.id_), path_(std::move(other.path_)), writing_(other.writing_) {
+  other.id_ = -1;
+}
+
+Hdf5File::~Hdf5File() {
+  if (id_ >= 0) {
+    H5Fclose(id_);
+    H5Eclear2(H5E_DEFAULT);
+  }
+}
+
+void Hdf5File::fail(const std::string& what) const {
+  throw std::runtime_error(std::string(writing_ ? "cannot write " : "cannot read ") + path_ + ": " + what + ": " +
+                           hdf5_reason());
+}
+
+void Hdf5File::close() {
+  const hid_t id = id_;
+  id_ = -1;
+  if (id >= 0 && H5Fclose(id) < 0) fail("closing the file");
+}
+
+void Hdf5File::write_text(const std::string& name, const std::string& text) {
+  const hsize_t n = text.size(), unlimited = H5S_UNLIMITED;
+  const hsize_t chunk = std::max<hsize_t>(1, std::min(n, kChunkBytes));
+  Handle space{H5Screate_simple(1, &n, &unlimited), H5Sclose};
+  Handle dcpl{H5Pcreate(H5P_DATASET_CREATE), H5Pclose};
+  if (space.id < 0 || dcpl.id < 0 || H5Pset_chunk(dcpl.id, 1, &chunk) < 0 || H5Pset_fletcher32(dcpl.id) < 0)
+    fail(name);
+  Handle set{H5Dcreate2(id_, name.c_str(), H5T_NATIVE_UCHAR, space.id, H5P_DEFAULT, dcpl.id, H5P_DEFAULT), H5Dclose};
+  if (set.id < 0) fail(name);
+  if (n > 0 && H5Dwrite(set.id, H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()) < 0) fail(name);
+}
+
+bool Hdf5File::has(const std::string& name) const { return H5Lexists(id_, name.c_str(), H5P_DEFAULT) > 0; }
+
+std::string Hdf5File::read_text(const std::string& name) const {
+  if (!has(name)) fail("no dataset " + name);
+  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (set.id < 0) fail(name);
+  Handle space{H5Dget_space(set.id), H5Sclose};
+  hsize_t n = 0;
+  if (space.id < 0 || H5Sget_simple_extent_ndims(space.id) != 1 || H5Sget_simple_extent_dims(space.id, &n, nullptr) < 0)
+    fail(name + " is not a text");
+  std::string text(n, '\0');
+  if (n > 0 && H5Dread(set.id, H5T_NATIVE_UCHAR, H5S_ALL, H5S_ALL, H5P_DEFAULT, &text[0]) < 0) fail(name);
+  return text;
+}
+
+void Hdf5File::create_rows(const std::string& name, hsize_t rows, hsize_t cols) {
+  const hsize_t dims[2] = {rows, cols}, chunk[2] = {std::max<hsize_t>(1, std::min(rows, kChunkRows)), cols};
+  Handle space{H5Screate_simple(2, dims, nullptr), H5Sclose};
+  Handle dcpl{H5Pcreate(H5P_DATASET_CREATE), H5Pclose};
+  if (space.id < 0 || dcpl.id < 0 || H5Pset_chunk(dcpl.id, 2, chunk) < 0 || H5Pset_fletcher32(dcpl.id) < 0)
+    fail(name);
+  Handle set{H5Dcreate2(id_, name.c_str(), H5T_NATIVE_DOUBLE, space.id, H5P_DEFAULT, dcpl.id, H5P_DEFAULT), H5Dclose};
+  if (set.id < 0) fail(name);
+}
+
+// The rows [first, first + count) of a dataset of `cols` columns, as a selection in the file and
+// the matching memory space.
+static bool select_rows(hid_t set, hsize_t first, hsize_t count, hsize_t cols, hid_t* file_space, hid_t* mem_space) {
+  const hsize_t start[2] = {first, 0}, size[2] = {count, cols};
+  *file_space = H5Dget_space(set);
+  *mem_space = H5Screate_simple(2, size, nullptr);
+  return *file_space >= 0 && *mem_space >= 0 &&
+         H5Sselect_hyperslab(*file_space, H5S_SELECT_SET, start, nullptr, size, nullptr) >= 0;
+}
+
+void Hdf5File::write_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, const double* data) {
+  if (count == 0) return;
+  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle file_space{-1, H5Sclose}, mem_space{-1, H5Sclose};
+  if (set.id < 0 || !select_rows(set.id, first, count, cols, &file_space.id, &mem_space.id) ||
+      H5Dwrite(set.id, H5T_NATIVE_DOUBLE, mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
+    fail(name);
+}
+
+void Hdf5File::read_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, double* data) const {
+  if (count == 0) return;
+  if (!has(name)) fail("no dataset " + name);
+  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle file_space{-1, H5Sclose}, mem_space{-1, H5Sclose};
+  if (set.id < 0 || !select_rows(set.id, first, count, cols, &file_space.id, &mem_space.id) ||
+      H5Dread(set.id, H5T_NATIVE_DOUBLE, mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
+    fail(name);
+}
+
+hsize_t Hdf5File::rows(const std::string& name) const {
+  if (!has(name)) fail("no dataset " + name);
+  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle space{set.id >= 0 ? H5Dget_space(set.id) : -1, H5Sclose};
+  hsize_t dims[2] = {0, 0};
+  if (space.id < 0 || H5Sget_simple_extent_ndims(space.id) != 2 || H5Sget_simple_extent_dims(space.id, dims, nullptr) < 0)
+    fail(name + " is not a table");
+  return dims[0];
+}
+
+}  // namespace hyperqn
