@@ -587,6 +587,14 @@ void test_errors(const fs::path& dir) {
   bad("keyword.mesh", "MeshVersionFormatted 2\nDimension 3\nBogus 3\n", {":3:", "Bogus"});
   bad("short.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n3\n0 0 0 0\n", {":5:", "Vertices"});
   bad("dim.mesh", "MeshVersionFormatted 2\nDimension 2\n", {":2:", "3D"});
+  // Numbers are plain decimals; Medit versions 1 to 4; the indices of skipped sections in range.
+  bad("hex.obj", "v 0 0 0\nv 0x1 0 0\nv 0 1 0\nf 1 2 3\n", {":2:", "'0x1'", "hexadecimal"});
+  bad("inf.obj", "v 0 0 0\nv 1 0 0\nv 0 1 -inf\nf 1 2 3\n", {":3:", "'-inf'", "not finite"});
+  const std::string tri = "Vertices\n3\n0 0 0 0\n1 0 0 0\n0 1 0 0\nTriangles\n1\n1 2 3 0\n";  // lines 3-10
+  bad("nan.mesh", "MeshVersionFormatted 2\nDimension 3\nVertices\n3\n0 0 0 0\nNaN 0 0 0\n0 1 0 0\n", {":6:", "'NaN'", "not finite"});
+  bad("version.mesh", "MeshVersionFormatted 99\nDimension 3\n" + tri, {":1:", "MeshVersionFormatted", "99"});
+  bad("edges.mesh", "MeshVersionFormatted 2\nDimension 3\n" + tri + "Edges\n1\n1 4 0\n", {":13:", "'Edges'", "index 4", "1..3"});
+  bad("corners.mesh", "MeshVersionFormatted 2\nDimension 3\nCorners 1 5\n" + tri, {":3:", "'Corners'", "index 5", "1..3"});
   bad("surface.stl", "solid x\n", {".stl"});
   // No triangle: the deck entry is named, with the file.
   bad("empty.obj", v3 + "l 1 2\n", {"deck.yaml", "colliders[2].file", "no triangle"});

@@ -329,6 +329,53 @@ void test_invalid_decks() {
   expect_error("petsc_list", kHead + "petsc:\n  tao:\n    ls_type: [a, b]\n", "petsc.tao.ls_type", 5);
   expect_error("petsc_dash", kHead + "petsc:\n  -tao_view:\n", "petsc.-tao_view", 4, "leading '-'");
 
+  // PETSc options are words: a value with whitespace would be split into more options; a name is
+  // letters, digits and '_' (starting with a letter); one option given twice is ambiguous.
+  expect_error("petsc_value_space", kHead + "petsc: {tao_ls_type: \"unit -tao_type garbage\"}\n",
+               "petsc.tao_ls_type", 3, "one word");
+  expect_error("petsc_value_tab", kHead + "petsc:\n  tao:\n    ls_type: \"unit\\tx\"\n", "petsc.tao.ls_type", 5, "one word");
+  expect_error("petsc_value_newline", kHead + "petsc:\n  log_view: \"a\\nb\"\n", "petsc.log_view", 4, "one word");
+  expect_error("petsc_value_trailing_space", kHead + "petsc: {tao_ls_type: 'armijo '}\n", "petsc.tao_ls_type", 3, "one word");
+  expect_error("petsc_name_space", kHead + "petsc:\n  tao ls_type: armijo\n", "petsc.tao ls_type", 4, "letters, digits");
+  expect_error("petsc_name_equals", kHead + "petsc:\n  tao_ls_type=armijo:\n", "petsc.tao_ls_type=armijo", 4, "letters, digits");
+  expect_error("petsc_name_digit", kHead + "petsc:\n  7_view: 1\n", "petsc.7_view", 4, "starting with a letter");
+  expect_error("petsc_nested_name_dash", kHead + "petsc:\n  tao:\n    ls-type: armijo\n", "petsc.tao.ls-type", 5);
+  expect_error("petsc_twice", kHead + "petsc:\n  tao_ls_type: unit\n  tao:\n    ls_type: armijo\n", "petsc.tao.ls_type", 6,
+               "also given at line 4");
+  {  // digits are fine after the first part; the deck's line and key of each option are kept
+    Deck d = load_ok("petsc_places", kHead + "petsc:\n  mat_mumps_icntl: {7: 5}\n  tao:\n    ls_type: armijo\n");
+    using Opts = std::vector<std::pair<std::string, std::string>>;
+    CHECK((d.petsc_options == Opts{{"-mat_mumps_icntl_7", "5"}, {"-tao_ls_type", "armijo"}}));
+    CHECK(d.petsc_option_places["-mat_mumps_icntl_7"].line == 4);
+    CHECK(d.petsc_option_places["-tao_ls_type"].line == 6);
+    CHECK(d.petsc_option_places["-tao_ls_type"].key == "petsc.tao.ls_type");
+    CHECK(hyperqn::deck_option_place(d, "-tao_ls_type", "armijo") == &d.petsc_option_places["-tao_ls_type"]);
+    CHECK(hyperqn::deck_option_place(d, "-tao_ls_type", "unit") == nullptr);  // the command line's value
+    CHECK(hyperqn::deck_option_place(d, "-tao_type", "lmvm") == nullptr);
+  }
+
+  // Explicit YAML tags are refused wherever they are (values, list items, sections, keys, the
+  // document): yaml-cpp and the Python tools would read such values differently.
+  expect_error("tag_str", kHead + "time:\n  dt: !!str 0.05\n", "time.dt", 4, "YAML tags are not accepted, found !!str");
+  expect_error("tag_float", kHead + "time: {dt: !!float '0.05'}\n", "time.dt", 3, "!!float");
+  expect_error("tag_int", kHead + "solver:\n  iterations: !!int 3\n", "solver.iterations", 4, "!!int");
+  expect_error("tag_local", kHead + "solver: {type: !foo lbfgs}\n", "solver.type", 3, "!foo");
+  expect_error("tag_verbatim", kHead + "name: !<tag:yaml.org,2002:str> bar\n", "name", 3, "!!str");
+  expect_error("tag_binary", kHead + "name: !!binary YmFy\n", "name", 3, "!!binary");
+  expect_error("tag_null", kHead + "output:\n  directory: !!null\n", "output.directory", 4, "!!null");
+  expect_error("tag_list_item", kHead + "gravity:\n  - 0\n  - !!float -9.81\n  - 0\n", "gravity[1]", 5, "!!float");
+  expect_error("tag_section", kHead + "time: !!map\n  dt: 0.05\n", "time", 3, "!!map");
+  expect_error("tag_list", kHead + "gravity: !!seq [0, -9.81, 0]\n", "gravity", 3, "!!seq");
+  expect_error("tag_key", kHead + "time:\n  !!str dt: 0.05\n", "time.dt", 4, "!!str");
+  expect_error("tag_petsc", kHead + "petsc:\n  tao_ls_type: !!str armijo\n", "petsc.tao_ls_type", 4, "!!str");
+  expect_error("tag_document", "--- !!map\n" + kHead, "", 1, "!!map");
+  expect_error("tag_in_mesh", kMaterial + "mesh:\n  box: {size: [1, 1, !!float 1], cells: [1, 1, 1]}\n", "mesh.box.size[2]", 3,
+               "!!float");
+  {  // untagged: plain, quoted, empty, anchored and aliased values
+    Deck d = load_ok("untagged", kHead + "name: 'bar'\ntime: &t {dt: 0.05}\nstudy: {trajectory: true}\npetsc: {log_view: }\n");
+    CHECK(d.name == "bar" && d.time.dt == 0.05);
+  }
+
   // YAML syntax: yaml-cpp's line (the badly indented key).
   expect_error("syntax_error", kHead + "time:\n  dt: 0.1\n   frames: 3\n", "", 5, "YAML syntax error");
 
@@ -471,6 +518,7 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
   }
   CHECK(d.contact.model == "barrier" && d.contact.distance == 0.01 && d.contact.stiffness == 100 &&
         d.contact.friction_velocity == 0.001);
+  CHECK(d.contact.line == 12 && d.contact.distance_line == 12);  // where a distance beyond the body is named
   CHECK(d.solver.history == 20 && d.solver.warm_start == "lower");  // contact's defaults
   CHECK(d.solver.history_reset == "never");
   CHECK(d.solver.upright_guess);  // the default: y pulled back where it would invert elements

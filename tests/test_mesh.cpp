@@ -9,6 +9,8 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "check.hpp"
@@ -350,9 +352,59 @@ void test_errors(const fs::path& dir) {
   p = write(dir, "fraction.mesh", head + verts + "Tetrahedra\n1\n1 2.5 3 4 0\n");
   expect_input_error("fractional index", [&] { read_medit(p); }, {p + ":11:", "integer", "'2.5'"});
 
-  // Non-finite coordinate on line 7.
-  p = write(dir, "nan.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\nnan 1 0 0\n0 0 1 0\n");
-  expect_input_error("non-finite coordinate", [&] { read_medit(p); }, {p + ":7:", "non-finite"});
+  // Numbers are plain decimals: what strtod reads beyond them (hexadecimal, inf, nan) is refused
+  // at its line (line 7: the third vertex), whatever the case or sign.
+  const std::vector<std::pair<std::string, std::string>> odd_numbers = {
+      {"nan", "not finite"}, {"NaN", "not finite"}, {"nan(1)", "not finite"}, {"-inf", "not finite"},
+      {"INFINITY", "not finite"}, {"0x10", "hexadecimal"}, {"0X1p3", "hexadecimal"}, {"-0x1.8p1", "hexadecimal"}};
+  for (const auto& [number, why] : odd_numbers) {
+    p = write(dir, "odd.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\n" + number + " 1 0 0\n0 0 1 0\n");
+    expect_input_error("coordinate " + number, [&] { read_medit(p); }, {p + ":7:", "'Vertices'", "'" + number + "'", why});
+  }
+  p = write(dir, "hex_ref.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0x0\n0 0 1 0\n");
+  expect_input_error("hexadecimal vertex ref", [&] { read_medit(p); }, {p + ":7:", "'0x0'", "hexadecimal"});
+  // A decimal too large for a double is read as inf: refused as non-finite.
+  p = write(dir, "huge.mesh", head + "Vertices\n4\n0 0 0 0\n1 0 0 0\n1e999 1 0 0\n0 0 1 0\n");
+  expect_input_error("overflowing coordinate", [&] { read_medit(p); }, {p + ":7:", "non-finite", "'1e999'"});
+  // Every decimal form is read.
+  p = write(dir, "decimals.mesh", head + "Vertices\n4\n+0 -0. .0 0\n1E+0 0 0 0\n0 1.0e0 0 0\n0 0 1e-0 +1\n"
+                                         "Tetrahedra\n1\n1 2 3 4 0\n");
+  const TetMesh decimals = read_medit(p);
+  CHECK(decimals.coords[3] == 1 && decimals.coords[7] == 1 && decimals.coords[11] == 1);
+
+  // MeshVersionFormatted: the ASCII versions 1 to 4 only, at the value's line.
+  for (int version : {1, 2, 3, 4}) {
+    p = write(dir, "version.mesh", "MeshVersionFormatted " + std::to_string(version) + "\nDimension 3\n" + verts +
+                                       "Tetrahedra\n1\n1 2 3 4 0\n");
+    CHECK(read_medit(p).num_tets() == 1);
+  }
+  for (const char* version : {"0", "5", "99", "-1"}) {
+    p = write(dir, "version.mesh", "MeshVersionFormatted\n" + std::string(version) + "\nDimension 3\n" + verts +
+                                       "Tetrahedra\n1\n1 2 3 4 0\n");
+    expect_input_error(std::string("version ") + version, [&] { read_medit(p); },
+                       {p + ":2:", "'MeshVersionFormatted'", std::string("version ") + version, "1, 2, 3 or 4"});
+  }
+
+  // Vertex indices of the sections the reader skips are checked like those it reads: Triangles
+  // (the 999 in a mesh of 4 vertices), Edges (edges: ignore), Quadrilaterals, Corners
+  // (before Vertices: checked at the end), 0.
+  const std::string tet = "Tetrahedra\n1\n1 2 3 4 0\n";  // lines 9-11
+  const std::vector<std::tuple<std::string, std::string, std::string>> skipped = {
+      {"Triangles", head + verts + tet + "Triangles\n2\n1 2 3 0\n1 999 3 0\nEnd\n", ":15:"},
+      {"Edges", head + verts + tet + "Edges\n1\n1 5 0\nEnd\n", ":14:"},
+      {"Quadrilaterals", head + verts + tet + "Quadrilaterals\n1\n1 2 3 7 0\nEnd\n", ":14:"},
+      {"Corners", head + "Corners\n2\n1\n9\n" + verts + tet, ":6:"},
+      {"RequiredVertices", head + verts + "RequiredVertices 1 0\n" + tet, ":9:"},
+  };
+  for (const auto& [section, text, line] : skipped) {
+    p = write(dir, "skipped.mesh", text);
+    expect_input_error("skipped " + section, [&] { read_medit(p); }, {p + line, "'" + section + "'", "vertex index", "out of range"});
+  }
+  // A cloth read skips the tetrahedra: their indices are checked too.
+  p = write(dir, "skipped_tets.mesh", head + verts + "Tetrahedra\n1\n1 2 3 8 0\nTriangles\n1\n1 2 3 0\nEnd\n");
+  expect_input_error("skipped tets", [&] { read_medit(p, false, true); }, {p + ":11:", "'Tetrahedra'", "index 8", "1..4"});
+  p = write(dir, "skipped_fraction.mesh", head + verts + tet + "Edges\n1\n1 2.0 0\nEnd\n");
+  expect_input_error("fractional skipped index", [&] { read_medit(p); }, {p + ":14:", "'Edges'", "integer", "'2.0'"});
 
   // Degenerate tet 2: four coplanar points.
   p = write(dir, "flat.mesh", head + "Vertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n1 1 0 0\n"

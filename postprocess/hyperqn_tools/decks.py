@@ -8,7 +8,18 @@ import yaml
 
 class Loader(yaml.SafeLoader):
     """yaml.SafeLoader reading numbers as hyperqn does: PyYAML (YAML 1.1) takes `1e5` for a string,
-    which write_deck would then quote and hyperqn refuse; yaml-cpp reads it as a number."""
+    which write_deck would then quote and hyperqn refuse; yaml-cpp reads it as a number. Explicit
+    tags (`!!str 0.05`, `!foo`) are refused, as hyperqn refuses them: `!!float "0.05"` would
+    otherwise become a plain number in a sweep's copy of a deck that hyperqn itself rejects."""
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        tag = getattr(event, "tag", None)  # None for an untagged node or an alias; "!" when quoted
+        if tag not in (None, "!"):
+            shown = "!!" + tag[len("tag:yaml.org,2002:"):] if tag.startswith("tag:yaml.org,2002:") else tag
+            raise yaml.composer.ComposerError(None, None, f"YAML tags are not accepted, found {shown}",
+                                              event.start_mark)
+        return super().compose_node(parent, index)
 
 
 Loader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$"),

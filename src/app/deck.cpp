@@ -144,6 +144,7 @@ class Reader {
     for (std::size_t i = 0; i < v.node.size(); ++i) {
       YAML::Node n = v.node[i];
       out.push_back({n, v.key + "[" + std::to_string(i) + "]", n.IsNull() ? v.line : line_of(n)});
+      untagged(n, out.back().line, out.back().key);
     }
     return out;
   }
@@ -168,6 +169,17 @@ class Reader {
   }
   std::array<double, 3> numbers3(const Value& v) const { return numbers<3>(v); }
 
+  // An explicit tag (!!str, !!float, !foo, ...) would make yaml-cpp and the Python tools read a
+  // value differently: refused wherever it is. Untagged nodes carry "?" (plain), "!" (quoted) or
+  // "" (empty).
+  void untagged(const YAML::Node& n, int line, const std::string& key) const {
+    const std::string& tag = n.Tag();
+    if (tag == "?" || tag == "!" || tag.empty()) return;
+    const std::string core = "tag:yaml.org,2002:";
+    const std::string shown = tag.compare(0, core.size(), core) == 0 ? "!!" + tag.substr(core.size()) : tag;
+    fail(line, key, "YAML tags are not accepted, found " + shown + " (write the value alone; quote a string)");
+  }
+
  private:
   static bool plain_scalar(const YAML::Node& n) { return n.IsScalar() && n.Tag() != "!"; }
   std::string file_;
@@ -179,12 +191,15 @@ class Section {
  public:
   // allowed: the keys accepted here; empty means any key (the petsc section).
   Section(const Reader& r, const Value& v, const Names& allowed) : r_(r), value_(v) {
+    r.untagged(v.node, v.line, v.key);
     if (v.node.IsNull()) return;
     if (!v.node.IsMap()) r.fail(v, "expected a map of 'key: value' entries, got " + describe(v.node));
     for (auto it = v.node.begin(); it != v.node.end(); ++it) {
       if (!it->first.IsScalar()) r.fail(line_of(it->first), v.key, "keys must be plain names");
       std::string name = it->first.Scalar();
       Value entry{it->second, path(name), line_of(it->first)};
+      r.untagged(it->first, entry.line, entry.key);
+      r.untagged(it->second, entry.line, entry.key);
       if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end())
         r.fail(entry, "unknown key '" + name + "'" + (v.key.empty() ? "" : " in " + v.key) +
                           "; allowed: " + join(allowed));
@@ -627,6 +642,7 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   c.line = v.line;
   if (const Value* x = s.find("model")) c.model = r.choice(*x, {"penalty", "barrier"});
   if (const Value* x = s.find("distance")) {
+    c.distance_line = x->line;
     c.distance = r.number(*x);
     r.check(c.distance > 0, *x, "> 0 (a length; omit it for 1e-2 of the body's rest diagonal)");
   }
@@ -870,24 +886,34 @@ void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck
   Section s(r, v, {});
   for (const auto& [name, x] : s.entries()) {
     if ((int)out.size() >= kMaxPetscOptions) r.fail(x, "more than 1000 PETSc options (YAML aliases repeating maps?)");
-    if (name.empty() || name[0] == '-' || name.find_first_of(" \t") != std::string::npos)
-      r.fail(x, "PETSc option names are written without the leading '-' and without spaces");
+    if (name.empty() || name[0] == '-')
+      r.fail(x, "PETSc option names are written without the leading '-'");
+    // PETSc would take anything else as the end of the name, or as another option.
+    const bool plain = std::all_of(name.begin(), name.end(), [](char c) { return std::isalnum((unsigned char)c) || c == '_'; });
+    if (!plain || (prefix.empty() && !std::isalpha((unsigned char)name[0])))
+      r.fail(x, "not a PETSc option name: letters, digits and '_' only, starting with a letter");
     std::string option = prefix.empty() ? name : prefix + "_" + name;
     if (x.node.IsMap()) {
       read_petsc(r, x, option, deck, depth + 1);
-    } else if (x.node.IsNull()) {
-      out.emplace_back("-" + option, "");
-      deck.petsc_option_lines["-" + option] = x.line;
-    } else if (x.node.IsScalar()) {
-      std::string value = x.node.Scalar();
+      continue;
+    }
+    std::string value;
+    if (x.node.IsScalar()) {
+      value = x.node.Scalar();
       bool b = false;
       if (x.node.Tag() != "!" && YAML::convert<bool>::decode(x.node, b)) value = b ? "true" : "false";
-      out.emplace_back("-" + option, value);
-      deck.petsc_option_lines["-" + option] = x.line;
-    } else {
+      // PETSc splits a value at whitespace: "unit -tao_type x" would set a second option.
+      if (std::any_of(value.begin(), value.end(), [](char c) { return std::isspace((unsigned char)c) || std::iscntrl((unsigned char)c); }))
+        r.fail(x, "a PETSc option value is one word: no spaces or control characters, got " + describe(x.node));
+    } else if (!x.node.IsNull()) {
       r.fail(x, "expected a single value or a nested map, got " + describe(x.node) +
                     " (write PETSc lists as a comma-separated string)");
     }
+    if (const auto seen = deck.petsc_option_places.find("-" + option); seen != deck.petsc_option_places.end())
+      r.fail(x, "option -" + option + " is also given at line " + std::to_string(seen->second.line) +
+                    " (as '" + seen->second.key + "')");
+    out.emplace_back("-" + option, value);
+    deck.petsc_option_places["-" + option] = {x.line, x.key};
   }
 }
 
@@ -973,6 +999,14 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
 }
 
 }  // namespace
+
+const Deck::OptionPlace* deck_option_place(const Deck& deck, const std::string& name, const std::string& value) {
+  const auto place = deck.petsc_option_places.find(name);
+  if (place == deck.petsc_option_places.end()) return nullptr;
+  for (const auto& [n, v] : deck.petsc_options)
+    if (n == name) return v == value ? &place->second : nullptr;
+  return nullptr;
+}
 
 Deck load_deck(const std::string& path) {
   std::error_code ec;

@@ -48,8 +48,16 @@ struct Deck : SceneSpec {
   std::vector<std::pair<std::string, std::string>> physics;
   StudySpec study;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // "-key", "value" (petsc: section)
-  std::map<std::string, int> petsc_option_lines;                   // "-key" -> its deck line
+  struct OptionPlace {
+    int line = 0;
+    std::string key;  // dotted, e.g. "petsc.tao.ls_type"
+  };
+  std::map<std::string, OptionPlace> petsc_option_places;  // "-key" -> where the deck gives it
 };
+
+// Where the deck's petsc: section gave option `name` (e.g. "-tao_ls_type") the value `value`, or
+// nullptr: the deck does not give it, or the command line set another value (the command line wins).
+const Deck::OptionPlace* deck_option_place(const Deck& deck, const std::string& name, const std::string& value);
 
 // Parses and validates a deck. Unknown keys, wrong types and impossible values throw
 // InputError naming the file, line and dotted key.

@@ -1,7 +1,5 @@
 #include "app/petsc_errors.hpp"
 
-#include <algorithm>
-#include <cctype>
 #include <sstream>
 
 namespace hyperqn {
@@ -32,16 +30,15 @@ std::string PetscErrors::describe(const Deck& deck) const {
   PetscFree(all);
   std::string word, name;
   while (words >> word) {
-    if (word.size() > 1 && word[0] == '-' && !std::isdigit((unsigned char)word[1])) {
+    PetscBool key = PETSC_FALSE;  // PETSc's own rule: "-inf" and "-1e5" are values, "-info" a name
+    PetscOptionsValidKey(word.c_str(), &key);
+    if (key) {
       name = word;
     } else if (!name.empty() && message_.find(word) != std::string::npos) {
       // From the deck only if the deck gave this value (the command line wins over the deck).
-      const bool from_deck =
-          std::find(deck.petsc_options.begin(), deck.petsc_options.end(), std::make_pair(name, word)) !=
-          deck.petsc_options.end();
-      const std::string where = from_deck ? deck.path + ":" + std::to_string(deck.petsc_option_lines.at(name)) +
-                                                ", petsc: section"
-                                          : "command line";
+      const Deck::OptionPlace* place = deck_option_place(deck, name, word);
+      const std::string where = place ? deck.path + ":" + std::to_string(place->line) + ", petsc: section"
+                                      : "command line";
       return "option " + name + " " + word + " (" + where + "): " + text;
     }
   }

@@ -19,7 +19,18 @@ static const FactorPackage kH0PackageOf[] = {default_factor_package(), FactorPac
                                              FactorPackage::supernodal};
 static constexpr int kH0PackageCount = 4;
 
-PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
+// A refused value of option `name`: named with its deck line and key when the deck's petsc:
+// section gave it (and the command line did not override it), else as the command line's.
+[[noreturn]] static void refuse(const Deck* deck, const char* name, const std::string& why) {
+  char value[256] = "";
+  PetscBool set = PETSC_FALSE;
+  PetscOptionsGetString(nullptr, nullptr, name, value, sizeof value, &set);
+  if (const Deck::OptionPlace* place = deck ? deck_option_place(*deck, name, value) : nullptr)
+    throw InputError(deck->path, place->line, place->key, why + ", got " + value);
+  throw InputError(std::string("option ") + name + " " + value + ": " + why);
+}
+
+PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
   {  // checked first, for a message that names the choices (PETSc's would not)
     char value[64] = "";
@@ -31,8 +42,7 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
       known = (PetscBool)(known || same);
     }
     if (set && !known)
-      throw InputError(std::string("option -hyperqn_h0_package ") + value +
-                       ": unknown package (choose auto, mumps, cholmod or supernodal)");
+      refuse(deck, "-hyperqn_h0_package", "unknown package (choose auto, mumps, cholmod or supernodal)");
     PetscBool cholmod;
     PetscCall(PetscStrcasecmp(value, "cholmod", &cholmod));
     if (set && cholmod && !factor_package_available(FactorPackage::cholmod))
@@ -40,13 +50,13 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o) {
                        "CHOLMOD (use supernodal, mumps or auto)");
   }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
-  if (parse_run_options(comm, o)) throw InputError(errors.describe());
+  if (parse_run_options(comm, o)) throw InputError(deck ? errors.describe(*deck) : errors.describe());
   // Every rank reads the same options, so every rank throws alike.
   if (!std::isfinite(o->divergence_limit))
-    throw InputError("option -hyperqn_divergence_limit: must be a finite number (<= 0 turns the check off)");
+    refuse(deck, "-hyperqn_divergence_limit", "must be a finite number (<= 0 turns the check off)");
   if (!std::isfinite(o->element_limit))
-    throw InputError("option -hyperqn_element_limit: must be a finite number (<= 0 turns the check off)");
-  if (!std::isfinite(o->nan_beyond)) throw InputError("option -hyperqn_test_nan_energy_beyond: must be a finite number");
+    refuse(deck, "-hyperqn_element_limit", "must be a finite number (<= 0 turns the check off)");
+  if (!std::isfinite(o->nan_beyond)) refuse(deck, "-hyperqn_test_nan_energy_beyond", "must be a finite number");
   PetscFunctionReturn(0);
 }
 
@@ -65,6 +75,12 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscCall(PetscOptionsInt("-hyperqn_test_nan_energy_from_step",
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
+  PetscCall(PetscOptionsInt("-hyperqn_test_kill_after_frame",
+                            "Tests only: every rank kills itself (SIGKILL) once this frame is done (< 0: off)",
+                            "docs/outputs.md", o->kill_after_frame, &o->kill_after_frame, nullptr));
+  PetscCall(PetscOptionsInt("-hyperqn_test_signal_after_frame",
+                            "Tests only: every rank sends itself SIGTERM after this frame (0: during setup; < 0: off)",
+                            "docs/outputs.md", o->signal_after_frame, &o->signal_after_frame, nullptr));
   PetscInt package = 0;  // auto
   for (int k = 1; k < kH0PackageCount; ++k)
     if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;

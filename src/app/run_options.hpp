@@ -25,14 +25,19 @@ struct RunOptions {
   // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
   PetscReal nan_beyond = -1;
   PetscInt nan_from_step = -1;
+  // Test hooks (tests/python/test_checkpoint_faults.py): each rank kills itself with SIGKILL once
+  // frame N is done (its checkpoint included), as kill -9 would; or sends itself SIGTERM after
+  // frame N (0: during setup), as a batch system would (< 0: off).
+  PetscInt kill_after_frame = -1, signal_after_frame = -1;
   // Who factors and solves the constant matrices M + h^2 L and M + h^2 K(x_rest)
   // (-hyperqn_h0_package: auto, supernodal, mumps or cholmod; auto is default_factor_package()).
   FactorPackage h0_package = default_factor_package();
 };
 
 // Reads the options (collective). With -help, PETSc prints them. Throws InputError for a value
-// that makes no sense (not finite, not one of the choices, a package this PETSc does not have).
-PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options);
+// that makes no sense (not finite, not one of the choices, a package this PETSc does not have),
+// naming the deck's line and key when `deck` is given and its petsc: section gave the value.
+PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options, const Deck* deck = nullptr);
 
 // How the scene of this deck is built for these solvers (with the deck's solver settings): the
 // constant matrices they factor (M + h^2 L, or M + h^2 K(x_rest) for lbfgs with solver.h0:

@@ -56,7 +56,7 @@ class ObjReader {
       for (int k = 0; k < 3; ++k) {
         const Token& c = line[k + 1];
         if (!parse_double(c, x[k]) || !std::isfinite(x[k]))
-          throw InputError(path_, c.line, "v", "expected a finite number, found '" + c.str() + "'");
+          throw InputError(path_, c.line, "v", "expected a finite number, found '" + c.str() + "'" + number_note(c));
       }
       surface_.vertices.push_back(x);
     } else if (line[0].is("f")) {
@@ -98,7 +98,7 @@ class ObjReader {
 
 class MeditSurfaceReader {
  public:
-  MeditSurfaceReader(const std::string& path, const std::string& text) : path_(path), tok_(text, '#') {}
+  MeditSurfaceReader(const std::string& path, const std::string& text) : path_(path), tok_(text, '#'), skipped_(path) {}
 
   TriangleSurface read() {
     Token t;
@@ -108,7 +108,9 @@ class MeditSurfaceReader {
     while (tok_.next(t)) {
       if (t.is("End")) break;
       if (t.is("MeshVersionFormatted")) {
-        count(t);
+        Token v;
+        const long long version = count(t, &v);
+        check_medit_version(path_, v, version);
       } else if (t.is("Dimension")) {
         Token v;
         if (count(t, &v) != 3) throw InputError(path_, v.line, "Dimension", "only 3D surfaces are supported");
@@ -138,17 +140,25 @@ class MeditSurfaceReader {
           raw.push_back(ids);
           where.push_back(at);
         }
-      } else if (const int size = medit_record_size(t)) {
+      } else if (const MeditRecord record = medit_record(t); record.size) {
         const long long n = count(t);
-        for (long long i = 0; i < n * size; ++i) {
-          double unused;
-          number(t, unused);
-        }
+        for (long long i = 0; i < n; ++i)
+          for (int k = 0; k < record.size; ++k) {
+            if (k < record.vertices) {
+              long long v;
+              const Token index = integer(t, v);
+              skipped_.add(t.str(), i + 1, index, v);
+            } else {
+              double unused;
+              number(t, unused);
+            }
+          }
       } else {
         throw InputError(path_, t.line, "", "unknown keyword '" + t.str() + "'");
       }
     }
     const long long nv = (long long)surface_.vertices.size();
+    skipped_.check(nv);
     for (size_t f = 0; f < raw.size(); ++f) {
       for (int k = 0; k < 3; ++k)
         if (raw[f][k] < 1 || raw[f][k] > nv)
@@ -169,7 +179,8 @@ class MeditSurfaceReader {
   }
   Token number(const Token& key, double& v) {
     const Token t = next(key);
-    if (!parse_double(t, v)) throw InputError(path_, t.line, key.str(), "expected a number, found '" + t.str() + "'");
+    if (!parse_double(t, v))
+      throw InputError(path_, t.line, key.str(), "expected a number, found '" + t.str() + "'" + number_note(t));
     return t;
   }
   Token integer(const Token& key, long long& v) {
@@ -189,6 +200,7 @@ class MeditSurfaceReader {
 
   std::string path_;
   Tokenizer tok_;
+  SkippedIndices skipped_;
   TriangleSurface surface_;
 };
 

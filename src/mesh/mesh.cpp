@@ -24,7 +24,7 @@ namespace {
 class MeditReader {
  public:
   MeditReader(const std::string& path, const std::string& text, bool edges_as_strands, bool triangles_as_cloth)
-      : path_(path), tok_(text, '#'), text_size_(text.size()), edges_as_strands_(edges_as_strands),
+      : path_(path), tok_(text, '#'), skipped_(path), text_size_(text.size()), edges_as_strands_(edges_as_strands),
         triangles_as_cloth_(triangles_as_cloth) {}
 
   TetMesh read() {
@@ -34,7 +34,9 @@ class MeditReader {
     while (tok_.next(t)) {
       if (t.is("End")) break;
       if (t.is("MeshVersionFormatted")) {
-        header_int(t);
+        Token v;
+        const long long version = header_int(t, &v);
+        check_medit_version(path_, v, version);
       } else if (t.is("Dimension")) {
         Token v;
         if (header_int(t, &v) != 3)
@@ -60,22 +62,29 @@ class MeditReader {
         if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
         read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags);
         have_edges = true;
-      } else if (int size = medit_record_size(t)) {
+      } else if (const MeditRecord record = medit_record(t); record.size) {
         Section s = open_section(t);
         for (long long i = 0; i < s.count; ++i)
-          for (int k = 0; k < size; ++k) {
-            double unused;
-            number(s, i, unused);
+          for (int k = 0; k < record.size; ++k) {
+            if (k < record.vertices) {
+              long long v;
+              const Token index = integer(s, i, v);
+              skipped_.add(s.name, i + 1, index, v);
+            } else {
+              double unused;
+              number(s, i, unused);
+            }
           }
       } else {
         double unused;
-        if (parse_double(t, unused))
+        if (parse_double(t, unused) || !number_note(t).empty())
           throw InputError(path_, t.line, "", "unexpected number '" + t.str() +
                                                   "' outside any section (does a section count match its records?)");
         throw InputError(path_, t.line, "", "unknown keyword '" + t.str() + "'");
       }
     }
     if (!have_vertices) throw InputError(path_, 0, "Vertices", "no Vertices section in the mesh file");
+    skipped_.check(mesh.num_vertices());
     if (edges_as_strands_ && !have_edges)
       throw InputError(path_, 0, "Edges", "no Edges section in the mesh file (the deck asks for its edges as strands)");
     if (triangles_as_cloth_) {
@@ -108,12 +117,11 @@ class MeditReader {
   }
   [[noreturn]] void bad_token(const Section& s, long long i, const Token& t, const char* expected) {
     const char c = *t.begin;
-    if ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z')) {
-      // A word that is not a number ("nan" is one) is the next keyword: the section ended early.
-      double unused;
-      if (!parse_double(t, unused)) throw InputError(path_, t.line, s.name, truncated(s, i) + " at '" + t.str() + "'");
-    }
-    throw InputError(path_, t.line, s.name, std::string("expected ") + expected + ", found '" + t.str() + "'");
+    const std::string note = number_note(t);
+    // A word that is not even strtod's number ("nan" is one) is the next keyword: the section ended early.
+    if (((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z')) && note.empty())
+      throw InputError(path_, t.line, s.name, truncated(s, i) + " at '" + t.str() + "'");
+    throw InputError(path_, t.line, s.name, std::string("expected ") + expected + ", found '" + t.str() + "'" + note);
   }
   Token number(const Section& s, long long i, double& v) {
     Token t = record_token(s, i);
@@ -194,6 +202,7 @@ class MeditReader {
 
   std::string path_;
   Tokenizer tok_;
+  SkippedIndices skipped_;
   size_t text_size_;
   bool edges_as_strands_;
   bool triangles_as_cloth_;

@@ -130,7 +130,8 @@ class GmshReader {
   double number(const Section& s, const std::string& what) {
     Token t = next(s, what);
     double v;
-    if (!parse_double(t, v)) throw InputError(path_, t.line, s.name, "expected " + what + " (a number), found '" + shown(t) + "'");
+    if (!parse_double(t, v))
+      throw InputError(path_, t.line, s.name, "expected " + what + " (a number), found '" + shown(t) + "'" + number_note(t));
     if (!std::isfinite(v)) throw InputError(path_, t.line, s.name, what + " is not finite: '" + shown(t) + "'");
     return v;
   }

@@ -1,6 +1,7 @@
 #include "mesh/text_tokens.hpp"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -50,10 +51,41 @@ void Tokenizer::skip_blank() {
   }
 }
 
-bool parse_double(const Token& t, double& v) {
+// [+-] digits [. digits] [(e|E) [+-] digits], with digits on at least one side of the point.
+static bool is_decimal(const char* p, const char* end) {
+  auto digits = [&] {
+    const char* start = p;
+    while (p != end && *p >= '0' && *p <= '9') ++p;
+    return p != start;
+  };
+  if (p != end && (*p == '+' || *p == '-')) ++p;
+  bool mantissa = digits();
+  if (p != end && *p == '.') {
+    ++p;
+    mantissa = digits() || mantissa;
+  }
+  if (!mantissa) return false;
+  if (p != end && (*p == 'e' || *p == 'E')) {
+    ++p;
+    if (p != end && (*p == '+' || *p == '-')) ++p;
+    if (!digits()) return false;
+  }
+  return p == end;
+}
+
+static bool strtod_reads(const Token& t, double& v) {
   char* e = nullptr;
   v = std::strtod(t.begin, &e);
   return e == t.end && e != t.begin;
+}
+
+bool parse_double(const Token& t, double& v) { return is_decimal(t.begin, t.end) && strtod_reads(t, v); }
+
+std::string number_note(const Token& t) {
+  double v;
+  if (is_decimal(t.begin, t.end) || !strtod_reads(t, v)) return "";
+  return std::isfinite(v) ? " (hexadecimal: numbers in mesh files are plain decimals)"
+                          : " (not finite: numbers in mesh files are plain decimals)";
 }
 
 bool parse_int(const Token& t, long long& v) {
@@ -63,15 +95,41 @@ bool parse_int(const Token& t, long long& v) {
   return e == t.end && e != t.begin && errno == 0;
 }
 
-int medit_record_size(const Token& t) {
-  static const struct { const char* name; int size; } table[] = {
-      {"Triangles", 4},        {"Tetrahedra", 5},      {"Edges", 3},           {"Corners", 1},
-      {"RequiredVertices", 1}, {"RequiredEdges", 1},   {"RequiredTriangles", 1}, {"Ridges", 1},
-      {"Quadrilaterals", 5},   {"Hexahedra", 9},       {"Prisms", 7},          {"Normals", 3},
-      {"Tangents", 3},         {"NormalAtVertices", 2}, {"TangentAtVertices", 2}};
+MeditRecord medit_record(const Token& t) {
+  static const struct { const char* name; MeditRecord record; } table[] = {
+      {"Triangles", {4, 3}},        {"Tetrahedra", {5, 4}},       {"Edges", {3, 2}},
+      {"Corners", {1, 1}},          {"RequiredVertices", {1, 1}}, {"RequiredEdges", {1, 0}},
+      {"RequiredTriangles", {1, 0}}, {"Ridges", {1, 0}},           {"Quadrilaterals", {5, 4}},
+      {"Hexahedra", {9, 8}},        {"Prisms", {7, 6}},           {"Normals", {3, 0}},
+      {"Tangents", {3, 0}},         {"NormalAtVertices", {2, 1}}, {"TangentAtVertices", {2, 1}}};
   for (const auto& s : table)
-    if (t.is(s.name)) return s.size;
-  return 0;
+    if (t.is(s.name)) return s.record;
+  return {};
+}
+
+void check_medit_version(const std::string& path, const Token& value, long long version) {
+  if (version < 1 || version > 4)
+    throw InputError(path, value.line, "MeshVersionFormatted",
+                     "unknown version " + value.str() + " (Medit ASCII files are versions 1, 2, 3 or 4)");
+}
+
+void SkippedIndices::add(const std::string& section, long long record, const Token& t, long long index) {
+  if (index < 1)
+    throw InputError(path_, t.line, section, "record " + std::to_string(record) + ": vertex index " + t.str() +
+                                                 " is out of range (indices start at 1)");
+  if (index > largest_) {
+    largest_ = index;
+    section_ = section;
+    text_ = t.str();
+    record_ = record;
+    line_ = t.line;
+  }
+}
+
+void SkippedIndices::check(long long vertices) const {
+  if (largest_ > vertices)
+    throw InputError(path_, line_, section_, "record " + std::to_string(record_) + ": vertex index " + text_ +
+                                                 " is out of range 1.." + std::to_string(vertices));
 }
 
 }  // namespace hyperqn

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstring>
 #include <string>
+#include <utility>
 
 namespace hyperqn {
 
@@ -43,14 +44,40 @@ class Tokenizer {
 };
 
 // The token is a whole number (strtod/strtoll stop at whitespace or at the comment character,
-// so they cannot read past the token; the buffer is also NUL-terminated).
+// so they cannot read past the token; the buffer is also NUL-terminated). Numbers are plain
+// decimals (-1.5, 2e-3): strtod alone would also take "0x10" for 16, and inf and nan.
 bool parse_double(const Token& t, double& v);
 bool parse_int(const Token& t, long long& v);
+// For a token parse_double refused that strtod reads (hexadecimal, inf, nan): why, as a note to
+// append to a message; "" for any other token.
+std::string number_note(const Token& t);
 
-// Tokens per record of the Medit sections a reader may skip (Triangles, Tetrahedra, Edges,
-// Corners, ...), 0 for any other keyword: a reader rejects what it neither reads nor skips, so
-// that a typo or an unsupported section is reported instead of desynchronizing the stream.
-// A reader checks the sections it reads first.
-int medit_record_size(const Token& t);
+// A Medit section a reader may skip (Triangles, Tetrahedra, Edges, Corners, ...): tokens per
+// record, the first `vertices` of them vertex indices; size 0 for any other keyword. A reader
+// rejects what it neither reads nor skips, so that a typo or an unsupported section is reported
+// instead of desynchronizing the stream. A reader checks the sections it reads first.
+struct MeditRecord {
+  int size = 0;
+  int vertices = 0;
+};
+MeditRecord medit_record(const Token& t);
+
+// MeshVersionFormatted: the ASCII Medit versions (1 to 4 differ only in the binary sizes);
+// anything else is an InputError naming the file and the value's line.
+void check_medit_version(const std::string& path, const Token& value, long long version);
+
+// The vertex indices of the sections a Medit reader skips: each an integer >= 1 (checked as it is
+// read) and at most the vertex count (checked at the end: Vertices may come later in the file).
+class SkippedIndices {
+ public:
+  explicit SkippedIndices(std::string path) : path_(std::move(path)) {}
+  void add(const std::string& section, long long record, const Token& t, long long index);
+  void check(long long vertices) const;
+
+ private:
+  std::string path_, section_, text_;
+  long long largest_ = 0, record_ = 0;
+  int line_ = 0;
+};
 
 }  // namespace hyperqn

@@ -36,6 +36,25 @@ std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vecto
   return select_vertices(mesh, boxes, deck_path, "fixed");
 }
 
+void check_attachments(const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+                       const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
+                       const std::string& deck_path) {
+  std::vector<BoxRegion> boxes;
+  for (const AttachmentSpec& a : attachments) boxes.push_back(a.region);
+  select_vertices(mesh, boxes, deck_path, "attachments");
+  const double tol = 1e-9 * bounding_box_diagonal(mesh);
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    bool acts = false;
+    for (int64_t v = 0; v < mesh.num_vertices() && !acts; ++v) {
+      const int32_t f = fixed_of_vertex[v];  // the vertex follows the last fixed region holding it
+      acts = in_box(&mesh.coords[3 * v], boxes[k], tol) && (f == 0 || fixed[f - 1].release > 0);
+    }
+    if (!acts)
+      throw InputError(deck_path, boxes[k].line, "attachments[" + std::to_string(k) + "].box",
+                       "selects only vertices that are fixed (and never released): the attachment would do nothing");
+  }
+}
+
 std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
                                              const std::string& deck_path) {
   const double tol = 1e-9 * bounding_box_diagonal(mesh);

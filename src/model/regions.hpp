@@ -53,6 +53,14 @@ std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxR
 std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path);
 
+// Every attachment box selects a vertex (select_vertices' check) and at least one that is not
+// fixed for good (free, or fixed by a region that is released): an attachment whose vertices all
+// stay fixed adds nothing, a mistake. Input errors name the deck line and "attachments[k].box".
+// fixed_of_vertex: select_fixed_vertices of `fixed`.
+void check_attachments(const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+                       const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
+                       const std::string& deck_path);
+
 // Per tet: 0 for the default material, k + 1 for regions[k] (by centroid in its box, or by
 // element tag; later regions win). A region that selects no element is an input error.
 std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,

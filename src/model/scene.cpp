@@ -115,15 +115,21 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, bool factored)
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
     in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
-    // Only the check that every box selects a vertex: each rank selects its own (attachment_term).
-    std::vector<BoxRegion> attachment_boxes;
-    for (const AttachmentSpec& a : deck.attachments) attachment_boxes.push_back(a.region);
-    select_vertices(in.mesh, attachment_boxes, deck.path, "attachments");
     size_t nfixed = 0;
     for (int32_t f : in.fixed) nfixed += f != 0;
     if (nfixed == in.fixed.size())
       throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
                        "every vertex is fixed: nothing to simulate");
+    // Only checked here: each rank selects its own attached vertices (attachment_term).
+    check_attachments(in.mesh, deck.attachments, deck.fixed, in.fixed, deck.path);
+    // An activation layer thicker than the body would push every vertex near an obstacle at once.
+    const double diagonal = bounding_box_diagonal(in.mesh);
+    if (deck.contact.distance > diagonal) {
+      char msg[200];
+      std::snprintf(msg, sizeof msg, "%g is larger than the body: its rest bounding-box diagonal is %g (after mesh.transform)",
+                    deck.contact.distance, diagonal);
+      throw InputError(deck.path, deck.contact.distance_line, "contact.distance", msg);
+    }
   });
   // Every rank reads the obstacle files (each holds every collider): a bad one fails on all alike.
   for (size_t c = 0; c < deck.colliders.size(); ++c) make_collider(deck.colliders[c], deck.path, (int)c);

@@ -44,6 +44,7 @@ struct ContactSpec {
   double stiffness = 1e3;           // penalty: force at full penetration of d, in vertex weights
   double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
   int line = 0;                     // deck line of the section
+  int distance_line = 0;            // and of distance, when given
 };
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
 ContactSpec resolved_contact(ContactSpec spec, double diagonal);

@@ -120,3 +120,15 @@ def test_example_deck_runs(tmp_path, ranks):
     out, _ = run(tmp_path, "full", load_deck("input/contact/bar_attached.yaml"), ranks=ranks)
     s = read_summary(out)
     assert s["frames"] == 60 and s["factorizations"] == 2
+
+
+def test_attachment_on_vertices_freed_later_is_accepted(tmp_path):
+    # Attached vertices that are also fixed are refused only when they stay fixed (test_bad_input):
+    # here the clamp lets go at t = 0.05 and the attachment holds the end from then on.
+    bar = load_deck("input/bar.yaml")
+    bar["mesh"]["box"]["cells"] = [8, 2, 2]
+    bar["time"]["frames"] = 4
+    bar["fixed"] = [{"box": CLAMP_BOX, "release": 0.05}]
+    bar["attachments"] = [{"box": CLAMP_BOX, "stiffness": 1.0e5}]
+    out, _ = run(tmp_path, "freed", bar)
+    assert read_summary(out)["factorizations"] == 2, "the release refactors M + h^2 L"

@@ -1,5 +1,7 @@
 """Bad decks, meshes and options: a non-zero exit, a message naming the file and key or line,
 and no output directory left behind."""
+import copy
+
 import pytest
 
 from conftest import run_hyperqn, write_deck
@@ -12,6 +14,9 @@ GOOD = {
 }
 
 TET_HEADER = "MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+# 12 vertices (lines 5-16) and a tet (lines 17-19)
+TWELVE = ("MeshVersionFormatted 1\nDimension 3\nVertices\n12\n" + "".join(f"{i % 2} {i // 2 % 2} {i // 4} 0\n" for i in range(12))
+          + "Tetrahedra\n1\n1 2 3 5 0\n")
 BAD_MESHES = {
     # name: (file text, expected fragments of the message)
     "truncated": ("MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n", ["truncated.mesh", "Vertices"]),
@@ -19,12 +24,24 @@ BAD_MESHES = {
     "degenerate": (TET_HEADER + "Tetrahedra\n1\n1 2 3 3 0\nEnd\n", ["degenerate.mesh", "degenerate"]),
     "not_a_number": (TET_HEADER.replace("1 0 0 0", "1 zero 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                      ["not_a_number.mesh", ":6"]),
+    # strtod reads these, but numbers in mesh files are plain decimals
+    "hex_coordinate": (TET_HEADER.replace("1 0 0 0", "0x10 0 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                       ["hex_coordinate.mesh:6: 'Vertices'", "'0x10'", "hexadecimal"]),
+    "inf_coordinate": (TET_HEADER.replace("0 1 0 0", "0 inf 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                       ["inf_coordinate.mesh:7: 'Vertices'", "'inf'", "not finite"]),
+    "nan_coordinate": (TET_HEADER.replace("0 0 1 0", "0 0 NaN 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                       ["nan_coordinate.mesh:8: 'Vertices'", "'NaN'", "not finite"]),
+    "version_99": (TET_HEADER.replace("MeshVersionFormatted 1", "MeshVersionFormatted 99") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                   ["version_99.mesh:1: 'MeshVersionFormatted'", "99"]),
+    # the sections the reader skips (Triangles, and Edges unless edges: strands) are checked too
+    "triangle_index": (TWELVE + "Triangles\n2\n1 2 3 0\n1 2 999 0\nEnd\n",
+                       ["triangle_index.mesh:23: 'Triangles'", "index 999", "1..12"]),
+    "edge_index": (TWELVE + "Edges\n1\n13 1 0\nEnd\n", ["edge_index.mesh:22: 'Edges'", "index 13", "1..12"]),
 }
 
 
 def deck_with(**changes):
     """GOOD with section.key=value changes ('section.key': value)."""
-    import copy
     deck = copy.deepcopy(GOOD)
     for dotted, value in changes.items():
         node = deck
@@ -37,6 +54,12 @@ def deck_with(**changes):
             node[last] = value
     return deck
 
+
+PLANE = {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}
+CLOTH = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 100.0, "areal_density": 0.2},
+         "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.51]}}],
+         "time": {"dt": 0.01, "frames": 2}}
 
 BAD_DECKS = {
     "nu_half": (deck_with(**{"material.poisson_ratio": 0.5}), ["material.poisson_ratio"]),
@@ -73,6 +96,27 @@ BAD_DECKS = {
     "bad_h0": (deck_with(**{"solver.h0": "stiffness"}), ["solver.h0", "laplacian, rest-stiffness, amg"]),
     # pd's steps are exact solves with M + h^2 L; a V-cycle would silently change the method.
     "pd_amg": (deck_with(solver={"type": "pd", "h0": "amg"}), ["solver.h0", "amg is for lbfgs", "pd"]),
+    # PETSc would split the value into two options and blame the command line for the second
+    "petsc_value_with_space": (deck_with(petsc={"tao_ls_type": "unit -tao_type garbage"}),
+                               [".yaml:11: 'petsc.tao_ls_type'", "one word"]),
+    "petsc_name_with_space": (deck_with(petsc={"tao ls_type": "armijo"}), [".yaml:11: 'petsc.tao ls_type'", "letters"]),
+    # the bar's rest diagonal is 1.04 (0.104 scaled by 0.1)
+    "contact_distance_beyond_body": (deck_with(colliders=[PLANE], contact={"distance": 2.0}),
+                                     [".yaml:15: 'contact.distance'", "larger than the body", "1.03923"]),
+    "contact_distance_beyond_scaled_body": (deck_with(**{"mesh.transform": {"scale": 0.1}}, colliders=[PLANE],
+                                                      contact={"distance": 0.5}),
+                                            ["'contact.distance'", "larger than the body", "0.103923"]),
+    # boxes whose vertices are all fixed for good: the springs would do nothing
+    "attachment_inside_fixed": (deck_with(attachments=[{"box": {"min": [-0.005, -0.5, -0.5], "max": [0.005, 0.5, 0.5]},
+                                                        "stiffness": 1.0e3}]),
+                                [".yaml:12: 'attachments[0].box'", "only vertices that are fixed"]),
+    "second_attachment_inside_fixed": (deck_with(attachments=[{"box": {"min": [0.99, -1, -1], "max": [1.01, 1, 1]}, "stiffness": 1.0},
+                                                              {"box": GOOD["fixed"][0]["box"], "stiffness": 1.0e3}]),
+                                       [".yaml:16: 'attachments[1].box'", "only vertices that are fixed"]),
+    "cloth_attachment_inside_fixed": (dict(copy.deepcopy(CLOTH), attachments=[{"box": {"min": [-0.01, -0.01, -0.01],
+                                                                                       "max": [0.01, 0.01, 0.01]},
+                                                                               "stiffness": 10.0}]),
+                                      [".yaml:12: 'attachments[0].box'", "only vertices that are fixed"]),
 }
 
 
@@ -124,6 +168,30 @@ def test_bad_obstacle_file(tmp_path, case, ranks):
     outdir = tmp_path / "out"
     proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
     assert_clean_failure(proc, outdir, fragments)
+
+
+TAGGED = {
+    # name: (line of GOOD's deck, the line with a tag, its key): every explicit tag is refused
+    "str": ("time: {dt: 0.01, frames: 2}", "time: {dt: !!str 0.01, frames: 2}", "time.dt"),
+    "float": ("time: {dt: 0.01, frames: 2}", "time: {dt: !!float '0.01', frames: 2}", "time.dt"),
+    "int": ("time: {dt: 0.01, frames: 2}", "time: {dt: 0.01, frames: !!int 2}", "time.frames"),
+    "local": ("    cells: [4, 1, 1]", "    cells: !cells [4, 1, 1]", "mesh.box.cells"),
+    "binary": ("    max: [0.01, 1, 1]", "    max: [0.01, 1, !!binary MQ==]", "fixed[0].box.max[2]"),
+    "key": ("time: {dt: 0.01, frames: 2}", "!!str time: {dt: 0.01, frames: 2}", "time"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TAGGED))
+def test_yaml_tags_are_refused(tmp_path, case):
+    plain, tagged, key = TAGGED[case]
+    write_deck(tmp_path / "plain.yaml", GOOD)
+    lines = (tmp_path / "plain.yaml").read_text().splitlines()
+    line = lines.index(plain) + 1
+    lines[line - 1] = tagged
+    path = tmp_path / f"tag_{case}.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [f"tag_{case}.yaml:{line}: '{key}'", "YAML tags are not accepted"])
 
 
 def test_yaml_syntax_error(tmp_path):

@@ -147,6 +147,8 @@ BAD = {
     "nodes_count_text": (changed(MSH22, "$Nodes\n5\n", "$Nodes\nfive\n"), "$Nodes", 10, "'five'"),
     "coordinate_text": (changed(MSH22, "3 0 1 0", "3 0 one 0"), "$Nodes", 13, "'one'"),
     "coordinate_nan": (changed(MSH22, "3 0 1 0", "3 0 nan 0"), "$Nodes", 13, "not finite"),
+    "coordinate_hex": (changed(MSH22, "3 0 1 0", "3 0 0x1 0"), "$Nodes", 13, "'0x1' (hexadecimal"),
+    "coordinate_inf": (changed(MSH22, "3 0 1 0", "3 0 1 -Infinity"), "$Nodes", 13, "'-Infinity' (not finite"),
     "duplicate_node": (changed(MSH22, "5 1 1 1", "4 1 1 1"), "$Nodes", 15, "appears twice"),
     "missing_end_nodes": (changed(MSH22, "$EndNodes\n", ""), "$Nodes", 16, "expected $EndNodes"),
     "missing_end_elements": (changed(MSH22, "$EndElements\n", ""), "$Elements", 22, "no $EndElements"),

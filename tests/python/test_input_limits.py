@@ -62,6 +62,43 @@ def test_limit_options_must_be_finite(tmp_path, ranks, option):
     assert_clean_failure(proc, tmp_path / "out", [option, "finite"])
 
 
+DECK_OPTIONS = {
+    # name: (the deck's petsc: section, the message's start after the deck's path): hyperqn's own
+    # options refused from the deck name the deck's line (GOOD's deck takes lines 1-10) and key
+    "divergence_limit_nan": ({"hyperqn_divergence_limit": "nan"}, ":11: 'petsc.hyperqn_divergence_limit': must be a finite"),
+    "element_limit_inf": ({"hyperqn": {"element_limit": "-inf"}}, ":12: 'petsc.hyperqn.element_limit': must be a finite"),
+    "divergence_limit_overflow": ({"hyperqn_divergence_limit": "1e999"}, ":11: 'petsc.hyperqn_divergence_limit'"),
+    "nan_energy_beyond_nan": ({"hyperqn_test_nan_energy_beyond": "NaN"}, ":11: 'petsc.hyperqn_test_nan_energy_beyond'"),
+    "h0_package_unknown": ({"hyperqn_h0_package": "umfpack"}, ":11: 'petsc.hyperqn_h0_package': unknown package"),
+    # not a number for PETSc: its message, with the option and its deck line ("-inf" is a value, not
+    # an option name: found by scripts/fuzz.py)
+    "nan_energy_from_step_minus_inf": ({"hyperqn_test_nan_energy_from_step": "-inf"}, ":11, petsc: section): PETSc:"),
+}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("case", sorted(DECK_OPTIONS))
+def test_bad_hyperqn_options_in_the_deck_name_their_line(tmp_path, case, ranks):
+    petsc, where = DECK_OPTIONS[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck_with(petsc=petsc))
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode == 1, proc.stdout
+    assert_clean_failure(proc, tmp_path / "out", [f"{case}.yaml{where}"])
+    assert "PETSC ERROR" not in proc.stdout
+
+
+def test_the_command_line_overrides_a_bad_deck_option(tmp_path):
+    # The deck's nan is never used: the command line's value wins, and the run is fine.
+    path = write_deck(tmp_path / "deck.yaml", deck_with(petsc={"hyperqn_divergence_limit": "nan"}))
+    run_hyperqn([path, "-o", tmp_path / "ok", "-hyperqn_divergence_limit", "5"], ranks=None, timeout=60)
+    # A bad value from the command line is the command line's, not the deck's.
+    path = write_deck(tmp_path / "deck.yaml", deck_with(petsc={"hyperqn_divergence_limit": 5}))
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-hyperqn_divergence_limit", "inf"], ranks=None, check=False,
+                       timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["option -hyperqn_divergence_limit inf", "finite"])
+    assert "deck.yaml:" not in proc.stdout
+
+
 def test_a_solver_without_iterations_is_not_ok(tmp_path):
     """-tao_max_it 0 with the fallback chain off: no frame is solved, and the status says so."""
     deck = copy.deepcopy(GOOD)

@@ -173,6 +173,9 @@ BAD_SWEEPS = {
     "index_out_of_range": ("deck: decks/base.yaml\nset: {fixed.3.box.min: [0, 0, 0]}\n", ["set.fixed.3.box.min", "'3'"]),
     "no_deck": ("sweep: {solver.type: [lbfgs]}\n", ["'deck' or 'decks'"]),
     "not_yaml": ("deck: decks/base.yaml\nsweep: {solver.type: [lbfgs\n", ["not a valid YAML"]),
+    # hyperqn refuses tags; a sweep must not turn !!float "1e5" into a plain number for it
+    "tagged_value": ("deck: decks/base.yaml\nsweep: {material.youngs_modulus: [!!float '1e5']}\n",
+                     ["YAML tags are not accepted, found !!float", "line 2"]),
 }
 
 
@@ -185,6 +188,15 @@ def test_bad_sweep_file(tmp_path, case):
     for fragment in [str(path), "sweep: error:"] + fragments:
         assert fragment in proc.stderr, f"{fragment!r} not in {proc.stderr!r}"
     assert not out.exists()
+
+
+def test_tagged_base_deck(tmp_path):
+    path = make_sweep(tmp_path, "deck: decks/tagged.yaml\nsweep: {solver.type: [lbfgs]}\n")
+    (tmp_path / "decks" / "tagged.yaml").write_text((tmp_path / "decks" / "base.yaml").read_text()
+                                                     .replace("dt: 0.01", "dt: !!float '0.01'"))
+    proc = sweep(path, "--out", tmp_path / "out", check_rc=1)
+    assert "tagged.yaml" in proc.stderr and "YAML tags are not accepted, found !!float" in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
 
 
 def test_missing_sweep_file(tmp_path):
