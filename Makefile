@@ -23,7 +23,7 @@ STABILITY_DECKS ?= $(wildcard input/stability/*.yaml)
 STABILITY_NP    ?= 1
 SWEEP ?= input/sweeps/bar_stiffness.yaml
 
-.PHONY: all deps build run test bench study stability sweep fuzz clean
+.PHONY: all deps build run test bench study stability sweep fuzz faults clean
 
 all: build
 
@@ -67,6 +67,11 @@ sweep: build
 # The input fuzzer: 1000 mutated decks, meshes and option sets (see scripts/fuzz.py) -> output/fuzz/.
 fuzz: build
 	$(PYTHON) scripts/fuzz.py --cases 1000 --bin $(BUILD)/hyperqn $(ARGS)
+
+# Fault injection: 240 trials of kills, full disks, unwritable places, damaged checkpoints, reused
+# directories and requeue loops at 1 and 2 ranks (see scripts/faults.py) -> output/faults/.
+faults: build
+	$(PYTHON) scripts/faults.py --trials 240 --bin $(BUILD)/hyperqn $(ARGS)
 
 clean:
 	rm -rf $(BUILD)

@@ -132,6 +132,10 @@ def read_checkpoint(path):
     damaged file raises OSError."""
     import h5py  # only checkpoints need it
 
+    # Values that look like numbers but are not: ids, hashes, one 0/1 flag per region.
+    text_keys = {"run_id", "run_started", "deck", "mesh_hash", "positions_hash", "velocities_hash", "released",
+                 "released_attachments", "writers"}
+
     def number(text):
         for kind in (int, float):
             try:
@@ -149,7 +153,7 @@ def read_checkpoint(path):
             elif name == "header":
                 for line in data.tobytes().decode().splitlines():
                     key, _, value = line.partition(" ")
-                    out[key] = number(value)
+                    out[key] = value if key in text_keys else number(value)
             else:
                 out[name] = data.tobytes().decode()
         return out

@@ -1,7 +1,7 @@
 // hyperqn: implicit Euler for elastic solids as energy minimization, solved per time step by
 // L-BFGS whose initial Hessian is the once-factored M + h^2 L (Liu, Bouaziz & Kavan 2017).
 //
-//   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest] [PETSc options...]
+//   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
 #include <petscsys.h>
 
@@ -18,15 +18,16 @@
 #include "solvers/solver_registry.hpp"
 
 static const char usage[] =
-    "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest] [PETSc options...]\n"
+    "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn registry   (the material models and solvers, as JSON)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
     "  solvers of the deck's study: section (error against time, per frame and per trajectory).\n"
     "  -o OUTDIR   output directory (default: the deck's output.directory, else output/<deck name>;\n"
     "              for a study output/study/<deck name>)\n"
-    "  --restart PATH|latest   continue the run from a checkpoint file, or from the newest one in\n"
-    "              OUTDIR/checkpoints (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
+    "  --restart PATH|latest|auto   continue the run that last wrote OUTDIR: from a checkpoint file of\n"
+    "              it, or from its newest whole one in OUTDIR/checkpoints; auto: that, or the deck afresh\n"
+    "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
     "              SIGUSR1 after writing a checkpoint\n"
     "  PETSc options on the command line override the deck's petsc: section,\n"
     "  e.g. -tao_ls_type armijo -tao_lmvm_mat_lmvm_hist_size 10 -log_view\n";
@@ -59,7 +60,7 @@ CommandLine parse_command_line(int argc, char** argv) {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs a directory");
       cl.outdir = argv[++i];
     } else if (a == "--restart") {
-      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file or 'latest'");
+      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
       cl.restart = argv[++i];
     } else if (a[0] != '-' && cl.deck.empty() && (i == first || argv[i - 1][0] != '-' || std::strcmp(argv[i - 1], "-o") == 0)) {
       cl.deck = a;
@@ -131,6 +132,9 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A simulation (not a study, not the registry) turns stop signals into a checkpoint from the start.
+  if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0)
+    hyperqn::catch_stop_signals();
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   int status = 0;
   try {

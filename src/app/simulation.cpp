@@ -130,7 +130,7 @@ static void read_log_events(RunSummary& s) {
 // the ranks agree on it once per frame (Run::after_frame).
 static volatile std::sig_atomic_t g_stop_signal = 0;
 extern "C" void record_stop_signal(int sig) { g_stop_signal = sig; }
-static void catch_stop_signals() {
+void catch_stop_signals() {
   struct sigaction action = {};
   action.sa_handler = record_stop_signal;
   sigemptyset(&action.sa_mask);
@@ -289,6 +289,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
   const double limit = options.divergence_limit;  // <= 0: no divergence check
   const LiveScene::Rebind rebind_run = [this](const Scene& o, Scene& f) { return rebind(o, f); };
   {  // a signal during setup: the run stops before its first frame, with a checkpoint of its start
+    if (state.frame == options.signal_after_frame) raise(SIGTERM);  // test hook
     int sig = (int)g_stop_signal, any;
     PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, comm));
     PetscCall(stop_for_signal(any, state.frame, started_inverted));
@@ -441,11 +442,13 @@ PetscErrorCode Run::after_frame(int frame, bool started_inverted) {
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
   const CheckpointSpec& c = deck.checkpoint;
+  if (frame == options.signal_after_frame) raise(SIGTERM);  // test hook
   int local[2] = {(int)g_stop_signal, 0}, global[2];
   if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime >= c.seconds;  // one clock decides
   PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, comm));
   if (global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint(started_inverted));
   PetscCall(stop_for_signal(global[0], frame, started_inverted));
+  if (frame == options.kill_after_frame) raise(SIGKILL);  // test hook
   PetscFunctionReturn(0);
 }
 
@@ -471,7 +474,7 @@ PetscErrorCode Run::resume(bool* started_inverted) {
   state.time = restart->time;
   state.released = restart->released;
   state.released_attachments = restart->released_attachments;
-  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, restart->vertex_slots, pos, vel));
+  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, *restart, pos, vel));
   PetscCall(s.body->resume(restart->body_time, pos, vel, state.x, state.v));
   restore_frame_counters(summary, restart->summary);
   earlier = restart->summary;  // its work counters are added at the end
@@ -534,7 +537,7 @@ static void add_vtk_series(MPI_Comm comm, const Deck& deck, const std::string& o
 // checked against the deck before anything is written; false (said) if the run cannot go on.
 // restart "auto" without a checkpoint to continue: true with path "" (the deck starts afresh).
 static bool open_restart(MPI_Comm comm, const std::string& restart, const std::string& outdir,
-                         const CheckpointHeader& identity, std::string& path, CheckpointHeader& saved) {
+                         const CheckpointHeader& identity, int deck_frames, std::string& path, CheckpointHeader& saved) {
   const RestartChoice choice = choose_restart(comm, restart, outdir);
   if (!choice.error.empty()) {
     PetscPrintf(comm, "hyperqn: error: %s\n", choice.error.c_str());
@@ -547,7 +550,9 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
                 outdir.c_str());
     return true;
   }
-  const std::string why = checkpoint_mismatch(saved, identity);
+  std::string why = checkpoint_mismatch(saved, identity);
+  if (why.empty() && saved.frame > deck_frames)  // a checkpoint of a longer run than this deck's
+    why = "its frame " + std::to_string(saved.frame) + " is past the deck's time.frames " + std::to_string(deck_frames);
   if (why.empty()) return true;
   PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", path.c_str(), why.c_str());
   return false;
@@ -555,7 +560,6 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
 
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart_arg) {
   const double t_start = MPI_Wtime();
-  catch_stop_signals();  // from the start: a signal during setup stops the run before its first frame
   int rank, size;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
@@ -570,7 +574,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   CheckpointHeader identity = scene_identity(comm, deck, input), saved;
   std::string restart_path;
-  if (!restart_arg.empty() && !open_restart(comm, restart_arg, outdir, identity, restart_path, saved)) return 1;
+  if (!restart_arg.empty() && !open_restart(comm, restart_arg, outdir, identity, deck.time.frames, restart_path, saved)) return 1;
   const bool restart = !restart_path.empty();  // else a new run (also --restart auto without a checkpoint)
   identity.run_id = restart ? saved.run_id : new_run_id(comm);
   identity.run_started = restart ? saved.run_started : utc_now(comm);
@@ -578,7 +582,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 2. Distribute, assemble, factor.
   RunOptions options;
-  if (read_run_options(comm, &options)) return 1;
+  if (read_run_options(comm, &options, &deck)) return 1;
   Run run(comm, deck, options);
   run.t_start = t_start;
   run.checkpoints = std::make_unique<CheckpointStore>(comm, outdir + "/checkpoints", deck.checkpoint.keep);
@@ -688,7 +692,6 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     throw_if_any_failed(comm, error);
     if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
     add_vtk_series(comm, deck, outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
-    catch_stop_signals();
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);
@@ -713,6 +716,12 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   double rss = peak_rss_mb();
   MPI_Allreduce(&rss, &summary.peak_rss_mb, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);
+  int sig = (int)g_stop_signal, any_sig;
+  MPI_Allreduce(&sig, &any_sig, 1, MPI_INT, MPI_MAX, comm);
+  if (any_sig) summary.signal = any_sig == SIGTERM ? "SIGTERM" : "SIGUSR1";
+  if (any_sig && ok && !run.interrupted)  // mpiexec (Open MPI) exits 1 after a SIGTERM, whatever the ranks' codes
+    PetscPrintf(comm, "hyperqn: %s arrived after the last frame had begun: the run is complete (status below)\n",
+                summary.signal.c_str());
   PetscPrintf(comm,
               "hyperqn: %s: %d frames, %.2f iterations/frame, %.3f ms/frame, %.3f ms/iteration, factorizations %d "
               "(%.3f s), wall %.3f s, peak RSS %.0f MB/rank; %s\n",
@@ -738,14 +747,14 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
       add(e);
     }
   }
+  // What stopped the run first, then what could not be written after it.
+  if (!ok && summary.status.rfind("error", 0) == 0) PetscPrintf(comm, "hyperqn: %s\n", summary.status.c_str());
   try {
     throw_if_any_failed(comm, error);  // every rank exits with 1, rank 0 names the path
   } catch (const std::exception& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
     ok = false;
   }
-  // The status says "error: ..." unless only the last writes failed (said above).
-  if (!ok && summary.status.rfind("error", 0) == 0) PetscPrintf(comm, "hyperqn: %s\n", summary.status.c_str());
   if (!ok) return 1;
   if (run.interrupted) return kExitInterrupted;
   return summary.status.rfind("inverted", 0) == 0 ? kExitInverted : 0;

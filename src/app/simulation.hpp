@@ -14,9 +14,15 @@ inline constexpr int kExitInverted = 2;
 // A run stopped by SIGTERM or SIGUSR1 after writing a checkpoint: `--restart latest` continues it.
 inline constexpr int kExitInterrupted = 3;
 
+// SIGTERM and SIGUSR1 from now on only ask a run to stop after its current frame, with a
+// checkpoint (docs/outputs.md#checkpoints). main calls it first thing for a simulation, so that
+// a signal during start-up (MPI, PETSc, reading the deck and mesh) is not fatal either.
+void catch_stop_signals();
+
 // Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the
 // run could not continue (summary.json says why), kExitInverted, kExitInterrupted.
-// restart: "" (from frame 0), a checkpoint file, or "latest" (the newest in OUTDIR/checkpoints).
+// restart: "" (from frame 0), a checkpoint file, "latest" (the newest whole checkpoint of the
+// run that last wrote OUTDIR) or "auto" (that, or from frame 0 if there is none).
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart = "");
 
 }  // namespace hyperqn

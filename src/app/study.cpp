@@ -220,6 +220,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
         out.add(p);
       }
     }
+    out.check(comm);  // rank 0's write failure ends every rank's study
   }
   PetscFunctionReturn(0);
 }
@@ -232,7 +233,7 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input)) return 1;
   RunOptions options;
-  if (read_run_options(comm, &options)) return 1;
+  if (read_run_options(comm, &options, &deck)) return 1;
 
   Study study(comm, deck);
   for (const std::string& type : st.solvers) {
@@ -267,6 +268,7 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
       return 1;
     }
     out.finish();
+    out.check(comm);
   } catch (const std::exception& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
     return 1;

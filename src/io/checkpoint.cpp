@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -150,6 +151,8 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   std::string keys;
   for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
   head.put("writers", keys);
+  head.put("positions_hash", h.positions_hash);
+  head.put("velocities_hash", h.velocities_hash);
 
   std::map<std::string, std::string> texts;
   texts["header"] = head.text();
@@ -164,6 +167,29 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   texts["flagged_frames"] = flagged;
   texts["inverted_frames"] = inverted;
   for (const auto& [key, state] : h.writers) texts["writer_" + key] = state;
+  return texts;
+}
+
+// A checksum of a checkpoint's texts (names and contents), stored beside them as "checksum".
+std::string texts_checksum(const std::map<std::string, std::string>& texts) {
+  std::string all;
+  for (const auto& [name, text] : texts) all += name + "\n" + std::to_string(text.size()) + "\n" + text;
+  return text_hash(all);
+}
+
+// Every text of a checkpoint file, checked against its stored checksum; throws
+// std::runtime_error saying what is missing or damaged.
+std::map<std::string, std::string> read_texts(const Hdf5File& file) {
+  std::map<std::string, std::string> texts;
+  for (const char* name : {"header", "physics", "flagged_frames", "inverted_frames", "checksum"})
+    if (!file.has(name)) throw std::runtime_error("not a hyperqn checkpoint (no " + std::string(name) + ")");
+  for (const char* name : {"header", "physics", "flagged_frames", "inverted_frames"}) texts[name] = file.read_text(name);
+  const HeaderLines head(texts["header"]);
+  std::istringstream keys(head.get("writers"));
+  for (std::string key; keys >> key;) texts["writer_" + key] = file.read_text("writer_" + key);
+  const std::string stored = file.read_text("checksum"), computed = texts_checksum(texts);
+  if (stored != computed)
+    throw std::runtime_error("its texts: checksum " + computed + " of the texts read, " + stored + " stored");
   return texts;
 }
 
@@ -203,6 +229,8 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   for (int frame; inverted >> frame;) s.inverted_frames.push_back(frame);
   std::istringstream keys(head.get("writers"));
   for (std::string key; keys >> key;) h.writers.emplace_back(key, text("writer_" + key));
+  h.positions_hash = head.get("positions_hash");
+  h.velocities_hash = head.get("velocities_hash");
   return h;
 }
 
@@ -322,6 +350,34 @@ PetscErrorCode from_natural(Vec natural, const DistributedMesh& mesh, std::vecto
 
 const char* const kVertexSets[] = {"positions", "velocities"};
 
+// A checksum of doubles in order: FNV-1a over their 64-bit words. Each word's step is a bijection
+// of the state, so a single changed value always changes it; the same however the rows come in blocks.
+class DataHash {
+ public:
+  void add(const double* x, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      uint64_t w;
+      std::memcpy(&w, x + i, sizeof w);
+      h_ = (h_ ^ w) * 1099511628211ull;
+    }
+  }
+  std::string hex() const {
+    char text[17];
+    std::snprintf(text, sizeof text, "%016llx", (unsigned long long)h_);
+    return text;
+  }
+
+ private:
+  uint64_t h_ = 1469598103934665603ull;
+};
+
+// Why the values of dataset k read do not match the header's checksum, or "".
+std::string hash_mismatch(int k, const DataHash& read, const CheckpointHeader& h) {
+  const std::string& stored = k == 0 ? h.positions_hash : h.velocities_hash;
+  if (read.hex() == stored) return "";
+  return std::string(kVertexSets[k]) + ": checksum " + read.hex() + " of the values read, " + stored + " in the header";
+}
+
 }  // namespace
 
 std::string text_hash(const std::string& text) {
@@ -375,24 +431,24 @@ PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const Ch
   int rank;
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
-  const std::string tmp = atomic_temporary(path);
   std::string error;  // rank 0's first failure; it goes on receiving so that no rank waits
   std::optional<Hdf5File> file;
   if (rank == 0) {
     try {
-      file.emplace(Hdf5File::create(tmp));
-      for (const auto& [name, text] : texts_of(h)) file->write_text(name, text);
+      file.emplace(Hdf5File::create(path));
       for (const char* name : kVertexSets) file->create_rows(name, (hsize_t)h.vertex_slots, 3);
     } catch (const std::exception& e) {
       error = e.what();
     }
   }
   const std::vector<double>* values[] = {&pos, &vel};
+  DataHash hashes[2];
   for (int k = 0; k < 2; ++k) {
     Vec natural;
     PetscCall(to_natural(comm, mesh, h.vertex_slots, *values[k], &natural));
     PetscCall(gather_rows(comm, natural, [&](hsize_t first, hsize_t rows, const double* data) {
       if (!error.empty()) return;
+      hashes[k].add(data, 3 * rows);
       try {
         file->write_rows(kVertexSets[k], first, rows, 3, data);
       } catch (const std::exception& e) {
@@ -401,22 +457,20 @@ PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const Ch
     }));
     PetscCall(VecDestroy(&natural));
   }
-  if (rank == 0) {
+  if (rank == 0 && error.empty()) {
     try {
-      if (error.empty()) {
-        file->close();
-        commit_temporary(tmp, path);
-      }
+      CheckpointHeader with_hashes = h;
+      with_hashes.positions_hash = hashes[0].hex();
+      with_hashes.velocities_hash = hashes[1].hex();
+      const std::map<std::string, std::string> texts = texts_of(with_hashes);
+      for (const auto& [name, text] : texts) file->write_text(name, text);
+      file->write_text("checksum", texts_checksum(texts));
+      file->close();  // writes the file: a full disk shows here
     } catch (const std::exception& e) {
       error = e.what();
     }
-    if (!error.empty()) {
-      file.reset();
-      std::remove(tmp.c_str());  // the space a full disk needs for summary.json
-      // Messages name the checkpoint, not its temporary.
-      for (size_t at; (at = error.find(tmp)) != std::string::npos;) error.replace(at, tmp.size(), path);
-    }
   }
+  file.reset();
   throw_if_any_failed(comm, error);
   PetscFunctionReturn(0);
 }
@@ -424,9 +478,8 @@ PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const Ch
 std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header, bool data) {
   try {
     const Hdf5File file = Hdf5File::open(path);
-    for (const char* name : {"header", "physics", "flagged_frames", "inverted_frames"})
-      if (!file.has(name)) return "not a hyperqn checkpoint (no " + std::string(name) + ")";
-    *header = header_of([&](const std::string& name) { return file.read_text(name); });
+    const std::map<std::string, std::string> texts = read_texts(file);
+    *header = header_of([&](const std::string& name) { return texts.at(name); });
     const int named = checkpoint_frame(fs::path(path).filename().string());
     if (named >= 0 && named != header->frame)
       return "its name says frame " + std::to_string(named) + ", its header frame " + std::to_string(header->frame);
@@ -437,11 +490,15 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
       if (file.rows(name) != slots)
         return std::string(name) + " has " + std::to_string(file.rows(name)) + " rows, its header " +
                std::to_string(slots) + " vertex slots";
+      DataHash hash;
       for (hsize_t first = 0; first < slots; first += block) {  // every chunk read: every checksum checked
         const hsize_t n = std::min(block, slots - first);
         rows.resize(3 * n);
         file.read_rows(name, first, n, 3, rows.data());
+        hash.add(rows.data(), rows.size());
       }
+      const std::string mismatch = hash_mismatch(name == kVertexSets[0] ? 0 : 1, hash, *header);
+      if (!mismatch.empty()) return mismatch;
     }
   } catch (const std::exception& e) {
     const std::string prefix = "cannot read " + path + ": ";
@@ -481,7 +538,7 @@ CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header)
 }
 
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
-                                        long long vertex_slots, std::vector<double>& pos, std::vector<double>& vel) {
+                                        const CheckpointHeader& h, std::vector<double>& pos, std::vector<double>& vel) {
   int rank;
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
@@ -497,15 +554,21 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
   std::vector<double>* values[] = {&pos, &vel};
   for (int k = 0; k < 2; ++k) {
     Vec natural;
-    PetscCall(create_natural(comm, vertex_slots, &natural));
+    DataHash hash;
+    PetscCall(create_natural(comm, h.vertex_slots, &natural));
     PetscCall(scatter_rows(comm, natural, [&](hsize_t first, hsize_t rows, double* data) {
       if (!error.empty()) return;
       try {
         file->read_rows(kVertexSets[k], first, rows, 3, data);
+        hash.add(data, 3 * rows);
       } catch (const std::exception& e) {
         error = e.what();
       }
     }));
+    if (rank == 0 && error.empty()) {
+      const std::string mismatch = hash_mismatch(k, hash, h);
+      if (!mismatch.empty()) error = "cannot read " + path + ": " + mismatch;
+    }
     PetscCall(from_natural(natural, mesh, *values[k]));
     PetscCall(VecDestroy(&natural));
   }

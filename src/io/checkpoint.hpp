@@ -45,6 +45,9 @@ struct CheckpointHeader {
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state
+  // Checksums of the positions' and velocities' values in row order, written with them and checked
+  // on every read: HDF5's own checksums guard the chunks and metadata, this guards what they hold.
+  std::string positions_hash, velocities_hash;
 };
 
 // FNV-1a 64-bit of text, as 16 hex digits: the same on every machine and rank count.
@@ -73,10 +76,11 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
 // Rank 0's header, on every rank (collective).
 CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header);
 
-// Positions and velocities of mesh's local vertices (3 each) from a checkpoint (collective: rank
-// 0 reads, each rank receives its rows). Throws std::runtime_error on every rank if path cannot be read.
+// Positions and velocities of mesh's local vertices (3 each) from a checkpoint whose header is h
+// (collective: rank 0 reads and checks them, each rank receives its rows). Throws
+// std::runtime_error on every rank if path cannot be read or its values are not the header's.
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
-                                        long long vertex_slots, std::vector<double>& pos, std::vector<double>& vel);
+                                        const CheckpointHeader& h, std::vector<double>& pos, std::vector<double>& vel);
 
 // Frame of a checkpoint file name checkpoint_<frame>.h5, or -1; and the name of a frame's file.
 int checkpoint_frame(const std::string& filename);

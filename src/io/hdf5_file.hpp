@@ -2,11 +2,17 @@
 // so an error on a full disk is one process's error, which throw_if_any_failed then spreads; no
 // collective HDF5 call exists that a failed rank could leave the others waiting in).
 //
-// Every HDF5 failure throws std::runtime_error "cannot write PATH: <reason>" or "cannot read
-// PATH: <reason>", the reason taken from HDF5's error stack (for a full disk, the system's
-// "No space left on device"); HDF5 prints nothing itself. Integrity: every dataset is chunked with
-// HDF5's Fletcher32 checksum filter, so a damaged chunk fails to read, and the file's metadata
-// (superblock, object headers) are in the 1.8+ format that carries HDF5's own checksums.
+// A file is written in memory (HDF5's core driver) and its bytes are then written by
+// write_file_atomically: HDF5 itself never writes to disk, because HDF5 1.10 cannot give up a file
+// it failed to close (a full disk): it crashes closing it again at exit. The cost is the file's
+// size in memory on the writing process, twice for a moment (the image and its copy).
+//
+// Every failure throws std::runtime_error "cannot write PATH: <reason>" or "cannot read PATH:
+// <reason>", the reason from the system (for a full disk "No space left on device") or from
+// HDF5's error stack; HDF5 prints nothing itself. Integrity: every dataset is chunked with HDF5's
+// Fletcher32 checksum filter, so a damaged chunk fails to read. The file's metadata (in HDF5's
+// earliest format, see create) carry no checksums: a damaged chunk index can make HDF5 read
+// zeros without an error, so users of this class keep checksums of what they read as well.
 #pragma once
 #include <hdf5.h>
 
@@ -14,9 +20,14 @@
 
 namespace hyperqn {
 
+// Why the last HDF5 call failed, from HDF5's error stack (which it then clears), and HDF5's own
+// printing of that stack turned off: for code that calls HDF5 itself (io/study_writer.cpp).
+std::string hdf5_error_reason();
+void silence_hdf5();
+
 class Hdf5File {
  public:
-  // Creates (truncates) path for writing.
+  // A new file for path, in memory until close() writes it (replacing path whole).
   static Hdf5File create(const std::string& path);
   // Opens path read-only.
   static Hdf5File open(const std::string& path);
@@ -25,7 +36,8 @@ class Hdf5File {
   Hdf5File& operator=(const Hdf5File&) = delete;
   ~Hdf5File();  // closes without checking: close() is the checked way
 
-  // Flushes and closes; a write that failed only now (a full disk) throws here.
+  // Closes; a file being written is then written to its path (atomically: path is the old file or
+  // the whole new one), which is where a full disk shows.
   void close();
 
   // A text as a 1-D byte dataset (any length: datasets, not attributes, have no 64 KiB limit).

@@ -25,6 +25,9 @@ struct RunSummary {
   // "ok"; "flagged: N of M frames could not decrease g (first: frame K)" (completed, exit 0); or
   // "error: ..." (the run stopped, exit 1).
   std::string status = "ok";
+  // The stop signal the run received (SIGTERM or SIGUSR1), "" if none: a run that completed
+  // although one arrived says so, since an mpiexec that got SIGTERM exits 1 regardless.
+  std::string signal;
   int ranks = 0;
   long long vertices = 0, tets = 0, segments = 0, triangles = 0, dofs = 0, fixed_vertices = 0;
   // The mesh as read was repaired: vertices of no element dropped, tets reoriented to positive volume.

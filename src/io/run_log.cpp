@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -101,6 +102,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"deck\": " << quoted(s.deck) << ",\n"
       << "  \"run_id\": " << quoted(s.run_id) << ",\n"
       << "  \"status\": " << quoted(s.status) << ",\n"
+      << "  \"signal\": " << (s.signal.empty() ? std::string("null") : quoted(s.signal)) << ",\n"
       << "  \"solver\": " << quoted(s.solver) << ",\n"
       << "  \"ranks\": " << s.ranks << ",\n"
       << "  \"vertices\": " << s.vertices << ",\n"
@@ -155,6 +157,8 @@ void write_summary(const std::string& path, const RunSummary& s) {
 }
 
 std::string summary_run_id(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return "";  // (a directory cannot be read as one)
   std::ifstream in(path);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string key = "\n  \"run_id\": \"";  // as write_summary writes it

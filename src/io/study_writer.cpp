@@ -1,5 +1,7 @@
 #include "io/study_writer.hpp"
 
+#include "io/hdf5_file.hpp"
+
 #include <map>
 #include <stdexcept>
 
@@ -7,29 +9,37 @@ namespace hyperqn {
 
 namespace {
 
+// The file's path, for messages (rank 0 writes one study.h5).
+std::string g_h5_path;
+
+[[noreturn]] void fail(const std::string& what) {
+  throw std::runtime_error("cannot write " + g_h5_path + ": " + what + ": " + hdf5_error_reason());
+}
+
 void write_dataset(hid_t group, const char* name, const std::vector<double>& v) {
   hsize_t n = v.size();
   hid_t space = H5Screate_simple(1, &n, nullptr);
-  hid_t set = H5Dcreate2(group, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (set < 0) throw std::runtime_error(std::string("cannot write HDF5 dataset ") + name);
-  if (n > 0) H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data());
-  H5Dclose(set);
-  H5Sclose(space);
+  hid_t set = space < 0 ? -1 : H5Dcreate2(group, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const bool ok = set >= 0 && (n == 0 || H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) >= 0);
+  if (set >= 0) H5Dclose(set);
+  if (space >= 0) H5Sclose(space);
+  if (!ok) fail(name);
 }
 
 void write_attribute(hid_t obj, const char* name, double value) {
   hid_t space = H5Screate(H5S_SCALAR);
-  hid_t attr = H5Acreate2(obj, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
-  H5Awrite(attr, H5T_NATIVE_DOUBLE, &value);
-  H5Aclose(attr);
-  H5Sclose(space);
+  hid_t attr = space < 0 ? -1 : H5Acreate2(obj, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
+  const bool ok = attr >= 0 && H5Awrite(attr, H5T_NATIVE_DOUBLE, &value) >= 0;
+  if (attr >= 0) H5Aclose(attr);
+  if (space >= 0) H5Sclose(space);
+  if (!ok) fail(name);
 }
 
 // Opens group `path` below `parent`, creating it if needed.
 hid_t group(hid_t parent, const std::string& path) {
   hid_t g = H5Lexists(parent, path.c_str(), H5P_DEFAULT) > 0 ? H5Gopen2(parent, path.c_str(), H5P_DEFAULT)
                                                              : H5Gcreate2(parent, path.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (g < 0) throw std::runtime_error("cannot create HDF5 group " + path);
+  if (g < 0) fail("group " + path);
   return g;
 }
 
@@ -48,12 +58,24 @@ StudyWriter::StudyWriter(const std::string& outdir, int rank) {
   open_csv(trajectory_csv_, outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error");
   h5_path_ = outdir + "/study.h5";
   h5_tmp_ = atomic_temporary(h5_path_);
+  g_h5_path = h5_path_;
+  silence_hdf5();
   h5_ = H5Fcreate(h5_tmp_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (h5_ < 0) throw std::runtime_error("cannot create " + h5_path_);
+  if (h5_ < 0) throw std::runtime_error("cannot write " + h5_path_ + ": " + hdf5_error_reason());
 }
 
 void StudyWriter::add(const StudyCurve& c) {
-  if (!active_) return;
+  if (!active_ || !error_.empty()) return;
+  try {
+    add_curve(c);
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+}
+
+void StudyWriter::check(MPI_Comm comm) const { throw_if_any_failed(comm, error_); }
+
+void StudyWriter::add_curve(const StudyCurve& c) {
   std::vector<double> it, t, e, gn, rel, ev;
   char line[512];
   for (const IterationRecord& r : c.iterations) {
@@ -85,17 +107,29 @@ void StudyWriter::add(const StudyCurve& c) {
 }
 
 void StudyWriter::add(const TrajectoryPoint& p) {
-  if (!active_) return;
+  if (!active_ || !error_.empty()) return;
   char line[512];
   std::snprintf(line, sizeof line, "%s,%d,%.9e,%lld,%.17g,%.17g\n", p.solver.c_str(), p.frame, p.time_s, p.iterations,
                 p.rms_error, p.rel_rms_error);
   trajectory_csv_.add(line);
-  trajectory_csv_.flush();
+  try {
+    trajectory_csv_.flush();
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
   trajectory_.push_back(p);
 }
 
 void StudyWriter::finish() {
-  if (!active_) return;
+  if (!active_ || !error_.empty()) return;
+  try {
+    finish_file();
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+}
+
+void StudyWriter::finish_file() {
   std::map<std::string, std::vector<const TrajectoryPoint*>> by_solver;
   for (const TrajectoryPoint& p : trajectory_) by_solver[p.solver].push_back(&p);
   if (!by_solver.empty()) {
@@ -122,7 +156,7 @@ void StudyWriter::finish() {
   const herr_t closed = H5Fclose(h5_);
   h5_ = -1;
   active_ = false;
-  if (closed < 0) throw std::runtime_error("cannot write " + h5_path_);
+  if (closed < 0) throw std::runtime_error("cannot write " + h5_path_ + ": " + hdf5_error_reason());
   commit_temporary(h5_tmp_, h5_path_);
 }
 

@@ -38,12 +38,20 @@ class StudyWriter {
   ~StudyWriter();
   StudyWriter(const StudyWriter&) = delete;
   StudyWriter& operator=(const StudyWriter&) = delete;
+  // Each records its failure rather than throwing: rank 0 alone writes, so every rank must learn
+  // of it together (check).
   void add(const StudyCurve& c);
   void add(const TrajectoryPoint& p);
   // Writes the trajectory datasets and closes everything.
   void finish();
+  // Collective: if rank 0 failed to write, every rank throws std::runtime_error ("cannot write
+  // PATH: <reason>").
+  void check(MPI_Comm comm) const;
 
  private:
+  void add_curve(const StudyCurve& c);
+  void finish_file();
+  std::string error_;  // the first failure
   bool active_ = false;
   LineFile study_csv_, trajectory_csv_;
   hid_t h5_ = -1;

@@ -3,6 +3,7 @@ and renamed), iterations.csv holds complete rows after a kill, summary.json is a
 a rerun into a directory replaces the earlier run's files (and only those), and a write failure
 (unwritable directory, full disk) ends the run with exit 1 naming the path, at 1 and 2 ranks,
 without a hang. docs/outputs.md, "Guarantees"."""
+import contextlib
 import copy
 import csv
 import json
@@ -16,6 +17,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from conftest import HYPERQN, MPIEXEC, run_hyperqn, write_deck
+from hyperqn_tools.paths import REPO
 from hyperqn_tools import launch
 from hyperqn_tools.output import read_frames, read_pvd, read_summary
 from test_bad_input import GOOD
@@ -194,20 +196,29 @@ def test_unwritable_output_directory(tmp_path, ranks):
     assert_write_failure(proc, str(out), out)
 
 
-@pytest.fixture
-def full_disk(tmp_path):
-    """A 200 kB tmpfs, if this machine lets us mount one."""
-    mnt = tmp_path / "full"
+@contextlib.contextmanager
+def small_disk(mnt, size):
+    """A tmpfs of `size` (e.g. "200k") mounted at mnt while in the context; skips the test if this
+    machine does not let us mount one."""
     mnt.mkdir()
     try:
-        done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=200k", "tmpfs", str(mnt)],
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mnt)],
                               capture_output=True, text=True, timeout=20)
     except (OSError, subprocess.TimeoutExpired) as e:
         pytest.skip(f"cannot mount a tmpfs: {e}")
     if done.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs: {done.stderr.strip()}")
-    yield mnt
-    subprocess.run(["umount", "-l", str(mnt)], timeout=20)
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], timeout=20)
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 200 kB tmpfs."""
+    with small_disk(tmp_path / "full", "200k") as mnt:
+        yield mnt
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
@@ -222,3 +233,14 @@ def test_full_disk(full_disk, tmp_path, ranks):
     assert_write_failure(proc, str(out) + "/full_0000", out)
     assert "No space left on device" in proc.stdout
     check_complete(out)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_full_disk_during_a_study(tmp_path, ranks):
+    """The study's files are rank 0's: its failure ends every rank, naming the path."""
+    with small_disk(tmp_path / "disk", "40k") as mnt:
+        out = mnt / "study"
+        proc = run_hyperqn(["study", os.path.join(REPO, "tests", "decks", "study_small.yaml"), "-o", out],
+                           ranks=ranks, check=False, timeout=120)
+        assert proc.returncode == 1, proc.stdout[-3000:]
+        assert f"hyperqn: error: cannot write {out}/" in proc.stdout and "No space left on device" in proc.stdout
