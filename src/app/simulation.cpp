@@ -428,7 +428,9 @@ PetscErrorCode Run::write_checkpoint(bool started_inverted) {
   PetscCall(s.body->local_positions(state.x, pos));
   PetscCall(s.body->local_velocities(state.v, vel));
   flush_logs();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
+  PetscCall(event_begin(&LogEvents::checkpoint));
   const std::string path = checkpoints->write(h, s.mesh, pos, vel);
+  PetscCall(event_end(&LogEvents::checkpoint));
   last_checkpoint_wtime = MPI_Wtime();
   last_checkpoint_frame = state.frame;
   PetscCall(PetscPrintf(comm, "hyperqn: checkpoint %s\n", path.c_str()));

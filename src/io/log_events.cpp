@@ -38,6 +38,7 @@ static LogEvents register_events() {
   add("hqnScene", &e.scene);
   add("hqnOutput", &e.output);
   add("hqnContact", &e.contact);
+  add("hqnCheckpoint", &e.checkpoint);
   return e;
 }
 

@@ -17,6 +17,7 @@ struct LogEvents {
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
   PetscLogEvent output;       // writing one output frame
   PetscLogEvent contact;      // contact and friction: energy, gradient, Hessian, per-step update
+  PetscLogEvent checkpoint;   // writing one checkpoint (rank 0 writes, the others send their rows)
 };
 
 // The events, registered on first use.
