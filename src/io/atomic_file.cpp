@@ -6,7 +6,6 @@
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
-#include <vector>
 
 namespace hyperqn {
 
@@ -83,12 +82,15 @@ void throw_if_any_failed(MPI_Comm comm, const std::string& error) {
   int first = size;
   MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
   if (first == size) return;
-  int n = rank == first ? (int)error.size() : 0;
-  MPI_Bcast(&n, 1, MPI_INT, first, comm);
-  std::vector<char> text(error.begin(), error.end());
-  text.resize(n);
-  MPI_Bcast(text.data(), n, MPI_CHAR, first, comm);
-  throw std::runtime_error(std::string(text.begin(), text.end()));
+  throw std::runtime_error(broadcast_text(comm, error, first));
+}
+
+std::string broadcast_text(MPI_Comm comm, std::string text, int root) {
+  long long n = (long long)text.size();
+  MPI_Bcast(&n, 1, MPI_LONG_LONG, root, comm);
+  text.resize((size_t)n);
+  MPI_Bcast(&text[0], (int)n, MPI_CHAR, root, comm);
+  return text;
 }
 
 LineFile::~LineFile() {

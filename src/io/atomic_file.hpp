@@ -24,6 +24,9 @@ void commit_temporary(const std::string& tmp, const std::string& path);
 // interrupted write leaves behind.
 bool is_atomic_temporary(const std::string& name);
 
+// Collective over comm: rank `root`'s text on every rank (the others' text is ignored).
+std::string broadcast_text(MPI_Comm comm, std::string text, int root = 0);
+
 // Collective over comm: every rank passes its error ("" if none). If any rank has one, every
 // rank throws std::runtime_error with the message of the lowest such rank, so no rank goes on to
 // wait for another that has failed, and rank 0 (which prints) can name the path.

@@ -516,10 +516,7 @@ CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header)
   if (rank == 0)
     for (const auto& [name, text] : texts_of(header)) packed += std::to_string(name.size()) + " " + name +
                                                                 std::to_string(text.size()) + " " + text;
-  long long n = (long long)packed.size();
-  MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm);
-  packed.resize((size_t)n);
-  MPI_Bcast(&packed[0], (int)n, MPI_CHAR, 0, comm);
+  packed = broadcast_text(comm, packed);
   if (rank == 0) return header;
   std::map<std::string, std::string> texts;
   size_t at = 0;

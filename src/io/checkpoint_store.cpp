@@ -18,14 +18,6 @@ namespace hyperqn {
 
 namespace {
 
-std::string broadcast(MPI_Comm comm, std::string s) {
-  long long n = (long long)s.size();
-  MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm);
-  s.resize((size_t)n);
-  MPI_Bcast(&s[0], (int)n, MPI_CHAR, 0, comm);
-  return s;
-}
-
 int rank_of(MPI_Comm comm) {
   int rank;
   MPI_Comm_rank(comm, &rank);
@@ -119,7 +111,7 @@ std::string new_run_id(MPI_Comm comm) {
       id += hex;
     }
   }
-  return broadcast(comm, id);
+  return broadcast_text(comm, id);
 }
 
 std::string utc_now(MPI_Comm comm) {
@@ -132,7 +124,7 @@ std::string utc_now(MPI_Comm comm) {
     std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
     now = text;
   }
-  return broadcast(comm, now);
+  return broadcast_text(comm, now);
 }
 
 RestartChoice choose_restart(MPI_Comm comm, const std::string& restart, const std::string& outdir) {
@@ -142,8 +134,8 @@ RestartChoice choose_restart(MPI_Comm comm, const std::string& restart, const st
     choose_on_rank0(restart, outdir, choice.path, choice.error);
     if (!choice.path.empty()) inspect_checkpoint(choice.path, &header, false);
   }
-  choice.path = broadcast(comm, choice.path);
-  choice.error = broadcast(comm, choice.error);
+  choice.path = broadcast_text(comm, choice.path);
+  choice.error = broadcast_text(comm, choice.error);
   if (!choice.path.empty()) choice.header = broadcast_header(comm, header);
   return choice;
 }
