@@ -74,6 +74,8 @@ bool is_atomic_temporary(const std::string& name) {
   return true;
 }
 
+std::string temporary_target(const std::string& name) { return name.substr(1, name.rfind(".tmp-") - 1); }
+
 void throw_if_any_failed(MPI_Comm comm, const std::string& error) {
   int rank, size;
   MPI_Comm_rank(comm, &rank);

@@ -23,6 +23,8 @@ void commit_temporary(const std::string& tmp, const std::string& path);
 // Whether a file name (no directory) is a temporary of write_file_atomically: what an
 // interrupted write leaves behind.
 bool is_atomic_temporary(const std::string& name);
+// The name of the file such a temporary was to become (.NAME.tmp-PID -> NAME).
+std::string temporary_target(const std::string& name);
 
 // Collective over comm: rank `root`'s text on every rank (the others' text is ignored).
 std::string broadcast_text(MPI_Comm comm, std::string text, int root = 0);

@@ -33,7 +33,7 @@ std::string whose(const CheckpointHeader& h) {
 
 // A temporary of an interrupted checkpoint write: .checkpoint_<frame>.h5.tmp-<pid>.
 bool is_checkpoint_temporary(const std::string& name) {
-  return is_atomic_temporary(name) && checkpoint_frame(name.substr(1, name.rfind(".tmp-") - 1)) >= 0;
+  return is_atomic_temporary(name) && checkpoint_frame(temporary_target(name)) >= 0;
 }
 
 // The checkpoint files of dir by frame, newest first; a warning for each other file that is not a

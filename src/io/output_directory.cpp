@@ -29,7 +29,7 @@ void create_output_directory(MPI_Comm comm, const std::string& dir) {
 }
 
 bool is_run_output(const std::string& dir, const std::string& name) {
-  if (is_atomic_temporary(name)) return is_run_output(dir, name.substr(1, name.rfind(".tmp-") - 1));
+  if (is_atomic_temporary(name)) return is_run_output(dir, temporary_target(name));
   if (name == "summary.json" || name == "iterations.csv" || name == "contact.csv") return true;
   // Frames: the five-digit frame number (and the rank of a piece) is what marks them as ours.
   static const std::regex frame(R"(.+_\d{5}(\.p?vtu|_\d+\.vtu))");
@@ -67,7 +67,7 @@ int remove_files(const std::string& dir, const std::function<bool(const std::str
 }
 
 bool is_checkpoint_file(const std::string& name) {
-  const std::string base = is_atomic_temporary(name) ? name.substr(1, name.rfind(".tmp-") - 1) : name;
+  const std::string base = is_atomic_temporary(name) ? temporary_target(name) : name;
   return checkpoint_frame(base) >= 0 || (base.rfind("checkpoint_", 0) == 0 && base.size() > 4 &&
                                          base.compare(base.size() - 4, 4, ".tmp") == 0);  // format 1's temporaries
 }
