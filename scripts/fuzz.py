@@ -84,7 +84,7 @@ OPTIONS = ["-tao_type", "-tao_ls_type", "-tao_max_it", "-tao_gatol", "-tao_lmvm_
            "-h0_mat_mumps_icntl_7", "-h0_mat_mumps_icntl_14", "-hyperqn_divergence_limit", "-tao_ls_stepinit",
            "-tao_bogus_option", "-hyperqn_h0_package", "-h0_mat_cholmod_factor"]
 OPTION_VALUES = ["0", "-1", "1", "nan", "inf", "abc", "1e308", "lmvm", "nls", "armijo", "unit", "", "99999999999",
-                 "mumps", "cholmod", "supernodal"]
+                 "mumps", "cholmod", "supernodal", "split"]
 
 
 # Classes of input that must be refused, each with the file and line its message must name.

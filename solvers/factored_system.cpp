@@ -42,7 +42,9 @@ const char* factor_package_name(FactorPackage p) {
     case FactorPackage::mumps: return "mumps";
     case FactorPackage::cholmod: return "cholmod";
     case FactorPackage::supernodal: return "supernodal";
+    case FactorPackage::split: return "split";
     case FactorPackage::amg: return "amg";
+    case FactorPackage::automatic: return "auto";
   }
   return "?";
 }
@@ -56,7 +58,19 @@ bool factor_package_available(FactorPackage p) {
 #endif
 }
 
-FactorPackage default_factor_package() { return FactorPackage::supernodal; }
+FactorPackage default_factor_package() { return FactorPackage::automatic; }
+
+PetscErrorCode choose_factor_package(Mat A, FactorPackage* package) {
+  PetscMPIInt size;
+  PetscInt interface = 0;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A), &size));
+  if (size > 1) PetscCall(SplitCholesky::interface_size(A, &interface));
+  *package = size > 1 && interface <= kMaxSplitInterface ? FactorPackage::split : FactorPackage::supernodal;
+  PetscFunctionReturn(0);
+}
+
+bool auto_h0_is_amg(int64_t vertices, bool volume_mesh) { return volume_mesh && vertices >= kAmgFromVertices; }
 
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {
@@ -152,6 +166,22 @@ PetscErrorCode FactoredSystem::factor_supernodal(Mat A) {
   PetscFunctionReturn(0);
 }
 
+// Each rank's interior and the shared Schur complement of the interface (solvers/split_cholesky.hpp).
+PetscErrorCode FactoredSystem::factor_split(Mat A) {
+  SplitCholesky::Status status;
+  PetscFunctionBeginUser;
+  split_ = std::make_unique<SplitCholesky>();
+  PetscCall(split_->factor(A, kind_ == ConstantMatrix::laplacian ? 3 : 1, &status));
+  if (status != SplitCholesky::Status::ok) split_.reset();
+  if (status == SplitCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
+  PetscCheck(status != SplitCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
+             "the split Cholesky factorization of the constant matrix ran out of memory (its interface block is "
+             "dense on every rank: fewer ranks, or solver.h0: amg)");
+  PetscCheck(status == SplitCholesky::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
+             "the split Cholesky factorization of the constant matrix failed");
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::factor(Mat A) {
   MatFactorInfo info;
   MatFactorError failed = MAT_FACTOR_NOERROR;
@@ -159,6 +189,12 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   PetscFunctionBeginUser;
   if (package_ == FactorPackage::supernodal) {
     PetscCall(factor_supernodal(A));
+    PetscFunctionReturn(0);
+  }
+  if (package_ == FactorPackage::split) {
+    PetscMPIInt size;
+    PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A), &size));
+    PetscCall(size > 1 ? factor_split(A) : factor_supernodal(A));
     PetscFunctionReturn(0);
   }
   PetscCheck(factor_package_available(package_), PETSC_COMM_SELF, PETSC_ERR_SUP,
@@ -195,17 +231,19 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
-  package_ = package;
   const int components = kind == ConstantMatrix::laplacian ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components, kind));
   PetscCall(event_end(&LogEvents::h0_assembly));
+  if (package == FactorPackage::automatic) PetscCall(choose_factor_package(A_, &package));
+  package_ = package;
 
   MPI_Comm comm = PetscObjectComm((PetscObject)A_);
   PetscMPIInt size, rank;
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  const bool gathered = size > 1 && package != FactorPackage::amg;  // the V-cycle stays distributed
+  // The V-cycle and the split factor stay distributed.
+  const bool gathered = size > 1 && package != FactorPackage::amg && package != FactorPackage::split;
   const double before = event_seconds(log_events().h0_factor);
   PetscCall(event_begin(&LogEvents::h0_factor));
   Mat factored = A_;
@@ -238,7 +276,8 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     factor_nonzeros_ = factor_info.nz_used;
   }
   if (supernodal_) factor_nonzeros_ = static_cast<double>(supernodal_->nonzeros());
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // only rank 0 holds it
+  if (split_) factor_nonzeros_ = split_->nonzeros();  // already the sum over the ranks
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // gathered: rank 0's
 
   PetscCall(MatGetLocalSize(A_, &n, nullptr));
   PetscCall(MatGetSize(A_, &N, nullptr));
@@ -315,7 +354,15 @@ PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<Pets
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
-  if (supernodal_) {  // the dof layout is the interleaved one: no copies
+  if (split_) {  // the dof layout, on every rank
+    const PetscScalar* in;
+    PetscScalar* out;
+    PetscCall(VecGetArrayRead(b, &in));
+    PetscCall(VecGetArrayWrite(x, &out));
+    PetscCall(split_->solve(in, out));
+    PetscCall(VecRestoreArrayWrite(x, &out));
+    PetscCall(VecRestoreArrayRead(b, &in));
+  } else if (supernodal_) {  // the dof layout is the interleaved one: no copies
     const PetscScalar* in;
     PetscScalar* out;
     PetscCall(VecGetArrayRead(b, &in));

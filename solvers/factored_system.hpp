@@ -24,6 +24,7 @@
 #include <memory>
 
 #include "solvers/objective.hpp"
+#include "solvers/split_cholesky.hpp"
 #include "solvers/supernodal_cholesky.hpp"
 
 namespace hyperqn {
@@ -38,13 +39,27 @@ namespace hyperqn {
 // hypre) on A1, through a KSPPREONLY with the prefix h0_. Not A^{-1}: an approximation L-BFGS can
 // take as H0 (symmetric and positive definite by the choice of smoothers), not PD's exact steps.
 // Chosen by solver.h0 (lbfgs only), not by -hyperqn_h0_package.
-enum class FactorPackage { mumps, cholmod, supernodal, amg };
-const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "supernodal", "amg"
+// split: supernodal's factor and solve, distributed: each rank factors its own interior and the
+// ranks share the Schur complement of their interface (solvers/split_cholesky.hpp); on one rank
+// it is supernodal. The others gather A to rank 0 on more than one rank (see above).
+// automatic: resolved when the matrix is set up (choose_factor_package).
+enum class FactorPackage { mumps, cholmod, supernodal, split, amg, automatic };
+const char* factor_package_name(FactorPackage p);  // "mumps", "cholmod", "supernodal", "split", "amg", "auto"
 // PETSc's CHOLMOD needs a PETSc built with SuiteSparse (PETSC_HAVE_SUITESPARSE); MUMPS and
 // hyperqn's own link to CHOLMOD are always there.
 bool factor_package_available(FactorPackage p);
-// What -hyperqn_h0_package auto means: supernodal.
+// -hyperqn_h0_package's default: automatic.
 FactorPackage default_factor_package();
+// What automatic becomes for the assembled matrix A (collective): supernodal on one rank; on more,
+// split while its dense interface block is affordable (at most kMaxSplitInterface rows), else
+// supernodal gathered to rank 0 (docs/performance.md#distributed-h0).
+PetscErrorCode choose_factor_package(Mat A, FactorPackage* package);
+constexpr PetscInt kMaxSplitInterface = 8000;
+// solver.h0: auto (lbfgs): true where one V-cycle of A1 (amg) reaches a given accuracy sooner than
+// the factor, by the crossover measured for the study (docs/performance.md#distributed-h0): on
+// volume meshes (tets) of at least kAmgFromVertices vertices, whatever the rank count.
+bool auto_h0_is_amg(int64_t vertices, bool volume_mesh);
+constexpr int64_t kAmgFromVertices = 50000;
 
 class FactoredSystem {
  public:
@@ -58,6 +73,7 @@ class FactoredSystem {
   // (A not positive definite) is an error saying so.
   PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
                        FactorPackage package = default_factor_package());
+  // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
   // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle per column.
@@ -75,11 +91,14 @@ class FactoredSystem {
   // or A1's alone where PETSc does not hold them (BoomerAMG).
   double factor_nonzeros() const { return factor_nonzeros_; }
   int factorizations() const { return factorizations_; }
+  // Rows of the split factor's dense interface block (0 for the other packages).
+  PetscInt interface_size() const { return split_ ? split_->separator_size() : 0; }
 
  private:
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A);
   PetscErrorCode factor_supernodal(Mat A);
+  PetscErrorCode factor_split(Mat A);  // A_ itself, on more than one rank
   PetscErrorCode setup_amg();  // ksp_ on A_
   // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
   PetscErrorCode solve_here(Vec b, Vec x) const;
@@ -92,6 +111,7 @@ class FactoredSystem {
   FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
+  std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
   KSP ksp_ = nullptr;                                      // instead of a factor for amg
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to

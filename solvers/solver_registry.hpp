@@ -38,6 +38,9 @@ ConstantMatrix constant_matrix_of(const SolverSpec& spec);
 // True if that matrix (M + h^2 L) is applied by one AMG V-cycle instead of a factorization
 // (lbfgs with solver.h0: amg).
 bool constant_matrix_by_amg(const SolverSpec& spec);
+// True if the scene chooses between the factor and the V-cycle of M + h^2 L by the mesh (lbfgs
+// with solver.h0: auto, the default; auto_h0_is_amg).
+bool constant_matrix_auto(const SolverSpec& spec);
 // True if a run with these settings factors a sparse matrix: a constant matrix (unless by AMG), or
 // Newton's Hessian with linear_solver mumps, as the solver or as the fallback chain's last stage.
 bool solver_factors(const SolverSpec& spec);

@@ -25,9 +25,10 @@ struct SolverSpec {
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
   std::string linear_solver = "mumps";       // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact
-  std::string h0 = "laplacian";              // lbfgs: its constant matrix, laplacian (M + h^2 L) |
+  std::string h0 = "auto";                   // lbfgs: its constant matrix, laplacian (M + h^2 L) |
                                              //   rest-stiffness (M + h^2 K(x_rest)) | amg (M + h^2 L
-                                             //   by one AMG V-cycle instead of a factorization)
+                                             //   by one AMG V-cycle instead of a factorization) |
+                                             //   auto (laplacian or amg by the mesh: auto_h0_is_amg)
   // The fallback chain of a frame that ends far from converged (docs/guardrails.md#fallback):
   // iterate on up to max_iterations, then redo the frame in 2, 4, ... 2^max_halvings sub-steps,
   // then with Newton. max_iterations <= iterations, max_halvings = 0, newton_fallback = false

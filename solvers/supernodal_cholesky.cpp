@@ -2,6 +2,7 @@
 
 #include <cholmod.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "materials/lanes.hpp"
@@ -38,25 +39,69 @@ SupernodalCholesky::Status status_of(const cholmod_common& c) {
 
 }  // namespace
 
-SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* row_start, const int64_t* columns,
-                                                      const double* values) {
-  *this = SupernodalCholesky();
-  Cholmod cm;
-  // A symmetric matrix's rows are its columns: row i is handed over as column i, whose entries
-  // with index >= i are the lower triangle, the part CHOLMOD reads with stype -1.
+namespace {
+
+// A's rows as CHOLMOD columns (stype -1: the entries with index >= the column's, the lower
+// triangle), of A itself (nz null) or of its leading block (nz[i]: row i's entries inside it).
+cholmod_sparse lower_view(int64_t n, const int64_t* row_start, const int64_t* columns, const double* values,
+                          int64_t* nz = nullptr) {
   cholmod_sparse A{};
   A.nrow = A.ncol = static_cast<size_t>(n);
   A.nzmax = static_cast<size_t>(row_start[n]);
   A.p = const_cast<int64_t*>(row_start);
   A.i = const_cast<int64_t*>(columns);
+  A.nz = nz;
   A.x = const_cast<double*>(values);
   A.stype = -1;
   A.itype = CHOLMOD_LONG;
   A.xtype = CHOLMOD_REAL;
   A.dtype = CHOLMOD_DOUBLE;
   A.sorted = 1;
-  A.packed = 1;
-  cholmod_factor* L = cholmod_l_analyze(&A, &cm.c);
+  A.packed = nz ? 0 : 1;
+  return A;
+}
+
+// The fill-reducing ordering of A with its last `separator` rows kept last: CHOLMOD's choice for
+// the interior block (already postordered), then the separator as it is. Empty on failure.
+std::vector<int64_t> ordering_with_separator(int64_t n, const int64_t* row_start, const int64_t* columns,
+                                             const double* values, int64_t separator, cholmod_common* c) {
+  const int64_t interior = n - separator;
+  std::vector<int64_t> perm(static_cast<size_t>(n));
+  for (int64_t i = interior; i < n; ++i) perm[i] = i;
+  if (interior == 0) return perm;
+  std::vector<int64_t> nz(static_cast<size_t>(interior));  // columns are sorted: the block's entries come first
+  for (int64_t i = 0; i < interior; ++i)
+    nz[i] = std::lower_bound(columns + row_start[i], columns + row_start[i + 1], interior) - (columns + row_start[i]);
+  cholmod_sparse block = lower_view(interior, row_start, columns, values, nz.data());
+  cholmod_factor* L = cholmod_l_analyze(&block, c);
+  if (!L) return {};
+  const auto* p = static_cast<const int64_t*>(L->Perm);
+  std::copy(p, p + interior, perm.begin());
+  cholmod_l_free_factor(&L, c);
+  return perm;
+}
+
+}  // namespace
+
+SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* row_start, const int64_t* columns,
+                                                      const double* values, int64_t separator,
+                                                      std::vector<double>* separator_factor) {
+  *this = SupernodalCholesky();
+  Cholmod cm;
+  cholmod_sparse A = lower_view(n, row_start, columns, values);
+  cholmod_factor* L = nullptr;
+  if (separator == 0) {
+    L = cholmod_l_analyze(&A, &cm.c);
+  } else {
+    std::vector<int64_t> perm = ordering_with_separator(n, row_start, columns, values, separator, &cm.c);
+    if (perm.empty()) return status_of(cm.c) == Status::ok ? Status::failed : status_of(cm.c);
+    // The given order as it is: a postorder of the whole tree could move separator columns
+    // between interior subtrees; the interior's own order is postordered already.
+    cm.c.nmethods = 1;
+    cm.c.method[0].ordering = CHOLMOD_GIVEN;
+    cm.c.postorder = 0;
+    L = cholmod_l_analyze_p(&A, perm.data(), nullptr, 0, &cm.c);
+  }
   if (!L) return status_of(cm.c) == Status::ok ? Status::failed : status_of(cm.c);
   const int done = cholmod_l_factorize(&A, L, &cm.c);
   Status status = done ? status_of(cm.c) : Status::failed;
@@ -69,27 +114,44 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
     const auto* s = static_cast<const int64_t*>(L->s);
     const auto* x = static_cast<const double*>(L->x);
     const auto* perm = static_cast<const int64_t*>(L->Perm);
+    const int64_t interior = n - separator;
     n_ = n;
+    separator_ = separator;
     perm_.assign(perm, perm + n);
-    nodes_.resize(L->nsuper);
-    size_t values = 0, rows = 0;  // reserved exactly: growing would hold up to twice the factor
+    // A CHOLMOD supernode may straddle the interior's end: its interior columns become a node of
+    // their own (the separator's columns among its rows below), the rest goes to L_S.
+    size_t values = 0, rows = 0, count = 0;  // reserved exactly: growing would hold up to twice the factor
     for (size_t k = 0; k < L->nsuper; ++k) {
-      const size_t width = super[k + 1] - super[k], below = pi[k + 1] - pi[k] - width;
+      const int64_t end = std::min<int64_t>(super[k + 1], interior);
+      if (end <= super[k]) continue;
+      const size_t width = end - super[k], below = pi[k + 1] - pi[k] - width;
       values += width * (width + 1) + below * width;
       rows += below;
+      ++count;
     }
     value_.reserve(values);
     row_.reserve(rows);
+    nodes_.reserve(count);
+    if (separator_factor) separator_factor->assign(static_cast<size_t>(separator * separator), 0.0);
     for (size_t k = 0; k < L->nsuper; ++k) {
-      // CHOLMOD's block: nrows x width, column-major; its first `width` rows are the supernode's
-      // own columns, the rest the rows below.
-      const int64_t width = super[k + 1] - super[k], nrows = pi[k + 1] - pi[k];
+      // CHOLMOD's block: nrows x (its columns), column-major; its first rows are its own columns,
+      // the rest the rows below.
+      const int64_t nrows = pi[k + 1] - pi[k];
       const double* block = x + px[k];
-      Node& node = nodes_[k];
+      const int64_t* row_of = s + pi[k];
+      const int64_t end = std::min<int64_t>(super[k + 1], interior);
+      for (int64_t j = std::max<int64_t>(super[k], interior) - super[k]; separator_factor && j < super[k + 1] - super[k];
+           ++j)
+        for (int64_t r = j; r < nrows; ++r)
+          (*separator_factor)[(row_of[r] - interior) + (super[k] + j - interior) * separator] = block[j * nrows + r];
+      if (end <= super[k]) continue;
+      const int64_t width = end - super[k];
+      Node node;
       node.column = super[k];
       node.width = static_cast<int32_t>(width);
       node.value = static_cast<int64_t>(value_.size());
       node.rows = static_cast<int64_t>(row_.size());
+      nodes_.push_back(node);
       // The triangle column by column (forward), each column's diagonal first and stored as its
       // reciprocal; the rows below, row by row; the triangle again row by row (backward), each
       // row's diagonal last, as its reciprocal.
@@ -98,7 +160,7 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
         for (int64_t i = j + 1; i < width; ++i) value_.push_back(block[j * nrows + i]);
       }
       for (int64_t r = width; r < nrows; ++r) {
-        row_.push_back(static_cast<int32_t>(s[pi[k] + r]));
+        row_.push_back(static_cast<int32_t>(row_of[r]));
         for (int64_t j = 0; j < width; ++j) value_.push_back(block[j * nrows + r]);
       }
       for (int64_t i = 0; i < width; ++i) {
@@ -111,7 +173,10 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
     work_.assign(static_cast<size_t>(4 * n), 0.0);  // up to 4 lanes, the unused ones 0
   }
   cholmod_l_free_factor(&L, &cm.c);
-  if (status != Status::ok) *this = SupernodalCholesky();
+  if (status != Status::ok) {
+    *this = SupernodalCholesky();
+    if (separator_factor) separator_factor->clear();
+  }
   return status;
 }
 
@@ -175,9 +240,9 @@ inline void subtract_below(typename RowOf<lanes>::type* z, const typename RowOf<
 }
 
 template <int lanes>
-HYPERQN_VECTOR_CLONES void triangular_solves(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
-                                             const int32_t* __restrict row, const double* __restrict L,
-                                             double* __restrict block) {
+HYPERQN_VECTOR_CLONES void forward_pass(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
+                                        const int32_t* __restrict row, const double* __restrict L,
+                                        double* __restrict block) {
   using Row = typename RowOf<lanes>::type;
   Row* w = reinterpret_cast<Row*>(block);
   for (int64_t k = 0; k < count; ++k) {
@@ -207,6 +272,14 @@ HYPERQN_VECTOR_CLONES void triangular_solves(const SupernodalCholesky::Node* nod
       default: break;
     }
   }
+}
+
+template <int lanes>
+HYPERQN_VECTOR_CLONES void backward_pass(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
+                                         const int32_t* __restrict row, const double* __restrict L,
+                                         double* __restrict block) {
+  using Row = typename RowOf<lanes>::type;
+  Row* w = reinterpret_cast<Row*>(block);
   for (int64_t k = count - 1; k >= 0; --k) {
     const SupernodalCholesky::Node& node = nodes[k];
     const int width = node.width;
@@ -255,16 +328,55 @@ void SupernodalCholesky::solve_k(const double* b, double* x) const {
   double* w = work_.data();
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) w[lanes * i + c] = b[k * perm_[i] + c];
-  triangular_solves<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(),
-                           value_.data(), w);
+  const int64_t count = static_cast<int64_t>(nodes_.size());
+  forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) x[k * perm_[i] + c] = w[lanes * i + c];
 }
 
+// The interior's forward pass: the separator's rows start at 0 and collect -X y.
+template <int k, int lanes>
+void SupernodalCholesky::forward_k(const double* b_interior, double* separator_update) const {
+  double* w = work_.data();
+  const int64_t interior = n_ - separator_;
+  for (int64_t i = 0; i < interior; ++i)
+    for (int c = 0; c < k; ++c) w[lanes * i + c] = b_interior[k * perm_[i] + c];
+  std::fill(w + lanes * interior, w + lanes * n_, 0.0);
+  forward_pass<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(), value_.data(), w);
+  for (int64_t i = interior; i < n_; ++i)
+    for (int c = 0; c < k; ++c) separator_update[k * (i - interior) + c] = w[lanes * i + c];
+}
+
+// The interior's backward pass from y (left by forward_k) with the separator's rows set to x_S.
+template <int k, int lanes>
+void SupernodalCholesky::backward_k(const double* separator_solution, double* x_interior) const {
+  double* w = work_.data();
+  const int64_t interior = n_ - separator_;
+  for (int64_t i = interior; i < n_; ++i)
+    for (int c = 0; c < k; ++c) w[lanes * i + c] = separator_solution[k * (i - interior) + c];
+  backward_pass<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(), value_.data(), w);
+  for (int64_t i = 0; i < interior; ++i)
+    for (int c = 0; c < k; ++c) x_interior[k * perm_[i] + c] = w[lanes * i + c];
+}
+
 void SupernodalCholesky::solve(int k, const double* b, double* x) const {
+  if (separator_ != 0) throw std::logic_error("SupernodalCholesky::solve: a factor with a separator solves in two halves");
   if (k == 3) return solve_k<3, 4>(b, x);
   if (k == 1) return solve_k<1, 1>(b, x);
   throw std::invalid_argument("SupernodalCholesky::solve: k must be 1 or 3");
+}
+
+void SupernodalCholesky::solve_interior_forward(int k, const double* b_interior, double* separator_update) const {
+  if (k == 3) return forward_k<3, 4>(b_interior, separator_update);
+  if (k == 1) return forward_k<1, 1>(b_interior, separator_update);
+  throw std::invalid_argument("SupernodalCholesky::solve_interior_forward: k must be 1 or 3");
+}
+
+void SupernodalCholesky::solve_interior_backward(int k, const double* separator_solution, double* x_interior) const {
+  if (k == 3) return backward_k<3, 4>(separator_solution, x_interior);
+  if (k == 1) return backward_k<1, 1>(separator_solution, x_interior);
+  throw std::invalid_argument("SupernodalCholesky::solve_interior_backward: k must be 1 or 3");
 }
 
 }  // namespace hyperqn

@@ -23,13 +23,29 @@ class SupernodalCholesky {
   // Factors the symmetric n x n matrix given in compressed sparse rows, columns sorted within a
   // row: both triangles or the upper one (only entries with column >= row are read).
   // On a status other than ok the object holds no factor.
-  Status factor(int64_t n, const int64_t* row_start, const int64_t* columns, const double* values);
+  //
+  // With separator s > 0 the last s rows and columns (the separator S; the others are the
+  // interior I) are ordered last, after CHOLMOD's ordering of the interior block alone, so that
+  //   A = [A_II A_IS; A_SI A_SS] = [L_I 0; X L_S] [L_I^T X^T; 0 L_S^T],
+  // and only L_I and X are held (solve_interior_*); the dense lower triangle L_S (s x s, by
+  // columns) goes to *separator_factor: L_S L_S^T = A_SS - X X^T. solve() then needs s = 0.
+  Status factor(int64_t n, const int64_t* row_start, const int64_t* columns, const double* values,
+                int64_t separator = 0, std::vector<double>* separator_factor = nullptr);
 
   // x = A^{-1} b for k = 1 or 3 interleaved right-hand sides (b[k i + c]); b and x may be the same
   // array.
   void solve(int k, const double* b, double* x) const;
 
+  // A solve with the separator's part done by the caller (SplitCholesky), k = 1 or 3 interleaved
+  // columns as in solve(): forward takes the interior rows of b (n - s rows), solves L_I y = P b_I
+  // and writes -X y (s rows) to separator_update; backward takes the separator's solution x_S
+  // and writes x_I = P^T L_I^{-T} (y - X^T x_S) (n - s rows). y stays in this object's work block
+  // between the two, so they come in pairs.
+  void solve_interior_forward(int k, const double* b_interior, double* separator_update) const;
+  void solve_interior_backward(int k, const double* separator_solution, double* x_interior) const;
+
   int64_t size() const { return n_; }
+  int64_t separator() const { return separator_; }
 
   // A supernode: `width` consecutive columns of L from `column`, sharing one row pattern below
   // them. Its values from value_[value]: the width x width triangle by columns, each row below
@@ -45,8 +61,13 @@ class SupernodalCholesky {
  private:
   template <int k, int lanes>
   void solve_k(const double* b, double* x) const;
+  template <int k, int lanes>
+  void forward_k(const double* b_interior, double* separator_update) const;
+  template <int k, int lanes>
+  void backward_k(const double* separator_solution, double* x_interior) const;
 
   int64_t n_ = 0;
+  int64_t separator_ = 0;             // the last separator_ rows are not in nodes_ (see factor)
   std::vector<int64_t> perm_;         // row i of L L^T is row perm_[i] of A
   std::vector<Node> nodes_;
   std::vector<int32_t> row_;          // the rows below each node, node after node

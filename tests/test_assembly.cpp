@@ -217,7 +217,7 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
   CHECK_MSG(diff <= 1e-13 * bnorm, what + ": the factored system's mult differs from A");
   CHECK(sys.factorizations() == 1);
   if (package == FactorPackage::mumps) {  // the others against MUMPS's answer, each on a copy of it
-    for (FactorPackage other : {FactorPackage::cholmod, FactorPackage::supernodal}) {
+    for (FactorPackage other : {FactorPackage::cholmod, FactorPackage::supernodal, FactorPackage::split}) {
       if (!factor_package_available(other)) continue;
       PetscCall(VecCopy(x, Ab));  // check_factored_system subtracts its own answer from the reference
       PetscCall(check_factored_system(model, kind, other, Ab));
@@ -407,6 +407,7 @@ int main(int argc, char** argv) {
   PetscCall(check_not_positive_definite(FactorPackage::mumps));
   if (factor_package_available(FactorPackage::cholmod)) PetscCall(check_not_positive_definite(FactorPackage::cholmod));
   PetscCall(check_not_positive_definite(FactorPackage::supernodal));
+  PetscCall(check_not_positive_definite(FactorPackage::split));
   PetscCall(check_amg("gamg"));
   PetscCall(check_amg("hypre"));
   const int code = test_scene::tally("test_assembly");  // every rank agrees on the outcome

@@ -36,7 +36,7 @@ const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
 const Names kLinearSolvers = {"mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
-const Names kH0s = {"laplacian", "rest-stiffness", "amg"};
+const Names kH0s = {"auto", "laplacian", "rest-stiffness", "amg"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
 constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double

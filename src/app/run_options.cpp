@@ -14,10 +14,10 @@ namespace hyperqn {
 static PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o);
 
 // -hyperqn_h0_package's choices, as PetscOptionsEList lists them in -help ("auto" first).
-static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "supernodal"};
+static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "supernodal", "split"};
 static const FactorPackage kH0PackageOf[] = {default_factor_package(), FactorPackage::mumps, FactorPackage::cholmod,
-                                             FactorPackage::supernodal};
-static constexpr int kH0PackageCount = 4;
+                                             FactorPackage::supernodal, FactorPackage::split};
+static constexpr int kH0PackageCount = 5;
 
 // A refused value of option `name`: named with its deck line and key when the deck's petsc:
 // section gave it (and the command line did not override it), else as the command line's.
@@ -42,7 +42,7 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
       known = (PetscBool)(known || same);
     }
     if (set && !known)
-      refuse(deck, "-hyperqn_h0_package", "unknown package (choose auto, mumps, cholmod or supernodal)");
+      refuse(deck, "-hyperqn_h0_package", "unknown package (choose auto, mumps, cholmod, supernodal or split)");
     PetscBool cholmod;
     PetscCall(PetscStrcasecmp(value, "cholmod", &cholmod));
     if (set && cholmod && !factor_package_available(FactorPackage::cholmod))
@@ -84,13 +84,15 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscInt package = 0;  // auto
   for (int k = 1; k < kH0PackageCount; ++k)
     if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;
-  PetscCall(PetscOptionsEList("-hyperqn_h0_package",
-                              "Sparse Cholesky that factors and solves the constant matrix M + h^2 L (or M + h^2 K): "
-                              "auto (supernodal), supernodal (CHOLMOD's factor, hyperqn's solve with x, y, z "
-                              "interleaved), mumps or cholmod (through PETSc; options with the prefix h0_: "
-                              "-h0_mat_mumps_*, -h0_mat_cholmod_*)",
-                              "docs/performance.md", kH0Packages, kH0PackageCount, kH0Packages[package], &package,
-                              nullptr));
+  const std::string help =
+      "Sparse Cholesky that factors and solves the constant matrix M + h^2 L (or M + h^2 K): auto (supernodal on one "
+      "rank; on more, split while its interface block has at most " + std::to_string(kMaxSplitInterface) +
+      " rows, else supernodal), supernodal (CHOLMOD's factor, hyperqn's solve with x, y, z interleaved; gathered to "
+      "rank 0 on more than one), split (supernodal distributed: each rank's interior and a dense Schur complement of "
+      "the rank interface), mumps or cholmod (through PETSc, gathered to rank 0; options with the prefix h0_: "
+      "-h0_mat_mumps_*, -h0_mat_cholmod_*)";
+  PetscCall(PetscOptionsEList("-hyperqn_h0_package", help.c_str(), "docs/performance.md", kH0Packages,
+                              kH0PackageCount, kH0Packages[package], &package, nullptr));
   o->h0_package = kH0PackageOf[package];
   PetscOptionsEnd();
   PetscFunctionReturn(0);
@@ -106,6 +108,8 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
       s.factor_rest_stiffness = true;
     else if (constant_matrix_by_amg(spec))
       s.amg = true;
+    else if (constant_matrix_auto(spec))
+      s.auto_h0 = true;
     else
       s.factor = true;
   }

@@ -30,7 +30,8 @@ struct RunOptions {
   // frame N (0: during setup), as a batch system would (< 0: off).
   PetscInt kill_after_frame = -1, signal_after_frame = -1;
   // Who factors and solves the constant matrices M + h^2 L and M + h^2 K(x_rest)
-  // (-hyperqn_h0_package: auto, supernodal, mumps or cholmod; auto is default_factor_package()).
+  // (-hyperqn_h0_package: auto, supernodal, split, mumps or cholmod; auto is default_factor_package(),
+  // resolved by choose_factor_package).
   FactorPackage h0_package = default_factor_package();
 };
 

@@ -637,6 +637,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   if (const FactoredSystem* h0 = scene.constant_matrix(deck.solver)) {
     summary.h0_package = factor_package_name(h0->package());
     summary.h0_factor_nonzeros = h0->factor_nonzeros();
+    summary.h0_interface = h0->interface_size();
   }
   read_log_events(summary);
   summary.setup_s = MPI_Wtime() - t_start;

@@ -36,6 +36,7 @@ struct RunSummary {
   int frames = 0, factorizations = 0;
   std::string h0_package;  // who factored the constant matrices (-hyperqn_h0_package); "" if none
   double h0_factor_nonzeros = 0;  // entries of that factor (the benchmark's streaming bound)
+  long long h0_interface = 0;     // rows of the split factor's dense interface block (0: not split)
   double dt = 0;
   double setup_s = 0, assembly_s = 0, factor_s = 0, solve_s = 0, wall_s = 0;
   double ms_per_frame = 0, ms_per_iteration = 0, mean_iterations = 0;

@@ -187,7 +187,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit);
   PetscCall(s.integrator->setup());
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
-  if (options_.factor) {
+  if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_vertices, s.mesh.global_cells > 0);
+  if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator, ConstantMatrix::laplacian, options_.h0_package));
   }
@@ -195,7 +196,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     s.rest_stiffness = std::make_unique<FactoredSystem>();
     PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness, options_.h0_package));
   }
-  if (options_.amg) {
+  if (options_.amg || (options_.auto_h0 && s.auto_amg)) {
     s.amg = std::make_unique<FactoredSystem>();
     PetscCall(s.amg->setup(*s.integrator, ConstantMatrix::laplacian, FactorPackage::amg));
   }
@@ -206,7 +207,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
 const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
   if (!solver_uses_constant_matrix(spec.type)) return nullptr;
   if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness) return rest_stiffness.get();
-  return (constant_matrix_by_amg(spec) ? amg : factored).get();
+  const bool by_amg = constant_matrix_by_amg(spec) || (constant_matrix_auto(spec) && auto_amg);
+  return (by_amg ? amg : factored).get();
 }
 
 PetscErrorCode LiveScene::initial_state(State& s) const {

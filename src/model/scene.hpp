@@ -45,6 +45,7 @@ struct Scene {
   std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
   std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
   std::unique_ptr<FactoredSystem> amg;             // M + h^2 L by a V-cycle, only if lbfgs uses it (solver.h0)
+  bool auto_amg = false;                           // solver.h0: auto chose the V-cycle
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
 };
@@ -54,6 +55,7 @@ struct SceneOptions {
   bool factor = false;                 // factor M + h^2 L (a solver needs it)
   bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
   bool amg = false;                    // set up the V-cycle of M + h^2 L (lbfgs with solver.h0: amg)
+  bool auto_h0 = false;                // the factor or the V-cycle of M + h^2 L, by auto_h0_is_amg (solver.h0: auto)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (ImplicitEuler)

@@ -212,7 +212,7 @@ OPTION_ERRORS = {
     "cholmod_factor_text": (None, ["-hyperqn_h0_package", "cholmod", "-h0_mat_cholmod_factor", "bogus"],
                             ["option -h0_mat_cholmod_factor bogus (command line)", "simplicial auto supernodal"]),
     "h0_package_unknown": (None, ["-hyperqn_h0_package", "umfpack"],
-                           ["option -hyperqn_h0_package umfpack", "auto, mumps, cholmod or supernodal"]),
+                           ["option -hyperqn_h0_package umfpack", "auto, mumps, cholmod, supernodal or split"]),
     # found by scripts/fuzz.py: PETSc crashed on a negative history and allocated without bound on a huge one
     "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
     "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
