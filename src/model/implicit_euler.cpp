@@ -1,6 +1,7 @@
 #include "model/implicit_euler.hpp"
 
 #include "io/log_events.hpp"
+#include "model/ordered_assembly.hpp"
 
 #include <cmath>
 
@@ -214,12 +215,10 @@ PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components, C
              "the rest stiffness couples x, y and z: components must be 3");
   PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
-  if (kind == ConstantMatrix::laplacian)
-    PetscCall(body_.add_laplacian(*A, dt_ * dt_, components));
-  else
-    PetscCall(body_.add_rest_hessian(*A, dt_ * dt_));
-  PetscCall(MatAssemblyBegin(*A, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(*A, MAT_FINAL_ASSEMBLY));
+  PetscCall(add_in_rank_order(*A, [&](Mat S) {
+    return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, dt_ * dt_, components)
+                                             : body_.add_rest_hessian(S, dt_ * dt_);
+  }));
   if (components == 3) {
     PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
   } else {
@@ -252,9 +251,7 @@ PetscErrorCode ImplicitEuler::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::hessian));
   PetscCall(MatZeroEntries(H));  // keeps the pattern
-  PetscCall(body_.add_hessian(x, H, dt_ * dt_, !exact));
-  PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
+  PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, dt_ * dt_, !exact); }));
   PetscCall(MatDiagonalSet(H, mass_, ADD_VALUES));
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));

@@ -1,7 +1,9 @@
 """The same deck on the same number of ranks gives bitwise identical outputs, run after run.
 
-Three runs at 2 ranks of the cube on a rope, of input/strands.yaml (reduced) and of a Newton deck
-must agree exactly:
+Three runs at 2 ranks of the cube on a rope, of input/strands.yaml (reduced) and of a Newton deck,
+and three at 4 ranks (oversubscribed) of the cube on a rope and of the amg bar, must agree
+exactly. The cube and the strands take the default constant-matrix solve (split on more than one
+rank, docs/performance.md#distributed-h0), the amg bar solver.h0: amg:
 summary iteration and evaluation counts, iterations.csv except its time_s column, and the final
 VTK positions, velocities and det F. Parallel MUMPS broke this, in the M + h^2 L solve and in
 Newton's (docs/performance.md#reproducibility).
@@ -16,11 +18,14 @@ from conftest import REPO, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import final_frame, read_summary
 
 RUNS = 3
-CASES = {  # deck, frames (reduced: both differed within their first frames before the fix)
-    "box_on_rope": ("tests/decks/box_on_rope.yaml", 20),
-    "strands": ("input/strands.yaml", 30),
-    "newton_box": ("tests/decks/newton_box.yaml", None),  # Newton's own factorization per iteration
+CASES = {  # deck, frames (reduced: both differed within their first frames before the fix), h0 package
+    "box_on_rope": ("tests/decks/box_on_rope.yaml", 20, "split"),
+    "strands": ("input/strands.yaml", 30, "split"),
+    "newton_box": ("tests/decks/newton_box.yaml", None, None),  # Newton's own factorization per iteration
+    "amg_bar": ("tests/decks/amg_bar.yaml", None, "amg"),
 }
+RUN_AT = [(case, 2) for case in sorted(CASES) if case != "amg_bar"] + [("box_on_rope", 4), ("amg_bar", 2),
+                                                                         ("amg_bar", 4)]
 
 
 def iterations_without_time(outdir):
@@ -30,9 +35,9 @@ def iterations_without_time(outdir):
     return [[v for i, v in enumerate(r) if i != drop] for r in rows]
 
 
-@pytest.mark.parametrize("case", sorted(CASES))
-def test_runs_identical_at_2_ranks(tmp_path, case):
-    path, frames = CASES[case]
+@pytest.mark.parametrize("case, ranks", RUN_AT)
+def test_runs_identical_at_a_fixed_rank_count(tmp_path, case, ranks):
+    path, frames, package = CASES[case]
     deck = load_deck(path)
     frames = frames or deck["time"]["frames"]
     deck["time"]["frames"] = frames
@@ -41,11 +46,12 @@ def test_runs_identical_at_2_ranks(tmp_path, case):
     outs = []
     for run in range(RUNS):
         outdir = tmp_path / f"run{run}"
-        run_hyperqn([deck_path, "-o", outdir], ranks=2)
+        run_hyperqn([deck_path, "-o", outdir], ranks=ranks)
         outs.append(str(outdir))
 
     first = outs[0]
     s0, it0, f0 = read_summary(first), iterations_without_time(first), final_frame(first)
+    assert s0["h0_package"] == package
     for other in outs[1:]:
         s = read_summary(other)
         for key in ("iterations", "evaluations", "final_energy", "final_grad_norm"):
