@@ -1,7 +1,10 @@
-"""Reading hyperqn's output directories: the .pvd/.vtu/.pvtu frames, iterations.csv, summary.json.
+"""Reading hyperqn's output directories: the frames (.pvd/.vtu/.pvtu, or .xdmf/.h5 with
+output.format xdmf), iterations.csv, summary.json.
 
-VTK files are read with meshio (an independent reader); a .pvtu is read piece by piece and the
+Frames are read with meshio (an independent reader); a .pvtu is read piece by piece and the
 pieces are merged by vertex_id, so runs at different rank counts can be compared vertex by vertex.
+An XDMF frame is one grid of the run's .xdmf index, named by a path "DIR/NAME.xdmf#K" (K: the
+grid's place in the index); its points are already in vertex_id order.
 """
 import csv
 import glob
@@ -51,8 +54,24 @@ def read_pvd(path):
     return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
 
 
+def read_xdmf(path):
+    """[(time, frame number, path of the frame "PATH#K")] of an XDMF index, in the order written."""
+    collection = ET.parse(path).getroot().find("Domain").find("Grid")
+    out = []
+    for k, grid in enumerate(collection.findall("Grid")):
+        number = re.search(r"(\d+)$", grid.get("Name"))
+        out.append((float(grid.find("Time").get("Value")), int(number.group(1)) if number else k, f"{path}#{k}"))
+    return out
+
+
+def is_xdmf_frame(path):
+    return re.search(r"\.xdmf#\d+$", str(path)) is not None
+
+
 def piece_files(path):
     """The .vtu files that make up a frame: the file itself, or a .pvtu's pieces."""
+    if is_xdmf_frame(path):
+        raise ValueError(f"{path}: an XDMF frame has no pieces; read it with frame_meshes")
     if path.endswith(".pvtu"):
         base = os.path.dirname(path)
         return [os.path.join(base, p.get("Source")) for p in ET.parse(path).getroot().iter("Piece")]
@@ -65,11 +84,41 @@ def is_empty_piece(path):
     return b'NumberOfPoints="0"' in head
 
 
+def xdmf_grid(path):
+    """An XDMF frame "PATH#K" read with meshio: (mesh with the frame's positions as points and
+    its point and cell data, time)."""
+    import h5py  # only XDMF frames need it
+
+    index, k = str(path).rsplit("#", 1)
+    k = int(k)
+    with meshio.xdmf.TimeSeriesReader(index) as reader:
+        _, cells = reader.read_points_cells()
+        time, point_data, cell_data = reader.read_data(k)
+    # meshio reads the first grid's geometry only; each frame's is its positions.
+    grid = ET.parse(index).getroot().find("Domain").find("Grid").findall("Grid")[k]
+    h5_name, h5_path = grid.find("Geometry").find("DataItem").text.strip().split(":")
+    with h5py.File(os.path.join(os.path.dirname(index), h5_name), "r") as f:
+        points = f[h5_path][()]
+    return meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data), time
+
+
+def frame_meshes(path):
+    """A frame as meshio meshes with point_data displacement: one per .vtu piece, one for an
+    XDMF frame."""
+    if is_xdmf_frame(path):
+        return [xdmf_grid(path)[0]]
+    return [meshio.read(piece) for piece in piece_files(path) if not is_empty_piece(piece)]
+
+
 class Frame:
-    """One output frame, merged over pieces and sorted by vertex_id."""
+    """One output frame, merged over pieces and sorted by vertex_id. ranks (the VTK cell field
+    rank) is None for an XDMF frame, which does not depend on the rank count."""
 
     def __init__(self, path):
         self.path = path
+        if is_xdmf_frame(path):
+            self._read_xdmf(path)
+            return
         ids, points, disp, vel, force = [], [], [], [], []
         self.num_cells = 0
         self.J = []
@@ -97,12 +146,40 @@ class Frame:
         self.ranks = np.concatenate(self.ranks)
         self.num_pieces = len(piece_files(path))
 
+    def _read_xdmf(self, path):
+        m, _ = xdmf_grid(path)
+        self.vertex_id = np.asarray(m.point_data["vertex_id"]).reshape(-1)
+        self.points = m.points
+        self.displacement = m.point_data["displacement"]
+        self.velocity = m.point_data["velocity"]
+        self.contact_force = m.point_data.get("contact_force")
+        self.num_cells = sum(len(c.data) for c in m.cells)
+        self.J = np.concatenate([np.ravel(a) for a in m.cell_data["J"]])
+        self.ranks = None
+        self.num_pieces = 1
+
+
+def frame_list(outdir):
+    """[(frame number, time, path)] of the frames the run's index lists: its one .pvd and/or its
+    one .xdmf (both if output.format changed at a restart), by frame number; [] if there is none."""
+    listed = {}
+    pvd = glob.glob(os.path.join(outdir, "*.pvd"))
+    if len(pvd) == 1:
+        for t, path in read_pvd(pvd[0]):
+            m = re.search(r"_(\d+)\.p?vtu$", path)
+            listed[int(m.group(1)) if m else len(listed)] = (t, path)
+    xdmf = glob.glob(os.path.join(outdir, "*.xdmf"))
+    if len(xdmf) == 1:
+        for t, number, path in read_xdmf(xdmf[0]):
+            listed[number] = (t, path)
+    return [(n, t, path) for n, (t, path) in sorted(listed.items())]
+
 
 def final_frame(outdir):
-    pvd = [f for f in os.listdir(outdir) if f.endswith(".pvd")]
-    if len(pvd) != 1:
-        raise FileNotFoundError(f"{outdir}: expected one .pvd file, found {pvd}")
-    return Frame(read_pvd(os.path.join(outdir, pvd[0]))[-1][1])
+    listed = frame_list(outdir)
+    if not listed:
+        raise FileNotFoundError(f"{outdir}: expected one .pvd or one .xdmf file listing frames")
+    return Frame(listed[-1][2])
 
 
 def rest_diagonal(frame):
@@ -112,16 +189,9 @@ def rest_diagonal(frame):
 
 
 def read_frames(outdir):
-    """[(frame number, Frame)] of every VTK frame written, or [] if there is none. Raises on
-    unreadable files (a crash in the middle of writing)."""
-    pvd = glob.glob(os.path.join(outdir, "*.pvd"))
-    if len(pvd) != 1:
-        return []
-    frames = []
-    for _, path in read_pvd(pvd[0]):
-        m = re.search(r"_(\d+)\.p?vtu$", path)
-        frames.append((int(m.group(1)) if m else len(frames), Frame(path)))
-    return frames
+    """[(frame number, Frame)] of every frame written (VTK or XDMF), or [] if there is none.
+    Raises on unreadable files (a crash in the middle of writing)."""
+    return [(n, Frame(path)) for n, _, path in frame_list(outdir)]
 
 
 def read_checkpoint(path):

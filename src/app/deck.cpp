@@ -832,13 +832,14 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
 }
 
 void read_output(const Reader& r, const Value& v, OutputSpec& o) {
-  Section s(r, v, {"directory", "every", "vtk", "iterations_csv", "contact_csv"});
+  Section s(r, v, {"directory", "every", "vtk", "format", "iterations_csv", "contact_csv"});
   if (const Value* x = s.find("directory")) o.directory = r.text(*x);
   if (const Value* x = s.find("every")) {
     o.every = r.integer(*x);
     r.check(o.every >= 1, *x, ">= 1");
   }
   if (const Value* x = s.find("vtk")) o.vtk = r.boolean(*x);
+  if (const Value* x = s.find("format")) o.format = r.choice(*x, {"vtu", "xdmf"});
   if (const Value* x = s.find("iterations_csv")) o.iterations_csv = r.boolean(*x);
   if (const Value* x = s.find("contact_csv")) o.contact_csv = r.boolean(*x);
 }

@@ -26,7 +26,8 @@ struct StudySpec {
 struct OutputSpec {
   std::string directory;             // "" -> output/<deck name>
   int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
-  bool vtk = true;
+  bool vtk = true;                   // write frames at all (in `format`)
+  std::string format = "vtu";        // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
   bool iterations_csv = true;
   bool contact_csv = true;           // contact.csv (scenes with colliders only)
 };

@@ -19,6 +19,7 @@
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
 #include "io/vtk_writer.hpp"
+#include "io/xdmf_writer.hpp"
 
 namespace hyperqn {
 
@@ -502,37 +503,45 @@ static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const Sc
   return id;
 }
 
-// The VTK series of a run, if the deck asks for one. A restart (saved: its checkpoint) continues
-// the series the run started, under the name it started with, cut back to the checkpoint's frame;
-// if the deck no longer asks for VTK, the series is still cut back, so that its .pvd never lists
-// the abandoned frames. Collective.
-static void add_vtk_series(MPI_Comm comm, const Deck& deck, const std::string& outdir, const CheckpointHeader* saved,
-                           const DistributedMesh& mesh, std::vector<std::unique_ptr<OutputWriter>>& writers) {
+// The frame series of a run: VTK (output.format vtu) or XDMF, if the deck asks for frames
+// (output.vtk). A restart (saved: its checkpoint) continues the series the run started, under the
+// name it started with, cut back to the checkpoint's frame; a series the deck no longer asks for
+// (frames off, or the other format) is still cut back, so that its index never lists the
+// abandoned frames. Collective.
+template <typename Series>
+static void add_series(MPI_Comm comm, const Deck& deck, const char* format, const std::string& outdir,
+                       const CheckpointHeader* saved, const DistributedMesh& mesh,
+                       std::vector<std::unique_ptr<OutputWriter>>& writers) {
   const std::string* state = nullptr;
   if (saved)
     for (const auto& [key, value] : saved->writers)
-      if (key == VtkSeries::kRestartKey) state = &value;
-  const std::string started_as = state ? VtkSeries::series_name(*state) : "";
+      if (key == Series::kRestartKey) state = &value;
+  const std::string started_as = state ? Series::series_name(*state) : "";
   const std::string name = started_as.empty() ? deck.name : started_as;
-  if (!deck.output.vtk && started_as.empty()) return;
-  auto series = std::make_unique<VtkSeries>(comm, outdir, name);
-  series->begin_run(mesh);
-  if (state) {
-    std::string error;
-    try {
-      series->resume(*state, saved->frame);
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-    throw_if_any_failed(comm, error);
-    if (!deck.output.vtk)
-      PetscPrintf(comm, "hyperqn: output.vtk is false: %s/%s.pvd stays as it was at frame %d\n", outdir.c_str(),
-                  name.c_str(), saved->frame);
-    else if (name != deck.name)
-      PetscPrintf(comm, "hyperqn: the VTK series goes on as %s.pvd, the name it started with (the deck now says %s)\n",
-                  name.c_str(), deck.name.c_str());
+  const bool wanted = deck.output.vtk && deck.output.format == format;
+  if (!wanted && started_as.empty()) return;
+  auto series = std::make_unique<Series>(comm, outdir, name);
+  const std::string index = outdir + "/" + deck.name + (deck.output.format == std::string("vtu") ? ".pvd" : ".xdmf");
+  std::string error;
+  try {
+    series->begin_run(mesh);
+    if (state) series->resume(*state, saved->frame);
+  } catch (const std::exception& e) {
+    error = e.what();
   }
-  if (deck.output.vtk) writers.push_back(std::move(series));
+  throw_if_any_failed(comm, error);
+  if (state) {
+    const std::string kept = outdir + "/" + name + (format == std::string("vtu") ? ".pvd" : ".xdmf");
+    if (!deck.output.vtk)
+      PetscPrintf(comm, "hyperqn: output.vtk is false: %s stays as it was at frame %d\n", kept.c_str(), saved->frame);
+    else if (!wanted)
+      PetscPrintf(comm, "hyperqn: output.format is now %s: %s stays as it was at frame %d; later frames go to %s\n",
+                  deck.output.format.c_str(), kept.c_str(), saved->frame, index.c_str());
+    else if (name != deck.name)
+      PetscPrintf(comm, "hyperqn: the %s series goes on as %s, the name it started with (the deck now says %s)\n", format,
+                  kept.c_str(), deck.name.c_str());
+  }
+  if (wanted) writers.push_back(std::move(series));
 }
 
 // The checkpoint a restart continues from (restart: a path, "latest" or "auto"), chosen and
@@ -694,7 +703,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     }
     throw_if_any_failed(comm, error);
     if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
-    add_vtk_series(comm, deck, outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
+    add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
+    add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);

@@ -42,6 +42,22 @@ bool is_run_output(const std::string& dir, const std::string& name) {
     head.resize((size_t)in.gcount());
     return head.find("file=\"" + name.substr(0, name.size() - 4) + "_") != std::string::npos;
   }
+  // The XDMF series: an index that names its own NAME.h5, and that file while such an index is beside it.
+  const auto ends_with = [&](const std::string& suffix) {
+    return name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  if (ends_with(".xdmf")) {
+    std::ifstream in(dir + "/" + name);
+    std::string head(4096, '\0');
+    in.read(&head[0], (std::streamsize)head.size());
+    head.resize((size_t)in.gcount());
+    return head.find(">" + name.substr(0, name.size() - 5) + ".h5:/") != std::string::npos;
+  }
+  if (ends_with(".h5")) {
+    const std::string index = name.substr(0, name.size() - 3) + ".xdmf";
+    std::error_code ec;
+    return fs::is_regular_file(dir + "/" + index, ec) && is_run_output(dir, index);
+  }
   return false;
 }
 

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -11,7 +10,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
-#include "materials/membrane.hpp"
+#include "io/frame_fields.hpp"
 
 namespace hyperqn {
 
@@ -88,34 +87,15 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   std::fill(types.begin() + nt, types.begin() + nt + ns, 3);  // VTK_LINE
   std::fill(types.begin() + nt + ns, types.end(), 5);         // VTK_TRIANGLE
   std::vector<int32_t> ranks(nc, rank);
-  std::vector<double> J(f.J->begin(), f.J->begin() + nt);
-  auto length = [](const double* p, PetscInt a, PetscInt b) {
-    double s = 0;
-    for (int d = 0; d < 3; ++d) s += (p[3 * b + d] - p[3 * a + d]) * (p[3 * b + d] - p[3 * a + d]);
-    return std::sqrt(s);
-  };
-  for (PetscInt s = 0; s < mesh_->num_segments; ++s) {
-    const PetscInt a = mesh_->segments[2 * s], b = mesh_->segments[2 * s + 1];
-    J.push_back(length(f.positions->data(), a, b) / length(mesh_->rest.data(), a, b));
-  }
-  J.insert(J.end(), f.J->begin() + nt, f.J->begin() + nt + nf);
+  const std::vector<double> J = element_J(*mesh_, f);
 
   std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                    make_array("Float64", "velocity", 3, *f.velocities),
                                    make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
   if (f.contact_force) point_data.push_back(make_array("Float64", "contact_force", 3, *f.contact_force));
   std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
-  if (cloth()) {  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
-    std::vector<double> stretch(nf);
-    for (PetscInt t = 0; t < nf; ++t) {
-      const PetscInt* tri = &mesh_->triangles[3 * t];
-      const auto X = [&](const std::vector<double>& p, int k) { return Vec3(&p[3 * tri[k]]); };
-      membrane::Vec9 x;
-      x << X(*f.positions, 0), X(*f.positions, 1), X(*f.positions, 2);
-      stretch[t] = membrane::max_stretch(membrane::rest(X(mesh_->rest, 0), X(mesh_->rest, 1), X(mesh_->rest, 2)), x);
-    }
-    cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
-  }
+  if (cloth())  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
+    cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),

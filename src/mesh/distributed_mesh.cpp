@@ -141,9 +141,10 @@ static PetscErrorCode create_dof_section(DM dm, const DistributedMesh& m, PetscI
 // Fills the flat per-rank arrays from the distributed DM. point_value[p] is the input element
 // tag of cell p or the input vertex index of vertex p; point_flag[p] is the material of a tet,
 // the carried edges of a triangle, or the fixed flag of vertex p; cell_kind[p] the CellKind of
-// cell p.
+// cell p; serial_point[p] the number of cell p in the serial DMPlex.
 static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<int64_t>& point_value,
-                                        const std::vector<int32_t>& point_flag, const std::vector<int32_t>& cell_kind) {
+                                        const std::vector<int32_t>& point_flag, const std::vector<int32_t>& cell_kind,
+                                        const std::vector<int64_t>& serial_point) {
   PetscInt cStart, cEnd, vStart, vEnd;
   PetscFunctionBeginUser;
   PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
@@ -157,6 +158,9 @@ static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<in
   m.segment_tags.clear();
   m.triangle_tags.clear();
   m.triangle_edges.clear();
+  m.cell_ids.clear();
+  m.segment_ids.clear();
+  m.triangle_ids.clear();
   for (PetscInt c = cStart; c < cEnd; ++c) {
     const PetscInt* cone;
     PetscInt n;
@@ -169,11 +173,14 @@ static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<in
     if (kind == kTetCell) {
       m.cell_tags.push_back((int32_t)point_value[c]);
       m.cell_material.push_back(point_flag[c]);
+      m.cell_ids.push_back(serial_point[c]);
     } else if (kind == kSegmentCell) {
       m.segment_tags.push_back((int32_t)point_value[c]);
+      m.segment_ids.push_back(serial_point[c]);
     } else if (kind == kTriangleCell) {
       m.triangle_tags.push_back((int32_t)point_value[c]);
       m.triangle_edges.push_back((uint8_t)point_flag[c]);
+      m.triangle_ids.push_back(serial_point[c]);
     }
   }
   m.num_cells = (PetscInt)m.cell_tags.size();
@@ -264,6 +271,8 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   // Per serial point (cells first, then vertices): the data that travels with it.
   std::vector<int64_t> point_value(ncells + nverts);
   std::vector<int32_t> point_flag(ncells + nverts, 0), cell_kind(ncells + nverts, -1);
+  std::vector<int64_t> serial_point(ncells + nverts);
+  std::iota(serial_point.begin(), serial_point.end(), 0);
   if (rank == 0) {
     const std::vector<int32_t>* tags[4] = {&serial.tet_tags, &serial.segment_tags, &serial.triangle_tags, nullptr};
     for (int k = 0, c = 0; k < 4; ++k)
@@ -289,21 +298,25 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
     // The migration SF's roots are the serial points on rank 0, its leaves the new local points.
     std::vector<int64_t> value(pEnd - pStart);
     std::vector<int32_t> flag(pEnd - pStart), kind(pEnd - pStart);
+    std::vector<int64_t> number(pEnd - pStart);
     PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
     PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, serial_point.data(), number.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, serial_point.data(), number.data(), MPI_REPLACE));
     PetscCall(PetscSFDestroy(&migration));
     PetscCall(DMDestroy(&dm));
     dm = dist;
     point_value.swap(value);
     point_flag.swap(flag);
     cell_kind.swap(kind);
+    serial_point.swap(number);
   }
   out.dm = dm;
-  PetscCall(fill_local_arrays(out, point_value, point_flag, cell_kind));
+  PetscCall(fill_local_arrays(out, point_value, point_flag, cell_kind, serial_point));
   PetscCall(create_dof_section(out.dm, out, 3));
   // Same points, same order, 1 dof instead of 3: vertex dof i of vertex_dm is dof 3i of dm.
   PetscCall(DMClone(out.dm, &out.vertex_dm));
@@ -325,6 +338,9 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   out.global_triangles = global[4];
   out.global_hinges = global[5];
   out.global_dofs = 3 * (global[1] - global[2]);
+  // The serial DMPlex numbers tets, then segments, then triangles: an element's index in its kind.
+  for (int64_t& id : out.segment_ids) id -= out.global_cells;
+  for (int64_t& id : out.triangle_ids) id -= out.global_cells + out.global_segments;
   PetscFunctionReturn(0);
 }
 

@@ -32,6 +32,9 @@ struct DistributedMesh {
   std::vector<uint8_t> triangle_edges;  // per local triangle: the edges it carries (TetMesh::triangle_edges)
   std::vector<PetscInt> hinges;      // 4 local vertex indices per local hinge (TetMesh::hinges)
   std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
+  // Per local tet, segment, triangle: its index among the serial mesh's elements of its kind (the
+  // same at every rank count: output in a global order, io/xdmf_writer.hpp).
+  std::vector<int64_t> cell_ids, segment_ids, triangle_ids;
   std::vector<int32_t> cell_tags;    // per local tet: the input element tag
   std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
   std::vector<int32_t> cell_material;  // per local tet: 0 default material, k + 1 region k

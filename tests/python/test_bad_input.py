@@ -77,6 +77,7 @@ BAD_DECKS = {
     "attachment_stiffness_zero": (deck_with(attachments=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "stiffness": 0}]),
                                   ["attachments[0].stiffness", "> 0"]),
     "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
+    "bad_output_format": (deck_with(**{"output.format": "vtk"}), ["'output.format'", "unknown value 'vtk'", "vtu, xdmf"]),
     "collider_zero_normal": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 0]}]),
                              ["colliders[0].normal", "nonzero"]),
     "collider_negative_radius": (deck_with(colliders=[{"type": "sphere", "center": [0, 0, 0], "radius": -0.1}]),

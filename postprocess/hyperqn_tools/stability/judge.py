@@ -4,10 +4,9 @@ import math
 import os
 import re
 
-import meshio
 import numpy as np
 
-from hyperqn_tools.output import (frames_of_iterations, piece_files, read_frames, read_iterations, read_summary,
+from hyperqn_tools.output import (frame_meshes, frames_of_iterations, read_frames, read_iterations, read_summary,
                                   rest_diagonal)
 
 # Judgement thresholds, as fractions of the rest bounding-box diagonal.
@@ -98,8 +97,7 @@ def stopped_by_line_search(reason):
 def min_vertex_mass_bound(frame_path, deck):
     """A lower bound of the lumped vertex masses: smallest density times smallest tet volume / 4."""
     volumes = []
-    for piece in piece_files(frame_path):
-        m = meshio.read(piece)
+    for m in frame_meshes(frame_path):
         rest = m.points - m.point_data["displacement"]
         for block in m.cells:
             if block.type != "tetra":

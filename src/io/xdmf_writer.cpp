@@ -1,0 +1,399 @@
+#include "io/xdmf_writer.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <stdexcept>
+
+#include "io/atomic_file.hpp"
+#include "io/frame_fields.hpp"
+#include "io/hdf5_file.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+// Element kinds in the order of the topology: XDMF's Mixed code, and its vertices.
+constexpr int kKinds = 3;
+constexpr int kVertices[kKinds] = {4, 2, 3};
+constexpr int kMixedCode[kKinds] = {6, 2, 4};          // Tetrahedron, Polyline, Triangle
+constexpr int kMixedPrefix[kKinds] = {1, 2, 1};        // the code, and a polyline's vertex count
+constexpr const char* kTopology[kKinds] = {"Tetrahedron", "Polyline", "Triangle"};
+
+std::string frame_group(int frame) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "/frames/%05d", frame);
+  return buf;
+}
+
+// Closes an HDF5 identifier when it goes out of scope.
+struct Handle {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  ~Handle() {
+    if (id >= 0) close(id);
+  }
+};
+
+// NAME.h5 opened by every rank through MPI-IO. Every call is collective (HDF5's metadata
+// operations are, in parallel); a failure throws std::runtime_error "cannot write PATH: ...".
+class ParallelFile {
+ public:
+  ParallelFile(MPI_Comm comm, const std::string& path, bool create) : path_(path) {
+    silence_hdf5();
+#ifdef H5_HAVE_PARALLEL
+    Handle fapl{H5Pcreate(H5P_FILE_ACCESS), H5Pclose};
+    if (fapl.id < 0 || H5Pset_fapl_mpio(fapl.id, comm, MPI_INFO_NULL) < 0) fail("MPI-IO");
+    id_ = create ? H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id)
+                 : H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.id);
+    if (id_ < 0) fail(create ? "creating the file" : "opening the file");
+    dxpl_ = H5Pcreate(H5P_DATASET_XFER);
+    if (dxpl_ < 0 || H5Pset_dxpl_mpio(dxpl_, H5FD_MPIO_COLLECTIVE) < 0) fail("collective transfers");
+#else
+    (void)comm;
+    (void)create;
+    throw std::runtime_error("cannot write " + path + ": output.format xdmf needs an HDF5 built for MPI (parallel)");
+#endif
+  }
+  ParallelFile(const ParallelFile&) = delete;
+  ParallelFile& operator=(const ParallelFile&) = delete;
+  ~ParallelFile() {
+    if (dxpl_ >= 0) H5Pclose(dxpl_);
+    if (id_ >= 0) H5Fclose(id_);
+    H5Eclear2(H5E_DEFAULT);
+  }
+  void close() {
+    const hid_t id = id_;
+    id_ = -1;
+    if (H5Fclose(id) < 0) fail("closing the file");
+  }
+
+  void group(const std::string& name) {
+    if (H5Lexists(id_, name.c_str(), H5P_DEFAULT) > 0 && H5Ldelete(id_, name.c_str(), H5P_DEFAULT) < 0) fail(name);
+    Handle g{H5Gcreate2(id_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose};
+    if (g.id < 0) fail(name);
+  }
+
+  // A dataset of `rows` rows of `width` values (width 0: a 1-D dataset of `rows` values), and
+  // the blocks of it that this rank writes. A block of a 2-D dataset: `rows` rows from row
+  // `start`; of a 1-D one: `rows` rows of `width` values from value `start`.
+  struct Block {
+    hsize_t start, rows, width;
+    const void* data;
+  };
+  void dataset(const std::string& name, bool integer, hsize_t rows, hsize_t width, const std::vector<Block>& blocks) {
+    const int rank = width > 0 ? 2 : 1;
+    const hsize_t dims[2] = {rows, width};
+    Handle space{H5Screate_simple(rank, dims, nullptr), H5Sclose};
+    const hid_t file_type = integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, mem_type = integer ? H5T_NATIVE_INT64 : H5T_NATIVE_DOUBLE;
+    Handle set{space.id < 0 ? -1 : H5Dcreate2(id_, name.c_str(), file_type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+               H5Dclose};
+    if (set.id < 0) fail(name);
+    // Every rank writes as many blocks as the others (collective transfers), an empty one as none.
+    for (const Block& b : blocks) {
+      const hsize_t values = b.rows * (width > 0 ? width : b.width), one = 1;
+      const hsize_t start[2] = {b.start, 0}, count[2] = {width > 0 ? b.rows : values, width};
+      Handle file_space{H5Dget_space(set.id), H5Sclose};
+      Handle mem_space{H5Screate_simple(1, values > 0 ? &values : &one, nullptr), H5Sclose};
+      if (file_space.id < 0 || mem_space.id < 0) fail(name);
+      const bool selected =
+          values == 0 ? H5Sselect_none(file_space.id) >= 0 && H5Sselect_none(mem_space.id) >= 0
+                      : H5Sselect_hyperslab(file_space.id, H5S_SELECT_SET, start, nullptr, count, nullptr) >= 0;
+      if (!selected || H5Dwrite(set.id, mem_type, mem_space.id, file_space.id, dxpl_, b.data) < 0) fail(name);
+    }
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("cannot write " + path_ + ": " + what + ": " + hdf5_error_reason());
+  }
+  std::string path_;
+  hid_t id_ = -1, dxpl_ = -1;
+};
+
+herr_t collect_name(hid_t, const char* name, const H5L_info_t*, void* names) {
+  static_cast<std::vector<std::string>*>(names)->push_back(name);
+  return 0;
+}
+
+std::vector<PetscInt> as_rows(const std::vector<int64_t>& ids) { return std::vector<PetscInt>(ids.begin(), ids.end()); }
+
+}  // namespace
+
+// Where this rank's vertices and elements go: points numbered by vertex_id (the ids in use, in
+// order), elements by kind and their index in the input mesh.
+struct XdmfSeries::Layout {
+  PetscInt points = 0;
+  std::vector<int64_t> point_of;          // per local vertex (ghosts too): its point
+  std::unique_ptr<GlobalRows> vertices;   // owned vertices -> points
+  std::unique_ptr<GlobalRows> kinds[kKinds];  // local elements of a kind -> their rows
+  PetscInt count[kKinds] = {0, 0, 0}, base[kKinds] = {0, 0, 0};  // elements per kind, first element's index
+  std::vector<double> rest;                // this rank's block of points
+  std::vector<int64_t> vertex_id;
+
+  Layout(MPI_Comm comm, const DistributedMesh& m) {
+    // Points: the ids in use, numbered in order. Every local vertex marks its id's row; each
+    // block counts its marked rows; a prefix sum over the ranks makes the numbers.
+    long long slots = 0;
+    for (int64_t id : m.vertex_ids) slots = std::max<long long>(slots, id + 1);
+    MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+    const GlobalRows by_id(comm, (PetscInt)slots, as_rows(m.vertex_ids));
+    std::vector<int64_t> number = by_id.gather(std::vector<int64_t>(m.vertex_ids.size(), 1), 1);
+    long long used = 0, before = 0;
+    for (int64_t marked : number) used += marked;
+    MPI_Exscan(&used, &before, 1, MPI_LONG_LONG, MPI_SUM, comm);
+    int rank;
+    MPI_Comm_rank(comm, &rank);
+    if (rank == 0) before = 0;  // MPI_Exscan leaves rank 0's undefined
+    for (int64_t& n : number) n = n ? before++ : -1;
+    point_of = by_id.scatter(number);
+    MPI_Allreduce(&used, &slots, 1, MPI_LONG_LONG, MPI_SUM, comm);
+    points = (PetscInt)slots;
+    std::vector<PetscInt> owned_rows(m.num_vertices, -1);
+    for (PetscInt v = 0; v < m.num_vertices; ++v)
+      if (m.owned[v]) owned_rows[v] = (PetscInt)point_of[v];
+    vertices = std::make_unique<GlobalRows>(comm, points, owned_rows);
+    rest = vertices->gather(m.rest, 3);
+    vertex_id = vertices->gather(m.vertex_ids, 1);
+
+    const std::vector<int64_t>* ids[kKinds] = {&m.cell_ids, &m.segment_ids, &m.triangle_ids};
+    const PetscInt totals[kKinds] = {m.global_cells, m.global_segments, m.global_triangles};
+    for (int k = 0; k < kKinds; ++k) {
+      kinds[k] = std::make_unique<GlobalRows>(comm, totals[k], as_rows(*ids[k]));
+      count[k] = totals[k];
+      if (k > 0) base[k] = base[k - 1] + count[k - 1];
+    }
+  }
+  int kinds_present() const { return (count[0] > 0) + (count[1] > 0) + (count[2] > 0); }
+  PetscInt elements() const { return count[0] + count[1] + count[2]; }
+};
+
+XdmfSeries::XdmfSeries(MPI_Comm comm, std::string directory, std::string name)
+    : comm_(comm), dir_(std::move(directory)), name_(std::move(name)) {}
+
+XdmfSeries::~XdmfSeries() = default;
+
+void XdmfSeries::begin_run(const DistributedMesh& mesh) {
+#ifndef H5_HAVE_PARALLEL
+  throw std::runtime_error("output.format xdmf needs an HDF5 built for MPI (parallel); this hyperqn's is serial");
+#endif
+  set_mesh(mesh);
+}
+
+void XdmfSeries::set_mesh(const DistributedMesh& mesh) {
+  auto layout = std::make_unique<Layout>(comm_, mesh);
+  if (layout_)
+    for (int k = 0; k < kKinds; ++k)
+      if (layout->count[k] != layout_->count[k] || layout->points != layout_->points)
+        throw std::runtime_error("the mesh's elements changed: " + dir_ + "/" + name_ +
+                                 ".xdmf holds one mesh per run (output.format xdmf)");
+  layout_ = std::move(layout);
+  mesh_ = &mesh;
+}
+
+// The topology of every frame: each kind's elements with their points, in each block's rows.
+void XdmfSeries::write_mesh() const {
+  const Layout& L = *layout_;
+  const bool mixed = L.kinds_present() > 1;
+  const std::vector<PetscInt>* local[kKinds] = {&mesh_->cells, &mesh_->segments, &mesh_->triangles};
+  std::vector<int64_t> blocks[kKinds];
+  std::vector<ParallelFile::Block> topology;
+  PetscInt mixed_length = 0;
+  for (int k = 0; k < kKinds; ++k) {
+    const int n = kVertices[k], width = n + (mixed ? kMixedPrefix[k] : 0);
+    std::vector<int64_t> rows;
+    for (size_t e = 0; e < local[k]->size() / n; ++e) {
+      if (mixed) rows.push_back(kMixedCode[k]);
+      if (mixed && k == 1) rows.push_back(2);  // a polyline's vertex count
+      for (int i = 0; i < n; ++i) rows.push_back(L.point_of[(*local[k])[n * e + i]]);
+    }
+    blocks[k] = L.kinds[k]->gather(rows, width);
+    if (mixed) {  // one list: each kind's elements after the earlier kinds'
+      topology.push_back({(hsize_t)(mixed_length + L.kinds[k]->first() * width), (hsize_t)L.kinds[k]->count(),
+                          (hsize_t)width, blocks[k].data()});
+      mixed_length += L.count[k] * width;
+    } else if (L.count[k] > 0) {
+      topology.push_back({(hsize_t)L.kinds[k]->first(), (hsize_t)L.kinds[k]->count(), 0, blocks[k].data()});
+    }
+  }
+  ParallelFile file(comm_, h5_path(), true);
+  file.group("/mesh");
+  if (mixed) {
+    file.dataset("/mesh/topology", true, (hsize_t)mixed_length, 0, topology);
+  } else {
+    int k = 0;
+    while (L.count[k] == 0) ++k;
+    file.dataset("/mesh/topology", true, (hsize_t)L.count[k], (hsize_t)kVertices[k], topology);
+  }
+  const ParallelFile::Block points{(hsize_t)L.vertices->first(), (hsize_t)L.vertices->count(), 0, nullptr};
+  ParallelFile::Block rest = points, ids = points;
+  rest.data = L.rest.data();
+  ids.width = 1;
+  ids.data = L.vertex_id.data();
+  file.dataset("/mesh/rest", false, (hsize_t)L.points, 3, {rest});
+  file.dataset("/mesh/vertex_id", true, (hsize_t)L.points, 0, {ids});
+  file.group("/frames");
+  file.close();
+}
+
+void XdmfSeries::write_frame(const FrameData& f) {
+  const Layout& L = *layout_;
+  std::string error;
+  try {
+    if (!file_ready_) write_mesh();
+    file_ready_ = true;
+    // Point fields, in this rank's block of points.
+    const PetscInt nv = mesh_->num_vertices;
+    std::vector<double> disp(3 * nv);
+    for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
+    std::vector<std::pair<const char*, std::vector<double>>> point_fields = {
+        {"positions", L.vertices->gather(*f.positions, 3)},
+        {"displacement", L.vertices->gather(disp, 3)},
+        {"velocity", L.vertices->gather(*f.velocities, 3)}};
+    if (f.contact_force) point_fields.emplace_back("contact_force", L.vertices->gather(*f.contact_force, 3));
+    // Element fields: each kind's block at its place in the list of all elements.
+    const std::vector<double> J = element_J(*mesh_, f);
+    std::vector<double> J_blocks[kKinds];
+    std::vector<ParallelFile::Block> J_writes;
+    PetscInt at = 0;
+    const PetscInt local[kKinds] = {mesh_->num_cells, mesh_->num_segments, mesh_->num_triangles};
+    for (int k = 0; k < kKinds; ++k) {
+      J_blocks[k] = L.kinds[k]->gather(std::vector<double>(J.begin() + at, J.begin() + at + local[k]), 1);
+      at += local[k];
+      J_writes.push_back({(hsize_t)(L.base[k] + L.kinds[k]->first()), (hsize_t)L.kinds[k]->count(), 1, J_blocks[k].data()});
+    }
+    const bool cloth = L.count[2] > 0 && L.count[2] == L.elements();
+    std::vector<double> stretch;
+    if (cloth) stretch = L.kinds[2]->gather(triangle_stretch(*mesh_, *f.positions), 1);
+
+    const std::string group = frame_group(f.frame);
+    ParallelFile file(comm_, h5_path(), false);
+    file.group(group);
+    for (const auto& [name, block] : point_fields)
+      file.dataset(group + "/" + name, false, (hsize_t)L.points, 3,
+                   {{(hsize_t)L.vertices->first(), (hsize_t)L.vertices->count(), 0, block.data()}});
+    file.dataset(group + "/J", false, (hsize_t)L.elements(), 0, J_writes);
+    if (cloth)
+      file.dataset(group + "/stretch", false, (hsize_t)L.count[2], 0,
+                   {{(hsize_t)L.kinds[2]->first(), (hsize_t)L.kinds[2]->count(), 1, stretch.data()}});
+    file.close();
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  throw_if_any_failed(comm_, error);
+  // Listed once written: a frame written again (the last good frame of a run that stops) once.
+  if (!written_.empty() && written_.back().frame == f.frame) written_.pop_back();
+  written_.push_back({f.time, f.frame, f.contact_force != nullptr});
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  try {
+    if (rank == 0) write_index();
+  } catch (const std::exception& e) {
+    error = e.what();
+    written_.pop_back();
+  }
+  throw_if_any_failed(comm_, error);
+}
+
+// XDMF 3: one uniform grid per frame in a temporal collection; all data in NAME.h5.
+void XdmfSeries::write_index() const {
+  const Layout& L = *layout_;
+  const std::string h5 = name_ + ".h5:";
+  const auto item = [&](const std::string& dims, bool integer, const std::string& path) {
+    return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "Int" : "Float") +
+           "\" Precision=\"8\" Format=\"HDF\">" + h5 + path + "</DataItem>";
+  };
+  const std::string V = std::to_string(L.points), E = std::to_string(L.elements());
+  std::string topology;
+  if (L.kinds_present() > 1) {
+    PetscInt length = 0;
+    for (int k = 0; k < kKinds; ++k) length += L.count[k] * (kVertices[k] + kMixedPrefix[k]);
+    topology = "<Topology TopologyType=\"Mixed\" NumberOfElements=\"" + E + "\">" +
+               item(std::to_string(length), true, "/mesh/topology") + "</Topology>";
+  } else {
+    int k = 0;
+    while (k < kKinds - 1 && L.count[k] == 0) ++k;
+    topology = std::string("<Topology TopologyType=\"") + kTopology[k] + "\" NumberOfElements=\"" + E + "\"" +
+               (k == 1 ? " NodesPerElement=\"2\"" : "") + ">" +
+               item(E + " " + std::to_string(kVertices[k]), true, "/mesh/topology") + "</Topology>";
+  }
+  std::ostringstream out;
+  out.precision(17);
+  out << "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n<Domain>\n"
+      << "<Grid Name=\"" << name_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const auto& [t, frame, contact] : written_) {
+    const std::string group = frame_group(frame);
+    out << "<Grid Name=\"frame_" << group.substr(group.rfind('/') + 1) << "\" GridType=\"Uniform\">\n<Time Value=\"" << t
+        << "\"/>\n"
+        << topology << "\n<Geometry GeometryType=\"XYZ\">" << item(V + " 3", false, group + "/positions") << "</Geometry>\n";
+    const auto attribute = [&](const char* name, const char* type, const char* center, const std::string& data) {
+      out << "<Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"" << center << "\">" << data
+          << "</Attribute>\n";
+    };
+    for (const char* name : {"displacement", "velocity"}) attribute(name, "Vector", "Node", item(V + " 3", false, group + "/" + name));
+    attribute("vertex_id", "Scalar", "Node", item(V, true, "/mesh/vertex_id"));
+    if (contact) attribute("contact_force", "Vector", "Node", item(V + " 3", false, group + "/contact_force"));
+    attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
+    if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
+    out << "</Grid>\n";
+  }
+  out << "</Grid>\n</Domain>\n</Xdmf>\n";
+  write_file_atomically(dir_ + "/" + name_ + ".xdmf", out.str());
+}
+
+std::string XdmfSeries::restart_state() const {
+  std::string s = "xdmf " + name_ + "\n";
+  char line[64];
+  for (const auto& [t, frame, contact] : written_) {
+    std::snprintf(line, sizeof line, "%.17g %d %d\n", t, frame, (int)contact);  // read back exactly
+    s += line;
+  }
+  return s;
+}
+
+std::string XdmfSeries::series_name(const std::string& state) {
+  const std::string head = "xdmf ";
+  if (state.compare(0, head.size(), head) != 0) return "";
+  return state.substr(head.size(), state.find('\n') - head.size());
+}
+
+void XdmfSeries::resume(const std::string& state, int frame) {
+  written_.clear();
+  std::istringstream lines(state);
+  std::string line;
+  std::getline(lines, line);  // xdmf NAME
+  for (double t; std::getline(lines, line);) {
+    std::istringstream fields(line);
+    int k, contact;
+    if (fields >> t >> k >> contact && k <= frame) written_.push_back({t, k, contact != 0});
+  }
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  std::string error;
+  if (rank == 0) {  // the later frames' groups go (HDF5 does not give their space back)
+    try {
+      silence_hdf5();
+      Handle file{H5Fopen(h5_path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose};
+      if (file.id < 0) throw std::runtime_error("cannot continue " + h5_path() + ": " + hdf5_error_reason());
+      std::vector<std::string> names, later;
+      Handle frames{H5Gopen2(file.id, "/frames", H5P_DEFAULT), H5Gclose};
+      if (frames.id < 0 || H5Literate(frames.id, H5_INDEX_NAME, H5_ITER_NATIVE, nullptr, collect_name, &names) < 0)
+        throw std::runtime_error("cannot continue " + h5_path() + ": its /frames: " + hdf5_error_reason());
+      for (const std::string& g : names)
+        if (std::atoi(g.c_str()) > frame) later.push_back(g);
+      for (const std::string& g : later)
+        if (H5Ldelete(frames.id, g.c_str(), H5P_DEFAULT) < 0)
+          throw std::runtime_error("cannot continue " + h5_path() + ": removing frame " + g + ": " + hdf5_error_reason());
+      write_index();
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  throw_if_any_failed(comm_, error);
+  file_ready_ = true;
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,73 @@
+// Output for many ranks (deck output.format: xdmf): every frame goes into ONE HDF5 file per run,
+// DIR/NAME.h5, which all ranks write together through MPI-IO, each rank its own block of rows of
+// each dataset; DIR/NAME.xdmf is the index (XDMF 3, a temporal collection) that ParaView and meshio
+// open. Rows are in a global order that does not depend on the rank count: points by vertex_id
+// (input vertices that no element uses are left out), elements by kind (tets, strand segments,
+// cloth triangles) and their order in the input mesh. So the same run at 1 and at 1024 ranks
+// writes the same arrays.
+//
+// NAME.h5:
+//   /mesh/topology        int64; tets (n, 4), segments (n, 2) or triangles (n, 3) when the mesh
+//                         has one kind, else XDMF's Mixed list (6 a b c d | 2 2 a b | 4 a b c)
+//   /mesh/rest            (points, 3) rest positions
+//   /mesh/vertex_id       (points) each point's index in the input mesh
+//   /frames/NNNNN/positions, displacement, velocity, contact_force (with colliders): (points, 3)
+//   /frames/NNNNN/J       per element: det F of a tet, l / L of a segment, the area ratio of a
+//                         triangle; stretch (cloth meshes): the largest principal stretch
+// Each frame's grid has the frame's positions as its geometry. The VTK series' per-cell "rank"
+// field is not written: it would make the output depend on the rank count.
+//
+// The file is opened and closed for each frame, and the index (written whole, atomically, by
+// rank 0) lists a frame only once its data are in the file and the file is closed.
+#pragma once
+#include <petscsys.h>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "io/global_rows.hpp"
+#include "io/output_writer.hpp"
+
+namespace hyperqn {
+
+class XdmfSeries : public OutputWriter {
+ public:
+  XdmfSeries(MPI_Comm comm, std::string directory, std::string name);
+  ~XdmfSeries() override;
+  // Throws std::runtime_error if this build's HDF5 cannot write in parallel.
+  void begin_run(const DistributedMesh& mesh) override;
+  void write_frame(const FrameData& f) override;
+  // After a release: the same elements, with fewer fixed vertices. A mesh with other elements
+  // cannot go on in the same file (throws std::runtime_error).
+  void set_mesh(const DistributedMesh& mesh) override;
+  // The frames listed ("xdmf NAME" then "time frame contact" lines); resume keeps those up to `frame`,
+  // removes the later frames' data from NAME.h5 and rewrites NAME.xdmf.
+  static constexpr const char* kRestartKey = "xdmf";
+  std::string restart_key() const override { return kRestartKey; }
+  std::string restart_state() const override;
+  void resume(const std::string& state, int frame) override;
+  // The name of the series a restart state names, "" if none.
+  static std::string series_name(const std::string& state);
+
+ private:
+  struct Layout;  // where this rank's vertices and elements go (global_rows.hpp)
+  void write_mesh() const;
+  void write_index() const;
+  std::string h5_path() const { return dir_ + "/" + name_ + ".h5"; }
+
+  MPI_Comm comm_;
+  std::string dir_, name_;
+  const DistributedMesh* mesh_ = nullptr;
+  std::unique_ptr<Layout> layout_;
+  bool file_ready_ = false;                        // NAME.h5 exists and holds the mesh
+  struct Listed {
+    double time;
+    int frame;
+    bool contact;  // the frame has contact forces (scenes with colliders)
+  };
+  std::vector<Listed> written_;  // the index's frames
+};
+
+}  // namespace hyperqn
