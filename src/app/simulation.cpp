@@ -568,7 +568,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 1. Everything that can be wrong with the input is checked before any output exists.
   SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input, solver_factors(deck.solver))) return 1;
+  if (!load_scene_input_or_report(comm, deck, input, memory_plan(deck.solver))) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)
     PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",
@@ -718,6 +718,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   double rss = peak_rss_mb();
   MPI_Allreduce(&rss, &summary.peak_rss_mb, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);
+  summary.peak_rss_mb_by_rank.resize(size);
+  MPI_Allgather(&rss, 1, MPI_DOUBLE, summary.peak_rss_mb_by_rank.data(), 1, MPI_DOUBLE, comm);
   int sig = (int)g_stop_signal, any_sig;
   MPI_Allreduce(&sig, &any_sig, 1, MPI_INT, MPI_MAX, comm);
   if (any_sig) summary.signal = any_sig == SIGTERM ? "SIGTERM" : "SIGUSR1";
