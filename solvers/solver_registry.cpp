@@ -72,10 +72,16 @@ ConstantMatrix constant_matrix_of(const SolverSpec& spec) {
 
 bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "amg"; }
 
-bool solver_factors(const SolverSpec& spec) {
-  const bool newton = spec.type == "newton" || spec.newton_fallback;
-  return (solver_uses_constant_matrix(spec.type) && !constant_matrix_by_amg(spec)) ||
-         (newton && spec.linear_solver == "mumps");
+MemoryPlan memory_plan(const SolverSpec& spec) {
+  MemoryPlan plan;
+  const bool constant = solver_uses_constant_matrix(spec.type);
+  plan.h0 = !constant ? H0Memory::none : constant_matrix_by_amg(spec) ? H0Memory::amg : H0Memory::gathered;
+  plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
+  plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
+  plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
+  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver == "mumps";
+  plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
+  return plan;
 }
 
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,

@@ -231,7 +231,9 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   const StudySpec& st = deck.study;
 
   SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input)) return 1;
+  MemoryPlan plan;  // M + h^2 L factored for the contenders, and the reference's Newton
+  plan.newton = deck.solver.linear_solver == "mumps";
+  if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
 
