@@ -55,6 +55,10 @@ FactorPackage default_factor_package();
 // supernodal gathered to rank 0 (docs/performance.md#distributed-h0).
 PetscErrorCode choose_factor_package(Mat A, FactorPackage* package);
 constexpr PetscInt kMaxSplitInterface = 8000;
+// True if `package` (-hyperqn_h0_package) splits the factor on more than one rank where it can.
+inline bool splits_on_many_ranks(FactorPackage package) {
+  return package == FactorPackage::split || package == FactorPackage::automatic;
+}
 // solver.h0: auto (lbfgs): true where one V-cycle of A1 (amg) reaches a given accuracy sooner than
 // the factor, by the crossover measured for the study (docs/performance.md#distributed-h0): on
 // volume meshes (tets) of at least kAmgFromVertices vertices, whatever the rank count.

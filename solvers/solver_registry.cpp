@@ -74,10 +74,18 @@ bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spe
 
 bool constant_matrix_auto(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "auto"; }
 
-bool solver_factors(const SolverSpec& spec) {
-  const bool newton = spec.type == "newton" || spec.newton_fallback;
-  return (solver_uses_constant_matrix(spec.type) && !constant_matrix_by_amg(spec)) ||
-         (newton && spec.linear_solver == "mumps");
+MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
+  MemoryPlan plan;
+  const bool constant = solver_uses_constant_matrix(spec.type);
+  plan.h0 = !constant ? H0Memory::none : constant_matrix_by_amg(spec) ? H0Memory::amg : H0Memory::gathered;
+  plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
+  plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
+  plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
+  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver == "mumps";
+  plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
+  plan.h0_auto = constant && constant_matrix_auto(spec);
+  plan.split = splits_on_many_ranks(package);
+  return plan;
 }
 
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
@@ -89,8 +97,7 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
              spec.type.c_str());
   PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(spec), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
-  PetscCheck(!h0 || !s->uses_constant_matrix || constant_matrix_auto(spec) ||
-                 (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
+  PetscCheck(!h0 || !s->uses_constant_matrix || (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
              PETSC_COMM_SELF, PETSC_ERR_PLIB, "solver %s was given the wrong kind of constant matrix solve (AMG or factor)",
              spec.type.c_str());
   PetscCall(s->create(spec, objective, h0, solver));

@@ -576,8 +576,10 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   MPI_Comm_size(comm, &size);
 
   // 1. Everything that can be wrong with the input is checked before any output exists.
+  RunOptions options;
+  if (read_run_options(comm, &options, &deck)) return 1;
   SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input, solver_factors(deck.solver))) return 1;
+  if (!load_scene_input_or_report(comm, deck, input, memory_plan(deck.solver, options.h0_package))) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)
     PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",
@@ -592,8 +594,6 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   identity.deck = restart ? saved.deck : deck.path;
 
   // 2. Distribute, assemble, factor.
-  RunOptions options;
-  if (read_run_options(comm, &options, &deck)) return 1;
   Run run(comm, deck, options);
   run.t_start = t_start;
   run.checkpoints = std::make_unique<CheckpointStore>(comm, outdir + "/checkpoints", deck.checkpoint.keep);
@@ -729,6 +729,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   double rss = peak_rss_mb();
   MPI_Allreduce(&rss, &summary.peak_rss_mb, 1, MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);
+  summary.peak_rss_mb_by_rank.resize(size);
+  MPI_Allgather(&rss, 1, MPI_DOUBLE, summary.peak_rss_mb_by_rank.data(), 1, MPI_DOUBLE, comm);
   int sig = (int)g_stop_signal, any_sig;
   MPI_Allreduce(&sig, &any_sig, 1, MPI_INT, MPI_MAX, comm);
   if (any_sig) summary.signal = any_sig == SIGTERM ? "SIGTERM" : "SIGUSR1";

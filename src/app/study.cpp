@@ -230,10 +230,13 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   MPI_Comm_rank(comm, &rank);
   const StudySpec& st = deck.study;
 
-  SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input)) return 1;
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
+  SceneInput input;
+  MemoryPlan plan;  // M + h^2 L factored for the contenders, and the reference's Newton
+  plan.split = splits_on_many_ranks(options.h0_package);
+  plan.newton = deck.solver.linear_solver == "mumps";
+  if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
 
   Study study(comm, deck);
   for (const std::string& type : st.solvers) {

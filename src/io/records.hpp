@@ -64,6 +64,7 @@ struct RunSummary {
   long long max_active_contacts = 0, contact_evaluations = 0;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
+  std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)
 };
 
 }  // namespace hyperqn

@@ -152,8 +152,10 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"contact_s\": " << number(s.contact_s) << ",\n"
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
-      << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << "\n"
-      << "}\n";
+      << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"
+      << "  \"peak_rss_mb_by_rank\": [";
+  for (size_t r = 0; r < s.peak_rss_mb_by_rank.size(); ++r) out << (r ? ", " : "") << number(s.peak_rss_mb_by_rank[r]);
+  out << "]\n}\n";
   write_file_atomically(path, out.str());
 }
 

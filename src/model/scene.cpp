@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <functional>
 
+#include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
 #include "model/elastic_terms.hpp"
 #include "terms/contact.hpp"
@@ -44,21 +45,69 @@ void on_root(MPI_Comm comm, const std::function<void()>& fn) {
   throw InputError(error);
 }
 
-// Refuses a mesh of `vertices` vertices whose run would need more memory than there is
-// (estimated_run_bytes against memory_limit_bytes), naming the deck key that sets its size.
-void check_memory(MPI_Comm comm, const SceneSpec& deck, int64_t vertices, bool factored) {
-  std::string source;
-  const double limit = memory_limit_bytes(&source);
-  int ranks;
-  MPI_Comm_size(comm, &ranks);
-  const double need = estimated_run_bytes(vertices, ranks, factored);
-  if (limit <= 0 || need <= limit) return;
-  char msg[400];
-  std::snprintf(msg, sizeof msg,
-                "the run would need about %.0f MB of memory (estimate for %lld vertices at %d rank(s), docs/guardrails.md) "
-                "but %.0f MB are available (%s); use a coarser mesh",
-                need / 1048576.0, (long long)vertices, ranks, limit / 1048576.0, source.c_str());
-  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : deck.mesh.is_sheet ? "mesh.sheet.cells" : "mesh.file", msg);
+// Every rank's memory limit, on rank 0 (collective; an error in HYPERQN_MEMORY_LIMIT_MB on any rank
+// is the same InputError on every rank).
+std::vector<MemoryLimit> gather_memory_limits(MPI_Comm comm) {
+  int rank, size;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  MemoryLimit mine;
+  std::string error;
+  try {
+    mine = rank_memory_limit(comm);
+  } catch (const InputError& e) {
+    error = e.what();
+  }
+  try {
+    throw_if_any_failed(comm, error);
+  } catch (const std::runtime_error& e) {
+    throw InputError(e.what());
+  }
+  const double sent[4] = {mine.bytes, double(mine.from_environment), double(mine.node_ranks), mine.node_available};
+  std::vector<double> all(rank == 0 ? 4 * size_t(size) : 0);
+  MPI_Gather(sent, 4, MPI_DOUBLE, all.data(), 4, MPI_DOUBLE, 0, comm);
+  std::vector<MemoryLimit> limits(all.size() / 4);
+  for (size_t r = 0; r < limits.size(); ++r)
+    limits[r] = {all[4 * r], all[4 * r + 1] != 0, int(all[4 * r + 2]), all[4 * r + 3]};
+  return limits;
+}
+
+// On rank 0: refuses a mesh of `vertices` vertices if a rank of the run would need more memory than
+// it may take (estimated_rank_memory against its limit), naming the deck key that sets the mesh's
+// size, the rank, what it holds and the ways out. -hyperqn_memory_report prints every rank's
+// estimate (bench/memory_per_rank.py reads it).
+void check_memory(const SceneSpec& deck, int64_t vertices, bool volume_mesh, const MemoryPlan& run_plan,
+                  const std::vector<MemoryLimit>& limits) {
+  const int ranks = (int)limits.size();
+  const MemoryPlan plan = resolved_plan(run_plan, vertices, volume_mesh, ranks);
+  PetscBool report = PETSC_FALSE;
+  PetscOptionsHasName(nullptr, nullptr, "-hyperqn_memory_report", &report);
+  std::vector<double> bytes(ranks);
+  int worst = -1;
+  double worst_ratio = 1;
+  for (int r = 0; r < ranks; ++r) {
+    bytes[r] = limits[r].bytes;
+    const RankMemory m = estimated_rank_memory(vertices, ranks, r, plan);
+    if (report)
+      PetscPrintf(PETSC_COMM_SELF, "hyperqn: memory estimate rank %d: about %.0f MB of %.0f MB (%s): %s\n", r,
+                  m.total() / 1048576.0, limits[r].bytes / 1048576.0, describe_limit(limits[r]).c_str(),
+                  describe_rank_memory(m, r, plan).c_str());
+    if (limits[r].bytes > 0 && m.total() / limits[r].bytes > worst_ratio) {
+      worst = r;
+      worst_ratio = m.total() / limits[r].bytes;
+    }
+  }
+  if (worst < 0) return;
+  const RankMemory m = estimated_rank_memory(vertices, ranks, worst, plan);
+  char head[400];
+  std::snprintf(head, sizeof head,
+                "rank %d of %d would need about %.0f MB of memory (estimate for %lld vertices, docs/guardrails.md#memory) "
+                "but %.0f MB are available to it (%s). ",
+                worst, ranks, m.total() / 1048576.0, (long long)vertices, limits[worst].bytes / 1048576.0,
+                describe_limit(limits[worst]).c_str());
+  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : deck.mesh.is_sheet ? "mesh.sheet.cells" : "mesh.file",
+                   head + ("It would hold " + describe_rank_memory(m, worst, plan)) + ". Ways out: " +
+                       ways_out(vertices, ranks, plan, bytes));
 }
 
 // An OBJ surface as a cloth mesh: vertex ids are the vertices' 0-based positions in the file.
@@ -78,17 +127,18 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, bool factored) {
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, const MemoryPlan& plan) {
   TetMesh mesh;
+  const std::vector<MemoryLimit> limits = gather_memory_limits(comm);  // (empty on ranks > 0)
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
     if (spec.is_box) {
       const auto& n = spec.box_cells;
-      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), factored);  // before generating it
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), true, plan, limits);  // before generating it
       mesh = generate_box(spec.box_size, spec.box_cells);
     } else if (spec.is_sheet) {
       const auto& n = spec.sheet_cells;
-      check_memory(comm, deck, int64_t(n[0] + 1) * (n[1] + 1), factored);
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), false, plan, limits);
       mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
     } else if (ends_with(spec.file, ".obj")) {
       mesh = surface_mesh(read_triangle_surface(spec.file));
@@ -100,7 +150,8 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     apply_transform(mesh, spec.transform);
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
     const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
-    if (!spec.file.empty()) check_memory(comm, deck, mesh.num_vertices(), factored);  // before distributing and factoring it
+    if (!spec.file.empty())  // before distributing and factoring it
+      check_memory(deck, mesh.num_vertices(), mesh.num_tets() > 0, plan, limits);
     if (repaired) *repaired = report;
     if (mesh.num_tets() > 0 && !deck.has_material)
       throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
@@ -109,9 +160,9 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
   return mesh;
 }
 
-SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, bool factored) {
+SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan) {
   SceneInput in;
-  in.mesh = load_scene_mesh(comm, deck, &in.repaired, factored);
+  in.mesh = load_scene_mesh(comm, deck, &in.repaired, plan);
   on_root(comm, [&] {
     in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
     in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
@@ -136,9 +187,9 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, bool factored)
   return in;
 }
 
-bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factored) {
+bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, const MemoryPlan& plan) {
   try {
-    input = load_scene_input(comm, deck, factored);
+    input = load_scene_input(comm, deck, plan);
     return true;
   } catch (const InputError& e) {
     PetscPrintf(comm, "hyperqn: error: %s\n", e.what());

@@ -16,14 +16,16 @@
 #include "terms/contact.hpp"
 #include "solvers/solver_spec.hpp"
 #include "mesh/mesh.hpp"
+#include "model/memory_estimate.hpp"
 
 namespace hyperqn {
 
 // Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it
-// (what was repaired in *repaired, on rank 0). Throws InputError, also when the run would need more
-// memory than there is (model/memory_estimate.hpp; factored: whether a solver will factor a sparse
-// matrix, whose fill the estimate then counts). Other ranks get an empty mesh.
-TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired = nullptr, bool factored = true);
+// (what was repaired in *repaired, on rank 0). Throws InputError on every rank, also when a rank of
+// the run would need more memory than it may take (model/memory_estimate.hpp; plan: what the
+// run's solver factors, solvers/solver_registry.hpp's memory_plan). Other ranks get an empty mesh.
+TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired = nullptr,
+                        const MemoryPlan& plan = MemoryPlan());
 
 // The serial mesh and its fixed-vertex flags (rank 0). Throws InputError on every rank if the
 // input is wrong; nothing has been written at that point.
@@ -33,9 +35,10 @@ struct SceneInput {
   std::vector<int32_t> cell_material;  // per tet, see select_material_regions
   CleanReport repaired;                // what cleaning the mesh changed (rank 0)
 };
-SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, bool factored = true);
+SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan = MemoryPlan());
 // The same, but an input error is printed ("hyperqn: error: ...") and reported as false.
-bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input, bool factored = true);
+bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input,
+                                const MemoryPlan& plan = MemoryPlan());
 
 struct Scene {
   DistributedMesh mesh;
