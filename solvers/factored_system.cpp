@@ -235,6 +235,8 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components, kind));
   PetscCall(event_end(&LogEvents::h0_assembly));
+  // -hyperqn_h0_matrix_view binary:A1.bin: the matrix, e.g. for bench/mumps_repro.cpp.
+  PetscCall(MatViewFromOptions(A_, nullptr, "-hyperqn_h0_matrix_view"));
   if (package == FactorPackage::automatic) PetscCall(choose_factor_package(A_, &package));
   package_ = package;
 
