@@ -70,7 +70,7 @@ PetscErrorCode choose_factor_package(Mat A, FactorPackage* package) {
   PetscFunctionReturn(0);
 }
 
-bool auto_h0_is_amg(int64_t vertices, bool volume_mesh) { return volume_mesh && vertices >= kAmgFromVertices; }
+bool auto_h0_is_amg(int64_t tets) { return tets >= kAmgFromTets; }
 
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {

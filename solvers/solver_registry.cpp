@@ -97,7 +97,8 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
              spec.type.c_str());
   PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(spec), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
-  PetscCheck(!h0 || !s->uses_constant_matrix || (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
+  PetscCheck(!h0 || !s->uses_constant_matrix || constant_matrix_auto(spec) ||
+                 (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
              PETSC_COMM_SELF, PETSC_ERR_PLIB, "solver %s was given the wrong kind of constant matrix solve (AMG or factor)",
              spec.type.c_str());
   PetscCall(s->create(spec, objective, h0, solver));

@@ -8,6 +8,8 @@
 #include <numeric>
 #include <utility>
 
+#include "io/log_events.hpp"
+
 namespace hyperqn {
 
 namespace {
@@ -196,9 +198,11 @@ PetscErrorCode SplitCholesky::solve(const double* b, double* x) const {
     // s rows of k values: as BLAS sees it, the k x s matrix g^T, so x_S^T = g^T L_S^{-T} L_S^{-1}.
     const PetscBLASInt s = static_cast<PetscBLASInt>(separator_), m = k;
     const PetscScalar one = 1;
+    PetscCall(event_begin(&LogEvents::h0_interface));
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, g, k * separator_, MPI_DOUBLE, MPI_SUM, comm_));
     PetscCallBLAS("BLAStrsm", BLAStrsm_("R", "L", "T", "N", &m, &s, &one, schur_.data(), &s, g, &m));
     PetscCallBLAS("BLAStrsm", BLAStrsm_("R", "L", "N", "N", &m, &s, &one, schur_.data(), &s, g, &m));
+    PetscCall(event_end(&LogEvents::h0_interface));
   }
   if (interior_.size() > 0) interior_.solve_interior_backward(k, g, x_interior_.data());
   for (size_t t = 0; t < interior_rows_.size(); ++t)

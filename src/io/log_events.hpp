@@ -12,6 +12,7 @@ struct LogEvents {
   PetscLogEvent h0_assembly;  // assembling A1 = M1 + h^2 L1
   PetscLogEvent h0_factor;    // its Cholesky factorization
   PetscLogEvent h0_solve;     // one A^{-1} b (3 right-hand sides)
+  PetscLogEvent h0_interface; // within it, the split factor's interface: its Allreduce and dense solve
   PetscLogEvent step;         // one time step's solve (solver iterations, line searches)
   PetscLogEvent backtrack;    // hyperqn's own backtracking line search (PD, retries after failures)
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)

@@ -229,6 +229,8 @@ TetMesh read_medit(const std::string& path, bool edges_as_strands, bool triangle
 
 // ---------------------------------------------------------------------------------------------
 
+int64_t box_tets(const std::array<int, 3>& cells) { return int64_t(6) * cells[0] * cells[1] * cells[2]; }
+
 TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>& cells) {
   for (int d = 0; d < 3; ++d) {
     if (!(size[d] > 0) || !std::isfinite(size[d])) throw std::invalid_argument("generate_box: box size must be positive");
@@ -236,7 +238,7 @@ TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>
   }
   const int64_t n[3] = {cells[0] + int64_t(1), cells[1] + int64_t(1), cells[2] + int64_t(1)};
   const int64_t nv = n[0] * n[1] * n[2];
-  const int64_t nt = int64_t(6) * cells[0] * cells[1] * cells[2];
+  const int64_t nt = box_tets(cells);
   if (nv > std::numeric_limits<int32_t>::max() || 4 * nt > std::numeric_limits<int32_t>::max())
     throw std::invalid_argument("generate_box: too many cells");
 

@@ -55,6 +55,8 @@ void add_strand(TetMesh& mesh, const StrandLine& strand);
 // Axis-aligned box [0,size] split into cells[0] x cells[1] x cells[2] cubes of 6 tets each
 // (Kuhn subdivision, conforming across cubes).
 TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>& cells);
+// The tetrahedra generate_box makes of `cells`: 6 per cell.
+int64_t box_tets(const std::array<int, 3>& cells);
 
 // A flat sheet of cloth in the x-z plane from (0, 0, 0) to (size[0], 0, size[1]): (cells[0] + 1) x
 // (cells[1] + 1) vertices, each cell cut into 2 triangles along alternating diagonals (so the sheet

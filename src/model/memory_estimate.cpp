@@ -61,8 +61,8 @@ double interface_vertices(int64_t vertices, int ranks) {
   return planes * std::pow(double(vertices), 2.0 / 3.0);
 }
 
-MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, bool volume_mesh, int ranks) {
-  if (plan.h0_auto && auto_h0_is_amg(vertices, volume_mesh)) plan.h0 = H0Memory::amg;
+MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {
+  if (plan.h0_auto && auto_h0_is_amg(tets)) plan.h0 = H0Memory::amg;
   if (plan.h0 == H0Memory::gathered && plan.split && ranks > 1 &&
       plan.components * interface_vertices(vertices, ranks) <= double(kMaxSplitInterface))
     plan.h0 = H0Memory::split;

@@ -34,7 +34,7 @@ struct MemoryPlan {
 
 // The plan for this mesh: solver.h0: auto and the split factor resolved as the run will
 // (auto_h0_is_amg, choose_factor_package with the interface of interface_vertices).
-MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, bool volume_mesh, int ranks);
+MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks);
 
 // One rank's estimated peak resident memory by parts, in bytes.
 struct RankMemory {

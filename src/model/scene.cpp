@@ -76,10 +76,10 @@ std::vector<MemoryLimit> gather_memory_limits(MPI_Comm comm) {
 // it may take (estimated_rank_memory against its limit), naming the deck key that sets the mesh's
 // size, the rank, what it holds and the ways out. -hyperqn_memory_report prints every rank's
 // estimate (bench/memory_per_rank.py reads it).
-void check_memory(const SceneSpec& deck, int64_t vertices, bool volume_mesh, const MemoryPlan& run_plan,
+void check_memory(const SceneSpec& deck, int64_t vertices, int64_t tets, const MemoryPlan& run_plan,
                   const std::vector<MemoryLimit>& limits) {
   const int ranks = (int)limits.size();
-  const MemoryPlan plan = resolved_plan(run_plan, vertices, volume_mesh, ranks);
+  const MemoryPlan plan = resolved_plan(run_plan, vertices, tets, ranks);
   PetscBool report = PETSC_FALSE;
   PetscOptionsHasName(nullptr, nullptr, "-hyperqn_memory_report", &report);
   std::vector<double> bytes(ranks);
@@ -134,11 +134,11 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     const MeshSpec& spec = deck.mesh;
     if (spec.is_box) {
       const auto& n = spec.box_cells;
-      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), true, plan, limits);  // before generating it
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), box_tets(n), plan, limits);  // before generating it
       mesh = generate_box(spec.box_size, spec.box_cells);
     } else if (spec.is_sheet) {
       const auto& n = spec.sheet_cells;
-      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), false, plan, limits);
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
       mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
     } else if (ends_with(spec.file, ".obj")) {
       mesh = surface_mesh(read_triangle_surface(spec.file));
@@ -151,7 +151,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
     const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
     if (!spec.file.empty())  // before distributing and factoring it
-      check_memory(deck, mesh.num_vertices(), mesh.num_tets() > 0, plan, limits);
+      check_memory(deck, mesh.num_vertices(), mesh.num_tets(), plan, limits);
     if (repaired) *repaired = report;
     if (mesh.num_tets() > 0 && !deck.has_material)
       throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
@@ -238,7 +238,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit);
   PetscCall(s.integrator->setup());
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
-  if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_vertices, s.mesh.global_cells > 0);
+  if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);
   if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator, ConstantMatrix::laplacian, options_.h0_package));

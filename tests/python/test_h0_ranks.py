@@ -7,7 +7,7 @@ oversubscribed), and the defaults choose as docs/performance.md#distributed-h0 s
   bits (other orderings, other sums), the converged positions by round-off.
 - The same for the default on a cloth sheet (the vertex matrix of a surface).
 - solver.h0 and -hyperqn_h0_package left out: supernodal on one rank, split with an interface
-  block on two; amg on a volume mesh of kAmgFromVertices (50,000) vertices or more.
+  block on two; amg on a mesh of kAmgFromTets (200,000) tetrahedra or more.
 Bitwise repetition at a fixed rank count is tests/python/test_reproducible.py's."""
 import copy
 
@@ -81,9 +81,9 @@ def test_cloth_at_1_2_and_4_ranks(tmp_path):
 
 
 @pytest.mark.parametrize("cells, ranks, expected", [
-    ([36, 36, 36], 2, "amg"),        # 50,653 vertices: at the threshold
-    ([36, 36, 35], 2, "split"),      # 49,284 vertices: below it
-    ([36, 36, 35], 1, "supernodal"),
+    ([40, 30, 28], 2, "amg"),        # 201,600 tets: past the threshold
+    ([40, 30, 27], 2, "split"),      # 194,400 tets: below it
+    ([40, 30, 27], 1, "supernodal"),
 ])
 def test_auto_choice(tmp_path, cells, ranks, expected):
     deck = copy.deepcopy(BOX)
