@@ -8,6 +8,7 @@ Makefile and the ctest Python tests do).
     compare       compares two runs vertex by vertex       (python3 -m hyperqn_tools.compare A B)
     study_report  figures and tables of `hyperqn study`    (python3 -m hyperqn_tools.study_report DIR...)
     stability     the stability suite                      (python3 -m hyperqn_tools.stability [DECK...])
+    log_view      reads PETSc's -log_view: the message summary and the event lines
     sweep         a deck over a grid of values, or a set of decks, and its table
                                                            (python3 -m hyperqn_tools.sweep SWEEP.yaml)
 """
