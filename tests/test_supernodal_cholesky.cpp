@@ -4,7 +4,9 @@
 // or four columns at a time), and a 2-D grid (the mix a mesh gives). For each, with 1 and 3
 // interleaved right-hand sides: x = A^{-1} b against a known x, b and x the same array, L's
 // entries (no zeros are merged in: a chain's L has 2n - 1, a dense block's n(n + 1)/2), and a
-// matrix that is not positive definite refused.
+// matrix that is not positive definite refused. With a separator (the split factor's interior, its
+// last rows ordered last): the two halves of a solve with the dense separator block between them
+// give A^{-1} b, on a grid whose last rows are the separator, and with every row in it.
 #include <cmath>
 #include <random>
 #include <vector>
@@ -109,6 +111,46 @@ void check_solves(const std::string& name, const Csr& A, int64_t expected_entrie
   }
 }
 
+// A^{-1} b through the interior's halves and the separator's dense L_S (as SplitCholesky does on
+// one rank): g = b_S - X y, x_S = L_S^{-T} L_S^{-1} g, then x_I.
+void check_separator(const std::string& name, const Csr& A, int64_t s) {
+  SupernodalCholesky f;
+  std::vector<double> L;
+  const auto status = f.factor(A.n, A.start.data(), A.column.data(), A.value.data(), s, &L);
+  CHECK_MSG(status == SupernodalCholesky::Status::ok && f.separator() == s, name + ": factorization failed");
+  if (status != SupernodalCholesky::Status::ok) return;
+  const int64_t interior = A.n - s;
+  std::mt19937 gen(2);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k : {1, 3}) {
+    std::vector<double> x(k * A.n);
+    for (double& v : x) v = u(gen);
+    const std::vector<double> b = A.times(x, k);
+    std::vector<double> g(k * s), solved(k * A.n);
+    f.solve_interior_forward(k, b.data(), g.data());
+    for (int64_t i = 0; i < s; ++i)
+      for (int c = 0; c < k; ++c) g[k * i + c] += b[k * (interior + i) + c];
+    for (int c = 0; c < k; ++c) {  // L_S z = g, then L_S^T x_S = z (L_S by columns)
+      for (int64_t j = 0; j < s; ++j) {
+        g[k * j + c] /= L[j + j * s];
+        for (int64_t i = j + 1; i < s; ++i) g[k * i + c] -= L[i + j * s] * g[k * j + c];
+      }
+      for (int64_t j = s - 1; j >= 0; --j) {
+        for (int64_t i = j + 1; i < s; ++i) g[k * j + c] -= L[i + j * s] * g[k * i + c];
+        g[k * j + c] /= L[j + j * s];
+      }
+    }
+    f.solve_interior_backward(k, g.data(), solved.data());
+    for (int64_t i = 0; i < k * s; ++i) solved[k * interior + i] = g[i];
+    double err = 0, scale = 0;
+    for (size_t i = 0; i < x.size(); ++i) {
+      err = std::max(err, std::fabs(solved[i] - x[i]));
+      scale = std::max(scale, std::fabs(x[i]));
+    }
+    CHECK_MSG(err <= 1e-13 * scale, name + ", k = " + std::to_string(k) + ": |x - A^-1 A x| = " + std::to_string(err));
+  }
+}
+
 }  // namespace
 
 int main() {
@@ -119,6 +161,10 @@ int main() {
   for (int64_t m : sizes) triangles += m * (m + 1) / 2;
   check_solves("dense blocks of 1 to 9", dense_blocks(sizes), triangles);
   check_solves("9-point grid 40 x 40", grid(40), 0);
+  check_separator("9-point grid 30 x 30, its last row the separator", grid(30), 30);
+  check_separator("9-point grid 30 x 30, its last 3 rows the separator", grid(30), 90);
+  check_separator("chain of 40, its last 5 the separator", chain(40), 5);
+  check_separator("dense 12 x 12, all of it the separator", dense_blocks({12}), 12);
 
   Csr indefinite = chain(10);
   indefinite.value[indefinite.start[4] + 1] = -3.0;  // a negative diagonal entry (row 4's middle)
