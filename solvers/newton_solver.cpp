@@ -29,14 +29,20 @@ PetscErrorCode NewtonSolver::hessian(Tao, Vec x, Mat, Mat Hpre, void* ctx) {
   PetscFunctionReturn(0);
 }
 
+bool newton_uses_amg(const std::string& linear_solver, int64_t vertices) {
+  return linear_solver == "cg-amg" || (linear_solver == "auto" && vertices >= kNewtonAmgFromVertices);
+}
+
 PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
-  const bool amg = spec.linear_solver == "cg-amg";
   KSP ksp;
   PC pc;
+  PetscInt dofs;
   PetscFunctionBeginUser;
   exact_ = spec.newton_hessian == "exact";
   trust_region_ = spec.newton_method == "ntr";
   PetscCall(step_.create_hessian(&H_));
+  PetscCall(MatGetSize(H_, &dofs, nullptr));
+  const bool amg = newton_uses_amg(spec.linear_solver, dofs / 3);
   // NTR has no line search; NLS defaults to More-Thuente, as does the deck.
   PetscCall(create_tao(spec, trust_region_ ? TAONTR : TAONLS, !trust_region_));
   PetscCall(TaoSetHessian(tao_, H_, H_, hessian, this));

@@ -81,7 +81,8 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
   plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
   plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
   plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
-  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver == "mumps";
+  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != "cg-amg";
+  plan.newton_auto = spec.linear_solver == "auto";
   plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
   plan.h0_auto = constant && constant_matrix_auto(spec);
   plan.split = splits_on_many_ranks(package);

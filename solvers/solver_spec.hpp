@@ -23,7 +23,7 @@ struct SolverSpec {
   // limit (-hyperqn_element_limit) unless it was (ImplicitEuler::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).
   bool upright_guess = true;
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
-  std::string linear_solver = "mumps";       // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
+  std::string linear_solver = "auto";        // newton: auto (newton_uses_amg) | mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact
   std::string h0 = "auto";                   // lbfgs: its constant matrix, laplacian (M + h^2 L) |
                                              //   rest-stiffness (M + h^2 K(x_rest)) | amg (M + h^2 L

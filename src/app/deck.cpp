@@ -34,7 +34,7 @@ Names model_names() {
 const Names kModels = model_names();
 const Names kSolverTypes = solver_names();
 const Names kNewtonMethods = {"nls", "ntr"};
-const Names kLinearSolvers = {"mumps", "cg-amg"};
+const Names kLinearSolvers = {"auto", "mumps", "cg-amg"};
 const Names kNewtonHessians = {"projected", "exact"};
 const Names kH0s = {"auto", "laplacian", "rest-stiffness", "amg"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.

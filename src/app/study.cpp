@@ -235,7 +235,8 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   SceneInput input;
   MemoryPlan plan;  // M + h^2 L factored for the contenders, and the reference's Newton
   plan.split = splits_on_many_ranks(options.h0_package);
-  plan.newton = deck.solver.linear_solver == "mumps";
+  plan.newton = deck.solver.linear_solver != "cg-amg";
+  plan.newton_auto = deck.solver.linear_solver == "auto";
   if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
 
   Study study(comm, deck);

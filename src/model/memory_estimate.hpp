@@ -28,12 +28,14 @@ struct MemoryPlan {
   bool newton_is_fallback = false;  // ... as the fallback chain's stage 3 (solver.newton_fallback)
   bool amg_allowed = false;         // the solver could take solver.h0: amg instead of a factor (lbfgs)
   bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh (resolved_plan)
+  bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)
 };
 
-// The plan for this mesh: solver.h0: auto and the split factor resolved as the run will
-// (auto_h0_is_amg, choose_factor_package with the interface of interface_vertices).
+// The plan for this mesh: solver.h0: auto, the split factor and linear_solver: auto resolved as
+// the run will (auto_h0_is_amg, choose_factor_package with the interface of interface_vertices,
+// newton_uses_amg).
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks);
 
 // One rank's estimated peak resident memory by parts, in bytes.

@@ -251,8 +251,10 @@ def test_memory_estimate_counts_what_the_solver_factors(tmp_path, monkeypatch):
     factor, amg, chain, newton = ("the factor of M + h^2 L on rank 0", "the AMG hierarchy", "sub-step size(s)",
                                   "3n x 3n Hessian")
     cases = {"factor": ({"type": "lbfgs", "h0": "laplacian", **NO_FALLBACK}, [factor], [amg, chain, newton]),
-             "factor_chain": ({"type": "lbfgs", "h0": "laplacian"}, [factor, chain, newton,
-                                                                      "solver.newton_fallback: false"], [amg]),
+             "factor_chain": ({"type": "lbfgs", "h0": "laplacian", "linear_solver": "mumps"},
+                              [factor, chain, newton, "solver.newton_fallback: false"], [amg]),
+             # linear_solver: auto takes CG + AMG for the chain's Newton on this mesh: no Newton factor
+             "factor_chain_auto": ({"type": "lbfgs", "h0": "laplacian"}, [factor, chain], [amg, newton]),
              "auto": ({"type": "lbfgs", **NO_FALLBACK}, [amg], [factor, chain, newton]),
              "amg": ({"type": "lbfgs", "h0": "amg", **NO_FALLBACK}, [amg], [factor, chain, newton, "solver.h0: amg"]),
              "newton_cg_amg": ({"type": "newton", "linear_solver": "cg-amg", **NO_FALLBACK}, [], [factor, amg, newton])}
