@@ -70,7 +70,9 @@ PetscErrorCode choose_factor_package(Mat A, FactorPackage* package) {
   PetscFunctionReturn(0);
 }
 
-bool auto_h0_is_amg(int64_t tets) { return tets >= kAmgFromTets; }
+bool auto_h0_is_amg(int64_t tets, int ranks, bool reproducible) {
+  return tets >= kAmgFromTets && (ranks <= 2 || !reproducible);
+}
 
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {

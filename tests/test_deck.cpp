@@ -312,7 +312,7 @@ void test_invalid_decks() {
   expect_error("damping_one", kHead + "time: {damping: 1}\n", "time.damping", 3, "[0, 1)");
   expect_error("damping_negative", kHead + "time: {damping: -0.1}\n", "time.damping", 3);
   expect_error("unknown_solver", kHead + "solver:\n  type: gauss-seidel\n", "solver.type", 4, "allowed: lbfgs, lbfgs-identity, newton, pd");
-  expect_error("unknown_linear_solver", kHead + "solver: {linear_solver: lu}\n", "solver.linear_solver", 3, "allowed: mumps, cg-amg");
+  expect_error("unknown_linear_solver", kHead + "solver: {linear_solver: lu}\n", "solver.linear_solver", 3, "allowed: auto, mumps, cg-amg");
   expect_error("study_frame_beyond_scene", kHead + "time: {frames: 5}\nstudy: {frames: [6]}\n", "study.frames[0]", 4, "[1, time.frames = 5]");
   expect_error("study_unknown_solver", kHead + "study:\n  solvers: [lbfgs, cg]\n", "study.solvers[1]", 4);
   expect_error("iterations_zero", kHead + "solver: {iterations: 0}\n", "solver.iterations", 3);

@@ -531,7 +531,8 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
   }
   throw_if_any_failed(comm, error);
   if (state) {
-    const std::string kept = outdir + "/" + name + (format == std::string("vtu") ? ".pvd" : ".xdmf");
+    const std::string kept_name = name + (format == std::string("vtu") ? ".pvd" : ".xdmf");
+    const std::string kept = outdir + "/" + kept_name;
     if (!deck.output.vtk)
       PetscPrintf(comm, "hyperqn: output.vtk is false: %s stays as it was at frame %d\n", kept.c_str(), saved->frame);
     else if (!wanted)
@@ -539,7 +540,7 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
                   deck.output.format.c_str(), kept.c_str(), saved->frame, index.c_str());
     else if (name != deck.name)
       PetscPrintf(comm, "hyperqn: the %s series goes on as %s, the name it started with (the deck now says %s)\n", format,
-                  kept.c_str(), deck.name.c_str());
+                  kept_name.c_str(), deck.name.c_str());
   }
   if (wanted) writers.push_back(std::move(series));
 }
