@@ -70,9 +70,7 @@ PetscErrorCode choose_factor_package(Mat A, FactorPackage* package) {
   PetscFunctionReturn(0);
 }
 
-bool auto_h0_is_amg(int64_t tets, int ranks, bool reproducible) {
-  return tets >= kAmgFromTets && (ranks <= 2 || !reproducible);
-}
+bool auto_h0_is_amg(int64_t tets) { return tets >= kAmgFromTets; }
 
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {
@@ -110,6 +108,16 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PetscReal threshold = 0.05;
   PetscCall(PCGAMGSetThresholdScale(pc, 0.0));  // before the threshold, as PETSc asks
   PetscCall(PCGAMGSetThreshold(pc, &threshold, 1));
+  // The coarse operators P^T A P by PETSc's "allatonce" product: its default ("scalable") adds the
+  // rows other ranks send in the order their messages arrive, so on 3 or more ranks the hierarchy,
+  // and every run's last bits, changed from run to run (amg_bar at 4 ranks: 2 of 6 runs; with
+  // allatonce 18 of 18 alike, docs/performance.md#reproducibility). -matptap_via overrides. (A
+  // parallel matrix's choice: one rank's products have other algorithms, and one sender.)
+  PetscBool chosen;
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A_), &size));
+  PetscCall(PetscOptionsHasName(nullptr, nullptr, "-matptap_via", &chosen));
+  if (!chosen && size > 1) PetscCall(PetscOptionsSetValue(nullptr, "-matptap_via", "allatonce"));
   PetscCall(KSPSetFromOptions(ksp_));
   PetscCall(PetscObjectTypeCompare((PetscObject)ksp_, KSPPREONLY, &preonly));
   PetscCheck(preonly, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,

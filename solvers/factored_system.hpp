@@ -61,11 +61,9 @@ inline bool splits_on_many_ranks(FactorPackage package) {
 }
 // solver.h0: auto (lbfgs): true where one V-cycle of A1 (amg) reaches a given accuracy sooner than
 // the factor, by the crossover measured for the study (docs/performance.md#distributed-h0): on
-// meshes of at least kAmgFromTets tetrahedra. Tets, not vertices: the factor's fill comes from
-// the volume (a strand's or a cloth's vertices add little to it). Not on 3 or more ranks when the
-// run must be reproducible (solver.reproducible): the V-cycle's setup is not bitwise repeatable
-// there (docs/performance.md#reproducibility).
-bool auto_h0_is_amg(int64_t tets, int ranks, bool reproducible);
+// meshes of at least kAmgFromTets tetrahedra, whatever the rank count. Tets, not vertices: the
+// factor's fill comes from the volume (a strand's or a cloth's vertices add little to it).
+bool auto_h0_is_amg(int64_t tets);
 constexpr int64_t kAmgFromTets = 200000;
 
 class FactoredSystem {

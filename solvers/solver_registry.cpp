@@ -83,7 +83,6 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
   plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
   plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != "cg-amg";
   plan.newton_auto = spec.linear_solver == "auto";
-  plan.reproducible = spec.reproducible;
   plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
   plan.h0_auto = constant && constant_matrix_auto(spec);
   plan.split = splits_on_many_ranks(package);

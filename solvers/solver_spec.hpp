@@ -22,9 +22,6 @@ struct SolverSpec {
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (ImplicitEuler::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).
   bool upright_guess = true;
-  // Runs at a fixed rank count repeat bit for bit: solver.h0: auto then takes no path that does
-  // not (amg on 3 or more ranks: PETSc's GAMG setup varies in its last bits there; auto_h0_is_amg).
-  bool reproducible = true;
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
   std::string linear_solver = "auto";        // newton: auto (newton_uses_amg) | mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact

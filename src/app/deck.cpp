@@ -746,7 +746,7 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
                    "newton_method", "linear_solver", "newton_hessian", "h0", "max_iterations", "max_halvings",
-                   "newton_fallback", "history_reset", "upright_guess", "reproducible"});
+                   "newton_fallback", "history_reset", "upright_guess"});
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
     sv.iterations = r.integer(*x);
@@ -768,7 +768,6 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("line_search")) sv.line_search = r.choice(*x, kLineSearches);
   if (const Value* x = s.find("warm_start")) sv.warm_start = r.choice(*x, kWarmStarts);
   if (const Value* x = s.find("upright_guess")) sv.upright_guess = r.boolean(*x);
-  if (const Value* x = s.find("reproducible")) sv.reproducible = r.boolean(*x);
   if (const Value* x = s.find("history_reset")) sv.history_reset = r.choice(*x, {"never", "contact-change"});
   if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
   if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);

@@ -114,7 +114,6 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
       s.factor = true;
   }
   s.h0_package = o.h0_package;
-  s.reproducible = deck.solver.reproducible;
   const std::string& w = deck.solver.warm_start;
   s.warm_start = w == "previous" ? WarmStart::previous : w == "lower" ? WarmStart::lower : WarmStart::inertial;
   s.upright_guess = deck.solver.upright_guess;

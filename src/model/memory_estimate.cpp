@@ -63,7 +63,7 @@ double interface_vertices(int64_t vertices, int ranks) {
 }
 
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {
-  if (plan.h0_auto && auto_h0_is_amg(tets, ranks, plan.reproducible)) plan.h0 = H0Memory::amg;
+  if (plan.h0_auto && auto_h0_is_amg(tets)) plan.h0 = H0Memory::amg;
   if (plan.newton_auto && newton_uses_amg("auto", vertices)) plan.newton = false;
   if (plan.h0 == H0Memory::gathered && plan.split && ranks > 1 &&
       plan.components * interface_vertices(vertices, ranks) <= double(kMaxSplitInterface))

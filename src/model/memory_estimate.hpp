@@ -29,7 +29,6 @@ struct MemoryPlan {
   bool amg_allowed = false;         // the solver could take solver.h0: amg instead of a factor (lbfgs)
   bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh (resolved_plan)
   bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
-  bool reproducible = true;  // solver.reproducible (auto_h0_is_amg)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)
 };

@@ -238,11 +238,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit);
   PetscCall(s.integrator->setup());
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
-  if (options_.auto_h0) {
-    PetscMPIInt ranks;
-    PetscCallMPI(MPI_Comm_size(comm_, &ranks));
-    s.auto_amg = auto_h0_is_amg(s.mesh.global_cells, ranks, options_.reproducible);
-  }
+  if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);
   if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
     s.factored = std::make_unique<FactoredSystem>();
     PetscCall(s.factored->setup(*s.integrator, ConstantMatrix::laplacian, options_.h0_package));

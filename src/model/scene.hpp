@@ -59,7 +59,6 @@ struct SceneOptions {
   bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
   bool amg = false;                    // set up the V-cycle of M + h^2 L (lbfgs with solver.h0: amg)
   bool auto_h0 = false;                // the factor or the V-cycle of M + h^2 L, by auto_h0_is_amg (solver.h0: auto)
-  bool reproducible = true;            // solver.reproducible (auto_h0_is_amg)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (ImplicitEuler)

@@ -7,8 +7,7 @@ oversubscribed), and the defaults choose as docs/performance.md#distributed-h0 s
   bits (other orderings, other sums), the converged positions by round-off.
 - The same for the default on a cloth sheet (the vertex matrix of a surface).
 - solver.h0 and -hyperqn_h0_package left out: supernodal on one rank, split with an interface
-  block on two; amg on a mesh of kAmgFromTets (200,000) tetrahedra or more, but on 3 or more
-  ranks only with solver.reproducible: false.
+  block on two; amg on a mesh of kAmgFromTets (200,000) tetrahedra or more.
 Bitwise repetition at a fixed rank count is tests/python/test_reproducible.py's."""
 import copy
 
@@ -81,19 +80,17 @@ def test_cloth_at_1_2_and_4_ranks(tmp_path):
     assert s[2]["h0_package"] == "split" and s[2]["h0_interface"] > 0
 
 
-@pytest.mark.parametrize("cells, ranks, reproducible, expected", [
-    ([40, 30, 28], 2, True, "amg"),        # 201,600 tets: past the threshold
-    ([40, 30, 27], 2, True, "split"),      # 194,400 tets: below it
-    ([40, 30, 27], 1, True, "supernodal"),
-    ([40, 30, 28], 4, True, "split"),      # amg is not bitwise reproducible on 3 or more ranks
-    ([40, 30, 28], 4, False, "amg"),
+@pytest.mark.parametrize("cells, ranks, expected", [
+    ([40, 30, 28], 2, "amg"),        # 201,600 tets: past the threshold
+    ([40, 30, 27], 2, "split"),      # 194,400 tets: below it
+    ([40, 30, 27], 1, "supernodal"),
 ])
-def test_auto_choice(tmp_path, cells, ranks, reproducible, expected):
+def test_auto_choice(tmp_path, cells, ranks, expected):
     deck = copy.deepcopy(BOX)
     deck["mesh"]["box"]["cells"] = cells
     deck["time"]["frames"] = 1
     deck["solver"] = {"type": "lbfgs", "iterations": 2, "max_iterations": 2, "max_halvings": 0,
-                      "newton_fallback": False, "reproducible": reproducible}
+                      "newton_fallback": False}
     deck["output"] = {"vtk": False}
     _, s = run(tmp_path, "auto", deck, ranks)
     assert s["h0_package"] == expected

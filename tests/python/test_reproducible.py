@@ -1,7 +1,8 @@
 """The same deck on the same number of ranks gives bitwise identical outputs, run after run.
 
 Three runs at 2 ranks of the cube on a rope, of input/strands.yaml (reduced) and of a Newton deck,
-and three at 4 ranks (oversubscribed) of the cube on a rope, must agree exactly. The cube and the strands take the default constant-matrix solve (split on more than one
+and three at 4 ranks (oversubscribed) of the cube on a rope and of the amg bar, must agree
+exactly. The cube and the strands take the default constant-matrix solve (split on more than one
 rank, docs/performance.md#distributed-h0), the amg bar solver.h0: amg:
 summary iteration and evaluation counts, iterations.csv except its time_s column, and the final
 VTK positions, velocities and det F. Parallel MUMPS broke this, in the M + h^2 L solve and in
@@ -23,10 +24,7 @@ CASES = {  # deck, frames (reduced: both differed within their first frames befo
     "newton_box": ("tests/decks/newton_box.yaml", None, None),  # Newton's own factorization per iteration
     "amg_bar": ("tests/decks/amg_bar.yaml", None, "amg"),
 }
-# amg is not run at 4 ranks: PETSc's GAMG setup is not bitwise repeatable on 3 or more ranks (2 of
-# 6 runs of the amg bar at 4 ranks ended with another last bit), which is why solver.h0: auto does
-# not take it there while solver.reproducible is true (docs/performance.md#reproducibility).
-RUN_AT = [(case, 2) for case in sorted(CASES)] + [("box_on_rope", 4)]
+RUN_AT = [(case, 2) for case in sorted(CASES)] + [("box_on_rope", 4), ("amg_bar", 4)]
 
 
 def iterations_without_time(outdir):
