@@ -3,8 +3,8 @@
 
 For each case (bench.py's, default box130k,box480k,sheet501) and each way of applying M + h^2 L
 (--paths):
-  default     solver.h0: auto, -hyperqn_h0_package auto (amg on volume meshes of 50,000 vertices
-              or more; else the factor: split on more than one rank)
+  default     solver.h0: auto, -hyperqn_h0_package auto (amg on meshes of 200,000 tetrahedra or
+              more; else the factor: split on more than one rank)
   split       the factor split over the ranks (solver.h0: laplacian, -hyperqn_h0_package split)
   supernodal  the factor gathered to rank 0, b gathered and x scattered each solve
   amg         solver.h0: amg, one GAMG V-cycle
