@@ -366,20 +366,15 @@ PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<Pets
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
-  if (split_) {  // the dof layout, on every rank
+  if (split_ || supernodal_) {  // the dof layout is the interleaved one: no copies
     const PetscScalar* in;
     PetscScalar* out;
     PetscCall(VecGetArrayRead(b, &in));
     PetscCall(VecGetArrayWrite(x, &out));
-    PetscCall(split_->solve(in, out));
-    PetscCall(VecRestoreArrayWrite(x, &out));
-    PetscCall(VecRestoreArrayRead(b, &in));
-  } else if (supernodal_) {  // the dof layout is the interleaved one: no copies
-    const PetscScalar* in;
-    PetscScalar* out;
-    PetscCall(VecGetArrayRead(b, &in));
-    PetscCall(VecGetArrayWrite(x, &out));
-    supernodal_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
+    if (split_)  // this rank's rows, every rank
+      PetscCall(split_->solve(in, out));
+    else
+      supernodal_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
   } else if (ksp_) {  // one V-cycle per column x, y, z

@@ -1,19 +1,23 @@
 #include "model/ordered_assembly.hpp"
 
-#include <map>
-#include <utility>
+#include <algorithm>
 #include <vector>
 
 namespace hyperqn {
 
 namespace {
 
-// What the stand-in matrix holds: A, its own rows' range, and the sums for other ranks' rows,
-// by (row, column) in increasing order.
+// One value for another rank's row, in the order the terms gave it.
+struct Entry {
+  PetscInt row, column;
+  PetscScalar value;
+};
+
+// What the stand-in matrix holds: A, its own rows' range, and the values for other ranks' rows.
 struct Collector {
   Mat A;
   PetscInt rstart, rend;
-  std::map<std::pair<PetscInt, PetscInt>, PetscScalar> others;
+  std::vector<Entry> others;
 };
 
 PetscErrorCode collect(Mat S, PetscInt m, const PetscInt rows[], PetscInt n, const PetscInt columns[],
@@ -30,7 +34,7 @@ PetscErrorCode collect(Mat S, PetscInt m, const PetscInt rows[], PetscInt n, con
       continue;
     }
     for (PetscInt j = 0; j < n; ++j)
-      if (columns[j] >= 0) c->others[{row, columns[j]}] += values[i * n + j];
+      if (columns[j] >= 0) c->others.push_back({row, columns[j], values[i * n + j]});
   }
   PetscFunctionReturn(0);
 }
@@ -55,20 +59,29 @@ PetscErrorCode add_in_rank_order(Mat A, const std::function<PetscErrorCode(Mat)>
   PetscCall(MatDestroy(&S));
   PetscCall(ierr);
 
-  // One (row, column, value) per entry to each owner, in increasing order; received in the
-  // order of the sending ranks (MPI_Alltoallv places them so).
+  // One (row, column, value) per entry to each owner, in increasing order: the values of an entry
+  // summed in the order the terms gave them (a stable sort keeps it); received in the order of the
+  // sending ranks (MPI_Alltoallv places them so).
+  std::stable_sort(c.others.begin(), c.others.end(), [](const Entry& a, const Entry& b) {
+    return a.row < b.row || (a.row == b.row && a.column < b.column);
+  });
   const PetscInt* ranges;
   PetscCall(MatGetOwnershipRanges(A, &ranges));
   std::vector<PetscMPIInt> send_counts(size, 0), recv_counts(size), send_offsets(size + 1, 0), recv_offsets(size + 1, 0);
   std::vector<PetscInt> send_rows, send_columns;
   std::vector<PetscScalar> send_values;
   int owner = 0;
-  for (const auto& [entry, value] : c.others) {
-    while (entry.first >= ranges[owner + 1]) ++owner;
+  for (size_t e = 0; e < c.others.size(); ++e) {
+    const Entry& entry = c.others[e];
+    if (e > 0 && entry.row == send_rows.back() && entry.column == send_columns.back()) {
+      send_values.back() += entry.value;
+      continue;
+    }
+    while (entry.row >= ranges[owner + 1]) ++owner;
     ++send_counts[owner];
-    send_rows.push_back(entry.first);
-    send_columns.push_back(entry.second);
-    send_values.push_back(value);
+    send_rows.push_back(entry.row);
+    send_columns.push_back(entry.column);
+    send_values.push_back(entry.value);
   }
   PetscCallMPI(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm));
   for (int r = 0; r < size; ++r) {
