@@ -74,21 +74,6 @@ bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spe
 
 bool constant_matrix_auto(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "auto"; }
 
-MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
-  MemoryPlan plan;
-  const bool constant = solver_uses_constant_matrix(spec.type);
-  plan.h0 = !constant ? H0Memory::none : constant_matrix_by_amg(spec) ? H0Memory::amg : H0Memory::gathered;
-  plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
-  plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
-  plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
-  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != "cg-amg";
-  plan.newton_auto = spec.linear_solver == "auto";
-  plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
-  plan.h0_auto = constant && constant_matrix_auto(spec);
-  plan.split = splits_on_many_ranks(package);
-  return plan;
-}
-
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
   const SolverInfo* s = find_solver(spec.type);

@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "model/memory_estimate.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/objective.hpp"
 #include "solvers/solver_spec.hpp"
@@ -42,11 +41,6 @@ bool constant_matrix_by_amg(const SolverSpec& spec);
 // True if the scene chooses between the factor and the V-cycle of M + h^2 L by the mesh (lbfgs
 // with solver.h0: auto, the default; auto_h0_is_amg).
 bool constant_matrix_auto(const SolverSpec& spec);
-// What a run with these settings factors, for its memory estimate (model/memory_estimate.hpp): a
-// constant matrix (gathered to rank 0, or by AMG), again for every sub-step size of the fallback
-// chain, and Newton's Hessian with linear_solver mumps, as the solver or as the chain's last stage.
-// Counted whether or not the chain will need them: once made, they stay for the rest of the run.
-MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_factor_package());
 
 // Creates the solver spec.type; h0 may be nullptr when it does not use the constant matrix.
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,

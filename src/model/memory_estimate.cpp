@@ -11,6 +11,7 @@
 #include "mesh/input_error.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/newton_solver.hpp"
+#include "solvers/solver_registry.hpp"
 
 namespace hyperqn {
 
@@ -60,6 +61,21 @@ double interface_vertices(int64_t vertices, int ranks) {
   if (ranks <= 1) return 0;
   const double planes = std::max(1.0, 3 * (std::cbrt(double(ranks)) - 1));
   return planes * std::pow(double(vertices), 2.0 / 3.0);
+}
+
+MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
+  MemoryPlan plan;
+  const bool constant = solver_uses_constant_matrix(spec.type);
+  plan.h0 = !constant ? H0Memory::none : constant_matrix_by_amg(spec) ? H0Memory::amg : H0Memory::gathered;
+  plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
+  plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
+  plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
+  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != "cg-amg";
+  plan.newton_auto = spec.linear_solver == "auto";
+  plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
+  plan.h0_auto = constant && constant_matrix_auto(spec);
+  plan.split = splits_on_many_ranks(package);
+  return plan;
 }
 
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {

@@ -8,6 +8,9 @@
 
 #include <mpi.h>
 
+#include "solvers/factored_system.hpp"
+#include "solvers/solver_spec.hpp"
+
 namespace hyperqn {
 
 // What a rank holds of the constant matrix A = M + h^2 L (or M + h^2 K(x_rest)).
@@ -19,7 +22,7 @@ enum class H0Memory {
              // the partition interface (s x s doubles, twice) whole
 };
 
-// What a run factors, from its solver settings (memory_plan in solvers/solver_registry.hpp).
+// What a run factors, from its solver settings (memory_plan).
 struct MemoryPlan {
   H0Memory h0 = H0Memory::gathered;
   int components = 1;       // 1: the vertex matrix A1 (Laplacian); 3: the 3n x 3n rest stiffness
@@ -32,6 +35,12 @@ struct MemoryPlan {
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)
 };
+
+// What a run with these settings factors, for its memory estimate (below): a
+// constant matrix (gathered to rank 0, or by AMG), again for every sub-step size of the fallback
+// chain, and Newton's Hessian with linear_solver mumps, as the solver or as the chain's last stage.
+// Counted whether or not the chain will need them: once made, they stay for the rest of the run.
+MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_factor_package());
 
 // The plan for this mesh: solver.h0: auto, the split factor and linear_solver: auto resolved as
 // the run will (auto_h0_is_amg, choose_factor_package with the interface of interface_vertices,

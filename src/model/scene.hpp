@@ -23,7 +23,7 @@ namespace hyperqn {
 // Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it
 // (what was repaired in *repaired, on rank 0). Throws InputError on every rank, also when a rank of
 // the run would need more memory than it may take (model/memory_estimate.hpp; plan: what the
-// run's solver factors, solvers/solver_registry.hpp's memory_plan). Other ranks get an empty mesh.
+// run's solver factors, memory_plan in model/memory_estimate.hpp). Other ranks get an empty mesh.
 TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired = nullptr,
                         const MemoryPlan& plan = MemoryPlan());
 
