@@ -127,35 +127,45 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
+TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
+  const MeshSpec& spec = deck.mesh;
+  TetMesh mesh;
+  if (spec.is_box) {
+    mesh = generate_box(spec.box_size, spec.box_cells);
+  } else if (spec.is_sheet) {
+    mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
+  } else if (ends_with(spec.file, ".obj")) {
+    mesh = surface_mesh(read_triangle_surface(spec.file));
+  } else if (ends_with(spec.file, ".msh")) {
+    mesh = read_gmsh(spec.file, spec.surface_as_cloth);
+  } else if (!spec.file.empty()) {
+    mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
+  }
+  apply_transform(mesh, spec.transform);
+  for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
+  const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+  if (repaired) *repaired = report;
+  if (mesh.num_tets() > 0 && !deck.has_material)
+    throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
+                                                   std::to_string(mesh.num_tets()) + " tetrahedra");
+  return mesh;
+}
+
 TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, const MemoryPlan& plan) {
   TetMesh mesh;
   const std::vector<MemoryLimit> limits = gather_memory_limits(comm);  // (empty on ranks > 0)
   on_root(comm, [&] {
     const MeshSpec& spec = deck.mesh;
-    if (spec.is_box) {
+    if (spec.is_box) {  // before generating it
       const auto& n = spec.box_cells;
-      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), box_tets(n), plan, limits);  // before generating it
-      mesh = generate_box(spec.box_size, spec.box_cells);
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), box_tets(n), plan, limits);
     } else if (spec.is_sheet) {
       const auto& n = spec.sheet_cells;
       check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
-      mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
-    } else if (ends_with(spec.file, ".obj")) {
-      mesh = surface_mesh(read_triangle_surface(spec.file));
-    } else if (ends_with(spec.file, ".msh")) {
-      mesh = read_gmsh(spec.file, spec.surface_as_cloth);
-    } else if (!spec.file.empty()) {
-      mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
     }
-    apply_transform(mesh, spec.transform);
-    for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
-    const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    mesh = read_serial_mesh(deck, repaired);
     if (!spec.file.empty())  // before distributing and factoring it
       check_memory(deck, mesh.num_vertices(), mesh.num_tets(), plan, limits);
-    if (repaired) *repaired = report;
-    if (mesh.num_tets() > 0 && !deck.has_material)
-      throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
-                                                     std::to_string(mesh.num_tets()) + " tetrahedra");
   });
   return mesh;
 }

@@ -20,6 +20,11 @@
 
 namespace hyperqn {
 
+// The deck's mesh as one serial mesh: read or generated, transformed, with its strands, cleaned
+// (what was repaired in *repaired). Throws InputError. Rank 0's part of load_scene_mesh, and what
+// `hyperqn partition` cuts.
+TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired = nullptr);
+
 // Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it
 // (what was repaired in *repaired, on rank 0). Throws InputError on every rank, also when a rank of
 // the run would need more memory than it may take (model/memory_estimate.hpp; plan: what the
