@@ -7,7 +7,6 @@
 #include <cstring>
 #include <stdexcept>
 
-#include "io/atomic_file.hpp"
 #include <numeric>
 
 namespace hyperqn {
@@ -427,7 +426,10 @@ MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::v
       error = "rank 0 could not cut the mesh";
     }
   }
-  throw_if_any_failed(comm, error);
+  // Ranks that got their piece before rank 0 failed learn it here.
+  int failed = !error.empty();
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, comm);
+  if (failed) throw std::runtime_error(error.empty() ? "rank 0 could not cut the mesh" : error);
   return mine;
 }
 

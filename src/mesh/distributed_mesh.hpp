@@ -70,7 +70,7 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std:
 // (pieces_of_serial_mesh) and sent piece by piece, so that rank 0 holds at most one other piece
 // beside the mesh; with each piece, its share of fixed_serial (per serial vertex) and
 // cell_material (per serial tet), either may be empty. Collective; a failure on rank 0 throws
-// std::runtime_error on every rank.
+// std::runtime_error on every rank (rank 0's with the reason).
 MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
                               const std::vector<int32_t>& cell_material, std::vector<int32_t>& fixed,
                               std::vector<int32_t>& material);

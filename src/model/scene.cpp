@@ -171,15 +171,16 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
   return mesh;
 }
 
-// This rank's piece of the deck's mesh: its part of a partition file; a block of a generated box or
-// sheet, made on every rank; or rank 0's
-// serial mesh, cut by METIS and sent piece by piece. Input errors are the same InputError on
-// every rank.
+// This rank's piece of the deck's mesh: a block of a generated box or sheet, made on every rank;
+// its part of a partition file; or rank 0's serial mesh, cut by METIS and sent piece by piece.
+// Input errors are the same InputError on every rank.
 static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, const MemoryPlan& plan) {
   int rank, size;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
   const MeshSpec& spec = deck.mesh;
+  MemoryPlan own_pieces = plan;  // generated or read by each rank: no rank holds the whole mesh
+  own_pieces.serial_mesh = false;
   const auto& box = spec.box_cells;
   const auto& sheet = spec.sheet_cells;
   const bool blocks = spec.strands.empty() && ((spec.is_box && box_block_grid(box, size)[0] > 0) ||
@@ -188,14 +189,25 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
     on_root(comm, [&] {
       if (spec.is_box) {
-        check_memory(deck, int64_t(box[0] + 1) * (box[1] + 1) * (box[2] + 1), box_tets(box), plan, limits);
+        check_memory(deck, int64_t(box[0] + 1) * (box[1] + 1) * (box[2] + 1), box_tets(box), own_pieces, limits);
         if (!deck.has_material)
           throw InputError(deck.path, 0, "material", "missing: the box has " + std::to_string(box_tets(box)) + " tetrahedra");
       } else {
-        check_memory(deck, int64_t(sheet[0] + 1) * (sheet[1] + 1), 0, plan, limits);
+        check_memory(deck, int64_t(sheet[0] + 1) * (sheet[1] + 1), 0, own_pieces, limits);
       }
     });
-    MeshPiece piece = spec.is_box ? box_piece(spec.box_size, box, rank, size) : sheet_piece(spec.sheet_size, sheet, rank, size);
+    MeshPiece piece;
+    std::string error;
+    try {
+      piece = spec.is_box ? box_piece(spec.box_size, box, rank, size) : sheet_piece(spec.sheet_size, sheet, rank, size);
+    } catch (const std::exception& e) {
+      error = deck.path + ": mesh: " + e.what();
+    }
+    try {
+      throw_if_any_failed(comm, error);
+    } catch (const std::runtime_error& e) {
+      throw InputError(e.what());
+    }
     apply_transform(piece.mesh, spec.transform);
     if (repaired) *repaired = CleanReport();  // a generated mesh needs no repair
     return piece;
@@ -204,7 +216,7 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
     on_root(comm, [&] {
       const PartitionFileInfo info = read_partition_info(spec.file);
-      check_memory(deck, info.vertices, info.tets, plan, limits);
+      check_memory(deck, info.vertices, info.tets, own_pieces, limits);
       if (info.tets > 0 && !deck.has_material)
         throw InputError(deck.path, 0, "material", "missing: the partition file " + spec.file + " has " +
                                                        std::to_string(info.tets) + " tetrahedra");
