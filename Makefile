@@ -37,8 +37,9 @@ build: deps
 run: build
 	$(MPIEXEC) -n $(NP) $(BUILD)/hyperqn $(DECK) $(ARGS)
 
+# The tests run $(JOBS) at a time (ctest -j): CI's two cores each run one.
 test: build
-	cd $(BUILD) && ctest --output-on-failure
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 bench: build
 	$(PYTHON) bench/bench.py $(ARGS)
