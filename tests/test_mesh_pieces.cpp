@@ -149,7 +149,12 @@ void test_strands_pack_merge() {
   // Merged: one chunk that covers the mesh (element order by piece, so only the cover is checked).
   std::vector<MeshPiece> two(pieces.begin(), pieces.begin() + 2);
   MeshPiece merged = merge_pieces(two);
-  CHECK(!merged.final);
+  // A part split again (a partition file read by more ranks than it has parts): the sub-pieces
+  // of part 1 and the other parts cover the mesh, in the piece rule's order.
+  std::vector<MeshPiece> resplit{pieces[0], pieces[2]};
+  split_piece(pieces[1], 3, [&](int, MeshPiece& p) { resplit.push_back(std::move(p)); });
+  CHECK(resplit.size() == 5);
+  check_cover(whole, resplit, "part 1 split in 3");
   std::vector<MeshPiece> cover{merged, pieces[2]};
   std::map<int64_t, int> tets;
   for (size_t e = 0; e < merged.mesh.tet_tags.size(); ++e) tets[merged.element_numbers[e]]++;

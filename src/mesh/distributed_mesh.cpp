@@ -133,40 +133,6 @@ static PointData piece_point_data(const MeshPiece& piece, const std::vector<int3
   return d;
 }
 
-// A chunk of the mesh (MeshPiece::final false) partitioned with PETSc's parallel partitioner and
-// moved there, its point data with it.
-static PetscErrorCode repartition(DM* dm, PointData& data) {
-  PetscPartitioner partitioner;
-  PetscSF migration;
-  DM dist = nullptr;
-  PetscInt pStart, pEnd;
-  PetscFunctionBeginUser;
-  PetscCall(DMPlexGetPartitioner(*dm, &partitioner));
-  PetscCall(PetscPartitionerSetType(partitioner, PETSCPARTITIONERPTSCOTCH));
-  PetscCall(DMPlexDistribute(*dm, 0, &migration, &dist));
-  if (!dist) PetscFunctionReturn(0);  // one rank: nothing moves
-  PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
-  // The migration SF's roots are the chunk's points, its leaves the new local points.
-  PointData moved;
-  moved.value.resize(pEnd - pStart);
-  moved.flag.resize(pEnd - pStart);
-  moved.kind.resize(pEnd - pStart);
-  moved.number.resize(pEnd - pStart);
-  PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, data.value.data(), moved.value.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, data.value.data(), moved.value.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, data.flag.data(), moved.flag.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, data.flag.data(), moved.flag.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, data.kind.data(), moved.kind.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, data.kind.data(), moved.kind.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, data.number.data(), moved.number.data(), MPI_REPLACE));
-  PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, data.number.data(), moved.number.data(), MPI_REPLACE));
-  PetscCall(PetscSFDestroy(&migration));
-  PetscCall(DMDestroy(dm));
-  *dm = dist;
-  data = std::move(moved);
-  PetscFunctionReturn(0);
-}
-
 // Section with `components` dofs on free vertices and none on fixed ones.
 static PetscErrorCode create_dof_section(DM dm, const DistributedMesh& m, PetscInt components) {
   PetscSection s;
@@ -311,9 +277,6 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std:
   PointData data = piece_point_data(piece, fixed, cell_material);
   PetscCall(create_piece_plex(comm, piece, &dm));
   PetscCall(DMPlexDistributeSetDefault(dm, PETSC_FALSE));  // never re-partition behind our back
-  int chunks = piece.final ? 0 : 1;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &chunks, 1, MPI_INT, MPI_MAX, comm));
-  if (chunks) PetscCall(repartition(&dm, data));
   out.dm = dm;
   PetscCall(fill_local_arrays(out, data));
   PetscCall(create_dof_section(out.dm, out, 3));

@@ -60,9 +60,9 @@ double rest_diagonal(const DistributedMesh& m);
 // the dof layout with the vertices flagged in `fixed` (per local vertex: 0 free, k + 1 fixed by
 // region k; empty: none) eliminated; cell_material (per local tet, may be empty) travels with the
 // tets. Tets, strand segments, cloth triangles and hinges are all cells of the DMPlex (of 4, 2, 3
-// and 4 vertices), so every element has its vertices on its rank. If any rank's piece is not
-// final (a chunk of a partition file written for another rank count), the chunks are first
-// partitioned with PT-Scotch and moved.
+// and 4 vertices), so every element has its vertices on its rank. The pieces are the partition:
+// nothing is moved. (PETSc 3.18 cannot repartition a distributed mesh without faces and edges,
+// "Parallel partitioning of uninterpolated meshes not supported"; pieces are cut before.)
 PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std::vector<int32_t>& fixed,
                                const std::vector<int32_t>& cell_material, DistributedMesh& out);
 

@@ -290,7 +290,7 @@ std::vector<char> pack_piece(MeshPiece& piece) {
   for (auto& [name, v] : a.ints) put(out, *v);
   for (auto& [name, v] : a.longs) put(out, *v);
   for (auto& [name, v] : a.bytes) put(out, *v);
-  put(out, std::vector<int64_t>{piece.global_vertices, piece.final ? 1 : 0});
+  put(out, std::vector<int64_t>{piece.global_vertices});
   return out;
 }
 
@@ -304,10 +304,24 @@ MeshPiece unpack_piece(const std::vector<char>& in) {
   for (auto& [name, v] : a.bytes) take(in, at, *v);
   std::vector<int64_t> tail;
   take(in, at, tail);
-  if (tail.size() != 2 || at != in.size()) throw std::runtime_error("unpack_piece: malformed buffer");
+  if (tail.size() != 1 || at != in.size()) throw std::runtime_error("unpack_piece: malformed buffer");
   piece.global_vertices = tail[0];
-  piece.final = tail[1] != 0;
   return piece;
+}
+
+void split_piece(const MeshPiece& piece, int nparts, const std::function<void(int, MeshPiece&)>& fn) {
+  // The piece's local indices are a whole mesh of their own; its sub-pieces get back the
+  // numbers of the whole mesh (both ascending, so the order rule holds).
+  int64_t kind_start[3] = {0, piece.mesh.num_tets(), piece.mesh.num_tets() + piece.mesh.num_segments()};
+  pieces_of_serial_mesh(piece.mesh, nparts, [&](int part, MeshPiece& sub) {
+    for (int64_t& v : sub.vertex_numbers) v = piece.vertex_numbers[v];
+    size_t e = 0;
+    const int64_t count[3] = {sub.mesh.num_tets(), sub.mesh.num_segments(), sub.mesh.num_triangles()};
+    for (int k = 0; k < 3; ++k)
+      for (int64_t i = 0; i < count[k]; ++i, ++e) sub.element_numbers[e] = piece.element_numbers[kind_start[k] + sub.element_numbers[e]];
+    sub.global_vertices = piece.global_vertices;
+    fn(part, sub);
+  });
 }
 
 std::array<uint64_t, 2> piece_hash_sums(const MeshPiece& piece) {
@@ -352,7 +366,6 @@ MeshPiece merge_pieces(std::vector<MeshPiece>& pieces) {
   MeshPiece merged;
   if (pieces.empty()) return merged;
   merged.global_vertices = pieces[0].global_vertices;
-  merged.final = false;
   // The union of the vertices, by number.
   std::vector<std::pair<int64_t, std::pair<size_t, int32_t>>> all;  // number, (piece, local index)
   for (size_t p = 0; p < pieces.size(); ++p)

@@ -27,9 +27,6 @@ struct MeshPiece {
   std::vector<int64_t> element_numbers;  // per local tet, then segment, then triangle: its index
                                          // among the whole mesh's elements of its kind
   int64_t global_vertices = 0;           // vertices of the whole mesh
-  // True if the piece is this rank's part of the run's partition; false if it is a chunk of the
-  // mesh that distribute_mesh still has to partition (a partition file written for another rank count).
-  bool final = true;
 };
 
 // Every array of a piece with a name (the partition file's dataset names; MPI packing): the one
@@ -73,5 +70,9 @@ std::array<uint64_t, 2> piece_hash_sums(const MeshPiece& piece);
 // Pieces merged into one (a rank that takes several parts of a partition file): elements of
 // each kind in the pieces' order, vertices merged by number.
 MeshPiece merge_pieces(std::vector<MeshPiece>& pieces);
+
+// A piece cut into nparts by METIS (a part of a partition file shared by several ranks), each in
+// the order of the piece rule, with the whole mesh's numbers; handed to fn one at a time.
+void split_piece(const MeshPiece& piece, int nparts, const std::function<void(int part, MeshPiece&)>& fn);
 
 }  // namespace hyperqn
