@@ -141,8 +141,7 @@ std::string Hdf5File::read_text(const std::string& name) const {
 
 namespace {
 
-// The HDF5 type of each element type of a table, and the kind (integer or floating point) a
-// dataset must hold to be read as it.
+// The HDF5 type, and the name, of each element type of a table.
 template <typename T>
 hid_t native_type();
 template <>
