@@ -39,6 +39,12 @@ void test_paths() {
   amg_only.h0 = H0Memory::amg;
   const RankMemory amg64 = estimated_rank_memory(V, 64, 0, amg_only);
   CHECK_NEAR(amg64.total(), amg64.process + amg64.whole_mesh, 1);  // the mesh phase on rank 0 is the larger
+  // A generated box or a partition file: each rank makes its own piece, rank 0 holds no whole mesh.
+  MemoryPlan pieces = amg_only;
+  pieces.serial_mesh = false;
+  const RankMemory amg64_pieces = estimated_rank_memory(V, 64, 0, pieces);
+  CHECK(amg64_pieces.whole_mesh == 0);
+  CHECK_NEAR(amg64_pieces.total(), amg64.process + amg64.share + amg64.h0, 1);
   // AMG: distributed, no fill (linear in V per rank).
   MemoryPlan amg = gathered;
   amg.h0 = H0Memory::amg;

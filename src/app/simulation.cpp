@@ -489,17 +489,17 @@ PetscErrorCode Run::resume(bool* started_inverted) {
   PetscFunctionReturn(0);
 }
 
-// What identifies the scene in a checkpoint, as far as the input tells (rank 0's mesh hash is
-// broadcast): the deck's physics sections and the mesh as read.
+// What identifies the scene in a checkpoint, as far as the input tells: the deck's physics
+// sections and the mesh, by the sums of its elements' hashes over every rank's piece (the same at
+// any rank count, piece_hash_sums).
 static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const SceneInput& input) {
   CheckpointHeader id;
   id.physics = physics_fingerprint(deck.physics);
-  const TetMesh& m = input.mesh;
-  auto bytes = [](const auto& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0])); };
-  std::string hash = text_hash(bytes(m.coords) + bytes(m.tets) + bytes(m.segments) + bytes(m.vertex_ids) + bytes(m.triangles));
-  hash.resize(16);
-  MPI_Bcast(hash.data(), 16, MPI_CHAR, 0, comm);
-  id.mesh_hash = hash;
+  std::array<uint64_t, 2> sums = piece_hash_sums(input.piece);
+  MPI_Allreduce(MPI_IN_PLACE, sums.data(), 2, MPI_UINT64_T, MPI_SUM, comm);  // wraps modulo 2^64
+  char hex[33];
+  std::snprintf(hex, sizeof hex, "%016llx%016llx", (unsigned long long)sums[0], (unsigned long long)sums[1]);
+  id.mesh_hash = hex;
   return id;
 }
 

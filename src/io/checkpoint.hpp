@@ -30,7 +30,7 @@
 namespace hyperqn {
 
 struct CheckpointHeader {
-  static constexpr int kVersion = 2;
+  static constexpr int kVersion = 3;  // 3: the mesh hash sums per-element hashes (any rank count)
   int version = kVersion;
   // Whose it is: the run's id (summary.json's run_id; a restart keeps it), when the run's first
   // part started (UTC, ISO 8601) and its deck, for messages about a checkpoint of another run.

@@ -1,117 +1,169 @@
 #include "mesh/distributed_mesh.hpp"
 
-#include <metis.h>
 #include <petscsf.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <stdexcept>
+
 #include <numeric>
 
 namespace hyperqn {
 
-// The kinds of cells, in the order the serial DMPlex numbers them.
+// The kinds of cells, in the order a piece (and so the DMPlex) holds them.
 enum CellKind : int32_t { kTetCell, kSegmentCell, kTriangleCell, kHingeCell };
 constexpr int kCellSize[4] = {4, 2, 3, 4};
 
-// The serial mesh's elements as cells: per kind, its vertex lists (rank 0).
-struct SerialCells {
-  const std::vector<int32_t>* vertices[4];
-  int64_t count[4];
-  explicit SerialCells(const TetMesh& m)
-      : vertices{&m.tets, &m.segments, &m.triangles, &m.hinges},
-        count{m.num_tets(), m.num_segments(), m.num_triangles(), m.num_hinges()} {}
-  int64_t total() const { return count[0] + count[1] + count[2] + count[3]; }
+// What travels with each point of the DMPlex (cells first, then vertices), as flat arrays: the
+// input element tag of a cell or the input vertex id of a vertex; the material of a tet, the
+// carried edges of a triangle or the fixed flag of a vertex; the CellKind of a cell; the index of
+// a tet, segment or triangle among the whole mesh's elements of its kind.
+struct PointData {
+  std::vector<int64_t> value;
+  std::vector<int32_t> flag, kind;
+  std::vector<int64_t> number;
 };
 
-// Element partition of the serial mesh (cells in the order of SerialCells): METIS k-way on the
-// dual graph. Tets are neighbours when they share a face, triangles (and hinges) an edge; with
-// strands, elements sharing a vertex are, since consecutive segments share only that.
-static std::vector<PetscInt> metis_partition(const TetMesh& mesh, int nparts) {
-  const SerialCells cells(mesh);
-  idx_t ne = (idx_t)cells.total(), nn = (idx_t)mesh.num_vertices();
-  std::vector<PetscInt> part(ne, 0);
-  if (nparts == 1 || ne == 0) return part;
-  std::vector<idx_t> eptr(1, 0), eind;
-  eind.reserve(4 * size_t(ne));
-  for (int k = 0; k < 4; ++k) {
-    eind.insert(eind.end(), cells.vertices[k]->begin(), cells.vertices[k]->end());
-    for (int64_t e = 0; e < cells.count[k]; ++e) eptr.push_back(eptr.back() + kCellSize[k]);
-  }
-  idx_t ncommon = cells.count[kSegmentCell] > 0 ? 1 : cells.count[kTriangleCell] > 0 ? 2 : 3, np = nparts, objval = 0;
-  idx_t opts[METIS_NOPTIONS];
-  METIS_SetDefaultOptions(opts);
-  opts[METIS_OPTION_SEED] = 7;  // fixed seed: the same partition on every run
-  std::vector<idx_t> epart(ne), npart(nn);
-  int status = METIS_PartMeshDual(&ne, &nn, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &np,
-                                  nullptr, opts, &objval, epart.data(), npart.data());
-  if (status != METIS_OK) return {};
-  std::copy(epart.begin(), epart.end(), part.begin());
-  return part;
-}
-
-// The serial DMPlex on rank 0 (empty elsewhere): non-interpolated (vertex dofs need no edges or
-// faces), points = cells (tets, segments, triangles, hinges), then vertices.
-static PetscErrorCode create_serial_plex(MPI_Comm comm, const TetMesh& serial, DM* dm) {
+// The DMPlex of a piece (non-interpolated: vertex dofs need no edges or faces): points are the
+// piece's cells (tets, segments, triangles, hinges), then its vertices. A vertex that several
+// pieces hold is owned by the lowest rank holding it; the point SF says so.
+static PetscErrorCode create_piece_plex(MPI_Comm comm, const MeshPiece& piece, DM* dm) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  const SerialCells cells(serial);
-  const PetscInt nc = rank == 0 ? (PetscInt)cells.total() : 0;
-  const PetscInt nv = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
+  const TetMesh& m = piece.mesh;
+  const std::vector<int32_t>* kinds[4] = {&m.tets, &m.segments, &m.triangles, &m.hinges};
+  PetscInt nc = 0;
+  for (int k = 0; k < 4; ++k) nc += (PetscInt)kinds[k]->size() / kCellSize[k];
+  const PetscInt nv = (PetscInt)m.num_vertices();
   PetscInt num_points[2] = {nv, nc};  // by depth: vertices, cells
   std::vector<PetscInt> cone_size(nc + nv, 0), cones, orientations;
-  if (rank == 0)
-    for (int k = 0, c = 0; k < 4; ++k) {
-      for (int64_t e = 0; e < cells.count[k]; ++e) cone_size[c++] = kCellSize[k];
-      for (int32_t v : *cells.vertices[k]) cones.push_back(nc + v);  // vertex points come after the cells
-    }
+  cones.reserve(4 * size_t(nc));
+  for (int k = 0, c = 0; k < 4; ++k) {
+    for (size_t e = 0; e < kinds[k]->size() / kCellSize[k]; ++e) cone_size[c++] = kCellSize[k];
+    for (int32_t v : *kinds[k]) cones.push_back(nc + v);  // vertex points come after the cells
+  }
   orientations.assign(cones.size(), 0);
   PetscCall(DMCreate(comm, dm));
   PetscCall(DMSetType(*dm, DMPLEX));
   PetscCall(DMSetDimension(*dm, 3));
-  PetscCall(DMPlexCreateFromDAG(*dm, 1, num_points, cone_size.data(), cones.data(), orientations.data(),
-                                serial.coords.data()));
+  PetscCall(DMPlexCreateFromDAG(*dm, 1, num_points, cone_size.data(), cones.data(), orientations.data(), m.coords.data()));
   // DMPlexDistribute orders the migrated points of a non-interpolated mesh by the dimension of
   // their cell type, cells (3) and vertices (0) only: a segment or a triangle, typed as a 1- or
   // 2-dimensional polytope, would get no place (PETSc 3.18 then fails with duplicate SF leaves).
   // Every element is a cell of this mesh like a tet, so it is typed like one; nothing else reads
   // the cell type.
-  if (nc > 0) {
-    DMLabel cell_type;
-    PetscCall(DMPlexGetCellTypeLabel(*dm, &cell_type));
-    for (PetscInt c = 0; c < nc; ++c) {
-      PetscInt type;
-      PetscCall(DMLabelGetValue(cell_type, c, &type));
-      if (type == DM_POLYTOPE_TETRAHEDRON) continue;
-      PetscCall(DMLabelClearValue(cell_type, c, type));
-      PetscCall(DMLabelSetValue(cell_type, c, DM_POLYTOPE_TETRAHEDRON));
-    }
+  DMLabel cell_type;
+  PetscCall(DMPlexGetCellTypeLabel(*dm, &cell_type));
+  for (PetscInt c = 0; c < nc; ++c) {
+    PetscInt type;
+    PetscCall(DMLabelGetValue(cell_type, c, &type));
+    if (type == DM_POLYTOPE_TETRAHEDRON) continue;
+    PetscCall(DMLabelClearValue(cell_type, c, type));
+    PetscCall(DMLabelSetValue(cell_type, c, DM_POLYTOPE_TETRAHEDRON));
   }
+
+  // Ownership of shared vertices, through the vertices' numbers in the whole mesh: every rank
+  // holding a vertex meets the others at the rank that owns its number in an even layout.
+  PetscLayout layout;
+  PetscSF by_number;
+  std::vector<PetscInt> numbers(piece.vertex_numbers.begin(), piece.vertex_numbers.end());
+  PetscCall(PetscLayoutCreate(comm, &layout));
+  PetscCall(PetscLayoutSetSize(layout, (PetscInt)piece.global_vertices));
+  PetscCall(PetscLayoutSetUp(layout));
+  PetscCall(PetscSFCreate(comm, &by_number));
+  PetscCall(PetscSFSetGraphLayout(by_number, layout, nv, nullptr, PETSC_COPY_VALUES, numbers.data()));
+  PetscCall(PetscLayoutDestroy(&layout));
+  PetscInt nroots;
+  PetscCall(PetscSFGetGraph(by_number, &nroots, nullptr, nullptr, nullptr));
+  std::vector<PetscInt> root(nroots), owner(nv, rank), point(nv);
+  auto meet = [&](MPI_Op op, PetscInt start, std::vector<PetscInt>& leaves) -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    std::fill(root.begin(), root.end(), start);
+    PetscCall(PetscSFReduceBegin(by_number, MPIU_INT, leaves.data(), root.data(), op));
+    PetscCall(PetscSFReduceEnd(by_number, MPIU_INT, leaves.data(), root.data(), op));
+    PetscCall(PetscSFBcastBegin(by_number, MPIU_INT, root.data(), leaves.data(), MPI_REPLACE));
+    PetscCall(PetscSFBcastEnd(by_number, MPIU_INT, root.data(), leaves.data(), MPI_REPLACE));
+    PetscFunctionReturn(0);
+  };
+  PetscCall(meet(MPI_MIN, PETSC_MAX_INT, owner));  // the lowest rank holding the vertex
+  for (PetscInt v = 0; v < nv; ++v) point[v] = owner[v] == rank ? nc + v : -1;
+  PetscCall(meet(MPI_MAX, -1, point));  // its point on that rank
+  PetscCall(PetscSFDestroy(&by_number));
+  std::vector<PetscInt> leaves;
+  std::vector<PetscSFNode> remote;
+  for (PetscInt v = 0; v < nv; ++v)
+    if (owner[v] != rank) {
+      leaves.push_back(nc + v);
+      remote.push_back({owner[v], point[v]});
+    }
+  PetscSF point_sf;
+  PetscCall(PetscSFCreate(comm, &point_sf));
+  PetscCall(PetscSFSetGraph(point_sf, nc + nv, (PetscInt)leaves.size(), leaves.data(), PETSC_COPY_VALUES, remote.data(),
+                            PETSC_COPY_VALUES));
+  PetscCall(DMSetPointSF(*dm, point_sf));
+  PetscCall(PetscSFDestroy(&point_sf));
   PetscFunctionReturn(0);
 }
 
-// Rank 0 computes the METIS partition and gives it to the shell partitioner; the other ranks
-// hold no cells and pass empty sizes.
-static PetscErrorCode set_metis_partition(DM dm, const TetMesh& serial) {
-  PetscMPIInt size, rank;
-  PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)dm), &size));
-  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)dm), &rank));
-  std::vector<PetscInt> sizes(size, 0), points;
-  if (rank == 0) {
-    std::vector<PetscInt> part = metis_partition(serial, size);
-    PetscCheck(part.size() == (size_t)SerialCells(serial).total(), PETSC_COMM_SELF, PETSC_ERR_LIB,
-               "METIS partitioning failed");
-    for (PetscInt p : part) sizes[p]++;
-    std::vector<PetscInt> start(size, 0);
-    for (int p = 1; p < size; ++p) start[p] = start[p - 1] + sizes[p - 1];
-    points.resize(part.size());
-    for (PetscInt c = 0; c < (PetscInt)part.size(); ++c) points[start[part[c]]++] = c;
+// The point data of a piece (see PointData), fixed per local vertex and cell_material per local tet.
+static PointData piece_point_data(const MeshPiece& piece, const std::vector<int32_t>& fixed,
+                                  const std::vector<int32_t>& cell_material) {
+  const TetMesh& m = piece.mesh;
+  const int64_t count[4] = {m.num_tets(), m.num_segments(), m.num_triangles(), m.num_hinges()};
+  const std::vector<int32_t>* tags[4] = {&m.tet_tags, &m.segment_tags, &m.triangle_tags, nullptr};
+  PointData d;
+  int64_t e = 0;  // index into element_numbers (tets, segments, triangles)
+  for (int k = 0; k < 4; ++k)
+    for (int64_t i = 0; i < count[k]; ++i) {
+      d.kind.push_back(k);
+      d.value.push_back(tags[k] ? (*tags[k])[i] : 0);
+      d.flag.push_back(k == kTetCell && !cell_material.empty() ? cell_material[i]
+                       : k == kTriangleCell                     ? m.triangle_edges[i]
+                                                                : 0);
+      d.number.push_back(k < kHingeCell ? piece.element_numbers[e++] : -1);
+    }
+  for (int64_t v = 0; v < m.num_vertices(); ++v) {
+    d.kind.push_back(-1);
+    d.value.push_back(m.vertex_ids[v]);
+    d.flag.push_back(fixed.empty() ? 0 : fixed[v]);
+    d.number.push_back(piece.vertex_numbers[v]);
   }
+  return d;
+}
+
+// A chunk of the mesh (MeshPiece::final false) partitioned with PETSc's parallel partitioner and
+// moved there, its point data with it.
+static PetscErrorCode repartition(DM* dm, PointData& data) {
   PetscPartitioner partitioner;
-  PetscCall(DMPlexGetPartitioner(dm, &partitioner));
-  PetscCall(PetscPartitionerSetType(partitioner, PETSCPARTITIONERSHELL));
-  PetscCall(PetscPartitionerShellSetPartition(partitioner, size, sizes.data(), points.data()));
+  PetscSF migration;
+  DM dist = nullptr;
+  PetscInt pStart, pEnd;
+  PetscFunctionBeginUser;
+  PetscCall(DMPlexGetPartitioner(*dm, &partitioner));
+  PetscCall(PetscPartitionerSetType(partitioner, PETSCPARTITIONERPTSCOTCH));
+  PetscCall(DMPlexDistribute(*dm, 0, &migration, &dist));
+  if (!dist) PetscFunctionReturn(0);  // one rank: nothing moves
+  PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
+  // The migration SF's roots are the chunk's points, its leaves the new local points.
+  PointData moved;
+  moved.value.resize(pEnd - pStart);
+  moved.flag.resize(pEnd - pStart);
+  moved.kind.resize(pEnd - pStart);
+  moved.number.resize(pEnd - pStart);
+  PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, data.value.data(), moved.value.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, data.value.data(), moved.value.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, data.flag.data(), moved.flag.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, data.flag.data(), moved.flag.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, data.kind.data(), moved.kind.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, data.kind.data(), moved.kind.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, data.number.data(), moved.number.data(), MPI_REPLACE));
+  PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, data.number.data(), moved.number.data(), MPI_REPLACE));
+  PetscCall(PetscSFDestroy(&migration));
+  PetscCall(DMDestroy(dm));
+  *dm = dist;
+  data = std::move(moved);
   PetscFunctionReturn(0);
 }
 
@@ -138,13 +190,12 @@ static PetscErrorCode create_dof_section(DM dm, const DistributedMesh& m, PetscI
   PetscFunctionReturn(0);
 }
 
-// Fills the flat per-rank arrays from the distributed DM. point_value[p] is the input element
-// tag of cell p or the input vertex index of vertex p; point_flag[p] is the material of a tet,
-// the carried edges of a triangle, or the fixed flag of vertex p; cell_kind[p] the CellKind of
-// cell p; serial_point[p] the number of cell p in the serial DMPlex.
-static PetscErrorCode fill_local_arrays(DistributedMesh& m, const std::vector<int64_t>& point_value,
-                                        const std::vector<int32_t>& point_flag, const std::vector<int32_t>& cell_kind,
-                                        const std::vector<int64_t>& serial_point) {
+// Fills the flat per-rank arrays from the distributed DM and its point data.
+static PetscErrorCode fill_local_arrays(DistributedMesh& m, const PointData& data) {
+  const std::vector<int64_t>& point_value = data.value;
+  const std::vector<int32_t>& point_flag = data.flag;
+  const std::vector<int32_t>& cell_kind = data.kind;
+  const std::vector<int64_t>& serial_point = data.number;
   PetscInt cStart, cEnd, vStart, vEnd;
   PetscFunctionBeginUser;
   PetscCall(DMPlexGetHeightStratum(m.dm, 0, &cStart, &cEnd));
@@ -253,70 +304,18 @@ double rest_diagonal(const DistributedMesh& m) {
   return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
 }
 
-PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std::vector<int32_t>& fixed,
                                const std::vector<int32_t>& cell_material, DistributedMesh& out) {
-  PetscMPIInt rank, size;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  PetscCallMPI(MPI_Comm_size(comm, &size));
-
-  // The whole mesh is created on rank 0, then distributed.
-  const SerialCells cells(serial);
-  const PetscInt ncells = rank == 0 ? (PetscInt)cells.total() : 0;
-  const PetscInt nverts = rank == 0 ? (PetscInt)serial.num_vertices() : 0;
   DM dm;
-  PetscCall(create_serial_plex(comm, serial, &dm));
+  PointData data = piece_point_data(piece, fixed, cell_material);
+  PetscCall(create_piece_plex(comm, piece, &dm));
   PetscCall(DMPlexDistributeSetDefault(dm, PETSC_FALSE));  // never re-partition behind our back
-
-  // Per serial point (cells first, then vertices): the data that travels with it.
-  std::vector<int64_t> point_value(ncells + nverts);
-  std::vector<int32_t> point_flag(ncells + nverts, 0), cell_kind(ncells + nverts, -1);
-  std::vector<int64_t> serial_point(ncells + nverts);
-  std::iota(serial_point.begin(), serial_point.end(), 0);
-  if (rank == 0) {
-    const std::vector<int32_t>* tags[4] = {&serial.tet_tags, &serial.segment_tags, &serial.triangle_tags, nullptr};
-    for (int k = 0, c = 0; k < 4; ++k)
-      for (int64_t e = 0; e < cells.count[k]; ++e, ++c) {
-        cell_kind[c] = k;
-        point_value[c] = tags[k] ? (*tags[k])[e] : 0;
-        if (k == kTetCell && !cell_material.empty()) point_flag[c] = cell_material[e];
-        if (k == kTriangleCell) point_flag[c] = serial.triangle_edges[e];
-      }
-  }
-  for (PetscInt v = 0; v < nverts; ++v) {
-    point_value[ncells + v] = serial.vertex_ids[v];
-    point_flag[ncells + v] = fixed_serial[v];
-  }
-
-  if (size > 1) {
-    PetscSF migration;
-    DM dist;
-    PetscInt pStart, pEnd;
-    PetscCall(set_metis_partition(dm, serial));
-    PetscCall(DMPlexDistribute(dm, 0, &migration, &dist));
-    PetscCall(DMPlexGetChart(dist, &pStart, &pEnd));
-    // The migration SF's roots are the serial points on rank 0, its leaves the new local points.
-    std::vector<int64_t> value(pEnd - pStart);
-    std::vector<int32_t> flag(pEnd - pStart), kind(pEnd - pStart);
-    std::vector<int64_t> number(pEnd - pStart);
-    PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, point_value.data(), value.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, point_flag.data(), flag.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastBegin(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastEnd(migration, MPI_INT32_T, cell_kind.data(), kind.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastBegin(migration, MPI_INT64_T, serial_point.data(), number.data(), MPI_REPLACE));
-    PetscCall(PetscSFBcastEnd(migration, MPI_INT64_T, serial_point.data(), number.data(), MPI_REPLACE));
-    PetscCall(PetscSFDestroy(&migration));
-    PetscCall(DMDestroy(&dm));
-    dm = dist;
-    point_value.swap(value);
-    point_flag.swap(flag);
-    cell_kind.swap(kind);
-    serial_point.swap(number);
-  }
+  int chunks = piece.final ? 0 : 1;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &chunks, 1, MPI_INT, MPI_MAX, comm));
+  if (chunks) PetscCall(repartition(&dm, data));
   out.dm = dm;
-  PetscCall(fill_local_arrays(out, point_value, point_flag, cell_kind, serial_point));
+  PetscCall(fill_local_arrays(out, data));
   PetscCall(create_dof_section(out.dm, out, 3));
   // Same points, same order, 1 dof instead of 3: vertex dof i of vertex_dm is dof 3i of dm.
   PetscCall(DMClone(out.dm, &out.vertex_dm));
@@ -338,10 +337,107 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::
   out.global_triangles = global[4];
   out.global_hinges = global[5];
   out.global_dofs = 3 * (global[1] - global[2]);
-  // The serial DMPlex numbers tets, then segments, then triangles: an element's index in its kind.
-  for (int64_t& id : out.segment_ids) id -= out.global_cells;
-  for (int64_t& id : out.triangle_ids) id -= out.global_cells + out.global_segments;
   PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn
+
+namespace hyperqn {
+
+namespace {
+
+// Bytes between two ranks in pieces of at most 1 GiB (MPI counts are ints). A length of -1 says
+// that the sender failed.
+constexpr int64_t kMaxMessage = int64_t(1) << 30;
+void send_bytes(MPI_Comm comm, int to, const std::vector<char>& bytes, bool failed) {
+  const int64_t n = failed ? -1 : (int64_t)bytes.size();
+  MPI_Send(&n, 1, MPI_INT64_T, to, 0, comm);
+  for (int64_t at = 0; at < n; at += kMaxMessage)
+    MPI_Send(bytes.data() + at, (int)std::min(kMaxMessage, n - at), MPI_BYTE, to, 0, comm);
+}
+bool receive_bytes(MPI_Comm comm, int from, std::vector<char>& bytes) {
+  int64_t n;
+  MPI_Recv(&n, 1, MPI_INT64_T, from, 0, comm, MPI_STATUS_IGNORE);
+  if (n < 0) return false;
+  bytes.resize(n);
+  for (int64_t at = 0; at < n; at += kMaxMessage)
+    MPI_Recv(bytes.data() + at, (int)std::min(kMaxMessage, n - at), MPI_BYTE, from, 0, comm, MPI_STATUS_IGNORE);
+  return true;
+}
+
+std::vector<char> as_bytes(const std::vector<int32_t>& v) {
+  return std::vector<char>(reinterpret_cast<const char*>(v.data()), reinterpret_cast<const char*>(v.data() + v.size()));
+}
+std::vector<int32_t> of_bytes(const std::vector<char>& b) {
+  std::vector<int32_t> v(b.size() / sizeof(int32_t));
+  if (!v.empty()) std::memcpy(v.data(), b.data(), v.size() * sizeof(int32_t));
+  return v;
+}
+
+}  // namespace
+
+MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                              const std::vector<int32_t>& cell_material, std::vector<int32_t>& fixed,
+                              std::vector<int32_t>& material) {
+  int rank, size;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  MeshPiece mine;
+  std::string error;
+  if (rank == 0) {
+    // Each piece's share of the per-vertex and per-tet flags goes with it, after the piece.
+    auto shares = [&](const MeshPiece& piece, std::vector<int32_t>& f, std::vector<int32_t>& t) {
+      f.clear();
+      t.clear();
+      if (!fixed_serial.empty())
+        for (int64_t v : piece.vertex_numbers) f.push_back(fixed_serial[v]);
+      if (!cell_material.empty())
+        for (int64_t e = 0; e < piece.mesh.num_tets(); ++e) t.push_back(cell_material[piece.element_numbers[e]]);
+    };
+    int sent = 1;  // ranks that got their piece (rank 0 keeps its own)
+    try {
+      pieces_of_serial_mesh(serial, size, [&](int part, MeshPiece& piece) {
+        std::vector<int32_t> f, t;
+        shares(piece, f, t);
+        if (part == 0) {
+          fixed.swap(f);
+          material.swap(t);
+          mine = std::move(piece);
+          return;
+        }
+        send_bytes(comm, part, pack_piece(piece), false);
+        send_bytes(comm, part, as_bytes(f), false);
+        send_bytes(comm, part, as_bytes(t), false);
+        sent = part + 1;
+      });
+    } catch (const std::exception& e) {
+      error = e.what();
+      for (int r = sent; r < size; ++r) send_bytes(comm, r, {}, true);
+    }
+  } else {
+    std::vector<char> piece, f, t;
+    if (receive_bytes(comm, 0, piece)) {
+      receive_bytes(comm, 0, f);
+      receive_bytes(comm, 0, t);
+      mine = unpack_piece(piece);
+      fixed = of_bytes(f);
+      material = of_bytes(t);
+    } else {
+      error = "rank 0 could not cut the mesh";
+    }
+  }
+  // Ranks that got their piece before rank 0 failed learn it here.
+  int failed = !error.empty();
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, comm);
+  if (failed) throw std::runtime_error(error.empty() ? "rank 0 could not cut the mesh" : error);
+  return mine;
+}
+
+PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                               const std::vector<int32_t>& cell_material, DistributedMesh& out) {
+  std::vector<int32_t> fixed, material;
+  const MeshPiece piece = scatter_serial_mesh(comm, serial, fixed_serial, cell_material, fixed, material);
+  return distribute_mesh(comm, piece, fixed, material, out);
 }
 
 }  // namespace hyperqn

@@ -1,6 +1,5 @@
-// The mesh distributed over MPI ranks: a DMPlex partitioned by METIS (computed on rank 0 and
-// handed to DMPlexDistribute through PetscPartitionerShell), plus flat per-rank arrays that the
-// element loops use directly.
+// The mesh distributed over MPI ranks: a DMPlex built from each rank's piece (mesh/mesh_piece.hpp),
+// plus flat per-rank arrays that the element loops use directly.
 //
 // Unknowns: 3 position dofs per free vertex. Fixed vertices carry no dof at all (they are
 // eliminated), so the global vectors hold exactly the free unknowns.
@@ -12,6 +11,7 @@
 
 #include "mesh/mesh_spec.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/mesh_piece.hpp"
 
 namespace hyperqn {
 
@@ -55,12 +55,27 @@ struct DistributedMesh {
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);
 double rest_diagonal(const DistributedMesh& m);
 
-// Partitions the serial mesh (significant on rank 0 only; other ranks pass an empty mesh) with
-// METIS into one part per rank, distributes it, and builds the dof layout with the vertices
-// flagged in fixed_serial (rank 0: per serial vertex, see select_fixed_vertices) eliminated;
-// cell_material (rank 0: per serial tet) travels with the cells. Tets, strand segments, cloth
-// triangles and hinges are all cells of the DMPlex (of 4, 2, 3 and 4 vertices), partitioned
-// together, so every element has its vertices on its rank.
+// Builds the distributed mesh from this rank's piece (collective): a DMPlex of the piece's cells
+// and vertices in the piece's order, shared vertices owned by the lowest rank holding them, and
+// the dof layout with the vertices flagged in `fixed` (per local vertex: 0 free, k + 1 fixed by
+// region k; empty: none) eliminated; cell_material (per local tet, may be empty) travels with the
+// tets. Tets, strand segments, cloth triangles and hinges are all cells of the DMPlex (of 4, 2, 3
+// and 4 vertices), so every element has its vertices on its rank. If any rank's piece is not
+// final (a chunk of a partition file written for another rank count), the chunks are first
+// partitioned with PT-Scotch and moved.
+PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std::vector<int32_t>& fixed,
+                               const std::vector<int32_t>& cell_material, DistributedMesh& out);
+
+// Rank 0's serial mesh (other ranks pass an empty one) cut into one piece per rank by METIS
+// (pieces_of_serial_mesh) and sent piece by piece, so that rank 0 holds at most one other piece
+// beside the mesh; with each piece, its share of fixed_serial (per serial vertex) and
+// cell_material (per serial tet), either may be empty. Collective; a failure on rank 0 throws
+// std::runtime_error on every rank (rank 0's with the reason).
+MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
+                              const std::vector<int32_t>& cell_material, std::vector<int32_t>& fixed,
+                              std::vector<int32_t>& material);
+
+// scatter_serial_mesh, then distribute_mesh (tests build their scenes so).
 PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
                                const std::vector<int32_t>& cell_material, DistributedMesh& out);
 

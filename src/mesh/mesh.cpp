@@ -1,6 +1,8 @@
 // Serial tet mesh: Medit reader, box generator, transform and cleaning.
 #include "mesh/mesh.hpp"
 
+#include "mesh/mesh_piece.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <array>
@@ -242,44 +244,7 @@ TetMesh generate_box(const std::array<double, 3>& size, const std::array<int, 3>
   if (nv > std::numeric_limits<int32_t>::max() || 4 * nt > std::numeric_limits<int32_t>::max())
     throw std::invalid_argument("generate_box: too many cells");
 
-  TetMesh mesh;
-  mesh.coords.resize(3 * size_t(nv));
-  mesh.vertex_ids.resize(size_t(nv));
-  for (int64_t k = 0, v = 0; k < n[2]; ++k)
-    for (int64_t j = 0; j < n[1]; ++j)
-      for (int64_t i = 0; i < n[0]; ++i, ++v) {
-        // i * size / cells rather than accumulating h: the far faces land exactly on size.
-        mesh.coords[3 * v + 0] = size[0] * double(i) / cells[0];
-        mesh.coords[3 * v + 1] = size[1] * double(j) / cells[1];
-        mesh.coords[3 * v + 2] = size[2] * double(k) / cells[2];
-        mesh.vertex_ids[v] = v;
-      }
-
-  // Kuhn subdivision: for each permutation (p,q,r) of the axes, the tet walks from corner 000
-  // to corner 111 stepping along p, then q, then r. Every cube is cut the same way, so the
-  // diagonals of shared faces match. det = sign of the permutation, so odd ones get their last
-  // two vertices swapped.
-  static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
-  const int32_t stride[3] = {1, int32_t(n[0]), int32_t(n[0] * n[1])};
-  mesh.tets.resize(4 * size_t(nt));
-  mesh.tet_tags.assign(size_t(nt), 0);
-  int32_t* out = mesh.tets.data();
-  for (int k = 0; k < cells[2]; ++k)
-    for (int j = 0; j < cells[1]; ++j)
-      for (int i = 0; i < cells[0]; ++i) {
-        const int32_t v0 = i * stride[0] + j * stride[1] + k * stride[2];
-        for (int p = 0; p < 6; ++p) {
-          const int32_t v1 = v0 + stride[perms[p][0]];
-          const int32_t v2 = v1 + stride[perms[p][1]];
-          const int32_t v3 = v2 + stride[perms[p][2]];
-          const bool odd = p >= 3;
-          *out++ = v0;
-          *out++ = v1;
-          *out++ = odd ? v3 : v2;
-          *out++ = odd ? v2 : v3;
-        }
-      }
-  return mesh;
+  return box_piece(size, cells, 0, 1).mesh;
 }
 
 TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 2>& cells) {
@@ -290,27 +255,7 @@ TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 
   const int64_t nx = cells[0] + int64_t(1), nz = cells[1] + int64_t(1);
   if (nx * nz > std::numeric_limits<int32_t>::max() || 6 * int64_t(cells[0]) * cells[1] > std::numeric_limits<int32_t>::max())
     throw std::invalid_argument("generate_sheet: too many cells");
-  TetMesh mesh;
-  mesh.coords.resize(3 * size_t(nx * nz));
-  mesh.vertex_ids.resize(size_t(nx * nz));
-  for (int64_t k = 0, v = 0; k < nz; ++k)
-    for (int64_t i = 0; i < nx; ++i, ++v) {
-      mesh.coords[3 * v + 0] = size[0] * double(i) / cells[0];
-      mesh.coords[3 * v + 1] = 0;
-      mesh.coords[3 * v + 2] = size[1] * double(k) / cells[1];
-      mesh.vertex_ids[v] = v;
-    }
-  mesh.triangles.reserve(6 * size_t(cells[0]) * cells[1]);
-  for (int32_t k = 0; k < cells[1]; ++k)
-    for (int32_t i = 0; i < cells[0]; ++i) {
-      const int32_t a = int32_t(i + nx * k), b = a + 1, c = int32_t(a + nx), d = c + 1;  // a b along x, c d above
-      // (a, b, d) has normal (x) x (z) = -y; the diagonal alternates like a checkerboard.
-      const int32_t t[2][3] = {{a, b, d}, {a, d, c}}, u[2][3] = {{a, b, c}, {b, d, c}};
-      const int32_t(*cell)[3] = (i + k) % 2 == 0 ? t : u;
-      for (int q = 0; q < 2; ++q) mesh.triangles.insert(mesh.triangles.end(), cell[q], cell[q] + 3);
-    }
-  mesh.triangle_tags.assign(size_t(mesh.num_triangles()), 0);
-  return mesh;
+  return sheet_piece(size, cells, 0, 1).mesh;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -433,9 +378,10 @@ static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used
 // The hinges (interior edges with the two vertices opposite them) and which triangle carries
 // each edge (its first triangle), from the triangles; an edge of three or more triangles is an
 // InputError naming its vertices (1-based ids of the input).
-static void connect_surface(TetMesh& mesh, const std::string& source) {
+void connect_surface(TetMesh& mesh, const std::string& source, std::vector<int64_t>* hinge_triangles) {
   const int64_t nf = mesh.num_triangles();
   mesh.hinges.clear();
+  if (hinge_triangles) hinge_triangles->clear();
   mesh.triangle_edges.assign(size_t(nf), 0);
   // (low vertex, high vertex, triangle, edge slot) per triangle edge, sorted by edge.
   std::vector<std::array<int64_t, 4>> edges;
@@ -460,6 +406,7 @@ static void connect_surface(TetMesh& mesh, const std::string& source) {
       const int32_t* t = &mesh.triangles[3 * f];
       const int32_t* u = &mesh.triangles[3 * g];
       mesh.hinges.insert(mesh.hinges.end(), {t[k], t[(k + 1) % 3], t[(k + 2) % 3], u[(l + 2) % 3]});
+      if (hinge_triangles) hinge_triangles->push_back(f);
     }
     i = j;
   }
@@ -569,7 +516,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       ++report.reoriented_tets;
     }
   }
-  connect_surface(mesh, source);
+  connect_surface(mesh, source, nullptr);
   return report;
 }
 

@@ -83,4 +83,9 @@ struct CleanReport {
 // whose edge is shared by more than two triangles. Fills hinges and triangle_edges.
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source);
 
+// clean_mesh's last step: the hinges and carried edges of the triangles (each edge is carried by
+// the first triangle holding it; a hinge's first triangle, which hinge_triangles gets if not null,
+// holds its first three vertices). An edge of three or more triangles is an InputError.
+void connect_surface(TetMesh& mesh, const std::string& source, std::vector<int64_t>* hinge_triangles);
+
 }  // namespace hyperqn

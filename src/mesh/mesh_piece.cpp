@@ -205,6 +205,84 @@ MeshPiece box_piece(const std::array<double, 3>& size, const std::array<int, 3>&
   return piece;
 }
 
+MeshPiece sheet_piece(const std::array<double, 2>& size, const std::array<int, 2>& cells, int part, int nparts) {
+  for (int d = 0; d < 2; ++d) {
+    if (!(size[d] > 0) || !std::isfinite(size[d])) throw std::invalid_argument("generate_sheet: sheet size must be positive");
+    if (cells[d] < 1) throw std::invalid_argument("generate_sheet: need at least one cell per axis");
+  }
+  const std::array<int, 3> grid = box_block_grid({cells[0], cells[1], 1}, nparts);
+  if (grid[0] == 0) throw std::invalid_argument("sheet_piece: no grid of blocks fits the sheet");
+  const int b[2] = {part % grid[0], part / grid[0]};
+  int lo[2], hi[2], plo[2], phi[2];  // the block's cells [lo, hi), and with a halo of one cell [plo, phi)
+  for (int d = 0; d < 2; ++d) {
+    lo[d] = int(int64_t(cells[d]) * b[d] / grid[d]);
+    hi[d] = int(int64_t(cells[d]) * (b[d] + 1) / grid[d]);
+    plo[d] = std::max(lo[d] - 1, 0);
+    phi[d] = std::min(hi[d] + 1, cells[d]);
+  }
+  const int64_t nx = cells[0] + int64_t(1), nz = cells[1] + int64_t(1);
+  if (nx * nz > std::numeric_limits<int32_t>::max() || 6 * int64_t(cells[0]) * cells[1] > std::numeric_limits<int32_t>::max())
+    throw std::invalid_argument("generate_sheet: too many cells");
+  // The patch (block and halo) as a mesh in the sheet's order: vertices x fastest, then z; two
+  // triangles per cell. Every edge of a block triangle has all its triangles in the patch, so
+  // connect_surface finds the block's hinges and carried edges as on the whole sheet.
+  const int64_t pnx = phi[0] - plo[0] + 1;
+  TetMesh patch;
+  for (int64_t k = plo[1]; k <= phi[1]; ++k)
+    for (int64_t i = plo[0]; i <= phi[0]; ++i) {
+      // i * size / cells rather than accumulating h: the far edges land exactly on size.
+      patch.coords.insert(patch.coords.end(), {size[0] * double(i) / cells[0], 0.0, size[1] * double(k) / cells[1]});
+      patch.vertex_ids.push_back(i + nx * k);
+    }
+  std::vector<int64_t> triangle_numbers;
+  std::vector<char> in_block;
+  for (int32_t k = plo[1]; k < phi[1]; ++k)
+    for (int32_t i = plo[0]; i < phi[0]; ++i) {
+      const int32_t a = int32_t((i - plo[0]) + pnx * (k - plo[1])), b1 = a + 1, c = int32_t(a + pnx), d = c + 1;
+      // (a, b, d) has normal (x) x (z) = -y; the diagonal alternates like a checkerboard.
+      const int32_t t[2][3] = {{a, b1, d}, {a, d, c}}, u[2][3] = {{a, b1, c}, {b1, d, c}};
+      const int32_t(*cell)[3] = (i + k) % 2 == 0 ? t : u;
+      const bool inside = i >= lo[0] && i < hi[0] && k >= lo[1] && k < hi[1];
+      for (int q = 0; q < 2; ++q) {
+        patch.triangles.insert(patch.triangles.end(), cell[q], cell[q] + 3);
+        triangle_numbers.push_back(2 * (i + int64_t(cells[0]) * k) + q);
+        in_block.push_back(inside);
+      }
+    }
+  std::vector<int64_t> hinge_triangles;
+  connect_surface(patch, "generated sheet", &hinge_triangles);
+
+  // The block's triangles and hinges, on the vertices they use (in the patch's, i.e. the sheet's, order).
+  MeshPiece piece;
+  piece.global_vertices = nx * nz;
+  std::vector<int32_t> local_of(patch.num_vertices(), -1);
+  for (int64_t f = 0; f < patch.num_triangles(); ++f)
+    if (in_block[f])
+      for (int j = 0; j < 3; ++j) local_of[patch.triangles[3 * f + j]] = 0;
+  for (int64_t h = 0; h < patch.num_hinges(); ++h)
+    if (in_block[hinge_triangles[h]])
+      for (int j = 0; j < 4; ++j) local_of[patch.hinges[4 * h + j]] = 0;
+  TetMesh& m = piece.mesh;
+  for (int64_t v = 0; v < patch.num_vertices(); ++v) {
+    if (local_of[v] < 0) continue;
+    local_of[v] = int32_t(m.num_vertices());
+    m.coords.insert(m.coords.end(), &patch.coords[3 * v], &patch.coords[3 * v] + 3);
+    m.vertex_ids.push_back(patch.vertex_ids[v]);
+    piece.vertex_numbers.push_back(patch.vertex_ids[v]);
+  }
+  for (int64_t f = 0; f < patch.num_triangles(); ++f) {
+    if (!in_block[f]) continue;
+    for (int j = 0; j < 3; ++j) m.triangles.push_back(local_of[patch.triangles[3 * f + j]]);
+    m.triangle_edges.push_back(patch.triangle_edges[f]);
+    piece.element_numbers.push_back(triangle_numbers[f]);
+  }
+  for (int64_t h = 0; h < patch.num_hinges(); ++h)
+    if (in_block[hinge_triangles[h]])
+      for (int j = 0; j < 4; ++j) m.hinges.push_back(local_of[patch.hinges[4 * h + j]]);
+  m.triangle_tags.assign(m.triangles.size() / 3, 0);
+  return piece;
+}
+
 std::vector<char> pack_piece(MeshPiece& piece) {
   std::vector<char> out;
   PieceArrays a = piece_arrays(piece);

@@ -54,6 +54,12 @@ void pieces_of_serial_mesh(const TetMesh& serial, int nparts, const std::functio
 std::array<int, 3> box_block_grid(const std::array<int, 3>& cells, int nparts);
 MeshPiece box_piece(const std::array<double, 3>& size, const std::array<int, 3>& cells, int part, int nparts);
 
+// Part `part` of nparts of the cloth sheet generate_sheet(size, cells) makes, cut into a grid of
+// blocks of cells (box_block_grid of {cells[0], cells[1], 1}): its triangles, the hinges whose
+// first triangle is in the block (with the vertices they reach across the block's edge), and
+// the carried edges, all as clean_mesh finds them on the whole sheet.
+MeshPiece sheet_piece(const std::array<double, 2>& size, const std::array<int, 2>& cells, int part, int nparts);
+
 // MPI: the piece as one byte buffer and back.
 std::vector<char> pack_piece(MeshPiece& piece);
 MeshPiece unpack_piece(const std::vector<char>& buffer);

@@ -92,7 +92,7 @@ RankMemory estimated_rank_memory(int64_t vertices, int ranks, int rank, const Me
   RankMemory m;
   m.process = kProcessBytes;
   m.share = (kShareBytes + (ranks > 1 ? kParallelBytes : 0)) * (own + ghost_vertices(v, ranks));
-  if (rank == 0) m.whole_mesh = kWholeMeshBytes * v;
+  if (rank == 0 && plan.serial_mesh) m.whole_mesh = kWholeMeshBytes * v;
   double h0 = 0;  // one constant matrix, on this rank
   switch (plan.h0) {
     case H0Memory::none: break;
@@ -112,7 +112,7 @@ RankMemory estimated_rank_memory(int64_t vertices, int ranks, int rank, const Me
 }
 
 double RankMemory::total() const {
-  // The whole mesh is gone from rank 0 (distributed, then freed) before the scene is built.
+  // The whole mesh is gone from rank 0 (sent in pieces, then freed) before the scene is built.
   return process + std::max(whole_mesh, share + h0 + substeps + newton);
 }
 

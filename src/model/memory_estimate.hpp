@@ -34,6 +34,8 @@ struct MemoryPlan {
   bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)
+  bool serial_mesh = true;  // rank 0 reads the whole mesh and sends its pieces (false: a generated box
+                            // or sheet, or a partition file: each rank makes or reads its own piece)
 };
 
 // What a run with these settings factors, for its memory estimate (below): a
@@ -51,7 +53,7 @@ MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ra
 struct RankMemory {
   double process = 0;     // MPI and PETSc
   double share = 0;       // its share of the mesh, terms, vectors and L-BFGS history, with its halo
-  double whole_mesh = 0;  // rank 0: the whole mesh, read or generated there and distributed from there
+  double whole_mesh = 0;  // rank 0: the whole mesh, read there and sent in pieces from there (MemoryPlan::serial_mesh)
                           // (a phase of its own: freed before the rest is built)
   double h0 = 0;          // the constant matrix: factor and gathered A, AMG hierarchy, or interior factor + Schur block
   double substeps = 0;    // the same for every sub-step size of the fallback chain

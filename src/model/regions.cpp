@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <mpi.h>
+
 #include "mesh/input_error.hpp"
 
 namespace hyperqn {
@@ -13,9 +15,27 @@ bool in_box(const double* p, const BoxRegion& box, double tol) {
   return true;
 }
 
-std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+double mesh_diagonal(MPI_Comm comm, const TetMesh& mesh) {
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], mesh.coords[v + d]);
+      hi[d] = std::max(hi[d], mesh.coords[v + d]);
+    }
+  MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
+  MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);
+  if (lo[0] > hi[0]) return 0;  // no vertex anywhere
+  return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+}
+
+static int64_t global_count(MPI_Comm comm, int64_t count) {
+  MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_INT64_T, MPI_SUM, comm);
+  return count;
+}
+
+std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                      const std::string& deck_path, const std::string& section) {
-  const double tol = 1e-9 * bounding_box_diagonal(mesh);
+  const double tol = 1e-9 * mesh_diagonal(comm, mesh);
   std::vector<int32_t> selected(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
@@ -24,40 +44,45 @@ std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxR
         selected[v] = (int32_t)b + 1;
         ++count;
       }
-    if (count == 0)
+    if (global_count(comm, count) == 0)
       throw InputError(deck_path, boxes[b].line, section + "[" + std::to_string(b) + "].box",
                        "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
   return selected;
 }
 
-std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path) {
-  return select_vertices(mesh, boxes, deck_path, "fixed");
+  return select_vertices(comm, mesh, boxes, deck_path, "fixed");
 }
 
-void check_attachments(const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                           const std::string& deck_path) {
+  return select_fixed_vertices(MPI_COMM_SELF, mesh, boxes, deck_path);
+}
+
+void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                        const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
                        const std::string& deck_path) {
   std::vector<BoxRegion> boxes;
   for (const AttachmentSpec& a : attachments) boxes.push_back(a.region);
-  select_vertices(mesh, boxes, deck_path, "attachments");
-  const double tol = 1e-9 * bounding_box_diagonal(mesh);
+  select_vertices(comm, mesh, boxes, deck_path, "attachments");
+  const double tol = 1e-9 * mesh_diagonal(comm, mesh);
   for (size_t k = 0; k < boxes.size(); ++k) {
     bool acts = false;
     for (int64_t v = 0; v < mesh.num_vertices() && !acts; ++v) {
       const int32_t f = fixed_of_vertex[v];  // the vertex follows the last fixed region holding it
       acts = in_box(&mesh.coords[3 * v], boxes[k], tol) && (f == 0 || fixed[f - 1].release > 0);
     }
-    if (!acts)
+    if (global_count(comm, acts) == 0)
       throw InputError(deck_path, boxes[k].line, "attachments[" + std::to_string(k) + "].box",
                        "selects only vertices that are fixed (and never released): the attachment would do nothing");
   }
 }
 
-std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
+std::vector<int32_t> select_material_regions(MPI_Comm comm, const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
                                              const std::string& deck_path) {
-  const double tol = 1e-9 * bounding_box_diagonal(mesh);
+  const double tol = 1e-9 * mesh_diagonal(comm, mesh);
   std::vector<int32_t> material(mesh.num_tets(), 0);
   for (size_t k = 0; k < regions.size(); ++k) {
     const MaterialRegion& region = regions[k];
@@ -77,7 +102,7 @@ std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vec
         ++count;
       }
     }
-    if (count == 0)
+    if (global_count(comm, count) == 0)
       throw InputError(deck_path, region.line, "regions[" + std::to_string(k) + "]",
                        region.by_box ? "selects no element (by centroid; boxes are in coordinates after mesh.transform)"
                                      : "selects no element: no element carries these tags");

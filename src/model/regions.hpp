@@ -1,12 +1,17 @@
 // Parts of the mesh selected by the deck's regions: fixed (Dirichlet) vertices, attached vertices
 // and the elements of each material region, and how fixed regions and attachments move. Fixed
-// vertices and material regions are decided once, on the serial mesh (rank 0), before
-// distribution; attachments are checked there and selected again on each rank (in_box).
+// vertices and material regions are decided once per rank on its piece of the mesh
+// (mesh/mesh_piece.hpp) before the scene is built; attachments are checked there and selected
+// again on each rank (in_box). The selections take the communicator of the ranks whose pieces
+// make up the mesh: the tolerance and the "selects nothing" checks are about the whole mesh, so
+// every rank throws the same InputError.
 #pragma once
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include <mpi.h>
 
 #include "geometry/motion.hpp"
 #include "mesh/mesh.hpp"
@@ -45,11 +50,17 @@ struct MaterialRegion {
 // diagonal against round-off, for every region).
 bool in_box(const double* p, const BoxRegion& box, double tol);
 
+// The diagonal of the bounding box of every rank's mesh (collective).
+double mesh_diagonal(MPI_Comm comm, const TetMesh& mesh);
+
 // Per vertex: 0 if in no box, k + 1 if in boxes[k] (the last box containing it wins). A box that
 // selects no vertex is an input error naming the deck line and the key "<section>[k].box".
-std::vector<int32_t> select_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                      const std::string& deck_path, const std::string& section);
 // select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].
+std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
+                                           const std::string& deck_path);
+// The same for a whole mesh on one process (tests).
 std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path);
 
@@ -57,13 +68,13 @@ std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vecto
 // fixed for good (free, or fixed by a region that is released): an attachment whose vertices all
 // stay fixed adds nothing, a mistake. Input errors name the deck line and "attachments[k].box".
 // fixed_of_vertex: select_fixed_vertices of `fixed`.
-void check_attachments(const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
+void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                        const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
                        const std::string& deck_path);
 
 // Per tet: 0 for the default material, k + 1 for regions[k] (by centroid in its box, or by
 // element tag; later regions win). A region that selects no element is an input error.
-std::vector<int32_t> select_material_regions(const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
+std::vector<int32_t> select_material_regions(MPI_Comm comm, const TetMesh& mesh, const std::vector<MaterialRegion>& regions,
                                              const std::string& deck_path);
 
 }  // namespace hyperqn

@@ -5,6 +5,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
+#include "io/partition_file.hpp"
 #include "model/elastic_terms.hpp"
 #include "terms/contact.hpp"
 #include "model/initial_state.hpp"
@@ -170,28 +171,90 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
   return mesh;
 }
 
+// This rank's piece of the deck's mesh: a block of a generated box or sheet, made on every rank;
+// its part of a partition file; or rank 0's serial mesh, cut by METIS and sent piece by piece.
+// Input errors are the same InputError on every rank.
+static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, const MemoryPlan& plan) {
+  int rank, size;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  const MeshSpec& spec = deck.mesh;
+  MemoryPlan own_pieces = plan;  // generated or read by each rank: no rank holds the whole mesh
+  own_pieces.serial_mesh = false;
+  const auto& box = spec.box_cells;
+  const auto& sheet = spec.sheet_cells;
+  const bool blocks = spec.strands.empty() && ((spec.is_box && box_block_grid(box, size)[0] > 0) ||
+                                               (spec.is_sheet && box_block_grid({sheet[0], sheet[1], 1}, size)[0] > 0));
+  if (blocks) {
+    const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
+    on_root(comm, [&] {
+      if (spec.is_box) {
+        check_memory(deck, int64_t(box[0] + 1) * (box[1] + 1) * (box[2] + 1), box_tets(box), own_pieces, limits);
+        if (!deck.has_material)
+          throw InputError(deck.path, 0, "material", "missing: the box has " + std::to_string(box_tets(box)) + " tetrahedra");
+      } else {
+        check_memory(deck, int64_t(sheet[0] + 1) * (sheet[1] + 1), 0, own_pieces, limits);
+      }
+    });
+    MeshPiece piece;
+    std::string error;
+    try {
+      piece = spec.is_box ? box_piece(spec.box_size, box, rank, size) : sheet_piece(spec.sheet_size, sheet, rank, size);
+    } catch (const std::exception& e) {
+      error = deck.path + ": mesh: " + e.what();
+    }
+    try {
+      throw_if_any_failed(comm, error);
+    } catch (const std::runtime_error& e) {
+      throw InputError(e.what());
+    }
+    apply_transform(piece.mesh, spec.transform);
+    if (repaired) *repaired = CleanReport();  // a generated mesh needs no repair
+    return piece;
+  }
+  if (ends_with(spec.file, ".h5")) {  // a partition file: each rank reads its own part
+    const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
+    on_root(comm, [&] {
+      const PartitionFileInfo info = read_partition_info(spec.file);
+      check_memory(deck, info.vertices, info.tets, own_pieces, limits);
+      if (info.tets > 0 && !deck.has_material)
+        throw InputError(deck.path, 0, "material", "missing: the partition file " + spec.file + " has " +
+                                                       std::to_string(info.tets) + " tetrahedra");
+    });
+    if (repaired) *repaired = CleanReport();  // repaired when the file was written
+    return read_partition_piece(comm, spec.file);
+  }
+  const TetMesh serial = load_scene_mesh(comm, deck, repaired, plan);
+  std::vector<int32_t> no_flags;
+  try {
+    return scatter_serial_mesh(comm, serial, {}, {}, no_flags, no_flags);
+  } catch (const std::runtime_error& e) {
+    throw InputError(e.what());
+  }
+}
+
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan) {
   SceneInput in;
-  in.mesh = load_scene_mesh(comm, deck, &in.repaired, plan);
-  on_root(comm, [&] {
-    in.fixed = select_fixed_vertices(in.mesh, deck.fixed, deck.path);
-    in.cell_material = select_material_regions(in.mesh, deck.regions, deck.path);
-    size_t nfixed = 0;
-    for (int32_t f : in.fixed) nfixed += f != 0;
-    if (nfixed == in.fixed.size())
-      throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
-                       "every vertex is fixed: nothing to simulate");
-    // Only checked here: each rank selects its own attached vertices (attachment_term).
-    check_attachments(in.mesh, deck.attachments, deck.fixed, in.fixed, deck.path);
-    // An activation layer thicker than the body would push every vertex near an obstacle at once.
-    const double diagonal = bounding_box_diagonal(in.mesh);
-    if (deck.contact.distance > diagonal) {
-      char msg[200];
-      std::snprintf(msg, sizeof msg, "%g is larger than the body: its rest bounding-box diagonal is %g (after mesh.transform)",
-                    deck.contact.distance, diagonal);
-      throw InputError(deck.path, deck.contact.distance_line, "contact.distance", msg);
-    }
-  });
+  in.piece = load_scene_piece(comm, deck, &in.repaired, plan);
+  const TetMesh& mesh = in.piece.mesh;
+  in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path);
+  in.cell_material = select_material_regions(comm, mesh, deck.regions, deck.path);
+  int64_t free_vertices = 0;
+  for (int32_t f : in.fixed) free_vertices += f == 0;
+  MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_INT64_T, MPI_SUM, comm);
+  if (free_vertices == 0)
+    throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
+                     "every vertex is fixed: nothing to simulate");
+  // Only checked here: each rank selects its own attached vertices (attachment_term).
+  check_attachments(comm, mesh, deck.attachments, deck.fixed, in.fixed, deck.path);
+  // An activation layer thicker than the body would push every vertex near an obstacle at once.
+  const double diagonal = mesh_diagonal(comm, mesh);
+  if (deck.contact.distance > diagonal) {
+    char msg[200];
+    std::snprintf(msg, sizeof msg, "%g is larger than the body: its rest bounding-box diagonal is %g (after mesh.transform)",
+                  deck.contact.distance, diagonal);
+    throw InputError(deck.path, deck.contact.distance_line, "contact.distance", msg);
+  }
   // Every rank reads the obstacle files (each holds every collider): a bad one fails on all alike.
   for (size_t c = 0; c < deck.colliders.size(); ++c) make_collider(deck.colliders[c], deck.path, (int)c);
   return in;
@@ -215,7 +278,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   bool releases = false;
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
-  if (releases) kept_ = input;  // a release rebuilds the scene from the serial input
+  if (releases) kept_ = input;  // a release rebuilds the scene from this rank's piece
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
   PetscFunctionReturn(0);
@@ -225,8 +288,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   const SceneSpec& spec = *spec_;
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::scene));
-  PetscCall(distribute_mesh(comm_, input.mesh, input.fixed, input.cell_material, s.mesh));
-  input = SceneInput();  // the serial copy is no longer needed
+  PetscCall(distribute_mesh(comm_, input.piece, input.fixed, input.cell_material, s.mesh));
+  input = SceneInput();  // the piece is no longer needed
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth);

@@ -32,12 +32,13 @@ TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired = nullptr)
 TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired = nullptr,
                         const MemoryPlan& plan = MemoryPlan());
 
-// The serial mesh and its fixed-vertex flags (rank 0). Throws InputError on every rank if the
+// This rank's piece of the mesh (mesh/mesh_piece.hpp) with its fixed-vertex flags and material
+// regions: no rank holds the whole mesh once it exists. Throws InputError on every rank if the
 // input is wrong; nothing has been written at that point.
 struct SceneInput {
-  TetMesh mesh;
-  std::vector<int32_t> fixed;          // per vertex, see select_fixed_vertices
-  std::vector<int32_t> cell_material;  // per tet, see select_material_regions
+  MeshPiece piece;
+  std::vector<int32_t> fixed;          // per local vertex, see select_fixed_vertices
+  std::vector<int32_t> cell_material;  // per local tet, see select_material_regions
   CleanReport repaired;                // what cleaning the mesh changed (rank 0)
 };
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan = MemoryPlan());
@@ -108,7 +109,7 @@ class LiveScene {
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;
   SceneOptions options_;
-  SceneInput kept_;  // the serial input, if a region is released later (rank 0)
+  SceneInput kept_;  // this rank's input, if a region is released later
   std::unique_ptr<Scene> scene_;
 };
 

@@ -195,7 +195,7 @@ def test_keep_and_contents(tmp_path):
     assert sorted(os.listdir(out / "checkpoints")) == ["checkpoint_4.h5", "checkpoint_5.h5", "checkpoint_6.h5"]
     final = final_frame(out)
     c = read_checkpoint(out / "checkpoints" / "checkpoint_6.h5")
-    assert c["frame"] == 6 and c["ranks"] == 2 and c["format_version"] == 2
+    assert c["frame"] == 6 and c["ranks"] == 2 and c["format_version"] == 3
     assert abs(c["time"] - 0.3) < 1e-15
     assert c["vertices"] == len(final.vertex_id) == 81
     assert c["positions"].shape == (81, 3)
