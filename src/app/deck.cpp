@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "io/partition_file.hpp"
 #include "mesh/input_error.hpp"
 #include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
@@ -262,6 +263,25 @@ Value read_grid(const Reader& r, const Value& v, std::array<double, N>& size, st
   return cells_value;
 }
 
+// A partition file's header: what its mesh holds. The keys that shape a mesh belong to the deck
+// the file was made from, and are applied in it already.
+void read_partition_header(const Reader& r, const Value& file, const Section& s, MeshSpec& m) {
+  for (const char* key : {"transform", "strands", "edges", "surface"})
+    if (const Value* x = s.find(key))
+      r.fail(*x, "shapes the mesh, and mesh.file is a partition file: give it in the deck given to hyperqn partition "
+                 "(the file holds the mesh with it applied)");
+  try {
+    const PartitionFileInfo info = read_partition_info(m.file);
+    m.is_partition_file = true;
+    m.file_tets = info.tets;
+    m.file_segments = info.segments;
+    m.file_triangles = info.triangles;
+    m.surface_as_cloth = info.triangles > 0;
+  } catch (const InputError& e) {
+    r.fail(file, e.what());
+  }
+}
+
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
   Section s(r, v, {"file", "box", "sheet", "surface", "transform", "edges", "strands"});
   const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
@@ -269,10 +289,11 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
   if (!file && !box && !sheet && !strands)
     r.fail(v, "missing the mesh: give file (a .mesh, .msh or .obj path), box, sheet or strands");
   if (file) {
-    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj"},
-                                ".mesh (Medit), .msh (Gmsh) or .obj (a cloth surface)");
+    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj", ".h5"},
+                                ".mesh (Medit), .msh (Gmsh), .obj (a cloth surface) or .h5 (a partition file of hyperqn partition)");
     m.line = file->line;
     m.surface_as_cloth = fs::path(m.file).extension() == ".obj";
+    if (fs::path(m.file).extension() == ".h5") read_partition_header(r, *file, s, m);
   }
   if (const Value* x = s.find("surface")) {
     r.choice(*x, kMeshSurfaces);

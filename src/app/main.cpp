@@ -3,15 +3,19 @@
 //
 //   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
+//   hyperqn partition DECK.yaml -n N -o FILE.h5
 #include <petscsys.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 
 #include "app/deck.hpp"
 #include "app/run_options.hpp"
 #include "mesh/input_error.hpp"
+#include "app/partition_command.hpp"
 #include "app/simulation.hpp"
 #include "app/study.hpp"
 #include "materials/material_factory.hpp"
@@ -20,6 +24,7 @@
 static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
+    "       hyperqn partition DECK.yaml -n N -o FILE.h5\n"
     "       hyperqn registry   (the material models and solvers, as JSON)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
     "  solvers of the deck's study: section (error against time, per frame and per trajectory).\n"
@@ -29,6 +34,8 @@ static const char usage[] =
     "              it, or from its newest whole one in OUTDIR/checkpoints; auto: that, or the deck afresh\n"
     "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
     "              SIGUSR1 after writing a checkpoint\n"
+    "  partition: cuts the deck's mesh into N parts and writes them to FILE.h5, a partition file that a\n"
+    "              deck names as mesh.file: a run then reads its part directly (docs/performance.md#partition-files)\n"
     "  PETSc options on the command line override the deck's petsc: section,\n"
     "  e.g. -tao_ls_type armijo -tao_lmvm_mat_lmvm_hist_size 10 -log_view\n";
 
@@ -36,8 +43,47 @@ namespace {
 
 struct CommandLine {
   std::string deck, outdir, restart;
-  bool help = false, study = false, registry = false;
+  bool help = false, study = false, registry = false, partition = false;
+  int parts = 0;  // partition: -n
 };
+
+// hyperqn partition DECK -n N -o FILE.h5: every argument is ours (no PETSc options).
+CommandLine parse_partition_command(int argc, char** argv) {
+  CommandLine cl;
+  cl.partition = true;
+  const std::string form = "hyperqn partition DECK.yaml -n N -o FILE.h5";
+  bool parts_given = false;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "-h" || a == "--help" || a == "-help") {
+      cl.help = true;
+    } else if (a == "-n") {
+      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-n", "needs the number of parts: " + form);
+      const char* text = argv[++i];
+      char* end = nullptr;
+      errno = 0;
+      const long n = std::strtol(text, &end, 10);
+      if (end == text || *end != '\0' || errno == ERANGE || n < 1 || n > 1000000)
+        throw hyperqn::InputError("", 0, "-n", "must be a whole number of parts from 1 to 1000000, got '" + std::string(text) + "'");
+      cl.parts = int(n);
+      parts_given = true;
+    } else if (a == "-o") {
+      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs the partition file to write: " + form);
+      cl.outdir = argv[++i];
+    } else if (a[0] != '-' && cl.deck.empty()) {
+      cl.deck = a;
+    } else {
+      throw hyperqn::InputError("", 0, a, "unexpected argument: " + form);
+    }
+  }
+  if (cl.help) return cl;
+  if (cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given: " + form);
+  if (!parts_given) throw hyperqn::InputError("", 0, "-n", "missing: the number of parts: " + form);
+  if (cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "missing: the partition file to write: " + form);
+  if (cl.outdir.size() < 4 || cl.outdir.compare(cl.outdir.size() - 3, 3, ".h5") != 0 || cl.outdir.back() == '/')
+    throw hyperqn::InputError("", 0, "-o", "'" + cl.outdir + "': a partition file's name ends in .h5");
+  return cl;
+}
 
 // Our own arguments: the deck (first argument not starting with '-') and -o OUTDIR.
 // Everything else belongs to PETSc.
@@ -48,6 +94,7 @@ CommandLine parse_command_line(int argc, char** argv) {
     cl.study = true;
     first = 2;
   }
+  if (argc > 1 && std::strcmp(argv[1], "partition") == 0) return parse_partition_command(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "registry") == 0) {
     cl.registry = true;
     return cl;
@@ -133,7 +180,8 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
 
 int main(int argc, char** argv) {
   // A simulation (not a study, not the registry) turns stop signals into a checkpoint from the start.
-  if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0)
+  if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0 &&
+      std::strcmp(argv[1], "partition") != 0)
     hyperqn::catch_stop_signals();
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   int status = 0;
@@ -147,6 +195,8 @@ int main(int argc, char** argv) {
       PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s\n%s\n", usage, registry_text().c_str()));
       PetscCall(PetscOptionsSetValue(nullptr, "-help", nullptr));
       PetscCall(hyperqn::read_run_options(PETSC_COMM_WORLD, &options));
+    } else if (cl.partition) {
+      hyperqn::run_partition(PETSC_COMM_WORLD, hyperqn::load_deck(cl.deck), cl.parts, cl.outdir);
     } else {
       const hyperqn::Deck deck = hyperqn::load_deck(cl.deck);
       PetscCall(insert_deck_options(deck));

@@ -4,7 +4,9 @@
 
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 namespace hyperqn {
@@ -137,19 +139,39 @@ std::string Hdf5File::read_text(const std::string& name) const {
   return text;
 }
 
-void Hdf5File::create_rows(const std::string& name, hsize_t rows, hsize_t cols) {
-  const hsize_t dims[2] = {rows, cols}, chunk[2] = {std::max<hsize_t>(1, std::min(rows, kChunkRows)), cols};
-  Handle space{H5Screate_simple(2, dims, nullptr), H5Sclose};
+namespace {
+
+// The HDF5 type, and the name, of each element type of a table.
+template <typename T>
+hid_t native_type();
+template <>
+hid_t native_type<double>() { return H5T_NATIVE_DOUBLE; }
+template <>
+hid_t native_type<int64_t>() { return H5T_NATIVE_INT64; }
+template <>
+hid_t native_type<int32_t>() { return H5T_NATIVE_INT32; }
+template <>
+hid_t native_type<uint8_t>() { return H5T_NATIVE_UINT8; }
+
+template <typename T>
+const char* type_name() {
+  return std::is_floating_point<T>::value ? "float64" : sizeof(T) == 8 ? "int64" : sizeof(T) == 4 ? "int32" : "uint8";
+}
+
+// A chunked dataset with checksums: `rows` rows now, at most `max_rows` (H5S_UNLIMITED: grows).
+hid_t create_table(hid_t file, const std::string& name, hid_t type, hsize_t rows, hsize_t max_rows, hsize_t chunk_rows,
+                   hsize_t cols) {
+  const hsize_t dims[2] = {rows, cols}, max_dims[2] = {max_rows, cols};
+  const hsize_t chunk[2] = {std::max<hsize_t>(1, std::min(chunk_rows, kChunkRows)), std::max<hsize_t>(1, cols)};
+  Handle space{H5Screate_simple(2, dims, max_dims), H5Sclose};
   Handle dcpl{H5Pcreate(H5P_DATASET_CREATE), H5Pclose};
-  if (space.id < 0 || dcpl.id < 0 || H5Pset_chunk(dcpl.id, 2, chunk) < 0 || H5Pset_fletcher32(dcpl.id) < 0)
-    fail(name);
-  Handle set{H5Dcreate2(id_, name.c_str(), H5T_NATIVE_DOUBLE, space.id, H5P_DEFAULT, dcpl.id, H5P_DEFAULT), H5Dclose};
-  if (set.id < 0) fail(name);
+  if (space.id < 0 || dcpl.id < 0 || H5Pset_chunk(dcpl.id, 2, chunk) < 0 || H5Pset_fletcher32(dcpl.id) < 0) return -1;
+  return H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, dcpl.id, H5P_DEFAULT);
 }
 
 // The rows [first, first + count) of a dataset of `cols` columns, as a selection in the file and
 // the matching memory space.
-static bool select_rows(hid_t set, hsize_t first, hsize_t count, hsize_t cols, hid_t* file_space, hid_t* mem_space) {
+bool select_rows(hid_t set, hsize_t first, hsize_t count, hsize_t cols, hid_t* file_space, hid_t* mem_space) {
   const hsize_t start[2] = {first, 0}, size[2] = {count, cols};
   *file_space = H5Dget_space(set);
   *mem_space = H5Screate_simple(2, size, nullptr);
@@ -157,33 +179,89 @@ static bool select_rows(hid_t set, hsize_t first, hsize_t count, hsize_t cols, h
          H5Sselect_hyperslab(*file_space, H5S_SELECT_SET, start, nullptr, size, nullptr) >= 0;
 }
 
-void Hdf5File::write_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, const double* data) {
+// Whether a dataset holds numbers of T's kind and size (a table of int32 is not read as float64).
+template <typename T>
+bool holds(hid_t set) {
+  Handle type{H5Dget_type(set), H5Tclose};
+  if (type.id < 0) return false;
+  const H5T_class_t kind = H5Tget_class(type.id);
+  return kind == (std::is_floating_point<T>::value ? H5T_FLOAT : H5T_INTEGER) && H5Tget_size(type.id) == sizeof(T) &&
+         (kind == H5T_FLOAT || (H5Tget_sign(type.id) == H5T_SGN_NONE) == std::is_unsigned<T>::value);
+}
+
+// The (rows, cols) of a 2-D dataset; false if it is not one.
+bool table_dims(hid_t file, const std::string& name, hsize_t dims[2]) {
+  Handle set{H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle space{set.id >= 0 ? H5Dget_space(set.id) : -1, H5Sclose};
+  return space.id >= 0 && H5Sget_simple_extent_ndims(space.id) == 2 && H5Sget_simple_extent_dims(space.id, dims, nullptr) >= 0;
+}
+
+}  // namespace
+
+template <typename T>
+void Hdf5File::create_rows(const std::string& name, hsize_t rows, hsize_t cols) {
+  Handle set{create_table(id_, name, native_type<T>(), rows, rows, rows, cols), H5Dclose};
+  if (set.id < 0) fail(name);
+}
+
+template <typename T>
+void Hdf5File::write_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, const T* data) {
   if (count == 0) return;
   Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
   Handle file_space{-1, H5Sclose}, mem_space{-1, H5Sclose};
   if (set.id < 0 || !select_rows(set.id, first, count, cols, &file_space.id, &mem_space.id) ||
-      H5Dwrite(set.id, H5T_NATIVE_DOUBLE, mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
+      H5Dwrite(set.id, native_type<T>(), mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
     fail(name);
 }
 
-void Hdf5File::read_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, double* data) const {
+template <typename T>
+void Hdf5File::append_rows(const std::string& name, hsize_t count, hsize_t cols, const T* data, hsize_t chunk_rows) {
+  if (!has(name)) {
+    Handle set{create_table(id_, name, native_type<T>(), 0, H5S_UNLIMITED, chunk_rows, cols), H5Dclose};
+    if (set.id < 0) fail(name);
+  }
+  if (count == 0) return;
+  const hsize_t first = rows(name), dims[2] = {first + count, cols};
+  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (set.id < 0 || H5Dset_extent(set.id, dims) < 0) fail(name);
+  write_rows(name, first, count, cols, data);
+}
+
+template <typename T>
+void Hdf5File::read_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, T* data) const {
   if (count == 0) return;
   if (!has(name)) fail("no dataset " + name);
   Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (set.id >= 0 && !holds<T>(set.id)) fail(name + " does not hold " + type_name<T>() + " values");
   Handle file_space{-1, H5Sclose}, mem_space{-1, H5Sclose};
   if (set.id < 0 || !select_rows(set.id, first, count, cols, &file_space.id, &mem_space.id) ||
-      H5Dread(set.id, H5T_NATIVE_DOUBLE, mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
+      H5Dread(set.id, native_type<T>(), mem_space.id, file_space.id, H5P_DEFAULT, data) < 0)
     fail(name);
 }
+
+#define HYPERQN_HDF5_TABLE(T)                                                                                  \
+  template void Hdf5File::create_rows<T>(const std::string&, hsize_t, hsize_t);                               \
+  template void Hdf5File::write_rows<T>(const std::string&, hsize_t, hsize_t, hsize_t, const T*);             \
+  template void Hdf5File::append_rows<T>(const std::string&, hsize_t, hsize_t, const T*, hsize_t);            \
+  template void Hdf5File::read_rows<T>(const std::string&, hsize_t, hsize_t, hsize_t, T*) const;
+HYPERQN_HDF5_TABLE(double)
+HYPERQN_HDF5_TABLE(int64_t)
+HYPERQN_HDF5_TABLE(int32_t)
+HYPERQN_HDF5_TABLE(uint8_t)
+#undef HYPERQN_HDF5_TABLE
 
 hsize_t Hdf5File::rows(const std::string& name) const {
   if (!has(name)) fail("no dataset " + name);
-  Handle set{H5Dopen2(id_, name.c_str(), H5P_DEFAULT), H5Dclose};
-  Handle space{set.id >= 0 ? H5Dget_space(set.id) : -1, H5Sclose};
   hsize_t dims[2] = {0, 0};
-  if (space.id < 0 || H5Sget_simple_extent_ndims(space.id) != 2 || H5Sget_simple_extent_dims(space.id, dims, nullptr) < 0)
-    fail(name + " is not a table");
+  if (!table_dims(id_, name, dims)) fail(name + " is not a table");
   return dims[0];
+}
+
+hsize_t Hdf5File::cols(const std::string& name) const {
+  if (!has(name)) fail("no dataset " + name);
+  hsize_t dims[2] = {0, 0};
+  if (!table_dims(id_, name, dims)) fail(name + " is not a table");
+  return dims[1];
 }
 
 }  // namespace hyperqn

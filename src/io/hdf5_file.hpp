@@ -45,11 +45,21 @@ class Hdf5File {
   std::string read_text(const std::string& name) const;
   bool has(const std::string& name) const;
 
-  // A (rows, cols) float64 dataset written and read a block of rows at a time.
+  // A (rows, cols) dataset written and read a block of rows at a time. T, its element type, is one
+  // of double (float64), int64_t, int32_t and uint8_t; reading checks that the dataset holds
+  // numbers of that kind (integers or floating point) and size, so a file never reads as another type.
+  template <typename T = double>
   void create_rows(const std::string& name, hsize_t rows, hsize_t cols);
-  void write_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, const double* data);
-  void read_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, double* data) const;
+  template <typename T>
+  void write_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, const T* data);
+  template <typename T>
+  void read_rows(const std::string& name, hsize_t first, hsize_t count, hsize_t cols, T* data) const;
+  // Rows added at the end of a dataset that grows (created by the first call, even with count 0,
+  // in chunks of chunk_rows rows, at most 8192): for data that comes in pieces.
+  template <typename T>
+  void append_rows(const std::string& name, hsize_t count, hsize_t cols, const T* data, hsize_t chunk_rows);
   hsize_t rows(const std::string& name) const;
+  hsize_t cols(const std::string& name) const;
 
  private:
   Hdf5File(hid_t id, std::string path, bool writing) : id_(id), path_(std::move(path)), writing_(writing) {}

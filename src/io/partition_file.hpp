@@ -1,5 +1,16 @@
-// The partition file (`hyperqn partition DECK -n N -o FILE.h5`): a mesh cut into N pieces
-// (mesh/mesh_piece.hpp), read back in parallel so that no rank holds the whole mesh.
+// The partition file (`hyperqn partition DECK -n N -o FILE.h5`): a mesh already cut into N pieces
+// (mesh/mesh_piece.hpp), so that a run reads its piece directly and no rank ever holds the whole
+// mesh (docs/performance.md#partition-files).
+//
+// One HDF5 file (io/hdf5_file.hpp: written in memory then atomically, every dataset with
+// Fletcher32 checksums). For each array NAME of piece_arrays, the pieces' rows one after the
+// other in a (rows, width) table NAME (coords 3 columns, tets 4, segments 2, triangles 3,
+// hinges 4, the others 1), and NAME_offsets (parts + 1, 1): part p's rows are
+// [offsets[p], offsets[p + 1]). Beside them 1 x 1 int64 tables: format_version, parts,
+// global_vertices (the whole mesh's vertices), total_tets, total_segments, total_triangles,
+// total_hinges, dropped_vertices and reoriented_tets (what cleaning the mesh changed);
+// part_checksums (parts, 1): a checksum of each piece's arrays, which reading checks; and the
+// texts format ("hyperqn partition file") and source (the deck and mesh it was made from).
 #pragma once
 #include <mpi.h>
 
@@ -11,17 +22,40 @@
 
 namespace hyperqn {
 
-struct PartitionFileInfo {
-  int parts = 0;
-  int64_t vertices = 0, tets = 0, segments = 0, triangles = 0;
-};
+constexpr int kPartitionFileVersion = 1;
 
-// Writes serial cut into nparts pieces to path.
-void write_partition_file(const std::string& path, const TetMesh& serial, int nparts, const std::string& source);
-// The file's counts; InputError naming the file if it is not a readable partition file.
+// Cuts `serial` (cleaned: read_serial_mesh, or clean_mesh) into nparts with pieces_of_serial_mesh
+// and writes every piece to path (replacing it whole; nothing is written on failure). `source`:
+// what the mesh was made from; `repaired`: what cleaning it changed. Throws std::runtime_error
+// "cannot write PATH: <reason>".
+void write_partition_file(const std::string& path, const TetMesh& serial, int nparts, const std::string& source,
+                          const CleanReport& repaired = CleanReport());
+
+// What a partition file holds, from its header and offsets (all of them checked: counts, offsets
+// monotone and within each table, tables of one piece consistent in size), without its pieces.
+struct PartitionFileInfo {
+  int version = 0;
+  int parts = 0;
+  int64_t vertices = 0, tets = 0, segments = 0, triangles = 0, hinges = 0;  // of the whole mesh
+  CleanReport repaired;  // what cleaning the mesh changed when the file was written
+  std::string source;    // what it was made from
+};
+// Throws InputError naming the file if it is missing, unreadable, not a partition file, of
+// another format version, or inconsistent.
 PartitionFileInfo read_partition_info(const std::string& path);
-// This rank's piece (collective): part r if the file has as many parts as comm has ranks, else a
-// chunk (final false) for distribute_mesh to repartition.
+
+// Collective over comm: each rank opens the file read-only and reads only the rows of its own
+// parts. With as many parts as ranks, rank r gets part r (final = true), the same piece
+// pieces_of_serial_mesh gave bit for bit. Otherwise rank r of M takes the parts
+// [r P / M, (r + 1) P / M) merged (merge_pieces; final = false: distribute_mesh partitions them
+// again); a rank with no part gets an empty piece (final = false, global_vertices set).
+// Everything read is checked (the checksum of each part, offsets, sizes, vertex indices within
+// the piece, vertex and element numbers within the whole mesh's counts); any error is the same
+// InputError naming the file on every rank.
 MeshPiece read_partition_piece(MPI_Comm comm, const std::string& path);
+
+// The checksum part_checksums holds: FNV-1a over every array of the piece (its name, length and
+// bytes, in piece_arrays' order).
+uint64_t piece_checksum(MeshPiece& piece);
 
 }  // namespace hyperqn

@@ -1,0 +1,129 @@
+"""hyperqn partition DECK -n N -o FILE.h5 and decks naming a partition file (docs/performance.md#partition-files).
+
+- The command writes the file (one line: parts, vertices, tets, bytes), at 1 rank and, rank 0
+  alone doing the work, at 2; its tables are those io/partition_file.hpp describes.
+- Bad arguments (no -n, no -o, N < 1, more parts than elements, an output not ending in .h5, a
+  deck whose mesh is itself a partition file): exit 1, a message naming the option or key,
+  nothing written.
+- A deck naming a partition file with a key that shapes the mesh (transform, strands, edges,
+  surface), or a partition file that is missing, truncated, of another format version or not one
+  at all: exit 1 at 1 rank (and two of them at 2), a message naming the key or file, no output directory.
+The pieces read back at 1, 2 and 3 ranks are tests/test_partition_file.cpp's."""
+import copy
+import re
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import load_deck, run_hyperqn, write_deck
+
+BAR = load_deck("tests/decks/hanging_bar.yaml")
+
+
+def partition(args, ranks=None):
+    return run_hyperqn(["partition", *map(str, args)], ranks=ranks, check=False)
+
+
+@pytest.fixture(scope="module")
+def bar_file(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("partition")
+    deck = write_deck(tmp / "bar.yaml", BAR)
+    out = tmp / "bar.h5"
+    proc = partition([deck, "-n", 2, "-o", out])
+    assert proc.returncode == 0, proc.stdout
+    return tmp, deck, out, proc.stdout
+
+
+def test_writes_the_pieces(bar_file):
+    tmp, deck, out, stdout = bar_file
+    # 2 x 12 x 2 cubes: 3 x 13 x 3 vertices, 6 tets each
+    line = re.search(r"hyperqn partition: (\S+): (\d+) parts, (\d+) vertices, (\d+) tets, .* (\d+) bytes", stdout)
+    assert line, stdout
+    assert line.group(1) == str(out) and line.groups()[1:4] == ("2", "117", "288")
+    assert int(line.group(5)) == out.stat().st_size
+    with h5py.File(out, "r") as f:
+        assert bytes(f["format"][:]).decode() == "hyperqn partition file"
+        assert f["format_version"][0, 0] == 1 and f["parts"][0, 0] == 2 and f["global_vertices"][0, 0] == 117
+        assert f["tets"].shape == (288, 4) and f["tets"].dtype == np.int32
+        assert f["coords"].dtype == np.float64 and f["triangle_edges"].dtype == np.uint8
+        offsets = f["tets_offsets"][:, 0]
+        assert offsets[0] == 0 and offsets[-1] == 288 and len(offsets) == 3
+        numbers = np.sort(f["element_numbers"][:, 0])
+        assert np.array_equal(numbers, np.arange(288))  # every tet once
+        assert str(deck) in bytes(f["source"][:]).decode()
+
+
+def test_at_two_ranks_rank_0_writes_the_same_file(bar_file):
+    tmp, deck, out, _ = bar_file
+    again = tmp / "bar_np2.h5"
+    proc = partition([deck, "-n", 2, "-o", again], ranks=2)
+    assert proc.returncode == 0, proc.stdout
+    assert proc.stdout.count("hyperqn partition:") == 1
+    with h5py.File(again, "r") as f, h5py.File(out, "r") as g:  # (the bytes differ by HDF5's timestamps)
+        assert sorted(f) == sorted(g)
+        for name in f:
+            assert np.array_equal(f[name][()], g[name][()]) and f[name].dtype == g[name].dtype, name
+
+
+def test_bad_arguments(bar_file):
+    tmp, deck, out, _ = bar_file
+    h5_deck = copy.deepcopy(BAR)
+    h5_deck["mesh"] = {"file": str(out)}
+    h5_deck = write_deck(tmp / "from_h5.yaml", h5_deck)
+    cases = {
+        "no_n": ([deck, "-o", tmp / "no_n.h5"], "'-n'"),
+        "no_o": ([deck, "-n", 2], "'-o'"),
+        "zero": ([deck, "-n", 0, "-o", tmp / "zero.h5"], "'-n'"),
+        "not_a_number": ([deck, "-n", "two", "-o", tmp / "not_a_number.h5"], "'-n'"),
+        "too_many": ([deck, "-n", 289, "-o", tmp / "too_many.h5"], "288 elements"),
+        "not_h5": ([deck, "-n", 2, "-o", tmp / "not_h5.mesh"], "ends in .h5"),
+        "from_h5": ([h5_deck, "-n", 2, "-o", tmp / "from_h5.h5"], "'mesh.file'"),
+        "no_deck": ([tmp / "none.yaml", "-n", 2, "-o", tmp / "no_deck.h5"], "none.yaml"),
+    }
+    for name, (args, expected) in cases.items():
+        proc = partition(args)
+        assert proc.returncode == 1, (name, proc.stdout)
+        assert "hyperqn: error:" in proc.stdout and expected in proc.stdout, (name, proc.stdout)
+        assert not list(tmp.glob(f"{name}*.h5")) and not list(tmp.glob(f".{name}*")), name
+
+
+def bad_deck(tmp, name, out, **mesh_keys):
+    deck = copy.deepcopy(BAR)
+    deck["mesh"] = {"file": str(out), **mesh_keys}
+    return write_deck(tmp / f"{name}.yaml", deck)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_decks_refused(bar_file, ranks):
+    tmp, _, out, _ = bar_file
+    truncated = tmp / "truncated.h5"
+    truncated.write_bytes(out.read_bytes()[: out.stat().st_size // 2])
+    version = tmp / "version.h5"
+    version.write_bytes(out.read_bytes())
+    with h5py.File(version, "r+") as f:
+        f["format_version"][0, 0] = 7
+    other = tmp / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = np.zeros(3)
+    cases = {
+        "transform": (bad_deck(tmp, "transform", out, transform={"scale": 2.0}), ["transform.yaml", "'mesh.transform'", "hyperqn partition"]),
+        "strands": (bad_deck(tmp, "strands", out, strands=[{"from": [0, 0, 0], "to": [0, 1, 0], "segments": 2}]),
+                    ["strands.yaml", "'mesh.strands'"]),
+        "edges": (bad_deck(tmp, "edges", out, edges="strands"), ["edges.yaml", "'mesh.edges'"]),
+        "surface": (bad_deck(tmp, "surface", out, surface="cloth"), ["surface.yaml", "'mesh.surface'"]),
+        "missing": (bad_deck(tmp, "missing", tmp / "missing.h5"), ["missing.yaml", "missing.h5", "not found"]),
+        "truncated": (bad_deck(tmp, "truncated", truncated), [str(truncated), "cannot read"]),
+        "version": (bad_deck(tmp, "version", version), [str(version), "format version 7"]),
+        "other": (bad_deck(tmp, "other", other), [str(other), "not a partition file"]),
+    }
+    if ranks == 2:  # every rank reads the deck alike: two cases suffice
+        cases = {name: cases[name] for name in ("transform", "version")}
+    for name, (deck, expected) in cases.items():
+        outdir = tmp / f"out_{name}_np{ranks}"
+        proc = run_hyperqn([deck, "-o", outdir], ranks=ranks, check=False)
+        assert proc.returncode == 1, (name, proc.stdout)
+        for fragment in expected:
+            assert fragment in proc.stdout, (name, fragment, proc.stdout)
+        assert proc.stdout.count("hyperqn: error:") == 1, (name, proc.stdout)
+        assert not outdir.exists(), name
