@@ -44,15 +44,15 @@ PetscErrorCode make_cloth(const ClothModel& model, bool fix_edge, TestScene& s) 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   TetMesh serial;
-  std::vector<int32_t> fixed;
+  std::vector<BoxRegion> boxes;
+  if (fix_edge) boxes.push_back({{-0.01, -0.01, -0.01}, {0.01, 0.01, 1.01}, 0});
   if (rank == 0) {
     serial = generate_sheet({kWidth, kHeight}, {6, 5});
     clean_mesh(serial, "sheet");
-    std::vector<BoxRegion> boxes;
-    if (fix_edge) boxes.push_back({{-0.01, -0.01, -0.01}, {0.01, 0.01, 1.01}, 0});
-    fixed = select_fixed_vertices(serial, boxes, "test");
   }
-  PetscCall(distribute_mesh(PETSC_COMM_WORLD, serial, fixed, {}, s.mesh));
+  const MeshPiece piece = scatter_serial_mesh(PETSC_COMM_WORLD, serial);
+  const std::vector<int32_t> fixed = select_fixed_vertices(PETSC_COMM_WORLD, piece.mesh, boxes, "test");
+  PetscCall(distribute_mesh(PETSC_COMM_WORLD, piece, fixed, {}, s.mesh));
   ClothSpec cloth;
   const std::string stretch = model.stretch;
   cloth.model = stretch == "mass-spring" ? "mass-spring" : "membrane";

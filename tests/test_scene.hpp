@@ -51,18 +51,18 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   const std::string model = strands ? scene.substr(0, scene.size() - 8) : scene;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
   TetMesh serial;
-  std::vector<int32_t> fixed;
+  std::vector<BoxRegion> boxes;
+  if (fix_end) boxes.push_back({{-0.1, -0.1, -0.1}, {0.01, 1.1, 1.1}, 0});
   if (rank == 0) {
     serial = generate_box({2.0, 1.0, 1.0}, cells);
     if (strands) {
       add_strand(serial, {{2.0, 1.0, 1.0}, {2.72, 1.96, 1.0}, 5, 0});  // length 1.2
       add_strand(serial, {{0.0, 1.5, 0.0}, {0.3, 1.5, 0.4}, 3, 0});    // length 0.5
     }
-    std::vector<BoxRegion> boxes;
-    if (fix_end) boxes.push_back({{-0.1, -0.1, -0.1}, {0.01, 1.1, 1.1}, 0});
-    fixed = select_fixed_vertices(serial, boxes, "test");
   }
-  PetscCall(distribute_mesh(PETSC_COMM_WORLD, serial, fixed, {}, s.mesh));
+  const MeshPiece piece = scatter_serial_mesh(PETSC_COMM_WORLD, serial);
+  const std::vector<int32_t> fixed = select_fixed_vertices(PETSC_COMM_WORLD, piece.mesh, boxes, "test");
+  PetscCall(distribute_mesh(PETSC_COMM_WORLD, piece, fixed, {}, s.mesh));
   MaterialSpec mat;
   mat.model = model;
   mat.mu = 3.0;

@@ -12,6 +12,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/hdf5_file.hpp"
+#include "mesh/distributed_mesh.hpp"
 #include "mesh/input_error.hpp"
 
 namespace hyperqn {
@@ -286,34 +287,59 @@ PartitionFileInfo read_partition_info(const std::string& path) {
   }
 }
 
+// More ranks (M) than parts (P): part p goes to the ranks [ceil(p M / P), ceil((p + 1) M / P)).
+static int first_rank_of_part(int p, int parts, int size) { return int((int64_t(p) * size + parts - 1) / parts); }
+static int part_of(int rank, int parts, int size) {
+  int p = 0;
+  while (p + 1 < parts && first_rank_of_part(p + 1, parts, size) <= rank) ++p;
+  return p;
+}
+// The first rank and the number of ranks of rank's group.
+static std::pair<int, int> group_of(int rank, int parts, int size) {
+  const int p = part_of(rank, parts, size), first = first_rank_of_part(p, parts, size);
+  return {first, first_rank_of_part(p + 1, parts, size) - first};
+}
+
 MeshPiece read_partition_piece(MPI_Comm comm, const std::string& path) {
   int rank, size;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
   MeshPiece piece;
   std::string error;
+  auto failed = [&](const std::exception& e) {
+    if (const auto* input = dynamic_cast<const InputError*>(&e)) return std::string(input->what());
+    if (dynamic_cast<const std::bad_alloc*>(&e))
+      return std::string(InputError(path, 0, "", "out of memory reading this rank's parts of the partition file").what());
+    return std::string(read_error(path, e).what());
+  };
+  int parts = 0;
   try {
     check_readable(path);
     const Hdf5File file = Hdf5File::open(path);
     const Layout layout = read_layout(file);
-    const int parts = layout.info.parts;
-    if (parts == size) {
-      piece = read_part(file, layout, rank);
-      piece.final = true;
-    } else {
+    parts = layout.info.parts;
+    if (parts >= size) {  // rank r takes the parts [r P / M, (r + 1) P / M), merged
       const int first = int(int64_t(rank) * parts / size), last = int(int64_t(rank + 1) * parts / size);
       std::vector<MeshPiece> mine;
       for (int p = first; p < last; ++p) mine.push_back(read_part(file, layout, p));
-      piece = merge_pieces(mine);
+      piece = mine.size() == 1 ? std::move(mine[0]) : merge_pieces(mine);
       piece.global_vertices = layout.info.vertices;
-      piece.final = false;
+    } else if (rank == group_of(rank, parts, size).first) {  // more ranks than parts: the group's first reads
+      piece = read_part(file, layout, part_of(rank, parts, size));
     }
-  } catch (const InputError& e) {
-    error = e.what();
-  } catch (const std::bad_alloc&) {
-    error = InputError(path, 0, "", "out of memory reading this rank's parts of the partition file").what();
   } catch (const std::exception& e) {
-    error = read_error(path, e).what();
+    error = failed(e);
+  }
+  // Every rank knows the file's part count before a group shares its part.
+  int agreed_parts = error.empty() ? parts : -1, smallest = 0;
+  MPI_Allreduce(&agreed_parts, &smallest, 1, MPI_INT, MPI_MIN, comm);
+  if (smallest > 0 && parts < size) {  // part p cut by METIS for its group of ranks
+    const auto [root, count] = group_of(rank, parts, size);
+    try {
+      piece = share_piece(comm, root, count, rank == root ? &piece : nullptr);
+    } catch (const std::exception& e) {
+      if (error.empty()) error = failed(e);
+    }
   }
   try {
     throw_if_any_failed(comm, error);

@@ -45,10 +45,11 @@ struct PartitionFileInfo {
 PartitionFileInfo read_partition_info(const std::string& path);
 
 // Collective over comm: each rank opens the file read-only and reads only the rows of its own
-// parts. With as many parts as ranks, rank r gets part r (final = true), the same piece
-// pieces_of_serial_mesh gave bit for bit. Otherwise rank r of M takes the parts
-// [r P / M, (r + 1) P / M) merged (merge_pieces; final = false: distribute_mesh partitions them
-// again); a rank with no part gets an empty piece (final = false, global_vertices set).
+// parts. With as many parts as ranks, rank r gets part r, the same piece pieces_of_serial_mesh
+// gave bit for bit. With fewer ranks (M < P), rank r takes the parts [r P / M, (r + 1) P / M)
+// merged (merge_pieces). With more, part p goes to the ranks [ceil(p M / P), ceil((p + 1) M / P)):
+// the first of them reads it and cuts it by METIS for the group (share_piece). No rank reads
+// more than its parts, or one part.
 // Everything read is checked (the checksum of each part, offsets, sizes, vertex indices within
 // the piece, vertex and element numbers within the whole mesh's counts); any error is the same
 // InputError naming the file on every rank.

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
+#include <string>
 #include <stdexcept>
 
 #include <numeric>
@@ -328,66 +330,49 @@ bool receive_bytes(MPI_Comm comm, int from, std::vector<char>& bytes) {
   return true;
 }
 
-std::vector<char> as_bytes(const std::vector<int32_t>& v) {
-  return std::vector<char>(reinterpret_cast<const char*>(v.data()), reinterpret_cast<const char*>(v.data() + v.size()));
-}
-std::vector<int32_t> of_bytes(const std::vector<char>& b) {
-  std::vector<int32_t> v(b.size() / sizeof(int32_t));
-  if (!v.empty()) std::memcpy(v.data(), b.data(), v.size() * sizeof(int32_t));
-  return v;
-}
-
 }  // namespace
 
-MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
-                              const std::vector<int32_t>& cell_material, std::vector<int32_t>& fixed,
-                              std::vector<int32_t>& material) {
-  int rank, size;
+// `root` cuts the pieces of ranks root .. root + count - 1 (cut hands them over part by part) and
+// sends each rank its own, keeping part 0; every rank of the group returns its piece, or throws
+// std::runtime_error if root failed (with root's reason on root). Ranks outside the group do not
+// take part; a rank that got its piece before root failed does not know (callers agree after).
+static MeshPiece hand_out(MPI_Comm comm, int root, int count,
+                          const std::function<void(const std::function<void(int, MeshPiece&)>&)>& cut) {
+  int rank;
   MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
   MeshPiece mine;
-  std::string error;
-  if (rank == 0) {
-    // Each piece's share of the per-vertex and per-tet flags goes with it, after the piece.
-    auto shares = [&](const MeshPiece& piece, std::vector<int32_t>& f, std::vector<int32_t>& t) {
-      f.clear();
-      t.clear();
-      if (!fixed_serial.empty())
-        for (int64_t v : piece.vertex_numbers) f.push_back(fixed_serial[v]);
-      if (!cell_material.empty())
-        for (int64_t e = 0; e < piece.mesh.num_tets(); ++e) t.push_back(cell_material[piece.element_numbers[e]]);
-    };
-    int sent = 1;  // ranks that got their piece (rank 0 keeps its own)
+  if (rank == root) {
+    int sent = 1;  // parts handed out (part 0 stays)
     try {
-      pieces_of_serial_mesh(serial, size, [&](int part, MeshPiece& piece) {
-        std::vector<int32_t> f, t;
-        shares(piece, f, t);
+      cut([&](int part, MeshPiece& piece) {
         if (part == 0) {
-          fixed.swap(f);
-          material.swap(t);
           mine = std::move(piece);
           return;
         }
-        send_bytes(comm, part, pack_piece(piece), false);
-        send_bytes(comm, part, as_bytes(f), false);
-        send_bytes(comm, part, as_bytes(t), false);
+        send_bytes(comm, root + part, pack_piece(piece), false);
         sent = part + 1;
       });
     } catch (const std::exception& e) {
-      error = e.what();
-      for (int r = sent; r < size; ++r) send_bytes(comm, r, {}, true);
+      for (int p = sent; p < count; ++p) send_bytes(comm, root + p, {}, true);
+      throw;
     }
   } else {
-    std::vector<char> piece, f, t;
-    if (receive_bytes(comm, 0, piece)) {
-      receive_bytes(comm, 0, f);
-      receive_bytes(comm, 0, t);
-      mine = unpack_piece(piece);
-      fixed = of_bytes(f);
-      material = of_bytes(t);
-    } else {
-      error = "rank 0 could not cut the mesh";
-    }
+    std::vector<char> bytes;
+    if (!receive_bytes(comm, root, bytes)) throw std::runtime_error("rank " + std::to_string(root) + " could not cut the mesh");
+    mine = unpack_piece(bytes);
+  }
+  return mine;
+}
+
+MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial) {
+  int size;
+  MPI_Comm_size(comm, &size);
+  MeshPiece mine;
+  std::string error;
+  try {
+    mine = hand_out(comm, 0, size, [&](const auto& fn) { pieces_of_serial_mesh(serial, size, fn); });
+  } catch (const std::exception& e) {
+    error = e.what();
   }
   // Ranks that got their piece before rank 0 failed learn it here.
   int failed = !error.empty();
@@ -396,11 +381,11 @@ MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::v
   return mine;
 }
 
-PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
-                               const std::vector<int32_t>& cell_material, DistributedMesh& out) {
-  std::vector<int32_t> fixed, material;
-  const MeshPiece piece = scatter_serial_mesh(comm, serial, fixed_serial, cell_material, fixed, material);
-  return distribute_mesh(comm, piece, fixed, material, out);
+MeshPiece share_piece(MPI_Comm comm, int root, int count, const MeshPiece* piece) {
+  return hand_out(comm, root, count, [&](const auto& fn) {
+    if (!piece) throw std::runtime_error("rank " + std::to_string(root) + " has no piece to share");
+    split_piece(*piece, count, fn);
+  });
 }
 
 }  // namespace hyperqn

@@ -68,15 +68,15 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std:
 
 // Rank 0's serial mesh (other ranks pass an empty one) cut into one piece per rank by METIS
 // (pieces_of_serial_mesh) and sent piece by piece, so that rank 0 holds at most one other piece
-// beside the mesh; with each piece, its share of fixed_serial (per serial vertex) and
-// cell_material (per serial tet), either may be empty. Collective; a failure on rank 0 throws
-// std::runtime_error on every rank (rank 0's with the reason).
-MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
-                              const std::vector<int32_t>& cell_material, std::vector<int32_t>& fixed,
-                              std::vector<int32_t>& material);
+// beside the mesh. Collective; a failure on rank 0 throws std::runtime_error on every rank
+// (rank 0's with the reason).
+MeshPiece scatter_serial_mesh(MPI_Comm comm, const TetMesh& serial);
 
-// scatter_serial_mesh, then distribute_mesh (tests build their scenes so).
-PetscErrorCode distribute_mesh(MPI_Comm comm, const TetMesh& serial, const std::vector<int32_t>& fixed_serial,
-                               const std::vector<int32_t>& cell_material, DistributedMesh& out);
+// Rank root's piece cut by METIS (split_piece) for the ranks root .. root + count - 1, each sent
+// its own (a part of a partition file read by more ranks than it has parts). Only the ranks of
+// the group call it, root with its piece (null if it could not get it: the others are told), the
+// others with null. If root fails they throw std::runtime_error, except those already served, so
+// callers agree on failure afterwards (collectively).
+MeshPiece share_piece(MPI_Comm comm, int root, int count, const MeshPiece* piece);
 
 }  // namespace hyperqn

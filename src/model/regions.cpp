@@ -56,11 +56,6 @@ std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, c
   return select_vertices(comm, mesh, boxes, deck_path, "fixed");
 }
 
-std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                           const std::string& deck_path) {
-  return select_fixed_vertices(MPI_COMM_SELF, mesh, boxes, deck_path);
-}
-
 void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                        const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
                        const std::string& deck_path) {

@@ -60,9 +60,6 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
 // select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].
 std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path);
-// The same for a whole mesh on one process (tests).
-std::vector<int32_t> select_fixed_vertices(const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                           const std::string& deck_path);
 
 // Every attachment box selects a vertex (select_vertices' check) and at least one that is not
 // fixed for good (free, or fixed by a region that is released): an attachment whose vertices all

@@ -225,9 +225,8 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     return read_partition_piece(comm, spec.file);
   }
   const TetMesh serial = load_scene_mesh(comm, deck, repaired, plan);
-  std::vector<int32_t> no_flags;
   try {
-    return scatter_serial_mesh(comm, serial, {}, {}, no_flags, no_flags);
+    return scatter_serial_mesh(comm, serial);
   } catch (const std::runtime_error& e) {
     throw InputError(e.what());
   }

@@ -1,11 +1,11 @@
 """A run from a partition file is the run from its mesh file (docs/performance.md#partition-files).
 
 A hanging bar from a shared Medit mesh (moved by mesh.transform, which the file holds applied) is
-written by `hyperqn partition` for 2 parts and run from the file at 1, 2 and 3 ranks: at 2 ranks
+written by `hyperqn partition` for 2 parts and run from the file at 1, 2, 3 and 4 ranks: at 2 ranks
 (the file's parts, each rank reading its own piece) the final positions are bitwise those of the
-run from the mesh file at 2 ranks; at 1 and 3 ranks (the pieces merged and partitioned again)
-within 1e-8 of the rest bounding-box diagonal. The 3-rank case is skipped for now: a run from chunks
-on more than one rank hangs in distribute_mesh's repartition."""
+run from the mesh file at 2 ranks; at 1 rank (the parts merged) and at 3 and 4 (a part cut again
+by METIS for the ranks that share it) within 1e-8 of the rest bounding-box diagonal, and a second
+run at 3 ranks repeats the first bit for bit."""
 import copy
 import os
 
@@ -49,10 +49,8 @@ def runs(tmp_path_factory):
     return tmp, from_file, run(tmp, "mesh_np2", DECK, 2)
 
 
-# 3 ranks: a run from chunks (pieces to repartition) on more than one rank does not finish yet:
-# one rank leaves distribute_mesh's repartition (DMPlexDistribute) while the others wait in it.
 @pytest.mark.skipif(not os.path.exists(BAR990), reason="needs ../shared/meshes/bar990.mesh")
-@pytest.mark.parametrize("ranks", [1, 2, pytest.param(3, marks=pytest.mark.skip(reason="repartitioning chunks hangs"))])
+@pytest.mark.parametrize("ranks", [1, 2, 3, 4])
 def test_runs_from_the_partition_file(runs, ranks):
     tmp, from_file, reference = runs
     f = run(tmp, f"file_np{ranks}", from_file, ranks)
@@ -63,3 +61,6 @@ def test_runs_from_the_partition_file(runs, ranks):
         assert np.array_equal(f.points, reference.points), f"{gap:.2e} of the diagonal: not bitwise"
     else:
         assert gap <= TOLERANCE, f"at {ranks} ranks: {gap:.2e} of the diagonal"
+    if ranks == 3:  # a part cut again is cut the same way every time
+        again = run(tmp, "file_np3_again", from_file, ranks)
+        assert np.array_equal(again.points, f.points)
