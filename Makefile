@@ -37,7 +37,9 @@ build: deps
 run: build
 	$(MPIEXEC) -n $(NP) $(BUILD)/hyperqn $(DECK) $(ARGS)
 
-# The tests run $(JOBS) at a time (ctest -j): CI's two cores each run one.
+# ctest -j: tests run side by side as far as the cores allow; each declares the processors it
+# uses (PROCESSORS in tests/CMakeLists.txt: 2 for the MPI and end-to-end tests), so on 2 cores
+# those run one at a time.
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
