@@ -4,12 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <functional>
-#include <string>
 #include <stdexcept>
-
-#include <numeric>
+#include <string>
 
 namespace hyperqn {
 
@@ -51,11 +48,10 @@ static PetscErrorCode create_piece_plex(MPI_Comm comm, const MeshPiece& piece, D
   PetscCall(DMSetType(*dm, DMPLEX));
   PetscCall(DMSetDimension(*dm, 3));
   PetscCall(DMPlexCreateFromDAG(*dm, 1, num_points, cone_size.data(), cones.data(), orientations.data(), m.coords.data()));
-  // DMPlexDistribute orders the migrated points of a non-interpolated mesh by the dimension of
-  // their cell type, cells (3) and vertices (0) only: a segment or a triangle, typed as a 1- or
-  // 2-dimensional polytope, would get no place (PETSc 3.18 then fails with duplicate SF leaves).
-  // Every element is a cell of this mesh like a tet, so it is typed like one; nothing else reads
-  // the cell type.
+  // Every element is a cell of this mesh like a tet, so it is typed like one. PETSc orders the
+  // points of a non-interpolated mesh by the dimension of their cell type where it moves them
+  // (DMPlexDistribute in 3.18 failed with duplicate SF leaves when segments and triangles were
+  // typed as 1- and 2-dimensional polytopes); nothing of hyperqn reads the cell type.
   DMLabel cell_type;
   PetscCall(DMPlexGetCellTypeLabel(*dm, &cell_type));
   for (PetscInt c = 0; c < nc; ++c) {
