@@ -883,9 +883,11 @@ void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) {
 
 // The sections that define the physics as YAML text (time without frames, which only says how
 // long to run): what a checkpoint's physics hash is made of. A section the deck leaves out is "".
+// Not `mesh`: the mesh is recognised by the hash of the mesh as built (piece_hash_sums), so a run
+// started from a mesh file may continue from its partition file, and a changed mesh is still refused.
 std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
   std::vector<std::pair<std::string, std::string>> out;
-  for (const char* key : {"mesh", "material", "strand_material", "regions", "fixed", "attachments", "colliders",
+  for (const char* key : {"material", "strand_material", "regions", "fixed", "attachments", "colliders",
                           "contact", "initial", "gravity", "time", "cloth"}) {
     const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
     if (!found || found.IsNull()) {

@@ -5,7 +5,8 @@ written by `hyperqn partition` for 2 parts and run from the file at 1, 2, 3 and 
 (the file's parts, each rank reading its own piece) the final positions are bitwise those of the
 run from the mesh file at 2 ranks; at 1 rank (the parts merged) and at 3 and 4 (a part cut again
 by METIS for the ranks that share it) within 1e-8 of the rest bounding-box diagonal, and a second
-run at 3 ranks repeats the first bit for bit."""
+run at 3 ranks repeats the first bit for bit. A run started from the mesh file continues from the
+partition file (at another rank count); a partition file of another mesh is refused."""
 import copy
 import os
 
@@ -64,3 +65,35 @@ def test_runs_from_the_partition_file(runs, ranks):
     if ranks == 3:  # a part cut again is cut the same way every time
         again = run(tmp, "file_np3_again", from_file, ranks)
         assert np.array_equal(again.points, f.points)
+
+
+@pytest.mark.skipif(not os.path.exists(BAR990), reason="needs ../shared/meshes/bar990.mesh")
+def test_a_run_from_the_mesh_file_continues_from_the_partition_file(runs, tmp_path):
+    """The checkpoint knows the mesh by its hash, not by the deck's mesh section: the first part
+    runs from the mesh file at 2 ranks, the second from the partition file at 3 ranks, and ends
+    where the run from the mesh file ends; a partition file of another mesh is refused."""
+    _, from_file, reference = runs
+    out = tmp_path / "continued"
+    first = copy.deepcopy(DECK)
+    first["time"] = dict(DECK["time"], frames=2)
+    first["checkpoint"] = {"every": 1}
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", out], ranks=2, timeout=120)
+    second = copy.deepcopy(from_file)
+    second["checkpoint"] = {"every": 1}
+    proc = run_hyperqn([write_deck(tmp_path / "second.yaml", second), "-o", out, "--restart", "latest"], ranks=3,
+                       timeout=120)
+    assert "restart from" in proc.stdout and read_summary(out)["status"] == "ok"
+    f = final_frame(out)
+    gap = np.abs(f.points - reference.points).max() / rest_diagonal(reference)
+    assert gap <= TOLERANCE, f"{gap:.2e} of the diagonal"
+    # Another mesh (moved by 1 mm) in a partition file: the restart is refused, naming the mesh.
+    moved = copy.deepcopy(DECK)
+    moved["mesh"]["transform"] = {"translate": [1.516, 0, 0]}
+    other = tmp_path / "moved.h5"
+    run_hyperqn(["partition", write_deck(tmp_path / "moved.yaml", moved), "-n", 2, "-o", other], ranks=None)
+    refused = copy.deepcopy(second)
+    refused["mesh"] = {"file": str(other)}
+    refused["time"] = dict(DECK["time"], frames=4)
+    proc = run_hyperqn([write_deck(tmp_path / "refused.yaml", refused), "-o", out, "--restart", "latest"], ranks=2,
+                       timeout=120, check=False)
+    assert proc.returncode == 1 and "the mesh differs" in proc.stdout, proc.stdout[-2000:]
