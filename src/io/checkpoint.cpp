@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/fnv_hash.hpp"
 #include "io/hdf5_file.hpp"
 
 namespace fs = std::filesystem;
@@ -381,13 +382,10 @@ std::string hash_mismatch(int k, const DataHash& read, const CheckpointHeader& h
 }  // namespace
 
 std::string text_hash(const std::string& text) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
+  Fnv1a h;
+  h.add(text.data(), text.size());
   char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
+  std::snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h.value);
   return hex;
 }
 

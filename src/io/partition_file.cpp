@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "io/fnv_hash.hpp"
 #include "io/hdf5_file.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "mesh/input_error.hpp"
@@ -40,16 +41,6 @@ int64_t serial_rows(const std::string& name, const TetMesh& m) {
   if (name == "triangles" || name == "triangle_tags" || name == "triangle_edges") return m.num_triangles();
   if (name == "hinges") return m.num_hinges();
   return m.num_tets() + m.num_segments() + m.num_triangles();  // element_numbers
-}
-
-// fn(name, vector) for every array of a piece, of whatever element type.
-template <typename Fn>
-void for_each_array(MeshPiece& piece, Fn&& fn) {
-  PieceArrays a = piece_arrays(piece);
-  for (auto& [name, v] : a.doubles) fn(std::string(name), *v);
-  for (auto& [name, v] : a.ints) fn(std::string(name), *v);
-  for (auto& [name, v] : a.longs) fn(std::string(name), *v);
-  for (auto& [name, v] : a.bytes) fn(std::string(name), *v);
 }
 
 int64_t read_scalar(const Hdf5File& file, const std::string& name) {
@@ -222,18 +213,14 @@ InputError read_error(const std::string& path, const std::exception& e) {
 }  // namespace
 
 uint64_t piece_checksum(MeshPiece& piece) {
-  uint64_t h = 1469598103934665603ull;
-  const auto add = [&h](const void* data, size_t bytes) {
-    const unsigned char* b = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 1099511628211ull;
-  };
+  Fnv1a h;
   for_each_array(piece, [&](const std::string& name, auto& v) {
     const uint64_t n = v.size();
-    add(name.data(), name.size());
-    add(&n, sizeof n);
-    add(v.data(), v.size() * sizeof(v[0]));
+    h.add(name.data(), name.size());
+    h.add(&n, sizeof n);
+    h.add(v.data(), v.size() * sizeof(v[0]));
   });
-  return h;
+  return h.value;
 }
 
 void write_partition_file(const std::string& path, const TetMesh& serial, int nparts, const std::string& source,

@@ -248,15 +248,7 @@ static PetscErrorCode fill_dof_numbers(DistributedMesh& m) {
 }
 
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]) {
-  for (int d = 0; d < 3; ++d) {
-    lo[d] = HUGE_VAL;
-    hi[d] = -HUGE_VAL;
-  }
-  for (PetscInt v = 0; v < m.num_vertices; ++v)
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], m.rest[3 * v + d]);
-      hi[d] = std::max(hi[d], m.rest[3 * v + d]);
-    }
+  bounding_box(m.rest, lo, hi);
   MPI_Comm comm = PetscObjectComm((PetscObject)m.dm);
   MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
   MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);

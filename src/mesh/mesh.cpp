@@ -260,13 +260,21 @@ TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 
 
 // ---------------------------------------------------------------------------------------------
 
-double bounding_box_diagonal(const TetMesh& mesh) {
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3)
+void bounding_box(const std::vector<double>& coords, double lo[3], double hi[3]) {
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = HUGE_VAL;
+    hi[d] = -HUGE_VAL;
+  }
+  for (size_t v = 0; v + 2 < coords.size(); v += 3)
     for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], mesh.coords[v + d]);
-      hi[d] = std::max(hi[d], mesh.coords[v + d]);
+      lo[d] = std::min(lo[d], coords[v + d]);
+      hi[d] = std::max(hi[d], coords[v + d]);
     }
+}
+
+double bounding_box_diagonal(const TetMesh& mesh) {
+  double lo[3], hi[3];
+  bounding_box(mesh.coords, lo, hi);
   if (mesh.coords.empty()) return 0;
   return distance(lo, hi);
 }

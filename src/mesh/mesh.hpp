@@ -39,6 +39,8 @@ struct TetMesh {
 // Counts, indices and truncation are checked: throws InputError naming the file and line.
 TetMesh read_medit(const std::string& path, bool edges_as_strands = false, bool triangles_as_cloth = false);
 
+// The bounding box [lo, hi] of points stored x y z one after the other (lo > hi if there are none).
+void bounding_box(const std::vector<double>& coords, double lo[3], double hi[3]);
 // Diagonal of the bounding box of the vertices (0 for an empty mesh).
 double bounding_box_diagonal(const TetMesh& mesh);
 

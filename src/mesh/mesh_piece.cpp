@@ -285,23 +285,15 @@ MeshPiece sheet_piece(const std::array<double, 2>& size, const std::array<int, 2
 
 std::vector<char> pack_piece(MeshPiece& piece) {
   std::vector<char> out;
-  PieceArrays a = piece_arrays(piece);
-  for (auto& [name, v] : a.doubles) put(out, *v);
-  for (auto& [name, v] : a.ints) put(out, *v);
-  for (auto& [name, v] : a.longs) put(out, *v);
-  for (auto& [name, v] : a.bytes) put(out, *v);
+  for_each_array(piece, [&](const std::string&, auto& v) { put(out, v); });
   put(out, std::vector<int64_t>{piece.global_vertices});
   return out;
 }
 
 MeshPiece unpack_piece(const std::vector<char>& in) {
   MeshPiece piece;
-  PieceArrays a = piece_arrays(piece);
   size_t at = 0;
-  for (auto& [name, v] : a.doubles) take(in, at, *v);
-  for (auto& [name, v] : a.ints) take(in, at, *v);
-  for (auto& [name, v] : a.longs) take(in, at, *v);
-  for (auto& [name, v] : a.bytes) take(in, at, *v);
+  for_each_array(piece, [&](const std::string&, auto& v) { take(in, at, v); });
   std::vector<int64_t> tail;
   take(in, at, tail);
   if (tail.size() != 1 || at != in.size()) throw std::runtime_error("unpack_piece: malformed buffer");

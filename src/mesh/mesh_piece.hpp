@@ -39,6 +39,16 @@ struct PieceArrays {
 };
 PieceArrays piece_arrays(MeshPiece& piece);
 
+// fn(name, vector) for every array of a piece, of whatever element type, in piece_arrays' order.
+template <typename Fn>
+void for_each_array(MeshPiece& piece, Fn&& fn) {
+  PieceArrays a = piece_arrays(piece);
+  for (auto& [name, v] : a.doubles) fn(std::string(name), *v);
+  for (auto& [name, v] : a.ints) fn(std::string(name), *v);
+  for (auto& [name, v] : a.longs) fn(std::string(name), *v);
+  for (auto& [name, v] : a.bytes) fn(std::string(name), *v);
+}
+
 // The pieces of a serial mesh cut into nparts by METIS (nparts = 1: the mesh itself), handed to
 // fn one at a time, part 0 first, so that at most one piece exists beside the mesh. The mesh is
 // cleaned (clean_mesh: hinges and carried edges filled).

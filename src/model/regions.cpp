@@ -16,12 +16,8 @@ bool in_box(const double* p, const BoxRegion& box, double tol) {
 }
 
 double mesh_diagonal(MPI_Comm comm, const TetMesh& mesh) {
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  for (size_t v = 0; v + 2 < mesh.coords.size(); v += 3)
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], mesh.coords[v + d]);
-      hi[d] = std::max(hi[d], mesh.coords[v + d]);
-    }
+  double lo[3], hi[3];
+  bounding_box(mesh.coords, lo, hi);
   MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
   MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);
   if (lo[0] > hi[0]) return 0;  // no vertex anywhere
