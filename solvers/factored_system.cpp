@@ -7,6 +7,7 @@
 namespace hyperqn {
 
 FactoredSystem::~FactoredSystem() {
+  interleaved_.reset();  // before the GAMG cycle whose coarse solver it borrows
   MatDestroy(&shell_);
   KSPDestroy(&ksp_);
   MatDestroy(&rhs_);
@@ -123,6 +124,14 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PetscCheck(preonly, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
              "solver.h0: amg is one V-cycle, a fixed linear operator: -h0_ksp_type must stay preonly");
   PetscCall(KSPSetUp(ksp_));
+  PetscBool supported;
+  PetscCall(InterleavedVCycle::supported(pc, &supported));
+  if (supported) {
+    interleaved_ = std::make_unique<InterleavedVCycle>();
+    PetscCall(interleaved_->setup(pc));
+    // -h0_ksp_view: the hierarchy the interleaved cycle runs (GAMG's KSP is not solved with then).
+    PetscCall(KSPViewFromOptions(ksp_, nullptr, "-ksp_view"));
+  }
   // The hierarchy's entries, where PETSc holds the levels (PCMG and its GAMG).
   PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &mg, PCMG, PCGAMG, ""));
   MatInfo info;
@@ -377,8 +386,10 @@ PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
       supernodal_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
+  } else if (interleaved_) {
+    PetscCall(interleaved_->apply(b, x));
   } else if (ksp_) {  // one V-cycle per column x, y, z
-    PetscCall(by_columns(b, x, [this](Vec in, Vec out) { return KSPSolve(ksp_, in, out); }));
+    PetscCall(solve_by_columns(b, x));
   } else if (kind_ == ConstantMatrix::laplacian) {
     Mat rhs = rhs0_ ? rhs0_ : rhs_, sol = sol0_ ? sol0_ : sol_;
     PetscCall(copy_columns(b, rhs, true));
@@ -403,6 +414,12 @@ PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
     PetscCall(solve_here(b, x));
   }
   PetscCall(event_end(&LogEvents::h0_solve));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::solve_by_columns(Vec b, Vec x) const {
+  PetscFunctionBeginUser;
+  PetscCall(by_columns(b, x, [this](Vec in, Vec out) { return KSPSolve(ksp_, in, out); }));
   PetscFunctionReturn(0);
 }
 

@@ -23,6 +23,7 @@
 #include <functional>
 #include <memory>
 
+#include "solvers/interleaved_vcycle.hpp"
 #include "solvers/objective.hpp"
 #include "solvers/split_cholesky.hpp"
 #include "solvers/supernodal_cholesky.hpp"
@@ -81,8 +82,13 @@ class FactoredSystem {
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
-  // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle per column.
+  // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle of A1 (x) I3
+  // (solvers/interleaved_vcycle.hpp), or one per column x, y, z where it does not apply.
   PetscErrorCode solve(Vec b, Vec x) const;
+  // amg: whether solve runs the interleaved cycle, and B b by GAMG's own cycle on each column
+  // (the same B to round-off; the reference tests compare the interleaved one against).
+  bool interleaved() const { return interleaved_ != nullptr; }
+  PetscErrorCode solve_by_columns(Vec b, Vec x) const;
   // y = A x.
   PetscErrorCode mult(Vec x, Vec y) const;
   // A shell matrix whose MatSolve applies A^{-1} and whose MatMult applies A: the form
@@ -118,6 +124,7 @@ class FactoredSystem {
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
   KSP ksp_ = nullptr;                                      // instead of a factor for amg
+  std::unique_ptr<InterleavedVCycle> interleaved_;         // amg with GAMG's default smoothers
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices
   // More than one rank: A on rank 0 (a 0 x 0 matrix elsewhere), the scatter of a dof vector to
   // rank 0 and its gathered copy there (length 0 elsewhere).

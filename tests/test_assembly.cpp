@@ -234,7 +234,8 @@ PetscErrorCode check_factored_system(const std::string& model, ConstantMatrix ki
 // solver.h0: amg. B, one V-cycle of A1 on each of x, y, z (distributed at N ranks), must be what
 // L-BFGS takes as H0: a fixed linear operator (the same B u at every call), symmetric
 // (<Bu, v> = <u, Bv> to round-off) and positive definite (<Bu, u> > 0), and, being a V-cycle of A,
-// a convergent iteration: |u - B A u|_A < |u|_A. On a 24 x 12 x 12 box (4225 vertices), so that
+// a convergent iteration: |u - B A u|_A < |u|_A; with GAMG, the interleaved cycle equal to GAMG's
+// own cycle on each column. On a 24 x 12 x 12 box (4225 vertices), so that
 // the hierarchy has coarse levels; with GAMG (the default) and BoomerAMG (-h0_pc_type hypre).
 PetscErrorCode check_amg(const char* pc_type) {
   TestScene s;
@@ -256,6 +257,9 @@ PetscErrorCode check_amg(const char* pc_type) {
   PetscCall(sys.setup(*s.step, ConstantMatrix::laplacian, FactorPackage::amg));
   PetscCall(PetscOptionsClearValue(nullptr, "-h0_pc_type"));
   CHECK(sys.package() == FactorPackage::amg && sys.factorizations() == 1);
+  // GAMG with its default smoothers runs the interleaved cycle; BoomerAMG one V-cycle per column.
+  CHECK_MSG(sys.interleaved() == (std::string(pc_type) == "gamg"), what + ": interleaved " +
+                                                                      std::to_string(sys.interleaved()));
   PetscCall(s.step->assemble_constant_matrix(&A1, 1));
   PetscCall(MatGetInfo(A1, MAT_GLOBAL_SUM, &info));
   if (std::string(pc_type) == "gamg")  // A1 and at least one coarser level (BoomerAMG's are not counted)
@@ -286,6 +290,17 @@ PetscErrorCode check_amg(const char* pc_type) {
     PetscCall(sys.solve(u, again));  // after another right-hand side: the same operator, bit for bit
     PetscCall(VecEqual(again, Bu, &same));
     CHECK_MSG(same, what + ": B u changed between calls");
+    if (sys.interleaved()) {  // the interleaved cycle is GAMG's cycle on each column, to round-off
+      PetscReal difference, size;
+      PetscCall(sys.solve_by_columns(u, again));
+      PetscCall(VecNorm(Bu, NORM_INFINITY, &size));
+      PetscCall(VecAXPY(again, -1.0, Bu));
+      PetscCall(VecNorm(again, NORM_INFINITY, &difference));
+      CHECK_MSG(difference <= 1e-12 * size, what + ": interleaved and column-by-column V-cycles differ by " +
+                                                std::to_string(difference / size));
+      if (seed == 1) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: interleaved against columns %.1e\n", what.c_str(),
+                                           difference / size));
+    }
     PetscCall(sys.mult(u, Au));  // e = u - B A u, in A's norm
     PetscCall(sys.solve(Au, e));
     PetscCall(VecAYPX(e, -1.0, u));
