@@ -139,7 +139,7 @@ def main():
             deck = load_deck(base)
             deck["solver"]["h0"] = h0
             if args.fixed_budget:
-                deck["solver"].update({"iterations": 10, "max_iterations": 0, "max_halvings": 0, "newton_fallback": False})
+                deck["solver"].update({"iterations": 10, "budget": "fixed"})
             add_petsc(deck, h0, args.petsc)
             plain = write_deck(os.path.join(deckdir, f"{name}-{h0}.yaml"), deck)
             study = None

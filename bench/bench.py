@@ -112,7 +112,7 @@ def write_deck(name, deckdir, frames, material="neohookean"):
                       for x in (0.0, 1.0)],
             "gravity": [0, -9.81, 0],
             "time": {"dt": 0.0333333333, "frames": frames},
-            "solver": {"type": "lbfgs", "iterations": 10, "max_iterations": 0, "max_halvings": 0, "newton_fallback": False},
+            "solver": {"type": "lbfgs", "iterations": 10, "budget": "fixed"},
             "output": {"vtk": False},
         })
         return write_yaml(os.path.join(deckdir, name + ".yaml"), deck,

@@ -20,7 +20,7 @@ PATHS = {
     "amg": {"type": "lbfgs", "h0": "amg"},
     "newton": {"type": "newton", "linear_solver": "mumps"},
 }
-NO_CHAIN = {"max_iterations": 0, "max_halvings": 0, "newton_fallback": False}
+NO_CHAIN = {"budget": "fixed"}
 ESTIMATE = re.compile(r"^hyperqn: memory estimate rank (\d+): about (\d+) MB", re.M)
 
 

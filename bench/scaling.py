@@ -44,7 +44,7 @@ PATHS = {  # name: (solver keys, options)
     "supernodal": ({"h0": "laplacian"}, ["-hyperqn_h0_package", "supernodal"]),
     "amg": ({"h0": "amg"}, []),
 }
-FIXED_BUDGET = {"iterations": 10, "max_iterations": 0, "max_halvings": 0, "newton_fallback": False}
+FIXED_BUDGET = {"iterations": 10, "budget": "fixed"}
 COLUMNS = ["case", "path", "ranks", "timed", "vertices", "package", "s", "it",
            "ms/it", "grad ms", "h0 ms", "other ms", "setup s",
            "msg/it", "KB/it", "red/it", "grad msg", "grad KB", "h0 msg", "h0 KB", "h0 red", "uncounted KB",

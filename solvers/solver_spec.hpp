@@ -32,11 +32,20 @@ struct SolverSpec {
   // The fallback chain of a frame that ends far from converged (docs/guardrails.md#fallback):
   // iterate on up to max_iterations, then redo the frame in 2, 4, ... 2^max_halvings sub-steps,
   // then with Newton. max_iterations <= iterations, max_halvings = 0, newton_fallback = false
-  // turn the stages off one by one (the study does: its budgets are the paper's).
+  // turn the stages off one by one; use_fixed_budget turns them all off.
   int max_iterations = 100;
   int max_halvings = 3;
   bool newton_fallback = true;
   bool quiet = false;  // set up without a word (the chain's solvers: the run's own one has spoken)
 };
+
+// The paper's fixed budget (the deck's solver: {budget: fixed}, and every study contender): a
+// frame takes `iterations` iterations (fewer only if it converges), never more, never sub-steps,
+// never Newton.
+inline void use_fixed_budget(SolverSpec& s) {
+  s.max_iterations = 0;
+  s.max_halvings = 0;
+  s.newton_fallback = false;
+}
 
 }  // namespace hyperqn

@@ -648,6 +648,24 @@ void test_cloth_decks() {
 
 }  // namespace
 
+// solver.budget: fixed is the three fallback-chain keys turned off in one; adaptive (the default)
+// leaves them as given; a stage key beside fixed is an error naming it.
+void test_budget() {
+  const Deck adaptive = load_ok("budget_default", kHead + "solver: {max_halvings: 2}\n");
+  CHECK(adaptive.solver.max_iterations == 100 && adaptive.solver.max_halvings == 2 && adaptive.solver.newton_fallback);
+  const Deck fixed = load_ok("budget_fixed", kHead + "solver: {iterations: 7, budget: fixed}\n");
+  CHECK(fixed.solver.iterations == 7 && fixed.solver.max_iterations == 0 && fixed.solver.max_halvings == 0 &&
+        !fixed.solver.newton_fallback);
+  const Deck explicit_adaptive = load_ok("budget_adaptive", kHead + "solver: {budget: adaptive, newton_fallback: false}\n");
+  CHECK(explicit_adaptive.solver.max_halvings == 3 && !explicit_adaptive.solver.newton_fallback);
+  for (const char* key : {"max_iterations: 50", "max_halvings: 2", "newton_fallback: true"}) {
+    const std::string name = std::string(key).substr(0, std::string(key).find(':'));
+    expect_error("budget_fixed_" + name, kHead + "solver:\n  budget: fixed\n  " + key + "\n", "solver." + name, 5,
+                 "budget: fixed turns off the fallback chain");
+  }
+  expect_error("budget_unknown", kHead + "solver: {budget: exact}\n", "solver.budget", 3, "adaptive");
+}
+
 int main() {
   std::random_device rd;
   g_dir = fs::temp_directory_path() /
@@ -662,6 +680,7 @@ int main() {
   test_elastic_constants();
   test_mesh_paths();
   test_invalid_decks();
+  test_budget();
   test_strand_decks();
   test_cloth_decks();
 #ifdef HYPERQN_SOURCE_DIR

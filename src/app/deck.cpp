@@ -767,7 +767,7 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
                    "newton_method", "linear_solver", "newton_hessian", "h0", "max_iterations", "max_halvings",
-                   "newton_fallback", "history_reset", "upright_guess"});
+                   "newton_fallback", "history_reset", "upright_guess", "budget"});
   if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
   if (const Value* x = s.find("iterations")) {
     sv.iterations = r.integer(*x);
@@ -811,6 +811,17 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
             "in [0, 10] (each halving may factor one more M + h^2 L)");
   }
   if (const Value* x = s.find("newton_fallback")) sv.newton_fallback = r.boolean(*x);
+  // adaptive: the fallback chain as the three keys above set it; fixed: none of it, and then
+  // those keys would say nothing, so giving one is an error rather than silently overruled.
+  if (const Value* x = s.find("budget")) {
+    if (r.choice(*x, {"adaptive", "fixed"}) == "fixed") {
+      for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"})
+        if (const Value* stage = s.find(key))
+          r.fail(*stage, std::string("budget: fixed turns off the fallback chain (") + key +
+                             " among it): leave " + key + " out, or use budget: adaptive");
+      use_fixed_budget(sv);
+    }
+  }
 }
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {

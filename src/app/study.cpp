@@ -45,9 +45,7 @@ SolverSpec spec_for(const Deck& deck, const std::string& type, int iterations, d
   s.iterations = iterations;
   s.grad_atol = 0;
   s.grad_rtol = rtol;
-  s.max_iterations = 0;  // no fallback chain: the study compares solvers at fixed budgets
-  s.max_halvings = 0;
-  s.newton_fallback = false;
+  use_fixed_budget(s);  // no fallback chain: the study compares solvers at fixed budgets
   return s;
 }
 

@@ -183,6 +183,27 @@ def test_pd_is_lbfgs_with_history_0_on_mass_spring_cloth(tmp_path, bending):
     assert np.array_equal(fa.points, fb.points), np.max(np.abs(fa.points - fb.points))
 
 
+def test_fixed_budget_takes_exactly_the_iterations(tmp_path):
+    """solver.budget: fixed (docs/decks.md#solver): every frame takes `iterations` iterations, no more,
+    no sub-steps, no Newton, where the adaptive default goes on with frames left far from converged."""
+    deck = small_liu_sheet(frames=8)
+    deck["output"] = {"vtk": False}
+    counts = {}
+    for budget in ("adaptive", "fixed"):
+        d = dict(deck, solver={"type": "lbfgs", "iterations": 3, "budget": budget})
+        out, _ = run(tmp_path, budget, d)
+        per_frame = {}
+        for r in read_iterations(out):
+            per_frame[r["frame"]] = max(per_frame.get(r["frame"], 0), r["iteration"])
+        counts[budget] = (per_frame, read_summary(out))
+    fixed, summary = counts["fixed"]
+    assert sorted(fixed) == list(range(1, 9)) and set(fixed.values()) == {3}, fixed
+    assert summary["substepped_frames"] == 0 and summary["newton_frames"] == 0, summary
+    adaptive, summary = counts["adaptive"]
+    print(f"iterations per frame, adaptive: {adaptive}; fixed: {fixed}")
+    assert max(adaptive.values()) > 3 or summary["substepped_frames"] > 0 or summary["newton_frames"] > 0, adaptive
+
+
 def test_bad_cloth_meshes_are_refused(tmp_path):
     springs = {"model": "mass-spring", "stretch_stiffness": 10.0, "areal_density": 0.1}
     cases = {
