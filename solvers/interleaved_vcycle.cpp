@@ -23,6 +23,14 @@ PetscErrorCode InterleavedVCycle::supported(PC pc, PetscBool* ok) {
   PetscCall(PCMGGetType(pc, &type));
   PetscCall(PCMGGetLevels(pc, &levels));
   if (type != PC_MG_MULTIPLICATIVE || levels < 2) PetscFunctionReturn(0);
+  // Options this cycle does not copy (it is one V-cycle of first-kind Chebyshev): column by column.
+  const char* prefix;
+  PetscCall(PCGetOptionsPrefix(pc, &prefix));
+  for (const char* option : {"-pc_mg_cycle_type", "-pc_mg_multiplicative_cycles", "-mg_levels_ksp_chebyshev_kind"}) {
+    PetscBool given;
+    PetscCall(PetscOptionsHasName(nullptr, prefix, option, &given));
+    if (given) PetscFunctionReturn(0);
+  }
   for (PetscInt l = 1; l < levels; ++l) {
     // PCMGGetSmoother: the level's smoother, before and after (PCMGGetSmootherUp would create a
     // separate one).

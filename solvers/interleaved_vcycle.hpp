@@ -14,8 +14,8 @@
 // round-off. Symmetric positive definite as GAMG's cycle is.
 //
 // Only for GAMG with its default smoothers (Chebyshev + Jacobi): supported() says whether a set-up
-// PC qualifies; with other options (-h0_pc_type hypre, -h0_mg_levels_pc_type sor, ...) the V-cycle
-// runs column by column.
+// PC qualifies; with other options (-h0_pc_type hypre, -h0_mg_levels_pc_type sor,
+// -h0_pc_mg_cycle_type w, ...) the V-cycle runs column by column.
 #pragma once
 #include <petscksp.h>
 

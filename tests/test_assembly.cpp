@@ -312,6 +312,13 @@ PetscErrorCode check_amg(const char* pc_type) {
                                          what.c_str(), asymmetry, eAe / uAu));
   }
   PetscCall(PetscRandomDestroy(&rnd));
+  if (std::string(pc_type) == "gamg") {  // a W-cycle is not what the interleaved cycle runs: columns
+    FactoredSystem w_cycle;
+    PetscCall(PetscOptionsSetValue(nullptr, "-h0_pc_mg_cycle_type", "w"));
+    PetscCall(w_cycle.setup(*s.step, ConstantMatrix::laplacian, FactorPackage::amg));
+    PetscCall(PetscOptionsClearValue(nullptr, "-h0_pc_mg_cycle_type"));
+    CHECK_MSG(!w_cycle.interleaved(), what + ": -h0_pc_mg_cycle_type w ran the interleaved V-cycle");
+  }
   for (Vec* w : {&u, &v, &Bu, &Bv, &again, &Au, &e}) PetscCall(VecDestroy(w));
   PetscCall(MatDestroy(&A1));
   PetscFunctionReturn(0);
