@@ -14,6 +14,7 @@ namespace fs = std::filesystem;
 using hyperqn::Deck;
 using hyperqn::InputError;
 using hyperqn::load_deck;
+using hyperqn::TimeIntegrator;
 
 namespace {
 
@@ -666,6 +667,19 @@ void test_budget() {
   expect_error("budget_unknown", kHead + "solver: {budget: exact}\n", "solver.budget", 3, "adaptive");
 }
 
+// time.integrator: implicit-euler by default, implicit-midpoint on request; with colliders the
+// midpoint is refused at its line (its end-of-step map can pass through an obstacle).
+void test_integrator() {
+  CHECK(load_ok("integrator_default", kHead).time.integrator == TimeIntegrator::implicit_euler);
+  CHECK(load_ok("integrator_midpoint", kHead + "time: {integrator: implicit-midpoint}\n").time.integrator ==
+        TimeIntegrator::implicit_midpoint);
+  expect_error("integrator_unknown", kHead + "time: {integrator: bdf9}\n", "time.integrator", 3, "implicit-midpoint");
+  expect_error("integrator_colliders",
+               kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\ntime:\n  integrator: "
+                       "implicit-midpoint\n",
+               "time.integrator", 6, "colliders");
+}
+
 int main() {
   std::random_device rd;
   g_dir = fs::temp_directory_path() /
@@ -681,6 +695,7 @@ int main() {
   test_mesh_paths();
   test_invalid_decks();
   test_budget();
+  test_integrator();
   test_strand_decks();
   test_cloth_decks();
 #ifdef HYPERQN_SOURCE_DIR

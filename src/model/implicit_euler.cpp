@@ -8,10 +8,11 @@
 namespace hyperqn {
 
 ImplicitEuler::ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
-                             WarmStart warm_start, bool upright_guess, double element_limit)
-    : body_(body), dt_(dt), damping_(damping), gravity_(gravity), warm_start_(warm_start),
-      upright_guess_(upright_guess),
-      element_limit_(element_limit) {}
+                             WarmStart warm_start, bool upright_guess, double element_limit,
+                             TimeIntegrator integrator)
+    : body_(body), dt_(dt), damping_(damping), integrator_(integrator),
+      solve_dt_(integrator == TimeIntegrator::implicit_midpoint ? 0.5 * dt : dt), gravity_(gravity),
+      warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 ImplicitEuler::~ImplicitEuler() {
   for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_}) VecDestroy(v);
@@ -34,14 +35,14 @@ PetscErrorCode ImplicitEuler::setup() {
   PetscCall(VecDuplicate(mass_, &gravity_step_));
   PetscCall(VecGetOwnershipRange(gravity_step_, &lo, &hi));
   PetscCall(VecGetArray(gravity_step_, &a));
-  for (PetscInt i = lo; i < hi; ++i) a[i - lo] = dt_ * dt_ * gravity_[i % 3];
+  for (PetscInt i = lo; i < hi; ++i) a[i - lo] = solve_dt_ * solve_dt_ * gravity_[i % 3];
   PetscCall(VecRestoreArray(gravity_step_, &a));
   // W = h^2 g0 sqrt(sum of m_i^2 over free vertices) (force_scale); the mass vector repeats m_i
   // three times.
   constexpr double kStandardGravity = 9.80665;
   PetscReal mass_norm;
   PetscCall(VecNorm(mass_, NORM_2, &mass_norm));
-  weight_scale_ = dt_ * dt_ * kStandardGravity * mass_norm / std::sqrt(3.0);
+  weight_scale_ = solve_dt_ * solve_dt_ * kStandardGravity * mass_norm / std::sqrt(3.0);
   diagonal_ = rest_diagonal(body_.mesh());
   PetscFunctionReturn(0);
 }
@@ -50,7 +51,7 @@ PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<Implicit
   PetscFunctionBeginUser;
   const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
   sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
-                                       element_limit_);
+                                       element_limit_, integrator_);
   sub->counts_ = counts_;
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
@@ -58,11 +59,12 @@ PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<Implicit
 
 PetscErrorCode ImplicitEuler::begin_step(State& s) {
   PetscFunctionBeginUser;
-  const double t = (s.frame + 1) * dt_;
-  body_.set_time(t);  // prescribed positions of the fixed vertices at t_{n+1}
-  PetscCall(VecWAXPY(y_, dt_, s.v, s.x));
+  // The end of the minimization's step: t_{n+1}, or t_n + h/2 for the midpoint.
+  const double t = (s.frame + (integrator_ == TimeIntegrator::implicit_midpoint ? 0.5 : 1.0)) * dt_;
+  body_.set_time(t);  // prescribed positions of the fixed vertices at t
+  PetscCall(VecWAXPY(y_, solve_dt_, s.v, s.x));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, dt_, s.x, y_}));
+  PetscCall(body_.begin_step({t, solve_dt_, s.x, y_}));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
   if (warm_start_ == WarmStart::previous) PetscFunctionReturn(0);
@@ -140,14 +142,19 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
 
 PetscErrorCode ImplicitEuler::end_step(State& s, Vec velocity) {
   PetscFunctionBeginUser;
-  if (velocity) {
+  if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
     PetscCall(VecCopy(velocity, s.v));
+  } else if (integrator_ == TimeIntegrator::implicit_midpoint) {
+    PetscCall(VecAXPBY(s.x, -1.0, 2.0, x_n_));  // x_{n+1} = 2 z - x_n
+    PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
+    PetscCall(VecAXPBY(s.v, -(1.0 - damping_), 2.0 * (1.0 - damping_) / dt_, v_n_));
   } else {
     PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
     PetscCall(VecScale(s.v, (1.0 - damping_) / dt_));
   }
   ++s.frame;
   s.time = s.frame * dt_;
+  if (integrator_ == TimeIntegrator::implicit_midpoint) body_.set_time(s.time);  // fixed vertices at t_{n+1}
   PetscFunctionReturn(0);
 }
 
@@ -186,13 +193,13 @@ PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
     }
   }
   PetscCall(VecDot(work_, diff_, &inertia));
-  *g = 0.5 * inertia + dt_ * dt_ * E;
+  *g = 0.5 * inertia + solve_dt_ * solve_dt_ * E;
   if (rejected(*g)) {
     ++counts_->rejected;
     *g = kRejectedEnergy;
     if (grad) PetscCall(VecSet(grad, 0.0));
   } else if (grad) {
-    PetscCall(VecAYPX(grad, dt_ * dt_, work_));  // M (x - y) + h^2 dE/dx
+    PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, work_));  // M (x - y) + h'^2 dE/dx
   }
   PetscCall(event_end(&LogEvents::objective));
   PetscFunctionReturn(0);
@@ -216,8 +223,8 @@ PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components, C
   PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(add_in_rank_order(*A, [&](Mat S) {
-    return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, dt_ * dt_, components)
-                                             : body_.add_rest_hessian(S, dt_ * dt_);
+    return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, solve_dt_ * solve_dt_, components)
+                                             : body_.add_rest_hessian(S, solve_dt_ * solve_dt_);
   }));
   if (components == 3) {
     PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
@@ -251,7 +258,7 @@ PetscErrorCode ImplicitEuler::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::hessian));
   PetscCall(MatZeroEntries(H));  // keeps the pattern
-  PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, dt_ * dt_, !exact); }));
+  PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, solve_dt_ * solve_dt_, !exact); }));
   PetscCall(MatDiagonalSet(H, mass_, ADD_VALUES));
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));

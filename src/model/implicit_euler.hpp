@@ -1,8 +1,14 @@
-// Implicit Euler, the one time integrator, as a minimization per step over the free positions x:
+// Implicit Euler as a minimization per step over the free positions x:
 //   g(x) = 1/2 (x - y)^T M (x - y) + h^2 E(x),   y = x_n + h v_n + h^2 a_gravity
 // (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2, so g and grad g are in units of M x),
 // then v_{n+1} = (1 - damping) (x_{n+1} - x_n) / h. begin_step and end_step hold all of it; the
 // solvers see g through the Objective interface. The simulation and the study both step with it.
+//
+// Implicit midpoint (TimeIntegrator::implicit_midpoint) is the same minimization with h' = h/2:
+// its minimizer z is the midpoint (x_n + x_{n+1}) / 2 (one implicit Euler half step from x_n,
+// v_n, with the fixed vertices at t_n + h/2), then x_{n+1} = 2 z - x_n and
+// v_{n+1} = (1 - damping) (2 (x_{n+1} - x_n) / h - v_n). The solve, its constant matrix
+// M + h'^2 L and every term see h'; frames and time advance by h (docs/method.md#time-integrators).
 #pragma once
 #include <petscvec.h>
 
@@ -10,6 +16,7 @@
 #include <memory>
 
 #include "model/body.hpp"
+#include "model/time_integrator.hpp"
 #include "model/state.hpp"
 #include "solvers/objective.hpp"
 #include "solvers/time_step_solver.hpp"
@@ -41,7 +48,7 @@ class ImplicitEuler : public Objective {
  public:
   ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
                 WarmStart warm_start = WarmStart::inertial, bool upright_guess = true,
-                double element_limit = 0);
+                double element_limit = 0, TimeIntegrator integrator = TimeIntegrator::implicit_euler);
   ~ImplicitEuler() override;
   ImplicitEuler(const ImplicitEuler&) = delete;
   ImplicitEuler& operator=(const ImplicitEuler&) = delete;
@@ -51,7 +58,7 @@ class ImplicitEuler : public Objective {
   PetscErrorCode create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const;
 
   Body& body() { return body_; }
-  double dt() const { return dt_; }
+  double dt() const { return dt_; }  // a frame's step h (the solve's is h' = solve_dt_)
   Vec mass() const { return mass_; }
 
   // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
@@ -98,6 +105,8 @@ class ImplicitEuler : public Objective {
 
   Body& body_;
   double dt_, damping_;
+  TimeIntegrator integrator_;
+  double solve_dt_;  // h' of the minimization: h, or h/2 for implicit midpoint
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
   bool upright_guess_;

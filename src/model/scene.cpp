@@ -307,7 +307,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   s.body->set_fixed_motion(spec.fixed);
   s.integrator = std::make_unique<ImplicitEuler>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
                                                  options_.warm_start, options_.upright_guess,
-                                                 options_.element_limit);
+                                                 options_.element_limit, spec.time.integrator);
   PetscCall(s.integrator->setup());
   if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
   if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);

@@ -9,6 +9,7 @@
 #include "mesh/mesh_spec.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
+#include "model/time_integrator.hpp"
 #include "terms/contact.hpp"
 
 namespace hyperqn {
@@ -17,6 +18,7 @@ struct TimeSpec {
   double dt = 1.0 / 30.0;
   int frames = 100;
   double damping = 0;                // v <- (1 - damping) v after each step
+  TimeIntegrator integrator = TimeIntegrator::implicit_euler;
 };
 
 // An extreme initial state (positions at frame 0; the rest shape stays the mesh). c is the
