@@ -419,6 +419,7 @@ PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
 
 PetscErrorCode FactoredSystem::solve_by_columns(Vec b, Vec x) const {
   PetscFunctionBeginUser;
+  PetscCheck(ksp_, PETSC_COMM_SELF, PETSC_ERR_ORDER, "solve_by_columns: the constant matrix is not solver.h0: amg");
   PetscCall(by_columns(b, x, [this](Vec in, Vec out) { return KSPSolve(ksp_, in, out); }));
   PetscFunctionReturn(0);
 }

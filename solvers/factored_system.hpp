@@ -85,8 +85,8 @@ class FactoredSystem {
   // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle of A1 (x) I3
   // (solvers/interleaved_vcycle.hpp), or one per column x, y, z where it does not apply.
   PetscErrorCode solve(Vec b, Vec x) const;
-  // amg: whether solve runs the interleaved cycle, and B b by GAMG's own cycle on each column
-  // (the same B to round-off; the reference tests compare the interleaved one against).
+  // amg only: whether solve runs the interleaved cycle, and B b by GAMG's own cycle on each
+  // column (the same B to round-off; the reference tests compare the interleaved one against).
   bool interleaved() const { return interleaved_ != nullptr; }
   PetscErrorCode solve_by_columns(Vec b, Vec x) const;
   // y = A x.
