@@ -18,7 +18,7 @@ import pytest
 
 from conftest import HYPERQN, MPIEXEC, run_hyperqn, write_deck
 from hyperqn_tools.paths import REPO
-from hyperqn_tools import launch
+from hyperqn_tools import launch, sessions
 from hyperqn_tools.output import read_frames, read_pvd, read_summary
 from test_bad_input import GOOD
 
@@ -116,19 +116,7 @@ def test_rerun_replaces_the_earlier_run(tmp_path, first_ranks, second_ranks, sam
 
 def hyperqn_pids(session):
     """The hyperqn processes of a session (mpiexec started with start_new_session)."""
-    pids = []
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            stat = open(f"/proc/{entry}/stat").read()
-        except OSError:
-            continue
-        comm = stat[stat.index("(") + 1:stat.rindex(")")]
-        fields = stat[stat.rindex(")") + 2:].split()
-        if comm == "hyperqn" and int(fields[3]) == session and fields[0] != "Z":
-            pids.append(int(entry))
-    return pids
+    return sessions.members(session, "hyperqn")
 
 
 def run_and_kill(args, ranks, ready, rng):
@@ -145,14 +133,12 @@ def run_and_kill(args, ranks, ready, rng):
         assert proc.poll() is None, "the run ended before the kill: make the deck slower"
         pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
         assert pids, "no hyperqn process found"
-        for pid in pids:
-            os.kill(pid, signal.SIGKILL)
+        sessions.send(pids, signal.SIGKILL)
     finally:
         # Open MPI may leave mpiexec or another rank running: end them by their ids.
         deadline = time.time() + 10
         while time.time() < deadline and (hyperqn_pids(proc.pid) or proc.poll() is None):
-            for pid in hyperqn_pids(proc.pid):
-                os.kill(pid, signal.SIGKILL)
+            sessions.send(hyperqn_pids(proc.pid), signal.SIGKILL)  # one may end meanwhile
             if proc.poll() is None and ranks is not None and not hyperqn_pids(proc.pid):
                 proc.kill()
             time.sleep(0.1)
