@@ -1,6 +1,6 @@
 // What a time-step solver minimizes: the integrator's g(x) over the free dofs, with its gradient,
 // its Hessian, and the constant matrix A = M + h^2 L of the quasi-Newton methods. The solvers see
-// only this (model/implicit_euler.hpp implements it).
+// only this (model/step_objective.hpp implements it).
 #pragma once
 #include <petscmat.h>
 

@@ -20,7 +20,7 @@ struct SolverSpec {
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
   std::string warm_start = "inertial";  // inertial (x0 = y) | previous (x0 = x_n) | lower (of the two; the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
-  // limit (-hyperqn_element_limit) unless it was (ImplicitEuler::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).
+  // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).
   bool upright_guess = true;
   std::string newton_method = "nls";         // newton: TAO method, nls | ntr
   std::string linear_solver = "auto";        // newton: auto (newton_uses_amg) | mumps (Cholesky) | cg-amg (CG + BoomerAMG)

@@ -251,7 +251,7 @@ PetscErrorCode check_amg(const char* pc_type) {
   PetscCall(make_scene("neohookean", true, s, {0, -9.81, 0}, nullptr, {24, 12, 12}));
   // h = 1 s, so that h^2 L dominates M as in stiff scenes: at the scene's h = 0.05 s A is nearly
   // its diagonal mass, which one smoothing step inverts.
-  s.step = std::make_unique<ImplicitEuler>(*s.body, 1.0, std::array<double, 3>{0, -9.81, 0});
+  s.step = std::make_unique<StepObjective>(*s.body, 1.0, std::array<double, 3>{0, -9.81, 0});
   PetscCall(s.step->setup());
   PetscCall(PetscOptionsSetValue(nullptr, "-h0_pc_type", pc_type));
   PetscCall(sys.setup(*s.step, ConstantMatrix::laplacian, FactorPackage::amg));
@@ -394,7 +394,7 @@ PetscErrorCode check_substep_counts() {
   TestScene s;
   Vec x;
   PetscReal g;
-  std::unique_ptr<ImplicitEuler> sub;
+  std::unique_ptr<StepObjective> sub;
   PetscFunctionBeginUser;
   PetscCall(make_scene("neohookean", true, s));
   PetscCall(s.step->create_substep(2, sub));

@@ -64,7 +64,7 @@ PetscErrorCode make_cloth(const ClothModel& model, bool fix_edge, TestScene& s) 
   cloth.bending_stiffness = std::string(model.bending) == "springs" ? 4.0 : 0.5;
   cloth.areal_density = kDensity;
   s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, {}, {}, cloth));
-  s.step = std::make_unique<ImplicitEuler>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
+  s.step = std::make_unique<StepObjective>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});
   PetscCall(s.step->setup());
   PetscFunctionReturn(0);
 }

@@ -14,7 +14,7 @@
 #include "model/body.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/regions.hpp"
-#include "model/implicit_euler.hpp"
+#include "model/step_objective.hpp"
 
 namespace test_scene {
 
@@ -23,7 +23,7 @@ using namespace hyperqn;
 struct TestScene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
-  std::unique_ptr<ImplicitEuler> step;
+  std::unique_ptr<StepObjective> step;
 };
 
 // Strands of the scene with_strands: one hanging off the box's corner (2, 1, 1), one free.
@@ -75,7 +75,7 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, strand_material);
   if (extra) extra(s.mesh, terms);
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
-  s.step = std::make_unique<ImplicitEuler>(*s.body, 0.05, gravity);
+  s.step = std::make_unique<StepObjective>(*s.body, 0.05, gravity);
   PetscCall(s.step->setup());
   PetscFunctionReturn(0);
 }

@@ -762,10 +762,13 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
     t.damping = r.number(*x);
     r.check(t.damping >= 0 && t.damping < 1, *x, "in [0, 1)");
   }
-  if (const Value* x = s.find("integrator"))
-    t.integrator = r.choice(*x, {"implicit-euler", "implicit-midpoint"}) == "implicit-midpoint"
-                       ? TimeIntegrator::implicit_midpoint
-                       : TimeIntegrator::implicit_euler;
+  if (const Value* x = s.find("integrator")) {
+    Names names;
+    for (const IntegratorInfo& i : integrator_infos()) names.push_back(i.name);
+    const std::string name = r.choice(*x, names);
+    for (const IntegratorInfo& i : integrator_infos())
+      if (name == i.name) t.integrator = i.kind;
+  }
 }
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
@@ -1021,10 +1024,11 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
-    if (deck.time.integrator == TimeIntegrator::implicit_midpoint && !deck.colliders.empty())
+    const IntegratorInfo& integrator = integrator_info(deck.time.integrator);
+    if (!integrator.with_colliders && !deck.colliders.empty())
       r.fail(*Section(r, *x, {}).find("integrator"),
-             "implicit-midpoint does not take colliders yet: its end-of-step map x_{n+1} = 2 z - x_n can carry "
-             "vertices through an obstacle that z rests on (use implicit-euler)");
+             std::string(integrator.name) + " does not take colliders yet: its end-of-step map can carry "
+             "vertices through an obstacle that the solve's z rests on (use implicit-euler)");
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   // The solver's defaults with colliders (docs/contact.md#defaults): contact's stiff, lagged

@@ -233,10 +233,10 @@ struct Run {
     chain.reset();  // they refer to the old scene
     solver.reset();
     PetscCall(VecDestroy(&force));  // the layout changed
-    PetscCall(create_solver(deck.solver, *fresh.integrator, fresh.constant_matrix(deck.solver), solver));
+    PetscCall(create_solver(deck.solver, *fresh.step, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
-    summary.rejected_evaluations += old_scene.integrator->rejected_evaluations();
-    summary.pulled_back_guesses += old_scene.integrator->pulled_back_guesses();
+    summary.rejected_evaluations += old_scene.step->rejected_evaluations();
+    summary.pulled_back_guesses += old_scene.step->pulled_back_guesses();
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
@@ -363,7 +363,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
                             r.reason.c_str(), note.c_str()));
     if (why.empty()) {
-      PetscCall(s.integrator->end_step(state, step.velocity));
+      PetscCall(s.step->end_step(state, step.velocity));
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;
@@ -392,7 +392,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       state.frame = frame - 1;
       state.time = state.frame * deck.time.dt;
     }
-    PetscCall(s.integrator->undo_step(state));
+    PetscCall(s.step->undo_step(state));
     if (last_written != frame - 1) PetscCall(write_frame(frame - 1, &written));
     summary.status = "error: frame " + std::to_string(frame) + ": " + why + "; stopped, the last frame written is " +
                      std::to_string(last_written);
@@ -422,15 +422,21 @@ PetscErrorCode Run::write_checkpoint(bool started_inverted) {
   read_log_events(h.summary);
   h.summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(h.summary, earlier);
-  h.summary.rejected_evaluations += s.integrator->rejected_evaluations();  // as at the end of a run
-  h.summary.pulled_back_guesses += s.integrator->pulled_back_guesses();
+  h.summary.rejected_evaluations += s.step->rejected_evaluations();  // as at the end of a run
+  h.summary.pulled_back_guesses += s.step->pulled_back_guesses();
   for (const auto& w : writers)
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
-  PetscCall(s.body->local_positions(state.x, pos));
-  PetscCall(s.body->local_velocities(state.v, vel));
+  h.history = state.x_prev ? 1 : 0;
+  VertexRows rows(h.vertex_sets());
+  PetscCall(s.body->local_positions(state.x, rows[0]));
+  PetscCall(s.body->local_velocities(state.v, rows[1]));
+  if (h.history) {
+    PetscCall(s.body->local_positions(state.x_prev, rows[2]));
+    PetscCall(s.body->local_velocities(state.v_prev, rows[3]));
+  }
   flush_logs();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
   PetscCall(event_begin(&LogEvents::checkpoint));
-  const std::string path = checkpoints->write(h, s.mesh, pos, vel);
+  const std::string path = checkpoints->write(h, s.mesh, rows);
   PetscCall(event_end(&LogEvents::checkpoint));
   last_checkpoint_wtime = MPI_Wtime();
   last_checkpoint_frame = state.frame;
@@ -472,13 +478,20 @@ PetscErrorCode Run::stop_for_signal(int sig, int frame, bool started_inverted) {
 PetscErrorCode Run::resume(bool* started_inverted) {
   const Scene& s = scene.current();
   PetscFunctionBeginUser;
-  PetscCall(state.create(s.integrator->layout()));
+  PetscCall(state.create(s.step->layout()));
   state.frame = restart->frame;
   state.time = restart->time;
   state.released = restart->released;
   state.released_attachments = restart->released_attachments;
-  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, *restart, pos, vel));
-  PetscCall(s.body->resume(restart->body_time, pos, vel, state.x, state.v));
+  VertexRows rows;
+  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, *restart, rows));
+  PetscCall(s.body->resume(restart->body_time, rows[0], rows[1], state.x, state.v));
+  if (restart->history) {
+    PetscCall(VecDuplicate(state.x, &state.x_prev));
+    PetscCall(VecDuplicate(state.v, &state.v_prev));
+    PetscCall(s.body->free_values(rows[2], state.x_prev));
+    PetscCall(s.body->free_values(rows[3], state.v_prev));
+  }
   restore_frame_counters(summary, restart->summary);
   earlier = restart->summary;  // its work counters are added at the end
   *started_inverted = restart->started_inverted != 0;
@@ -604,7 +617,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
-        create_solver(deck.solver, *run.scene.current().integrator, run.scene.current().constant_matrix(deck.solver), run.solver)) {
+        create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver)) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
@@ -718,8 +731,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 4. Summary.
   read_log_events(summary);
-  summary.rejected_evaluations += run.scene.current().integrator->rejected_evaluations();  // the scene in use at the end
-  summary.pulled_back_guesses += run.scene.current().integrator->pulled_back_guesses();
+  summary.rejected_evaluations += run.scene.current().step->rejected_evaluations();  // the scene in use at the end
+  summary.pulled_back_guesses += run.scene.current().step->pulled_back_guesses();
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
   if (summary.frames > 0) {

@@ -29,12 +29,12 @@ struct Contender {
 };
 
 // One implicit Euler step of s with the solver, reporting its iterations.
-PetscErrorCode advance(ImplicitEuler& integrator, TimeStepSolver& solver, State& s, const IterationCallback& cb,
+PetscErrorCode advance(StepObjective& objective, TimeStepSolver& solver, State& s, const IterationCallback& cb,
                        FrameResult& r) {
   StepSolve step;
   PetscFunctionBeginUser;
-  PetscCall(integrator.solve_step(solver, s, cb, step));
-  PetscCall(integrator.end_step(s));
+  PetscCall(objective.solve_step(solver, s, cb, step));
+  PetscCall(objective.end_step(s));
   r = step.result;
   PetscFunctionReturn(0);
 }
@@ -87,14 +87,14 @@ struct Study {
     // make it linear wherever it is active near the solution).
     SolverSpec spec = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
     spec.newton_hessian = "exact";
-    PetscCall(create_solver(spec, *s.integrator, nullptr, reference));
+    PetscCall(create_solver(spec, *s.step, nullptr, reference));
     for (auto& c : contenders) {
       auto budget = st.trajectory_iterations.find(c->type);
       const int traj_its = budget != st.trajectory_iterations.end() ? budget->second : deck.solver.iterations;
       const SolverSpec per_frame = spec_for(deck, c->type, st.iterations, st.reference_rtol);
       const SolverSpec trajectory = spec_for(deck, c->type, traj_its, deck.solver.grad_rtol);
-      PetscCall(create_solver(per_frame, *s.integrator, s.constant_matrix(per_frame), c->per_frame));
-      PetscCall(create_solver(trajectory, *s.integrator, s.constant_matrix(trajectory), c->trajectory));
+      PetscCall(create_solver(per_frame, *s.step, s.constant_matrix(per_frame), c->per_frame));
+      PetscCall(create_solver(trajectory, *s.step, s.constant_matrix(trajectory), c->trajectory));
     }
     PetscFunctionReturn(0);
   }
@@ -143,7 +143,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
     bool released;
     PetscCall(scene.release_due(ref, carried, rebind_study, &released));
     if (released) warmed_up = false;
-    ImplicitEuler& integrator = *scene.current().integrator;
+    StepObjective& objective = *scene.current().step;
     const PetscInt free_vertices = scene.current().mesh.global_dofs / 3;
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
     std::vector<StudyCurve> curves;
@@ -161,7 +161,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
       for (auto& c : contenders) {
         FrameResult r;
         PetscCall(probe.copy_from(ref));
-        PetscCall(advance(integrator, *c->per_frame, probe, IterationCallback(), r));
+        PetscCall(advance(objective, *c->per_frame, probe, IterationCallback(), r));
       }
       warmed_up = true;
     }
@@ -170,7 +170,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
         StudyCurve curve{c->type, frame, {}, 0, 0};
         FrameResult r;
         PetscCall(probe.copy_from(ref));
-        PetscCall(advance(integrator, *c->per_frame, probe, recorder(curve), r));
+        PetscCall(advance(objective, *c->per_frame, probe, recorder(curve), r));
         curves.push_back(std::move(curve));
       }
     }
@@ -178,7 +178,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
     // The converged reference step; at a compared frame it also gives g*.
     StudyCurve ref_curve{"reference", frame, {}, 0, 0};
     FrameResult ref_result;
-    PetscCall(advance(integrator, *reference, ref, recorder(ref_curve), ref_result));
+    PetscCall(advance(objective, *reference, ref, recorder(ref_curve), ref_result));
     if (compare_here) {
       // g* is the lowest g anyone reached (the reference's, unless another solver went below it
       // by round-off); g0 is the common starting value.
@@ -202,7 +202,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
       for (auto& c : contenders) {
         FrameResult r;
         const double t0 = MPI_Wtime();
-        PetscCall(advance(integrator, *c->trajectory, c->state, IterationCallback(), r));
+        PetscCall(advance(objective, *c->trajectory, c->state, IterationCallback(), r));
         c->time_s += MPI_Wtime() - t0;
         PetscReal dist;
         PetscCall(VecWAXPY(probe.x, -1.0, ref.x, c->state.x));

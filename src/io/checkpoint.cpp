@@ -152,8 +152,8 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   std::string keys;
   for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
   head.put("writers", keys);
-  head.put("positions_hash", h.positions_hash);
-  head.put("velocities_hash", h.velocities_hash);
+  head.put("history", (long long)h.history);
+  for (size_t k = 0; k < h.hashes.size(); ++k) head.put(std::string(kVertexSets[k]) + "_hash", h.hashes[k]);
 
   std::map<std::string, std::string> texts;
   texts["header"] = head.text();
@@ -230,8 +230,8 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   for (int frame; inverted >> frame;) s.inverted_frames.push_back(frame);
   std::istringstream keys(head.get("writers"));
   for (std::string key; keys >> key;) h.writers.emplace_back(key, text("writer_" + key));
-  h.positions_hash = head.get("positions_hash");
-  h.velocities_hash = head.get("velocities_hash");
+  h.history = head.has("history") ? (int)head.get_long("history") : 0;  // absent before the history was
+  for (size_t k = 0; k < h.vertex_sets(); ++k) h.hashes.push_back(head.get(std::string(kVertexSets[k]) + "_hash"));
   return h;
 }
 
@@ -349,8 +349,6 @@ PetscErrorCode from_natural(Vec natural, const DistributedMesh& mesh, std::vecto
   PetscFunctionReturn(0);
 }
 
-const char* const kVertexSets[] = {"positions", "velocities"};
-
 // A checksum of doubles in order: FNV-1a over their 64-bit words. Each word's step is a bijection
 // of the state, so a single changed value always changes it; the same however the rows come in blocks.
 class DataHash {
@@ -374,7 +372,7 @@ class DataHash {
 
 // Why the values of dataset k read do not match the header's checksum, or "".
 std::string hash_mismatch(int k, const DataHash& read, const CheckpointHeader& h) {
-  const std::string& stored = k == 0 ? h.positions_hash : h.velocities_hash;
+  const std::string stored = (size_t)k < h.hashes.size() ? h.hashes[k] : "none";
   if (read.hex() == stored) return "";
   return std::string(kVertexSets[k]) + ": checksum " + read.hex() + " of the values read, " + stored + " in the header";
 }
@@ -424,8 +422,8 @@ std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointH
 }
 
 PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
-                                const DistributedMesh& mesh, const std::vector<double>& pos,
-                                const std::vector<double>& vel) {
+                                const DistributedMesh& mesh, const VertexRows& rows) {
+  const size_t sets = h.vertex_sets();
   int rank;
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
@@ -434,16 +432,16 @@ PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const Ch
   if (rank == 0) {
     try {
       file.emplace(Hdf5File::create(path));
-      for (const char* name : kVertexSets) file->create_rows(name, (hsize_t)h.vertex_slots, 3);
+      for (size_t k = 0; k < sets; ++k) file->create_rows(kVertexSets[k], (hsize_t)h.vertex_slots, 3);
     } catch (const std::exception& e) {
       error = e.what();
     }
   }
-  const std::vector<double>* values[] = {&pos, &vel};
-  DataHash hashes[2];
-  for (int k = 0; k < 2; ++k) {
+  PetscCheck(rows.size() == sets, comm, PETSC_ERR_ARG_SIZ, "%zu vertex datasets for a header of %zu", rows.size(), sets);
+  std::vector<DataHash> hashes(sets);
+  for (size_t k = 0; k < sets; ++k) {
     Vec natural;
-    PetscCall(to_natural(comm, mesh, h.vertex_slots, *values[k], &natural));
+    PetscCall(to_natural(comm, mesh, h.vertex_slots, rows[k], &natural));
     PetscCall(gather_rows(comm, natural, [&](hsize_t first, hsize_t rows, const double* data) {
       if (!error.empty()) return;
       hashes[k].add(data, 3 * rows);
@@ -458,8 +456,8 @@ PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const Ch
   if (rank == 0 && error.empty()) {
     try {
       CheckpointHeader with_hashes = h;
-      with_hashes.positions_hash = hashes[0].hex();
-      with_hashes.velocities_hash = hashes[1].hex();
+      with_hashes.hashes.clear();
+      for (const DataHash& hash : hashes) with_hashes.hashes.push_back(hash.hex());
       const std::map<std::string, std::string> texts = texts_of(with_hashes);
       for (const auto& [name, text] : texts) file->write_text(name, text);
       file->write_text("checksum", texts_checksum(texts));
@@ -484,7 +482,8 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
     if (!data) return "";
     const hsize_t slots = (hsize_t)header->vertex_slots, block = 65536;
     std::vector<double> rows;
-    for (const char* name : kVertexSets) {
+    for (size_t k = 0; k < header->vertex_sets(); ++k) {
+      const char* name = kVertexSets[k];
       if (file.rows(name) != slots)
         return std::string(name) + " has " + std::to_string(file.rows(name)) + " rows, its header " +
                std::to_string(slots) + " vertex slots";
@@ -495,7 +494,7 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
         file.read_rows(name, first, n, 3, rows.data());
         hash.add(rows.data(), rows.size());
       }
-      const std::string mismatch = hash_mismatch(name == kVertexSets[0] ? 0 : 1, hash, *header);
+      const std::string mismatch = hash_mismatch((int)k, hash, *header);
       if (!mismatch.empty()) return mismatch;
     }
   } catch (const std::exception& e) {
@@ -533,7 +532,7 @@ CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header)
 }
 
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
-                                        const CheckpointHeader& h, std::vector<double>& pos, std::vector<double>& vel) {
+                                        const CheckpointHeader& h, VertexRows& rows) {
   int rank;
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
@@ -546,8 +545,8 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
       error = e.what();
     }
   }
-  std::vector<double>* values[] = {&pos, &vel};
-  for (int k = 0; k < 2; ++k) {
+  rows.assign(h.vertex_sets(), {});
+  for (size_t k = 0; k < rows.size(); ++k) {
     Vec natural;
     DataHash hash;
     PetscCall(create_natural(comm, h.vertex_slots, &natural));
@@ -561,10 +560,10 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
       }
     }));
     if (rank == 0 && error.empty()) {
-      const std::string mismatch = hash_mismatch(k, hash, h);
+      const std::string mismatch = hash_mismatch((int)k, hash, h);
       if (!mismatch.empty()) error = "cannot read " + path + ": " + mismatch;
     }
-    PetscCall(from_natural(natural, mesh, *values[k]));
+    PetscCall(from_natural(natural, mesh, rows[k]));
     PetscCall(VecDestroy(&natural));
   }
   file.reset();

@@ -5,7 +5,8 @@
 //
 // OUTDIR/checkpoints/checkpoint_<frame>.h5 holds, every item a dataset with HDF5's Fletcher32
 // checksum (io/hdf5_file.hpp), so that a damaged file is found out when it is read:
-//  - "positions" and "velocities": (slots, 3) doubles in vertex-id order (row i = the vertex with
+//  - "positions" and "velocities" (and, for an integrator that keeps a history, "previous_positions"
+//    and "previous_velocities": x_{n-1}, v_{n-1}; header key history 1): (slots, 3) doubles in vertex-id order (row i = the vertex with
 //    vertex_id i in the input mesh; rows of ids that cleaning dropped are 0), every vertex, fixed
 //    ones included: their prescribed position and velocity at the checkpoint's time
 //    (Body::set_time makes a fixed vertex's velocity the mean over the last step, which a fresh
@@ -13,7 +14,8 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, started_inverted, writers, and the run's counters so far (summary_*).
+//    released_attachments, started_inverted, writers, history, each dataset's checksum
+//    (<name>_hash), and the run's counters so far (summary_*).
 //  - "physics" (one "section hash" line per physics section of the deck), "flagged_frames",
 //    "inverted_frames", and each output writer's restart state ("writer_<key>"): texts that grow
 //    with the run, as datasets (an HDF5 attribute is limited to 64 KiB).
@@ -28,6 +30,13 @@
 #include "mesh/distributed_mesh.hpp"
 
 namespace hyperqn {
+
+// The per-vertex datasets, in the order of VertexRows: the first two always, the history's two
+// where the header says history 1.
+inline constexpr const char* kVertexSets[] = {"positions", "velocities", "previous_positions", "previous_velocities"};
+// Their values, 3 per local vertex (fixed vertices: prescribed), one vector per dataset: 2, or 4
+// with the history.
+using VertexRows = std::vector<std::vector<double>>;
 
 struct CheckpointHeader {
   static constexpr int kVersion = 3;  // 3: the mesh hash sums per-element hashes (any rank count)
@@ -45,9 +54,12 @@ struct CheckpointHeader {
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state
-  // Checksums of the positions' and velocities' values in row order, written with them and checked
-  // on every read: HDF5's own checksums guard the chunks and metadata, this guards what they hold.
-  std::string positions_hash, velocities_hash;
+  int history = 0;  // 1: the integrator's history is stored (previous_positions, previous_velocities)
+  // Checksums of each dataset's values in row order (kVertexSets' order), written with them and
+  // checked on every read: HDF5's own checksums guard the chunks and metadata, this guards what
+  // they hold.
+  std::vector<std::string> hashes;
+  size_t vertex_sets() const { return history ? 4 : 2; }
 };
 
 // FNV-1a 64-bit of text, as 16 hex digits: the same on every machine and rank count.
@@ -60,13 +72,12 @@ std::string physics_fingerprint(const std::vector<std::pair<std::string, std::st
 std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointHeader& now);
 
 // Writes the checkpoint file `path` through a temporary beside it, renamed once complete, so the
-// name appears only for a whole file. pos, vel: 3 per local vertex (fixed ones: prescribed).
+// name appears only for a whole file. rows: h.vertex_sets() of them.
 // Collective; rank 0 alone writes the file and the others send it their rows, so a failure is one
 // rank's and no rank can be left waiting inside HDF5. Throws std::runtime_error on every rank
 // ("cannot write PATH: <reason>"), removing the temporary.
 PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
-                                const DistributedMesh& mesh, const std::vector<double>& pos,
-                                const std::vector<double>& vel);
+                                const DistributedMesh& mesh, const VertexRows& rows);
 
 // Rank 0 alone: reads the header of path and, with `data`, every row of its datasets, so that each
 // checksum is checked. Returns "" for a whole checkpoint of this format (its header in *header),
@@ -76,11 +87,11 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
 // Rank 0's header, on every rank (collective).
 CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header);
 
-// Positions and velocities of mesh's local vertices (3 each) from a checkpoint whose header is h
+// The datasets of mesh's local vertices (h.vertex_sets() of them) from a checkpoint whose header is h
 // (collective: rank 0 reads and checks them, each rank receives its rows). Throws
 // std::runtime_error on every rank if path cannot be read or its values are not the header's.
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
-                                        const CheckpointHeader& h, std::vector<double>& pos, std::vector<double>& vel);
+                                        const CheckpointHeader& h, VertexRows& rows);
 
 // Frame of a checkpoint file name checkpoint_<frame>.h5, or -1; and the name of a frame's file.
 int checkpoint_frame(const std::string& filename);

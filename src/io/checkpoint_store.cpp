@@ -164,8 +164,7 @@ void CheckpointStore::resume(const std::string& run_id, int frame) {
   throw_if_any_failed(comm_, error);
 }
 
-std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedMesh& mesh,
-                                   const std::vector<double>& pos, const std::vector<double>& vel) {
+std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows) {
   const std::string path = dir_ + "/" + checkpoint_name(h.frame);
   std::string error;
   if (rank_of(comm_) == 0) {
@@ -174,7 +173,7 @@ std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedM
     if (ec) error = "cannot create the checkpoint directory " + dir_ + ": " + ec.message();
   }
   throw_if_any_failed(comm_, error);
-  if (write_checkpoint(comm_, path, h, mesh, pos, vel))
+  if (write_checkpoint(comm_, path, h, mesh, rows))
     throw std::runtime_error("cannot write " + path + ": PETSc error while gathering the rows");
   if (rank_of(comm_) == 0) {
     if (std::find(frames_.begin(), frames_.end(), h.frame) == frames_.end()) frames_.push_back(h.frame);

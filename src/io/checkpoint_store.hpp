@@ -44,8 +44,7 @@ class CheckpointStore {
   void resume(const std::string& run_id, int frame);
   // Writes the checkpoint of h.frame, then removes this run's oldest beyond `keep`. Collective;
   // throws std::runtime_error on every rank ("cannot write PATH: <reason>"). Returns its path.
-  std::string write(const CheckpointHeader& h, const DistributedMesh& mesh, const std::vector<double>& pos,
-                    const std::vector<double>& vel);
+  std::string write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows);
 
  private:
   MPI_Comm comm_;

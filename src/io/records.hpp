@@ -49,7 +49,7 @@ struct RunSummary {
   // the solver's reason.
   long long ls_failures = 0, rejected_evaluations = 0;
   // Steps whose initial guess was pulled back from y so as not to invert or blow up elements
-  // (ImplicitEuler::upright_guess; the frame-size steps, not the fallback chain's sub-steps).
+  // (StepObjective::upright_guess; the frame-size steps, not the fallback chain's sub-steps).
   long long pulled_back_guesses = 0;
   std::vector<std::pair<int, std::string>> flagged_frames;
   // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that

@@ -51,32 +51,34 @@ void Body::set_time(double t) {
 }
 
 PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
-  Vec xl, vl;
-  PetscScalar *a, *b;
   PetscFunctionBeginUser;
   time_ = t;
-  PetscCall(DMGetLocalVector(mesh_.dm, &xl));
-  PetscCall(DMGetLocalVector(mesh_.dm, &vl));
-  PetscCall(VecGetArray(xl, &a));
-  PetscCall(VecGetArray(vl, &b));
   for (PetscInt i = 0; i < mesh_.num_vertices; ++i) {
-    const PetscInt off = mesh_.local_dof[i];
+    if (mesh_.local_dof[i] >= 0) continue;
     for (int d = 0; d < 3; ++d) {
-      if (off >= 0) {
-        a[off + d] = pos[3 * i + d];
-        b[off + d] = vel[3 * i + d];
-      } else {
-        fixed_pos_[3 * i + d] = pos[3 * i + d];
-        fixed_vel_[3 * i + d] = vel[3 * i + d];
-      }
+      fixed_pos_[3 * i + d] = pos[3 * i + d];
+      fixed_vel_[3 * i + d] = vel[3 * i + d];
     }
   }
-  PetscCall(VecRestoreArray(xl, &a));
-  PetscCall(VecRestoreArray(vl, &b));
-  PetscCall(DMLocalToGlobal(mesh_.dm, xl, INSERT_VALUES, x));  // ghosts carry the same values
-  PetscCall(DMLocalToGlobal(mesh_.dm, vl, INSERT_VALUES, v));
-  PetscCall(DMRestoreLocalVector(mesh_.dm, &xl));
-  PetscCall(DMRestoreLocalVector(mesh_.dm, &vl));
+  PetscCall(free_values(pos, x));
+  PetscCall(free_values(vel, v));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::free_values(const std::vector<double>& values, Vec global) const {
+  Vec local;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(DMGetLocalVector(mesh_.dm, &local));
+  PetscCall(VecGetArray(local, &a));
+  for (PetscInt i = 0; i < mesh_.num_vertices; ++i) {
+    const PetscInt off = mesh_.local_dof[i];
+    if (off >= 0)
+      for (int d = 0; d < 3; ++d) a[off + d] = values[3 * i + d];
+  }
+  PetscCall(VecRestoreArray(local, &a));
+  PetscCall(DMLocalToGlobal(mesh_.dm, local, INSERT_VALUES, global));  // ghosts carry the same values
+  PetscCall(DMRestoreLocalVector(mesh_.dm, &local));
   PetscFunctionReturn(0);
 }
 

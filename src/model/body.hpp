@@ -44,6 +44,9 @@ class Body {
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.
   PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
+  // The free vertices' entries of local values (3 per local vertex) into the global vector of free
+  // dofs: the inverse of local_values.
+  PetscErrorCode free_values(const std::vector<double>& values, Vec global) const;
   // Local values of a global vector of free dofs (fixed vertices: 0).
   PetscErrorCode local_values(Vec global, std::vector<double>& out) const;
   // Local values of a global velocity vector (fixed vertices: their prescribed velocity).

@@ -49,17 +49,17 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
   if ((int)levels_.size() < halvings) levels_.resize(halvings);
   Level& l = levels_[halvings - 1];
   if (!l.solver) {
-    PetscCall(scene_.integrator->create_substep(1 << halvings, l.integrator));
+    PetscCall(scene_.step->create_substep(1 << halvings, l.step));
     if (solver_uses_constant_matrix(spec_.type)) {
       // By the package that factored the scene's own (-hyperqn_h0_package).
       const FactoredSystem* scene_matrix = scene_.constant_matrix(spec_);
       l.factored = std::make_unique<FactoredSystem>();
-      PetscCall(l.factored->setup(*l.integrator, constant_matrix_of(spec_),
+      PetscCall(l.factored->setup(*l.step, constant_matrix_of(spec_),
                                   scene_matrix ? scene_matrix->package() : default_factor_package()));
     }
     SolverSpec spec = spec_;
     spec.quiet = true;
-    PetscCall(create_solver(spec, *l.integrator, l.factored.get(), l.solver));
+    PetscCall(create_solver(spec, *l.step, l.factored.get(), l.solver));
   }
   *out = &l;
   PetscFunctionReturn(0);
@@ -72,15 +72,16 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
   *ok = false;
   PetscCall(level(halvings, &l));
   PetscCall(sub_.copy_from(s));
+  sub_.drop_history();  // its steps are h / parts apart: their own history starts at x_n
   sub_.frame = s.frame * parts;  // so that sub-step j ends at (frame + (j + 1) / parts) h exactly
   for (int j = 0; j < parts; ++j) {
     StepSolve part;
     records_.clear();
-    PetscCall(l->integrator->solve_step(*l->solver, sub_, record_, part));
+    PetscCall(l->step->solve_step(*l->solver, sub_, record_, part));
     add_cost(part, out);
-    PetscCall(judge(part.result, *l->integrator, sub_.x, &outcome_));
+    PetscCall(judge(part.result, *l->step, sub_.x, &outcome_));
     if (!outcome_.acceptable()) PetscFunctionReturn(0);
-    PetscCall(l->integrator->end_step(sub_));
+    PetscCall(l->step->end_step(sub_));
     out.result = part.result;
   }
   if (!velocity_) PetscCall(VecDuplicate(s.v, &velocity_));
@@ -93,7 +94,7 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
 }
 
 PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out) {
-  ImplicitEuler& g = *scene_.integrator;
+  StepObjective& g = *scene_.step;
   PetscFunctionBeginUser;
   if (!start_known_) {  // else the last frame's end, measured then
     double unused;

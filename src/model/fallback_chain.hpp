@@ -16,7 +16,7 @@
 #include <memory>
 #include <vector>
 
-#include "model/implicit_euler.hpp"
+#include "model/step_objective.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_spec.hpp"
 
@@ -33,7 +33,7 @@ class FallbackChain {
   FallbackChain(const FallbackChain&) = delete;
   FallbackChain& operator=(const FallbackChain&) = delete;
 
-  // Begins the step from s and solves it, as ImplicitEuler::solve_step does, through the chain.
+  // Begins the step from s and solves it, as StepObjective::solve_step does, through the chain.
   // Then the caller ends the step (integrator.end_step(s, out.velocity)) or undoes it.
   // on_iteration sees the iterations of the kept solve only (for sub-steps: the last one's).
   PetscErrorCode solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out);
@@ -41,7 +41,7 @@ class FallbackChain {
  private:
   // The sub-step integrator, factored matrix and solver for h / 2^halvings.
   struct Level {
-    std::unique_ptr<ImplicitEuler> integrator;
+    std::unique_ptr<StepObjective> step;
     std::unique_ptr<FactoredSystem> factored;
     std::unique_ptr<TimeStepSolver> solver;
   };

@@ -305,23 +305,23 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   }
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
-  s.integrator = std::make_unique<ImplicitEuler>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
+  s.step = std::make_unique<StepObjective>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
                                                  options_.warm_start, options_.upright_guess,
                                                  options_.element_limit, spec.time.integrator);
-  PetscCall(s.integrator->setup());
-  if (s.contact) PetscCall(s.contact->set_masses(s.integrator->mass()));
+  PetscCall(s.step->setup());
+  if (s.contact) PetscCall(s.contact->set_masses(s.step->mass()));
   if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);
   if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
     s.factored = std::make_unique<FactoredSystem>();
-    PetscCall(s.factored->setup(*s.integrator, ConstantMatrix::laplacian, options_.h0_package));
+    PetscCall(s.factored->setup(*s.step, ConstantMatrix::laplacian, options_.h0_package));
   }
   if (options_.factor_rest_stiffness) {
     s.rest_stiffness = std::make_unique<FactoredSystem>();
-    PetscCall(s.rest_stiffness->setup(*s.integrator, ConstantMatrix::rest_stiffness, options_.h0_package));
+    PetscCall(s.rest_stiffness->setup(*s.step, ConstantMatrix::rest_stiffness, options_.h0_package));
   }
   if (options_.amg || (options_.auto_h0 && s.auto_amg)) {
     s.amg = std::make_unique<FactoredSystem>();
-    PetscCall(s.amg->setup(*s.integrator, ConstantMatrix::laplacian, FactorPackage::amg));
+    PetscCall(s.amg->setup(*s.step, ConstantMatrix::laplacian, FactorPackage::amg));
   }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
@@ -336,7 +336,7 @@ const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
 
 PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscFunctionBeginUser;
-  PetscCall(s.create(scene_->integrator->layout()));
+  PetscCall(s.create(scene_->step->layout()));
   PetscCall(scene_->body->rest_positions(s.x));
   PetscCall(apply_initial_state(spec_->initial, *scene_->body, s.x));
   s.frame = 0;

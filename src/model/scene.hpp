@@ -10,7 +10,7 @@
 #include "mesh/distributed_mesh.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
-#include "model/implicit_euler.hpp"
+#include "model/step_objective.hpp"
 #include "model/state.hpp"
 #include "solvers/factored_system.hpp"
 #include "terms/contact.hpp"
@@ -50,7 +50,7 @@ struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
   ContactTerm* contact = nullptr;                  // the body's contact term, if the deck has colliders
-  std::unique_ptr<ImplicitEuler> integrator;
+  std::unique_ptr<StepObjective> step;
   std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
   std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
   std::unique_ptr<FactoredSystem> amg;             // M + h^2 L by a V-cycle, only if lbfgs uses it (solver.h0)
@@ -67,7 +67,7 @@ struct SceneOptions {
   bool auto_h0 = false;                // the factor or the V-cycle of M + h^2 L, by auto_h0_is_amg (solver.h0: auto)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
-  bool upright_guess = true;                   // and whether y is pulled back (ImplicitEuler)
+  bool upright_guess = true;                   // and whether y is pulled back (StepObjective)
   double element_limit = 0;                    // past which |det F| it is pulled back (-hyperqn_element_limit)
   // Adds terms beyond the elastic ones (e.g. the guardrail tests' NaN injection).
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;

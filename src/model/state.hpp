@@ -13,6 +13,9 @@ struct State {
   double time = 0;               // frame * dt
   std::vector<char> released;    // per fixed region: 1 once its vertices are free
   std::vector<char> released_attachments;  // per attachment: 1 once its springs are gone
+  // The integrator's history x_{n-1}, v_{n-1}, for one that keeps it (model/time_integrator.hpp):
+  // null before its first step and after a release (StepObjective starts it again).
+  Vec x_prev = nullptr, v_prev = nullptr;
 
   State() = default;
   ~State() { destroy(); }
@@ -35,13 +38,32 @@ struct State {
     if (!x) PetscCall(create(other.x));
     PetscCall(VecCopy(other.x, x));
     PetscCall(VecCopy(other.v, v));
+    if (other.x_prev) {
+      PetscCall(set_history(other.x_prev, other.v_prev));
+    } else {
+      drop_history();
+    }
     frame = other.frame;
     time = other.time;
     released = other.released;
     released_attachments = other.released_attachments;
     PetscFunctionReturn(0);
   }
-  // Takes x_new and v_new (another layout, e.g. after a release) in place of x and v.
+  // Copies x_prev, v_prev into the history.
+  PetscErrorCode set_history(Vec x_prev_new, Vec v_prev_new) {
+    PetscFunctionBeginUser;
+    if (!x_prev) PetscCall(VecDuplicate(x_prev_new, &x_prev));
+    if (!v_prev) PetscCall(VecDuplicate(v_prev_new, &v_prev));
+    PetscCall(VecCopy(x_prev_new, x_prev));
+    PetscCall(VecCopy(v_prev_new, v_prev));
+    PetscFunctionReturn(0);
+  }
+  void drop_history() {
+    VecDestroy(&x_prev);
+    VecDestroy(&v_prev);
+  }
+  // Takes x_new and v_new (another layout, e.g. after a release) in place of x and v; the history
+  // is dropped.
   void replace(Vec x_new, Vec v_new) {
     destroy();
     x = x_new;
@@ -52,6 +74,7 @@ struct State {
   void destroy() {
     VecDestroy(&x);
     VecDestroy(&v);
+    drop_history();
   }
 };
 

@@ -1,8 +1,53 @@
 // The time integrators a deck can choose (time.integrator; docs/method.md#time-integrators).
+//
+// Each one is a single minimization per step (StepObjective, model/step_objective.hpp):
+//   z = argmin 1/2 ||z - y||_M^2 + h'^2 E(z),   y = x^ + h' v^ + h'^2 a_gravity,
+// with the fixed vertices at their prescribed positions of t_n + c h, followed by an end map
+// that gives x_{n+1} and v_{n+1} from z. An integrator says only what differs: h'/h, c, how x^
+// and v^ come from x_n, v_n (and the history x_{n-1}, v_{n-1} if it keeps one), and the end map.
+// The constant matrix of every solver is M + h'^2 L. Adding one: docs/architecture.md.
 #pragma once
+#include <petscvec.h>
+
+#include <memory>
+#include <vector>
 
 namespace hyperqn {
 
 enum class TimeIntegrator { implicit_euler, implicit_midpoint };
+
+// Each integrator's deck name and whether a scene with colliders may use it.
+struct IntegratorInfo {
+  TimeIntegrator kind;
+  const char* name;
+  bool with_colliders;
+};
+const std::vector<IntegratorInfo>& integrator_infos();
+const IntegratorInfo& integrator_info(TimeIntegrator kind);
+
+// The vectors of one step that an end map may read (global free dofs).
+struct StepVectors {
+  Vec x_n, v_n;      // the state at t_n
+  Vec x_hat, v_hat;  // what y was formed from
+};
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  virtual double solve_fraction() const = 0;          // h' / h
+  virtual double time_fraction() const { return 1; }  // c: the fixed vertices' time during the solve
+  virtual bool keeps_history() const { return false; }  // x^, v^ need x_{n-1}, v_{n-1}
+  // x^ and v^ from x_n, v_n and the history (x_prev, v_prev: null unless keeps_history()).
+  virtual PetscErrorCode start(Vec x_n, Vec v_n, Vec /*x_prev*/, Vec /*v_prev*/, Vec x_hat, Vec v_hat) const {
+    PetscFunctionBeginUser;
+    PetscCall(VecCopy(x_n, x_hat));
+    PetscCall(VecCopy(v_n, v_hat));
+    PetscFunctionReturn(0);
+  }
+  // x holds the solve's z: it becomes x_{n+1}, and v becomes keep * v_{n+1} (keep = 1 - damping).
+  virtual PetscErrorCode finish(const StepVectors& s, double h, double keep, Vec x, Vec v) const = 0;
+};
+
+std::unique_ptr<Integrator> make_integrator(TimeIntegrator kind);
 
 }  // namespace hyperqn

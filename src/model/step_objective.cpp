@@ -1,4 +1,4 @@
-#include "model/implicit_euler.hpp"
+#include "model/step_objective.hpp"
 
 #include "io/log_events.hpp"
 #include "model/ordered_assembly.hpp"
@@ -7,18 +7,18 @@
 
 namespace hyperqn {
 
-ImplicitEuler::ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
+StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
                              WarmStart warm_start, bool upright_guess, double element_limit,
                              TimeIntegrator integrator)
-    : body_(body), dt_(dt), damping_(damping), integrator_(integrator),
-      solve_dt_(integrator == TimeIntegrator::implicit_midpoint ? 0.5 * dt : dt), gravity_(gravity),
+    : body_(body), dt_(dt), damping_(damping), kind_(integrator), integrator_(make_integrator(integrator)),
+      solve_dt_(integrator_->solve_fraction() * dt), gravity_(gravity),
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
-ImplicitEuler::~ImplicitEuler() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_}) VecDestroy(v);
+StepObjective::~StepObjective() {
+  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_}) VecDestroy(v);
 }
 
-PetscErrorCode ImplicitEuler::setup() {
+PetscErrorCode StepObjective::setup() {
   DM dm = body_.mesh().dm;
   PetscInt lo, hi;
   PetscScalar* a;
@@ -31,6 +31,8 @@ PetscErrorCode ImplicitEuler::setup() {
   PetscCall(VecDuplicate(mass_, &diff_));
   PetscCall(VecDuplicate(mass_, &x_n_));
   PetscCall(VecDuplicate(mass_, &v_n_));
+  PetscCall(VecDuplicate(mass_, &x_hat_));
+  PetscCall(VecDuplicate(mass_, &v_hat_));
   // h^2 * gravity, repeated for every free vertex (dofs are interleaved x, y, z).
   PetscCall(VecDuplicate(mass_, &gravity_step_));
   PetscCall(VecGetOwnershipRange(gravity_step_, &lo, &hi));
@@ -47,22 +49,23 @@ PetscErrorCode ImplicitEuler::setup() {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const {
+PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObjective>& sub) const {
   PetscFunctionBeginUser;
   const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
-  sub = std::make_unique<ImplicitEuler>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
-                                       element_limit_, integrator_);
+  sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
+                                       element_limit_, kind_);
   sub->counts_ = counts_;
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::begin_step(State& s) {
+PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
-  // The end of the minimization's step: t_{n+1}, or t_n + h/2 for the midpoint.
-  const double t = (s.frame + (integrator_ == TimeIntegrator::implicit_midpoint ? 0.5 : 1.0)) * dt_;
+  if (integrator_->keeps_history() && !s.x_prev) PetscCall(start_history(s));
+  const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
   body_.set_time(t);  // prescribed positions of the fixed vertices at t
-  PetscCall(VecWAXPY(y_, solve_dt_, s.v, s.x));
+  PetscCall(integrator_->start(s.x, s.v, s.x_prev, s.v_prev, x_hat_, v_hat_));
+  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
   PetscCall(body_.begin_step({t, solve_dt_, s.x, y_}));
   PetscCall(VecCopy(s.x, x_n_));
@@ -78,6 +81,30 @@ PetscErrorCode ImplicitEuler::begin_step(State& s) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode StepObjective::start_history(State& s) {
+  const double h = dt_, t = s.frame * dt_;
+  PetscReal E, norm;
+  PetscFunctionBeginUser;
+  body_.set_time(t);
+  PetscCall(body_.begin_step({t, h, s.x, s.x}));  // the terms (attachments, colliders) at t_n
+  PetscCall(VecDuplicate(s.x, &s.x_prev));
+  PetscCall(VecDuplicate(s.v, &s.v_prev));
+  Vec& a = s.v_prev;  // a_n, then v_{n-1}
+  PetscCall(body_.energy_gradient(s.x, &E, a));
+  PetscCall(VecNorm(a, NORM_2, &norm));
+  if (std::isfinite(E) && std::isfinite(norm)) {
+    PetscCall(VecPointwiseDivide(a, a, mass_));
+    PetscCall(VecScale(a, -1.0));
+  } else {
+    PetscCall(VecSet(a, 0.0));
+  }
+  PetscCall(VecAXPY(a, 1.0 / (solve_dt_ * solve_dt_), gravity_step_));  // + a_gravity
+  PetscCall(VecWAXPY(s.x_prev, -h, s.v, s.x));
+  PetscCall(VecAXPY(s.x_prev, 0.5 * h * h, a));
+  PetscCall(VecAYPX(a, -h, s.v));  // v_n - h a_n
+  PetscFunctionReturn(0);
+}
+
 // y - x_n is rigid where the body is free and zero where it is fixed (or whatever the velocities
 // do at the scale of one tet), so the tets in between take all of the difference. A sliver there
 // whose thin side spans it inverts or blows up: on the 0.4 x 2 x 0.4 m sliver mesh of
@@ -87,7 +114,7 @@ PetscErrorCode ImplicitEuler::begin_step(State& s) {
 // y: t halves until no tet upright at x_n is inverted, nor past the element limit
 // (-hyperqn_element_limit) unless it already was. Where y does neither, t = 1 and the guess is y,
 // bit for bit.
-PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
+PetscErrorCode StepObjective::upright_guess(Vec x) {
   constexpr int kMaxHalvings = 30;
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
@@ -118,7 +145,7 @@ PetscErrorCode ImplicitEuler::upright_guess(Vec x) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
+PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
                                          StepSolve& out) {
   PetscFunctionBeginUser;
   out = StepSolve{};
@@ -140,25 +167,21 @@ PetscErrorCode ImplicitEuler::solve_step(TimeStepSolver& solver, State& s, const
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::end_step(State& s, Vec velocity) {
+PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
   PetscFunctionBeginUser;
   if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
     PetscCall(VecCopy(velocity, s.v));
-  } else if (integrator_ == TimeIntegrator::implicit_midpoint) {
-    PetscCall(VecAXPBY(s.x, -1.0, 2.0, x_n_));  // x_{n+1} = 2 z - x_n
-    PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
-    PetscCall(VecAXPBY(s.v, -(1.0 - damping_), 2.0 * (1.0 - damping_) / dt_, v_n_));
   } else {
-    PetscCall(VecWAXPY(s.v, -1.0, x_n_, s.x));
-    PetscCall(VecScale(s.v, (1.0 - damping_) / dt_));
+    PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_}, dt_, 1.0 - damping_, s.x, s.v));
   }
+  if (integrator_->keeps_history()) PetscCall(s.set_history(x_n_, v_n_));
   ++s.frame;
   s.time = s.frame * dt_;
-  if (integrator_ == TimeIntegrator::implicit_midpoint) body_.set_time(s.time);  // fixed vertices at t_{n+1}
+  if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::undo_step(State& s) {
+PetscErrorCode StepObjective::undo_step(State& s) {
   PetscFunctionBeginUser;
   PetscCall(VecCopy(x_n_, s.x));
   PetscCall(VecCopy(v_n_, s.v));
@@ -166,7 +189,7 @@ PetscErrorCode ImplicitEuler::undo_step(State& s) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
+PetscErrorCode StepObjective::objective(Vec x, PetscReal* g, Vec grad) {
   PetscReal E, inertia;
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::objective));
@@ -205,7 +228,7 @@ PetscErrorCode ImplicitEuler::objective(Vec x, PetscReal* g, Vec grad) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::force_scale(Vec x, double* scale) {
+PetscErrorCode StepObjective::force_scale(Vec x, double* scale) {
   PetscReal inertia;
   PetscFunctionBeginUser;
   PetscCall(VecWAXPY(diff_, -1.0, y_, x));
@@ -215,7 +238,7 @@ PetscErrorCode ImplicitEuler::force_scale(Vec x, double* scale) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const {
+PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const {
   PetscFunctionBeginUser;
   PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
   PetscCheck(kind == ConstantMatrix::laplacian || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
@@ -247,14 +270,14 @@ PetscErrorCode ImplicitEuler::assemble_constant_matrix(Mat* A, int components, C
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::create_hessian(Mat* H) const {
+PetscErrorCode StepObjective::create_hessian(Mat* H) const {
   PetscFunctionBeginUser;
   PetscCall(DMCreateMatrix(body_.mesh().dm, H));
   PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ImplicitEuler::assemble_hessian(Vec x, Mat H, bool exact) {
+PetscErrorCode StepObjective::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::hessian));
   PetscCall(MatZeroEntries(H));  // keeps the pattern

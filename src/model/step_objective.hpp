@@ -1,14 +1,11 @@
-// Implicit Euler as a minimization per step over the free positions x:
-//   g(x) = 1/2 (x - y)^T M (x - y) + h^2 E(x),   y = x_n + h v_n + h^2 a_gravity
-// (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2, so g and grad g are in units of M x),
-// then v_{n+1} = (1 - damping) (x_{n+1} - x_n) / h. begin_step and end_step hold all of it; the
-// solvers see g through the Objective interface. The simulation and the study both step with it.
-//
-// Implicit midpoint (TimeIntegrator::implicit_midpoint) is the same minimization with h' = h/2:
-// its minimizer z is the midpoint (x_n + x_{n+1}) / 2 (one implicit Euler half step from x_n,
-// v_n, with the fixed vertices at t_n + h/2), then x_{n+1} = 2 z - x_n and
-// v_{n+1} = (1 - damping) (2 (x_{n+1} - x_n) / h - v_n). The solve, its constant matrix
-// M + h'^2 L and every term see h'; frames and time advance by h (docs/method.md#time-integrators).
+// One time step as a minimization over the free positions (model/time_integrator.hpp):
+//   g(z) = 1/2 (z - y)^T M (z - y) + h'^2 E(z),   y = x^ + h' v^ + h'^2 a_gravity
+// (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2 for implicit Euler, so g and grad g are in
+// units of M x). The integrator gives h' = h or a fraction of it, x^ and v^, the fixed vertices'
+// time during the solve and the end map to x_{n+1}, v_{n+1}; damping scales v_{n+1} by
+// 1 - damping. begin_step and end_step hold all of a step; the solvers see g through the
+// Objective interface. The simulation and the study both step with it. The frame's step h
+// advances frames and time whatever h' is.
 #pragma once
 #include <petscvec.h>
 
@@ -23,7 +20,7 @@
 
 namespace hyperqn {
 
-// How a step's solve went (see ImplicitEuler::solve_step).
+// How a step's solve went (see StepObjective::solve_step).
 struct StepSolve {
   FrameResult result;
   PetscInt evaluations = 0;      // of g / grad g, over both solves if there were two
@@ -44,34 +41,37 @@ struct StepSolve {
 // while x_n rests on it).
 enum class WarmStart { inertial, previous, lower };
 
-class ImplicitEuler : public Objective {
+class StepObjective : public Objective {
  public:
-  ImplicitEuler(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
+  StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
                 WarmStart warm_start = WarmStart::inertial, bool upright_guess = true,
                 double element_limit = 0, TimeIntegrator integrator = TimeIntegrator::implicit_euler);
-  ~ImplicitEuler() override;
-  ImplicitEuler(const ImplicitEuler&) = delete;
-  ImplicitEuler& operator=(const ImplicitEuler&) = delete;
+  ~StepObjective() override;
+  StepObjective(const StepObjective&) = delete;
+  StepObjective& operator=(const StepObjective&) = delete;
   PetscErrorCode setup();  // mass vector, work vectors
   // The same body and settings with h / parts (damping per sub-step so that `parts` of them damp
   // as one step does), set up: for the fallback chain's sub-steps.
-  PetscErrorCode create_substep(int parts, std::unique_ptr<ImplicitEuler>& sub) const;
+  PetscErrorCode create_substep(int parts, std::unique_ptr<StepObjective>& sub) const;
 
   Body& body() { return body_; }
   double dt() const { return dt_; }  // a frame's step h (the solve's is h' = solve_dt_)
+  const Integrator& integrator() const { return *integrator_; }
   Vec mass() const { return mass_; }
 
   // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
-  // prescribed positions at t_{n+1}, y is formed, the energy terms update for the step, and s.x
-  // becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and undo_step.
+  // prescribed positions at the solve's time, y is formed, the energy terms update for the step,
+  // and s.x becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and
+  // undo_step. An integrator that keeps a history and finds none in s starts it (start_history).
   PetscErrorCode begin_step(State& s);
   // The initial guess again, from x_n (when g is not finite at y).
   PetscErrorCode restart_from_previous(State& s) const { return VecCopy(x_n_, s.x); }
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
   // elements of a material without an extension), once more from x_n. Then end_step or undo_step.
   PetscErrorCode solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration, StepSolve& out);
-  // Completes the step with the solver's s.x: v (or a copy of velocity, if given: the last
-  // sub-step's), frame and time advance.
+  // Completes the step with the solver's s.x: the integrator's end map (or, with velocity given,
+  // s.x as it is and a copy of velocity: the last sub-step's), the history moves on, frame and
+  // time advance.
   PetscErrorCode end_step(State& s, Vec velocity = nullptr);
   // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
   PetscErrorCode undo_step(State& s);
@@ -102,17 +102,23 @@ class ImplicitEuler : public Objective {
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
   PetscErrorCode upright_guess(Vec x);
+  // A history for s where it has none, by Taylor's expansion back from t_n:
+  // x_{n-1} = x_n - h v_n + h^2/2 a_n, v_{n-1} = v_n - h a_n, a_n = a_gravity - M^-1 dE/dx(x_n)
+  // with the terms at t_n (a_gravity alone where E is not finite at x_n). Exact to O(h^3) and
+  // O(h^2), which keeps a second-order integrator second order.
+  PetscErrorCode start_history(State& s);
 
   Body& body_;
   double dt_, damping_;
-  TimeIntegrator integrator_;
-  double solve_dt_;  // h' of the minimization: h, or h/2 for implicit midpoint
+  TimeIntegrator kind_;
+  std::unique_ptr<Integrator> integrator_;
+  double solve_dt_;  // h' of the minimization: integrator_->solve_fraction() h
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
   bool upright_guess_;
   double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
-  Vec x_n_ = nullptr, v_n_ = nullptr;
+  Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   PetscInt evaluations_ = 0;
   struct RunCounts {
     PetscInt rejected = 0;
