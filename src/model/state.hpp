@@ -14,7 +14,8 @@ struct State {
   std::vector<char> released;    // per fixed region: 1 once its vertices are free
   std::vector<char> released_attachments;  // per attachment: 1 once its springs are gone
   // The integrator's history x_{n-1}, v_{n-1}, for one that keeps it (model/time_integrator.hpp):
-  // null before its first step and after a release (StepObjective starts it again).
+  // null before its first step, after a release and at a sub-step's first (the integrator takes a
+  // starting step there).
   Vec x_prev = nullptr, v_prev = nullptr;
 
   State() = default;

@@ -61,10 +61,10 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
 
 PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
-  if (integrator_->keeps_history() && !s.x_prev) PetscCall(start_history(s));
+  without_history_ = integrator_->keeps_history() && !s.x_prev;
   const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
   body_.set_time(t);  // prescribed positions of the fixed vertices at t
-  PetscCall(integrator_->start(s.x, s.v, s.x_prev, s.v_prev, x_hat_, v_hat_));
+  PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
   PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
   PetscCall(body_.begin_step({t, solve_dt_, s.x, y_}));
@@ -78,30 +78,6 @@ PetscErrorCode StepObjective::begin_step(State& s) {
     PetscCall(objective(x_n_, &g_n, nullptr));
     if (!rejected(g_n) && g_n < g_y) PetscCall(VecCopy(x_n_, s.x));
   }
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::start_history(State& s) {
-  const double h = dt_, t = s.frame * dt_;
-  PetscReal E, norm;
-  PetscFunctionBeginUser;
-  body_.set_time(t);
-  PetscCall(body_.begin_step({t, h, s.x, s.x}));  // the terms (attachments, colliders) at t_n
-  PetscCall(VecDuplicate(s.x, &s.x_prev));
-  PetscCall(VecDuplicate(s.v, &s.v_prev));
-  Vec& a = s.v_prev;  // a_n, then v_{n-1}
-  PetscCall(body_.energy_gradient(s.x, &E, a));
-  PetscCall(VecNorm(a, NORM_2, &norm));
-  if (std::isfinite(E) && std::isfinite(norm)) {
-    PetscCall(VecPointwiseDivide(a, a, mass_));
-    PetscCall(VecScale(a, -1.0));
-  } else {
-    PetscCall(VecSet(a, 0.0));
-  }
-  PetscCall(VecAXPY(a, 1.0 / (solve_dt_ * solve_dt_), gravity_step_));  // + a_gravity
-  PetscCall(VecWAXPY(s.x_prev, -h, s.v, s.x));
-  PetscCall(VecAXPY(s.x_prev, 0.5 * h * h, a));
-  PetscCall(VecAYPX(a, -h, s.v));  // v_n - h a_n
   PetscFunctionReturn(0);
 }
 
@@ -172,7 +148,7 @@ PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
   if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
     PetscCall(VecCopy(velocity, s.v));
   } else {
-    PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_}, dt_, 1.0 - damping_, s.x, s.v));
+    PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, s.x, s.v));
   }
   if (integrator_->keeps_history()) PetscCall(s.set_history(x_n_, v_n_));
   ++s.frame;

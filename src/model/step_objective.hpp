@@ -62,7 +62,8 @@ class StepObjective : public Objective {
   // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
   // prescribed positions at the solve's time, y is formed, the energy terms update for the step,
   // and s.x becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and
-  // undo_step. An integrator that keeps a history and finds none in s starts it (start_history).
+  // undo_step. An integrator that keeps a history and finds none in s (the first step, after a
+  // release, a sub-step's first) is told so and takes a starting step of its own.
   PetscErrorCode begin_step(State& s);
   // The initial guess again, from x_n (when g is not finite at y).
   PetscErrorCode restart_from_previous(State& s) const { return VecCopy(x_n_, s.x); }
@@ -102,11 +103,6 @@ class StepObjective : public Objective {
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
   PetscErrorCode upright_guess(Vec x);
-  // A history for s where it has none, by Taylor's expansion back from t_n:
-  // x_{n-1} = x_n - h v_n + h^2/2 a_n, v_{n-1} = v_n - h a_n, a_n = a_gravity - M^-1 dE/dx(x_n)
-  // with the terms at t_n (a_gravity alone where E is not finite at x_n). Exact to O(h^3) and
-  // O(h^2), which keeps a second-order integrator second order.
-  PetscErrorCode start_history(State& s);
 
   Body& body_;
   double dt_, damping_;
@@ -119,6 +115,7 @@ class StepObjective : public Objective {
   double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
+  bool without_history_ = false;  // this step's integrator keeps a history and s had none
   PetscInt evaluations_ = 0;
   struct RunCounts {
     PetscInt rejected = 0;

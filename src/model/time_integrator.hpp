@@ -25,10 +25,16 @@ struct IntegratorInfo {
 const std::vector<IntegratorInfo>& integrator_infos();
 const IntegratorInfo& integrator_info(TimeIntegrator kind);
 
+// What x^ and v^ are formed from (global free dofs): the state at t_n and the history
+// x_{n-1}, v_{n-1} (null unless the integrator keeps one and the state has it).
+struct StepStartVectors {
+  Vec x_n, v_n, x_prev, v_prev;
+};
 // The vectors of one step that an end map may read (global free dofs).
 struct StepVectors {
   Vec x_n, v_n;      // the state at t_n
   Vec x_hat, v_hat;  // what y was formed from
+  bool without_history = false;  // the integrator keeps a history and had none: its starting step
 };
 
 class Integrator {
@@ -36,12 +42,14 @@ class Integrator {
   virtual ~Integrator() = default;
   virtual double solve_fraction() const = 0;          // h' / h
   virtual double time_fraction() const { return 1; }  // c: the fixed vertices' time during the solve
-  virtual bool keeps_history() const { return false; }  // x^, v^ need x_{n-1}, v_{n-1}
-  // x^ and v^ from x_n, v_n and the history (x_prev, v_prev: null unless keeps_history()).
-  virtual PetscErrorCode start(Vec x_n, Vec v_n, Vec /*x_prev*/, Vec /*v_prev*/, Vec x_hat, Vec v_hat) const {
+  // x^, v^ need x_{n-1}, v_{n-1}; where there are none (the first step, after a release, a
+  // sub-step's first), start and finish take a starting step of the integrator's own.
+  virtual bool keeps_history() const { return false; }
+  // x^ and v^ of a step of h.
+  virtual PetscErrorCode start(const StepStartVectors& s, double /*h*/, Vec x_hat, Vec v_hat) const {
     PetscFunctionBeginUser;
-    PetscCall(VecCopy(x_n, x_hat));
-    PetscCall(VecCopy(v_n, v_hat));
+    PetscCall(VecCopy(s.x_n, x_hat));
+    PetscCall(VecCopy(s.v_n, v_hat));
     PetscFunctionReturn(0);
   }
   // x holds the solve's z: it becomes x_{n+1}, and v becomes keep * v_{n+1} (keep = 1 - damping).
