@@ -196,15 +196,16 @@ def read_frames(outdir):
 
 def read_checkpoint(path):
     """A checkpoint file (src/io/checkpoint.hpp, docs/outputs.md#checkpoints) as a dict: every
-    "key value" line of its header (numbers as int or float, the rest as text), plus "positions" and
-    "velocities" ((slots, 3) arrays in vertex-id order) and its other texts ("physics",
+    "key value" line of its header (numbers as int or float, the rest as text), plus "positions",
+    "velocities" and, with an integrator's history, "previous_positions" and "previous_velocities"
+    ((slots, 3) arrays in vertex-id order) and its other texts ("physics",
     "flagged_frames", "inverted_frames", "writer_<key>"). h5py checks the datasets' checksums: a
     damaged file raises OSError."""
     import h5py  # only checkpoints need it
 
     # Values that look like numbers but are not: ids, hashes, one 0/1 flag per region.
-    text_keys = {"run_id", "run_started", "deck", "mesh_hash", "positions_hash", "velocities_hash", "released",
-                 "released_attachments", "writers"}
+    text_keys = {"run_id", "run_started", "deck", "mesh_hash", "positions_hash", "velocities_hash",
+                 "previous_positions_hash", "previous_velocities_hash", "released", "released_attachments", "writers"}
 
     def number(text):
         for kind in (int, float):
@@ -218,7 +219,7 @@ def read_checkpoint(path):
         out = {}
         for name, item in f.items():
             data = item[()]
-            if name in ("positions", "velocities"):
+            if name in ("positions", "velocities", "previous_positions", "previous_velocities"):
                 out[name] = data
             elif name == "header":
                 for line in data.tobytes().decode().splitlines():

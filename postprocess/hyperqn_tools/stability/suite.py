@@ -1,10 +1,10 @@
 """Stability suite: runs every deck in input/stability/ with every solver and judges each run.
 
     PYTHONPATH=postprocess /usr/bin/python3 -m hyperqn_tools.stability [DECK.yaml ...]
-        [--out output/stability] [--solvers ...] [--bin build/hyperqn] [--np 1] ...
+        [--out output/stability] [--solvers ...] [--integrator NAME] [--bin build/hyperqn] [--np 1] ...
 
 (`make stability` runs it on input/stability/*.yaml.) For each case (deck) and solver, the deck is
-copied with `solver.type` replaced (nothing else changes: every solver gets the deck's budget,
+copied with `solver.type` replaced (and `time.integrator`, with --integrator; nothing else changes: every solver gets the deck's budget,
 the project default of 10 iterations and grad_rtol 1e-6 unless the deck says otherwise) and run
 under output/stability/runs/<case>/<solver>/. Every case also gets a converged reference run
 (Newton with the exact Hessian, up to 100 iterations per frame, grad_rtol 1e-10) in
@@ -43,6 +43,7 @@ def main(argv=None):
     p.add_argument("decks", nargs="*", help="decks (default: input/stability/*.yaml)")
     p.add_argument("--out", default=os.path.join(REPO, "output", "stability"))
     p.add_argument("--solvers", nargs="+", help="default: every solver the binary registers (hyperqn registry)")
+    p.add_argument("--integrator", help="time.integrator of every run, the references' too (default: each deck's)")
     p.add_argument("--bin", default=default_binary(), help="hyperqn (default: $HYPERQN_BIN, else build/hyperqn)")
     p.add_argument("--np", type=int, default=1, help="MPI ranks per run (1: the binary alone, without mpiexec)")
     p.add_argument("--mpiexec", default=default_mpiexec(),
@@ -69,6 +70,9 @@ def main(argv=None):
     t_start = time.time()
     cases = [case_name(d) for d in decks]
     loaded = {case_name(d): (d, load_deck(d)) for d in decks}
+    if args.integrator:
+        for _, deck in loaded.values():
+            deck["time"] = {**(deck.get("time") or {}), "integrator": args.integrator}
     expect = {c: expectation(*loaded[c]) for c in cases}
     runs_dir = os.path.join(args.out, "runs")
 
