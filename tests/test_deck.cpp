@@ -667,13 +667,18 @@ void test_budget() {
   expect_error("budget_unknown", kHead + "solver: {budget: exact}\n", "solver.budget", 3, "adaptive");
 }
 
-// time.integrator: implicit-euler by default, implicit-midpoint on request; with colliders the
-// midpoint is refused at its line (its end-of-step map can pass through an obstacle).
+// time.integrator: implicit-euler by default, bdf2 or implicit-midpoint on request; with colliders
+// the midpoint is refused at its line (its end-of-step map can pass through an obstacle), bdf2 not.
 void test_integrator() {
   CHECK(load_ok("integrator_default", kHead).time.integrator == TimeIntegrator::implicit_euler);
   CHECK(load_ok("integrator_midpoint", kHead + "time: {integrator: implicit-midpoint}\n").time.integrator ==
         TimeIntegrator::implicit_midpoint);
-  expect_error("integrator_unknown", kHead + "time: {integrator: bdf9}\n", "time.integrator", 3, "implicit-midpoint");
+  CHECK(load_ok("integrator_bdf2", kHead + "time: {integrator: bdf2}\n").time.integrator == TimeIntegrator::bdf2);
+  CHECK(load_ok("integrator_bdf2_colliders", kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\n"
+                                                     "time: {integrator: bdf2}\n")
+            .time.integrator == TimeIntegrator::bdf2);
+  expect_error("integrator_unknown", kHead + "time: {integrator: bdf9}\n", "time.integrator", 3,
+               "implicit-euler, implicit-midpoint, bdf2");
   expect_error("integrator_colliders",
                kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\ntime:\n  integrator: "
                        "implicit-midpoint\n",

@@ -14,7 +14,7 @@
 
 namespace hyperqn {
 
-enum class TimeIntegrator { implicit_euler, implicit_midpoint };
+enum class TimeIntegrator { implicit_euler, implicit_midpoint, bdf2 };
 
 // Each integrator's deck name and whether a scene with colliders may use it.
 struct IntegratorInfo {

@@ -1,12 +1,14 @@
-"""time.integrator (docs/method.md#time-integrators): implicit Euler against implicit midpoint on a
-stiff cantilever (small strain, so nearly a quadratic energy), each step solved by Newton to
+"""time.integrator (docs/method.md#time-integrators): implicit Euler, BDF2 and implicit midpoint on
+a stiff cantilever (small strain, so nearly a quadratic energy), each step solved by Newton to
 round-off so that only the integrator differs.
 
 - Energy: released at rest under gravity, the bar vibrates about its sagged shape; kinetic +
   elastic + gravitational energy stays 0 for the exact motion. Implicit midpoint keeps it within
-  1% of the largest kinetic energy; implicit Euler loses most of it.
+  1% of the largest kinetic energy; implicit Euler loses most of it; BDF2 far less than Euler.
 - Order: a small oscillator (a cube of 6 tets on its clamped base) at T against a fine-step
-  reference; halving h divides the error by 2 (Euler) and by 4 (midpoint).
+  reference; halving h divides the error by 2 (Euler) and by 4 (midpoint, BDF2).
+- Each integrator with lbfgs and Newton at 1 and 2 ranks, through a restart (BDF2's history is in
+  the checkpoint), the fallback chain's sub-steps and the study.
 """
 import math
 import os
@@ -15,7 +17,8 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
-from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_summary, rest_diagonal
+from hyperqn_tools.output import (final_frame, frame_list, frame_meshes, read_checkpoint, read_summary,
+                                  rest_diagonal)
 
 E, NU, RHO, G = 1.0e8, 0.3, 1000.0, 9.81  # sags 1.5% of its length
 MU, LAMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -62,9 +65,9 @@ def energies(path):
     return kinetic, float(np.sum(volume * psi)), gravity
 
 
-def test_energy_midpoint_keeps_euler_loses(tmp_path):
+def test_energy_midpoint_keeps_bdf2_loses_little_euler_loses(tmp_path):
     totals, kinetic_peak = {}, {}
-    for integrator in ("implicit-euler", "implicit-midpoint"):
+    for integrator in ("implicit-euler", "bdf2", "implicit-midpoint"):
         out = run(tmp_path, integrator, cantilever(integrator, 4.0e-3, 200, 1))
         e = np.array([energies(path) for _, _, path in frame_list(out)])
         totals[integrator] = e.sum(axis=1)
@@ -72,11 +75,14 @@ def test_energy_midpoint_keeps_euler_loses(tmp_path):
     for integrator, total in totals.items():
         print(f"{integrator}: largest kinetic energy {kinetic_peak[integrator]:.4e} J; total energy at the end "
               f"{total[-1]:+.4e} J, largest |total| {np.abs(total).max():.4e} J")
+    peak = kinetic_peak["implicit-midpoint"]
     midpoint = totals["implicit-midpoint"]
-    assert np.abs(midpoint).max() <= 0.01 * kinetic_peak["implicit-midpoint"]
+    assert np.abs(midpoint).max() <= 0.01 * peak
     euler = totals["implicit-euler"]
-    assert euler[-1] < -0.5 * kinetic_peak["implicit-midpoint"]  # lost to numerical damping
-    assert np.all(np.diff(euler) <= 1e-9 * kinetic_peak["implicit-midpoint"])  # and never gained
+    assert euler[-1] < -0.5 * peak  # lost to numerical damping
+    assert np.all(np.diff(euler) <= 1e-9 * peak)  # and never gained
+    bdf2 = totals["bdf2"]
+    assert euler[-1] < 2 * bdf2[-1] < 0  # loses, but less than half of what Euler loses
 
 
 def oscillator(integrator, T, steps):
@@ -105,7 +111,7 @@ def top(out):
 def test_order(tmp_path):
     T = 0.1  # short enough for Euler's asymptotic regime (at T = 0.3: slopes 0.26-0.89 over 32-512 steps)
     reference = top(run(tmp_path, "reference", oscillator("implicit-midpoint", T, 1024)))
-    for integrator, order in (("implicit-euler", 1), ("implicit-midpoint", 2)):
+    for integrator, order in (("implicit-euler", 1), ("bdf2", 2), ("implicit-midpoint", 2)):
         errors = []
         for steps in (32, 64, 128):
             errors.append(np.linalg.norm(top(run(tmp_path, f"{integrator}-{steps}", oscillator(integrator, T, steps))) -
@@ -115,11 +121,11 @@ def test_order(tmp_path):
         assert all(abs(s - order) <= 0.3 for s in slopes), slopes
 
 
+@pytest.mark.parametrize("integrator", ["bdf2", "implicit-midpoint"])
 @pytest.mark.parametrize("solver", ["lbfgs", "newton"])
-def test_midpoint_same_at_1_and_2_ranks(tmp_path, solver):
-    """The midpoint with the default solver (its H0 factors M + (h/2)^2 L) and with Newton, at 1 and
-    2 ranks."""
-    deck = oscillator("implicit-midpoint", 0.1, 25)
+def test_same_at_1_and_2_ranks(tmp_path, solver, integrator):
+    """The default solver (its H0 factors M + h'^2 L) and Newton, at 1 and 2 ranks."""
+    deck = oscillator(integrator, 0.1, 25)
     deck["solver"] = {"type": solver, "iterations": 500, "grad_rtol": 1e-10}
     finals = []
     for ranks in (1, 2):
@@ -133,16 +139,21 @@ def test_midpoint_same_at_1_and_2_ranks(tmp_path, solver):
     assert difference <= 1e-8
 
 
-def test_midpoint_restart_substeps_and_study(tmp_path):
-    """The midpoint through the rest of the stepping: a restart from a checkpoint equals the
-    uninterrupted run bit for bit (no history beyond x_n, v_n); the fallback chain's sub-steps
-    (midpoint steps of h/k) finish the run near the converged one; `hyperqn study` runs it."""
-    deck = oscillator("implicit-midpoint", 0.2, 20)
+@pytest.mark.parametrize("integrator", ["bdf2", "implicit-midpoint"])
+def test_restart_substeps_and_study(tmp_path, integrator):
+    """Through the rest of the stepping: a restart from a checkpoint equals the uninterrupted run
+    bit for bit (BDF2: its history x_{n-1}, v_{n-1} is in the checkpoint); the fallback chain's
+    sub-steps (steps of h/k of the same integrator, BDF2 with a history of their own) finish the
+    run near the converged one; `hyperqn study` runs it."""
+    deck = oscillator(integrator, 0.2, 20)
     deck["output"] = {"every": 5}
     full = run(tmp_path, "full", deck)
     restarted = tmp_path / "restarted"
     first = dict(deck, time=dict(deck["time"], frames=10), checkpoint={"every": 10})
     run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=1)
+    saved = read_checkpoint(restarted / "checkpoints" / "checkpoint_10.h5")
+    assert saved["history"] == (integrator == "bdf2")
+    assert ("previous_positions" in saved) == (integrator == "bdf2")
     done = run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=1)
     assert "restart from" in done.stdout
     a, b = final_frame(full), final_frame(restarted)
@@ -153,7 +164,7 @@ def test_midpoint_restart_substeps_and_study(tmp_path):
     out = run(tmp_path, "substeps", chained)
     assert read_summary(out)["substepped_frames"] > 0
     difference = np.max(np.linalg.norm(final_frame(out).points - a.points, axis=1)) / rest_diagonal(a)
-    print(f"sub-stepped midpoint against the converged one: {difference:.2e} of the diagonal")
+    print(f"sub-stepped {integrator} against the converged one: {difference:.2e} of the diagonal")
     assert difference <= 1e-3
 
     study = dict(deck, study={"frames": [5], "solvers": ["lbfgs", "newton"], "iterations": 50})
