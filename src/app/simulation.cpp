@@ -60,6 +60,13 @@ std::string divergence(double edge, double limit) {
 }
 
 // Why the run has blown up locally when the largest |det F| of its elements is `volume`, or "".
+// The run counters a scene's StepObjective keeps (its sub-steps' included) into a summary.
+void add_step_counters(RunSummary& summary, const StepObjective& step) {
+  summary.rejected_evaluations += step.rejected_evaluations();
+  summary.pulled_back_guesses += step.pulled_back_guesses();
+  summary.euler_completed_steps += step.euler_completed_steps();
+}
+
 std::string exploded(double volume, double limit) {
   if (!(limit > 0 && volume > limit)) return "";
   char text[120];
@@ -235,8 +242,7 @@ struct Run {
     PetscCall(VecDestroy(&force));  // the layout changed
     PetscCall(create_solver(deck.solver, *fresh.step, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
-    summary.rejected_evaluations += old_scene.step->rejected_evaluations();
-    summary.pulled_back_guesses += old_scene.step->pulled_back_guesses();
+    add_step_counters(summary, *old_scene.step);
     summary.dofs = fresh.mesh.global_dofs;
     summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
     for (auto& w : writers) w->set_mesh(fresh.mesh);
@@ -422,8 +428,7 @@ PetscErrorCode Run::write_checkpoint(bool started_inverted) {
   read_log_events(h.summary);
   h.summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(h.summary, earlier);
-  h.summary.rejected_evaluations += s.step->rejected_evaluations();  // as at the end of a run
-  h.summary.pulled_back_guesses += s.step->pulled_back_guesses();
+  add_step_counters(h.summary, *s.step);  // as at the end of a run
   for (const auto& w : writers)
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   h.history = state.x_prev ? 1 : 0;
@@ -731,8 +736,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 4. Summary.
   read_log_events(summary);
-  summary.rejected_evaluations += run.scene.current().step->rejected_evaluations();  // the scene in use at the end
-  summary.pulled_back_guesses += run.scene.current().step->pulled_back_guesses();
+  add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
   if (summary.frames > 0) {

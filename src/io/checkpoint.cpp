@@ -39,6 +39,7 @@ const LongField kLongFields[] = {
     {"ls_failures", &RunSummary::ls_failures, false},
     {"rejected_evaluations", &RunSummary::rejected_evaluations, false},
     {"pulled_back_guesses", &RunSummary::pulled_back_guesses, false},
+    {"euler_completed_steps", &RunSummary::euler_completed_steps, false},
     {"extended_frames", &RunSummary::extended_frames, false},
     {"substepped_frames", &RunSummary::substepped_frames, false},
     {"newton_frames", &RunSummary::newton_frames, false},
@@ -217,7 +218,11 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   h.released_attachments = parse_flags(head.get("released_attachments"));
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;
-  for (const auto& f : kLongFields) s.*f.member = head.get_long(std::string("summary_") + f.name);
+  // A counter newer than the file reads as 0 (euler_completed_steps came after format version 3).
+  for (const auto& f : kLongFields) {
+    const std::string key = std::string("summary_") + f.name;
+    s.*f.member = head.has(key) ? head.get_long(key) : 0;
+  }
   for (const auto& f : kIntFields) s.*f.member = (int)head.get_long(std::string("summary_") + f.name);
   for (const auto& f : kRealFields) s.*f.member = head.get_real(std::string("summary_") + f.name);
   h.physics = text("physics");

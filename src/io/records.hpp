@@ -51,6 +51,7 @@ struct RunSummary {
   // Steps whose initial guess was pulled back from y so as not to invert or blow up elements
   // (StepObjective::upright_guess; the frame-size steps, not the fallback chain's sub-steps).
   long long pulled_back_guesses = 0;
+  long long euler_completed_steps = 0;  // midpoint steps ended by implicit Euler (StepObjective::complete_by_euler)
   std::vector<std::pair<int, std::string>> flagged_frames;
   // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that
   // were solved in sub-steps, and by Newton.

@@ -144,6 +144,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"inverted_frames\": " << s.inverted_frames.size() << ",\n"
       << "  \"rejected_evaluations\": " << s.rejected_evaluations << ",\n"
       << "  \"pulled_back_guesses\": " << s.pulled_back_guesses << ",\n"
+      << "  \"euler_completed_steps\": " << s.euler_completed_steps << ",\n"
       << "  \"final_energy\": " << number(s.final_energy) << ",\n"
       << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"
       << "  \"min_J\": " << number(s.min_J) << ",\n"

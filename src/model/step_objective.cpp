@@ -15,7 +15,7 @@ StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>&
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_}) VecDestroy(v);
+  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
@@ -70,13 +70,23 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscCall(body_.begin_step({t, solve_dt_, s.x, y_}));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
-  if (warm_start_ == WarmStart::previous) PetscFunctionReturn(0);
-  PetscCall(upright_guess(s.x));
+  euler_completed_ = false;
+  PetscCall(initial_guess(x_n_, s.x));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
+  PetscFunctionBeginUser;
+  if (warm_start_ == WarmStart::previous) {
+    PetscCall(VecCopy(from, x));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(upright_guess(from, x));
   if (warm_start_ == WarmStart::lower) {
     PetscReal g_y, g_n;
-    PetscCall(objective(s.x, &g_y, nullptr));
-    PetscCall(objective(x_n_, &g_n, nullptr));
-    if (!rejected(g_n) && g_n < g_y) PetscCall(VecCopy(x_n_, s.x));
+    PetscCall(objective(x, &g_y, nullptr));
+    PetscCall(objective(from, &g_n, nullptr));
+    if (!rejected(g_n) && g_n < g_y) PetscCall(VecCopy(from, x));
   }
   PetscFunctionReturn(0);
 }
@@ -90,24 +100,24 @@ PetscErrorCode StepObjective::begin_step(State& s) {
 // y: t halves until no tet upright at x_n is inverted, nor past the element limit
 // (-hyperqn_element_limit) unless it already was. Where y does neither, t = 1 and the guess is y,
 // bit for bit.
-PetscErrorCode StepObjective::upright_guess(Vec x) {
+PetscErrorCode StepObjective::upright_guess(Vec from, Vec x) {
   constexpr int kMaxHalvings = 30;
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
   PetscCall(VecCopy(y_, x));
   // Only tets can invert (not cells == 0 alone: a rank may have none, the others some).
   if (!upright_guess_ || body_.mesh().global_cells == 0) PetscFunctionReturn(0);
-  PetscCall(body_.local_positions(x_n_, pos_));
+  PetscCall(body_.local_positions(from, pos_));
   body_.cell_jacobians(pos_, J_n_);
-  PetscCall(VecWAXPY(work_, -1.0, x_n_, y_));  // y - x_n
+  PetscCall(VecWAXPY(work_, -1.0, from, y_));  // y - x_n
   double t = 1;
   for (int halvings = 0;; ++halvings, t *= 0.5) {
     if (halvings > kMaxHalvings) {
       t = 0;
-      PetscCall(VecCopy(x_n_, x));
+      PetscCall(VecCopy(from, x));
       break;
     }
-    if (halvings > 0) PetscCall(VecWAXPY(x, t, work_, x_n_));
+    if (halvings > 0) PetscCall(VecWAXPY(x, t, work_, from));
     PetscCall(body_.local_positions(x, pos_));
     body_.cell_jacobians(pos_, J_);
     int local = 0, any;
@@ -121,6 +131,24 @@ PetscErrorCode StepObjective::upright_guess(Vec x) {
   PetscFunctionReturn(0);
 }
 
+// The solver from the initial guess in s.x; if g is not finite there (e.g. y inverts elements of
+// a material without an extension), once more from `from`.
+PetscErrorCode StepObjective::solve_from(TimeStepSolver& solver, Vec from, Vec x, const IterationCallback& on_iteration,
+                                         StepSolve& out) {
+  PetscFunctionBeginUser;
+  PetscCall(solver.solve(x, on_iteration, out.result));
+  out.evaluations += evaluations_;
+  out.iterations += out.result.iterations;
+  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS") {
+    out.restarted = true;
+    PetscCall(VecCopy(from, x));
+    PetscCall(solver.solve(x, on_iteration, out.result));
+    out.evaluations += evaluations_;
+    out.iterations += out.result.iterations;
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
                                          StepSolve& out) {
   PetscFunctionBeginUser;
@@ -128,18 +156,61 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
   PetscCall(begin_step(s));
   const double before = event_seconds(log_events().step);
   PetscCall(event_begin(&LogEvents::step));
-  PetscCall(solver.solve(s.x, on_iteration, out.result));
-  out.evaluations = evaluations_;
-  out.iterations = out.result.iterations;
-  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS") {
-    out.restarted = true;
-    PetscCall(restart_from_previous(s));
-    PetscCall(solver.solve(s.x, on_iteration, out.result));
-    out.evaluations += evaluations_;
-    out.iterations += out.result.iterations;
+  PetscCall(solve_from(solver, x_n_, s.x, on_iteration, out));
+  if (integrator_->extrapolates() && !rejected(out.result.energy)) {
+    bool sound;
+    PetscCall(end_is_sound(s, &sound));
+    if (!sound) PetscCall(complete_by_euler(solver, s, on_iteration, out));
   }
   PetscCall(event_end(&LogEvents::step));
   out.seconds = event_seconds(log_events().step) - before;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
+  const PetscInt cells = body_.mesh().num_cells;
+  PetscFunctionBeginUser;
+  *sound = true;
+  if (body_.mesh().global_cells == 0) PetscFunctionReturn(0);  // nothing to invert
+  if (!end_x_) PetscCall(VecDuplicate(mass_, &end_x_));
+  if (!end_v_) PetscCall(VecDuplicate(mass_, &end_v_));
+  PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
+  body_.cell_jacobians(pos_, J_n_);
+  PetscCall(VecCopy(s.x, end_x_));
+  PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, end_x_, end_v_));
+  const double solve_time = body_.time();
+  body_.set_time((s.frame + 1) * dt_);
+  PetscCall(body_.local_positions(end_x_, pos_));
+  body_.cell_jacobians(pos_, J_);
+  body_.set_time(solve_time);  // back, so that the step goes on as if not looked at
+  int local = 0, any;
+  for (PetscInt c = 0; c < cells && !local; ++c) {
+    const bool inverted = J_n_[c] > 0 && !(J_[c] > 0);
+    const bool blown = element_limit_ > 0 && !(std::fabs(J_[c]) <= element_limit_) && std::fabs(J_n_[c]) <= element_limit_;
+    local = inverted || blown;
+  }
+  PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)s.x)));
+  *sound = !any;
+  PetscFunctionReturn(0);
+}
+
+// z is an implicit Euler step of h' from x_n, v_n to t_n + h' (Integrator::extrapolates); a second
+// one from z, v' = (z - x_n) / h' reaches t_{n+1} with the same h', hence the same constant matrix.
+PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
+                                                StepSolve& out) {
+  const double t = (s.frame + 1) * dt_;
+  PetscFunctionBeginUser;
+  euler_completed_ = true;
+  ++counts_->euler_completed;
+  PetscCall(VecCopy(s.x, x_hat_));                    // z
+  PetscCall(VecWAXPY(v_hat_, -1.0, x_n_, s.x));       // (z - x_n) / h'
+  PetscCall(VecScale(v_hat_, 1.0 / solve_dt_));
+  body_.set_time(t);
+  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
+  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
+  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, y_}));
+  PetscCall(initial_guess(x_hat_, s.x));
+  PetscCall(solve_from(solver, x_hat_, s.x, on_iteration, out));
   PetscFunctionReturn(0);
 }
 
@@ -147,6 +218,9 @@ PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
   PetscFunctionBeginUser;
   if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
     PetscCall(VecCopy(velocity, s.v));
+  } else if (euler_completed_) {  // x_hat_ holds z (complete_by_euler)
+    PetscCall(VecWAXPY(s.v, -1.0, x_hat_, s.x));
+    PetscCall(VecScale(s.v, (1.0 - damping_) / solve_dt_));
   } else {
     PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, s.x, s.v));
   }

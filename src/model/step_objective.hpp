@@ -65,10 +65,10 @@ class StepObjective : public Objective {
   // undo_step. An integrator that keeps a history and finds none in s (the first step, after a
   // release, a sub-step's first) is told so and takes a starting step of its own.
   PetscErrorCode begin_step(State& s);
-  // The initial guess again, from x_n (when g is not finite at y).
-  PetscErrorCode restart_from_previous(State& s) const { return VecCopy(x_n_, s.x); }
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
-  // elements of a material without an extension), once more from x_n. Then end_step or undo_step.
+  // elements of a material without an extension), once more from x_n. For an integrator whose
+  // end map extrapolates (the midpoint), an end that would invert or blow up a tet is replaced
+  // by a second implicit Euler step of h' from z (complete_by_euler). Then end_step or undo_step.
   PetscErrorCode solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration, StepSolve& out);
   // Completes the step with the solver's s.x: the integrator's end map (or, with velocity given,
   // s.x as it is and a copy of velocity: the last sub-step's), the history moves on, frame and
@@ -87,6 +87,8 @@ class StepObjective : public Objective {
   PetscInt rejected_evaluations() const override { return counts_->rejected; }
   // Steps whose initial guess was pulled back from y towards x_n (upright_guess).
   long long pulled_back_guesses() const { return counts_->pulled_back; }
+  // Steps of an extrapolating integrator (the midpoint) completed by implicit Euler (complete_by_euler).
+  long long euler_completed_steps() const { return counts_->euler_completed; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
@@ -102,7 +104,18 @@ class StepObjective : public Objective {
  private:
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
-  PetscErrorCode upright_guess(Vec x);
+  PetscErrorCode upright_guess(Vec from, Vec x);
+  // x = the initial guess of a step from `from` (solver.warm_start: y pulled back, `from`, or the
+  // lower of the two).
+  PetscErrorCode initial_guess(Vec from, Vec x);
+  PetscErrorCode solve_from(TimeStepSolver& solver, Vec from, Vec x, const IterationCallback& on_iteration,
+                            StepSolve& out);
+  // For an integrator whose end map extrapolates past z: false if x_{n+1} would invert a tet that
+  // is upright at z, or blow one past the element limit that is within it at z.
+  PetscErrorCode end_is_sound(State& s, bool* sound);
+  // Ends such a step by a second implicit Euler step of h' from z instead (docs/method.md#time-integrators).
+  PetscErrorCode complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
+                                   StepSolve& out);
 
   Body& body_;
   double dt_, damping_;
@@ -116,10 +129,13 @@ class StepObjective : public Objective {
   Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
+  bool euler_completed_ = false;  // this step ended by complete_by_euler
+  Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
   PetscInt evaluations_ = 0;
   struct RunCounts {
     PetscInt rejected = 0;
     long long pulled_back = 0;
+    long long euler_completed = 0;
   };
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
   std::vector<double> pos_, J_n_, J_;  // upright_guess's work space

@@ -45,6 +45,10 @@ class Integrator {
   // x^, v^ need x_{n-1}, v_{n-1}; where there are none (the first step, after a release, a
   // sub-step's first), start and finish take a starting step of the integrator's own.
   virtual bool keeps_history() const { return false; }
+  // The end map extrapolates past z, and z is an implicit Euler step of h' to t_n + h'
+  // (time_fraction() == solve_fraction()): where the end would invert or blow up a tet, the step
+  // ends by a second implicit Euler step of h' instead (StepObjective::complete_by_euler).
+  virtual bool extrapolates() const { return false; }
   // x^ and v^ of a step of h.
   virtual PetscErrorCode start(const StepStartVectors& s, double /*h*/, Vec x_hat, Vec v_hat) const {
     PetscFunctionBeginUser;

@@ -26,6 +26,7 @@ class ImplicitMidpoint : public Integrator {
  public:
   double solve_fraction() const override { return 0.5; }
   double time_fraction() const override { return 0.5; }
+  bool extrapolates() const override { return true; }
   PetscErrorCode finish(const StepVectors& s, double h, double keep, Vec x, Vec v) const override {
     PetscFunctionBeginUser;
     PetscCall(VecAXPBY(x, -1.0, 2.0, s.x_n));
