@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
+from hyperqn_tools.energy import neohookean_energies
 from hyperqn_tools.output import (final_frame, frame_list, frame_meshes, read_checkpoint, read_summary,
                                   rest_diagonal)
 
 E, NU, RHO, G = 1.0e8, 0.3, 1000.0, 9.81  # sags 1.5% of its length
-MU, LAMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
 
 
 def cantilever(integrator, dt, frames, every):
@@ -44,25 +44,8 @@ def run(tmp_path, name, deck):
 
 
 def energies(path):
-    """(kinetic, elastic, gravitational) energy of a 1-rank frame: lumped masses as hyperqn's (a
-    quarter of each tet's), Neo-Hookean psi = mu/2 (|F|^2 - 3) - mu log J + lambda/2 log^2 J, and
-    -sum m g.u (0 at rest)."""
-    (m,) = frame_meshes(path)
-    x = m.points
-    X = x - m.point_data["displacement"]
-    v = m.point_data["velocity"]
-    tets = np.concatenate([c.data for c in m.cells if c.type == "tetra"])
-    Dm = np.stack([X[tets[:, j]] - X[tets[:, 0]] for j in (1, 2, 3)], axis=2)
-    Ds = np.stack([x[tets[:, j]] - x[tets[:, 0]] for j in (1, 2, 3)], axis=2)
-    volume = np.abs(np.linalg.det(Dm)) / 6
-    F = Ds @ np.linalg.inv(Dm)
-    logJ = np.log(np.linalg.det(F))
-    psi = 0.5 * MU * (np.einsum("eij,eij->e", F, F) - 3) - MU * logJ + 0.5 * LAMBDA * logJ**2
-    mass = np.zeros(len(x))
-    np.add.at(mass, tets.ravel(), np.repeat(RHO * volume / 4, 4))
-    kinetic = 0.5 * np.sum(mass * np.sum(v * v, axis=1))
-    gravity = np.sum(mass * G * m.point_data["displacement"][:, 1])  # -m g.u with g = (0, -G, 0)
-    return kinetic, float(np.sum(volume * psi)), gravity
+    """(kinetic, elastic, gravitational) energy of a 1-rank frame of the cantilever."""
+    return neohookean_energies(path, E, NU, RHO, G)
 
 
 def test_energy_midpoint_keeps_bdf2_loses_little_euler_loses(tmp_path):
