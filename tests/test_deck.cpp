@@ -679,6 +679,18 @@ void test_integrator() {
             .time.integrator == TimeIntegrator::bdf2);
   expect_error("integrator_unknown", kHead + "time: {integrator: bdf9}\n", "time.integrator", 3,
                "implicit-euler, implicit-midpoint, bdf2");
+  const std::string study = kHead + "study:\n  integrators: [implicit-euler, bdf2]\n";
+  const Deck axis = load_ok("study_integrators", study);
+  CHECK(axis.study.integrators.size() == 2 && axis.study.integrators[1] == TimeIntegrator::bdf2);
+  expect_error("study_integrators_unknown", kHead + "study:\n  integrators: [euler]\n", "study.integrators[0]", 4,
+               "implicit-euler");
+  expect_error("study_integrators_twice", kHead + "study:\n  integrators: [bdf2, bdf2]\n", "study.integrators[1]", 4,
+               "each integrator once");
+  expect_error("study_integrators_empty", kHead + "study:\n  integrators: []\n", "study.integrators", 4, "non-empty");
+  expect_error("study_integrators_colliders",
+               kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\nstudy:\n  integrators: "
+                       "[bdf2, implicit-midpoint]\n",
+               "study.integrators", 6, "colliders");
   expect_error("integrator_colliders",
                kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\ntime:\n  integrator: "
                        "implicit-midpoint\n",

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Turns `hyperqn study` outputs into the paper's error-against-time figures and tables.
 
-For every study directory given (each holds study.csv, trajectory.csv, study.json):
+For every study directory given (each holds study.csv, trajectory.csv, study.json; a directory of
+a study with `study.integrators` holds one such directory per integrator, and stands for them):
   - error_vs_time.png: relative error e = (g - g*)/(g(x0) - g*) against wall time, both on log
     axes, one panel per study frame, one curve per solver; each curve ends where it reaches
     round-off (see `until_roundoff`), a circle marks the first iterate with e <= 1e-3 and the
@@ -195,13 +196,29 @@ def overview_figure(studies, path):
     plt.close(fig)
 
 
+def study_directories(paths):
+    """The study directories among paths, each directory without a study.csv replaced by its
+    sub-directories that have one (a study with an integrator axis), in name order."""
+    out = []
+    for path in paths:
+        if os.path.exists(os.path.join(path, "study.csv")):
+            out.append(path)
+            continue
+        subs = sorted(os.path.join(path, d) for d in os.listdir(path)
+                      if os.path.exists(os.path.join(path, d, "study.csv"))) if os.path.isdir(path) else []
+        if not subs:
+            sys.exit(f"{path}: no study.csv in it nor in a sub-directory")
+        out += subs
+    return out
+
+
 def main():
     p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.study_report", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("studies", nargs="+", help="study output directories")
     p.add_argument("--out", help="Markdown report path (default: <parent of first>/report.md)")
     args = p.parse_args()
-    studies = [load_study(d) for d in args.studies]
+    studies = [load_study(d) for d in study_directories(args.studies)]
     out = args.out or os.path.join(os.path.dirname(os.path.normpath(args.studies[0])), "report.md")
     lines = ["# Error against time", "",
              "e = (g − g*)/(g(x₀) − g*), g* from Newton converged to ‖∇g‖ ≤ reference_rtol·‖∇g(x₀)‖ "

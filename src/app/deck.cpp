@@ -746,6 +746,15 @@ void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std
   }
 }
 
+TimeIntegrator read_integrator(const Reader& r, const Value& v) {
+  Names names;
+  for (const IntegratorInfo& i : integrator_infos()) names.push_back(i.name);
+  const std::string name = r.choice(v, names);
+  for (const IntegratorInfo& i : integrator_infos())
+    if (name == i.name) return i.kind;
+  r.fail(v, "unknown integrator");  // not reached: choice() accepted a listed name
+}
+
 void read_time(const Reader& r, const Value& v, TimeSpec& t) {
   Section s(r, v, {"dt", "frames", "damping", "integrator"});
   if (const Value* x = s.find("dt")) {
@@ -762,13 +771,7 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
     t.damping = r.number(*x);
     r.check(t.damping >= 0 && t.damping < 1, *x, "in [0, 1)");
   }
-  if (const Value* x = s.find("integrator")) {
-    Names names;
-    for (const IntegratorInfo& i : integrator_infos()) names.push_back(i.name);
-    const std::string name = r.choice(*x, names);
-    for (const IntegratorInfo& i : integrator_infos())
-      if (name == i.name) t.integrator = i.kind;
-  }
+  if (const Value* x = s.find("integrator")) t.integrator = read_integrator(r, *x);
 }
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
@@ -833,7 +836,7 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
   Section s(r, v, {"frames", "solvers", "iterations", "time_limit", "reference_rtol", "trajectory",
-                   "trajectory_iterations"});
+                   "trajectory_iterations", "integrators"});
   if (const Value* x = s.find("frames")) {
     st.frames.clear();
     for (const Value& item : r.items(*x)) {
@@ -861,6 +864,15 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
     r.check(st.reference_rtol > 0 && st.reference_rtol < 1, *x, "in (0, 1)");
   }
   if (const Value* x = s.find("trajectory")) st.trajectory = r.boolean(*x);
+  if (const Value* x = s.find("integrators")) {
+    for (const Value& item : r.items(*x)) {
+      const TimeIntegrator kind = read_integrator(r, item);
+      r.check(std::find(st.integrators.begin(), st.integrators.end(), kind) == st.integrators.end(), item,
+              "each integrator once");
+      st.integrators.push_back(kind);
+    }
+    r.check(!st.integrators.empty(), *x, "a non-empty list");
+  }
   if (const Value* x = s.find("trajectory_iterations")) {
     Section t(r, *x, kSolverTypes);
     for (const auto& [name, item] : t.entries()) {
@@ -1042,7 +1054,13 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   deck.physics = physics_sections(root);
-  if (const Value* x = s.find("study")) read_study(r, *x, deck.time.frames, deck.study);
+  if (const Value* x = s.find("study")) {
+    read_study(r, *x, deck.time.frames, deck.study);
+    for (TimeIntegrator kind : deck.study.integrators)
+      if (!integrator_info(kind).with_colliders && !deck.colliders.empty())
+        r.fail(*Section(r, *x, {}).find("integrators"),
+               std::string(integrator_info(kind).name) + " does not take colliders yet (see time.integrator)");
+  }
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;
 }

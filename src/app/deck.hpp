@@ -21,6 +21,9 @@ struct StudySpec {
   double reference_rtol = 1e-10;     // reference Newton: ||grad g|| <= reference_rtol ||grad g(x0)||
   bool trajectory = true;            // also compare whole trajectories against converged Newton
   std::map<std::string, int> trajectory_iterations;  // per solver; default solver.iterations
+  // The integrator axis: the study once per integrator, each into OUTDIR/<name>/ (empty: once,
+  // with time.integrator, into OUTDIR).
+  std::vector<TimeIntegrator> integrators;
 };
 
 struct OutputSpec {

@@ -54,7 +54,10 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   int size;
   MPI_Comm_size(PetscObjectComm((PetscObject)scene.mesh.dm), &size);
   std::ostringstream out;
-  out << "{\n  \"title\": \"" << deck.name << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
+  const char* integrator = integrator_info(deck.time.integrator).name;
+  out << "{\n  \"title\": \"" << deck.name << (deck.study.integrators.empty() ? "" : std::string(", ") + integrator)
+      << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
+      << "  \"integrator\": \"" << integrator << "\",\n"
       << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \""
       << (deck.mesh.has_cloth() ? "cloth " + deck.cloth.model : deck.material.model) << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
@@ -223,7 +226,8 @@ PetscErrorCode Study::run(StudyWriter& out) {
   PetscFunctionReturn(0);
 }
 
-int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
+// The study of one integrator (deck.time.integrator) into outdir.
+int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   int rank;
   MPI_Comm_rank(comm, &rank);
   const StudySpec& st = deck.study;
@@ -276,6 +280,18 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     return 1;
   }
   PetscPrintf(comm, "hyperqn: study written to %s (study.csv, trajectory.csv, study.h5)\n", outdir.c_str());
+  return 0;
+}
+
+int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
+  if (deck.study.integrators.empty()) return run_one_study(comm, deck, outdir);
+  for (TimeIntegrator kind : deck.study.integrators) {
+    Deck one = deck;
+    one.time.integrator = kind;
+    const std::string name = integrator_info(kind).name;
+    PetscPrintf(comm, "hyperqn: study with %s\n", name.c_str());
+    if (run_one_study(comm, one, outdir + "/" + name)) return 1;
+  }
   return 0;
 }
 

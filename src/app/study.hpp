@@ -8,6 +8,9 @@
 // Trajectory mode: every solver runs the whole scene at its per-frame budget, in lockstep with a
 // converged-Newton trajectory, and its RMS vertex error against it is logged with its total time.
 // The per-frame states come from that converged trajectory, so they do not depend on any solver.
+//
+// With study.integrators, all of it once per time integrator (its own scene, factor and
+// reference), each into OUTDIR/<integrator>/.
 #pragma once
 #include <petscsys.h>
 

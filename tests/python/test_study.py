@@ -125,3 +125,30 @@ def test_study_releases_fixed_regions_like_the_simulation(tmp_path):
     rms = np.linalg.norm(a.points - b.points) / np.sqrt(free)
     assert rms > 1e-6, "the comparison needs a visible difference"
     assert float(last["lbfgs"]["rms_error"]) == pytest.approx(rms, rel=1e-6)
+
+
+def test_integrator_axis(tmp_path):
+    """study.integrators: the study once per integrator, each into OUTDIR/<integrator>/ with every
+    solver at every study frame, and the report takes the parent directory for all of them."""
+    deck = os.path.join(REPO, "tests/decks/study_small.yaml")
+    text = open(deck).read().replace("  iterations: 100", "  iterations: 100\n  trajectory: false\n"
+                                     "  integrators: [implicit-euler, bdf2, implicit-midpoint]")
+    text = text.replace("solvers: [lbfgs, lbfgs-identity, pd, newton]", "solvers: [lbfgs, newton]")
+    path = tmp_path / "axis.yaml"
+    path.write_text(text)
+    out = tmp_path / "axis"
+    proc = run_hyperqn(["study", path, "-o", out], ranks=1)
+    integrators = ["implicit-euler", "bdf2", "implicit-midpoint"]
+    for name in integrators:
+        assert f"study written to {out / name}" in proc.stdout
+        with open(out / name / "study.csv") as f:
+            rows = list(csv.DictReader(f))
+        assert {(r["solver"], r["frame"]) for r in rows} == {(s, f) for s in ("lbfgs", "newton", "reference")
+                                                              for f in ("5", "15")}
+        assert min(float(r["rel_error"]) for r in rows if r["solver"] == "newton") < 1e-6
+    report = tmp_path / "report.md"
+    subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(report)],
+                   check=True)
+    text = report.read_text()
+    for name in integrators:
+        assert f"## axis, {name} (1 rank)" in text
