@@ -53,16 +53,20 @@ def load_study(directory):
             (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"]),
              float(r["energy"])))
     trajectory = defaultdict(list)
+    stopped = {}  # solver: (frame, why its trajectory stopped)
     tpath = os.path.join(directory, "trajectory.csv")
     if os.path.exists(tpath):
         for r in read_csv(tpath):
+            if r.get("status", "ok") != "ok":  # stopped by a guardrail there: no error to plot
+                stopped[r["solver"]] = (int(r["frame"]), r["status"])
+                continue
             trajectory[r["solver"]].append((int(r["frame"]), float(r["time_s"]), float(r["rel_rms_error"])))
     meta = {}
     if os.path.exists(os.path.join(directory, "study.json")):
         with open(os.path.join(directory, "study.json")) as f:
             meta = json.load(f)
     meta.setdefault("title", os.path.basename(os.path.normpath(directory)))
-    return {"dir": directory, "meta": meta, "curves": curves, "trajectory": trajectory}
+    return {"dir": directory, "meta": meta, "curves": curves, "trajectory": trajectory, "stopped": stopped}
 
 
 def time_to_reach(points, level):
@@ -240,6 +244,8 @@ def main():
         if study["trajectory"]:
             lines += ["### trajectory against converged Newton", ""] + trajectory_table(study["trajectory"]) + \
                      ["", f"![trajectory]({rel}/trajectory.png)", ""]
+        for solver, (frame, why) in sorted(study["stopped"].items()):
+            lines += [f"**{solver}: trajectory stopped at frame {frame}** by a guardrail: {why}", ""]
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     overview = os.path.join(os.path.dirname(out), "overview.png")
     overview_figure(studies, overview)

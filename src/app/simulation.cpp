@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 
+#include "app/frame_step.hpp"
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "io/atomic_file.hpp"
@@ -32,52 +33,12 @@ double global_min(MPI_Comm comm, const std::vector<double>& v) {
   return global;
 }
 
-// Longest element edge (tet edge, strand segment or triangle edge) over all ranks at the local positions pos.
-double longest_edge(MPI_Comm comm, const DistributedMesh& mesh, const std::vector<double>& pos) {
-  static const int tet_edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  double local = 0, global;  // squared lengths: one square root at the end (an edge whose square
-                             // overflows is infinite, still beyond any limit)
-  const auto measure = [&](PetscInt a, PetscInt b) {
-    const double dx = pos[3 * a] - pos[3 * b], dy = pos[3 * a + 1] - pos[3 * b + 1], dz = pos[3 * a + 2] - pos[3 * b + 2];
-    local = std::fmax(local, dx * dx + dy * dy + dz * dz);
-  };
-  for (PetscInt c = 0; c < mesh.num_cells; ++c)
-    for (const auto& e : tet_edges) measure(mesh.cells[4 * c + e[0]], mesh.cells[4 * c + e[1]]);
-  for (PetscInt k = 0; k < mesh.num_segments; ++k) measure(mesh.segments[2 * k], mesh.segments[2 * k + 1]);
-  for (PetscInt t = 0; t < mesh.num_triangles; ++t)
-    for (int e = 0; e < 3; ++e) measure(mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]);
-  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm);
-  return std::sqrt(global);
-}
-
-// Why the run has diverged when its longest edge is `edge` rest diagonals long, or "".
-std::string divergence(double edge, double limit) {
-  if (edge <= limit) return "";
-  char text[120];
-  std::snprintf(text, sizeof text, "diverged: an element edge is %.4g rest bounding-box diagonals long (limit %g)", edge,
-                limit);
-  return text;
-}
-
-// Why the run has blown up locally when the largest |det F| of its elements is `volume`, or "".
 // The run counters a scene's StepObjective keeps (its sub-steps' included) into a summary.
 void add_step_counters(RunSummary& summary, const StepObjective& step) {
   summary.rejected_evaluations += step.rejected_evaluations();
   summary.pulled_back_guesses += step.pulled_back_guesses();
   summary.euler_completed_steps += step.euler_completed_steps();
 }
-
-std::string exploded(double volume, double limit) {
-  if (!(limit > 0 && volume > limit)) return "";
-  char text[120];
-  std::snprintf(text, sizeof text, "elements exploded: |det F| reaches %.4g (limit %g)", volume, limit);
-  return text;
-}
-
-// Inverted or flat: an element with det F <= 0. A flat one (a body collapsed onto a plane or a
-// point) is no more a solid than an inverted one, and Neo-Hookean's extended energy holds it
-// there: F = 0 is a local minimum of every energy smooth at F = 0 (docs/guardrails.md).
-bool degenerate(double min_J) { return min_J <= 0; }
 
 // summary.json's status of a run that completed: "ok"; "inverted: ..." if it ends with inverted
 // or flat elements (inverted_at_end) or, from a start without any, had some in a frame; then how
@@ -101,21 +62,6 @@ std::string completed_status(const RunSummary& summary, bool started_inverted, b
 }
 
 }  // namespace
-
-// Whether every entry of a global vector is finite, on all ranks.
-static PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
-  const PetscScalar* a;
-  PetscInt n;
-  int local = 1, global;
-  PetscFunctionBeginUser;
-  PetscCall(VecGetLocalSize(x, &n));
-  PetscCall(VecGetArrayRead(x, &a));
-  for (PetscInt i = 0; i < n; ++i) local &= std::isfinite(a[i]) ? 1 : 0;
-  PetscCall(VecRestoreArrayRead(x, &a));
-  PetscCallMPI(MPI_Allreduce(&local, &global, 1, MPI_INT, MPI_MIN, comm));
-  *finite = global == 1;
-  PetscFunctionReturn(0);
-}
 
 // The run's timings and counts so far, from the log events (over every scene of the run).
 static void read_log_events(RunSummary& s) {
@@ -292,8 +238,10 @@ PetscErrorCode Run::time_loop(bool& ok) {
   const bool started_inverted = restart ? resumed_inverted : degenerate(min_J);
   bool inverted_now = degenerate(min_J);
 
-  const double diagonal = rest_diagonal(scene.current().mesh);
-  const double limit = options.divergence_limit;  // <= 0: no divergence check
+  FrameStepper stepper(Guardrails::of(options, scene.current()));
+  const FrameSolve solve_by_chain = [this](State& st, const IterationCallback& cb, StepSolve& out) {
+    return chain->solve_frame(st, cb, out);
+  };
   const LiveScene::Rebind rebind_run = [this](const Scene& o, Scene& f) { return rebind(o, f); };
   {  // a signal during setup: the run stops before its first frame, with a checkpoint of its start
     if (state.frame == options.signal_after_frame) raise(SIGTERM);  // test hook
@@ -307,12 +255,13 @@ PetscErrorCode Run::time_loop(bool& ok) {
     PetscCall(scene.release_due(state, {}, rebind_run, &released));
     Scene& s = scene.current();
 
-    StepSolve step;
     const auto log_iteration = [&](const IterationRecord& it) {
       if (!Objective::rejected(it.energy) && std::isfinite(it.grad_norm)) log.append(frame, it);  // never NaN
       return false;
     };
-    PetscCall(chain->solve_frame(state, log_iteration, step));
+    FrameStep f;
+    PetscCall(stepper.step(s, solve_by_chain, state, log_iteration, f));
+    const StepSolve& step = f.solve;
     const FrameResult& r = step.result;
     if (step.restarted)
       PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; started again from x_n\n", frame));
@@ -331,29 +280,12 @@ PetscErrorCode Run::time_loop(bool& ok) {
       ++summary.failed_frames;
       summary.flagged_frames.emplace_back(frame, "the solver took no iteration (" + r.reason + ")");
     }
-
-    // Can the run continue from this frame's x?
-    std::string why;
-    bool finite_x = false;
-    PetscCall(all_finite(comm, state.x, &finite_x));
+    std::string why = f.stop;  // the guardrails (app/frame_step.hpp); the frame has ended if empty
     const bool finite_g = !Objective::rejected(r.energy) && std::isfinite(r.grad_norm);
-    if (!finite_g) {
-      why = "non-finite energy or gradient at every point tried (" + r.reason + ")";
-    } else if (!finite_x) {
-      why = "the solver left non-finite positions (" + r.reason + ")";
-    } else {
-      min_J = step.min_J;  // the chain measured them
-      max_abs_J = step.max_abs_J;
-      if (limit > 0) {
-        PetscCall(s.body->local_positions(state.x, pos));
-        why = divergence(longest_edge(comm, s.mesh, pos) / diagonal, limit);
-      }
-      if (why.empty()) why = exploded(max_abs_J, options.element_limit);
-      if (why.empty()) {
-        inverted_now = degenerate(min_J);
-        if (inverted_now) summary.inverted_frames.push_back(frame);
-        summary.min_J = std::fmin(summary.min_J, min_J);
-      }
+    if (why.empty()) {
+      inverted_now = f.inverted;
+      if (inverted_now) summary.inverted_frames.push_back(frame);
+      summary.min_J = std::fmin(summary.min_J, f.min_J);
     }
 
     std::string note;
@@ -369,7 +301,6 @@ PetscErrorCode Run::time_loop(bool& ok) {
       PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
                             r.reason.c_str(), note.c_str()));
     if (why.empty()) {
-      PetscCall(s.step->end_step(state, step.velocity));
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;

@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 
+#include "app/frame_step.hpp"
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "model/scene.hpp"
@@ -26,16 +27,21 @@ struct Contender {
   State state;
   double time_s = 0;
   long long iterations = 0;
+  std::string stopped;  // why its trajectory stopped ("": it goes on)
 };
 
-// One implicit Euler step of s with the solver, reporting its iterations.
-PetscErrorCode advance(StepObjective& objective, TimeStepSolver& solver, State& s, const IterationCallback& cb,
-                       FrameResult& r) {
-  StepSolve step;
+// One frame of s with the solver alone at its budget (no fallback chain: the study compares
+// solvers at fixed budgets), through the run's guardrails (app/frame_step.hpp). If f.stop says
+// s cannot go on, the step is undone.
+PetscErrorCode advance(FrameStepper& stepper, const Scene& scene, TimeStepSolver& solver, State& s,
+                       const IterationCallback& cb, FrameStep& f) {
+  StepObjective& objective = *scene.step;
   PetscFunctionBeginUser;
-  PetscCall(objective.solve_step(solver, s, cb, step));
-  PetscCall(objective.end_step(s));
-  r = step.result;
+  const FrameSolve solve = [&](State& st, const IterationCallback& c, StepSolve& out) {
+    return objective.solve_step(solver, st, c, out);
+  };
+  PetscCall(stepper.step(scene, solve, s, cb, f));
+  if (!f.stop.empty()) PetscCall(objective.undo_step(s));
   PetscFunctionReturn(0);
 }
 
@@ -79,6 +85,8 @@ struct Study {
   std::unique_ptr<TimeStepSolver> reference;
   std::vector<std::unique_ptr<Contender>> contenders;
   State ref, probe;  // the converged trajectory; a per-frame start copied from it
+  Guardrails limits;
+  std::string failure;  // why the converged reference could not go on ("": it could)
 
   Study(MPI_Comm c, const Deck& d) : comm(c), deck(d) {}
 
@@ -139,6 +147,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
   std::vector<State*> carried{&probe};
   for (auto& c : contenders) carried.push_back(&c->state);
   const LiveScene::Rebind rebind_study = [this](const Scene& o, Scene& f) { return rebind(o, f); };
+  FrameStepper stepper(limits);
   bool warmed_up = false;  // one untimed per-frame run per set of solvers
 
   while (ref.frame < last_frame) {
@@ -146,7 +155,7 @@ PetscErrorCode Study::run(StudyWriter& out) {
     bool released;
     PetscCall(scene.release_due(ref, carried, rebind_study, &released));
     if (released) warmed_up = false;
-    StepObjective& objective = *scene.current().step;
+    const Scene& current = scene.current();
     const PetscInt free_vertices = scene.current().mesh.global_dofs / 3;
     const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
     std::vector<StudyCurve> curves;
@@ -162,26 +171,33 @@ PetscErrorCode Study::run(StudyWriter& out) {
     // first compared frame.
     if (compare_here && !warmed_up) {
       for (auto& c : contenders) {
-        FrameResult r;
+        FrameStep f;
         PetscCall(probe.copy_from(ref));
-        PetscCall(advance(objective, *c->per_frame, probe, IterationCallback(), r));
+        PetscCall(advance(stepper, current, *c->per_frame, probe, IterationCallback(), f));
       }
       warmed_up = true;
     }
     if (compare_here) {
       for (auto& c : contenders) {
         StudyCurve curve{c->type, frame, {}, 0, 0};
-        FrameResult r;
+        FrameStep f;
         PetscCall(probe.copy_from(ref));
-        PetscCall(advance(objective, *c->per_frame, probe, recorder(curve), r));
+        PetscCall(advance(stepper, current, *c->per_frame, probe, recorder(curve), f));
+        if (!f.stop.empty())
+          PetscCall(PetscPrintf(comm, "study frame %4d  %-15s stopped by a guardrail: %s\n", frame, c->type.c_str(),
+                                f.stop.c_str()));
         curves.push_back(std::move(curve));
       }
     }
 
     // The converged reference step; at a compared frame it also gives g*.
     StudyCurve ref_curve{"reference", frame, {}, 0, 0};
-    FrameResult ref_result;
-    PetscCall(advance(objective, *reference, ref, recorder(ref_curve), ref_result));
+    FrameStep ref_step;
+    PetscCall(advance(stepper, current, *reference, ref, recorder(ref_curve), ref_step));
+    if (!ref_step.stop.empty()) {
+      failure = "frame " + std::to_string(frame) + ": the converged reference cannot go on: " + ref_step.stop;
+      break;
+    }
     if (compare_here) {
       // g* is the lowest g anyone reached (the reference's, unless another solver went below it
       // by round-off); g0 is the common starting value.
@@ -203,21 +219,30 @@ PetscErrorCode Study::run(StudyWriter& out) {
     // Trajectories at each solver's budget, compared with the converged one.
     if (st.trajectory) {
       for (auto& c : contenders) {
-        FrameResult r;
+        if (!c->stopped.empty()) continue;
+        FrameStep f;
         const double t0 = MPI_Wtime();
-        PetscCall(advance(objective, *c->trajectory, c->state, IterationCallback(), r));
+        PetscCall(advance(stepper, current, *c->trajectory, c->state, IterationCallback(), f));
         c->time_s += MPI_Wtime() - t0;
-        PetscReal dist;
-        PetscCall(VecWAXPY(probe.x, -1.0, ref.x, c->state.x));
-        PetscCall(VecNorm(probe.x, NORM_2, &dist));
         TrajectoryPoint p;
         p.solver = c->type;
         p.frame = frame;
-        c->iterations += r.iterations;
+        c->iterations += f.solve.iterations;
         p.iterations = c->iterations;
         p.time_s = c->time_s;
-        p.rms_error = dist / std::sqrt((double)std::max<PetscInt>(free_vertices, 1));
-        p.rel_rms_error = p.rms_error / diag;
+        if (f.stop.empty()) {
+          PetscReal dist;
+          PetscCall(VecWAXPY(probe.x, -1.0, ref.x, c->state.x));
+          PetscCall(VecNorm(probe.x, NORM_2, &dist));
+          p.rms_error = dist / std::sqrt((double)std::max<PetscInt>(free_vertices, 1));
+          p.rel_rms_error = p.rms_error / diag;
+        } else {
+          c->stopped = f.stop;
+          p.rms_error = p.rel_rms_error = NAN;
+          p.status = f.stop;
+          PetscCall(PetscPrintf(comm, "study frame %4d  %-15s trajectory stopped by a guardrail: %s\n", frame,
+                                c->type.c_str(), f.stop.c_str()));
+        }
         out.add(p);
       }
     }
@@ -269,8 +294,14 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     throw_if_any_failed(comm, error);
     StudyWriter& out = *writer;
     PetscErrors errors;
+    study.limits = Guardrails::of(options, study.scene.current());
     if (study.run(out)) {
       PetscPrintf(comm, "hyperqn: error: the study failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
+    if (!study.failure.empty()) {
+      out.finish();  // what it compared so far
+      PetscPrintf(comm, "hyperqn: error: the study stopped at %s\n", study.failure.c_str());
       return 1;
     }
     out.finish();

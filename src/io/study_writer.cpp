@@ -1,5 +1,7 @@
 #include "io/study_writer.hpp"
 
+#include <algorithm>
+
 #include "io/hdf5_file.hpp"
 
 #include <map>
@@ -55,7 +57,7 @@ StudyWriter::StudyWriter(const std::string& outdir, int rank) {
   if (rank != 0) return;
   active_ = true;
   open_csv(study_csv_, outdir + "/study.csv", "solver,frame,iteration,time_s,energy,grad_norm,rel_error,evaluations");
-  open_csv(trajectory_csv_, outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error");
+  open_csv(trajectory_csv_, outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error,status");
   h5_path_ = outdir + "/study.h5";
   h5_tmp_ = atomic_temporary(h5_path_);
   g_h5_path = h5_path_;
@@ -108,9 +110,11 @@ void StudyWriter::add_curve(const StudyCurve& c) {
 
 void StudyWriter::add(const TrajectoryPoint& p) {
   if (!active_ || !error_.empty()) return;
-  char line[512];
-  std::snprintf(line, sizeof line, "%s,%d,%.9e,%lld,%.17g,%.17g\n", p.solver.c_str(), p.frame, p.time_s, p.iterations,
-                p.rms_error, p.rel_rms_error);
+  std::string status = p.status;
+  std::replace(status.begin(), status.end(), ',', ';');  // one CSV field
+  char line[768];
+  std::snprintf(line, sizeof line, "%s,%d,%.9e,%lld,%.17g,%.17g,%s\n", p.solver.c_str(), p.frame, p.time_s,
+                p.iterations, p.rms_error, p.rel_rms_error, status.c_str());
   trajectory_csv_.add(line);
   try {
     trajectory_csv_.flush();

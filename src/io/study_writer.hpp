@@ -1,6 +1,7 @@
 // Writes the study's results (rank 0): study.csv and trajectory.csv (whole rows, as each curve is
 // added), and the same data in study.h5 (HDF5: /frames/frame_NNNNN/<solver>/...,
-// /trajectory/<solver>/...), which appears under its name only once finish() has closed it.
+// /trajectory/<solver>/...; a trajectory point's status only in the CSV), which appears under its
+// name only once finish() has closed it.
 #pragma once
 #include <hdf5.h>
 
@@ -29,6 +30,9 @@ struct TrajectoryPoint {
   long long iterations = 0;  // cumulative
   double rms_error = 0;      // RMS over free vertices of |x - x_ref|
   double rel_rms_error = 0;  // rms_error / rest bounding-box diagonal
+  // "ok", or why the trajectory stopped at this frame (a guardrail, app/frame_step.hpp; the errors
+  // are then NaN and the solver's trajectory has no later point)
+  std::string status = "ok";
 };
 
 class StudyWriter {

@@ -155,6 +155,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   }
   out.min_J = outcome_.min_J;
   out.max_abs_J = outcome_.max_abs_J;
+  out.measured = true;
   start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
   for (const IterationRecord& r : records_) on_iteration(r);
   PetscFunctionReturn(0);

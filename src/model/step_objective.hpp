@@ -33,7 +33,8 @@ struct StepSolve {
   int substeps = 1;              // solved in this many sub-steps
   bool newton = false;           // solved by the Newton fallback
   Vec velocity = nullptr;
-  double min_J = 0, max_abs_J = 0;  // of the tets at the end (FallbackChain measures them)
+  double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
+  bool measured = false;
 };
 
 // Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
