@@ -112,7 +112,8 @@ def frame_meshes(path):
 
 class Frame:
     """One output frame, merged over pieces and sorted by vertex_id. ranks (the VTK cell field
-    rank) is None for an XDMF frame, which does not depend on the rank count."""
+    rank) is None for an XDMF frame, which does not depend on the rank count; body (the VTK cell
+    field of a scene of bodies: each tet's body) is None without bodies and for XDMF."""
 
     def __init__(self, path):
         self.path = path
@@ -123,6 +124,7 @@ class Frame:
         self.num_cells = 0
         self.J = []
         self.ranks = []
+        bodies = []
         for piece in piece_files(path):
             if is_empty_piece(piece):  # a rank without cells (tiny meshes); meshio cannot read it
                 continue
@@ -136,6 +138,9 @@ class Frame:
             self.num_cells += sum(len(c.data) for c in m.cells)
             self.J.append(np.concatenate([np.ravel(a) for a in m.cell_data["J"]]))
             self.ranks.append(np.concatenate([np.ravel(a) for a in m.cell_data["rank"]]))
+            if "body" in m.cell_data:
+                bodies.append(np.concatenate([np.ravel(a) for a in m.cell_data["body"]]))
+        self.body = np.concatenate(bodies) if bodies else None
         ids = np.concatenate(ids)
         self.vertex_id, first = np.unique(ids, return_index=True)  # ghosts appear in several pieces
         self.points = np.concatenate(points)[first]
@@ -156,6 +161,7 @@ class Frame:
         self.num_cells = sum(len(c.data) for c in m.cells)
         self.J = np.concatenate([np.ravel(a) for a in m.cell_data["J"]])
         self.ranks = None
+        self.body = None
         self.num_pieces = 1
 
 

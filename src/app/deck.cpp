@@ -590,11 +590,13 @@ Motion read_motion(const Reader& r, const Value& v) {
   return m;
 }
 
-void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) {
+// body >= 0: bodies[body].fixed, which selects that body's vertices only.
+void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, int body = -1) {
   for (const Value& item : r.items(v)) {
     Section region(r, item, {"box", "motion", "release"});
     BoxRegion b = read_box(r, region.need("box"));
     b.line = item.line;
+    b.body = body;
     if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
     if (const Value* x = region.find("release")) {
       b.release = r.number(*x);
@@ -602,6 +604,37 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed) 
     }
     fixed.push_back(b);
   }
+}
+
+// bodies: a list of solid bodies, each a tet mesh (box or file, with its transform), a material,
+// an initial velocity and its own fixed regions (returned in body_fixed, read after the scene's).
+void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck,
+                 std::vector<std::pair<int, Value>>& body_fixed) {
+  for (const Value& item : r.items(v)) {
+    const int k = (int)deck.bodies.size();
+    Section s(r, item, {"name", "mesh", "material", "velocity", "fixed"});
+    BodySpec b;
+    b.line = item.line;
+    b.name = "body" + std::to_string(k);
+    if (const Value* x = s.find("name")) {
+      b.name = r.text(*x);
+      for (const BodySpec& other : deck.bodies)
+        if (other.name == b.name) r.fail(*x, "another body is named " + b.name + " (line " + std::to_string(other.line) + ")");
+    }
+    const Value& mesh = s.need("mesh");
+    read_mesh(r, mesh, deck_dir, b.mesh);
+    if (b.mesh.has_cloth() || b.mesh.has_strands() || b.mesh.is_partition_file || !b.mesh.has_solid())
+      r.fail(mesh, "a body's mesh is a box or a tetrahedral mesh file (.mesh, .msh); cloth, strands and partition "
+                   "files are not in bodies yet");
+    read_material(r, s.need("material"), b.material);
+    if (const Value* x = s.find("velocity")) b.velocity = r.numbers3(*x);
+    if (const Value* x = s.find("fixed")) body_fixed.emplace_back(k, *x);
+    deck.bodies.push_back(b);
+  }
+  r.check(!deck.bodies.empty(), v, "a non-empty list");
+  deck.material = deck.bodies[0].material;
+  deck.has_material = true;
+  deck.mesh.line = deck.bodies[0].mesh.line;
 }
 
 // colliders: a list of obstacles, each of one type with that type's keys (terms/contact.hpp).
@@ -918,10 +951,10 @@ void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) {
 std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
   std::vector<std::pair<std::string, std::string>> out;
   for (const char* key : {"material", "strand_material", "regions", "fixed", "attachments", "colliders",
-                          "contact", "initial", "gravity", "time", "cloth"}) {
+                          "contact", "initial", "gravity", "time", "cloth", "bodies"}) {
     const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
     if (!found || found.IsNull()) {
-      if (std::string(key) == "cloth") continue;  // added later: decks without one keep their hash
+      if (std::string(key) == "cloth" || std::string(key) == "bodies") continue;  // added later: decks without one keep their hash
       out.emplace_back(key, "");
       continue;
     }
@@ -978,8 +1011,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "material", "strand_material", "cloth", "regions", "fixed", "attachments", "colliders", "contact",
-             "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
+            {"name", "mesh", "bodies", "material", "strand_material", "cloth", "regions", "fixed", "attachments", "colliders",
+             "contact", "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -991,42 +1024,52 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     if (!safe || deck.name.size() > kMaxNameLength || deck.name[0] == '.' || deck.name[0] == '-')
       r.fail(*x, "must be a file name of at most 100 letters, digits and _ - . + (not starting with . or -)");
   }
-  const Value& mesh = s.need("mesh");
-  read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
-  // material (and regions) describe the tets, strand_material the strand segments: each is
-  // required exactly when the mesh has that kind of element. Whether a Medit file read for its
-  // edges also has tets is only known once it is read (load_scene_mesh checks).
-  const bool may_be_strands_only = deck.mesh.edges_as_strands;
-  if (const Value* x = s.find("material"); x && deck.mesh.has_solid()) {
-    read_material(r, *x, deck.material);
-    deck.has_material = true;
-  } else if (deck.mesh.has_solid() && !may_be_strands_only) {
-    s.need("material");
-  } else if (!deck.mesh.has_solid() && !deck.mesh.has_cloth()) {
-    for (const char* key : {"material", "regions"})
-      if (const Value* x = s.find(key))
-        r.fail(*x, "the mesh is strands only (no file or box): " + std::string(key) +
-                       " describes tets; the strands take strand_material");
-  }
-  if (deck.mesh.has_strands()) {
-    if (!s.find("strand_material"))
-      r.fail(mesh.line, "strand_material", "missing required key 'strand_material': the mesh has strands");
-    read_strand_material(r, *s.find("strand_material"), deck.strand_material);
-  } else if (const Value* x = s.find("strand_material")) {
-    r.fail(*x, "the mesh has no strands (give mesh.strands, or mesh.edges: strands with a Medit file)");
-  }
-  if (deck.mesh.has_cloth()) {
-    if (!s.find("cloth")) r.fail(mesh.line, "cloth", "missing required key 'cloth': the mesh is a cloth surface");
-    read_cloth(r, *s.find("cloth"), deck.cloth);
-    for (const char* key : {"material", "regions"})
-      if (const Value* x = s.find(key))
-        r.fail(*x, "the mesh is a cloth surface: " + std::string(key) + " describes tets; the cloth takes cloth");
-  } else if (const Value* x = s.find("cloth")) {
-    r.fail(*x, "the mesh is not a cloth (give mesh.sheet, an .obj file, or mesh.surface: cloth with a .mesh or .msh file)");
+  std::vector<std::pair<int, Value>> body_fixed;  // (k, bodies[k].fixed): read after the scene's own fixed
+  if (const Value* x = s.find("bodies")) {
+    for (const char* key : {"mesh", "material", "regions", "strand_material", "cloth"})
+      if (const Value* y = s.find(key))
+        r.fail(*y, std::string("with bodies, each body has its own mesh and material: ") + key +
+                       " is a key of bodies[k] (or leave out bodies for a scene of one body)");
+    read_bodies(r, *x, fs::path(path).parent_path(), deck, body_fixed);
+  } else {
+    const Value& mesh = s.need("mesh");
+    read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
+    // material (and regions) describe the tets, strand_material the strand segments: each is
+    // required exactly when the mesh has that kind of element. Whether a Medit file read for its
+    // edges also has tets is only known once it is read (load_scene_mesh checks).
+    const bool may_be_strands_only = deck.mesh.edges_as_strands;
+    if (const Value* x = s.find("material"); x && deck.mesh.has_solid()) {
+      read_material(r, *x, deck.material);
+      deck.has_material = true;
+    } else if (deck.mesh.has_solid() && !may_be_strands_only) {
+      s.need("material");
+    } else if (!deck.mesh.has_solid() && !deck.mesh.has_cloth()) {
+      for (const char* key : {"material", "regions"})
+        if (const Value* x = s.find(key))
+          r.fail(*x, "the mesh is strands only (no file or box): " + std::string(key) +
+                         " describes tets; the strands take strand_material");
+    }
+    if (deck.mesh.has_strands()) {
+      if (!s.find("strand_material"))
+        r.fail(mesh.line, "strand_material", "missing required key 'strand_material': the mesh has strands");
+      read_strand_material(r, *s.find("strand_material"), deck.strand_material);
+    } else if (const Value* x = s.find("strand_material")) {
+      r.fail(*x, "the mesh has no strands (give mesh.strands, or mesh.edges: strands with a Medit file)");
+    }
+    if (deck.mesh.has_cloth()) {
+      if (!s.find("cloth")) r.fail(mesh.line, "cloth", "missing required key 'cloth': the mesh is a cloth surface");
+      read_cloth(r, *s.find("cloth"), deck.cloth);
+      for (const char* key : {"material", "regions"})
+        if (const Value* x = s.find(key))
+          r.fail(*x, "the mesh is a cloth surface: " + std::string(key) + " describes tets; the cloth takes cloth");
+    } else if (const Value* x = s.find("cloth")) {
+      r.fail(*x, "the mesh is not a cloth (give mesh.sheet, an .obj file, or mesh.surface: cloth with a .mesh or .msh file)");
+    }
   }
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
+  for (const auto& [k, item] : body_fixed) read_fixed(r, item, deck.fixed, k);
   if (const Value* x = s.find("colliders")) read_colliders(r, *x, fs::path(path).parent_path(), deck.colliders);
   if (const Value* x = s.find("contact")) {
     if (deck.colliders.empty()) r.fail(*x, "contact describes how the body touches colliders, and there are none");

@@ -40,6 +40,9 @@ void run_partition(MPI_Comm comm, const Deck& deck, int parts, const std::string
   if (deck.mesh.is_partition_file)
     throw InputError(deck.path, deck.mesh.line, "mesh.file",
                      "is already a partition file: give hyperqn partition the deck of the mesh it was made from");
+  if (!deck.bodies.empty())
+    throw InputError(deck.path, deck.bodies[0].line, "bodies",
+                     "a scene of several bodies has no partition file yet (its bodies are read by rank 0)");
   std::string error, summary;
   if (rank == 0) {
     try {

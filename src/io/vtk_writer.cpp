@@ -96,6 +96,8 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
   if (cloth())  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
     cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
+  if (mesh_->num_bodies > 0)  // each tet's body: index in the deck's bodies list (a body mesh is tets only)
+    cell_data.push_back(make_array("Int32", "body", 1, mesh_->cell_tags));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
@@ -130,6 +132,7 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
+      << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "")
       << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";

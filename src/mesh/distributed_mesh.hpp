@@ -35,7 +35,8 @@ struct DistributedMesh {
   // Per local tet, segment, triangle: its index among the serial mesh's elements of its kind (the
   // same at every rank count: output in a global order, io/xdmf_writer.hpp).
   std::vector<int64_t> cell_ids, segment_ids, triangle_ids;
-  std::vector<int32_t> cell_tags;    // per local tet: the input element tag
+  std::vector<int32_t> cell_tags;    // per local tet: the input element tag (with bodies: its body)
+  int num_bodies = 0;                // a scene of bodies (deck bodies:); 0: one body
   std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
   std::vector<int32_t> cell_material;  // per local tet: 0 default material, k + 1 region k
   std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)

@@ -29,20 +29,30 @@ static int64_t global_count(MPI_Comm comm, int64_t count) {
   return count;
 }
 
+std::vector<int32_t> vertex_bodies(const TetMesh& mesh) {
+  std::vector<int32_t> body(mesh.num_vertices(), -1);
+  for (int64_t t = 0; t < mesh.num_tets(); ++t)
+    for (int k = 0; k < 4; ++k) body[mesh.tets[4 * t + k]] = mesh.tet_tags[t];
+  return body;
+}
+
 std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                      const std::string& deck_path, const std::string& section) {
   const double tol = 1e-9 * mesh_diagonal(comm, mesh);
-  std::vector<int32_t> selected(mesh.num_vertices(), 0);
+  std::vector<int32_t> selected(mesh.num_vertices(), 0), body;
+  for (const BoxRegion& b : boxes)
+    if (b.body >= 0 && body.empty()) body = vertex_bodies(mesh);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
     for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-      if (in_box(&mesh.coords[3 * v], boxes[b], tol)) {
+      if (in_box(&mesh.coords[3 * v], boxes[b], tol) && (boxes[b].body < 0 || body[v] == boxes[b].body)) {
         selected[v] = (int32_t)b + 1;
         ++count;
       }
     if (global_count(comm, count) == 0)
       throw InputError(deck_path, boxes[b].line, section + "[" + std::to_string(b) + "].box",
-                       "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
+                       boxes[b].body >= 0 ? "selects no vertex of its body (boxes are in coordinates after the body's mesh.transform)"
+                                          : "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
   return selected;
 }

@@ -25,6 +25,7 @@ struct BoxRegion {
   Motion motion;                     // fixed regions and attachments only
   double release = -1;               // fixed regions: time at which its vertices become free (< 0: never);
                                      // attachments: time at which the springs are gone
+  int body = -1;                     // fixed regions: only the vertices of this body (bodies[body].fixed; -1: any)
 };
 
 // A soft attachment (deck attachments[k]): a zero-rest-length spring of stiffness k (N/m, per
@@ -53,8 +54,11 @@ bool in_box(const double* p, const BoxRegion& box, double tol);
 // The diagonal of the bounding box of every rank's mesh (collective).
 double mesh_diagonal(MPI_Comm comm, const TetMesh& mesh);
 
-// Per vertex: 0 if in no box, k + 1 if in boxes[k] (the last box containing it wins). A box that
-// selects no vertex is an input error naming the deck line and the key "<section>[k].box".
+// Per vertex of a scene of bodies (tet tags = body index, read_serial_mesh): its body (-1: in no tet).
+std::vector<int32_t> vertex_bodies(const TetMesh& mesh);
+// Per vertex: 0 if in no box, k + 1 if in boxes[k] (the last box containing it wins); a box with
+// BoxRegion::body >= 0 takes that body's vertices only. A box that selects no vertex is an input
+// error naming the deck line and the key "<section>[k].box".
 std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                      const std::string& deck_path, const std::string& section);
 // select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].

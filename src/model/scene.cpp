@@ -128,7 +128,41 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
+// A scene of bodies as one mesh: each body's mesh made or read, transformed and cleaned alone, its
+// tets tagged with the body's index (their material), then appended: vertex ids body by body.
+static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
+  TetMesh all;
+  int64_t first_id = 0;
+  CleanReport total;
+  for (size_t k = 0; k < deck.bodies.size(); ++k) {
+    const MeshSpec& spec = deck.bodies[k].mesh;
+    TetMesh mesh = spec.is_box ? generate_box(spec.box_size, spec.box_cells)
+                   : ends_with(spec.file, ".msh") ? read_gmsh(spec.file, false)
+                                                  : read_medit(spec.file, false, false);
+    apply_transform(mesh, spec.transform);
+    const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    total.dropped_vertices += report.dropped_vertices;
+    total.reoriented_tets += report.reoriented_tets;
+    if (mesh.num_tets() == 0 || mesh.num_segments() > 0 || mesh.num_triangles() > 0)
+      throw InputError(deck.path, deck.bodies[k].line, "bodies[" + std::to_string(k) + "].mesh",
+                       "a body's mesh must be tetrahedra only");
+    const int32_t first_vertex = (int32_t)all.num_vertices();
+    all.coords.insert(all.coords.end(), mesh.coords.begin(), mesh.coords.end());
+    for (int32_t v : mesh.tets) all.tets.push_back(first_vertex + v);
+    all.tet_tags.insert(all.tet_tags.end(), mesh.num_tets(), (int32_t)k);
+    int64_t ids = 0;
+    for (int64_t id : mesh.vertex_ids) {
+      all.vertex_ids.push_back(first_id + id);
+      ids = std::max(ids, id + 1);
+    }
+    first_id += ids;
+  }
+  if (repaired) *repaired = total;
+  return all;
+}
+
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
+  if (!deck.bodies.empty()) return read_bodies_mesh(deck, repaired);
   const MeshSpec& spec = deck.mesh;
   TetMesh mesh;
   if (spec.is_box) {
@@ -165,7 +199,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
       check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
     }
     mesh = read_serial_mesh(deck, repaired);
-    if (!spec.file.empty())  // before distributing and factoring it
+    if (!spec.file.empty() || !deck.bodies.empty())  // before distributing and factoring it
       check_memory(deck, mesh.num_vertices(), mesh.num_tets(), plan, limits);
   });
   return mesh;
@@ -183,7 +217,7 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
   own_pieces.serial_mesh = false;
   const auto& box = spec.box_cells;
   const auto& sheet = spec.sheet_cells;
-  const bool blocks = spec.strands.empty() && ((spec.is_box && box_block_grid(box, size)[0] > 0) ||
+  const bool blocks = deck.bodies.empty() && spec.strands.empty() && ((spec.is_box && box_block_grid(box, size)[0] > 0) ||
                                                (spec.is_sheet && box_block_grid({sheet[0], sheet[1], 1}, size)[0] > 0));
   if (blocks) {
     const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
@@ -237,7 +271,9 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   in.piece = load_scene_piece(comm, deck, &in.repaired, plan);
   const TetMesh& mesh = in.piece.mesh;
   in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path);
-  in.cell_material = select_material_regions(comm, mesh, deck.regions, deck.path);
+  // Bodies: a tet's material is its body's (its tag, read_bodies_mesh); they take no regions.
+  in.cell_material = deck.bodies.empty() ? select_material_regions(comm, mesh, deck.regions, deck.path)
+                                         : std::vector<int32_t>(mesh.tet_tags.begin(), mesh.tet_tags.end());
   int64_t free_vertices = 0;
   for (int32_t f : in.fixed) free_vertices += f == 0;
   MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_INT64_T, MPI_SUM, comm);
@@ -288,9 +324,14 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::scene));
   PetscCall(distribute_mesh(comm_, input.piece, input.fixed, input.cell_material, s.mesh));
+  s.mesh.num_bodies = (int)spec.bodies.size();
   input = SceneInput();  // the piece is no longer needed
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
+  if (!spec.bodies.empty()) {
+    materials.clear();
+    for (const BodySpec& b : spec.bodies) materials.push_back(b.material);
+  }
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
@@ -339,6 +380,14 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscCall(s.create(scene_->step->layout()));
   PetscCall(scene_->body->rest_positions(s.x));
   PetscCall(apply_initial_state(spec_->initial, *scene_->body, s.x));
+  if (!spec_->bodies.empty()) {  // each body's initial velocity (its tets' tag is its index)
+    const DistributedMesh& m = scene_->mesh;
+    std::vector<double> v(3 * m.num_vertices, 0.0);
+    for (PetscInt c = 0; c < m.num_cells; ++c)
+      for (int k = 0; k < 4; ++k)
+        for (int d = 0; d < 3; ++d) v[3 * m.cells[4 * c + k] + d] = spec_->bodies[m.cell_tags[c]].velocity[d];
+    PetscCall(scene_->body->free_values(v, s.v));
+  }
   s.frame = 0;
   s.time = 0;
   s.released.assign(spec_->fixed.size(), 0);

@@ -30,10 +30,22 @@ struct InitialSpec {
   long seed = 1;                     // random: uniform in the rest bounding box, per vertex id
 };
 
+// One body of a scene of several (deck bodies:): its own tet mesh (a box or a file, with its
+// transform), material and initial velocity; its fixed regions are in SceneSpec::fixed with
+// BoxRegion::body set. All bodies go into one mesh (vertex ids body by body), one factor, one solve.
+struct BodySpec {
+  std::string name;                      // bodies[k].name, default body<k>
+  MeshSpec mesh;
+  MaterialSpec material;
+  std::array<double, 3> velocity{0, 0, 0};
+  int line = 0;                          // deck line of bodies[k]
+};
+
 struct SceneSpec {
   std::string path;                      // the deck file (input errors name it)
   std::string name;                      // deck file name without directory and extension
-  MeshSpec mesh;
+  MeshSpec mesh;                         // the one body's mesh (without bodies)
+  std::vector<BodySpec> bodies;          // several bodies (then mesh is unused and material is bodies[0]'s)
   MaterialSpec material;                 // the default material (of the tets)
   bool has_material = false;             // material given (needed iff the mesh has tets)
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)
