@@ -105,12 +105,15 @@ struct Run {
   std::unique_ptr<FallbackChain> chain;  // around solver
   std::vector<std::unique_ptr<OutputWriter>> writers;
   IterationLog log;
-  ContactLog contact_log;
+  // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
+  // own log (EnergyTerm::log; null if it keeps none or the deck turned it off).
+  std::vector<std::unique_ptr<FrameLog>> term_logs;
   RunSummary summary;
   int last_written = -1;
-  std::vector<double> pos, vel, J, contact_force;  // work: local arrays of a frame
-  Vec force = nullptr;                             // work: contact forces (global free dofs)
-  ~Run() { VecDestroy(&force); }
+  std::vector<double> pos, vel, J;                 // work: local arrays of a frame
+  std::vector<std::vector<double>> field_values;   // work: the terms' point fields, local
+  Vec field = nullptr;                             // work: one point field (global free dofs)
+  ~Run() { VecDestroy(&field); }
 
   RunOptions options;
 
@@ -146,36 +149,40 @@ struct Run {
     *written = finite == 1;
     if (!*written) PetscFunctionReturn(0);
     summary.min_J = std::fmin(summary.min_J, global_min(comm, J));
-    const std::vector<double>* contact = nullptr;
-    if (s.contact) {
-      ContactMeasure m;
-      if (!force) PetscCall(VecDuplicate(state.x, &force));
-      PetscCall(s.contact->measure(pos, m, force));
-      PetscCall(s.body->local_values(force, contact_force));
-      contact = &contact_force;
-    }
+    FrameData f{frame, frame * deck.time.dt, &state, &pos, &vel, &J, {}};
+    std::vector<std::string> names;
+    for (const auto& term : s.body->terms())
+      for (const std::string& name : term->point_fields()) {
+        if (!field) PetscCall(VecDuplicate(state.x, &field));
+        PetscCall(term->point_field(name, pos, field));
+        field_values.resize(names.size() + 1);
+        PetscCall(s.body->local_values(field, field_values.back()));
+        names.push_back(name);
+      }
+    for (size_t k = 0; k < names.size(); ++k) f.point_fields.emplace_back(names[k], &field_values[k]);
     PetscCall(event_begin(&LogEvents::output));
-    for (auto& w : writers) w->write_frame({frame, frame * deck.time.dt, &state, &pos, &vel, &J, contact});
+    for (auto& w : writers) w->write_frame(f);
     PetscCall(event_end(&LogEvents::output));
     last_written = frame;
     PetscFunctionReturn(0);
   }
 
-  // Per frame: contact.csv's rows and the summary's contact extremes (scenes with colliders).
-  PetscErrorCode record_contact(int frame) {
+  // Per frame: what the terms with a log of their own report (EnergyTerm::report: contact.csv's
+  // rows and the summary's contact maxima); nothing at all in a scene without such a term.
+  PetscErrorCode record_terms(int frame) {
     const Scene& s = scene.current();
+    bool have_positions = false;
     PetscFunctionBeginUser;
-    if (!s.contact) PetscFunctionReturn(0);
-    ContactMeasure m;
-    PetscCall(s.body->local_positions(state.x, pos));
-    PetscCall(s.contact->measure(pos, m, nullptr));
-    contact_log.append(frame, state.time, m);
-    long long active = 0;
-    for (size_t c = 0; c < m.active.size(); ++c) {
-      summary.max_penetration = std::fmax(summary.max_penetration, m.penetration[c]);
-      active += m.active[c];
+    const auto& terms = s.body->terms();
+    for (size_t t = 0; t < terms.size(); ++t) {
+      if (terms[t]->log().file.empty()) continue;
+      if (!have_positions) PetscCall(s.body->local_positions(state.x, pos));
+      have_positions = true;
+      TermReport r;
+      PetscCall(terms[t]->report(pos, r));
+      if (t < term_logs.size() && term_logs[t]) term_logs[t]->append(frame, state.time, r.rows);
+      for (const auto& [name, value] : r.maxima) raise_summary_maximum(summary, name, value);
     }
-    summary.max_active_contacts = std::max(summary.max_active_contacts, active);
     PetscFunctionReturn(0);
   }
 
@@ -185,7 +192,7 @@ struct Run {
     PetscFunctionBeginUser;
     chain.reset();  // they refer to the old scene
     solver.reset();
-    PetscCall(VecDestroy(&force));  // the layout changed
+    PetscCall(VecDestroy(&field));  // the layout changed
     PetscCall(create_solver(deck.solver, *fresh.step, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
     add_step_counters(summary, *old_scene.step);
@@ -203,7 +210,8 @@ struct Run {
     std::string error;
     try {
       log.flush();
-      contact_log.flush();
+      for (auto& l : term_logs)
+        if (l) l->flush();
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -304,7 +312,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
       summary.frames = frame;
       summary.final_energy = r.energy;
       summary.final_grad_norm = r.grad_norm;
-      PetscCall(record_contact(frame));
+      PetscCall(record_terms(frame));
       const bool last = frame == deck.time.frames;
       if (frame % deck.output.every == 0 || last) {
         PetscCall(write_frame(frame, &written));
@@ -606,11 +614,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
               deck.name.c_str(), summary.vertices, summary.fixed_vertices, elements.c_str(), summary.dofs, size,
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
-  if (const ContactTerm* contact = scene.contact) {
-    const ContactSpec& c = contact->spec();
-    PetscPrintf(comm, "hyperqn: contact: %zu collider(s), %s, distance %.4g, stiffness %.4g, friction_velocity %.4g\n",
-                contact->num_colliders(), c.model.c_str(), c.distance, c.stiffness, c.friction_velocity);
-  }
+  for (const auto& term : scene.body->terms())
+    if (const std::string line = term->describe(); !line.empty()) PetscPrintf(comm, "hyperqn: %s\n", line.c_str());
 
   // 3. Output directory, writers and logs. Every step that one rank does alone is followed by a
   // collective check, so a failure (unwritable directory, full disk) ends the run on every rank.
@@ -639,13 +644,21 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
         } else {
           remove_interrupted_writes(outdir);  // a killed part's temporaries
         }
-        const bool contact_csv = deck.output.contact_csv && scene.contact;
         if (run.restart) {  // the logs as they were at the checkpoint's frame, then continued
           if (deck.output.iterations_csv) run.log.resume(outdir + "/iterations.csv", rank, saved.frame);
-          if (contact_csv) run.contact_log.resume(outdir + "/contact.csv", rank, saved.frame);
         } else {
           if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
-          if (contact_csv) run.contact_log.open(outdir + "/contact.csv", rank);
+        }
+        for (const auto& term : scene.body->terms()) {
+          const TermLog l = term->log();
+          run.term_logs.emplace_back();
+          if (l.file.empty() || (l.file == "contact.csv" && !deck.output.contact_csv)) continue;  // output.contact_csv
+          run.term_logs.back() = std::make_unique<FrameLog>();
+          if (run.restart) {
+            run.term_logs.back()->resume(outdir + "/" + l.file, l.columns, rank, saved.frame);
+          } else {
+            run.term_logs.back()->open(outdir + "/" + l.file, l.columns, rank);
+          }
         }
       } catch (const std::exception& e) {
         error = e.what();
@@ -701,7 +714,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   if (rank == 0 && have_dir) {
     try {
       run.log.flush();  // the rows of a frame that stopped the run
-      run.contact_log.flush();
+      for (auto& l : run.term_logs)
+        if (l) l->flush();
     } catch (const std::exception& e) {
       add(e);
     }

@@ -5,6 +5,7 @@
 // output writer".
 #pragma once
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/records.hpp"
@@ -22,7 +23,8 @@ struct FrameData {
   const std::vector<double>* positions = nullptr;   // 3 per local vertex
   const std::vector<double>* velocities = nullptr;  // 3 per local vertex
   const std::vector<double>* J = nullptr;           // per local tet
-  const std::vector<double>* contact_force = nullptr;  // 3 per local vertex; null without colliders
+  // The terms' point fields (EnergyTerm::point_fields, e.g. contact_force): name, 3 values per local vertex.
+  std::vector<std::pair<std::string, const std::vector<double>*>> point_fields;
 };
 
 class OutputWriter {

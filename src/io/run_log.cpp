@@ -2,6 +2,7 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,11 +16,10 @@ namespace hyperqn {
 namespace {
 
 const char kIterationHeader[] = "frame,iteration,time_s,energy,grad_norm,step,evaluations\n";
-const char kContactHeader[] = "frame,time,collider,normal_force,friction_force,max_penetration,active\n";
 
 // A restart's CSV: the header and the rows of frames <= frame of the file at path (rows start
 // with their frame; a missing file keeps none).
-std::string rows_up_to(const std::string& path, int frame, const char* header) {
+std::string rows_up_to(const std::string& path, int frame, const std::string& header) {
   std::ifstream in(path);
   std::string kept = header, line;
   if (in && std::getline(in, line))  // the header
@@ -49,24 +49,31 @@ void IterationLog::append(int frame, const IterationRecord& r) {
   file_.add(line);
 }
 
-void ContactLog::open(const std::string& path, int rank) {
+void FrameLog::open(const std::string& path, const std::string& columns, int rank) {
   if (rank != 0) return;
   file_.open(path);
-  file_.add(kContactHeader);
+  file_.add("frame,time," + columns + "\n");
   file_.flush();
 }
 
-void ContactLog::resume(const std::string& path, int rank, int frame) {
-  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, kContactHeader));
+void FrameLog::resume(const std::string& path, const std::string& columns, int rank, int frame) {
+  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, "frame,time," + columns + "\n"));
 }
 
-void ContactLog::append(int frame, double time, const ContactMeasure& m) {
+void FrameLog::append(int frame, double time, const std::vector<std::string>& rows) {
   if (!file_.is_open()) return;
-  for (size_t c = 0; c < m.normal_force.size(); ++c) {
-    char line[256];
-    std::snprintf(line, sizeof line, "%d,%.17g,%zu,%.17g,%.17g,%.17g,%ld\n", frame, time, c, m.normal_force[c],
-                  m.friction_force[c], m.penetration[c], m.active[c]);
-    file_.add(line);
+  char head[64];
+  std::snprintf(head, sizeof head, "%d,%.17g,", frame, time);
+  for (const std::string& row : rows) file_.add(head + row + "\n");
+}
+
+void raise_summary_maximum(RunSummary& s, const std::string& name, double value) {
+  if (name == "max_penetration") {
+    s.max_penetration = std::fmax(s.max_penetration, value);
+  } else if (name == "max_active_contacts") {
+    s.max_active_contacts = std::max(s.max_active_contacts, (long long)value);
+  } else {
+    throw std::logic_error("summary.json has no maximum named " + name);
   }
 }
 

@@ -1,12 +1,13 @@
-// The run's logs: iterations.csv (one row per solver iteration), contact.csv and summary.json.
+// The run's logs: iterations.csv (one row per solver iteration), the terms' own logs (e.g.
+// contact.csv: EnergyTerm::log) and summary.json.
 // Written by rank 0; the values they hold are already global. The CSVs are flushed a frame at a
 // time, in whole lines; summary.json is replaced atomically (io/atomic_file.hpp).
 #pragma once
 #include <string>
+#include <vector>
 
 #include "io/atomic_file.hpp"
 #include "io/records.hpp"
-#include "terms/contact.hpp"
 
 namespace hyperqn {
 
@@ -24,18 +25,23 @@ class IterationLog {
   LineFile file_;
 };
 
-// contact.csv: per frame and collider, the total normal and friction force on the body, the
-// deepest penetration and the vertices within the activation distance (rank 0 writes).
-class ContactLog {
+// A log of rows per frame, "frame,time," then `columns` (a term's own log; rank 0 writes).
+class FrameLog {
  public:
-  void open(const std::string& path, int rank);
-  void append(int frame, double time, const ContactMeasure& m);
-  void resume(const std::string& path, int rank, int frame);  // as IterationLog::resume
+  void open(const std::string& path, const std::string& columns, int rank);
+  // rows: the values after frame,time, one row each.
+  void append(int frame, double time, const std::vector<std::string>& rows);
+  void resume(const std::string& path, const std::string& columns, int rank, int frame);  // as IterationLog::resume
   void flush() { file_.flush(); }
 
  private:
   LineFile file_;
 };
+
+// Raises the summary's field `name` (a maximum over the run's frames that a term reports:
+// max_penetration, max_active_contacts) to value if it is larger. Throws std::logic_error for a
+// name summary.json does not have.
+void raise_summary_maximum(RunSummary& s, const std::string& name, double value);
 
 // Writes summary.json (rank 0 only), atomically: the file on disk is always a whole one. Throws
 // std::runtime_error naming the path on failure, leaving the previous file as it was.

@@ -92,7 +92,7 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                    make_array("Float64", "velocity", 3, *f.velocities),
                                    make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
-  if (f.contact_force) point_data.push_back(make_array("Float64", "contact_force", 3, *f.contact_force));
+  for (const auto& [name, values] : f.point_fields) point_data.push_back(make_array("Float64", name, 3, *values));
   std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
   if (cloth())  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
     cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
@@ -119,16 +119,17 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
 }
 
 void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,
-                           bool contact) const {
+                           const FrameData& f) const {
   std::ostringstream out;
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n"
          "<PPointData>\n"
          "<PDataArray type=\"Float64\" Name=\"displacement\" NumberOfComponents=\"3\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>\n"
-         "<PDataArray type=\"Int64\" Name=\"vertex_id\" NumberOfComponents=\"1\"/>\n"
-      << (contact ? "<PDataArray type=\"Float64\" Name=\"contact_force\" NumberOfComponents=\"3\"/>\n" : "")
-      << "</PPointData>\n<PCellData>\n"
+         "<PDataArray type=\"Int64\" Name=\"vertex_id\" NumberOfComponents=\"1\"/>\n";
+  for (const auto& field : f.point_fields)
+    out << "<PDataArray type=\"Float64\" Name=\"" << field.first << "\" NumberOfComponents=\"3\"/>\n";
+  out << "</PPointData>\n<PCellData>\n"
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
@@ -178,7 +179,7 @@ void VtkSeries::write_frame(const FrameData& f) {
   throw_if_any_failed(comm_, error);
   written_.emplace_back(f.time, file);
   try {
-    if (rank == 0 && size > 1) write_pvtu(dir_ + "/" + file, stem, pieces, f.contact_force != nullptr);
+    if (rank == 0 && size > 1) write_pvtu(dir_ + "/" + file, stem, pieces, f);
     if (rank == 0) write_pvd();
   } catch (const std::exception& e) {
     error = e.what();

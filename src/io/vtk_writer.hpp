@@ -34,7 +34,7 @@ class VtkSeries : public OutputWriter {
 
  private:
   void write_piece(const std::string& path, const FrameData& f) const;
-  void write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces, bool contact) const;
+  void write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces, const FrameData& f) const;
   void write_pvd() const;
 
   MPI_Comm comm_;

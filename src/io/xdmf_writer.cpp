@@ -249,11 +249,11 @@ void XdmfSeries::write_frame(const FrameData& f) {
     const PetscInt nv = mesh_->num_vertices;
     std::vector<double> disp(3 * nv);
     for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
-    std::vector<std::pair<const char*, std::vector<double>>> point_fields = {
+    std::vector<std::pair<std::string, std::vector<double>>> point_fields = {
         {"positions", L.vertices->gather(*f.positions, 3)},
         {"displacement", L.vertices->gather(disp, 3)},
         {"velocity", L.vertices->gather(*f.velocities, 3)}};
-    if (f.contact_force) point_fields.emplace_back("contact_force", L.vertices->gather(*f.contact_force, 3));
+    for (const auto& [name, values] : f.point_fields) point_fields.emplace_back(name, L.vertices->gather(*values, 3));
     // Element fields: each kind's block at its place in the list of all elements.
     const std::vector<double> J = element_J(*mesh_, f);
     std::vector<double> J_blocks[kKinds];
@@ -286,7 +286,9 @@ void XdmfSeries::write_frame(const FrameData& f) {
   throw_if_any_failed(comm_, error);
   // Listed once written: a frame written again (the last good frame of a run that stops) once.
   if (!written_.empty() && written_.back().frame == f.frame) written_.pop_back();
-  written_.push_back({f.time, f.frame, f.contact_force != nullptr});
+  std::vector<std::string> fields;
+  for (const auto& field : f.point_fields) fields.push_back(field.first);
+  written_.push_back({f.time, f.frame, fields});
   int rank;
   MPI_Comm_rank(comm_, &rank);
   try {
@@ -324,7 +326,7 @@ void XdmfSeries::write_index() const {
   out.precision(17);
   out << "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n<Domain>\n"
       << "<Grid Name=\"" << name_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const auto& [t, frame, contact] : written_) {
+  for (const auto& [t, frame, fields] : written_) {
     const std::string group = frame_group(frame);
     out << "<Grid Name=\"frame_" << group.substr(group.rfind('/') + 1) << "\" GridType=\"Uniform\">\n<Time Value=\"" << t
         << "\"/>\n"
@@ -335,7 +337,7 @@ void XdmfSeries::write_index() const {
     };
     for (const char* name : {"displacement", "velocity"}) attribute(name, "Vector", "Node", item(V + " 3", false, group + "/" + name));
     attribute("vertex_id", "Scalar", "Node", item(V, true, "/mesh/vertex_id"));
-    if (contact) attribute("contact_force", "Vector", "Node", item(V + " 3", false, group + "/contact_force"));
+    for (const std::string& name : fields) attribute(name.c_str(), "Vector", "Node", item(V + " 3", false, group + "/" + name));
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
     if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
     out << "</Grid>\n";
@@ -347,9 +349,11 @@ void XdmfSeries::write_index() const {
 std::string XdmfSeries::restart_state() const {
   std::string s = "xdmf " + name_ + "\n";
   char line[64];
-  for (const auto& [t, frame, contact] : written_) {
-    std::snprintf(line, sizeof line, "%.17g %d %d\n", t, frame, (int)contact);  // read back exactly
+  for (const auto& [t, frame, fields] : written_) {
+    std::snprintf(line, sizeof line, "%.17g %d", t, frame);  // read back exactly
     s += line;
+    for (const std::string& name : fields) s += " " + name;
+    s += "\n";
   }
   return s;
 }
@@ -366,9 +370,17 @@ void XdmfSeries::resume(const std::string& state, int frame) {
   std::string line;
   std::getline(lines, line);  // xdmf NAME
   for (double t; std::getline(lines, line);) {
-    std::istringstream fields(line);
-    int k, contact;
-    if (fields >> t >> k >> contact && k <= frame) written_.push_back({t, k, contact != 0});
+    std::istringstream words(line);
+    int k;
+    if (!(words >> t >> k) || k > frame) continue;
+    std::vector<std::string> fields;
+    for (std::string name; words >> name;)
+      if (name == "1") {
+        fields.push_back("contact_force");  // the state of a run written before the fields had names
+      } else if (name != "0") {
+        fields.push_back(name);
+      }
+    written_.push_back({t, k, fields});
   }
   int rank;
   MPI_Comm_rank(comm_, &rank);

@@ -11,7 +11,8 @@
 //                         has one kind, else XDMF's Mixed list (6 a b c d | 2 2 a b | 4 a b c)
 //   /mesh/rest            (points, 3) rest positions
 //   /mesh/vertex_id       (points) each point's index in the input mesh
-//   /frames/NNNNN/positions, displacement, velocity, contact_force (with colliders): (points, 3)
+//   /frames/NNNNN/positions, displacement, velocity, and the terms' point fields (contact_force
+//   with colliders): (points, 3)
 //   /frames/NNNNN/J       per element: det F of a tet, l / L of a segment, the area ratio of a
 //                         triangle; stretch (cloth meshes): the largest principal stretch
 // Each frame's grid has the frame's positions as its geometry. The VTK series' per-cell "rank"
@@ -65,7 +66,7 @@ class XdmfSeries : public OutputWriter {
   struct Listed {
     double time;
     int frame;
-    bool contact;  // the frame has contact forces (scenes with colliders)
+    std::vector<std::string> fields;  // the terms' point fields the frame has (FrameData::point_fields)
   };
   std::vector<Listed> written_;  // the index's frames
 };

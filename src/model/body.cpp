@@ -82,6 +82,12 @@ PetscErrorCode Body::free_values(const std::vector<double>& values, Vec global) 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Body::set_masses(Vec mass) {
+  PetscFunctionBeginUser;
+  for (auto& t : terms_) PetscCall(t->set_masses(mass));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
   for (auto& term : terms_) PetscCall(term->begin_step(step));

@@ -38,6 +38,10 @@ class Body {
   // fixed vertices: the prescribed ones the checkpointed run had, which set_time from a fresh body
   // would not give) into the body and the global vectors x, v of free dofs.
   PetscErrorCode resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v);
+  // The terms, for what they report (EnergyTerm::log, report, point_fields).
+  const std::vector<std::unique_ptr<EnergyTerm>>& terms() const { return terms_; }
+  // The lumped mass per free dof to every term (EnergyTerm::set_masses).
+  PetscErrorCode set_masses(Vec mass);
   // The terms' per-step update (EnergyTerm::begin_step).
   PetscErrorCode begin_step(const StepStart& step);
 

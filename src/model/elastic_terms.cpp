@@ -2,6 +2,7 @@
 
 #include "materials/material_factory.hpp"
 #include "model/material_params.hpp"
+#include "io/log_events.hpp"
 #include "terms/attachments.hpp"
 #include "terms/cloth_bending.hpp"
 #include "terms/cloth_membrane.hpp"
@@ -78,6 +79,15 @@ std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const s
   }
   if (groups.empty()) return nullptr;
   return std::make_unique<Attachments>(mesh, std::move(groups));
+}
+
+std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std::vector<ColliderSpec>& colliders,
+                                         const ContactSpec& contact, const std::string& deck_path) {
+  if (colliders.empty()) return nullptr;
+  std::vector<std::unique_ptr<Collider>> built;
+  for (size_t c = 0; c < colliders.size(); ++c) built.push_back(make_collider(colliders[c], deck_path, (int)c));
+  return std::make_unique<ContactTerm>(mesh, std::move(built), resolved_contact(contact, rest_diagonal(mesh)),
+                                       log_events().contact);
 }
 
 }  // namespace hyperqn

@@ -1,6 +1,6 @@
-// The elastic energy terms of a scene, from its materials: continuum tets (one term for every
-// hyperelastic material), mass-spring tets, strand segments, cloth (mass, stretching, bending);
-// only those the mesh uses.
+// The energy terms of a scene, from its description: the elastic ones from its materials
+// (continuum tets, one term for every hyperelastic material; mass-spring tets, strand segments,
+// cloth: mass, stretching, bending), the attachments and contact; only those the scene uses.
 #pragma once
 #include <memory>
 #include <vector>
@@ -8,6 +8,7 @@
 #include "mesh/distributed_mesh.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
+#include "terms/contact.hpp"
 #include "terms/energy_term.hpp"
 
 namespace hyperqn {
@@ -25,5 +26,10 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
 // the springs do not depend on the rank count); null if none is left. Collective.
 std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                                             const std::vector<char>& released);
+
+// Contact with the colliders (their files read again on every rank; deck_path names errors), its
+// defaults resolved for the mesh's rest diagonal; null without colliders (no contact code at all).
+std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std::vector<ColliderSpec>& colliders,
+                                         const ContactSpec& contact, const std::string& deck_path);
 
 }  // namespace hyperqn

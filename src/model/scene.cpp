@@ -335,22 +335,14 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
-  s.contact = nullptr;
-  if (!spec.colliders.empty()) {  // no collider, no contact code
-    std::vector<std::unique_ptr<Collider>> colliders;
-    for (size_t c = 0; c < spec.colliders.size(); ++c) colliders.push_back(make_collider(spec.colliders[c], spec.path, (int)c));
-    auto contact = std::make_unique<ContactTerm>(s.mesh, std::move(colliders), resolved_contact(spec.contact, rest_diagonal(s.mesh)),
-                                                 log_events().contact);
-    s.contact = contact.get();
-    terms.push_back(std::move(contact));
-  }
+  if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path)) terms.push_back(std::move(contact));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
   s.step = std::make_unique<StepObjective>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
                                                  options_.warm_start, options_.upright_guess,
                                                  options_.element_limit, spec.time.integrator);
   PetscCall(s.step->setup());
-  if (s.contact) PetscCall(s.contact->set_masses(s.step->mass()));
+  PetscCall(s.body->set_masses(s.step->mass()));
   if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);
   if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
     s.factored = std::make_unique<FactoredSystem>();

@@ -13,7 +13,6 @@
 #include "model/step_objective.hpp"
 #include "model/state.hpp"
 #include "solvers/factored_system.hpp"
-#include "terms/contact.hpp"
 #include "solvers/solver_spec.hpp"
 #include "mesh/mesh.hpp"
 #include "model/memory_estimate.hpp"
@@ -49,7 +48,6 @@ bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput
 struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
-  ContactTerm* contact = nullptr;                  // the body's contact term, if the deck has colliders
   std::unique_ptr<StepObjective> step;
   std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
   std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace hyperqn {
 
@@ -285,6 +286,40 @@ PetscErrorCode ContactTerm::measure(const std::vector<double>& pos, ContactMeasu
   }
   out.penetration = penetration;
   out.active = active;
+  PetscFunctionReturn(0);
+}
+
+std::string ContactTerm::describe() const {
+  char text[200];
+  std::snprintf(text, sizeof text, "contact: %zu collider(s), %s, distance %.4g, stiffness %.4g, friction_velocity %.4g",
+                colliders_.size(), spec_.model.c_str(), spec_.distance, spec_.stiffness, spec_.friction_velocity);
+  return text;
+}
+
+PetscErrorCode ContactTerm::report(const std::vector<double>& pos, TermReport& out) const {
+  ContactMeasure m;
+  PetscFunctionBeginUser;
+  PetscCall(measure(pos, m, nullptr));
+  double deepest = 0;
+  long active = 0;
+  for (size_t c = 0; c < m.normal_force.size(); ++c) {
+    char row[160];
+    std::snprintf(row, sizeof row, "%zu,%.17g,%.17g,%.17g,%ld", c, m.normal_force[c], m.friction_force[c],
+                  m.penetration[c], m.active[c]);
+    out.rows.push_back(row);
+    deepest = std::max(deepest, m.penetration[c]);
+    active += m.active[c];
+  }
+  out.maxima = {{"max_penetration", deepest}, {"max_active_contacts", (double)active}};
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ContactTerm::point_field(const std::string& name, const std::vector<double>& pos, Vec out) const {
+  ContactMeasure m;
+  PetscFunctionBeginUser;
+  PetscCheck(name == "contact_force", PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "the contact term has no field %s",
+             name.c_str());
+  PetscCall(measure(pos, m, out));
   PetscFunctionReturn(0);
 }
 

@@ -72,9 +72,17 @@ class ContactTerm : public EnergyTerm {
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode begin_step(const StepStart& step) override;
 
-  // The lumped mass per free dof (global layout, Body::lumped_mass): sets the per-vertex penalty
-  // stiffness. Until it is called every vertex counts as 1 kg.
-  PetscErrorCode set_masses(Vec mass);
+  // Sets the per-vertex penalty stiffness. Until it is called every vertex counts as 1 kg.
+  PetscErrorCode set_masses(Vec mass) override;
+  // Reports: the console line of its settings; contact.csv, per frame and collider, the total
+  // normal and friction force on the body, the deepest penetration and the vertices within the
+  // activation distance; summary.json's max_penetration and max_active_contacts; the point field
+  // contact_force (N: normal plus friction, of all colliders).
+  std::string describe() const override;
+  TermLog log() const override { return {"contact.csv", "collider,normal_force,friction_force,max_penetration,active"}; }
+  PetscErrorCode report(const std::vector<double>& pos, TermReport& out) const override;
+  std::vector<std::string> point_fields() const override { return {"contact_force"}; }
+  PetscErrorCode point_field(const std::string& name, const std::vector<double>& pos, Vec out) const override;
 
   const ContactSpec& spec() const { return spec_; }
   size_t num_colliders() const { return colliders_.size(); }

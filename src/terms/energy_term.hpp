@@ -1,7 +1,8 @@
 // One contribution to the elastic energy E(x) of a scene: g(x) = 1/2 |x - y|_M^2 + h^2 sum_t E_t(x).
 //
-// Every kind of element (continuum tets, mass-spring tets, strand segments) is a term, and so
-// will be contact, attachments and cloth. A term works on the local elements of this rank: it
+// Every kind of element (continuum tets, mass-spring tets, strand segments, cloth) is a term, and
+// so are attachments and contact: the scene is the list of them, built alike, and the run asks each
+// what it reports through this interface. A term works on the local elements of this rank: it
 // adds its local energy and gradient into the body's accumulators, and the body reduces over the
 // ranks once for all terms. A scene holds only the terms it uses (model/elastic_terms.hpp), so a
 // scene without strands runs no strand code. docs/architecture.md, "Add an energy term".
@@ -9,6 +10,7 @@
 #include <petscmat.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hyperqn {
@@ -19,6 +21,19 @@ struct StepStart {
   double dt = 0;         // the step's length h
   Vec x_start = nullptr; // x_n, the positions at its start (global free dofs)
   Vec y = nullptr;       // its inertial target y (global free dofs)
+};
+
+// A log file of a term's own (a CSV: "frame,time," then its columns), e.g. contact.csv.
+struct TermLog {
+  std::string file;     // its name in the output directory ("": the term keeps no log)
+  std::string columns;  // CSV header after "frame,time,"
+};
+
+// What a term reports at the end of a frame: its log's rows (each the values after frame,time)
+// and maxima over the run for summary.json (the summary's field name, the frame's value).
+struct TermReport {
+  std::vector<std::string> rows;
+  std::vector<std::pair<std::string, double>> maxima;
 };
 
 class EnergyTerm {
@@ -58,6 +73,21 @@ class EnergyTerm {
   virtual bool bounds_steps() const { return false; }
   // A signature of the term's active set at the last point it evaluated (0: none; contact).
   virtual unsigned long long active_set() const { return 0; }
+  // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for
+  // a term whose parameters scale with the mass (the contact penalty).
+  virtual PetscErrorCode set_masses(Vec /*mass*/) { return 0; }
+
+  // What the run reports of the term, asked of every term alike (io/ includes no term):
+  // a line for the console at setup ("" none), its own log, the frame's report (collective), and
+  // point fields of the output frames (names; one's values at pos into a global vector of free
+  // dofs, collective).
+  virtual std::string describe() const { return ""; }
+  virtual TermLog log() const { return {}; }
+  virtual PetscErrorCode report(const std::vector<double>& /*pos*/, TermReport& /*out*/) const { return 0; }
+  virtual std::vector<std::string> point_fields() const { return {}; }
+  virtual PetscErrorCode point_field(const std::string& /*name*/, const std::vector<double>& /*pos*/, Vec /*out*/) const {
+    return 0;
+  }
   virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
 };
 
