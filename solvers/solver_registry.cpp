@@ -91,4 +91,106 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
   PetscFunctionReturn(0);
 }
 
+const std::vector<DeckKey<SolverSpec>>& solver_keys() {
+  using S = SolverSpec;
+  static const std::vector<DeckKey<S>> keys = {
+      {"type", &S::type,
+       "minimiser of the incremental potential. `lbfgs`: L-BFGS with initial inverse Hessian (M + h²L)⁻¹ (Liu et al. "
+       "2017). `lbfgs-identity`: the same L-BFGS with TAO's default initial Hessian instead (ablation, no "
+       "factorization; in PETSc 3.18 a diagonal scaling updated from the (s, y) pairs, "
+       "`-tao_lmvm_mat_lmvm_scale_type scalar` makes it γI). `newton`: the Newton baseline. `pd`: Projective "
+       "Dynamics, x ← x − α(M + h²L)⁻¹∇g; exact local-global steps (α = 1) for ARAP (`corotated` with λ = 0), "
+       "otherwise with a backtracking Armijo line search (the log says which)",
+       {}, solver_names()},
+      {"iterations", &S::iterations,
+       "iteration budget per time step (the paper's 10); a frame still far from converged goes on, see "
+       "`max_iterations`",
+       between(1, 1e6)},
+      {"max_iterations", &S::max_iterations,
+       "fallback chain, stage 1: a frame still far from converged after `iterations` (‖∇g‖ > 0.1 · min(‖∇g(x₀)‖, "
+       "W), see [guardrails.md](guardrails.md#fallback)) iterates on up to this many; ≤ `iterations` turns the stage off",
+       between(0, 1e6)},
+      {"max_halvings", &S::max_halvings,
+       "stage 2: a frame still far from converged is redone from x_n in 2, 4, … 2^max_halvings sub-steps of the same "
+       "solver (each sub-step size factors its own M + (h/k)²L the first time it is needed); 0 turns it off",
+       between(0, 10, "each halving may factor one more M + h^2 L")},
+      {"newton_fallback", &S::newton_fallback, "stage 3: then the frame is redone by `newton` (projected Hessian)"},
+      {"budget", std::monostate{},
+       "`adaptive`: the fallback chain as the three keys above set it. `fixed`: the paper's fixed budget, every frame "
+       "takes `iterations` iterations (fewer only when it converges by `grad_atol`/`grad_rtol`; set both to 0 for "
+       "exactly `iterations`), with no stage of the chain: no more iterations, no sub-steps, no Newton (and none of "
+       "their factorizations). Giving `max_iterations`, `max_halvings` or `newton_fallback` beside `fixed` is an "
+       "error. Without it, `max_iterations: 10` alone still leaves stages 2 and 3 on: the 81 × 81 sheet of "
+       "`input/cloth/sheet_corners.yaml` then took 69 iterations per frame over 20 frames (5 sub-stepped, 13 by "
+       "Newton, 1,426 ms per frame) against 10 and 17 ms with `budget: fixed`",
+       {}, {"adaptive", "fixed"}, "", "",
+       [](S& s, const std::string& name) {
+         if (name == "fixed") use_fixed_budget(s);
+       },
+       [](const S&) { return std::string("adaptive"); }},
+      {"grad_atol", &S::grad_atol, "stop when ‖∇g‖ ≤ grad_atol", at_least(0)},
+      {"grad_rtol", &S::grad_rtol,
+       "or stop when ‖∇g‖ < grad_rtol · min(‖∇g(x₀)‖, W), W the ‖∇g‖ of the body's own weight over one step (so a "
+       "huge initial gradient does not make a huge residual \"converged\"; [guardrails.md](guardrails.md#fallback))",
+       at_least(0)},
+      {"history", &S::history,
+       "number of L-BFGS correction pairs (`lbfgs`, `lbfgs-identity`); with 0 and an ARAP material, `lbfgs` takes the "
+       "same steps as `pd`. With colliders the default is 20: contact and friction stiffness are not in M + h²L and "
+       "L-BFGS learns them from its pairs ([contact.md](contact.md#defaults))",
+       between(0, kMaxHistory, "each pair holds two vectors of all unknowns; the paper uses 5"), {}, "",
+       "5; 20 with colliders"},
+      {"line_search", &S::line_search,
+       "TAO line search. `unit` always takes the full step. Not used by `pd`, which has its own (see `type`).", {},
+       {"more-thuente", "armijo", "unit"}},
+      {"history_reset", &S::history_reset,
+       "`lbfgs` only: `contact-change` forgets the L-BFGS pairs whenever the set of vertices in contact changes "
+       "between iterates. Measured to cost iterations on every contact scene (the bunny drop: 47.8 → 118.8 "
+       "iterations per frame; [contact.md](contact.md#what-l-bfgs-does-with-contact)), so it is off",
+       {}, {"never", "contact-change"}},
+      {"warm_start", &S::warm_start,
+       "initial guess: the inertial prediction y, the previous positions x_n, or whichever of the two has the lower g "
+       "(two evaluations per step; with contact y often lies deep inside an obstacle while x_n rests on it: a cube "
+       "resting on the ground takes 33 iterations per frame from y and 6.3 from the lower, "
+       "[contact.md](contact.md#defaults))",
+       {}, {"inertial", "previous", "lower"}, "", "`inertial`; `lower` with colliders"},
+      {"upright_guess", &S::upright_guess,
+       "the guess from y (`inertial`, and the y of `lower`) is pulled back to x_n + t(y − x_n), t = 1, ½, ¼, …, until "
+       "it leaves no tet that is upright at x_n inverted, nor past the element limit (\\|det F\\| = 100, "
+       "`-hyperqn_element_limit`) unless it was; where y does neither (every ordinary mesh: "
+       "`scripts/compare_revisions.py` bitwise unchanged) the guess is y itself. `summary.json` counts the steps "
+       "pulled back (`pulled_back_guesses`). Without it y inverts or blows up the slivers next to a clamp, and no "
+       "solver recovers within the frame ([guardrails.md](guardrails.md#element-blow-up-and-inversion)). `false`: y "
+       "itself (the tests of run-aways use it)"},
+      {"h0", &S::h0,
+       "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more, else "
+       "`laplacian` (the crossover measured in [performance.md](performance.md#distributed-h0)). `laplacian`: (M + "
+       "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "
+       "Hessian at the rest shape (per-element PSD fix), a full 3n × 3n matrix factored once per scene; it sees the "
+       "volumetric modes but not rotations, so it wins on stiff, little-deformed scenes and loses on large "
+       "deformations (measured in [method.md](method.md#the-initial-hessian-h0)). `amg`: M + h²L applied through "
+       "one algebraic-multigrid V-cycle (GAMG; options `-h0_*`) instead of a factorization, for meshes whose factor "
+       "does not fit or whose solve does not scale: more iterations, no factor "
+       "([performance.md](performance.md#amg-h0)). `pd` is defined by M + h²L (and `pd` with `h0: amg` is an "
+       "error: its steps need the exact solve); `newton`, `lbfgs-identity` factor no constant matrix: they ignore "
+       "`h0`",
+       {}, {"auto", "laplacian", "rest-stiffness", "amg"}},
+      {"newton_hessian", &S::newton_hessian,
+       "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)", {}, {"projected", "exact"}},
+      {"newton_method", &S::newton_method,
+       "`newton` only: TAO's Newton line search (TAONLS, with `line_search`) or trust region (TAONTR)", {},
+       {"nls", "ntr"}},
+      {"linear_solver", &S::linear_solver,
+       "`newton` (and the fallback chain's Newton): `auto` is `mumps` below 50,000 free vertices and `cg-amg` from "
+       "there (MUMPS's factor of the whole Hessian on every rank would take 1.6 GB per rank at 50,000 vertices and "
+       "22 GB at 350,000, [guardrails.md](guardrails.md#memory)). `mumps`: MUMPS Cholesky (symbolic analysis once "
+       "per run, a numeric factorization per iteration; on more than one rank every rank factors the whole Hessian "
+       "itself, sequentially, so that runs are reproducible: PCREDUNDANT, whose inner solver takes the options "
+       "`-tao_nls_redundant_*`), or CG preconditioned by hypre BoomerAMG, with the rigid-body near-null space set on "
+       "the matrix. With `ntr` the Krylov method is STCG (TAONTR requires a trust-region CG), preconditioned by the "
+       "Cholesky factor or by BoomerAMG.",
+       {}, {"auto", "mumps", "cg-amg"}},
+  };
+  return keys;
+}
+
 }  // namespace hyperqn

@@ -1,6 +1,9 @@
 // A time-step solver's settings (the deck's solver: section).
 #pragma once
 #include <string>
+#include <vector>
+
+#include "io/deck_keys.hpp"
 
 namespace hyperqn {
 
@@ -38,6 +41,9 @@ struct SolverSpec {
   bool newton_fallback = true;
   bool quiet = false;  // set up without a word (the chain's solvers: the run's own one has spoken)
 };
+
+// The deck's solver: keys (io/deck_keys.hpp; solvers/solver_registry.cpp, which knows the types).
+const std::vector<DeckKey<SolverSpec>>& solver_keys();
 
 // The paper's fixed budget (the deck's solver: {budget: fixed}, and every study contender): a
 // frame takes `iterations` iterations (fewer only if it converges), never more, never sub-steps,

@@ -309,7 +309,7 @@ void test_invalid_decks() {
 
   // Time, solver, output.
   expect_error("dt_zero", kHead + "time: {dt: 0}\n", "time.dt", 3, "> 0");
-  expect_error("frames_zero", kHead + "time:\n  dt: 0.1\n  frames: 0\n", "time.frames", 5, ">= 1");
+  expect_error("frames_zero", kHead + "time:\n  dt: 0.1\n  frames: 0\n", "time.frames", 5, "in [1, 100000000]");
   expect_error("damping_one", kHead + "time: {damping: 1}\n", "time.damping", 3, "[0, 1)");
   expect_error("damping_negative", kHead + "time: {damping: -0.1}\n", "time.damping", 3);
   expect_error("unknown_solver", kHead + "solver:\n  type: gauss-seidel\n", "solver.type", 4, "allowed: lbfgs, lbfgs-identity, newton, pd");

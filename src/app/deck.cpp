@@ -10,6 +10,8 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <type_traits>
+#include <variant>
 #include <fstream>
 
 #include "io/partition_file.hpp"
@@ -34,16 +36,9 @@ Names model_names() {
 }
 const Names kModels = model_names();
 const Names kSolverTypes = solver_names();
-const Names kNewtonMethods = {"nls", "ntr"};
-const Names kLinearSolvers = {"auto", "mumps", "cg-amg"};
-const Names kNewtonHessians = {"projected", "exact"};
-const Names kH0s = {"auto", "laplacian", "rest-stiffness", "amg"};
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
-constexpr double kSmallestStep = 1e-100;  // dt: h^2 stays a normal double
 constexpr int kMaxIterations = 1000000;   // per frame
-constexpr int kMaxHalvings = 10;          // of the time step in the fallback chain
-constexpr int kMaxFrames = 100000000;
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kMaxPetscOptions = 1000;      // petsc: section (a YAML alias bomb expands past it)
 constexpr int kMaxPetscDepth = 8;
@@ -51,8 +46,6 @@ constexpr int kContactHistory = 20;         // solver.history's default with col
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
-const Names kLineSearches = {"more-thuente", "armijo", "unit"};
-const Names kWarmStarts = {"inertial", "previous", "lower"};
 const Names kMeshEdges = {"ignore", "strands"};
 const Names kMeshSurfaces = {"cloth"};
 const Names kClothModels = {"mass-spring", "membrane"};
@@ -230,6 +223,42 @@ class Section {
   Value value_;
   std::vector<std::pair<std::string, Value>> entries_;
 };
+
+// Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
+// the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
+// got X"), an unknown choice, an unknown key. `more`: keys the section also allows, read by the
+// caller. Returns the section, for checks that involve several keys.
+template <typename Spec>
+Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spec>>& keys, Spec& spec,
+                  const Names& more = {}) {
+  Names names;
+  for (const DeckKey<Spec>& k : keys) names.push_back(k.name);
+  names.insert(names.end(), more.begin(), more.end());
+  Section s(r, v, names);
+  for (const DeckKey<Spec>& k : keys) {
+    const Value* x = s.find(k.name);
+    if (!x) continue;
+    std::visit(
+        [&](auto member) {
+          if constexpr (std::is_same_v<decltype(member), std::monostate>) {
+            k.set(spec, r.choice(*x, k.choices));
+          } else {
+            using T = std::decay_t<decltype(spec.*member)>;
+            if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+              const T value = std::is_same_v<T, double> ? T(r.number(*x)) : T(r.integer(*x));
+              if (!k.range.rule().empty()) r.check(k.range.contains(value), *x, k.range.rule());
+              spec.*member = value;
+            } else if constexpr (std::is_same_v<T, bool>) {
+              spec.*member = r.boolean(*x);
+            } else {
+              spec.*member = k.choices.empty() ? r.text(*x) : r.choice(*x, k.choices);
+            }
+          }
+        },
+        k.member);
+  }
+  return s;
+}
 
 // Relative paths of mesh and obstacle files are relative to the deck's directory (not the working
 // directory), so a deck and its meshes can be moved together. extensions: what kinds are read.
@@ -789,82 +818,24 @@ TimeIntegrator read_integrator(const Reader& r, const Value& v) {
 }
 
 void read_time(const Reader& r, const Value& v, TimeSpec& t) {
-  Section s(r, v, {"dt", "frames", "damping", "integrator"});
-  if (const Value* x = s.find("dt")) {
-    t.dt = r.number(*x);
-    r.check(t.dt > 0, *x, "> 0");
-    r.check(t.dt >= kSmallestStep, *x, ">= 1e-100 (h^2 must not underflow)");
-  }
-  if (const Value* x = s.find("frames")) {
-    t.frames = r.integer(*x);
-    r.check(t.frames >= 1, *x, ">= 1");
-    r.check(t.frames <= kMaxFrames, *x, "<= 100000000");
-  }
-  if (const Value* x = s.find("damping")) {
-    t.damping = r.number(*x);
-    r.check(t.damping >= 0 && t.damping < 1, *x, "in [0, 1)");
-  }
-  if (const Value* x = s.find("integrator")) t.integrator = read_integrator(r, *x);
+  const Section s = read_keys(r, v, time_keys(), t);
+  if (const Value* x = s.find("dt")) r.check(t.dt >= 1e-100, *x, ">= 1e-100 (h^2 must not underflow)");
 }
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
-  Section s(r, v, {"type", "iterations", "grad_atol", "grad_rtol", "history", "line_search", "warm_start",
-                   "newton_method", "linear_solver", "newton_hessian", "h0", "max_iterations", "max_halvings",
-                   "newton_fallback", "history_reset", "upright_guess", "budget"});
-  if (const Value* x = s.find("type")) sv.type = r.choice(*x, kSolverTypes);
-  if (const Value* x = s.find("iterations")) {
-    sv.iterations = r.integer(*x);
-    r.check(sv.iterations >= 1 && sv.iterations <= kMaxIterations, *x, "in [1, 1000000]");
-  }
-  if (const Value* x = s.find("grad_atol")) {
-    sv.grad_atol = r.number(*x);
-    r.check(sv.grad_atol >= 0, *x, ">= 0");
-  }
-  if (const Value* x = s.find("grad_rtol")) {
-    sv.grad_rtol = r.number(*x);
-    r.check(sv.grad_rtol >= 0, *x, ">= 0");
-  }
-  if (const Value* x = s.find("history")) {
-    sv.history = r.integer(*x);
-    r.check(sv.history >= 0 && sv.history <= kMaxHistory, *x,
-            "in [0, 1000] (each pair holds two vectors of all unknowns; the paper uses 5)");
-  }
-  if (const Value* x = s.find("line_search")) sv.line_search = r.choice(*x, kLineSearches);
-  if (const Value* x = s.find("warm_start")) sv.warm_start = r.choice(*x, kWarmStarts);
-  if (const Value* x = s.find("upright_guess")) sv.upright_guess = r.boolean(*x);
-  if (const Value* x = s.find("history_reset")) sv.history_reset = r.choice(*x, {"never", "contact-change"});
-  if (const Value* x = s.find("newton_method")) sv.newton_method = r.choice(*x, kNewtonMethods);
-  if (const Value* x = s.find("linear_solver")) sv.linear_solver = r.choice(*x, kLinearSolvers);
-  if (const Value* x = s.find("newton_hessian")) sv.newton_hessian = r.choice(*x, kNewtonHessians);
+  const Section s = read_keys(r, v, solver_keys(), sv);
   // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L). amg would not
   // be ignored by pd but break it: its steps are exact solves with M + h^2 L.
-  if (const Value* x = s.find("h0")) {
-    sv.h0 = r.choice(*x, kH0s);
-    if (sv.type == "pd" && sv.h0 == "amg")
-      r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
-                 "approximates (give laplacian, or leave h0 out)");
-  }
-  if (const Value* x = s.find("max_iterations")) {
-    sv.max_iterations = r.integer(*x);
-    r.check(sv.max_iterations >= 0 && sv.max_iterations <= kMaxIterations, *x, "in [0, 1000000]");
-  }
-  if (const Value* x = s.find("max_halvings")) {
-    sv.max_halvings = r.integer(*x);
-    r.check(sv.max_halvings >= 0 && sv.max_halvings <= kMaxHalvings, *x,
-            "in [0, 10] (each halving may factor one more M + h^2 L)");
-  }
-  if (const Value* x = s.find("newton_fallback")) sv.newton_fallback = r.boolean(*x);
+  if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == "amg")
+    r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
+               "approximates (give laplacian, or leave h0 out)");
   // adaptive: the fallback chain as the three keys above set it; fixed: none of it, and then
   // those keys would say nothing, so giving one is an error rather than silently overruled.
-  if (const Value* x = s.find("budget")) {
-    if (r.choice(*x, {"adaptive", "fixed"}) == "fixed") {
-      for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"})
-        if (const Value* stage = s.find(key))
-          r.fail(*stage, std::string("budget: fixed turns off the fallback chain (") + key +
-                             " among it): leave " + key + " out, or use budget: adaptive");
-      use_fixed_budget(sv);
-    }
-  }
+  if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")
+    for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"})
+      if (const Value* stage = s.find(key))
+        r.fail(*stage, std::string("budget: fixed turns off the fallback chain (") + key +
+                           " among it): leave " + key + " out, or use budget: adaptive");
 }
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
@@ -915,34 +886,9 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
   }
 }
 
-void read_output(const Reader& r, const Value& v, OutputSpec& o) {
-  Section s(r, v, {"directory", "every", "vtk", "format", "iterations_csv", "contact_csv"});
-  if (const Value* x = s.find("directory")) o.directory = r.text(*x);
-  if (const Value* x = s.find("every")) {
-    o.every = r.integer(*x);
-    r.check(o.every >= 1, *x, ">= 1");
-  }
-  if (const Value* x = s.find("vtk")) o.vtk = r.boolean(*x);
-  if (const Value* x = s.find("format")) o.format = r.choice(*x, {"vtu", "xdmf"});
-  if (const Value* x = s.find("iterations_csv")) o.iterations_csv = r.boolean(*x);
-  if (const Value* x = s.find("contact_csv")) o.contact_csv = r.boolean(*x);
-}
+void read_output(const Reader& r, const Value& v, OutputSpec& o) { read_keys(r, v, output_keys(), o); }
 
-void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) {
-  Section s(r, v, {"every", "seconds", "keep"});
-  if (const Value* x = s.find("every")) {
-    c.every = r.integer(*x);
-    r.check(c.every >= 0, *x, ">= 0 (0: not by frame count)");
-  }
-  if (const Value* x = s.find("seconds")) {
-    c.seconds = r.number(*x);
-    r.check(c.seconds >= 0, *x, ">= 0 (0: not by wall time)");
-  }
-  if (const Value* x = s.find("keep")) {
-    c.keep = r.integer(*x);
-    r.check(c.keep >= 1 && c.keep <= 1000, *x, "in [1, 1000]");
-  }
-}
+void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) { read_keys(r, v, checkpoint_keys(), c); }
 
 // The sections that define the physics as YAML text (time without frames, which only says how
 // long to run): what a checkpoint's physics hash is made of. A section the deck leaves out is "".

@@ -35,6 +35,28 @@ struct OutputSpec {
   bool contact_csv = true;           // contact.csv (scenes with colliders only)
 };
 
+// The deck's output: keys (io/deck_keys.hpp).
+inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
+  static const std::vector<DeckKey<OutputSpec>> keys = {
+      {"directory", &OutputSpec::directory,
+       "where results are written; a run first removes the files an earlier run wrote there, and only those "
+       "([outputs.md](outputs.md#a-directory-that-holds-an-earlier-run))",
+       {}, {}, "", "`\"\"`, which means `output/<name>`"},
+      {"every", &OutputSpec::every,
+       "write frames every N frames. Frame 0 (the rest state) and the last frame are always written.", at_least(1)},
+      {"vtk", &OutputSpec::vtk, "write frames at all (in the `format` below; false: none)"},
+      {"format", &OutputSpec::format,
+       "`vtu`: VTK files, one `.vtu` piece per rank and frame, a `.pvtu` and a `.pvd`; `xdmf`: one HDF5 file per run, "
+       "`<name>.h5`, written by all ranks together, and its index `<name>.xdmf`, for runs on many ranks "
+       "([outputs.md](outputs.md#xdmf-output-for-many-ranks))",
+       {}, {"vtu", "xdmf"}},
+      {"iterations_csv", &OutputSpec::iterations_csv, "write the per-iteration solver log as CSV"},
+      {"contact_csv", &OutputSpec::contact_csv,
+       "with colliders: write `contact.csv` (per frame and collider, [outputs.md](outputs.md))"},
+  };
+  return keys;
+}
+
 // When a run writes checkpoints (docs/decks.md#checkpoint): every `every` frames and/or when
 // `seconds` of wall time passed since the last one (0: not by that rule); the newest `keep` remain.
 struct CheckpointSpec {
@@ -42,6 +64,22 @@ struct CheckpointSpec {
   double seconds = 0;
   int keep = 2;
 };
+
+// The deck's checkpoint: keys (io/deck_keys.hpp).
+inline const std::vector<DeckKey<CheckpointSpec>>& checkpoint_keys() {
+  static const std::vector<DeckKey<CheckpointSpec>> keys = {
+      {"every", &CheckpointSpec::every, "a checkpoint every N frames (at frames N, 2N, …)",
+       at_least(0, "0: not by frame count"), {}, "", "0 (never by count)"},
+      {"seconds", &CheckpointSpec::seconds,
+       "a checkpoint after a frame when at least this much wall time passed since the last one (or the run's start)",
+       at_least(0, "0: not by wall time"), {}, "s", "0 (never by time)"},
+      {"keep", &CheckpointSpec::keep,
+       "how many of the run's newest checkpoints remain in `OUTDIR/checkpoints/` (2 or more lets a restart fall back "
+       "when the newest is damaged)",
+       between(1, 1000)},
+  };
+  return keys;
+}
 
 struct Deck : SceneSpec {
   SolverSpec solver;

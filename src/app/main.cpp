@@ -25,7 +25,8 @@ static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn partition DECK.yaml -n N -o FILE.h5\n"
-    "       hyperqn registry   (the material models and solvers, as JSON)\n"
+    "       hyperqn registry   (the material models, solvers and declared deck keys, as JSON)\n"
+    "       hyperqn --help-deck   (the deck keys declared with their types, ranges and defaults)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
     "  solvers of the deck's study: section (error against time, per frame and per trajectory).\n"
     "  -o OUTDIR   output directory (default: the deck's output.directory, else output/<deck name>;\n"
@@ -43,7 +44,7 @@ namespace {
 
 struct CommandLine {
   std::string deck, outdir, restart;
-  bool help = false, study = false, registry = false, partition = false;
+  bool help = false, study = false, registry = false, partition = false, help_deck = false;
   int parts = 0;  // partition: -n
 };
 
@@ -99,6 +100,10 @@ CommandLine parse_command_line(int argc, char** argv) {
     cl.registry = true;
     return cl;
   }
+  if (argc > 1 && std::strcmp(argv[1], "--help-deck") == 0) {
+    cl.help_deck = true;
+    return cl;
+  }
   for (int i = first; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help" || a == "-help") {
@@ -147,7 +152,34 @@ std::string registry_json() {
     s += "    {\"name\": " + quoted(solvers[k].name) + ", \"summary\": " + quoted(solvers[k].summary) +
          ", \"uses_constant_matrix\": " + (solvers[k].uses_constant_matrix ? "true" : "false") + "}" +
          (k + 1 < solvers.size() ? ",\n" : "\n");
+  s += "  ],\n  \"deck_keys\": [\n";
+  const std::vector<hyperqn::KeyInfo> keys = hyperqn::declared_deck_keys();
+  for (size_t k = 0; k < keys.size(); ++k) {
+    std::string choices;
+    for (const std::string& c : keys[k].choices) choices += (choices.empty() ? "" : ", ") + quoted(c);
+    s += "    {\"section\": " + quoted(keys[k].section) + ", \"name\": " + quoted(keys[k].name) +
+         ", \"type\": " + quoted(keys[k].type) + ", \"default\": " + quoted(keys[k].default_value) +
+         ", \"unit\": " + quoted(keys[k].unit) + ", \"choices\": [" + choices + "], \"doc\": " + quoted(keys[k].doc) +
+         "}" + (k + 1 < keys.size() ? ",\n" : "\n");
+  }
   return s + "  ]\n}\n";
+}
+
+// hyperqn --help-deck: the declared deck keys, section by section.
+std::string deck_keys_text() {
+  std::string s = "Deck keys declared with their types, ranges and defaults (docs/decks.md has every section):\n";
+  std::string section;
+  for (const hyperqn::KeyInfo& k : hyperqn::declared_deck_keys()) {
+    if (k.section != section) s += "\n" + (section = k.section) + ":\n";
+    std::string type = k.type;
+    if (!k.choices.empty()) {
+      type = "";
+      for (const std::string& c : k.choices) type += (type.empty() ? "" : " | ") + c;
+    }
+    s += "  " + k.name + ": " + type + " (default " + k.default_value + (k.unit.empty() ? "" : ", in " + k.unit) +
+         ")\n      " + k.doc + "\n";
+  }
+  return s;
 }
 
 // Options given (command line or the deck's petsc: section) that nothing read: most often a
@@ -189,6 +221,8 @@ int main(int argc, char** argv) {
     const CommandLine cl = parse_command_line(argc, argv);
     if (cl.registry) {
       PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", registry_json().c_str()));
+    } else if (cl.help_deck) {
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", deck_keys_text().c_str()));
     } else if (cl.help) {
       // PETSc prints every option read in a PetscOptionsBegin block when -help is set.
       hyperqn::RunOptions options;

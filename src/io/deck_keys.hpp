@@ -1,0 +1,120 @@
+// A deck section's keys declared once, beside the struct they fill: name, type, range, unit, one
+// line of documentation and the allowed choices. From these declarations the deck reader reads
+// the section (app/deck.cpp, read_keys: every check and message alike), `hyperqn --help-deck`
+// prints them, `hyperqn registry` exports them, and docs/decks.md's tables of those sections are
+// generated (scripts/deck_tables.py; tests/python/test_deck_tables.py fails when they differ).
+// The default is the struct's own (a default-constructed one), so it is stated once too.
+#pragma once
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+namespace hyperqn {
+
+// A number's allowed values: lo .. hi, either end open or unbounded (infinite); `why` follows the
+// rule in messages and docs.
+struct KeyRange {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false, hi_open = false;
+  const char* why = "";
+
+  bool contains(double x) const {
+    return (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
+  }
+  // What a value must be, e.g. "> 0", ">= 1", "in [0, 1)", "<= 100000000", "" (anything).
+  std::string rule(bool unicode = false) const {
+    const auto num = [](double x) {
+      char s[32];
+      std::snprintf(s, sizeof s, "%.15g", x);
+      return std::string(s);
+    };
+    const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
+    std::string r;
+    if (has_lo && has_hi) {
+      r = std::string("in ") + (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + (hi_open ? ")" : "]");
+    } else if (has_lo) {
+      r = std::string(lo_open ? "> " : unicode ? "≥ " : ">= ") + num(lo);
+    } else if (has_hi) {
+      r = std::string(hi_open ? "< " : unicode ? "≤ " : "<= ") + num(hi);
+    }
+    if (!r.empty() && *why) r += std::string(" (") + why + ")";
+    return r;
+  }
+};
+
+inline KeyRange at_least(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), false, false, why}; }
+inline KeyRange above(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), true, false, why}; }
+inline KeyRange between(double lo, double hi, const char* why = "") { return {lo, hi, false, false, why}; }
+
+// One key of section Spec: a member of Spec, or (std::monostate) a choice that `set` applies and
+// `get` names for the default (an enum member, or a key that sets several members).
+template <typename Spec>
+struct DeckKey {
+  using Member = std::variant<std::monostate, double Spec::*, int Spec::*, bool Spec::*, std::string Spec::*>;
+  const char* name;
+  Member member;
+  const char* doc;
+  KeyRange range = {};
+  std::vector<std::string> choices = {};  // a string member (or an enum's names): allowed values
+  const char* unit = "";
+  const char* default_text = "";          // instead of the struct's default, e.g. "1/30"
+  std::function<void(Spec&, const std::string&)> set = nullptr;  // for std::monostate
+  std::function<std::string(const Spec&)> get = nullptr;
+};
+
+// What --help-deck, the registry and the docs show of a key, whatever its section's type.
+struct KeyInfo {
+  std::string section, name, type, default_value, unit, doc;
+  std::vector<std::string> choices;
+};
+
+// The default of a member as docs show it.
+inline std::string default_text(double x) {
+  char s[40];
+  std::snprintf(s, sizeof s, "%g", x);
+  std::string t = s;  // 1e-06 -> 1e-6
+  for (const char* e : {"e-0", "e+0"})
+    if (const size_t at = t.find(e); at != std::string::npos) t.erase(at + 2, 1);
+  return t;
+}
+inline std::string default_text(int x) { return std::to_string(x); }
+inline std::string default_text(bool x) { return x ? "true" : "false"; }
+inline std::string default_text(const std::string& x) { return x; }
+inline const char* type_name(double) { return "number"; }
+inline const char* type_name(int) { return "integer"; }
+inline const char* type_name(bool) { return "bool"; }
+inline const char* type_name(const std::string&) { return "string"; }
+
+template <typename Spec>
+std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<DeckKey<Spec>>& keys) {
+  const Spec defaults{};
+  std::vector<KeyInfo> out;
+  for (const DeckKey<Spec>& k : keys) {
+    KeyInfo i{section, k.name, "choice", k.default_text, k.unit, k.doc, k.choices};
+    std::string value = k.get ? k.get(defaults) : "";
+    std::visit(
+        [&](auto member) {
+          if constexpr (!std::is_same_v<decltype(member), std::monostate>) {
+            value = default_text(defaults.*member);
+            if (k.choices.empty()) i.type = type_name(defaults.*member);
+          }
+        },
+        k.member);
+    if (i.default_value.empty()) i.default_value = value;
+    const std::string rule = k.range.rule(true);
+    if (!rule.empty()) i.type += " " + rule;
+    out.push_back(i);
+  }
+  return out;
+}
+
+// Every declared section's keys, in the deck's order (app/deck_keys.cpp).
+std::vector<KeyInfo> declared_deck_keys();
+
+}  // namespace hyperqn
