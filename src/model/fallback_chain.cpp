@@ -111,6 +111,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
     std::vector<IterationRecord> first_records = std::move(records_);
     if (!kept_x_) PetscCall(VecDuplicate(s.x, &kept_x_));
     PetscCall(VecCopy(s.x, kept_x_));
+    PetscCall(g.keep_end());  // how that solve's step ends (the midpoint's may end by Euler)
     bool ok = false;
     for (int k = 1; k <= spec_.max_halvings && !ok; ++k) {
       PetscCall(g.undo_step(s));
@@ -147,6 +148,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
         outcome_ = newton_outcome;
       } else {
         PetscCall(VecCopy(kept_x_, s.x));
+        PetscCall(g.restore_end());
         out.result = first;
         outcome_ = first_outcome;
         records_ = std::move(first_records);

@@ -15,7 +15,7 @@ StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>&
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_}) VecDestroy(v);
+  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_, &kept_hat_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
@@ -228,6 +228,22 @@ PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
   ++s.frame;
   s.time = s.frame * dt_;
   if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode StepObjective::keep_end() {
+  PetscFunctionBeginUser;
+  kept_euler_completed_ = euler_completed_;
+  if (!euler_completed_) PetscFunctionReturn(0);
+  if (!kept_hat_) PetscCall(VecDuplicate(x_hat_, &kept_hat_));
+  PetscCall(VecCopy(x_hat_, kept_hat_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode StepObjective::restore_end() {
+  PetscFunctionBeginUser;
+  euler_completed_ = kept_euler_completed_;
+  if (euler_completed_) PetscCall(VecCopy(kept_hat_, x_hat_));
   PetscFunctionReturn(0);
 }
 

@@ -75,6 +75,10 @@ class StepObjective : public Objective {
   // s.x as it is and a copy of velocity: the last sub-step's), the history moves on, frame and
   // time advance.
   PetscErrorCode end_step(State& s, Vec velocity = nullptr);
+  // What end_step needs of the solve at hand beyond its x (whether complete_by_euler ended it, and
+  // its z), kept and put back: the fallback chain keeps its first solve's x while it tries others.
+  PetscErrorCode keep_end();
+  PetscErrorCode restore_end();
   // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
   PetscErrorCode undo_step(State& s);
 
@@ -132,6 +136,8 @@ class StepObjective : public Objective {
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
   bool euler_completed_ = false;  // this step ended by complete_by_euler
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
+  bool kept_euler_completed_ = false;      // keep_end's
+  Vec kept_hat_ = nullptr;
   PetscInt evaluations_ = 0;
   struct RunCounts {
     PetscInt rejected = 0;
