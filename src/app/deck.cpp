@@ -808,13 +808,9 @@ void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std
   }
 }
 
+// An integrator's name (study.integrators; time.integrator is read by time_keys()).
 TimeIntegrator read_integrator(const Reader& r, const Value& v) {
-  Names names;
-  for (const IntegratorInfo& i : integrator_infos()) names.push_back(i.name);
-  const std::string name = r.choice(v, names);
-  for (const IntegratorInfo& i : integrator_infos())
-    if (name == i.name) return i.kind;
-  r.fail(v, "unknown integrator");  // not reached: choice() accepted a listed name
+  return integrator_named(r.choice(v, integrator_names()))->kind;
 }
 
 void read_time(const Reader& r, const Value& v, TimeSpec& t) {

@@ -128,19 +128,37 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-// A scene of bodies as one mesh: each body's mesh made or read, transformed and cleaned alone, its
-// tets tagged with the body's index (their material), then appended: vertex ids body by body.
+// One mesh as a MeshSpec describes it: made or read, transformed, its strands added, cleaned
+// (errors name `deck_path` for a generated mesh).
+static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path, CleanReport* repaired) {
+  TetMesh mesh;
+  if (spec.is_box) {
+    mesh = generate_box(spec.box_size, spec.box_cells);
+  } else if (spec.is_sheet) {
+    mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
+  } else if (ends_with(spec.file, ".obj")) {
+    mesh = surface_mesh(read_triangle_surface(spec.file));
+  } else if (ends_with(spec.file, ".msh")) {
+    mesh = read_gmsh(spec.file, spec.surface_as_cloth);
+  } else if (!spec.file.empty()) {
+    mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
+  }
+  apply_transform(mesh, spec.transform);
+  for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
+  const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck_path : spec.file);
+  if (repaired) *repaired = report;
+  return mesh;
+}
+
+// A scene of bodies as one mesh: each body's mesh read alone (read_mesh_spec), its tets tagged
+// with the body's index (their material), then appended: vertex ids body by body.
 static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
   TetMesh all;
   int64_t first_id = 0;
   CleanReport total;
   for (size_t k = 0; k < deck.bodies.size(); ++k) {
-    const MeshSpec& spec = deck.bodies[k].mesh;
-    TetMesh mesh = spec.is_box ? generate_box(spec.box_size, spec.box_cells)
-                   : ends_with(spec.file, ".msh") ? read_gmsh(spec.file, false)
-                                                  : read_medit(spec.file, false, false);
-    apply_transform(mesh, spec.transform);
-    const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
+    CleanReport report;
+    const TetMesh mesh = read_mesh_spec(deck.bodies[k].mesh, deck.path, &report);
     total.dropped_vertices += report.dropped_vertices;
     total.reoriented_tets += report.reoriented_tets;
     if (mesh.num_tets() == 0 || mesh.num_segments() > 0 || mesh.num_triangles() > 0)
@@ -164,22 +182,7 @@ static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
   if (!deck.bodies.empty()) return read_bodies_mesh(deck, repaired);
   const MeshSpec& spec = deck.mesh;
-  TetMesh mesh;
-  if (spec.is_box) {
-    mesh = generate_box(spec.box_size, spec.box_cells);
-  } else if (spec.is_sheet) {
-    mesh = generate_sheet(spec.sheet_size, spec.sheet_cells);
-  } else if (ends_with(spec.file, ".obj")) {
-    mesh = surface_mesh(read_triangle_surface(spec.file));
-  } else if (ends_with(spec.file, ".msh")) {
-    mesh = read_gmsh(spec.file, spec.surface_as_cloth);
-  } else if (!spec.file.empty()) {
-    mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
-  }
-  apply_transform(mesh, spec.transform);
-  for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
-  const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck.path : spec.file);
-  if (repaired) *repaired = report;
+  TetMesh mesh = read_mesh_spec(spec, deck.path, repaired);
   if (mesh.num_tets() > 0 && !deck.has_material)
     throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
                                                    std::to_string(mesh.num_tets()) + " tetrahedra");

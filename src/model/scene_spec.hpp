@@ -24,27 +24,20 @@ struct TimeSpec {
 
 // The deck's time: keys (io/deck_keys.hpp).
 inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
-  static const std::vector<DeckKey<TimeSpec>> keys = [] {
-    std::vector<std::string> integrators;
-    for (const IntegratorInfo& i : integrator_infos()) integrators.push_back(i.name);
-    return std::vector<DeckKey<TimeSpec>>{
-        {"dt", &TimeSpec::dt, "time step (one step per frame)", above(0), {}, "s", "1/30"},
-        {"frames", &TimeSpec::frames, "number of time steps", between(1, 1e8)},
-        {"damping", &TimeSpec::damping, "after each step, v ← (1 − damping) v", {0, 1, false, true}},
-        {"integrator", std::monostate{},
-         "the time integrator ([method.md](method.md#time-integrators)): `bdf2` is second order and L-stable, loses far "
-         "less energy than implicit Euler and fails no stability case; `implicit-midpoint` is second order and keeps the "
-         "energy of vibrations that implicit Euler damps out; a step whose end would invert or blow up a tet is "
-         "completed by implicit Euler instead (`euler_completed_steps` in `summary.json`), so it fails no stability "
-         "case, but it is best in calm scenes (7 of the 21 cases degraded, Euler 5); not with `colliders` (a deck error)",
-         {}, integrators, "", "",
-         [](TimeSpec& t, const std::string& name) {
-           for (const IntegratorInfo& i : integrator_infos())
-             if (name == i.name) t.integrator = i.kind;
-         },
-         [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
-    };
-  }();
+  static const std::vector<DeckKey<TimeSpec>> keys = {
+      {"dt", &TimeSpec::dt, "time step (one step per frame)", above(0), {}, "s", "1/30"},
+      {"frames", &TimeSpec::frames, "number of time steps", between(1, 1e8)},
+      {"damping", &TimeSpec::damping, "after each step, v ← (1 − damping) v", {0, 1, false, true}},
+      {"integrator", std::monostate{},
+       "the time integrator ([method.md](method.md#time-integrators)): `bdf2` is second order and L-stable, loses far "
+       "less energy than implicit Euler and fails no stability case; `implicit-midpoint` is second order and keeps the "
+       "energy of vibrations that implicit Euler damps out; a step whose end would invert or blow up a tet is "
+       "completed by implicit Euler instead (`euler_completed_steps` in `summary.json`), so it fails no stability "
+       "case, but it is best in calm scenes (7 of the 21 cases degraded, Euler 5); not with `colliders` (a deck error)",
+       {}, integrator_names(), "", "",
+       [](TimeSpec& t, const std::string& name) { t.integrator = integrator_named(name)->kind; },
+       [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
+  };
   return keys;
 }
 

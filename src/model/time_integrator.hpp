@@ -10,6 +10,7 @@
 #include <petscvec.h>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace hyperqn {
@@ -24,6 +25,9 @@ struct IntegratorInfo {
 };
 const std::vector<IntegratorInfo>& integrator_infos();
 const IntegratorInfo& integrator_info(TimeIntegrator kind);
+// The deck names, in the table's order, and the entry of one (nullptr if no integrator has it).
+std::vector<std::string> integrator_names();
+const IntegratorInfo* integrator_named(const std::string& name);
 
 // What x^ and v^ are formed from (global free dofs): the state at t_n and the history
 // x_{n-1}, v_{n-1} (null unless the integrator keeps one and the state has it).

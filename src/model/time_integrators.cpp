@@ -95,6 +95,18 @@ const IntegratorInfo& integrator_info(TimeIntegrator kind) {
   throw std::logic_error("integrator without an entry in integrator_infos()");
 }
 
+std::vector<std::string> integrator_names() {
+  std::vector<std::string> names;
+  for (const IntegratorInfo& i : integrator_infos()) names.push_back(i.name);
+  return names;
+}
+
+const IntegratorInfo* integrator_named(const std::string& name) {
+  for (const IntegratorInfo& i : integrator_infos())
+    if (name == i.name) return &i;
+  return nullptr;
+}
+
 std::unique_ptr<Integrator> make_integrator(TimeIntegrator kind) {
   switch (kind) {
     case TimeIntegrator::implicit_euler: return std::make_unique<ImplicitEuler>();

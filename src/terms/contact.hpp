@@ -84,9 +84,6 @@ class ContactTerm : public EnergyTerm {
   std::vector<std::string> point_fields() const override { return {"contact_force"}; }
   PetscErrorCode point_field(const std::string& name, const std::vector<double>& pos, Vec out) const override;
 
-  const ContactSpec& spec() const { return spec_; }
-  size_t num_colliders() const { return colliders_.size(); }
-  const Collider& collider(size_t c) const { return *colliders_[c]; }
   // Forces per collider at the local positions pos (collective). If force is not null (a global
   // vector of free dofs) it gets the contact force (normal + friction) on every free vertex.
   PetscErrorCode measure(const std::vector<double>& pos, ContactMeasure& out, Vec force) const;
