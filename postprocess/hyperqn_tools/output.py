@@ -113,14 +113,15 @@ def frame_meshes(path):
 class Frame:
     """One output frame, merged over pieces and sorted by vertex_id. ranks (the VTK cell field
     rank) is None for an XDMF frame, which does not depend on the rank count; body (the VTK cell
-    field of a scene of bodies: each tet's body) is None without bodies and for XDMF."""
+    field of a scene of bodies: each tet's body) is None without bodies and for XDMF. cells:
+    {meshio cell type ("tetra", "line", "triangle"): (n, k) rows into points}, every piece's."""
 
     def __init__(self, path):
         self.path = path
         if is_xdmf_frame(path):
             self._read_xdmf(path)
             return
-        ids, points, disp, vel, force = [], [], [], [], []
+        ids, points, disp, vel, force, piece_cells = [], [], [], [], [], []
         self.num_cells = 0
         self.J = []
         self.ranks = []
@@ -136,6 +137,7 @@ class Frame:
             if "contact_force" in m.point_data:  # scenes with colliders
                 force.append(m.point_data["contact_force"])
             self.num_cells += sum(len(c.data) for c in m.cells)
+            piece_cells += [(c.type, ids[-1][c.data]) for c in m.cells]  # as vertex ids
             self.J.append(np.concatenate([np.ravel(a) for a in m.cell_data["J"]]))
             self.ranks.append(np.concatenate([np.ravel(a) for a in m.cell_data["rank"]]))
             if "body" in m.cell_data:
@@ -147,6 +149,7 @@ class Frame:
         self.displacement = np.concatenate(disp)[first]
         self.velocity = np.concatenate(vel)[first]
         self.contact_force = np.concatenate(force)[first] if force else None
+        self.cells = cells_by_type((kind, np.searchsorted(self.vertex_id, rows)) for kind, rows in piece_cells)
         self.J = np.concatenate(self.J)
         self.ranks = np.concatenate(self.ranks)
         self.num_pieces = len(piece_files(path))
@@ -159,10 +162,19 @@ class Frame:
         self.velocity = m.point_data["velocity"]
         self.contact_force = m.point_data.get("contact_force")
         self.num_cells = sum(len(c.data) for c in m.cells)
+        self.cells = cells_by_type((c.type, c.data) for c in m.cells)  # points are in vertex_id order
         self.J = np.concatenate([np.ravel(a) for a in m.cell_data["J"]])
         self.ranks = None
         self.body = None
         self.num_pieces = 1
+
+
+def cells_by_type(blocks):
+    """{cell type: rows of all (type, rows) blocks of that type, concatenated in order}."""
+    out = {}
+    for kind, rows in blocks:
+        out.setdefault(kind, []).append(np.asarray(rows, dtype=np.int64))
+    return {kind: np.concatenate(rows) for kind, rows in out.items()}
 
 
 def frame_list(outdir):
