@@ -69,10 +69,11 @@ def _cut_interval(T, d, direction):
     return lo, hi
 
 
-def _coplanar_overlap(A, B, normal, tol):
-    """Whether the interiors of triangles A and B, lying in planes of the given unit normal,
-    overlap by more than tol: no edge normal of either separates them (in 2D, in the plane)."""
-    e1 = _unit(A[:, 1] - A[:, 0])
+def _coplanar_overlap(A, B, base, normal, tol):
+    """Whether the interiors of triangles A and B, both within tol of the plane of triangle base
+    (unit normal given), overlap by more than tol: no edge normal of either separates them (in 2D,
+    in that plane)."""
+    e1 = _unit(base[:, 1] - base[:, 0])
     e2 = np.cross(normal, e1)
     a = np.stack([np.einsum("mij,mj->mi", A, e) for e in (e1, e2)], axis=2)  # (m, 3, 2)
     b = np.stack([np.einsum("mij,mj->mi", B, e) for e in (e1, e2)], axis=2)
@@ -108,8 +109,9 @@ def triangles_intersect(A, B, tol):
         result[k] = np.minimum(hiA, hiB) - np.maximum(loA, loB) > tol
     k = np.flatnonzero(coplanar)
     if len(k):
+        base = np.where(in_A_plane[k, None, None], A[k], B[k])
         normal = np.where(in_A_plane[k, None], nA[k], nB[k])
-        result[k] = _coplanar_overlap(A[k], B[k], normal, tol)
+        result[k] = _coplanar_overlap(A[k], B[k], base, normal, tol)
     return result
 
 
@@ -192,11 +194,12 @@ def check_run(outdir, frames=None, rtol=RTOL):
     if not listed:
         raise ValueError(f"{outdir}: no .pvd or .xdmf listing frames (not a run's output directory?)")
     if frames is not None:
-        missing = sorted(set(frames) - {n for n, _, _ in listed})
+        wanted = set(frames)
+        missing = sorted(wanted - {n for n, _, _ in listed})
         if missing:
             raise ValueError(f"{outdir}: no frame {', '.join(map(str, missing))} "
                              f"(it holds {len(listed)} frames, {listed[0][0]} to {listed[-1][0]})")
-        listed = [entry for entry in listed if entry[0] in set(frames)]
+        listed = [entry for entry in listed if entry[0] in wanted]
     rows = []
     for number, time, path in listed:
         try:
