@@ -85,13 +85,13 @@ void test_fallback_and_newton() {
   spec.max_halvings = 0;
   const MemoryPlan bare = memory_plan(spec);
   CHECK(!bare.newton && bare.substep_sizes == 0);
-  spec.h0 = "amg";
+  spec.h0 = H0::amg;
   CHECK(memory_plan(spec).h0 == H0Memory::amg && !memory_plan(spec).amg_allowed);
   spec.type = "newton";
-  spec.linear_solver = "cg-amg";
+  spec.linear_solver = LinearSolver::cg_amg;
   const MemoryPlan cg = memory_plan(spec);
   CHECK(cg.h0 == H0Memory::none && !cg.newton);
-  spec.linear_solver = "mumps";
+  spec.linear_solver = LinearSolver::mumps;
   CHECK(memory_plan(spec).newton && !memory_plan(spec).newton_is_fallback);
   spec.type = "pd";
   CHECK(memory_plan(spec).h0 == H0Memory::gathered && !memory_plan(spec).amg_allowed);  // pd needs the exact factor
