@@ -527,6 +527,15 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
   expect_error("upright_guess_bad", kHead + "solver: {upright_guess: sometimes}\n", "solver.upright_guess", 3, "true or false");
   CHECK(load_ok("history_reset", kHead + "solver: {history_reset: contact-change}\n").solver.history_reset == hyperqn::HistoryReset::contact_change);
   expect_error("history_reset_bad", kHead + "solver: {history_reset: always}\n", "solver.history_reset", 3, "never, contact-change");
+  // Choices are enums once read: solver.h0 (auto stays auto until the mesh resolves it), output.format.
+  CHECK(d.solver.h0 == hyperqn::H0::automatic);
+  CHECK(load_ok("h0_rest", kHead + "solver: {h0: rest-stiffness}\n").solver.h0 == hyperqn::H0::rest_stiffness);
+  CHECK(load_ok("format_xdmf", kHead + "output: {format: xdmf}\n").output.format == hyperqn::OutputFormat::xdmf);
+  // study lists: declared list keys, each item checked
+  const Deck st = load_ok("study_lists", kHead + "time: {frames: 4}\nstudy: {frames: [1, 4], solvers: [pd, newton]}\n");
+  CHECK(st.study.frames == std::vector<int>({1, 4}) && st.study.solvers == std::vector<std::string>({"pd", "newton"}));
+  expect_error("study_frames_empty", kHead + "study: {frames: []}\n", "study.frames", 3, "non-empty");
+  expect_error("study_frame_zero", kHead + "study: {frames: [0]}\n", "study.frames[0]", 3, "[1, time.frames = ");
   d = load_ok("colliders_history", kHead + "colliders: [{type: plane, point: [0, 0, 0], normal: [0, 1, 0]}]\nsolver: {history: 7}\n");
   CHECK(d.solver.history == 7);  // given: kept
   CHECK(load_ok("no_colliders", kHead).solver.history == hyperqn::SolverSpec().history);
