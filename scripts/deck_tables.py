@@ -24,6 +24,8 @@ def tables(keys):
         lines = out.setdefault(k["section"], ["| key | type | default | meaning |", "|---|---|---|---|"])
         if k["choices"]:
             kind = " \\| ".join(f"`{c}`" for c in k["choices"])
+            if k["type"] == "list":
+                kind = "list of " + kind
         else:
             kind = k["type"]
         if k["unit"]:

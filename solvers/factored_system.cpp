@@ -71,8 +71,6 @@ PetscErrorCode choose_factor_package(Mat A, FactorPackage* package) {
   PetscFunctionReturn(0);
 }
 
-bool auto_h0_is_amg(int64_t tets) { return tets >= kAmgFromTets; }
-
 // The message of a factorization that met a pivot <= 0, the same for every package.
 static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage package) {
   SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT,

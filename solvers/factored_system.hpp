@@ -60,12 +60,6 @@ constexpr PetscInt kMaxSplitInterface = 8000;
 inline bool splits_on_many_ranks(FactorPackage package) {
   return package == FactorPackage::split || package == FactorPackage::automatic;
 }
-// solver.h0: auto (lbfgs): true where one V-cycle of A1 (amg) reaches a given accuracy sooner than
-// the factor, by the crossover measured for the study (docs/performance.md#distributed-h0): on
-// meshes of at least kAmgFromTets tetrahedra, whatever the rank count. Tets, not vertices: the
-// factor's fill comes from the volume (a strand's or a cloth's vertices add little to it).
-bool auto_h0_is_amg(int64_t tets);
-constexpr int64_t kAmgFromTets = 200000;
 
 class FactoredSystem {
  public:

@@ -32,7 +32,7 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-tao_lmvm_mat_lmvm_hist_size", &history, nullptr));
   PetscCheck(history >= 0 && history <= kMaxHistory, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
              "the L-BFGS history %" PetscInt_FMT " must be in [0, %d]", history, kMaxHistory);
-  reset_on_contact_change_ = spec.history_reset == "contact-change";
+  reset_on_contact_change_ = spec.history_reset == HistoryReset::contact_change;
   PetscCall(finish_setup());
   // Allocate TAO's work space now, so the first frame's timing holds only its iterations.
   Vec x;

@@ -29,8 +29,9 @@ PetscErrorCode NewtonSolver::hessian(Tao, Vec x, Mat, Mat Hpre, void* ctx) {
   PetscFunctionReturn(0);
 }
 
-bool newton_uses_amg(const std::string& linear_solver, int64_t vertices) {
-  return linear_solver == "cg-amg" || (linear_solver == "auto" && vertices >= kNewtonAmgFromVertices);
+bool newton_uses_amg(LinearSolver linear_solver, int64_t vertices) {
+  return linear_solver == LinearSolver::cg_amg ||
+         (linear_solver == LinearSolver::automatic && vertices >= kNewtonAmgFromVertices);
 }
 
 PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
@@ -38,8 +39,8 @@ PetscErrorCode NewtonSolver::setup(const SolverSpec& spec) {
   PC pc;
   PetscInt dofs;
   PetscFunctionBeginUser;
-  exact_ = spec.newton_hessian == "exact";
-  trust_region_ = spec.newton_method == "ntr";
+  exact_ = spec.newton_hessian == NewtonHessian::exact;
+  trust_region_ = spec.newton_method == NewtonMethod::ntr;
   PetscCall(step_.create_hessian(&H_));
   PetscCall(MatGetSize(H_, &dofs, nullptr));
   const bool amg = newton_uses_amg(spec.linear_solver, dofs / 3);

@@ -14,7 +14,7 @@ namespace hyperqn {
 // linear_solver cg-amg, or auto on a Hessian of kNewtonAmgFromVertices free vertices or more, where
 // MUMPS's factor of the 3n x 3n Hessian, whole on every rank, would take gigabytes per rank (860 B
 // per vertex^(4/3), docs/guardrails.md#memory: 1.6 GB at 50,000 vertices, 22 GB at box2m's 350,000).
-bool newton_uses_amg(const std::string& linear_solver, int64_t vertices);
+bool newton_uses_amg(LinearSolver linear_solver, int64_t vertices);
 constexpr int64_t kNewtonAmgFromVertices = 50000;
 
 class NewtonSolver : public GuardedTaoSolver {

@@ -65,14 +65,19 @@ bool solver_takes_h0(const std::string& type) {
   return s && s->takes_h0;
 }
 
-ConstantMatrix constant_matrix_of(const SolverSpec& spec) {
-  return solver_takes_h0(spec.type) && spec.h0 == "rest-stiffness" ? ConstantMatrix::rest_stiffness
-                                                                    : ConstantMatrix::laplacian;
+H0 solver_h0(const SolverSpec& spec) { return solver_takes_h0(spec.type) ? spec.h0 : H0::laplacian; }
+
+H0 resolved_h0(H0 h0, int64_t tets) {
+  if (h0 != H0::automatic) return h0;
+  // One V-cycle of M + h^2 L reaches a given accuracy sooner than the factor from this size on,
+  // whatever the rank count (the crossover measured in docs/performance.md#distributed-h0). Tets,
+  // not vertices: the factor's fill comes from the volume (a strand's or a cloth's vertices add little).
+  return tets >= kAmgFromTets ? H0::amg : H0::laplacian;
 }
 
-bool constant_matrix_by_amg(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "amg"; }
-
-bool constant_matrix_auto(const SolverSpec& spec) { return solver_takes_h0(spec.type) && spec.h0 == "auto"; }
+ConstantMatrix constant_matrix_of(H0 h0) {
+  return h0 == H0::rest_stiffness ? ConstantMatrix::rest_stiffness : ConstantMatrix::laplacian;
+}
 
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
                              std::unique_ptr<TimeStepSolver>& solver) {
@@ -81,10 +86,11 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
   PetscCheck(s, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "unknown solver type %s", spec.type.c_str());
   PetscCheck(!s->uses_constant_matrix || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL, "solver %s needs its factored constant matrix",
              spec.type.c_str());
-  PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(spec), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+  const H0 wanted = solver_h0(spec);
+  PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(wanted), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
-  PetscCheck(!h0 || !s->uses_constant_matrix || constant_matrix_auto(spec) ||
-                 (h0->package() == FactorPackage::amg) == constant_matrix_by_amg(spec),
+  PetscCheck(!h0 || !s->uses_constant_matrix || wanted == H0::automatic ||
+                 (h0->package() == FactorPackage::amg) == (wanted == H0::amg),
              PETSC_COMM_SELF, PETSC_ERR_PLIB, "solver %s was given the wrong kind of constant matrix solve (AMG or factor)",
              spec.type.c_str());
   PetscCall(s->create(spec, objective, h0, solver));
@@ -142,17 +148,15 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
       {"line_search", &S::line_search,
        "TAO line search. `unit` always takes the full step. Not used by `pd`, which has its own (see `type`).", {},
        {"more-thuente", "armijo", "unit"}},
-      {"history_reset", &S::history_reset,
+      enum_key<S>("history_reset", &S::history_reset, kHistoryResetNames,
        "`lbfgs` only: `contact-change` forgets the L-BFGS pairs whenever the set of vertices in contact changes "
        "between iterates. Measured to cost iterations on every contact scene (the bunny drop: 47.8 → 118.8 "
-       "iterations per frame; [contact.md](contact.md#what-l-bfgs-does-with-contact)), so it is off",
-       {}, {"never", "contact-change"}},
-      {"warm_start", &S::warm_start,
+       "iterations per frame; [contact.md](contact.md#what-l-bfgs-does-with-contact)), so it is off"),
+      enum_key<S>("warm_start", &S::warm_start, kWarmStartNames,
        "initial guess: the inertial prediction y, the previous positions x_n, or whichever of the two has the lower g "
        "(two evaluations per step; with contact y often lies deep inside an obstacle while x_n rests on it: a cube "
        "resting on the ground takes 33 iterations per frame from y and 6.3 from the lower, "
-       "[contact.md](contact.md#defaults))",
-       {}, {"inertial", "previous", "lower"}, "", "`inertial`; `lower` with colliders"},
+       "[contact.md](contact.md#defaults))", "`inertial`; `lower` with colliders"),
       {"upright_guess", &S::upright_guess,
        "the guess from y (`inertial`, and the y of `lower`) is pulled back to x_n + t(y − x_n), t = 1, ½, ¼, …, until "
        "it leaves no tet that is upright at x_n inverted, nor past the element limit (\\|det F\\| = 100, "
@@ -161,7 +165,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "pulled back (`pulled_back_guesses`). Without it y inverts or blows up the slivers next to a clamp, and no "
        "solver recovers within the frame ([guardrails.md](guardrails.md#element-blow-up-and-inversion)). `false`: y "
        "itself (the tests of run-aways use it)"},
-      {"h0", &S::h0,
+      enum_key<S>("h0", &S::h0, kH0Names,
        "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more, else "
        "`laplacian` (the crossover measured in [performance.md](performance.md#distributed-h0)). `laplacian`: (M + "
        "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "
@@ -172,14 +176,12 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "does not fit or whose solve does not scale: more iterations, no factor "
        "([performance.md](performance.md#amg-h0)). `pd` is defined by M + h²L (and `pd` with `h0: amg` is an "
        "error: its steps need the exact solve); `newton`, `lbfgs-identity` factor no constant matrix: they ignore "
-       "`h0`",
-       {}, {"auto", "laplacian", "rest-stiffness", "amg"}},
-      {"newton_hessian", &S::newton_hessian,
-       "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)", {}, {"projected", "exact"}},
-      {"newton_method", &S::newton_method,
-       "`newton` only: TAO's Newton line search (TAONLS, with `line_search`) or trust region (TAONTR)", {},
-       {"nls", "ntr"}},
-      {"linear_solver", &S::linear_solver,
+       "`h0`"),
+      enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
+       "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),
+      enum_key<S>("newton_method", &S::newton_method, kNewtonMethodNames,
+       "`newton` only: TAO's Newton line search (TAONLS, with `line_search`) or trust region (TAONTR)"),
+      enum_key<S>("linear_solver", &S::linear_solver, kLinearSolverNames,
        "`newton` (and the fallback chain's Newton): `auto` is `mumps` below 50,000 free vertices and `cg-amg` from "
        "there (MUMPS's factor of the whole Hessian on every rank would take 1.6 GB per rank at 50,000 vertices and "
        "22 GB at 350,000, [guardrails.md](guardrails.md#memory)). `mumps`: MUMPS Cholesky (symbolic analysis once "
@@ -187,8 +189,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "itself, sequentially, so that runs are reproducible: PCREDUNDANT, whose inner solver takes the options "
        "`-tao_nls_redundant_*`), or CG preconditioned by hypre BoomerAMG, with the rigid-body near-null space set on "
        "the matrix. With `ntr` the Krylov method is STCG (TAONTR requires a trust-region CG), preconditioned by the "
-       "Cholesky factor or by BoomerAMG.",
-       {}, {"auto", "mumps", "cg-amg"}},
+       "Cholesky factor or by BoomerAMG."),
   };
   return keys;
 }

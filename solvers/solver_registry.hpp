@@ -33,14 +33,17 @@ const SolverInfo* find_solver(const std::string& name);
 bool solver_uses_constant_matrix(const std::string& type);
 // True if solver.h0 chooses that matrix for this solver (lbfgs); pd is defined by M + h^2 L.
 bool solver_takes_h0(const std::string& type);
-// The constant matrix a solver with these settings factors (if solver_uses_constant_matrix).
-ConstantMatrix constant_matrix_of(const SolverSpec& spec);
-// True if that matrix (M + h^2 L) is applied by one AMG V-cycle instead of a factorization
-// (lbfgs with solver.h0: amg).
-bool constant_matrix_by_amg(const SolverSpec& spec);
-// True if the scene chooses between the factor and the V-cycle of M + h^2 L by the mesh (lbfgs
-// with solver.h0: auto, the default; auto_h0_is_amg).
-bool constant_matrix_auto(const SolverSpec& spec);
+// What solver.h0 says of this solver's constant matrix (if solver_uses_constant_matrix): spec.h0
+// for lbfgs, M + h^2 L for pd.
+H0 solver_h0(const SolverSpec& spec);
+// solver.h0: auto takes the V-cycle on meshes of at least this many tetrahedra (resolved_h0).
+constexpr int64_t kAmgFromTets = 200000;
+// That matrix on a mesh of `tets` tetrahedra: automatic resolved here, and nowhere else (the V-cycle
+// from kAmgFromTets tets on, else the factor of M + h^2 L).
+H0 resolved_h0(H0 h0, int64_t tets);
+inline H0 resolved_h0(const SolverSpec& spec, int64_t tets) { return resolved_h0(solver_h0(spec), tets); }
+// The matrix itself (the V-cycle applies M + h^2 L).
+ConstantMatrix constant_matrix_of(H0 h0);
 
 // Creates the solver spec.type; h0 may be nullptr when it does not use the constant matrix.
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,

@@ -11,6 +11,29 @@ namespace hyperqn {
 // holds two vectors of all unknowns, and the paper uses 5.
 inline constexpr int kMaxHistory = 1000;
 
+// lbfgs's constant matrix A, its initial inverse Hessian (solver.h0): M + h^2 L factored, M + h^2
+// K(x_rest) factored, or M + h^2 L by one AMG V-cycle. automatic is resolved by the mesh, in one
+// place: resolved_h0 (solvers/solver_registry.hpp).
+enum class H0 { automatic, laplacian, rest_stiffness, amg };
+
+// Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
+// the lower g (two evaluations per step; for contact, where y often lies deep in an obstacle
+// while x_n rests on it).
+enum class WarmStart { inertial, previous, lower };
+// Newton's linear solver: automatic is resolved by the Hessian's size (newton_uses_amg).
+enum class LinearSolver { automatic, mumps, cg_amg };
+enum class NewtonHessian { projected, exact };  // a per-element PSD fix of dP/dF, or none
+enum class NewtonMethod { nls, ntr };           // TAO's line search or trust region
+enum class HistoryReset { never, contact_change };
+
+// The deck's words for these, in each enum's order.
+inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg"};
+inline const std::vector<std::string> kWarmStartNames = {"inertial", "previous", "lower"};
+inline const std::vector<std::string> kLinearSolverNames = {"auto", "mumps", "cg-amg"};
+inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact"};
+inline const std::vector<std::string> kNewtonMethodNames = {"nls", "ntr"};
+inline const std::vector<std::string> kHistoryResetNames = {"never", "contact-change"};
+
 struct SolverSpec {
   std::string type = "lbfgs";        // lbfgs | lbfgs-identity | newton | pd
   int iterations = 10;               // per frame
@@ -19,19 +42,16 @@ struct SolverSpec {
   int history = 5;                   // L-BFGS pairs
   // lbfgs: forget the pairs when the set of contacts changes between iterates (measured to cost
   // iterations, docs/contact.md): never | contact-change
-  std::string history_reset = "never";
+  HistoryReset history_reset = HistoryReset::never;
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
-  std::string warm_start = "inertial";  // inertial (x0 = y) | previous (x0 = x_n) | lower (of the two; the default with colliders)
+  WarmStart warm_start = WarmStart::inertial;  // (lower: the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).
   bool upright_guess = true;
-  std::string newton_method = "nls";         // newton: TAO method, nls | ntr
-  std::string linear_solver = "auto";        // newton: auto (newton_uses_amg) | mumps (Cholesky) | cg-amg (CG + BoomerAMG)
-  std::string newton_hessian = "projected";  // newton: projected (PSD fix per element) | exact
-  std::string h0 = "auto";                   // lbfgs: its constant matrix, laplacian (M + h^2 L) |
-                                             //   rest-stiffness (M + h^2 K(x_rest)) | amg (M + h^2 L
-                                             //   by one AMG V-cycle instead of a factorization) |
-                                             //   auto (laplacian or amg by the mesh: auto_h0_is_amg)
+  NewtonMethod newton_method = NewtonMethod::nls;              // newton
+  LinearSolver linear_solver = LinearSolver::automatic;        // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
+  NewtonHessian newton_hessian = NewtonHessian::projected;     // newton
+  H0 h0 = H0::automatic;                     // lbfgs: its constant matrix (pd's is M + h^2 L)
   // The fallback chain of a frame that ends far from converged (docs/guardrails.md#fallback):
   // iterate on up to max_iterations, then redo the frame in 2, 4, ... 2^max_halvings sub-steps,
   // then with Newton. max_iterations <= iterations, max_halvings = 0, newton_fallback = false

@@ -23,14 +23,14 @@ using test_scene::TestScene;
 
 constexpr double kWidth = 1.5, kHeight = 1.0, kDensity = 0.3;
 
-struct ClothModel {
+struct ClothCase {
   const char* name;
   const char* stretch;   // mass-spring | stvk | corotated | neohookean (membrane)
   const char* bending;   // springs | quadratic | dihedral
   bool pd_exact;
 };
 
-const ClothModel kModels[] = {
+const ClothCase kModels[] = {
     {"springs + bending springs", "mass-spring", "springs", true},
     {"springs + quadratic", "mass-spring", "quadratic", true},
     {"springs + dihedral", "mass-spring", "dihedral", false},
@@ -39,7 +39,7 @@ const ClothModel kModels[] = {
     {"neohookean membrane + springs", "neohookean", "springs", false},
 };
 
-PetscErrorCode make_cloth(const ClothModel& model, bool fix_edge, TestScene& s) {
+PetscErrorCode make_cloth(const ClothCase& model, bool fix_edge, TestScene& s) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
@@ -55,7 +55,7 @@ PetscErrorCode make_cloth(const ClothModel& model, bool fix_edge, TestScene& s) 
   PetscCall(distribute_mesh(PETSC_COMM_WORLD, piece, fixed, {}, s.mesh));
   ClothSpec cloth;
   const std::string stretch = model.stretch;
-  cloth.model = stretch == "mass-spring" ? "mass-spring" : "membrane";
+  cloth.model = stretch == "mass-spring" ? hyperqn::ClothModel::mass_spring : hyperqn::ClothModel::membrane;
   cloth.material = stretch;
   cloth.stretch_stiffness = 40.0;
   cloth.mu = 30.0;
@@ -132,7 +132,7 @@ PetscErrorCode inertia(Mat A0, double shift, PetscInt* negative, PetscInt* null_
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode check_constant_matrices(const ClothModel& model) {
+PetscErrorCode check_constant_matrices(const ClothCase& model) {
   const std::string what = std::string(model.name) + ": ";
   PetscFunctionBeginUser;
   {
@@ -215,7 +215,7 @@ PetscErrorCode gradient_error(TestScene& s, Vec x, PetscRandom rnd, double eps, 
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode check_pose(const ClothModel& model, Pose pose, PetscRandom rnd) {
+PetscErrorCode check_pose(const ClothCase& model, Pose pose, PetscRandom rnd) {
   TestScene s;
   Vec x;
   Mat K, Kpsd;
@@ -339,7 +339,7 @@ int main(int argc, char** argv) {
   PetscRandom rnd;
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
-  for (const ClothModel& model : kModels) {
+  for (const ClothCase& model : kModels) {
     PetscCall(check_constant_matrices(model));
     for (Pose pose : {Pose::rest, Pose::stretched, Pose::sheared, Pose::folded, Pose::squashed})
       PetscCall(check_pose(model, pose, rnd));

@@ -40,7 +40,7 @@ std::vector<ColliderSpec> colliders(double friction, bool barrier) {
 PetscErrorCode make_contact_scene(double friction, const std::string& model, TestScene& s, ContactTerm** contact) {
   PetscFunctionBeginUser;
   ContactSpec spec;
-  spec.model = model;
+  spec.model = model == "barrier" ? ContactModel::barrier : ContactModel::penalty;
   spec.distance = kDistance;
   spec.stiffness = 1e4;          // contact dominates the elastic forces: the check sees it
   spec.friction_velocity = 0.2;  // eps h = 0.01: the deformation below both sticks and slides

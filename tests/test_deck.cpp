@@ -135,7 +135,7 @@ petsc:
   CHECK(d.solver.grad_rtol == 1.0e-5);
   CHECK(d.solver.history == 7);
   CHECK(d.solver.line_search == "armijo");
-  CHECK(d.solver.warm_start == "previous");
+  CHECK(d.solver.warm_start == hyperqn::WarmStart::previous);
   CHECK(d.output.directory == "out/full");
   CHECK(d.output.every == 5);
   CHECK(!d.output.vtk);
@@ -517,16 +517,25 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
     CHECK(d.colliders[2].min[1] == -2 && d.colliders[3].b[0] == 1);
     CHECK(fs::path(d.colliders[4].file).filename() == "ramp.obj" && fs::exists(d.colliders[4].file));  // resolved beside the deck
   }
-  CHECK(d.contact.model == "barrier" && d.contact.distance == 0.01 && d.contact.stiffness == 100 &&
+  CHECK(d.contact.model == hyperqn::ContactModel::barrier && d.contact.distance == 0.01 && d.contact.stiffness == 100 &&
         d.contact.friction_velocity == 0.001);
   CHECK(d.contact.line == 12 && d.contact.distance_line == 12);  // where a distance beyond the body is named
-  CHECK(d.solver.history == 20 && d.solver.warm_start == "lower");  // contact's defaults
-  CHECK(d.solver.history_reset == "never");
+  CHECK(d.solver.history == 20 && d.solver.warm_start == hyperqn::WarmStart::lower);  // contact's defaults
+  CHECK(d.solver.history_reset == hyperqn::HistoryReset::never);
   CHECK(d.solver.upright_guess);  // the default: y pulled back where it would invert elements
   CHECK(!load_ok("upright_guess", kHead + "solver: {upright_guess: false}\n").solver.upright_guess);
   expect_error("upright_guess_bad", kHead + "solver: {upright_guess: sometimes}\n", "solver.upright_guess", 3, "true or false");
-  CHECK(load_ok("history_reset", kHead + "solver: {history_reset: contact-change}\n").solver.history_reset == "contact-change");
+  CHECK(load_ok("history_reset", kHead + "solver: {history_reset: contact-change}\n").solver.history_reset == hyperqn::HistoryReset::contact_change);
   expect_error("history_reset_bad", kHead + "solver: {history_reset: always}\n", "solver.history_reset", 3, "never, contact-change");
+  // Choices are enums once read: solver.h0 (auto stays auto until the mesh resolves it), output.format.
+  CHECK(d.solver.h0 == hyperqn::H0::automatic);
+  CHECK(load_ok("h0_rest", kHead + "solver: {h0: rest-stiffness}\n").solver.h0 == hyperqn::H0::rest_stiffness);
+  CHECK(load_ok("format_xdmf", kHead + "output: {format: xdmf}\n").output.format == hyperqn::OutputFormat::xdmf);
+  // study lists: declared list keys, each item checked
+  const Deck st = load_ok("study_lists", kHead + "time: {frames: 4}\nstudy: {frames: [1, 4], solvers: [pd, newton]}\n");
+  CHECK(st.study.frames == std::vector<int>({1, 4}) && st.study.solvers == std::vector<std::string>({"pd", "newton"}));
+  expect_error("study_frames_empty", kHead + "study: {frames: []}\n", "study.frames", 3, "non-empty");
+  expect_error("study_frame_zero", kHead + "study: {frames: [0]}\n", "study.frames[0]", 3, "[1, time.frames = ");
   d = load_ok("colliders_history", kHead + "colliders: [{type: plane, point: [0, 0, 0], normal: [0, 1, 0]}]\nsolver: {history: 7}\n");
   CHECK(d.solver.history == 7);  // given: kept
   CHECK(load_ok("no_colliders", kHead).solver.history == hyperqn::SolverSpec().history);
@@ -603,7 +612,7 @@ void test_cloth_decks() {
   Deck d = load_ok("cloth_springs", sheet + springs);
   CHECK(d.mesh.is_sheet && d.mesh.has_cloth() && !d.mesh.has_solid());
   CHECK(d.mesh.sheet_size[1] == 2 && d.mesh.sheet_cells[1] == 8);
-  CHECK(d.cloth.model == "mass-spring" && d.cloth.stretch_stiffness == 100 && d.cloth.bending == "none");
+  CHECK(d.cloth.model == hyperqn::ClothModel::mass_spring && d.cloth.stretch_stiffness == 100 && d.cloth.bending == "none");
   d = load_ok("cloth_membrane", sheet + "cloth:\n  model: membrane\n  material: corotated\n  youngs_modulus: 1000\n"
                                         "  poisson_ratio: 0.25\n  bending: {model: dihedral, stiffness: 0.01}\n  areal_density: 0.1\n");
   CHECK(d.cloth.material == "corotated" && d.cloth.bending == "dihedral" && d.cloth.bending_stiffness == 0.01);

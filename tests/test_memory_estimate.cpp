@@ -85,16 +85,31 @@ void test_fallback_and_newton() {
   spec.max_halvings = 0;
   const MemoryPlan bare = memory_plan(spec);
   CHECK(!bare.newton && bare.substep_sizes == 0);
-  spec.h0 = "amg";
+  spec.h0 = H0::amg;
   CHECK(memory_plan(spec).h0 == H0Memory::amg && !memory_plan(spec).amg_allowed);
   spec.type = "newton";
-  spec.linear_solver = "cg-amg";
+  spec.linear_solver = LinearSolver::cg_amg;
   const MemoryPlan cg = memory_plan(spec);
   CHECK(cg.h0 == H0Memory::none && !cg.newton);
-  spec.linear_solver = "mumps";
+  spec.linear_solver = LinearSolver::mumps;
   CHECK(memory_plan(spec).newton && !memory_plan(spec).newton_is_fallback);
   spec.type = "pd";
   CHECK(memory_plan(spec).h0 == H0Memory::gathered && !memory_plan(spec).amg_allowed);  // pd needs the exact factor
+}
+
+// solver.h0: auto is resolved by the mesh in resolved_h0 alone; the other settings pass through,
+// and pd (which does not take h0) always factors M + h^2 L.
+void test_resolved_h0() {
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets - 1) == H0::laplacian);
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets) == H0::amg);
+  CHECK(resolved_h0(H0::rest_stiffness, kAmgFromTets) == H0::rest_stiffness);
+  CHECK(resolved_h0(H0::laplacian, kAmgFromTets) == H0::laplacian);
+  SolverSpec spec;
+  spec.type = "pd";
+  spec.h0 = H0::amg;  // (a deck error; pd ignores the setting here)
+  CHECK(resolved_h0(spec, 10 * kAmgFromTets) == H0::laplacian);
+  spec.type = "lbfgs";
+  CHECK(resolved_h0(spec, 1) == H0::amg);
 }
 
 void test_ways_out() {
@@ -165,6 +180,7 @@ int main(int argc, char** argv) {
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   test_paths();
   test_fallback_and_newton();
+  test_resolved_h0();
   test_ways_out();
   test_limit(size);
   const int code = check::summary(rank == 0 ? "test_memory_estimate" : "test_memory_estimate (rank > 0)");

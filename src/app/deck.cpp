@@ -48,7 +48,6 @@ constexpr size_t kMaxNameLength = 100;
 
 const Names kMeshEdges = {"ignore", "strands"};
 const Names kMeshSurfaces = {"cloth"};
-const Names kClothModels = {"mass-spring", "membrane"};
 const Names kMembraneMaterials = {"stvk", "corotated", "neohookean"};
 const Names kBendingModels = {"quadratic", "dihedral", "springs", "none"};
 
@@ -226,8 +225,9 @@ class Section {
 
 // Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
-// got X"), an unknown choice, an unknown key. `more`: keys the section also allows, read by the
-// caller. Returns the section, for checks that involve several keys.
+// got X"), an unknown choice, an unknown key, an empty list. `more`: keys the section also allows;
+// they and the declared keys without member or `set` are read by the caller. Returns the section,
+// for those and for checks that involve several keys.
 template <typename Spec>
 Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spec>>& keys, Spec& spec,
                   const Names& more = {}) {
@@ -236,22 +236,34 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
   names.insert(names.end(), more.begin(), more.end());
   Section s(r, v, names);
   for (const DeckKey<Spec>& k : keys) {
-    const Value* x = s.find(k.name);
+    const Value* x = k.required ? &s.need(k.name) : s.find(k.name);
     if (!x) continue;
+    // One value (a list's item) of type T.
+    const auto one = [&](auto type, const Value& item) {
+      using T = decltype(type);
+      if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+        const T value = std::is_same_v<T, double> ? T(r.number(item)) : T(r.integer(item));
+        if (!k.range.rule().empty()) r.check(k.range.contains(value), item, k.range.rule());
+        return value;
+      } else if constexpr (std::is_same_v<T, bool>) {
+        return r.boolean(item);
+      } else {
+        return k.choices.empty() ? r.text(item) : r.choice(item, k.choices);
+      }
+    };
     std::visit(
         [&](auto member) {
           if constexpr (std::is_same_v<decltype(member), std::monostate>) {
-            k.set(spec, r.choice(*x, k.choices));
+            if (k.set) k.set(spec, r.choice(*x, k.choices));
           } else {
             using T = std::decay_t<decltype(spec.*member)>;
-            if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
-              const T value = std::is_same_v<T, double> ? T(r.number(*x)) : T(r.integer(*x));
-              if (!k.range.rule().empty()) r.check(k.range.contains(value), *x, k.range.rule());
-              spec.*member = value;
-            } else if constexpr (std::is_same_v<T, bool>) {
-              spec.*member = r.boolean(*x);
+            if constexpr (std::is_same_v<T, std::vector<int>> || std::is_same_v<T, std::vector<std::string>>) {
+              T list;
+              for (const Value& item : r.items(*x)) list.push_back(one(typename T::value_type(), item));
+              r.check(!list.empty(), *x, "a non-empty list");
+              spec.*member = list;
             } else {
-              spec.*member = k.choices.empty() ? r.text(*x) : r.choice(*x, k.choices);
+              spec.*member = one(T(), *x);
             }
           }
         },
@@ -376,27 +388,19 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
 }
 
 void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
-  Section s(r, v, {"axial_stiffness", "linear_density", "laplacian_weight"});
-  const Value &k = s.need("axial_stiffness"), &rho = s.need("linear_density");
-  m.axial_stiffness = r.number(k);
-  r.check(m.axial_stiffness > 0, k, "> 0");
-  m.linear_density = r.number(rho);
-  r.check(m.linear_density > 0, rho, "> 0");
-  if (const Value* x = s.find("laplacian_weight")) {
-    m.laplacian_weight = r.number(*x);
-    r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the strands' own weight, axial_stiffness)");
-  }
+  read_keys(r, v, strand_material_keys(), m);
 }
 
 // cloth: {model, stretch_stiffness | material + youngs_modulus + poisson_ratio, bending, areal_density}
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
   Section s(r, v, {"model", "stretch_stiffness", "material", "youngs_modulus", "poisson_ratio", "bending", "areal_density"});
-  c.model = r.choice(s.need("model"), kClothModels);
-  const bool springs = c.model == "mass-spring";
+  const std::string model = r.choice(s.need("model"), kClothModelNames);
+  c.model = ClothModel(std::find(kClothModelNames.begin(), kClothModelNames.end(), model) - kClothModelNames.begin());
+  const bool springs = c.model == ClothModel::mass_spring;
   for (const char* key : {"stretch_stiffness", "material", "youngs_modulus", "poisson_ratio"}) {
     const bool spring_key = std::string(key) == "stretch_stiffness";
     if (const Value* x = s.find(key); x && spring_key != springs)
-      r.fail(*x, std::string("is a key of cloth model ") + (spring_key ? "mass-spring" : "membrane") + ", not of " + c.model);
+      r.fail(*x, std::string("is a key of cloth model ") + (spring_key ? "mass-spring" : "membrane") + ", not of " + model);
   }
   if (springs) {
     const Value& k = s.need("stretch_stiffness");
@@ -721,22 +725,9 @@ void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, s
 }
 
 void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
-  Section s(r, v, {"model", "distance", "stiffness", "friction_velocity"});
+  const Section s = read_keys(r, v, contact_keys(), c);
   c.line = v.line;
-  if (const Value* x = s.find("model")) c.model = r.choice(*x, {"penalty", "barrier"});
-  if (const Value* x = s.find("distance")) {
-    c.distance_line = x->line;
-    c.distance = r.number(*x);
-    r.check(c.distance > 0, *x, "> 0 (a length; omit it for 1e-2 of the body's rest diagonal)");
-  }
-  if (const Value* x = s.find("stiffness")) {
-    c.stiffness = r.number(*x);
-    r.check(c.stiffness >= 1 && c.stiffness <= 1e12, *x, "in [1, 1e12] (force at full penetration, in vertex weights)");
-  }
-  if (const Value* x = s.find("friction_velocity")) {
-    c.friction_velocity = r.number(*x);
-    r.check(c.friction_velocity > 0, *x, "> 0 (a speed; omit it for 1e-2 rest diagonals per second)");
-  }
+  if (const Value* x = s.find("distance")) c.distance_line = x->line;
 }
 
 // attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
@@ -822,7 +813,7 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   const Section s = read_keys(r, v, solver_keys(), sv);
   // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L). amg would not
   // be ignored by pd but break it: its steps are exact solves with M + h^2 L.
-  if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == "amg")
+  if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == H0::amg)
     r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
                "approximates (give laplacian, or leave h0 out)");
   // adaptive: the fallback chain as the three keys above set it; fixed: none of it, and then
@@ -835,35 +826,10 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
 }
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
-  Section s(r, v, {"frames", "solvers", "iterations", "time_limit", "reference_rtol", "trajectory",
-                   "trajectory_iterations", "integrators"});
-  if (const Value* x = s.find("frames")) {
-    st.frames.clear();
-    for (const Value& item : r.items(*x)) {
-      st.frames.push_back(r.integer(item));
-      r.check(st.frames.back() >= 1 && st.frames.back() <= scene_frames, item,
-              "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
-    }
-    r.check(!st.frames.empty(), *x, "a non-empty list");
-  }
-  if (const Value* x = s.find("solvers")) {
-    st.solvers.clear();
-    for (const Value& item : r.items(*x)) st.solvers.push_back(r.choice(item, kSolverTypes));
-    r.check(!st.solvers.empty(), *x, "a non-empty list");
-  }
-  if (const Value* x = s.find("iterations")) {
-    st.iterations = r.integer(*x);
-    r.check(st.iterations >= 1 && st.iterations <= kMaxIterations, *x, "in [1, 1000000]");
-  }
-  if (const Value* x = s.find("time_limit")) {
-    st.time_limit = r.number(*x);
-    r.check(st.time_limit > 0, *x, "> 0");
-  }
-  if (const Value* x = s.find("reference_rtol")) {
-    st.reference_rtol = r.number(*x);
-    r.check(st.reference_rtol > 0 && st.reference_rtol < 1, *x, "in (0, 1)");
-  }
-  if (const Value* x = s.find("trajectory")) st.trajectory = r.boolean(*x);
+  const Section s = read_keys(r, v, study_keys(), st);
+  if (const Value* x = s.find("frames"))
+    for (const Value& item : r.items(*x))
+      r.check(r.integer(item) >= 1 && r.integer(item) <= scene_frames, item, "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
   if (const Value* x = s.find("integrators")) {
     for (const Value& item : r.items(*x)) {
       const TimeIntegrator kind = read_integrator(r, item);
@@ -1034,7 +1000,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     const Value* solver = s.find("solver");
     const auto given = [&](const char* key) { return solver && Section(r, *solver, {}).find(key); };
     if (!given("history")) deck.solver.history = kContactHistory;
-    if (!given("warm_start")) deck.solver.warm_start = "lower";
+    if (!given("warm_start")) deck.solver.warm_start = WarmStart::lower;
   }
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);

@@ -26,11 +26,17 @@ struct StudySpec {
   std::vector<TimeIntegrator> integrators;
 };
 
+enum class OutputFormat { vtu, xdmf };
+inline const std::vector<std::string> kOutputFormatNames = {"vtu", "xdmf"};  // in the enum's order
+
+// The deck's study: keys (io/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
+const std::vector<DeckKey<StudySpec>>& study_keys();
+
 struct OutputSpec {
   std::string directory;             // "" -> output/<deck name>
   int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
   bool vtk = true;                   // write frames at all (in `format`)
-  std::string format = "vtu";        // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
+  OutputFormat format = OutputFormat::vtu;  // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
   bool iterations_csv = true;
   bool contact_csv = true;           // contact.csv (scenes with colliders only)
 };
@@ -45,11 +51,10 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
       {"every", &OutputSpec::every,
        "write frames every N frames. Frame 0 (the rest state) and the last frame are always written.", at_least(1)},
       {"vtk", &OutputSpec::vtk, "write frames at all (in the `format` below; false: none)"},
-      {"format", &OutputSpec::format,
+      enum_key<OutputSpec>("format", &OutputSpec::format, kOutputFormatNames,
        "`vtu`: VTK files, one `.vtu` piece per rank and frame, a `.pvtu` and a `.pvd`; `xdmf`: one HDF5 file per run, "
        "`<name>.h5`, written by all ranks together, and its index `<name>.xdmf`, for runs on many ranks "
-       "([outputs.md](outputs.md#xdmf-output-for-many-ranks))",
-       {}, {"vtu", "xdmf"}},
+       "([outputs.md](outputs.md#xdmf-output-for-many-ranks))"),
       {"iterations_csv", &OutputSpec::iterations_csv, "write the per-iteration solver log as CSV"},
       {"contact_csv", &OutputSpec::contact_csv,
        "with colliders: write `contact.csv` (per frame and collider, [outputs.md](outputs.md))"},

@@ -173,10 +173,11 @@ std::string deck_keys_text() {
     if (k.section != section) s += "\n" + (section = k.section) + ":\n";
     std::string type = k.type;
     if (!k.choices.empty()) {
-      type = "";
-      for (const std::string& c : k.choices) type += (type.empty() ? "" : " | ") + c;
+      type = k.type == "list" ? "list of " : "";
+      for (size_t i = 0; i < k.choices.size(); ++i) type += (i ? " | " : "") + k.choices[i];
     }
-    s += "  " + k.name + ": " + type + " (default " + k.default_value + (k.unit.empty() ? "" : ", in " + k.unit) +
+    const std::string given = k.default_value == "required" ? "required" : "default " + k.default_value;
+    s += "  " + k.name + ": " + type + " (" + given + (k.unit.empty() ? "" : ", in " + k.unit) +
          ")\n      " + k.doc + "\n";
   }
   return s;

@@ -104,18 +104,10 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     if (!solver_uses_constant_matrix(type)) continue;
     SolverSpec spec = deck.solver;
     spec.type = type;
-    if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness)
-      s.factor_rest_stiffness = true;
-    else if (constant_matrix_by_amg(spec))
-      s.amg = true;
-    else if (constant_matrix_auto(spec))
-      s.auto_h0 = true;
-    else
-      s.factor = true;
+    s.h0s.push_back(solver_h0(spec));
   }
   s.h0_package = o.h0_package;
-  const std::string& w = deck.solver.warm_start;
-  s.warm_start = w == "previous" ? WarmStart::previous : w == "lower" ? WarmStart::lower : WarmStart::inertial;
+  s.warm_start = deck.solver.warm_start;
   s.upright_guess = deck.solver.upright_guess;
   s.element_limit = o.element_limit;
   if (o.nan_beyond >= 0 || o.nan_from_step >= 0)

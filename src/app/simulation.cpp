@@ -475,10 +475,11 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
       if (key == Series::kRestartKey) state = &value;
   const std::string started_as = state ? Series::series_name(*state) : "";
   const std::string name = started_as.empty() ? deck.name : started_as;
-  const bool wanted = deck.output.vtk && deck.output.format == format;
+  const std::string& deck_format = kOutputFormatNames[size_t(deck.output.format)];
+  const bool wanted = deck.output.vtk && deck_format == format;
   if (!wanted && started_as.empty()) return;
   auto series = std::make_unique<Series>(comm, outdir, name);
-  const std::string index = outdir + "/" + deck.name + (deck.output.format == std::string("vtu") ? ".pvd" : ".xdmf");
+  const std::string index = outdir + "/" + deck.name + (deck.output.format == OutputFormat::vtu ? ".pvd" : ".xdmf");
   std::string error;
   try {
     series->begin_run(mesh);
@@ -494,7 +495,7 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
       PetscPrintf(comm, "hyperqn: output.vtk is false: %s stays as it was at frame %d\n", kept.c_str(), saved->frame);
     else if (!wanted)
       PetscPrintf(comm, "hyperqn: output.format is now %s: %s stays as it was at frame %d; later frames go to %s\n",
-                  deck.output.format.c_str(), kept.c_str(), saved->frame, index.c_str());
+                  deck_format.c_str(), kept.c_str(), saved->frame, index.c_str());
     else if (name != deck.name)
       PetscPrintf(comm, "hyperqn: the %s series goes on as %s, the name it started with (the deck now says %s)\n", format,
                   kept_name.c_str(), deck.name.c_str());

@@ -61,19 +61,20 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   MPI_Comm_size(PetscObjectComm((PetscObject)scene.mesh.dm), &size);
   std::ostringstream out;
   const char* integrator = integrator_info(deck.time.integrator).name;
+  double factor_s = 0;  // the factors' time (a V-cycle factors nothing)
+  for (const auto& [h0, matrix] : scene.constant_matrices)
+    if (h0 != H0::amg) factor_s += matrix->factor_seconds();
   out << "{\n  \"title\": \"" << deck.name << (deck.study.integrators.empty() ? "" : std::string(", ") + integrator)
       << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
       << "  \"integrator\": \"" << integrator << "\",\n"
       << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \""
-      << (deck.mesh.has_cloth() ? "cloth " + deck.cloth.model : deck.material.model) << "\",\n"
+      << (deck.mesh.has_cloth() ? "cloth " + kClothModelNames[size_t(deck.cloth.model)] : deck.material.model) << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
       << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"segments\": " << scene.mesh.global_segments << ",\n"
       << "  \"triangles\": " << scene.mesh.global_triangles << ",\n"
       << "  \"dt\": " << deck.time.dt << ",\n"
       << "  \"factor_s\": "
-      << (scene.factored ? scene.factored->factor_seconds() : 0.0) +
-             (scene.rest_stiffness ? scene.rest_stiffness->factor_seconds() : 0.0)
-      << "\n}\n";
+      << factor_s << "\n}\n";
   write_file_atomically(outdir + "/study.json", out.str());
 }
 
@@ -97,7 +98,7 @@ struct Study {
     // The reference: Newton with the exact Hessian converges quadratically (the PSD fix would
     // make it linear wherever it is active near the solution).
     SolverSpec spec = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
-    spec.newton_hessian = "exact";
+    spec.newton_hessian = NewtonHessian::exact;
     PetscCall(create_solver(spec, *s.step, nullptr, reference));
     for (auto& c : contenders) {
       auto budget = st.trajectory_iterations.find(c->type);
@@ -262,8 +263,8 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   SceneInput input;
   MemoryPlan plan;  // M + h^2 L factored for the contenders, and the reference's Newton
   plan.split = splits_on_many_ranks(options.h0_package);
-  plan.newton = deck.solver.linear_solver != "cg-amg";
-  plan.newton_auto = deck.solver.linear_solver == "auto";
+  plan.newton = deck.solver.linear_solver != LinearSolver::cg_amg;
+  plan.newton_auto = deck.solver.linear_solver == LinearSolver::automatic;
   if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
 
   Study study(comm, deck);

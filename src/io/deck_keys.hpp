@@ -6,7 +6,9 @@
 // The default is the struct's own (a default-constructed one), so it is stated once too.
 #pragma once
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <string>
@@ -32,6 +34,9 @@ struct KeyRange {
     const auto num = [](double x) {
       char s[32];
       std::snprintf(s, sizeof s, "%.15g", x);
+      // A long power of ten reads better as one: 1e12, not 1000000000000.
+      if (std::strlen(s) > 10 && x == std::pow(10.0, std::round(std::log10(x))))
+        std::snprintf(s, sizeof s, "1e%d", (int)std::round(std::log10(x)));
       return std::string(s);
     };
     const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
@@ -52,11 +57,14 @@ inline KeyRange at_least(double lo, const char* why = "") { return {lo, std::num
 inline KeyRange above(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), true, false, why}; }
 inline KeyRange between(double lo, double hi, const char* why = "") { return {lo, hi, false, false, why}; }
 
-// One key of section Spec: a member of Spec, or (std::monostate) a choice that `set` applies and
-// `get` names for the default (an enum member, or a key that sets several members).
+// One key of section Spec: a member of Spec (a list member: a non-empty list, the range and
+// choices applying to each item), or (std::monostate) a choice that `set` applies and `get` names
+// for the default (an enum member, or a key that sets several members), or (std::monostate
+// without `set`) a key the section's reader reads itself, declared for the docs with `type_text`.
 template <typename Spec>
 struct DeckKey {
-  using Member = std::variant<std::monostate, double Spec::*, int Spec::*, bool Spec::*, std::string Spec::*>;
+  using Member = std::variant<std::monostate, double Spec::*, int Spec::*, bool Spec::*, std::string Spec::*,
+                              std::vector<int> Spec::*, std::vector<std::string> Spec::*>;
   const char* name;
   Member member;
   const char* doc;
@@ -66,9 +74,36 @@ struct DeckKey {
   const char* default_text = "";          // instead of the struct's default, e.g. "1/30"
   std::function<void(Spec&, const std::string&)> set = nullptr;  // for std::monostate
   std::function<std::string(const Spec&)> get = nullptr;
+  const char* type_text = "";             // a key without member or `set`: its type as docs show it
+  bool required = false;                  // the section must give it (its default is never used)
 };
 
+// A key whose value the section's reader reads itself (a map, a list of enums, ...).
+template <typename Spec>
+DeckKey<Spec> custom_key(const char* name, const char* type_text, const char* doc, const char* default_text) {
+  DeckKey<Spec> k{name, std::monostate{}, doc};
+  k.default_text = default_text;
+  k.type_text = type_text;
+  return k;
+}
+
+// A key whose member is an enum E, its values named by `names` in the enum's order: the deck's
+// word becomes the enum when the deck is read, and nothing downstream compares strings.
+template <typename Spec, typename E>
+DeckKey<Spec> enum_key(const char* name, E Spec::*member, const std::vector<std::string>& names, const char* doc,
+                       const char* default_text = "") {
+  DeckKey<Spec> k{name, std::monostate{}, doc};
+  k.choices = names;
+  k.default_text = default_text;
+  k.set = [member, names](Spec& s, const std::string& word) {
+    s.*member = E(std::find(names.begin(), names.end(), word) - names.begin());
+  };
+  k.get = [member, names](const Spec& s) { return names.at(size_t(s.*member)); };
+  return k;
+}
+
 // What --help-deck, the registry and the docs show of a key, whatever its section's type.
+// type: "choice" (one of choices), "list" (a list of them), or a type name with its range rule.
 struct KeyInfo {
   std::string section, name, type, default_value, unit, doc;
   std::vector<std::string> choices;
@@ -86,27 +121,37 @@ inline std::string default_text(double x) {
 inline std::string default_text(int x) { return std::to_string(x); }
 inline std::string default_text(bool x) { return x ? "true" : "false"; }
 inline std::string default_text(const std::string& x) { return x; }
+template <typename T>
+std::string default_text(const std::vector<T>& xs) {
+  std::string t;
+  for (const T& x : xs) t += (t.empty() ? "" : ", ") + default_text(x);
+  return "[" + t + "]";
+}
 inline const char* type_name(double) { return "number"; }
 inline const char* type_name(int) { return "integer"; }
 inline const char* type_name(bool) { return "bool"; }
 inline const char* type_name(const std::string&) { return "string"; }
+inline const char* type_name(const std::vector<int>&) { return "list of integers"; }
+inline const char* type_name(const std::vector<std::string>&) { return "list of strings"; }
 
 template <typename Spec>
 std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<DeckKey<Spec>>& keys) {
   const Spec defaults{};
   std::vector<KeyInfo> out;
   for (const DeckKey<Spec>& k : keys) {
-    KeyInfo i{section, k.name, "choice", k.default_text, k.unit, k.doc, k.choices};
+    KeyInfo i{section, k.name, *k.type_text ? k.type_text : "choice", k.default_text, k.unit, k.doc, k.choices};
     std::string value = k.get ? k.get(defaults) : "";
     std::visit(
         [&](auto member) {
           if constexpr (!std::is_same_v<decltype(member), std::monostate>) {
             value = default_text(defaults.*member);
+            using T = std::decay_t<decltype(defaults.*member)>;
             if (k.choices.empty()) i.type = type_name(defaults.*member);
+            else if (std::is_same_v<T, std::vector<std::string>>) i.type = "list";  // of the choices
           }
         },
         k.member);
-    if (i.default_value.empty()) i.default_value = value;
+    if (i.default_value.empty()) i.default_value = k.required ? "required" : value;
     const std::string rule = k.range.rule(true);
     if (!rule.empty()) i.type += " " + rule;
     out.push_back(i);

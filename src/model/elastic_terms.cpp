@@ -52,7 +52,7 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
                                                      strands.laplacian_weight));
   if (mesh.global_triangles > 0) {
     terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density));
-    if (cloth.model == "membrane")
+    if (cloth.model == ClothModel::membrane)
       terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda));
     else
       terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness));

@@ -54,7 +54,7 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
       // By the package that factored the scene's own (-hyperqn_h0_package).
       const FactoredSystem* scene_matrix = scene_.constant_matrix(spec_);
       l.factored = std::make_unique<FactoredSystem>();
-      PetscCall(l.factored->setup(*l.step, constant_matrix_of(spec_),
+      PetscCall(l.factored->setup(*l.step, constant_matrix_of(solver_h0(spec_)),
                                   scene_matrix ? scene_matrix->package() : default_factor_package()));
     }
     SolverSpec spec = spec_;

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "io/deck_keys.hpp"
+
 namespace hyperqn {
 
 // The material of all strand segments: a segment of rest length L stores
@@ -15,6 +17,22 @@ struct StrandMaterial {
   double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
 };
 
+// The deck's strand_material: keys (io/deck_keys.hpp).
+inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
+  using S = StrandMaterial;
+  static const std::vector<DeckKey<S>> keys = {
+      {"axial_stiffness", &S::axial_stiffness,
+       "EA, the force per unit strain: a segment of rest length L stores E = EA/(2L) (l − L)²", above(0), {}, "N", "",
+       nullptr, nullptr, "", true},
+      {"linear_density", &S::linear_density, "mass per unit rest length, lumped half to each end of a segment",
+       above(0), {}, "kg/m", "", nullptr, nullptr, "", true},
+      {"laplacian_weight", &S::laplacian_weight,
+       "the EA used to build L (each segment adds weight/L). Omit it for the strands' own, exact weight.",
+       above(0, "omit the key for the strands' own weight, axial_stiffness"), {}, "N", "`axial_stiffness`"},
+  };
+  return keys;
+}
+
 // A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
 // or a monotone cubic spline through control points (x_i, y_i) of its derivative.
 struct FunctionSpec {
@@ -24,8 +42,11 @@ struct FunctionSpec {
 
 // The material of a cloth surface (docs/cloth.md): in-plane stretching by springs on the edges
 // (Liu et al. 2013) or a triangle-FEM membrane, bending across interior edges, and areal density.
+enum class ClothModel { mass_spring, membrane };
+inline const std::vector<std::string> kClothModelNames = {"mass-spring", "membrane"};  // in the enum's order
+
 struct ClothSpec {
-  std::string model;                 // mass-spring | membrane
+  ClothModel model = ClothModel::mass_spring;
   double stretch_stiffness = 0;      // mass-spring: k of the spring on every edge (N/m)
   std::string material = "stvk";     // membrane: stvk | corotated | neohookean
   double mu = 0, lambda = 0;         // membrane: 2-D (plane-stress) Lame parameters (N/m)

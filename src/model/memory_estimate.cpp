@@ -66,21 +66,22 @@ double interface_vertices(int64_t vertices, int ranks) {
 MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package) {
   MemoryPlan plan;
   const bool constant = solver_uses_constant_matrix(spec.type);
-  plan.h0 = !constant ? H0Memory::none : constant_matrix_by_amg(spec) ? H0Memory::amg : H0Memory::gathered;
-  plan.components = constant && constant_matrix_of(spec) == ConstantMatrix::rest_stiffness ? 3 : 1;
+  const H0 h0 = solver_h0(spec);
+  plan.h0 = !constant ? H0Memory::none : h0 == H0::amg ? H0Memory::amg : H0Memory::gathered;
+  plan.components = constant && h0 == H0::rest_stiffness ? 3 : 1;
   plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
   plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
-  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != "cg-amg";
-  plan.newton_auto = spec.linear_solver == "auto";
+  plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != LinearSolver::cg_amg;
+  plan.newton_auto = spec.linear_solver == LinearSolver::automatic;
   plan.amg_allowed = solver_takes_h0(spec.type) && plan.h0 != H0Memory::amg;
-  plan.h0_auto = constant && constant_matrix_auto(spec);
+  plan.h0_auto = constant && h0 == H0::automatic;
   plan.split = splits_on_many_ranks(package);
   return plan;
 }
 
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {
-  if (plan.h0_auto && auto_h0_is_amg(tets)) plan.h0 = H0Memory::amg;
-  if (plan.newton_auto && newton_uses_amg("auto", vertices)) plan.newton = false;
+  if (plan.h0_auto && resolved_h0(H0::automatic, tets) == H0::amg) plan.h0 = H0Memory::amg;
+  if (plan.newton_auto && newton_uses_amg(LinearSolver::automatic, vertices)) plan.newton = false;
   if (plan.h0 == H0Memory::gathered && plan.split && ranks > 1 &&
       plan.components * interface_vertices(vertices, ranks) <= double(kMaxSplitInterface))
     plan.h0 = H0Memory::split;

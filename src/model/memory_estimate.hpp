@@ -45,7 +45,7 @@ struct MemoryPlan {
 MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_factor_package());
 
 // The plan for this mesh: solver.h0: auto, the split factor and linear_solver: auto resolved as
-// the run will (auto_h0_is_amg, choose_factor_package with the interface of interface_vertices,
+// the run will (resolved_h0, choose_factor_package with the interface of interface_vertices,
 // newton_uses_amg).
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks);
 

@@ -1,6 +1,7 @@
 #include "model/scene.hpp"
 
 #include <cstdio>
+#include <algorithm>
 #include <functional>
 
 #include "io/atomic_file.hpp"
@@ -346,18 +347,13 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit, spec.time.integrator);
   PetscCall(s.step->setup());
   PetscCall(s.body->set_masses(s.step->mass()));
-  if (options_.auto_h0) s.auto_amg = auto_h0_is_amg(s.mesh.global_cells);
-  if (options_.factor || (options_.auto_h0 && !s.auto_amg)) {
-    s.factored = std::make_unique<FactoredSystem>();
-    PetscCall(s.factored->setup(*s.step, ConstantMatrix::laplacian, options_.h0_package));
-  }
-  if (options_.factor_rest_stiffness) {
-    s.rest_stiffness = std::make_unique<FactoredSystem>();
-    PetscCall(s.rest_stiffness->setup(*s.step, ConstantMatrix::rest_stiffness, options_.h0_package));
-  }
-  if (options_.amg || (options_.auto_h0 && s.auto_amg)) {
-    s.amg = std::make_unique<FactoredSystem>();
-    PetscCall(s.amg->setup(*s.step, ConstantMatrix::laplacian, FactorPackage::amg));
+  for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg}) {  // in this order, each once
+    const bool wanted = std::any_of(options_.h0s.begin(), options_.h0s.end(),
+                                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; });
+    if (!wanted) continue;
+    auto& matrix = s.constant_matrices[h0];
+    matrix = std::make_unique<FactoredSystem>();
+    PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), h0 == H0::amg ? FactorPackage::amg : options_.h0_package));
   }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
@@ -365,9 +361,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
 
 const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
   if (!solver_uses_constant_matrix(spec.type)) return nullptr;
-  if (constant_matrix_of(spec) == ConstantMatrix::rest_stiffness) return rest_stiffness.get();
-  const bool by_amg = constant_matrix_by_amg(spec) || (constant_matrix_auto(spec) && auto_amg);
-  return (by_amg ? amg : factored).get();
+  const auto found = constant_matrices.find(resolved_h0(spec, mesh.global_cells));
+  return found == constant_matrices.end() ? nullptr : found->second.get();
 }
 
 PetscErrorCode LiveScene::initial_state(State& s) const {

@@ -3,6 +3,7 @@
 // simulation and the study.
 #pragma once
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,20 +50,15 @@ struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
   std::unique_ptr<StepObjective> step;
-  std::unique_ptr<FactoredSystem> factored;        // M + h^2 L, only if a solver needs it
-  std::unique_ptr<FactoredSystem> rest_stiffness;  // M + h^2 K(x_rest), only if lbfgs uses it (solver.h0)
-  std::unique_ptr<FactoredSystem> amg;             // M + h^2 L by a V-cycle, only if lbfgs uses it (solver.h0)
-  bool auto_amg = false;                           // solver.h0: auto chose the V-cycle
+  // The constant matrices the solvers use, by resolved_h0 (laplacian, rest_stiffness, amg).
+  std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
 };
 
 // How to build a scene beside its description.
 struct SceneOptions {
-  bool factor = false;                 // factor M + h^2 L (a solver needs it)
-  bool factor_rest_stiffness = false;  // factor M + h^2 K(x_rest) (lbfgs with solver.h0: rest-stiffness)
-  bool amg = false;                    // set up the V-cycle of M + h^2 L (lbfgs with solver.h0: amg)
-  bool auto_h0 = false;                // the factor or the V-cycle of M + h^2 L, by auto_h0_is_amg (solver.h0: auto)
+  std::vector<H0> h0s;                 // the solvers' constant matrices (solver_h0; automatic resolved at setup)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (StepObjective)

@@ -16,6 +16,7 @@
 #include "model/time_integrator.hpp"
 #include "model/state.hpp"
 #include "solvers/objective.hpp"
+#include "solvers/solver_spec.hpp"  // WarmStart
 #include "solvers/time_step_solver.hpp"
 
 namespace hyperqn {
@@ -36,11 +37,6 @@ struct StepSolve {
   double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
   bool measured = false;
 };
-
-// Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
-// the lower g (two evaluations per step; for contact, where y often lies deep in an obstacle
-// while x_n rests on it).
-enum class WarmStart { inertial, previous, lower };
 
 class StepObjective : public Objective {
  public:

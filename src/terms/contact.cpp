@@ -16,7 +16,7 @@ ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
 
 ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
                          const ContactSpec& spec, PetscLogEvent event)
-    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), barrier_(spec.model == "barrier"), event_(event) {
+    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), barrier_(spec.model == ContactModel::barrier), event_(event) {
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
   stiffness_.assign(vertices_.size(), stiffness_per_mass());
@@ -292,7 +292,7 @@ PetscErrorCode ContactTerm::measure(const std::vector<double>& pos, ContactMeasu
 std::string ContactTerm::describe() const {
   char text[200];
   std::snprintf(text, sizeof text, "contact: %zu collider(s), %s, distance %.4g, stiffness %.4g, friction_velocity %.4g",
-                colliders_.size(), spec_.model.c_str(), spec_.distance, spec_.stiffness, spec_.friction_velocity);
+                colliders_.size(), kContactModelNames[size_t(spec_.model)].c_str(), spec_.distance, spec_.stiffness, spec_.friction_velocity);
   return text;
 }
 
