@@ -14,10 +14,12 @@
 //
 // The result t is conservative: the pair is farther apart than min_separation at every time in
 // [0, t] (up to the round-off of the distance), so t lies before the first time they reach
-// min_separation, and before they touch. At t the clearance is still at least clearance_fraction
-// of the starting one: a smaller fraction gives a t closer to the impact in more steps (IPC's
-// 0.1 by default). A pair that never comes that close before t = 1 gives +infinity; one that
-// starts at or within min_separation gives 0.
+// min_separation, and before they touch. At t the clearance is still at least
+// min(clearance_fraction, 0.1) of the starting one: a smaller fraction gives a t closer to the
+// impact in more steps (IPC's 0.1 by default; at most 10^6 steps, after which the t reached is
+// returned). A pair that never comes that close before t = 1 gives +infinity, so a pair passing
+// within 0.1 of its starting clearance without touching gets a conservative t at the default;
+// one that starts at or within min_separation gives 0.
 #pragma once
 #include "geometry/pair_distance.hpp"
 
