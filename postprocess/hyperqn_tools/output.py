@@ -112,9 +112,9 @@ def frame_meshes(path):
 
 class Frame:
     """One output frame, merged over pieces and sorted by vertex_id. ranks (the VTK cell field
-    rank) is None for an XDMF frame, which does not depend on the rank count; body (the VTK cell
-    field of a scene of bodies: each tet's body) is None without bodies and for XDMF. cells:
-    {meshio cell type ("tetra", "line", "triangle"): (n, k) rows into points}, every piece's."""
+    rank) is None for an XDMF frame, which does not depend on the rank count; body (the cell field
+    of a scene of bodies: each element's body) is None without bodies. cells: {meshio cell type
+    ("tetra", "line", "triangle"): (n, k) rows into points}, every piece's."""
 
     def __init__(self, path):
         self.path = path
@@ -165,7 +165,7 @@ class Frame:
         self.cells = cells_by_type((c.type, c.data) for c in m.cells)  # points are in vertex_id order
         self.J = np.concatenate([np.ravel(a) for a in m.cell_data["J"]])
         self.ranks = None
-        self.body = None
+        self.body = np.concatenate([np.ravel(a) for a in m.cell_data["body"]]) if "body" in m.cell_data else None
         self.num_pieces = 1
 
 

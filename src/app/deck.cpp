@@ -623,6 +623,11 @@ Motion read_motion(const Reader& r, const Value& v) {
   return m;
 }
 
+// bodies[k].fixed and bodies[k].attachments: (k, the list), read after the scene's own.
+struct BodyRegions {
+  std::vector<std::pair<int, Value>> fixed, attachments;
+};
+
 // body >= 0: bodies[body].fixed, which selects that body's vertices only.
 void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, int body = -1) {
   for (const Value& item : r.items(v)) {
@@ -639,13 +644,13 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, 
   }
 }
 
-// bodies: a list of solid bodies, each a tet mesh (box or file, with its transform), a material,
-// an initial velocity and its own fixed regions (returned in body_fixed, read after the scene's).
-void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck,
-                 std::vector<std::pair<int, Value>>& body_fixed) {
+// bodies: a list of bodies, each a mesh (tets, a cloth, strands, or tets with strands, with its
+// transform) with the material of each of its parts, an initial velocity and its own fixed regions
+// and attachments (returned in regions, read after the scene's).
+void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck, BodyRegions& regions) {
   for (const Value& item : r.items(v)) {
     const int k = (int)deck.bodies.size();
-    Section s(r, item, {"name", "mesh", "material", "velocity", "fixed"});
+    Section s(r, item, {"name", "mesh", "material", "cloth", "strand_material", "velocity", "fixed", "attachments"});
     BodySpec b;
     b.line = item.line;
     b.name = "body" + std::to_string(k);
@@ -656,17 +661,41 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     }
     const Value& mesh = s.need("mesh");
     read_mesh(r, mesh, deck_dir, b.mesh);
-    if (b.mesh.has_cloth() || b.mesh.has_strands() || b.mesh.is_partition_file || !b.mesh.has_solid())
-      r.fail(mesh, "a body's mesh is a box or a tetrahedral mesh file (.mesh, .msh); cloth, strands and partition "
-                   "files are not in bodies yet");
-    read_material(r, s.need("material"), b.material);
+    const MeshSpec& m = b.mesh;
+    if (m.is_partition_file) r.fail(mesh, "a body's mesh is not a partition file (rank 0 reads and joins the bodies)");
+    // Each part of the body's mesh takes its own material, read as for a scene of one body. A
+    // Medit file read for its edges may hold no tets (read_bodies_mesh checks).
+    const struct {
+      const char* key;
+      bool has;
+      bool required;
+      const char* part;
+    } parts[] = {{"material", m.has_solid(), m.has_solid() && !m.edges_as_strands, "tetrahedra (a box or a .mesh or .msh file)"},
+                 {"cloth", m.has_cloth(), m.has_cloth(), "a cloth (a sheet, an .obj file, or a file with surface: cloth)"},
+                 {"strand_material", m.has_strands(), m.has_strands(), "strands (mesh.strands, or edges: strands)"}};
+    for (const auto& part : parts) {
+      const Value* x = s.find(part.key);
+      if (x && !part.has) r.fail(*x, std::string(part.key) + " describes " + part.part + ", and the body's mesh has none");
+      if (part.required) s.need(part.key);
+    }
+    if (const Value* x = s.find("material")) {
+      read_material(r, *x, b.material);
+      b.has_material = true;
+    }
+    if (const Value* x = s.find("cloth")) read_cloth(r, *x, b.cloth);
+    if (const Value* x = s.find("strand_material")) read_strand_material(r, *x, b.strand_material);
     if (const Value* x = s.find("velocity")) b.velocity = r.numbers3(*x);
-    if (const Value* x = s.find("fixed")) body_fixed.emplace_back(k, *x);
+    if (const Value* x = s.find("fixed")) regions.fixed.emplace_back(k, *x);
+    if (const Value* x = s.find("attachments")) regions.attachments.emplace_back(k, *x);
     deck.bodies.push_back(b);
   }
   r.check(!deck.bodies.empty(), v, "a non-empty list");
-  deck.material = deck.bodies[0].material;
-  deck.has_material = true;
+  for (const BodySpec& b : deck.bodies)
+    if (b.has_material) {  // the scene's material (what the study names): the first body's with tets
+      deck.material = b.material;
+      deck.has_material = true;
+      break;
+    }
   deck.mesh.line = deck.bodies[0].mesh.line;
 }
 
@@ -746,6 +775,19 @@ void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpe
       r.check(a.region.release > 0, *x, "> 0 (a time)");
     }
     attachments.push_back(a);
+  }
+}
+
+// Each body's own fixed regions and attachments (BoxRegion::body), after the scene's.
+void read_body_regions(const Reader& r, const BodyRegions& regions, Deck& deck) {
+  for (const auto& [k, item] : regions.fixed) read_fixed(r, item, deck.fixed, k);
+  for (const auto& [k, item] : regions.attachments) {
+    std::vector<AttachmentSpec> own;
+    read_attachments(r, item, own);
+    for (AttachmentSpec& a : own) {
+      a.region.body = k;
+      deck.attachments.push_back(a);
+    }
   }
 }
 
@@ -932,13 +974,13 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     if (!safe || deck.name.size() > kMaxNameLength || deck.name[0] == '.' || deck.name[0] == '-')
       r.fail(*x, "must be a file name of at most 100 letters, digits and _ - . + (not starting with . or -)");
   }
-  std::vector<std::pair<int, Value>> body_fixed;  // (k, bodies[k].fixed): read after the scene's own fixed
+  BodyRegions body_regions;  // read after the scene's own fixed regions and attachments
   if (const Value* x = s.find("bodies")) {
     for (const char* key : {"mesh", "material", "regions", "strand_material", "cloth"})
       if (const Value* y = s.find(key))
         r.fail(*y, std::string("with bodies, each body has its own mesh and material: ") + key +
                        " is a key of bodies[k] (or leave out bodies for a scene of one body)");
-    read_bodies(r, *x, fs::path(path).parent_path(), deck, body_fixed);
+    read_bodies(r, *x, fs::path(path).parent_path(), deck, body_regions);
   } else {
     const Value& mesh = s.need("mesh");
     read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
@@ -977,13 +1019,13 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("regions")) read_regions(r, *x, deck.material, deck.regions);
   if (const Value* x = s.find("initial")) read_initial(r, *x, deck.initial);
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
-  for (const auto& [k, item] : body_fixed) read_fixed(r, item, deck.fixed, k);
   if (const Value* x = s.find("colliders")) read_colliders(r, *x, fs::path(path).parent_path(), deck.colliders);
   if (const Value* x = s.find("contact")) {
     if (deck.colliders.empty()) r.fail(*x, "contact describes how the body touches colliders, and there are none");
     read_contact(r, *x, deck.contact);
   }
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
+  read_body_regions(r, body_regions, deck);
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);

@@ -22,6 +22,13 @@ std::vector<double> element_J(const DistributedMesh& mesh, const FrameData& f) {
   return J;
 }
 
+std::vector<int32_t> element_bodies(const DistributedMesh& mesh) {
+  std::vector<int32_t> body(mesh.cell_tags);
+  body.insert(body.end(), mesh.segment_tags.begin(), mesh.segment_tags.end());
+  body.insert(body.end(), mesh.triangle_tags.begin(), mesh.triangle_tags.end());
+  return body;
+}
+
 std::vector<double> triangle_stretch(const DistributedMesh& mesh, const std::vector<double>& positions) {
   std::vector<double> stretch(mesh.num_triangles);
   for (PetscInt t = 0; t < mesh.num_triangles; ++t) {

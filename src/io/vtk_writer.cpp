@@ -94,10 +94,10 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
                                    make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
   for (const auto& [name, values] : f.point_fields) point_data.push_back(make_array("Float64", name, 3, *values));
   std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
-  if (cloth())  // the largest principal stretch of each triangle (a cloth mesh holds nothing else)
+  if (cloth())  // the largest principal stretch of each triangle
     cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
-  if (mesh_->num_bodies > 0)  // each tet's body: index in the deck's bodies list (a body mesh is tets only)
-    cell_data.push_back(make_array("Int32", "body", 1, mesh_->cell_tags));
+  if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
+    cell_data.push_back(make_array("Int32", "body", 1, element_bodies(*mesh_)));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),

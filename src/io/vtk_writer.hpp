@@ -39,7 +39,8 @@ class VtkSeries : public OutputWriter {
 
   MPI_Comm comm_;
   const DistributedMesh* mesh_ = nullptr;
-  bool cloth() const { return mesh_->global_triangles > 0; }  // then a "stretch" cell field
+  // A mesh of cloth triangles only (as in the XDMF frames): then a "stretch" cell field.
+  bool cloth() const { return mesh_->global_triangles > 0 && mesh_->global_cells + mesh_->global_segments == 0; }
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
 };

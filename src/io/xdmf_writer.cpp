@@ -168,6 +168,21 @@ struct XdmfSeries::Layout {
     }
   }
   int kinds_present() const { return (count[0] > 0) + (count[1] > 0) + (count[2] > 0); }
+  // One value per local element (element_J's order: tets, segments, triangles) gathered into
+  // each kind's rows (in `gathered`), and the blocks of the list of all elements they fill.
+  template <typename T>
+  std::vector<ParallelFile::Block> element_blocks(const DistributedMesh& m, const std::vector<T>& values,
+                                                  std::vector<T> (&gathered)[kKinds]) const {
+    std::vector<ParallelFile::Block> blocks;
+    const PetscInt local[kKinds] = {m.num_cells, m.num_segments, m.num_triangles};
+    PetscInt at = 0;
+    for (int k = 0; k < kKinds; ++k) {
+      gathered[k] = kinds[k]->gather(std::vector<T>(values.begin() + at, values.begin() + at + local[k]), 1);
+      at += local[k];
+      blocks.push_back({(hsize_t)(base[k] + kinds[k]->first()), (hsize_t)kinds[k]->count(), 1, gathered[k].data()});
+    }
+    return blocks;
+  }
   PetscInt elements() const { return count[0] + count[1] + count[2]; }
 };
 
@@ -235,6 +250,12 @@ void XdmfSeries::write_mesh() const {
   ids.data = L.vertex_id.data();
   file.dataset("/mesh/rest", false, (hsize_t)L.points, 3, {rest});
   file.dataset("/mesh/vertex_id", true, (hsize_t)L.points, 0, {ids});
+  if (mesh_->num_bodies > 0) {  // each element's body: its index in the deck's bodies list
+    const std::vector<int32_t> tags = element_bodies(*mesh_);
+    std::vector<int64_t> body_blocks[kKinds];
+    file.dataset("/mesh/body", true, (hsize_t)L.elements(), 0,
+                 L.element_blocks(*mesh_, std::vector<int64_t>(tags.begin(), tags.end()), body_blocks));
+  }
   file.group("/frames");
   file.close();
 }
@@ -255,16 +276,8 @@ void XdmfSeries::write_frame(const FrameData& f) {
         {"velocity", L.vertices->gather(*f.velocities, 3)}};
     for (const auto& [name, values] : f.point_fields) point_fields.emplace_back(name, L.vertices->gather(*values, 3));
     // Element fields: each kind's block at its place in the list of all elements.
-    const std::vector<double> J = element_J(*mesh_, f);
     std::vector<double> J_blocks[kKinds];
-    std::vector<ParallelFile::Block> J_writes;
-    PetscInt at = 0;
-    const PetscInt local[kKinds] = {mesh_->num_cells, mesh_->num_segments, mesh_->num_triangles};
-    for (int k = 0; k < kKinds; ++k) {
-      J_blocks[k] = L.kinds[k]->gather(std::vector<double>(J.begin() + at, J.begin() + at + local[k]), 1);
-      at += local[k];
-      J_writes.push_back({(hsize_t)(L.base[k] + L.kinds[k]->first()), (hsize_t)L.kinds[k]->count(), 1, J_blocks[k].data()});
-    }
+    const std::vector<ParallelFile::Block> J_writes = L.element_blocks(*mesh_, element_J(*mesh_, f), J_blocks);
     const bool cloth = L.count[2] > 0 && L.count[2] == L.elements();
     std::vector<double> stretch;
     if (cloth) stretch = L.kinds[2]->gather(triangle_stretch(*mesh_, *f.positions), 1);
@@ -339,6 +352,7 @@ void XdmfSeries::write_index() const {
     attribute("vertex_id", "Scalar", "Node", item(V, true, "/mesh/vertex_id"));
     for (const std::string& name : fields) attribute(name.c_str(), "Vector", "Node", item(V + " 3", false, group + "/" + name));
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
+    if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
     if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
     out << "</Grid>\n";
   }

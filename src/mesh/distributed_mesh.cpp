@@ -247,6 +247,13 @@ static PetscErrorCode fill_dof_numbers(DistributedMesh& m) {
   PetscFunctionReturn(0);
 }
 
+std::vector<PetscInt> body_elements(const DistributedMesh& m, const std::vector<PetscInt>& vertices, int size, int body) {
+  std::vector<PetscInt> elements;
+  for (PetscInt e = 0; e < (PetscInt)vertices.size() / size; ++e)
+    if (body < 0 || m.vertex_body[vertices[size * e]] == body) elements.push_back(e);
+  return elements;
+}
+
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]) {
   bounding_box(m.rest, lo, hi);
   MPI_Comm comm = PetscObjectComm((PetscObject)m.dm);

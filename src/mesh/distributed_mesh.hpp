@@ -35,8 +35,10 @@ struct DistributedMesh {
   // Per local tet, segment, triangle: its index among the serial mesh's elements of its kind (the
   // same at every rank count: output in a global order, io/xdmf_writer.hpp).
   std::vector<int64_t> cell_ids, segment_ids, triangle_ids;
-  std::vector<int32_t> cell_tags;    // per local tet: the input element tag (with bodies: its body)
+  std::vector<int32_t> cell_tags;    // per local tet: the input element tag (with bodies: its body, as the
+                                     // segment and triangle tags)
   int num_bodies = 0;                // a scene of bodies (deck bodies:); 0: one body
+  std::vector<int32_t> vertex_body;  // per local vertex: its body (model/regions.hpp vertex_bodies; empty: one body)
   std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
   std::vector<int32_t> cell_material;  // per local tet: 0 default material, k + 1 region k
   std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)
@@ -51,6 +53,11 @@ struct DistributedMesh {
     DMDestroy(&dm);
   }
 };
+
+// The local elements (of `size` vertices each in `vertices`: m.triangles, m.hinges, ...) of one
+// body: those whose first vertex is the body's (m.vertex_body); all of them if body < 0. In
+// their local order.
+std::vector<PetscInt> body_elements(const DistributedMesh& m, const std::vector<PetscInt>& vertices, int size, int body);
 
 // Bounding box of the rest positions over all ranks, and its diagonal.
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);

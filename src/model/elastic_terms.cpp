@@ -23,41 +23,63 @@ static double rest_volume(const DistributedMesh& mesh) {
   return volume;
 }
 
+// The tets' terms: materials[k] is the material of the tets with cell_material k.
+static void add_tet_terms(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials,
+                          std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+  if (mesh.global_cells == 0) return;
+  const double volume = rest_volume(mesh);
+  std::vector<std::unique_ptr<Material>> continuum;
+  std::vector<double> stiffness, weight, density;
+  bool any_continuum = false, any_springs = false;
+  for (const MaterialSpec& spec : materials) {
+    // A model that is not an energy density of F is the mass-spring one (material_factory.hpp).
+    const bool springs = !find_material_model(spec.model)->create;
+    continuum.push_back(springs ? nullptr : make_material(spec));
+    stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
+    // A spring's own weight in L is its stiffness k.
+    const double own = springs ? spec.spring_stiffness : continuum.back()->laplacian_weight();
+    weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
+    density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
+    any_continuum = any_continuum || !springs;
+    any_springs = any_springs || springs;
+  }
+  if (any_continuum) terms.push_back(std::make_unique<ContinuumTets>(mesh, std::move(continuum), weight, density));
+  if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
+}
+
+// A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all).
+static void add_cloth_terms(const DistributedMesh& mesh, const ClothSpec& cloth, int body,
+                            std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+  terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density, body));
+  if (cloth.model == ClothModel::membrane)
+    terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda, body));
+  else
+    terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, body));
+  if (cloth.bending != "none" && mesh.global_hinges > 0)
+    terms.push_back(std::make_unique<ClothBending>(mesh, bending_model(cloth.bending), cloth.bending_stiffness, body));
+}
+
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
                                                        const StrandMaterial& strands, const ClothSpec& cloth) {
   std::vector<std::unique_ptr<EnergyTerm>> terms;
-  if (mesh.global_cells > 0) {
-    const double volume = rest_volume(mesh);
-    std::vector<std::unique_ptr<Material>> continuum;
-    std::vector<double> stiffness, weight, density;
-    bool any_continuum = false, any_springs = false;
-    for (const MaterialSpec& spec : materials) {
-      // A model that is not an energy density of F is the mass-spring one (material_factory.hpp).
-      const bool springs = !find_material_model(spec.model)->create;
-      continuum.push_back(springs ? nullptr : make_material(spec));
-      stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
-      // A spring's own weight in L is its stiffness k.
-      const double own = springs ? spec.spring_stiffness : continuum.back()->laplacian_weight();
-      weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
-      density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
-      any_continuum = any_continuum || !springs;
-      any_springs = any_springs || springs;
-    }
-    if (any_continuum) terms.push_back(std::make_unique<ContinuumTets>(mesh, std::move(continuum), weight, density));
-    if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
-  }
+  add_tet_terms(mesh, materials, terms);
   if (mesh.global_segments > 0)
     terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
                                                      strands.laplacian_weight));
-  if (mesh.global_triangles > 0) {
-    terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density));
-    if (cloth.model == ClothModel::membrane)
-      terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda));
-    else
-      terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness));
-    if (cloth.bending != "none" && mesh.global_hinges > 0)
-      terms.push_back(std::make_unique<ClothBending>(mesh, bending_model(cloth.bending), cloth.bending_stiffness));
+  if (mesh.global_triangles > 0) add_cloth_terms(mesh, cloth, -1, terms);
+  return terms;
+}
+
+std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh, const std::vector<BodySpec>& bodies) {
+  std::vector<std::unique_ptr<EnergyTerm>> terms;
+  add_tet_terms(mesh, body_materials(bodies).materials, terms);
+  for (size_t k = 0; k < bodies.size(); ++k) {
+    const StrandMaterial& strands = bodies[k].strand_material;
+    if (bodies[k].mesh.has_strands())
+      terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
+                                                       strands.laplacian_weight, (int)k));
+    if (bodies[k].mesh.has_cloth()) add_cloth_terms(mesh, bodies[k].cloth, (int)k, terms);
   }
   return terms;
 }
@@ -73,7 +95,7 @@ std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const s
     group.motion = attachments[k].region.motion;
     // Fixed vertices are left to their fixed region; ghosts to the rank that owns them.
     for (PetscInt v = 0; v < mesh.num_vertices; ++v)
-      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && in_box(&mesh.rest[3 * v], attachments[k].region, tol))
+      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && selects(attachments[k].region, &mesh.rest[3 * v], v, mesh.vertex_body, tol))
         group.vertices.push_back(v);
     groups.push_back(std::move(group));
   }

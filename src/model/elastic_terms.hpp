@@ -8,6 +8,7 @@
 #include "mesh/distributed_mesh.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
+#include "model/scene_spec.hpp"
 #include "terms/contact.hpp"
 #include "terms/energy_term.hpp"
 
@@ -20,6 +21,11 @@ namespace hyperqn {
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
                                                        const StrandMaterial& strands, const ClothSpec& cloth = {});
+
+// The elastic terms of a scene of bodies: the tets with their bodies' materials (body_materials;
+// mesh.cell_material), each body's own strand term over its segments and cloth terms over its
+// triangles and hinges.
+std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh, const std::vector<BodySpec>& bodies);
 
 // The springs of the attachments not released (released[k] != 0: attachments[k] is gone), on
 // the free vertices this rank owns in each box (in_box with the serial selection's tolerance, so

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <mpi.h>
 
@@ -29,28 +30,53 @@ static int64_t global_count(MPI_Comm comm, int64_t count) {
   return count;
 }
 
-std::vector<int32_t> vertex_bodies(const TetMesh& mesh) {
-  std::vector<int32_t> body(mesh.num_vertices(), -1);
-  for (int64_t t = 0; t < mesh.num_tets(); ++t)
-    for (int k = 0; k < 4; ++k) body[mesh.tets[4 * t + k]] = mesh.tet_tags[t];
+// The deck key of boxes[b]: "<section>[b].box", or for a body's own region (listed after the
+// scene's, body by body) "bodies[k].<section>[j].box".
+static std::string box_key(const std::vector<BoxRegion>& boxes, size_t b, const std::string& section) {
+  const int body = boxes[b].body;
+  if (body < 0) return section + "[" + std::to_string(b) + "].box";
+  size_t first = b;
+  while (first > 0 && boxes[first - 1].body == body) --first;
+  return "bodies[" + std::to_string(body) + "]." + section + "[" + std::to_string(b - first) + "].box";
+}
+
+std::vector<int32_t> vertex_bodies(MPI_Comm comm, const MeshPiece& piece, int bodies) {
+  if (bodies == 0) return {};
+  const TetMesh& m = piece.mesh;
+  std::vector<long long> first(bodies, std::numeric_limits<long long>::max());
+  const auto lowest = [&](const std::vector<int32_t>& vertices, const std::vector<int32_t>& tags, int size) {
+    for (size_t e = 0; e < tags.size(); ++e)
+      for (int j = 0; j < size; ++j)
+        first[tags[e]] = std::min(first[tags[e]], (long long)piece.vertex_numbers[vertices[size * e + j]]);
+  };
+  lowest(m.tets, m.tet_tags, 4);
+  lowest(m.segments, m.segment_tags, 2);
+  lowest(m.triangles, m.triangle_tags, 3);
+  MPI_Allreduce(MPI_IN_PLACE, first.data(), bodies, MPI_LONG_LONG, MPI_MIN, comm);
+  std::vector<int32_t> body(m.num_vertices());
+  for (int64_t v = 0; v < m.num_vertices(); ++v)
+    body[v] = int32_t(std::upper_bound(first.begin(), first.end(), (long long)piece.vertex_numbers[v]) - first.begin()) - 1;
   return body;
 }
 
+bool selects(const BoxRegion& box, const double* p, int64_t v, const std::vector<int32_t>& vertex_body, double tol) {
+  return in_box(p, box, tol) && (box.body < 0 || vertex_body.at(v) == box.body);
+}
+
 std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                     const std::string& deck_path, const std::string& section) {
+                                     const std::string& deck_path, const std::string& section,
+                                     const std::vector<int32_t>& vertex_body) {
   const double tol = 1e-9 * mesh_diagonal(comm, mesh);
-  std::vector<int32_t> selected(mesh.num_vertices(), 0), body;
-  for (const BoxRegion& b : boxes)
-    if (b.body >= 0 && body.empty()) body = vertex_bodies(mesh);
+  std::vector<int32_t> selected(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
     for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-      if (in_box(&mesh.coords[3 * v], boxes[b], tol) && (boxes[b].body < 0 || body[v] == boxes[b].body)) {
+      if (selects(boxes[b], &mesh.coords[3 * v], v, vertex_body, tol)) {
         selected[v] = (int32_t)b + 1;
         ++count;
       }
     if (global_count(comm, count) == 0)
-      throw InputError(deck_path, boxes[b].line, section + "[" + std::to_string(b) + "].box",
+      throw InputError(deck_path, boxes[b].line, box_key(boxes, b, section),
                        boxes[b].body >= 0 ? "selects no vertex of its body (boxes are in coordinates after the body's mesh.transform)"
                                           : "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
@@ -58,25 +84,25 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
 }
 
 std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                           const std::string& deck_path) {
-  return select_vertices(comm, mesh, boxes, deck_path, "fixed");
+                                           const std::string& deck_path, const std::vector<int32_t>& vertex_body) {
+  return select_vertices(comm, mesh, boxes, deck_path, "fixed", vertex_body);
 }
 
 void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                        const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
-                       const std::string& deck_path) {
+                       const std::string& deck_path, const std::vector<int32_t>& vertex_body) {
   std::vector<BoxRegion> boxes;
   for (const AttachmentSpec& a : attachments) boxes.push_back(a.region);
-  select_vertices(comm, mesh, boxes, deck_path, "attachments");
+  select_vertices(comm, mesh, boxes, deck_path, "attachments", vertex_body);
   const double tol = 1e-9 * mesh_diagonal(comm, mesh);
   for (size_t k = 0; k < boxes.size(); ++k) {
     bool acts = false;
     for (int64_t v = 0; v < mesh.num_vertices() && !acts; ++v) {
       const int32_t f = fixed_of_vertex[v];  // the vertex follows the last fixed region holding it
-      acts = in_box(&mesh.coords[3 * v], boxes[k], tol) && (f == 0 || fixed[f - 1].release > 0);
+      acts = selects(boxes[k], &mesh.coords[3 * v], v, vertex_body, tol) && (f == 0 || fixed[f - 1].release > 0);
     }
     if (global_count(comm, acts) == 0)
-      throw InputError(deck_path, boxes[k].line, "attachments[" + std::to_string(k) + "].box",
+      throw InputError(deck_path, boxes[k].line, box_key(boxes, k, "attachments"),
                        "selects only vertices that are fixed (and never released): the attachment would do nothing");
   }
 }

@@ -15,6 +15,7 @@
 
 #include "geometry/motion.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/mesh_piece.hpp"
 #include "model/material_spec.hpp"
 
 namespace hyperqn {
@@ -25,7 +26,8 @@ struct BoxRegion {
   Motion motion;                     // fixed regions and attachments only
   double release = -1;               // fixed regions: time at which its vertices become free (< 0: never);
                                      // attachments: time at which the springs are gone
-  int body = -1;                     // fixed regions: only the vertices of this body (bodies[body].fixed; -1: any)
+  int body = -1;                     // fixed regions and attachments: only the vertices of this body
+                                     // (bodies[body].fixed, bodies[body].attachments; -1: any)
 };
 
 // A soft attachment (deck attachments[k]): a zero-rest-length spring of stiffness k (N/m, per
@@ -54,16 +56,26 @@ bool in_box(const double* p, const BoxRegion& box, double tol);
 // The diagonal of the bounding box of every rank's mesh (collective).
 double mesh_diagonal(MPI_Comm comm, const TetMesh& mesh);
 
-// Per vertex of a scene of bodies (tet tags = body index, read_serial_mesh): its body (-1: in no tet).
-std::vector<int32_t> vertex_bodies(const TetMesh& mesh);
+// Per local vertex of a piece of a scene of `bodies` bodies (deck bodies:), its body; empty for
+// a scene of one body (bodies == 0). Collective. read_bodies_mesh appends the bodies one after the
+// other and tags each body's elements with its index, so body k holds the vertex numbers from the
+// lowest one of its tets, segments and triangles (over all ranks: a piece may hold a vertex only
+// through a cloth hinge, which has no tag) up to the next body's.
+std::vector<int32_t> vertex_bodies(MPI_Comm comm, const MeshPiece& piece, int bodies);
+// Whether vertex v lies in the box (in_box) and, for a box of one body, in that body
+// (vertex_body: vertex_bodies of the mesh).
+bool selects(const BoxRegion& box, const double* p, int64_t v, const std::vector<int32_t>& vertex_body, double tol);
+
 // Per vertex: 0 if in no box, k + 1 if in boxes[k] (the last box containing it wins); a box with
-// BoxRegion::body >= 0 takes that body's vertices only. A box that selects no vertex is an input
-// error naming the deck line and the key "<section>[k].box".
+// BoxRegion::body >= 0 takes that body's vertices only (vertex_body: vertex_bodies of the mesh).
+// A box that selects no vertex is an input error naming the deck line and the key
+// "<section>[k].box".
 std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                     const std::string& deck_path, const std::string& section);
+                                     const std::string& deck_path, const std::string& section,
+                                     const std::vector<int32_t>& vertex_body = {});
 // select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].
 std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
-                                           const std::string& deck_path);
+                                           const std::string& deck_path, const std::vector<int32_t>& vertex_body = {});
 
 // Every attachment box selects a vertex (select_vertices' check) and at least one that is not
 // fixed for good (free, or fixed by a region that is released): an attachment whose vertices all
@@ -71,7 +83,7 @@ std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, c
 // fixed_of_vertex: select_fixed_vertices of `fixed`.
 void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                        const std::vector<BoxRegion>& fixed, const std::vector<int32_t>& fixed_of_vertex,
-                       const std::string& deck_path);
+                       const std::string& deck_path, const std::vector<int32_t>& vertex_body = {});
 
 // Per tet: 0 for the default material, k + 1 for regions[k] (by centroid in its box, or by
 // element tag; later regions win). A region that selects no element is an input error.

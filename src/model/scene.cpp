@@ -151,24 +151,38 @@ static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path
   return mesh;
 }
 
-// A scene of bodies as one mesh: each body's mesh read alone (read_mesh_spec), its tets tagged
-// with the body's index (their material), then appended: vertex ids body by body.
+// A scene of bodies as one mesh: each body's mesh read alone (read_mesh_spec: a cloth's hinges
+// and carried edges come from its own triangles, a strand ties to its own body), its elements
+// tagged with the body's index, then appended: vertex ids body by body.
 static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
   TetMesh all;
   int64_t first_id = 0;
   CleanReport total;
   for (size_t k = 0; k < deck.bodies.size(); ++k) {
     CleanReport report;
-    const TetMesh mesh = read_mesh_spec(deck.bodies[k].mesh, deck.path, &report);
+    const BodySpec& body = deck.bodies[k];
+    const TetMesh mesh = read_mesh_spec(body.mesh, deck.path, &report);
     total.dropped_vertices += report.dropped_vertices;
     total.reoriented_tets += report.reoriented_tets;
-    if (mesh.num_tets() == 0 || mesh.num_segments() > 0 || mesh.num_triangles() > 0)
-      throw InputError(deck.path, deck.bodies[k].line, "bodies[" + std::to_string(k) + "].mesh",
-                       "a body's mesh must be tetrahedra only");
+    const std::string key = "bodies[" + std::to_string(k) + "]";
+    if (mesh.num_tets() > 0 && !body.has_material)  // a Medit file read for its edges (read_bodies)
+      throw InputError(deck.path, body.line, key + ".material",
+                       "missing: the body's mesh file " + body.mesh.file + " has " + std::to_string(mesh.num_tets()) + " tetrahedra");
+    if (mesh.num_tets() == 0 && body.has_material)
+      throw InputError(deck.path, body.line, key + ".material", "the body's mesh has no tetrahedra for it to describe");
     const int32_t first_vertex = (int32_t)all.num_vertices();
+    const auto append = [&](const std::vector<int32_t>& from, std::vector<int32_t>& to) {
+      for (int32_t v : from) to.push_back(first_vertex + v);
+    };
     all.coords.insert(all.coords.end(), mesh.coords.begin(), mesh.coords.end());
-    for (int32_t v : mesh.tets) all.tets.push_back(first_vertex + v);
+    append(mesh.tets, all.tets);
     all.tet_tags.insert(all.tet_tags.end(), mesh.num_tets(), (int32_t)k);
+    append(mesh.segments, all.segments);
+    all.segment_tags.insert(all.segment_tags.end(), mesh.num_segments(), (int32_t)k);
+    append(mesh.triangles, all.triangles);
+    all.triangle_tags.insert(all.triangle_tags.end(), mesh.num_triangles(), (int32_t)k);
+    all.triangle_edges.insert(all.triangle_edges.end(), mesh.triangle_edges.begin(), mesh.triangle_edges.end());
+    append(mesh.hinges, all.hinges);
     int64_t ids = 0;
     for (int64_t id : mesh.vertex_ids) {
       all.vertex_ids.push_back(first_id + id);
@@ -274,10 +288,15 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   SceneInput in;
   in.piece = load_scene_piece(comm, deck, &in.repaired, plan);
   const TetMesh& mesh = in.piece.mesh;
-  in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path);
-  // Bodies: a tet's material is its body's (its tag, read_bodies_mesh); they take no regions.
-  in.cell_material = deck.bodies.empty() ? select_material_regions(comm, mesh, deck.regions, deck.path)
-                                         : std::vector<int32_t>(mesh.tet_tags.begin(), mesh.tet_tags.end());
+  in.vertex_body = vertex_bodies(comm, in.piece, (int)deck.bodies.size());
+  in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path, in.vertex_body);
+  // Bodies: a tet's material is its body's (its tag is the body, read_bodies_mesh); they take no regions.
+  if (deck.bodies.empty()) {
+    in.cell_material = select_material_regions(comm, mesh, deck.regions, deck.path);
+  } else {
+    const std::vector<int32_t> material_of_body = body_materials(deck.bodies).of_body;
+    for (int32_t body : mesh.tet_tags) in.cell_material.push_back(material_of_body[body]);
+  }
   int64_t free_vertices = 0;
   for (int32_t f : in.fixed) free_vertices += f == 0;
   MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_INT64_T, MPI_SUM, comm);
@@ -285,7 +304,7 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
     throw InputError(deck.path, deck.fixed.empty() ? 0 : deck.fixed[0].line, "fixed",
                      "every vertex is fixed: nothing to simulate");
   // Only checked here: each rank selects its own attached vertices (attachment_term).
-  check_attachments(comm, mesh, deck.attachments, deck.fixed, in.fixed, deck.path);
+  check_attachments(comm, mesh, deck.attachments, deck.fixed, in.fixed, deck.path, in.vertex_body);
   // An activation layer thicker than the body would push every vertex near an obstacle at once.
   const double diagonal = mesh_diagonal(comm, mesh);
   if (deck.contact.distance > diagonal) {
@@ -329,14 +348,13 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscCall(event_begin(&LogEvents::scene));
   PetscCall(distribute_mesh(comm_, input.piece, input.fixed, input.cell_material, s.mesh));
   s.mesh.num_bodies = (int)spec.bodies.size();
+  s.mesh.vertex_body = std::move(input.vertex_body);  // the DMPlex keeps the piece's vertices in order
   input = SceneInput();  // the piece is no longer needed
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
-  if (!spec.bodies.empty()) {
-    materials.clear();
-    for (const BodySpec& b : spec.bodies) materials.push_back(b.material);
-  }
-  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth);
+  std::vector<std::unique_ptr<EnergyTerm>> terms = spec.bodies.empty()
+                                                       ? elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth)
+                                                       : body_terms(s.mesh, spec.bodies);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
   if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path)) terms.push_back(std::move(contact));
@@ -370,12 +388,11 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscCall(s.create(scene_->step->layout()));
   PetscCall(scene_->body->rest_positions(s.x));
   PetscCall(apply_initial_state(spec_->initial, *scene_->body, s.x));
-  if (!spec_->bodies.empty()) {  // each body's initial velocity (its tets' tag is its index)
+  if (!spec_->bodies.empty()) {  // each body's initial velocity
     const DistributedMesh& m = scene_->mesh;
     std::vector<double> v(3 * m.num_vertices, 0.0);
-    for (PetscInt c = 0; c < m.num_cells; ++c)
-      for (int k = 0; k < 4; ++k)
-        for (int d = 0; d < 3; ++d) v[3 * m.cells[4 * c + k] + d] = spec_->bodies[m.cell_tags[c]].velocity[d];
+    for (PetscInt i = 0; i < m.num_vertices; ++i)
+      for (int d = 0; d < 3; ++d) v[3 * i + d] = spec_->bodies[m.vertex_body[i]].velocity[d];
     PetscCall(scene_->body->free_values(v, s.v));
   }
   s.frame = 0;

@@ -39,6 +39,7 @@ struct SceneInput {
   MeshPiece piece;
   std::vector<int32_t> fixed;          // per local vertex, see select_fixed_vertices
   std::vector<int32_t> cell_material;  // per local tet, see select_material_regions
+  std::vector<int32_t> vertex_body;    // per local vertex, see vertex_bodies (empty: one body)
   CleanReport repaired;                // what cleaning the mesh changed (rank 0)
 };
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan = MemoryPlan());

@@ -78,22 +78,40 @@ struct InitialSpec {
   long seed = 1;                     // random: uniform in the rest bounding box, per vertex id
 };
 
-// One body of a scene of several (deck bodies:): its own tet mesh (a box or a file, with its
-// transform), material and initial velocity; its fixed regions are in SceneSpec::fixed with
+// One body of a scene of several (deck bodies:): its own mesh (tets, a cloth, strands, or tets
+// with strands), with its transform, the material of each of its parts, and initial velocity; its fixed regions and attachments are in SceneSpec::fixed and ::attachments with
 // BoxRegion::body set. All bodies go into one mesh (vertex ids body by body), one factor, one solve.
 struct BodySpec {
   std::string name;                      // bodies[k].name, default body<k>
   MeshSpec mesh;
-  MaterialSpec material;
+  MaterialSpec material;                 // of its tets (if has_material)
+  bool has_material = false;
+  ClothSpec cloth;                       // of its triangles (if mesh.has_cloth())
+  StrandMaterial strand_material;        // of its strand segments (if mesh.has_strands())
   std::array<double, 3> velocity{0, 0, 0};
   int line = 0;                          // deck line of bodies[k]
 };
+
+// The materials of the tets of a scene of bodies: one per body with a material, in the list's
+// order, and per body the index of its material there (-1: none); a tet's body is its tag.
+struct BodyMaterials {
+  std::vector<MaterialSpec> materials;
+  std::vector<int32_t> of_body;
+};
+inline BodyMaterials body_materials(const std::vector<BodySpec>& bodies) {
+  BodyMaterials m;
+  for (const BodySpec& b : bodies) {
+    m.of_body.push_back(b.has_material ? (int32_t)m.materials.size() : -1);
+    if (b.has_material) m.materials.push_back(b.material);
+  }
+  return m;
+}
 
 struct SceneSpec {
   std::string path;                      // the deck file (input errors name it)
   std::string name;                      // deck file name without directory and extension
   MeshSpec mesh;                         // the one body's mesh (without bodies)
-  std::vector<BodySpec> bodies;          // several bodies (then mesh is unused and material is bodies[0]'s)
+  std::vector<BodySpec> bodies;          // several bodies (then mesh is unused and material is the first solid body's)
   MaterialSpec material;                 // the default material (of the tets)
   bool has_material = false;             // material given (needed iff the mesh has tets)
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)

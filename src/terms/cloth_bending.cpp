@@ -21,10 +21,10 @@ std::string ClothBending::name() const {
   }
 }
 
-ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness)
-    : mesh_(mesh), model_(model), k_(stiffness), springs_(mesh) {
+ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, int body)
+    : mesh_(mesh), model_(model), k_(stiffness), hinges_(body_elements(mesh, mesh.hinges, 4, body)), springs_(mesh) {
   const double* X = mesh.rest.data();
-  for (PetscInt h = 0; h < mesh.num_hinges; ++h) {
+  for (PetscInt h : hinges_) {
     const PetscInt* v = &mesh.hinges[4 * h];
     if (model == BendingModel::springs) {
       const PetscInt cd[2] = {v[2], v[3]};
@@ -46,8 +46,8 @@ PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, dou
     PetscFunctionReturn(0);
   }
   double e = *energy;
-  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
-    const PetscInt* v = &mesh_.hinges[4 * h];
+  for (size_t h = 0; h < hinges_.size(); ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * hinges_[h]];
     if (model_ == BendingModel::quadratic) {
       const hinge::Vec12 x = element_positions<4>(pos.data(), v);
       if (!gradient) {
@@ -78,8 +78,8 @@ PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, 
     PetscCall(springs_.add_hessian(pos.data(), H, scale, psd));
     PetscFunctionReturn(0);
   }
-  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
-    const PetscInt* v = &mesh_.hinges[4 * h];
+  for (size_t h = 0; h < hinges_.size(); ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * hinges_[h]];
     if (model_ == BendingModel::quadratic) {
       const hinge::Mat12 He = hinge::quadratic_hessian(k_, weights_[h], coefficient_[h]);
       PetscCall(add_element_hessian<4>(mesh_, H, v, He, scale));
@@ -97,8 +97,8 @@ PetscErrorCode ClothBending::add_laplacian(Mat A, double scale, int components) 
     PetscCall(springs_.add_laplacian(A, scale, components));
     PetscFunctionReturn(0);
   }
-  for (PetscInt h = 0; h < mesh_.num_hinges; ++h) {
-    const PetscInt* v = &mesh_.hinges[4 * h];
+  for (size_t h = 0; h < hinges_.size(); ++h) {
+    const PetscInt* v = &mesh_.hinges[4 * hinges_[h]];
     const Eigen::Map<const Eigen::Vector4d> w(weights_[h].data());
     const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> Le = scale * k_ * coefficient_[h] * w * w.transpose();
     PetscCall(add_element_laplacian<4>(mesh_, A, v, Le, components));

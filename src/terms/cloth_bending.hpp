@@ -6,7 +6,8 @@
 //   dihedral   E = k (theta - theta0)^2 3|e|^2/(A1 + A2), theta the dihedral angle (Grinspun et
 //              al. 2003): large folds and curved rest shapes; the quadratic model's matrix is its
 //              weight in L (its Hessian at a flat rest state), not exact.
-// materials/hinge_bending.hpp holds the per-hinge formulas.
+// materials/hinge_bending.hpp holds the per-hinge formulas. With body >= 0 only that body's
+// hinges (body_elements).
 #pragma once
 #include <array>
 #include <string>
@@ -25,7 +26,7 @@ BendingModel bending_model(const std::string& name);
 
 class ClothBending : public EnergyTerm {
  public:
-  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness);
+  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, int body = -1);
   std::string name() const override;
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -36,8 +37,9 @@ class ClothBending : public EnergyTerm {
   const DistributedMesh& mesh_;
   BendingModel model_;
   double k_;
-  // Per local hinge: springs: the spring c-d (spring h is hinge h's); quadratic and dihedral: the
-  // cotangent weights and 3 / (A1 + A2); dihedral: its rest angle and weight.
+  std::vector<PetscInt> hinges_;  // its local hinges
+  // Per hinge of hinges_: springs: the spring c-d (spring i is hinge i's); quadratic and dihedral:
+  // the cotangent weights and 3 / (A1 + A2); dihedral: its rest angle and weight.
   SpringSet springs_;
   std::vector<std::array<double, 4>> weights_;
   std::vector<double> coefficient_;

@@ -13,10 +13,10 @@ membrane::Model membrane_model(const std::string& name) {
   throw std::invalid_argument("unknown membrane material '" + name + "'");
 }
 
-ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda)
-    : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda) {
-  rest_.reserve(mesh.num_triangles);
-  for (PetscInt t = 0; t < mesh.num_triangles; ++t) {
+ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body)
+    : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda), triangles_(body_elements(mesh, mesh.triangles, 3, body)) {
+  rest_.reserve(triangles_.size());
+  for (PetscInt t : triangles_) {
     const PetscInt* tri = &mesh.triangles[3 * t];
     const double* X = mesh.rest.data();
     rest_.push_back(membrane::rest(Vec3(&X[3 * tri[0]]), Vec3(&X[3 * tri[1]]), Vec3(&X[3 * tri[2]])));
@@ -27,14 +27,14 @@ PetscErrorCode ClothMembrane::add_energy(Vec, const std::vector<double>& pos, do
   PetscFunctionBeginUser;
   double e = *energy;
   membrane::Vec9 g;
-  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
-    const PetscInt* tri = &mesh_.triangles[3 * t];
+  for (size_t i = 0; i < triangles_.size(); ++i) {
+    const PetscInt* tri = &mesh_.triangles[3 * triangles_[i]];
     const membrane::Vec9 x = element_positions<3>(pos.data(), tri);
     if (!gradient) {
-      e += membrane::energy(model_, mu_, lambda_, rest_[t], x);
+      e += membrane::energy(model_, mu_, lambda_, rest_[i], x);
       continue;
     }
-    e += membrane::energy_gradient(model_, mu_, lambda_, rest_[t], x, g);
+    e += membrane::energy_gradient(model_, mu_, lambda_, rest_[i], x, g);
     add_element_vector<3>(mesh_, tri, g, gradient);
   }
   *energy = e;
@@ -43,9 +43,9 @@ PetscErrorCode ClothMembrane::add_energy(Vec, const std::vector<double>& pos, do
 
 PetscErrorCode ClothMembrane::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
   PetscFunctionBeginUser;
-  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
-    const PetscInt* tri = &mesh_.triangles[3 * t];
-    const Mat9 He = membrane::hessian(model_, mu_, lambda_, rest_[t], element_positions<3>(pos.data(), tri), psd);
+  for (size_t i = 0; i < triangles_.size(); ++i) {
+    const PetscInt* tri = &mesh_.triangles[3 * triangles_[i]];
+    const Mat9 He = membrane::hessian(model_, mu_, lambda_, rest_[i], element_positions<3>(pos.data(), tri), psd);
     PetscCall(add_element_hessian<3>(mesh_, H, tri, He, scale));
   }
   PetscFunctionReturn(0);
@@ -54,10 +54,10 @@ PetscErrorCode ClothMembrane::add_hessian(const std::vector<double>& pos, Mat H,
 PetscErrorCode ClothMembrane::add_laplacian(Mat A, double scale, int components) const {
   const double w = scale * membrane::laplacian_weight(model_, mu_, lambda_);
   PetscFunctionBeginUser;
-  for (PetscInt t = 0; t < mesh_.num_triangles; ++t) {
-    const std::array<double, 9> gram = membrane::basis_gram(rest_[t]);
+  for (size_t i = 0; i < triangles_.size(); ++i) {
+    const std::array<double, 9> gram = membrane::basis_gram(rest_[i]);
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> Le = w * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(gram.data());
-    PetscCall(add_element_laplacian<3>(mesh_, A, &mesh_.triangles[3 * t], Le, components));
+    PetscCall(add_element_laplacian<3>(mesh_, A, &mesh_.triangles[3 * triangles_[i]], Le, components));
   }
   PetscFunctionReturn(0);
 }

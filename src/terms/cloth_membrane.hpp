@@ -2,6 +2,7 @@
 // deformation gradient of the triangle, psi StVK, corotated or Neo-Hookean in the 2-D Lame
 // constants (materials/membrane.hpp). Its weight in L is the rest stiffness of the in-plane modes
 // (2 mu + lambda) times the triangle's cotangent Laplacian; not exact, so PD is not offered.
+// With body >= 0 only that body's triangles (body_elements).
 #pragma once
 #include <string>
 #include <vector>
@@ -17,7 +18,7 @@ membrane::Model membrane_model(const std::string& name);
 
 class ClothMembrane : public EnergyTerm {
  public:
-  ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda);
+  ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body = -1);
   std::string name() const override { return "cloth membrane"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -28,7 +29,8 @@ class ClothMembrane : public EnergyTerm {
   const DistributedMesh& mesh_;
   membrane::Model model_;
   double mu_, lambda_;
-  std::vector<membrane::TriangleRest> rest_;  // per local triangle
+  std::vector<PetscInt> triangles_;            // its local triangles
+  std::vector<membrane::TriangleRest> rest_;  // per triangle of triangles_
 };
 
 }  // namespace hyperqn

@@ -5,13 +5,14 @@
 namespace hyperqn {
 
 StrandSegments::StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density,
-                               double laplacian_weight)
+                               double laplacian_weight, int body)
     : mesh_(mesh),
       axial_stiffness_(axial_stiffness),
       linear_density_(linear_density),
       weight_(laplacian_weight > 0 ? laplacian_weight : axial_stiffness),
+      segments_(body_elements(mesh, mesh.segments, 2, body)),
       springs_(mesh) {
-  for (PetscInt s = 0; s < mesh.num_segments; ++s) {
+  for (PetscInt s : segments_) {
     const PetscInt* seg = &mesh.segments[2 * s];
     const double L = segment_edge(mesh.rest.data(), seg).norm();
     springs_.add(seg[0], seg[1], L, axial_stiffness / L);
@@ -36,9 +37,9 @@ PetscErrorCode StrandSegments::add_laplacian(Mat A, double scale, int components
 }
 
 void StrandSegments::add_lumped_mass(PetscScalar* mass) const {
-  for (PetscInt s = 0; s < mesh_.num_segments; ++s)
+  for (size_t s = 0; s < segments_.size(); ++s)
     for (int j = 0; j < 2; ++j) {
-      const PetscInt off = mesh_.local_dof[mesh_.segments[2 * s + j]];
+      const PetscInt off = mesh_.local_dof[mesh_.segments[2 * segments_[s] + j]];
       if (off < 0) continue;
       for (int d = 0; d < 3; ++d) mass[off + d] += 0.5 * linear_density_ * springs_.rest_length(s);
     }

@@ -12,8 +12,10 @@ namespace hyperqn {
 
 class StrandSegments : public EnergyTerm {
  public:
-  // axial_stiffness EA, linear_density, laplacian_weight (0: EA) as in the deck's strand_material.
-  StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density, double laplacian_weight);
+  // axial_stiffness EA, linear_density, laplacian_weight (0: EA) as in the deck's strand_material;
+  // with body >= 0 only that body's segments (body_elements).
+  StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density, double laplacian_weight,
+                 int body = -1);
   std::string name() const override { return "strand"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -25,7 +27,8 @@ class StrandSegments : public EnergyTerm {
  private:
   const DistributedMesh& mesh_;
   double axial_stiffness_, linear_density_, weight_;
-  SpringSet springs_;  // spring s is local segment s: rest length L, stiffness EA / L
+  std::vector<PetscInt> segments_;  // its local segments
+  SpringSet springs_;               // spring s is segment segments_[s]: rest length L, stiffness EA / L
 };
 
 }  // namespace hyperqn

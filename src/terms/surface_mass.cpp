@@ -4,17 +4,17 @@
 
 namespace hyperqn {
 
-SurfaceMass::SurfaceMass(const DistributedMesh& mesh, double areal_density) : mesh_(mesh), density_(areal_density) {
-  area_.resize(mesh.num_triangles);
-  for (PetscInt t = 0; t < mesh.num_triangles; ++t) area_[t] = triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]);
+SurfaceMass::SurfaceMass(const DistributedMesh& mesh, double areal_density, int body)
+    : mesh_(mesh), density_(areal_density), triangles_(body_elements(mesh, mesh.triangles, 3, body)) {
+  for (PetscInt t : triangles_) area_.push_back(triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]));
 }
 
 void SurfaceMass::add_lumped_mass(PetscScalar* mass) const {
-  for (PetscInt t = 0; t < mesh_.num_triangles; ++t)
+  for (size_t i = 0; i < triangles_.size(); ++i)
     for (int j = 0; j < 3; ++j) {
-      const PetscInt off = mesh_.local_dof[mesh_.triangles[3 * t + j]];
+      const PetscInt off = mesh_.local_dof[mesh_.triangles[3 * triangles_[i] + j]];
       if (off < 0) continue;
-      for (int d = 0; d < 3; ++d) mass[off + d] += density_ * area_[t] / 3.0;
+      for (int d = 0; d < 3; ++d) mass[off + d] += density_ * area_[i] / 3.0;
     }
 }
 

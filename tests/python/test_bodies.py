@@ -3,8 +3,11 @@ different materials fall side by side onto a ground plane, in one mesh with one 
 solve per iteration. Each lands as it does alone (to 1e-8 of its diagonal; every step solved by
 Newton to round-off, so that only the coupling of the two solves could differ, and the contact's
 distance-dependent defaults given explicitly: they follow the whole scene's diagonal); 1 and 2
-ranks agree to 1e-8 (and 4, oversubscribed); a body's velocity and fixed regions are its own; the `body` cell field names
-each tet's body; a one-body list is the plain deck."""
+ranks agree to 1e-8 (and 4, oversubscribed); a body's velocity, fixed regions and attachments are
+its own; the `body` cell field names each element's body, in the VTK and the XDMF frames; a
+one-body list is the plain deck. A cloth body (a sheet with its cloth block) and a rope (strands
+with their strand_material) hang from their own fixed regions beside a falling block, each as it
+does alone, at 1 and 2 ranks; bad body keys are input errors."""
 import copy
 
 import numpy as np
@@ -20,6 +23,21 @@ STIFF = {"name": "stiff", "mesh": {"box": {"size": [SIZE] * 3, "cells": [2, 2, 2
          "material": {"model": "corotated", "youngs_modulus": 1.0e6, "poisson_ratio": 0.4, "density": 500}}
 DIAGONAL = SIZE * 3 ** 0.5
 VERTICES = 27  # of each block: vertex ids 0-26 the first body's, 27-53 the second's
+# A cloth sheet in the x-z plane at y = 0.3, pinned along its edge z = 0.2 by a box that also holds
+# the z = 0.2 face of a block beside it, but selects the cloth's vertices only.
+CLOTH = {"name": "cloth", "mesh": {"sheet": {"size": [SIZE, SIZE], "cells": [4, 4]}, "transform": {"translate": [-0.5, 0.3, 0]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3, "bending": {"model": "springs", "stiffness": 1.0},
+                   "areal_density": 0.2},
+         "fixed": [{"box": {"min": [-1, -1, 0.19], "max": [1, 1, 1]}}]}
+CLOTH_DIAGONAL = SIZE * 2 ** 0.5
+CLOTH_VERTICES = 25
+# A rope of 4 segments hanging from y = 0.5 beside the block, its top held by a box that also
+# covers the block's vertices, but selects the rope's only.
+ROPE = {"name": "rope", "mesh": {"strands": [{"from": [0.1, 0.5, 0.1], "to": [0.3, 0.5, 0.1], "segments": 4}]},
+        "strand_material": {"axial_stiffness": 50.0, "linear_density": 0.1},
+        "fixed": [{"box": {"min": [-1, -1, -1], "max": [0.1, 1, 1]}}]}
+ROPE_LENGTH = 0.2
+ROPE_VERTICES = 5
 
 
 def scene(bodies, frames=30):
@@ -83,6 +101,81 @@ def test_velocity_and_fixed_regions_are_each_bodys_own(tmp_path):
     assert np.array_equal(u[VERTICES:], np.zeros((VERTICES, 3)))
 
 
+def test_attachments_are_each_bodys_own(tmp_path):
+    """Under gravity the stiff block hangs from an attachment whose box covers both blocks; the
+    soft block falls freely (only the stiff body's attachments hold its own vertices). Each moves
+    as it does alone."""
+    box = {"min": [-1, -1, -1], "max": [2, 2, 2]}  # every vertex of both blocks
+    stiff = dict(STIFF, attachments=[{"box": box, "stiffness": 50.0}])
+    frames = 10
+    deck = scene([SOFT, stiff], frames=frames)
+    del deck["colliders"], deck["contact"]
+    m = run(tmp_path, "both", deck)
+    x = by_id(m)
+    for k, body in enumerate((SOFT, stiff)):
+        alone = scene([body], frames=frames)
+        del alone["colliders"], alone["contact"]
+        a = by_id(run(tmp_path, body["name"], alone))
+        assert np.max(np.linalg.norm(x[k * VERTICES:(k + 1) * VERTICES] - a, axis=1)) / DIAGONAL <= 1e-8
+    h = 1.0 / 60
+    free_fall = -9.81 * h * h * frames * (frames + 1) / 2  # implicit Euler's, from rest
+    assert np.allclose(m.displacement[:VERTICES], [0, free_fall, 0], atol=1e-9)
+    assert np.max(np.abs(m.displacement[VERTICES:, 1])) < 0.5 * abs(free_fall)  # held near its rest (sag ~0.03 m)
+
+
+def test_xdmf_frames_have_the_body_field(tmp_path):
+    deck = scene([SOFT, STIFF], frames=2)
+    deck["output"] = {"every": 2, "format": "xdmf"}
+    m = run(tmp_path, "xdmf", deck)
+    assert m.body is not None and np.bincount(m.body).tolist() == [48, 48]
+
+
+def hanging_scene(bodies, frames=20):
+    deck = scene(bodies, frames=frames)
+    del deck["colliders"], deck["contact"]
+    return deck
+
+
+# A cloth or a rope first, the soft block second: (body, its vertices, its size, its elements,
+# the vertices its fixed box holds, its rest height).
+HANGING = {"cloth": (CLOTH, CLOTH_VERTICES, CLOTH_DIAGONAL, 32, 5, 0.3),
+           "rope": (ROPE, ROPE_VERTICES, ROPE_LENGTH, 4, 1, 0.5)}
+
+
+@pytest.mark.parametrize("kind", HANGING)
+def test_a_cloth_or_rope_hangs_beside_a_falling_block_as_each_does_alone(tmp_path, kind):
+    """The cloth or rope swings down from its own fixed region; the block falls freely (that
+    region's box covers some of its vertices but holds none of them); each moves as it does alone."""
+    body, n, size, elements, held, height = HANGING[kind]
+    frames = 20
+    both = run(tmp_path, "both", hanging_scene([body, SOFT], frames))
+    x = by_id(both)
+    for name, together, alone, scale in ((kind, x[:n], by_id(run(tmp_path, kind, hanging_scene([body], frames))), size),
+                                         ("block", x[n:], by_id(run(tmp_path, "block", hanging_scene([SOFT], frames))), DIAGONAL)):
+        difference = np.max(np.linalg.norm(together - alone, axis=1)) / scale
+        print(f"{name}: together against alone {difference:.2e} of its size")
+        assert difference <= 1e-8
+    h = 1.0 / 60
+    assert np.allclose(both.displacement[n:], [0, -9.81 * h * h * frames * (frames + 1) / 2, 0], atol=1e-9)
+    box = body["fixed"][0]["box"]
+    rest = both.points - both.displacement
+    in_box = np.all((rest >= box["min"]) & (rest <= box["max"]), axis=1)
+    assert in_box[n:].any()  # the box covers block vertices too
+    assert in_box[:n].sum() == held and np.array_equal(both.displacement[:n][in_box[:n]], np.zeros((held, 3)))
+    assert np.min(x[:n, 1]) < height - 0.05  # the free end swung down
+    assert np.bincount(both.body).tolist() == [elements, 48]  # its triangles or segments, then the block's tets
+
+
+@pytest.mark.parametrize("kind", HANGING)
+def test_a_cloth_or_rope_and_a_block_at_one_and_two_ranks(tmp_path, kind):
+    body, _, size, _, _, _ = HANGING[kind]
+    a = by_id(run(tmp_path, "np1", hanging_scene([body, SOFT])))
+    b = by_id(run(tmp_path, "np2", hanging_scene([body, SOFT]), ranks=2))
+    difference = np.max(np.linalg.norm(a - b, axis=1)) / size
+    print(f"1 against 2 ranks: {difference:.2e} of the {kind}'s size")
+    assert difference <= 1e-8
+
+
 def test_a_list_of_one_body_is_the_plain_deck(tmp_path):
     plain = copy.deepcopy(scene([]))
     del plain["bodies"]
@@ -96,10 +189,20 @@ def test_a_list_of_one_body_is_the_plain_deck(tmp_path):
     (lambda d: d.update(mesh={"box": {"size": [1, 1, 1], "cells": [1, 1, 1]}}), "mesh", "each body has its own mesh"),
     (lambda d: d["bodies"][1].pop("material"), "bodies[1]", "material"),
     (lambda d: d["bodies"][1].update(name="soft"), "bodies[1].name", "another body is named soft"),
-    (lambda d: d["bodies"][0].update(mesh={"sheet": {"size": [1, 1], "cells": [2, 2]}}), "bodies[0].mesh",
-     "box or a tetrahedral mesh file"),
-    (lambda d: d["bodies"][1].update(fixed=[{"box": {"min": [-1, -1, -1], "max": [0.3, 1, 1]}}]), "fixed[0].box",
+    (lambda d: d["bodies"].__setitem__(0, {"mesh": CLOTH["mesh"]}), "bodies[0].cloth", "missing"),
+    (lambda d: d["bodies"][0].update(mesh=CLOTH["mesh"], cloth=CLOTH["cloth"]), "bodies[0].material",
+     "material describes tetrahedra"),
+    (lambda d: d["bodies"][1].update(cloth=CLOTH["cloth"]), "bodies[1].cloth", "cloth describes a cloth"),
+    (lambda d: d["bodies"][1].update(strand_material=ROPE["strand_material"]), "bodies[1].strand_material",
+     "strand_material describes strands"),
+    (lambda d: d["bodies"][1].update(mesh=ROPE["mesh"]), "bodies[1].material", "material describes tetrahedra"),
+    (lambda d: d["bodies"].__setitem__(1, {"mesh": ROPE["mesh"]}), "bodies[1].strand_material", "missing"),
+    (lambda d: d["bodies"][1].update(fixed=[{"box": {"min": [-1, -1, -1], "max": [0.3, 1, 1]}}]), "bodies[1].fixed[0].box",
      "selects no vertex of its body"),
+    (lambda d: d["bodies"][1].update(attachments=[{"box": {"min": [-1, -1, -1], "max": [0.3, 1, 1]}, "stiffness": 1}]),
+     "bodies[1].attachments[0].box", "selects no vertex of its body"),
+    (lambda d: d["bodies"][1].update(attachments=[{"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "stiffen": 1}]),
+     "bodies[1].attachments[0]", "stiffen"),
 ])
 def test_bad_bodies_are_input_errors(tmp_path, change, key, words):
     deck = scene(copy.deepcopy([SOFT, STIFF]))
