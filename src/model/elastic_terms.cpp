@@ -15,10 +15,12 @@
 
 namespace hyperqn {
 
-// The rest volume of all tets, over all ranks.
-static double rest_volume(const DistributedMesh& mesh) {
+// The rest volume of the tets of material k (a body's, in a scene of bodies), over all ranks.
+static double rest_volume(const DistributedMesh& mesh, int k) {
   double local = 0, volume = 0;
-  for (PetscInt c = 0; c < mesh.num_cells; ++c) local += edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant() / 6.0;
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    if ((mesh.cell_material.empty() ? 0 : mesh.cell_material[c]) == k)
+      local += edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant() / 6.0;
   MPI_Allreduce(&local, &volume, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
   return volume;
 }
@@ -27,7 +29,6 @@ static double rest_volume(const DistributedMesh& mesh) {
 static void add_tet_terms(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials,
                           std::vector<std::unique_ptr<EnergyTerm>>& terms) {
   if (mesh.global_cells == 0) return;
-  const double volume = rest_volume(mesh);
   std::vector<std::unique_ptr<Material>> continuum;
   std::vector<double> stiffness, weight, density;
   bool any_continuum = false, any_springs = false;
@@ -39,6 +40,8 @@ static void add_tet_terms(const DistributedMesh& mesh, const std::vector<Materia
     // A spring's own weight in L is its stiffness k.
     const double own = springs ? spec.spring_stiffness : continuum.back()->laplacian_weight();
     weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
+    const int k = (int)density.size();
+    const double volume = spec.has_density ? 0.0 : rest_volume(mesh, k);
     density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
     any_continuum = any_continuum || !springs;
     any_springs = any_springs || springs;

@@ -16,8 +16,8 @@ namespace hyperqn {
 
 // materials[0] is the default material, materials[k + 1] that of material region k
 // (mesh.cell_material says which tet has which); strands is the material of every segment.
-// A material given by total_mass (single-material bodies only) spreads it evenly over the rest
-// volume. cloth is the material of the triangles.
+// A material given by total_mass spreads it evenly over the rest volume of its own tets (a body's
+// tets, in a scene of bodies; regions need density). cloth is the material of the triangles.
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
                                                        const std::vector<MaterialSpec>& materials,
                                                        const StrandMaterial& strands, const ClothSpec& cloth = {});

@@ -76,6 +76,20 @@ def test_each_body_lands_as_it_does_alone(tmp_path):
     assert np.bincount(both.body).tolist() == [48, 48]
 
 
+def test_total_mass_is_spread_over_its_own_body(tmp_path):
+    """A material given by total_mass spreads it over its own body's volume, not the scene's: the
+    soft block given as 8 kg (its density times its volume) settles under its weight as with its
+    density, beside the stiff block."""
+    by_mass = copy.deepcopy(SOFT)
+    del by_mass["material"]["density"]
+    by_mass["material"]["total_mass"] = 1000 * SIZE ** 3
+    x = by_id(run(tmp_path, "by_mass", scene([by_mass, STIFF])))[:VERTICES]
+    alone = by_id(run(tmp_path, "by_density", scene([SOFT])))
+    difference = np.max(np.linalg.norm(x - alone, axis=1)) / DIAGONAL
+    print(f"total_mass against density: {difference:.2e} of the diagonal")
+    assert difference <= 1e-8
+
+
 def test_one_two_and_four_ranks_agree(tmp_path):
     a = by_id(run(tmp_path, "np1", scene([SOFT, STIFF])))
     for ranks in (2, 4):
