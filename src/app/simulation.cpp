@@ -5,7 +5,6 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
-#include <functional>
 #include <memory>
 
 #include "app/petsc_errors.hpp"
