@@ -5,17 +5,14 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
-#include <functional>
 #include <memory>
 
-#include "app/frame_step.hpp"
-#include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
+#include "app/run_checkpoints.hpp"
+#include "app/run_observers.hpp"
+#include "app/time_loop.hpp"
 #include "io/atomic_file.hpp"
-#include "io/checkpoint_store.hpp"
-#include "io/log_events.hpp"
 #include "io/output_directory.hpp"
-#include "io/run_log.hpp"
 #include "model/fallback_chain.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
@@ -25,20 +22,6 @@
 namespace hyperqn {
 
 namespace {
-
-double global_min(MPI_Comm comm, const std::vector<double>& v) {
-  double local = HUGE_VAL, global;
-  for (double x : v) local = std::fmin(local, x);
-  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MIN, comm);
-  return global;
-}
-
-// The run counters a scene's StepObjective keeps (its sub-steps' included) into a summary.
-void add_step_counters(RunSummary& summary, const StepObjective& step) {
-  summary.rejected_evaluations += step.rejected_evaluations();
-  summary.pulled_back_guesses += step.pulled_back_guesses();
-  summary.euler_completed_steps += step.euler_completed_steps();
-}
 
 // summary.json's status of a run that completed: "ok"; "inverted: ..." if it ends with inverted
 // or flat elements (inverted_at_end) or, from a start without any, had some in a frame; then how
@@ -61,61 +44,20 @@ std::string completed_status(const RunSummary& summary, bool started_inverted, b
   return status.empty() ? "ok" : status;
 }
 
-}  // namespace
-
-// The run's timings and counts so far, from the log events (over every scene of the run).
-static void read_log_events(RunSummary& s) {
-  const LogEvents& e = log_events();
-  s.assembly_s = event_seconds(e.h0_assembly);
-  s.factor_s = event_seconds(e.h0_factor);
-  s.factorizations = event_count(e.h0_factor);
-  s.solve_s = event_seconds(e.step);
-  s.objective_s = event_seconds(e.objective);
-  s.h0_solve_s = event_seconds(e.h0_solve);
-  s.h0_solves = event_count(e.h0_solve);
-  s.hessian_s = event_seconds(e.hessian);
-  s.hessian_assemblies = event_count(e.hessian);
-  s.contact_s = event_seconds(e.contact);
-  s.contact_evaluations = event_count(e.contact);
-}
-
-// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop after
-// the current frame with a checkpoint. The handler only records the signal (async-signal-safe);
-// the ranks agree on it once per frame (Run::after_frame).
-static volatile std::sig_atomic_t g_stop_signal = 0;
-extern "C" void record_stop_signal(int sig) { g_stop_signal = sig; }
-void catch_stop_signals() {
-  struct sigaction action = {};
-  action.sa_handler = record_stop_signal;
-  sigemptyset(&action.sa_mask);
-  action.sa_flags = SA_RESTART;  // blocking calls (MPI, file writes) go on
-  sigaction(SIGTERM, &action, nullptr);
-  sigaction(SIGUSR1, &action, nullptr);
-}
-
-namespace {
-
-// Everything one simulation run holds while its frames are computed.
+// Everything one simulation run holds while its frames are computed. What it does with a frame
+// is its observers' (app/run_observers.hpp, app/run_checkpoints.hpp) of one TimeLoop.
 struct Run {
   MPI_Comm comm;
   const Deck& deck;
+  RunOptions options;
   LiveScene scene;
   State state;
   std::unique_ptr<TimeStepSolver> solver;
   std::unique_ptr<FallbackChain> chain;  // around solver
-  std::vector<std::unique_ptr<OutputWriter>> writers;
-  IterationLog log;
-  // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
-  // own log (EnergyTerm::log; null if it keeps none or the deck turned it off).
-  std::vector<std::unique_ptr<FrameLog>> term_logs;
   RunSummary summary;
-  int last_written = -1;
-  std::vector<double> pos, vel, J;                 // work: local arrays of a frame
-  std::vector<std::vector<double>> field_values;   // work: the terms' point fields, local
-  Vec field = nullptr;                             // work: one point field (global free dofs)
-  ~Run() { VecDestroy(&field); }
-
-  RunOptions options;
+  RunContext context{comm, deck, scene, state, summary};
+  RunLogs logs{context};
+  FrameWriters frames;
 
   // Checkpoints and restart (io/checkpoint_store.hpp).
   double t_start = 0;
@@ -124,98 +66,20 @@ struct Run {
   const CheckpointHeader* restart = nullptr;  // the checkpoint this run continues, if any
   std::string restart_path;
   RunSummary earlier;                // the work (times, factorizations) before the restart
-  double last_checkpoint_wtime = 0;  // rank 0's clock
-  int last_checkpoint_frame = -1;    // the frame of the newest checkpoint on disk
   bool interrupted = false;          // stopped by a signal with a checkpoint (kExitInterrupted)
 
-  Run(MPI_Comm c, const Deck& d, const RunOptions& o) : comm(c), deck(d), options(o) {}
+  Run(MPI_Comm c, const Deck& d, const RunOptions& o, bool restarted)
+      : comm(c), deck(d), options(o), frames(context, restarted) {}
 
-  PetscErrorCode write_checkpoint(bool started_inverted);
-  PetscErrorCode resume(bool* started_inverted);
-  PetscErrorCode after_frame(int frame, bool started_inverted);
-  PetscErrorCode stop_for_signal(int sig, int frame, bool started_inverted);
-
-  // Writes frame `frame` from the state, unless a position, velocity or J is not finite.
-  PetscErrorCode write_frame(int frame, bool* written) {
-    const Scene& s = scene.current();
-    PetscFunctionBeginUser;
-    PetscCall(s.body->local_positions(state.x, pos));
-    PetscCall(s.body->local_velocities(state.v, vel));
-    s.body->cell_jacobians(pos, J);
-    int local = 1, finite;
-    for (const auto* values : {&pos, &vel, &J})
-      for (double a : *values) local &= std::isfinite(a) ? 1 : 0;
-    PetscCallMPI(MPI_Allreduce(&local, &finite, 1, MPI_INT, MPI_MIN, comm));
-    *written = finite == 1;
-    if (!*written) PetscFunctionReturn(0);
-    summary.min_J = std::fmin(summary.min_J, global_min(comm, J));
-    FrameData f{frame, frame * deck.time.dt, &state, &pos, &vel, &J, {}};
-    std::vector<std::string> names;
-    for (const auto& term : s.body->terms())
-      for (const std::string& name : term->point_fields()) {
-        if (!field) PetscCall(VecDuplicate(state.x, &field));
-        PetscCall(term->point_field(name, pos, field));
-        field_values.resize(names.size() + 1);
-        PetscCall(s.body->local_values(field, field_values.back()));
-        names.push_back(name);
-      }
-    for (size_t k = 0; k < names.size(); ++k) f.point_fields.emplace_back(names[k], &field_values[k]);
-    PetscCall(event_begin(&LogEvents::output));
-    for (auto& w : writers) w->write_frame(f);
-    PetscCall(event_end(&LogEvents::output));
-    last_written = frame;
-    PetscFunctionReturn(0);
-  }
-
-  // Per frame: what the terms with a log of their own report (EnergyTerm::report: contact.csv's
-  // rows and the summary's contact maxima); nothing at all in a scene without such a term.
-  PetscErrorCode record_terms(int frame) {
-    const Scene& s = scene.current();
-    bool have_positions = false;
-    PetscFunctionBeginUser;
-    const auto& terms = s.body->terms();
-    for (size_t t = 0; t < terms.size(); ++t) {
-      if (terms[t]->log().file.empty()) continue;
-      if (!have_positions) PetscCall(s.body->local_positions(state.x, pos));
-      have_positions = true;
-      TermReport r;
-      PetscCall(terms[t]->report(pos, r));
-      if (t < term_logs.size() && term_logs[t]) term_logs[t]->append(frame, state.time, r.rows);
-      for (const auto& [name, value] : r.maxima) raise_summary_maximum(summary, name, value);
-    }
-    PetscFunctionReturn(0);
-  }
-
-  // After a release (see LiveScene::release_due): the solver and the writers move to the new
-  // scene, the old scene's counters go to the summary.
-  PetscErrorCode rebind(const Scene& old_scene, Scene& fresh) {
+  // After a release (see LiveScene::release_due): the solver moves to the new scene (the
+  // observers follow: FrameObserver::scene_changed).
+  PetscErrorCode rebind(const Scene&, Scene& fresh) {
     PetscFunctionBeginUser;
     chain.reset();  // they refer to the old scene
     solver.reset();
-    PetscCall(VecDestroy(&field));  // the layout changed
     PetscCall(create_solver(deck.solver, *fresh.step, fresh.constant_matrix(deck.solver), solver));
     chain = std::make_unique<FallbackChain>(fresh, deck.solver, *solver, options.element_limit);
-    add_step_counters(summary, *old_scene.step);
-    summary.dofs = fresh.mesh.global_dofs;
-    summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
-    for (auto& w : writers) w->set_mesh(fresh.mesh);
-    PetscCall(PetscPrintf(comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
-                          state.time, (long long)summary.dofs));
     PetscFunctionReturn(0);
-  }
-
-  // Writes the logs' rows of the frame (whole lines: a kill leaves complete rows). Collective:
-  // a failure on rank 0 ends the run on every rank.
-  void flush_logs() {
-    std::string error;
-    try {
-      log.flush();
-      for (auto& l : term_logs)
-        if (l) l->flush();
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-    throw_if_any_failed(comm, error);
   }
 
   PetscErrorCode time_loop(bool& ok);
@@ -223,226 +87,50 @@ struct Run {
 
 }  // namespace
 
-// The frame loop; ok = false (with summary.status set) if the run cannot continue.
-// Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
-// flagged_frames and status) and the run goes on from its last accepted iterate; a frame that
-// leaves no finite state (rejected g at every point tried, non-finite positions) or a diverged one
-// (RunOptions::divergence_limit) stops the run: the last good frame is written (even if it is not an output
-// frame) and nothing non-finite ever is.
+// The frames; ok = false (with summary.status set) if the run cannot continue. A frame that
+// leaves no finite state (rejected g at every point tried, non-finite positions), a diverged one
+// (RunOptions::divergence_limit) or one that cannot be written stops the run: the last good
+// frame is written (even if it is not an output frame) and nothing non-finite ever is.
 PetscErrorCode Run::time_loop(bool& ok) {
   PetscFunctionBeginUser;
   ok = true;
-  bool written = false, resumed_inverted = false;
-  if (restart) {
-    PetscCall(resume(&resumed_inverted));  // frames up to the checkpoint's were done before
+  bool resumed_inverted = false;
+  if (restart) {  // frames up to the checkpoint's were done before
+    PetscCall(resume_state(comm, restart_path, *restart, scene.current(), state));
+    restore_frame_counters(summary, restart->summary);
+    earlier = restart->summary;  // its work counters are added at the end
+    resumed_inverted = restart->started_inverted != 0;
   } else {
     PetscCall(scene.initial_state(state));
     summary.min_J = HUGE_VAL;
-    PetscCall(write_frame(0, &written));
   }
   // A run that the deck starts inverted (initial:) is judged by its last frame only.
   double min_J = 0, max_abs_J = 0;
   PetscCall(scene.current().body->volume_ratios(state.x, &min_J, &max_abs_J));
   const bool started_inverted = restart ? resumed_inverted : degenerate(min_J);
-  bool inverted_now = degenerate(min_J);
 
-  FrameStepper stepper(Guardrails::of(options, scene.current()));
-  const FrameSolve solve_by_chain = [this](State& st, const IterationCallback& cb, StepSolve& out) {
-    return chain->solve_frame(st, cb, out);
-  };
-  const LiveScene::Rebind rebind_run = [this](const Scene& o, Scene& f) { return rebind(o, f); };
-  {  // a signal during setup: the run stops before its first frame, with a checkpoint of its start
-    if (state.frame == options.signal_after_frame) raise(SIGTERM);  // test hook
-    int sig = (int)g_stop_signal, any;
-    PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, comm));
-    PetscCall(stop_for_signal(any, state.frame, started_inverted));
-  }
-  while (!interrupted && state.frame < deck.time.frames) {
-    const int frame = state.frame + 1;
-    bool released;
-    PetscCall(scene.release_due(state, {}, rebind_run, &released));
-    Scene& s = scene.current();
-
-    const auto log_iteration = [&](const IterationRecord& it) {
-      if (!Objective::rejected(it.energy) && std::isfinite(it.grad_norm)) log.append(frame, it);  // never NaN
-      return false;
-    };
-    FrameStep f;
-    PetscCall(stepper.step(s, solve_by_chain, state, log_iteration, f));
-    const StepSolve& step = f.solve;
-    const FrameResult& r = step.result;
-    if (step.restarted)
-      PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; started again from x_n\n", frame));
-    const double ms = 1e3 * step.seconds;
-    summary.evaluations += step.evaluations;
-    summary.iterations += step.iterations;
-    summary.extended_frames += step.extended;
-    summary.substepped_frames += step.substeps > 1;
-    summary.newton_frames += step.newton;
-    summary.converged_frames += r.converged;
-    summary.failed_frames += r.failed;
-    summary.ls_failures += r.ls_failures;
-    if (r.failed) summary.flagged_frames.emplace_back(frame, r.reason);
-    // A solver that was given no iteration (e.g. -tao_max_it 0) did not solve the frame.
-    if (!r.failed && !r.converged && r.iterations == 0) {
-      ++summary.failed_frames;
-      summary.flagged_frames.emplace_back(frame, "the solver took no iteration (" + r.reason + ")");
-    }
-    std::string why = f.stop;  // the guardrails (app/frame_step.hpp); the frame has ended if empty
-    const bool finite_g = !Objective::rejected(r.energy) && std::isfinite(r.grad_norm);
-    if (why.empty()) {
-      inverted_now = f.inverted;
-      if (inverted_now) summary.inverted_frames.push_back(frame);
-      summary.min_J = std::fmin(summary.min_J, f.min_J);
-    }
-
-    std::string note;
-    if (step.substeps > 1) note += "  [" + std::to_string(step.substeps) + " sub-steps]";
-    if (step.newton) note += "  [newton fallback]";
-    if (step.iterations != r.iterations) note += "  [" + std::to_string(step.iterations) + " iterations in all]";
-    if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
-    if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
-    if (finite_g)
-      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
-                            (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));
-    else
-      PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
-                            r.reason.c_str(), note.c_str()));
-    if (why.empty()) {
-      summary.frames = frame;
-      summary.final_energy = r.energy;
-      summary.final_grad_norm = r.grad_norm;
-      PetscCall(record_terms(frame));
-      const bool last = frame == deck.time.frames;
-      if (frame % deck.output.every == 0 || last) {
-        PetscCall(write_frame(frame, &written));
-        if (!written) why = "non-finite positions, velocities or J";
-      }
-      if (why.empty()) {
-        flush_logs();  // before a checkpoint: a restart cuts the logs at its frame
-        PetscCall(after_frame(frame, started_inverted));
-        if (interrupted) break;
-        continue;
-      }
-    }
-    flush_logs();
-
-    // The run cannot continue: back to the last good frame, which is written if it was not.
-    if (!r.failed) {
-      ++summary.failed_frames;
-      summary.flagged_frames.emplace_back(frame, why);
-    }
-    summary.frames = frame - 1;
-    if (state.frame == frame) {  // completed, but the frame could not be written
-      state.frame = frame - 1;
-      state.time = state.frame * deck.time.dt;
-    }
-    PetscCall(s.step->undo_step(state));
-    if (last_written != frame - 1) PetscCall(write_frame(frame - 1, &written));
-    summary.status = "error: frame " + std::to_string(frame) + ": " + why + "; stopped, the last frame written is " +
-                     std::to_string(last_written);
+  ProgressLog progress(context, degenerate(min_J));
+  Checkpointer checkpointer(context, {options, identity, *checkpoints, frames, logs, started_inverted, t_start, earlier,
+                                      restart != nullptr});
+  TimeLoop loop(
+      scene, Guardrails::of(options, scene.current()), state,
+      [this](State& st, const IterationCallback& cb, StepSolve& out) { return chain->solve_frame(st, cb, out); },
+      [this](const Scene& o, Scene& f) { return rebind(o, f); });
+  // In this order: the console line and counters, the logs (flushed before a checkpoint), the
+  // frames (a frame that cannot be written stops the run), then checkpoints and signals.
+  loop.observe(progress);
+  loop.observe(logs);
+  loop.observe(frames);
+  loop.observe(checkpointer);
+  PetscCall(loop.run(deck.time.frames));
+  interrupted = checkpointer.interrupted();
+  if (!loop.stop().empty()) {
+    summary.status = "error: frame " + std::to_string(loop.stop_frame()) + ": " + loop.stop() +
+                     "; stopped, the last frame written is " + std::to_string(frames.last_written());
     ok = false;
-    break;
+  } else if (!interrupted) {
+    summary.status = completed_status(summary, started_inverted, progress.inverted_now());
   }
-  if (ok && !interrupted) summary.status = completed_status(summary, started_inverted, inverted_now);
-  PetscFunctionReturn(0);
-}
-
-// The run's state, the scene's identity and the counters so far into a checkpoint.
-PetscErrorCode Run::write_checkpoint(bool started_inverted) {
-  const Scene& s = scene.current();
-  int size;
-  PetscFunctionBeginUser;
-  MPI_Comm_size(comm, &size);
-  CheckpointHeader h = identity;
-  h.ranks = size;
-  h.frame = state.frame;
-  h.time = state.time;
-  h.body_time = s.body->time();
-  h.dofs = s.mesh.global_dofs;
-  h.released = state.released;
-  h.released_attachments = state.released_attachments;
-  h.started_inverted = started_inverted;
-  h.summary = summary;
-  read_log_events(h.summary);
-  h.summary.wall_s = MPI_Wtime() - t_start;
-  add_earlier_work(h.summary, earlier);
-  add_step_counters(h.summary, *s.step);  // as at the end of a run
-  for (const auto& w : writers)
-    if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
-  h.history = state.x_prev ? 1 : 0;
-  VertexRows rows(h.vertex_sets());
-  PetscCall(s.body->local_positions(state.x, rows[0]));
-  PetscCall(s.body->local_velocities(state.v, rows[1]));
-  if (h.history) {
-    PetscCall(s.body->local_positions(state.x_prev, rows[2]));
-    PetscCall(s.body->local_velocities(state.v_prev, rows[3]));
-  }
-  flush_logs();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
-  PetscCall(event_begin(&LogEvents::checkpoint));
-  const std::string path = checkpoints->write(h, s.mesh, rows);
-  PetscCall(event_end(&LogEvents::checkpoint));
-  last_checkpoint_wtime = MPI_Wtime();
-  last_checkpoint_frame = state.frame;
-  PetscCall(PetscPrintf(comm, "hyperqn: checkpoint %s\n", path.c_str()));
-  PetscFunctionReturn(0);
-}
-
-// After a completed frame: a checkpoint if one is due (every N frames, every S seconds), and a
-// stop if a signal asked for one; every rank learns both from one reduction.
-PetscErrorCode Run::after_frame(int frame, bool started_inverted) {
-  int rank;
-  PetscFunctionBeginUser;
-  MPI_Comm_rank(comm, &rank);
-  const CheckpointSpec& c = deck.checkpoint;
-  if (frame == options.signal_after_frame) raise(SIGTERM);  // test hook
-  int local[2] = {(int)g_stop_signal, 0}, global[2];
-  if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime >= c.seconds;  // one clock decides
-  PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, comm));
-  if (global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint(started_inverted));
-  PetscCall(stop_for_signal(global[0], frame, started_inverted));
-  if (frame == options.kill_after_frame) raise(SIGKILL);  // test hook
-  PetscFunctionReturn(0);
-}
-
-// A signal `sig` (0: none) asked to stop: a checkpoint of the state after `frame` unless one was
-// just written, and the run ends as interrupted. After the last frame the run is done anyway.
-PetscErrorCode Run::stop_for_signal(int sig, int frame, bool started_inverted) {
-  PetscFunctionBeginUser;
-  if (sig == 0 || frame >= deck.time.frames) PetscFunctionReturn(0);
-  if (last_checkpoint_frame != frame) PetscCall(write_checkpoint(started_inverted));
-  interrupted = true;
-  summary.status = std::string("interrupted: ") + (sig == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
-                   std::to_string(frame) + " of " + std::to_string(deck.time.frames) +
-                   "; a checkpoint was written: continue with --restart latest";
-  PetscFunctionReturn(0);
-}
-
-// A restart: the state, the fixed vertices' motion and the counters from the checkpoint.
-PetscErrorCode Run::resume(bool* started_inverted) {
-  const Scene& s = scene.current();
-  PetscFunctionBeginUser;
-  PetscCall(state.create(s.step->layout()));
-  state.frame = restart->frame;
-  state.time = restart->time;
-  state.released = restart->released;
-  state.released_attachments = restart->released_attachments;
-  VertexRows rows;
-  PetscCall(read_checkpoint_vertices(comm, restart_path, s.mesh, *restart, rows));
-  PetscCall(s.body->resume(restart->body_time, rows[0], rows[1], state.x, state.v));
-  if (restart->history) {
-    PetscCall(VecDuplicate(state.x, &state.x_prev));
-    PetscCall(VecDuplicate(state.v, &state.v_prev));
-    PetscCall(s.body->free_values(rows[2], state.x_prev));
-    PetscCall(s.body->free_values(rows[3], state.v_prev));
-  }
-  restore_frame_counters(summary, restart->summary);
-  earlier = restart->summary;  // its work counters are added at the end
-  *started_inverted = restart->started_inverted != 0;
-  // As if the run had not stopped: the checkpoint's frame counts as written if it was an output frame.
-  last_written = state.frame % deck.output.every == 0 ? state.frame : -1;
-  last_checkpoint_wtime = MPI_Wtime();
-  last_checkpoint_frame = state.frame;
   PetscFunctionReturn(0);
 }
 
@@ -553,7 +241,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   identity.deck = restart ? saved.deck : deck.path;
 
   // 2. Distribute, assemble, factor.
-  Run run(comm, deck, options);
+  Run run(comm, deck, options, restart);
   run.t_start = t_start;
   run.checkpoints = std::make_unique<CheckpointStore>(comm, outdir + "/checkpoints", deck.checkpoint.keep);
   run.summary.dropped_vertices = repaired.dropped_vertices;
@@ -645,30 +333,15 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
         } else {
           remove_interrupted_writes(outdir);  // a killed part's temporaries
         }
-        if (run.restart) {  // the logs as they were at the checkpoint's frame, then continued
-          if (deck.output.iterations_csv) run.log.resume(outdir + "/iterations.csv", rank, saved.frame);
-        } else {
-          if (deck.output.iterations_csv) run.log.open(outdir + "/iterations.csv", rank);
-        }
-        for (const auto& term : scene.body->terms()) {
-          const TermLog l = term->log();
-          run.term_logs.emplace_back();
-          if (l.file.empty() || (l.file == "contact.csv" && !deck.output.contact_csv)) continue;  // output.contact_csv
-          run.term_logs.back() = std::make_unique<FrameLog>();
-          if (run.restart) {
-            run.term_logs.back()->resume(outdir + "/" + l.file, l.columns, rank, saved.frame);
-          } else {
-            run.term_logs.back()->open(outdir + "/" + l.file, l.columns, rank);
-          }
-        }
+        run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1);
       } catch (const std::exception& e) {
         error = e.what();
       }
     }
     throw_if_any_failed(comm, error);
     if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
-    add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
-    add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.writers);
+    add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());
+    add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);
@@ -694,7 +367,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);
   summary.peak_rss_mb_by_rank.resize(size);
   MPI_Allgather(&rss, 1, MPI_DOUBLE, summary.peak_rss_mb_by_rank.data(), 1, MPI_DOUBLE, comm);
-  int sig = (int)g_stop_signal, any_sig;
+  int sig = stop_signal(), any_sig;
   MPI_Allreduce(&sig, &any_sig, 1, MPI_INT, MPI_MAX, comm);
   if (any_sig) summary.signal = any_sig == SIGTERM ? "SIGTERM" : "SIGUSR1";
   if (any_sig && ok && !run.interrupted)  // mpiexec (Open MPI) exits 1 after a SIGTERM, whatever the ranks' codes
@@ -708,15 +381,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   std::string error;  // every failure is said: each names its path
   const auto add = [&error](const std::exception& e) { error += (error.empty() ? "" : "; ") + std::string(e.what()); };
   try {
-    for (auto& w : run.writers) w->end_run(summary);
+    for (auto& w : run.frames.writers()) w->end_run(summary);
   } catch (const std::exception& e) {
     add(e);
   }
   if (rank == 0 && have_dir) {
     try {
-      run.log.flush();  // the rows of a frame that stopped the run
-      for (auto& l : run.term_logs)
-        if (l) l->flush();
+      run.logs.write_rows();  // the rows of a frame that stopped the run
     } catch (const std::exception& e) {
       add(e);
     }

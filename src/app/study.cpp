@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "app/frame_step.hpp"
+#include "app/time_loop.hpp"
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "model/scene.hpp"
@@ -27,7 +28,6 @@ struct Contender {
   State state;
   double time_s = 0;
   long long iterations = 0;
-  std::string stopped;  // why its trajectory stopped ("": it goes on)
 };
 
 // One frame of s with the solver alone at its budget (no fallback chain: the study compares
@@ -130,6 +130,141 @@ struct Study {
   PetscErrorCode run(StudyWriter& out);
 };
 
+// The per-frame comparison (study.csv, study.h5): at each frame of study.frames, before the
+// reference steps, every solver solves the frame from the reference's state; the reference's own
+// solve of the frame gives g*.
+class FrameComparison : public FrameObserver {
+ public:
+  FrameComparison(Study& study, StudyWriter& out) : study_(study), out_(out), stepper_(study.limits) {}
+
+  PetscErrorCode scene_changed(const Scene&, Scene&) override {
+    warmed_up_ = false;  // new solvers
+    return 0;
+  }
+
+  PetscErrorCode before_frame(int frame) override {
+    const std::vector<int>& frames = study_.deck.study.frames;
+    const Scene& scene = study_.scene.current();
+    PetscFunctionBeginUser;
+    compare_here_ = std::find(frames.begin(), frames.end(), frame) != frames.end();
+    curves_.clear();
+    if (!compare_here_) PetscFunctionReturn(0);
+    // One untimed run first, so one-time costs (allocations, Newton's symbolic analysis) are not
+    // charged to the first compared frame.
+    if (!warmed_up_) {
+      for (auto& c : study_.contenders) {
+        FrameStep f;
+        PetscCall(study_.probe.copy_from(study_.ref));
+        PetscCall(advance(stepper_, scene, *c->per_frame, study_.probe, IterationCallback(), f));
+      }
+      warmed_up_ = true;
+    }
+    for (auto& c : study_.contenders) {
+      StudyCurve curve{c->type, frame, {}, 0, 0};
+      FrameStep f;
+      PetscCall(study_.probe.copy_from(study_.ref));
+      PetscCall(advance(stepper_, scene, *c->per_frame, study_.probe, recorder(curve), f));
+      if (!f.stop.empty())
+        PetscCall(PetscPrintf(study_.comm, "study frame %4d  %-15s stopped by a guardrail: %s\n", frame, c->type.c_str(),
+                              f.stop.c_str()));
+      curves_.push_back(std::move(curve));
+    }
+    PetscFunctionReturn(0);
+  }
+
+  // The reference's iterations, at every frame: its solve too stops at study.time_limit.
+  IterationCallback iterations(int frame) override {
+    reference_ = StudyCurve{"reference", frame, {}, 0, 0};
+    return recorder(reference_);
+  }
+
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl&) override {
+    PetscFunctionBeginUser;
+    if (!compare_here_ || !outcome.lead.stop.empty()) PetscFunctionReturn(0);
+    // g* is the lowest g anyone reached (the reference's, unless another solver went below it
+    // by round-off); g0 is the common starting value.
+    double g_star = reference_.iterations.back().energy;
+    for (const StudyCurve& c : curves_)
+      for (const IterationRecord& r : c.iterations) g_star = std::min(g_star, r.energy);
+    const double g0 = reference_.iterations.front().energy;
+    curves_.push_back(reference_);
+    for (StudyCurve& c : curves_) {
+      c.g0 = g0;
+      c.g_star = g_star;
+      out_.add(c);
+      const IterationRecord& last = c.iterations.back();
+      PetscCall(PetscPrintf(study_.comm, "study frame %4d  %-15s %4d it  %9.3f ms  rel. error %.3e\n", outcome.frame,
+                            c.solver.c_str(), (int)last.iteration, 1e3 * last.time_s, c.rel_error(last)));
+    }
+    out_.check(study_.comm);  // rank 0's write failure ends every rank's study
+    PetscFunctionReturn(0);
+  }
+
+ private:
+  IterationCallback recorder(StudyCurve& curve) const {
+    const double limit = study_.deck.study.time_limit;
+    return [&curve, limit](const IterationRecord& r) {
+      curve.iterations.push_back(r);
+      return r.time_s > limit;
+    };
+  }
+
+  Study& study_;
+  StudyWriter& out_;
+  FrameStepper stepper_;   // the per-frame solves', through the same guardrails
+  bool warmed_up_ = false;  // one untimed per-frame run per set of solvers
+  bool compare_here_ = false;
+  std::vector<StudyCurve> curves_;  // this frame's, one per contender
+  StudyCurve reference_;
+};
+
+// The trajectories at each solver's budget (the loop's followers, in the contenders' order),
+// compared with the converged reference after every frame (trajectory.csv); a trajectory that a
+// guardrail stops gets one point saying why, and no later one.
+class TrajectoryErrors : public FrameObserver {
+ public:
+  TrajectoryErrors(Study& study, StudyWriter& out)
+      : study_(study), out_(out), diagonal_(rest_diagonal(study.scene.current().mesh)) {}
+
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl&) override {
+    const PetscInt free_vertices = study_.scene.current().mesh.global_dofs / 3;
+    PetscFunctionBeginUser;
+    if (!outcome.lead.stop.empty()) PetscFunctionReturn(0);  // nothing stepped
+    for (size_t k = 0; k < outcome.followers.size(); ++k) {
+      const FollowerStep& f = outcome.followers[k];
+      if (!f.stepped) continue;  // stopped before
+      Contender& c = *study_.contenders[k];
+      c.time_s += f.seconds;
+      c.iterations += f.step.solve.iterations;
+      TrajectoryPoint p;
+      p.solver = c.type;
+      p.frame = outcome.frame;
+      p.iterations = c.iterations;
+      p.time_s = c.time_s;
+      if (f.step.stop.empty()) {
+        PetscReal dist;
+        PetscCall(VecWAXPY(study_.probe.x, -1.0, study_.ref.x, c.state.x));  // probe: work
+        PetscCall(VecNorm(study_.probe.x, NORM_2, &dist));
+        p.rms_error = dist / std::sqrt((double)std::max<PetscInt>(free_vertices, 1));
+        p.rel_rms_error = p.rms_error / diagonal_;
+      } else {
+        p.rms_error = p.rel_rms_error = NAN;
+        p.status = f.step.stop;
+        PetscCall(PetscPrintf(study_.comm, "study frame %4d  %-15s trajectory stopped by a guardrail: %s\n",
+                              outcome.frame, c.type.c_str(), f.step.stop.c_str()));
+      }
+      out_.add(p);
+    }
+    out_.check(study_.comm);  // rank 0's write failure ends every rank's study
+    PetscFunctionReturn(0);
+  }
+
+ private:
+  Study& study_;
+  StudyWriter& out_;
+  double diagonal_;  // the rest bounding-box diagonal
+};
+
 }  // namespace
 
 PetscErrorCode Study::run(StudyWriter& out) {
@@ -143,112 +278,28 @@ PetscErrorCode Study::run(StudyWriter& out) {
       c->time_s = h0->factor_seconds();
     PetscCall(c->state.copy_from(ref));
   }
-  const double diag = rest_diagonal(scene.current().mesh);
   const int last_frame = st.trajectory ? deck.time.frames : *std::max_element(st.frames.begin(), st.frames.end());
-  std::vector<State*> carried{&probe};
-  for (auto& c : contenders) carried.push_back(&c->state);
-  const LiveScene::Rebind rebind_study = [this](const Scene& o, Scene& f) { return rebind(o, f); };
-  FrameStepper stepper(limits);
-  bool warmed_up = false;  // one untimed per-frame run per set of solvers
 
-  while (ref.frame < last_frame) {
-    const int frame = ref.frame + 1;
-    bool released;
-    PetscCall(scene.release_due(ref, carried, rebind_study, &released));
-    if (released) warmed_up = false;
-    const Scene& current = scene.current();
-    const PetscInt free_vertices = scene.current().mesh.global_dofs / 3;
-    const bool compare_here = std::find(st.frames.begin(), st.frames.end(), frame) != st.frames.end();
-    std::vector<StudyCurve> curves;
-    auto recorder = [&](StudyCurve& curve) {
-      return [&curve, &st](const IterationRecord& r) {
-        curve.iterations.push_back(r);
-        return r.time_s > st.time_limit;
-      };
-    };
-
-    // The per-frame comparison starts every solver from the reference state. One untimed run
-    // first, so one-time costs (allocations, Newton's symbolic analysis) are not charged to the
-    // first compared frame.
-    if (compare_here && !warmed_up) {
-      for (auto& c : contenders) {
-        FrameStep f;
-        PetscCall(probe.copy_from(ref));
-        PetscCall(advance(stepper, current, *c->per_frame, probe, IterationCallback(), f));
-      }
-      warmed_up = true;
+  // One loop stepping the reference (its lead) and, in lockstep, each trajectory (app/time_loop.hpp).
+  TimeLoop loop(
+      scene, limits, ref,
+      [this](State& s, const IterationCallback& cb, StepSolve& o) { return scene.current().step->solve_step(*reference, s, cb, o); },
+      [this](const Scene& o, Scene& f) { return rebind(o, f); });
+  loop.carry(probe);
+  if (st.trajectory)
+    for (auto& c : contenders) {
+      Contender* one = c.get();
+      loop.follow(one->state, [this, one](State& s, const IterationCallback& cb, StepSolve& o) {
+        return scene.current().step->solve_step(*one->trajectory, s, cb, o);
+      });
     }
-    if (compare_here) {
-      for (auto& c : contenders) {
-        StudyCurve curve{c->type, frame, {}, 0, 0};
-        FrameStep f;
-        PetscCall(probe.copy_from(ref));
-        PetscCall(advance(stepper, current, *c->per_frame, probe, recorder(curve), f));
-        if (!f.stop.empty())
-          PetscCall(PetscPrintf(comm, "study frame %4d  %-15s stopped by a guardrail: %s\n", frame, c->type.c_str(),
-                                f.stop.c_str()));
-        curves.push_back(std::move(curve));
-      }
-    }
-
-    // The converged reference step; at a compared frame it also gives g*.
-    StudyCurve ref_curve{"reference", frame, {}, 0, 0};
-    FrameStep ref_step;
-    PetscCall(advance(stepper, current, *reference, ref, recorder(ref_curve), ref_step));
-    if (!ref_step.stop.empty()) {
-      failure = "frame " + std::to_string(frame) + ": the converged reference cannot go on: " + ref_step.stop;
-      break;
-    }
-    if (compare_here) {
-      // g* is the lowest g anyone reached (the reference's, unless another solver went below it
-      // by round-off); g0 is the common starting value.
-      double g_star = ref_curve.iterations.back().energy;
-      for (const StudyCurve& c : curves)
-        for (const IterationRecord& r : c.iterations) g_star = std::min(g_star, r.energy);
-      const double g0 = ref_curve.iterations.front().energy;
-      curves.push_back(ref_curve);
-      for (StudyCurve& c : curves) {
-        c.g0 = g0;
-        c.g_star = g_star;
-        out.add(c);
-        const IterationRecord& last = c.iterations.back();
-        PetscCall(PetscPrintf(comm, "study frame %4d  %-15s %4d it  %9.3f ms  rel. error %.3e\n", frame, c.solver.c_str(),
-                              (int)last.iteration, 1e3 * last.time_s, c.rel_error(last)));
-      }
-    }
-
-    // Trajectories at each solver's budget, compared with the converged one.
-    if (st.trajectory) {
-      for (auto& c : contenders) {
-        if (!c->stopped.empty()) continue;
-        FrameStep f;
-        const double t0 = MPI_Wtime();
-        PetscCall(advance(stepper, current, *c->trajectory, c->state, IterationCallback(), f));
-        c->time_s += MPI_Wtime() - t0;
-        TrajectoryPoint p;
-        p.solver = c->type;
-        p.frame = frame;
-        c->iterations += f.solve.iterations;
-        p.iterations = c->iterations;
-        p.time_s = c->time_s;
-        if (f.stop.empty()) {
-          PetscReal dist;
-          PetscCall(VecWAXPY(probe.x, -1.0, ref.x, c->state.x));
-          PetscCall(VecNorm(probe.x, NORM_2, &dist));
-          p.rms_error = dist / std::sqrt((double)std::max<PetscInt>(free_vertices, 1));
-          p.rel_rms_error = p.rms_error / diag;
-        } else {
-          c->stopped = f.stop;
-          p.rms_error = p.rel_rms_error = NAN;
-          p.status = f.stop;
-          PetscCall(PetscPrintf(comm, "study frame %4d  %-15s trajectory stopped by a guardrail: %s\n", frame,
-                                c->type.c_str(), f.stop.c_str()));
-        }
-        out.add(p);
-      }
-    }
-    out.check(comm);  // rank 0's write failure ends every rank's study
-  }
+  FrameComparison comparison(*this, out);
+  TrajectoryErrors trajectories(*this, out);
+  loop.observe(comparison);
+  if (st.trajectory) loop.observe(trajectories);
+  PetscCall(loop.run(last_frame));
+  if (!loop.stop().empty())
+    failure = "frame " + std::to_string(loop.stop_frame()) + ": the converged reference cannot go on: " + loop.stop();
   PetscFunctionReturn(0);
 }
 

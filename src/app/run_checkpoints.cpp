@@ -1,0 +1,136 @@
+#include "app/run_checkpoints.hpp"
+
+#include <csignal>
+
+#include "app/simulation.hpp"
+#include "io/log_events.hpp"
+
+namespace hyperqn {
+
+// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop after
+// the current frame with a checkpoint. The handler only records the signal (async-signal-safe);
+// the ranks agree on it once per frame (Checkpointer::after_frame).
+static volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void record_stop_signal(int sig) { g_stop_signal = sig; }
+void catch_stop_signals() {
+  struct sigaction action = {};
+  action.sa_handler = record_stop_signal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;  // blocking calls (MPI, file writes) go on
+  sigaction(SIGTERM, &action, nullptr);
+  sigaction(SIGUSR1, &action, nullptr);
+}
+int stop_signal() { return (int)g_stop_signal; }
+
+Checkpointer::Checkpointer(const RunContext& run, const Setup& setup) : run_(run), setup_(setup) {
+  if (setup.restarted) {
+    last_checkpoint_wtime_ = MPI_Wtime();
+    last_checkpoint_frame_ = run.state.frame;
+  }
+}
+
+// A signal during setup: the run stops before its first frame, with a checkpoint of its start.
+PetscErrorCode Checkpointer::begin(LoopControl& control) {
+  const int frame = run_.state.frame;
+  PetscFunctionBeginUser;
+  if (frame == setup_.options.signal_after_frame) raise(SIGTERM);  // test hook
+  int sig = stop_signal(), any;
+  PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, run_.comm));
+  PetscCall(stop_for_signal(any, frame));
+  control.interrupted = interrupted_;
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Checkpointer::after_frame(const FrameOutcome& outcome, LoopControl& control) {
+  const int frame = outcome.frame;
+  int rank;
+  PetscFunctionBeginUser;
+  if (!control.stop.empty()) PetscFunctionReturn(0);
+  MPI_Comm_rank(run_.comm, &rank);
+  const CheckpointSpec& c = run_.deck.checkpoint;
+  if (frame == setup_.options.signal_after_frame) raise(SIGTERM);  // test hook
+  int local[2] = {stop_signal(), 0}, global[2];
+  if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime_ >= c.seconds;  // one clock decides
+  PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, run_.comm));
+  if (global[1] || (c.every > 0 && frame % c.every == 0)) PetscCall(write_checkpoint());
+  PetscCall(stop_for_signal(global[0], frame));
+  control.interrupted = interrupted_;
+  if (frame == setup_.options.kill_after_frame) raise(SIGKILL);  // test hook
+  PetscFunctionReturn(0);
+}
+
+// A checkpoint of the state after `frame` unless one was just written, and the run ends as
+// interrupted. After the last frame the run is done anyway.
+PetscErrorCode Checkpointer::stop_for_signal(int sig, int frame) {
+  PetscFunctionBeginUser;
+  if (sig == 0 || frame >= run_.deck.time.frames) PetscFunctionReturn(0);
+  if (last_checkpoint_frame_ != frame) PetscCall(write_checkpoint());
+  interrupted_ = true;
+  run_.summary.status = std::string("interrupted: ") + (sig == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
+                        std::to_string(frame) + " of " + std::to_string(run_.deck.time.frames) +
+                        "; a checkpoint was written: continue with --restart latest";
+  PetscFunctionReturn(0);
+}
+
+// The run's state, the scene's identity and the counters so far into a checkpoint.
+PetscErrorCode Checkpointer::write_checkpoint() {
+  const Scene& s = run_.scene.current();
+  const State& state = run_.state;
+  int size;
+  PetscFunctionBeginUser;
+  MPI_Comm_size(run_.comm, &size);
+  CheckpointHeader h = setup_.identity;
+  h.ranks = size;
+  h.frame = state.frame;
+  h.time = state.time;
+  h.body_time = s.body->time();
+  h.dofs = s.mesh.global_dofs;
+  h.released = state.released;
+  h.released_attachments = state.released_attachments;
+  h.started_inverted = setup_.started_inverted;
+  h.summary = run_.summary;
+  read_log_events(h.summary);
+  h.summary.wall_s = MPI_Wtime() - setup_.t_start;
+  add_earlier_work(h.summary, setup_.earlier);
+  add_step_counters(h.summary, *s.step);  // as at the end of a run
+  for (const auto& w : setup_.frames.writers())
+    if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
+  h.history = state.x_prev ? 1 : 0;
+  VertexRows rows(h.vertex_sets());
+  PetscCall(s.body->local_positions(state.x, rows[0]));
+  PetscCall(s.body->local_velocities(state.v, rows[1]));
+  if (h.history) {
+    PetscCall(s.body->local_positions(state.x_prev, rows[2]));
+    PetscCall(s.body->local_velocities(state.v_prev, rows[3]));
+  }
+  setup_.logs.flush();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
+  PetscCall(event_begin(&LogEvents::checkpoint));
+  const std::string path = setup_.store.write(h, s.mesh, rows);
+  PetscCall(event_end(&LogEvents::checkpoint));
+  last_checkpoint_wtime_ = MPI_Wtime();
+  last_checkpoint_frame_ = state.frame;
+  PetscCall(PetscPrintf(run_.comm, "hyperqn: checkpoint %s\n", path.c_str()));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode resume_state(MPI_Comm comm, const std::string& path, const CheckpointHeader& h, const Scene& scene,
+                            State& state) {
+  PetscFunctionBeginUser;
+  PetscCall(state.create(scene.step->layout()));
+  state.frame = h.frame;
+  state.time = h.time;
+  state.released = h.released;
+  state.released_attachments = h.released_attachments;
+  VertexRows rows;
+  PetscCall(read_checkpoint_vertices(comm, path, scene.mesh, h, rows));
+  PetscCall(scene.body->resume(h.body_time, rows[0], rows[1], state.x, state.v));
+  if (h.history) {
+    PetscCall(VecDuplicate(state.x, &state.x_prev));
+    PetscCall(VecDuplicate(state.v, &state.v_prev));
+    PetscCall(scene.body->free_values(rows[2], state.x_prev));
+    PetscCall(scene.body->free_values(rows[3], state.v_prev));
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,269 @@
+#include "app/run_observers.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "io/atomic_file.hpp"
+#include "io/log_events.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+double global_min(MPI_Comm comm, const std::vector<double>& v) {
+  double local = HUGE_VAL, global;
+  for (double x : v) local = std::fmin(local, x);
+  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MIN, comm);
+  return global;
+}
+
+}  // namespace
+
+void read_log_events(RunSummary& s) {
+  const LogEvents& e = log_events();
+  s.assembly_s = event_seconds(e.h0_assembly);
+  s.factor_s = event_seconds(e.h0_factor);
+  s.factorizations = event_count(e.h0_factor);
+  s.solve_s = event_seconds(e.step);
+  s.objective_s = event_seconds(e.objective);
+  s.h0_solve_s = event_seconds(e.h0_solve);
+  s.h0_solves = event_count(e.h0_solve);
+  s.hessian_s = event_seconds(e.hessian);
+  s.hessian_assemblies = event_count(e.hessian);
+  s.contact_s = event_seconds(e.contact);
+  s.contact_evaluations = event_count(e.contact);
+}
+
+void add_step_counters(RunSummary& summary, const StepObjective& step) {
+  summary.rejected_evaluations += step.rejected_evaluations();
+  summary.pulled_back_guesses += step.pulled_back_guesses();
+  summary.euler_completed_steps += step.euler_completed_steps();
+}
+
+// --- ProgressLog
+
+PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) {
+  RunSummary& summary = run_.summary;
+  PetscFunctionBeginUser;
+  add_step_counters(summary, *old_scene.step);
+  summary.dofs = fresh.mesh.global_dofs;
+  summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
+  PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
+                        run_.state.time, (long long)summary.dofs));
+  PetscFunctionReturn(0);
+}
+
+// Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
+// flagged_frames and status) and the run goes on from its last accepted iterate.
+PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl&) {
+  const int frame = outcome.frame;
+  const MPI_Comm comm = run_.comm;
+  RunSummary& summary = run_.summary;
+  const StepSolve& step = outcome.lead.solve;
+  const FrameResult& r = step.result;
+  const std::string& why = outcome.lead.stop;  // the guardrails (app/frame_step.hpp); the frame has ended if empty
+  PetscFunctionBeginUser;
+  if (step.restarted)
+    PetscCall(PetscPrintf(comm, "frame %5d  g is not finite at the inertial warm start y; started again from x_n\n", frame));
+  const double ms = 1e3 * step.seconds;
+  summary.evaluations += step.evaluations;
+  summary.iterations += step.iterations;
+  summary.extended_frames += step.extended;
+  summary.substepped_frames += step.substeps > 1;
+  summary.newton_frames += step.newton;
+  summary.converged_frames += r.converged;
+  summary.failed_frames += r.failed;
+  summary.ls_failures += r.ls_failures;
+  if (r.failed) summary.flagged_frames.emplace_back(frame, r.reason);
+  // A solver that was given no iteration (e.g. -tao_max_it 0) did not solve the frame.
+  if (!r.failed && !r.converged && r.iterations == 0) {
+    ++summary.failed_frames;
+    summary.flagged_frames.emplace_back(frame, "the solver took no iteration (" + r.reason + ")");
+  }
+  const bool finite_g = !Objective::rejected(r.energy) && std::isfinite(r.grad_norm);
+  if (why.empty()) {
+    inverted_now_ = outcome.lead.inverted;
+    if (inverted_now_) summary.inverted_frames.push_back(frame);
+    summary.min_J = std::fmin(summary.min_J, outcome.lead.min_J);
+  }
+
+  std::string note;
+  if (step.substeps > 1) note += "  [" + std::to_string(step.substeps) + " sub-steps]";
+  if (step.newton) note += "  [newton fallback]";
+  if (step.iterations != r.iterations) note += "  [" + std::to_string(step.iterations) + " iterations in all]";
+  if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
+  if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
+  if (finite_g)
+    PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
+                          (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));
+  else
+    PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g not finite  %8.2f ms  %s%s\n", frame, (int)r.iterations, ms,
+                          r.reason.c_str(), note.c_str()));
+  if (why.empty()) {
+    summary.frames = frame;
+    summary.final_energy = r.energy;
+    summary.final_grad_norm = r.grad_norm;
+  }
+  PetscFunctionReturn(0);
+}
+
+// A frame that leaves no finite state, a diverged one, or one that could not be written, stops
+// the run; it counts as flagged (once) and the frames done end before it.
+PetscErrorCode ProgressLog::stopped(const FrameOutcome& outcome, const std::string& why) {
+  RunSummary& summary = run_.summary;
+  PetscFunctionBeginUser;
+  if (!outcome.lead.solve.result.failed) {
+    ++summary.failed_frames;
+    summary.flagged_frames.emplace_back(outcome.frame, why);
+  }
+  summary.frames = outcome.frame - 1;
+  PetscFunctionReturn(0);
+}
+
+// --- RunLogs
+
+void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame) {
+  const OutputSpec& output = run_.deck.output;
+  const bool restart = restart_frame >= 0;
+  if (output.iterations_csv) {  // at a restart, the log as it was at the checkpoint's frame, then continued
+    if (restart)
+      log_.resume(outdir + "/iterations.csv", rank, restart_frame);
+    else
+      log_.open(outdir + "/iterations.csv", rank);
+  }
+  for (const auto& term : scene.body->terms()) {
+    const TermLog l = term->log();
+    term_logs_.emplace_back();
+    if (l.file.empty() || (l.file == "contact.csv" && !output.contact_csv)) continue;  // output.contact_csv
+    term_logs_.back() = std::make_unique<FrameLog>();
+    if (restart)
+      term_logs_.back()->resume(outdir + "/" + l.file, l.columns, rank, restart_frame);
+    else
+      term_logs_.back()->open(outdir + "/" + l.file, l.columns, rank);
+  }
+}
+
+IterationCallback RunLogs::iterations(int frame) {
+  return [this, frame](const IterationRecord& it) {
+    if (!Objective::rejected(it.energy) && std::isfinite(it.grad_norm)) log_.append(frame, it);  // never NaN
+    return false;
+  };
+}
+
+PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
+  PetscFunctionBeginUser;
+  if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
+  flush();  // also the rows of a frame that stops the run; before a checkpoint, which cuts the logs at its frame
+  PetscFunctionReturn(0);
+}
+
+void RunLogs::write_rows() {
+  log_.flush();
+  for (auto& l : term_logs_)
+    if (l) l->flush();
+}
+
+void RunLogs::flush() {
+  std::string error;
+  try {
+    write_rows();
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  throw_if_any_failed(run_.comm, error);
+}
+
+// Per frame: what the terms with a log of their own report (EnergyTerm::report: contact.csv's
+// rows and the summary's contact maxima); nothing at all in a scene without such a term.
+PetscErrorCode RunLogs::record_terms(int frame) {
+  const Scene& s = run_.scene.current();
+  bool have_positions = false;
+  PetscFunctionBeginUser;
+  const auto& terms = s.body->terms();
+  for (size_t t = 0; t < terms.size(); ++t) {
+    if (terms[t]->log().file.empty()) continue;
+    if (!have_positions) PetscCall(s.body->local_positions(run_.state.x, pos_));
+    have_positions = true;
+    TermReport r;
+    PetscCall(terms[t]->report(pos_, r));
+    if (t < term_logs_.size() && term_logs_[t]) term_logs_[t]->append(frame, run_.state.time, r.rows);
+    for (const auto& [name, value] : r.maxima) raise_summary_maximum(run_.summary, name, value);
+  }
+  PetscFunctionReturn(0);
+}
+
+// --- FrameWriters
+
+PetscErrorCode FrameWriters::begin(LoopControl&) {
+  const State& state = run_.state;
+  PetscFunctionBeginUser;
+  if (restarted_) {  // as if the run had not stopped
+    last_written_ = state.frame % run_.deck.output.every == 0 ? state.frame : -1;
+  } else {
+    bool written;
+    PetscCall(write_frame(0, &written));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FrameWriters::scene_changed(const Scene&, Scene& fresh) {
+  PetscFunctionBeginUser;
+  PetscCall(VecDestroy(&field_));  // the layout changed
+  for (auto& w : writers_) w->set_mesh(fresh.mesh);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FrameWriters::after_frame(const FrameOutcome& outcome, LoopControl& control) {
+  const int frame = outcome.frame;
+  PetscFunctionBeginUser;
+  if (!control.stop.empty() || (frame % run_.deck.output.every != 0 && frame != run_.deck.time.frames))
+    PetscFunctionReturn(0);
+  bool written;
+  PetscCall(write_frame(frame, &written));
+  if (!written) control.stop = "non-finite positions, velocities or J";
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FrameWriters::stopped(const FrameOutcome& outcome, const std::string&) {
+  PetscFunctionBeginUser;
+  if (last_written_ != outcome.frame - 1) {
+    bool written;
+    PetscCall(write_frame(outcome.frame - 1, &written));
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
+  const Scene& s = run_.scene.current();
+  const State& state = run_.state;
+  const MPI_Comm comm = run_.comm;
+  PetscFunctionBeginUser;
+  PetscCall(s.body->local_positions(state.x, pos_));
+  PetscCall(s.body->local_velocities(state.v, vel_));
+  s.body->cell_jacobians(pos_, J_);
+  int local = 1, finite;
+  for (const auto* values : {&pos_, &vel_, &J_})
+    for (double a : *values) local &= std::isfinite(a) ? 1 : 0;
+  PetscCallMPI(MPI_Allreduce(&local, &finite, 1, MPI_INT, MPI_MIN, comm));
+  *written = finite == 1;
+  if (!*written) PetscFunctionReturn(0);
+  run_.summary.min_J = std::fmin(run_.summary.min_J, global_min(comm, J_));
+  FrameData f{frame, frame * run_.deck.time.dt, &state, &pos_, &vel_, &J_, {}};
+  std::vector<std::string> names;
+  for (const auto& term : s.body->terms())
+    for (const std::string& name : term->point_fields()) {
+      if (!field_) PetscCall(VecDuplicate(state.x, &field_));
+      PetscCall(term->point_field(name, pos_, field_));
+      field_values_.resize(names.size() + 1);
+      PetscCall(s.body->local_values(field_, field_values_.back()));
+      names.push_back(name);
+    }
+  for (size_t k = 0; k < names.size(); ++k) f.point_fields.emplace_back(names[k], &field_values_[k]);
+  PetscCall(event_begin(&LogEvents::output));
+  for (auto& w : writers_) w->write_frame(f);
+  PetscCall(event_end(&LogEvents::output));
+  last_written_ = frame;
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,99 @@
+// What a simulation run does with its frames, as observers of the time loop (app/time_loop.hpp):
+// the console's frame lines and the summary's counters, the logs (iterations.csv and the terms'
+// own), the frame series (VTK, XDMF). Checkpoints and signals are in app/run_checkpoints.hpp.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "app/deck.hpp"
+#include "app/time_loop.hpp"
+#include "io/output_writer.hpp"
+#include "io/run_log.hpp"
+
+namespace hyperqn {
+
+// What the run's observers share; the run owns it all.
+struct RunContext {
+  MPI_Comm comm;
+  const Deck& deck;
+  LiveScene& scene;
+  State& state;
+  RunSummary& summary;
+};
+
+// The run's timings and counts so far, from the log events (over every scene of the run).
+void read_log_events(RunSummary& s);
+// The run counters a scene's StepObjective keeps (its sub-steps' included) into a summary.
+void add_step_counters(RunSummary& summary, const StepObjective& step);
+
+// The console's line per frame and the summary's frame counters (iterations, flagged and inverted
+// frames, min det F, the frames done); after a release, the scene's new size.
+class ProgressLog : public FrameObserver {
+ public:
+  ProgressLog(const RunContext& run, bool inverted_at_start) : run_(run), inverted_now_(inverted_at_start) {}
+  PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
+  PetscErrorCode stopped(const FrameOutcome& outcome, const std::string& why) override;
+  // Whether the last frame done has inverted or flat elements.
+  bool inverted_now() const { return inverted_now_; }
+
+ private:
+  RunContext run_;
+  bool inverted_now_;
+};
+
+// iterations.csv and the terms' own logs (EnergyTerm::log, e.g. contact.csv): rows appended
+// during a frame, written at its end as whole lines (a kill leaves complete rows).
+class RunLogs : public FrameObserver {
+ public:
+  explicit RunLogs(const RunContext& run) : run_(run) {}
+  // Opens the logs in outdir (rank 0), or, at a restart, cuts them back to `restart_frame` and
+  // continues them. Throws std::runtime_error.
+  void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1);
+  IterationCallback iterations(int frame) override;
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
+  // Writes the rows appended so far; collective: a failure on rank 0 ends the run on every rank.
+  void flush();
+  // The same on this rank alone (the end of a run). Throws std::runtime_error.
+  void write_rows();
+
+ private:
+  PetscErrorCode record_terms(int frame);
+
+  RunContext run_;
+  IterationLog log_;
+  // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
+  // own log (null if it keeps none or the deck turned it off).
+  std::vector<std::unique_ptr<FrameLog>> term_logs_;
+  std::vector<double> pos_;  // work: local positions
+};
+
+// The frame series (OutputWriter: VTK, XDMF) at the output frames and the last; at a stop, the
+// last good frame if it was not written. Nothing non-finite is ever written.
+class FrameWriters : public FrameObserver {
+ public:
+  FrameWriters(const RunContext& run, bool restarted) : run_(run), restarted_(restarted) {}
+  ~FrameWriters() override { VecDestroy(&field_); }
+  std::vector<std::unique_ptr<OutputWriter>>& writers() { return writers_; }
+  // Frame 0 of a new run; at a restart, its frame counts as written if it was an output frame.
+  PetscErrorCode begin(LoopControl& control) override;
+  PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
+  PetscErrorCode stopped(const FrameOutcome& outcome, const std::string& why) override;
+  int last_written() const { return last_written_; }
+
+ private:
+  // Writes frame `frame` from the state, unless a position, velocity or J is not finite.
+  PetscErrorCode write_frame(int frame, bool* written);
+
+  RunContext run_;
+  std::vector<std::unique_ptr<OutputWriter>> writers_;
+  bool restarted_;
+  int last_written_ = -1;
+  std::vector<double> pos_, vel_, J_;                // work: local arrays of a frame
+  std::vector<std::vector<double>> field_values_;    // work: the terms' point fields, local
+  Vec field_ = nullptr;                              // work: one point field (global free dofs)
+};
+
+}  // namespace hyperqn

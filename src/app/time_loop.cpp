@@ -1,0 +1,77 @@
+#include "app/time_loop.hpp"
+
+#include <utility>
+
+namespace hyperqn {
+
+TimeLoop::TimeLoop(LiveScene& scene, const Guardrails& limits, State& lead, FrameSolve solve, LiveScene::Rebind rebind)
+    : scene_(scene), stepper_(limits), lead_(lead), solve_(std::move(solve)), rebind_(std::move(rebind)) {}
+
+void TimeLoop::follow(State& state, FrameSolve solve) { followers_.push_back({&state, std::move(solve)}); }
+
+IterationCallback TimeLoop::iterations(int frame) {
+  std::vector<IterationCallback> callbacks;
+  for (FrameObserver* o : observers_)
+    if (IterationCallback c = o->iterations(frame)) callbacks.push_back(std::move(c));
+  if (callbacks.size() <= 1) return callbacks.empty() ? IterationCallback() : std::move(callbacks.front());
+  return [callbacks](const IterationRecord& r) {  // any of them may end the solve
+    bool stop = false;
+    for (const auto& c : callbacks) stop = c(r) || stop;
+    return stop;
+  };
+}
+
+PetscErrorCode TimeLoop::run(int last_frame) {
+  PetscFunctionBeginUser;
+  LoopControl control;
+  for (FrameObserver* o : observers_) PetscCall(o->begin(control));
+  std::vector<State*> carried = carried_;
+  for (const Follower& f : followers_) carried.push_back(f.state);
+  const LiveScene::Rebind rebind = [this](const Scene& old_scene, Scene& fresh) {
+    PetscFunctionBeginUser;
+    PetscCall(rebind_(old_scene, fresh));
+    for (FrameObserver* o : observers_) PetscCall(o->scene_changed(old_scene, fresh));
+    PetscFunctionReturn(0);
+  };
+
+  while (!control.interrupted && lead_.frame < last_frame) {
+    const int frame = lead_.frame + 1;
+    const double time = lead_.time;
+    bool released;
+    PetscCall(scene_.release_due(lead_, carried, rebind, &released));
+    for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
+    const Scene& scene = scene_.current();
+
+    FrameOutcome outcome;
+    outcome.frame = frame;
+    PetscCall(stepper_.step(scene, solve_, lead_, iterations(frame), outcome.lead));
+    outcome.followers.resize(followers_.size());
+    for (size_t k = 0; k < followers_.size() && outcome.lead.stop.empty(); ++k) {
+      Follower& f = followers_[k];
+      if (f.stopped) continue;
+      FollowerStep& out = outcome.followers[k];
+      const double t0 = MPI_Wtime();
+      PetscCall(stepper_.step(scene, f.solve, *f.state, IterationCallback(), out.step));
+      if (!out.step.stop.empty()) PetscCall(scene.step->undo_step(*f.state));
+      out.seconds = MPI_Wtime() - t0;
+      out.stepped = true;
+      f.stopped = !out.step.stop.empty();
+    }
+
+    control.stop = outcome.lead.stop;
+    for (FrameObserver* o : observers_) PetscCall(o->after_frame(outcome, control));
+    if (control.stop.empty()) continue;
+    if (lead_.frame == frame) {  // it ended, but an observer found it cannot stand
+      lead_.frame = frame - 1;
+      lead_.time = time;
+    }
+    PetscCall(scene.step->undo_step(lead_));
+    stop_ = control.stop;
+    stop_frame_ = frame;
+    for (FrameObserver* o : observers_) PetscCall(o->stopped(outcome, stop_));
+    break;
+  }
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn
