@@ -168,7 +168,8 @@ struct Run {
   }
 
   // Per frame: what the terms with a log of their own report (EnergyTerm::report: contact.csv's
-  // rows and the summary's contact maxima); nothing at all in a scene without such a term.
+  // rows, the summary's contact maxima, and a warning for each flag, counted in the summary);
+  // nothing at all in a scene without such a term.
   PetscErrorCode record_terms(int frame) {
     const Scene& s = scene.current();
     bool have_positions = false;
@@ -182,6 +183,10 @@ struct Run {
       PetscCall(terms[t]->report(pos, r));
       if (t < term_logs.size() && term_logs[t]) term_logs[t]->append(frame, state.time, r.rows);
       for (const auto& [name, value] : r.maxima) raise_summary_maximum(summary, name, value);
+      for (const auto& [name, what] : r.flags) {
+        count_summary_flag(summary, name, frame, what);
+        PetscCall(PetscPrintf(comm, "frame %5d  WARNING: %s\n", frame, what.c_str()));
+      }
     }
     PetscFunctionReturn(0);
   }
@@ -235,8 +240,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
   bool written = false, resumed_inverted = false;
   if (restart) {
     PetscCall(resume(&resumed_inverted));  // frames up to the checkpoint's were done before
-  } else {
-    PetscCall(scene.initial_state(state));
+  } else {  // the state is the scene's initial state, checked before any output (run_simulation)
     summary.min_J = HUGE_VAL;
     PetscCall(write_frame(0, &written));
   }
@@ -588,6 +592,18 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     run.restart_path = restart_path;
     PetscPrintf(comm, "hyperqn: restart from %s: frame %d (written at %d rank(s))\n", restart_path.c_str(), saved.frame,
                 saved.ranks);
+  }
+  if (!restart) {  // a new run's start is input too (a body inside an obstacle); a restart's was reached by the run
+    std::string error;
+    PetscErrors errors;
+    if (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &error)) {
+      PetscPrintf(comm, "hyperqn: error: setting up the initial state failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
+    if (!error.empty()) {
+      PetscPrintf(comm, "hyperqn: error: %s\n", error.c_str());
+      return 1;
+    }
   }
   RunSummary& summary = run.summary;
   summary.deck = deck.path;

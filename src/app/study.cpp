@@ -134,8 +134,7 @@ struct Study {
 
 PetscErrorCode Study::run(StudyWriter& out) {
   const StudySpec& st = deck.study;
-  PetscFunctionBeginUser;
-  PetscCall(scene.initial_state(ref));
+  PetscFunctionBeginUser;  // ref holds the initial state (run_one_study)
   PetscCall(probe.copy_from(ref));
   for (auto& c : contenders) {
     // A trajectory's run time includes the one factorization of the constant matrix its solver needs.
@@ -277,6 +276,18 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, st.solvers)) ||
         study.make_solvers(study.scene.current())) {
       PetscPrintf(comm, "hyperqn: error: setting up the study failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
+  }
+  {  // the start is input too: checked before anything is written
+    std::string error;
+    PetscErrors errors;
+    if (study.scene.initial_state(study.ref) || study.scene.check_start(study.ref, &error)) {
+      PetscPrintf(comm, "hyperqn: error: setting up the initial state failed: %s\n", errors.describe(deck).c_str());
+      return 1;
+    }
+    if (!error.empty()) {
+      PetscPrintf(comm, "hyperqn: error: %s\n", error.c_str());
       return 1;
     }
   }
