@@ -564,12 +564,15 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
     PetscErrors errors;
+    bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
-        create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver)) {
+        create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
+        (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
+    if (!start_ok) return 1;
   }
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
@@ -592,18 +595,6 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     run.restart_path = restart_path;
     PetscPrintf(comm, "hyperqn: restart from %s: frame %d (written at %d rank(s))\n", restart_path.c_str(), saved.frame,
                 saved.ranks);
-  }
-  if (!restart) {  // a new run's start is input too (a body inside an obstacle); a restart's was reached by the run
-    std::string error;
-    PetscErrors errors;
-    if (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &error)) {
-      PetscPrintf(comm, "hyperqn: error: setting up the initial state failed: %s\n", errors.describe(deck).c_str());
-      return 1;
-    }
-    if (!error.empty()) {
-      PetscPrintf(comm, "hyperqn: error: %s\n", error.c_str());
-      return 1;
-    }
   }
   RunSummary& summary = run.summary;
   summary.deck = deck.path;

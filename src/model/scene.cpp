@@ -385,16 +385,17 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::check_start(const State& s, std::string* error) const {
+PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
   std::vector<double> pos;
   PetscFunctionBeginUser;
-  error->clear();
+  *ok = true;
   PetscCall(scene_->body->local_positions(s.x, pos));
   for (const auto& term : scene_->body->terms()) {
     InputProblem problem;
     PetscCall(term->check_start(pos, problem));
     if (!problem.what.empty()) {
-      *error = InputError(spec_->path, problem.line, problem.key, problem.what).what();
+      PetscCall(PetscPrintf(comm_, "hyperqn: error: %s\n", InputError(spec_->path, problem.line, problem.key, problem.what).what()));
+      *ok = false;
       break;
     }
   }
