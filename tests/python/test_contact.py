@@ -123,6 +123,17 @@ def test_penalty_flags_a_collider_driven_into_the_body(tmp_path):
     assert "deeper than the activation distance" in first["what"] and "moved into the body" in first["what"]
     assert s["max_penetration"] > deck["contact"].get("distance", 1e-2 * math.sqrt(0.6 ** 2 * 2 + 0.3 ** 2))
 
+    # A restart goes on from a state the run reached, a vertex deep in the ball included, and
+    # keeps the count: interrupted after the first flagged frame, continued, the same summary.
+    after = first["frame"]
+    stopped = tmp_path / "stopped"
+    proc = run_hyperqn([path, "-o", stopped, "-hyperqn_test_signal_after_frame", str(after)], check=False)
+    assert proc.returncode == 3, proc.stdout[-2000:]
+    run_hyperqn([path, "-o", stopped, "--restart", "latest"])
+    again = read_summary(stopped)
+    assert again["status"] == s["status"]
+    assert again["collider_intrusions"] == s["collider_intrusions"] and again["first_intrusion"] == first
+
 
 def test_barrier_stop_names_the_collider(tmp_path):
     """With the barrier a ball that reaches a vertex's x_n within one step leaves no admissible
