@@ -74,6 +74,13 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
   PetscCall(all_finite(comm, state.x, &finite_x));
   if (Objective::rejected(r.energy) || !std::isfinite(r.grad_norm)) {
     out.stop = "non-finite energy or gradient at every point tried (" + r.reason + ")";
+    // What a term can say of it at the point the solve kept (e.g. which collider holds which vertex).
+    PetscCall(scene.body->local_positions(state.x, pos_));
+    for (const auto& term : scene.body->terms()) {
+      std::string why;
+      PetscCall(term->explain_rejection(pos_, why));
+      if (!why.empty()) out.stop += ": " + why;
+    }
   } else if (!finite_x) {
     out.stop = "the solver left non-finite positions (" + r.reason + ")";
   } else {

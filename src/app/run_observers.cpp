@@ -174,7 +174,8 @@ void RunLogs::flush() {
 }
 
 // Per frame: what the terms with a log of their own report (EnergyTerm::report: contact.csv's
-// rows and the summary's contact maxima); nothing at all in a scene without such a term.
+// rows, the summary's contact maxima, and a warning for each flag, counted in the summary);
+// nothing at all in a scene without such a term.
 PetscErrorCode RunLogs::record_terms(int frame) {
   const Scene& s = run_.scene.current();
   bool have_positions = false;
@@ -188,6 +189,10 @@ PetscErrorCode RunLogs::record_terms(int frame) {
     PetscCall(terms[t]->report(pos_, r));
     if (t < term_logs_.size() && term_logs_[t]) term_logs_[t]->append(frame, run_.state.time, r.rows);
     for (const auto& [name, value] : r.maxima) raise_summary_maximum(run_.summary, name, value);
+    for (const auto& [name, what] : r.flags) {
+      count_summary_flag(run_.summary, name, frame, what);
+      PetscCall(PetscPrintf(run_.comm, "frame %5d  WARNING: %s\n", frame, what.c_str()));
+    }
   }
   PetscFunctionReturn(0);
 }

@@ -100,8 +100,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
     restore_frame_counters(summary, restart->summary);
     earlier = restart->summary;  // its work counters are added at the end
     resumed_inverted = restart->started_inverted != 0;
-  } else {
-    PetscCall(scene.initial_state(state));
+  } else {  // the state is the scene's initial state, checked before any output (run_simulation)
     summary.min_J = HUGE_VAL;
   }
   // A run that the deck starts inverted (initial:) is judged by its last frame only.
@@ -248,12 +247,15 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   run.summary.reoriented_tets = repaired.reoriented_tets;
   {
     PetscErrors errors;
+    bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
-        create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver)) {
+        create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
+        (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
+    if (!start_ok) return 1;
   }
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();

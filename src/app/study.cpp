@@ -269,8 +269,7 @@ class TrajectoryErrors : public FrameObserver {
 
 PetscErrorCode Study::run(StudyWriter& out) {
   const StudySpec& st = deck.study;
-  PetscFunctionBeginUser;
-  PetscCall(scene.initial_state(ref));
+  PetscFunctionBeginUser;  // ref holds the initial state (run_one_study)
   PetscCall(probe.copy_from(ref));
   for (auto& c : contenders) {
     // A trajectory's run time includes the one factorization of the constant matrix its solver needs.
@@ -325,13 +324,15 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
   }
   {
     PetscErrors errors;
+    bool start_ok = true;  // the start is input too (a body inside an obstacle)
     if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, st.solvers)) ||
-        study.make_solvers(study.scene.current())) {
+        study.make_solvers(study.scene.current()) || study.scene.initial_state(study.ref) ||
+        study.scene.check_start(study.ref, &start_ok)) {
       PetscPrintf(comm, "hyperqn: error: setting up the study failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
+    if (!start_ok) return 1;
   }
-
   try {
     create_output_directory(comm, outdir);
     // Rank 0 writes alone: its failure must end the study on every rank.

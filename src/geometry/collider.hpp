@@ -53,9 +53,12 @@ class Collider {
 
   double friction() const { return friction_; }
   const std::string& type() const { return type_; }
+  bool moves() const { return motion_.active; }  // the deck gave it a motion (it may start later)
+  int line() const { return line_; }             // its deck line (ColliderSpec::line)
 
  protected:
-  Collider(const ColliderSpec& spec) : motion_(spec.motion), friction_(spec.friction), type_(spec.type) {}
+  Collider(const ColliderSpec& spec)
+      : motion_(spec.motion), friction_(spec.friction), type_(spec.type), line_(spec.line) {}
   // The same in the obstacle's own frame (its pose at t = 0); q = pose().inverse(p).
   virtual double local_distance(const Eigen::Vector3d& q, Eigen::Vector3d* gradient, Eigen::Matrix3d* hessian) const = 0;
   virtual double local_first_contact(const Eigen::Vector3d& q0, const Eigen::Vector3d& q1) const = 0;
@@ -65,6 +68,7 @@ class Collider {
   RigidPose pose_;
   double friction_;
   std::string type_;
+  int line_;
 };
 
 // Builds the collider of a spec (index: its place in the deck's colliders list). A mesh collider

@@ -44,6 +44,8 @@ const LongField kLongFields[] = {
     {"substepped_frames", &RunSummary::substepped_frames, false},
     {"newton_frames", &RunSummary::newton_frames, false},
     {"max_active_contacts", &RunSummary::max_active_contacts, false},
+    {"collider_intrusions", &RunSummary::collider_intrusions, false},
+    {"first_intrusion_frame", &RunSummary::first_intrusion_frame, false},
     {"h0_solves", &RunSummary::h0_solves, true},
     {"hessian_assemblies", &RunSummary::hessian_assemblies, true},
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
@@ -150,6 +152,7 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
   for (const auto& f : kIntFields) head.put(std::string("summary_") + f.name, (long long)(s.*f.member));
   for (const auto& f : kRealFields) head.put(std::string("summary_") + f.name, s.*f.member);
+  head.put("summary_first_intrusion", s.first_intrusion);
   std::string keys;
   for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
   head.put("writers", keys);
@@ -225,6 +228,7 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   }
   for (const auto& f : kIntFields) s.*f.member = (int)head.get_long(std::string("summary_") + f.name);
   for (const auto& f : kRealFields) s.*f.member = head.get_real(std::string("summary_") + f.name);
+  if (head.has("summary_first_intrusion")) s.first_intrusion = head.get("summary_first_intrusion");
   h.physics = text("physics");
   std::istringstream flagged(text("flagged_frames"));
   for (std::string line; std::getline(flagged, line);) {
@@ -597,6 +601,7 @@ void restore_frame_counters(RunSummary& s, const RunSummary& saved) {
     if (!f.work) s.*f.member = saved.*f.member;
   s.flagged_frames = saved.flagged_frames;
   s.inverted_frames = saved.inverted_frames;
+  s.first_intrusion = saved.first_intrusion;
 }
 
 void add_earlier_work(RunSummary& s, const RunSummary& earlier) {

@@ -63,6 +63,10 @@ struct RunSummary {
   // and the time and count of contact evaluations (0 without colliders: no contact code ran).
   double max_penetration = 0, contact_s = 0;
   long long max_active_contacts = 0, contact_evaluations = 0;
+  // Frames at whose end a moving collider held a vertex deeper than the contact model lets it be
+  // (it pushed into the body faster than contact pushed back), the first of them and what was said.
+  long long collider_intrusions = 0, first_intrusion_frame = 0;
+  std::string first_intrusion;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)

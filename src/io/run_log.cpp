@@ -77,6 +77,14 @@ void raise_summary_maximum(RunSummary& s, const std::string& name, double value)
   }
 }
 
+void count_summary_flag(RunSummary& s, const std::string& name, int frame, const std::string& what) {
+  if (name != "collider_intrusions") throw std::logic_error("summary.json has no flag named " + name);
+  if (s.collider_intrusions++ == 0) {
+    s.first_intrusion_frame = frame;
+    s.first_intrusion = what;
+  }
+}
+
 // JSON has no NaN or Inf: write null for them.
 static std::string number(double v) {
   if (!std::isfinite(v)) return "null";
@@ -104,6 +112,9 @@ void write_summary(const std::string& path, const RunSummary& s) {
     flagged += std::string(flagged.size() > 1 ? ", " : "") + "{\"frame\": " + std::to_string(frame) +
                ", \"reason\": " + quoted(reason) + "}";
   flagged += "]";
+  const std::string first_intrusion =
+      s.collider_intrusions ? "{\"frame\": " + std::to_string(s.first_intrusion_frame) + ", \"what\": " + quoted(s.first_intrusion) + "}"
+                            : std::string("null");
   std::ostringstream out;
   out << "{\n"
       << "  \"deck\": " << quoted(s.deck) << ",\n"
@@ -157,6 +168,8 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"min_J\": " << number(s.min_J) << ",\n"
       << "  \"max_penetration\": " << number(s.max_penetration) << ",\n"
       << "  \"max_active_contacts\": " << s.max_active_contacts << ",\n"
+      << "  \"collider_intrusions\": " << s.collider_intrusions << ",\n"
+      << "  \"first_intrusion\": " << first_intrusion << ",\n"
       << "  \"contact_s\": " << number(s.contact_s) << ",\n"
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"

@@ -42,6 +42,10 @@ class FrameLog {
 // max_penetration, max_active_contacts) to value if it is larger. Throws std::logic_error for a
 // name summary.json does not have.
 void raise_summary_maximum(RunSummary& s, const std::string& name, double value);
+// Counts `frame` under the summary's field `name` (a flag a term reports: collider_intrusions),
+// keeping what the first flagged frame said. Throws std::logic_error for a name summary.json
+// does not have.
+void count_summary_flag(RunSummary& s, const std::string& name, int frame, const std::string& what);
 
 // Writes summary.json (rank 0 only), atomically: the file on disk is always a whole one. Throws
 // std::runtime_error naming the path on failure, leaving the previous file as it was.

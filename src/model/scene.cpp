@@ -402,6 +402,23 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
+  std::vector<double> pos;
+  PetscFunctionBeginUser;
+  *ok = true;
+  PetscCall(scene_->body->local_positions(s.x, pos));
+  for (const auto& term : scene_->body->terms()) {
+    InputProblem problem;
+    PetscCall(term->check_start(pos, problem));
+    if (!problem.what.empty()) {
+      PetscCall(PetscPrintf(comm_, "hyperqn: error: %s\n", InputError(spec_->path, problem.line, problem.key, problem.what).what()));
+      *ok = false;
+      break;
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
 // x, v of scene `from` as new vectors of scene `to` (same local vertices): every vertex keeps its
 // position and velocity; a vertex freed in `to` keeps the prescribed ones it had.
 static PetscErrorCode carry_state(const Scene& from, const Scene& to, State& s) {

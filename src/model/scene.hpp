@@ -81,6 +81,11 @@ class LiveScene {
   Scene& current() { return *scene_; }
   // s at frame 0: rest positions, then the spec's initial state; zero velocity; nothing released.
   PetscErrorCode initial_state(State& s) const;
+  // Whether a new run may start at s (EnergyTerm::check_start: e.g. no body inside an obstacle):
+  // if not, *ok = false and the input error, naming the deck's file, line and key, is printed
+  // ("hyperqn: error: ..."). Collective. A restart is not checked: it goes on from a state the
+  // run reached.
+  PetscErrorCode check_start(const State& s, bool* ok) const;
 
   // Called before the step from main (frame n to n + 1). If a region or attachment is due (release
   // time <= (n + 1) h) that main has not released yet, the scene is rebuilt with its vertices free

@@ -1,6 +1,7 @@
 #include "terms/contact.hpp"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 
@@ -20,6 +21,7 @@ ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_pt
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
   stiffness_.assign(vertices_.size(), stiffness_per_mass());
+  for (auto& collider : colliders_) collider->set_time(0);  // where the run starts (check_start)
 }
 
 double ContactTerm::stiffness_per_mass() const {
@@ -311,6 +313,112 @@ PetscErrorCode ContactTerm::report(const std::vector<double>& pos, TermReport& o
     active += m.active[c];
   }
   out.maxima = {{"max_penetration", deepest}, {"max_active_contacts", (double)active}};
+  // A moving collider that holds a vertex too deep pushed into the body faster than contact could
+  // push back (the start was checked, and a static one cannot move into it).
+  if (std::any_of(colliders_.begin(), colliders_.end(), [](const auto& c) { return c->moves(); })) {
+    std::vector<HeldVertices> held;
+    PetscCall(held_vertices(pos, true, [this](double phi) { return too_deep(phi); }, held));
+    std::string text;
+    for (size_t c = 0; c < held.size(); ++c)
+      if (held[c].count > 0) text += (text.empty() ? "" : "; ") + held_sentence(c, held[c], too_deep_words());
+    if (!text.empty()) out.flags.emplace_back("collider_intrusions", text + ": it moved into the body faster than contact pushed back");
+  }
+  PetscFunctionReturn(0);
+}
+
+template <typename Test>
+PetscErrorCode ContactTerm::held_vertices(const std::vector<double>& pos, bool moving_only, Test test,
+                                          std::vector<HeldVertices>& out) const {
+  const size_t nc = colliders_.size();
+  std::vector<long> count(nc, 0);
+  std::vector<double> depth(nc, -HUGE_VAL), where(3 * nc, 0.0);  // the deepest's position
+  std::vector<long long> id(nc, LLONG_MAX);
+  PetscFunctionBeginUser;
+  for (PetscInt v : vertices_) {
+    const Vec3 p(&pos[3 * v]);
+    const long long vid = mesh_.vertex_ids[v];
+    for (size_t c = 0; c < nc; ++c) {
+      if (moving_only && !colliders_[c]->moves()) continue;
+      const double phi = colliders_[c]->distance(p);
+      if (!test(phi)) continue;
+      ++count[c];
+      if (-phi > depth[c] || (-phi == depth[c] && vid < id[c])) {
+        depth[c] = -phi;
+        id[c] = vid;
+        for (int d = 0; d < 3; ++d) where[3 * c + d] = p[d];
+      }
+    }
+  }
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  std::vector<double> deepest(nc);
+  std::vector<long long> deepest_id(nc);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, count.data(), (int)nc, MPI_LONG, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(depth.data(), deepest.data(), (int)nc, MPI_DOUBLE, MPI_MAX, comm));
+  for (size_t c = 0; c < nc; ++c)
+    if (depth[c] != deepest[c]) id[c] = LLONG_MAX;  // a deeper one is on another rank
+  PetscCallMPI(MPI_Allreduce(id.data(), deepest_id.data(), (int)nc, MPI_LONG_LONG, MPI_MIN, comm));
+  for (size_t c = 0; c < nc; ++c)  // each vertex is on one rank: that rank sends its position
+    if (id[c] != deepest_id[c] || count[c] == 0)
+      for (int d = 0; d < 3; ++d) where[3 * c + d] = 0;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, where.data(), (int)where.size(), MPI_DOUBLE, MPI_SUM, comm));
+  out.assign(nc, HeldVertices());
+  for (size_t c = 0; c < nc; ++c) {
+    if (count[c] == 0) continue;
+    out[c].count = count[c];
+    out[c].depth = deepest[c];
+    out[c].vertex = deepest_id[c];
+    out[c].position = Vec3(&where[3 * c]);
+  }
+  PetscFunctionReturn(0);
+}
+
+std::string ContactTerm::too_deep_words() const {
+  char text[120];
+  if (barrier_) return "inside it (the barrier's energy is infinite there)";
+  std::snprintf(text, sizeof text, "deeper than the activation distance %.4g (contact.distance)", spec_.distance);
+  return text;
+}
+
+std::string ContactTerm::held_sentence(size_t c, const HeldVertices& held, const std::string& what) const {
+  char text[400];
+  const Vec3& p = held.position;
+  std::snprintf(text, sizeof text, "colliders[%zu] (%s, deck line %d) holds %ld free %s %s (the deepest: vertex %lld at (%.6g, %.6g, %.6g), %.4g inside)",
+                c, colliders_[c]->type().c_str(), colliders_[c]->line(), held.count, held.count == 1 ? "vertex" : "vertices", what.c_str(), held.vertex, p[0], p[1], p[2], held.depth);
+  return text;
+}
+
+PetscErrorCode ContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
+  std::vector<HeldVertices> held;
+  PetscFunctionBeginUser;
+  PetscCall(held_vertices(pos, false, [this](double phi) { return too_deep(phi); }, held));
+  long free_vertices = (long)vertices_.size(), others = 0;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  for (size_t c = 0; c < held.size(); ++c) {
+    if (held[c].count == 0) continue;
+    if (!out.what.empty()) {
+      ++others;
+      continue;
+    }
+    const HeldVertices& h = held[c];
+    char text[500];
+    std::snprintf(text, sizeof text, "the body starts inside this %s: %ld of its %ld free vertices are %s at frame 0; the deepest, vertex %lld at (%.6g, %.6g, %.6g), is %.4g inside. Move the body or the obstacle",
+                  colliders_[c]->type().c_str(), h.count, free_vertices, too_deep_words().c_str(), h.vertex, h.position[0], h.position[1], h.position[2], h.depth);
+    out.line = colliders_[c]->line();
+    out.key = "colliders[" + std::to_string(c) + "]";
+    out.what = text;
+  }
+  if (others > 0) out.what += " (and " + std::to_string(others) + " other collider(s) hold vertices too)";
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ContactTerm::explain_rejection(const std::vector<double>& pos, std::string& why) const {
+  std::vector<HeldVertices> held;
+  PetscFunctionBeginUser;
+  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(held_vertices(pos, false, [](double phi) { return phi <= 0; }, held));
+  for (size_t c = 0; c < held.size(); ++c)
+    if (held[c].count > 0)
+      why += (why.empty() ? "" : "; ") + held_sentence(c, held[c], "at or inside its surface, where the barrier is infinite");
   PetscFunctionReturn(0);
 }
 

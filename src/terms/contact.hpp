@@ -87,6 +87,14 @@ class ContactTerm : public EnergyTerm {
   PetscErrorCode report(const std::vector<double>& pos, TermReport& out) const override;
   std::vector<std::string> point_fields() const override { return {"contact_force"}; }
   PetscErrorCode point_field(const std::string& name, const std::vector<double>& pos, Vec out) const override;
+  // A body must not start inside an obstacle: at frame 0 (the obstacles at their pose at t = 0) no
+  // free vertex may be deeper inside a collider than the model lets it be (too_deep). The problem
+  // names the first such collider (its deck line and colliders[i]), how many vertices it holds and
+  // the deepest one.
+  PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
+  // The barrier's energy is infinite where a free vertex is at or inside an obstacle: which
+  // colliders hold which vertices (the penalty is always finite: "").
+  PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // Forces per collider at the local positions pos (collective). If force is not null (a global
   // vector of free dofs) it gets the contact force (normal + friction) on every free vertex.
@@ -99,6 +107,26 @@ class ContactTerm : public EnergyTerm {
   // The normal energy per unit stiffness at phi < d: b, db/dphi, d2b/dphi2 (inf for the barrier at phi <= 0).
   void profile(double phi, double* b, double* db, double* d2b) const;
   double stiffness_per_mass() const;  // k_i / m_i
+  // Deeper inside an obstacle than the model lets a vertex be at the end of a frame: penalty
+  // phi < -d (it pushes back with more than 4 times `stiffness` vertex weights there), barrier
+  // phi < 0 (no iterate is ever inside; a vertex exactly on the surface is touching).
+  bool too_deep(double phi) const { return barrier_ ? phi < 0 : phi < -spec_.distance; }
+  std::string too_deep_words() const;  // "deeper than the activation distance 0.0076 (contact.distance)"
+  // The free vertices at pos that a collider holds (test(phi)), per collider over all ranks: how
+  // many, and the deepest (the lowest vertex id among equals: the same at any rank count).
+  // moving_only: colliders without a motion count none. Collective.
+  struct HeldVertices {
+    long count = 0;
+    double depth = 0;          // -phi of the deepest
+    long long vertex = -1;     // its id in the input mesh (the output's vertex_id)
+    Vec3 position = Vec3::Zero();
+  };
+  template <typename Test>
+  PetscErrorCode held_vertices(const std::vector<double>& pos, bool moving_only, Test test,
+                               std::vector<HeldVertices>& out) const;
+  // "colliders[1] (box, deck line 23) holds 4 free vertices <what> (the deepest: vertex 840 at
+  // (x, y, z), 0.031 inside)".
+  std::string held_sentence(size_t c, const HeldVertices& held, const std::string& what) const;
   // Lagged friction of contact point f at p: energy, gradient, Hessian.
   double friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const;
 

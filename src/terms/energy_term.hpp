@@ -29,11 +29,20 @@ struct TermLog {
   std::string columns;  // CSV header after "frame,time,"
 };
 
-// What a term reports at the end of a frame: its log's rows (each the values after frame,time)
-// and maxima over the run for summary.json (the summary's field name, the frame's value).
+// What a term reports at the end of a frame: its log's rows (each the values after frame,time),
+// maxima over the run for summary.json (the summary's field name, the frame's value), and flags:
+// the frame counted under a summary field (its name) with a sentence for the console, e.g. the
+// contact's {"collider_intrusions", "colliders[1] (box, deck line 23) holds 4 vertices ..."}.
 struct TermReport {
   std::vector<std::string> rows;
   std::vector<std::pair<std::string, double>> maxima;
+  std::vector<std::pair<std::string, std::string>> flags;
+};
+
+// What a term finds wrong with the input: the deck line and key it comes from, and what ("": nothing).
+struct InputProblem {
+  int line = 0;
+  std::string key, what;
 };
 
 class EnergyTerm {
@@ -82,6 +91,15 @@ class EnergyTerm {
   // point fields of the output frames (names; one's values at pos into a global vector of free
   // dofs, collective).
   virtual std::string describe() const { return ""; }
+  // Whether a run may start at pos, the frame-0 positions of a new run (not of a restart: a run
+  // goes on from any state it reached); collective, every rank gets the same problem (e.g. a body
+  // inside an obstacle).
+  virtual PetscErrorCode check_start(const std::vector<double>& /*pos*/, InputProblem& /*out*/) const { return 0; }
+  // Why the term's energy is not finite at pos, for the message of a run that stops there ("": it
+  // is, or the term cannot say); collective.
+  virtual PetscErrorCode explain_rejection(const std::vector<double>& /*pos*/, std::string& /*why*/) const {
+    return 0;
+  }
   virtual TermLog log() const { return {}; }
   virtual PetscErrorCode report(const std::vector<double>& /*pos*/, TermReport& /*out*/) const { return 0; }
   virtual std::vector<std::string> point_fields() const { return {}; }

@@ -217,3 +217,63 @@ def test_unknown_petsc_line_search_option(tmp_path):
     proc = run_hyperqn([path, "-o", tmp_path / "out", "-tao_ls_type", "bogus"], ranks=None, check=False, timeout=60)
     assert proc.returncode != 0 and "bogus" in proc.stdout
     assert not (tmp_path / "out").exists()
+
+
+# A body that starts inside an obstacle (docs/contact.md#a-start-inside-an-obstacle): an input
+# error naming the collider's deck line and index, how many free vertices it holds and the
+# deepest one. The sheet lies in y = 0 (15 vertices, 3 fixed); the bar's vertices at y = 0 are
+# 8 of its 16 free ones.
+def sheet_in_plane(height, **contact):
+    deck = copy.deepcopy(CLOTH)
+    deck["colliders"] = [{"type": "plane", "point": [0, height, 0], "normal": [0, 1, 0]}]
+    if contact:
+        deck["contact"] = contact
+    return deck
+
+
+START_INSIDE = {
+    # name: (deck, index of the collider named, fragments of the message)
+    "sheet_inside_ground": (sheet_in_plane(0.9), 0,
+                            ["inside this plane", "12 of its 12 free vertices", "deeper than the activation distance",
+                             "(contact.distance) at frame 0", ", is 0.9 inside"]),
+    "bar_inside_ground_barrier": (deck_with(colliders=[{"type": "plane", "point": [0, 0.1, 0], "normal": [0, 1, 0]}],
+                                            contact={"model": "barrier"}), 0,
+                                  ["inside this plane", "8 of its 16 free vertices", "the barrier's energy is infinite",
+                                   ", is 0.1 inside"]),
+    # the first collider is clear of the bar; the second, a solid box, holds its far end
+    "bar_end_in_second_collider": (deck_with(colliders=[{"type": "sphere", "center": [0, 5, 0], "radius": 1},
+                                                        {"type": "box", "min": [0.9, -1, -1], "max": [2, 1, 1]}]), 1,
+                                   ["inside this box", "4 of its 16 free vertices", "at (1, ", ", is 0.1 inside"]),
+}
+
+
+def deck_line_of_collider(path, index):
+    """The 1-based line of the deck's colliders[index] item (the line its error names)."""
+    lines = open(path).read().splitlines()
+    first = lines.index("colliders:")
+    items = [k for k in range(first + 1, len(lines)) if lines[k].startswith("- ")]
+    return items[index] + 1
+
+
+@pytest.mark.parametrize("case", sorted(START_INSIDE))
+def test_start_inside_an_obstacle(tmp_path, case):
+    deck, index, fragments = START_INSIDE[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    line = deck_line_of_collider(path, index)
+    messages = {}
+    for ranks in (None, 2):
+        outdir = tmp_path / f"out{ranks}"
+        proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+        assert proc.returncode == 1
+        assert_clean_failure(proc, outdir, [f"{case}.yaml:{line}: 'colliders[{index}]': the body starts"] + fragments)
+        messages[ranks] = [l for l in proc.stdout.splitlines() if "hyperqn: error" in l]
+    assert messages[None] == messages[2], "the message (the deepest vertex) depends on the rank count"
+
+
+def test_start_inside_an_obstacle_in_a_study(tmp_path):
+    deck, index, fragments = START_INSIDE["sheet_inside_ground"]
+    deck = dict(deck, study={"frames": [1], "solvers": ["lbfgs"], "trajectory": False})
+    path = write_deck(tmp_path / "study.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn(["study", path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"study.yaml:{deck_line_of_collider(path, index)}: 'colliders[0]'"] + fragments)

@@ -8,6 +8,10 @@
 - A moving ball pressing into a clamped block: no vertex ends inside it; 1 and 2 ranks agree.
 - Every example deck of input/contact runs at 1 and 2 ranks with either model (reduced copies).
 - A scene without colliders runs no contact code and writes no contact output.
+- A start inside an obstacle: within the penalty's activation distance of its surface it runs,
+  deeper it is an input error; a moving collider that pushes into the body faster than contact
+  pushes back is flagged (console, summary.json's collider_intrusions); with the barrier the run
+  stops, and its message names the collider and the vertex.
 """
 import copy
 import math
@@ -65,6 +69,85 @@ def test_resting_cube_carries_its_weight(tmp_path, model, ranks):
     # The VTK field: the contact forces on the vertices add up to the total.
     assert abs(frame.contact_force[:, 1].sum() - c["normal_force"][-1]) < 1e-6 * weight
     assert np.abs(frame.velocity).max() < 1e-3  # at rest
+
+
+# The cube's activation distance: 1e-2 of its rest diagonal (0.2 m sides).
+CUBE_D = 1e-2 * 0.2 * math.sqrt(3)
+
+
+@pytest.mark.parametrize("depth,runs", [(0.8 * CUBE_D, True), (1.2 * CUBE_D, False)])
+def test_penalty_start_inside_the_layer_runs(tmp_path, depth, runs):
+    """With the penalty a body may start inside an obstacle by up to the activation distance d
+    (it is pushed out, with up to 4 times `stiffness` vertex weights); deeper is an input error."""
+    deck = cube_on_ground(frames=5)
+    deck["mesh"]["transform"]["translate"][1] = -depth
+    out = tmp_path / "cube"
+    proc = run_hyperqn([write_deck(tmp_path / "cube.yaml", deck), "-o", out], check=False)
+    if runs:
+        assert proc.returncode == 0, proc.stdout[-3000:]
+        s = read_summary(out)
+        assert s["status"] == "ok" and s["collider_intrusions"] == 0 and s["first_intrusion"] is None
+        assert s["max_penetration"] < depth  # pushed back out
+    else:
+        assert proc.returncode == 1 and not out.exists()
+        assert "'colliders[0]': the body starts inside this plane: 25 of its 125 free vertices" in proc.stdout
+
+
+def ball_driven_in(speed, model, stiffness=None):
+    """sphere_press with the ball driven down into the block at `speed` (m/s), just above it at t = 0."""
+    deck = sphere_press(10)
+    deck["mesh"]["box"]["cells"] = [6, 3, 6]
+    ball = deck["colliders"][0]
+    ball["center"] = [0, 0.46, 0]
+    ball["motion"] = {"translate": {"velocity": [0, -speed, 0]}, "start": 0, "end": 10}
+    deck["contact"] = {"model": model}
+    if stiffness:
+        deck["contact"]["stiffness"] = stiffness
+    return deck
+
+
+def test_penalty_flags_a_collider_driven_into_the_body(tmp_path):
+    """A ball driven into the block faster than a soft penalty pushes back: the run completes,
+    each frame that ends with a vertex deeper than d in the ball is flagged on the console, and
+    summary.json counts them with the first one's frame and collider."""
+    deck = ball_driven_in(0.6, "penalty", stiffness=1)
+    out = tmp_path / "press"
+    path = write_deck(tmp_path / "press.yaml", deck)
+    proc = run_hyperqn([path, "-o", out])
+    s = read_summary(out)
+    warnings = [l for l in proc.stdout.splitlines() if "WARNING: colliders[0] (sphere, deck line" in l]
+    print(f"{s['collider_intrusions']} frames flagged, first {s['first_intrusion']}; max penetration {s['max_penetration']:.3e} m")
+    assert s["collider_intrusions"] == len(warnings) > 0
+    first = s["first_intrusion"]
+    assert f"frame {first['frame']:5d}  WARNING: {first['what']}" in proc.stdout
+    assert "deeper than the activation distance" in first["what"] and "moved into the body" in first["what"]
+    assert s["max_penetration"] > deck["contact"].get("distance", 1e-2 * math.sqrt(0.6 ** 2 * 2 + 0.3 ** 2))
+
+    # A restart goes on from a state the run reached, a vertex deep in the ball included, and
+    # keeps the count: interrupted after the first flagged frame, continued, the same summary.
+    after = first["frame"]
+    stopped = tmp_path / "stopped"
+    proc = run_hyperqn([path, "-o", stopped, "-hyperqn_test_signal_after_frame", str(after)], check=False)
+    assert proc.returncode == 3, proc.stdout[-2000:]
+    run_hyperqn([path, "-o", stopped, "--restart", "latest"])
+    again = read_summary(stopped)
+    assert again["status"] == s["status"]
+    assert again["collider_intrusions"] == s["collider_intrusions"] and again["first_intrusion"] == first
+
+
+def test_barrier_stop_names_the_collider(tmp_path):
+    """With the barrier a ball that reaches a vertex's x_n within one step leaves no admissible
+    start: the run stops, and the message says which collider holds which vertex."""
+    deck = ball_driven_in(3.0, "barrier")
+    deck["solver"] = dict(deck.get("solver", {}), max_halvings=0, newton_fallback=False)
+    out = tmp_path / "press"
+    proc = run_hyperqn([write_deck(tmp_path / "press.yaml", deck), "-o", out], check=False)
+    assert proc.returncode == 1
+    s = read_summary(out)
+    assert s["status"].startswith("error: frame ")
+    assert "non-finite energy or gradient at every point tried" in s["status"]
+    assert "colliders[0] (sphere, deck line" in s["status"] and "at or inside its surface" in s["status"]
+    assert "the deepest: vertex" in s["status"]
 
 
 def slope_track(out, dt):
