@@ -612,10 +612,12 @@ void test_cloth_decks() {
   Deck d = load_ok("cloth_springs", sheet + springs);
   CHECK(d.mesh.is_sheet && d.mesh.has_cloth() && !d.mesh.has_solid());
   CHECK(d.mesh.sheet_size[1] == 2 && d.mesh.sheet_cells[1] == 8);
-  CHECK(d.cloth.model == hyperqn::ClothModel::mass_spring && d.cloth.stretch_stiffness == 100 && d.cloth.bending == "none");
+  CHECK(d.cloth.model == hyperqn::ClothModel::mass_spring && d.cloth.stretch_stiffness == 100 &&
+        d.cloth.bending == hyperqn::BendingModel::none);
   d = load_ok("cloth_membrane", sheet + "cloth:\n  model: membrane\n  material: corotated\n  youngs_modulus: 1000\n"
                                         "  poisson_ratio: 0.25\n  bending: {model: dihedral, stiffness: 0.01}\n  areal_density: 0.1\n");
-  CHECK(d.cloth.material == "corotated" && d.cloth.bending == "dihedral" && d.cloth.bending_stiffness == 0.01);
+  CHECK(d.cloth.material == hyperqn::membrane::Model::corotated && d.cloth.bending == hyperqn::BendingModel::dihedral &&
+        d.cloth.bending_stiffness == 0.01);
   CHECK_NEAR(d.cloth.mu, 1000 / 2.5, 1e-12);              // plane stress: E / (2 (1 + nu))
   CHECK_NEAR(d.cloth.lambda, 1000 * 0.25 / (1 - 0.0625), 1e-9);  // E nu / (1 - nu^2)
   write_file("meshes/shirt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cstdint>
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <type_traits>
@@ -48,13 +49,15 @@ constexpr size_t kMaxNameLength = 100;
 
 const Names kMeshEdges = {"ignore", "strands"};
 const Names kMeshSurfaces = {"cloth"};
-const Names kMembraneMaterials = {"stvk", "corotated", "neohookean"};
-const Names kBendingModels = {"quadratic", "dihedral", "springs", "none"};
 
 std::string join(const Names& names) {
   std::string s;
   for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
   return s;
+}
+
+bool listed(const Names& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
 }
 
 int line_of(const YAML::Node& n) { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
@@ -225,19 +228,45 @@ class Section {
 
 // Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
-// got X"), an unknown choice, an unknown key, an empty list. `more`: keys the section also allows;
-// they and the declared keys without member or `set` are read by the caller. Returns the section,
-// for those and for checks that involve several keys.
+// got X"), an unknown choice, an unknown key, an empty list, a key of another model or type. A
+// nested map's keys ("box.min") are read from its map, as a section of their own. `more`: keys the
+// section also allows; they and the declared keys without member or `set` are read by the caller.
+// Returns the section, for those and for checks that involve several keys.
 template <typename Spec>
 Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spec>>& keys, Spec& spec,
                   const Names& more = {}) {
-  Names names;
-  for (const DeckKey<Spec>& k : keys) names.push_back(k.name);
+  const auto in_map = [](const std::string& key, const std::string& map) {
+    return key.size() > map.size() && key.compare(0, map.size(), map) == 0 && key[map.size()] == '.';
+  };
+  Names names;  // this map's own keys: a nested key is its map's
+  for (const DeckKey<Spec>& k : keys)
+    if (std::string(k.name).find('.') == std::string::npos) names.push_back(k.name);
   names.insert(names.end(), more.begin(), more.end());
   Section s(r, v, names);
+  // The word of choice key `name` as read so far (its default if the deck leaves it out).
+  const auto word = [&](const std::string& name) {
+    for (const DeckKey<Spec>& k : keys)
+      if (k.name == name) return k.get(spec);
+    return std::string();
+  };
   for (const DeckKey<Spec>& k : keys) {
-    const Value* x = k.required ? &s.need(k.name) : s.find(k.name);
+    if (std::string(k.name).find('.') != std::string::npos) continue;  // read with its map
+    const bool applies = k.only_for.empty() || listed(k.only_for, word(k.selector));
+    const Value* x = k.required && applies ? &s.need(k.name) : s.find(k.name);
     if (!x) continue;
+    if (!applies)
+      r.fail(*x, std::string("applies to ") + k.selector + " " + join(k.only_for) + " only (" + k.selector + " is " +
+                     word(k.selector) + ")");
+    std::vector<DeckKey<Spec>> nested;  // a map's keys, named within it
+    for (const DeckKey<Spec>& n : keys)
+      if (in_map(n.name, k.name)) {
+        nested.push_back(n);
+        nested.back().name = n.name + std::strlen(k.name) + 1;
+      }
+    if (!nested.empty()) {
+      read_keys(r, *x, nested, spec);
+      continue;
+    }
     // One value (a list's item) of type T.
     const auto one = [&](auto type, const Value& item) {
       using T = decltype(type);
@@ -247,27 +276,37 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
         return value;
       } else if constexpr (std::is_same_v<T, bool>) {
         return r.boolean(item);
+      } else if constexpr (std::is_same_v<T, Array3>) {
+        const Array3 value = r.numbers3(item);
+        if (k.range.nonzero) {
+          r.check(is_nonzero(value), item, k.range.rule());
+        } else if (!k.range.rule().empty()) {
+          const std::vector<Value> items = r.items(item);
+          for (size_t i = 0; i < 3; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
+        }
+        return value;
       } else {
         return k.choices.empty() ? r.text(item) : r.choice(item, k.choices);
       }
     };
     std::visit(
-        [&](auto member) {
-          if constexpr (std::is_same_v<decltype(member), std::monostate>) {
+        [&](const auto& field) {
+          using F = std::decay_t<decltype(field)>;
+          if constexpr (std::is_same_v<F, std::monostate>) {
             if (k.set) k.set(spec, r.choice(*x, k.choices));
           } else {
-            using T = std::decay_t<decltype(spec.*member)>;
+            using T = std::decay_t<decltype(field(spec))>;
             if constexpr (std::is_same_v<T, std::vector<int>> || std::is_same_v<T, std::vector<std::string>>) {
               T list;
               for (const Value& item : r.items(*x)) list.push_back(one(typename T::value_type(), item));
-              r.check(!list.empty(), *x, "a non-empty list");
-              spec.*member = list;
+              r.check(!list.empty(), *x, std::string("a non-empty ") + type_name(list));
+              field(spec) = list;
             } else {
-              spec.*member = one(T(), *x);
+              field(spec) = one(T(), *x);
             }
           }
         },
-        k.member);
+        k.member.field);
   }
   return s;
 }
@@ -391,44 +430,13 @@ void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
   read_keys(r, v, strand_material_keys(), m);
 }
 
-// cloth: {model, stretch_stiffness | material + youngs_modulus + poisson_ratio, bending, areal_density}
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
-  Section s(r, v, {"model", "stretch_stiffness", "material", "youngs_modulus", "poisson_ratio", "bending", "areal_density"});
-  const std::string model = r.choice(s.need("model"), kClothModelNames);
-  c.model = ClothModel(std::find(kClothModelNames.begin(), kClothModelNames.end(), model) - kClothModelNames.begin());
-  const bool springs = c.model == ClothModel::mass_spring;
-  for (const char* key : {"stretch_stiffness", "material", "youngs_modulus", "poisson_ratio"}) {
-    const bool spring_key = std::string(key) == "stretch_stiffness";
-    if (const Value* x = s.find(key); x && spring_key != springs)
-      r.fail(*x, std::string("is a key of cloth model ") + (spring_key ? "mass-spring" : "membrane") + ", not of " + model);
-  }
-  if (springs) {
-    const Value& k = s.need("stretch_stiffness");
-    c.stretch_stiffness = r.number(k);
-    r.check(c.stretch_stiffness > 0, k, "> 0");
-  } else {
-    if (const Value* x = s.find("material")) c.material = r.choice(*x, kMembraneMaterials);
-    const Value &E = s.need("youngs_modulus"), &nu = s.need("poisson_ratio");
-    const double e = r.number(E), n = r.number(nu);
-    r.check(e > 0, E, "> 0 (the sheet's stretching modulus, N/m)");
-    r.check(n > -1 && n < 0.5, nu, "in (-1, 0.5)");
+  read_keys(r, v, cloth_keys(), c);
+  if (c.model == ClothModel::membrane) {
+    const double e = c.youngs_modulus, n = c.poisson_ratio;
     c.mu = e / (2 * (1 + n));        // plane stress: the 2-D Lame constants of a thin sheet
     c.lambda = e * n / (1 - n * n);
   }
-  if (const Value* b = s.find("bending")) {
-    Section bs(r, *b, {"model", "stiffness"});
-    c.bending = r.choice(bs.need("model"), kBendingModels);
-    if (c.bending != "none") {
-      const Value& k = bs.need("stiffness");
-      c.bending_stiffness = r.number(k);
-      r.check(c.bending_stiffness > 0, k, "> 0");
-    } else if (const Value* k = bs.find("stiffness")) {
-      r.fail(*k, "bending model none takes no stiffness");
-    }
-  }
-  const Value& rho = s.need("areal_density");
-  c.areal_density = r.number(rho);
-  r.check(c.areal_density > 0, rho, "> 0 (kg/m^2)");
 }
 
 // A pair of keys that only make sense together: the missing one is reported at the other's line.
@@ -488,10 +496,6 @@ FunctionSpec read_function(const Reader& r, const Value& v) {
 // own keys to that model alone.
 const Names kEveryMaterial = {"model", "density", "total_mass", "laplacian_weight"};
 const Names kElasticConstants = {"youngs_modulus", "poisson_ratio", "mu", "lambda"};
-
-bool listed(const Names& names, const std::string& name) {
-  return std::find(names.begin(), names.end(), name) != names.end();
-}
 
 // Every key a material section may hold, for the "unknown key" message.
 Names material_keys() {
@@ -582,59 +586,34 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   }
 }
 
-BoxRegion read_box(const Reader& r, const Value& v) {
-  Section box(r, v, {"min", "max"});
-  const Value &min = box.need("min"), &max = box.need("max");
-  BoxRegion b;
-  b.min = r.numbers3(min);
-  b.max = r.numbers3(max);
-  b.line = v.line;
+// A box of fixed:, attachments: or regions:, read by read_keys (box_keys): min <= max on every axis.
+void check_box(const Reader& r, const Section& s, const BoxRegion& b) {
+  const Value* box = s.find("box");
+  if (!box) return;
+  const Section corners(r, *box, {});
   for (int i = 0; i < 3; ++i)
     if (b.min[i] > b.max[i])
-      r.fail(box.value(), std::string("min > max along ") + "xyz"[i] + ": " + r.items(min)[i].node.Scalar() +
-                              " > " + r.items(max)[i].node.Scalar());
-  return b;
+      r.fail(*box, std::string("min > max along ") + "xyz"[i] + ": " + r.items(*corners.find("min"))[i].node.Scalar() +
+                       " > " + r.items(*corners.find("max"))[i].node.Scalar());
 }
 
 Motion read_motion(const Reader& r, const Value& v) {
-  Section s(r, v, {"rotate", "translate", "start", "end"});
   Motion m;
+  const Section s = read_keys(r, v, motion_keys(), m);
   m.active = true;
-  if (const Value* x = s.find("rotate")) {
-    Section rot(r, *x, {"axis", "center", "rate"});
-    const Value& axis = rot.need("axis");
-    m.axis = r.numbers3(axis);
-    r.check(m.axis[0] * m.axis[0] + m.axis[1] * m.axis[1] + m.axis[2] * m.axis[2] > 0, axis, "a nonzero vector");
-    if (const Value* c = rot.find("center")) m.center = r.numbers3(*c);
-    m.rate_deg = r.number(rot.need("rate"));
-  }
-  if (const Value* x = s.find("translate")) {
-    Section tr(r, *x, {"velocity"});
-    m.velocity = r.numbers3(tr.need("velocity"));
-  }
-  if (const Value* x = s.find("start")) {
-    m.start = r.number(*x);
-    r.check(m.start >= 0, *x, ">= 0");
-  }
-  if (const Value* x = s.find("end")) {
-    m.end = r.number(*x);
-    r.check(m.end >= m.start, *x, ">= motion.start");
-  }
+  if (const Value* x = s.find("end")) r.check(m.end >= m.start, *x, ">= motion.start");
   return m;
 }
 
 // body >= 0: bodies[body].fixed, which selects that body's vertices only.
 void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, int body = -1) {
   for (const Value& item : r.items(v)) {
-    Section region(r, item, {"box", "motion", "release"});
-    BoxRegion b = read_box(r, region.need("box"));
+    BoxRegion b;
+    const Section s = read_keys(r, item, fixed_keys(), b);
+    check_box(r, s, b);
     b.line = item.line;
     b.body = body;
-    if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
-    if (const Value* x = region.find("release")) {
-      b.release = r.number(*x);
-      r.check(b.release > 0, *x, "> 0 (a time)");
-    }
+    if (const Value* x = s.find("motion")) b.motion = read_motion(r, *x);
     fixed.push_back(b);
   }
 }
@@ -733,18 +712,11 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
 // attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
 void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments) {
   for (const Value& item : r.items(v)) {
-    Section s(r, item, {"box", "stiffness", "motion", "release"});
     AttachmentSpec a;
-    a.region = read_box(r, s.need("box"));
+    const Section s = read_keys(r, item, attachment_keys(), a);
+    check_box(r, s, a.region);
     a.region.line = item.line;
-    const Value& k = s.need("stiffness");
-    a.stiffness = r.number(k);  // finite and at most 1e100, like every deck number
-    r.check(a.stiffness > 0, k, "> 0 (N/m per vertex)");
     if (const Value* x = s.find("motion")) a.region.motion = read_motion(r, *x);
-    if (const Value* x = s.find("release")) {
-      a.region.release = r.number(*x);
-      r.check(a.region.release > 0, *x, "> 0 (a time)");
-    }
     attachments.push_back(a);
   }
 }
@@ -778,19 +750,15 @@ void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
 
 void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
   for (const Value& item : r.items(v)) {
-    Section s(r, item, {"box", "tags", "material"});
     MaterialRegion region;
+    const Section s = read_keys(r, item, region_keys(), region);
     region.line = item.line;
     const Value *box = s.find("box"), *tags = s.find("tags");
     if (!box == !tags) r.fail(item, "give either box or tags");
-    if (box) {
-      region.box = read_box(r, *box);
-    } else {
-      region.by_box = false;
-      for (const Value& t : r.items(*tags)) region.tags.push_back(r.integer(t));
-      r.check(!region.tags.empty(), *tags, "a non-empty list of element tags");
-    }
-    const Value& mat = s.need("material");
+    check_box(r, s, region.box);
+    region.by_box = box != nullptr;
+    if (box) region.box.line = box->line;
+    const Value& mat = *s.find("material");
     read_material(r, mat, region.material);
     // Masses are per unit volume when the body has several materials.
     if (!region.material.has_density || !base.has_density)

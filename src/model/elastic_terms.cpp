@@ -53,11 +53,11 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
   if (mesh.global_triangles > 0) {
     terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density));
     if (cloth.model == ClothModel::membrane)
-      terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda));
+      terms.push_back(std::make_unique<ClothMembrane>(mesh, cloth.material, cloth.mu, cloth.lambda));
     else
       terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness));
-    if (cloth.bending != "none" && mesh.global_hinges > 0)
-      terms.push_back(std::make_unique<ClothBending>(mesh, bending_model(cloth.bending), cloth.bending_stiffness));
+    if (cloth.bending != BendingModel::none && mesh.global_hinges > 0)
+      terms.push_back(std::make_unique<ClothBending>(mesh, cloth.bending, cloth.bending_stiffness));
   }
   return terms;
 }

@@ -6,12 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "geometry/collider.hpp"
 #include "io/deck_keys.hpp"
 #include "mesh/mesh_spec.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
 #include "model/time_integrator.hpp"
-#include "terms/contact.hpp"
+#include "terms/contact_spec.hpp"
 
 namespace hyperqn {
 
@@ -37,34 +38,6 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
        {}, integrator_names(), "", "",
        [](TimeSpec& t, const std::string& name) { t.integrator = integrator_named(name)->kind; },
        [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
-  };
-  return keys;
-}
-
-// The deck's contact: keys (io/deck_keys.hpp; ContactSpec is the contact term's, terms/contact.hpp,
-// a layer below the deck's declarations). Its defaults of 0 are resolved by the scene (resolved_contact).
-inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
-  using C = ContactSpec;
-  static const std::vector<DeckKey<C>> keys = {
-      enum_key<C>("model", &C::model, kContactModelNames,
-                  "`penalty`: a one-sided cubic penalty on the distance to the obstacle; `barrier`: IPC's log barrier, "
-                  "infinite at the obstacle, with every step bounded by continuous collision detection, so no vertex "
-                  "ever reaches an obstacle (measured against each other in [contact.md](contact.md))"),
-      {"distance", &C::distance,
-       "activation distance d: a vertex closer than d to an obstacle is pushed back; at most the rest bounding-box "
-       "diagonal (after `mesh.transform`: a layer thicker than the body is an error naming the deck line). Resting "
-       "bodies float about d above the obstacle (a vertex sinks d·√(f/stiffness) into this layer under f times its "
-       "own weight); smaller values give a thinner gap and more iterations ([contact.md](contact.md#defaults))",
-       above(0, "a length; omit it for 1e-2 of the body's rest diagonal"), {}, "",
-       "1e-2 × the rest bounding-box diagonal"},
-      {"stiffness", &C::stiffness,
-       "the force on a vertex that penetrates the whole activation layer (the barrier: half of it), in multiples of "
-       "its own weight m g₀ (g₀ = 9.80665 m/s²), whatever the units, masses or time step",
-       between(1, 1e12, "force at full penetration, in vertex weights")},
-      {"friction_velocity", &C::friction_velocity,
-       "ε: tangential speeds below ε count as sticking (the friction force grows from 0 at rest to μ N at ε). "
-       "Smaller values creep less on a slope and take more iterations",
-       above(0, "a speed; omit it for 1e-2 rest diagonals per second"), {}, "", "1e-2 rest diagonals per second"},
   };
   return keys;
 }
