@@ -94,7 +94,14 @@ class Reader {
   [[noreturn]] void fail(const Value& v, const std::string& msg) const { fail(v.line, v.key, msg); }
   // Range checks: rule reads after "must be", e.g. "> 0".
   void check(bool ok, const Value& v, const std::string& rule) const {
-    if (!ok) fail(v, "must be " + rule + ", got " + v.node.Scalar());
+    if (!ok) fail(v, "must be " + rule + ", got " + written(v.node));
+  }
+  // A value as the deck wrote it: a scalar, or a list as [a, b, c].
+  static std::string written(const YAML::Node& n) {
+    if (!n.IsSequence()) return n.Scalar();
+    std::string s;
+    for (const YAML::Node& item : n) s += (s.empty() ? "" : ", ") + (item.IsScalar() ? item.Scalar() : describe(item));
+    return "[" + s + "]";
   }
 
   double number(const Value& v) const {
@@ -185,8 +192,9 @@ class Reader {
 // (yaml-cpp would silently keep the first of two equal keys); an empty value is an empty map.
 class Section {
  public:
-  // allowed: the keys accepted here; empty means any key (the petsc section).
-  Section(const Reader& r, const Value& v, const Names& allowed) : r_(r), value_(v) {
+  // allowed: the keys accepted here; empty means any key (the petsc section). shown: the keys an
+  // unknown key's message lists, if not all of them (those of the collider type given).
+  Section(const Reader& r, const Value& v, const Names& allowed, const Names& shown = {}) : r_(r), value_(v) {
     r.untagged(v.node, v.line, v.key);
     if (v.node.IsNull()) return;
     if (!v.node.IsMap()) r.fail(v, "expected a map of 'key: value' entries, got " + describe(v.node));
@@ -198,7 +206,7 @@ class Section {
       r.untagged(it->second, entry.line, entry.key);
       if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end())
         r.fail(entry, "unknown key '" + name + "'" + (v.key.empty() ? "" : " in " + v.key) +
-                          "; allowed: " + join(allowed));
+                          "; allowed: " + join(shown.empty() ? allowed : shown));
       if (find(name)) r.fail(entry, "duplicate key '" + name + "'");
       entries_.push_back({name, entry});
     }
@@ -238,17 +246,31 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
   const auto in_map = [](const std::string& key, const std::string& map) {
     return key.size() > map.size() && key.compare(0, map.size(), map) == 0 && key[map.size()] == '.';
   };
-  Names names;  // this map's own keys: a nested key is its map's
-  for (const DeckKey<Spec>& k : keys)
-    if (std::string(k.name).find('.') == std::string::npos) names.push_back(k.name);
-  names.insert(names.end(), more.begin(), more.end());
-  Section s(r, v, names);
-  // The word of choice key `name` as read so far (its default if the deck leaves it out).
-  const auto word = [&](const std::string& name) {
-    for (const DeckKey<Spec>& k : keys)
-      if (k.name == name) return k.get(spec);
-    return std::string();
+  const auto declared = [&](const std::string& name) -> const DeckKey<Spec>& {
+    return *std::find_if(keys.begin(), keys.end(), [&](const DeckKey<Spec>& k) { return k.name == name; });
   };
+  // The word of choice key `name` as read so far (its default if the deck leaves it out).
+  const auto word = [&](const std::string& name) { return declared(name).get(spec); };
+  // The choice keys that other keys belong to (only_with) are read first: the unknown-key message
+  // then lists the keys of the choice given.
+  Names chosen;
+  for (const DeckKey<Spec>& k : keys) {
+    if (!*k.selector || listed(chosen, k.selector)) continue;
+    chosen.push_back(k.selector);
+    const DeckKey<Spec>& choice = declared(k.selector);
+    const Section probe(r, v, {});
+    if (const Value* x = choice.required ? &probe.need(choice.name) : probe.find(choice.name))
+      choice.set(spec, r.choice(*x, choice.choices));
+  }
+  Names names, shown;  // this map's own keys (a nested key is its map's), and those of its choices
+  for (const DeckKey<Spec>& k : keys) {
+    if (std::string(k.name).find('.') != std::string::npos) continue;
+    names.push_back(k.name);
+    if (k.only_for.empty() || listed(k.only_for, word(k.selector))) shown.push_back(k.name);
+  }
+  names.insert(names.end(), more.begin(), more.end());
+  shown.insert(shown.end(), more.begin(), more.end());
+  Section s(r, v, names, shown);
   for (const DeckKey<Spec>& k : keys) {
     if (std::string(k.name).find('.') != std::string::npos) continue;  // read with its map
     const bool applies = k.only_for.empty() || listed(k.only_for, word(k.selector));
@@ -649,55 +671,19 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
   deck.mesh.line = deck.bodies[0].mesh.line;
 }
 
-// colliders: a list of obstacles, each of one type with that type's keys (terms/contact.hpp).
+// colliders: a list of obstacles, each of one type with that type's keys (collider_keys()).
 void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, std::vector<ColliderSpec>& colliders) {
-  static const Names kTypes = {"plane", "sphere", "box", "capsule", "mesh"};
   for (const Value& item : r.items(v)) {
     ColliderSpec c;
+    const Section s = read_keys(r, item, collider_keys(), c);
     c.line = item.line;
-    {
-      Section probe(r, item, {});  // the type decides which keys are allowed
-      c.type = r.choice(probe.need("type"), kTypes);
-    }
-    Names keys = {"type", "friction", "motion"};
-    if (c.type == "plane") keys.insert(keys.end(), {"point", "normal"});
-    if (c.type == "sphere") keys.insert(keys.end(), {"center", "radius"});
-    if (c.type == "box") keys.insert(keys.end(), {"min", "max"});
-    if (c.type == "capsule") keys.insert(keys.end(), {"a", "b", "radius"});
-    if (c.type == "mesh") keys.insert(keys.end(), {"file"});
-    Section s(r, item, keys);
-    const auto positive_radius = [&] {
-      const Value& x = s.need("radius");
-      c.radius = r.number(x);
-      r.check(c.radius > 0, x, "> 0 (a length)");
-    };
-    if (c.type == "plane") {
-      c.point = r.numbers3(s.need("point"));
-      const Value& n = s.need("normal");
-      c.normal = r.numbers3(n);
-      r.check(std::hypot(c.normal[0], c.normal[1], c.normal[2]) > 0, n, "a nonzero vector");
-    } else if (c.type == "sphere") {
-      c.center = r.numbers3(s.need("center"));
-      positive_radius();
-    } else if (c.type == "box") {
-      const Value &lo = s.need("min"), &hi = s.need("max");
-      c.min = r.numbers3(lo);
-      c.max = r.numbers3(hi);
+    if (c.type == ColliderType::box)
       for (int i = 0; i < 3; ++i)
         if (!(c.min[i] < c.max[i]))
-          r.fail(hi, std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
-    } else if (c.type == "capsule") {
-      c.a = r.numbers3(s.need("a"));
-      c.b = r.numbers3(s.need("b"));
-      positive_radius();
-    } else {
-      c.file = resolve_input_file(r, s.need("file"), deck_dir, {".obj", ".mesh"},
+          r.fail(*s.find("max"), std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
+    if (c.type == ColliderType::mesh)
+      c.file = resolve_input_file(r, *s.find("file"), deck_dir, {".obj", ".mesh"},
                                   ".obj (Wavefront) or .mesh (Medit, its Triangles)");
-    }
-    if (const Value* x = s.find("friction")) {
-      c.friction = r.number(*x);
-      r.check(c.friction >= 0 && c.friction <= 100, *x, "in [0, 100] (a Coulomb coefficient)");
-    }
     if (const Value* x = s.find("motion")) c.motion = read_motion(r, *x);
     colliders.push_back(c);
   }
