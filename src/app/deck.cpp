@@ -47,8 +47,6 @@ constexpr int kContactHistory = 20;         // solver.history's default with col
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
-const Names kMeshEdges = {"ignore", "strands"};
-const Names kMeshSurfaces = {"cloth"};
 
 std::string join(const Names& names) {
   std::string s;
@@ -234,6 +232,11 @@ class Section {
   std::vector<std::pair<std::string, Value>> entries_;
 };
 
+template <typename T>
+struct is_array : std::false_type {};
+template <typename T, size_t N>
+struct is_array<std::array<T, N>> : std::true_type {};
+
 // Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
 // got X"), an unknown choice, an unknown key, an empty list, a key of another model or type. A
@@ -298,13 +301,16 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
         return value;
       } else if constexpr (std::is_same_v<T, bool>) {
         return r.boolean(item);
-      } else if constexpr (std::is_same_v<T, Array3>) {
-        const Array3 value = r.numbers3(item);
-        if (k.range.nonzero) {
-          r.check(is_nonzero(value), item, k.range.rule());
-        } else if (!k.range.rule().empty()) {
+      } else if constexpr (is_array<T>::value) {  // a vec3, 2 numbers, 2 or 3 integers
+        constexpr size_t N = std::tuple_size_v<T>;
+        T value;
+        if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item);
+        else value = r.integers<N>(item);
+        if constexpr (std::is_same_v<T, Array3>)
+          if (k.range.nonzero) r.check(is_nonzero(value), item, k.range.rule());
+        if (!k.range.nonzero && !k.range.rule().empty()) {
           const std::vector<Value> items = r.items(item);
-          for (size_t i = 0; i < 3; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
+          for (size_t i = 0; i < N; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
         }
         return value;
       } else {
@@ -348,23 +354,6 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
   return resolved.string();
 }
 
-// A generated grid {size: [N numbers > 0], cells: [N integers >= 1]} (box, sheet); returns the
-// cells value (errors about the grid's size name it) and sets line to its line.
-template <size_t N>
-Value read_grid(const Reader& r, const Value& v, std::array<double, N>& size, std::array<int, N>& cells, int& line) {
-  Section g(r, v, {"size", "cells"});
-  const Value &size_value = g.need("size"), &cells_value = g.need("cells");
-  size = r.numbers<N>(size_value);
-  cells = r.integers<N>(cells_value);
-  line = cells_value.line;
-  std::vector<Value> size_items = r.items(size_value), cells_items = r.items(cells_value);
-  for (size_t i = 0; i < N; ++i) {
-    r.check(size[i] > 0, size_items[i], "> 0");
-    r.check(cells[i] >= 1, cells_items[i], ">= 1");
-  }
-  return cells_value;
-}
-
 // A partition file's header: what its mesh holds. The keys that shape a mesh belong to the deck
 // the file was made from, and are applied in it already.
 void read_partition_header(const Reader& r, const Value& file, const Section& s, MeshSpec& m) {
@@ -385,66 +374,57 @@ void read_partition_header(const Reader& r, const Value& file, const Section& s,
 }
 
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
-  Section s(r, v, {"file", "box", "sheet", "surface", "transform", "edges", "strands"});
+  Names names;  // the section's keys: unknown keys are reported before which keys go together
+  for (const DeckKey<MeshSpec>& k : mesh_keys())
+    if (!std::strchr(k.name, '.')) names.push_back(k.name);
+  const Section s(r, v, names);
   const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
   if ((file != nullptr) + (box != nullptr) + (sheet != nullptr) > 1) r.fail(v, "give one of file, box and sheet");
   if (!file && !box && !sheet && !strands)
     r.fail(v, "missing the mesh: give file (a .mesh, .msh or .obj path), box, sheet or strands");
+  read_keys(r, v, mesh_keys(), m);
   if (file) {
     m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj", ".h5"},
                                 ".mesh (Medit), .msh (Gmsh), .obj (a cloth surface) or .h5 (a partition file of hyperqn partition)");
     m.line = file->line;
-    m.surface_as_cloth = fs::path(m.file).extension() == ".obj";
+    m.surface_as_cloth = m.surface_as_cloth || fs::path(m.file).extension() == ".obj";
     if (fs::path(m.file).extension() == ".h5") read_partition_header(r, *file, s, m);
   }
-  if (const Value* x = s.find("surface")) {
-    r.choice(*x, kMeshSurfaces);
-    if (!file) r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
-    m.surface_as_cloth = true;
-  }
+  if (const Value* x = s.find("surface"); x && !file)
+    r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
+  // A generated grid's cells: its line is the mesh's (the memory check names it), its size is capped.
+  const auto cells = [&](const Value& grid) {
+    const Value x = *Section(r, grid, {}).find("cells");
+    m.line = x.line;
+    return x;
+  };
   if (sheet) {
     m.is_sheet = true;
-    const Value cells = read_grid(r, *sheet, m.sheet_size, m.sheet_cells, m.line);
+    const Value x = cells(*sheet);
     const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
     if (3 * triangles > kMaxBoxTets)
-      r.fail(cells, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
+      r.fail(x, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
   }
   if (m.has_cloth() && strands) r.fail(*strands, "a cloth cannot share a mesh with strands");
-  if (const Value* x = s.find("edges")) {
-    m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
+  if (const Value* x = s.find("edges"))
     if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh" || m.surface_as_cloth))
       r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
-  }
   if (strands) {
     for (const Value& item : r.items(*strands)) {
-      Section st(r, item, {"from", "to", "segments"});
       StrandLine line;
+      const Section st = read_keys(r, item, strand_line_keys(), line);
       line.line = item.line;
-      line.from = r.numbers3(st.need("from"));
-      line.to = r.numbers3(st.need("to"));
-      const Value& n = st.need("segments");
-      line.segments = r.integer(n);
-      r.check(line.segments >= 1, n, ">= 1");
-      if (line.from == line.to) r.fail(st.need("to"), "a strand needs distinct from and to points");
+      if (line.from == line.to) r.fail(*st.find("to"), "a strand needs distinct from and to points");
       m.strands.push_back(line);
     }
     if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
   }
   if (box) {
     m.is_box = true;
-    const Value cells = read_grid(r, *box, m.box_size, m.box_cells, m.line);
+    const Value x = cells(*box);
     const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
     if (tets > kMaxBoxTets)
-      r.fail(cells, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
-  }
-  if (const Value* t = s.find("transform")) {
-    Section ts(r, *t, {"scale", "rotate", "translate"});
-    if (const Value* x = ts.find("scale")) {
-      m.transform.scale = r.number(*x);
-      r.check(m.transform.scale > 0, *x, "> 0");
-    }
-    if (const Value* x = ts.find("rotate")) m.transform.rotate_deg = r.numbers3(*x);
-    if (const Value* x = ts.find("translate")) m.transform.translate = r.numbers3(*x);
+      r.fail(x, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
   }
 }
 

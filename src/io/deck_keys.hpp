@@ -76,7 +76,8 @@ using Field = std::function<T&(Spec&)>;
 template <typename Spec>
 struct KeyMember {
   std::variant<std::monostate, Field<Spec, double>, Field<Spec, int>, Field<Spec, bool>, Field<Spec, std::string>,
-               Field<Spec, Array3>, Field<Spec, std::vector<int>>, Field<Spec, std::vector<std::string>>>
+               Field<Spec, Array3>, Field<Spec, std::array<double, 2>>, Field<Spec, std::array<int, 2>>,
+               Field<Spec, std::array<int, 3>>, Field<Spec, std::vector<int>>, Field<Spec, std::vector<std::string>>>
       field;
   KeyMember() = default;
   KeyMember(std::monostate) {}
@@ -178,19 +179,26 @@ inline std::string default_text(double x) {
 inline std::string default_text(int x) { return std::to_string(x); }
 inline std::string default_text(bool x) { return x ? "true" : "false"; }
 inline std::string default_text(const std::string& x) { return x; }
-inline std::string default_text(const Array3& x);
+template <typename T, size_t N>
+std::string default_text(const std::array<T, N>& x);
 template <typename T>
 std::string default_text(const std::vector<T>& xs) {
   std::string t;
   for (const T& x : xs) t += (t.empty() ? "" : ", ") + default_text(x);
   return "[" + t + "]";
 }
-inline std::string default_text(const Array3& x) { return default_text(std::vector<double>(x.begin(), x.end())); }
+template <typename T, size_t N>
+std::string default_text(const std::array<T, N>& x) {
+  return default_text(std::vector<T>(x.begin(), x.end()));
+}
 inline const char* type_name(double) { return "number"; }
 inline const char* type_name(int) { return "integer"; }
 inline const char* type_name(bool) { return "bool"; }
 inline const char* type_name(const std::string&) { return "string"; }
 inline const char* type_name(const Array3&) { return "vec3"; }
+inline const char* type_name(const std::array<double, 2>&) { return "2 numbers"; }
+inline const char* type_name(const std::array<int, 2>&) { return "2 integers"; }
+inline const char* type_name(const std::array<int, 3>&) { return "3 integers"; }
 inline const char* type_name(const std::vector<int>&) { return "list of integers"; }
 inline const char* type_name(const std::vector<std::string>&) { return "list of strings"; }
 
@@ -201,6 +209,7 @@ std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<Dec
   for (const DeckKey<Spec>& k : keys) {
     KeyInfo i{section, k.name, *k.type_text ? k.type_text : "choice", k.default_text, k.unit, k.doc, k.choices};
     std::string value = k.get ? k.get(defaults) : "";
+    bool several = false;  // a list or a fixed number of values: the range applies to each
     std::visit(
         [&](const auto& field) {
           if constexpr (!std::is_same_v<std::decay_t<decltype(field)>, std::monostate>) {
@@ -208,6 +217,7 @@ std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<Dec
             const auto& member = field(copy);
             value = default_text(member);
             using T = std::decay_t<decltype(member)>;
+            several = !std::is_same_v<T, std::string> && !std::is_arithmetic_v<T>;
             if (k.choices.empty()) i.type = type_name(member);
             else if (std::is_same_v<T, std::vector<std::string>>) i.type = "list";  // of the choices
           }
@@ -220,7 +230,7 @@ std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<Dec
     if (i.default_value.empty()) i.default_value = k.required ? only.empty() ? "required" : "required with " + only : value;
     if (!k.only_for.empty() && !k.required) i.doc = "with " + only + " only: " + i.doc;
     const std::string rule = k.range.rule(true);
-    if (!rule.empty()) i.type += k.range.nonzero ? ", nonzero" : " " + rule;
+    if (!rule.empty()) i.type += k.range.nonzero ? ", nonzero" : (several ? ", each " : " ") + rule;
     out.push_back(i);
   }
   return out;
