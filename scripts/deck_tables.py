@@ -31,7 +31,7 @@ def tables(keys):
         if k["unit"]:
             kind += f", in {k['unit']}"
         default = k["default"]
-        if k["choices"] and "`" not in default:
+        if k["choices"] and "`" not in default and not default.startswith("required"):
             default = f"`{default}`"
         lines.append(f"| `{k['name']}` | {kind} | {default} | {k['doc']} |")
     return out

@@ -25,18 +25,20 @@ constexpr double kWidth = 1.5, kHeight = 1.0, kDensity = 0.3;
 
 struct ClothCase {
   const char* name;
-  const char* stretch;   // mass-spring | stvk | corotated | neohookean (membrane)
-  const char* bending;   // springs | quadratic | dihedral
+  ClothModel stretch;
+  membrane::Model material;  // of the membrane
+  BendingModel bending;      // not none
   bool pd_exact;
 };
 
+using membrane::Model;
 const ClothCase kModels[] = {
-    {"springs + bending springs", "mass-spring", "springs", true},
-    {"springs + quadratic", "mass-spring", "quadratic", true},
-    {"springs + dihedral", "mass-spring", "dihedral", false},
-    {"stvk membrane + quadratic", "stvk", "quadratic", false},
-    {"corotated membrane + dihedral", "corotated", "dihedral", false},
-    {"neohookean membrane + springs", "neohookean", "springs", false},
+    {"springs + bending springs", ClothModel::mass_spring, Model::stvk, BendingModel::springs, true},
+    {"springs + quadratic", ClothModel::mass_spring, Model::stvk, BendingModel::quadratic, true},
+    {"springs + dihedral", ClothModel::mass_spring, Model::stvk, BendingModel::dihedral, false},
+    {"stvk membrane + quadratic", ClothModel::membrane, Model::stvk, BendingModel::quadratic, false},
+    {"corotated membrane + dihedral", ClothModel::membrane, Model::corotated, BendingModel::dihedral, false},
+    {"neohookean membrane + springs", ClothModel::membrane, Model::neohookean, BendingModel::springs, false},
 };
 
 PetscErrorCode make_cloth(const ClothCase& model, bool fix_edge, TestScene& s) {
@@ -54,14 +56,13 @@ PetscErrorCode make_cloth(const ClothCase& model, bool fix_edge, TestScene& s) {
   const std::vector<int32_t> fixed = select_fixed_vertices(PETSC_COMM_WORLD, piece.mesh, boxes, "test");
   PetscCall(distribute_mesh(PETSC_COMM_WORLD, piece, fixed, {}, s.mesh));
   ClothSpec cloth;
-  const std::string stretch = model.stretch;
-  cloth.model = stretch == "mass-spring" ? hyperqn::ClothModel::mass_spring : hyperqn::ClothModel::membrane;
-  cloth.material = stretch;
+  cloth.model = model.stretch;
+  cloth.material = model.material;
   cloth.stretch_stiffness = 40.0;
   cloth.mu = 30.0;
   cloth.lambda = 20.0;
   cloth.bending = model.bending;
-  cloth.bending_stiffness = std::string(model.bending) == "springs" ? 4.0 : 0.5;
+  cloth.bending_stiffness = model.bending == BendingModel::springs ? 4.0 : 0.5;
   cloth.areal_density = kDensity;
   s.body = std::make_unique<Body>(s.mesh, elastic_terms(s.mesh, {}, {}, cloth));
   s.step = std::make_unique<StepObjective>(*s.body, 0.05, std::array<double, 3>{0, -9.81, 0});

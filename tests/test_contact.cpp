@@ -22,15 +22,15 @@ constexpr double kDistance = 0.05;
 // the bottom face, the ball and capsule into the top and the end), for the barrier all outside.
 std::vector<ColliderSpec> colliders(double friction, bool barrier) {
   ColliderSpec floor, ball, rod;
-  floor.type = "plane";
+  floor.type = ColliderType::plane;
   floor.point = {0, barrier ? -0.03 : 0.02, 0};
   floor.normal = {0, 2, 0};  // any length
   floor.friction = friction;
-  ball.type = "sphere";
+  ball.type = ColliderType::sphere;
   ball.center = {1.0, 1.3, 0.5};
   ball.radius = barrier ? 0.27 : 0.35;
   ball.friction = friction;
-  rod.type = "capsule";
+  rod.type = ColliderType::capsule;
   rod.a = {2.1, 0.3, -0.2};
   rod.b = {2.1, 0.7, 1.2};
   rod.radius = barrier ? 0.08 : 0.12;

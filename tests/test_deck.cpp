@@ -512,7 +512,7 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
 )");
   CHECK(d.colliders.size() == 5);
   if (d.colliders.size() == 5) {
-    CHECK(d.colliders[0].type == "plane" && d.colliders[0].normal[1] == 2 && d.colliders[0].friction == 0.4);
+    CHECK(d.colliders[0].type == hyperqn::ColliderType::plane && d.colliders[0].normal[1] == 2 && d.colliders[0].friction == 0.4);
     CHECK(d.colliders[1].radius == 0.3 && d.colliders[1].motion.active && d.colliders[1].line == 5);
     CHECK(d.colliders[2].min[1] == -2 && d.colliders[3].b[0] == 1);
     CHECK(fs::path(d.colliders[4].file).filename() == "ramp.obj" && fs::exists(d.colliders[4].file));  // resolved beside the deck
@@ -548,6 +548,15 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
   expect_error("collider_obj_extension", kHead + "colliders:\n  - {type: mesh, file: ramp.stl}\n", "colliders[0].file", 4, ".obj");
   expect_error("collider_motion", kHead + "colliders:\n  - {type: sphere, center: [0, 0, 0], radius: 1, motion: {spin: 1}}\n",
                "colliders[0].motion.spin", 4);
+  // A key of another type names the types it belongs to; an unknown key, the keys of the type given.
+  expect_error("collider_key_of_other_type", kHead + "colliders:\n  - {type: plane, point: [0, 0, 0], normal: [0, 1, 0], "
+               "radius: 1}\n", "colliders[0].radius", 4, "applies to type sphere, capsule only (type is plane)");
+  expect_error("collider_unknown_key", kHead + "colliders:\n  - {type: plane, point: [0, 0, 0], normal: [0, 1, 0], "
+               "size: 1}\n", "colliders[0].size", 4, "allowed: type, point, normal, friction, motion");
+  expect_error("collider_zero_normal", kHead + "colliders:\n  - {type: plane, point: [0, 0, 0], normal: [0, 0, 0]}\n",
+               "colliders[0].normal", 4, "nonzero");
+  expect_error("collider_type_enum", kHead + "colliders:\n  - {type: cone}\n", "colliders[0].type", 4,
+               "allowed: plane, sphere, box, capsule, mesh");
 }
 
 void test_default_deck() {
@@ -612,10 +621,12 @@ void test_cloth_decks() {
   Deck d = load_ok("cloth_springs", sheet + springs);
   CHECK(d.mesh.is_sheet && d.mesh.has_cloth() && !d.mesh.has_solid());
   CHECK(d.mesh.sheet_size[1] == 2 && d.mesh.sheet_cells[1] == 8);
-  CHECK(d.cloth.model == hyperqn::ClothModel::mass_spring && d.cloth.stretch_stiffness == 100 && d.cloth.bending == "none");
+  CHECK(d.cloth.model == hyperqn::ClothModel::mass_spring && d.cloth.stretch_stiffness == 100 &&
+        d.cloth.bending == hyperqn::BendingModel::none);
   d = load_ok("cloth_membrane", sheet + "cloth:\n  model: membrane\n  material: corotated\n  youngs_modulus: 1000\n"
                                         "  poisson_ratio: 0.25\n  bending: {model: dihedral, stiffness: 0.01}\n  areal_density: 0.1\n");
-  CHECK(d.cloth.material == "corotated" && d.cloth.bending == "dihedral" && d.cloth.bending_stiffness == 0.01);
+  CHECK(d.cloth.material == hyperqn::membrane::Model::corotated && d.cloth.bending == hyperqn::BendingModel::dihedral &&
+        d.cloth.bending_stiffness == 0.01);
   CHECK_NEAR(d.cloth.mu, 1000 / 2.5, 1e-12);              // plane stress: E / (2 (1 + nu))
   CHECK_NEAR(d.cloth.lambda, 1000 * 0.25 / (1 - 0.0625), 1e-9);  // E nu / (1 - nu^2)
   write_file("meshes/shirt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cstdint>
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <type_traits>
@@ -46,15 +47,15 @@ constexpr int kContactHistory = 20;         // solver.history's default with col
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
-const Names kMeshEdges = {"ignore", "strands"};
-const Names kMeshSurfaces = {"cloth"};
-const Names kMembraneMaterials = {"stvk", "corotated", "neohookean"};
-const Names kBendingModels = {"quadratic", "dihedral", "springs", "none"};
 
 std::string join(const Names& names) {
   std::string s;
   for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
   return s;
+}
+
+bool listed(const Names& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
 }
 
 int line_of(const YAML::Node& n) { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
@@ -91,7 +92,14 @@ class Reader {
   [[noreturn]] void fail(const Value& v, const std::string& msg) const { fail(v.line, v.key, msg); }
   // Range checks: rule reads after "must be", e.g. "> 0".
   void check(bool ok, const Value& v, const std::string& rule) const {
-    if (!ok) fail(v, "must be " + rule + ", got " + v.node.Scalar());
+    if (!ok) fail(v, "must be " + rule + ", got " + written(v.node));
+  }
+  // A value as the deck wrote it: a scalar, or a list as [a, b, c].
+  static std::string written(const YAML::Node& n) {
+    if (!n.IsSequence()) return n.Scalar();
+    std::string s;
+    for (const YAML::Node& item : n) s += (s.empty() ? "" : ", ") + (item.IsScalar() ? item.Scalar() : describe(item));
+    return "[" + s + "]";
   }
 
   double number(const Value& v) const {
@@ -182,8 +190,9 @@ class Reader {
 // (yaml-cpp would silently keep the first of two equal keys); an empty value is an empty map.
 class Section {
  public:
-  // allowed: the keys accepted here; empty means any key (the petsc section).
-  Section(const Reader& r, const Value& v, const Names& allowed) : r_(r), value_(v) {
+  // allowed: the keys accepted here; empty means any key (the petsc section). shown: the keys an
+  // unknown key's message lists, if not all of them (those of the collider type given).
+  Section(const Reader& r, const Value& v, const Names& allowed, const Names& shown = {}) : r_(r), value_(v) {
     r.untagged(v.node, v.line, v.key);
     if (v.node.IsNull()) return;
     if (!v.node.IsMap()) r.fail(v, "expected a map of 'key: value' entries, got " + describe(v.node));
@@ -195,7 +204,7 @@ class Section {
       r.untagged(it->second, entry.line, entry.key);
       if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), name) == allowed.end())
         r.fail(entry, "unknown key '" + name + "'" + (v.key.empty() ? "" : " in " + v.key) +
-                          "; allowed: " + join(allowed));
+                          "; allowed: " + join(shown.empty() ? allowed : shown));
       if (find(name)) r.fail(entry, "duplicate key '" + name + "'");
       entries_.push_back({name, entry});
     }
@@ -223,21 +232,66 @@ class Section {
   std::vector<std::pair<std::string, Value>> entries_;
 };
 
+template <typename T>
+struct is_array : std::false_type {};
+template <typename T, size_t N>
+struct is_array<std::array<T, N>> : std::true_type {};
+
 // Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
-// got X"), an unknown choice, an unknown key, an empty list. `more`: keys the section also allows;
-// they and the declared keys without member or `set` are read by the caller. Returns the section,
-// for those and for checks that involve several keys.
+// got X"), an unknown choice, an unknown key, an empty list, a key of another model or type. A
+// nested map's keys ("box.min") are read from its map, as a section of their own. `more`: keys the
+// section also allows; they and the declared keys without member or `set` are read by the caller.
+// Returns the section, for those and for checks that involve several keys.
 template <typename Spec>
 Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spec>>& keys, Spec& spec,
                   const Names& more = {}) {
-  Names names;
-  for (const DeckKey<Spec>& k : keys) names.push_back(k.name);
-  names.insert(names.end(), more.begin(), more.end());
-  Section s(r, v, names);
+  const auto in_map = [](const std::string& key, const std::string& map) {
+    return key.size() > map.size() && key.compare(0, map.size(), map) == 0 && key[map.size()] == '.';
+  };
+  const auto declared = [&](const std::string& name) -> const DeckKey<Spec>& {
+    return *std::find_if(keys.begin(), keys.end(), [&](const DeckKey<Spec>& k) { return k.name == name; });
+  };
+  // The word of choice key `name` as read so far (its default if the deck leaves it out).
+  const auto word = [&](const std::string& name) { return declared(name).get(spec); };
+  // The choice keys that other keys belong to (only_with) are read first: the unknown-key message
+  // then lists the keys of the choice given.
+  Names chosen;
   for (const DeckKey<Spec>& k : keys) {
-    const Value* x = k.required ? &s.need(k.name) : s.find(k.name);
+    if (!*k.selector || listed(chosen, k.selector)) continue;
+    chosen.push_back(k.selector);
+    const DeckKey<Spec>& choice = declared(k.selector);
+    const Section probe(r, v, {});
+    if (const Value* x = choice.required ? &probe.need(choice.name) : probe.find(choice.name))
+      choice.set(spec, r.choice(*x, choice.choices));
+  }
+  Names names, shown;  // this map's own keys (a nested key is its map's), and those of its choices
+  for (const DeckKey<Spec>& k : keys) {
+    if (std::string(k.name).find('.') != std::string::npos) continue;
+    names.push_back(k.name);
+    if (k.only_for.empty() || listed(k.only_for, word(k.selector))) shown.push_back(k.name);
+  }
+  names.insert(names.end(), more.begin(), more.end());
+  shown.insert(shown.end(), more.begin(), more.end());
+  Section s(r, v, names, shown);
+  for (const DeckKey<Spec>& k : keys) {
+    if (std::string(k.name).find('.') != std::string::npos) continue;  // read with its map
+    const bool applies = k.only_for.empty() || listed(k.only_for, word(k.selector));
+    const Value* x = k.required && applies ? &s.need(k.name) : s.find(k.name);
     if (!x) continue;
+    if (!applies)
+      r.fail(*x, std::string("applies to ") + k.selector + " " + join(k.only_for) + " only (" + k.selector + " is " +
+                     word(k.selector) + ")");
+    std::vector<DeckKey<Spec>> nested;  // a map's keys, named within it
+    for (const DeckKey<Spec>& n : keys)
+      if (in_map(n.name, k.name)) {
+        nested.push_back(n);
+        nested.back().name = n.name + std::strlen(k.name) + 1;
+      }
+    if (!nested.empty()) {
+      read_keys(r, *x, nested, spec);
+      continue;
+    }
     // One value (a list's item) of type T.
     const auto one = [&](auto type, const Value& item) {
       using T = decltype(type);
@@ -247,27 +301,40 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
         return value;
       } else if constexpr (std::is_same_v<T, bool>) {
         return r.boolean(item);
+      } else if constexpr (is_array<T>::value) {  // a vec3, 2 numbers, 2 or 3 integers
+        constexpr size_t N = std::tuple_size_v<T>;
+        T value;
+        if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item);
+        else value = r.integers<N>(item);
+        if constexpr (std::is_same_v<T, Array3>)
+          if (k.range.nonzero) r.check(is_nonzero(value), item, k.range.rule());
+        if (!k.range.nonzero && !k.range.rule().empty()) {
+          const std::vector<Value> items = r.items(item);
+          for (size_t i = 0; i < N; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
+        }
+        return value;
       } else {
         return k.choices.empty() ? r.text(item) : r.choice(item, k.choices);
       }
     };
     std::visit(
-        [&](auto member) {
-          if constexpr (std::is_same_v<decltype(member), std::monostate>) {
+        [&](const auto& field) {
+          using F = std::decay_t<decltype(field)>;
+          if constexpr (std::is_same_v<F, std::monostate>) {
             if (k.set) k.set(spec, r.choice(*x, k.choices));
           } else {
-            using T = std::decay_t<decltype(spec.*member)>;
+            using T = std::decay_t<decltype(field(spec))>;
             if constexpr (std::is_same_v<T, std::vector<int>> || std::is_same_v<T, std::vector<std::string>>) {
               T list;
               for (const Value& item : r.items(*x)) list.push_back(one(typename T::value_type(), item));
-              r.check(!list.empty(), *x, "a non-empty list");
-              spec.*member = list;
+              r.check(!list.empty(), *x, std::string("a non-empty ") + type_name(list));
+              field(spec) = list;
             } else {
-              spec.*member = one(T(), *x);
+              field(spec) = one(T(), *x);
             }
           }
         },
-        k.member);
+        k.member.field);
   }
   return s;
 }
@@ -285,23 +352,6 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
   if (!fs::is_regular_file(resolved, ec))
     r.fail(v, "file not found: '" + resolved.string() + "'");
   return resolved.string();
-}
-
-// A generated grid {size: [N numbers > 0], cells: [N integers >= 1]} (box, sheet); returns the
-// cells value (errors about the grid's size name it) and sets line to its line.
-template <size_t N>
-Value read_grid(const Reader& r, const Value& v, std::array<double, N>& size, std::array<int, N>& cells, int& line) {
-  Section g(r, v, {"size", "cells"});
-  const Value &size_value = g.need("size"), &cells_value = g.need("cells");
-  size = r.numbers<N>(size_value);
-  cells = r.integers<N>(cells_value);
-  line = cells_value.line;
-  std::vector<Value> size_items = r.items(size_value), cells_items = r.items(cells_value);
-  for (size_t i = 0; i < N; ++i) {
-    r.check(size[i] > 0, size_items[i], "> 0");
-    r.check(cells[i] >= 1, cells_items[i], ">= 1");
-  }
-  return cells_value;
 }
 
 // A partition file's header: what its mesh holds. The keys that shape a mesh belong to the deck
@@ -324,66 +374,57 @@ void read_partition_header(const Reader& r, const Value& file, const Section& s,
 }
 
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
-  Section s(r, v, {"file", "box", "sheet", "surface", "transform", "edges", "strands"});
+  Names names;  // the section's keys: unknown keys are reported before which keys go together
+  for (const DeckKey<MeshSpec>& k : mesh_keys())
+    if (!std::strchr(k.name, '.')) names.push_back(k.name);
+  const Section s(r, v, names);
   const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
   if ((file != nullptr) + (box != nullptr) + (sheet != nullptr) > 1) r.fail(v, "give one of file, box and sheet");
   if (!file && !box && !sheet && !strands)
     r.fail(v, "missing the mesh: give file (a .mesh, .msh or .obj path), box, sheet or strands");
+  read_keys(r, v, mesh_keys(), m);
   if (file) {
     m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj", ".h5"},
                                 ".mesh (Medit), .msh (Gmsh), .obj (a cloth surface) or .h5 (a partition file of hyperqn partition)");
     m.line = file->line;
-    m.surface_as_cloth = fs::path(m.file).extension() == ".obj";
+    m.surface_as_cloth = m.surface_as_cloth || fs::path(m.file).extension() == ".obj";
     if (fs::path(m.file).extension() == ".h5") read_partition_header(r, *file, s, m);
   }
-  if (const Value* x = s.find("surface")) {
-    r.choice(*x, kMeshSurfaces);
-    if (!file) r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
-    m.surface_as_cloth = true;
-  }
+  if (const Value* x = s.find("surface"); x && !file)
+    r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
+  // A generated grid's cells: its line is the mesh's (the memory check names it), its size is capped.
+  const auto cells = [&](const Value& grid) {
+    const Value x = *Section(r, grid, {}).find("cells");
+    m.line = x.line;
+    return x;
+  };
   if (sheet) {
     m.is_sheet = true;
-    const Value cells = read_grid(r, *sheet, m.sheet_size, m.sheet_cells, m.line);
+    const Value x = cells(*sheet);
     const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
     if (3 * triangles > kMaxBoxTets)
-      r.fail(cells, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
+      r.fail(x, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
   }
   if (m.has_cloth() && strands) r.fail(*strands, "a cloth cannot share a mesh with strands");
-  if (const Value* x = s.find("edges")) {
-    m.edges_as_strands = r.choice(*x, kMeshEdges) == "strands";
+  if (const Value* x = s.find("edges"))
     if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh" || m.surface_as_cloth))
       r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
-  }
   if (strands) {
     for (const Value& item : r.items(*strands)) {
-      Section st(r, item, {"from", "to", "segments"});
       StrandLine line;
+      const Section st = read_keys(r, item, strand_line_keys(), line);
       line.line = item.line;
-      line.from = r.numbers3(st.need("from"));
-      line.to = r.numbers3(st.need("to"));
-      const Value& n = st.need("segments");
-      line.segments = r.integer(n);
-      r.check(line.segments >= 1, n, ">= 1");
-      if (line.from == line.to) r.fail(st.need("to"), "a strand needs distinct from and to points");
+      if (line.from == line.to) r.fail(*st.find("to"), "a strand needs distinct from and to points");
       m.strands.push_back(line);
     }
     if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
   }
   if (box) {
     m.is_box = true;
-    const Value cells = read_grid(r, *box, m.box_size, m.box_cells, m.line);
+    const Value x = cells(*box);
     const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
     if (tets > kMaxBoxTets)
-      r.fail(cells, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
-  }
-  if (const Value* t = s.find("transform")) {
-    Section ts(r, *t, {"scale", "rotate", "translate"});
-    if (const Value* x = ts.find("scale")) {
-      m.transform.scale = r.number(*x);
-      r.check(m.transform.scale > 0, *x, "> 0");
-    }
-    if (const Value* x = ts.find("rotate")) m.transform.rotate_deg = r.numbers3(*x);
-    if (const Value* x = ts.find("translate")) m.transform.translate = r.numbers3(*x);
+      r.fail(x, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
   }
 }
 
@@ -391,44 +432,13 @@ void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
   read_keys(r, v, strand_material_keys(), m);
 }
 
-// cloth: {model, stretch_stiffness | material + youngs_modulus + poisson_ratio, bending, areal_density}
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
-  Section s(r, v, {"model", "stretch_stiffness", "material", "youngs_modulus", "poisson_ratio", "bending", "areal_density"});
-  const std::string model = r.choice(s.need("model"), kClothModelNames);
-  c.model = ClothModel(std::find(kClothModelNames.begin(), kClothModelNames.end(), model) - kClothModelNames.begin());
-  const bool springs = c.model == ClothModel::mass_spring;
-  for (const char* key : {"stretch_stiffness", "material", "youngs_modulus", "poisson_ratio"}) {
-    const bool spring_key = std::string(key) == "stretch_stiffness";
-    if (const Value* x = s.find(key); x && spring_key != springs)
-      r.fail(*x, std::string("is a key of cloth model ") + (spring_key ? "mass-spring" : "membrane") + ", not of " + model);
-  }
-  if (springs) {
-    const Value& k = s.need("stretch_stiffness");
-    c.stretch_stiffness = r.number(k);
-    r.check(c.stretch_stiffness > 0, k, "> 0");
-  } else {
-    if (const Value* x = s.find("material")) c.material = r.choice(*x, kMembraneMaterials);
-    const Value &E = s.need("youngs_modulus"), &nu = s.need("poisson_ratio");
-    const double e = r.number(E), n = r.number(nu);
-    r.check(e > 0, E, "> 0 (the sheet's stretching modulus, N/m)");
-    r.check(n > -1 && n < 0.5, nu, "in (-1, 0.5)");
+  read_keys(r, v, cloth_keys(), c);
+  if (c.model == ClothModel::membrane) {
+    const double e = c.youngs_modulus, n = c.poisson_ratio;
     c.mu = e / (2 * (1 + n));        // plane stress: the 2-D Lame constants of a thin sheet
     c.lambda = e * n / (1 - n * n);
   }
-  if (const Value* b = s.find("bending")) {
-    Section bs(r, *b, {"model", "stiffness"});
-    c.bending = r.choice(bs.need("model"), kBendingModels);
-    if (c.bending != "none") {
-      const Value& k = bs.need("stiffness");
-      c.bending_stiffness = r.number(k);
-      r.check(c.bending_stiffness > 0, k, "> 0");
-    } else if (const Value* k = bs.find("stiffness")) {
-      r.fail(*k, "bending model none takes no stiffness");
-    }
-  }
-  const Value& rho = s.need("areal_density");
-  c.areal_density = r.number(rho);
-  r.check(c.areal_density > 0, rho, "> 0 (kg/m^2)");
 }
 
 // A pair of keys that only make sense together: the missing one is reported at the other's line.
@@ -488,10 +498,6 @@ FunctionSpec read_function(const Reader& r, const Value& v) {
 // own keys to that model alone.
 const Names kEveryMaterial = {"model", "density", "total_mass", "laplacian_weight"};
 const Names kElasticConstants = {"youngs_modulus", "poisson_ratio", "mu", "lambda"};
-
-bool listed(const Names& names, const std::string& name) {
-  return std::find(names.begin(), names.end(), name) != names.end();
-}
 
 // Every key a material section may hold, for the "unknown key" message.
 Names material_keys() {
@@ -582,44 +588,22 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   }
 }
 
-BoxRegion read_box(const Reader& r, const Value& v) {
-  Section box(r, v, {"min", "max"});
-  const Value &min = box.need("min"), &max = box.need("max");
-  BoxRegion b;
-  b.min = r.numbers3(min);
-  b.max = r.numbers3(max);
-  b.line = v.line;
+// A box of fixed:, attachments: or regions:, read by read_keys (box_keys): min <= max on every axis.
+void check_box(const Reader& r, const Section& s, const BoxRegion& b) {
+  const Value* box = s.find("box");
+  if (!box) return;
+  const Section corners(r, *box, {});
   for (int i = 0; i < 3; ++i)
     if (b.min[i] > b.max[i])
-      r.fail(box.value(), std::string("min > max along ") + "xyz"[i] + ": " + r.items(min)[i].node.Scalar() +
-                              " > " + r.items(max)[i].node.Scalar());
-  return b;
+      r.fail(*box, std::string("min > max along ") + "xyz"[i] + ": " + r.items(*corners.find("min"))[i].node.Scalar() +
+                       " > " + r.items(*corners.find("max"))[i].node.Scalar());
 }
 
 Motion read_motion(const Reader& r, const Value& v) {
-  Section s(r, v, {"rotate", "translate", "start", "end"});
   Motion m;
+  const Section s = read_keys(r, v, motion_keys(), m);
   m.active = true;
-  if (const Value* x = s.find("rotate")) {
-    Section rot(r, *x, {"axis", "center", "rate"});
-    const Value& axis = rot.need("axis");
-    m.axis = r.numbers3(axis);
-    r.check(m.axis[0] * m.axis[0] + m.axis[1] * m.axis[1] + m.axis[2] * m.axis[2] > 0, axis, "a nonzero vector");
-    if (const Value* c = rot.find("center")) m.center = r.numbers3(*c);
-    m.rate_deg = r.number(rot.need("rate"));
-  }
-  if (const Value* x = s.find("translate")) {
-    Section tr(r, *x, {"velocity"});
-    m.velocity = r.numbers3(tr.need("velocity"));
-  }
-  if (const Value* x = s.find("start")) {
-    m.start = r.number(*x);
-    r.check(m.start >= 0, *x, ">= 0");
-  }
-  if (const Value* x = s.find("end")) {
-    m.end = r.number(*x);
-    r.check(m.end >= m.start, *x, ">= motion.start");
-  }
+  if (const Value* x = s.find("end")) r.check(m.end >= m.start, *x, ">= motion.start");
   return m;
 }
 
@@ -631,15 +615,12 @@ struct BodyRegions {
 // body >= 0: bodies[body].fixed, which selects that body's vertices only.
 void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, int body = -1) {
   for (const Value& item : r.items(v)) {
-    Section region(r, item, {"box", "motion", "release"});
-    BoxRegion b = read_box(r, region.need("box"));
+    BoxRegion b;
+    const Section s = read_keys(r, item, fixed_keys(), b);
+    check_box(r, s, b);
     b.line = item.line;
     b.body = body;
-    if (const Value* x = region.find("motion")) b.motion = read_motion(r, *x);
-    if (const Value* x = region.find("release")) {
-      b.release = r.number(*x);
-      r.check(b.release > 0, *x, "> 0 (a time)");
-    }
+    if (const Value* x = s.find("motion")) b.motion = read_motion(r, *x);
     fixed.push_back(b);
   }
 }
@@ -699,55 +680,19 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
   deck.mesh.line = deck.bodies[0].mesh.line;
 }
 
-// colliders: a list of obstacles, each of one type with that type's keys (terms/contact.hpp).
+// colliders: a list of obstacles, each of one type with that type's keys (collider_keys()).
 void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, std::vector<ColliderSpec>& colliders) {
-  static const Names kTypes = {"plane", "sphere", "box", "capsule", "mesh"};
   for (const Value& item : r.items(v)) {
     ColliderSpec c;
+    const Section s = read_keys(r, item, collider_keys(), c);
     c.line = item.line;
-    {
-      Section probe(r, item, {});  // the type decides which keys are allowed
-      c.type = r.choice(probe.need("type"), kTypes);
-    }
-    Names keys = {"type", "friction", "motion"};
-    if (c.type == "plane") keys.insert(keys.end(), {"point", "normal"});
-    if (c.type == "sphere") keys.insert(keys.end(), {"center", "radius"});
-    if (c.type == "box") keys.insert(keys.end(), {"min", "max"});
-    if (c.type == "capsule") keys.insert(keys.end(), {"a", "b", "radius"});
-    if (c.type == "mesh") keys.insert(keys.end(), {"file"});
-    Section s(r, item, keys);
-    const auto positive_radius = [&] {
-      const Value& x = s.need("radius");
-      c.radius = r.number(x);
-      r.check(c.radius > 0, x, "> 0 (a length)");
-    };
-    if (c.type == "plane") {
-      c.point = r.numbers3(s.need("point"));
-      const Value& n = s.need("normal");
-      c.normal = r.numbers3(n);
-      r.check(std::hypot(c.normal[0], c.normal[1], c.normal[2]) > 0, n, "a nonzero vector");
-    } else if (c.type == "sphere") {
-      c.center = r.numbers3(s.need("center"));
-      positive_radius();
-    } else if (c.type == "box") {
-      const Value &lo = s.need("min"), &hi = s.need("max");
-      c.min = r.numbers3(lo);
-      c.max = r.numbers3(hi);
+    if (c.type == ColliderType::box)
       for (int i = 0; i < 3; ++i)
         if (!(c.min[i] < c.max[i]))
-          r.fail(hi, std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
-    } else if (c.type == "capsule") {
-      c.a = r.numbers3(s.need("a"));
-      c.b = r.numbers3(s.need("b"));
-      positive_radius();
-    } else {
-      c.file = resolve_input_file(r, s.need("file"), deck_dir, {".obj", ".mesh"},
+          r.fail(*s.find("max"), std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
+    if (c.type == ColliderType::mesh)
+      c.file = resolve_input_file(r, *s.find("file"), deck_dir, {".obj", ".mesh"},
                                   ".obj (Wavefront) or .mesh (Medit, its Triangles)");
-    }
-    if (const Value* x = s.find("friction")) {
-      c.friction = r.number(*x);
-      r.check(c.friction >= 0 && c.friction <= 100, *x, "in [0, 100] (a Coulomb coefficient)");
-    }
     if (const Value* x = s.find("motion")) c.motion = read_motion(r, *x);
     colliders.push_back(c);
   }
@@ -762,18 +707,11 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
 // attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
 void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments) {
   for (const Value& item : r.items(v)) {
-    Section s(r, item, {"box", "stiffness", "motion", "release"});
     AttachmentSpec a;
-    a.region = read_box(r, s.need("box"));
+    const Section s = read_keys(r, item, attachment_keys(), a);
+    check_box(r, s, a.region);
     a.region.line = item.line;
-    const Value& k = s.need("stiffness");
-    a.stiffness = r.number(k);  // finite and at most 1e100, like every deck number
-    r.check(a.stiffness > 0, k, "> 0 (N/m per vertex)");
     if (const Value* x = s.find("motion")) a.region.motion = read_motion(r, *x);
-    if (const Value* x = s.find("release")) {
-      a.region.release = r.number(*x);
-      r.check(a.region.release > 0, *x, "> 0 (a time)");
-    }
     attachments.push_back(a);
   }
 }
@@ -820,19 +758,15 @@ void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
 
 void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
   for (const Value& item : r.items(v)) {
-    Section s(r, item, {"box", "tags", "material"});
     MaterialRegion region;
+    const Section s = read_keys(r, item, region_keys(), region);
     region.line = item.line;
     const Value *box = s.find("box"), *tags = s.find("tags");
     if (!box == !tags) r.fail(item, "give either box or tags");
-    if (box) {
-      region.box = read_box(r, *box);
-    } else {
-      region.by_box = false;
-      for (const Value& t : r.items(*tags)) region.tags.push_back(r.integer(t));
-      r.check(!region.tags.empty(), *tags, "a non-empty list of element tags");
-    }
-    const Value& mat = s.need("material");
+    check_box(r, s, region.box);
+    region.by_box = box != nullptr;
+    if (box) region.box.line = box->line;
+    const Value& mat = *s.find("material");
     read_material(r, mat, region.material);
     // Masses are per unit volume when the body has several materials.
     if (!region.material.has_density || !base.has_density)

@@ -1,8 +1,6 @@
 // Every deck section declared with io/deck_keys.hpp, in the deck's order: what `hyperqn
 // --help-deck` prints, `hyperqn registry` exports and scripts/deck_tables.py turns into
-// docs/decks.md's tables. The other sections (mesh, bodies, material, regions, fixed,
-// attachments, colliders, initial, gravity, cloth, petsc) are read by their own
-// functions in app/deck.cpp and documented by hand.
+// docs/decks.md's tables. The other sections (bodies, material, initial, gravity, petsc) are read by their own functions in app/deck.cpp and documented by hand.
 #include "app/deck.hpp"
 #include "solvers/solver_registry.hpp"
 
@@ -34,8 +32,11 @@ const std::vector<DeckKey<StudySpec>>& study_keys() {
 std::vector<KeyInfo> declared_deck_keys() {
   std::vector<KeyInfo> all;
   for (const std::vector<KeyInfo>& section :
-       {key_infos("strand_material", strand_material_keys()), key_infos("contact", contact_keys()),
-        key_infos("time", time_keys()), key_infos("solver", solver_keys()), key_infos("output", output_keys()),
+       {key_infos("mesh", mesh_keys()), key_infos("strand_material", strand_material_keys()), key_infos("cloth", cloth_keys()),
+        key_infos("fixed", fixed_keys()), key_infos("motion", motion_keys()),
+        key_infos("attachments", attachment_keys()), key_infos("colliders", collider_keys()),
+        key_infos("contact", contact_keys()),
+        key_infos("regions", region_keys()), key_infos("time", time_keys()), key_infos("solver", solver_keys()), key_infos("output", output_keys()),
         key_infos("checkpoint", checkpoint_keys()), key_infos("study", study_keys())})
     all.insert(all.end(), section.begin(), section.end());
   return all;

@@ -176,7 +176,7 @@ std::string deck_keys_text() {
       type = k.type == "list" ? "list of " : "";
       for (size_t i = 0; i < k.choices.size(); ++i) type += (i ? " | " : "") + k.choices[i];
     }
-    const std::string given = k.default_value == "required" ? "required" : "default " + k.default_value;
+    const std::string given = k.default_value.rfind("required", 0) == 0 ? k.default_value : "default " + k.default_value;
     s += "  " + k.name + ": " + type + " (" + given + (k.unit.empty() ? "" : ", in " + k.unit) +
          ")\n      " + k.doc + "\n";
   }

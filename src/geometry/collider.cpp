@@ -1,7 +1,6 @@
 #include "geometry/collider.hpp"
 
 #include "geometry/collider_shapes.hpp"
-#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 
@@ -24,13 +23,14 @@ double Collider::first_contact(const Eigen::Vector3d& p0, const Eigen::Vector3d&
 }
 
 std::unique_ptr<Collider> make_collider(const ColliderSpec& spec, const std::string& deck_path, int index) {
-  if (spec.type == "plane") return make_plane_collider(spec);
-  if (spec.type == "sphere") return make_sphere_collider(spec);
-  if (spec.type == "box") return make_box_collider(spec);
-  if (spec.type == "capsule") return make_capsule_collider(spec);
-  if (spec.type == "mesh") return make_mesh_collider(spec, deck_path, index);
-  throw InputError(deck_path, spec.line, "colliders[" + std::to_string(index) + "].type",
-                   "unknown collider type '" + spec.type + "' (expected plane, sphere, box, capsule or mesh)");
+  switch (spec.type) {
+    case ColliderType::plane: return make_plane_collider(spec);
+    case ColliderType::sphere: return make_sphere_collider(spec);
+    case ColliderType::box: return make_box_collider(spec);
+    case ColliderType::capsule: return make_capsule_collider(spec);
+    case ColliderType::mesh: break;
+  }
+  return make_mesh_collider(spec, deck_path, index);
 }
 
 }  // namespace hyperqn

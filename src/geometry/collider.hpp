@@ -11,12 +11,16 @@
 #include <vector>
 
 #include "geometry/motion.hpp"
+#include "io/deck_keys.hpp"
 
 namespace hyperqn {
 
-// What the deck says of one collider (app/deck.cpp checks the values; make_collider the file).
+enum class ColliderType { plane, sphere, box, capsule, mesh };
+inline const std::vector<std::string> kColliderTypeNames = {"plane", "sphere", "box", "capsule", "mesh"};  // in the enum's order
+
+// What the deck says of one collider (its keys: collider_keys(); make_collider reads the file).
 struct ColliderSpec {
-  std::string type;                            // plane | sphere | box | capsule | mesh
+  ColliderType type = ColliderType::plane;
   std::array<double, 3> point{0, 0, 0}, normal{0, 1, 0};   // plane (normal: nonzero, any length)
   std::array<double, 3> center{0, 0, 0};                    // sphere
   double radius = 0;                                        // sphere, capsule (> 0)
@@ -27,6 +31,40 @@ struct ColliderSpec {
   Motion motion;                               // rigid motion of the whole obstacle
   int line = 0;                                // deck line, for error messages
 };
+
+// The deck's keys of one of its colliders: (io/deck_keys.hpp): each type's own keys, friction and
+// motion. Its reader resolves `file` and checks min < max.
+inline const std::vector<DeckKey<ColliderSpec>>& collider_keys() {
+  using C = ColliderSpec;
+  const auto of = [](DeckKey<C> k, std::vector<std::string> types) { return only_with(k, "type", types, true); };
+  static const std::vector<DeckKey<C>> keys = {
+      needed(enum_key<C>("type", &C::type, kColliderTypeNames, "the obstacle's shape; the other keys are its own")),
+      of({"point", &C::point, "a point of the plane"}, {"plane"}),
+      of({"normal", &C::normal, "the plane's normal, any length; the side it points to is outside", nonzero_vector()},
+         {"plane"}),
+      of({"center", &C::center, "the centre of a solid ball"}, {"sphere"}),
+      of({"radius", &C::radius, "the ball's radius; a capsule is every point within `radius` of the segment a–b",
+          above(0, "a length")},
+         {"sphere", "capsule"}),
+      of({"min", &C::min, "a corner of a solid axis-aligned box"}, {"box"}),
+      of({"max", &C::max, "the opposite corner: min < max along every axis"}, {"box"}),
+      of({"a", &C::a, "one end point of the capsule's axis"}, {"capsule"}),
+      of({"b", &C::b, "the other end point"}, {"capsule"}),
+      of({"file", &C::file,
+          "a triangle surface: `.obj` (Wavefront `v`, `f`; polygons are fanned into triangles) or `.mesh` (Medit "
+          "`Vertices` and `Triangles`); relative to the deck's directory. Outside is where its counter-clockwise "
+          "faces point (an open surface works like the boundary of a half-space near it); read on every rank, with "
+          "errors naming the file and line (numbers, `MeshVersionFormatted` and vertex indices as in mesh files, "
+          "[above](#mesh-required))"},
+         {"mesh"}),
+      {"friction", &C::friction, "Coulomb coefficient μ", between(0, 100, "a Coulomb coefficient")},
+      custom_key<C>("motion", "map: [`motion`](#motion)",
+                    "a rigid motion of the whole obstacle (rotation about an axis through `center` at `rate` "
+                    "degrees per unit time, and/or a translation at `velocity`, between `start` and `end`)",
+                    "none (at rest)"),
+  };
+  return keys;
+}
 
 class Collider {
  public:
@@ -52,7 +90,7 @@ class Collider {
   double first_contact(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1) const;
 
   double friction() const { return friction_; }
-  const std::string& type() const { return type_; }
+  ColliderType type() const { return type_; }
   bool moves() const { return motion_.active; }  // the deck gave it a motion (it may start later)
   int line() const { return line_; }             // its deck line (ColliderSpec::line)
 
@@ -67,7 +105,7 @@ class Collider {
   Motion motion_;
   RigidPose pose_;
   double friction_;
-  std::string type_;
+  ColliderType type_;
   int line_;
 };
 

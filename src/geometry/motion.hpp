@@ -6,6 +6,8 @@
 #include <Eigen/Dense>
 #include <array>
 
+#include "io/deck_keys.hpp"
+
 namespace hyperqn {
 
 struct Motion {
@@ -15,6 +17,24 @@ struct Motion {
   std::array<double, 3> velocity{0, 0, 0};
   double start = 0, end = 1e300;
 };
+
+// The deck's motion: keys, of a fixed region, an attachment or a collider (io/deck_keys.hpp). Its
+// reader sets `active` and checks end >= start.
+inline const std::vector<DeckKey<Motion>>& motion_keys() {
+  using M = Motion;
+  static const std::vector<DeckKey<M>> keys = {
+      map_key<M>("rotate", "a rotation about an axis at a constant rate", "none"),
+      needed(DeckKey<M>{"rotate.axis", &M::axis, "rotation axis (normalized)", nonzero_vector()}),
+      {"rotate.center", &M::center, "a point on the axis"},
+      needed(DeckKey<M>{"rotate.rate", &M::rate_deg, "degrees per unit time (right-hand rule)"}),
+      map_key<M>("translate", "a translation at a constant velocity", "none"),
+      needed(DeckKey<M>{"translate.velocity", &M::velocity, "velocity (length per unit time)"}),
+      {"start", &M::start, "start time", at_least(0)},
+      {"end", &M::end, "end time, at least `start`; the motion holds its last position afterwards", {}, {}, "",
+       "never"},
+  };
+  return keys;
+}
 
 // The motion's rigid map at time t: p = rotation * X + translation (identity if not active).
 struct RigidPose {

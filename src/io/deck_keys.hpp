@@ -7,6 +7,7 @@
 #pragma once
 #include <cmath>
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <cstring>
 #include <functional>
@@ -18,19 +19,24 @@
 
 namespace hyperqn {
 
+using Array3 = std::array<double, 3>;
+
 // A number's allowed values: lo .. hi, either end open or unbounded (infinite); `why` follows the
-// rule in messages and docs.
+// rule in messages and docs. A vec3's range applies to each of its numbers, or (nonzero) to the
+// vector as a whole.
 struct KeyRange {
   double lo = -std::numeric_limits<double>::infinity();
   double hi = std::numeric_limits<double>::infinity();
   bool lo_open = false, hi_open = false;
   const char* why = "";
+  bool nonzero = false;
 
   bool contains(double x) const {
     return (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
   }
   // What a value must be, e.g. "> 0", ">= 1", "in [0, 1)", "<= 100000000", "" (anything).
   std::string rule(bool unicode = false) const {
+    if (nonzero) return "a nonzero vector";
     const auto num = [](double x) {
       char s[32];
       std::snprintf(s, sizeof s, "%.15g", x);
@@ -56,27 +62,71 @@ struct KeyRange {
 inline KeyRange at_least(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), false, false, why}; }
 inline KeyRange above(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), true, false, why}; }
 inline KeyRange between(double lo, double hi, const char* why = "") { return {lo, hi, false, false, why}; }
+inline KeyRange nonzero_vector() {
+  KeyRange r;
+  r.nonzero = true;
+  return r;
+}
+inline bool is_nonzero(const Array3& v) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0; }
+
+// Where a key's value goes in its section's struct Spec: a member (written as a member pointer),
+// or a member of a member (written as a function, e.g. an attachment's region.min).
+template <typename Spec, typename T>
+using Field = std::function<T&(Spec&)>;
+template <typename Spec>
+struct KeyMember {
+  std::variant<std::monostate, Field<Spec, double>, Field<Spec, int>, Field<Spec, bool>, Field<Spec, std::string>,
+               Field<Spec, Array3>, Field<Spec, std::array<double, 2>>, Field<Spec, std::array<int, 2>>,
+               Field<Spec, std::array<int, 3>>, Field<Spec, std::vector<int>>, Field<Spec, std::vector<std::string>>>
+      field;
+  KeyMember() = default;
+  KeyMember(std::monostate) {}
+  template <typename T>
+  KeyMember(T Spec::*member) : field(Field<Spec, T>([member](Spec& s) -> T& { return s.*member; })) {}
+  template <typename T>
+  KeyMember(Field<Spec, T> f) : field(std::move(f)) {}
+};
 
 // One key of section Spec: a member of Spec (a list member: a non-empty list, the range and
 // choices applying to each item), or (std::monostate) a choice that `set` applies and `get` names
 // for the default (an enum member, or a key that sets several members), or (std::monostate
 // without `set`) a key the section's reader reads itself, declared for the docs with `type_text`.
+// A dotted name ("box.min") is a key of a nested map, declared after the map's own entry
+// (map_key, "box"); both fill the same Spec.
 template <typename Spec>
 struct DeckKey {
-  using Member = std::variant<std::monostate, double Spec::*, int Spec::*, bool Spec::*, std::string Spec::*,
-                              std::vector<int> Spec::*, std::vector<std::string> Spec::*>;
   const char* name;
-  Member member;
+  KeyMember<Spec> member;
   const char* doc;
   KeyRange range = {};
-  std::vector<std::string> choices = {};  // a string member (or an enum's names): allowed values
+  // (The lists' initializers are not `{}`: on a key that leaves them out, GCC 12 crashes on that.)
+  std::vector<std::string> choices = std::vector<std::string>(0);  // a string member (or an enum's names): allowed values
   const char* unit = "";
   const char* default_text = "";          // instead of the struct's default, e.g. "1/30"
   std::function<void(Spec&, const std::string&)> set = nullptr;  // for std::monostate
   std::function<std::string(const Spec&)> get = nullptr;
   const char* type_text = "";             // a key without member or `set`: its type as docs show it
   bool required = false;                  // the section must give it (its default is never used)
+  // Only for these values of the choice key `selector` of the same map (the model's, the type's
+  // own keys): given with another value it is an error; `required` then means required with these.
+  const char* selector = "";
+  std::vector<std::string> only_for = std::vector<std::string>(0);
 };
+
+// The key, required.
+template <typename Spec>
+DeckKey<Spec> needed(DeckKey<Spec> k) {
+  k.required = true;
+  return k;
+}
+// The key, of these values of choice key `choice_key` only (required with them if `required`).
+template <typename Spec>
+DeckKey<Spec> only_with(DeckKey<Spec> k, const char* choice_key, std::vector<std::string> values, bool required) {
+  k.selector = choice_key;
+  k.only_for = std::move(values);
+  k.required = required;
+  return k;
+}
 
 // A key whose value the section's reader reads itself (a map, a list of enums, ...).
 template <typename Spec>
@@ -84,6 +134,14 @@ DeckKey<Spec> custom_key(const char* name, const char* type_text, const char* do
   DeckKey<Spec> k{name, std::monostate{}, doc};
   k.default_text = default_text;
   k.type_text = type_text;
+  return k;
+}
+
+// A nested map's own entry: its keys are declared after it as "name.key".
+template <typename Spec>
+DeckKey<Spec> map_key(const char* name, const char* doc, const char* default_text, bool required = false) {
+  DeckKey<Spec> k = custom_key<Spec>(name, "map", doc, default_text);
+  k.required = required;
   return k;
 }
 
@@ -121,16 +179,26 @@ inline std::string default_text(double x) {
 inline std::string default_text(int x) { return std::to_string(x); }
 inline std::string default_text(bool x) { return x ? "true" : "false"; }
 inline std::string default_text(const std::string& x) { return x; }
+template <typename T, size_t N>
+std::string default_text(const std::array<T, N>& x);
 template <typename T>
 std::string default_text(const std::vector<T>& xs) {
   std::string t;
   for (const T& x : xs) t += (t.empty() ? "" : ", ") + default_text(x);
   return "[" + t + "]";
 }
+template <typename T, size_t N>
+std::string default_text(const std::array<T, N>& x) {
+  return default_text(std::vector<T>(x.begin(), x.end()));
+}
 inline const char* type_name(double) { return "number"; }
 inline const char* type_name(int) { return "integer"; }
 inline const char* type_name(bool) { return "bool"; }
 inline const char* type_name(const std::string&) { return "string"; }
+inline const char* type_name(const Array3&) { return "vec3"; }
+inline const char* type_name(const std::array<double, 2>&) { return "2 numbers"; }
+inline const char* type_name(const std::array<int, 2>&) { return "2 integers"; }
+inline const char* type_name(const std::array<int, 3>&) { return "3 integers"; }
 inline const char* type_name(const std::vector<int>&) { return "list of integers"; }
 inline const char* type_name(const std::vector<std::string>&) { return "list of strings"; }
 
@@ -141,19 +209,28 @@ std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<Dec
   for (const DeckKey<Spec>& k : keys) {
     KeyInfo i{section, k.name, *k.type_text ? k.type_text : "choice", k.default_text, k.unit, k.doc, k.choices};
     std::string value = k.get ? k.get(defaults) : "";
+    bool several = false;  // a list or a fixed number of values: the range applies to each
     std::visit(
-        [&](auto member) {
-          if constexpr (!std::is_same_v<decltype(member), std::monostate>) {
-            value = default_text(defaults.*member);
-            using T = std::decay_t<decltype(defaults.*member)>;
-            if (k.choices.empty()) i.type = type_name(defaults.*member);
+        [&](const auto& field) {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(field)>, std::monostate>) {
+            Spec copy = defaults;
+            const auto& member = field(copy);
+            value = default_text(member);
+            using T = std::decay_t<decltype(member)>;
+            several = !std::is_same_v<T, std::string> && !std::is_arithmetic_v<T>;
+            if (k.choices.empty()) i.type = type_name(member);
             else if (std::is_same_v<T, std::vector<std::string>>) i.type = "list";  // of the choices
           }
         },
-        k.member);
-    if (i.default_value.empty()) i.default_value = k.required ? "required" : value;
+        k.member.field);
+    std::string only;  // "`a`, `b`": the choices it is a key of, or the map it is in
+    for (const std::string& w : k.only_for) only += (only.empty() ? "`" : ", `") + w + "`";
+    const std::string name = k.name;
+    if (only.empty() && name.find('.') != std::string::npos) only = "`" + name.substr(0, name.rfind('.')) + "`";
+    if (i.default_value.empty()) i.default_value = k.required ? only.empty() ? "required" : "required with " + only : value;
+    if (!k.only_for.empty() && !k.required) i.doc = "with " + only + " only: " + i.doc;
     const std::string rule = k.range.rule(true);
-    if (!rule.empty()) i.type += " " + rule;
+    if (!rule.empty()) i.type += k.range.nonzero ? ", nonzero" : (several ? ", each " : " ") + rule;
     out.push_back(i);
   }
   return out;

@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <array>
 
+#include "materials/cloth_models.hpp"
 #include "materials/material.hpp"
 
 namespace hyperqn {
@@ -30,7 +31,6 @@ TriangleRest rest(const Vec3& X0, const Vec3& X1, const Vec3& X2);
 // corotated:  psi = mu ||F - R||^2 + lambda/2 (tr(R^T F) - 2)^2 = mu (I1 - 2 s + 2) + lambda/2 (s - 2)^2,
 //             s = sigma1 + sigma2 = sqrt(I1 + 2J)
 // neohookean: psi = mu/2 (I1 - 2) - mu log J + lambda/2 (log J)^2, +inf at J = 0 (a collapsed triangle)
-enum class Model { stvk, corotated, neohookean };
 
 Mat3x2 deformation_gradient(const TriangleRest& r, const Vec9& x);
 

@@ -55,11 +55,11 @@ static void add_cloth_terms(const DistributedMesh& mesh, const ClothSpec& cloth,
                             std::vector<std::unique_ptr<EnergyTerm>>& terms) {
   terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density, body));
   if (cloth.model == ClothModel::membrane)
-    terms.push_back(std::make_unique<ClothMembrane>(mesh, membrane_model(cloth.material), cloth.mu, cloth.lambda, body));
+    terms.push_back(std::make_unique<ClothMembrane>(mesh, cloth.material, cloth.mu, cloth.lambda, body));
   else
     terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, body));
-  if (cloth.bending != "none" && mesh.global_hinges > 0)
-    terms.push_back(std::make_unique<ClothBending>(mesh, bending_model(cloth.bending), cloth.bending_stiffness, body));
+  if (cloth.bending != BendingModel::none && mesh.global_hinges > 0)
+    terms.push_back(std::make_unique<ClothBending>(mesh, cloth.bending, cloth.bending_stiffness, body));
 }
 
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "io/deck_keys.hpp"
+#include "materials/cloth_models.hpp"
 
 namespace hyperqn {
 
@@ -43,17 +44,54 @@ struct FunctionSpec {
 // The material of a cloth surface (docs/cloth.md): in-plane stretching by springs on the edges
 // (Liu et al. 2013) or a triangle-FEM membrane, bending across interior edges, and areal density.
 enum class ClothModel { mass_spring, membrane };
-inline const std::vector<std::string> kClothModelNames = {"mass-spring", "membrane"};  // in the enum's order
+// The deck's words, in the enums' order (materials/cloth_models.hpp).
+inline const std::vector<std::string> kClothModelNames = {"mass-spring", "membrane"};
+inline const std::vector<std::string> kMembraneMaterialNames = {"stvk", "corotated", "neohookean"};
+inline const std::vector<std::string> kBendingModelNames = {"quadratic", "dihedral", "springs", "none"};
 
 struct ClothSpec {
   ClothModel model = ClothModel::mass_spring;
   double stretch_stiffness = 0;      // mass-spring: k of the spring on every edge (N/m)
-  std::string material = "stvk";     // membrane: stvk | corotated | neohookean
-  double mu = 0, lambda = 0;         // membrane: 2-D (plane-stress) Lame parameters (N/m)
-  std::string bending = "none";      // quadratic | dihedral | springs | none
+  membrane::Model material = membrane::Model::stvk;
+  double youngs_modulus = 0, poisson_ratio = 0;  // membrane: as the deck gives them
+  double mu = 0, lambda = 0;         // membrane: 2-D (plane-stress) Lame parameters (N/m), from E and nu
+  BendingModel bending = BendingModel::none;
   double bending_stiffness = 0;      // quadratic, dihedral: a bending modulus (N m); springs: k (N/m)
   double areal_density = 0;          // mass per unit rest area (kg/m^2)
 };
+
+// The deck's cloth: keys (io/deck_keys.hpp).
+inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
+  using C = ClothSpec;
+  static const std::vector<DeckKey<C>> keys = {
+      needed(enum_key<C>("model", &C::model, kClothModelNames,
+                         "in-plane elasticity: a spring on every edge (Liu et al. 2013), or a triangle-FEM membrane")),
+      only_with(DeckKey<C>{"stretch_stiffness", &C::stretch_stiffness, "k of every edge spring: E = k/2 (l − L)²",
+                           above(0), {}, "N/m"},
+                "model", {"mass-spring"}, true),
+      only_with(enum_key<C>("material", &C::material, kMembraneMaterialNames,
+                            "the energy density of the 3×2 deformation gradient"),
+                "model", {"membrane"}, false),
+      only_with(DeckKey<C>{"youngs_modulus", &C::youngs_modulus,
+                           "the sheet's stretching modulus E·t: energy per unit rest area",
+                           above(0, "the sheet's stretching modulus, N/m")},
+                "model", {"membrane"}, true),
+      only_with(DeckKey<C>{"poisson_ratio", &C::poisson_ratio,
+                           "with `youngs_modulus`, the plane-stress Lamé constants μ = E/(2(1+ν)), λ = Eν/(1−ν²)",
+                           {-1, 0.5, true, true}},
+                "model", {"membrane"}, true),
+      map_key<C>("bending", "bending across every interior edge", "`model: none`"),
+      needed(enum_key<C>("bending.model", &C::bending, kBendingModelNames,
+                         "Bergou et al. 2006 (flat rest shapes), Grinspun et al. 2003 (large folds, curved rest "
+                         "shapes), a spring between the two vertices opposite the edge (Liu et al. 2013), or none")),
+      only_with(DeckKey<C>{"bending.stiffness", &C::bending_stiffness,
+                           "quadratic, dihedral: a bending modulus (N·m); springs: k (N/m)", above(0)},
+                "model", {"quadratic", "dihedral", "springs"}, true),
+      needed(DeckKey<C>{"areal_density", &C::areal_density,
+                        "mass per unit rest area, lumped a third to each vertex of a triangle", above(0, "kg/m^2")}),
+  };
+  return keys;
+}
 
 struct MaterialSpec {
   std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch | mass-spring

@@ -30,6 +30,34 @@ struct BoxRegion {
                                      // (bodies[body].fixed, bodies[body].attachments; -1: any)
 };
 
+// The keys box, box.min and box.max of a deck section whose box is box(spec) (io/deck_keys.hpp).
+// The section's reader checks min <= max.
+template <typename Spec>
+std::vector<DeckKey<Spec>> box_keys(BoxRegion& (*box)(Spec&), const char* doc, bool required) {
+  return {map_key<Spec>("box", doc, required ? "" : "none", required),
+          needed(DeckKey<Spec>{"box.min", Field<Spec, Array3>([box](Spec& s) -> Array3& { return box(s).min; }),
+                               "the corner of least coordinates (after `mesh.transform`)"}),
+          needed(DeckKey<Spec>{"box.max", Field<Spec, Array3>([box](Spec& s) -> Array3& { return box(s).max; }),
+                               "the opposite corner: `min` ≤ `max` on every axis (equality gives a plane)"})};
+}
+
+// The keys of one of the deck's fixed: regions (io/deck_keys.hpp).
+inline const std::vector<DeckKey<BoxRegion>>& fixed_keys() {
+  using B = BoxRegion;
+  static const std::vector<DeckKey<B>> keys = [] {
+    std::vector<DeckKey<B>> k = box_keys<B>(
+        +[](B& b) -> B& { return b; }, "the vertices fixed: those in this axis-aligned box, inclusive", true);
+    k.push_back(custom_key<B>("motion", "map: [`motion`](#motion)",
+                              "how the region moves; the vertices follow it until `release`", "none (at rest)"));
+    k.push_back({"release", &B::release,
+                 "from this time on the region's vertices are free: they keep their prescribed position and velocity "
+                 "at that moment and then move freely",
+                 above(0, "a time"), {}, "", "never"});
+    return k;
+  }();
+  return keys;
+}
+
 // A soft attachment (deck attachments[k]): a zero-rest-length spring of stiffness k (N/m, per
 // vertex) from every free vertex in region's box to its rest position moved by region.motion, until
 // region.release. A vertex in several attachment boxes gets a spring from each.
@@ -37,6 +65,25 @@ struct AttachmentSpec {
   BoxRegion region;
   double stiffness = 0;
 };
+
+// The keys of one of the deck's attachments: (io/deck_keys.hpp).
+inline const std::vector<DeckKey<AttachmentSpec>>& attachment_keys() {
+  using A = AttachmentSpec;
+  static const std::vector<DeckKey<A>> keys = [] {
+    std::vector<DeckKey<A>> k = box_keys<A>(
+        +[](A& a) -> BoxRegion& { return a.region; },
+        "the vertices attached, selected as for `fixed` (inclusive, tolerance 1e-9 × the mesh bounding-box size)", true);
+    k.push_back(needed(DeckKey<A>{"stiffness", &A::stiffness,
+                                  "k, **per vertex** (the total stiffness of an attachment grows with the number of "
+                                  "vertices in its box)",
+                                  above(0, "N/m per vertex")}));
+    k.push_back(custom_key<A>("motion", "map: [`motion`](#motion)", "how the targets move", "none (targets at rest)"));
+    k.push_back({"release", Field<A, double>([](A& a) -> double& { return a.region.release; }),
+                 "a time from which the springs are gone", above(0, "a time"), {}, "", "never"});
+    return k;
+  }();
+  return keys;
+}
 
 // Elements with a material other than the deck's default one: those whose centroid lies in a
 // box, or whose mesh element tag is listed. Later regions override earlier ones.
@@ -47,6 +94,26 @@ struct MaterialRegion {
   MaterialSpec material;
   int line = 0;
 };
+
+// The keys of one of the deck's regions: (io/deck_keys.hpp). Its reader checks that it gives box
+// or tags.
+inline const std::vector<DeckKey<MaterialRegion>>& region_keys() {
+  using R = MaterialRegion;
+  static const std::vector<DeckKey<R>> keys = [] {
+    std::vector<DeckKey<R>> k = box_keys<R>(
+        +[](R& r) -> BoxRegion& { return r.box; },
+        "the elements whose centroid lies in this box (or give `tags`)", false);
+    k.push_back({"tags", &R::tags,
+                 "or the elements of these tags: the mesh's element reference numbers (Medit's `ref` column, Gmsh's "
+                 "physical groups)",
+                 {}, {}, "", "none"});
+    k.push_back(custom_key<R>("material", "map: as [`material`](#material-required-when-the-mesh-has-tetrahedra)",
+                              "the elements' material", ""));
+    k.back().required = true;
+    return k;
+  }();
+  return keys;
+}
 
 
 // Whether the point p lies in the box, inclusive, widened by tol (1e-9 of the mesh's bounding-box

@@ -6,12 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "geometry/collider.hpp"
 #include "io/deck_keys.hpp"
 #include "mesh/mesh_spec.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
 #include "model/time_integrator.hpp"
-#include "terms/contact.hpp"
+#include "terms/contact_spec.hpp"
 
 namespace hyperqn {
 
@@ -41,30 +42,64 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
   return keys;
 }
 
-// The deck's contact: keys (io/deck_keys.hpp; ContactSpec is the contact term's, terms/contact.hpp,
-// a layer below the deck's declarations). Its defaults of 0 are resolved by the scene (resolved_contact).
-inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
-  using C = ContactSpec;
-  static const std::vector<DeckKey<C>> keys = {
-      enum_key<C>("model", &C::model, kContactModelNames,
-                  "`penalty`: a one-sided cubic penalty on the distance to the obstacle; `barrier`: IPC's log barrier, "
-                  "infinite at the obstacle, with every step bounded by continuous collision detection, so no vertex "
-                  "ever reaches an obstacle (measured against each other in [contact.md](contact.md))"),
-      {"distance", &C::distance,
-       "activation distance d: a vertex closer than d to an obstacle is pushed back; at most the rest bounding-box "
-       "diagonal (after `mesh.transform`: a layer thicker than the body is an error naming the deck line). Resting "
-       "bodies float about d above the obstacle (a vertex sinks d·√(f/stiffness) into this layer under f times its "
-       "own weight); smaller values give a thinner gap and more iterations ([contact.md](contact.md#defaults))",
-       above(0, "a length; omit it for 1e-2 of the body's rest diagonal"), {}, "",
-       "1e-2 × the rest bounding-box diagonal"},
-      {"stiffness", &C::stiffness,
-       "the force on a vertex that penetrates the whole activation layer (the barrier: half of it), in multiples of "
-       "its own weight m g₀ (g₀ = 9.80665 m/s²), whatever the units, masses or time step",
-       between(1, 1e12, "force at full penetration, in vertex weights")},
-      {"friction_velocity", &C::friction_velocity,
-       "ε: tangential speeds below ε count as sticking (the friction force grows from 0 at rest to μ N at ε). "
-       "Smaller values creep less on a slope and take more iterations",
-       above(0, "a speed; omit it for 1e-2 rest diagonals per second"), {}, "", "1e-2 rest diagonals per second"},
+// The deck's mesh: keys (io/deck_keys.hpp; MeshSpec is the mesh layer's, below io). Its reader
+// resolves the file, reads the strands (strand_line_keys) and checks which keys go together.
+inline const std::vector<DeckKey<MeshSpec>>& mesh_keys() {
+  using M = MeshSpec;
+  static const std::vector<DeckKey<M>> keys = [] {
+    std::vector<DeckKey<M>> k = {
+        {"file", &M::file,
+         "tetrahedral mesh file: `.mesh` (Medit) or `.msh` (Gmsh), or a cloth surface: `.obj` (Wavefront), or "
+         "`.mesh`/`.msh` with `surface: cloth`, or a partition file `.h5` written by `hyperqn partition` (below). A "
+         "relative path is resolved against **the deck's directory**, not the working directory. An absolute path is "
+         "used as written. The file must exist.",
+         {}, {}, "", "none"},
+        map_key<M>("box", "a generated box of tetrahedra", "none"),
+        needed(DeckKey<M>{"box.size", &M::box_size, "generated box `[0, size]` in x, y and z (length)", above(0)}),
+        needed(DeckKey<M>{"box.cells", &M::box_cells, "cubes along x, y and z, with 6 tetrahedra per cube",
+                          at_least(1)}),
+        map_key<M>("sheet", "a generated cloth sheet", "none"),
+        needed(DeckKey<M>{"sheet.size", &M::sheet_size,
+                          "generated flat cloth in the x-z plane from (0, 0, 0) to (size[0], 0, size[1])", above(0)}),
+        needed(DeckKey<M>{"sheet.cells", &M::sheet_cells,
+                          "cells along x and z, 2 triangles per cell (alternating diagonals): (cells[0] + 1) × "
+                          "(cells[1] + 1) vertices",
+                          at_least(1)}),
+        {"surface", std::monostate{},
+         "the triangles of the `.mesh` (`Triangles` section) or `.msh` (type 2) `file` are a cloth; its tetrahedra are "
+         "not read. Implied for `.obj`.",
+         {}, {"cloth"}, "", "none (implied for `.obj`)", [](M& m, const std::string&) { m.surface_as_cloth = true; }},
+        map_key<M>("transform", "applied to the file or box mesh before anything else (not to `strands`)", "none"),
+        {"transform.scale", Field<M, double>([](M& m) -> double& { return m.transform.scale; }),
+         "uniform scale factor", above(0)},
+        {"transform.rotate", Field<M, Array3>([](M& m) -> Array3& { return m.transform.rotate_deg; }),
+         "rotations in degrees about x, then y, then z"},
+        {"transform.translate", Field<M, Array3>([](M& m) -> Array3& { return m.transform.translate; }),
+         "translation (length)"},
+        {"edges", std::monostate{},
+         "`strands`: the `Edges` section of the Medit `file` becomes strand segments (the file may hold only "
+         "`Vertices` and `Edges`). Tet mesh generators write `Edges` for feature lines, hence the default `ignore`. "
+         "Needs a `.mesh` file.",
+         {}, {"ignore", "strands"}, "", "",
+         [](M& m, const std::string& word) { m.edges_as_strands = word == "strands"; },
+         [](const M& m) { return std::string(m.edges_as_strands ? "strands" : "ignore"); }},
+        custom_key<M>("strands", "list of `{from: vec3, to: vec3, segments: integer ≥ 1}`",
+                      "generated straight strands, each cut into `segments` equal segments, in world coordinates "
+                      "(after the transform)",
+                      "none"),
+    };
+    return k;
+  }();
+  return keys;
+}
+
+// The keys of one of mesh.strands (io/deck_keys.hpp; documented as mesh_keys' strands).
+inline const std::vector<DeckKey<StrandLine>>& strand_line_keys() {
+  using L = StrandLine;
+  static const std::vector<DeckKey<L>> keys = {
+      needed(DeckKey<L>{"from", &L::from, "one end"}),
+      needed(DeckKey<L>{"to", &L::to, "the other end"}),
+      needed(DeckKey<L>{"segments", &L::segments, "equal segments", at_least(1)}),
   };
   return keys;
 }

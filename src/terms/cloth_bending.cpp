@@ -6,18 +6,11 @@
 
 namespace hyperqn {
 
-BendingModel bending_model(const std::string& name) {
-  if (name == "springs") return BendingModel::springs;
-  if (name == "quadratic") return BendingModel::quadratic;
-  if (name == "dihedral") return BendingModel::dihedral;
-  throw std::invalid_argument("unknown bending model '" + name + "'");
-}
-
 std::string ClothBending::name() const {
   switch (model_) {
     case BendingModel::springs: return "bending springs";
     case BendingModel::quadratic: return "quadratic bending";
-    default: return "dihedral bending";
+    default: return "dihedral bending";  // (none builds no term)
   }
 }
 

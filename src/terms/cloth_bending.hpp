@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "materials/cloth_models.hpp"
 #include "materials/hinge_bending.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
@@ -20,12 +21,9 @@
 
 namespace hyperqn {
 
-enum class BendingModel { springs, quadratic, dihedral };
-// "springs" | "quadratic" | "dihedral"; throws std::invalid_argument otherwise.
-BendingModel bending_model(const std::string& name);
-
 class ClothBending : public EnergyTerm {
  public:
+  // model: not none (a cloth without bending has no bending term).
   ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, int body = -1);
   std::string name() const override;
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;

@@ -6,13 +6,6 @@
 
 namespace hyperqn {
 
-membrane::Model membrane_model(const std::string& name) {
-  if (name == "stvk") return membrane::Model::stvk;
-  if (name == "corotated") return membrane::Model::corotated;
-  if (name == "neohookean") return membrane::Model::neohookean;
-  throw std::invalid_argument("unknown membrane material '" + name + "'");
-}
-
 ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body)
     : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda), triangles_(body_elements(mesh, mesh.triangles, 3, body)) {
   rest_.reserve(triangles_.size());

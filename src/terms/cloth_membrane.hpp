@@ -13,9 +13,6 @@
 
 namespace hyperqn {
 
-// "stvk" | "corotated" | "neohookean"; throws std::invalid_argument otherwise.
-membrane::Model membrane_model(const std::string& name);
-
 class ClothMembrane : public EnergyTerm {
  public:
   ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body = -1);

@@ -32,26 +32,11 @@
 
 #include "geometry/collider.hpp"
 #include "mesh/distributed_mesh.hpp"
+#include "terms/contact_spec.hpp"
 #include "terms/element_kernels.hpp"
 #include "terms/energy_term.hpp"
 
 namespace hyperqn {
-
-// The deck's contact: section (its keys, ranges and defaults: contact_keys() in
-// model/scene_spec.hpp); 0 means "the default" for the scene-dependent values.
-enum class ContactModel { penalty, barrier };
-inline const std::vector<std::string> kContactModelNames = {"penalty", "barrier"};  // in the enum's order
-
-struct ContactSpec {
-  ContactModel model = ContactModel::penalty;
-  double distance = 0;              // activation distance d; 0: 1e-2 of the rest bounding-box diagonal
-  double stiffness = 1e3;           // force at full penetration of d, in vertex weights
-  double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
-  int line = 0;                     // deck line of the section
-  int distance_line = 0;            // and of distance, when given
-};
-// The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
-ContactSpec resolved_contact(ContactSpec spec, double diagonal);
 
 // What the contact does at one configuration, per collider, over all ranks.
 struct ContactMeasure {

@@ -88,7 +88,7 @@ BAD_DECKS = {
                               ["colliders[0].file", "nowhere.obj", "not found"]),
     "collider_unknown_type": (deck_with(colliders=[{"type": "torus"}]), ["colliders[0].type", "plane, sphere"]),
     "collider_key_of_other_type": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
-                                                         "radius": 1}]), ["colliders[0].radius", "unknown key"]),
+                                                         "radius": 1}]), ["colliders[0].radius", "applies to type sphere, capsule only"]),
     "collider_box_inside_out": (deck_with(colliders=[{"type": "box", "min": [0, 0, 0], "max": [1, -1, 1]}]),
                                 ["colliders[0].max", "along y"]),
     "contact_without_colliders": (deck_with(contact={"distance": 0.01}), ["contact", "no", "colliders"]),

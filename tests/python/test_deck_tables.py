@@ -1,5 +1,6 @@
 """Parameters declared once (src/io/deck_keys.hpp): docs/decks.md's tables of the declared
-sections (strand_material, contact, time, solver, output, checkpoint, study) are what the binary declares, and `hyperqn
+sections (mesh, strand_material, cloth, fixed, motion, attachments, colliders, contact, regions, time, solver, output,
+checkpoint, study) are what the binary declares, and `hyperqn
 --help-deck` lists every declared key with its default."""
 import subprocess
 
@@ -15,8 +16,9 @@ def test_docs_tables_match_the_declarations():
 
 def test_help_deck_lists_every_declared_key():
     keys = launch.registry(HYPERQN)["deck_keys"]
-    assert {k["section"] for k in keys} == {"strand_material", "contact", "time", "solver", "output", "checkpoint", "study"}
+    assert {k["section"] for k in keys} == {"mesh", "strand_material", "cloth", "fixed", "motion", "attachments", "colliders",
+                                            "contact", "regions", "time", "solver", "output", "checkpoint", "study"}
     text = launch.run(["--help-deck"], ranks=None, binary=HYPERQN, check=True, timeout=60).stdout
     for k in keys:
-        given = "(required" if k["default"] == "required" else f"(default {k['default']}"
+        given = f"({k['default']}" if k["default"].startswith("required") else f"(default {k['default']}"
         assert f"  {k['name']}: " in text and given in text, k
