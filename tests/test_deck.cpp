@@ -417,13 +417,13 @@ void test_new_materials() {
 }
 
 void test_initial_state() {
-  CHECK(load_ok("init_squash", kHead + "initial: {squash: {axis: 2, factor: 0.5}}\n").initial.kind == "squash");
+  CHECK(load_ok("init_squash", kHead + "initial: {squash: {axis: 2, factor: 0.5}}\n").initial.kind == hyperqn::InitialKind::squash);
   Deck r = load_ok("init_random", kHead + "initial: {random: {seed: 7}}\n");
-  CHECK(r.initial.kind == "random" && r.initial.seed == 7);
-  CHECK(load_ok("init_no_collapse", kHead + "initial: {collapse: false}\n").initial.kind.empty());
+  CHECK(r.initial.kind == hyperqn::InitialKind::random && r.initial.seed == 7);
+  CHECK(load_ok("init_no_collapse", kHead + "initial: {collapse: false}\n").initial.kind == hyperqn::InitialKind::rest);
   CHECK(load_ok("init_invert", kHead + "initial: {invert: {axis: 0}}\n").initial.axis == 0);
   expect_error("init_two_forms", kHead + "initial: {collapse: true, invert: {axis: 0}}\n", "initial", 3, "exactly one");
-  expect_error("init_bad_axis", kHead + "initial: {invert: {axis: 3}}\n", "initial.invert.axis", 3, "0, 1 or 2");
+  expect_error("init_bad_axis", kHead + "initial: {invert: {axis: 3}}\n", "initial.invert.axis", 3, "in [0, 2] (x, y or z)");
   expect_error("init_negative_factor", kHead + "initial: {squash: {axis: 1, factor: -1}}\n", "initial.squash.factor", 3);
   expect_error("init_unknown", kHead + "initial: {explode: true}\n", "initial.explode", 3);
 }

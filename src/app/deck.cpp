@@ -730,30 +730,14 @@ void read_body_regions(const Reader& r, const BodyRegions& regions, Deck& deck) 
 }
 
 void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
-  Section s(r, v, {"squash", "collapse", "random", "invert"});
+  const Section s(r, v, {"squash", "collapse", "random", "invert"});
   if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
-  const auto& [kind, x] = s.entries()[0];
-  auto read_axis = [&](const Section& sec) {
-    const Value& a = sec.need("axis");
-    in.axis = r.integer(a);
-    r.check(in.axis >= 0 && in.axis <= 2, a, "0, 1 or 2");
-  };
-  in.kind = kind;
-  if (kind == "squash") {
-    Section sq(r, x, {"axis", "factor"});
-    read_axis(sq);
-    const Value& f = sq.need("factor");
-    in.factor = r.number(f);
-    r.check(in.factor >= 0, f, ">= 0");
-  } else if (kind == "collapse") {
-    if (!r.boolean(x)) in.kind.clear();
-  } else if (kind == "random") {
-    Section rs(r, x, {"seed"});
-    if (const Value* seed = rs.find("seed")) in.seed = r.integer(*seed);
-  } else {
-    Section inv(r, x, {"axis"});
-    read_axis(inv);
-  }
+  read_keys(r, v, initial_keys(), in);
+  const auto& [form, x] = s.entries()[0];
+  if (form == "squash") in.kind = InitialKind::squash;
+  if (form == "collapse" && r.boolean(x)) in.kind = InitialKind::collapse;
+  if (form == "random") in.kind = InitialKind::random;
+  if (form == "invert") in.kind = InitialKind::invert;
 }
 
 void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {

@@ -1,6 +1,6 @@
 // Every deck section declared with io/deck_keys.hpp, in the deck's order: what `hyperqn
 // --help-deck` prints, `hyperqn registry` exports and scripts/deck_tables.py turns into
-// docs/decks.md's tables. The other sections (bodies, material, initial, gravity, petsc) are read by their own functions in app/deck.cpp and documented by hand.
+// docs/decks.md's tables. The other sections (bodies, material, gravity, petsc) are read by their own functions in app/deck.cpp and documented by hand.
 #include "app/deck.hpp"
 #include "solvers/solver_registry.hpp"
 
@@ -36,7 +36,7 @@ std::vector<KeyInfo> declared_deck_keys() {
         key_infos("fixed", fixed_keys()), key_infos("motion", motion_keys()),
         key_infos("attachments", attachment_keys()), key_infos("colliders", collider_keys()),
         key_infos("contact", contact_keys()),
-        key_infos("regions", region_keys()), key_infos("time", time_keys()), key_infos("solver", solver_keys()), key_infos("output", output_keys()),
+        key_infos("regions", region_keys()), key_infos("initial", initial_keys()), key_infos("time", time_keys()), key_infos("solver", solver_keys()), key_infos("output", output_keys()),
         key_infos("checkpoint", checkpoint_keys()), key_infos("study", study_keys())})
     all.insert(all.end(), section.begin(), section.end());
   return all;

@@ -107,8 +107,9 @@ struct DeckKey {
   std::function<std::string(const Spec&)> get = nullptr;
   const char* type_text = "";             // a key without member or `set`: its type as docs show it
   bool required = false;                  // the section must give it (its default is never used)
-  // Only for these values of the choice key `selector` of the same map (the model's, the type's
-  // own keys): given with another value it is an error; `required` then means required with these.
+  // Only for these values of the choice key `selector` of the same map, an enum_key declared before
+  // it (the model's, the type's own keys): given with another value it is an error naming these;
+  // `required` then means required with these.
   const char* selector = "";
   std::vector<std::string> only_for = std::vector<std::string>(0);
 };

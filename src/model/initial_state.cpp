@@ -11,7 +11,7 @@ PetscErrorCode apply_initial_state(const InitialSpec& initial, const Body& body,
   Vec xl;
   PetscScalar* a;
   PetscFunctionBeginUser;
-  if (initial.kind.empty()) PetscFunctionReturn(0);
+  if (initial.kind == InitialKind::rest) PetscFunctionReturn(0);
   // The rest bounding box over all ranks, and its centre c.
   double lo[3], hi[3], c[3];
   rest_bounding_box(m, lo, hi);
@@ -25,16 +25,16 @@ PetscErrorCode apply_initial_state(const InitialSpec& initial, const Body& body,
     const double* X = &m.rest[3 * v];
     double p[3] = {X[0], X[1], X[2]};
     const int A = initial.axis;
-    if (initial.kind == "squash") {
+    if (initial.kind == InitialKind::squash) {
       p[A] = c[A] + initial.factor * (X[A] - c[A]);
-    } else if (initial.kind == "collapse") {
+    } else if (initial.kind == InitialKind::collapse) {
       for (int d = 0; d < 3; ++d) p[d] = c[d];
-    } else if (initial.kind == "random") {
+    } else if (initial.kind == InitialKind::random) {
       std::seed_seq seq{(unsigned)initial.seed, (unsigned)m.vertex_ids[v], (unsigned)(m.vertex_ids[v] >> 32)};
       std::mt19937_64 gen(seq);
       std::uniform_real_distribution<double> u(0.0, 1.0);
       for (int d = 0; d < 3; ++d) p[d] = lo[d] + u(gen) * (hi[d] - lo[d]);
-    } else if (initial.kind == "invert") {
+    } else if (initial.kind == InitialKind::invert) {
       p[A] = 2 * c[A] - X[A];
     }
     for (int d = 0; d < 3; ++d) a[off + d] = p[d];

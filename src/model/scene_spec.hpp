@@ -106,16 +106,38 @@ inline const std::vector<DeckKey<StrandLine>>& strand_line_keys() {
 
 // An extreme initial state (positions at frame 0; the rest shape stays the mesh). c is the
 // centre of the rest bounding box; fixed vertices stay where they are.
+enum class InitialKind { rest, squash, collapse, random, invert };
+
 struct InitialSpec {
-  std::string kind;                  // "" (rest) | squash | collapse | random | invert
+  InitialKind kind = InitialKind::rest;  // the deck's form (rest: none)
   int axis = 1;                      // squash, invert: the coordinate axis (0, 1, 2)
   double factor = 0;                 // squash: x_A = c_A + factor (X_A - c_A)
-  long seed = 1;                     // random: uniform in the rest bounding box, per vertex id
+  int seed = 1;                      // random: uniform in the rest bounding box, per vertex id
 };
 
+// The deck's initial: keys (io/deck_keys.hpp): one form, a map of its own keys (collapse: a bool).
+// Its reader checks that one is given and sets kind.
+inline const std::vector<DeckKey<InitialSpec>>& initial_keys() {
+  using I = InitialSpec;
+  static const std::vector<DeckKey<I>> keys = {
+      map_key<I>("squash", "coordinate `axis` of every free vertex scaled by `factor` about c", "none"),
+      needed(DeckKey<I>{"squash.axis", &I::axis, "the axis: 0, 1, 2 for x, y, z", between(0, 2, "x, y or z")}),
+      needed(DeckKey<I>{"squash.factor", &I::factor, "the scale s (s = 0: flat, J = 0)", at_least(0)}),
+      custom_key<I>("collapse", "bool", "`true`: every free vertex at c (F = 0)", "false"),
+      map_key<I>("random", "every free vertex at a uniformly random point of the rest bounding box", "none"),
+      {"random.seed", &I::seed,
+       "drawn per input vertex id from this seed (the same at any rank count)"},
+      map_key<I>("invert", "every free vertex mirrored through the plane through c normal to `axis` (every element "
+                           "inverted)",
+                 "none"),
+      needed(DeckKey<I>{"invert.axis", &I::axis, "the axis: 0, 1, 2 for x, y, z", between(0, 2, "x, y or z")}),
+  };
+  return keys;
+}
+
 // One body of a scene of several (deck bodies:): its own mesh (tets, a cloth, strands, or tets
-// with strands), with its transform, the material of each of its parts, and initial velocity; its fixed regions and attachments are in SceneSpec::fixed and ::attachments with
-// BoxRegion::body set. All bodies go into one mesh (vertex ids body by body), one factor, one solve.
+// with strands), with its transform, the material of each of its parts, and initial velocity; its
+// fixed regions and attachments are in SceneSpec::fixed and ::attachments with BoxRegion::body set. All bodies go into one mesh (vertex ids body by body), one factor, one solve.
 struct BodySpec {
   std::string name;                      // bodies[k].name, default body<k>
   MeshSpec mesh;
