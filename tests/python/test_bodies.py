@@ -222,7 +222,7 @@ def test_bad_bodies_are_input_errors(tmp_path, change, key, words):
     deck = scene(copy.deepcopy([SOFT, STIFF]))
     change(deck)
     out = tmp_path / "out"
-    proc = run_hyperqn([write_deck(tmp_path / "bad.yaml", deck), "-o", out], ranks=1, check=False)
+    proc = run_hyperqn([write_deck(tmp_path / "bad.yaml", deck), "-o", out], ranks=None, check=False)
     assert proc.returncode == 1, proc.stdout
     assert key in proc.stdout and words in proc.stdout, proc.stdout
     assert not out.exists()
