@@ -44,7 +44,7 @@ class BoxTree {
 
  private:
   struct Node {
-    Box box;
+    Box box{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     int first = 0, count = 0;  // leaf: order_[first, first + count)
     int left = -1, right = -1;
   };

@@ -405,6 +405,45 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, long* count) const {
+  PetscFunctionBeginUser;
+  PetscCall(gather_positions(pos));
+  long local = 0;
+  candidate_pairs(nullptr, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const Vector12d x = coordinates(x_, q);
+    const double D = p.kind == PairKind::vertex_triangle
+                         ? point_triangle_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9))
+                         : edge_edge_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9));
+    local += D <= 0;
+  });
+  PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
+  long touching;
+  PetscFunctionBeginUser;
+  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(touching_pairs(pos, &touching));
+  if (touching == 0) PetscFunctionReturn(0);
+  out.line = spec_.self_line;
+  out.key = "contact.self";
+  out.what = std::to_string(touching) + " pairs of surface primitives touch at frame 0, where the barrier's energy is " +
+             "infinite: move the bodies apart (or use the penalty)";
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos, std::string& why) const {
+  long touching;
+  PetscFunctionBeginUser;
+  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(touching_pairs(pos, &touching));
+  if (touching > 0)
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) + " pairs of surface primitives touch, where the barrier is infinite";
+  PetscFunctionReturn(0);
+}
+
 std::string SelfContactTerm::describe() const {
   char text[300];
   std::snprintf(text, sizeof text,

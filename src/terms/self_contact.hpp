@@ -65,6 +65,11 @@ class SelfContactTerm : public EnergyTerm {
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
+  // The barrier: no two surfaces may touch at frame 0 (the problem names contact.self and how
+  // many pairs touch). Collective.
+  PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
+  // The barrier's energy is infinite where pairs touch: how many (collective).
+  PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
   size_t surface_vertices() const { return ids_.size(); }
@@ -87,6 +92,8 @@ class SelfContactTerm : public EnergyTerm {
   template <class Visit>
   void candidate_pairs(const std::vector<double>* end, Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  // The pairs at distance 0 at pos, over all ranks (collective).
+  PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
 
   const DistributedMesh& mesh_;
   ContactSpec spec_;
