@@ -3,7 +3,8 @@ blocks (two `bodies:`) fly at each other in empty space (no gravity, no damping,
 collide and bounce apart. With the barrier, hyperqn_tools.intersections finds no intersecting
 surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block's (every step
 solved by Newton to round-off); the blocks exchange their momentum; 1, 2 and 4 ranks agree to
-1e-8 of the diagonal. A deck without self-contact runs none of its code (its log event's count is
+1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting. A
+deck without self-contact runs none of its code (its log event's count is
 0); self-contact needs an integrator whose end of step is the solve's."""
 import numpy as np
 import pytest
@@ -104,6 +105,28 @@ def test_penalty_bounces_too(tmp_path):
     out, _ = run(tmp_path, "penalty", deck("penalty"))
     left, right = momenta(read_frames(out)[-1][1])
     assert left[0] < 0 < right[0]
+
+
+def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
+    """A 0.4 m sheet held along its middle line: both halves fall into the same vertical plane
+    below it. With the barrier they come to rest d apart and never cross (without self-contact they
+    pass through each other)."""
+    d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3,
+                   "bending": {"model": "springs", "stiffness": 1.0e-3}, "areal_density": 0.2},
+         "fixed": [{"box": {"min": [0.19, -1, -1], "max": [0.21, 1, 1]}}],
+         "gravity": [0, -9.81, 0], "time": {"dt": 1 / 60, "frames": 24}, "output": {"every": 1}}
+    plain, _ = run(tmp_path, "fold_plain", d)
+    assert max(r["intersecting_pairs"] for r in check_run(plain)) > 0
+    d["contact"] = {"self": True, "model": "barrier", "distance": 5e-3}
+    out, _ = run(tmp_path, "fold", d)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
+    f = read_frames(out)[-1][1]
+    rest = f.points - f.displacement
+    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
+    closest = np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+    print(f"the halves' closest vertices: {closest:.5f} m apart")
+    assert 0 < closest < 5e-3  # they met: within the activation distance, not through
 
 
 def test_without_self_contact_none_of_its_code_runs(tmp_path):
