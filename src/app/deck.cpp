@@ -939,24 +939,30 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
   if (const Value* x = s.find("colliders")) read_colliders(r, *x, fs::path(path).parent_path(), deck.colliders);
   if (const Value* x = s.find("contact")) {
-    if (deck.colliders.empty()) r.fail(*x, "contact describes how the body touches colliders, and there are none");
+    const Value* self = Section(r, *x, {}).find("self");
+    if (deck.colliders.empty() && !(self && r.boolean(*self)))
+      r.fail(*x, "contact describes how the body touches colliders, and there are none (or self-contact: self: true)");
     read_contact(r, *x, deck.contact);
+    if (self) deck.contact.self_line = self->line;
   }
+  // Self-contact, like colliders, needs an integrator whose end of step is the solve's z (which
+  // the barrier kept free of intersections).
+  const bool contact = !deck.colliders.empty() || deck.contact.self;
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   read_body_regions(r, body_regions, deck);
   if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
     const IntegratorInfo& integrator = integrator_info(deck.time.integrator);
-    if (!integrator.with_colliders && !deck.colliders.empty())
+    if (!integrator.with_colliders && contact)
       r.fail(*Section(r, *x, {}).find("integrator"),
-             std::string(integrator.name) + " does not take colliders yet: its end-of-step map can carry "
-             "vertices through an obstacle that the solve's z rests on (use implicit-euler)");
+             std::string(integrator.name) + " does not take colliders or self-contact yet: its end-of-step map can carry "
+             "vertices through an obstacle or a surface that the solve's z rests on (use implicit-euler)");
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   // The solver's defaults with colliders (docs/contact.md#defaults): contact's stiff, lagged
   // friction is learnt from more (s, y) pairs; y often lies deep inside an obstacle while x_n rests on it.
-  if (!deck.colliders.empty()) {
+  if (contact) {
     const Value* solver = s.find("solver");
     const auto given = [&](const char* key) { return solver && Section(r, *solver, {}).find(key); };
     if (!given("history")) deck.solver.history = kContactHistory;
@@ -968,7 +974,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     for (TimeIntegrator kind : deck.study.integrators)
-      if (!integrator_info(kind).with_colliders && !deck.colliders.empty())
+      if (!integrator_info(kind).with_colliders && contact)
         r.fail(*Section(r, *x, {}).find("integrators"),
                std::string(integrator_info(kind).name) + " does not take colliders yet (see time.integrator)");
   }

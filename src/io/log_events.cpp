@@ -39,6 +39,8 @@ static LogEvents register_events() {
   add("hqnScene", &e.scene);
   add("hqnOutput", &e.output);
   add("hqnContact", &e.contact);
+  add("hqnSelfContact", &e.self_contact);
+  add("hqnSelfGather", &e.self_gather);
   add("hqnCheckpoint", &e.checkpoint);
   return e;
 }

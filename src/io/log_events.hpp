@@ -18,6 +18,9 @@ struct LogEvents {
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
   PetscLogEvent output;       // writing one output frame
   PetscLogEvent contact;      // contact and friction: energy, gradient, Hessian, per-step update
+  PetscLogEvent self_contact; // self-contact: energy, gradient, Hessian, step bound (its gather included)
+  PetscLogEvent self_gather;  // within it, gathering the surface's positions to every rank and the
+                              // assembly of the gradients at vertices of other ranks
   PetscLogEvent checkpoint;   // writing one checkpoint (rank 0 writes, the others send their rows)
 };
 

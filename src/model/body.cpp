@@ -184,6 +184,12 @@ bool Body::bounds_steps() const {
   return false;
 }
 
+bool Body::couples_surfaces() const {
+  for (const auto& t : terms_)
+    if (t->couples_surfaces()) return true;
+  return false;
+}
+
 PetscErrorCode Body::limit_step(Vec x, Vec dir, double* alpha) const {
   PetscFunctionBeginUser;
   double local = *alpha;

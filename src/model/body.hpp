@@ -63,6 +63,8 @@ class Body {
   PetscErrorCode volume_ratios(Vec x, double* min_J, double* max_abs_J) const;
   // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
   bool bounds_steps() const;
+  // True if a term couples surfaces that come close (EnergyTerm::couples_surfaces).
+  bool couples_surfaces() const;
   // The terms' active sets at the last evaluated point, over all ranks (collective).
   unsigned long long active_set() const;
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const;

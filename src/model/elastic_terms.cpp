@@ -10,6 +10,7 @@
 #include "terms/continuum_tets.hpp"
 #include "terms/element_kernels.hpp"
 #include "terms/mass_spring_tets.hpp"
+#include "terms/self_contact.hpp"
 #include "terms/strand_segments.hpp"
 #include "terms/surface_mass.hpp"
 
@@ -113,6 +114,12 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
   for (size_t c = 0; c < colliders.size(); ++c) built.push_back(make_collider(colliders[c], deck_path, (int)c));
   return std::make_unique<ContactTerm>(mesh, std::move(built), resolved_contact(contact, rest_diagonal(mesh)),
                                        log_events().contact);
+}
+
+std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact) {
+  if (!contact.self) return nullptr;
+  return std::make_unique<SelfContactTerm>(mesh, resolved_contact(contact, rest_diagonal(mesh)), log_events().self_contact,
+                                           log_events().self_gather);
 }
 
 }  // namespace hyperqn

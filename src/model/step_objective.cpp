@@ -82,6 +82,13 @@ PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
     PetscFunctionReturn(0);
   }
   PetscCall(upright_guess(from, x));
+  if (body_.couples_surfaces() && body_.bounds_steps()) {
+    // No surface may pass through another on the way from x_n (EnergyTerm::couples_surfaces).
+    double alpha = 1;
+    PetscCall(VecWAXPY(work_, -1.0, from, x));
+    PetscCall(body_.limit_step(from, work_, &alpha));
+    if (alpha < 1) PetscCall(VecWAXPY(x, alpha, work_, from));
+  }
   if (warm_start_ == WarmStart::lower) {
     PetscReal g_y, g_n;
     PetscCall(objective(x, &g_y, nullptr));
@@ -339,7 +346,8 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
 PetscErrorCode StepObjective::create_hessian(Mat* H) const {
   PetscFunctionBeginUser;
   PetscCall(DMCreateMatrix(body_.mesh().dm, H));
-  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  // Self-contact couples vertices of no common element: its pairs add entries as they come.
+  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, body_.couples_surfaces() ? PETSC_FALSE : PETSC_TRUE));
   PetscFunctionReturn(0);
 }
 

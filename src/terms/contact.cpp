@@ -24,10 +24,12 @@ ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_pt
   for (auto& collider : colliders_) collider->set_time(0);  // where the run starts (check_start)
 }
 
-double ContactTerm::stiffness_per_mass() const {
-  const double d = spec_.distance;
-  return spec_.stiffness * kStandardGravity / (barrier_ ? d : d * d);
+double contact_stiffness_per_mass(const ContactSpec& spec) {
+  const double d = spec.distance;
+  return spec.stiffness * kStandardGravity / (spec.model == ContactModel::barrier ? d : d * d);
 }
+
+double ContactTerm::stiffness_per_mass() const { return contact_stiffness_per_mass(spec_); }
 
 PetscErrorCode ContactTerm::set_masses(Vec mass) {
   const PetscScalar* m;
@@ -46,11 +48,9 @@ static Mat3 clamp_psd(const Mat3& H) {
   return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
 }
 
-// The normal energy as a function of phi, per unit stiffness: value, first and second derivative
-// (phi < d; infinite for the barrier at phi <= 0).
-void ContactTerm::profile(double phi, double* b, double* db, double* d2b) const {
-  const double d = spec_.distance, gap = d - phi;
-  if (!barrier_) {
+void contact_profile(const ContactSpec& spec, double phi, double* b, double* db, double* d2b) {
+  const double d = spec.distance, gap = d - phi;
+  if (spec.model == ContactModel::penalty) {
     *b = gap * gap * gap / 3;
     *db = -gap * gap;
     *d2b = 2 * gap;
@@ -63,6 +63,8 @@ void ContactTerm::profile(double phi, double* b, double* db, double* d2b) const 
     *b = *db = *d2b = HUGE_VAL;
   }
 }
+
+void ContactTerm::profile(double phi, double* b, double* db, double* d2b) const { contact_profile(spec_, phi, b, db, d2b); }
 
 double ContactTerm::normal_energy(size_t k, size_t c, const Vec3& p, Vec3* grad, Mat3* hess, bool psd) const {
   Vec3 n;

@@ -46,6 +46,13 @@ struct ContactMeasure {
   std::vector<long> active;            // vertices with phi < d
 };
 
+// The normal energy of the model at distance phi < d, per unit stiffness: its value, first and
+// second derivative (the penalty's cubic, or the barrier's log, +inf at phi <= 0). Shared with
+// self-contact (terms/self_contact.hpp), whose phi is the distance between two primitives.
+void contact_profile(const ContactSpec& spec, double phi, double* b, double* db, double* d2b);
+// k_i / m_i: stiffness * g0 / d (barrier) or / d^2 (penalty).
+double contact_stiffness_per_mass(const ContactSpec& spec);
+
 class ContactTerm : public EnergyTerm {
  public:
   // event: the PETSc log event its work is timed under (hqnContact).

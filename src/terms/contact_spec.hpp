@@ -18,8 +18,10 @@ struct ContactSpec {
   double distance = 0;              // activation distance d; 0: 1e-2 of the rest bounding-box diagonal
   double stiffness = 1e3;           // force at full penetration of d, in vertex weights
   double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
+  bool self = false;                // self-contact: the surfaces of all bodies and cloths against each other
   int line = 0;                     // deck line of the section
   int distance_line = 0;            // and of distance, when given
+  int self_line = 0;                // and of self, when given
 };
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
 ContactSpec resolved_contact(ContactSpec spec, double diagonal);
@@ -48,6 +50,10 @@ inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
        "ε: tangential speeds below ε count as sticking (the friction force grows from 0 at rest to μ N at ε). "
        "Smaller values creep less on a slope and take more iterations",
        above(0, "a speed; omit it for 1e-2 rest diagonals per second"), {}, "", "1e-2 rest diagonals per second"},
+      {"self", &C::self,
+       "`true`: self-contact, the surfaces (tets' boundary faces, cloth triangles) of all bodies and cloths against "
+       "each other and themselves, vertex against triangle and edge against edge, with the same `model`, `distance` "
+       "and `stiffness` (no friction yet; [contact.md](contact.md#self-contact)). A deck may then have no colliders"},
   };
   return keys;
 }

@@ -80,6 +80,12 @@ class EnergyTerm {
   // after failed line searches) starts no further; TAO's line searches do not ask yet (the
   // contact terms, which need it, will bound them through the guarded TAO loop).
   virtual bool bounds_steps() const { return false; }
+  // True if the term couples vertices that share no element, through surfaces that come close
+  // (self-contact): Newton's Hessian then takes entries outside the mesh's pattern, and, if the
+  // term bounds steps, a step's first guess is pulled back to within limit_step of x_n (two
+  // primitives that passed through each other are apart again, so their energy alone would not
+  // refuse the guess, unlike a vertex inside an obstacle).
+  virtual bool couples_surfaces() const { return false; }
   // A signature of the term's active set at the last point it evaluated (0: none; contact).
   virtual unsigned long long active_set() const { return 0; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for

@@ -1,0 +1,457 @@
+#include "terms/self_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+
+#include "geometry/box_tree.hpp"
+#include "geometry/pair_ccd.hpp"
+#include "terms/contact.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+using Key3 = std::array<int64_t, 3>;
+
+Key3 sorted(Key3 k) {
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+// Every rank's items to every rank, in rank order; counts: each rank's number of items. Collective.
+template <class T>
+std::vector<T> all_gathered(MPI_Comm comm, const std::vector<T>& mine, MPI_Datatype type, std::vector<int>* counts_out = nullptr) {
+  PetscMPIInt size;
+  MPI_Comm_size(comm, &size);
+  int count = (int)mine.size();
+  std::vector<int> counts(size), offsets(size + 1, 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<T> all(offsets[size]);
+  MPI_Allgatherv(mine.data(), count, type, all.data(), counts.data(), offsets.data(), type, comm);
+  if (counts_out) *counts_out = counts;
+  return all;
+}
+
+// The tets' faces of this rank that no other local tet shares, as input vertex ids, 3 each (a
+// face between two ranks' tets is one of these on both ranks; the surface's faces on one only).
+std::vector<int64_t> local_boundary_faces(const DistributedMesh& m) {
+  static const int kFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // outward, as intersections.py
+  std::map<Key3, std::pair<int, Key3>> faces;
+  for (PetscInt c = 0; c < m.num_cells; ++c)
+    for (const auto& f : kFaces) {
+      const Key3 face{m.vertex_ids[m.cells[4 * c + f[0]]], m.vertex_ids[m.cells[4 * c + f[1]]],
+                      m.vertex_ids[m.cells[4 * c + f[2]]]};
+      auto& entry = faces[sorted(face)];
+      entry.first += 1;
+      entry.second = face;
+    }
+  std::vector<int64_t> out;
+  for (const auto& [key, entry] : faces)
+    if (entry.first == 1) out.insert(out.end(), entry.second.begin(), entry.second.end());
+  return out;
+}
+
+Box bounds(std::initializer_list<Vec3> points, double inflate) {
+  Box b{*points.begin(), *points.begin()};
+  for (const Vec3& p : points) {
+    b.lo = b.lo.cwiseMin(p);
+    b.hi = b.hi.cwiseMax(p);
+  }
+  b.lo.array() -= inflate;
+  b.hi.array() += inflate;
+  return b;
+}
+
+// A 64-bit mix of a pair's identity (splitmix64), summed into the active set's signature.
+unsigned long long mixed(unsigned long long z) {
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+Matrix12d clamp_psd(const Matrix12d& H) {
+  Eigen::SelfAdjointEigenSolver<Matrix12d> eig(H);
+  const Vector12d lambda = eig.eigenvalues().cwiseMax(0.0);
+  return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+}  // namespace
+
+double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
+                                Vector12d* gradient, Matrix12d* hessian) {
+  const bool derivatives = gradient || hessian;
+  Vector12d gD;
+  Matrix12d HD;
+  const Vec3 p0 = x.segment<3>(0), p1 = x.segment<3>(3), p2 = x.segment<3>(6), p3 = x.segment<3>(9);
+  const double D = kind == PairKind::vertex_triangle
+                       ? point_triangle_squared_distance(p0, p1, p2, p3, derivatives ? &gD : nullptr, hessian ? &HD : nullptr)
+                       : edge_edge_squared_distance(p0, p1, p2, p3, derivatives ? &gD : nullptr, hessian ? &HD : nullptr);
+  if (gradient) gradient->setZero();
+  if (hessian) hessian->setZero();
+  const double d = spec.distance;
+  if (!(D < d * d)) return 0;
+  const double phi = std::sqrt(D);
+  double b, db, d2b;
+  contact_profile(spec, phi, &b, &db, &d2b);
+  if (!std::isfinite(b)) return HUGE_VAL;  // the barrier at contact: a rejected point
+  // phi = sqrt(D): grad phi = grad D / (2 phi), hess phi = hess D / (2 phi) - grad D grad D^T / (4 phi^3);
+  // at phi = 0 (the penalty only) the direction is undefined: no force.
+  Vector12d g = Vector12d::Zero();
+  Matrix12d H = Matrix12d::Zero();
+  if (derivatives && phi > 0) {
+    const Vector12d gphi = gD / (2 * phi);
+    g = db * gphi;
+    if (hessian) H = d2b * gphi * gphi.transpose() + db * (HD / (2 * phi) - gphi * gphi.transpose() / phi);
+  }
+  double e = b;
+  if (kind == PairKind::edge_edge) {  // m e: the product rule
+    Vector12d gm;
+    Matrix12d Hm;
+    const double m = edge_edge_mollifier(p0, p1, p2, p3, mollifier_eps, derivatives ? &gm : nullptr, hessian ? &Hm : nullptr);
+    if (hessian) H = m * H + g * gm.transpose() + gm * g.transpose() + e * Hm;
+    if (derivatives) g = m * g + e * gm;
+    e *= m;
+  }
+  if (gradient) *gradient = g;
+  if (hessian) *hessian = H;
+  return e;
+}
+
+SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
+                                 PetscLogEvent gather_event)
+    : mesh_(mesh), spec_(spec), barrier_(spec.model == ContactModel::barrier), event_(event), gather_event_(gather_event) {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
+  PetscMPIInt rank;
+  MPI_Comm_rank(comm, &rank);
+  // The surface's triangles, in the order of their sorted ids (the same at any rank count): the
+  // tets' faces on one rank only, then the cloth triangles (each on one rank).
+  std::map<Key3, std::pair<int, Key3>> faces;
+  const std::vector<int64_t> boundary = all_gathered(comm, local_boundary_faces(mesh), MPI_INT64_T);
+  for (size_t f = 0; f < boundary.size(); f += 3) {
+    const Key3 face{boundary[f], boundary[f + 1], boundary[f + 2]};
+    auto& entry = faces[sorted(face)];
+    entry.first += 1;
+    entry.second = face;
+  }
+  std::vector<int64_t> mine;
+  for (PetscInt t = 0; t < 3 * mesh.num_triangles; ++t) mine.push_back(mesh.vertex_ids[mesh.triangles[t]]);
+  const std::vector<int64_t> cloth = all_gathered(comm, mine, MPI_INT64_T);
+  for (size_t f = 0; f < cloth.size(); f += 3) {
+    const Key3 tri{cloth[f], cloth[f + 1], cloth[f + 2]};
+    faces[sorted(tri)] = {1, tri};
+  }
+  std::vector<Key3> surface;
+  for (const auto& [key, entry] : faces)
+    if (entry.first == 1) {
+      surface.push_back(entry.second);
+      ids_.insert(ids_.end(), key.begin(), key.end());
+    }
+  std::sort(ids_.begin(), ids_.end());
+  ids_.erase(std::unique(ids_.begin(), ids_.end()), ids_.end());
+  const auto index = [&](int64_t id) { return (int)(std::lower_bound(ids_.begin(), ids_.end(), id) - ids_.begin()); };
+  for (const Key3& f : surface) {
+    triangles_.push_back({index(f[0]), index(f[1]), index(f[2])});
+    for (int k = 0; k < 3; ++k) {
+      const int a = triangles_.back()[k], b = triangles_.back()[(k + 1) % 3];
+      edges_.push_back({std::min(a, b), std::max(a, b)});
+    }
+  }
+  std::sort(edges_.begin(), edges_.end());
+  edges_.erase(std::unique(edges_.begin(), edges_.end()), edges_.end());
+
+  // Who owns which surface vertex, its dof and rest position: each owner sends its own.
+  std::vector<int> sent;
+  std::vector<int64_t> sent_dofs;
+  std::vector<double> sent_rest;
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
+    if (!mesh.owned[v]) continue;
+    const auto at = std::lower_bound(ids_.begin(), ids_.end(), mesh.vertex_ids[v]);
+    if (at == ids_.end() || *at != mesh.vertex_ids[v]) continue;
+    owned_local_.push_back(v);
+    owned_surface_.push_back((int)(at - ids_.begin()));
+    sent.push_back(owned_surface_.back());
+    sent_dofs.push_back(mesh.global_dof[v]);
+    for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
+  }
+  received_ = all_gathered(comm, sent, MPI_INT, &counts_);
+  const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
+  const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
+  offsets_.assign(counts_.size() + 1, 0);
+  for (size_t r = 0; r < counts_.size(); ++r) offsets_[r + 1] = offsets_[r] + counts_[r];
+  const size_t n = ids_.size();
+  dof_.assign(n, -1);
+  owner_.assign(n, -1);
+  rest_.assign(3 * n, 0.0);
+  mass_.assign(n, 1.0);  // until set_masses: 1 kg each
+  x_.assign(3 * n, 0.0);
+  for (size_t r = 0; r + 1 < offsets_.size(); ++r)
+    for (int k = offsets_[r]; k < offsets_[r + 1]; ++k) {
+      const int s = received_[k];
+      owner_[s] = (int)r;
+      dof_[s] = (PetscInt)dofs[k];
+      for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
+    }
+  for (int s : owned_surface_) my_vertices_.push_back(s);
+  for (size_t e = 0; e < edges_.size(); ++e)
+    if (owner_[edges_[e][0]] == rank) my_edges_.push_back((int)e);
+  DMCreateGlobalVector(mesh.dm, &assembly_);
+  VecSetOption(assembly_, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE);
+}
+
+SelfContactTerm::~SelfContactTerm() { VecDestroy(&assembly_); }
+
+PetscErrorCode SelfContactTerm::set_masses(Vec mass) {
+  const PetscScalar* m;
+  PetscInt lo, hi;
+  std::vector<double> mine;
+  PetscFunctionBeginUser;
+  PetscCall(VecGetOwnershipRange(mass, &lo, &hi));
+  PetscCall(VecGetArrayRead(mass, &m));
+  for (PetscInt v : owned_local_) mine.push_back(mesh_.global_dof[v] >= 0 ? m[mesh_.global_dof[v] - lo] : 0.0);
+  PetscCall(VecRestoreArrayRead(mass, &m));
+  const std::vector<double> all = all_gathered(PetscObjectComm((PetscObject)mesh_.dm), mine, MPI_DOUBLE);
+  for (size_t k = 0; k < all.size(); ++k) mass_[received_[k]] = all[k];
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::gather_positions(const std::vector<double>& pos) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+  std::vector<double> mine;
+  mine.reserve(3 * owned_local_.size());
+  for (PetscInt v : owned_local_) mine.insert(mine.end(), &pos[3 * v], &pos[3 * v] + 3);
+  std::vector<int> counts(counts_.size()), offsets(counts_.size());
+  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 3 * counts_[r], offsets[r] = 3 * offsets_[r];
+  buffer_.resize(3 * received_.size());
+  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
+                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
+  for (size_t k = 0; k < received_.size(); ++k)
+    for (int d = 0; d < 3; ++d) x_[3 * received_[k] + d] = buffer_[3 * k + d];
+  PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+std::array<int, 4> SelfContactTerm::points(const Pair& p) const {
+  if (p.kind == PairKind::vertex_triangle) return {p.a, triangles_[p.b][0], triangles_[p.b][1], triangles_[p.b][2]};
+  return {edges_[p.a][0], edges_[p.a][1], edges_[p.b][0], edges_[p.b][1]};
+}
+
+Vector12d SelfContactTerm::coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const {
+  Vector12d out;
+  for (int k = 0; k < 4; ++k) out.segment<3>(3 * k) = Vec3(&x[3 * q[k]]);
+  return out;
+}
+
+template <class Visit>
+void SelfContactTerm::candidate_pairs(const std::vector<double>* end, Visit&& visit) const {
+  const auto p = [&](int s) { return Vec3(&x_[3 * s]); };
+  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x_[3 * s]); };
+  // Within d of each other at x_, or swept boxes that meet between x_ and end.
+  const double reach = end ? 0.0 : spec_.distance;
+  std::vector<Box> boxes;
+  boxes.reserve(triangles_.size());
+  for (const auto& t : triangles_) boxes.push_back(bounds({p(t[0]), p(t[1]), p(t[2]), q(t[0]), q(t[1]), q(t[2])}, 0));
+  const BoxTree triangles(std::move(boxes));
+  for (int v : my_vertices_)
+    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int t) {
+      const auto& tri = triangles_[t];
+      if (tri[0] != v && tri[1] != v && tri[2] != v) visit(Pair{PairKind::vertex_triangle, v, t});
+    });
+  boxes.clear();
+  for (const auto& e : edges_) boxes.push_back(bounds({p(e[0]), p(e[1]), q(e[0]), q(e[1])}, reach));
+  const BoxTree edges(std::move(boxes));
+  for (int e : my_edges_) {
+    const auto& a = edges_[e];
+    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int f) {
+      const auto& b = edges_[f];
+      if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
+    });
+  }
+}
+
+double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
+  const std::array<int, 4> q = points(p);
+  double mass = 0;
+  int free_points = 0;
+  for (int s : q)
+    if (dof_[s] >= 0) mass += mass_[s], ++free_points;
+  if (free_points == 0) return 0;  // fixed against fixed: nothing to move
+  double eps = 0;
+  if (p.kind == PairKind::edge_edge)
+    eps = edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
+                                        Vec3(&rest_[3 * q[3]]));
+  const double k = contact_stiffness_per_mass(spec_) * mass / free_points;
+  const double e = self_contact_pair_energy(spec_, p.kind, x, eps, g, H);
+  if (g) *g *= k;
+  if (H) *H *= k;
+  return k * e;
+}
+
+PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  PetscCall(gather_positions(pos));
+  double e = 0;
+  Vector12d g;
+  active_set_ = 0;
+  active_pairs_ = 0;
+  PetscErrorCode error = 0;
+  candidate_pairs(nullptr, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const double ep = pair_energy(p, coordinates(x_, q), gradient ? &g : nullptr, nullptr);
+    if (ep == 0) return;
+    ++active_pairs_;
+    active_set_ += mixed(((unsigned long long)p.a << 32 | (unsigned)p.b) * 2 + (p.kind == PairKind::edge_edge));
+    e += ep;
+    if (!gradient || error) return;
+    PetscInt idx[12];
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
+    error = VecSetValues(assembly_, 12, idx, g.data(), ADD_VALUES);
+  });
+  PetscCall(error);
+  *energy += e;
+  if (gradient) {  // the pairs' gradients to the owners of their vertices, then into the local array
+    PetscScalar* a;
+    PetscInt lo, hi;
+    PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+    PetscCall(VecAssemblyBegin(assembly_));
+    PetscCall(VecAssemblyEnd(assembly_));
+    PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
+    PetscCall(VecGetOwnershipRange(assembly_, &lo, &hi));
+    PetscCall(VecGetArray(assembly_, &a));
+    for (PetscInt v : owned_local_) {
+      const PetscInt off = mesh_.global_dof[v] - lo;
+      if (mesh_.global_dof[v] < 0) continue;
+      for (int d = 0; d < 3; ++d) {
+        gradient[mesh_.local_dof[v] + d] += a[off + d];
+        a[off + d] = 0;  // zero again for the next evaluation
+      }
+    }
+    PetscCall(VecRestoreArray(assembly_, &a));
+  }
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  PetscCall(gather_positions(pos));
+  Matrix12d h;
+  Eigen::Matrix<double, 12, 12, Eigen::RowMajor> block;
+  PetscErrorCode error = 0;
+  candidate_pairs(nullptr, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
+    block = scale * (psd ? clamp_psd(h) : h);
+    PetscInt idx[12];
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
+    error = MatSetValues(H, 12, idx, 12, idx, block.data(), ADD_VALUES);
+  });
+  PetscCall(error);
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const {
+  const PetscScalar *a, *u;
+  PetscInt lo, hi;
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  // Each owner sends its surface vertices' position and step (fixed ones: where the last
+  // evaluation had them, not moving).
+  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+  std::vector<double> mine;
+  PetscCall(VecGetOwnershipRange(x, &lo, &hi));
+  PetscCall(VecGetArrayRead(x, &a));
+  PetscCall(VecGetArrayRead(dir, &u));
+  for (size_t k = 0; k < owned_local_.size(); ++k) {
+    const PetscInt g = mesh_.global_dof[owned_local_[k]];
+    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d]);
+    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? 0.0 : *alpha * u[g - lo + d]);
+  }
+  PetscCall(VecRestoreArrayRead(x, &a));
+  PetscCall(VecRestoreArrayRead(dir, &u));
+  std::vector<int> counts(counts_.size()), offsets(counts_.size());
+  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 6 * counts_[r], offsets[r] = 6 * offsets_[r];
+  buffer_.resize(6 * received_.size());
+  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
+                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
+  std::vector<double> end(x_.size());
+  for (size_t k = 0; k < received_.size(); ++k)
+    for (int d = 0; d < 3; ++d) {
+      x_[3 * received_[k] + d] = buffer_[6 * k + d];
+      end[3 * received_[k] + d] = buffer_[6 * k + d] + buffer_[6 * k + 3 + d];
+    }
+  double t = 1;
+  candidate_pairs(&end, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const Vector12d start = coordinates(x_, q), stop = coordinates(end, q);
+    const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, 0)
+                                                              : edge_edge_impact(start, stop, 0);
+    t = std::min(t, impact);
+  });
+  *alpha *= t;  // the pair keeps a tenth of its clearance there (pair_ccd.hpp): never touches
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, long* count) const {
+  PetscFunctionBeginUser;
+  PetscCall(gather_positions(pos));
+  long local = 0;
+  candidate_pairs(nullptr, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const Vector12d x = coordinates(x_, q);
+    const double D = p.kind == PairKind::vertex_triangle
+                         ? point_triangle_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9))
+                         : edge_edge_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9));
+    local += D <= 0;
+  });
+  PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
+  long touching;
+  PetscFunctionBeginUser;
+  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(touching_pairs(pos, &touching));
+  if (touching == 0) PetscFunctionReturn(0);
+  out.line = spec_.self_line;
+  out.key = "contact.self";
+  out.what = std::to_string(touching) + " pairs of surface primitives touch at frame 0, where the barrier's energy is " +
+             "infinite: move the bodies apart (or use the penalty)";
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos, std::string& why) const {
+  long touching;
+  PetscFunctionBeginUser;
+  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(touching_pairs(pos, &touching));
+  if (touching > 0)
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) + " pairs of surface primitives touch, where the barrier is infinite";
+  PetscFunctionReturn(0);
+}
+
+std::string SelfContactTerm::describe() const {
+  char text[300];
+  std::snprintf(text, sizeof text,
+                "self-contact: %zu surface triangles, %zu edges, %zu vertices (%zu bytes gathered to every rank per "
+                "evaluation), %s, distance %.4g, stiffness %.4g",
+                triangles_.size(), edges_.size(), ids_.size(), 3 * sizeof(double) * ids_.size(),
+                kContactModelNames[size_t(spec_.model)].c_str(), spec_.distance, spec_.stiffness);
+  return text;
+}
+
+}  // namespace hyperqn

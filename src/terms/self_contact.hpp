@@ -1,0 +1,125 @@
+// Self-contact: the surfaces of all bodies and cloths against each other and themselves, as one
+// energy term (deck contact: {self: true}; docs/contact.md#self-contact). The scene holds it only
+// when the deck turns it on.
+//
+// The surface is the tets' boundary faces and the cloth triangles, with their edges and vertices.
+// Every vertex against every triangle and every edge against every edge that shares no vertex
+// with it is a pair; a pair closer than the activation distance d (contact.distance) has the
+// obstacle contact's energy (terms/contact.hpp, contact_profile) of its distance phi = sqrt(D)
+// (geometry/pair_distance.hpp), an edge pair's multiplied by IPC's mollifier, which vanishes for
+// parallel edges:
+//   vertex-triangle: k b(phi),   edge-edge: k m(c) b(phi),
+//   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points).
+// With the barrier every step is bounded by the pairs' continuous collision tests
+// (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
+//
+// Distribution (a first version): every evaluation gathers the positions of all surface vertices
+// to every rank (one MPI_Allgatherv of 3 doubles per surface vertex, not the volume's); every rank
+// builds the broad phase (geometry/box_tree.hpp) over the whole surface and evaluates the pairs
+// it is the owner of: a vertex-triangle pair belongs to the rank owning its vertex, an edge pair
+// (e < f in the surface's order) to the rank owning e's first vertex, the same rule at any rank
+// count. A pair's gradient at vertices of other ranks goes through a global vector assembled with
+// ADD_VALUES, then into the body's local array at this rank's owned vertices.
+#pragma once
+#include <petsclog.h>
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "geometry/pair_distance.hpp"
+#include "mesh/distributed_mesh.hpp"
+#include "terms/contact_spec.hpp"
+#include "terms/energy_term.hpp"
+
+namespace hyperqn {
+
+enum class PairKind { vertex_triangle, edge_edge };
+
+// One pair's energy per unit stiffness at x (the 12 coordinates in the kernels' order: vertex,
+// triangle or edge, edge), 0 at phi >= d, +inf for the barrier at phi = 0; its gradient and
+// Hessian if asked. mollifier_eps: the edge pair's eps_x (edge_edge_mollifier_threshold at rest).
+double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
+                                Vector12d* gradient = nullptr, Matrix12d* hessian = nullptr);
+
+class SelfContactTerm : public EnergyTerm {
+ public:
+  // Finds the surface (collective). event: its log event (hqnSelfContact); gather_event: the
+  // gathers and gradient assembly within it (hqnSelfGather).
+  SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event);
+  ~SelfContactTerm() override;
+  SelfContactTerm(const SelfContactTerm&) = delete;
+  SelfContactTerm& operator=(const SelfContactTerm&) = delete;
+
+  std::string name() const override { return "self-contact"; }
+  // Collective (the gather), with or without gradient alike on every rank.
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  // The pairs' 12 x 12 blocks (psd: each projected to positive semidefinite); collective.
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  bool projective_dynamics_exact() const override { return false; }
+  bool bounds_steps() const override { return barrier_; }
+  bool couples_surfaces() const override { return true; }
+  unsigned long long active_set() const override { return active_set_; }
+  // The largest alpha at which no pair touches along the straight path (additive CCD of every
+  // pair whose swept boxes overlap). Fixed vertices stay where the last evaluation had them.
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
+  PetscErrorCode set_masses(Vec mass) override;
+  std::string describe() const override;
+  // The barrier: no two surfaces may touch at frame 0 (the problem names contact.self and how
+  // many pairs touch). Collective.
+  PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
+  // The barrier's energy is infinite where pairs touch: how many (collective).
+  PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
+
+  // The surface, the same on every rank: surface vertex indices in the order of their input ids.
+  size_t surface_vertices() const { return ids_.size(); }
+  size_t surface_triangles() const { return triangles_.size(); }
+  size_t surface_edges() const { return edges_.size(); }
+  // Pairs within the activation distance at the last evaluation, on this rank.
+  size_t active_pairs() const { return active_pairs_; }
+
+ private:
+  struct Pair {
+    PairKind kind;
+    int a, b;  // vertex and triangle, or edge and edge (surface indices)
+  };
+  std::array<int, 4> points(const Pair& p) const;
+  Vector12d coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const;
+  // The surface's positions (x_) from the local positions pos (collective).
+  PetscErrorCode gather_positions(const std::vector<double>& pos) const;
+  // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at
+  // x_ (edges and vertices inflated by d), or, if end is not null, the boxes swept from x_ to end.
+  template <class Visit>
+  void candidate_pairs(const std::vector<double>* end, Visit&& visit) const;
+  double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  // The pairs at distance 0 at pos, over all ranks (collective).
+  PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
+
+  const DistributedMesh& mesh_;
+  ContactSpec spec_;
+  bool barrier_ = false;
+  PetscLogEvent event_, gather_event_;
+  // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices) per vertex.
+  std::vector<int64_t> ids_;
+  std::vector<std::array<int, 3>> triangles_;
+  std::vector<std::array<int, 2>> edges_;
+  std::vector<double> rest_;
+  std::vector<PetscInt> dof_;
+  std::vector<int> owner_;
+  std::vector<double> mass_;
+  // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
+  // them), and the primitives whose pairs it evaluates.
+  std::vector<PetscInt> owned_local_;
+  std::vector<int> owned_surface_;
+  std::vector<int> my_vertices_, my_edges_;
+  // The gather: counts and offsets per rank, in surface vertices, and the receive order.
+  std::vector<int> counts_, offsets_, received_;
+  Vec assembly_ = nullptr;  // gradients at other ranks' vertices, summed by VecAssembly
+  mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
+  mutable std::vector<double> buffer_;  // work
+  mutable unsigned long long active_set_ = 0;
+  mutable size_t active_pairs_ = 0;
+};
+
+}  // namespace hyperqn

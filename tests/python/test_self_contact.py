@@ -1,0 +1,145 @@
+"""Self-contact (deck `contact: {self: true}`, docs/contact.md#self-contact): two identical soft
+blocks (two `bodies:`) fly at each other in empty space (no gravity, no damping, no colliders),
+collide and bounce apart. With the barrier, hyperqn_tools.intersections finds no intersecting
+surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block's (every step
+solved by Newton to round-off); the blocks exchange their momentum; 1, 2 and 4 ranks agree to
+1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting. A
+deck without self-contact runs none of its code (its log event's count is
+0); self-contact needs an integrator whose end of step is the solve's."""
+import numpy as np
+import pytest
+
+from conftest import event_count, run_hyperqn, write_deck
+from hyperqn_tools.intersections import check_run
+from hyperqn_tools.output import read_frames, read_summary
+
+SIZE, GAP, SPEED, DENSITY = 0.2, 0.05, 1.0, 1000.0
+DIAGONAL = np.linalg.norm([2 * SIZE + GAP, SIZE, SIZE])
+MATERIAL = {"model": "neohookean", "youngs_modulus": 2.0e4, "poisson_ratio": 0.3, "density": DENSITY}
+
+
+def block(name, x, velocity, y=0.0, z=0.0):
+    return {"name": name, "mesh": {"box": {"size": [SIZE] * 3, "cells": [2, 2, 2]},
+                                   "transform": {"translate": [x, y, z]}},
+            "material": MATERIAL, "velocity": velocity}
+
+
+def deck(model="barrier", frames=24, self_contact=True):
+    # The second block a little off the first's axis: faces, edges and corners all meet.
+    d = {"bodies": [block("left", 0.0, [SPEED, 0, 0]), block("right", SIZE + GAP, [-SPEED, 0, 0], 0.03, 0.02)],
+         "gravity": [0, 0, 0],
+         "time": {"dt": 0.01, "frames": frames},
+         "solver": {"type": "newton", "iterations": 60, "budget": "fixed", "grad_rtol": 1e-12, "grad_atol": 0},
+         "output": {"every": 1}}
+    if self_contact:
+        d["contact"] = {"self": True, "model": model, "distance": 5e-3}
+    return d
+
+
+def run(tmp_path, name, d, ranks=1):
+    out = tmp_path / name
+    log = tmp_path / f"{name}.log_view"
+    run_hyperqn([write_deck(tmp_path / f"{name}.yaml", d), "-o", out, "-log_view", f":{log}"], ranks=ranks)
+    assert read_summary(out)["status"] == "ok"
+    return out, log.read_text()
+
+
+def lumped_masses(frame):
+    """Per vertex: DENSITY times a quarter of the rest volume of its tets."""
+    rest = frame.points - frame.displacement
+    tets = frame.cells["tetra"]
+    e = rest[tets[:, 1:]] - rest[tets[:, :1]]
+    volume = np.abs(np.linalg.det(e)) / 6
+    m = np.zeros(len(rest))
+    np.add.at(m, tets.ravel(), np.repeat(DENSITY * volume / 4, 4))
+    return m
+
+
+def momenta(frame):
+    """Each block's momentum (vertex ids 0-26 the left block's, 27-53 the right's)."""
+    m = lumped_masses(frame)[:, None] * frame.velocity
+    return m[:27].sum(axis=0), m[27:].sum(axis=0)
+
+
+@pytest.fixture(scope="module")
+def barrier_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("self_contact")
+    return {ranks: run(tmp, f"np{ranks}", deck(), ranks) for ranks in (1, 2, 4)}
+
+
+def test_blocks_bounce_apart_without_intersecting(barrier_runs):
+    out, log = barrier_runs[1]
+    frames = read_frames(out)
+    one_block = 8.0 * SPEED  # 8 kg at 1 m/s
+    worst = 0.0
+    for n, frame in frames:
+        left, right = momenta(frame)
+        worst = max(worst, np.linalg.norm(left + right) / one_block)
+    print(f"largest |total momentum| / one block's: {worst:.2e}")
+    assert worst <= 1e-8
+    left, right = momenta(frames[-1][1])
+    print(f"after the collision: left block {left[0]:+.4f}, right block {right[0]:+.4f} kg m/s")
+    assert left[0] < -0.3 * one_block and right[0] > 0.3 * one_block  # exchanged: they fly apart
+    # Apart again, their centres farther apart than at the start (the collision also spins them).
+    gaps = [f.points[27:, 0].mean() - f.points[:27, 0].mean() for _, f in frames]
+    print("centres' distance in x per frame: " + " ".join(f"{g:.4f}" for g in gaps))
+    assert min(gaps) < SIZE + GAP - 0.03 and gaps[-1] > SIZE + GAP and gaps[-1] > gaps[-2]
+    rows = check_run(out)
+    assert len(rows) == 25 and all(r["triangles"] == 96 for r in rows)
+    assert [r["intersecting_pairs"] for r in rows] == [0] * 25
+    assert event_count(log, "hqnSelfContact") > 0
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_agree(barrier_runs, ranks):
+    one = read_frames(barrier_runs[1][0])[-1][1]
+    more_out, _ = barrier_runs[ranks]
+    more = read_frames(more_out)[-1][1]
+    difference = np.max(np.linalg.norm(one.points - more.points, axis=1)) / DIAGONAL
+    print(f"1 against {ranks} ranks: {difference:.2e} of the diagonal")
+    assert difference <= 1e-8
+    assert [r["intersecting_pairs"] for r in check_run(more_out)] == [0] * 25
+
+
+def test_penalty_bounces_too(tmp_path):
+    out, _ = run(tmp_path, "penalty", deck("penalty"))
+    left, right = momenta(read_frames(out)[-1][1])
+    assert left[0] < 0 < right[0]
+
+
+def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
+    """A 0.4 m sheet held along its middle line: both halves fall into the same vertical plane
+    below it. With the barrier they come to rest d apart and never cross (without self-contact they
+    pass through each other)."""
+    d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3,
+                   "bending": {"model": "springs", "stiffness": 1.0e-3}, "areal_density": 0.2},
+         "fixed": [{"box": {"min": [0.19, -1, -1], "max": [0.21, 1, 1]}}],
+         "gravity": [0, -9.81, 0], "time": {"dt": 1 / 60, "frames": 24}, "output": {"every": 1}}
+    plain, _ = run(tmp_path, "fold_plain", d)
+    assert max(r["intersecting_pairs"] for r in check_run(plain)) > 0
+    d["contact"] = {"self": True, "model": "barrier", "distance": 5e-3}
+    out, _ = run(tmp_path, "fold", d)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
+    f = read_frames(out)[-1][1]
+    rest = f.points - f.displacement
+    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
+    closest = np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+    print(f"the halves' closest vertices: {closest:.5f} m apart")
+    assert 0 < closest < 5e-3  # they met: within the activation distance, not through
+
+
+def test_without_self_contact_none_of_its_code_runs(tmp_path):
+    out, log = run(tmp_path, "plain", deck(self_contact=False, frames=4))
+    assert event_count(log, "hqnSelfContact") == 0 and event_count(log, "hqnSelfGather") == 0
+
+
+def test_needs_an_integrator_that_ends_at_the_solve(tmp_path):
+    d = deck(frames=2)
+    d["time"]["integrator"] = "implicit-midpoint"
+    proc = run_hyperqn([write_deck(tmp_path / "mid.yaml", d), "-o", tmp_path / "mid"], ranks=None, check=False)
+    assert proc.returncode == 1 and "implicit-midpoint does not take colliders or self-contact" in proc.stdout
+    d = deck(frames=2)
+    d["contact"] = {"model": "barrier"}
+    proc = run_hyperqn([write_deck(tmp_path / "noself.yaml", d), "-o", tmp_path / "noself"], ranks=None, check=False)
+    assert proc.returncode == 1 and "there are none (or self-contact: self: true)" in proc.stdout

@@ -1,0 +1,219 @@
+// The self-contact term (terms/self_contact.hpp): one pair's energy, gradient and Hessian against
+// central differences, for the penalty and the barrier, nearly touching and nearly parallel pairs
+// included; then two blocks 0.02 apart with activation distance 0.05 (faces nearly parallel, their
+// edges nearly parallel): the surface found (partition faces left out), the term's gradient and
+// Hessian in the body against differences, the count of pairs and the energy the same at any rank
+// count, and the barrier's step bound stopping a step that closes the gap short of contact.
+#include <petscdmplex.h>
+
+#include <cmath>
+#include <random>
+
+#include "check.hpp"
+#include "io/log_events.hpp"
+#include "mesh/mesh_piece.hpp"
+#include "terms/self_contact.hpp"
+#include "test_scene.hpp"
+
+using namespace hyperqn;
+
+namespace {
+
+using test_scene::TestScene;
+using Vec3 = Eigen::Vector3d;
+
+constexpr double kDistance = 0.05, kGap = 0.02, kSize = 0.5;
+
+ContactSpec spec_of(const std::string& model) {
+  ContactSpec spec;
+  spec.model = model == "barrier" ? ContactModel::barrier : ContactModel::penalty;
+  spec.distance = kDistance;
+  spec.stiffness = 1e3;
+  spec.friction_velocity = 0.01;
+  spec.self = true;
+  return spec;
+}
+
+Vector12d stack(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) {
+  Vector12d x;
+  x << x0, x1, x2, x3;
+  return x;
+}
+
+// One pair's gradient and Hessian against central differences (relative to their largest entry).
+void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x) {
+  Vector12d g, gp, gm, fd_g;
+  Matrix12d H, fd_H;
+  const double e = self_contact_pair_energy(spec, kind, x, eps_x, &g, &H);
+  CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
+  const double h = 1e-7 * kDistance;
+  for (int i = 0; i < 12; ++i) {
+    Vector12d xp = x, xm = x;
+    xp[i] += h;
+    xm[i] -= h;
+    fd_g[i] = (self_contact_pair_energy(spec, kind, xp, eps_x) - self_contact_pair_energy(spec, kind, xm, eps_x)) / (2 * h);
+    self_contact_pair_energy(spec, kind, xp, eps_x, &gp);
+    self_contact_pair_energy(spec, kind, xm, eps_x, &gm);
+    fd_H.col(i) = (gp - gm) / (2 * h);
+  }
+  const double eg = (fd_g - g).cwiseAbs().maxCoeff() / g.cwiseAbs().maxCoeff();
+  const double eH = (fd_H - H).cwiseAbs().maxCoeff() / H.cwiseAbs().maxCoeff();
+  std::printf("%s: energy %.4g, gradient error %.1e, Hessian error %.1e\n", what.c_str(), e, eg, eH);
+  CHECK_MSG(eg < 1e-6, what + ": gradient vs FD " + std::to_string(eg));
+  CHECK_MSG(eH < 1e-5, what + ": Hessian vs FD " + std::to_string(eH));
+}
+
+void check_pairs(const std::string& model) {
+  const ContactSpec spec = spec_of(model);
+  const Vec3 t0(0, 0, 0), t1(1, 0, 0.1), t2(0.2, 1, 0);
+  const Vec3 n = (t1 - t0).cross(t2 - t0).normalized();
+  const Vec3 inside = (t0 + t1 + t2) / 3;
+  for (double frac : {0.5, 1e-2}) {  // a vertex above the face, halfway and nearly touching
+    check_pair(model + ", vertex over a face at " + std::to_string(frac) + " d", spec, PairKind::vertex_triangle,
+               stack(inside + frac * kDistance * n + Vec3(0.01, 0.02, 0), t0, t1, t2), 0);
+  }
+  check_pair(model + ", vertex beside an edge", spec, PairKind::vertex_triangle,
+             stack(Vec3(0.5, -0.02, 0.05) + 0.01 * n, t0, t1, t2), 0);
+  // Edges: crossing at 0.3 d, and nearly parallel (the mollifier active: c < eps_x).
+  const Vec3 a0(0, 0, 0), a1(1, 0, 0);
+  const Vector12d crossing = stack(a0, a1, Vec3(0.4, -0.5, 0.3 * kDistance), Vec3(0.6, 0.5, 0.3 * kDistance));
+  check_pair(model + ", crossing edges", spec, PairKind::edge_edge, crossing,
+             edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)));
+  const Vector12d parallel = stack(a0, a1, Vec3(0.2, 0.01, 0.4 * kDistance), Vec3(1.3, 0.01 + 1e-3, 0.4 * kDistance + 1e-3));
+  const double eps_x = edge_edge_mollifier_threshold(a0, a1, Vec3(0.2, 0.01, 0), Vec3(1.3, 0.01, 0));
+  const Vec3 ea = a1 - a0, eb = parallel.segment<3>(9) - parallel.segment<3>(6);
+  CHECK_MSG(ea.cross(eb).squaredNorm() < eps_x, "the nearly parallel edges are mollified");
+  check_pair(model + ", nearly parallel edges", spec, PairKind::edge_edge, parallel, eps_x);
+  // Outside d: nothing; the barrier at contact: infinite.
+  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(inside + 1.01 * kDistance * n, t0, t1, t2), 0) == 0);
+  if (model == "barrier")
+    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(t0, t0, t1, t2), 0)));
+}
+
+// Two blocks of 2 x 2 x 2 cubes side by side along x, kGap apart, the second shifted in y and z.
+PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term) {
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  TetMesh serial;
+  if (rank == 0) {
+    serial = generate_box({kSize, kSize, kSize}, {2, 2, 2});
+    const TetMesh other = generate_box({kSize, kSize, kSize}, {2, 2, 2});
+    const int32_t n = (int32_t)serial.num_vertices();
+    for (int64_t v = 0; v < other.num_vertices(); ++v) {
+      serial.coords.push_back(other.coords[3 * v] + kSize + kGap);
+      serial.coords.push_back(other.coords[3 * v + 1] + 0.1);
+      serial.coords.push_back(other.coords[3 * v + 2] + 0.07);
+    }
+    for (int32_t t : other.tets) serial.tets.push_back(t + n);
+    serial.tet_tags.assign(serial.num_tets(), 0);
+    serial.vertex_ids.resize(serial.num_vertices());
+    for (int64_t v = 0; v < serial.num_vertices(); ++v) serial.vertex_ids[v] = v;
+  }
+  const MeshPiece piece = scatter_serial_mesh(PETSC_COMM_WORLD, serial);
+  const std::vector<int32_t> fixed = select_fixed_vertices(PETSC_COMM_WORLD, piece.mesh, {}, "test");
+  PetscCall(distribute_mesh(PETSC_COMM_WORLD, piece, fixed, {}, s.mesh));
+  MaterialSpec mat;
+  mat.model = "corotated";
+  mat.mu = 3.0;
+  mat.lambda = 5.0;
+  mat.has_density = true;
+  mat.density = 100;
+  std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, StrandMaterial());
+  auto self = std::make_unique<SelfContactTerm>(s.mesh, spec_of(model), log_events().self_contact, log_events().self_gather);
+  *term = self.get();
+  terms.push_back(std::move(self));
+  s.body = std::make_unique<Body>(s.mesh, std::move(terms));
+  s.step = std::make_unique<StepObjective>(*s.body, 0.05, std::array<double, 3>{0, 0, 0});
+  PetscCall(s.step->setup());
+  PetscCall(s.body->set_masses(s.step->mass()));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode check_two_blocks(const std::string& model) {
+  TestScene s;
+  SelfContactTerm* term = nullptr;
+  Vec x, grad, dir, xp;
+  PetscRandom rnd;
+  PetscReal E, Ep, Em, analytic;
+  Mat K;
+  PetscFunctionBeginUser;
+  PetscCall(make_two_blocks(model, s, &term));
+  // Each block: 6 faces of 2 x 2 squares of 2 triangles; 26 surface vertices, 72 edges (Euler).
+  CHECK_MSG(term->surface_triangles() == 96 && term->surface_vertices() == 52 && term->surface_edges() == 144,
+            "the surface: " + std::to_string(term->surface_triangles()) + " triangles, " +
+                std::to_string(term->surface_vertices()) + " vertices, " + std::to_string(term->surface_edges()) + " edges");
+  PetscCall(VecDuplicate(s.step->layout(), &x));
+  for (Vec* w : {&grad, &dir, &xp}) PetscCall(VecDuplicate(x, w));
+  PetscCall(test_scene::deformed_positions(s, x, 0.01));  // moves a vertex by at most 0.004: the blocks stay apart
+  PetscCall(s.body->energy_gradient(x, &E, grad));
+  long pairs = (long)term->active_pairs();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &pairs, 1, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: %ld pairs within d, E = %.17g\n", model.c_str(), pairs, E));
+  // The same pairs at any rank count (each evaluated once; the count printed at 1 rank).
+  CHECK_MSG(pairs == 67, "pairs within d: " + std::to_string(pairs));
+
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
+  for (int trial = 0; trial < 3; ++trial) {
+    PetscCall(VecSetRandom(dir, rnd));
+    PetscCall(VecDot(grad, dir, &analytic));
+    const double eps = 1e-7;
+    PetscCall(VecWAXPY(xp, eps, dir, x));
+    PetscCall(s.body->energy_gradient(xp, &Ep, nullptr));
+    PetscCall(VecWAXPY(xp, -eps, dir, x));
+    PetscCall(s.body->energy_gradient(xp, &Em, nullptr));
+    const double fd = (Ep - Em) / (2 * eps);
+    CHECK_MSG(std::fabs(fd - analytic) <= 1e-6 * std::fabs(analytic),
+              "dE/dx . d " + std::to_string(analytic) + " vs FD " + std::to_string(fd));
+  }
+  double err;
+  PetscCall(test_scene::stiffness(s, x, false, &K));  // its pattern grows with the pairs
+  PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd, &err));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: Hessian vs FD of the gradient: %.2e\n", model.c_str(), err));
+  CHECK_MSG(err < 1e-5, "Hessian vs FD of the gradient: " + std::to_string(err));
+  PetscCall(MatDestroy(&K));
+
+  if (model == "barrier") {  // the second block moves by 2 gaps towards the first: stopped short
+    Vec xl;
+    PetscScalar* a;
+    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+    PetscCall(VecSet(xl, 0.0));
+    PetscCall(VecGetArray(xl, &a));
+    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+      if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v]] = -2 * kGap;
+    PetscCall(VecRestoreArray(xl, &a));
+    PetscCall(VecSet(dir, 0.0));
+    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
+    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+    double alpha = 1;
+    PetscCall(s.body->limit_step(x, dir, &alpha));
+    PetscCall(VecWAXPY(xp, alpha, dir, x));
+    PetscCall(s.body->energy_gradient(xp, &Ep, nullptr));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "barrier: a step closing the gap twice over is bounded at %.4f\n", alpha));
+    // Contact at about 0.5 (the wiggle of the faces: +-0.004 of the 0.04 closing): within it, finite.
+    CHECK_MSG(alpha > 0.2 && alpha < 0.6 && std::isfinite(Ep), "step bound " + std::to_string(alpha));
+    alpha = 1;
+    PetscCall(VecScale(dir, -1.0));  // apart: no bound
+    PetscCall(s.body->limit_step(x, dir, &alpha));
+    CHECK_MSG(alpha == 1, "moving apart is not bounded: " + std::to_string(alpha));
+  }
+  for (Vec* w : {&x, &grad, &dir, &xp}) PetscCall(VecDestroy(w));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
+  PetscMPIInt rank;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  for (const std::string model : {"penalty", "barrier"}) {
+    if (rank == 0) check_pairs(model);
+    PetscCall(check_two_blocks(model));
+  }
+  const int code = test_scene::tally("test_self_contact");
+  PetscCall(PetscFinalize());
+  return code;
+}
