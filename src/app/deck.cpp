@@ -369,7 +369,7 @@ void read_partition_header(const Reader& r, const Value& file, const Section& s,
   }
   if (info.bodies.count > 0)
     r.fail(file, "holds the " + std::to_string(info.bodies.count) + " bodies of a deck's bodies: name it as partition: "
-                 "beside those bodies (docs/decks.md#bodies)");
+                 "beside those bodies");
   m.is_partition_file = true;
   m.file_tets = info.tets;
   m.file_segments = info.segments;
@@ -649,9 +649,9 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     const MeshSpec& m = b.mesh;
     if (m.is_partition_file)
       r.fail(mesh, "a body's mesh is not a partition file: name the partition file of all the bodies as partition: "
-                   "beside bodies: (docs/decks.md#bodies)");
+                   "beside bodies: (written by hyperqn partition DECK -n N)");
     // Each part of the body's mesh takes its own material, read as for a scene of one body. A
-    // Medit file read for its edges may hold no tets (read_bodies_mesh checks).
+    // Medit file read for its edges may hold no tets (load_scene_input checks).
     const struct {
       const char* key;
       bool has;
@@ -690,7 +690,7 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
 // command writes it from this deck); the run checks it against the bodies (load_scene_input).
 void read_bodies_partition(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck) {
   const fs::path file = r.text(v);
-  if (file.extension() != ".h5" || file.filename() == ".h5")
+  if (file.extension() != ".h5")
     r.fail(v, "'" + file.string() + "': a partition file's name ends in .h5 (hyperqn partition DECK -n N writes it)");
   deck.partition_file = (file.is_absolute() ? file : (deck_dir / file).lexically_normal()).string();
   deck.partition_line = v.line;

@@ -33,7 +33,8 @@ std::string describe(const MeshSpec& m) {
 std::string mesh_source(const Deck& deck) {
   if (deck.bodies.empty()) return "deck " + deck.path + ", mesh " + describe(deck.mesh);
   std::string s = "deck " + deck.path + ", bodies";
-  for (const BodySpec& body : deck.bodies) s += (&body == &deck.bodies[0] ? ": " : ", ") + body.name + " (" + describe(body.mesh) + ")";
+  for (const BodySpec& body : deck.bodies)
+    s += (&body == &deck.bodies[0] ? ": " : ", ") + body.name + " (" + describe(body.mesh) + ")";
   return s;
 }
 

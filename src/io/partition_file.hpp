@@ -60,7 +60,7 @@ struct PartitionFileInfo {
   BodiesStamp bodies;    // the bodies joined in it (count 0: one mesh)
 };
 // Throws InputError naming the file if it is missing, unreadable, not a partition file, of
-// another format version, or inconsistent (an element's tag is not a body of a file of bodies).
+// another format version, or inconsistent.
 PartitionFileInfo read_partition_info(const std::string& path);
 
 // Collective over comm: each rank opens the file read-only and reads only the rows of its own
@@ -70,8 +70,8 @@ PartitionFileInfo read_partition_info(const std::string& path);
 // the first of them reads it and cuts it by METIS for the group (share_piece). No rank reads
 // more than its parts, or one part.
 // Everything read is checked (the checksum of each part, offsets, sizes, vertex indices within
-// the piece, vertex and element numbers within the whole mesh's counts); any error is the same
-// InputError naming the file on every rank.
+// the piece, vertex and element numbers within the whole mesh's counts, in a file of bodies each
+// element's tag a body); any error is the same InputError naming the file on every rank.
 MeshPiece read_partition_piece(MPI_Comm comm, const std::string& path);
 
 // The checksum part_checksums holds: FNV-1a over every array of the piece (its name, length and

@@ -12,7 +12,7 @@ A scene of bodies (a cloth, a rope and two blocks, each with its own fixed regio
 velocity) is written by `hyperqn partition` for 1 and 2 parts into the file its deck names
 (partition:): run from it, it is bitwise the run that joins the bodies on rank 0 at the file's
 rank count (1 part at 1 rank, 2 at 2), and within 1e-10 of the diagonal with 2 parts at 1 and 4
-ranks."""
+ranks; a run of the bodies joined on rank 0 continues from their partition file."""
 import copy
 import os
 
@@ -149,3 +149,21 @@ def test_bodies_run_from_their_partition_file(bodies_runs, parts, ranks):
         assert np.array_equal(f.points, reference.points), f"{gap:.2e} of the diagonal: not bitwise"
     else:
         assert gap <= BODIES_TOLERANCE, f"{gap:.2e} of the diagonal"
+
+
+def test_bodies_joined_on_rank_0_continue_from_their_partition_file(bodies_runs):
+    """The checkpoint knows the bodies' mesh by its hash: 3 frames with the bodies joined at 1 rank,
+    the other 3 from their 2-part file at 2 ranks, end where the joined run ends."""
+    tmp, joined = bodies_runs
+    out = tmp / "continued"
+    first = dict(BODIES, time=dict(BODIES["time"], frames=3), checkpoint={"every": 1})
+    run_hyperqn([write_deck(tmp / "continued_first.yaml", first), "-o", out], ranks=1)
+    second = dict(BODIES, checkpoint={"every": 1}, partition="bodies_continued.h5")
+    second = write_deck(tmp / "continued_second.yaml", second)
+    run_hyperqn(["partition", second, "-n", 2], ranks=None)
+    proc = run_hyperqn([second, "-o", out, "--restart", "latest"], ranks=2, timeout=120)
+    assert "restart from" in proc.stdout and read_summary(out)["status"] == "ok"
+    f, reference = final_frame(out), joined[1]
+    gap = np.abs(f.points - reference.points).max() / rest_diagonal(reference)
+    print(f"continued from the partition file: {gap:.1e} of the diagonal")
+    assert gap <= BODIES_TOLERANCE, f"{gap:.2e} of the diagonal"
