@@ -4,7 +4,7 @@
 // hold every element exactly once with the whole mesh's vertices, coordinates and tags. Damaged
 // files (missing, truncated, another format version, offsets out of range, a vertex index out of
 // range under a valid checksum, not a partition file) are the same InputError naming the file on
-// every rank.
+// every rank. A file of bodies keeps its stamp (count and hash) and refuses a tag that is no body.
 #include <hdf5.h>
 #include <mpi.h>
 
@@ -258,6 +258,56 @@ void check_damaged_files(const TetMesh& serial) {
   check_refused(index, "outside the part's", "vertex index out of range", false);
 }
 
+// A file of bodies: its stamp read back; a tag that is no body (under a valid checksum) refused on
+// every rank; mesh_sources_hash changes with a transform or a mesh file's bytes, not its path.
+void check_bodies(const TetMesh& serial) {
+  const std::string good = dir_ + "/bodies.h5", bad_tag = dir_ + "/bad_tag.h5";
+  const BodiesStamp stamp{2, 0x8000000000000123ull};  // a hash with the top bit set survives the int64 table
+  TetMesh two = serial;  // two bodies: the first tets body 0, the rest body 1
+  for (size_t t = 0; t < two.tet_tags.size(); ++t) two.tet_tags[t] = t < two.tet_tags.size() / 2 ? 0 : 1;
+  if (rank_ == 0) {
+    write_partition_file(good, two, 2, "test bodies", CleanReport(), stamp);
+    copy_file(good, bad_tag);
+    pieces_of_serial_mesh(two, 2, [&](int part, MeshPiece& piece) {
+      if (part != 0) return;
+      piece.mesh.tet_tags[0] = 2;
+      overwrite<int32_t>(bad_tag, "tet_tags", 0, 0, 2, H5T_NATIVE_INT32);
+      overwrite<int64_t>(bad_tag, "part_checksums", 0, 0, int64_t(piece_checksum(piece)), H5T_NATIVE_INT64);
+    });
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  const PartitionFileInfo info = read_partition_info(good);
+  CHECK_MSG(info.bodies.count == 2 && info.bodies.hash == stamp.hash, "bodies: the stamp read back");
+  CHECK_MSG(read_partition_info(dir_ + "/box_2.h5").bodies.count == 0, "one mesh: no bodies");
+  MeshPiece piece = read_partition_piece(MPI_COMM_WORLD, good);
+  check_chunk(piece, two, "bodies");
+  check_refused(bad_tag, "body 2 of 2 bodies", "a tag that is no body", false);
+
+  const std::string medit = dir_ + "/one_tet.mesh", moved = dir_ + "/moved_tet.mesh";
+  const std::string text = "MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                           "Tetrahedra\n1\n1 2 3 4 0\nEnd\n";
+  if (rank_ == 0) {
+    std::ofstream(medit) << text;
+    std::ofstream(moved) << text;
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  MeshSpec box, file;
+  box.is_box = true;
+  file.file = medit;
+  const uint64_t h = mesh_sources_hash({box, file});
+  MeshSpec file_elsewhere = file;
+  file_elsewhere.file = moved;  // the same bytes under another name
+  CHECK_MSG(mesh_sources_hash({box, file_elsewhere}) == h, "bodies hash: not the file's path");
+  MeshSpec turned = box;
+  turned.transform.rotate_deg[2] = 90;
+  CHECK_MSG(mesh_sources_hash({turned, file}) != h, "bodies hash: a transform");
+  CHECK_MSG(mesh_sources_hash({file, box}) != h && mesh_sources_hash({box}) != h, "bodies hash: the order and count");
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank_ == 0) std::ofstream(moved) << text << "\n";
+  MPI_Barrier(MPI_COMM_WORLD);
+  CHECK_MSG(mesh_sources_hash({box, file_elsewhere}) != h, "bodies hash: the file's bytes");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -273,6 +323,7 @@ int main(int argc, char** argv) {
   for (const auto& [name, mesh] : meshes)
     for (int nparts : {1, 2, 3}) check_round_trip(name, mesh, nparts);
   check_damaged_files(meshes.at("box"));
+  check_bodies(meshes.at("box"));
   int local = check::failures(), total = 0;
   MPI_Allreduce(&local, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   MPI_Barrier(MPI_COMM_WORLD);

@@ -361,16 +361,20 @@ void read_partition_header(const Reader& r, const Value& file, const Section& s,
     if (const Value* x = s.find(key))
       r.fail(*x, "shapes the mesh, and mesh.file is a partition file: give it in the deck given to hyperqn partition "
                  "(the file holds the mesh with it applied)");
+  PartitionFileInfo info;
   try {
-    const PartitionFileInfo info = read_partition_info(m.file);
-    m.is_partition_file = true;
-    m.file_tets = info.tets;
-    m.file_segments = info.segments;
-    m.file_triangles = info.triangles;
-    m.surface_as_cloth = info.triangles > 0;
+    info = read_partition_info(m.file);
   } catch (const InputError& e) {
     r.fail(file, e.what());
   }
+  if (info.bodies.count > 0)
+    r.fail(file, "holds the " + std::to_string(info.bodies.count) + " bodies of a deck's bodies: name it as partition: "
+                 "beside those bodies");
+  m.is_partition_file = true;
+  m.file_tets = info.tets;
+  m.file_segments = info.segments;
+  m.file_triangles = info.triangles;
+  m.surface_as_cloth = info.triangles > 0;
 }
 
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
@@ -643,9 +647,11 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     const Value& mesh = s.need("mesh");
     read_mesh(r, mesh, deck_dir, b.mesh);
     const MeshSpec& m = b.mesh;
-    if (m.is_partition_file) r.fail(mesh, "a body's mesh is not a partition file (rank 0 reads and joins the bodies)");
+    if (m.is_partition_file)
+      r.fail(mesh, "a body's mesh is not a partition file: name the partition file of all the bodies as partition: "
+                   "beside bodies: (written by hyperqn partition DECK -n N)");
     // Each part of the body's mesh takes its own material, read as for a scene of one body. A
-    // Medit file read for its edges may hold no tets (read_bodies_mesh checks).
+    // Medit file read for its edges may hold no tets (load_scene_input checks).
     const struct {
       const char* key;
       bool has;
@@ -678,6 +684,16 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
       break;
     }
   deck.mesh.line = deck.bodies[0].mesh.line;
+}
+
+// partition: the file `hyperqn partition` writes of the joined bodies. It need not exist yet (the
+// command writes it from this deck); the run checks it against the bodies (load_scene_input).
+void read_bodies_partition(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck) {
+  const fs::path file = r.text(v);
+  if (file.extension() != ".h5")
+    r.fail(v, "'" + file.string() + "': a partition file's name ends in .h5 (hyperqn partition DECK -n N writes it)");
+  deck.partition_file = (file.is_absolute() ? file : (deck_dir / file).lexically_normal()).string();
+  deck.partition_line = v.line;
 }
 
 // colliders: a list of obstacles, each of one type with that type's keys (collider_keys()).
@@ -879,8 +895,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   deck.name = fs::path(path).stem().string();
 
   Section s(r, Value{root, "", line_of(root)},
-            {"name", "mesh", "bodies", "material", "strand_material", "cloth", "regions", "fixed", "attachments", "colliders",
-             "contact", "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
+            {"name", "mesh", "bodies", "partition", "material", "strand_material", "cloth", "regions", "fixed", "attachments",
+             "colliders", "contact", "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -899,7 +915,11 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
         r.fail(*y, std::string("with bodies, each body has its own mesh and material: ") + key +
                        " is a key of bodies[k] (or leave out bodies for a scene of one body)");
     read_bodies(r, *x, fs::path(path).parent_path(), deck, body_regions);
+    if (const Value* y = s.find("partition")) read_bodies_partition(r, *y, fs::path(path).parent_path(), deck);
   } else {
+    if (const Value* y = s.find("partition"))
+      r.fail(*y, "names the partition file of a scene of bodies (bodies:); a deck of one mesh names its partition file "
+                 "as mesh.file");
     const Value& mesh = s.need("mesh");
     read_mesh(r, mesh, fs::path(path).parent_path(), deck.mesh);
     // material (and regions) describe the tets, strand_material the strand segments: each is

@@ -3,7 +3,7 @@
 //
 //   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
-//   hyperqn partition DECK.yaml -n N -o FILE.h5
+//   hyperqn partition DECK.yaml -n N [-o FILE.h5]
 #include <petscsys.h>
 
 #include <cerrno>
@@ -24,7 +24,7 @@
 static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
-    "       hyperqn partition DECK.yaml -n N -o FILE.h5\n"
+    "       hyperqn partition DECK.yaml -n N [-o FILE.h5]\n"
     "       hyperqn registry   (the material models, solvers and declared deck keys, as JSON)\n"
     "       hyperqn --help-deck   (the deck keys declared with their types, ranges and defaults)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
@@ -36,7 +36,8 @@ static const char usage[] =
     "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
     "              SIGUSR1 after writing a checkpoint\n"
     "  partition: cuts the deck's mesh into N parts and writes them to FILE.h5, a partition file that a\n"
-    "              deck names as mesh.file: a run then reads its part directly (docs/performance.md#partition-files)\n"
+    "              deck names as mesh.file: a run then reads its part directly (docs/performance.md#partition-files);\n"
+    "              a deck of bodies joins them, and names the file as partition: (then -o may be left out)\n"
     "  PETSc options on the command line override the deck's petsc: section,\n"
     "  e.g. -tao_ls_type armijo -tao_lmvm_mat_lmvm_hist_size 10 -log_view\n";
 
@@ -80,9 +81,10 @@ CommandLine parse_partition_command(int argc, char** argv) {
   if (cl.help) return cl;
   if (cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given: " + form);
   if (!parts_given) throw hyperqn::InputError("", 0, "-n", "missing: the number of parts: " + form);
-  if (cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "missing: the partition file to write: " + form);
-  if (cl.outdir.size() < 4 || cl.outdir.compare(cl.outdir.size() - 3, 3, ".h5") != 0 || cl.outdir.back() == '/')
-    throw hyperqn::InputError("", 0, "-o", "'" + cl.outdir + "': a partition file's name ends in .h5");
+  // Without -o: the deck's partition: (run_partition).
+  const std::string& out = cl.outdir;
+  if (!out.empty() && (out.size() < 4 || out.compare(out.size() - 3, 3, ".h5") != 0 || out.back() == '/'))
+    throw hyperqn::InputError("", 0, "-o", "'" + out + "': a partition file's name ends in .h5");
   return cl;
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <limits>
 #include <map>
@@ -91,6 +92,12 @@ Layout read_layout(const Hdf5File& file) {
     if (*counts[k] < 0) throw std::runtime_error(std::string(kHeader[k + 2]) + ": negative count " + std::to_string(*counts[k]));
   }
   info.source = file.has("source") ? file.read_text("source") : "";
+  if (file.has("bodies")) {  // a file of bodies
+    info.bodies.count = read_scalar(file, "bodies");
+    if (info.bodies.count < 1) throw std::runtime_error("bodies: " + std::to_string(info.bodies.count) + " (expected at least 1)");
+    if (!file.has("bodies_hash")) throw std::runtime_error("not a whole partition file: bodies without bodies_hash");
+    info.bodies.hash = uint64_t(read_scalar(file, "bodies_hash"));
+  }
 
   MeshPiece names;
   for_each_array(names, [&](const std::string& name, auto&) {
@@ -176,6 +183,13 @@ std::string check_piece(const MeshPiece& piece, const PartitionFileInfo& info, i
                " outside the whole mesh's " + std::to_string(counts[k]) + " elements of its kind";
   for (size_t i = 0; i < m.triangle_edges.size(); ++i)
     if (m.triangle_edges[i] > 7) return part + "triangle_edges row " + std::to_string(i) + ": not 3 bits";
+  if (info.bodies.count > 0)  // a file of bodies: every element's tag is its body
+    for (const auto& [name, tags] : {std::pair<const char*, const std::vector<int32_t>*>{"tet_tags", &m.tet_tags},
+                                     {"segment_tags", &m.segment_tags}, {"triangle_tags", &m.triangle_tags}})
+      for (size_t i = 0; i < tags->size(); ++i)
+        if ((*tags)[i] < 0 || (*tags)[i] >= info.bodies.count)
+          return part + name + " row " + std::to_string(i) + ": body " + std::to_string((*tags)[i]) + " of " +
+                 std::to_string(info.bodies.count) + " bodies";
   return "";
 }
 
@@ -224,7 +238,7 @@ uint64_t piece_checksum(MeshPiece& piece) {
 }
 
 void write_partition_file(const std::string& path, const TetMesh& serial, int nparts, const std::string& source,
-                          const CleanReport& repaired) {
+                          const CleanReport& repaired, const BodiesStamp& bodies) {
   if (nparts < 1) throw std::invalid_argument("write_partition_file: nparts must be at least 1");
   try {
     Hdf5File file = Hdf5File::create(path);
@@ -252,6 +266,10 @@ void write_partition_file(const std::string& path, const TetMesh& serial, int np
                               serial.num_segments(), serial.num_triangles(), serial.num_hinges(),
                               repaired.dropped_vertices, repaired.reoriented_tets};
     for (size_t k = 0; k < std::size(kHeader); ++k) write_scalar(file, kHeader[k], header[k]);
+    if (bodies.count > 0) {
+      write_scalar(file, "bodies", bodies.count);
+      write_scalar(file, "bodies_hash", int64_t(bodies.hash));
+    }
     file.write_text("source", source);
     file.close();
   } catch (const std::bad_alloc&) {
@@ -260,6 +278,44 @@ void write_partition_file(const std::string& path, const TetMesh& serial, int np
     if (std::string(e.what()).rfind("cannot write " + path, 0) == 0) throw;
     throw std::runtime_error("cannot write " + path + ": " + e.what());  // METIS
   }
+}
+
+uint64_t mesh_sources_hash(const std::vector<MeshSpec>& meshes) {
+  Fnv1a h;
+  const auto add = [&](const auto& value) { h.add(&value, sizeof value); };
+  add(meshes.size());
+  for (const MeshSpec& m : meshes) {
+    add(m.is_box);
+    add(m.box_size);
+    add(m.box_cells);
+    add(m.is_sheet);
+    add(m.sheet_size);
+    add(m.sheet_cells);
+    add(m.surface_as_cloth);
+    add(m.edges_as_strands);
+    add(m.transform.scale);
+    add(m.transform.rotate_deg);
+    add(m.transform.translate);
+    add(m.strands.size());
+    for (const StrandLine& s : m.strands) {
+      add(s.from);
+      add(s.to);
+      add(s.segments);
+    }
+    uint64_t bytes = 0;
+    if (!m.file.empty()) {
+      std::ifstream in(m.file, std::ios::binary);
+      std::vector<char> block(1 << 20);
+      while (in) {
+        in.read(block.data(), std::streamsize(block.size()));
+        h.add(block.data(), size_t(in.gcount()));
+        bytes += uint64_t(in.gcount());
+      }
+      if (!in.eof()) throw InputError(m.file, 0, "", "cannot read the file to check it against the partition file");
+    }
+    add(bytes);
+  }
+  return h.value;
 }
 
 PartitionFileInfo read_partition_info(const std::string& path) {

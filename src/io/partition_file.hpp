@@ -11,25 +11,43 @@
 // total_hinges, dropped_vertices and reoriented_tets (what cleaning the mesh changed);
 // part_checksums (parts, 1): a checksum of each piece's arrays, which reading checks; and the
 // texts format ("hyperqn partition file") and source (the deck and mesh it was made from).
+// A file of a scene of bodies (deck bodies:) also has the 1 x 1 tables bodies (their count; every
+// element's tag is its body) and bodies_hash (mesh_sources_hash of the bodies' meshes), which a run
+// checks against its deck; a file without them holds one mesh.
 #pragma once
 #include <mpi.h>
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "mesh/mesh.hpp"
 #include "mesh/mesh_piece.hpp"
+#include "mesh/mesh_spec.hpp"
 
 namespace hyperqn {
 
 constexpr int kPartitionFileVersion = 1;
 
+// What a scene of bodies' file was made from: the number of bodies (0: one mesh) and the hash of
+// their meshes as the deck describes them (mesh_sources_hash).
+struct BodiesStamp {
+  int64_t count = 0;
+  uint64_t hash = 0;
+};
+
 // Cuts `serial` (cleaned: read_serial_mesh, or clean_mesh) into nparts with pieces_of_serial_mesh
 // and writes every piece to path (replacing it whole; nothing is written on failure). `source`:
-// what the mesh was made from; `repaired`: what cleaning it changed. Throws std::runtime_error
-// "cannot write PATH: <reason>".
+// what the mesh was made from; `repaired`: what cleaning it changed; `bodies`: the bodies joined in
+// it, if any (their indices are the elements' tags). Throws std::runtime_error "cannot write PATH: <reason>".
 void write_partition_file(const std::string& path, const TetMesh& serial, int nparts, const std::string& source,
-                          const CleanReport& repaired = CleanReport());
+                          const CleanReport& repaired = CleanReport(), const BodiesStamp& bodies = BodiesStamp());
+
+// The hash a file of bodies is stamped with: FNV-1a over each mesh's description in order (box or
+// sheet and its size and cells, transform, strands, surface: cloth, edges: strands) and the bytes
+// of its file (not its path: a moved deck keeps its file). Reads every file whole, in blocks;
+// throws InputError naming a file it cannot read.
+uint64_t mesh_sources_hash(const std::vector<MeshSpec>& meshes);
 
 // What a partition file holds, from its header and offsets (all of them checked: counts, offsets
 // monotone and within each table, tables of one piece consistent in size), without its pieces.
@@ -39,6 +57,7 @@ struct PartitionFileInfo {
   int64_t vertices = 0, tets = 0, segments = 0, triangles = 0, hinges = 0;  // of the whole mesh
   CleanReport repaired;  // what cleaning the mesh changed when the file was written
   std::string source;    // what it was made from
+  BodiesStamp bodies;    // the bodies joined in it (count 0: one mesh)
 };
 // Throws InputError naming the file if it is missing, unreadable, not a partition file, of
 // another format version, or inconsistent.
@@ -51,8 +70,8 @@ PartitionFileInfo read_partition_info(const std::string& path);
 // the first of them reads it and cuts it by METIS for the group (share_piece). No rank reads
 // more than its parts, or one part.
 // Everything read is checked (the checksum of each part, offsets, sizes, vertex indices within
-// the piece, vertex and element numbers within the whole mesh's counts); any error is the same
-// InputError naming the file on every rank.
+// the piece, vertex and element numbers within the whole mesh's counts, in a file of bodies each
+// element's tag a body); any error is the same InputError naming the file on every rank.
 MeshPiece read_partition_piece(MPI_Comm comm, const std::string& path);
 
 // The checksum part_checksums holds: FNV-1a over every array of the piece (its name, length and

@@ -1,4 +1,6 @@
 // Where a scene's mesh comes from: a file, a generated box or sheet, its transform, and strands.
+// A field that shapes the mesh belongs in mesh_sources_hash (io/partition_file.cpp) too: a
+// partition file of bodies is checked against it.
 #pragma once
 #include <array>
 #include <cstdint>

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <algorithm>
+#include <filesystem>
 #include <functional>
 
 #include "io/atomic_file.hpp"
@@ -160,16 +161,9 @@ static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
   CleanReport total;
   for (size_t k = 0; k < deck.bodies.size(); ++k) {
     CleanReport report;
-    const BodySpec& body = deck.bodies[k];
-    const TetMesh mesh = read_mesh_spec(body.mesh, deck.path, &report);
+    const TetMesh mesh = read_mesh_spec(deck.bodies[k].mesh, deck.path, &report);
     total.dropped_vertices += report.dropped_vertices;
     total.reoriented_tets += report.reoriented_tets;
-    const std::string key = "bodies[" + std::to_string(k) + "]";
-    if (mesh.num_tets() > 0 && !body.has_material)  // a Medit file read for its edges (read_bodies)
-      throw InputError(deck.path, body.line, key + ".material",
-                       "missing: the body's mesh file " + body.mesh.file + " has " + std::to_string(mesh.num_tets()) + " tetrahedra");
-    if (mesh.num_tets() == 0 && body.has_material)
-      throw InputError(deck.path, body.line, key + ".material", "the body's mesh has no tetrahedra for it to describe");
     const int32_t first_vertex = (int32_t)all.num_vertices();
     const auto append = [&](const std::vector<int32_t>& from, std::vector<int32_t>& to) {
       for (int32_t v : from) to.push_back(first_vertex + v);
@@ -192,6 +186,47 @@ static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
   }
   if (repaired) *repaired = total;
   return all;
+}
+
+// A body has a material exactly when its mesh has tets (read_bodies cannot tell for a Medit file
+// read for its edges): checked on the pieces, whichever way they came.
+static void check_body_materials(MPI_Comm comm, const SceneSpec& deck, const MeshPiece& piece) {
+  std::vector<int64_t> tets(deck.bodies.size(), 0);
+  for (int32_t body : piece.mesh.tet_tags) ++tets[body];
+  // A tet is in one piece only.
+  MPI_Allreduce(MPI_IN_PLACE, tets.data(), (int)tets.size(), MPI_INT64_T, MPI_SUM, comm);
+  for (size_t k = 0; k < deck.bodies.size(); ++k) {
+    const BodySpec& body = deck.bodies[k];
+    const std::string key = "bodies[" + std::to_string(k) + "].material";
+    if (tets[k] > 0 && !body.has_material)
+      throw InputError(deck.path, body.line, key,
+                       "missing: the body's mesh file " + body.mesh.file + " has " + std::to_string(tets[k]) + " tetrahedra");
+    if (tets[k] == 0 && body.has_material)
+      throw InputError(deck.path, body.line, key, "the body's mesh has no tetrahedra for it to describe");
+  }
+}
+
+BodiesStamp bodies_stamp(const SceneSpec& deck) {
+  std::vector<MeshSpec> meshes;
+  for (const BodySpec& body : deck.bodies) meshes.push_back(body.mesh);
+  return {int64_t(deck.bodies.size()), mesh_sources_hash(meshes)};
+}
+
+// The deck's partition file of bodies (partition:) was written from these bodies: the same count
+// and the same hash of their meshes (a changed transform or mesh file makes it stale).
+static void check_bodies_partition(const SceneSpec& deck, const PartitionFileInfo& info) {
+  const std::string again = ": write it again with hyperqn partition " + deck.path + " -n N";
+  if (info.bodies.count == 0)
+    throw InputError(deck.path, deck.partition_line, "partition",
+                     deck.partition_file + " holds one mesh, not the bodies of a deck" + again);
+  if (info.bodies.count != int64_t(deck.bodies.size()))
+    throw InputError(deck.path, deck.partition_line, "partition",
+                     deck.partition_file + " holds " + std::to_string(info.bodies.count) + " bodies and the deck has " +
+                         std::to_string(deck.bodies.size()) + again);
+  if (info.bodies.hash != bodies_stamp(deck).hash)
+    throw InputError(deck.path, deck.partition_line, "partition",
+                     deck.partition_file + " was written from other bodies (a body's mesh, mesh file or transform has "
+                     "changed since; it was made from " + info.source + ")" + again);
 }
 
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
@@ -264,17 +299,23 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     if (repaired) *repaired = CleanReport();  // a generated mesh needs no repair
     return piece;
   }
-  if (ends_with(spec.file, ".h5")) {  // a partition file: each rank reads its own part
+  // A partition file (mesh.file, or partition: beside bodies): each rank reads its own part.
+  const std::string& partition = deck.bodies.empty() ? spec.file : deck.partition_file;
+  if (ends_with(partition, ".h5")) {
     const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
     on_root(comm, [&] {
-      const PartitionFileInfo info = read_partition_info(spec.file);
+      if (!deck.bodies.empty() && !std::filesystem::exists(partition))
+        throw InputError(deck.path, deck.partition_line, "partition",
+                         "file not found: '" + partition + "' (write it with hyperqn partition " + deck.path + " -n N)");
+      const PartitionFileInfo info = read_partition_info(partition);
+      if (!deck.bodies.empty()) check_bodies_partition(deck, info);
       check_memory(deck, info.vertices, info.tets, own_pieces, limits);
-      if (info.tets > 0 && !deck.has_material)
+      if (deck.bodies.empty() && info.tets > 0 && !deck.has_material)
         throw InputError(deck.path, 0, "material", "missing: the partition file " + spec.file + " has " +
                                                        std::to_string(info.tets) + " tetrahedra");
     });
     if (repaired) *repaired = CleanReport();  // repaired when the file was written
-    return read_partition_piece(comm, spec.file);
+    return read_partition_piece(comm, partition);
   }
   const TetMesh serial = load_scene_mesh(comm, deck, repaired, plan);
   try {
@@ -288,6 +329,7 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   SceneInput in;
   in.piece = load_scene_piece(comm, deck, &in.repaired, plan);
   const TetMesh& mesh = in.piece.mesh;
+  if (!deck.bodies.empty()) check_body_materials(comm, deck, in.piece);
   in.vertex_body = vertex_bodies(comm, in.piece, (int)deck.bodies.size());
   in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path, in.vertex_body);
   // Bodies: a tet's material is its body's (its tag is the body, read_bodies_mesh); they take no regions.

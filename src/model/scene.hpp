@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "io/partition_file.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
@@ -24,6 +25,11 @@ namespace hyperqn {
 // (what was repaired in *repaired). Throws InputError. Rank 0's part of load_scene_mesh, and what
 // `hyperqn partition` cuts.
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired = nullptr);
+
+// What a partition file of the deck's bodies is stamped with (`hyperqn partition` writes it, a run
+// with partition: checks it): their count and mesh_sources_hash of their meshes. Reads every
+// body's mesh file as bytes; throws InputError.
+BodiesStamp bodies_stamp(const SceneSpec& deck);
 
 // Loads the deck's mesh on rank 0 (file or generated box), applies the transform and cleans it
 // (what was repaired in *repaired, on rank 0). Throws InputError on every rank, also when a rank of

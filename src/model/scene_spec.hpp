@@ -169,6 +169,9 @@ struct SceneSpec {
   std::string name;                      // deck file name without directory and extension
   MeshSpec mesh;                         // the one body's mesh (without bodies)
   std::vector<BodySpec> bodies;          // several bodies (then mesh is unused and material is the first solid body's)
+  std::string partition_file;            // with bodies: the partition file of the joined bodies (deck partition:;
+                                         // "": rank 0 reads and joins them), checked when the scene is loaded
+  int partition_line = 0;                // its deck line
   MaterialSpec material;                 // the default material (of the tets)
   bool has_material = false;             // material given (needed iff the mesh has tets)
   StrandMaterial strand_material;        // of the strand segments (if the mesh has any)

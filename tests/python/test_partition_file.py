@@ -8,6 +8,12 @@
 - A deck naming a partition file with a key that shapes the mesh (transform, strands, edges,
   surface), or a partition file that is missing, truncated, of another format version or not one
   at all: exit 1 at 1 rank (and two of them at 2), a message naming the key or file, no output directory.
+- A deck of bodies names its file as partition: (the command writes it without -o): the file
+  holds the joined bodies, each element tagged with its body, and their stamp; a moved deck and
+  mesh run from it. A file stale for its deck (a body's transform or mesh file changed, a body
+  fewer), missing, or of one mesh is refused naming the deck's partition key; a file of bodies as
+  mesh.file, a partition: without bodies or not ending in .h5, and a partition file as a body's
+  mesh are refused too.
 The pieces read back at 1, 2 and 3 ranks are tests/test_partition_file.cpp's."""
 import copy
 import re
@@ -17,6 +23,7 @@ import numpy as np
 import pytest
 
 from conftest import load_deck, run_hyperqn, write_deck
+from hyperqn_tools.output import read_summary
 
 BAR = load_deck("tests/decks/hanging_bar.yaml")
 
@@ -127,3 +134,95 @@ def test_decks_refused(bar_file, ranks):
             assert fragment in proc.stdout, (name, fragment, proc.stdout)
         assert proc.stdout.count("hyperqn: error:") == 1, (name, proc.stdout)
         assert not outdir.exists(), name
+
+
+ONE_TET = """MeshVersionFormatted 1
+Dimension 3
+Vertices
+4
+0 0 0 0
+1 0 0 0
+0 1 0 0
+0 0 1 0
+Tetrahedra
+1
+1 2 3 4 0
+End
+"""
+SOLID = {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000}
+# A box and a tet read from a Medit file beside the deck, the file named relative to it.
+BODIES = {
+    "bodies": [{"name": "block", "mesh": {"box": {"size": [0.2] * 3, "cells": [2, 2, 2]}}, "material": SOLID},
+               {"name": "tet", "mesh": {"file": "one_tet.mesh", "transform": {"scale": 0.1, "translate": [1, 0, 0]}},
+                "material": SOLID}],
+    "partition": "bodies.h5",
+    "gravity": [0, 0, 0],
+    "time": {"dt": 0.01, "frames": 1},
+    "output": {"every": 1},
+}
+
+
+@pytest.fixture(scope="module")
+def bodies_file(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("bodies")
+    (tmp / "one_tet.mesh").write_text(ONE_TET)
+    deck = write_deck(tmp / "bodies.yaml", BODIES)
+    proc = partition([deck, "-n", 2])  # no -o: the deck's partition:
+    assert proc.returncode == 0, proc.stdout
+    return tmp, deck, proc.stdout
+
+
+def test_writes_the_bodies(bodies_file):
+    tmp, deck, stdout = bodies_file
+    out = tmp / "bodies.h5"
+    assert f"hyperqn partition: {out}: 2 parts, 2 bodies, 31 vertices, 49 tets" in stdout, stdout
+    with h5py.File(out, "r") as f:
+        assert f["bodies"][0, 0] == 2 and "bodies_hash" in f
+        tags = f["tet_tags"][:, 0][np.argsort(f["element_numbers"][:, 0])]  # in the joined mesh's order
+        assert np.array_equal(tags, [0] * 48 + [1])
+        source = bytes(f["source"][:]).decode()
+        assert "bodies: block (box cells 2 2 2), tet (" in source and "one_tet.mesh" in source
+    moved = tmp / "moved"  # the deck, its mesh and its partition file moved together still run
+    moved.mkdir()
+    for name in ("bodies.yaml", "one_tet.mesh", "bodies.h5"):
+        (moved / name).write_bytes((tmp / name).read_bytes())
+    run_hyperqn([moved / "bodies.yaml", "-o", moved / "out"], ranks=None)
+    assert read_summary(moved / "out")["status"] == "ok"
+
+
+def refused(tmp, name, deck, expected, ranks=None):
+    outdir = tmp / f"out_{name}"
+    proc = run_hyperqn([write_deck(tmp / f"{name}.yaml", deck), "-o", outdir], ranks=ranks, check=False)
+    assert proc.returncode == 1, (name, proc.stdout)
+    assert proc.stdout.count("hyperqn: error:") == 1, (name, proc.stdout)
+    for fragment in expected:
+        assert fragment in proc.stdout, (name, fragment, proc.stdout)
+    assert not outdir.exists(), name
+
+
+def test_stale_or_mismatched_bodies_files_are_refused(bodies_file, bar_file):
+    tmp, _, _ = bodies_file
+    _, _, bar_h5, _ = bar_file
+    with_bodies = tmp / "bodies.h5"
+    stale = "was written from other bodies"
+    turned = copy.deepcopy(BODIES)
+    turned["bodies"][1]["mesh"]["transform"]["scale"] = 0.2
+    refused(tmp, "turned", turned, ["turned.yaml", "'partition'", stale, "hyperqn partition"])
+    refused(tmp, "turned_np2", turned, ["'partition'", stale], ranks=2)
+    edited = tmp / "edited"  # the same deck beside a changed mesh file, naming the file of the first
+    edited.mkdir()
+    (edited / "one_tet.mesh").write_text(ONE_TET.replace("0 0 1 0\n", "0 0 2 0\n"))
+    refused(edited, "edited", dict(BODIES, partition=str(with_bodies)), ["'partition'", stale])
+    fewer = dict(BODIES, bodies=BODIES["bodies"][:1])
+    refused(tmp, "fewer", fewer, ["'partition'", "holds 2 bodies and the deck has 1"])
+    refused(tmp, "missing", dict(BODIES, partition="none.h5"), ["'partition'", "none.h5", "not found", "hyperqn partition"])
+    refused(tmp, "one_mesh", dict(BODIES, partition=str(bar_h5)), ["'partition'", "holds one mesh"])
+    refused(tmp, "not_h5", dict(BODIES, partition="bodies.mesh"), ["not_h5.yaml", "'partition'", "ends in .h5"])
+    as_mesh = copy.deepcopy(BAR)
+    as_mesh["mesh"] = {"file": str(with_bodies)}
+    refused(tmp, "as_mesh", as_mesh, ["'mesh.file'", "holds the 2 bodies", "partition:"])
+    without_bodies = dict(BAR, partition=str(bar_h5))
+    refused(tmp, "without_bodies", without_bodies, ["'partition'", "mesh.file"])
+    body_h5 = copy.deepcopy(BODIES)
+    body_h5["bodies"][0]["mesh"] = {"file": str(bar_h5)}
+    refused(tmp, "body_h5", body_h5, ["'bodies[0].mesh'", "partition:"])

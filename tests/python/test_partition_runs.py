@@ -6,7 +6,13 @@ written by `hyperqn partition` for 2 parts and run from the file at 1, 2, 3 and 
 run from the mesh file at 2 ranks; at 1 rank (the parts merged) and at 3 and 4 (a part cut again
 by METIS for the ranks that share it) within 1e-8 of the rest bounding-box diagonal, and a second
 run at 3 ranks repeats the first bit for bit. A run started from the mesh file continues from the
-partition file (at another rank count); a partition file of another mesh is refused."""
+partition file (at another rank count); a partition file of another mesh is refused.
+
+A scene of bodies (a cloth, a rope and two blocks, each with its own fixed region, attachment or
+velocity) is written by `hyperqn partition` for 1 and 2 parts into the file its deck names
+(partition:): run from it, it is bitwise the run that joins the bodies on rank 0 at the file's
+rank count (1 part at 1 rank, 2 at 2), and within 1e-10 of the diagonal with 2 parts at 1 and 4
+ranks; a run of the bodies joined on rank 0 continues from their partition file."""
 import copy
 import os
 
@@ -14,6 +20,7 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
+from test_bodies import CLOTH, ROPE, SOFT, STIFF
 from hyperqn_tools.output import final_frame, read_summary, rest_diagonal
 from hyperqn_tools.paths import REPO
 
@@ -97,3 +104,66 @@ def test_a_run_from_the_mesh_file_continues_from_the_partition_file(runs, tmp_pa
     proc = run_hyperqn([write_deck(tmp_path / "refused.yaml", refused), "-o", out, "--restart", "latest"], ranks=2,
                        timeout=120, check=False)
     assert proc.returncode == 1 and "the mesh differs" in proc.stdout, proc.stdout[-2000:]
+
+
+# A scene of bodies (docs/decks.md#bodies): a cloth and a rope hanging from their own fixed boxes,
+# a block flying off with its own velocity and a block held by its own attachment, all solved to
+# round-off, so that only the order of sums differs between partitions.
+BODIES = {
+    "bodies": [CLOTH, ROPE, dict(SOFT, velocity=[0, 0, 0.5]),
+               dict(STIFF, attachments=[{"box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "stiffness": 50.0}])],
+    "time": {"dt": 1.0 / 60, "frames": 6},
+    "solver": {"type": "newton", "iterations": 50, "budget": "fixed", "grad_rtol": 1e-12, "grad_atol": 0},
+    "output": {"every": 6},
+}
+BODIES_TOLERANCE = 1e-10  # of the rest bounding-box diagonal
+
+
+@pytest.fixture(scope="module")
+def bodies_runs(tmp_path_factory):
+    """The runs of the bodies without a partition file at 1 and 2 ranks, and the directory."""
+    tmp = tmp_path_factory.mktemp("bodies_partition")
+    return tmp, {ranks: run(tmp, f"joined_np{ranks}", BODIES, ranks) for ranks in (1, 2)}
+
+
+@pytest.mark.parametrize("parts, ranks", [(1, 1), (2, 2), (2, 1), (2, 4)])
+def test_bodies_run_from_their_partition_file(bodies_runs, parts, ranks):
+    """`hyperqn partition DECK -n N` writes the file the deck names (partition:); a run from it is
+    bitwise the run that joins the bodies on rank 0 at the file's rank count, and within 1e-10 of
+    the diagonal at another (parts merged at 1 rank, cut again at 4)."""
+    tmp, joined = bodies_runs
+    deck = write_deck(tmp / f"parts{parts}.yaml", dict(BODIES, partition=f"bodies{parts}.h5"))
+    if not (tmp / f"bodies{parts}.h5").exists():
+        proc = run_hyperqn(["partition", deck, "-n", parts], ranks=None)
+        assert f"{parts} parts" in proc.stdout and "4 bodies" in proc.stdout, proc.stdout
+    out = tmp / f"file{parts}_np{ranks}"
+    run_hyperqn([deck, "-o", out], ranks=ranks, timeout=120)
+    assert read_summary(out)["status"] == "ok"
+    f = final_frame(out)
+    reference = joined[ranks if ranks == parts else 1]
+    assert np.array_equal(f.vertex_id, reference.vertex_id)
+    assert np.array_equal(np.bincount(f.body), np.bincount(reference.body))
+    gap = np.abs(f.points - reference.points).max() / rest_diagonal(reference)
+    print(f"{parts} parts at {ranks} ranks: {gap:.1e} of the diagonal from the bodies joined on rank 0")
+    if ranks == parts:
+        assert np.array_equal(f.points, reference.points), f"{gap:.2e} of the diagonal: not bitwise"
+    else:
+        assert gap <= BODIES_TOLERANCE, f"{gap:.2e} of the diagonal"
+
+
+def test_bodies_joined_on_rank_0_continue_from_their_partition_file(bodies_runs):
+    """The checkpoint knows the bodies' mesh by its hash: 3 frames with the bodies joined at 1 rank,
+    the other 3 from their 2-part file at 2 ranks, end where the joined run ends."""
+    tmp, joined = bodies_runs
+    out = tmp / "continued"
+    first = dict(BODIES, time=dict(BODIES["time"], frames=3), checkpoint={"every": 1})
+    run_hyperqn([write_deck(tmp / "continued_first.yaml", first), "-o", out], ranks=1)
+    second = dict(BODIES, checkpoint={"every": 1}, partition="bodies_continued.h5")
+    second = write_deck(tmp / "continued_second.yaml", second)
+    run_hyperqn(["partition", second, "-n", 2], ranks=None)
+    proc = run_hyperqn([second, "-o", out, "--restart", "latest"], ranks=2, timeout=120)
+    assert "restart from" in proc.stdout and read_summary(out)["status"] == "ok"
+    f, reference = final_frame(out), joined[1]
+    gap = np.abs(f.points - reference.points).max() / rest_diagonal(reference)
+    print(f"continued from the partition file: {gap:.1e} of the diagonal")
+    assert gap <= BODIES_TOLERANCE, f"{gap:.2e} of the diagonal"
