@@ -5,13 +5,10 @@
 // generated (scripts/deck_tables.py; tests/python/test_deck_tables.py fails when they differ).
 // The default is the struct's own (a default-constructed one), so it is stated once too.
 #pragma once
-#include <cmath>
 #include <algorithm>
 #include <array>
 #include <cstdio>
-#include <cstring>
 #include <functional>
-#include <limits>
 #include <string>
 #include <type_traits>
 #include <variant>
