@@ -297,7 +297,31 @@ void test_invalid_decks() {
   expect_error("J0_one", m + "  model: neohookean\n  mu: 1\n  lambda: 1\n  density: 1\n  J0: 1\n", "material.J0", 7);
   expect_error("J0_corotated", m + "  mu: 1\n  lambda: 1\n  density: 1\n  J0: 0.2\n", "material.J0", 6, "neohookean");
   expect_error("laplacian_weight_zero", m + "  mu: 1\n  lambda: 1\n  density: 1\n  laplacian_weight: 0\n",
-               "material.laplacian_weight", 6);
+               "material.laplacian_weight", 6, "must be > 0 (omit the key for the material's own weight), got 0");
+  // The material keys come from the registry: a key of another model names the models that take
+  // it and the model given; an unknown key lists the keys of the model given; a range is the
+  // registry's (materials/material_factory.cpp).
+  expect_error("J0_stvk", m + "  model: stvk\n  mu: 1\n  lambda: 1\n  density: 1\n  J0: 0.2\n", "material.J0", 7,
+               "applies to model neohookean only (model is stvk)");
+  expect_error("E_springs_unknown", m + "  model: mass-spring\n  spring_stiffness: 1\n  density: 1\n  stiffnes: 1\n",
+               "material.stiffnes", 6,
+               "unknown key 'stiffnes' in material; allowed: model, spring_stiffness, density, total_mass, laplacian_weight");
+  expect_error("fiber_springs", m + "  model: mass-spring\n  spring_stiffness: 1\n  density: 1\n  fiber: {direction: [1, 0, 0], stiffness: 1}\n",
+               "material.fiber", 6, "applies to model corotated, neohookean, stvk, principal-stretch only");
+  expect_error("fiber_no_stiffness", m + "  mu: 1\n  lambda: 1\n  density: 1\n  fiber: {direction: [1, 0, 0]}\n",
+               "material.fiber.stiffness", 6, "missing required key 'stiffness' in material.fiber");
+  expect_error("fiber_negative_stiffness", m + "  mu: 1\n  lambda: 1\n  density: 1\n  fiber: {direction: [1, 0, 0], stiffness: -1}\n",
+               "material.fiber.stiffness", 6, "must be >= 0, got -1");
+  expect_error("kappa_negative", m + "  model: stvk\n  mu: 1\n  lambda: 1\n  density: 1\n  kappa: -1\n", "material.kappa", 7,
+               "must be >= 0, got -1");
+  expect_error("springs_zero", m + "  model: mass-spring\n  spring_stiffness: 0\n  density: 1\n",
+               "material.spring_stiffness", 4, "must be > 0, got 0");
+  expect_error("nu_range_text", m + "  youngs_modulus: 1\n  poisson_ratio: 0.5\n  density: 1\n", "material.poisson_ratio", 4,
+               "must be in (-1, 0.5), got 0.5");
+  expect_error("principal_with_E", m + "  model: principal-stretch\n  youngs_modulus: 1\n  density: 1\n",
+               "material.youngs_modulus", 4, "principal-stretch takes f, g, h instead of elastic constants");
+  expect_error("total_mass_zero_text", m + "  mu: 1\n  lambda: 1\n  total_mass: 0\n", "material.total_mass", 5,
+               "must be > 0, got 0");
 
   // Fixed regions.
   expect_error("fixed_min_gt_max",
@@ -340,6 +364,9 @@ void test_invalid_decks() {
   expect_error("petsc_name_space", kHead + "petsc:\n  tao ls_type: armijo\n", "petsc.tao ls_type", 4, "letters, digits");
   expect_error("petsc_name_equals", kHead + "petsc:\n  tao_ls_type=armijo:\n", "petsc.tao_ls_type=armijo", 4, "letters, digits");
   expect_error("petsc_name_digit", kHead + "petsc:\n  7_view: 1\n", "petsc.7_view", 4, "starting with a letter");
+  expect_error("petsc_too_deep", kHead + "petsc: {a: {b: {c: {d: {e: {f: {g: {h: {i: {j: 1}}}}}}}}}}\n",
+               "petsc.a.b.c.d.e.f.g.h.i", 3, "nested more than 8 levels deep");
+  expect_error("gravity_text", kHead + "gravity: down\n", "gravity", 3, "expected a list of 3 numbers, got 'down'");
   expect_error("petsc_nested_name_dash", kHead + "petsc:\n  tao:\n    ls-type: armijo\n", "petsc.tao.ls-type", 5);
   expect_error("petsc_twice", kHead + "petsc:\n  tao_ls_type: unit\n  tao:\n    ls_type: armijo\n", "petsc.tao.ls_type", 6,
                "also given at line 4");

@@ -28,21 +28,12 @@ namespace {
 namespace fs = std::filesystem;
 using Names = std::vector<std::string>;
 
-// Model and solver names come from their registries (materials/material_factory.hpp,
-// solvers/solver_registry.hpp); the other allowed values are the deck's own.
-Names model_names() {
-  Names names;
-  for (const MaterialModel& m : material_models()) names.push_back(m.name);
-  return names;
-}
-const Names kModels = model_names();
+// Solver names come from their registry (solvers/solver_registry.hpp).
 const Names kSolverTypes = solver_names();
 // Bounds that keep a deck from exhausting the machine or the floating-point range.
 constexpr double kLargestNumber = 1e100;
 constexpr int kMaxIterations = 1000000;   // per frame
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
-constexpr int kMaxPetscOptions = 1000;      // petsc: section (a YAML alias bomb expands past it)
-constexpr int kMaxPetscDepth = 8;
 constexpr int kContactHistory = 20;         // solver.history's default with colliders
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
@@ -237,6 +228,54 @@ struct is_array : std::false_type {};
 template <typename T, size_t N>
 struct is_array<std::array<T, N>> : std::true_type {};
 
+// Reads x, the value of declared key k, into spec, with its type, range and choice checks.
+template <typename Spec>
+void read_value(const Reader& r, const DeckKey<Spec>& k, const Value& x, Spec& spec) {
+  // One value (a list's item) of type T.
+  const auto one = [&](auto type, const Value& item) {
+    using T = decltype(type);
+    if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
+      const T value = std::is_same_v<T, double> ? T(r.number(item)) : T(r.integer(item));
+      if (!k.range.rule().empty()) r.check(k.range.contains(value), item, k.range.rule());
+      return value;
+    } else if constexpr (std::is_same_v<T, bool>) {
+      return r.boolean(item);
+    } else if constexpr (is_array<T>::value) {  // a vec3, 2 numbers, 2 or 3 integers
+      constexpr size_t N = std::tuple_size_v<T>;
+      T value;
+      if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item);
+      else value = r.integers<N>(item);
+      if constexpr (std::is_same_v<T, Array3>)
+        if (k.range.nonzero) r.check(is_nonzero(value), item, k.range.rule());
+      if (!k.range.nonzero && !k.range.rule().empty()) {
+        const std::vector<Value> items = r.items(item);
+        for (size_t i = 0; i < N; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
+      }
+      return value;
+    } else {
+      return k.choices.empty() ? r.text(item) : r.choice(item, k.choices);
+    }
+  };
+  std::visit(
+      [&](const auto& field) {
+        using F = std::decay_t<decltype(field)>;
+        if constexpr (std::is_same_v<F, std::monostate>) {
+          if (k.set) k.set(spec, r.choice(x, k.choices));
+        } else {
+          using T = std::decay_t<decltype(field(spec))>;
+          if constexpr (std::is_same_v<T, std::vector<int>> || std::is_same_v<T, std::vector<std::string>>) {
+            T list;
+            for (const Value& item : r.items(x)) list.push_back(one(typename T::value_type(), item));
+            r.check(!list.empty(), x, std::string("a non-empty ") + type_name(list));
+            field(spec) = list;
+          } else {
+            field(spec) = one(T(), x);
+          }
+        }
+      },
+      k.member.field);
+}
+
 // Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
 // got X"), an unknown choice, an unknown key, an empty list, a key of another model or type. A
@@ -273,9 +312,11 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
   }
   names.insert(names.end(), more.begin(), more.end());
   shown.insert(shown.end(), more.begin(), more.end());
-  Section s(r, v, names, shown);
+  // A free map (any_key) allows any name: an empty list of names.
+  const bool free = std::any_of(keys.begin(), keys.end(), [](const DeckKey<Spec>& k) { return k.any_name; });
+  Section s(r, v, free ? Names{} : names, shown);
   for (const DeckKey<Spec>& k : keys) {
-    if (std::string(k.name).find('.') != std::string::npos) continue;  // read with its map
+    if (std::string(k.name).find('.') != std::string::npos || k.any_name) continue;  // read with its map, or by the caller
     const bool applies = k.only_for.empty() || listed(k.only_for, word(k.selector));
     const Value* x = k.required && applies ? &s.need(k.name) : s.find(k.name);
     if (!x) continue;
@@ -292,49 +333,7 @@ Section read_keys(const Reader& r, const Value& v, const std::vector<DeckKey<Spe
       read_keys(r, *x, nested, spec);
       continue;
     }
-    // One value (a list's item) of type T.
-    const auto one = [&](auto type, const Value& item) {
-      using T = decltype(type);
-      if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
-        const T value = std::is_same_v<T, double> ? T(r.number(item)) : T(r.integer(item));
-        if (!k.range.rule().empty()) r.check(k.range.contains(value), item, k.range.rule());
-        return value;
-      } else if constexpr (std::is_same_v<T, bool>) {
-        return r.boolean(item);
-      } else if constexpr (is_array<T>::value) {  // a vec3, 2 numbers, 2 or 3 integers
-        constexpr size_t N = std::tuple_size_v<T>;
-        T value;
-        if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item);
-        else value = r.integers<N>(item);
-        if constexpr (std::is_same_v<T, Array3>)
-          if (k.range.nonzero) r.check(is_nonzero(value), item, k.range.rule());
-        if (!k.range.nonzero && !k.range.rule().empty()) {
-          const std::vector<Value> items = r.items(item);
-          for (size_t i = 0; i < N; ++i) r.check(k.range.contains(value[i]), items[i], k.range.rule());
-        }
-        return value;
-      } else {
-        return k.choices.empty() ? r.text(item) : r.choice(item, k.choices);
-      }
-    };
-    std::visit(
-        [&](const auto& field) {
-          using F = std::decay_t<decltype(field)>;
-          if constexpr (std::is_same_v<F, std::monostate>) {
-            if (k.set) k.set(spec, r.choice(*x, k.choices));
-          } else {
-            using T = std::decay_t<decltype(field(spec))>;
-            if constexpr (std::is_same_v<T, std::vector<int>> || std::is_same_v<T, std::vector<std::string>>) {
-              T list;
-              for (const Value& item : r.items(*x)) list.push_back(one(typename T::value_type(), item));
-              r.check(!list.empty(), *x, std::string("a non-empty ") + type_name(list));
-              field(spec) = list;
-            } else {
-              field(spec) = one(T(), *x);
-            }
-          }
-        },
-        k.member.field);
+    read_value(r, k, *x, spec);
   }
   return s;
 }
@@ -452,7 +451,8 @@ void need_both(const Reader& r, const Section& s, const char* a, const char* b) 
   if (vb && !va) r.fail(vb->line, s.path(a), std::string("missing; ") + b + " is given, so " + a + " is needed too");
 }
 
-void read_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) {
+// The elastic constants as read_keys read them: one pair, both of it; E and nu become mu and lambda.
+void check_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) {
   const Value *E = s.find("youngs_modulus"), *nu = s.find("poisson_ratio");
   const Value *mu = s.find("mu"), *lambda = s.find("lambda");
   if ((E || nu) && (mu || lambda))
@@ -461,17 +461,10 @@ void read_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) 
     r.fail(s.value(), "missing elastic constants: give youngs_modulus and poisson_ratio, or mu and lambda");
   if (E || nu) {
     need_both(r, s, "youngs_modulus", "poisson_ratio");
-    double e = r.number(*E), n = r.number(*nu);
-    r.check(e > 0, *E, "> 0");
-    r.check(n > -1 && n < 0.5, *nu, "in (-1, 0.5)");
-    m.mu = lame_mu(e, n);
-    m.lambda = lame_lambda(e, n);
+    m.mu = lame_mu(m.youngs_modulus, m.poisson_ratio);
+    m.lambda = lame_lambda(m.youngs_modulus, m.poisson_ratio);
   } else {
     need_both(r, s, "mu", "lambda");
-    m.mu = r.number(*mu);
-    m.lambda = r.number(*lambda);
-    r.check(m.mu > 0, *mu, "> 0");
-    r.check(m.lambda >= 0, *lambda, ">= 0");
   }
 }
 
@@ -497,93 +490,40 @@ FunctionSpec read_function(const Reader& r, const Value& v) {
   return f;
 }
 
-// Which keys a material takes comes from the model registry (materials/material_factory.hpp):
-// every model takes these, the elastic constants go to the models that say so, and each model's
-// own keys to that model alone.
-const Names kEveryMaterial = {"model", "density", "total_mass", "laplacian_weight"};
-const Names kElasticConstants = {"youngs_modulus", "poisson_ratio", "mu", "lambda"};
-
-// Every key a material section may hold, for the "unknown key" message.
-Names material_keys() {
-  Names keys = {"model"};
-  keys.insert(keys.end(), kElasticConstants.begin(), kElasticConstants.end());
-  keys.insert(keys.end(), kEveryMaterial.begin() + 1, kEveryMaterial.end());
-  for (const MaterialModel& model : material_models())
-    for (const std::string& key : model.keys)
-      if (!listed(keys, key)) keys.push_back(key);
-  return keys;
-}
-
-// A key the model does not take is an error naming the models that do.
-void check_material_keys(const Reader& r, const Section& s, const MaterialModel& model) {
-  for (const auto& [key, x] : s.entries()) {
-    if (listed(kEveryMaterial, key) || listed(model.keys, key)) continue;
-    if (listed(kElasticConstants, key)) {
-      if (model.elastic_constants) continue;
-      std::string own;
-      for (const std::string& k : model.keys)
-        if (k != "fiber") own += (own.empty() ? "" : ", ") + k;
-      r.fail(x, model.name + " takes " + own + " instead of elastic constants");
-    }
-    std::string owners;
-    for (const MaterialModel& other : material_models())
-      if (listed(other.keys, key)) owners += (owners.empty() ? "" : ", ") + other.name;
-    r.fail(x, key + " applies to model " + owners + " only (model is " + model.name + ")");
-  }
-}
-
+// The keys, ranges and models of material_keys() (from the material registry), then the rules
+// that involve several keys, then the model's own checks.
 void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
-  Section s(r, v, material_keys());
-  if (const Value* x = s.find("model")) m.model = r.choice(*x, kModels);
-  const MaterialModel& model = *find_material_model(m.model);
-  check_material_keys(r, s, model);
-  if (model.elastic_constants) read_elastic_constants(r, s, m);
-  if (listed(model.keys, "spring_stiffness")) {
-    const Value& k = s.need("spring_stiffness");
-    m.spring_stiffness = r.number(k);
-    r.check(m.spring_stiffness > 0, k, "> 0");
+  {
+    // A model without elastic constants names the keys it takes instead (read_keys would name the
+    // models that take elastic constants).
+    const Section probe(r, v, {});
+    const Value* word = probe.find("model");
+    const MaterialModel& model = *find_material_model(word ? r.choice(*word, material_keys()[0].choices) : m.model);
+    for (const MaterialKey& k : elastic_constant_keys())
+      if (const Value* x = probe.find(k.name); x && !model.elastic_constants) {
+        std::string own;
+        for (const MaterialKey& key : model.keys) own += (own.empty() ? "" : ", ") + std::string(key.name);
+        r.fail(*x, model.name + " takes " + own + " instead of elastic constants");
+      }
   }
+  const Section s = read_keys(r, v, material_keys(), m);
+  const MaterialModel& model = *find_material_model(m.model);
+  if (model.elastic_constants) check_elastic_constants(r, s, m);
   if (const Value* x = s.find("f")) m.f = read_function(r, *x);
   if (const Value* x = s.find("g")) m.g = read_function(r, *x);
   if (const Value* x = s.find("h")) m.h = read_function(r, *x);
-  if (listed(model.keys, "f") && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
+  // A model of functions (principal-stretch) needs one of them.
+  const bool of_functions = std::any_of(model.keys.begin(), model.keys.end(),
+                                        [](const MaterialKey& k) { return std::string(k.type) == "function"; });
+  if (of_functions && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
     r.fail(v, m.model + " needs f, g or h");
-  if (const Value* x = s.find("kappa")) {
-    m.kappa = r.number(*x);
-    r.check(m.kappa >= 0, *x, ">= 0");
-  }
-  if (const Value* x = s.find("fiber")) {
-    Section fs(r, *x, {"direction", "stiffness"});
-    const Value& dir = fs.need("direction");
-    m.fiber_direction = r.numbers3(dir);
-    const auto& d = m.fiber_direction;
-    r.check(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0, dir, "a nonzero vector");
-    const Value& k = fs.need("stiffness");
-    m.fiber_stiffness = r.number(k);
-    r.check(m.fiber_stiffness >= 0, k, ">= 0");
-    m.has_fiber = true;
-  }
+  m.has_fiber = s.find("fiber") != nullptr;
 
   const Value *density = s.find("density"), *total = s.find("total_mass");
   if (density && total) r.fail(*total, "give either density or total_mass, not both");
   if (!density && !total) r.fail(v, "missing the mass: give density or total_mass");
   m.has_density = density != nullptr;
-  if (density) {
-    m.density = r.number(*density);
-    r.check(m.density > 0, *density, "> 0");
-  } else {
-    m.total_mass = r.number(*total);
-    r.check(m.total_mass > 0, *total, "> 0");
-  }
 
-  if (const Value* x = s.find("J0")) {
-    m.J0 = r.number(*x);
-    r.check(m.J0 > 0 && m.J0 < 1, *x, "in (0, 1)");
-  }
-  if (const Value* x = s.find("laplacian_weight")) {
-    m.laplacian_weight = r.number(*x);
-    r.check(m.laplacian_weight > 0, *x, "> 0 (omit the key for the material's own weight)");
-  }
   // The material's own checks (e.g. spline shapes) with the deck's place in the message.
   try {
     if (model.create) make_material(m);
@@ -635,16 +575,14 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, 
 void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck, BodyRegions& regions) {
   for (const Value& item : r.items(v)) {
     const int k = (int)deck.bodies.size();
-    Section s(r, item, {"name", "mesh", "material", "cloth", "strand_material", "velocity", "fixed", "attachments"});
     BodySpec b;
     b.line = item.line;
     b.name = "body" + std::to_string(k);
-    if (const Value* x = s.find("name")) {
-      b.name = r.text(*x);
+    const Section s = read_keys(r, item, body_keys(), b);
+    if (const Value* x = s.find("name"))
       for (const BodySpec& other : deck.bodies)
         if (other.name == b.name) r.fail(*x, "another body is named " + b.name + " (line " + std::to_string(other.line) + ")");
-    }
-    const Value& mesh = s.need("mesh");
+    const Value& mesh = *s.find("mesh");
     read_mesh(r, mesh, deck_dir, b.mesh);
     const MeshSpec& m = b.mesh;
     if (m.is_partition_file)
@@ -671,7 +609,6 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     }
     if (const Value* x = s.find("cloth")) read_cloth(r, *x, b.cloth);
     if (const Value* x = s.find("strand_material")) read_strand_material(r, *x, b.strand_material);
-    if (const Value* x = s.find("velocity")) b.velocity = r.numbers3(*x);
     if (const Value* x = s.find("fixed")) regions.fixed.emplace_back(k, *x);
     if (const Value* x = s.find("attachments")) regions.attachments.emplace_back(k, *x);
     deck.bodies.push_back(b);
@@ -853,10 +790,11 @@ std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::No
 // spelled true/false and an empty value is "" (an option without argument).
 void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth = 0) {
   auto& out = deck.petsc_options;
-  if (depth > kMaxPetscDepth) r.fail(v, "nested more than 8 levels deep");
-  Section s(r, v, {});
+  if (depth > kMaxPetscDepth) r.fail(v, "nested more than " + std::to_string(kMaxPetscDepth) + " levels deep");
+  const Section s = read_keys(r, v, petsc_keys(), deck);
   for (const auto& [name, x] : s.entries()) {
-    if ((int)out.size() >= kMaxPetscOptions) r.fail(x, "more than 1000 PETSc options (YAML aliases repeating maps?)");
+    if ((int)out.size() >= kMaxPetscOptions)
+      r.fail(x, "more than " + std::to_string(kMaxPetscOptions) + " PETSc options (YAML aliases repeating maps?)");
     if (name.empty() || name[0] == '-')
       r.fail(x, "PETSc option names are written without the leading '-'");
     // PETSc would take anything else as the end of the name, or as another option.
@@ -970,7 +908,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   const bool contact = !deck.colliders.empty() || deck.contact.self;
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   read_body_regions(r, body_regions, deck);
-  if (const Value* x = s.find("gravity")) deck.gravity = r.numbers3(*x);
+  if (const Value* x = s.find("gravity")) read_value(r, gravity_keys()[0], *x, static_cast<SceneSpec&>(deck));
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
     const IntegratorInfo& integrator = integrator_info(deck.time.integrator);

@@ -32,6 +32,11 @@ inline const std::vector<std::string> kOutputFormatNames = {"vtu", "xdmf"};  // 
 // The deck's study: keys (io/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
 const std::vector<DeckKey<StudySpec>>& study_keys();
 
+// The deck's material: keys (app/deck_keys.cpp): model, then each key of the material registry
+// (materials/material_factory.hpp: its range, the models that take it), then the mass and
+// laplacian_weight. Its reader checks the rules that involve several keys.
+const std::vector<DeckKey<MaterialSpec>>& material_keys();
+
 struct OutputSpec {
   std::string directory;             // "" -> output/<deck name>
   int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
@@ -101,6 +106,23 @@ struct Deck : SceneSpec {
   };
   std::map<std::string, OptionPlace> petsc_option_places;  // "-key" -> where the deck gives it
 };
+
+// Bounds of the petsc: section (a YAML alias bomb expands past them).
+constexpr int kMaxPetscOptions = 1000;
+constexpr int kMaxPetscDepth = 8;
+
+// The deck's petsc: keys (io/deck_keys.hpp): a free map, any option name, read by read_petsc.
+inline const std::vector<DeckKey<Deck>>& petsc_keys() {
+  static const std::string doc =
+      "a PETSc option, named without its leading `-`: letters, digits and `_`, starting with a letter; a nested "
+      "map's keys join its name with `_` (`tao: {ls_type: armijo}` is `-tao_ls_type armijo`), at most " +
+      std::to_string(kMaxPetscDepth) + " levels deep; at most " + std::to_string(kMaxPetscOptions) +
+      " options; each option once";
+  static const std::vector<DeckKey<Deck>> keys = {
+      any_key<Deck>("<option>", "a word, or a map of options", doc.c_str()),
+  };
+  return keys;
+}
 
 // Where the deck's petsc: section gave option `name` (e.g. "-tao_ls_type") the value `value`, or
 // nullptr: the deck does not give it, or the command line set another value (the command line wins).

@@ -136,7 +136,7 @@ std::string quoted(const std::string& s) {
 std::string registry_text() {
   std::string s = "Material models (material.model):\n";
   for (const hyperqn::MaterialModel& m : hyperqn::material_models())
-    s += "  " + m.name + ": " + m.summary + "\n      keys: " + m.parameters + "\n";
+    s += "  " + m.name + ": " + m.summary + "\n      keys: " + hyperqn::parameters_text(m) + "\n";
   s += "Solvers (solver.type):\n";
   for (const hyperqn::SolverInfo& v : hyperqn::solver_registry()) s += "  " + v.name + ": " + v.summary + "\n";
   return s;
@@ -147,7 +147,7 @@ std::string registry_json() {
   const auto& models = hyperqn::material_models();
   for (size_t k = 0; k < models.size(); ++k)
     s += "    {\"name\": " + quoted(models[k].name) + ", \"summary\": " + quoted(models[k].summary) +
-         ", \"parameters\": " + quoted(models[k].parameters) + "}" + (k + 1 < models.size() ? ",\n" : "\n");
+         ", \"parameters\": " + quoted(hyperqn::parameters_text(models[k])) + "}" + (k + 1 < models.size() ? ",\n" : "\n");
   s += "  ],\n  \"solvers\": [\n";
   const auto& solvers = hyperqn::solver_registry();
   for (size_t k = 0; k < solvers.size(); ++k)

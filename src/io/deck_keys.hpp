@@ -5,68 +5,21 @@
 // generated (scripts/deck_tables.py; tests/python/test_deck_tables.py fails when they differ).
 // The default is the struct's own (a default-constructed one), so it is stated once too.
 #pragma once
-#include <cmath>
 #include <algorithm>
 #include <array>
 #include <cstdio>
-#include <cstring>
 #include <functional>
-#include <limits>
 #include <string>
 #include <type_traits>
 #include <variant>
 #include <vector>
 
+#include "materials/key_range.hpp"
+
 namespace hyperqn {
 
 using Array3 = std::array<double, 3>;
 
-// A number's allowed values: lo .. hi, either end open or unbounded (infinite); `why` follows the
-// rule in messages and docs. A vec3's range applies to each of its numbers, or (nonzero) to the
-// vector as a whole.
-struct KeyRange {
-  double lo = -std::numeric_limits<double>::infinity();
-  double hi = std::numeric_limits<double>::infinity();
-  bool lo_open = false, hi_open = false;
-  const char* why = "";
-  bool nonzero = false;
-
-  bool contains(double x) const {
-    return (lo_open ? x > lo : x >= lo) && (hi_open ? x < hi : x <= hi);
-  }
-  // What a value must be, e.g. "> 0", ">= 1", "in [0, 1)", "<= 100000000", "" (anything).
-  std::string rule(bool unicode = false) const {
-    if (nonzero) return "a nonzero vector";
-    const auto num = [](double x) {
-      char s[32];
-      std::snprintf(s, sizeof s, "%.15g", x);
-      // A long power of ten reads better as one: 1e12, not 1000000000000.
-      if (std::strlen(s) > 10 && x == std::pow(10.0, std::round(std::log10(x))))
-        std::snprintf(s, sizeof s, "1e%d", (int)std::round(std::log10(x)));
-      return std::string(s);
-    };
-    const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
-    std::string r;
-    if (has_lo && has_hi) {
-      r = std::string("in ") + (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + (hi_open ? ")" : "]");
-    } else if (has_lo) {
-      r = std::string(lo_open ? "> " : unicode ? "≥ " : ">= ") + num(lo);
-    } else if (has_hi) {
-      r = std::string(hi_open ? "< " : unicode ? "≤ " : "<= ") + num(hi);
-    }
-    if (!r.empty() && *why) r += std::string(" (") + why + ")";
-    return r;
-  }
-};
-
-inline KeyRange at_least(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), false, false, why}; }
-inline KeyRange above(double lo, const char* why = "") { return {lo, std::numeric_limits<double>::infinity(), true, false, why}; }
-inline KeyRange between(double lo, double hi, const char* why = "") { return {lo, hi, false, false, why}; }
-inline KeyRange nonzero_vector() {
-  KeyRange r;
-  r.nonzero = true;
-  return r;
-}
 inline bool is_nonzero(const Array3& v) { return v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0; }
 
 // Where a key's value goes in its section's struct Spec: a member (written as a member pointer),
@@ -112,6 +65,7 @@ struct DeckKey {
   // `required` then means required with these.
   const char* selector = "";
   std::vector<std::string> only_for = std::vector<std::string>(0);
+  bool any_name = false;                  // stands for every key of a free map (any_key)
 };
 
 // The key, required.
@@ -135,6 +89,15 @@ DeckKey<Spec> custom_key(const char* name, const char* type_text, const char* do
   DeckKey<Spec> k{name, std::monostate{}, doc};
   k.default_text = default_text;
   k.type_text = type_text;
+  return k;
+}
+
+// A free map's keys (the petsc section's options): any name is allowed, and the section's reader
+// reads them; `name` is how docs show such a key, e.g. "<option>".
+template <typename Spec>
+DeckKey<Spec> any_key(const char* name, const char* type_text, const char* doc) {
+  DeckKey<Spec> k = custom_key<Spec>(name, type_text, doc, "none");
+  k.any_name = true;
   return k;
 }
 

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "materials/key_range.hpp"
 #include "materials/material.hpp"
 #include "materials/scalar_function.hpp"
 
@@ -25,20 +26,41 @@ struct MaterialParams {
   double fiber_stiffness = 0.0;
 };
 
+// A deck key of material models (material.<name>), declared once here: its range, and which
+// models take it (their lists below). The deck's material keys (model/material_spec.hpp) are made
+// from these, so the deck reader, --help-deck and docs/decks.md take them from here.
+struct MaterialKey {
+  const char* name;           // a key of a map follows the map's own entry: "fiber.stiffness"
+  const char* doc;
+  KeyRange range = {};
+  const char* type = "";      // "": a number or vec3 (its field in MaterialSpec); else as docs show it ("map", ...)
+  bool required = false;      // required with the models that take it
+  const char* default_text = "";  // instead of MaterialSpec's default
+};
+
+// Youngs_modulus, poisson_ratio, mu and lambda: the models with elastic_constants take them.
+const std::vector<MaterialKey>& elastic_constant_keys();
+// The optional fibre term k/2 (||F d|| - 1)^2 on top of a model with `fiber`: fiber, fiber.direction, fiber.stiffness.
+const std::vector<MaterialKey>& fiber_keys();
+
 struct MaterialModel {
   std::string name;        // material.model in a deck
   std::string summary;     // one line: what the energy is
-  // Its deck keys: the elastic constants (youngs_modulus and poisson_ratio, or mu and lambda) or
-  // not, and its own keys (beside model, the mass and laplacian_weight, which every model takes);
-  // a key of another model is a deck error. parameters documents them, with defaults and ranges.
+  // Its deck keys beside model, the mass and laplacian_weight (every model's): the elastic
+  // constants or not, its own keys, and the fibre term or not; a key of another model is a deck
+  // error naming the models that take it.
   bool elastic_constants;
-  std::vector<std::string> keys;
-  std::string parameters;
+  std::vector<MaterialKey> keys;
+  bool fiber;
   // Builds the material (throws std::invalid_argument for invalid parameters); null for a model
   // that is not an energy density of F (mass-spring: springs on the tet edges, an energy term of
   // its own, terms/mass_spring_tets.hpp).
   std::unique_ptr<Material> (*create)(const MaterialParams&);
 };
+// Every key of the model, in that order.
+std::vector<MaterialKey> model_keys(const MaterialModel& model);
+// The model's keys in one line, for --help and `hyperqn registry`.
+std::string parameters_text(const MaterialModel& model);
 // Every model, in the order decks and --help list them.
 const std::vector<MaterialModel>& material_models();
 // The model of that name, or null.

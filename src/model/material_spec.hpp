@@ -93,8 +93,10 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
   return keys;
 }
 
+// The deck's material: its keys (app/deck.hpp, material_keys) come from the material registry.
 struct MaterialSpec {
-  std::string model = "corotated";   // corotated | neohookean | stvk | principal-stretch | mass-spring
+  std::string model = "corotated";   // a name of materials/material_factory.hpp's registry
+  double youngs_modulus = 0, poisson_ratio = 0;  // as the deck gives them (if it does)
   double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
   double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
   double spring_stiffness = 0;       // mass-spring: k of the spring on each edge of each tet

@@ -149,6 +149,44 @@ struct BodySpec {
   int line = 0;                          // deck line of bodies[k]
 };
 
+// The keys of one of the deck's bodies (io/deck_keys.hpp). Its reader reads the mesh and the
+// material of each part with their sections' own keys, and checks which parts the mesh has.
+inline const std::vector<DeckKey<BodySpec>>& body_keys() {
+  using B = BodySpec;
+  static const std::vector<DeckKey<B>> keys = {
+      {"name", &B::name, "unique among the bodies", {}, {}, "", "`body<k>`"},
+      needed(custom_key<B>("mesh",
+                           "as [`mesh`](#mesh-required), with `transform`: a `box` or tetrahedral `file` (`.mesh`, "
+                           "`.msh`); a cloth's `sheet`, `.obj` file or `.mesh`/`.msh` file with `surface: cloth`; "
+                           "`strands` (alone, or with its box or file: tied where an end lies on one of their "
+                           "vertices) or a Medit file with `edges: strands`",
+                           "the body's tets, cloth triangles or strand segments; partition files are not bodies (a "
+                           "deck error)",
+                           "")),
+      custom_key<B>("material", "as [`material`](#material-required-when-the-mesh-has-tetrahedra)",
+                    "the material of the body's tets (a deck error for a mesh without them)",
+                    "required if the mesh has tets"),
+      custom_key<B>("cloth", "as [`cloth`](#cloth-required-when-the-mesh-is-a-cloth)",
+                    "the body's cloth model, stiffness, bending and areal density (a deck error for a mesh that is "
+                    "no cloth)",
+                    "required for a cloth"),
+      custom_key<B>("strand_material", "as [`strand_material`](#strand_material-required-when-the-mesh-has-strands)",
+                    "the material of the body's strand segments (a deck error for a mesh without strands)",
+                    "required if the mesh has strands"),
+      {"velocity", &B::velocity, "every free vertex's velocity at frame 0"},
+      custom_key<B>("fixed", "as [`fixed`](#fixed)",
+                    "regions of this body only: a box selects the body's vertices in it (coordinates after the body's "
+                    "transform), none of the others'; listed after the deck's own `fixed`",
+                    "none"),
+      custom_key<B>("attachments", "as [`attachments`](#attachments)",
+                    "soft attachments of this body only, selecting as its `fixed` does (a box with no vertex of the "
+                    "body is an error naming `bodies[k].attachments[j].box`); listed after the deck's own "
+                    "`attachments`",
+                    "none"),
+  };
+  return keys;
+}
+
 // The materials of the tets of a scene of bodies: one per body with a material, in the list's
 // order, and per body the index of its material there (-1: none); a tet's body is its tag.
 struct BodyMaterials {
@@ -185,5 +223,13 @@ struct SceneSpec {
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
 };
+
+// The deck's gravity: (io/deck_keys.hpp), a section that is one value: its one key is the section.
+inline const std::vector<DeckKey<SceneSpec>>& gravity_keys() {
+  static const std::vector<DeckKey<SceneSpec>> keys = {
+      {"gravity", &SceneSpec::gravity, "the acceleration of every vertex, in the units of the deck (m/s² in SI)"},
+  };
+  return keys;
+}
 
 }  // namespace hyperqn

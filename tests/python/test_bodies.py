@@ -218,6 +218,11 @@ def test_a_list_of_one_body_is_the_plain_deck(tmp_path):
      "bodies[1].attachments[0].box", "selects no vertex of its body"),
     (lambda d: d["bodies"][1].update(attachments=[{"box": {"min": [0, 0, 0], "max": [1, 1, 1]}, "stiffen": 1}]),
      "bodies[1].attachments[0]", "stiffen"),
+    # The keys of a body (body_keys(), src/model/scene_spec.hpp).
+    (lambda d: d["bodies"][1].update(speed=[0, 0, 1]), "bodies[1].speed",
+     "allowed: name, mesh, material, cloth, strand_material, velocity, fixed, attachments"),
+    (lambda d: d["bodies"][1].pop("mesh"), "bodies[1].mesh", "missing required key 'mesh' in bodies[1]"),
+    (lambda d: d["bodies"][1].update(velocity=[0, 1]), "bodies[1].velocity", "expected a list of 3 numbers"),
 ])
 def test_bad_bodies_are_input_errors(tmp_path, change, key, words):
     deck = scene(copy.deepcopy([SOFT, STIFF]))

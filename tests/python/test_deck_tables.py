@@ -1,7 +1,5 @@
-"""Parameters declared once (src/io/deck_keys.hpp): docs/decks.md's tables of the declared
-sections (mesh, strand_material, cloth, fixed, motion, attachments, colliders, contact, regions, initial, time, solver, output,
-checkpoint, study) are what the binary declares, and `hyperqn
---help-deck` lists every declared key with its default."""
+"""Parameters declared once (src/io/deck_keys.hpp): docs/decks.md's tables of every section
+are what the binary declares, and `hyperqn --help-deck` lists every declared key with its default."""
 import subprocess
 
 from conftest import HYPERQN, REPO
@@ -16,9 +14,27 @@ def test_docs_tables_match_the_declarations():
 
 def test_help_deck_lists_every_declared_key():
     keys = launch.registry(HYPERQN)["deck_keys"]
-    assert {k["section"] for k in keys} == {"mesh", "strand_material", "cloth", "fixed", "motion", "attachments", "colliders",
-                                            "contact", "regions", "initial", "time", "solver", "output", "checkpoint", "study"}
+    assert {k["section"] for k in keys} == {"mesh", "bodies", "strand_material", "cloth", "material", "fixed", "motion",
+                                            "attachments", "colliders", "contact", "regions", "initial", "gravity", "time",
+                                            "solver", "output", "checkpoint", "study", "petsc"}
     text = launch.run(["--help-deck"], ranks=None, binary=HYPERQN, check=True, timeout=60).stdout
     for k in keys:
         given = f"({k['default']}" if k["default"].startswith("required") else f"(default {k['default']}"
         assert f"  {k['name']}: " in text and given in text, k
+
+
+def test_material_keys_come_from_the_registry():
+    """Each model's own keys are declared once, in the material registry, and named in the material
+    table with the models that take them."""
+    keys = {k["name"]: k for k in launch.registry(HYPERQN)["deck_keys"] if k["section"] == "material"}
+    models = [m["name"] for m in launch.registry(HYPERQN)["materials"]]
+    assert keys["model"]["choices"] == models
+    assert keys["J0"]["doc"].startswith("with `neohookean` only:") and keys["J0"]["type"] == "number in (0, 1)"
+    assert keys["kappa"]["doc"].startswith("with `stvk` only:") and keys["kappa"]["type"] == "number ≥ 0"
+    assert keys["spring_stiffness"]["default"] == "required with `mass-spring`"
+    for name in ("f", "g", "h"):
+        assert keys[name]["doc"].startswith("with `principal-stretch` only:"), keys[name]
+    for name in ("youngs_modulus", "poisson_ratio", "mu", "lambda"):
+        assert keys[name]["doc"].startswith("with `corotated`, `neohookean`, `stvk` only:"), keys[name]
+    assert keys["fiber.direction"]["default"] == "required with `fiber`"
+    assert "only" not in keys["density"]["doc"] and "only" not in keys["laplacian_weight"]["doc"]
