@@ -160,8 +160,8 @@ inline const std::vector<DeckKey<BodySpec>>& body_keys() {
                            "`.msh`); a cloth's `sheet`, `.obj` file or `.mesh`/`.msh` file with `surface: cloth`; "
                            "`strands` (alone, or with its box or file: tied where an end lies on one of their "
                            "vertices) or a Medit file with `edges: strands`",
-                           "the body's tets, cloth triangles or strand segments; partition files are not bodies (a "
-                           "deck error)",
+                           "the body's tets, cloth triangles or strand segments; a body's mesh is not a partition file "
+                           "(a deck error): the bodies' one partition file is `partition`, below",
                            "")),
       custom_key<B>("material", "as [`material`](#material-required-when-the-mesh-has-tetrahedra)",
                     "the material of the body's tets (a deck error for a mesh without them)",
