@@ -134,6 +134,32 @@ PetscErrorCode check_derivatives(double friction, const std::string& model) {
   PetscFunctionReturn(0);
 }
 
+// Every vertex moves down at 0.1 (1 + 0.1 x): the step bound is 0.8 of the earliest impact.
+PetscErrorCode check_step_bound_is_the_earliest_impact(TestScene& s, Vec x) {
+  Vec dir;
+  const PetscScalar* p;
+  PetscScalar* d;
+  PetscInt n;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(VecGetLocalSize(x, &n));
+  PetscCall(VecGetArrayRead(x, &p));
+  PetscCall(VecGetArray(dir, &d));
+  for (PetscInt i = 0; i < n; i += 3) {
+    d[i] = d[i + 2] = 0;
+    d[i + 1] = -0.1 * (1 + 0.1 * p[i]);
+  }
+  PetscCall(VecRestoreArrayRead(x, &p));
+  PetscCall(VecRestoreArray(dir, &d));
+  double alpha = 1;
+  PetscCall(s.body->limit_step(x, dir, &alpha));
+  const double earliest = 0.03 / (0.1 * 1.2);  // the bottom face's far end, x = 2
+  CHECK_MSG(std::fabs(alpha - 0.8 * earliest) < 1e-12,
+            "step bound 0.8 of the earliest time of impact 0.25: " + std::to_string(alpha));
+  PetscCall(VecDestroy(&dir));
+  PetscFunctionReturn(0);
+}
+
 // The barrier: infinite at and inside an obstacle (the point is rejected), and its step bound
 // stops a straight path short of the first obstacle it would reach.
 PetscErrorCode check_barrier() {
@@ -154,6 +180,10 @@ PetscErrorCode check_barrier() {
   double alpha = 1;
   PetscCall(s.body->limit_step(x, dir, &alpha));
   CHECK_MSG(std::fabs(alpha - 0.8 * 0.3) < 1e-12, "step bound 0.8 of the time of impact 0.3: " + std::to_string(alpha));
+  // Faster towards x = 2: the bottom face's impact times run from 0.3 at x = 0 down to 0.25 at
+  // x = 2, and the bound is 0.8 of the earliest, whichever vertex a rank looks at first and
+  // however the ranks share them (the same at 1 and N ranks).
+  PetscCall(check_step_bound_is_the_earliest_impact(s, x));
   PetscCall(VecAXPY(x, 0.5, dir));  // half the way: the bottom face 0.02 below the floor
   PetscCall(s.body->energy_gradient(x, &E, nullptr));
   CHECK_MSG(!std::isfinite(E), "the barrier is infinite inside the floor");

@@ -99,17 +99,19 @@ PetscErrorCode ContactTerm::limit_step(Vec x, Vec dir, double* alpha) const {
   PetscCall(VecGetOwnershipRange(x, &lo, &hi));
   PetscCall(VecGetArrayRead(x, &a));
   PetscCall(VecGetArrayRead(dir, &u));
+  // The earliest impact over every vertex and collider along the whole step: a minimum, so the
+  // bound does not depend on the order of the vertices nor on how the ranks share them
+  // (Body::limit_step takes the minimum over ranks).
+  double first = 1;
   for (PetscInt v : vertices_) {
     const PetscInt off = mesh_.global_dof[v] - lo;
     const Vec3 p0(&a[off]), p1 = p0 + *alpha * Vec3(&u[off]);
-    for (const auto& collider : colliders_) {
-      const double s = collider->first_contact(p0, p1);
-      // Stop short of the obstacle (IPC's 0.8 of the time of impact): the barrier is infinite on it.
-      if (s < 1) *alpha *= 0.8 * s;
-    }
+    for (const auto& collider : colliders_) first = std::min(first, collider->first_contact(p0, p1));
   }
   PetscCall(VecRestoreArrayRead(x, &a));
   PetscCall(VecRestoreArrayRead(dir, &u));
+  // Stop short of the obstacle (IPC's 0.8 of the time of impact): the barrier is infinite on it.
+  if (first < 1) *alpha *= 0.8 * first;
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

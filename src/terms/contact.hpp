@@ -65,6 +65,8 @@ class ContactTerm : public EnergyTerm {
   // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.
   bool bounds_steps() const override { return barrier_; }
   unsigned long long active_set() const override { return active_set_; }
+  // 0.8 of the earliest impact along the step over the rank's vertices and the colliders (a
+  // minimum, which Body::limit_step takes over ranks: the same bound at any rank count).
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode begin_step(const StepStart& step) override;
 
