@@ -91,6 +91,7 @@ class Collider {
 
   double friction() const { return friction_; }
   ColliderType type() const { return type_; }
+  const std::string& type_name() const { return kColliderTypeNames[(int)type_]; }  // as the deck writes it
   bool moves() const { return motion_.active; }  // the deck gave it a motion (it may start later)
   int line() const { return line_; }             // its deck line (ColliderSpec::line)
 

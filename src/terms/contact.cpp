@@ -387,7 +387,7 @@ std::string ContactTerm::held_sentence(size_t c, const HeldVertices& held, const
   char text[400];
   const Vec3& p = held.position;
   std::snprintf(text, sizeof text, "colliders[%zu] (%s, deck line %d) holds %ld free %s %s (the deepest: vertex %lld at (%.6g, %.6g, %.6g), %.4g inside)",
-                c, kColliderTypeNames[(int)colliders_[c]->type()].c_str(), colliders_[c]->line(), held.count, held.count == 1 ? "vertex" : "vertices", what.c_str(), held.vertex, p[0], p[1], p[2], held.depth);
+                c, colliders_[c]->type_name().c_str(), colliders_[c]->line(), held.count, held.count == 1 ? "vertex" : "vertices", what.c_str(), held.vertex, p[0], p[1], p[2], held.depth);
   return text;
 }
 
@@ -406,7 +406,7 @@ PetscErrorCode ContactTerm::check_start(const std::vector<double>& pos, InputPro
     const HeldVertices& h = held[c];
     char text[500];
     std::snprintf(text, sizeof text, "the body starts inside this %s: %ld of its %ld free vertices are %s at frame 0; the deepest, vertex %lld at (%.6g, %.6g, %.6g), is %.4g inside. Move the body or the obstacle",
-                  kColliderTypeNames[(int)colliders_[c]->type()].c_str(), h.count, free_vertices, too_deep_words().c_str(), h.vertex, h.position[0], h.position[1], h.position[2], h.depth);
+                  colliders_[c]->type_name().c_str(), h.count, free_vertices, too_deep_words().c_str(), h.vertex, h.position[0], h.position[1], h.position[2], h.depth);
     out.line = colliders_[c]->line();
     out.key = "colliders[" + std::to_string(c) + "]";
     out.what = text;
