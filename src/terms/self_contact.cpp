@@ -7,6 +7,7 @@
 #include <map>
 #include <tuple>
 
+#include "geometry/box_tree.hpp"
 #include "geometry/pair_ccd.hpp"
 #include "terms/contact.hpp"
 
@@ -289,67 +290,66 @@ void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vecto
 
 bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const {
   if (stale_) return false;
-  const double allowed = kMoveFraction * built_margin_;
-  const auto within = [&](const std::vector<double>& at) {
-    for (size_t k = 0; k < at.size(); k += 3)
-      if ((Vec3(&at[k]) - Vec3(&built_at_[k])).squaredNorm() > allowed * allowed) return false;
-    return true;
-  };
-  return within(x) && (!end || within(*end));
+  double largest = 0;
+  for (size_t s = 0; s < moved_.size(); ++s) {
+    const Vec3 built(&built_at_[3 * s]);
+    moved_[s] = (Vec3(&x[3 * s]) - built).norm();
+    if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built).norm());
+    largest = std::max(largest, moved_[s]);
+  }
+  return largest <= kMoveFraction * built_margin_;
 }
 
 // Why the list misses no pair within d. A pair's distance is the least distance between a point of
 // one primitive and a point of the other; each such point is a convex combination of its
-// primitive's vertices, so if no surface vertex has moved more than delta since the build, no such
-// point has either, and the pair's distance has changed by at most 2 delta. The list holds every
-// pair of this rank whose boxes, grown by d + margin, overlapped at the build (a box grown by r
-// holds the ball of radius r), so every pair then within d + margin; any other pair is still
-// farther than d + margin - 2 delta, which is more than d while delta <= margin / 2. The list is
-// built again once a vertex has moved more than kMoveFraction (0.4) of the margin; the last tenth
-// covers the rounding of the boxes. The same holds along a straight step whose both ends are
-// within 0.4 of the margin (the path stays in the ball around the build's position), which is what
-// limit_step needs.
+// primitive's vertices, so if no vertex of a primitive has moved more than delta since the build,
+// no point of it has, and the pair's distance has changed by at most the two primitives' deltas.
+// The list holds every pair of this rank within d + margin at the build (the broad phase's boxes
+// grown by d + margin hold the ball of that radius, then the distance decides), with that distance;
+// any other pair is still farther than d + margin - 2 delta (delta: the largest move of a vertex),
+// which is more than d while delta < margin / 2. The list is built again once a vertex has moved
+// more than kMoveFraction (0.4) of the margin; the rest covers rounding. Within the list, a pair
+// whose distance at the build less its primitives' moves is d or more cannot be within d and is
+// passed over. The same holds all along a straight step whose both ends are within 0.4 of the
+// margin (the path stays in the ball around the build's position), which is what limit_step needs.
 PetscErrorCode SelfContactTerm::refresh_candidates() const {
   PetscFunctionBeginUser;
   if (candidates_cover(x_, nullptr)) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
+  const double reach = spec_.distance + step_margin_;
   candidates_.clear();
-  broad_phase(x_, nullptr, spec_.distance + step_margin_, [&](const Pair& p) { candidates_.push_back(p); });
+  broad_phase(x_, nullptr, reach, [&](const Pair& p) {
+    const double D = squared_distance(p, x_);
+    if (D <= reach * reach) candidates_.push_back({p, std::sqrt(D)});
+  });
   // A canonical order: the energy and gradient sums do not depend on where the list was built.
-  std::sort(candidates_.begin(), candidates_.end(), [](const Pair& p, const Pair& q) {
-    return std::tie(p.kind, p.a, p.b) < std::tie(q.kind, q.a, q.b);
+  std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& c, const Candidate& e) {
+    return std::tie(c.pair.kind, c.pair.a, c.pair.b) < std::tie(e.pair.kind, e.pair.a, e.pair.b);
   });
   built_at_ = x_;
   built_margin_ = step_margin_;
+  moved_.assign(ids_.size(), 0.0);
   stale_ = false;
   ++builds_;
   PetscCall(PetscLogEventEnd(pairs_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 
-std::array<Box, 2> SelfContactTerm::pair_boxes(const Pair& p, const std::vector<double>& x,
-                                               const std::vector<double>* end) const {
-  const std::array<int, 4> q = points(p);
-  const int split = p.kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
-  std::array<Box, 2> out;
+bool SelfContactTerm::may_be_within_d(const Candidate& c) const {
+  const std::array<int, 4> q = points(c.pair);
+  const int split = c.pair.kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
+  double first = 0, second = 0;
   for (int k = 0; k < 4; ++k) {
-    const Vec3 from(&x[3 * q[k]]), to = end ? Vec3(&(*end)[3 * q[k]]) : from;
-    Box& b = out[k >= split];
-    if (k == 0 || k == split) b = {from, from};
-    b.lo = b.lo.cwiseMin(from).cwiseMin(to);
-    b.hi = b.hi.cwiseMax(from).cwiseMax(to);
+    double& moved = k < split ? first : second;
+    moved = std::max(moved, moved_[q[k]]);
   }
-  return out;
+  return c.distance - first - second < spec_.distance * (1 + 1e-9);  // the slack: rounding of the moves
 }
 
 template <class Visit>
 void SelfContactTerm::near_pairs(Visit&& visit) const {
-  for (const Pair& p : candidates_) {
-    std::array<Box, 2> b = pair_boxes(p, x_, nullptr);
-    b[0].lo.array() -= spec_.distance;
-    b[0].hi.array() += spec_.distance;
-    if (b[0].overlaps(b[1])) visit(p);
-  }
+  for (const Candidate& c : candidates_)
+    if (may_be_within_d(c)) visit(c.pair);
 }
 
 PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
@@ -373,6 +373,13 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;
   PetscFunctionReturn(0);
+}
+
+double SelfContactTerm::squared_distance(const Pair& p, const std::vector<double>& x) const {
+  const Vector12d c = coordinates(x, points(p));
+  return p.kind == PairKind::vertex_triangle
+             ? point_triangle_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9))
+             : edge_edge_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9));
 }
 
 double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
@@ -534,10 +541,8 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
     t = std::min(t, impact);
   };
   if (candidates_cover(x_, &end)) {  // no other pair comes within d along the step (refresh_candidates)
-    for (const Pair& p : candidates_) {
-      const std::array<Box, 2> b = pair_boxes(p, x_, &end);
-      if (b[0].overlaps(b[1])) bound(p);
-    }
+    for (const Candidate& c : candidates_)
+      if (may_be_within_d(c)) bound(c.pair);
   } else {
     broad_phase(x_, &end, 0, bound);
   }
@@ -550,14 +555,7 @@ PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, l
   PetscFunctionBeginUser;
   PetscCall(gather_positions(pos));
   long local = 0;
-  broad_phase(x_, nullptr, 0, [&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    const Vector12d x = coordinates(x_, q);
-    const double D = p.kind == PairKind::vertex_triangle
-                         ? point_triangle_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9))
-                         : edge_edge_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9));
-    local += D <= 0;
-  });
+  broad_phase(x_, nullptr, 0, [&](const Pair& p) { local += squared_distance(p, x_) <= 0; });
   PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   PetscFunctionReturn(0);
 }
@@ -573,10 +571,7 @@ PetscErrorCode SelfContactTerm::closest_rest_pair(double* distance, int64_t* ver
     bool free = false;
     for (int s : q) free = free || dof_[s] >= 0;
     if (!free) return;  // fixed against fixed: no force either
-    const Vector12d x = coordinates(rest_, q);
-    const double D = p.kind == PairKind::vertex_triangle
-                         ? point_triangle_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9))
-                         : edge_edge_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9));
+    const double D = squared_distance(p, rest_);
     int64_t lowest = ids_[q[0]];
     for (int s : q) lowest = std::min(lowest, ids_[s]);
     if (D < closest || (D == closest && D < spec_.distance * spec_.distance && lowest < id)) closest = D, id = lowest;

@@ -22,10 +22,12 @@
 // sums do not depend on the order messages arrive in).
 //
 // Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
-// positions where it was built; geometry/box_tree.hpp), built at the first evaluation of each step
-// and again only when a surface vertex has moved more than kMoveFraction of the margin since
-// (refresh_candidates says why no pair within d is ever missed). The pairs are visited in a
-// canonical order, so the sums do not depend on where the list was built either.
+// positions where it was built, with their distance then; geometry/box_tree.hpp), built at the
+// first evaluation of each step and again only when a surface vertex has moved more than
+// kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
+// build less their vertices' moves is below d (refresh_candidates says why no pair within d is
+// ever missed). The pairs are visited in a canonical order, so the sums do not depend on where the
+// list was built either.
 #pragma once
 #include <petsclog.h>
 
@@ -33,7 +35,6 @@
 #include <string>
 #include <vector>
 
-#include "geometry/box_tree.hpp"
 #include "geometry/pair_distance.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/contact_spec.hpp"
@@ -116,15 +117,22 @@ class SelfContactTerm : public EnergyTerm {
   // decides alike from the whole surface's positions).
   PetscErrorCode refresh_candidates() const;
   // True if every surface vertex at x (and end, if given) is within kMoveFraction of the list's
-  // margin of where the list was built.
+  // margin of where the list was built; moved_: how far each is (the farther of x and end).
   bool candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const;
-  // The boxes of a pair's two primitives at x, or swept from x to end if end is not null.
-  std::array<Box, 2> pair_boxes(const Pair& p, const std::vector<double>& x, const std::vector<double>* end) const;
-  // Calls visit(pair) for the candidates whose boxes at x_ are within d of each other, in the
-  // candidates' order (after refresh_candidates).
+  // A candidate: a pair and its distance when the list was built.
+  struct Candidate {
+    Pair pair;
+    double distance;
+  };
+  // False if the candidate's distance at the build less its primitives' moves (moved_) is d or
+  // more: it cannot be within d.
+  bool may_be_within_d(const Candidate& c) const;
+  // Calls visit(pair) for the candidates that may be within d at x_, in the candidates' order
+  // (after refresh_candidates).
   template <class Visit>
   void near_pairs(Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  double squared_distance(const Pair& p, const std::vector<double>& x) const;
   // The pairs at distance 0 at pos, over all ranks (collective).
   PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
   // The smallest distance at rest between two primitives of one body that share no vertex (+inf:
@@ -159,8 +167,8 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
   // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
   // current step asks for; stale: build at the next evaluation.
-  mutable std::vector<Pair> candidates_;
-  mutable std::vector<double> built_at_;
+  mutable std::vector<Candidate> candidates_;
+  mutable std::vector<double> built_at_, moved_;
   mutable double built_margin_ = 0;
   double step_margin_ = 0;
   mutable bool stale_ = true;
