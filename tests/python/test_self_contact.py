@@ -10,7 +10,7 @@ below the surface's spacing at rest."""
 import numpy as np
 import pytest
 
-from conftest import event_count, run_hyperqn, write_deck
+from conftest import event_count, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import read_frames, read_summary
 
@@ -151,6 +151,18 @@ def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks
     assert "are 0.03536 apart at rest" in proc.stdout and "e.g. contact.distance: 0.017 (half of it)" in proc.stdout
     d["contact"]["distance"] = 0.03
     run(tmp_path, "fits", d, ranks or 1)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("name, frames", [("bodies_stack", 10), ("cloth_pile", 6)])
+def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
+    """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
+    buckles): every frame written, 0 intersecting pairs in each."""
+    d = load_deck(f"input/contact/{name}.yaml")
+    d["time"]["frames"] = frames
+    d["output"] = {"every": 1}
+    out, _ = run(tmp_path, name, d, ranks)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * (frames + 1)
 
 
 def test_without_self_contact_none_of_its_code_runs(tmp_path):
