@@ -41,6 +41,7 @@ static LogEvents register_events() {
   add("hqnContact", &e.contact);
   add("hqnSelfContact", &e.self_contact);
   add("hqnSelfGather", &e.self_gather);
+  add("hqnSelfPairs", &e.self_pairs);
   add("hqnCheckpoint", &e.checkpoint);
   return e;
 }

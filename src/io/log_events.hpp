@@ -20,7 +20,8 @@ struct LogEvents {
   PetscLogEvent contact;      // contact and friction: energy, gradient, Hessian, per-step update
   PetscLogEvent self_contact; // self-contact: energy, gradient, Hessian, step bound (its gather included)
   PetscLogEvent self_gather;  // within it, gathering the surface's positions to every rank and the
-                              // assembly of the gradients at vertices of other ranks
+                              // exchange of the gradients at vertices of other ranks
+  PetscLogEvent self_pairs;   // within it, building the candidate pairs (once per step and when the surface moves)
   PetscLogEvent checkpoint;   // writing one checkpoint (rank 0 writes, the others send their rows)
 };
 

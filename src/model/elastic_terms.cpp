@@ -119,7 +119,7 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
 std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact) {
   if (!contact.self) return nullptr;
   return std::make_unique<SelfContactTerm>(mesh, resolved_contact(contact, rest_diagonal(mesh)), log_events().self_contact,
-                                           log_events().self_gather);
+                                           log_events().self_gather, log_events().self_pairs);
 }
 
 }  // namespace hyperqn

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <tuple>
 
 #include "geometry/box_tree.hpp"
 #include "geometry/pair_ccd.hpp"
@@ -124,8 +125,14 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
 }
 
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
-                                 PetscLogEvent gather_event)
-    : mesh_(mesh), spec_(spec), barrier_(spec.model == ContactModel::barrier), event_(event), gather_event_(gather_event) {
+                                 PetscLogEvent gather_event, PetscLogEvent pairs_event)
+    : mesh_(mesh),
+      spec_(spec),
+      barrier_(spec.model == ContactModel::barrier),
+      event_(event),
+      gather_event_(gather_event),
+      pairs_event_(pairs_event),
+      step_margin_(spec.distance) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   PetscMPIInt rank;
   MPI_Comm_rank(comm, &rank);
@@ -165,8 +172,9 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   std::sort(edges_.begin(), edges_.end());
   edges_.erase(std::unique(edges_.begin(), edges_.end()), edges_.end());
 
-  // Who owns which surface vertex, its dof and rest position: each owner sends its own.
+  // Who owns which surface vertex, its dof, rest position and body: each owner sends its own.
   std::vector<int> sent;
+  std::vector<int32_t> sent_bodies;
   std::vector<int64_t> sent_dofs;
   std::vector<double> sent_rest;
   for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
@@ -177,11 +185,13 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
     owned_surface_.push_back((int)(at - ids_.begin()));
     sent.push_back(owned_surface_.back());
     sent_dofs.push_back(mesh.global_dof[v]);
+    sent_bodies.push_back(mesh.vertex_body.empty() ? 0 : mesh.vertex_body[v]);
     for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
   }
   received_ = all_gathered(comm, sent, MPI_INT, &counts_);
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
+  const std::vector<int32_t> bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
   offsets_.assign(counts_.size() + 1, 0);
   for (size_t r = 0; r < counts_.size(); ++r) offsets_[r + 1] = offsets_[r] + counts_[r];
   const size_t n = ids_.size();
@@ -189,22 +199,26 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   owner_.assign(n, -1);
   rest_.assign(3 * n, 0.0);
   mass_.assign(n, 1.0);  // until set_masses: 1 kg each
+  body_.assign(n, 0);
+  local_of_.assign(n, -1);
+  accumulated_.assign(3 * n, 0.0);
+  touched_.assign(n, 0);
   x_.assign(3 * n, 0.0);
   for (size_t r = 0; r + 1 < offsets_.size(); ++r)
     for (int k = offsets_[r]; k < offsets_[r + 1]; ++k) {
       const int s = received_[k];
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
+      body_[s] = bodies[k];
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
+  for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
   for (int s : owned_surface_) my_vertices_.push_back(s);
   for (size_t e = 0; e < edges_.size(); ++e)
     if (owner_[edges_[e][0]] == rank) my_edges_.push_back((int)e);
-  DMCreateGlobalVector(mesh.dm, &assembly_);
-  VecSetOption(assembly_, VEC_IGNORE_NEGATIVE_INDICES, PETSC_TRUE);
 }
 
-SelfContactTerm::~SelfContactTerm() { VecDestroy(&assembly_); }
+SelfContactTerm::~SelfContactTerm() = default;
 
 PetscErrorCode SelfContactTerm::set_masses(Vec mass) {
   const PetscScalar* m;
@@ -249,11 +263,10 @@ Vector12d SelfContactTerm::coordinates(const std::vector<double>& x, const std::
 }
 
 template <class Visit>
-void SelfContactTerm::candidate_pairs(const std::vector<double>* end, Visit&& visit) const {
-  const auto p = [&](int s) { return Vec3(&x_[3 * s]); };
-  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x_[3 * s]); };
-  // Within d of each other at x_, or swept boxes that meet between x_ and end.
-  const double reach = end ? 0.0 : spec_.distance;
+void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                                  Visit&& visit) const {
+  const auto p = [&](int s) { return Vec3(&x[3 * s]); };
+  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
   std::vector<Box> boxes;
   boxes.reserve(triangles_.size());
   for (const auto& t : triangles_) boxes.push_back(bounds({p(t[0]), p(t[1]), p(t[2]), q(t[0]), q(t[1]), q(t[2])}, 0));
@@ -273,6 +286,100 @@ void SelfContactTerm::candidate_pairs(const std::vector<double>* end, Visit&& vi
       if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
     });
   }
+}
+
+bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const {
+  if (stale_) return false;
+  double largest = 0;
+  for (size_t s = 0; s < moved_.size(); ++s) {
+    const Vec3 built(&built_at_[3 * s]);
+    moved_[s] = (Vec3(&x[3 * s]) - built).norm();
+    if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built).norm());
+    largest = std::max(largest, moved_[s]);
+  }
+  return largest <= kMoveFraction * built_margin_;
+}
+
+// Why the list misses no pair within d. A pair's distance is the least distance between a point of
+// one primitive and a point of the other; each such point is a convex combination of its
+// primitive's vertices, so if no vertex of a primitive has moved more than delta since the build,
+// no point of it has, and the pair's distance has changed by at most the two primitives' deltas.
+// The list holds every pair of this rank within d + margin at the build (the broad phase's boxes
+// grown by d + margin hold the ball of that radius, then the distance decides), with that distance;
+// any other pair is still farther than d + margin - 2 delta (delta: the largest move of a vertex),
+// which is more than d while delta < margin / 2. The list is built again once a vertex has moved
+// more than kMoveFraction (0.4) of the margin; the rest covers rounding. Within the list, a pair
+// whose distance at the build less its primitives' moves is d or more cannot be within d and is
+// passed over. The same holds all along a straight step whose both ends are within 0.4 of the
+// margin (the path stays in the ball around the build's position), which is what limit_step needs.
+PetscErrorCode SelfContactTerm::refresh_candidates() const {
+  PetscFunctionBeginUser;
+  if (candidates_cover(x_, nullptr)) PetscFunctionReturn(0);
+  PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
+  const double reach = spec_.distance + step_margin_;
+  candidates_.clear();
+  broad_phase(x_, nullptr, reach, [&](const Pair& p) {
+    const double D = squared_distance(p, x_);
+    if (D <= reach * reach) candidates_.push_back({p, std::sqrt(D)});
+  });
+  // A canonical order: the energy and gradient sums do not depend on where the list was built.
+  std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& c, const Candidate& e) {
+    return std::tie(c.pair.kind, c.pair.a, c.pair.b) < std::tie(e.pair.kind, e.pair.a, e.pair.b);
+  });
+  built_at_ = x_;
+  built_margin_ = step_margin_;
+  moved_.assign(ids_.size(), 0.0);
+  stale_ = false;
+  ++builds_;
+  PetscCall(PetscLogEventEnd(pairs_event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+bool SelfContactTerm::may_be_within_d(const Candidate& c) const {
+  const std::array<int, 4> q = points(c.pair);
+  const int split = c.pair.kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
+  double first = 0, second = 0;
+  for (int k = 0; k < 4; ++k) {
+    double& moved = k < split ? first : second;
+    moved = std::max(moved, moved_[q[k]]);
+  }
+  return c.distance - first - second < spec_.distance * (1 + 1e-9);  // the slack: rounding of the moves
+}
+
+template <class Visit>
+void SelfContactTerm::near_pairs(Visit&& visit) const {
+  for (const Candidate& c : candidates_)
+    if (may_be_within_d(c)) visit(c.pair);
+}
+
+PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
+  const PetscScalar *x, *y;
+  PetscInt lo, hi;
+  double motion = 0;
+  PetscFunctionBeginUser;
+  PetscCall(VecGetOwnershipRange(step.y, &lo, &hi));
+  PetscCall(VecGetArrayRead(step.x_start, &x));
+  PetscCall(VecGetArrayRead(step.y, &y));
+  for (PetscInt v : owned_local_) {
+    const PetscInt g = mesh_.global_dof[v] - lo;
+    if (mesh_.global_dof[v] >= 0) motion = std::max(motion, (Vec3(&y[g]) - Vec3(&x[g])).norm());
+  }
+  PetscCall(VecRestoreArrayRead(step.x_start, &x));
+  PetscCall(VecRestoreArrayRead(step.y, &y));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &motion, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
+  // A list that covers the step's predicted motion from where it is built; at least d.
+  step_margin_ = std::max(spec_.distance, motion / kMoveFraction);
+  // Built again at the step's first evaluation whatever it covers: what a step computes depends
+  // only on its start (a restart or the study's other trajectories in the same scene alike).
+  stale_ = true;
+  PetscFunctionReturn(0);
+}
+
+double SelfContactTerm::squared_distance(const Pair& p, const std::vector<double>& x) const {
+  const Vector12d c = coordinates(x, points(p));
+  return p.kind == PairKind::vertex_triangle
+             ? point_triangle_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9))
+             : edge_edge_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9));
 }
 
 double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
@@ -297,46 +404,78 @@ PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
+  PetscCall(refresh_candidates());
   double e = 0;
   Vector12d g;
   active_set_ = 0;
   active_pairs_ = 0;
-  PetscErrorCode error = 0;
-  candidate_pairs(nullptr, [&](const Pair& p) {
+  near_pairs([&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     const double ep = pair_energy(p, coordinates(x_, q), gradient ? &g : nullptr, nullptr);
     if (ep == 0) return;
     ++active_pairs_;
     active_set_ += mixed(((unsigned long long)p.a << 32 | (unsigned)p.b) * 2 + (p.kind == PairKind::edge_edge));
     e += ep;
-    if (!gradient || error) return;
-    PetscInt idx[12];
-    for (int k = 0; k < 4; ++k)
-      for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
-    error = VecSetValues(assembly_, 12, idx, g.data(), ADD_VALUES);
-  });
-  PetscCall(error);
-  *energy += e;
-  if (gradient) {  // the pairs' gradients to the owners of their vertices, then into the local array
-    PetscScalar* a;
-    PetscInt lo, hi;
-    PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-    PetscCall(VecAssemblyBegin(assembly_));
-    PetscCall(VecAssemblyEnd(assembly_));
-    PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
-    PetscCall(VecGetOwnershipRange(assembly_, &lo, &hi));
-    PetscCall(VecGetArray(assembly_, &a));
-    for (PetscInt v : owned_local_) {
-      const PetscInt off = mesh_.global_dof[v] - lo;
-      if (mesh_.global_dof[v] < 0) continue;
-      for (int d = 0; d < 3; ++d) {
-        gradient[mesh_.local_dof[v] + d] += a[off + d];
-        a[off + d] = 0;  // zero again for the next evaluation
-      }
+    if (!gradient) return;
+    for (int k = 0; k < 4; ++k) {
+      const int s = q[k];
+      if (dof_[s] < 0) continue;
+      if (!touched_[s]) touched_[s] = 1, touched_list_.push_back(s);
+      for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] += g[3 * k + d];
     }
-    PetscCall(VecRestoreArray(assembly_, &a));
-  }
+  });
+  *energy += e;
+  if (gradient) PetscCall(exchange_gradient(gradient));
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt size, rank;
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  // Per owner, in the surface's order: each touched vertex once, with its sum over this rank's
+  // pairs (in the pairs' order). The owner adds its own sums, then the received ones in the order
+  // of the sending ranks (MPI_Alltoallv places them so): the same bits whatever order the
+  // messages arrive in.
+  std::sort(touched_list_.begin(), touched_list_.end(),
+            [&](int a, int b) { return std::make_pair(owner_[a], a) < std::make_pair(owner_[b], b); });
+  std::vector<int> send_counts(size, 0), recv_counts(size), send_offsets(size + 1, 0), recv_offsets(size + 1, 0);
+  std::vector<int> send_vertices;
+  std::vector<double> send_values;
+  for (int s : touched_list_) {
+    if (owner_[s] == rank) {
+      for (int d = 0; d < 3; ++d) gradient[mesh_.local_dof[local_of_[s]] + d] += accumulated_[3 * s + d];
+    } else {
+      ++send_counts[owner_[s]];
+      send_vertices.push_back(s);
+      send_values.insert(send_values.end(), &accumulated_[3 * s], &accumulated_[3 * s] + 3);
+    }
+    touched_[s] = 0;
+    for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] = 0;
+  }
+  touched_list_.clear();
+  if (size > 1) {
+    PetscCallMPI(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm));
+    for (int r = 0; r < size; ++r) {
+      send_offsets[r + 1] = send_offsets[r] + send_counts[r];
+      recv_offsets[r + 1] = recv_offsets[r] + recv_counts[r];
+    }
+    std::vector<int> recv_vertices(recv_offsets[size]);
+    PetscCallMPI(MPI_Alltoallv(send_vertices.data(), send_counts.data(), send_offsets.data(), MPI_INT,
+                               recv_vertices.data(), recv_counts.data(), recv_offsets.data(), MPI_INT, comm));
+    for (int r = 0; r <= size; ++r) send_offsets[r] *= 3, recv_offsets[r] *= 3;
+    for (int r = 0; r < size; ++r) send_counts[r] *= 3, recv_counts[r] *= 3;
+    std::vector<double> recv_values(recv_offsets[size]);
+    PetscCallMPI(MPI_Alltoallv(send_values.data(), send_counts.data(), send_offsets.data(), MPI_DOUBLE,
+                               recv_values.data(), recv_counts.data(), recv_offsets.data(), MPI_DOUBLE, comm));
+    for (size_t k = 0; k < recv_vertices.size(); ++k)
+      for (int d = 0; d < 3; ++d) gradient[mesh_.local_dof[local_of_[recv_vertices[k]]] + d] += recv_values[3 * k + d];
+  }
+  PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
 
@@ -344,10 +483,11 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
+  PetscCall(refresh_candidates());
   Matrix12d h;
   Eigen::Matrix<double, 12, 12, Eigen::RowMajor> block;
   PetscErrorCode error = 0;
-  candidate_pairs(nullptr, [&](const Pair& p) {
+  near_pairs([&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
     block = scale * (psd ? clamp_psd(h) : h);
@@ -393,13 +533,19 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
       end[3 * received_[k] + d] = buffer_[6 * k + d] + buffer_[6 * k + 3 + d];
     }
   double t = 1;
-  candidate_pairs(&end, [&](const Pair& p) {
+  const auto bound = [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     const Vector12d start = coordinates(x_, q), stop = coordinates(end, q);
     const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, 0)
                                                               : edge_edge_impact(start, stop, 0);
     t = std::min(t, impact);
-  });
+  };
+  if (candidates_cover(x_, &end)) {  // no other pair comes within d along the step (refresh_candidates)
+    for (const Candidate& c : candidates_)
+      if (may_be_within_d(c)) bound(c.pair);
+  } else {
+    broad_phase(x_, &end, 0, bound);
+  }
   *alpha *= t;  // the pair keeps a tenth of its clearance there (pair_ccd.hpp): never touches
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -409,21 +555,64 @@ PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, l
   PetscFunctionBeginUser;
   PetscCall(gather_positions(pos));
   long local = 0;
-  candidate_pairs(nullptr, [&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    const Vector12d x = coordinates(x_, q);
-    const double D = p.kind == PairKind::vertex_triangle
-                         ? point_triangle_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9))
-                         : edge_edge_squared_distance(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6), x.segment<3>(9));
-    local += D <= 0;
-  });
+  broad_phase(x_, nullptr, 0, [&](const Pair& p) { local += squared_distance(p, x_) <= 0; });
   PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode SelfContactTerm::closest_rest_pair(double* distance, int64_t* vertex_id) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  double closest = spec_.distance * spec_.distance;  // squared, then the distance
+  int64_t id = std::numeric_limits<int64_t>::max();
+  PetscFunctionBeginUser;
+  broad_phase(rest_, nullptr, spec_.distance, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (body_[q[0]] != body_[q[2]]) return;  // two bodies placed close: not the mesh's spacing
+    bool free = false;
+    for (int s : q) free = free || dof_[s] >= 0;
+    if (!free) return;  // fixed against fixed: no force either
+    const double D = squared_distance(p, rest_);
+    int64_t lowest = ids_[q[0]];
+    for (int s : q) lowest = std::min(lowest, ids_[s]);
+    if (D < closest || (D == closest && D < spec_.distance * spec_.distance && lowest < id)) closest = D, id = lowest;
+  });
+  closest = id == std::numeric_limits<int64_t>::max() ? HUGE_VAL : std::sqrt(closest);
+  const double mine = closest;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &closest, 1, MPI_DOUBLE, MPI_MIN, comm));
+  if (mine != closest) id = std::numeric_limits<int64_t>::max();  // the lowest id among the closest pairs
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &id, 1, MPI_INT64_T, MPI_MIN, comm));
+  *distance = closest;
+  *vertex_id = id;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
+  double gap;
+  int64_t vertex;
   long touching;
   PetscFunctionBeginUser;
+  PetscCall(closest_rest_pair(&gap, &vertex));
+  if (gap < spec_.distance) {
+    // Half the gap, rounded down to two digits: the mesh at rest stays clear of the layer.
+    const double scale = gap > 0 ? std::pow(10.0, std::floor(std::log10(gap / 2)) - 1) : 0;
+    const double suggested = gap > 0 ? std::floor(gap / 2 / scale) * scale : 0;
+    char what[600];
+    std::snprintf(what, sizeof what,
+                  "%s%g is too large for the surface: two of its primitives in one body that share no vertex (one of "
+                  "them at vertex %lld) are %.4g apart at rest, closer than the activation distance, so self-contact "
+                  "would push the mesh apart from itself at rest; ",
+                  spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, gap);
+    out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
+    out.key = "contact.distance";
+    out.what = what;
+    if (gap > 0) {
+      std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
+      out.what += what;
+    } else {
+      out.what += "they touch (coincident primitives), which no distance fits";
+    }
+    PetscFunctionReturn(0);
+  }
   if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching == 0) PetscFunctionReturn(0);

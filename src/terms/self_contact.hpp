@@ -15,11 +15,19 @@
 //
 // Distribution (a first version): every evaluation gathers the positions of all surface vertices
 // to every rank (one MPI_Allgatherv of 3 doubles per surface vertex, not the volume's); every rank
-// builds the broad phase (geometry/box_tree.hpp) over the whole surface and evaluates the pairs
-// it is the owner of: a vertex-triangle pair belongs to the rank owning its vertex, an edge pair
-// (e < f in the surface's order) to the rank owning e's first vertex, the same rule at any rank
-// count. A pair's gradient at vertices of other ranks goes through a global vector assembled with
-// ADD_VALUES, then into the body's local array at this rank's owned vertices.
+// evaluates the pairs it is the owner of: a vertex-triangle pair belongs to the rank owning its
+// vertex, an edge pair (e < f in the surface's order) to the rank owning e's first vertex, the
+// same rule at any rank count. A pair's gradient at vertices of other ranks is summed by this rank
+// and sent to their owners, who add what they receive in the order of the sending ranks (so the
+// sums do not depend on the order messages arrive in).
+//
+// Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
+// positions where it was built, with their distance then; geometry/box_tree.hpp), built at the
+// first evaluation of each step and again only when a surface vertex has moved more than
+// kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
+// build less their vertices' moves is below d (refresh_candidates says why no pair within d is
+// ever missed). The pairs are visited in a canonical order, so the sums do not depend on where the
+// list was built either.
 #pragma once
 #include <petsclog.h>
 
@@ -44,9 +52,11 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
 
 class SelfContactTerm : public EnergyTerm {
  public:
-  // Finds the surface (collective). event: its log event (hqnSelfContact); gather_event: the
-  // gathers and gradient assembly within it (hqnSelfGather).
-  SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event);
+  // Finds the surface (collective). event: its log event (hqnSelfContact); within it
+  // gather_event: the gathers and gradient exchange (hqnSelfGather), pairs_event: building the
+  // candidate pairs (hqnSelfPairs).
+  SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
+                  PetscLogEvent pairs_event);
   ~SelfContactTerm() override;
   SelfContactTerm(const SelfContactTerm&) = delete;
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
@@ -59,14 +69,20 @@ class SelfContactTerm : public EnergyTerm {
   bool projective_dynamics_exact() const override { return false; }
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
+  // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
+  // candidate pairs are built again at the step's first evaluation (collective).
+  PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
   // The largest alpha at which no pair touches along the straight path (additive CCD of every
   // pair whose swept boxes overlap). Fixed vertices stay where the last evaluation had them.
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
-  // The barrier: no two surfaces may touch at frame 0 (the problem names contact.self and how
-  // many pairs touch). Collective.
+  // The activation distance must be below the rest spacing of the surface: no two primitives of
+  // one body that share no vertex may be closer than d at rest (the problem names
+  // contact.distance, the gap found and a value that fits). Then, with the barrier, no two
+  // surfaces may touch at frame 0 (the problem names contact.self and how many pairs touch).
+  // Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
   // The barrier's energy is infinite where pairs touch: how many (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
@@ -77,6 +93,11 @@ class SelfContactTerm : public EnergyTerm {
   size_t surface_edges() const { return edges_.size(); }
   // Pairs within the activation distance at the last evaluation, on this rank.
   size_t active_pairs() const { return active_pairs_; }
+  // This rank's candidate pairs, and how many times they were built (tests).
+  size_t candidate_pairs() const { return candidates_.size(); }
+  size_t candidate_builds() const { return builds_; }
+  // A candidate list may serve until a surface vertex has moved this fraction of its margin.
+  static constexpr double kMoveFraction = 0.4;
 
  private:
   struct Pair {
@@ -87,20 +108,46 @@ class SelfContactTerm : public EnergyTerm {
   Vector12d coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const;
   // The surface's positions (x_) from the local positions pos (collective).
   PetscErrorCode gather_positions(const std::vector<double>& pos) const;
-  // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at
-  // x_ (edges and vertices inflated by d), or, if end is not null, the boxes swept from x_ to end.
+  // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at x
+  // (edges and vertices inflated by reach), or, if end is not null, the boxes swept from x to end
+  // (inflated by reach). Builds the box trees (over the whole surface).
   template <class Visit>
-  void candidate_pairs(const std::vector<double>* end, Visit&& visit) const;
+  void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach, Visit&& visit) const;
+  // Builds the candidate pairs again at x_ unless the list covers x_ (not collective: every rank
+  // decides alike from the whole surface's positions).
+  PetscErrorCode refresh_candidates() const;
+  // True if every surface vertex at x (and end, if given) is within kMoveFraction of the list's
+  // margin of where the list was built; moved_: how far each is (the farther of x and end).
+  bool candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const;
+  // A candidate: a pair and its distance when the list was built.
+  struct Candidate {
+    Pair pair;
+    double distance;
+  };
+  // False if the candidate's distance at the build less its primitives' moves (moved_) is d or
+  // more: it cannot be within d.
+  bool may_be_within_d(const Candidate& c) const;
+  // Calls visit(pair) for the candidates that may be within d at x_, in the candidates' order
+  // (after refresh_candidates).
+  template <class Visit>
+  void near_pairs(Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  double squared_distance(const Pair& p, const std::vector<double>& x) const;
   // The pairs at distance 0 at pos, over all ranks (collective).
   PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
+  // The smallest distance at rest between two primitives of one body that share no vertex (+inf:
+  // none within d), over all ranks, and the lowest input id of a vertex of such a pair (collective).
+  PetscErrorCode closest_rest_pair(double* distance, int64_t* vertex_id) const;
+  // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:
+  // this rank's vertices directly, the others' sent to their owners (collective).
+  PetscErrorCode exchange_gradient(PetscScalar* gradient) const;
 
   const DistributedMesh& mesh_;
   ContactSpec spec_;
   bool barrier_ = false;
-  PetscLogEvent event_, gather_event_;
+  PetscLogEvent event_, gather_event_, pairs_event_;
   // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
-  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices) per vertex.
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex.
   std::vector<int64_t> ids_;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
@@ -108,15 +155,28 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<PetscInt> dof_;
   std::vector<int> owner_;
   std::vector<double> mass_;
+  std::vector<int32_t> body_;
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
-  // them), and the primitives whose pairs it evaluates.
-  std::vector<PetscInt> owned_local_;
+  // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it
+  // evaluates.
+  std::vector<PetscInt> owned_local_, local_of_;
   std::vector<int> owned_surface_;
   std::vector<int> my_vertices_, my_edges_;
   // The gather: counts and offsets per rank, in surface vertices, and the receive order.
   std::vector<int> counts_, offsets_, received_;
-  Vec assembly_ = nullptr;  // gradients at other ranks' vertices, summed by VecAssembly
   mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
+  // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
+  // current step asks for; stale: build at the next evaluation.
+  mutable std::vector<Candidate> candidates_;
+  mutable std::vector<double> built_at_, moved_;
+  mutable double built_margin_ = 0;
+  double step_margin_ = 0;
+  mutable bool stale_ = true;
+  mutable size_t builds_ = 0;
+  // The gradient per surface vertex of this rank's pairs (3 each) and the vertices it touched.
+  mutable std::vector<double> accumulated_;
+  mutable std::vector<char> touched_;
+  mutable std::vector<int> touched_list_;
   mutable std::vector<double> buffer_;  // work
   mutable unsigned long long active_set_ = 0;
   mutable size_t active_pairs_ = 0;

@@ -5,11 +5,12 @@ surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block'
 solved by Newton to round-off); the blocks exchange their momentum; 1, 2 and 4 ranks agree to
 1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting. A
 deck without self-contact runs none of its code (its log event's count is
-0); self-contact needs an integrator whose end of step is the solve's."""
+0); self-contact needs an integrator whose end of step is the solve's, and an activation distance
+below the surface's spacing at rest."""
 import numpy as np
 import pytest
 
-from conftest import event_count, run_hyperqn, write_deck
+from conftest import event_count, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import read_frames, read_summary
 
@@ -127,6 +128,41 @@ def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
     closest = np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
     print(f"the halves' closest vertices: {closest:.5f} m apart")
     assert 0 < closest < 5e-3  # they met: within the activation distance, not through
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks):
+    """A flat 0.4 m sheet of 8 x 8 cells: its closest primitives that share no vertex (a vertex
+    and the diagonal of the next cell) are 0.05/sqrt(2) = 0.0354 apart at rest. contact.distance
+    0.04 would push the sheet apart from itself at rest: exit 1, nothing written, the deck line of
+    contact.distance, the gap and a distance that fits; 0.03 runs."""
+    d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3, "areal_density": 0.2},
+         "gravity": [0, -9.81, 0], "time": {"dt": 1 / 60, "frames": 2},
+         "contact": {"self": True, "distance": 0.04}}
+    path = write_deck(tmp_path / "coarse.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "distance:" in text)
+    out = tmp_path / "coarse"
+    proc = run_hyperqn([path, "-o", out], ranks=ranks, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not out.exists()
+    assert (f"coarse.yaml:{line}: 'contact.distance': 0.04 is too large for the surface: two of its primitives "
+            "in one body that share no vertex") in proc.stdout
+    assert "are 0.03536 apart at rest" in proc.stdout and "e.g. contact.distance: 0.017 (half of it)" in proc.stdout
+    d["contact"]["distance"] = 0.03
+    run(tmp_path, "fits", d, ranks or 1)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("name, frames", [("bodies_stack", 10), ("cloth_pile", 6)])
+def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
+    """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
+    buckles): every frame written, 0 intersecting pairs in each."""
+    d = load_deck(f"input/contact/{name}.yaml")
+    d["time"]["frames"] = frames
+    d["output"] = {"every": 1}
+    out, _ = run(tmp_path, name, d, ranks)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * (frames + 1)
 
 
 def test_without_self_contact_none_of_its_code_runs(tmp_path):
