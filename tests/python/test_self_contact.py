@@ -153,8 +153,9 @@ def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks
     run(tmp_path, "fits", d, ranks or 1)
 
 
-@pytest.mark.parametrize("ranks", [1, 2])
-@pytest.mark.parametrize("name, frames", [("bodies_stack", 10), ("cloth_pile", 6)])
+# bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
+# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks).
+@pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2)])
 def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
     """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
     buckles): every frame written, 0 intersecting pairs in each."""
