@@ -116,6 +116,30 @@ inline PetscErrorCode deformed_positions(const TestScene& s, Vec x, double ampli
   PetscFunctionReturn(0);
 }
 
+// Checks grad = dE/dx at x along 3 random directions d: d . grad against the central difference
+// (E(x + eps d) - E(x - eps d)) / (2 eps), to 1e-6 relative.
+inline PetscErrorCode check_gradient(Body& body, Vec x, Vec grad, PetscRandom rnd, double eps = 1e-7) {
+  Vec dir, xp;
+  PetscReal Ep, Em, analytic;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(VecDuplicate(x, &xp));
+  for (int trial = 0; trial < 3; ++trial) {
+    PetscCall(VecSetRandom(dir, rnd));
+    PetscCall(VecDot(grad, dir, &analytic));
+    PetscCall(VecWAXPY(xp, eps, dir, x));
+    PetscCall(body.energy_gradient(xp, &Ep, nullptr));
+    PetscCall(VecWAXPY(xp, -eps, dir, x));
+    PetscCall(body.energy_gradient(xp, &Em, nullptr));
+    const double fd = (Ep - Em) / (2 * eps);
+    CHECK_MSG(std::fabs(fd - analytic) <= 1e-6 * std::fabs(analytic),
+              "dE/dx . d " + std::to_string(analytic) + " vs FD " + std::to_string(fd));
+  }
+  PetscCall(VecDestroy(&dir));
+  PetscCall(VecDestroy(&xp));
+  PetscFunctionReturn(0);
+}
+
 using Gradient = std::function<PetscErrorCode(Vec x, Vec grad)>;
 
 // max over 3 random directions d of |H d - FD| / |H d|, FD = (grad(x + eps d) - grad(x - eps d)) / (2 eps).
