@@ -3,8 +3,10 @@
 // included; then two blocks 0.02 apart with activation distance 0.05 (faces nearly parallel, their
 // edges nearly parallel): the surface found (partition faces left out), the term's gradient and
 // Hessian in the body against differences, the count of pairs and the energy the same at any rank
-// count, and the barrier's step bound stopping a step that closes the gap short of contact; then
-// the candidate pairs kept between evaluations against a search of every pair, over random motions.
+// count, and the barrier's step bound stopping a step that closes the gap short of contact (and,
+// with a thickness offset, short of the offset); then the candidate pairs kept between evaluations
+// against a search of every pair, over random motions. Pairs with a thickness offset xi: the same
+// derivative checks, and the energy at distance xi + s that of a pair without offset at s.
 #include <petscdmplex.h>
 
 #include <cmath>
@@ -44,19 +46,21 @@ Vector12d stack(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) 
 }
 
 // One pair's gradient and Hessian against central differences (relative to their largest entry).
-void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x) {
+void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x,
+                double xi = 0) {
   Vector12d g, gp, gm, fd_g;
   Matrix12d H, fd_H;
-  const double e = self_contact_pair_energy(spec, kind, x, eps_x, &g, &H);
+  const double e = self_contact_pair_energy(spec, kind, x, eps_x, xi, &g, &H);
   CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
   const double h = 1e-7 * kDistance;
   for (int i = 0; i < 12; ++i) {
     Vector12d xp = x, xm = x;
     xp[i] += h;
     xm[i] -= h;
-    fd_g[i] = (self_contact_pair_energy(spec, kind, xp, eps_x) - self_contact_pair_energy(spec, kind, xm, eps_x)) / (2 * h);
-    self_contact_pair_energy(spec, kind, xp, eps_x, &gp);
-    self_contact_pair_energy(spec, kind, xm, eps_x, &gm);
+    fd_g[i] = (self_contact_pair_energy(spec, kind, xp, eps_x, xi) - self_contact_pair_energy(spec, kind, xm, eps_x, xi)) /
+              (2 * h);
+    self_contact_pair_energy(spec, kind, xp, eps_x, xi, &gp);
+    self_contact_pair_energy(spec, kind, xm, eps_x, xi, &gm);
     fd_H.col(i) = (gp - gm) / (2 * h);
   }
   const double eg = (fd_g - g).cwiseAbs().maxCoeff() / g.cwiseAbs().maxCoeff();
@@ -88,9 +92,31 @@ void check_pairs(const std::string& model) {
   CHECK_MSG(ea.cross(eb).squaredNorm() < eps_x, "the nearly parallel edges are mollified");
   check_pair(model + ", nearly parallel edges", spec, PairKind::edge_edge, parallel, eps_x);
   // Outside d: nothing; the barrier at contact: infinite.
-  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(inside + 1.01 * kDistance * n, t0, t1, t2), 0) == 0);
+  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(inside + 1.01 * kDistance * n, t0, t1, t2), 0, 0) == 0);
   if (model == "barrier")
-    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(t0, t0, t1, t2), 0)));
+    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(t0, t0, t1, t2), 0, 0)));
+
+  // A thickness offset xi (two layers of a cloth 0.03 thick): the same energy at xi + s as without
+  // it at s, zero from xi + d on, infinite for the barrier within xi; derivatives as above.
+  const double xi = 0.03;
+  const auto over_face = [&](double distance) { return stack(inside + distance * n, t0, t1, t2); };
+  const double e_offset = self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(xi + 0.5 * kDistance), 0, xi);
+  const double e_plain = self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(0.5 * kDistance), 0, 0);
+  CHECK_MSG(e_offset > 0 && std::abs(e_offset - e_plain) <= 1e-12 * e_plain,
+            model + ": offset energy " + std::to_string(e_offset) + " against " + std::to_string(e_plain));
+  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(1.01 * (xi + kDistance)), 0, xi) == 0);
+  if (model == "barrier")
+    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(0.99 * xi), 0, xi)));
+  for (double frac : {0.5, 1e-2}) {
+    Vector12d x = over_face(xi + frac * kDistance);
+    const Vec3 shift(0.01, 0.02, 0);
+    x.segment<3>(0) += shift - shift.dot(n) * n;  // off the centroid, in the face's plane
+    check_pair(model + ", thickness offset, vertex over a face at xi + " + std::to_string(frac) + " d", spec,
+               PairKind::vertex_triangle, x, 0, xi);
+  }
+  const Vector12d crossing_offset = stack(a0, a1, Vec3(0.4, -0.5, xi + 0.3 * kDistance), Vec3(0.6, 0.5, xi + 0.3 * kDistance));
+  check_pair(model + ", thickness offset, crossing edges", spec, PairKind::edge_edge, crossing_offset,
+             edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)), xi);
 }
 
 // Two blocks of 2 x 2 x 2 cubes side by side along x, kGap apart, the second shifted in y and z.
@@ -110,7 +136,8 @@ TetMesh two_blocks() {
   return serial;
 }
 
-PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term) {
+// thickness: every pair's offset xi (both blocks counted as one body with that cloth thickness).
+PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term, double thickness = 0) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
@@ -125,7 +152,8 @@ PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfConta
   mat.density = 100;
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, StrandMaterial());
   auto self = std::make_unique<SelfContactTerm>(s.mesh, spec_of(model), log_events().self_contact, log_events().self_gather,
-                                                log_events().self_pairs);
+                                                log_events().self_pairs,
+                                                std::vector<SelfContactBody>{{"", thickness, 0, 0}});
   *term = self.get();
   terms.push_back(std::move(self));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
@@ -135,12 +163,62 @@ PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfConta
   PetscFunctionReturn(0);
 }
 
+// The step that moves the second block by 2 gaps towards the first (sign -1: away), bounded by
+// Body::limit_step from x: its alpha and the energy where it ends.
+PetscErrorCode closing_step_bound(TestScene& s, Vec x, double sign, double* alpha, PetscReal* E_end) {
+  Vec xl, dir, end;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(VecDuplicate(x, &end));
+  PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+  PetscCall(VecSet(xl, 0.0));
+  PetscCall(VecGetArray(xl, &a));
+  for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+    if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v]] = -2 * kGap * sign;
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecSet(dir, 0.0));
+  PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
+  PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+  *alpha = 1;
+  PetscCall(s.body->limit_step(x, dir, alpha));
+  PetscCall(VecWAXPY(end, *alpha, dir, x));
+  PetscCall(s.body->energy_gradient(end, E_end, nullptr));
+  PetscCall(VecDestroy(&dir));
+  PetscCall(VecDestroy(&end));
+  PetscFunctionReturn(0);
+}
+
+// The barrier's step bound with a thickness offset xi = 0.01 (half the gap): the continuous
+// collision test stops the closing step where the pairs still keep xi apart, at about a quarter
+// of it (0.01 of the 0.04 closing, +-0.008 of wiggle), sooner than without the offset.
+PetscErrorCode check_step_bound_with_thickness() {
+  double alpha[2];
+  PetscReal E[2];
+  PetscFunctionBeginUser;
+  for (int k = 0; k < 2; ++k) {
+    TestScene s;
+    SelfContactTerm* term = nullptr;
+    Vec x;
+    PetscCall(make_two_blocks("barrier", s, &term, k == 0 ? 0.0 : 0.01));
+    PetscCall(VecDuplicate(s.step->layout(), &x));
+    PetscCall(test_scene::deformed_positions(s, x, 0.01));
+    PetscCall(closing_step_bound(s, x, 1.0, &alpha[k], &E[k]));
+    PetscCall(VecDestroy(&x));
+  }
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "barrier: the closing step bounded at %.4f, with thickness 0.01 at %.4f\n",
+                        alpha[0], alpha[1]));
+  CHECK_MSG(alpha[1] > 0.02 && alpha[1] < 0.45 && alpha[1] < alpha[0] && std::isfinite(E[1]),
+            "step bound with thickness " + std::to_string(alpha[1]));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode check_two_blocks(const std::string& model) {
   TestScene s;
   SelfContactTerm* term = nullptr;
-  Vec x, grad, dir, xp;
+  Vec x, grad;
   PetscRandom rnd;
-  PetscReal E, Ep;
+  PetscReal E;
   Mat K;
   PetscFunctionBeginUser;
   PetscCall(make_two_blocks(model, s, &term));
@@ -149,7 +227,7 @@ PetscErrorCode check_two_blocks(const std::string& model) {
             "the surface: " + std::to_string(term->surface_triangles()) + " triangles, " +
                 std::to_string(term->surface_vertices()) + " vertices, " + std::to_string(term->surface_edges()) + " edges");
   PetscCall(VecDuplicate(s.step->layout(), &x));
-  for (Vec* w : {&grad, &dir, &xp}) PetscCall(VecDuplicate(x, w));
+  PetscCall(VecDuplicate(x, &grad));
   PetscCall(test_scene::deformed_positions(s, x, 0.01));  // moves a vertex by at most 0.004: the blocks stay apart
   PetscCall(s.body->energy_gradient(x, &E, grad));
   long pairs = (long)term->active_pairs();
@@ -177,30 +255,15 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscCall(MatDestroy(&K));
 
   if (model == "barrier") {  // the second block moves by 2 gaps towards the first: stopped short
-    Vec xl;
-    PetscScalar* a;
-    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
-    PetscCall(VecSet(xl, 0.0));
-    PetscCall(VecGetArray(xl, &a));
-    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
-      if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v]] = -2 * kGap;
-    PetscCall(VecRestoreArray(xl, &a));
-    PetscCall(VecSet(dir, 0.0));
-    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
-    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
-    double alpha = 1;
-    PetscCall(s.body->limit_step(x, dir, &alpha));
-    PetscCall(VecWAXPY(xp, alpha, dir, x));
-    PetscCall(s.body->energy_gradient(xp, &Ep, nullptr));
+    double alpha, Ep;
+    PetscCall(closing_step_bound(s, x, 1.0, &alpha, &Ep));
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "barrier: a step closing the gap twice over is bounded at %.4f\n", alpha));
     // Contact at about 0.5 (the wiggle of the faces: +-0.004 of the 0.04 closing): within it, finite.
     CHECK_MSG(alpha > 0.2 && alpha < 0.6 && std::isfinite(Ep), "step bound " + std::to_string(alpha));
-    alpha = 1;
-    PetscCall(VecScale(dir, -1.0));  // apart: no bound
-    PetscCall(s.body->limit_step(x, dir, &alpha));
+    PetscCall(closing_step_bound(s, x, -1.0, &alpha, &Ep));  // apart: no bound
     CHECK_MSG(alpha == 1, "moving apart is not bounded: " + std::to_string(alpha));
   }
-  for (Vec* w : {&x, &grad, &dir, &xp}) PetscCall(VecDestroy(w));
+  for (Vec* w : {&x, &grad}) PetscCall(VecDestroy(w));
   PetscCall(PetscRandomDestroy(&rnd));
   PetscFunctionReturn(0);
 }
@@ -308,6 +371,7 @@ int main(int argc, char** argv) {
     if (rank == 0) check_pairs(model);
     PetscCall(check_two_blocks(model));
   }
+  PetscCall(check_step_bound_with_thickness());
   PetscCall(check_candidates_against_all_pairs());
   const int code = test_scene::tally("test_self_contact");
   PetscCall(PetscFinalize());

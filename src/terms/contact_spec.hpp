@@ -53,7 +53,8 @@ inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
       {"self", &C::self,
        "`true`: self-contact, the surfaces (tets' boundary faces, cloth triangles) of all bodies and cloths against "
        "each other and themselves, vertex against triangle and edge against edge, with the same `model`, `distance` "
-       "and `stiffness` (no friction yet; [contact.md](contact.md#self-contact)). A deck may then have no colliders"},
+       "and `stiffness` (a cloth's `thickness` adds to the distance its pairs keep; surfaces that cross at frame 0 "
+       "are an input error; no friction yet; [contact.md](contact.md#self-contact)). A deck may then have no colliders"},
   };
   return keys;
 }

@@ -9,6 +9,7 @@
 
 #include "geometry/box_tree.hpp"
 #include "geometry/pair_ccd.hpp"
+#include "geometry/triangle_intersection.hpp"
 #include "terms/contact.hpp"
 
 namespace hyperqn {
@@ -91,6 +92,12 @@ unsigned long long mixed(unsigned long long z) {
   return z ^ (z >> 31);
 }
 
+// x > 0 rounded down to two significant digits (a value to suggest that still fits).
+double two_digits_below(double x) {
+  const double scale = std::pow(10.0, std::floor(std::log10(x)) - 1);
+  return std::floor(x / scale) * scale;
+}
+
 Matrix12d clamp_psd(const Matrix12d& H) {
   Eigen::SelfAdjointEigenSolver<Matrix12d> eig(H);
   const Vector12d lambda = eig.eigenvalues().cwiseMax(0.0);
@@ -100,7 +107,7 @@ Matrix12d clamp_psd(const Matrix12d& H) {
 }  // namespace
 
 double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
-                                Vector12d* gradient, Matrix12d* hessian) {
+                                double xi, Vector12d* gradient, Matrix12d* hessian) {
   const bool derivatives = gradient || hessian;
   Vector12d gD;
   Matrix12d HD;
@@ -110,11 +117,11 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
                        : edge_edge_squared_distance(p0, p1, p2, p3, derivatives ? &gD : nullptr, hessian ? &HD : nullptr);
   if (gradient) gradient->setZero();
   if (hessian) hessian->setZero();
-  const double d = spec.distance;
-  if (!(D < d * d)) return 0;
+  const double reach = spec.distance + xi;
+  if (!(D < reach * reach)) return 0;
   const double phi = std::sqrt(D);
   double b, db, d2b;
-  contact_profile(spec, phi, &b, &db, &d2b);
+  contact_profile(spec, phi - xi, &b, &db, &d2b);  // the offset distance: derivatives are phi's
   if (!std::isfinite(b)) return HUGE_VAL;  // the barrier at contact: a rejected point
   // phi = sqrt(D): grad phi = grad D / (2 phi), hess phi = hess D / (2 phi) - grad D grad D^T / (4 phi^3);
   // at phi = 0 (the penalty only) the direction is undefined: no force.
@@ -140,13 +147,14 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
 }
 
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
-                                 PetscLogEvent gather_event, PetscLogEvent pairs_event)
+                                 PetscLogEvent gather_event, PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies)
     : mesh_(mesh),
       spec_(spec),
       barrier_(spec.model == ContactModel::barrier),
       event_(event),
       gather_event_(gather_event),
       pairs_event_(pairs_event),
+      bodies_(std::move(bodies)),
       step_margin_(spec.distance) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   PetscMPIInt rank;
@@ -207,7 +215,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   received_ = all_gathered(comm, sent, MPI_INT, &counts);
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
-  const std::vector<int32_t> bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
+  const std::vector<int32_t> vertex_bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
   offsets.assign(counts.size() + 1, 0);
   for (size_t r = 0; r < counts.size(); ++r) offsets[r + 1] = offsets[r] + counts[r];
   const size_t n = ids_.size();
@@ -225,10 +233,15 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       const int s = received_[k];
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
-      body_[s] = bodies[k];
+      body_[s] = vertex_bodies[k];
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
+  half_thickness_.assign(n, 0.0);
+  for (size_t s = 0; s < n; ++s) {
+    if (body_[s] < (int32_t)bodies_.size()) half_thickness_[s] = bodies_[body_[s]].thickness / 2;
+    largest_offset_ = std::max(largest_offset_, 2 * half_thickness_[s]);
+  }
   for (int s : owned_surface_) my_vertices_.push_back(s);
   for (size_t e = 0; e < edges_.size(); ++e)
     if (owner_[edges_[e][0]] == rank) my_edges_.push_back((int)e);
@@ -278,8 +291,8 @@ PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, cons
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   const auto p = [&](int s) { return Vec3(&x[3 * s]); };
   const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
-  // This rank's region: the box of its own vertices and edges (the pairs it evaluates), grown by
-  // reach; lo > hi if it has none.
+  // This rank's region: the box of its own vertices and edges (the pairs it evaluates) and its
+  // triangles (the start's crossing test), grown by reach; lo > hi if it has none.
   std::vector<double> region{HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   const auto take = [&](int s) {
     for (int d = 0; d < 3; ++d) {
@@ -289,6 +302,8 @@ PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, cons
   };
   for (int s : my_vertices_) take(s);
   for (int e : my_edges_) take(edges_[e][1]);
+  for (int t : my_triangles_)
+    for (int s : triangles_[t]) take(s);
   for (int d = 0; d < 3; ++d) region[d] -= reach, region[3 + d] += reach;
   const std::vector<double> regions = all_gathered(comm, region, MPI_DOUBLE);
   std::vector<Box> boxes;
@@ -482,16 +497,16 @@ PetscErrorCode SelfContactTerm::refresh_candidates() const {
   PetscCall(candidates_cover(x_, nullptr, &covered));
   if (covered) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
-  const double reach = spec_.distance + step_margin_;
+  const double reach = spec_.distance + step_margin_;  // in distance less xi
   // The ghost layer for the list: every primitive within reach of this rank's (see plan_exchange).
-  PetscCall(plan_exchange(x_, nullptr, reach, &ghosts_));
+  PetscCall(plan_exchange(x_, nullptr, reach + largest_offset_, &ghosts_));
   PetscCall(exchange(ghosts_, 3, x_));
   PetscCall(PetscInfo(nullptr, "self-contact ghost layer: this rank knows %zu of the %zu surface vertices, sends %zu and receives %zu per evaluation\n",
                       ghosts_.known_list.size(), ids_.size(), ghosts_.send.size(), ghosts_.recv.size()));
   candidates_.clear();
-  broad_phase(x_, nullptr, reach, &ghosts_.known, [&](const Pair& p) {
-    const double D = squared_distance(p, x_);
-    if (D <= reach * reach) candidates_.push_back({p, std::sqrt(D)});
+  broad_phase(x_, nullptr, reach + largest_offset_, &ghosts_.known, [&](const Pair& p) {
+    const double gap = std::sqrt(squared_distance(p, x_)) - offset(p);
+    if (gap <= reach) candidates_.push_back({p, gap});
   });
   // A canonical order: the energy and gradient sums do not depend on where the list was built.
   std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& c, const Candidate& e) {
@@ -553,6 +568,11 @@ double SelfContactTerm::squared_distance(const Pair& p, const std::vector<double
              : edge_edge_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9));
 }
 
+double SelfContactTerm::offset(const Pair& p) const {
+  const std::array<int, 4> q = points(p);
+  return half_thickness_[q[0]] + half_thickness_[q[p.kind == PairKind::vertex_triangle ? 1 : 2]];
+}
+
 double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
   const std::array<int, 4> q = points(p);
   double mass = 0;
@@ -565,7 +585,7 @@ double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d
     eps = edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
                                         Vec3(&rest_[3 * q[3]]));
   const double k = contact_stiffness_per_mass(spec_) * mass / free_points;
-  const double e = self_contact_pair_energy(spec_, p.kind, x, eps, g, H);
+  const double e = self_contact_pair_energy(spec_, p.kind, x, eps, offset(p), g, H);
   if (g) *g *= k;
   if (H) *H *= k;
   return k * e;
@@ -707,8 +727,9 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   const auto bound = [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     const Vector12d start = coordinates(x_, q), stop = coordinates(end_, q);
-    const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, 0)
-                                                              : edge_edge_impact(start, stop, 0);
+    const double xi = offset(p);
+    const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, xi)
+                                                              : edge_edge_impact(start, stop, xi);
     t = std::min(t, impact);
   };
   bool covered;
@@ -718,12 +739,12 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
       if (may_be_within_d(c)) bound(c.pair);
   } else {  // a ghost layer for this step alone: the primitives whose swept boxes reach this rank's
     Exchange swept;
-    PetscCall(plan_exchange(x_, &end_, 0, &swept));
+    PetscCall(plan_exchange(x_, &end_, largest_offset_, &swept));
     PetscCall(exchange(swept, 6, path_));
     unpack(swept.known_list);
-    broad_phase(x_, &end_, 0, &swept.known, bound);
+    broad_phase(x_, &end_, largest_offset_, &swept.known, bound);  // boxes more than xi apart never come within xi
   }
-  *alpha *= t;  // the pair keeps a tenth of its clearance there (pair_ccd.hpp): never touches
+  *alpha *= t;  // the pair keeps a tenth of its clearance above xi there (pair_ccd.hpp): never within xi
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -732,74 +753,204 @@ PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, l
   PetscFunctionBeginUser;
   PetscCall(gather_positions(pos));
   Exchange touching;  // the primitives whose boxes touch this rank's
-  PetscCall(plan_exchange(x_, nullptr, 0, &touching));
+  PetscCall(plan_exchange(x_, nullptr, largest_offset_, &touching));
   PetscCall(exchange(touching, 3, x_));
   long local = 0;
-  broad_phase(x_, nullptr, 0, &touching.known, [&](const Pair& p) { local += squared_distance(p, x_) <= 0; });
+  broad_phase(x_, nullptr, largest_offset_, &touching.known, [&](const Pair& p) {
+    const double xi = offset(p);
+    local += squared_distance(p, x_) <= xi * xi;
+  });
   PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode SelfContactTerm::closest_rest_pair(double* distance, int64_t* vertex_id) const {
+PetscErrorCode SelfContactTerm::closest_rest_pair(double* gap_out, double* xi_out, int64_t* vertex_id) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
-  double closest = spec_.distance * spec_.distance;  // squared, then the distance
-  int64_t id = std::numeric_limits<int64_t>::max();
+  constexpr int64_t kNone = std::numeric_limits<int64_t>::max();
+  double gap = spec_.distance, xi = 0;  // the closest pair's distance less its xi, once below d
+  int64_t id = kNone;
   PetscFunctionBeginUser;
-  broad_phase(rest_, nullptr, spec_.distance, nullptr, [&](const Pair& p) {
+  broad_phase(rest_, nullptr, spec_.distance + largest_offset_, nullptr, [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     if (body_[q[0]] != body_[q[2]]) return;  // two bodies placed close: not the mesh's spacing
     bool free = false;
     for (int s : q) free = free || dof_[s] >= 0;
     if (!free) return;  // fixed against fixed: no force either
-    const double D = squared_distance(p, rest_);
+    const double g = std::sqrt(squared_distance(p, rest_)) - offset(p);
     int64_t lowest = ids_[q[0]];
     for (int s : q) lowest = std::min(lowest, ids_[s]);
-    if (D < closest || (D == closest && D < spec_.distance * spec_.distance && lowest < id)) closest = D, id = lowest;
+    if (g < gap || (g == gap && g < spec_.distance && lowest < id)) gap = g, xi = offset(p), id = lowest;
   });
-  closest = id == std::numeric_limits<int64_t>::max() ? HUGE_VAL : std::sqrt(closest);
-  const double mine = closest;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &closest, 1, MPI_DOUBLE, MPI_MIN, comm));
-  if (mine != closest) id = std::numeric_limits<int64_t>::max();  // the lowest id among the closest pairs
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &id, 1, MPI_INT64_T, MPI_MIN, comm));
-  *distance = closest;
-  *vertex_id = id;
+  if (id == kNone) gap = HUGE_VAL;
+  const double mine = gap;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &gap, 1, MPI_DOUBLE, MPI_MIN, comm));
+  int64_t lowest = mine == gap ? id : kNone;  // the lowest id among the closest pairs
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &lowest, 1, MPI_INT64_T, MPI_MIN, comm));
+  if (lowest != id) xi = 0;  // that pair's xi, from the rank that found it
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &xi, 1, MPI_DOUBLE, MPI_MAX, comm));
+  *gap_out = gap;
+  *xi_out = xi;
+  *vertex_id = lowest;
+  PetscFunctionReturn(0);
+}
+
+void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, InputProblem& out) const {
+  char what[700];
+  const double apart = gap + xi;
+  if (gap <= 0 && xi > 0) {  // within the thickness: no activation distance fits
+    const int s = (int)(std::lower_bound(ids_.begin(), ids_.end(), vertex) - ids_.begin());
+    const SelfContactBody& b = bodies_[body_[s]];
+    std::snprintf(what, sizeof what,
+                  "%g is too large for the cloth's mesh: two of its primitives that share no vertex (one of them at "
+                  "vertex %lld) are %.4g apart at rest, within the thickness, so self-contact would push the mesh "
+                  "apart from itself at rest; ",
+                  b.thickness, (long long)vertex, apart);
+    out.line = b.thickness_line;
+    out.key = (b.key.empty() ? "" : b.key + ".") + "cloth.thickness";
+    out.what = what;
+    if (apart > spec_.distance)
+      std::snprintf(what, sizeof what, "use a thickness below that gap less contact.distance %g, e.g. %g", spec_.distance,
+                    two_digits_below(apart - spec_.distance));
+    else
+      std::snprintf(what, sizeof what, "that gap is below contact.distance %g too: a thinner cloth and a smaller distance",
+                    spec_.distance);
+    out.what += what;
+    return;
+  }
+  // Half the gap: the mesh at rest stays clear of the layer.
+  const double suggested = gap > 0 ? two_digits_below(gap / 2) : 0;
+  char beyond[120] = "";
+  if (xi > 0) std::snprintf(beyond, sizeof beyond, ", %.4g beyond their thickness offset %.4g (cloth.thickness),", gap, xi);
+  std::snprintf(what, sizeof what,
+                "%s%g is too large for the surface: two of its primitives in one body that share no vertex (one of "
+                "them at vertex %lld) are %.4g apart at rest%s closer than the activation distance, so self-contact "
+                "would push the mesh apart from itself at rest; ",
+                spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, apart,
+                xi > 0 ? beyond : ",");
+  out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
+  out.key = "contact.distance";
+  out.what = what;
+  if (gap > 0) {
+    std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
+    out.what += what;
+  } else {
+    out.what += "they touch (coincident primitives), which no distance fits";
+  }
+}
+
+PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& pos, InputProblem& out) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCall(gather_positions(pos));
+  Exchange touching;  // the triangles whose boxes touch this rank's
+  PetscCall(plan_exchange(x_, nullptr, 0, &touching));
+  PetscCall(exchange(touching, 3, x_));
+  // The checker's tolerance: 1e-8 of the diagonal of the bounding box of all the scene's vertices.
+  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
+  for (size_t v = 0; 3 * v < pos.size(); ++v) {
+    lo = lo.cwiseMin(Vec3(&pos[3 * v]));
+    hi = hi.cwiseMax(Vec3(&pos[3 * v]));
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, lo.data(), 3, MPI_DOUBLE, MPI_MIN, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, hi.data(), 3, MPI_DOUBLE, MPI_MAX, comm));
+  const double tol = kIntersectionRtol * (hi - lo).norm();
+  const long n = (long)triangles_.size();
+  const auto corners = [&](long t) {
+    Triangle3 c;
+    for (int k = 0; k < 3; ++k) c[k] = Vec3(&x_[3 * triangles_[t][k]]);
+    return c;
+  };
+  std::vector<Box> boxes;
+  std::vector<int> index;  // the tree's boxes: the known triangles
+  std::vector<char> usable(n, 0);
+  for (long t = 0; t < n; ++t) {
+    const auto& v = triangles_[t];
+    if (!touching.known[v[0]] || !touching.known[v[1]] || !touching.known[v[2]]) continue;
+    const Triangle3 c = corners(t);
+    usable[t] = !degenerate_triangle(c, tol);
+    boxes.push_back(bounds({c[0], c[1], c[2]}, 0));
+    index.push_back((int)t);
+  }
+  const BoxTree tree(std::move(boxes));
+  // Each rank tests the pairs (t, u > t) of its triangles t (a crossing u overlaps t's box, so its
+  // vertices are in the ghost layer); the first pair is the lowest (t, u) in the surface's order,
+  // the same at any rank count.
+  long count = 0;
+  long long first = std::numeric_limits<long long>::max();
+  for (int t : my_triangles_) {
+    if (!usable[t]) continue;
+    const Triangle3 a = corners(t);
+    const auto& ta = triangles_[t];
+    tree.overlapping(bounds({a[0], a[1], a[2]}, 0), [&](int i) {
+      const int u = index[i];
+      const auto& tb = triangles_[u];
+      if (u <= t || !usable[u]) return;
+      for (int i : ta)
+        if (i == tb[0] || i == tb[1] || i == tb[2]) return;  // neighbours in a mesh
+      if (!triangles_cross(a, corners(u), tol)) return;
+      ++count;
+      first = std::min(first, (long long)t * n + u);
+    });
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_LONG, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_LONG_LONG, MPI_MIN, comm));
+  if (count == 0) PetscFunctionReturn(0);
+  const long t = (long)(first / n), u = (long)(first % n);
+  Vec3 at = Vec3::Zero();  // from the rank of t, which found the pair
+  if (owner_[triangles_[t][0]] == rank) triangles_cross(corners(t), corners(u), tol, &at);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, at.data(), 3, MPI_DOUBLE, MPI_SUM, comm));
+  const auto ids = [&](long k) {
+    const auto& tri = triangles_[k];
+    return std::to_string(ids_[tri[0]]) + ", " + std::to_string(ids_[tri[1]]) + ", " + std::to_string(ids_[tri[2]]);
+  };
+  const int32_t bt = body_[triangles_[t][0]], bu = body_[triangles_[u][0]];
+  const int32_t b1 = std::min(bt, bu), b2 = std::max(bt, bu);
+  const bool named = b2 < (int32_t)bodies_.size() && !bodies_[b1].key.empty();
+  std::string what;
+  if (!named) {
+    out.key = "contact.self";
+    out.line = spec_.self_line;
+    what = "the body's surface crosses itself at frame 0: ";
+  } else {
+    out.key = bodies_[b1].key;
+    out.line = bodies_[b1].line;
+    what = b1 == b2 ? "its surface crosses itself at frame 0: "
+                    : "its surface and that of " + bodies_[b2].key + " (deck line " + std::to_string(bodies_[b2].line) +
+                          ") cross at frame 0: ";
+  }
+  char where[200];
+  std::snprintf(where, sizeof where, ", near (%.6g, %.6g, %.6g)", at[0], at[1], at[2]);
+  what += std::to_string(count) + " pair" + (count == 1 ? "" : "s") + " of surface triangles in the scene cross (by more " +
+          "than 1e-8 of its diagonal, as hyperqn_tools.intersections counts them); the first: the triangle of " +
+          "vertices " + ids(t) + " and that of vertices " + ids(u) + where + ". Self-contact cannot separate " +
+          "surfaces that start crossed (the barrier's energy is infinite on the way out; the penalty pushes each pair " +
+          "to its nearer side, which keeps them crossed): " +
+          (named && b1 != b2 ? "move the bodies apart" : "start from a mesh that does not cross itself");
+  out.what = what;
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
-  double gap;
+  double gap, xi;
   int64_t vertex;
   long touching;
   PetscFunctionBeginUser;
-  PetscCall(closest_rest_pair(&gap, &vertex));
+  PetscCall(closest_rest_pair(&gap, &xi, &vertex));
   if (gap < spec_.distance) {
-    // Half the gap, rounded down to two digits: the mesh at rest stays clear of the layer.
-    const double scale = gap > 0 ? std::pow(10.0, std::floor(std::log10(gap / 2)) - 1) : 0;
-    const double suggested = gap > 0 ? std::floor(gap / 2 / scale) * scale : 0;
-    char what[600];
-    std::snprintf(what, sizeof what,
-                  "%s%g is too large for the surface: two of its primitives in one body that share no vertex (one of "
-                  "them at vertex %lld) are %.4g apart at rest, closer than the activation distance, so self-contact "
-                  "would push the mesh apart from itself at rest; ",
-                  spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, gap);
-    out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
-    out.key = "contact.distance";
-    out.what = what;
-    if (gap > 0) {
-      std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
-      out.what += what;
-    } else {
-      out.what += "they touch (coincident primitives), which no distance fits";
-    }
+    rest_gap_problem(gap, xi, vertex, out);
     PetscFunctionReturn(0);
   }
-  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(check_intersections(pos, out));
+  if (!out.what.empty() || !barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching == 0) PetscFunctionReturn(0);
   out.line = spec_.self_line;
   out.key = "contact.self";
-  out.what = std::to_string(touching) + " pairs of surface primitives touch at frame 0, where the barrier's energy is " +
-             "infinite: move the bodies apart (or use the penalty)";
+  out.what = std::to_string(touching) + " pairs of surface primitives " +
+             (largest_offset_ > 0 ? "touch or are within their thickness offset" : "touch") +
+             " at frame 0, where the barrier's energy is infinite: move the bodies apart (or use the penalty)";
   PetscFunctionReturn(0);
 }
 
@@ -809,7 +960,9 @@ PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos
   if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching > 0)
-    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) + " pairs of surface primitives touch, where the barrier is infinite";
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) +
+           " pairs of surface primitives touch" + (largest_offset_ > 0 ? " or are within their thickness offset" : "") +
+           ", where the barrier is infinite";
   PetscFunctionReturn(0);
 }
 
@@ -820,7 +973,13 @@ std::string SelfContactTerm::describe() const {
                 "within reach), %s, distance %.4g, stiffness %.4g",
                 triangles_.size(), edges_.size(), ids_.size(),
                 kContactModelNames[size_t(spec_.model)].c_str(), spec_.distance, spec_.stiffness);
-  return text;
+  std::string out = text;
+  for (const SelfContactBody& b : bodies_)
+    if (b.thickness > 0) {
+      std::snprintf(text, sizeof text, ", %s cloth thickness %.4g", b.key.empty() ? "the" : (b.key + "'s").c_str(), b.thickness);
+      out += text;
+    }
+  return out;
 }
 
 }  // namespace hyperqn

@@ -8,9 +8,12 @@
 // obstacle contact's energy (terms/contact.hpp, contact_profile) of its distance phi = sqrt(D)
 // (geometry/pair_distance.hpp), an edge pair's multiplied by IPC's mollifier, which vanishes for
 // parallel edges:
-//   vertex-triangle: k b(phi),   edge-edge: k m(c) b(phi),
-//   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points).
-// With the barrier every step is bounded by the pairs' continuous collision tests
+//   vertex-triangle: k b(phi - xi),   edge-edge: k m(c) b(phi - xi),
+//   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points),
+// xi the pair's thickness offset: half the cloth thickness of each of its two primitives' bodies
+// (0 for a solid), so two layers of a cloth of thickness t keep t + d apart (Codimensional IPC's
+// offset: the mid-surfaces never come closer than the thickness). With the barrier every step is
+// bounded by the pairs' continuous collision tests with minimum separation xi
 // (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
 //
 // Distribution (a ghost layer): each rank evaluates the pairs it is the owner of: a
@@ -26,7 +29,7 @@
 // arrive in).
 //
 // Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
-// positions where it was built, with their distance then; geometry/box_tree.hpp), built at the
+// positions where it was built, with their distance then, all less xi; geometry/box_tree.hpp), built at the
 // first evaluation of each step and again only when a surface vertex has moved more than
 // kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
 // build less their vertices' moves is below d (refresh_candidates says why no pair within d is
@@ -49,18 +52,28 @@ namespace hyperqn {
 enum class PairKind { vertex_triangle, edge_edge };
 
 // One pair's energy per unit stiffness at x (the 12 coordinates in the kernels' order: vertex,
-// triangle or edge, edge), 0 at phi >= d, +inf for the barrier at phi = 0; its gradient and
-// Hessian if asked. mollifier_eps: the edge pair's eps_x (edge_edge_mollifier_threshold at rest).
+// triangle or edge, edge), 0 at phi - xi >= d, +inf for the barrier at phi <= xi; its gradient and
+// Hessian if asked. mollifier_eps: the edge pair's eps_x (edge_edge_mollifier_threshold at rest);
+// xi: the pair's thickness offset.
 double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
-                                Vector12d* gradient = nullptr, Matrix12d* hessian = nullptr);
+                                double xi, Vector12d* gradient = nullptr, Matrix12d* hessian = nullptr);
+
+// What self-contact knows of a body (deck bodies[k], or the deck's one body): how the deck names
+// it and its cloth's thickness.
+struct SelfContactBody {
+  std::string key;         // "bodies[k]", or "" for a deck of one body
+  double thickness = 0;    // its cloth's thickness (0: a solid, or a cloth without one)
+  int thickness_line = 0;  // the deck line of its cloth.thickness, when given
+  int line = 0;            // the deck line of bodies[k]
+};
 
 class SelfContactTerm : public EnergyTerm {
  public:
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
   // gather_event: the position and gradient exchanges (hqnSelfGather), pairs_event: building the
-  // candidate pairs (hqnSelfPairs).
+  // candidate pairs (hqnSelfPairs). bodies: per body of mesh.vertex_body (none: every body a solid).
   SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
-                  PetscLogEvent pairs_event);
+                  PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies = {});
   ~SelfContactTerm() override;
   SelfContactTerm(const SelfContactTerm&) = delete;
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
@@ -77,18 +90,21 @@ class SelfContactTerm : public EnergyTerm {
   // candidate pairs are built again at the step's first evaluation (collective).
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
-  // The largest alpha at which no pair touches along the straight path (additive CCD of every
-  // pair whose swept boxes overlap; collective). Fixed vertices stay where the last evaluation had them.
+  // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
+  // of every pair whose swept boxes, grown by xi, overlap; collective). Fixed vertices stay where
+  // the last evaluation had them.
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
-  // The activation distance must be below the rest spacing of the surface: no two primitives of
-  // one body that share no vertex may be closer than d at rest (the problem names
-  // contact.distance, the gap found and a value that fits). Then, with the barrier, no two
-  // surfaces may touch at frame 0 (the problem names contact.self and how many pairs touch).
+  // The activation distance and thickness must fit the rest spacing of the surface: no two
+  // primitives of one body that share no vertex may be closer than d + xi at rest (the problem
+  // names contact.distance, the gap found and a value that fits, or the cloth's thickness when the
+  // gap is within xi). Then no two surface triangles may cross at frame 0, with either model (the
+  // problem names the bodies, how many pairs cross and one of them); and, with the barrier, no
+  // pair may be within its xi (the problem names contact.self and how many pairs touch).
   // Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
-  // The barrier's energy is infinite where pairs touch: how many (collective).
+  // The barrier's energy is infinite where pairs are within their xi: how many (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
@@ -150,13 +166,13 @@ class SelfContactTerm : public EnergyTerm {
   // margin of where the list was built (collective); moved_: how far each known vertex is (the
   // farther of x and end).
   PetscErrorCode candidates_cover(const std::vector<double>& x, const std::vector<double>* end, bool* covered) const;
-  // A candidate: a pair and its distance when the list was built.
+  // A candidate: a pair and its distance less xi when the list was built.
   struct Candidate {
     Pair pair;
     double distance;
   };
-  // False if the candidate's distance at the build less its primitives' moves (moved_) is d or
-  // more: it cannot be within d.
+  // False if the candidate's distance (less xi) at the build less its primitives' moves (moved_)
+  // is d or more: it cannot be within d.
   bool may_be_within_d(const Candidate& c) const;
   // Calls visit(pair) for the candidates that may be within d at x_, in the candidates' order
   // (after refresh_candidates).
@@ -164,11 +180,20 @@ class SelfContactTerm : public EnergyTerm {
   void near_pairs(Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
   double squared_distance(const Pair& p, const std::vector<double>& x) const;
-  // The pairs at distance 0 at pos, over all ranks (collective).
+  // The pair's thickness offset xi: half the thickness of each primitive's body.
+  double offset(const Pair& p) const;
+  // The pairs within their xi at pos (distance 0 without thickness), over all ranks (collective).
   PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
-  // The smallest distance at rest between two primitives of one body that share no vertex (+inf:
-  // none within d), over all ranks, and the lowest input id of a vertex of such a pair (collective).
-  PetscErrorCode closest_rest_pair(double* distance, int64_t* vertex_id) const;
+  // The smallest distance less xi at rest between two primitives of one body that share no vertex
+  // (+inf: none within d), over all ranks; that pair's xi and the lowest input id of a vertex of
+  // such a pair (collective).
+  PetscErrorCode closest_rest_pair(double* gap, double* xi, int64_t* vertex_id) const;
+  // The problem of a rest gap (closest_rest_pair) below d: d too large, or the thickness alone.
+  void rest_gap_problem(double gap, double xi, int64_t vertex, InputProblem& out) const;
+  // Surface triangles that cross at pos (geometry/triangle_intersection.hpp, with the tolerance of
+  // the scene's bounding box there), over all ranks: the problem names the bodies of the first
+  // such pair in the surface's order, how many pairs cross and where the first does (collective).
+  PetscErrorCode check_intersections(const std::vector<double>& pos, InputProblem& out) const;
   // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:
   // this rank's vertices directly, the others' sent to their owners (collective).
   PetscErrorCode exchange_gradient(PetscScalar* gradient) const;
@@ -178,7 +203,8 @@ class SelfContactTerm : public EnergyTerm {
   bool barrier_ = false;
   PetscLogEvent event_, gather_event_, pairs_event_;
   // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
-  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex.
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex;
+  // the bodies as the deck names them.
   std::vector<int64_t> ids_;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
@@ -187,6 +213,9 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<int> owner_;
   std::vector<double> mass_;
   std::vector<int32_t> body_;
+  std::vector<SelfContactBody> bodies_;
+  std::vector<double> half_thickness_;  // per surface vertex: half its body's cloth thickness
+  double largest_offset_ = 0;           // the largest xi of any pair
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
   // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it
   // evaluates.

@@ -3,10 +3,13 @@ blocks (two `bodies:`) fly at each other in empty space (no gravity, no damping,
 collide and bounce apart. With the barrier, hyperqn_tools.intersections finds no intersecting
 surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block's (every step
 solved by Newton to round-off); the blocks exchange their momentum; 1, 2 and 4 ranks agree to
-1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting. A
-deck without self-contact runs none of its code (its log event's count is
-0); self-contact needs an integrator whose end of step is the solve's, and an activation distance
-below the surface's spacing at rest."""
+1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting, its
+halves a thickness farther apart with cloth.thickness. A deck without self-contact runs none of its
+code (its log event's count is 0); self-contact needs an integrator whose end of step is the
+solve's, an activation distance and thickness below the surface's spacing at rest, and surfaces
+that do not cross at frame 0 (the same pairs as hyperqn_tools.intersections counts)."""
+import re
+
 import numpy as np
 import pytest
 
@@ -108,10 +111,21 @@ def test_penalty_bounces_too(tmp_path):
     assert left[0] < 0 < right[0]
 
 
+def halves_gap(f):
+    """The distance between the closest vertices of the folded sheet's two halves in frame f."""
+    rest = f.points - f.displacement
+    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
+    return np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+
+
 def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
     """A 0.4 m sheet held along its middle line: both halves fall into the same vertical plane
-    below it. With the barrier they come to rest d apart and never cross (without self-contact they
-    pass through each other)."""
+    below it. With the barrier they come to rest just inside d apart and never cross (without
+    self-contact they pass through each other). With cloth.thickness t the contact acts on the
+    distance less t (two layers: half of t each) with the same d: they meet at t + d instead of d.
+    Nothing presses the halves together once they meet (gravity lies in their plane), so they stand
+    at the edge of the layer where the swing leaves them: t + d to 0.1 d in every frame after they
+    meet (measured: t + 0.988 d to t + 1.06 d, drifting slowly outward), never within t."""
     d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
          "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3,
                    "bending": {"model": "springs", "stiffness": 1.0e-3}, "areal_density": 0.2},
@@ -122,12 +136,18 @@ def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
     d["contact"] = {"self": True, "model": "barrier", "distance": 5e-3}
     out, _ = run(tmp_path, "fold", d)
     assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
-    f = read_frames(out)[-1][1]
-    rest = f.points - f.displacement
-    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
-    closest = np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+    closest = halves_gap(read_frames(out)[-1][1])
     print(f"the halves' closest vertices: {closest:.5f} m apart")
     assert 0 < closest < 5e-3  # they met: within the activation distance, not through
+    thickness = 0.01
+    d["cloth"]["thickness"] = thickness
+    out, _ = run(tmp_path, "fold_thick", d)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
+    gaps = np.array([halves_gap(f) for _, f in read_frames(out)])
+    print(f"with thickness {thickness}, the halves' closest vertices per frame (mm): " +
+          " ".join(f"{1e3 * g:.2f}" for g in gaps))
+    met = np.flatnonzero(gaps < thickness + 5e-3)[0]
+    assert gaps.min() > thickness and np.all(np.abs(gaps[met:] - (thickness + 5e-3)) < 0.1 * 5e-3)
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
@@ -151,6 +171,54 @@ def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks
     assert "are 0.03536 apart at rest" in proc.stdout and "e.g. contact.distance: 0.017 (half of it)" in proc.stdout
     d["contact"]["distance"] = 0.03
     run(tmp_path, "fits", d, ranks or 1)
+
+
+def test_thickness_larger_than_the_mesh_spacing_is_an_input_error(tmp_path):
+    """The same sheet with thickness 0.04: its closest primitives (0.0354 apart) are within the
+    thickness, which no activation distance fixes: exit 1, nothing written, the line of
+    cloth.thickness and a thickness that fits (the gap less d = 0.005)."""
+    d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3, "areal_density": 0.2, "thickness": 0.04},
+         "time": {"dt": 1 / 60, "frames": 2}, "contact": {"self": True, "distance": 0.005}}
+    path = write_deck(tmp_path / "thick.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "thickness:" in text)
+    proc = run_hyperqn([path, "-o", tmp_path / "thick"], ranks=None, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not (tmp_path / "thick").exists()
+    assert f"thick.yaml:{line}: 'cloth.thickness': 0.04 is too large for the cloth's mesh" in proc.stdout
+    assert "are 0.03536 apart at rest, within the thickness" in proc.stdout and "e.g. 0.03" in proc.stdout
+
+
+def test_bodies_that_start_crossed_are_an_input_error(tmp_path):
+    """The two blocks, the second 0.05 into the first at frame 0: self-contact cannot separate
+    them (barrier or penalty), so exit 1, nothing written, a message naming bodies[0] and
+    bodies[1], the number of crossing triangle pairs and the first, the same at 1, 2 and 4 ranks;
+    that number is what hyperqn_tools.intersections counts in frame 0 of the same scene run without
+    self-contact."""
+    d = deck(frames=1)
+    d["bodies"][1]["mesh"]["transform"]["translate"] = [SIZE - 0.05, 0.03, 0.02]
+    path = write_deck(tmp_path / "crossed.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "- name: left" in text)
+    messages = {}
+    for model, ranks in (("barrier", None), ("barrier", 2), ("barrier", 4), ("penalty", None)):
+        d["contact"]["model"] = model
+        path = write_deck(tmp_path / "crossed.yaml", d)
+        out = tmp_path / f"crossed_{model}_{ranks}"
+        proc = run_hyperqn([path, "-o", out], ranks=ranks, check=False)
+        print(proc.stdout)
+        assert proc.returncode == 1 and not out.exists()
+        messages[model, ranks] = next(l for l in proc.stdout.splitlines() if "hyperqn: error:" in l)
+    message = messages["barrier", None]
+    assert f"crossed.yaml:{line}: 'bodies[0]': its surface and that of bodies[1] (deck line" in message
+    assert "cross at frame 0" in message and "move the bodies apart" in message
+    assert messages["barrier", 2] == message and messages["barrier", 4] == message
+    assert messages["penalty", None] == message  # the penalty cannot separate them either
+    count = int(re.search(r"(\d+) pairs of surface triangles in the scene cross", message).group(1))
+    del d["contact"]
+    out, _ = run(tmp_path, "crossed_plain", d)
+    checked = check_run(out, frames=[0])[0]["intersecting_pairs"]
+    print(f"crossing pairs: hyperqn {count}, hyperqn_tools.intersections {checked}")
+    assert count == checked > 0
 
 
 # bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
