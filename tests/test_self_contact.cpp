@@ -235,6 +235,14 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: %ld pairs within d, E = %.17g\n", model.c_str(), pairs, E));
   // The same pairs at any rank count (each evaluated once; the count printed at 1 rank).
   CHECK_MSG(pairs == 67, "pairs within d: " + std::to_string(pairs));
+  // The ghost layer: on more than one rank, some rank knows only part of the surface's positions
+  // (its own vertices and those within reach: here the near faces of the other block).
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  long known = (long)term->known_vertices();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &known, 1, MPI_LONG, MPI_MIN, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: the fewest surface vertices a rank knows: %ld of 52\n", model.c_str(), known));
+  CHECK_MSG(size == 1 ? known == 52 : known < 52, "surface vertices known: " + std::to_string(known));
 
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));

@@ -39,6 +39,21 @@ std::vector<T> all_gathered(MPI_Comm comm, const std::vector<T>& mine, MPI_Datat
   return all;
 }
 
+// Every rank's items for each rank (mine[offsets[r], offsets[r + 1]) to rank r), received in rank
+// order; counts_out: how many from each rank. Collective.
+std::vector<int> all_to_all(MPI_Comm comm, const std::vector<int>& mine, const std::vector<int>& counts,
+                            const std::vector<int>& offsets, std::vector<int>* counts_out = nullptr) {
+  const int size = (int)counts.size();
+  std::vector<int> in_counts(size), in_offsets(size + 1, 0);
+  MPI_Alltoall(counts.data(), 1, MPI_INT, in_counts.data(), 1, MPI_INT, comm);
+  for (int r = 0; r < size; ++r) in_offsets[r + 1] = in_offsets[r] + in_counts[r];
+  std::vector<int> in(in_offsets[size]);
+  MPI_Alltoallv(mine.data(), counts.data(), offsets.data(), MPI_INT, in.data(), in_counts.data(), in_offsets.data(),
+                MPI_INT, comm);
+  if (counts_out) *counts_out = in_counts;
+  return in;
+}
+
 // The tets' faces of this rank that no other local tet shares, as input vertex ids, 3 each (a
 // face between two ranks' tets is one of these on both ranks; the surface's faces on one only).
 std::vector<int64_t> local_boundary_faces(const DistributedMesh& m) {
@@ -196,12 +211,13 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
     sent_bodies.push_back(mesh.vertex_body.empty() ? 0 : mesh.vertex_body[v]);
     for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
   }
-  received_ = all_gathered(comm, sent, MPI_INT, &counts_);
+  std::vector<int> counts, offsets;
+  received_ = all_gathered(comm, sent, MPI_INT, &counts);
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
   const std::vector<int32_t> vertex_bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
-  offsets_.assign(counts_.size() + 1, 0);
-  for (size_t r = 0; r < counts_.size(); ++r) offsets_[r + 1] = offsets_[r] + counts_[r];
+  offsets.assign(counts.size() + 1, 0);
+  for (size_t r = 0; r < counts.size(); ++r) offsets[r + 1] = offsets[r] + counts[r];
   const size_t n = ids_.size();
   dof_.assign(n, -1);
   owner_.assign(n, -1);
@@ -212,8 +228,8 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   accumulated_.assign(3 * n, 0.0);
   touched_.assign(n, 0);
   x_.assign(3 * n, 0.0);
-  for (size_t r = 0; r + 1 < offsets_.size(); ++r)
-    for (int k = offsets_[r]; k < offsets_[r + 1]; ++k) {
+  for (size_t r = 0; r + 1 < offsets.size(); ++r)
+    for (int k = offsets[r]; k < offsets[r + 1]; ++k) {
       const int s = received_[k];
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
@@ -229,6 +245,140 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   for (int s : owned_surface_) my_vertices_.push_back(s);
   for (size_t e = 0; e < edges_.size(); ++e)
     if (owner_[edges_[e][0]] == rank) my_edges_.push_back((int)e);
+  for (size_t t = 0; t < triangles_.size(); ++t)
+    if (owner_[triangles_[t][0]] == rank) my_triangles_.push_back((int)t);
+  // The halo: the owner of each end of an edge sends it to the owner of the other end (a
+  // triangle's vertices are joined by its edges), which needs no message to plan.
+  std::vector<std::pair<int, int>> halo_receives;
+  for (const auto& e : edges_)
+    for (int k = 0; k < 2; ++k)
+      if (owner_[e[k]] == rank && owner_[e[1 - k]] != rank) {
+        halo_.push_back({owner_[e[1 - k]], e[k]});
+        halo_receives.push_back({owner_[e[1 - k]], e[1 - k]});
+      }
+  ghosts_ = make_exchange(halo_, halo_receives);
+  PetscCallAbort(comm, PetscObjectGetNewTag((PetscObject)mesh.dm, &tag_));
+}
+
+SelfContactTerm::Exchange SelfContactTerm::make_exchange(std::vector<std::pair<int, int>> sends,
+                                                         std::vector<std::pair<int, int>> receives) const {
+  PetscMPIInt size;
+  MPI_Comm_size(PetscObjectComm((PetscObject)mesh_.dm), &size);
+  Exchange plan;
+  const auto fill = [size](std::vector<std::pair<int, int>>& pairs, std::vector<int>& list, std::vector<int>& offsets) {
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    offsets.assign(size + 1, 0);
+    for (const auto& [r, s] : pairs) ++offsets[r + 1], list.push_back(s);
+    for (int r = 0; r < size; ++r) offsets[r + 1] += offsets[r];
+  };
+  fill(sends, plan.send, plan.send_offsets);
+  fill(receives, plan.recv, plan.recv_offsets);
+  plan.known.assign(ids_.size(), 0);
+  for (int s : owned_surface_) plan.known[s] = 1;
+  for (int s : plan.recv) plan.known[s] = 1;
+  for (size_t s = 0; s < ids_.size(); ++s)
+    if (plan.known[s]) plan.known_list.push_back((int)s);
+  return plan;
+}
+
+PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                                              Exchange* plan) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt size, rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const auto p = [&](int s) { return Vec3(&x[3 * s]); };
+  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
+  // This rank's region: the box of its own vertices and edges (the pairs it evaluates) and its
+  // triangles (the start's crossing test), grown by reach; lo > hi if it has none.
+  std::vector<double> region{HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  const auto take = [&](int s) {
+    for (int d = 0; d < 3; ++d) {
+      region[d] = std::min({region[d], p(s)[d], q(s)[d]});
+      region[3 + d] = std::max({region[3 + d], p(s)[d], q(s)[d]});
+    }
+  };
+  for (int s : my_vertices_) take(s);
+  for (int e : my_edges_) take(edges_[e][1]);
+  for (int t : my_triangles_)
+    for (int s : triangles_[t]) take(s);
+  for (int d = 0; d < 3; ++d) region[d] -= reach, region[3 + d] += reach;
+  const std::vector<double> regions = all_gathered(comm, region, MPI_DOUBLE);
+  std::vector<Box> boxes;
+  std::vector<int> rank_of;
+  for (int r = 0; r < size; ++r)
+    if (r != rank && regions[6 * r] <= regions[6 * r + 3]) {
+      boxes.push_back({Vec3(&regions[6 * r]), Vec3(&regions[6 * r + 3])});
+      rank_of.push_back(r);
+    }
+  const BoxTree others(std::move(boxes));
+  // Each of this rank's triangles and edges that overlaps another rank's region: its vertices are
+  // asked of their owners for that rank, as (rank, vertex) pairs.
+  std::vector<std::vector<int>> asks(size);
+  const auto ask = [&](const Box& box, std::initializer_list<int> vertices) {
+    others.overlapping(box, [&](int i) {
+      for (int s : vertices)
+        if (owner_[s] != rank_of[i]) asks[owner_[s]].insert(asks[owner_[s]].end(), {rank_of[i], s});
+    });
+  };
+  for (int t : my_triangles_) {
+    const auto& v = triangles_[t];
+    ask(bounds({p(v[0]), p(v[1]), p(v[2]), q(v[0]), q(v[1]), q(v[2])}, 0), {v[0], v[1], v[2]});
+  }
+  for (int e : my_edges_) {
+    const auto& v = edges_[e];
+    ask(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, 0), {v[0], v[1]});
+  }
+  // To the owners; each owner sends its halo and what it was asked, and tells each rank which.
+  std::vector<int> flat, counts(size), offsets(size + 1, 0);
+  for (int r = 0; r < size; ++r) flat.insert(flat.end(), asks[r].begin(), asks[r].end()), counts[r] = (int)asks[r].size();
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<int> asked = all_to_all(comm, flat, counts, offsets);
+  std::vector<std::pair<int, int>> sends = halo_;
+  for (size_t k = 0; k < asked.size(); k += 2) sends.push_back({asked[k], asked[k + 1]});
+  std::sort(sends.begin(), sends.end());
+  sends.erase(std::unique(sends.begin(), sends.end()), sends.end());
+  flat.clear();
+  std::fill(counts.begin(), counts.end(), 0);
+  for (const auto& [r, s] : sends) flat.push_back(s), ++counts[r];
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<int> told_counts;
+  const std::vector<int> told = all_to_all(comm, flat, counts, offsets, &told_counts);
+  std::vector<std::pair<int, int>> receives;
+  for (int r = 0, k = 0; r < size; ++r)
+    for (int j = 0; j < told_counts[r]; ++j) receives.push_back({r, told[k++]});
+  *plan = make_exchange(std::move(sends), std::move(receives));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::exchange(const Exchange& plan, int width, std::vector<double>& values) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt size;
+  std::vector<MPI_Request> requests;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  out_.resize(width * plan.send.size());
+  buffer_.resize(width * plan.recv.size());
+  for (size_t k = 0; k < plan.send.size(); ++k)
+    std::copy_n(&values[width * plan.send[k]], width, &out_[width * k]);
+  for (int r = 0; r < size; ++r) {
+    const int n = plan.recv_offsets[r + 1] - plan.recv_offsets[r];
+    if (n == 0) continue;
+    requests.emplace_back();
+    PetscCallMPI(MPI_Irecv(&buffer_[width * plan.recv_offsets[r]], width * n, MPI_DOUBLE, r, tag_, comm, &requests.back()));
+  }
+  for (int r = 0; r < size; ++r) {
+    const int n = plan.send_offsets[r + 1] - plan.send_offsets[r];
+    if (n == 0) continue;
+    requests.emplace_back();
+    PetscCallMPI(MPI_Isend(&out_[width * plan.send_offsets[r]], width * n, MPI_DOUBLE, r, tag_, comm, &requests.back()));
+  }
+  PetscCallMPI(MPI_Waitall((int)requests.size(), requests.data(), MPI_STATUSES_IGNORE));
+  for (size_t k = 0; k < plan.recv.size(); ++k)
+    std::copy_n(&buffer_[width * k], width, &values[width * plan.recv[k]]);
+  PetscFunctionReturn(0);
 }
 
 SelfContactTerm::~SelfContactTerm() = default;
@@ -250,16 +400,9 @@ PetscErrorCode SelfContactTerm::set_masses(Vec mass) {
 PetscErrorCode SelfContactTerm::gather_positions(const std::vector<double>& pos) const {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-  std::vector<double> mine;
-  mine.reserve(3 * owned_local_.size());
-  for (PetscInt v : owned_local_) mine.insert(mine.end(), &pos[3 * v], &pos[3 * v] + 3);
-  std::vector<int> counts(counts_.size()), offsets(counts_.size());
-  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 3 * counts_[r], offsets[r] = 3 * offsets_[r];
-  buffer_.resize(3 * received_.size());
-  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
-                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
-  for (size_t k = 0; k < received_.size(); ++k)
-    for (int d = 0; d < 3; ++d) x_[3 * received_[k] + d] = buffer_[3 * k + d];
+  for (size_t k = 0; k < owned_local_.size(); ++k)
+    std::copy_n(&pos[3 * owned_local_[k]], 3, &x_[3 * owned_surface_[k]]);
+  PetscCall(exchange(ghosts_, 3, x_));
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -277,40 +420,63 @@ Vector12d SelfContactTerm::coordinates(const std::vector<double>& x, const std::
 
 template <class Visit>
 void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
-                                  Visit&& visit) const {
+                                  const std::vector<char>* known, Visit&& visit) const {
   const auto p = [&](int s) { return Vec3(&x[3 * s]); };
   const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
+  const auto is_known = [&](std::initializer_list<int> vertices) {
+    for (int s : vertices)
+      if (known && !(*known)[s]) return false;
+    return true;
+  };
   std::vector<Box> boxes;
-  boxes.reserve(triangles_.size());
-  for (const auto& t : triangles_) boxes.push_back(bounds({p(t[0]), p(t[1]), p(t[2]), q(t[0]), q(t[1]), q(t[2])}, 0));
+  std::vector<int> index;  // the tree's boxes: which triangle, then which edge
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const auto& v = triangles_[t];
+    if (!is_known({v[0], v[1], v[2]})) continue;
+    boxes.push_back(bounds({p(v[0]), p(v[1]), p(v[2]), q(v[0]), q(v[1]), q(v[2])}, 0));
+    index.push_back((int)t);
+  }
   const BoxTree triangles(std::move(boxes));
   for (int v : my_vertices_)
-    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int t) {
+    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int i) {
+      const int t = index[i];
       const auto& tri = triangles_[t];
       if (tri[0] != v && tri[1] != v && tri[2] != v) visit(Pair{PairKind::vertex_triangle, v, t});
     });
   boxes.clear();
-  for (const auto& e : edges_) boxes.push_back(bounds({p(e[0]), p(e[1]), q(e[0]), q(e[1])}, reach));
+  index.clear();
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    const auto& v = edges_[e];
+    if (!is_known({v[0], v[1]})) continue;
+    boxes.push_back(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, reach));
+    index.push_back((int)e);
+  }
   const BoxTree edges(std::move(boxes));
   for (int e : my_edges_) {
     const auto& a = edges_[e];
-    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int f) {
+    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int i) {
+      const int f = index[i];
       const auto& b = edges_[f];
       if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
     });
   }
 }
 
-bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const {
-  if (stale_) return false;
-  double largest = 0;
-  for (size_t s = 0; s < moved_.size(); ++s) {
+PetscErrorCode SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end,
+                                                 bool* covered) const {
+  PetscFunctionBeginUser;
+  *covered = false;
+  if (stale_) PetscFunctionReturn(0);
+  for (int s : ghosts_.known_list) {
     const Vec3 built(&built_at_[3 * s]);
     moved_[s] = (Vec3(&x[3 * s]) - built).norm();
     if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built).norm());
-    largest = std::max(largest, moved_[s]);
   }
-  return largest <= kMoveFraction * built_margin_;
+  double largest = 0;  // over the surface: each vertex's move is its owner's to count
+  for (int s : owned_surface_) largest = std::max(largest, moved_[s]);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
+  *covered = largest <= kMoveFraction * built_margin_;
+  PetscFunctionReturn(0);
 }
 
 // Why the list misses no pair within d. A pair's distance is the least distance between a point of
@@ -326,12 +492,19 @@ bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::
 // passed over. The same holds all along a straight step whose both ends are within 0.4 of the
 // margin (the path stays in the ball around the build's position), which is what limit_step needs.
 PetscErrorCode SelfContactTerm::refresh_candidates() const {
+  bool covered;
   PetscFunctionBeginUser;
-  if (candidates_cover(x_, nullptr)) PetscFunctionReturn(0);
+  PetscCall(candidates_cover(x_, nullptr, &covered));
+  if (covered) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
   const double reach = spec_.distance + step_margin_;  // in distance less xi
+  // The ghost layer for the list: every primitive within reach of this rank's (see plan_exchange).
+  PetscCall(plan_exchange(x_, nullptr, reach + largest_offset_, &ghosts_));
+  PetscCall(exchange(ghosts_, 3, x_));
+  PetscCall(PetscInfo(nullptr, "self-contact ghost layer: this rank knows %zu of the %zu surface vertices, sends %zu and receives %zu per evaluation\n",
+                      ghosts_.known_list.size(), ids_.size(), ghosts_.send.size(), ghosts_.recv.size()));
   candidates_.clear();
-  broad_phase(x_, nullptr, reach + largest_offset_, [&](const Pair& p) {
+  broad_phase(x_, nullptr, reach + largest_offset_, &ghosts_.known, [&](const Pair& p) {
     const double gap = std::sqrt(squared_distance(p, x_)) - offset(p);
     if (gap <= reach) candidates_.push_back({p, gap});
   });
@@ -525,45 +698,51 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   // Each owner sends its surface vertices' position and step (fixed ones: where the last
-  // evaluation had them, not moving).
+  // evaluation had them, not moving) to the ranks that know them.
   PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-  std::vector<double> mine;
   PetscCall(VecGetOwnershipRange(x, &lo, &hi));
   PetscCall(VecGetArrayRead(x, &a));
   PetscCall(VecGetArrayRead(dir, &u));
+  path_.resize(6 * ids_.size());
   for (size_t k = 0; k < owned_local_.size(); ++k) {
     const PetscInt g = mesh_.global_dof[owned_local_[k]];
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d]);
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? 0.0 : *alpha * u[g - lo + d]);
+    double* out = &path_[6 * owned_surface_[k]];
+    for (int d = 0; d < 3; ++d) out[d] = g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d];
+    for (int d = 0; d < 3; ++d) out[3 + d] = g < 0 ? 0.0 : *alpha * u[g - lo + d];
   }
   PetscCall(VecRestoreArrayRead(x, &a));
   PetscCall(VecRestoreArrayRead(dir, &u));
-  std::vector<int> counts(counts_.size()), offsets(counts_.size());
-  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 6 * counts_[r], offsets[r] = 6 * offsets_[r];
-  buffer_.resize(6 * received_.size());
-  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
-                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscCall(exchange(ghosts_, 6, path_));
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
-  std::vector<double> end(x_.size());
-  for (size_t k = 0; k < received_.size(); ++k)
-    for (int d = 0; d < 3; ++d) {
-      x_[3 * received_[k] + d] = buffer_[6 * k + d];
-      end[3 * received_[k] + d] = buffer_[6 * k + d] + buffer_[6 * k + 3 + d];
-    }
+  end_.resize(x_.size());
+  const auto unpack = [&](const std::vector<int>& known) {
+    for (int s : known)
+      for (int d = 0; d < 3; ++d) {
+        x_[3 * s + d] = path_[6 * s + d];
+        end_[3 * s + d] = path_[6 * s + d] + path_[6 * s + 3 + d];
+      }
+  };
+  unpack(ghosts_.known_list);
   double t = 1;
   const auto bound = [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
-    const Vector12d start = coordinates(x_, q), stop = coordinates(end, q);
+    const Vector12d start = coordinates(x_, q), stop = coordinates(end_, q);
     const double xi = offset(p);
     const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, xi)
                                                               : edge_edge_impact(start, stop, xi);
     t = std::min(t, impact);
   };
-  if (candidates_cover(x_, &end)) {  // no other pair comes within d along the step (refresh_candidates)
+  bool covered;
+  PetscCall(candidates_cover(x_, &end_, &covered));
+  if (covered) {  // no other pair comes within d along the step (refresh_candidates)
     for (const Candidate& c : candidates_)
       if (may_be_within_d(c)) bound(c.pair);
-  } else {
-    broad_phase(x_, &end, largest_offset_, bound);  // boxes more than xi apart never come within xi
+  } else {  // a ghost layer for this step alone: the primitives whose swept boxes reach this rank's
+    Exchange swept;
+    PetscCall(plan_exchange(x_, &end_, largest_offset_, &swept));
+    PetscCall(exchange(swept, 6, path_));
+    unpack(swept.known_list);
+    broad_phase(x_, &end_, largest_offset_, &swept.known, bound);  // boxes more than xi apart never come within xi
   }
   *alpha *= t;  // the pair keeps a tenth of its clearance above xi there (pair_ccd.hpp): never within xi
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
@@ -573,8 +752,11 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
 PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, long* count) const {
   PetscFunctionBeginUser;
   PetscCall(gather_positions(pos));
+  Exchange touching;  // the primitives whose boxes touch this rank's
+  PetscCall(plan_exchange(x_, nullptr, largest_offset_, &touching));
+  PetscCall(exchange(touching, 3, x_));
   long local = 0;
-  broad_phase(x_, nullptr, largest_offset_, [&](const Pair& p) {
+  broad_phase(x_, nullptr, largest_offset_, &touching.known, [&](const Pair& p) {
     const double xi = offset(p);
     local += squared_distance(p, x_) <= xi * xi;
   });
@@ -588,7 +770,7 @@ PetscErrorCode SelfContactTerm::closest_rest_pair(double* gap_out, double* xi_ou
   double gap = spec_.distance, xi = 0;  // the closest pair's distance less its xi, once below d
   int64_t id = kNone;
   PetscFunctionBeginUser;
-  broad_phase(rest_, nullptr, spec_.distance + largest_offset_, [&](const Pair& p) {
+  broad_phase(rest_, nullptr, spec_.distance + largest_offset_, nullptr, [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     if (body_[q[0]] != body_[q[2]]) return;  // two bodies placed close: not the mesh's spacing
     bool free = false;
@@ -658,11 +840,13 @@ void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, In
 
 PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& pos, InputProblem& out) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
-  PetscMPIInt size, rank;
+  PetscMPIInt rank;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCall(gather_positions(pos));
+  Exchange touching;  // the triangles whose boxes touch this rank's
+  PetscCall(plan_exchange(x_, nullptr, 0, &touching));
+  PetscCall(exchange(touching, 3, x_));
   // The checker's tolerance: 1e-8 of the diagonal of the bounding box of all the scene's vertices.
   Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
   for (size_t v = 0; 3 * v < pos.size(); ++v) {
@@ -679,22 +863,28 @@ PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& p
     return c;
   };
   std::vector<Box> boxes;
-  std::vector<char> usable(n);
+  std::vector<int> index;  // the tree's boxes: the known triangles
+  std::vector<char> usable(n, 0);
   for (long t = 0; t < n; ++t) {
+    const auto& v = triangles_[t];
+    if (!touching.known[v[0]] || !touching.known[v[1]] || !touching.known[v[2]]) continue;
     const Triangle3 c = corners(t);
     usable[t] = !degenerate_triangle(c, tol);
     boxes.push_back(bounds({c[0], c[1], c[2]}, 0));
+    index.push_back((int)t);
   }
   const BoxTree tree(std::move(boxes));
-  // Each rank tests the pairs (t, u > t) of every size-th triangle; the first pair is the lowest
-  // (t, u) in the surface's order, the same at any rank count.
+  // Each rank tests the pairs (t, u > t) of its triangles t (a crossing u overlaps t's box, so its
+  // vertices are in the ghost layer); the first pair is the lowest (t, u) in the surface's order,
+  // the same at any rank count.
   long count = 0;
   long long first = std::numeric_limits<long long>::max();
-  for (long t = rank; t < n; t += size) {
+  for (int t : my_triangles_) {
     if (!usable[t]) continue;
     const Triangle3 a = corners(t);
     const auto& ta = triangles_[t];
-    tree.overlapping(bounds({a[0], a[1], a[2]}, 0), [&](int u) {
+    tree.overlapping(bounds({a[0], a[1], a[2]}, 0), [&](int i) {
+      const int u = index[i];
       const auto& tb = triangles_[u];
       if (u <= t || !usable[u]) return;
       for (int i : ta)
@@ -708,8 +898,9 @@ PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& p
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_LONG_LONG, MPI_MIN, comm));
   if (count == 0) PetscFunctionReturn(0);
   const long t = (long)(first / n), u = (long)(first % n);
-  Vec3 at = Vec3::Zero();
-  triangles_cross(corners(t), corners(u), tol, &at);
+  Vec3 at = Vec3::Zero();  // from the rank of t, which found the pair
+  if (owner_[triangles_[t][0]] == rank) triangles_cross(corners(t), corners(u), tol, &at);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, at.data(), 3, MPI_DOUBLE, MPI_SUM, comm));
   const auto ids = [&](long k) {
     const auto& tri = triangles_[k];
     return std::to_string(ids_[tri[0]]) + ", " + std::to_string(ids_[tri[1]]) + ", " + std::to_string(ids_[tri[2]]);
@@ -778,9 +969,9 @@ PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos
 std::string SelfContactTerm::describe() const {
   char text[300];
   std::snprintf(text, sizeof text,
-                "self-contact: %zu surface triangles, %zu edges, %zu vertices (%zu bytes gathered to every rank per "
-                "evaluation), %s, distance %.4g, stiffness %.4g",
-                triangles_.size(), edges_.size(), ids_.size(), 3 * sizeof(double) * ids_.size(),
+                "self-contact: %zu surface triangles, %zu edges, %zu vertices (each rank's own and a ghost layer "
+                "within reach), %s, distance %.4g, stiffness %.4g",
+                triangles_.size(), edges_.size(), ids_.size(),
                 kContactModelNames[size_t(spec_.model)].c_str(), spec_.distance, spec_.stiffness);
   std::string out = text;
   for (const SelfContactBody& b : bodies_)

@@ -16,13 +16,17 @@
 // bounded by the pairs' continuous collision tests with minimum separation xi
 // (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
 //
-// Distribution (a first version): every evaluation gathers the positions of all surface vertices
-// to every rank (one MPI_Allgatherv of 3 doubles per surface vertex, not the volume's); every rank
-// evaluates the pairs it is the owner of: a vertex-triangle pair belongs to the rank owning its
-// vertex, an edge pair (e < f in the surface's order) to the rank owning e's first vertex, the
-// same rule at any rank count. A pair's gradient at vertices of other ranks is summed by this rank
-// and sent to their owners, who add what they receive in the order of the sending ranks (so the
-// sums do not depend on the order messages arrive in).
+// Distribution (a ghost layer): each rank evaluates the pairs it is the owner of: a
+// vertex-triangle pair belongs to the rank owning its vertex, an edge pair (e < f in the surface's
+// order) to the rank owning e's first vertex, the same rule at any rank count. It knows the
+// positions of its own surface vertices and of a ghost layer, sent by their owners at every
+// evaluation: the vertices of every triangle and edge within reach of its own vertices and edges
+// (found, when the candidate pairs are built, by the owners of those primitives against each
+// rank's region), and its own edges' and triangles' other vertices. The surface's topology (ids,
+// triangles, edges, owners) is on every rank; positions only where known. A pair's gradient at
+// vertices of other ranks is summed by this rank and sent to their owners, who add what they
+// receive in the order of the sending ranks (so the sums do not depend on the order messages
+// arrive in).
 //
 // Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
 // positions where it was built, with their distance then, all less xi; geometry/box_tree.hpp), built at the
@@ -66,7 +70,7 @@ struct SelfContactBody {
 class SelfContactTerm : public EnergyTerm {
  public:
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
-  // gather_event: the gathers and gradient exchange (hqnSelfGather), pairs_event: building the
+  // gather_event: the position and gradient exchanges (hqnSelfGather), pairs_event: building the
   // candidate pairs (hqnSelfPairs). bodies: per body of mesh.vertex_body (none: every body a solid).
   SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
                   PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies = {});
@@ -75,7 +79,7 @@ class SelfContactTerm : public EnergyTerm {
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
 
   std::string name() const override { return "self-contact"; }
-  // Collective (the gather), with or without gradient alike on every rank.
+  // Collective (the exchanges), with or without gradient alike on every rank.
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   // The pairs' 12 x 12 blocks (psd: each projected to positive semidefinite); collective.
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -87,8 +91,8 @@ class SelfContactTerm : public EnergyTerm {
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
   // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
-  // of every pair whose swept boxes, grown by xi, overlap). Fixed vertices stay where the last
-  // evaluation had them.
+  // of every pair whose swept boxes, grown by xi, overlap; collective). Fixed vertices stay where
+  // the last evaluation had them.
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
@@ -107,6 +111,8 @@ class SelfContactTerm : public EnergyTerm {
   size_t surface_vertices() const { return ids_.size(); }
   size_t surface_triangles() const { return triangles_.size(); }
   size_t surface_edges() const { return edges_.size(); }
+  // Surface vertices whose positions this rank has at an evaluation: its own and the ghost layer.
+  size_t known_vertices() const { return ghosts_.known_list.size(); }
   // Pairs within the activation distance at the last evaluation, on this rank.
   size_t active_pairs() const { return active_pairs_; }
   // This rank's candidate pairs, and how many times they were built (tests).
@@ -122,19 +128,44 @@ class SelfContactTerm : public EnergyTerm {
   };
   std::array<int, 4> points(const Pair& p) const;
   Vector12d coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const;
-  // The surface's positions (x_) from the local positions pos (collective).
+  // Which surface vertices' values this rank sends to and receives from each rank: it sends its
+  // own send[send_offsets[r], send_offsets[r + 1]) to rank r and receives recv[recv_offsets[r], ...)
+  // from rank r (surface indices, ascending); known: per surface vertex, whether this rank has its
+  // values (its own or received).
+  struct Exchange {
+    std::vector<int> send, send_offsets, recv, recv_offsets;
+    std::vector<char> known;
+    std::vector<int> known_list;  // the known vertices, ascending
+  };
+  // The exchange of the (rank, own vertex) pairs sends and (rank, other's vertex) pairs receives.
+  Exchange make_exchange(std::vector<std::pair<int, int>> sends, std::vector<std::pair<int, int>> receives) const;
+  // The exchange of this rank's own vertices with the halo (the other vertices of its own edges
+  // and triangles; needs no message to plan) and, for every rank whose region (the boxes of its
+  // own vertices and edges at x, swept to end if given, grown by reach) overlaps one of this
+  // rank's triangles or edges (at x, swept to end), that primitive's vertices, asked of their
+  // owners (collective). Needs x (and end) at this rank's own vertices and halo.
+  PetscErrorCode plan_exchange(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                               Exchange* plan) const;
+  // Sends width values per vertex (values[width * s ...]) as the plan says: the owners' to the
+  // ranks that know the vertex (collective).
+  PetscErrorCode exchange(const Exchange& plan, int width, std::vector<double>& values) const;
+  // The positions of this rank's surface vertices and ghost layer (x_) from the local positions
+  // pos (collective).
   PetscErrorCode gather_positions(const std::vector<double>& pos) const;
   // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at x
   // (edges and vertices inflated by reach), or, if end is not null, the boxes swept from x to end
-  // (inflated by reach). Builds the box trees (over the whole surface).
+  // (inflated by reach). Builds the box trees over the primitives whose vertices are all known
+  // (known: per surface vertex; nullptr: all).
   template <class Visit>
-  void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach, Visit&& visit) const;
-  // Builds the candidate pairs again at x_ unless the list covers x_ (not collective: every rank
-  // decides alike from the whole surface's positions).
+  void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                   const std::vector<char>* known, Visit&& visit) const;
+  // Builds the candidate pairs again at x_ (and the ghost layer for them) unless the list covers
+  // x_ (collective: the ranks decide together from their own vertices' moves).
   PetscErrorCode refresh_candidates() const;
   // True if every surface vertex at x (and end, if given) is within kMoveFraction of the list's
-  // margin of where the list was built; moved_: how far each is (the farther of x and end).
-  bool candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const;
+  // margin of where the list was built (collective); moved_: how far each known vertex is (the
+  // farther of x and end).
+  PetscErrorCode candidates_cover(const std::vector<double>& x, const std::vector<double>* end, bool* covered) const;
   // A candidate: a pair and its distance less xi when the list was built.
   struct Candidate {
     Pair pair;
@@ -191,9 +222,14 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<PetscInt> owned_local_, local_of_;
   std::vector<int> owned_surface_;
   std::vector<int> my_vertices_, my_edges_;
-  // The gather: counts and offsets per rank, in surface vertices, and the receive order.
-  std::vector<int> counts_, offsets_, received_;
-  mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
+  // The gather of the surface's data at setup (set_masses): the surface vertex of each item received.
+  std::vector<int> received_;
+  // The triangles whose first vertex this rank owns; the halo: (rank, own vertex) it is sent to.
+  std::vector<int> my_triangles_;
+  std::vector<std::pair<int, int>> halo_;
+  int tag_ = 0;                         // of the exchanges' messages
+  mutable Exchange ghosts_;             // the evaluations' exchange, planned with the candidates
+  mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last exchange (known ones)
   // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
   // current step asks for; stale: build at the next evaluation.
   mutable std::vector<Candidate> candidates_;
@@ -206,7 +242,7 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<double> accumulated_;
   mutable std::vector<char> touched_;
   mutable std::vector<int> touched_list_;
-  mutable std::vector<double> buffer_;  // work
+  mutable std::vector<double> buffer_, out_, path_, end_;  // work
   mutable unsigned long long active_set_ = 0;
   mutable size_t active_pairs_ = 0;
 };
