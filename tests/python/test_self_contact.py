@@ -230,8 +230,10 @@ def test_friction_ranks_agree(incline_runs):
 
 
 # bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
-# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks).
-@pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2)])
+# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks). blocks_stack3 at 1 rank
+# until all three blocks have landed.
+@pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2),
+                                                 ("blocks_stack3", 10, 1)])
 def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
     """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
     buckles): every frame written, 0 intersecting pairs in each."""
@@ -256,3 +258,15 @@ def test_needs_an_integrator_that_ends_at_the_solve(tmp_path):
     d["contact"] = {"model": "barrier"}
     proc = run_hyperqn([write_deck(tmp_path / "noself.yaml", d), "-o", tmp_path / "noself"], ranks=None, check=False)
     assert proc.returncode == 1 and "there are none (or self-contact: self: true)" in proc.stdout
+
+
+def test_self_friction_needs_self_contact(tmp_path):
+    d = incline_deck(0.5, 2, 1e-2)
+    d["contact"]["self"] = False
+    d["colliders"] = [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}]
+    path = write_deck(tmp_path / "noself.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "self_friction" in text)
+    proc = run_hyperqn([path, "-o", tmp_path / "noself"], ranks=None, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not (tmp_path / "noself").exists()
+    assert f"noself.yaml:{line}: 'contact.self_friction': self_friction is the friction between surfaces" in proc.stdout
