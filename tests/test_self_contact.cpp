@@ -6,10 +6,13 @@
 // count, and the barrier's step bound stopping a step that closes the gap short of contact (and,
 // with a thickness offset, short of the offset); then the candidate pairs kept between evaluations
 // against a search of every pair, over random motions. Pairs with a thickness offset xi: the same
-// derivative checks, and the energy at distance xi + s that of a pair without offset at s.
+// derivative checks, and the energy at distance xi + s that of a pair without offset at s. Then
+// friction between surfaces: one pair's lagged friction (vertex-triangle and edge-edge) and the
+// two blocks' with the body's gradient and Hessian, against differences.
 #include <petscdmplex.h>
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <random>
 #include <set>
@@ -45,22 +48,20 @@ Vector12d stack(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) 
   return x;
 }
 
-// One pair's gradient and Hessian against central differences (relative to their largest entry).
-void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x,
-                double xi = 0) {
+// A pair function's gradient and Hessian against central differences of step h (relative to their
+// largest entry).
+using PairFunction = std::function<double(const Vector12d& x, Vector12d* g, Matrix12d* H)>;
+void check_derivatives(const std::string& what, const PairFunction& f, const Vector12d& x, double h) {
   Vector12d g, gp, gm, fd_g;
   Matrix12d H, fd_H;
-  const double e = self_contact_pair_energy(spec, kind, x, eps_x, xi, &g, &H);
-  CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
-  const double h = 1e-7 * kDistance;
+  const double e = f(x, &g, &H);
   for (int i = 0; i < 12; ++i) {
     Vector12d xp = x, xm = x;
     xp[i] += h;
     xm[i] -= h;
-    fd_g[i] = (self_contact_pair_energy(spec, kind, xp, eps_x, xi) - self_contact_pair_energy(spec, kind, xm, eps_x, xi)) /
-              (2 * h);
-    self_contact_pair_energy(spec, kind, xp, eps_x, xi, &gp);
-    self_contact_pair_energy(spec, kind, xm, eps_x, xi, &gm);
+    fd_g[i] = (f(xp, nullptr, nullptr) - f(xm, nullptr, nullptr)) / (2 * h);
+    f(xp, &gp, nullptr);
+    f(xm, &gm, nullptr);
     fd_H.col(i) = (gp - gm) / (2 * h);
   }
   const double eg = (fd_g - g).cwiseAbs().maxCoeff() / g.cwiseAbs().maxCoeff();
@@ -68,6 +69,16 @@ void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind,
   std::printf("%s: energy %.4g, gradient error %.1e, Hessian error %.1e\n", what.c_str(), e, eg, eH);
   CHECK_MSG(eg < 1e-6, what + ": gradient vs FD " + std::to_string(eg));
   CHECK_MSG(eH < 1e-5, what + ": Hessian vs FD " + std::to_string(eH));
+}
+
+// One pair's contact energy (self_contact_pair_energy), with thickness offset xi.
+void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x,
+                double xi = 0) {
+  const double e = self_contact_pair_energy(spec, kind, x, eps_x, xi);
+  CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
+  check_derivatives(what, [&](const Vector12d& at, Vector12d* g, Matrix12d* H) {
+    return self_contact_pair_energy(spec, kind, at, eps_x, xi, g, H);
+  }, x, 1e-7 * kDistance);
 }
 
 void check_pairs(const std::string& model) {
@@ -119,6 +130,68 @@ void check_pairs(const std::string& model) {
              edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)), xi);
 }
 
+// A pair's lagged friction (frozen at x_n by lagged_pair_friction, then pair_friction_energy along
+// the step; mu 0.4, k 2, eps h 1e-3): the closest points' weights sum to 1 on the first primitive
+// and -1 on the second, so a rigid translation of the pair does not slide; mu lambda is mu times
+// the normal force on the first primitive (k |b'|); moving the first primitive along the normal
+// costs no friction; the gradient and Hessian against central differences while sticking (|u| =
+// 0.3 eps h) and sliding (5 eps h), where the friction force is mu lambda.
+void check_friction(const std::string& what, PairKind kind, const Vector12d& start, double eps_x) {
+  const ContactSpec spec = spec_of("barrier");
+  const double k = 2.0, mu = 0.4, eps_h = 1e-3;
+  PairFriction f;
+  CHECK_MSG(lagged_pair_friction(spec, kind, start, eps_x, 0, k, mu, &f), what + ": within d, frozen");
+  const int first = kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
+  double w_first = 0, w_second = 0;
+  for (int i = 0; i < 4; ++i) (i < first ? w_first : w_second) += f.weights[i];
+  CHECK_MSG(std::abs(w_first - 1) < 1e-12 && std::abs(w_second + 1) < 1e-12,
+            what + ": weights " + std::to_string(w_first) + ", " + std::to_string(w_second));
+  Vector12d g_normal;
+  self_contact_pair_energy(spec, kind, start, eps_x, 0, &g_normal);
+  Vec3 normal_force = Vec3::Zero();
+  for (int i = 0; i < first; ++i) normal_force += k * g_normal.segment<3>(3 * i);
+  CHECK_MSG(std::abs(f.mu_lambda - mu * normal_force.norm()) < 1e-10 * f.mu_lambda, what + ": mu lambda");
+  const Vec3 n = f.T.col(0).cross(f.T.col(1));
+  CHECK_MSG(std::abs(std::abs(n.dot(normal_force.normalized())) - 1) < 1e-10, what + ": the normal");
+
+  const auto energy = [&](const Vector12d& x, Vector12d* g, Matrix12d* H) { return pair_friction_energy(f, eps_h, x, g, H); };
+  const double at_rest = energy(start, nullptr, nullptr);
+  Vector12d moved = start, pushed = start;
+  for (int i = 0; i < 4; ++i) moved.segment<3>(3 * i) += Vec3(0.3, -0.2, 0.1);
+  for (int i = 0; i < first; ++i) pushed.segment<3>(3 * i) += 0.1 * kDistance * n;
+  CHECK_MSG(std::abs(energy(moved, nullptr, nullptr) - at_rest) < 1e-9 * at_rest, what + ": a rigid translation slides");
+  CHECK_MSG(std::abs(energy(pushed, nullptr, nullptr) - at_rest) < 1e-9 * at_rest, what + ": a normal motion slides");
+  const Vec3 slide = 0.8 * f.T.col(0) - 0.6 * f.T.col(1) + 0.3 * n;  // tangential part of length 1
+  for (double amount : {0.3 * eps_h, 5 * eps_h}) {
+    Vector12d x = start;
+    for (int i = 0; i < first; ++i) x.segment<3>(3 * i) += amount * slide;
+    const std::string label = what + " friction, " + (amount < eps_h ? "sticking" : "sliding");
+    check_derivatives(label, energy, x, 1e-5 * eps_h);
+    if (amount < eps_h) continue;
+    Vector12d g;
+    energy(x, &g, nullptr);
+    Vec3 force = Vec3::Zero();
+    for (int i = 0; i < first; ++i) force += g.segment<3>(3 * i);
+    CHECK_MSG(std::abs(force.norm() - f.mu_lambda) < 1e-10 * f.mu_lambda, label + ": the force is mu lambda");
+  }
+}
+
+void check_frictions() {
+  const Vec3 t0(0, 0, 0), t1(1, 0, 0.1), t2(0.2, 1, 0);
+  const Vec3 n = (t1 - t0).cross(t2 - t0).normalized();
+  check_friction("vertex over a face", PairKind::vertex_triangle,
+                 stack((t0 + t1 + t2) / 3 + 0.5 * kDistance * n + Vec3(0.01, 0.02, 0), t0, t1, t2), 0);
+  check_friction("vertex beside an edge", PairKind::vertex_triangle, stack(Vec3(0.5, -0.02, 0.05) + 0.01 * n, t0, t1, t2), 0);
+  const Vec3 a0(0, 0, 0), a1(1, 0, 0);
+  check_friction("crossing edges", PairKind::edge_edge,
+                 stack(a0, a1, Vec3(0.4, -0.5, 0.3 * kDistance), Vec3(0.6, 0.5, 0.3 * kDistance)),
+                 edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)));
+  // Outside d: nothing frozen.
+  PairFriction f;
+  CHECK(!lagged_pair_friction(spec_of("barrier"), PairKind::vertex_triangle, stack((t0 + t1 + t2) / 3 + 1.01 * kDistance * n, t0, t1, t2),
+                              0, 0, 2.0, 0.4, &f));
+}
+
 // Two blocks of 2 x 2 x 2 cubes side by side along x, kGap apart, the second shifted in y and z.
 TetMesh two_blocks() {
   TetMesh serial = generate_box({kSize, kSize, kSize}, {2, 2, 2});
@@ -136,8 +209,10 @@ TetMesh two_blocks() {
   return serial;
 }
 
-// thickness: every pair's offset xi (both blocks counted as one body with that cloth thickness).
-PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term, double thickness = 0) {
+// thickness: every pair's offset xi (both blocks counted as one body with that cloth thickness);
+// mu: friction between the surfaces.
+PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term, double thickness = 0,
+                               double mu = 0) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
@@ -151,7 +226,9 @@ PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfConta
   mat.has_density = true;
   mat.density = 100;
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, StrandMaterial());
-  auto self = std::make_unique<SelfContactTerm>(s.mesh, spec_of(model), log_events().self_contact, log_events().self_gather,
+  ContactSpec spec = spec_of(model);
+  spec.self_friction = mu;
+  auto self = std::make_unique<SelfContactTerm>(s.mesh, spec, log_events().self_contact, log_events().self_gather,
                                                 log_events().self_pairs,
                                                 std::vector<SelfContactBody>{{"", thickness, 0, 0}});
   *term = self.get();
@@ -268,6 +345,58 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscFunctionReturn(0);
 }
 
+// The two blocks with friction (self_friction 0.5, eps h = 0.01 * 0.05): a step begun at x_n (the
+// blocks deformed a little) freezes the pairs within d there, as many at any rank count; where the
+// second block has slid along the first by 0.2 and 4 eps h, the body's gradient and Hessian against
+// differences.
+PetscErrorCode check_two_blocks_friction() {
+  TestScene s;
+  SelfContactTerm* term = nullptr;
+  Vec x0, x, grad, xl;
+  PetscRandom rnd;
+  PetscFunctionBeginUser;
+  PetscCall(make_two_blocks("barrier", s, &term, 0, 0.5));
+  PetscCall(VecDuplicate(s.step->layout(), &x0));
+  for (Vec* w : {&x, &grad}) PetscCall(VecDuplicate(x0, w));
+  PetscCall(test_scene::deformed_positions(s, x0, 0.01));
+  PetscCall(s.body->begin_step(StepStart{0.05, 0.05, x0, x0}));
+  long pairs = (long)term->friction_pairs();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &pairs, 1, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction: %ld pairs frozen at x_n\n", pairs));
+  CHECK_MSG(pairs == 67, "friction pairs within d at x_n: " + std::to_string(pairs));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
+  const double eps_h = 0.01 * 0.05;
+  for (double slide : {0.2 * eps_h, 4 * eps_h}) {
+    PetscScalar* a;
+    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+    PetscCall(DMGlobalToLocal(s.mesh.dm, x0, INSERT_VALUES, xl));
+    PetscCall(VecGetArray(xl, &a));
+    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+      if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) {
+        a[s.mesh.local_dof[v] + 1] += 0.6 * slide;
+        a[s.mesh.local_dof[v] + 2] += 0.8 * slide;
+      }
+    PetscCall(VecRestoreArray(xl, &a));
+    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, x));
+    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+    PetscReal E;
+    PetscCall(s.body->energy_gradient(x, &E, grad));
+    PetscCall(test_scene::check_gradient(*s.body, x, grad, rnd));
+    Mat K;
+    double err;
+    PetscCall(test_scene::stiffness(s, x, false, &K));
+    PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd,
+                                   &err, 1e-3 * eps_h));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction, slid %.1e: Hessian vs FD of the gradient: %.2e\n", slide, err));
+    CHECK_MSG(err < 1e-5, "friction: Hessian vs FD of the gradient: " + std::to_string(err));
+    PetscCall(MatDestroy(&K));
+  }
+  for (Vec* w : {&x0, &x, &grad}) PetscCall(VecDestroy(w));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscFunctionReturn(0);
+}
+
 // Every pair of the serial mesh's surface (its tets' faces that belong to one tet only) that shares
 // no vertex and is closer than d at positions x: a search without any broad phase.
 long pairs_within(const TetMesh& mesh, const std::vector<double>& x, double d) {
@@ -372,6 +501,8 @@ int main(int argc, char** argv) {
     PetscCall(check_two_blocks(model));
   }
   PetscCall(check_step_bound_with_thickness());
+  if (rank == 0) check_frictions();
+  PetscCall(check_two_blocks_friction());
   PetscCall(check_candidates_against_all_pairs());
   const int code = test_scene::tally("test_self_contact");
   PetscCall(PetscFinalize());

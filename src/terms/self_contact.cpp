@@ -11,6 +11,7 @@
 #include "geometry/pair_ccd.hpp"
 #include "geometry/triangle_intersection.hpp"
 #include "terms/contact.hpp"
+#include "terms/smoothed_friction.hpp"
 
 namespace hyperqn {
 
@@ -144,6 +145,54 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
   if (gradient) *gradient = g;
   if (hessian) *hessian = H;
   return e;
+}
+
+bool lagged_pair_friction(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps, double xi,
+                          double k, double mu, PairFriction* out) {
+  const Vec3 p0 = x.segment<3>(0), p1 = x.segment<3>(3), p2 = x.segment<3>(6), p3 = x.segment<3>(9);
+  Vector12d gD;
+  const double D = kind == PairKind::vertex_triangle ? point_triangle_squared_distance(p0, p1, p2, p3, &gD)
+                                                     : edge_edge_squared_distance(p0, p1, p2, p3, &gD);
+  const double reach = spec.distance + xi;
+  if (!(D < reach * reach) || !(D > 0)) return false;
+  double b, db, d2b;
+  contact_profile(spec, std::sqrt(D) - xi, &b, &db, &d2b);  // as self_contact_pair_energy
+  const double m = kind == PairKind::edge_edge ? edge_edge_mollifier(p0, p1, p2, p3, mollifier_eps) : 1.0;
+  if (!std::isfinite(db) || !(m > 0)) return false;
+  // The closest points from the distance's gradient (geometry/pair_distance.cpp): dD/dx_i = 2 c_i r,
+  // r = sum_i c_i x_i the vector between the closest points, whose weights c_i sum to +-1 over each
+  // primitive. Half the first primitive's gradient is r oriented from the second's closest point
+  // to the first's, and w_i = dD/dx_i . r / (2 |r|^2) are the weights of that orientation.
+  const int first_points = kind == PairKind::vertex_triangle ? 1 : 2;
+  Vec3 r = Vec3::Zero();
+  for (int i = 0; i < first_points; ++i) r += gD.segment<3>(3 * i) / 2;
+  const double rr = r.squaredNorm();
+  if (!(rr > 0)) return false;
+  for (int i = 0; i < 4; ++i) out->weights[i] = gD.segment<3>(3 * i).dot(r) / (2 * rr);
+  out->mu_lambda = mu * k * std::abs(db) * m;
+  out->T = tangent_basis(r / std::sqrt(rr));
+  out->start = x;
+  return true;
+}
+
+double pair_friction_energy(const PairFriction& f, double eps_h, const Vector12d& x, Vector12d* gradient,
+                            Matrix12d* hessian) {
+  Vec3 displacement = Vec3::Zero();  // of the closest points, relative
+  for (int i = 0; i < 4; ++i) displacement += f.weights[i] * (x.segment<3>(3 * i) - f.start.segment<3>(3 * i));
+  const Eigen::Vector2d u = f.T.transpose() * displacement;
+  const SmoothedFriction sf = smoothed_friction(u.norm(), eps_h);
+  if (gradient) {
+    const Vec3 force = f.mu_lambda * sf.f1_over_s * (f.T * u);  // on the first primitive's closest point, negated
+    for (int i = 0; i < 4; ++i) gradient->segment<3>(3 * i) = f.weights[i] * force;
+  }
+  if (hessian) {
+    Eigen::Matrix2d h2 = sf.f1_over_s * Eigen::Matrix2d::Identity();
+    if (sf.slope != 0) h2 += sf.slope * u * u.transpose();
+    const Eigen::Matrix3d block = f.mu_lambda * f.T * h2 * f.T.transpose();  // positive semidefinite
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) hessian->block<3, 3>(3 * i, 3 * j) = f.weights[i] * f.weights[j] * block;
+  }
+  return f.mu_lambda * sf.f0;
 }
 
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
@@ -331,6 +380,10 @@ PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, cons
     const auto& v = edges_[e];
     ask(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, 0), {v[0], v[1]});
   }
+  // The vertices of this rank's frozen friction pairs, which may have moved out of reach.
+  for (const auto& frozen : friction_)
+    for (int s : points(frozen.first))
+      if (owner_[s] != rank) asks[owner_[s]].insert(asks[owner_[s]].end(), {rank, s});
   // To the owners; each owner sends its halo and what it was asked, and tells each rank which.
   std::vector<int> flat, counts(size), offsets(size + 1, 0);
   for (int r = 0; r < size; ++r) flat.insert(flat.end(), asks[r].begin(), asks[r].end()), counts[r] = (int)asks[r].size();
@@ -558,6 +611,25 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;
+  if (spec_.self_friction > 0) {
+    // The surface at x_n: the free vertices' from x_n, the fixed ones' where the last evaluation
+    // had them (a fixed point does not slide: its weight is 0).
+    std::vector<double> start(x_.size());
+    PetscCall(VecGetArrayRead(step.x_start, &x));
+    for (size_t k = 0; k < owned_local_.size(); ++k) {
+      const PetscInt g = mesh_.global_dof[owned_local_[k]];
+      for (int d = 0; d < 3; ++d) start[3 * owned_surface_[k] + d] = g < 0 ? x_[3 * owned_surface_[k] + d] : x[g - lo + d];
+    }
+    PetscCall(VecRestoreArrayRead(step.x_start, &x));
+    // The positions within d of this rank's primitives at x_n: the halo, then a ghost layer.
+    friction_.clear();
+    PetscCall(exchange(ghosts_, 3, start));
+    Exchange near;
+    PetscCall(plan_exchange(start, nullptr, spec_.distance + largest_offset_, &near));
+    PetscCall(exchange(near, 3, start));
+    eps_h_ = spec_.friction_velocity * step.dt;
+    freeze_friction(start, near.known);
+  }
   PetscFunctionReturn(0);
 }
 
@@ -573,22 +645,47 @@ double SelfContactTerm::offset(const Pair& p) const {
   return half_thickness_[q[0]] + half_thickness_[q[p.kind == PairKind::vertex_triangle ? 1 : 2]];
 }
 
-double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
-  const std::array<int, 4> q = points(p);
+double SelfContactTerm::pair_stiffness(const std::array<int, 4>& q) const {
   double mass = 0;
   int free_points = 0;
   for (int s : q)
     if (dof_[s] >= 0) mass += mass_[s], ++free_points;
-  if (free_points == 0) return 0;  // fixed against fixed: nothing to move
-  double eps = 0;
-  if (p.kind == PairKind::edge_edge)
-    eps = edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
-                                        Vec3(&rest_[3 * q[3]]));
-  const double k = contact_stiffness_per_mass(spec_) * mass / free_points;
-  const double e = self_contact_pair_energy(spec_, p.kind, x, eps, offset(p), g, H);
+  return free_points == 0 ? 0 : contact_stiffness_per_mass(spec_) * mass / free_points;
+}
+
+double SelfContactTerm::mollifier_eps(const Pair& p) const {
+  if (p.kind != PairKind::edge_edge) return 0;
+  const std::array<int, 4> q = points(p);
+  return edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
+                                       Vec3(&rest_[3 * q[3]]));
+}
+
+double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
+  const double k = pair_stiffness(points(p));
+  if (k == 0) return 0;  // fixed against fixed: nothing to move
+  const double e = self_contact_pair_energy(spec_, p.kind, x, mollifier_eps(p), offset(p), g, H);
   if (g) *g *= k;
   if (H) *H *= k;
   return k * e;
+}
+
+void SelfContactTerm::freeze_friction(const std::vector<double>& x, const std::vector<char>& known) {
+  friction_.clear();
+  broad_phase(x, nullptr, spec_.distance + largest_offset_, &known, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const double k = pair_stiffness(q);
+    PairFriction f;
+    if (k == 0 || !lagged_pair_friction(spec_, p.kind, coordinates(x, q), mollifier_eps(p), offset(p), k,
+                                        spec_.self_friction, &f))
+      return;
+    for (int i = 0; i < 4; ++i)
+      if (dof_[q[i]] < 0) f.weights[i] = 0;  // a fixed point's motion is not the pair's sliding
+    friction_.emplace_back(p, f);
+  });
+  // The canonical order of the candidates: the sums do not depend on the broad phase's.
+  std::sort(friction_.begin(), friction_.end(), [](const auto& f, const auto& g) {
+    return std::tie(f.first.kind, f.first.a, f.first.b) < std::tie(g.first.kind, g.first.a, g.first.b);
+  });
 }
 
 PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
@@ -607,18 +704,26 @@ PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, 
     ++active_pairs_;
     active_set_ += mixed(((unsigned long long)p.a << 32 | (unsigned)p.b) * 2 + (p.kind == PairKind::edge_edge));
     e += ep;
-    if (!gradient) return;
-    for (int k = 0; k < 4; ++k) {
-      const int s = q[k];
-      if (dof_[s] < 0) continue;
-      if (!touched_[s]) touched_[s] = 1, touched_list_.push_back(s);
-      for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] += g[3 * k + d];
-    }
+    if (gradient) accumulate(q, g);
   });
+  for (const auto& [p, friction] : friction_) {  // after the normal pairs, in the pairs' order
+    const std::array<int, 4> q = points(p);
+    e += pair_friction_energy(friction, eps_h_, coordinates(x_, q), gradient ? &g : nullptr);
+    if (gradient) accumulate(q, g);
+  }
   *energy += e;
   if (gradient) PetscCall(exchange_gradient(gradient));
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
+}
+
+void SelfContactTerm::accumulate(const std::array<int, 4>& q, const Vector12d& g) const {
+  for (int k = 0; k < 4; ++k) {
+    const int s = q[k];
+    if (dof_[s] < 0) continue;
+    if (!touched_[s]) touched_[s] = 1, touched_list_.push_back(s);
+    for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] += g[3 * k + d];
+  }
 }
 
 PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
@@ -678,15 +783,25 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   Matrix12d h;
   Eigen::Matrix<double, 12, 12, Eigen::RowMajor> block;
   PetscErrorCode error = 0;
-  near_pairs([&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
-    block = scale * (psd ? clamp_psd(h) : h);
+  const auto add = [&](const std::array<int, 4>& q) {
     PetscInt idx[12];
     for (int k = 0; k < 4; ++k)
       for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
     error = MatSetValues(H, 12, idx, 12, idx, block.data(), ADD_VALUES);
+  };
+  near_pairs([&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
+    block = scale * (psd ? clamp_psd(h) : h);
+    add(q);
   });
+  for (const auto& [p, friction] : friction_) {  // positive semidefinite as they are
+    const std::array<int, 4> q = points(p);
+    if (error) break;
+    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
+    block = scale * h;
+    add(q);
+  }
   PetscCall(error);
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -979,6 +1094,10 @@ std::string SelfContactTerm::describe() const {
       std::snprintf(text, sizeof text, ", %s cloth thickness %.4g", b.key.empty() ? "the" : (b.key + "'s").c_str(), b.thickness);
       out += text;
     }
+  if (spec_.self_friction > 0) {
+    std::snprintf(text, sizeof text, ", friction %.4g (friction_velocity %.4g)", spec_.self_friction, spec_.friction_velocity);
+    out += text;
+  }
   return out;
 }
 

@@ -16,6 +16,14 @@
 // bounded by the pairs' continuous collision tests with minimum separation xi
 // (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
 //
+// Friction (contact.self_friction mu > 0) is IPC's lagged smoothed Coulomb model, as for obstacles
+// (terms/smoothed_friction.hpp): at the start of each step every pair within d at x_n freezes its
+// normal force lambda = k |b'(phi)| (times the mollifier m(c) for an edge pair), the weights w_i of
+// its closest points (+ on the first primitive, - on the second, 0 at fixed points) and the
+// tangent plane T of the line between them; the step then adds mu lambda f0(|u|),
+// u = T^T sum_i w_i (x_i - x_n,i), the closest points' relative tangential displacement. With
+// mu = 0 no pair is frozen and none of this runs.
+//
 // Distribution (a ghost layer): each rank evaluates the pairs it is the owner of: a
 // vertex-triangle pair belongs to the rank owning its vertex, an edge pair (e < f in the surface's
 // order) to the rank owning e's first vertex, the same rule at any rank count. It knows the
@@ -67,6 +75,24 @@ struct SelfContactBody {
   int line = 0;            // the deck line of bodies[k]
 };
 
+// What a pair's lagged friction freezes at x_n (lagged_pair_friction).
+struct PairFriction {
+  double mu_lambda = 0;                 // mu times the normal force magnitude lambda
+  std::array<double, 4> weights{};      // w_i: the closest points' weights per point
+  Eigen::Matrix<double, 3, 2> T;        // tangent plane of the pair's normal
+  Vector12d start;                      // the four points at x_n
+};
+
+// The lagged friction of a pair at x_n (its 12 coordinates) with thickness offset xi, normal
+// stiffness k (the k of self_contact_pair_energy's energy) and coefficient mu; false, and nothing
+// frozen, if the pair is not within d of xi, touches (no normal) or is mollified away (parallel edges).
+bool lagged_pair_friction(const ContactSpec& spec, PairKind kind, const Vector12d& x_start, double mollifier_eps,
+                          double xi, double k, double mu, PairFriction* out);
+// Its energy mu lambda f0(|u|) at x, with eps_h = friction_velocity times the step; its gradient
+// and Hessian (positive semidefinite) if asked.
+double pair_friction_energy(const PairFriction& friction, double eps_h, const Vector12d& x, Vector12d* gradient = nullptr,
+                            Matrix12d* hessian = nullptr);
+
 class SelfContactTerm : public EnergyTerm {
  public:
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
@@ -87,7 +113,8 @@ class SelfContactTerm : public EnergyTerm {
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
   // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
-  // candidate pairs are built again at the step's first evaluation (collective).
+  // candidate pairs are built again at the step's first evaluation; with friction, the pairs
+  // within d at x_n freeze their friction (collective).
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
   // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
@@ -115,6 +142,8 @@ class SelfContactTerm : public EnergyTerm {
   size_t known_vertices() const { return ghosts_.known_list.size(); }
   // Pairs within the activation distance at the last evaluation, on this rank.
   size_t active_pairs() const { return active_pairs_; }
+  // This rank's pairs with lagged friction in the current step.
+  size_t friction_pairs() const { return friction_.size(); }
   // This rank's candidate pairs, and how many times they were built (tests).
   size_t candidate_pairs() const { return candidates_.size(); }
   size_t candidate_builds() const { return builds_; }
@@ -179,6 +208,13 @@ class SelfContactTerm : public EnergyTerm {
   template <class Visit>
   void near_pairs(Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  // k of a pair (the mean lumped mass of its free points times the stiffness per mass; 0 if none
+  // is free) and an edge pair's mollifier threshold (0 for a vertex and a triangle).
+  double pair_stiffness(const std::array<int, 4>& q) const;
+  double mollifier_eps(const Pair& p) const;
+  // The pairs of this rank within d (of their xi) at the surface's positions x (known where
+  // known is set), with their lagged friction, in the pairs' canonical order (begin_step).
+  void freeze_friction(const std::vector<double>& x, const std::vector<char>& known);
   double squared_distance(const Pair& p, const std::vector<double>& x) const;
   // The pair's thickness offset xi: half the thickness of each primitive's body.
   double offset(const Pair& p) const;
@@ -194,6 +230,8 @@ class SelfContactTerm : public EnergyTerm {
   // the scene's bounding box there), over all ranks: the problem names the bodies of the first
   // such pair in the surface's order, how many pairs cross and where the first does (collective).
   PetscErrorCode check_intersections(const std::vector<double>& pos, InputProblem& out) const;
+  // Adds a pair's gradient g into the sums per surface vertex (accumulated_, touched_) at its free points q.
+  void accumulate(const std::array<int, 4>& q, const Vector12d& g) const;
   // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:
   // this rank's vertices directly, the others' sent to their owners (collective).
   PetscErrorCode exchange_gradient(PetscScalar* gradient) const;
@@ -243,6 +281,10 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<char> touched_;
   mutable std::vector<int> touched_list_;
   mutable std::vector<double> buffer_, out_, path_, end_;  // work
+  // This rank's pairs within d at x_n with their lagged friction (mu > 0), in the pairs' order;
+  // friction_velocity times the step.
+  std::vector<std::pair<Pair, PairFriction>> friction_;
+  double eps_h_ = 0;
   mutable unsigned long long active_set_ = 0;
   mutable size_t active_pairs_ = 0;
 };
