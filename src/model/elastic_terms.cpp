@@ -116,10 +116,13 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
                                        log_events().contact);
 }
 
-std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact) {
+std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact,
+                                              const std::vector<BoxRegion>& fixed) {
   if (!contact.self) return nullptr;
+  std::vector<int> fixed_lines;
+  for (const BoxRegion& r : fixed) fixed_lines.push_back(r.line);
   return std::make_unique<SelfContactTerm>(mesh, resolved_contact(contact, rest_diagonal(mesh)), log_events().self_contact,
-                                           log_events().self_gather, log_events().self_pairs);
+                                           log_events().self_gather, log_events().self_pairs, std::move(fixed_lines));
 }
 
 }  // namespace hyperqn

@@ -40,7 +40,9 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
 
 // Self-contact of the surfaces of all bodies and cloths (terms/self_contact.hpp) with the contact
 // section's model, its defaults resolved for the mesh's rest diagonal; null unless contact.self
-// (no self-contact code at all). Collective.
-std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact);
+// (no self-contact code at all); the fixed regions' deck lines name a region whose motion it
+// refuses. Collective.
+std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact,
+                                              const std::vector<BoxRegion>& fixed);
 
 }  // namespace hyperqn

@@ -125,13 +125,14 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
 }
 
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
-                                 PetscLogEvent gather_event, PetscLogEvent pairs_event)
+                                 PetscLogEvent gather_event, PetscLogEvent pairs_event, std::vector<int> fixed_lines)
     : mesh_(mesh),
       spec_(spec),
       barrier_(spec.model == ContactModel::barrier),
       event_(event),
       gather_event_(gather_event),
       pairs_event_(pairs_event),
+      fixed_lines_(std::move(fixed_lines)),
       step_margin_(spec.distance) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   PetscMPIInt rank;
@@ -174,7 +175,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
 
   // Who owns which surface vertex, its dof, rest position and body: each owner sends its own.
   std::vector<int> sent;
-  std::vector<int32_t> sent_bodies;
+  std::vector<int32_t> sent_bodies, sent_regions;
   std::vector<int64_t> sent_dofs;
   std::vector<double> sent_rest;
   for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
@@ -186,12 +187,14 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
     sent.push_back(owned_surface_.back());
     sent_dofs.push_back(mesh.global_dof[v]);
     sent_bodies.push_back(mesh.vertex_body.empty() ? 0 : mesh.vertex_body[v]);
+    sent_regions.push_back(mesh.fixed[v]);
     for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
   }
   received_ = all_gathered(comm, sent, MPI_INT, &counts_);
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
   const std::vector<int32_t> bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
+  const std::vector<int32_t> regions = all_gathered(comm, sent_regions, MPI_INT32_T);
   offsets_.assign(counts_.size() + 1, 0);
   for (size_t r = 0; r < counts_.size(); ++r) offsets_[r + 1] = offsets_[r] + counts_[r];
   const size_t n = ids_.size();
@@ -200,6 +203,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   rest_.assign(3 * n, 0.0);
   mass_.assign(n, 1.0);  // until set_masses: 1 kg each
   body_.assign(n, 0);
+  region_.assign(n, 0);
   local_of_.assign(n, -1);
   accumulated_.assign(3 * n, 0.0);
   touched_.assign(n, 0);
@@ -210,8 +214,10 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
       body_[s] = bodies[k];
+      region_[s] = regions[k];
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
+  step_at_ = rest_;  // until a step says where its fixed vertices are
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
   for (int s : owned_surface_) my_vertices_.push_back(s);
   for (size_t e = 0; e < edges_.size(); ++e)
@@ -247,6 +253,26 @@ PetscErrorCode SelfContactTerm::gather_positions(const std::vector<double>& pos)
                               MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
   for (size_t k = 0; k < received_.size(); ++k)
     for (int d = 0; d < 3; ++d) x_[3 * received_[k] + d] = buffer_[3 * k + d];
+  PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::gather_path(const std::vector<double>& mine, std::vector<double>& start,
+                                            std::vector<double>& end) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+  std::vector<int> counts(counts_.size()), offsets(counts_.size());
+  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 6 * counts_[r], offsets[r] = 6 * offsets_[r];
+  buffer_.resize(6 * received_.size());
+  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
+                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
+  start.resize(3 * ids_.size());
+  end.resize(3 * ids_.size());
+  for (size_t k = 0; k < received_.size(); ++k)
+    for (int d = 0; d < 3; ++d) {
+      start[3 * received_[k] + d] = buffer_[6 * k + d];
+      end[3 * received_[k] + d] = buffer_[6 * k + 3 + d];
+    }
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -372,6 +398,56 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;
+  if (barrier_ && step.positions) PetscCall(check_fixed_jump(*step.start_positions, *step.positions));
+  PetscFunctionReturn(0);
+}
+
+// At a step's start the fixed vertices jump to where the step has them while the free ones are at
+// x_n: the straight path of that jump must not carry a surface into another, or the solve would
+// start past a crossing (two primitives that passed through each other are apart again, and their
+// energy is finite). The pairs tested are those with a moving point, except a pair within one
+// fixed region (it moves rigidly). A pair that comes within a tenth of its distance rejects the
+// step; the fallback chain's sub-steps then try shorter jumps, between which the barrier pushes
+// the free surface out of the way. (The solve's iterates then start from an admissible point and
+// limit_step bounds them with the fixed vertices where the step has them.)
+PetscErrorCode SelfContactTerm::check_fixed_jump(const std::vector<double>& start_positions,
+                                                 const std::vector<double>& positions) {
+  PetscFunctionBeginUser;
+  std::vector<double> mine, start;
+  mine.reserve(6 * owned_local_.size());
+  for (PetscInt v : owned_local_) {
+    mine.insert(mine.end(), &start_positions[3 * v], &start_positions[3 * v] + 3);
+    mine.insert(mine.end(), &positions[3 * v], &positions[3 * v] + 3);
+  }
+  PetscCall(gather_path(mine, start, step_at_));
+  rejecting_region_ = 0;
+  std::vector<char> moves(ids_.size());
+  bool any = false;
+  for (size_t s = 0; s < ids_.size(); ++s) {
+    moves[s] = Vec3(&start[3 * s]) != Vec3(&step_at_[3 * s]);
+    any = any || moves[s];
+  }
+  if (!any) PetscFunctionReturn(0);  // every rank has the whole surface: all return here alike
+  struct {
+    double t;
+    int region;
+  } first{HUGE_VAL, 0};
+  broad_phase(start, &step_at_, 0, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    int mover = -1;
+    bool one_region = region_[q[0]] > 0;
+    for (int s : q) {
+      if (moves[s] && mover < 0) mover = s;
+      one_region = one_region && region_[s] == region_[q[0]];
+    }
+    if (mover < 0 || one_region) return;
+    const Vector12d a = coordinates(start, q), b = coordinates(step_at_, q);
+    const double t = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(a, b, 0) : edge_edge_impact(a, b, 0);
+    if (t < first.t || (t == first.t && region_[mover] < first.region)) first = {t, region_[mover]};
+  });
+  // The earliest over the ranks (the lowest region among equal times).
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_DOUBLE_INT, MPI_MINLOC, PetscObjectComm((PetscObject)mesh_.dm)));
+  if (first.t < 1) rejecting_region_ = first.region;
   PetscFunctionReturn(0);
 }
 
@@ -402,6 +478,10 @@ double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d
 
 PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   PetscFunctionBeginUser;
+  if (rejecting_region_) {  // the step's start is past a crossing (every rank alike: no gather)
+    *energy += HUGE_VAL;
+    PetscFunctionReturn(0);
+  }
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
   PetscCall(refresh_candidates());
@@ -481,6 +561,7 @@ PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
 
 PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
   PetscFunctionBeginUser;
+  if (rejecting_region_) PetscFunctionReturn(0);  // a rejected step (add_energy)
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
   PetscCall(refresh_candidates());
@@ -506,32 +587,21 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   PetscInt lo, hi;
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
-  // Each owner sends its surface vertices' position and step (fixed ones: where the last
-  // evaluation had them, not moving).
-  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-  std::vector<double> mine;
+  // Each owner sends its surface vertices' position and end (fixed ones: where the step has them,
+  // not moving).
+  std::vector<double> mine, end;
   PetscCall(VecGetOwnershipRange(x, &lo, &hi));
   PetscCall(VecGetArrayRead(x, &a));
   PetscCall(VecGetArrayRead(dir, &u));
   for (size_t k = 0; k < owned_local_.size(); ++k) {
     const PetscInt g = mesh_.global_dof[owned_local_[k]];
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d]);
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? 0.0 : *alpha * u[g - lo + d]);
+    const double* at = &step_at_[3 * owned_surface_[k]];
+    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? at[d] : a[g - lo + d]);
+    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? at[d] : a[g - lo + d] + *alpha * u[g - lo + d]);
   }
   PetscCall(VecRestoreArrayRead(x, &a));
   PetscCall(VecRestoreArrayRead(dir, &u));
-  std::vector<int> counts(counts_.size()), offsets(counts_.size());
-  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 6 * counts_[r], offsets[r] = 6 * offsets_[r];
-  buffer_.resize(6 * received_.size());
-  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
-                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
-  PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
-  std::vector<double> end(x_.size());
-  for (size_t k = 0; k < received_.size(); ++k)
-    for (int d = 0; d < 3; ++d) {
-      x_[3 * received_[k] + d] = buffer_[6 * k + d];
-      end[3 * received_[k] + d] = buffer_[6 * k + d] + buffer_[6 * k + 3 + d];
-    }
+  PetscCall(gather_path(mine, x_, end));
   double t = 1;
   const auto bound = [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
@@ -626,6 +696,16 @@ PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, Inpu
 PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos, std::string& why) const {
   long touching;
   PetscFunctionBeginUser;
+  if (rejecting_region_) {
+    const int k = rejecting_region_ - 1;
+    const std::string region = k < (int)fixed_lines_.size() && fixed_lines_[k] > 0
+                                   ? "the fixed region of deck line " + std::to_string(fixed_lines_[k])
+                                   : "fixed region " + std::to_string(rejecting_region_);
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + region +
+           " moves its surface into another surface within one step (in the smallest sub-step too): its "
+           "prescribed motion forces the surfaces through each other, or is too fast for the other surface to make way";
+    PetscFunctionReturn(0);
+  }
   if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching > 0)

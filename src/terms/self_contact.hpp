@@ -11,7 +11,10 @@
 //   vertex-triangle: k b(phi),   edge-edge: k m(c) b(phi),
 //   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points).
 // With the barrier every step is bounded by the pairs' continuous collision tests
-// (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
+// (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other; so is the jump
+// of moving fixed vertices at the start of a step (begin_step): one that would carry a surface
+// into another rejects the step (its energy is infinite), which the fallback chain's sub-steps
+// then cut into shorter jumps.
 //
 // Distribution (a first version): every evaluation gathers the positions of all surface vertices
 // to every rank (one MPI_Allgatherv of 3 doubles per surface vertex, not the volume's); every rank
@@ -54,9 +57,10 @@ class SelfContactTerm : public EnergyTerm {
  public:
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
   // gather_event: the gathers and gradient exchange (hqnSelfGather), pairs_event: building the
-  // candidate pairs (hqnSelfPairs).
+  // candidate pairs (hqnSelfPairs). fixed_lines: the deck line of each fixed region (region k at
+  // k - 1, as mesh.fixed numbers them), for the messages.
   SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
-                  PetscLogEvent pairs_event);
+                  PetscLogEvent pairs_event, std::vector<int> fixed_lines = {});
   ~SelfContactTerm() override;
   SelfContactTerm(const SelfContactTerm&) = delete;
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
@@ -70,11 +74,15 @@ class SelfContactTerm : public EnergyTerm {
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
   // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
-  // candidate pairs are built again at the step's first evaluation (collective).
+  // candidate pairs are built again at the step's first evaluation. With the step's positions
+  // (StepStart::positions), the jump of the moving fixed vertices from start_positions to
+  // positions, the free ones at x_n, by the pairs' continuous collision tests: if a pair would
+  // come within a tenth of its distance, every evaluation of the step is rejected (an infinite
+  // energy) and explain_rejection names the region (collective).
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
   // The largest alpha at which no pair touches along the straight path (additive CCD of every
-  // pair whose swept boxes overlap). Fixed vertices stay where the last evaluation had them.
+  // pair whose swept boxes overlap). Fixed vertices stay where the step has them (begin_step).
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
@@ -84,7 +92,8 @@ class SelfContactTerm : public EnergyTerm {
   // surfaces may touch at frame 0 (the problem names contact.self and how many pairs touch).
   // Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
-  // The barrier's energy is infinite where pairs touch: how many (collective).
+  // The barrier's energy is infinite where pairs touch: how many; or the step was rejected at its
+  // start: which fixed region moves its surface into another (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
@@ -93,6 +102,8 @@ class SelfContactTerm : public EnergyTerm {
   size_t surface_edges() const { return edges_.size(); }
   // Pairs within the activation distance at the last evaluation, on this rank.
   size_t active_pairs() const { return active_pairs_; }
+  // The fixed region (k + 1 for the deck's k-th, as mesh.fixed) whose jump rejected this step, 0 if none.
+  int rejecting_region() const { return rejecting_region_; }
   // This rank's candidate pairs, and how many times they were built (tests).
   size_t candidate_pairs() const { return candidates_.size(); }
   size_t candidate_builds() const { return builds_; }
@@ -108,6 +119,12 @@ class SelfContactTerm : public EnergyTerm {
   Vector12d coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const;
   // The surface's positions (x_) from the local positions pos (collective).
   PetscErrorCode gather_positions(const std::vector<double>& pos) const;
+  // Two positions per surface vertex: mine holds 6 per vertex this rank owns (in owned_local_'s
+  // order), start and end get them for the whole surface, 3 each (collective).
+  PetscErrorCode gather_path(const std::vector<double>& mine, std::vector<double>& start, std::vector<double>& end) const;
+  // The jump of the moving fixed vertices at the step's start (begin_step); sets step_at_ and
+  // rejecting_region_ (collective).
+  PetscErrorCode check_fixed_jump(const std::vector<double>& start_positions, const std::vector<double>& positions);
   // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at x
   // (edges and vertices inflated by reach), or, if end is not null, the boxes swept from x to end
   // (inflated by reach). Builds the box trees (over the whole surface).
@@ -147,7 +164,8 @@ class SelfContactTerm : public EnergyTerm {
   bool barrier_ = false;
   PetscLogEvent event_, gather_event_, pairs_event_;
   // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
-  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex.
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex,
+  // fixed region per vertex (as mesh.fixed: 0 free).
   std::vector<int64_t> ids_;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
@@ -156,6 +174,8 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<int> owner_;
   std::vector<double> mass_;
   std::vector<int32_t> body_;
+  std::vector<int32_t> region_;
+  std::vector<int> fixed_lines_;
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
   // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it
   // evaluates.
@@ -165,6 +185,8 @@ class SelfContactTerm : public EnergyTerm {
   // The gather: counts and offsets per rank, in surface vertices, and the receive order.
   std::vector<int> counts_, offsets_, received_;
   mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
+  std::vector<double> step_at_;        // 3 per surface vertex: where the step starts (its fixed vertices' positions)
+  int rejecting_region_ = 0;           // rejecting_region()
   // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
   // current step asks for; stale: build at the next evaluation.
   mutable std::vector<Candidate> candidates_;
