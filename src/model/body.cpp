@@ -34,14 +34,20 @@ std::string Body::material_names() const {
   return s;
 }
 
+const Motion* Body::prescribed_motion(PetscInt v) const {
+  const int32_t region = mesh_.fixed[v];
+  if (region == 0 || region > (int32_t)fixed_regions_.size() || !fixed_regions_[region - 1].motion.active) return nullptr;
+  return &fixed_regions_[region - 1].motion;
+}
+
 void Body::set_time(double t) {
   if (t == time_) return;  // the velocities stay those of the step that reached t
   const double dt = t - time_;
   for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
-    const int32_t region = mesh_.fixed[v];
-    if (region == 0 || region > (int32_t)fixed_regions_.size() || !fixed_regions_[region - 1].motion.active) continue;
+    const Motion* motion = prescribed_motion(v);
+    if (!motion) continue;
     const Vec3 X(&mesh_.rest[3 * v]);
-    const Vec3 p = moved(fixed_regions_[region - 1].motion, X, t);
+    const Vec3 p = moved(*motion, X, t);
     for (int d = 0; d < 3; ++d) {
       fixed_vel_[3 * v + d] = dt > 0 ? (p[d] - fixed_pos_[3 * v + d]) / dt : 0.0;
       fixed_pos_[3 * v + d] = p[d];
@@ -90,7 +96,21 @@ PetscErrorCode Body::set_masses(Vec mass) {
 
 PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
-  for (auto& term : terms_) PetscCall(term->begin_step(step));
+  StepStart full = step;
+  if (couples_surfaces()) {
+    // The moving fixed vertices jump from where they were at t_start to where set_time put them:
+    // a term that couples surfaces checks that path (SelfContactTerm::begin_step).
+    PetscCall(local_positions(step.x_start, step_positions_));
+    step_start_ = step_positions_;
+    for (PetscInt v = 0; v < mesh_.num_vertices; ++v)
+      if (const Motion* motion = prescribed_motion(v)) {
+        const Vec3 p = moved(*motion, Vec3(&mesh_.rest[3 * v]), step.t_start);
+        for (int d = 0; d < 3; ++d) step_start_[3 * v + d] = p[d];
+      }
+    full.start_positions = &step_start_;
+    full.positions = &step_positions_;
+  }
+  for (auto& term : terms_) PetscCall(term->begin_step(full));
   PetscFunctionReturn(0);
 }
 

@@ -42,7 +42,9 @@ class Body {
   const std::vector<std::unique_ptr<EnergyTerm>>& terms() const { return terms_; }
   // The lumped mass per free dof to every term (EnergyTerm::set_masses).
   PetscErrorCode set_masses(Vec mass);
-  // The terms' per-step update (EnergyTerm::begin_step).
+  // The terms' per-step update (EnergyTerm::begin_step); with a term that couples surfaces, the
+  // step's local positions at its start and at the solve's start (StepStart::start_positions,
+  // positions; the fixed vertices already at the time set by set_time).
   PetscErrorCode begin_step(const StepStart& step);
 
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
@@ -85,6 +87,8 @@ class Body {
   PetscErrorCode rest_positions(Vec x) const;
 
  private:
+  // The motion of local vertex v if it is fixed by a region that moves, else null.
+  const Motion* prescribed_motion(PetscInt v) const;
   // out = fixed_values, then the free vertices' entries overwritten from the global vector.
   PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
 
@@ -100,6 +104,7 @@ class Body {
   mutable std::vector<double> J_;    // work: det F per local tet
   std::vector<double> rest_measure_;  // per local tet det Dm, then per triangle its rest area: J's denominators
   mutable std::vector<double> zeros_;  // work: 0 at every local vertex (local_values)
+  std::vector<double> step_start_, step_positions_;  // begin_step's StepStart::start_positions, positions
 };
 
 }  // namespace hyperqn

@@ -125,9 +125,11 @@ std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const
     bodies.push_back({"bodies[" + std::to_string(k) + "]", b.mesh.has_cloth() ? b.cloth.thickness : 0.0,
                       b.cloth.thickness_line, b.line});
   }
+  std::vector<int> fixed_lines;
+  for (const BoxRegion& r : spec.fixed) fixed_lines.push_back(r.line);
   return std::make_unique<SelfContactTerm>(mesh, resolved_contact(spec.contact, rest_diagonal(mesh)),
                                            log_events().self_contact, log_events().self_gather, log_events().self_pairs,
-                                           std::move(bodies));
+                                           std::move(bodies), std::move(fixed_lines));
 }
 
 }  // namespace hyperqn

@@ -67,7 +67,7 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
   PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, s.x, y_}));
+  PetscCall(body_.begin_step({t, solve_dt_, s.x, y_, s.frame * dt_}));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
   euler_completed_ = false;
@@ -207,6 +207,7 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
                                                 StepSolve& out) {
   const double t = (s.frame + 1) * dt_;
   PetscFunctionBeginUser;
+  const double t_z = body_.time();  // z's
   euler_completed_ = true;
   ++counts_->euler_completed;
   PetscCall(VecCopy(s.x, x_hat_));                    // z
@@ -215,7 +216,7 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
   body_.set_time(t);
   PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, y_}));
+  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, y_, t_z}));
   PetscCall(initial_guess(x_hat_, s.x));
   PetscCall(solve_from(solver, x_hat_, s.x, on_iteration, out));
   PetscFunctionReturn(0);

@@ -21,6 +21,12 @@ struct StepStart {
   double dt = 0;         // the step's length h
   Vec x_start = nullptr; // x_n, the positions at its start (global free dofs)
   Vec y = nullptr;       // its inertial target y (global free dofs)
+  double t_start = 0;    // the time of x_start (t_n)
+  // For terms that couple surfaces (Body::begin_step fills them; null otherwise): the local
+  // positions of all local vertices at the step's start (x_n, fixed vertices where they were at
+  // t_start) and where the solve starts from (x_n, fixed vertices already at t).
+  const std::vector<double>* start_positions = nullptr;
+  const std::vector<double>* positions = nullptr;
 };
 
 // A log file of a term's own (a CSV: "frame,time," then its columns), e.g. contact.csv.

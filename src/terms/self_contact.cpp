@@ -196,7 +196,8 @@ double pair_friction_energy(const PairFriction& f, double eps_h, const Vector12d
 }
 
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
-                                 PetscLogEvent gather_event, PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies)
+                                 PetscLogEvent gather_event, PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies,
+                                 std::vector<int> fixed_lines)
     : mesh_(mesh),
       spec_(spec),
       barrier_(spec.model == ContactModel::barrier),
@@ -204,6 +205,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       gather_event_(gather_event),
       pairs_event_(pairs_event),
       bodies_(std::move(bodies)),
+      fixed_lines_(std::move(fixed_lines)),
       step_margin_(spec.distance) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   PetscMPIInt rank;
@@ -246,7 +248,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
 
   // Who owns which surface vertex, its dof, rest position and body: each owner sends its own.
   std::vector<int> sent;
-  std::vector<int32_t> sent_bodies;
+  std::vector<int32_t> sent_bodies, sent_regions;
   std::vector<int64_t> sent_dofs;
   std::vector<double> sent_rest;
   for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
@@ -258,6 +260,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
     sent.push_back(owned_surface_.back());
     sent_dofs.push_back(mesh.global_dof[v]);
     sent_bodies.push_back(mesh.vertex_body.empty() ? 0 : mesh.vertex_body[v]);
+    sent_regions.push_back(mesh.fixed[v]);
     for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
   }
   std::vector<int> counts, offsets;
@@ -265,6 +268,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
   const std::vector<int32_t> vertex_bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
+  const std::vector<int32_t> regions = all_gathered(comm, sent_regions, MPI_INT32_T);
   offsets.assign(counts.size() + 1, 0);
   for (size_t r = 0; r < counts.size(); ++r) offsets[r + 1] = offsets[r] + counts[r];
   const size_t n = ids_.size();
@@ -273,6 +277,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   rest_.assign(3 * n, 0.0);
   mass_.assign(n, 1.0);  // until set_masses: 1 kg each
   body_.assign(n, 0);
+  region_.assign(n, 0);
   local_of_.assign(n, -1);
   accumulated_.assign(3 * n, 0.0);
   touched_.assign(n, 0);
@@ -283,8 +288,10 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
       body_[s] = vertex_bodies[k];
+      region_[s] = regions[k];
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
+  step_at_ = rest_;  // until a step says where its fixed vertices are
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
   half_thickness_.assign(n, 0.0);
   for (size_t s = 0; s < n; ++s) {
@@ -630,6 +637,70 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
     eps_h_ = spec_.friction_velocity * step.dt;
     freeze_friction(start, near.known);
   }
+  if (barrier_ && step.positions) PetscCall(check_fixed_jump(*step.start_positions, *step.positions));
+  PetscFunctionReturn(0);
+}
+
+// At a step's start the fixed vertices jump to where the step has them while the free ones are at
+// x_n: the straight path of that jump must not carry a surface into another, or the solve would
+// start past a crossing (two primitives that passed through each other are apart again, and their
+// energy is finite). The pairs tested are those with a moving point, except a pair within one
+// fixed region (it moves rigidly). A pair that comes within a tenth of its distance rejects the
+// step; the fallback chain's sub-steps then try shorter jumps, between which the barrier pushes
+// the free surface out of the way. (The solve's iterates then start from an admissible point and
+// limit_step bounds them with the fixed vertices where the step has them.)
+PetscErrorCode SelfContactTerm::check_fixed_jump(const std::vector<double>& start_positions,
+                                                 const std::vector<double>& positions) {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscFunctionBeginUser;
+  // Each owner's start and end of its vertices, to the ranks that know them, then (below) to the
+  // ranks the jump's swept boxes reach.
+  path_.resize(6 * ids_.size());
+  int any = 0;
+  for (size_t k = 0; k < owned_local_.size(); ++k) {
+    const PetscInt v = owned_local_[k];
+    const int s = owned_surface_[k];
+    for (int d = 0; d < 3; ++d) {
+      path_[6 * s + d] = start_positions[3 * v + d];
+      path_[6 * s + 3 + d] = step_at_[3 * s + d] = positions[3 * v + d];
+    }
+    any = any || Vec3(&start_positions[3 * v]) != Vec3(&positions[3 * v]);
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_MAX, comm));
+  rejecting_region_ = 0;
+  if (!any) PetscFunctionReturn(0);
+  std::vector<double> start(3 * ids_.size()), end(3 * ids_.size());
+  const auto unpack = [&](const std::vector<int>& known) {
+    for (int s : known)
+      for (int d = 0; d < 3; ++d) start[3 * s + d] = path_[6 * s + d], end[3 * s + d] = path_[6 * s + 3 + d];
+  };
+  PetscCall(exchange(ghosts_, 6, path_));
+  unpack(ghosts_.known_list);
+  Exchange swept;
+  PetscCall(plan_exchange(start, &end, largest_offset_, &swept));
+  PetscCall(exchange(swept, 6, path_));
+  unpack(swept.known_list);
+  struct {
+    double t;
+    int region;
+  } first{HUGE_VAL, 0};
+  broad_phase(start, &end, largest_offset_, &swept.known, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    int mover = -1;
+    bool one_region = region_[q[0]] > 0;
+    for (int s : q) {
+      if (mover < 0 && Vec3(&start[3 * s]) != Vec3(&end[3 * s])) mover = s;
+      one_region = one_region && region_[s] == region_[q[0]];
+    }
+    if (mover < 0 || one_region) return;
+    const Vector12d a = coordinates(start, q), b = coordinates(end, q);
+    const double xi = offset(p);
+    const double t = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(a, b, xi) : edge_edge_impact(a, b, xi);
+    if (t < first.t || (t == first.t && region_[mover] < first.region)) first = {t, region_[mover]};
+  });
+  // The earliest over the ranks (the lowest region among equal times).
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_DOUBLE_INT, MPI_MINLOC, comm));
+  if (first.t < 1) rejecting_region_ = first.region;
   PetscFunctionReturn(0);
 }
 
@@ -690,6 +761,10 @@ void SelfContactTerm::freeze_friction(const std::vector<double>& x, const std::v
 
 PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   PetscFunctionBeginUser;
+  if (rejecting_region_) {  // the step's start is past a crossing (every rank alike: no gather)
+    *energy += HUGE_VAL;
+    PetscFunctionReturn(0);
+  }
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
   PetscCall(refresh_candidates());
@@ -777,6 +852,7 @@ PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
 
 PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
   PetscFunctionBeginUser;
+  if (rejecting_region_) PetscFunctionReturn(0);  // a rejected step (add_energy)
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
   PetscCall(refresh_candidates());
@@ -812,8 +888,8 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   PetscInt lo, hi;
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
-  // Each owner sends its surface vertices' position and step (fixed ones: where the last
-  // evaluation had them, not moving) to the ranks that know them.
+  // Each owner sends its surface vertices' position and step (fixed ones: where the step has them,
+  // not moving) to the ranks that know them.
   PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
   PetscCall(VecGetOwnershipRange(x, &lo, &hi));
   PetscCall(VecGetArrayRead(x, &a));
@@ -822,7 +898,7 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   for (size_t k = 0; k < owned_local_.size(); ++k) {
     const PetscInt g = mesh_.global_dof[owned_local_[k]];
     double* out = &path_[6 * owned_surface_[k]];
-    for (int d = 0; d < 3; ++d) out[d] = g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d];
+    for (int d = 0; d < 3; ++d) out[d] = g < 0 ? step_at_[3 * owned_surface_[k] + d] : a[g - lo + d];
     for (int d = 0; d < 3; ++d) out[3 + d] = g < 0 ? 0.0 : *alpha * u[g - lo + d];
   }
   PetscCall(VecRestoreArrayRead(x, &a));
@@ -1072,6 +1148,16 @@ PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, Inpu
 PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos, std::string& why) const {
   long touching;
   PetscFunctionBeginUser;
+  if (rejecting_region_) {
+    const int k = rejecting_region_ - 1;
+    const std::string region = k < (int)fixed_lines_.size() && fixed_lines_[k] > 0
+                                   ? "the fixed region of deck line " + std::to_string(fixed_lines_[k])
+                                   : "fixed region " + std::to_string(rejecting_region_);
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + region +
+           " moves its surface into another surface within one step (in the smallest sub-step too): its "
+           "prescribed motion forces the surfaces through each other, or is too fast for the other surface to make way";
+    PetscFunctionReturn(0);
+  }
   if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching > 0)

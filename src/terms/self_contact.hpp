@@ -14,7 +14,10 @@
 // (0 for a solid), so two layers of a cloth of thickness t keep t + d apart (Codimensional IPC's
 // offset: the mid-surfaces never come closer than the thickness). With the barrier every step is
 // bounded by the pairs' continuous collision tests with minimum separation xi
-// (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
+// (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other; so is the jump
+// of moving fixed vertices at the start of a step (begin_step): one that would carry a surface
+// into another rejects the step (its energy is infinite), which the fallback chain's sub-steps
+// then cut into shorter jumps.
 //
 // Friction (contact.self_friction mu > 0) is IPC's lagged smoothed Coulomb model, as for obstacles
 // (terms/smoothed_friction.hpp): at the start of each step every pair within d at x_n freezes its
@@ -98,8 +101,10 @@ class SelfContactTerm : public EnergyTerm {
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
   // gather_event: the position and gradient exchanges (hqnSelfGather), pairs_event: building the
   // candidate pairs (hqnSelfPairs). bodies: per body of mesh.vertex_body (none: every body a solid).
+  // fixed_lines: the deck line of each fixed region (region k at k - 1, as mesh.fixed numbers
+  // them), for the messages.
   SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
-                  PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies = {});
+                  PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies = {}, std::vector<int> fixed_lines = {});
   ~SelfContactTerm() override;
   SelfContactTerm(const SelfContactTerm&) = delete;
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
@@ -114,12 +119,16 @@ class SelfContactTerm : public EnergyTerm {
   bool couples_surfaces() const override { return true; }
   // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
   // candidate pairs are built again at the step's first evaluation; with friction, the pairs
-  // within d at x_n freeze their friction (collective).
+  // within d at x_n freeze their friction. With the step's positions (StepStart::positions), the
+  // jump of the moving fixed vertices from start_positions to positions, the free ones at x_n, by
+  // the pairs' continuous collision tests: if a pair would come within a tenth of its distance,
+  // every evaluation of the step is rejected (an infinite energy) and explain_rejection names the
+  // region (collective).
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
   // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
   // of every pair whose swept boxes, grown by xi, overlap; collective). Fixed vertices stay where
-  // the last evaluation had them.
+  // the step has them (begin_step).
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
@@ -131,7 +140,8 @@ class SelfContactTerm : public EnergyTerm {
   // pair may be within its xi (the problem names contact.self and how many pairs touch).
   // Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
-  // The barrier's energy is infinite where pairs are within their xi: how many (collective).
+  // The barrier's energy is infinite where pairs are within their xi: how many; or the step was
+  // rejected at its start: which fixed region moves its surface into another (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
@@ -144,6 +154,8 @@ class SelfContactTerm : public EnergyTerm {
   size_t active_pairs() const { return active_pairs_; }
   // This rank's pairs with lagged friction in the current step.
   size_t friction_pairs() const { return friction_.size(); }
+  // The fixed region (k + 1 for the deck's k-th, as mesh.fixed) whose jump rejected this step, 0 if none.
+  int rejecting_region() const { return rejecting_region_; }
   // This rank's candidate pairs, and how many times they were built (tests).
   size_t candidate_pairs() const { return candidates_.size(); }
   size_t candidate_builds() const { return builds_; }
@@ -181,6 +193,9 @@ class SelfContactTerm : public EnergyTerm {
   // The positions of this rank's surface vertices and ghost layer (x_) from the local positions
   // pos (collective).
   PetscErrorCode gather_positions(const std::vector<double>& pos) const;
+  // The jump of the moving fixed vertices at the step's start (begin_step); sets step_at_ and
+  // rejecting_region_ (collective).
+  PetscErrorCode check_fixed_jump(const std::vector<double>& start_positions, const std::vector<double>& positions);
   // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at x
   // (edges and vertices inflated by reach), or, if end is not null, the boxes swept from x to end
   // (inflated by reach). Builds the box trees over the primitives whose vertices are all known
@@ -241,8 +256,8 @@ class SelfContactTerm : public EnergyTerm {
   bool barrier_ = false;
   PetscLogEvent event_, gather_event_, pairs_event_;
   // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
-  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex;
-  // the bodies as the deck names them.
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex,
+  // fixed region per vertex (as mesh.fixed: 0 free); the bodies as the deck names them.
   std::vector<int64_t> ids_;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
@@ -254,6 +269,8 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<SelfContactBody> bodies_;
   std::vector<double> half_thickness_;  // per surface vertex: half its body's cloth thickness
   double largest_offset_ = 0;           // the largest xi of any pair
+  std::vector<int32_t> region_;
+  std::vector<int> fixed_lines_;
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
   // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it
   // evaluates.
@@ -268,6 +285,8 @@ class SelfContactTerm : public EnergyTerm {
   int tag_ = 0;                         // of the exchanges' messages
   mutable Exchange ghosts_;             // the evaluations' exchange, planned with the candidates
   mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last exchange (known ones)
+  std::vector<double> step_at_;        // 3 per surface vertex: where the step starts (its own fixed vertices' positions)
+  int rejecting_region_ = 0;           // rejecting_region()
   // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
   // current step asks for; stale: build at the next evaluation.
   mutable std::vector<Candidate> candidates_;

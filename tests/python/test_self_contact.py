@@ -299,17 +299,83 @@ def test_friction_ranks_agree(incline_runs):
 
 # bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
 # are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks). blocks_stack3 at 1 rank
-# until all three blocks have landed.
+# until all three blocks have landed; cloth_ball on a coarser sheet; twist 3 times as fast, until
+# the rod has buckled into a loop.
 @pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2),
-                                                 ("blocks_stack3", 10, 1)])
+                                                 ("blocks_stack3", 10, 1), ("cloth_ball", 6, 1), ("twist", 12, 2)])
 def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
     """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
-    buckles): every frame written, 0 intersecting pairs in each."""
+    buckles, the cloth lands on the ball, the twisted rod buckles): every frame written, 0
+    intersecting pairs in each."""
     d = load_deck(f"input/contact/{name}.yaml")
     d["time"]["frames"] = frames
     d["output"] = {"every": 1}
+    if name == "cloth_ball":
+        d["mesh"]["sheet"]["cells"] = [10, 10]
+        d["time"]["dt"] = 0.05
+    if name == "twist":  # the ends 3 times as fast
+        for region in d["fixed"]:
+            region["motion"]["rotate"]["rate"] *= 3
+            region["motion"]["translate"]["velocity"][0] *= 3
     out, _ = run(tmp_path, name, d, ranks)
     assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * (frames + 1)
+
+
+def pusher_deck(wall=False):
+    """A block fixed as a whole, its region moving at 0.5 m/s, 2 cm from a free block (or, with
+    wall, from a block fixed as a whole that does not move; a free block far away). A step of 0.05 s
+    carries the pusher's surface 2.5 cm: into the other block if the step's start were not checked
+    (the base build, d9ab4de, runs it with 36 intersecting pairs at 0.4 s)."""
+    everything = {"box": {"min": [-1, -1, -1], "max": [3, 1, 1]}}
+    pusher = block("pusher", 0.0, [0, 0, 0])
+    pusher["fixed"] = [dict(everything, motion={"translate": {"velocity": [0.5, 0, 0]}})]
+    other = block("wall" if wall else "free", SIZE + 0.02, [0, 0, 0], 0.03, 0.02)
+    bodies = [pusher, other]
+    if wall:
+        other["fixed"] = [everything]
+        bodies.append(block("free", 2.0, [0, 0, 0]))
+    return {"bodies": bodies, "gravity": [0, 0, 0], "time": {"dt": 0.05, "frames": 8},
+            "contact": {"self": True, "model": "barrier", "distance": 5e-3}, "output": {"every": 1}}
+
+
+@pytest.fixture(scope="module")
+def pusher_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("pusher")
+    return {ranks: run(tmp, f"np{ranks}", pusher_deck(), ranks)[0] for ranks in (1, 2)}
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_moving_fixed_region_pushes_a_surface_without_passing_through(pusher_runs, ranks):
+    """The fixed vertices' jump at a step's start is checked (SelfContactTerm::begin_step): a step
+    that would carry the pusher into the free block is refused and redone in sub-steps, between
+    which the barrier pushes the free block ahead. 0 intersecting pairs in every frame, the free
+    block ahead of the pusher at the end (at 2 ranks one rank holds only the pusher's fixed
+    vertices); 1 and 2 ranks agree to 1e-10 of the diagonal."""
+    out = pusher_runs[ranks]
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 9
+    summary = read_summary(out)
+    assert summary["substepped_frames"] > 0 and summary["rejected_evaluations"] > 0
+    frames = read_frames(out)
+    last = frames[-1][1].points
+    assert last[:27, 0].max() == pytest.approx(0.4) and last[27:, 0].min() > 0.4  # moved 0.2 m: pushed ahead
+    one = read_frames(pusher_runs[1])
+    difference = max(np.max(np.abs(f.points - g.points)) for (_, f), (_, g) in zip(one, frames)) / DIAGONAL
+    print(f"1 against {ranks} ranks: {difference:.2e} of the diagonal")
+    assert difference <= 1e-10
+
+
+def test_a_fixed_region_driven_into_a_fixed_surface_stops_naming_it(tmp_path):
+    """Two fixed blocks, one moving into the other: no sub-step can keep their surfaces apart, so
+    the run stops at the first frame (exit 1) with the moving region's deck line."""
+    path = write_deck(tmp_path / "wall.yaml", pusher_deck(wall=True))
+    lines = open(path).read().splitlines()
+    line = next(n for n, text in enumerate(lines, 1) if text.strip() == "fixed:") + 1  # the pusher's region
+    proc = run_hyperqn([path, "-o", tmp_path / "wall"], ranks=None, check=False)
+    print(proc.stdout[-1500:])
+    assert proc.returncode == 1
+    assert (f"frame 1: non-finite energy or gradient at every point tried (REJECTED_INITIAL_GUESS): self-contact: "
+            f"the fixed region of deck line {line} moves its surface into another surface within one step") in proc.stdout
+    assert read_summary(tmp_path / "wall")["status"] != "ok"
 
 
 def test_without_self_contact_none_of_its_code_runs(tmp_path):
