@@ -22,7 +22,8 @@
 // with f0' = f1 the smoothed sliding indicator: f1(s) = 2 s/(eps h) - s^2/(eps h)^2 below eps h, 1
 // above (eps = contact.friction_velocity). Below eps the contact sticks like a stiff spring.
 //
-// Contact and friction do not enter L: A = M + h^2 L stays factored once per scene.
+// Contact and friction do not enter L; L-BFGS's H0 takes their blocks per step (add_vertex_stiffness,
+// solver.h0_contact: solvers/contact_h0.hpp).
 #pragma once
 #include <petsclog.h>
 
