@@ -185,8 +185,8 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "Sherman–Morrison–Woodbury correction of the scene's factor (one A⁻¹ solve per 3 new vertices in contact, a "
        "dense system of up to 3 rows per vertex per step: fast for a few dozen vertices, slow for hundreds). "
        "Measured in [contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop 39.3 → 20.3 iterations "
-       "per frame with `refactor`",
-       "`off`; `refactor` with colliders or self-contact"),
+       "per frame with `refactor` (not the default: its factor outlives the step that made it, so a restart from a "
+       "checkpoint is not bitwise the uninterrupted run)"),
       enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
        "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),
       enum_key<S>("newton_method", &S::newton_method, kNewtonMethodNames,

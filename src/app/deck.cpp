@@ -35,7 +35,6 @@ constexpr double kLargestNumber = 1e100;
 constexpr int kMaxIterations = 1000000;   // per frame
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kContactHistory = 20;         // solver.history's default with colliders
-constexpr H0Contact kContactH0 = H0Contact::refactor;  // solver.h0_contact's default with colliders
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
 
@@ -926,7 +925,6 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     const auto given = [&](const char* key) { return solver && Section(r, *solver, {}).find(key); };
     if (!given("history")) deck.solver.history = kContactHistory;
     if (!given("warm_start")) deck.solver.warm_start = WarmStart::lower;
-    if (!given("h0_contact")) deck.solver.h0_contact = kContactH0;
   }
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
