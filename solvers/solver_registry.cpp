@@ -183,7 +183,8 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "`refactor`: (M + h²L + h²D_c)⁻¹, D_c the blocks' mean eigenvalues on the diagonal, factored again whenever "
        "the set of vertices in contact changes. `woodbury`: (M + h²L + h²K_c)⁻¹ with the blocks themselves, by a "
        "Sherman–Morrison–Woodbury correction of the scene's factor (one A⁻¹ solve per 3 new vertices in contact, a "
-       "dense system of up to 3 rows per vertex per step: fast for a few dozen vertices, slow for hundreds). "
+       "dense system of up to 3 rows per vertex per step: fast for a few dozen vertices, slow for hundreds; it needs "
+       "A = A1 ⊗ I3, so with `h0: rest-stiffness` it is `off`). "
        "Measured in [contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop 39.3 → 20.3 iterations "
        "per frame with `refactor` (not the default: its factor outlives the step that made it, so a restart from a "
        "checkpoint is not bitwise the uninterrupted run)"),
