@@ -76,6 +76,9 @@ CASES = [
     # The guardrails at work: g is NaN at far trial points (the test hook's term), first trials of 100.
     ("guardrails_nan", "tests/decks/guardrails_bar.yaml", (1, 2), None,
      ["-hyperqn_test_nan_energy_beyond", "0.2", "-tao_ls_stepinit", "100"]),
+    # Self-contact: two blocks that meet (Newton), a cloth that folds onto itself (L-BFGS, barrier).
+    ("self_blocks", "tests/decks/self_contact_blocks.yaml", (1, 2), None),
+    ("cloth_pile", "input/contact/cloth_pile.yaml", (1, 2), 8),
 ]
 TIMEOUT_S = 300
 

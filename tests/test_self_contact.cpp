@@ -3,11 +3,16 @@
 // included; then two blocks 0.02 apart with activation distance 0.05 (faces nearly parallel, their
 // edges nearly parallel): the surface found (partition faces left out), the term's gradient and
 // Hessian in the body against differences, the count of pairs and the energy the same at any rank
-// count, and the barrier's step bound stopping a step that closes the gap short of contact; then
-// the candidate pairs kept between evaluations against a search of every pair, over random motions.
+// count, and the barrier's step bound stopping a step that closes the gap short of contact (and,
+// with a thickness offset, short of the offset); then the candidate pairs kept between evaluations
+// against a search of every pair, over random motions. Pairs with a thickness offset xi: the same
+// derivative checks, and the energy at distance xi + s that of a pair without offset at s. Then
+// friction between surfaces: one pair's lagged friction (vertex-triangle and edge-edge) and the
+// two blocks' with the body's gradient and Hessian, against differences.
 #include <petscdmplex.h>
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <random>
 #include <set>
@@ -43,20 +48,20 @@ Vector12d stack(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3& x3) 
   return x;
 }
 
-// One pair's gradient and Hessian against central differences (relative to their largest entry).
-void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x) {
+// A pair function's gradient and Hessian against central differences of step h (relative to their
+// largest entry).
+using PairFunction = std::function<double(const Vector12d& x, Vector12d* g, Matrix12d* H)>;
+void check_derivatives(const std::string& what, const PairFunction& f, const Vector12d& x, double h) {
   Vector12d g, gp, gm, fd_g;
   Matrix12d H, fd_H;
-  const double e = self_contact_pair_energy(spec, kind, x, eps_x, &g, &H);
-  CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
-  const double h = 1e-7 * kDistance;
+  const double e = f(x, &g, &H);
   for (int i = 0; i < 12; ++i) {
     Vector12d xp = x, xm = x;
     xp[i] += h;
     xm[i] -= h;
-    fd_g[i] = (self_contact_pair_energy(spec, kind, xp, eps_x) - self_contact_pair_energy(spec, kind, xm, eps_x)) / (2 * h);
-    self_contact_pair_energy(spec, kind, xp, eps_x, &gp);
-    self_contact_pair_energy(spec, kind, xm, eps_x, &gm);
+    fd_g[i] = (f(xp, nullptr, nullptr) - f(xm, nullptr, nullptr)) / (2 * h);
+    f(xp, &gp, nullptr);
+    f(xm, &gm, nullptr);
     fd_H.col(i) = (gp - gm) / (2 * h);
   }
   const double eg = (fd_g - g).cwiseAbs().maxCoeff() / g.cwiseAbs().maxCoeff();
@@ -64,6 +69,16 @@ void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind,
   std::printf("%s: energy %.4g, gradient error %.1e, Hessian error %.1e\n", what.c_str(), e, eg, eH);
   CHECK_MSG(eg < 1e-6, what + ": gradient vs FD " + std::to_string(eg));
   CHECK_MSG(eH < 1e-5, what + ": Hessian vs FD " + std::to_string(eH));
+}
+
+// One pair's contact energy (self_contact_pair_energy), with thickness offset xi.
+void check_pair(const std::string& what, const ContactSpec& spec, PairKind kind, const Vector12d& x, double eps_x,
+                double xi = 0) {
+  const double e = self_contact_pair_energy(spec, kind, x, eps_x, xi);
+  CHECK_MSG(e > 0 && std::isfinite(e), what + ": within the activation distance");
+  check_derivatives(what, [&](const Vector12d& at, Vector12d* g, Matrix12d* H) {
+    return self_contact_pair_energy(spec, kind, at, eps_x, xi, g, H);
+  }, x, 1e-7 * kDistance);
 }
 
 void check_pairs(const std::string& model) {
@@ -88,9 +103,93 @@ void check_pairs(const std::string& model) {
   CHECK_MSG(ea.cross(eb).squaredNorm() < eps_x, "the nearly parallel edges are mollified");
   check_pair(model + ", nearly parallel edges", spec, PairKind::edge_edge, parallel, eps_x);
   // Outside d: nothing; the barrier at contact: infinite.
-  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(inside + 1.01 * kDistance * n, t0, t1, t2), 0) == 0);
+  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(inside + 1.01 * kDistance * n, t0, t1, t2), 0, 0) == 0);
   if (model == "barrier")
-    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(t0, t0, t1, t2), 0)));
+    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, stack(t0, t0, t1, t2), 0, 0)));
+
+  // A thickness offset xi (two layers of a cloth 0.03 thick): the same energy at xi + s as without
+  // it at s, zero from xi + d on, infinite for the barrier within xi; derivatives as above.
+  const double xi = 0.03;
+  const auto over_face = [&](double distance) { return stack(inside + distance * n, t0, t1, t2); };
+  const double e_offset = self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(xi + 0.5 * kDistance), 0, xi);
+  const double e_plain = self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(0.5 * kDistance), 0, 0);
+  CHECK_MSG(e_offset > 0 && std::abs(e_offset - e_plain) <= 1e-12 * e_plain,
+            model + ": offset energy " + std::to_string(e_offset) + " against " + std::to_string(e_plain));
+  CHECK(self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(1.01 * (xi + kDistance)), 0, xi) == 0);
+  if (model == "barrier")
+    CHECK(std::isinf(self_contact_pair_energy(spec, PairKind::vertex_triangle, over_face(0.99 * xi), 0, xi)));
+  for (double frac : {0.5, 1e-2}) {
+    Vector12d x = over_face(xi + frac * kDistance);
+    const Vec3 shift(0.01, 0.02, 0);
+    x.segment<3>(0) += shift - shift.dot(n) * n;  // off the centroid, in the face's plane
+    check_pair(model + ", thickness offset, vertex over a face at xi + " + std::to_string(frac) + " d", spec,
+               PairKind::vertex_triangle, x, 0, xi);
+  }
+  const Vector12d crossing_offset = stack(a0, a1, Vec3(0.4, -0.5, xi + 0.3 * kDistance), Vec3(0.6, 0.5, xi + 0.3 * kDistance));
+  check_pair(model + ", thickness offset, crossing edges", spec, PairKind::edge_edge, crossing_offset,
+             edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)), xi);
+}
+
+// A pair's lagged friction (frozen at x_n by lagged_pair_friction, then pair_friction_energy along
+// the step; mu 0.4, k 2, eps h 1e-3): the closest points' weights sum to 1 on the first primitive
+// and -1 on the second, so a rigid translation of the pair does not slide; mu lambda is mu times
+// the normal force on the first primitive (k |b'|); moving the first primitive along the normal
+// costs no friction; the gradient and Hessian against central differences while sticking (|u| =
+// 0.3 eps h) and sliding (5 eps h), where the friction force is mu lambda.
+void check_friction(const std::string& what, PairKind kind, const Vector12d& start, double eps_x) {
+  const ContactSpec spec = spec_of("barrier");
+  const double k = 2.0, mu = 0.4, eps_h = 1e-3;
+  PairFriction f;
+  CHECK_MSG(lagged_pair_friction(spec, kind, start, eps_x, 0, k, mu, &f), what + ": within d, frozen");
+  const int first = kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
+  double w_first = 0, w_second = 0;
+  for (int i = 0; i < 4; ++i) (i < first ? w_first : w_second) += f.weights[i];
+  CHECK_MSG(std::abs(w_first - 1) < 1e-12 && std::abs(w_second + 1) < 1e-12,
+            what + ": weights " + std::to_string(w_first) + ", " + std::to_string(w_second));
+  Vector12d g_normal;
+  self_contact_pair_energy(spec, kind, start, eps_x, 0, &g_normal);
+  Vec3 normal_force = Vec3::Zero();
+  for (int i = 0; i < first; ++i) normal_force += k * g_normal.segment<3>(3 * i);
+  CHECK_MSG(std::abs(f.mu_lambda - mu * normal_force.norm()) < 1e-10 * f.mu_lambda, what + ": mu lambda");
+  const Vec3 n = f.T.col(0).cross(f.T.col(1));
+  CHECK_MSG(std::abs(std::abs(n.dot(normal_force.normalized())) - 1) < 1e-10, what + ": the normal");
+
+  const auto energy = [&](const Vector12d& x, Vector12d* g, Matrix12d* H) { return pair_friction_energy(f, eps_h, x, g, H); };
+  const double at_rest = energy(start, nullptr, nullptr);
+  Vector12d moved = start, pushed = start;
+  for (int i = 0; i < 4; ++i) moved.segment<3>(3 * i) += Vec3(0.3, -0.2, 0.1);
+  for (int i = 0; i < first; ++i) pushed.segment<3>(3 * i) += 0.1 * kDistance * n;
+  CHECK_MSG(std::abs(energy(moved, nullptr, nullptr) - at_rest) < 1e-9 * at_rest, what + ": a rigid translation slides");
+  CHECK_MSG(std::abs(energy(pushed, nullptr, nullptr) - at_rest) < 1e-9 * at_rest, what + ": a normal motion slides");
+  const Vec3 slide = 0.8 * f.T.col(0) - 0.6 * f.T.col(1) + 0.3 * n;  // tangential part of length 1
+  for (double amount : {0.3 * eps_h, 5 * eps_h}) {
+    Vector12d x = start;
+    for (int i = 0; i < first; ++i) x.segment<3>(3 * i) += amount * slide;
+    const std::string label = what + " friction, " + (amount < eps_h ? "sticking" : "sliding");
+    check_derivatives(label, energy, x, 1e-5 * eps_h);
+    if (amount < eps_h) continue;
+    Vector12d g;
+    energy(x, &g, nullptr);
+    Vec3 force = Vec3::Zero();
+    for (int i = 0; i < first; ++i) force += g.segment<3>(3 * i);
+    CHECK_MSG(std::abs(force.norm() - f.mu_lambda) < 1e-10 * f.mu_lambda, label + ": the force is mu lambda");
+  }
+}
+
+void check_frictions() {
+  const Vec3 t0(0, 0, 0), t1(1, 0, 0.1), t2(0.2, 1, 0);
+  const Vec3 n = (t1 - t0).cross(t2 - t0).normalized();
+  check_friction("vertex over a face", PairKind::vertex_triangle,
+                 stack((t0 + t1 + t2) / 3 + 0.5 * kDistance * n + Vec3(0.01, 0.02, 0), t0, t1, t2), 0);
+  check_friction("vertex beside an edge", PairKind::vertex_triangle, stack(Vec3(0.5, -0.02, 0.05) + 0.01 * n, t0, t1, t2), 0);
+  const Vec3 a0(0, 0, 0), a1(1, 0, 0);
+  check_friction("crossing edges", PairKind::edge_edge,
+                 stack(a0, a1, Vec3(0.4, -0.5, 0.3 * kDistance), Vec3(0.6, 0.5, 0.3 * kDistance)),
+                 edge_edge_mollifier_threshold(a0, a1, Vec3(0.5, -0.5, 0), Vec3(0.5, 0.5, 0)));
+  // Outside d: nothing frozen.
+  PairFriction f;
+  CHECK(!lagged_pair_friction(spec_of("barrier"), PairKind::vertex_triangle, stack((t0 + t1 + t2) / 3 + 1.01 * kDistance * n, t0, t1, t2),
+                              0, 0, 2.0, 0.4, &f));
 }
 
 // Two blocks of 2 x 2 x 2 cubes side by side along x, kGap apart, the second shifted in y and z.
@@ -110,7 +209,10 @@ TetMesh two_blocks() {
   return serial;
 }
 
-PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term) {
+// thickness: every pair's offset xi (both blocks counted as one body with that cloth thickness);
+// mu: friction between the surfaces.
+PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfContactTerm** term, double thickness = 0,
+                               double mu = 0) {
   PetscMPIInt rank;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
@@ -124,8 +226,11 @@ PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfConta
   mat.has_density = true;
   mat.density = 100;
   std::vector<std::unique_ptr<EnergyTerm>> terms = elastic_terms(s.mesh, {mat}, StrandMaterial());
-  auto self = std::make_unique<SelfContactTerm>(s.mesh, spec_of(model), log_events().self_contact, log_events().self_gather,
-                                                log_events().self_pairs);
+  ContactSpec spec = spec_of(model);
+  spec.self_friction = mu;
+  auto self = std::make_unique<SelfContactTerm>(s.mesh, spec, log_events().self_contact, log_events().self_gather,
+                                                log_events().self_pairs,
+                                                std::vector<SelfContactBody>{{"", thickness, 0, 0}});
   *term = self.get();
   terms.push_back(std::move(self));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
@@ -135,12 +240,62 @@ PetscErrorCode make_two_blocks(const std::string& model, TestScene& s, SelfConta
   PetscFunctionReturn(0);
 }
 
+// The step that moves the second block by 2 gaps towards the first (sign -1: away), bounded by
+// Body::limit_step from x: its alpha and the energy where it ends.
+PetscErrorCode closing_step_bound(TestScene& s, Vec x, double sign, double* alpha, PetscReal* E_end) {
+  Vec xl, dir, end;
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(x, &dir));
+  PetscCall(VecDuplicate(x, &end));
+  PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+  PetscCall(VecSet(xl, 0.0));
+  PetscCall(VecGetArray(xl, &a));
+  for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+    if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v]] = -2 * kGap * sign;
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecSet(dir, 0.0));
+  PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
+  PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+  *alpha = 1;
+  PetscCall(s.body->limit_step(x, dir, alpha));
+  PetscCall(VecWAXPY(end, *alpha, dir, x));
+  PetscCall(s.body->energy_gradient(end, E_end, nullptr));
+  PetscCall(VecDestroy(&dir));
+  PetscCall(VecDestroy(&end));
+  PetscFunctionReturn(0);
+}
+
+// The barrier's step bound with a thickness offset xi = 0.01 (half the gap): the continuous
+// collision test stops the closing step where the pairs still keep xi apart, at about a quarter
+// of it (0.01 of the 0.04 closing, +-0.008 of wiggle), sooner than without the offset.
+PetscErrorCode check_step_bound_with_thickness() {
+  double alpha[2];
+  PetscReal E[2];
+  PetscFunctionBeginUser;
+  for (int k = 0; k < 2; ++k) {
+    TestScene s;
+    SelfContactTerm* term = nullptr;
+    Vec x;
+    PetscCall(make_two_blocks("barrier", s, &term, k == 0 ? 0.0 : 0.01));
+    PetscCall(VecDuplicate(s.step->layout(), &x));
+    PetscCall(test_scene::deformed_positions(s, x, 0.01));
+    PetscCall(closing_step_bound(s, x, 1.0, &alpha[k], &E[k]));
+    PetscCall(VecDestroy(&x));
+  }
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "barrier: the closing step bounded at %.4f, with thickness 0.01 at %.4f\n",
+                        alpha[0], alpha[1]));
+  CHECK_MSG(alpha[1] > 0.02 && alpha[1] < 0.45 && alpha[1] < alpha[0] && std::isfinite(E[1]),
+            "step bound with thickness " + std::to_string(alpha[1]));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode check_two_blocks(const std::string& model) {
   TestScene s;
   SelfContactTerm* term = nullptr;
-  Vec x, grad, dir, xp;
+  Vec x, grad;
   PetscRandom rnd;
-  PetscReal E, Ep;
+  PetscReal E;
   Mat K;
   PetscFunctionBeginUser;
   PetscCall(make_two_blocks(model, s, &term));
@@ -149,7 +304,7 @@ PetscErrorCode check_two_blocks(const std::string& model) {
             "the surface: " + std::to_string(term->surface_triangles()) + " triangles, " +
                 std::to_string(term->surface_vertices()) + " vertices, " + std::to_string(term->surface_edges()) + " edges");
   PetscCall(VecDuplicate(s.step->layout(), &x));
-  for (Vec* w : {&grad, &dir, &xp}) PetscCall(VecDuplicate(x, w));
+  PetscCall(VecDuplicate(x, &grad));
   PetscCall(test_scene::deformed_positions(s, x, 0.01));  // moves a vertex by at most 0.004: the blocks stay apart
   PetscCall(s.body->energy_gradient(x, &E, grad));
   long pairs = (long)term->active_pairs();
@@ -157,6 +312,14 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: %ld pairs within d, E = %.17g\n", model.c_str(), pairs, E));
   // The same pairs at any rank count (each evaluated once; the count printed at 1 rank).
   CHECK_MSG(pairs == 67, "pairs within d: " + std::to_string(pairs));
+  // The ghost layer: on more than one rank, some rank knows only part of the surface's positions
+  // (its own vertices and those within reach: here the near faces of the other block).
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  long known = (long)term->known_vertices();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &known, 1, MPI_LONG, MPI_MIN, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: the fewest surface vertices a rank knows: %ld of 52\n", model.c_str(), known));
+  CHECK_MSG(size == 1 ? known == 52 : known < 52, "surface vertices known: " + std::to_string(known));
 
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
@@ -169,30 +332,67 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscCall(MatDestroy(&K));
 
   if (model == "barrier") {  // the second block moves by 2 gaps towards the first: stopped short
-    Vec xl;
-    PetscScalar* a;
-    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
-    PetscCall(VecSet(xl, 0.0));
-    PetscCall(VecGetArray(xl, &a));
-    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
-      if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v]] = -2 * kGap;
-    PetscCall(VecRestoreArray(xl, &a));
-    PetscCall(VecSet(dir, 0.0));
-    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
-    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
-    double alpha = 1;
-    PetscCall(s.body->limit_step(x, dir, &alpha));
-    PetscCall(VecWAXPY(xp, alpha, dir, x));
-    PetscCall(s.body->energy_gradient(xp, &Ep, nullptr));
+    double alpha, Ep;
+    PetscCall(closing_step_bound(s, x, 1.0, &alpha, &Ep));
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "barrier: a step closing the gap twice over is bounded at %.4f\n", alpha));
     // Contact at about 0.5 (the wiggle of the faces: +-0.004 of the 0.04 closing): within it, finite.
     CHECK_MSG(alpha > 0.2 && alpha < 0.6 && std::isfinite(Ep), "step bound " + std::to_string(alpha));
-    alpha = 1;
-    PetscCall(VecScale(dir, -1.0));  // apart: no bound
-    PetscCall(s.body->limit_step(x, dir, &alpha));
+    PetscCall(closing_step_bound(s, x, -1.0, &alpha, &Ep));  // apart: no bound
     CHECK_MSG(alpha == 1, "moving apart is not bounded: " + std::to_string(alpha));
   }
-  for (Vec* w : {&x, &grad, &dir, &xp}) PetscCall(VecDestroy(w));
+  for (Vec* w : {&x, &grad}) PetscCall(VecDestroy(w));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscFunctionReturn(0);
+}
+
+// The two blocks with friction (self_friction 0.5, eps h = 0.01 * 0.05): a step begun at x_n (the
+// blocks deformed a little) freezes the pairs within d there, as many at any rank count; where the
+// second block has slid along the first by 0.2 and 4 eps h, the body's gradient and Hessian against
+// differences.
+PetscErrorCode check_two_blocks_friction() {
+  TestScene s;
+  SelfContactTerm* term = nullptr;
+  Vec x0, x, grad, xl;
+  PetscRandom rnd;
+  PetscFunctionBeginUser;
+  PetscCall(make_two_blocks("barrier", s, &term, 0, 0.5));
+  PetscCall(VecDuplicate(s.step->layout(), &x0));
+  for (Vec* w : {&x, &grad}) PetscCall(VecDuplicate(x0, w));
+  PetscCall(test_scene::deformed_positions(s, x0, 0.01));
+  PetscCall(s.body->begin_step(StepStart{0.05, 0.05, x0, x0}));
+  long pairs = (long)term->friction_pairs();
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &pairs, 1, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction: %ld pairs frozen at x_n\n", pairs));
+  CHECK_MSG(pairs == 67, "friction pairs within d at x_n: " + std::to_string(pairs));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
+  const double eps_h = 0.01 * 0.05;
+  for (double slide : {0.2 * eps_h, 4 * eps_h}) {
+    PetscScalar* a;
+    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+    PetscCall(DMGlobalToLocal(s.mesh.dm, x0, INSERT_VALUES, xl));
+    PetscCall(VecGetArray(xl, &a));
+    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+      if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) {
+        a[s.mesh.local_dof[v] + 1] += 0.6 * slide;
+        a[s.mesh.local_dof[v] + 2] += 0.8 * slide;
+      }
+    PetscCall(VecRestoreArray(xl, &a));
+    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, x));
+    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+    PetscReal E;
+    PetscCall(s.body->energy_gradient(x, &E, grad));
+    PetscCall(test_scene::check_gradient(*s.body, x, grad, rnd));
+    Mat K;
+    double err;
+    PetscCall(test_scene::stiffness(s, x, false, &K));
+    PetscCall(test_scene::fd_error(K, x, [&](Vec at, Vec g) { PetscReal e; return s.body->energy_gradient(at, &e, g); }, rnd,
+                                   &err, 1e-3 * eps_h));
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction, slid %.1e: Hessian vs FD of the gradient: %.2e\n", slide, err));
+    CHECK_MSG(err < 1e-5, "friction: Hessian vs FD of the gradient: " + std::to_string(err));
+    PetscCall(MatDestroy(&K));
+  }
+  for (Vec* w : {&x0, &x, &grad}) PetscCall(VecDestroy(w));
   PetscCall(PetscRandomDestroy(&rnd));
   PetscFunctionReturn(0);
 }
@@ -300,6 +500,9 @@ int main(int argc, char** argv) {
     if (rank == 0) check_pairs(model);
     PetscCall(check_two_blocks(model));
   }
+  PetscCall(check_step_bound_with_thickness());
+  if (rank == 0) check_frictions();
+  PetscCall(check_two_blocks_friction());
   PetscCall(check_candidates_against_all_pairs());
   const int code = test_scene::tally("test_self_contact");
   PetscCall(PetscFinalize());

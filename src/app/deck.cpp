@@ -436,7 +436,8 @@ void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
 }
 
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
-  read_keys(r, v, cloth_keys(), c);
+  const Section s = read_keys(r, v, cloth_keys(), c);
+  if (const Value* x = s.find("thickness")) c.thickness_line = x->line;
   if (c.model == ClothModel::membrane) {
     const double e = c.youngs_modulus, n = c.poisson_ratio;
     c.mu = e / (2 * (1 + n));        // plane stress: the 2-D Lame constants of a thin sheet
@@ -655,6 +656,9 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   const Section s = read_keys(r, v, contact_keys(), c);
   c.line = v.line;
   if (const Value* x = s.find("distance")) c.distance_line = x->line;
+  if (const Value* x = s.find("self_friction"); x && !c.self)
+    r.fail(*x, "self_friction is the friction between surfaces in self-contact, which is off (self: true turns it on); "
+               "each collider has its own friction");
 }
 
 // attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
@@ -902,6 +906,17 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
       r.fail(*x, "contact describes how the body touches colliders, and there are none (or self-contact: self: true)");
     read_contact(r, *x, deck.contact);
     if (self) deck.contact.self_line = self->line;
+  }
+  // A cloth's thickness acts in self-contact only: without it the key would say nothing.
+  if (!deck.contact.self) {
+    std::vector<std::pair<std::string, const ClothSpec*>> cloths{{"cloth", &deck.cloth}};
+    for (size_t k = 0; k < deck.bodies.size(); ++k)
+      cloths.push_back({"bodies[" + std::to_string(k) + "].cloth", &deck.bodies[k].cloth});
+    for (const auto& [key, cloth] : cloths)
+      if (cloth->thickness_line > 0)
+        r.fail(cloth->thickness_line, key + ".thickness",
+               "a cloth's thickness acts in self-contact only, and the deck has none: leave thickness out, or turn "
+               "self-contact on (contact: {self: true})");
   }
   // Self-contact, like colliders, needs an integrator whose end of step is the solve's z (which
   // the barrier kept free of intersections).

@@ -130,18 +130,21 @@ PetscErrorCode Body::local_velocities(Vec v, std::vector<double>& vel) const {
 }
 
 PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
-  PetscScalar* gl = nullptr;
+  PetscScalar *array = nullptr, *gl = nullptr, no_dofs = 0;
   PetscFunctionBeginUser;
   PetscCall(local_positions(x, pos_));
   if (grad) {
     PetscCall(VecSet(local_, 0.0));
-    PetscCall(VecGetArray(local_, &gl));
+    PetscCall(VecGetArray(local_, &array));
+    // A rank without free dofs (all its vertices fixed) gets no array, but the terms must see a
+    // gradient asked for on every rank alike: self-contact's gradient exchange is collective.
+    gl = array ? array : &no_dofs;
   }
   double e_local = 0;
   for (const auto& term : terms_) PetscCall(term->add_energy(x, pos_, &e_local, gl));
   PetscCallMPI(MPI_Allreduce(&e_local, energy, 1, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   if (grad) {
-    PetscCall(VecRestoreArray(local_, &gl));
+    PetscCall(VecRestoreArray(local_, &array));
     PetscCall(VecSet(grad, 0.0));
     PetscCall(DMLocalToGlobal(mesh_.dm, local_, ADD_VALUES, grad));
   }

@@ -116,10 +116,18 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
                                        log_events().contact);
 }
 
-std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact) {
-  if (!contact.self) return nullptr;
-  return std::make_unique<SelfContactTerm>(mesh, resolved_contact(contact, rest_diagonal(mesh)), log_events().self_contact,
-                                           log_events().self_gather, log_events().self_pairs);
+std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const SceneSpec& spec) {
+  if (!spec.contact.self) return nullptr;
+  std::vector<SelfContactBody> bodies;
+  if (spec.bodies.empty()) bodies.push_back({"", spec.mesh.has_cloth() ? spec.cloth.thickness : 0.0, spec.cloth.thickness_line});
+  for (size_t k = 0; k < spec.bodies.size(); ++k) {
+    const BodySpec& b = spec.bodies[k];
+    bodies.push_back({"bodies[" + std::to_string(k) + "]", b.mesh.has_cloth() ? b.cloth.thickness : 0.0,
+                      b.cloth.thickness_line, b.line});
+  }
+  return std::make_unique<SelfContactTerm>(mesh, resolved_contact(spec.contact, rest_diagonal(mesh)),
+                                           log_events().self_contact, log_events().self_gather, log_events().self_pairs,
+                                           std::move(bodies));
 }
 
 }  // namespace hyperqn

@@ -39,8 +39,8 @@ std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std:
                                          const ContactSpec& contact, const std::string& deck_path);
 
 // Self-contact of the surfaces of all bodies and cloths (terms/self_contact.hpp) with the contact
-// section's model, its defaults resolved for the mesh's rest diagonal; null unless contact.self
-// (no self-contact code at all). Collective.
-std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const ContactSpec& contact);
+// section's model, its defaults resolved for the mesh's rest diagonal, and each cloth's thickness;
+// null unless contact.self (no self-contact code at all). Collective.
+std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const SceneSpec& spec);
 
 }  // namespace hyperqn

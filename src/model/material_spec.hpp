@@ -58,6 +58,8 @@ struct ClothSpec {
   BendingModel bending = BendingModel::none;
   double bending_stiffness = 0;      // quadratic, dihedral: a bending modulus (N m); springs: k (N/m)
   double areal_density = 0;          // mass per unit rest area (kg/m^2)
+  double thickness = 0;              // in self-contact: its mid-surfaces keep this much farther apart
+  int thickness_line = 0;            // deck line of thickness, when given
 };
 
 // The deck's cloth: keys (io/deck_keys.hpp).
@@ -89,6 +91,13 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
                 "model", {"quadratic", "dihedral", "springs"}, true),
       needed(DeckKey<C>{"areal_density", &C::areal_density,
                         "mass per unit rest area, lumped a third to each vertex of a triangle", above(0, "kg/m^2")}),
+      {"thickness", &C::thickness,
+       "in self-contact (`contact.self: true`, a deck error without it), the cloth's thickness t: each side of its "
+       "mid-surface reaches t/2, so a pair of primitives measures its distance less half the thickness of each "
+       "(two layers of the cloth rest about t + `contact.distance` apart, the cloth on a solid about t/2 + "
+       "`contact.distance`); the continuous collision test keeps that much apart. t + `contact.distance` must stay "
+       "below the mesh's spacing at rest ([contact.md](contact.md#cloth-thickness))",
+       at_least(0, "a length")},
   };
   return keys;
 }

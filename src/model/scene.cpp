@@ -400,7 +400,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
   if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path)) terms.push_back(std::move(contact));
-  if (auto self = self_contact_term(s.mesh, spec.contact)) terms.push_back(std::move(self));
+  if (auto self = self_contact_term(s.mesh, spec)) terms.push_back(std::move(self));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
   s.step = std::make_unique<StepObjective>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "terms/smoothed_friction.hpp"
+
 namespace hyperqn {
 
 static constexpr double kStandardGravity = 9.80665;
@@ -119,22 +121,14 @@ PetscErrorCode ContactTerm::limit_step(Vec x, Vec dir, double* alpha) const {
 double ContactTerm::friction_energy(size_t f, const Vec3& p, Vec3* grad, Mat3* hess) const {
   const FrictionPoint& fp = friction_[f];
   const Eigen::Vector2d u = fp.T.transpose() * (p - fp.anchor);
-  const double s = u.norm(), e = eps_h_;
-  // f0(s) and f1(s)/s, f1 = f0' (IPC's C1 mollifier of |u|)
-  const bool sticking = s < e;
-  const double f0 = sticking ? -s * s * s / (3 * e * e) + s * s / e + e / 3 : s;
-  const double f1_over_s = sticking ? 2 / e - s / (e * e) : 1 / s;
-  if (grad) *grad = fp.mu_lambda * f1_over_s * (fp.T * u);
+  const SmoothedFriction sf = smoothed_friction(u.norm(), eps_h_);
+  if (grad) *grad = fp.mu_lambda * sf.f1_over_s * (fp.T * u);
   if (hess) {
-    Eigen::Matrix2d h2 = f1_over_s * Eigen::Matrix2d::Identity();
-    if (s > 0) {
-      // d(f1/s)/ds / s: -1/(e^2 s) while sticking, -1/s^3 when sliding
-      const double c = sticking ? -1 / (e * e * s) : -1 / (s * s * s);
-      h2 += c * u * u.transpose();
-    }
+    Eigen::Matrix2d h2 = sf.f1_over_s * Eigen::Matrix2d::Identity();
+    if (sf.slope != 0) h2 += sf.slope * u * u.transpose();
     *hess = fp.mu_lambda * fp.T * h2 * fp.T.transpose();  // positive semidefinite as it is
   }
-  return fp.mu_lambda * f0;
+  return fp.mu_lambda * sf.f0;
 }
 
 PetscErrorCode ContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
@@ -211,16 +205,6 @@ void ContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vect
     friction_energy(f, Vec3(&pos[3 * v]), nullptr, &h);
     add(v);
   }
-}
-
-// An orthonormal basis of the plane orthogonal to the unit vector n.
-static Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n) {
-  const Vec3 helper = std::abs(n[0]) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
-  const Vec3 t1 = n.cross(helper).normalized();
-  Eigen::Matrix<double, 3, 2> T;
-  T.col(0) = t1;
-  T.col(1) = n.cross(t1);
-  return T;
 }
 
 PetscErrorCode ContactTerm::begin_step(const StepStart& step) {

@@ -19,6 +19,7 @@ struct ContactSpec {
   double stiffness = 1e3;           // force at full penetration of d, in vertex weights
   double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
   bool self = false;                // self-contact: the surfaces of all bodies and cloths against each other
+  double self_friction = 0;         // Coulomb coefficient mu between surfaces in self-contact
   int line = 0;                     // deck line of the section
   int distance_line = 0;            // and of distance, when given
   int self_line = 0;                // and of self, when given
@@ -53,7 +54,13 @@ inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
       {"self", &C::self,
        "`true`: self-contact, the surfaces (tets' boundary faces, cloth triangles) of all bodies and cloths against "
        "each other and themselves, vertex against triangle and edge against edge, with the same `model`, `distance` "
-       "and `stiffness` (no friction yet; [contact.md](contact.md#self-contact)). A deck may then have no colliders"},
+       "and `stiffness` (a cloth's `thickness` adds to the distance its pairs keep; surfaces that cross at frame 0 "
+       "are an input error; friction between them: `self_friction`; [contact.md](contact.md#self-contact)). A deck "
+       "may then have no colliders"},
+      {"self_friction", &C::self_friction,
+       "Coulomb coefficient μ between surfaces in self-contact (`self: true`), lagged and smoothed like the "
+       "colliders' `friction` (with the same `friction_velocity`); each collider keeps its own `friction`",
+       between(0, 100, "a Coulomb coefficient")},
   };
   return keys;
 }

@@ -9,7 +9,9 @@
 
 #include "geometry/box_tree.hpp"
 #include "geometry/pair_ccd.hpp"
+#include "geometry/triangle_intersection.hpp"
 #include "terms/contact.hpp"
+#include "terms/smoothed_friction.hpp"
 
 namespace hyperqn {
 
@@ -36,6 +38,21 @@ std::vector<T> all_gathered(MPI_Comm comm, const std::vector<T>& mine, MPI_Datat
   MPI_Allgatherv(mine.data(), count, type, all.data(), counts.data(), offsets.data(), type, comm);
   if (counts_out) *counts_out = counts;
   return all;
+}
+
+// Every rank's items for each rank (mine[offsets[r], offsets[r + 1]) to rank r), received in rank
+// order; counts_out: how many from each rank. Collective.
+std::vector<int> all_to_all(MPI_Comm comm, const std::vector<int>& mine, const std::vector<int>& counts,
+                            const std::vector<int>& offsets, std::vector<int>* counts_out = nullptr) {
+  const int size = (int)counts.size();
+  std::vector<int> in_counts(size), in_offsets(size + 1, 0);
+  MPI_Alltoall(counts.data(), 1, MPI_INT, in_counts.data(), 1, MPI_INT, comm);
+  for (int r = 0; r < size; ++r) in_offsets[r + 1] = in_offsets[r] + in_counts[r];
+  std::vector<int> in(in_offsets[size]);
+  MPI_Alltoallv(mine.data(), counts.data(), offsets.data(), MPI_INT, in.data(), in_counts.data(), in_offsets.data(),
+                MPI_INT, comm);
+  if (counts_out) *counts_out = in_counts;
+  return in;
 }
 
 // The tets' faces of this rank that no other local tet shares, as input vertex ids, 3 each (a
@@ -76,6 +93,12 @@ unsigned long long mixed(unsigned long long z) {
   return z ^ (z >> 31);
 }
 
+// x > 0 rounded down to two significant digits (a value to suggest that still fits).
+double two_digits_below(double x) {
+  const double scale = std::pow(10.0, std::floor(std::log10(x)) - 1);
+  return std::floor(x / scale) * scale;
+}
+
 Matrix12d clamp_psd(const Matrix12d& H) {
   Eigen::SelfAdjointEigenSolver<Matrix12d> eig(H);
   const Vector12d lambda = eig.eigenvalues().cwiseMax(0.0);
@@ -85,7 +108,7 @@ Matrix12d clamp_psd(const Matrix12d& H) {
 }  // namespace
 
 double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
-                                Vector12d* gradient, Matrix12d* hessian) {
+                                double xi, Vector12d* gradient, Matrix12d* hessian) {
   const bool derivatives = gradient || hessian;
   Vector12d gD;
   Matrix12d HD;
@@ -95,11 +118,11 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
                        : edge_edge_squared_distance(p0, p1, p2, p3, derivatives ? &gD : nullptr, hessian ? &HD : nullptr);
   if (gradient) gradient->setZero();
   if (hessian) hessian->setZero();
-  const double d = spec.distance;
-  if (!(D < d * d)) return 0;
+  const double reach = spec.distance + xi;
+  if (!(D < reach * reach)) return 0;
   const double phi = std::sqrt(D);
   double b, db, d2b;
-  contact_profile(spec, phi, &b, &db, &d2b);
+  contact_profile(spec, phi - xi, &b, &db, &d2b);  // the offset distance: derivatives are phi's
   if (!std::isfinite(b)) return HUGE_VAL;  // the barrier at contact: a rejected point
   // phi = sqrt(D): grad phi = grad D / (2 phi), hess phi = hess D / (2 phi) - grad D grad D^T / (4 phi^3);
   // at phi = 0 (the penalty only) the direction is undefined: no force.
@@ -124,14 +147,63 @@ double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Ve
   return e;
 }
 
+bool lagged_pair_friction(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps, double xi,
+                          double k, double mu, PairFriction* out) {
+  const Vec3 p0 = x.segment<3>(0), p1 = x.segment<3>(3), p2 = x.segment<3>(6), p3 = x.segment<3>(9);
+  Vector12d gD;
+  const double D = kind == PairKind::vertex_triangle ? point_triangle_squared_distance(p0, p1, p2, p3, &gD)
+                                                     : edge_edge_squared_distance(p0, p1, p2, p3, &gD);
+  const double reach = spec.distance + xi;
+  if (!(D < reach * reach) || !(D > 0)) return false;
+  double b, db, d2b;
+  contact_profile(spec, std::sqrt(D) - xi, &b, &db, &d2b);  // as self_contact_pair_energy
+  const double m = kind == PairKind::edge_edge ? edge_edge_mollifier(p0, p1, p2, p3, mollifier_eps) : 1.0;
+  if (!std::isfinite(db) || !(m > 0)) return false;
+  // The closest points from the distance's gradient (geometry/pair_distance.cpp): dD/dx_i = 2 c_i r,
+  // r = sum_i c_i x_i the vector between the closest points, whose weights c_i sum to +-1 over each
+  // primitive. Half the first primitive's gradient is r oriented from the second's closest point
+  // to the first's, and w_i = dD/dx_i . r / (2 |r|^2) are the weights of that orientation.
+  const int first_points = kind == PairKind::vertex_triangle ? 1 : 2;
+  Vec3 r = Vec3::Zero();
+  for (int i = 0; i < first_points; ++i) r += gD.segment<3>(3 * i) / 2;
+  const double rr = r.squaredNorm();
+  if (!(rr > 0)) return false;
+  for (int i = 0; i < 4; ++i) out->weights[i] = gD.segment<3>(3 * i).dot(r) / (2 * rr);
+  out->mu_lambda = mu * k * std::abs(db) * m;
+  out->T = tangent_basis(r / std::sqrt(rr));
+  out->start = x;
+  return true;
+}
+
+double pair_friction_energy(const PairFriction& f, double eps_h, const Vector12d& x, Vector12d* gradient,
+                            Matrix12d* hessian) {
+  Vec3 displacement = Vec3::Zero();  // of the closest points, relative
+  for (int i = 0; i < 4; ++i) displacement += f.weights[i] * (x.segment<3>(3 * i) - f.start.segment<3>(3 * i));
+  const Eigen::Vector2d u = f.T.transpose() * displacement;
+  const SmoothedFriction sf = smoothed_friction(u.norm(), eps_h);
+  if (gradient) {
+    const Vec3 force = f.mu_lambda * sf.f1_over_s * (f.T * u);  // on the first primitive's closest point, negated
+    for (int i = 0; i < 4; ++i) gradient->segment<3>(3 * i) = f.weights[i] * force;
+  }
+  if (hessian) {
+    Eigen::Matrix2d h2 = sf.f1_over_s * Eigen::Matrix2d::Identity();
+    if (sf.slope != 0) h2 += sf.slope * u * u.transpose();
+    const Eigen::Matrix3d block = f.mu_lambda * f.T * h2 * f.T.transpose();  // positive semidefinite
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) hessian->block<3, 3>(3 * i, 3 * j) = f.weights[i] * f.weights[j] * block;
+  }
+  return f.mu_lambda * sf.f0;
+}
+
 SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event,
-                                 PetscLogEvent gather_event, PetscLogEvent pairs_event)
+                                 PetscLogEvent gather_event, PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies)
     : mesh_(mesh),
       spec_(spec),
       barrier_(spec.model == ContactModel::barrier),
       event_(event),
       gather_event_(gather_event),
       pairs_event_(pairs_event),
+      bodies_(std::move(bodies)),
       step_margin_(spec.distance) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   PetscMPIInt rank;
@@ -188,12 +260,13 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
     sent_bodies.push_back(mesh.vertex_body.empty() ? 0 : mesh.vertex_body[v]);
     for (int d = 0; d < 3; ++d) sent_rest.push_back(mesh.rest[3 * v + d]);
   }
-  received_ = all_gathered(comm, sent, MPI_INT, &counts_);
+  std::vector<int> counts, offsets;
+  received_ = all_gathered(comm, sent, MPI_INT, &counts);
   const std::vector<int64_t> dofs = all_gathered(comm, sent_dofs, MPI_INT64_T);
   const std::vector<double> rest = all_gathered(comm, sent_rest, MPI_DOUBLE);
-  const std::vector<int32_t> bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
-  offsets_.assign(counts_.size() + 1, 0);
-  for (size_t r = 0; r < counts_.size(); ++r) offsets_[r + 1] = offsets_[r] + counts_[r];
+  const std::vector<int32_t> vertex_bodies = all_gathered(comm, sent_bodies, MPI_INT32_T);
+  offsets.assign(counts.size() + 1, 0);
+  for (size_t r = 0; r < counts.size(); ++r) offsets[r + 1] = offsets[r] + counts[r];
   const size_t n = ids_.size();
   dof_.assign(n, -1);
   owner_.assign(n, -1);
@@ -204,18 +277,161 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   accumulated_.assign(3 * n, 0.0);
   touched_.assign(n, 0);
   x_.assign(3 * n, 0.0);
-  for (size_t r = 0; r + 1 < offsets_.size(); ++r)
-    for (int k = offsets_[r]; k < offsets_[r + 1]; ++k) {
+  for (size_t r = 0; r + 1 < offsets.size(); ++r)
+    for (int k = offsets[r]; k < offsets[r + 1]; ++k) {
       const int s = received_[k];
       owner_[s] = (int)r;
       dof_[s] = (PetscInt)dofs[k];
-      body_[s] = bodies[k];
+      body_[s] = vertex_bodies[k];
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
+  half_thickness_.assign(n, 0.0);
+  for (size_t s = 0; s < n; ++s) {
+    if (body_[s] < (int32_t)bodies_.size()) half_thickness_[s] = bodies_[body_[s]].thickness / 2;
+    largest_offset_ = std::max(largest_offset_, 2 * half_thickness_[s]);
+  }
   for (int s : owned_surface_) my_vertices_.push_back(s);
   for (size_t e = 0; e < edges_.size(); ++e)
     if (owner_[edges_[e][0]] == rank) my_edges_.push_back((int)e);
+  for (size_t t = 0; t < triangles_.size(); ++t)
+    if (owner_[triangles_[t][0]] == rank) my_triangles_.push_back((int)t);
+  // The halo: the owner of each end of an edge sends it to the owner of the other end (a
+  // triangle's vertices are joined by its edges), which needs no message to plan.
+  std::vector<std::pair<int, int>> halo_receives;
+  for (const auto& e : edges_)
+    for (int k = 0; k < 2; ++k)
+      if (owner_[e[k]] == rank && owner_[e[1 - k]] != rank) {
+        halo_.push_back({owner_[e[1 - k]], e[k]});
+        halo_receives.push_back({owner_[e[1 - k]], e[1 - k]});
+      }
+  ghosts_ = make_exchange(halo_, halo_receives);
+  PetscCallAbort(comm, PetscObjectGetNewTag((PetscObject)mesh.dm, &tag_));
+}
+
+SelfContactTerm::Exchange SelfContactTerm::make_exchange(std::vector<std::pair<int, int>> sends,
+                                                         std::vector<std::pair<int, int>> receives) const {
+  PetscMPIInt size;
+  MPI_Comm_size(PetscObjectComm((PetscObject)mesh_.dm), &size);
+  Exchange plan;
+  const auto fill = [size](std::vector<std::pair<int, int>>& pairs, std::vector<int>& list, std::vector<int>& offsets) {
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    offsets.assign(size + 1, 0);
+    for (const auto& [r, s] : pairs) ++offsets[r + 1], list.push_back(s);
+    for (int r = 0; r < size; ++r) offsets[r + 1] += offsets[r];
+  };
+  fill(sends, plan.send, plan.send_offsets);
+  fill(receives, plan.recv, plan.recv_offsets);
+  plan.known.assign(ids_.size(), 0);
+  for (int s : owned_surface_) plan.known[s] = 1;
+  for (int s : plan.recv) plan.known[s] = 1;
+  for (size_t s = 0; s < ids_.size(); ++s)
+    if (plan.known[s]) plan.known_list.push_back((int)s);
+  return plan;
+}
+
+PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                                              Exchange* plan) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt size, rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  const auto p = [&](int s) { return Vec3(&x[3 * s]); };
+  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
+  // This rank's region: the box of its own vertices and edges (the pairs it evaluates) and its
+  // triangles (the start's crossing test), grown by reach; lo > hi if it has none.
+  std::vector<double> region{HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  const auto take = [&](int s) {
+    for (int d = 0; d < 3; ++d) {
+      region[d] = std::min({region[d], p(s)[d], q(s)[d]});
+      region[3 + d] = std::max({region[3 + d], p(s)[d], q(s)[d]});
+    }
+  };
+  for (int s : my_vertices_) take(s);
+  for (int e : my_edges_) take(edges_[e][1]);
+  for (int t : my_triangles_)
+    for (int s : triangles_[t]) take(s);
+  for (int d = 0; d < 3; ++d) region[d] -= reach, region[3 + d] += reach;
+  const std::vector<double> regions = all_gathered(comm, region, MPI_DOUBLE);
+  std::vector<Box> boxes;
+  std::vector<int> rank_of;
+  for (int r = 0; r < size; ++r)
+    if (r != rank && regions[6 * r] <= regions[6 * r + 3]) {
+      boxes.push_back({Vec3(&regions[6 * r]), Vec3(&regions[6 * r + 3])});
+      rank_of.push_back(r);
+    }
+  const BoxTree others(std::move(boxes));
+  // Each of this rank's triangles and edges that overlaps another rank's region: its vertices are
+  // asked of their owners for that rank, as (rank, vertex) pairs.
+  std::vector<std::vector<int>> asks(size);
+  const auto ask = [&](const Box& box, std::initializer_list<int> vertices) {
+    others.overlapping(box, [&](int i) {
+      for (int s : vertices)
+        if (owner_[s] != rank_of[i]) asks[owner_[s]].insert(asks[owner_[s]].end(), {rank_of[i], s});
+    });
+  };
+  for (int t : my_triangles_) {
+    const auto& v = triangles_[t];
+    ask(bounds({p(v[0]), p(v[1]), p(v[2]), q(v[0]), q(v[1]), q(v[2])}, 0), {v[0], v[1], v[2]});
+  }
+  for (int e : my_edges_) {
+    const auto& v = edges_[e];
+    ask(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, 0), {v[0], v[1]});
+  }
+  // The vertices of this rank's frozen friction pairs, which may have moved out of reach.
+  for (const auto& frozen : friction_)
+    for (int s : points(frozen.first))
+      if (owner_[s] != rank) asks[owner_[s]].insert(asks[owner_[s]].end(), {rank, s});
+  // To the owners; each owner sends its halo and what it was asked, and tells each rank which.
+  std::vector<int> flat, counts(size), offsets(size + 1, 0);
+  for (int r = 0; r < size; ++r) flat.insert(flat.end(), asks[r].begin(), asks[r].end()), counts[r] = (int)asks[r].size();
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<int> asked = all_to_all(comm, flat, counts, offsets);
+  std::vector<std::pair<int, int>> sends = halo_;
+  for (size_t k = 0; k < asked.size(); k += 2) sends.push_back({asked[k], asked[k + 1]});
+  std::sort(sends.begin(), sends.end());
+  sends.erase(std::unique(sends.begin(), sends.end()), sends.end());
+  flat.clear();
+  std::fill(counts.begin(), counts.end(), 0);
+  for (const auto& [r, s] : sends) flat.push_back(s), ++counts[r];
+  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
+  std::vector<int> told_counts;
+  const std::vector<int> told = all_to_all(comm, flat, counts, offsets, &told_counts);
+  std::vector<std::pair<int, int>> receives;
+  for (int r = 0, k = 0; r < size; ++r)
+    for (int j = 0; j < told_counts[r]; ++j) receives.push_back({r, told[k++]});
+  *plan = make_exchange(std::move(sends), std::move(receives));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::exchange(const Exchange& plan, int width, std::vector<double>& values) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt size;
+  std::vector<MPI_Request> requests;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  out_.resize(width * plan.send.size());
+  buffer_.resize(width * plan.recv.size());
+  for (size_t k = 0; k < plan.send.size(); ++k)
+    std::copy_n(&values[width * plan.send[k]], width, &out_[width * k]);
+  for (int r = 0; r < size; ++r) {
+    const int n = plan.recv_offsets[r + 1] - plan.recv_offsets[r];
+    if (n == 0) continue;
+    requests.emplace_back();
+    PetscCallMPI(MPI_Irecv(&buffer_[width * plan.recv_offsets[r]], width * n, MPI_DOUBLE, r, tag_, comm, &requests.back()));
+  }
+  for (int r = 0; r < size; ++r) {
+    const int n = plan.send_offsets[r + 1] - plan.send_offsets[r];
+    if (n == 0) continue;
+    requests.emplace_back();
+    PetscCallMPI(MPI_Isend(&out_[width * plan.send_offsets[r]], width * n, MPI_DOUBLE, r, tag_, comm, &requests.back()));
+  }
+  PetscCallMPI(MPI_Waitall((int)requests.size(), requests.data(), MPI_STATUSES_IGNORE));
+  for (size_t k = 0; k < plan.recv.size(); ++k)
+    std::copy_n(&buffer_[width * k], width, &values[width * plan.recv[k]]);
+  PetscFunctionReturn(0);
 }
 
 SelfContactTerm::~SelfContactTerm() = default;
@@ -237,16 +453,9 @@ PetscErrorCode SelfContactTerm::set_masses(Vec mass) {
 PetscErrorCode SelfContactTerm::gather_positions(const std::vector<double>& pos) const {
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-  std::vector<double> mine;
-  mine.reserve(3 * owned_local_.size());
-  for (PetscInt v : owned_local_) mine.insert(mine.end(), &pos[3 * v], &pos[3 * v] + 3);
-  std::vector<int> counts(counts_.size()), offsets(counts_.size());
-  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 3 * counts_[r], offsets[r] = 3 * offsets_[r];
-  buffer_.resize(3 * received_.size());
-  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
-                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
-  for (size_t k = 0; k < received_.size(); ++k)
-    for (int d = 0; d < 3; ++d) x_[3 * received_[k] + d] = buffer_[3 * k + d];
+  for (size_t k = 0; k < owned_local_.size(); ++k)
+    std::copy_n(&pos[3 * owned_local_[k]], 3, &x_[3 * owned_surface_[k]]);
+  PetscCall(exchange(ghosts_, 3, x_));
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -264,40 +473,63 @@ Vector12d SelfContactTerm::coordinates(const std::vector<double>& x, const std::
 
 template <class Visit>
 void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
-                                  Visit&& visit) const {
+                                  const std::vector<char>* known, Visit&& visit) const {
   const auto p = [&](int s) { return Vec3(&x[3 * s]); };
   const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
+  const auto is_known = [&](std::initializer_list<int> vertices) {
+    for (int s : vertices)
+      if (known && !(*known)[s]) return false;
+    return true;
+  };
   std::vector<Box> boxes;
-  boxes.reserve(triangles_.size());
-  for (const auto& t : triangles_) boxes.push_back(bounds({p(t[0]), p(t[1]), p(t[2]), q(t[0]), q(t[1]), q(t[2])}, 0));
+  std::vector<int> index;  // the tree's boxes: which triangle, then which edge
+  for (size_t t = 0; t < triangles_.size(); ++t) {
+    const auto& v = triangles_[t];
+    if (!is_known({v[0], v[1], v[2]})) continue;
+    boxes.push_back(bounds({p(v[0]), p(v[1]), p(v[2]), q(v[0]), q(v[1]), q(v[2])}, 0));
+    index.push_back((int)t);
+  }
   const BoxTree triangles(std::move(boxes));
   for (int v : my_vertices_)
-    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int t) {
+    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int i) {
+      const int t = index[i];
       const auto& tri = triangles_[t];
       if (tri[0] != v && tri[1] != v && tri[2] != v) visit(Pair{PairKind::vertex_triangle, v, t});
     });
   boxes.clear();
-  for (const auto& e : edges_) boxes.push_back(bounds({p(e[0]), p(e[1]), q(e[0]), q(e[1])}, reach));
+  index.clear();
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    const auto& v = edges_[e];
+    if (!is_known({v[0], v[1]})) continue;
+    boxes.push_back(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, reach));
+    index.push_back((int)e);
+  }
   const BoxTree edges(std::move(boxes));
   for (int e : my_edges_) {
     const auto& a = edges_[e];
-    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int f) {
+    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int i) {
+      const int f = index[i];
       const auto& b = edges_[f];
       if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
     });
   }
 }
 
-bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const {
-  if (stale_) return false;
-  double largest = 0;
-  for (size_t s = 0; s < moved_.size(); ++s) {
+PetscErrorCode SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::vector<double>* end,
+                                                 bool* covered) const {
+  PetscFunctionBeginUser;
+  *covered = false;
+  if (stale_) PetscFunctionReturn(0);
+  for (int s : ghosts_.known_list) {
     const Vec3 built(&built_at_[3 * s]);
     moved_[s] = (Vec3(&x[3 * s]) - built).norm();
     if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built).norm());
-    largest = std::max(largest, moved_[s]);
   }
-  return largest <= kMoveFraction * built_margin_;
+  double largest = 0;  // over the surface: each vertex's move is its owner's to count
+  for (int s : owned_surface_) largest = std::max(largest, moved_[s]);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
+  *covered = largest <= kMoveFraction * built_margin_;
+  PetscFunctionReturn(0);
 }
 
 // Why the list misses no pair within d. A pair's distance is the least distance between a point of
@@ -313,14 +545,21 @@ bool SelfContactTerm::candidates_cover(const std::vector<double>& x, const std::
 // passed over. The same holds all along a straight step whose both ends are within 0.4 of the
 // margin (the path stays in the ball around the build's position), which is what limit_step needs.
 PetscErrorCode SelfContactTerm::refresh_candidates() const {
+  bool covered;
   PetscFunctionBeginUser;
-  if (candidates_cover(x_, nullptr)) PetscFunctionReturn(0);
+  PetscCall(candidates_cover(x_, nullptr, &covered));
+  if (covered) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
-  const double reach = spec_.distance + step_margin_;
+  const double reach = spec_.distance + step_margin_;  // in distance less xi
+  // The ghost layer for the list: every primitive within reach of this rank's (see plan_exchange).
+  PetscCall(plan_exchange(x_, nullptr, reach + largest_offset_, &ghosts_));
+  PetscCall(exchange(ghosts_, 3, x_));
+  PetscCall(PetscInfo(nullptr, "self-contact ghost layer: this rank knows %zu of the %zu surface vertices, sends %zu and receives %zu per evaluation\n",
+                      ghosts_.known_list.size(), ids_.size(), ghosts_.send.size(), ghosts_.recv.size()));
   candidates_.clear();
-  broad_phase(x_, nullptr, reach, [&](const Pair& p) {
-    const double D = squared_distance(p, x_);
-    if (D <= reach * reach) candidates_.push_back({p, std::sqrt(D)});
+  broad_phase(x_, nullptr, reach + largest_offset_, &ghosts_.known, [&](const Pair& p) {
+    const double gap = std::sqrt(squared_distance(p, x_)) - offset(p);
+    if (gap <= reach) candidates_.push_back({p, gap});
   });
   // A canonical order: the energy and gradient sums do not depend on where the list was built.
   std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& c, const Candidate& e) {
@@ -372,6 +611,25 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;
+  if (spec_.self_friction > 0) {
+    // The surface at x_n: the free vertices' from x_n, the fixed ones' where the last evaluation
+    // had them (a fixed point does not slide: its weight is 0).
+    std::vector<double> start(x_.size());
+    PetscCall(VecGetArrayRead(step.x_start, &x));
+    for (size_t k = 0; k < owned_local_.size(); ++k) {
+      const PetscInt g = mesh_.global_dof[owned_local_[k]];
+      for (int d = 0; d < 3; ++d) start[3 * owned_surface_[k] + d] = g < 0 ? x_[3 * owned_surface_[k] + d] : x[g - lo + d];
+    }
+    PetscCall(VecRestoreArrayRead(step.x_start, &x));
+    // The positions within d of this rank's primitives at x_n: the halo, then a ghost layer.
+    friction_.clear();
+    PetscCall(exchange(ghosts_, 3, start));
+    Exchange near;
+    PetscCall(plan_exchange(start, nullptr, spec_.distance + largest_offset_, &near));
+    PetscCall(exchange(near, 3, start));
+    eps_h_ = spec_.friction_velocity * step.dt;
+    freeze_friction(start, near.known);
+  }
   PetscFunctionReturn(0);
 }
 
@@ -382,22 +640,52 @@ double SelfContactTerm::squared_distance(const Pair& p, const std::vector<double
              : edge_edge_squared_distance(c.segment<3>(0), c.segment<3>(3), c.segment<3>(6), c.segment<3>(9));
 }
 
-double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
+double SelfContactTerm::offset(const Pair& p) const {
   const std::array<int, 4> q = points(p);
+  return half_thickness_[q[0]] + half_thickness_[q[p.kind == PairKind::vertex_triangle ? 1 : 2]];
+}
+
+double SelfContactTerm::pair_stiffness(const std::array<int, 4>& q) const {
   double mass = 0;
   int free_points = 0;
   for (int s : q)
     if (dof_[s] >= 0) mass += mass_[s], ++free_points;
-  if (free_points == 0) return 0;  // fixed against fixed: nothing to move
-  double eps = 0;
-  if (p.kind == PairKind::edge_edge)
-    eps = edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
-                                        Vec3(&rest_[3 * q[3]]));
-  const double k = contact_stiffness_per_mass(spec_) * mass / free_points;
-  const double e = self_contact_pair_energy(spec_, p.kind, x, eps, g, H);
+  return free_points == 0 ? 0 : contact_stiffness_per_mass(spec_) * mass / free_points;
+}
+
+double SelfContactTerm::mollifier_eps(const Pair& p) const {
+  if (p.kind != PairKind::edge_edge) return 0;
+  const std::array<int, 4> q = points(p);
+  return edge_edge_mollifier_threshold(Vec3(&rest_[3 * q[0]]), Vec3(&rest_[3 * q[1]]), Vec3(&rest_[3 * q[2]]),
+                                       Vec3(&rest_[3 * q[3]]));
+}
+
+double SelfContactTerm::pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const {
+  const double k = pair_stiffness(points(p));
+  if (k == 0) return 0;  // fixed against fixed: nothing to move
+  const double e = self_contact_pair_energy(spec_, p.kind, x, mollifier_eps(p), offset(p), g, H);
   if (g) *g *= k;
   if (H) *H *= k;
   return k * e;
+}
+
+void SelfContactTerm::freeze_friction(const std::vector<double>& x, const std::vector<char>& known) {
+  friction_.clear();
+  broad_phase(x, nullptr, spec_.distance + largest_offset_, &known, [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    const double k = pair_stiffness(q);
+    PairFriction f;
+    if (k == 0 || !lagged_pair_friction(spec_, p.kind, coordinates(x, q), mollifier_eps(p), offset(p), k,
+                                        spec_.self_friction, &f))
+      return;
+    for (int i = 0; i < 4; ++i)
+      if (dof_[q[i]] < 0) f.weights[i] = 0;  // a fixed point's motion is not the pair's sliding
+    friction_.emplace_back(p, f);
+  });
+  // The canonical order of the candidates: the sums do not depend on the broad phase's.
+  std::sort(friction_.begin(), friction_.end(), [](const auto& f, const auto& g) {
+    return std::tie(f.first.kind, f.first.a, f.first.b) < std::tie(g.first.kind, g.first.a, g.first.b);
+  });
 }
 
 PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
@@ -416,18 +704,26 @@ PetscErrorCode SelfContactTerm::add_energy(Vec, const std::vector<double>& pos, 
     ++active_pairs_;
     active_set_ += mixed(((unsigned long long)p.a << 32 | (unsigned)p.b) * 2 + (p.kind == PairKind::edge_edge));
     e += ep;
-    if (!gradient) return;
-    for (int k = 0; k < 4; ++k) {
-      const int s = q[k];
-      if (dof_[s] < 0) continue;
-      if (!touched_[s]) touched_[s] = 1, touched_list_.push_back(s);
-      for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] += g[3 * k + d];
-    }
+    if (gradient) accumulate(q, g);
   });
+  for (const auto& [p, friction] : friction_) {  // after the normal pairs, in the pairs' order
+    const std::array<int, 4> q = points(p);
+    e += pair_friction_energy(friction, eps_h_, coordinates(x_, q), gradient ? &g : nullptr);
+    if (gradient) accumulate(q, g);
+  }
   *energy += e;
   if (gradient) PetscCall(exchange_gradient(gradient));
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
+}
+
+void SelfContactTerm::accumulate(const std::array<int, 4>& q, const Vector12d& g) const {
+  for (int k = 0; k < 4; ++k) {
+    const int s = q[k];
+    if (dof_[s] < 0) continue;
+    if (!touched_[s]) touched_[s] = 1, touched_list_.push_back(s);
+    for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] += g[3 * k + d];
+  }
 }
 
 PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
@@ -487,15 +783,25 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   Matrix12d h;
   Eigen::Matrix<double, 12, 12, Eigen::RowMajor> block;
   PetscErrorCode error = 0;
-  near_pairs([&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
-    block = scale * (psd ? clamp_psd(h) : h);
+  const auto add = [&](const std::array<int, 4>& q) {
     PetscInt idx[12];
     for (int k = 0; k < 4; ++k)
       for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
     error = MatSetValues(H, 12, idx, 12, idx, block.data(), ADD_VALUES);
+  };
+  near_pairs([&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
+    block = scale * (psd ? clamp_psd(h) : h);
+    add(q);
   });
+  for (const auto& [p, friction] : friction_) {  // positive semidefinite as they are
+    const std::array<int, 4> q = points(p);
+    if (error) break;
+    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
+    block = scale * h;
+    add(q);
+  }
   PetscCall(error);
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -507,46 +813,53 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   // Each owner sends its surface vertices' position and step (fixed ones: where the last
-  // evaluation had them, not moving).
+  // evaluation had them, not moving) to the ranks that know them.
   PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
-  std::vector<double> mine;
   PetscCall(VecGetOwnershipRange(x, &lo, &hi));
   PetscCall(VecGetArrayRead(x, &a));
   PetscCall(VecGetArrayRead(dir, &u));
+  path_.resize(6 * ids_.size());
   for (size_t k = 0; k < owned_local_.size(); ++k) {
     const PetscInt g = mesh_.global_dof[owned_local_[k]];
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d]);
-    for (int d = 0; d < 3; ++d) mine.push_back(g < 0 ? 0.0 : *alpha * u[g - lo + d]);
+    double* out = &path_[6 * owned_surface_[k]];
+    for (int d = 0; d < 3; ++d) out[d] = g < 0 ? x_[3 * owned_surface_[k] + d] : a[g - lo + d];
+    for (int d = 0; d < 3; ++d) out[3 + d] = g < 0 ? 0.0 : *alpha * u[g - lo + d];
   }
   PetscCall(VecRestoreArrayRead(x, &a));
   PetscCall(VecRestoreArrayRead(dir, &u));
-  std::vector<int> counts(counts_.size()), offsets(counts_.size());
-  for (size_t r = 0; r < counts_.size(); ++r) counts[r] = 6 * counts_[r], offsets[r] = 6 * offsets_[r];
-  buffer_.resize(6 * received_.size());
-  PetscCallMPI(MPI_Allgatherv(mine.data(), (int)mine.size(), MPI_DOUBLE, buffer_.data(), counts.data(), offsets.data(),
-                              MPI_DOUBLE, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscCall(exchange(ghosts_, 6, path_));
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
-  std::vector<double> end(x_.size());
-  for (size_t k = 0; k < received_.size(); ++k)
-    for (int d = 0; d < 3; ++d) {
-      x_[3 * received_[k] + d] = buffer_[6 * k + d];
-      end[3 * received_[k] + d] = buffer_[6 * k + d] + buffer_[6 * k + 3 + d];
-    }
+  end_.resize(x_.size());
+  const auto unpack = [&](const std::vector<int>& known) {
+    for (int s : known)
+      for (int d = 0; d < 3; ++d) {
+        x_[3 * s + d] = path_[6 * s + d];
+        end_[3 * s + d] = path_[6 * s + d] + path_[6 * s + 3 + d];
+      }
+  };
+  unpack(ghosts_.known_list);
   double t = 1;
   const auto bound = [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
-    const Vector12d start = coordinates(x_, q), stop = coordinates(end, q);
-    const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, 0)
-                                                              : edge_edge_impact(start, stop, 0);
+    const Vector12d start = coordinates(x_, q), stop = coordinates(end_, q);
+    const double xi = offset(p);
+    const double impact = p.kind == PairKind::vertex_triangle ? vertex_triangle_impact(start, stop, xi)
+                                                              : edge_edge_impact(start, stop, xi);
     t = std::min(t, impact);
   };
-  if (candidates_cover(x_, &end)) {  // no other pair comes within d along the step (refresh_candidates)
+  bool covered;
+  PetscCall(candidates_cover(x_, &end_, &covered));
+  if (covered) {  // no other pair comes within d along the step (refresh_candidates)
     for (const Candidate& c : candidates_)
       if (may_be_within_d(c)) bound(c.pair);
-  } else {
-    broad_phase(x_, &end, 0, bound);
+  } else {  // a ghost layer for this step alone: the primitives whose swept boxes reach this rank's
+    Exchange swept;
+    PetscCall(plan_exchange(x_, &end_, largest_offset_, &swept));
+    PetscCall(exchange(swept, 6, path_));
+    unpack(swept.known_list);
+    broad_phase(x_, &end_, largest_offset_, &swept.known, bound);  // boxes more than xi apart never come within xi
   }
-  *alpha *= t;  // the pair keeps a tenth of its clearance there (pair_ccd.hpp): never touches
+  *alpha *= t;  // the pair keeps a tenth of its clearance above xi there (pair_ccd.hpp): never within xi
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -554,72 +867,205 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
 PetscErrorCode SelfContactTerm::touching_pairs(const std::vector<double>& pos, long* count) const {
   PetscFunctionBeginUser;
   PetscCall(gather_positions(pos));
+  Exchange touching;  // the primitives whose boxes touch this rank's
+  PetscCall(plan_exchange(x_, nullptr, largest_offset_, &touching));
+  PetscCall(exchange(touching, 3, x_));
   long local = 0;
-  broad_phase(x_, nullptr, 0, [&](const Pair& p) { local += squared_distance(p, x_) <= 0; });
+  broad_phase(x_, nullptr, largest_offset_, &touching.known, [&](const Pair& p) {
+    const double xi = offset(p);
+    local += squared_distance(p, x_) <= xi * xi;
+  });
   PetscCallMPI(MPI_Allreduce(&local, count, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode SelfContactTerm::closest_rest_pair(double* distance, int64_t* vertex_id) const {
+PetscErrorCode SelfContactTerm::closest_rest_pair(double* gap_out, double* xi_out, int64_t* vertex_id) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
-  double closest = spec_.distance * spec_.distance;  // squared, then the distance
-  int64_t id = std::numeric_limits<int64_t>::max();
+  constexpr int64_t kNone = std::numeric_limits<int64_t>::max();
+  double gap = spec_.distance, xi = 0;  // the closest pair's distance less its xi, once below d
+  int64_t id = kNone;
   PetscFunctionBeginUser;
-  broad_phase(rest_, nullptr, spec_.distance, [&](const Pair& p) {
+  broad_phase(rest_, nullptr, spec_.distance + largest_offset_, nullptr, [&](const Pair& p) {
     const std::array<int, 4> q = points(p);
     if (body_[q[0]] != body_[q[2]]) return;  // two bodies placed close: not the mesh's spacing
     bool free = false;
     for (int s : q) free = free || dof_[s] >= 0;
     if (!free) return;  // fixed against fixed: no force either
-    const double D = squared_distance(p, rest_);
+    const double g = std::sqrt(squared_distance(p, rest_)) - offset(p);
     int64_t lowest = ids_[q[0]];
     for (int s : q) lowest = std::min(lowest, ids_[s]);
-    if (D < closest || (D == closest && D < spec_.distance * spec_.distance && lowest < id)) closest = D, id = lowest;
+    if (g < gap || (g == gap && g < spec_.distance && lowest < id)) gap = g, xi = offset(p), id = lowest;
   });
-  closest = id == std::numeric_limits<int64_t>::max() ? HUGE_VAL : std::sqrt(closest);
-  const double mine = closest;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &closest, 1, MPI_DOUBLE, MPI_MIN, comm));
-  if (mine != closest) id = std::numeric_limits<int64_t>::max();  // the lowest id among the closest pairs
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &id, 1, MPI_INT64_T, MPI_MIN, comm));
-  *distance = closest;
-  *vertex_id = id;
+  if (id == kNone) gap = HUGE_VAL;
+  const double mine = gap;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &gap, 1, MPI_DOUBLE, MPI_MIN, comm));
+  int64_t lowest = mine == gap ? id : kNone;  // the lowest id among the closest pairs
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &lowest, 1, MPI_INT64_T, MPI_MIN, comm));
+  if (lowest != id) xi = 0;  // that pair's xi, from the rank that found it
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &xi, 1, MPI_DOUBLE, MPI_MAX, comm));
+  *gap_out = gap;
+  *xi_out = xi;
+  *vertex_id = lowest;
+  PetscFunctionReturn(0);
+}
+
+void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, InputProblem& out) const {
+  char what[700];
+  const double apart = gap + xi;
+  if (gap <= 0 && xi > 0) {  // within the thickness: no activation distance fits
+    const int s = (int)(std::lower_bound(ids_.begin(), ids_.end(), vertex) - ids_.begin());
+    const SelfContactBody& b = bodies_[body_[s]];
+    std::snprintf(what, sizeof what,
+                  "%g is too large for the cloth's mesh: two of its primitives that share no vertex (one of them at "
+                  "vertex %lld) are %.4g apart at rest, within the thickness, so self-contact would push the mesh "
+                  "apart from itself at rest; ",
+                  b.thickness, (long long)vertex, apart);
+    out.line = b.thickness_line;
+    out.key = (b.key.empty() ? "" : b.key + ".") + "cloth.thickness";
+    out.what = what;
+    if (apart > spec_.distance)
+      std::snprintf(what, sizeof what, "use a thickness below that gap less contact.distance %g, e.g. %g", spec_.distance,
+                    two_digits_below(apart - spec_.distance));
+    else
+      std::snprintf(what, sizeof what, "that gap is below contact.distance %g too: a thinner cloth and a smaller distance",
+                    spec_.distance);
+    out.what += what;
+    return;
+  }
+  // Half the gap: the mesh at rest stays clear of the layer.
+  const double suggested = gap > 0 ? two_digits_below(gap / 2) : 0;
+  char beyond[120] = "";
+  if (xi > 0) std::snprintf(beyond, sizeof beyond, ", %.4g beyond their thickness offset %.4g (cloth.thickness),", gap, xi);
+  std::snprintf(what, sizeof what,
+                "%s%g is too large for the surface: two of its primitives in one body that share no vertex (one of "
+                "them at vertex %lld) are %.4g apart at rest%s closer than the activation distance, so self-contact "
+                "would push the mesh apart from itself at rest; ",
+                spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, apart,
+                xi > 0 ? beyond : ",");
+  out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
+  out.key = "contact.distance";
+  out.what = what;
+  if (gap > 0) {
+    std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
+    out.what += what;
+  } else {
+    out.what += "they touch (coincident primitives), which no distance fits";
+  }
+}
+
+PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& pos, InputProblem& out) const {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscMPIInt rank;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCall(gather_positions(pos));
+  Exchange touching;  // the triangles whose boxes touch this rank's
+  PetscCall(plan_exchange(x_, nullptr, 0, &touching));
+  PetscCall(exchange(touching, 3, x_));
+  // The checker's tolerance: 1e-8 of the diagonal of the bounding box of all the scene's vertices.
+  Vec3 lo = Vec3::Constant(HUGE_VAL), hi = Vec3::Constant(-HUGE_VAL);
+  for (size_t v = 0; 3 * v < pos.size(); ++v) {
+    lo = lo.cwiseMin(Vec3(&pos[3 * v]));
+    hi = hi.cwiseMax(Vec3(&pos[3 * v]));
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, lo.data(), 3, MPI_DOUBLE, MPI_MIN, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, hi.data(), 3, MPI_DOUBLE, MPI_MAX, comm));
+  const double tol = kIntersectionRtol * (hi - lo).norm();
+  const long n = (long)triangles_.size();
+  const auto corners = [&](long t) {
+    Triangle3 c;
+    for (int k = 0; k < 3; ++k) c[k] = Vec3(&x_[3 * triangles_[t][k]]);
+    return c;
+  };
+  std::vector<Box> boxes;
+  std::vector<int> index;  // the tree's boxes: the known triangles
+  std::vector<char> usable(n, 0);
+  for (long t = 0; t < n; ++t) {
+    const auto& v = triangles_[t];
+    if (!touching.known[v[0]] || !touching.known[v[1]] || !touching.known[v[2]]) continue;
+    const Triangle3 c = corners(t);
+    usable[t] = !degenerate_triangle(c, tol);
+    boxes.push_back(bounds({c[0], c[1], c[2]}, 0));
+    index.push_back((int)t);
+  }
+  const BoxTree tree(std::move(boxes));
+  // Each rank tests the pairs (t, u > t) of its triangles t (a crossing u overlaps t's box, so its
+  // vertices are in the ghost layer); the first pair is the lowest (t, u) in the surface's order,
+  // the same at any rank count.
+  long count = 0;
+  long long first = std::numeric_limits<long long>::max();
+  for (int t : my_triangles_) {
+    if (!usable[t]) continue;
+    const Triangle3 a = corners(t);
+    const auto& ta = triangles_[t];
+    tree.overlapping(bounds({a[0], a[1], a[2]}, 0), [&](int i) {
+      const int u = index[i];
+      const auto& tb = triangles_[u];
+      if (u <= t || !usable[u]) return;
+      for (int i : ta)
+        if (i == tb[0] || i == tb[1] || i == tb[2]) return;  // neighbours in a mesh
+      if (!triangles_cross(a, corners(u), tol)) return;
+      ++count;
+      first = std::min(first, (long long)t * n + u);
+    });
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_LONG, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_LONG_LONG, MPI_MIN, comm));
+  if (count == 0) PetscFunctionReturn(0);
+  const long t = (long)(first / n), u = (long)(first % n);
+  Vec3 at = Vec3::Zero();  // from the rank of t, which found the pair
+  if (owner_[triangles_[t][0]] == rank) triangles_cross(corners(t), corners(u), tol, &at);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, at.data(), 3, MPI_DOUBLE, MPI_SUM, comm));
+  const auto ids = [&](long k) {
+    const auto& tri = triangles_[k];
+    return std::to_string(ids_[tri[0]]) + ", " + std::to_string(ids_[tri[1]]) + ", " + std::to_string(ids_[tri[2]]);
+  };
+  const int32_t bt = body_[triangles_[t][0]], bu = body_[triangles_[u][0]];
+  const int32_t b1 = std::min(bt, bu), b2 = std::max(bt, bu);
+  const bool named = b2 < (int32_t)bodies_.size() && !bodies_[b1].key.empty();
+  std::string what;
+  if (!named) {
+    out.key = "contact.self";
+    out.line = spec_.self_line;
+    what = "the body's surface crosses itself at frame 0: ";
+  } else {
+    out.key = bodies_[b1].key;
+    out.line = bodies_[b1].line;
+    what = b1 == b2 ? "its surface crosses itself at frame 0: "
+                    : "its surface and that of " + bodies_[b2].key + " (deck line " + std::to_string(bodies_[b2].line) +
+                          ") cross at frame 0: ";
+  }
+  char where[200];
+  std::snprintf(where, sizeof where, ", near (%.6g, %.6g, %.6g)", at[0], at[1], at[2]);
+  what += std::to_string(count) + " pair" + (count == 1 ? "" : "s") + " of surface triangles in the scene cross (by more " +
+          "than 1e-8 of its diagonal, as hyperqn_tools.intersections counts them); the first: the triangle of " +
+          "vertices " + ids(t) + " and that of vertices " + ids(u) + where + ". Self-contact cannot separate " +
+          "surfaces that start crossed (the barrier's energy is infinite on the way out; the penalty pushes each pair " +
+          "to its nearer side, which keeps them crossed): " +
+          (named && b1 != b2 ? "move the bodies apart" : "start from a mesh that does not cross itself");
+  out.what = what;
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
-  double gap;
+  double gap, xi;
   int64_t vertex;
   long touching;
   PetscFunctionBeginUser;
-  PetscCall(closest_rest_pair(&gap, &vertex));
+  PetscCall(closest_rest_pair(&gap, &xi, &vertex));
   if (gap < spec_.distance) {
-    // Half the gap, rounded down to two digits: the mesh at rest stays clear of the layer.
-    const double scale = gap > 0 ? std::pow(10.0, std::floor(std::log10(gap / 2)) - 1) : 0;
-    const double suggested = gap > 0 ? std::floor(gap / 2 / scale) * scale : 0;
-    char what[600];
-    std::snprintf(what, sizeof what,
-                  "%s%g is too large for the surface: two of its primitives in one body that share no vertex (one of "
-                  "them at vertex %lld) are %.4g apart at rest, closer than the activation distance, so self-contact "
-                  "would push the mesh apart from itself at rest; ",
-                  spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, gap);
-    out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
-    out.key = "contact.distance";
-    out.what = what;
-    if (gap > 0) {
-      std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
-      out.what += what;
-    } else {
-      out.what += "they touch (coincident primitives), which no distance fits";
-    }
+    rest_gap_problem(gap, xi, vertex, out);
     PetscFunctionReturn(0);
   }
-  if (!barrier_) PetscFunctionReturn(0);
+  PetscCall(check_intersections(pos, out));
+  if (!out.what.empty() || !barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching == 0) PetscFunctionReturn(0);
   out.line = spec_.self_line;
   out.key = "contact.self";
-  out.what = std::to_string(touching) + " pairs of surface primitives touch at frame 0, where the barrier's energy is " +
-             "infinite: move the bodies apart (or use the penalty)";
+  out.what = std::to_string(touching) + " pairs of surface primitives " +
+             (largest_offset_ > 0 ? "touch or are within their thickness offset" : "touch") +
+             " at frame 0, where the barrier's energy is infinite: move the bodies apart (or use the penalty)";
   PetscFunctionReturn(0);
 }
 
@@ -629,18 +1075,30 @@ PetscErrorCode SelfContactTerm::explain_rejection(const std::vector<double>& pos
   if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching > 0)
-    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) + " pairs of surface primitives touch, where the barrier is infinite";
+    why += std::string(why.empty() ? "" : "; ") + "self-contact: " + std::to_string(touching) +
+           " pairs of surface primitives touch" + (largest_offset_ > 0 ? " or are within their thickness offset" : "") +
+           ", where the barrier is infinite";
   PetscFunctionReturn(0);
 }
 
 std::string SelfContactTerm::describe() const {
   char text[300];
   std::snprintf(text, sizeof text,
-                "self-contact: %zu surface triangles, %zu edges, %zu vertices (%zu bytes gathered to every rank per "
-                "evaluation), %s, distance %.4g, stiffness %.4g",
-                triangles_.size(), edges_.size(), ids_.size(), 3 * sizeof(double) * ids_.size(),
+                "self-contact: %zu surface triangles, %zu edges, %zu vertices (each rank's own and a ghost layer "
+                "within reach), %s, distance %.4g, stiffness %.4g",
+                triangles_.size(), edges_.size(), ids_.size(),
                 kContactModelNames[size_t(spec_.model)].c_str(), spec_.distance, spec_.stiffness);
-  return text;
+  std::string out = text;
+  for (const SelfContactBody& b : bodies_)
+    if (b.thickness > 0) {
+      std::snprintf(text, sizeof text, ", %s cloth thickness %.4g", b.key.empty() ? "the" : (b.key + "'s").c_str(), b.thickness);
+      out += text;
+    }
+  if (spec_.self_friction > 0) {
+    std::snprintf(text, sizeof text, ", friction %.4g (friction_velocity %.4g)", spec_.self_friction, spec_.friction_velocity);
+    out += text;
+  }
+  return out;
 }
 
 }  // namespace hyperqn

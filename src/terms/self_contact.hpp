@@ -8,21 +8,36 @@
 // obstacle contact's energy (terms/contact.hpp, contact_profile) of its distance phi = sqrt(D)
 // (geometry/pair_distance.hpp), an edge pair's multiplied by IPC's mollifier, which vanishes for
 // parallel edges:
-//   vertex-triangle: k b(phi),   edge-edge: k m(c) b(phi),
-//   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points).
-// With the barrier every step is bounded by the pairs' continuous collision tests
+//   vertex-triangle: k b(phi - xi),   edge-edge: k m(c) b(phi - xi),
+//   k = contact_stiffness_per_mass * (the mean lumped mass of the pair's free points),
+// xi the pair's thickness offset: half the cloth thickness of each of its two primitives' bodies
+// (0 for a solid), so two layers of a cloth of thickness t keep t + d apart (Codimensional IPC's
+// offset: the mid-surfaces never come closer than the thickness). With the barrier every step is
+// bounded by the pairs' continuous collision tests with minimum separation xi
 // (geometry/pair_ccd.hpp), so no iterate has two surfaces pass through each other.
 //
-// Distribution (a first version): every evaluation gathers the positions of all surface vertices
-// to every rank (one MPI_Allgatherv of 3 doubles per surface vertex, not the volume's); every rank
-// evaluates the pairs it is the owner of: a vertex-triangle pair belongs to the rank owning its
-// vertex, an edge pair (e < f in the surface's order) to the rank owning e's first vertex, the
-// same rule at any rank count. A pair's gradient at vertices of other ranks is summed by this rank
-// and sent to their owners, who add what they receive in the order of the sending ranks (so the
-// sums do not depend on the order messages arrive in).
+// Friction (contact.self_friction mu > 0) is IPC's lagged smoothed Coulomb model, as for obstacles
+// (terms/smoothed_friction.hpp): at the start of each step every pair within d at x_n freezes its
+// normal force lambda = k |b'(phi)| (times the mollifier m(c) for an edge pair), the weights w_i of
+// its closest points (+ on the first primitive, - on the second, 0 at fixed points) and the
+// tangent plane T of the line between them; the step then adds mu lambda f0(|u|),
+// u = T^T sum_i w_i (x_i - x_n,i), the closest points' relative tangential displacement. With
+// mu = 0 no pair is frozen and none of this runs.
+//
+// Distribution (a ghost layer): each rank evaluates the pairs it is the owner of: a
+// vertex-triangle pair belongs to the rank owning its vertex, an edge pair (e < f in the surface's
+// order) to the rank owning e's first vertex, the same rule at any rank count. It knows the
+// positions of its own surface vertices and of a ghost layer, sent by their owners at every
+// evaluation: the vertices of every triangle and edge within reach of its own vertices and edges
+// (found, when the candidate pairs are built, by the owners of those primitives against each
+// rank's region), and its own edges' and triangles' other vertices. The surface's topology (ids,
+// triangles, edges, owners) is on every rank; positions only where known. A pair's gradient at
+// vertices of other ranks is summed by this rank and sent to their owners, who add what they
+// receive in the order of the sending ranks (so the sums do not depend on the order messages
+// arrive in).
 //
 // Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
-// positions where it was built, with their distance then; geometry/box_tree.hpp), built at the
+// positions where it was built, with their distance then, all less xi; geometry/box_tree.hpp), built at the
 // first evaluation of each step and again only when a surface vertex has moved more than
 // kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
 // build less their vertices' moves is below d (refresh_candidates says why no pair within d is
@@ -45,24 +60,52 @@ namespace hyperqn {
 enum class PairKind { vertex_triangle, edge_edge };
 
 // One pair's energy per unit stiffness at x (the 12 coordinates in the kernels' order: vertex,
-// triangle or edge, edge), 0 at phi >= d, +inf for the barrier at phi = 0; its gradient and
-// Hessian if asked. mollifier_eps: the edge pair's eps_x (edge_edge_mollifier_threshold at rest).
+// triangle or edge, edge), 0 at phi - xi >= d, +inf for the barrier at phi <= xi; its gradient and
+// Hessian if asked. mollifier_eps: the edge pair's eps_x (edge_edge_mollifier_threshold at rest);
+// xi: the pair's thickness offset.
 double self_contact_pair_energy(const ContactSpec& spec, PairKind kind, const Vector12d& x, double mollifier_eps,
-                                Vector12d* gradient = nullptr, Matrix12d* hessian = nullptr);
+                                double xi, Vector12d* gradient = nullptr, Matrix12d* hessian = nullptr);
+
+// What self-contact knows of a body (deck bodies[k], or the deck's one body): how the deck names
+// it and its cloth's thickness.
+struct SelfContactBody {
+  std::string key;         // "bodies[k]", or "" for a deck of one body
+  double thickness = 0;    // its cloth's thickness (0: a solid, or a cloth without one)
+  int thickness_line = 0;  // the deck line of its cloth.thickness, when given
+  int line = 0;            // the deck line of bodies[k]
+};
+
+// What a pair's lagged friction freezes at x_n (lagged_pair_friction).
+struct PairFriction {
+  double mu_lambda = 0;                 // mu times the normal force magnitude lambda
+  std::array<double, 4> weights{};      // w_i: the closest points' weights per point
+  Eigen::Matrix<double, 3, 2> T;        // tangent plane of the pair's normal
+  Vector12d start;                      // the four points at x_n
+};
+
+// The lagged friction of a pair at x_n (its 12 coordinates) with thickness offset xi, normal
+// stiffness k (the k of self_contact_pair_energy's energy) and coefficient mu; false, and nothing
+// frozen, if the pair is not within d of xi, touches (no normal) or is mollified away (parallel edges).
+bool lagged_pair_friction(const ContactSpec& spec, PairKind kind, const Vector12d& x_start, double mollifier_eps,
+                          double xi, double k, double mu, PairFriction* out);
+// Its energy mu lambda f0(|u|) at x, with eps_h = friction_velocity times the step; its gradient
+// and Hessian (positive semidefinite) if asked.
+double pair_friction_energy(const PairFriction& friction, double eps_h, const Vector12d& x, Vector12d* gradient = nullptr,
+                            Matrix12d* hessian = nullptr);
 
 class SelfContactTerm : public EnergyTerm {
  public:
   // Finds the surface (collective). event: its log event (hqnSelfContact); within it
-  // gather_event: the gathers and gradient exchange (hqnSelfGather), pairs_event: building the
-  // candidate pairs (hqnSelfPairs).
+  // gather_event: the position and gradient exchanges (hqnSelfGather), pairs_event: building the
+  // candidate pairs (hqnSelfPairs). bodies: per body of mesh.vertex_body (none: every body a solid).
   SelfContactTerm(const DistributedMesh& mesh, const ContactSpec& spec, PetscLogEvent event, PetscLogEvent gather_event,
-                  PetscLogEvent pairs_event);
+                  PetscLogEvent pairs_event, std::vector<SelfContactBody> bodies = {});
   ~SelfContactTerm() override;
   SelfContactTerm(const SelfContactTerm&) = delete;
   SelfContactTerm& operator=(const SelfContactTerm&) = delete;
 
   std::string name() const override { return "self-contact"; }
-  // Collective (the gather), with or without gradient alike on every rank.
+  // Collective (the exchanges), with or without gradient alike on every rank.
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   // The pairs' 12 x 12 blocks (psd: each projected to positive semidefinite); collective.
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -70,29 +113,37 @@ class SelfContactTerm : public EnergyTerm {
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
   // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
-  // candidate pairs are built again at the step's first evaluation (collective).
+  // candidate pairs are built again at the step's first evaluation; with friction, the pairs
+  // within d at x_n freeze their friction (collective).
   PetscErrorCode begin_step(const StepStart& step) override;
   unsigned long long active_set() const override { return active_set_; }
-  // The largest alpha at which no pair touches along the straight path (additive CCD of every
-  // pair whose swept boxes overlap). Fixed vertices stay where the last evaluation had them.
+  // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
+  // of every pair whose swept boxes, grown by xi, overlap; collective). Fixed vertices stay where
+  // the last evaluation had them.
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
-  // The activation distance must be below the rest spacing of the surface: no two primitives of
-  // one body that share no vertex may be closer than d at rest (the problem names
-  // contact.distance, the gap found and a value that fits). Then, with the barrier, no two
-  // surfaces may touch at frame 0 (the problem names contact.self and how many pairs touch).
+  // The activation distance and thickness must fit the rest spacing of the surface: no two
+  // primitives of one body that share no vertex may be closer than d + xi at rest (the problem
+  // names contact.distance, the gap found and a value that fits, or the cloth's thickness when the
+  // gap is within xi). Then no two surface triangles may cross at frame 0, with either model (the
+  // problem names the bodies, how many pairs cross and one of them); and, with the barrier, no
+  // pair may be within its xi (the problem names contact.self and how many pairs touch).
   // Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
-  // The barrier's energy is infinite where pairs touch: how many (collective).
+  // The barrier's energy is infinite where pairs are within their xi: how many (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
   size_t surface_vertices() const { return ids_.size(); }
   size_t surface_triangles() const { return triangles_.size(); }
   size_t surface_edges() const { return edges_.size(); }
+  // Surface vertices whose positions this rank has at an evaluation: its own and the ghost layer.
+  size_t known_vertices() const { return ghosts_.known_list.size(); }
   // Pairs within the activation distance at the last evaluation, on this rank.
   size_t active_pairs() const { return active_pairs_; }
+  // This rank's pairs with lagged friction in the current step.
+  size_t friction_pairs() const { return friction_.size(); }
   // This rank's candidate pairs, and how many times they were built (tests).
   size_t candidate_pairs() const { return candidates_.size(); }
   size_t candidate_builds() const { return builds_; }
@@ -106,38 +157,81 @@ class SelfContactTerm : public EnergyTerm {
   };
   std::array<int, 4> points(const Pair& p) const;
   Vector12d coordinates(const std::vector<double>& x, const std::array<int, 4>& q) const;
-  // The surface's positions (x_) from the local positions pos (collective).
+  // Which surface vertices' values this rank sends to and receives from each rank: it sends its
+  // own send[send_offsets[r], send_offsets[r + 1]) to rank r and receives recv[recv_offsets[r], ...)
+  // from rank r (surface indices, ascending); known: per surface vertex, whether this rank has its
+  // values (its own or received).
+  struct Exchange {
+    std::vector<int> send, send_offsets, recv, recv_offsets;
+    std::vector<char> known;
+    std::vector<int> known_list;  // the known vertices, ascending
+  };
+  // The exchange of the (rank, own vertex) pairs sends and (rank, other's vertex) pairs receives.
+  Exchange make_exchange(std::vector<std::pair<int, int>> sends, std::vector<std::pair<int, int>> receives) const;
+  // The exchange of this rank's own vertices with the halo (the other vertices of its own edges
+  // and triangles; needs no message to plan) and, for every rank whose region (the boxes of its
+  // own vertices and edges at x, swept to end if given, grown by reach) overlaps one of this
+  // rank's triangles or edges (at x, swept to end), that primitive's vertices, asked of their
+  // owners (collective). Needs x (and end) at this rank's own vertices and halo.
+  PetscErrorCode plan_exchange(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                               Exchange* plan) const;
+  // Sends width values per vertex (values[width * s ...]) as the plan says: the owners' to the
+  // ranks that know the vertex (collective).
+  PetscErrorCode exchange(const Exchange& plan, int width, std::vector<double>& values) const;
+  // The positions of this rank's surface vertices and ghost layer (x_) from the local positions
+  // pos (collective).
   PetscErrorCode gather_positions(const std::vector<double>& pos) const;
   // Calls visit(pair) for the pairs of this rank whose boxes overlap: the primitives' boxes at x
   // (edges and vertices inflated by reach), or, if end is not null, the boxes swept from x to end
-  // (inflated by reach). Builds the box trees (over the whole surface).
+  // (inflated by reach). Builds the box trees over the primitives whose vertices are all known
+  // (known: per surface vertex; nullptr: all).
   template <class Visit>
-  void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach, Visit&& visit) const;
-  // Builds the candidate pairs again at x_ unless the list covers x_ (not collective: every rank
-  // decides alike from the whole surface's positions).
+  void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
+                   const std::vector<char>* known, Visit&& visit) const;
+  // Builds the candidate pairs again at x_ (and the ghost layer for them) unless the list covers
+  // x_ (collective: the ranks decide together from their own vertices' moves).
   PetscErrorCode refresh_candidates() const;
   // True if every surface vertex at x (and end, if given) is within kMoveFraction of the list's
-  // margin of where the list was built; moved_: how far each is (the farther of x and end).
-  bool candidates_cover(const std::vector<double>& x, const std::vector<double>* end) const;
-  // A candidate: a pair and its distance when the list was built.
+  // margin of where the list was built (collective); moved_: how far each known vertex is (the
+  // farther of x and end).
+  PetscErrorCode candidates_cover(const std::vector<double>& x, const std::vector<double>* end, bool* covered) const;
+  // A candidate: a pair and its distance less xi when the list was built.
   struct Candidate {
     Pair pair;
     double distance;
   };
-  // False if the candidate's distance at the build less its primitives' moves (moved_) is d or
-  // more: it cannot be within d.
+  // False if the candidate's distance (less xi) at the build less its primitives' moves (moved_)
+  // is d or more: it cannot be within d.
   bool may_be_within_d(const Candidate& c) const;
   // Calls visit(pair) for the candidates that may be within d at x_, in the candidates' order
   // (after refresh_candidates).
   template <class Visit>
   void near_pairs(Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
+  // k of a pair (the mean lumped mass of its free points times the stiffness per mass; 0 if none
+  // is free) and an edge pair's mollifier threshold (0 for a vertex and a triangle).
+  double pair_stiffness(const std::array<int, 4>& q) const;
+  double mollifier_eps(const Pair& p) const;
+  // The pairs of this rank within d (of their xi) at the surface's positions x (known where
+  // known is set), with their lagged friction, in the pairs' canonical order (begin_step).
+  void freeze_friction(const std::vector<double>& x, const std::vector<char>& known);
   double squared_distance(const Pair& p, const std::vector<double>& x) const;
-  // The pairs at distance 0 at pos, over all ranks (collective).
+  // The pair's thickness offset xi: half the thickness of each primitive's body.
+  double offset(const Pair& p) const;
+  // The pairs within their xi at pos (distance 0 without thickness), over all ranks (collective).
   PetscErrorCode touching_pairs(const std::vector<double>& pos, long* count) const;
-  // The smallest distance at rest between two primitives of one body that share no vertex (+inf:
-  // none within d), over all ranks, and the lowest input id of a vertex of such a pair (collective).
-  PetscErrorCode closest_rest_pair(double* distance, int64_t* vertex_id) const;
+  // The smallest distance less xi at rest between two primitives of one body that share no vertex
+  // (+inf: none within d), over all ranks; that pair's xi and the lowest input id of a vertex of
+  // such a pair (collective).
+  PetscErrorCode closest_rest_pair(double* gap, double* xi, int64_t* vertex_id) const;
+  // The problem of a rest gap (closest_rest_pair) below d: d too large, or the thickness alone.
+  void rest_gap_problem(double gap, double xi, int64_t vertex, InputProblem& out) const;
+  // Surface triangles that cross at pos (geometry/triangle_intersection.hpp, with the tolerance of
+  // the scene's bounding box there), over all ranks: the problem names the bodies of the first
+  // such pair in the surface's order, how many pairs cross and where the first does (collective).
+  PetscErrorCode check_intersections(const std::vector<double>& pos, InputProblem& out) const;
+  // Adds a pair's gradient g into the sums per surface vertex (accumulated_, touched_) at its free points q.
+  void accumulate(const std::array<int, 4>& q, const Vector12d& g) const;
   // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:
   // this rank's vertices directly, the others' sent to their owners (collective).
   PetscErrorCode exchange_gradient(PetscScalar* gradient) const;
@@ -147,7 +241,8 @@ class SelfContactTerm : public EnergyTerm {
   bool barrier_ = false;
   PetscLogEvent event_, gather_event_, pairs_event_;
   // The surface (every rank): input ids, triangles and edges (surface vertex indices), rest
-  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex.
+  // positions, global dof (-1: fixed), owning rank, lumped mass (free vertices), body per vertex;
+  // the bodies as the deck names them.
   std::vector<int64_t> ids_;
   std::vector<std::array<int, 3>> triangles_;
   std::vector<std::array<int, 2>> edges_;
@@ -156,15 +251,23 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<int> owner_;
   std::vector<double> mass_;
   std::vector<int32_t> body_;
+  std::vector<SelfContactBody> bodies_;
+  std::vector<double> half_thickness_;  // per surface vertex: half its body's cloth thickness
+  double largest_offset_ = 0;           // the largest xi of any pair
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
   // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it
   // evaluates.
   std::vector<PetscInt> owned_local_, local_of_;
   std::vector<int> owned_surface_;
   std::vector<int> my_vertices_, my_edges_;
-  // The gather: counts and offsets per rank, in surface vertices, and the receive order.
-  std::vector<int> counts_, offsets_, received_;
-  mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last gather
+  // The gather of the surface's data at setup (set_masses): the surface vertex of each item received.
+  std::vector<int> received_;
+  // The triangles whose first vertex this rank owns; the halo: (rank, own vertex) it is sent to.
+  std::vector<int> my_triangles_;
+  std::vector<std::pair<int, int>> halo_;
+  int tag_ = 0;                         // of the exchanges' messages
+  mutable Exchange ghosts_;             // the evaluations' exchange, planned with the candidates
+  mutable std::vector<double> x_;      // 3 per surface vertex: positions at the last exchange (known ones)
   // The candidate pairs (sorted), the positions they were built at, their margin; the margin the
   // current step asks for; stale: build at the next evaluation.
   mutable std::vector<Candidate> candidates_;
@@ -177,7 +280,11 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<double> accumulated_;
   mutable std::vector<char> touched_;
   mutable std::vector<int> touched_list_;
-  mutable std::vector<double> buffer_;  // work
+  mutable std::vector<double> buffer_, out_, path_, end_;  // work
+  // This rank's pairs within d at x_n with their lagged friction (mu > 0), in the pairs' order;
+  // friction_velocity times the step.
+  std::vector<std::pair<Pair, PairFriction>> friction_;
+  double eps_h_ = 0;
   mutable unsigned long long active_set_ = 0;
   mutable size_t active_pairs_ = 0;
 };

@@ -61,6 +61,15 @@ CLOTH = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
          "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.51]}}],
          "time": {"dt": 0.01, "frames": 2}}
 
+
+def cloth_with_thickness(thickness, self_contact):
+    deck = copy.deepcopy(CLOTH)
+    deck["cloth"]["thickness"] = thickness
+    if self_contact:
+        deck["contact"] = {"self": True, "distance": 0.01}
+    return deck
+
+
 BAD_DECKS = {
     "nu_half": (deck_with(**{"material.poisson_ratio": 0.5}), ["material.poisson_ratio"]),
     "dt_zero": (deck_with(**{"time.dt": 0.0}), ["time.dt"]),
@@ -118,6 +127,11 @@ BAD_DECKS = {
                                                                                        "max": [0.01, 0.01, 0.01]},
                                                                                "stiffness": 10.0}]),
                                       [".yaml:12: 'attachments[0].box'", "only vertices that are fixed"]),
+    # cloth.thickness: a length >= 0, and only with self-contact (without it the key would say nothing)
+    "cloth_negative_thickness": (cloth_with_thickness(-0.01, True), ["'cloth.thickness'", ">= 0"]),
+    "cloth_infinite_thickness": (cloth_with_thickness(float("inf"), True), ["'cloth.thickness'", "expected a number"]),
+    "cloth_thickness_without_self_contact": (cloth_with_thickness(0.01, False),
+                                             ["'cloth.thickness'", "acts in self-contact only"]),
 }
 
 

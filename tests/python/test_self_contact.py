@@ -3,10 +3,15 @@ blocks (two `bodies:`) fly at each other in empty space (no gravity, no damping,
 collide and bounce apart. With the barrier, hyperqn_tools.intersections finds no intersecting
 surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block's (every step
 solved by Newton to round-off); the blocks exchange their momentum; 1, 2 and 4 ranks agree to
-1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting. A
-deck without self-contact runs none of its code (its log event's count is
-0); self-contact needs an integrator whose end of step is the solve's, and an activation distance
-below the surface's spacing at rest."""
+1e-8 of the diagonal. A cloth held along its middle folds onto itself without intersecting, its
+halves a thickness farther apart with cloth.thickness. A block on a fixed block, gravity at 30
+degrees to their contact's normal, slides with acceleration g (sin 30 - mu cos 30) within 2 % for
+mu = 0.2 and sticks for mu = 0.8, at 1 and 2 ranks. A deck without self-contact runs none of its
+code (its log event's count is 0); self-contact needs an integrator whose end of step is the
+solve's, an activation distance and thickness below the surface's spacing at rest, and surfaces
+that do not cross at frame 0 (the same pairs as hyperqn_tools.intersections counts)."""
+import re
+
 import numpy as np
 import pytest
 
@@ -108,10 +113,21 @@ def test_penalty_bounces_too(tmp_path):
     assert left[0] < 0 < right[0]
 
 
+def halves_gap(f):
+    """The distance between the closest vertices of the folded sheet's two halves in frame f."""
+    rest = f.points - f.displacement
+    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
+    return np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+
+
 def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
     """A 0.4 m sheet held along its middle line: both halves fall into the same vertical plane
-    below it. With the barrier they come to rest d apart and never cross (without self-contact they
-    pass through each other)."""
+    below it. With the barrier they come to rest just inside d apart and never cross (without
+    self-contact they pass through each other). With cloth.thickness t the contact acts on the
+    distance less t (two layers: half of t each) with the same d: they meet at t + d instead of d.
+    Nothing presses the halves together once they meet (gravity lies in their plane), so they stand
+    at the edge of the layer where the swing leaves them: t + d to 0.1 d in every frame after they
+    meet (measured: t + 0.988 d to t + 1.06 d, drifting slowly outward), never within t."""
     d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
          "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3,
                    "bending": {"model": "springs", "stiffness": 1.0e-3}, "areal_density": 0.2},
@@ -122,12 +138,18 @@ def test_cloth_folds_onto_itself_without_intersecting(tmp_path):
     d["contact"] = {"self": True, "model": "barrier", "distance": 5e-3}
     out, _ = run(tmp_path, "fold", d)
     assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
-    f = read_frames(out)[-1][1]
-    rest = f.points - f.displacement
-    left, right = f.points[rest[:, 0] < 0.19], f.points[rest[:, 0] > 0.21]
-    closest = np.min(np.linalg.norm(left[:, None, :] - right[None, :, :], axis=2))
+    closest = halves_gap(read_frames(out)[-1][1])
     print(f"the halves' closest vertices: {closest:.5f} m apart")
     assert 0 < closest < 5e-3  # they met: within the activation distance, not through
+    thickness = 0.01
+    d["cloth"]["thickness"] = thickness
+    out, _ = run(tmp_path, "fold_thick", d)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 25
+    gaps = np.array([halves_gap(f) for _, f in read_frames(out)])
+    print(f"with thickness {thickness}, the halves' closest vertices per frame (mm): " +
+          " ".join(f"{1e3 * g:.2f}" for g in gaps))
+    met = np.flatnonzero(gaps < thickness + 5e-3)[0]
+    assert gaps.min() > thickness and np.all(np.abs(gaps[met:] - (thickness + 5e-3)) < 0.1 * 5e-3)
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
@@ -153,9 +175,133 @@ def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks
     run(tmp_path, "fits", d, ranks or 1)
 
 
+def test_thickness_larger_than_the_mesh_spacing_is_an_input_error(tmp_path):
+    """The same sheet with thickness 0.04: its closest primitives (0.0354 apart) are within the
+    thickness, which no activation distance fixes: exit 1, nothing written, the line of
+    cloth.thickness and a thickness that fits (the gap less d = 0.005)."""
+    d = {"mesh": {"sheet": {"size": [0.4, 0.4], "cells": [8, 8]}},
+         "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3, "areal_density": 0.2, "thickness": 0.04},
+         "time": {"dt": 1 / 60, "frames": 2}, "contact": {"self": True, "distance": 0.005}}
+    path = write_deck(tmp_path / "thick.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "thickness:" in text)
+    proc = run_hyperqn([path, "-o", tmp_path / "thick"], ranks=None, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not (tmp_path / "thick").exists()
+    assert f"thick.yaml:{line}: 'cloth.thickness': 0.04 is too large for the cloth's mesh" in proc.stdout
+    assert "are 0.03536 apart at rest, within the thickness" in proc.stdout and "e.g. 0.03" in proc.stdout
+
+
+def test_bodies_that_start_crossed_are_an_input_error(tmp_path):
+    """The two blocks, the second 0.05 into the first at frame 0: self-contact cannot separate
+    them (barrier or penalty), so exit 1, nothing written, a message naming bodies[0] and
+    bodies[1], the number of crossing triangle pairs and the first, the same at 1, 2 and 4 ranks;
+    that number is what hyperqn_tools.intersections counts in frame 0 of the same scene run without
+    self-contact."""
+    d = deck(frames=1)
+    d["bodies"][1]["mesh"]["transform"]["translate"] = [SIZE - 0.05, 0.03, 0.02]
+    path = write_deck(tmp_path / "crossed.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "- name: left" in text)
+    messages = {}
+    for model, ranks in (("barrier", None), ("barrier", 2), ("barrier", 4), ("penalty", None)):
+        d["contact"]["model"] = model
+        path = write_deck(tmp_path / "crossed.yaml", d)
+        out = tmp_path / f"crossed_{model}_{ranks}"
+        proc = run_hyperqn([path, "-o", out], ranks=ranks, check=False)
+        print(proc.stdout)
+        assert proc.returncode == 1 and not out.exists()
+        messages[model, ranks] = next(l for l in proc.stdout.splitlines() if "hyperqn: error:" in l)
+    message = messages["barrier", None]
+    assert f"crossed.yaml:{line}: 'bodies[0]': its surface and that of bodies[1] (deck line" in message
+    assert "cross at frame 0" in message and "move the bodies apart" in message
+    assert messages["barrier", 2] == message and messages["barrier", 4] == message
+    assert messages["penalty", None] == message  # the penalty cannot separate them either
+    count = int(re.search(r"(\d+) pairs of surface triangles in the scene cross", message).group(1))
+    del d["contact"]
+    out, _ = run(tmp_path, "crossed_plain", d)
+    checked = check_run(out, frames=[0])[0]["intersecting_pairs"]
+    print(f"crossing pairs: hyperqn {count}, hyperqn_tools.intersections {checked}")
+    assert count == checked > 0
+
+
+# Friction between surfaces (contact.self_friction): a 0.2 m block resting on a fixed 1 m x 0.1 m x
+# 0.4 m block, with gravity at THETA to the normal of their faces (+y) and down the slope along +x:
+# the analytic answer of a block on an incline, as test_contact.py's obstacle inclines.
+THETA, G = np.radians(30.0), 9.81
+INCLINE_DISTANCE = 5e-3
+
+
+def incline_deck(mu, frames, friction_velocity):
+    stiff = {"model": "corotated", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000}
+    return {"bodies": [
+                {"name": "incline", "material": stiff,
+                 "mesh": {"box": {"size": [1.0, 0.1, 0.4], "cells": [5, 1, 2]}, "transform": {"translate": [-0.5, -0.1, -0.2]}},
+                 "fixed": [{"box": {"min": [-1, -1, -1], "max": [1, 0.01, 1]}}]},
+                # 0.9 d above it: about where it rests in the barrier's layer
+                {"name": "block", "material": stiff,
+                 "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [2, 2, 2]},
+                          "transform": {"translate": [-0.4, 0.9 * INCLINE_DISTANCE, -0.13]}}}],
+            "gravity": [float(G * np.sin(THETA)), float(-G * np.cos(THETA)), 0],
+            "contact": {"self": True, "model": "barrier", "distance": INCLINE_DISTANCE, "self_friction": mu,
+                        "friction_velocity": friction_velocity},
+            "time": {"dt": 0.01, "frames": frames},
+            # Newton to round-off: the frames end where the solve converges, not where an iteration
+            # budget stops them (so 1 and 2 ranks agree to round-off)
+            "solver": {"type": "newton", "grad_rtol": 1e-10},
+            "output": {"every": 1}}
+
+
+def block_track(out):
+    """Times and the upper block's mean displacement along the slope (+x)."""
+    frames = read_frames(out)
+    t = np.array([n * 0.01 for n, _ in frames])
+    x = np.array([f.displacement[-27:, 0].mean() for _, f in frames])  # the block's 27 vertices follow the incline's
+    return t, x
+
+
+@pytest.fixture(scope="module")
+def incline_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("self_incline")
+    return {(name, ranks): run(tmp, f"{name}_np{ranks}", incline_deck(mu, frames, eps), ranks)[0]
+            for name, mu, frames, eps in (("slide", 0.2, 25, 1e-2), ("stick", 0.8, 25, 1e-4)) for ranks in (1, 2)}
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_block_slides_on_a_block_as_on_an_incline(incline_runs, ranks):
+    t, x = block_track(incline_runs["slide", ranks])
+    late = t >= 0.1  # after the block has settled into the barrier's layer
+    A = np.c_[np.ones(late.sum()), t[late], 0.5 * t[late] ** 2]
+    acceleration = np.linalg.lstsq(A, x[late], rcond=None)[0][2]
+    expected = G * (np.sin(THETA) - 0.2 * np.cos(THETA))
+    print(f"mu = 0.2, {ranks} rank(s): acceleration {acceleration:.4f} m/s^2, analytic {expected:.4f} "
+          f"({100 * (acceleration / expected - 1):+.2f} %)")
+    assert abs(acceleration / expected - 1) < 0.02
+    assert [r["intersecting_pairs"] for r in check_run(incline_runs["slide", ranks])] == [0] * len(t)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_block_sticks_on_a_block_as_on_an_incline(incline_runs, ranks):
+    t, x = block_track(incline_runs["stick", ranks])
+    settled = t >= 0.1
+    moved = np.abs(x[settled] - x[settled][0]).max()
+    slide = 0.5 * G * (np.sin(THETA) - 0.2 * np.cos(THETA)) * (t[-1] - 0.1) ** 2  # with mu = 0.2
+    print(f"mu = 0.8, {ranks} rank(s): displacement down the slope from t = 0.1 s to {t[-1]:.2f} s: {moved:.3e} m "
+          f"({x[settled][0]:.3e} m while settling; with mu = 0.2 it slides {slide:.3f} m)")
+    assert moved < 1e-3 * 0.2
+
+
+def test_friction_ranks_agree(incline_runs):
+    for name in ("slide", "stick"):
+        one, two = (read_frames(incline_runs[name, r])[-1][1] for r in (1, 2))
+        difference = np.max(np.linalg.norm(one.points - two.points, axis=1))
+        print(f"{name}: 1 against 2 ranks {difference:.2e} m")
+        assert difference <= 1e-6
+
+
 # bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
-# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks).
-@pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2)])
+# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks). blocks_stack3 at 1 rank
+# until all three blocks have landed.
+@pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2),
+                                                 ("blocks_stack3", 10, 1)])
 def test_example_deck_runs_without_intersecting(tmp_path, name, frames, ranks):
     """The self-contact scenes of input/contact/ (shortened: the slab lands on the cube, the cloth
     buckles): every frame written, 0 intersecting pairs in each."""
@@ -180,3 +326,15 @@ def test_needs_an_integrator_that_ends_at_the_solve(tmp_path):
     d["contact"] = {"model": "barrier"}
     proc = run_hyperqn([write_deck(tmp_path / "noself.yaml", d), "-o", tmp_path / "noself"], ranks=None, check=False)
     assert proc.returncode == 1 and "there are none (or self-contact: self: true)" in proc.stdout
+
+
+def test_self_friction_needs_self_contact(tmp_path):
+    d = incline_deck(0.5, 2, 1e-2)
+    d["contact"]["self"] = False
+    d["colliders"] = [{"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0]}]
+    path = write_deck(tmp_path / "noself.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "self_friction" in text)
+    proc = run_hyperqn([path, "-o", tmp_path / "noself"], ranks=None, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not (tmp_path / "noself").exists()
+    assert f"noself.yaml:{line}: 'contact.self_friction': self_friction is the friction between surfaces" in proc.stdout
