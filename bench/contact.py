@@ -70,6 +70,8 @@ def decks(args, outdir):
             deck["name"] = f"{name}-{contact}"
             deck["time"]["frames"] = args.frames
             deck["output"] = {"vtk": False}
+            if args.h0_contact:
+                deck["solver"]["h0_contact"] = args.h0_contact
             if contact == "off":  # the same fall, through empty space
                 deck.pop("colliders")
                 deck.pop("contact", None)
@@ -93,6 +95,7 @@ def main():
     ap.add_argument("--timeout", type=float, default=3600)
     ap.add_argument("--hyperqn", default=launch.default_binary())
     ap.add_argument("--mpiexec", default=launch.default_mpiexec())
+    ap.add_argument("--h0-contact", help="solver.h0_contact of every deck (off, refactor, woodbury; default: the deck's)")
     args = ap.parse_args()
     args.hyperqn = os.path.abspath(args.hyperqn)
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:

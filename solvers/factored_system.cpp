@@ -244,13 +244,30 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind, FactorPackage package) {
+PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind, FactorPackage package,
+                                     Vec extra_diagonal) {
   PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
   const int components = kind == ConstantMatrix::laplacian ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components, kind));
+  if (extra_diagonal && components == 3) PetscCall(MatDiagonalSet(A_, extra_diagonal, ADD_VALUES));
+  if (extra_diagonal && components == 1) {  // its x entries, in A1's vertex layout
+    Vec d;
+    const PetscScalar* e;
+    PetscScalar* a;
+    PetscInt n1;
+    PetscCall(MatCreateVecs(A_, &d, nullptr));
+    PetscCall(VecGetLocalSize(d, &n1));
+    PetscCall(VecGetArrayRead(extra_diagonal, &e));
+    PetscCall(VecGetArrayWrite(d, &a));
+    for (PetscInt i = 0; i < n1; ++i) a[i] = e[3 * i];
+    PetscCall(VecRestoreArrayWrite(d, &a));
+    PetscCall(VecRestoreArrayRead(extra_diagonal, &e));
+    PetscCall(MatDiagonalSet(A_, d, ADD_VALUES));
+    PetscCall(VecDestroy(&d));
+  }
   PetscCall(event_end(&LogEvents::h0_assembly));
   // -hyperqn_h0_matrix_view binary:A1.bin: the matrix, e.g. for bench/mumps_repro.cpp.
   PetscCall(MatViewFromOptions(A_, nullptr, "-hyperqn_h0_matrix_view"));

@@ -71,8 +71,10 @@ class FactoredSystem {
   // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene),
   // or for amg sets up the V-cycle of A1 (kind must be laplacian). A factorization that fails
   // (A not positive definite) is an error saying so.
+  // extra_diagonal (a dof vector, x, y and z alike for the Laplacian) is added to A's diagonal
+  // before it is factored (solver.h0_contact: refactor).
   PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
-                       FactorPackage package = default_factor_package());
+                       FactorPackage package = default_factor_package(), Vec extra_diagonal = nullptr);
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }

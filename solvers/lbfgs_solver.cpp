@@ -23,7 +23,14 @@ static PetscErrorCode set_default_option(const char* name, const std::string& va
 PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscFunctionBeginUser;
   PetscCall(create_tao(spec, TAOLMVM, true));
-  if (h0_) PetscCall(TaoLMVMSetH0(tao_, h0_->inverse_operator()));
+  // The contacts' stiffness needs A = A1 (x) I3 (solvers/contact_h0.hpp).
+  if (h0_ && spec.h0_contact != H0Contact::off && (h0_->kind() == ConstantMatrix::laplacian || spec.h0_contact == H0Contact::refactor)) {
+    contact_h0_ = std::make_unique<ContactH0>(step_, *h0_, spec.h0_contact);
+    PetscCall(contact_h0_->setup());
+    PetscCall(TaoLMVMSetH0(tao_, contact_h0_->inverse_operator()));
+  } else if (h0_) {
+    PetscCall(TaoLMVMSetH0(tao_, h0_->inverse_operator()));
+  }
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
   PetscCall(set_default_option("-tao_lmvm_mat_lmvm_hist_size", std::to_string(spec.history)));
   // The option may come from the user too: PETSc crashes on a negative size and allocates
@@ -40,6 +47,13 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscCall(TaoSetSolution(tao_, x));
   PetscCall(TaoSetUp(tao_));
   PetscCall(VecDestroy(&x));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LbfgsSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
+  PetscFunctionBeginUser;
+  if (contact_h0_) PetscCall(contact_h0_->update());
+  PetscCall(GuardedTaoSolver::solve(x, on_iteration, result));
   PetscFunctionReturn(0);
 }
 

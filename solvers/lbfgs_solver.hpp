@@ -7,6 +7,9 @@
 #pragma once
 #include <petsctao.h>
 
+#include <memory>
+
+#include "solvers/contact_h0.hpp"
 #include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/guarded_tao_solver.hpp"
@@ -18,6 +21,8 @@ class LbfgsSolver : public GuardedTaoSolver {
   // h0: the factored M + h^2 L (or its V-cycle), or nullptr for TAO's default H0.
   LbfgsSolver(Objective& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
   PetscErrorCode setup(const SolverSpec& spec);
+  // With solver.h0_contact, H0 takes the contacts' stiffness at the step's start first.
+  PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
 
  private:
   PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) override;
@@ -26,6 +31,7 @@ class LbfgsSolver : public GuardedTaoSolver {
   unsigned long long active_set_ = 0;     // of the last iterate
 
   const FactoredSystem* h0_;
+  std::unique_ptr<ContactH0> contact_h0_;  // solver.h0_contact other than off
 };
 
 }  // namespace hyperqn

@@ -5,6 +5,9 @@
 #include <petscmat.h>
 
 #include <string>
+#include <vector>
+
+#include "terms/energy_term.hpp"  // VertexStiffness
 
 namespace hyperqn {
 
@@ -47,6 +50,12 @@ class Objective {
   // A signature of the contact set at the last evaluated point (collective; 0 without contact).
   virtual unsigned long long active_set() const { return 0; }
   virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
+  // h'^2 times the 3 x 3 blocks of d2E/dx2 on single free vertices (obstacle contact and friction)
+  // at the step's start x_n: this rank's vertices, by global dof (solver.h0_contact).
+  virtual PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const {
+    out.clear();
+    return 0;
+  }
 
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since
   // A = A1 (x) I3, components = 1 assembles only the vertex matrix A1 = M1 + h^2 L1 (in the

@@ -25,6 +25,8 @@ enum class LinearSolver { automatic, mumps, cg_amg };
 enum class NewtonHessian { projected, exact };  // a per-element PSD fix of dP/dF, or none
 enum class NewtonMethod { nls, ntr };           // TAO's line search or trust region
 enum class HistoryReset { never, contact_change };
+// lbfgs: what of the contacts' stiffness its initial Hessian holds (solvers/contact_h0.hpp).
+enum class H0Contact { off, woodbury, refactor };
 
 // The deck's words for these, in each enum's order.
 inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg"};
@@ -33,6 +35,7 @@ inline const std::vector<std::string> kLinearSolverNames = {"auto", "mumps", "cg
 inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact"};
 inline const std::vector<std::string> kNewtonMethodNames = {"nls", "ntr"};
 inline const std::vector<std::string> kHistoryResetNames = {"never", "contact-change"};
+inline const std::vector<std::string> kH0ContactNames = {"off", "woodbury", "refactor"};
 
 struct SolverSpec {
   std::string type = "lbfgs";        // lbfgs | lbfgs-identity | newton | pd
@@ -44,6 +47,7 @@ struct SolverSpec {
   // iterations, docs/contact.md): never | contact-change
   HistoryReset history_reset = HistoryReset::never;
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
+  H0Contact h0_contact = H0Contact::off;  // lbfgs
   WarmStart warm_start = WarmStart::inertial;  // (lower: the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).

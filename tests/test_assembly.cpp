@@ -5,6 +5,7 @@
 #include <petscdmplex.h>
 
 #include "check.hpp"
+#include "solvers/contact_h0.hpp"
 #include "solvers/factored_system.hpp"
 #include "test_scene.hpp"
 
@@ -324,11 +325,10 @@ PetscErrorCode check_amg(const char* pc_type) {
   PetscFunctionReturn(0);
 }
 
-// The scene's objective with its constant matrix made singular (the first row and column zero):
-// not positive definite, a zero pivot for LL^T and LDL^T alike.
-class SingularConstantMatrix : public Objective {
+// An objective that passes everything to another (the tests below change one thing each).
+class ForwardingObjective : public Objective {
  public:
-  explicit SingularConstantMatrix(Objective& o) : o_(o) {}
+  explicit ForwardingObjective(Objective& o) : o_(o) {}
   Vec layout() const override { return o_.layout(); }
   PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override { return o_.objective(x, g, grad); }
   PetscInt evaluations() const override { return o_.evaluations(); }
@@ -339,6 +339,23 @@ class SingularConstantMatrix : public Objective {
   bool bounds_steps() const override { return o_.bounds_steps(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return o_.limit_step(x, dir, alpha); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const override {
+    return o_.assemble_constant_matrix(A, components, kind);
+  }
+  PetscErrorCode create_hessian(Mat* H) const override { return o_.create_hessian(H); }
+  PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact) override { return o_.assemble_hessian(x, H, exact); }
+  bool projective_dynamics_exact() const override { return o_.projective_dynamics_exact(); }
+  std::string energy_names() const override { return o_.energy_names(); }
+
+ protected:
+  Objective& o_;
+};
+
+// The scene's objective with its constant matrix made singular (the first row and column zero):
+// not positive definite, a zero pivot for LL^T and LDL^T alike.
+class SingularConstantMatrix : public ForwardingObjective {
+ public:
+  using ForwardingObjective::ForwardingObjective;
+  PetscErrorCode assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const override {
     PetscFunctionBeginUser;
     PetscMPIInt rank;
     const PetscInt first = 0;
@@ -347,14 +364,107 @@ class SingularConstantMatrix : public Objective {
     PetscCall(MatZeroRowsColumns(*A, rank == 0 ? 1 : 0, &first, 0.0, nullptr, nullptr));
     PetscFunctionReturn(0);
   }
-  PetscErrorCode create_hessian(Mat* H) const override { return o_.create_hessian(H); }
-  PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact) override { return o_.assemble_hessian(x, H, exact); }
-  bool projective_dynamics_exact() const override { return o_.projective_dynamics_exact(); }
-  std::string energy_names() const override { return o_.energy_names(); }
+};
+
+// The scene's objective with given stiffness blocks on a few vertices (by global vertex number,
+// whichever rank owns it): full rank, rank 2, rank 1 and zero, c times A's mean diagonal.
+class GivenVertexStiffness : public ForwardingObjective {
+ public:
+  GivenVertexStiffness(Objective& o, double c) : ForwardingObjective(o), c_(c) {}
+  PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
+    PetscInt lo, hi, n;
+    PetscFunctionBeginUser;
+    PetscCall(VecGetOwnershipRange(o_.layout(), &lo, &hi));
+    PetscCall(VecGetSize(o_.layout(), &n));
+    const Eigen::Vector3d u = Eigen::Vector3d(1, 2, -1).normalized(), w = Eigen::Vector3d(0, 1, 2).normalized();
+    const std::vector<std::pair<PetscInt, Eigen::Matrix3d>> given = {
+        {0, c_ * (Eigen::Matrix3d::Identity() + u * u.transpose())},
+        {5, c_ * (u * u.transpose() + 3 * w * w.transpose())},
+        {17, 4 * c_ * w * w.transpose()},
+        {18, Eigen::Matrix3d::Zero()},
+        {n / 3 - 1, c_ * u * u.transpose()}};
+    out.clear();
+    for (const auto& [vertex, K] : given) {
+      if (3 * vertex < lo || 3 * vertex >= hi) continue;
+      VertexStiffness s;
+      s.dof = 3 * vertex;
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(s.K.data()) = K;
+      out.push_back(s);
+    }
+    PetscFunctionReturn(0);
+  }
 
  private:
-  Objective& o_;
+  double c_;
 };
+
+// solver.h0_contact: ContactH0's solve is (A + K_c)^{-1} against the explicitly assembled A + K_c
+// (woodbury: K_c the blocks; refactor: their trace / 3 on the diagonal), and its mult is A + K_c.
+PetscErrorCode check_contact_h0(H0Contact mode, FactorPackage package) {
+  TestScene s;
+  FactoredSystem sys;
+  Mat A;
+  Vec b, x, r, diag;
+  PetscReal mean, residual, bnorm;
+  std::vector<VertexStiffness> blocks;
+  PetscFunctionBeginUser;
+  const std::string what = std::string(kH0ContactNames[(int)mode]) + " (" + factor_package_name(package) + ")";
+  PetscCall(make_scene("neohookean", true, s));
+  PetscCall(s.step->assemble_constant_matrix(&A, 3));
+  PetscCall(MatCreateVecs(A, &b, &x));
+  PetscCall(VecDuplicate(b, &r));
+  PetscCall(VecDuplicate(b, &diag));
+  PetscCall(MatGetDiagonal(A, diag));
+  PetscCall(VecSum(diag, &mean));
+  PetscInt n;
+  PetscCall(VecGetSize(diag, &n));
+  GivenVertexStiffness step(*s.step, 10 * mean / n);
+  PetscCall(sys.setup(step, ConstantMatrix::laplacian, package));
+  ContactH0 h0(step, sys, mode);
+  PetscCall(h0.setup());
+  PetscCall(h0.update());
+  CHECK_MSG(h0.vertices() == 5, what + ": " + std::to_string(h0.vertices()) + " vertices");
+  // A + K_c, assembled
+  PetscCall(step.vertex_stiffness(blocks));
+  for (const VertexStiffness& k : blocks) {
+    const PetscInt idx[3] = {k.dof, k.dof + 1, k.dof + 2};
+    if (mode == H0Contact::woodbury) {
+      PetscCall(MatSetValues(A, 3, idx, 3, idx, k.K.data(), ADD_VALUES));
+    } else {
+      const double d = (k.K[0] + k.K[4] + k.K[8]) / 3;
+      for (PetscInt i : idx) PetscCall(MatSetValue(A, i, i, d, ADD_VALUES));
+    }
+  }
+  PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+  PetscRandom rnd;
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(PetscRandomSetSeed(rnd, 11));
+  PetscCall(PetscRandomSeed(rnd));
+  PetscCall(VecSetRandom(b, rnd));
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(h0.solve(b, x));
+  PetscCall(MatMult(A, x, r));
+  PetscCall(VecAXPY(r, -1.0, b));
+  PetscCall(VecNorm(r, NORM_2, &residual));
+  PetscCall(VecNorm(b, NORM_2, &bnorm));
+  CHECK_MSG(residual <= 1e-10 * bnorm, what + ": |(A + K_c) H0 b - b| / |b| = " + std::to_string(residual / bnorm));
+  PetscCall(h0.mult(b, x));
+  PetscCall(MatMult(A, b, r));
+  PetscCall(VecAXPY(r, -1.0, x));
+  PetscCall(VecNorm(r, NORM_2, &residual));
+  PetscCall(VecNorm(x, NORM_2, &bnorm));
+  CHECK_MSG(residual <= 1e-12 * bnorm, what + ": its mult differs from A + K_c");
+  // The same blocks again: no new columns, no new factorization.
+  const long long solves = h0.column_solves();
+  const int factorizations = h0.refactorizations();
+  PetscCall(h0.update());
+  CHECK(h0.column_solves() == solves && h0.refactorizations() == factorizations);
+  CHECK(mode == H0Contact::woodbury ? solves == 2 : factorizations == 1);  // 5 vertices, 3 per solve
+  for (Vec* v : {&b, &x, &r, &diag}) PetscCall(VecDestroy(v));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
 
 // Records the first error message instead of printing a trace.
 PetscErrorCode record_error(MPI_Comm, int, const char*, const char*, PetscErrorCode n, PetscErrorType type,
@@ -430,6 +540,9 @@ int main(int argc, char** argv) {
   if (factor_package_available(FactorPackage::cholmod)) PetscCall(check_not_positive_definite(FactorPackage::cholmod));
   PetscCall(check_not_positive_definite(FactorPackage::supernodal));
   PetscCall(check_not_positive_definite(FactorPackage::split));
+  for (H0Contact mode : {H0Contact::woodbury, H0Contact::refactor})
+    for (FactorPackage package : {FactorPackage::supernodal, FactorPackage::split, FactorPackage::mumps})
+      PetscCall(check_contact_h0(mode, package));
   PetscCall(check_amg("gamg"));
   PetscCall(check_amg("hypre"));
   const int code = test_scene::tally("test_assembly");  // every rank agrees on the outcome

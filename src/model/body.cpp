@@ -250,6 +250,24 @@ PetscErrorCode Body::add_hessian(Vec x, Mat H, PetscReal scale, bool psd) const 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Body::vertex_stiffness(Vec x, PetscReal scale, std::vector<VertexStiffness>& out) const {
+  std::vector<VertexStiffness> blocks;
+  PetscFunctionBeginUser;
+  PetscCall(local_positions(x, pos_));
+  for (const auto& term : terms_) term->add_vertex_stiffness(pos_, blocks);
+  std::stable_sort(blocks.begin(), blocks.end(), [](const VertexStiffness& a, const VertexStiffness& b) { return a.dof < b.dof; });
+  out.clear();
+  for (const VertexStiffness& b : blocks) {
+    if (out.empty() || out.back().dof != b.dof) {
+      out.push_back(b);
+      for (double& k : out.back().K) k *= scale;
+    } else {
+      for (int i = 0; i < 9; ++i) out.back().K[i] += scale * b.K[i];
+    }
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::add_rest_hessian(Mat H, PetscReal scale) const {
   PetscFunctionBeginUser;
   for (const auto& term : terms_) PetscCall(term->add_hessian(mesh_.rest, H, scale, true));

@@ -187,6 +187,26 @@ PetscErrorCode ContactTerm::add_hessian(const std::vector<double>& pos, Mat H, d
   PetscFunctionReturn(0);
 }
 
+void ContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const {
+  Mat3 h;
+  const auto add = [&](PetscInt v) {
+    VertexStiffness s;
+    s.dof = mesh_.global_dof[v];
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(s.K.data()) = h;
+    out.push_back(s);
+  };
+  for (size_t k = 0; k < vertices_.size(); ++k) {
+    const Vec3 p(&pos[3 * vertices_[k]]);
+    for (size_t c = 0; c < colliders_.size(); ++c)
+      if (normal_energy(k, c, p, nullptr, &h, true) != 0 && std::isfinite(h.sum())) add(vertices_[k]);
+  }
+  for (size_t f = 0; f < friction_.size(); ++f) {
+    const PetscInt v = vertices_[friction_[f].slot];
+    friction_energy(f, Vec3(&pos[3 * v]), nullptr, &h);
+    add(v);
+  }
+}
+
 PetscErrorCode ContactTerm::begin_step(const StepStart& step) {
   const PetscScalar* x;
   PetscInt lo, hi;

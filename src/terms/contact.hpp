@@ -22,7 +22,8 @@
 // with f0' = f1 the smoothed sliding indicator: f1(s) = 2 s/(eps h) - s^2/(eps h)^2 below eps h, 1
 // above (eps = contact.friction_velocity). Below eps the contact sticks like a stiff spring.
 //
-// Contact and friction do not enter L: A = M + h^2 L stays factored once per scene.
+// Contact and friction do not enter L; L-BFGS's H0 takes their blocks per step (add_vertex_stiffness,
+// solver.h0_contact: solvers/contact_h0.hpp).
 #pragma once
 #include <petsclog.h>
 
@@ -61,6 +62,8 @@ class ContactTerm : public EnergyTerm {
   std::string name() const override { return "contact"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  // Its whole Hessian (psd): every block is a single vertex's.
+  void add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
   bool projective_dynamics_exact() const override { return false; }
   // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.
   bool bounds_steps() const override { return barrier_; }

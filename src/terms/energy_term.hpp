@@ -9,6 +9,7 @@
 #pragma once
 #include <petscmat.h>
 
+#include <array>
 #include <string>
 #include <utility>
 #include <vector>
@@ -51,6 +52,13 @@ struct InputProblem {
   std::string key, what;
 };
 
+// A 3 x 3 block of d2E/dx2 that a term adds on one free vertex alone (obstacle contact and its
+// friction): what solver.h0_contact puts into L-BFGS's initial Hessian.
+struct VertexStiffness {
+  PetscInt dof = 0;            // global index of the vertex's x dof (y, z follow)
+  std::array<double, 9> K{};   // symmetric positive semidefinite, row-major
+};
+
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -66,6 +74,9 @@ class EnergyTerm {
   // H += scale * d2E/dx2 at pos on the free dofs (global indices), with the per-element
   // definiteness fix (psd, Newton) or exact (possibly indefinite; tests, the study's reference).
   virtual PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const = 0;
+  // The part of add_hessian (psd) that sits on single vertices, per owned free vertex that has one
+  // (appended to out; a vertex may appear more than once).
+  virtual void add_vertex_stiffness(const std::vector<double>& /*pos*/, std::vector<VertexStiffness>& /*out*/) const {}
 
   // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
   // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
