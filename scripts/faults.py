@@ -7,7 +7,7 @@ time_s, the .pvd listing, summary.json's counts and status "ok") or with a named
 `hyperqn: error: ...` line naming the path), never a hang, never a wrong answer.
 
     PYTHONPATH=$PWD/postprocess /usr/bin/python3 scripts/faults.py              # make faults: 240 trials
-    PYTHONPATH=$PWD/postprocess /usr/bin/python3 scripts/faults.py --budget 50 --seed 7  # ctest faults_quick
+    PYTHONPATH=$PWD/postprocess /usr/bin/python3 scripts/faults.py --budget 35 --seed 7  # ctest faults_quick
     PYTHONPATH=$PWD/postprocess /usr/bin/python3 scripts/faults.py --seed 7 --trial 13   # one trial again
 
 Trial k has class CLASSES[k % n] (of --classes), --ranks[(k // n) % len(ranks)] and its own random
