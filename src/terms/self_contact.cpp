@@ -416,9 +416,10 @@ PetscErrorCode SelfContactTerm::plan_exchange(const std::vector<double>& x, cons
 PetscErrorCode SelfContactTerm::exchange(const Exchange& plan, int width, std::vector<double>& values) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
   PetscMPIInt size;
-  std::vector<MPI_Request> requests;
+  std::vector<MPI_Request>& requests = requests_;
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_size(comm, &size));
+  requests.clear();
   out_.resize(width * plan.send.size());
   buffer_.resize(width * plan.recv.size());
   for (size_t k = 0; k < plan.send.size(); ++k)

@@ -300,6 +300,7 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<char> touched_;
   mutable std::vector<int> touched_list_;
   mutable std::vector<double> buffer_, out_, path_, end_;  // work
+  mutable std::vector<MPI_Request> requests_;                // exchange's, kept between calls
   // This rank's pairs within d at x_n with their lagged friction (mu > 0), in the pairs' order;
   // friction_velocity times the step.
   std::vector<std::pair<Pair, PairFriction>> friction_;
