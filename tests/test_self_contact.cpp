@@ -444,7 +444,7 @@ long pairs_within(const TetMesh& mesh, const std::vector<double>& x, double d) {
 PetscErrorCode check_candidates_against_all_pairs() {
   TestScene s;
   SelfContactTerm* term = nullptr;
-  Vec x, grad, xl;
+  Vec x, grad, xl, dir;
   PetscFunctionBeginUser;
   PetscCall(make_two_blocks("penalty", s, &term));
   const TetMesh serial = two_blocks();  // the same on every rank, positions by input id
@@ -456,7 +456,12 @@ PetscErrorCode check_candidates_against_all_pairs() {
   std::uniform_real_distribution<double> jitter(-0.002, 0.002);
   const int trials = 60;
   const double kApproach = 0.16 * kDistance;  // per evaluation: through the first block by the end
-  long mismatches = 0, total = 0;
+  long mismatches = 0, total = 0, bound_mismatches = 0, bounded = 0;
+  PetscRandom rng;
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rng));
+  PetscCall(PetscRandomSetSeed(rng, 5));
+  PetscCall(PetscRandomSeed(rng));
+  PetscCall(VecDuplicate(x, &dir));
   for (int trial = 0; trial < trials; ++trial) {
     for (int64_t v = 0; v < serial.num_vertices(); ++v)
       for (int d = 0; d < 3; ++d) at[3 * v + d] += jitter(random) + (v >= first_block && d == 0 ? -kApproach : 0.0);
@@ -471,6 +476,27 @@ PetscErrorCode check_candidates_against_all_pairs() {
     PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
     PetscReal E;
     PetscCall(s.body->energy_gradient(x, &E, grad));
+    // The step bound along a random step (the second block closing by 0.1 d, every vertex jittered
+    // by up to 0.1 d per coordinate): the same alpha from the list (when it covers the step) as
+    // from a broad phase of the step alone.
+    PetscCall(VecSetRandom(dir, rng));
+    PetscCall(VecShift(dir, -0.5));
+    PetscCall(VecScale(dir, 0.2 * kDistance));
+    PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+    PetscCall(DMGlobalToLocal(s.mesh.dm, dir, INSERT_VALUES, xl));
+    PetscCall(VecGetArray(xl, &a));
+    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+      if (s.mesh.local_dof[v] >= 0 && s.mesh.vertex_ids[v] >= first_block) a[s.mesh.local_dof[v]] -= 0.1 * kDistance;
+    PetscCall(VecRestoreArray(xl, &a));
+    PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
+    PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+    double by_list = 1, by_broad_phase = 1;
+    PetscCall(term->limit_step(x, dir, &by_list));
+    PetscCall(term->limit_step_without_list(x, dir, &by_broad_phase));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &by_list, 1, MPI_DOUBLE, MPI_MIN, PETSC_COMM_WORLD));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &by_broad_phase, 1, MPI_DOUBLE, MPI_MIN, PETSC_COMM_WORLD));
+    bound_mismatches += by_list != by_broad_phase;
+    bounded += by_list < 1;
     long found = (long)term->active_pairs();
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &found, 1, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
     const long expected = pairs_within(serial, at, kDistance);
@@ -485,6 +511,15 @@ PetscErrorCode check_candidates_against_all_pairs() {
   CHECK_MSG(mismatches == 0, "the candidates missed pairs within d in " + std::to_string(mismatches) + " evaluations");
   CHECK_MSG(total > 10 * trials, "the motions bring many pairs within d: " + std::to_string(total));
   CHECK_MSG(builds > 3 && builds < (size_t)trials / 2, "the list is kept between evaluations: built " + std::to_string(builds) + " times");
+  const size_t from_list = term->step_bounds_from_list();
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD,
+                        "random steps: %ld of %d bounded, %zu from the list, %ld with another alpha without the list\n",
+                        bounded, trials, from_list, bound_mismatches));
+  CHECK_MSG(from_list > (size_t)trials / 4, "the list bounds the steps it covers: " + std::to_string(from_list));
+  CHECK_MSG(bound_mismatches == 0, "the step bound depends on the candidate list in " + std::to_string(bound_mismatches) + " steps");
+  CHECK_MSG(bounded > trials / 4, "the random steps are bounded: " + std::to_string(bounded));
+  PetscCall(PetscRandomDestroy(&rng));
+  PetscCall(VecDestroy(&dir));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&grad));
   PetscFunctionReturn(0);

@@ -7,7 +7,6 @@
 #include <map>
 #include <tuple>
 
-#include "geometry/box_tree.hpp"
 #include "geometry/pair_ccd.hpp"
 #include "geometry/triangle_intersection.hpp"
 #include "terms/contact.hpp"
@@ -292,6 +291,8 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
   step_at_ = rest_;  // until a step says where its fixed vertices are
+  for (const auto& e : edges_) mean_edge_ += (Vec3(&rest_[3 * e[0]]) - Vec3(&rest_[3 * e[1]])).norm();
+  if (!edges_.empty()) mean_edge_ /= edges_.size();
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
   half_thickness_.assign(n, 0.0);
   for (size_t s = 0; s < n; ++s) {
@@ -479,11 +480,35 @@ Vector12d SelfContactTerm::coordinates(const std::vector<double>& x, const std::
   return out;
 }
 
+Box SelfContactTerm::primitive_box(std::initializer_list<int> vertices, const std::vector<double>& x,
+                                   const std::vector<double>* end, double inflate) const {
+  const Vec3 first(&x[3 * *vertices.begin()]);
+  Box b{first, first};
+  for (int s : vertices)
+    for (const std::vector<double>* at : {&x, end})
+      if (at) {
+        const Vec3 p(&(*at)[3 * s]);
+        b.lo = b.lo.cwiseMin(p);
+        b.hi = b.hi.cwiseMax(p);
+      }
+  b.lo.array() -= inflate;
+  b.hi.array() += inflate;
+  return b;
+}
+
+bool SelfContactTerm::boxes_meet(const Pair& p, const std::vector<double>& x, const std::vector<double>* end,
+                                 double reach) const {
+  if (p.kind == PairKind::vertex_triangle) {
+    const auto& t = triangles_[p.b];
+    return primitive_box({t[0], t[1], t[2]}, x, end, 0).overlaps(primitive_box({p.a}, x, end, reach));
+  }
+  const auto &a = edges_[p.a], &b = edges_[p.b];
+  return primitive_box({b[0], b[1]}, x, end, reach).overlaps(primitive_box({a[0], a[1]}, x, end, 0));
+}
+
 template <class Visit>
 void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
                                   const std::vector<char>* known, Visit&& visit) const {
-  const auto p = [&](int s) { return Vec3(&x[3 * s]); };
-  const auto q = [&](int s) { return end ? Vec3(&(*end)[3 * s]) : Vec3(&x[3 * s]); };
   const auto is_known = [&](std::initializer_list<int> vertices) {
     for (int s : vertices)
       if (known && !(*known)[s]) return false;
@@ -494,12 +519,12 @@ void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vecto
   for (size_t t = 0; t < triangles_.size(); ++t) {
     const auto& v = triangles_[t];
     if (!is_known({v[0], v[1], v[2]})) continue;
-    boxes.push_back(bounds({p(v[0]), p(v[1]), p(v[2]), q(v[0]), q(v[1]), q(v[2])}, 0));
+    boxes.push_back(primitive_box({v[0], v[1], v[2]}, x, end, 0));
     index.push_back((int)t);
   }
   const BoxTree triangles(std::move(boxes));
   for (int v : my_vertices_)
-    triangles.overlapping(bounds({p(v), q(v)}, reach), [&](int i) {
+    triangles.overlapping(primitive_box({v}, x, end, reach), [&](int i) {
       const int t = index[i];
       const auto& tri = triangles_[t];
       if (tri[0] != v && tri[1] != v && tri[2] != v) visit(Pair{PairKind::vertex_triangle, v, t});
@@ -509,13 +534,13 @@ void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vecto
   for (size_t e = 0; e < edges_.size(); ++e) {
     const auto& v = edges_[e];
     if (!is_known({v[0], v[1]})) continue;
-    boxes.push_back(bounds({p(v[0]), p(v[1]), q(v[0]), q(v[1])}, reach));
+    boxes.push_back(primitive_box({v[0], v[1]}, x, end, reach));
     index.push_back((int)e);
   }
   const BoxTree edges(std::move(boxes));
   for (int e : my_edges_) {
     const auto& a = edges_[e];
-    edges.overlapping(bounds({p(a[0]), p(a[1]), q(a[0]), q(a[1])}, 0), [&](int i) {
+    edges.overlapping(primitive_box({a[0], a[1]}, x, end, 0), [&](int i) {
       const int f = index[i];
       const auto& b = edges_[f];
       if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
@@ -573,6 +598,8 @@ PetscErrorCode SelfContactTerm::refresh_candidates() const {
   std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& c, const Candidate& e) {
     return std::tie(c.pair.kind, c.pair.a, c.pair.b) < std::tie(e.pair.kind, e.pair.a, e.pair.b);
   });
+  PetscCall(PetscInfo(nullptr, "self-contact candidates: %zu pairs within %g (d %g, margin %g)\n", candidates_.size(), reach,
+                      spec_.distance, step_margin_));
   built_at_ = x_;
   built_margin_ = step_margin_;
   moved_.assign(ids_.size(), 0.0);
@@ -582,15 +609,19 @@ PetscErrorCode SelfContactTerm::refresh_candidates() const {
   PetscFunctionReturn(0);
 }
 
-bool SelfContactTerm::may_be_within_d(const Candidate& c) const {
-  const std::array<int, 4> q = points(c.pair);
-  const int split = c.pair.kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
+double SelfContactTerm::pair_moves(const Pair& p) const {
+  const std::array<int, 4> q = points(p);
+  const int split = p.kind == PairKind::vertex_triangle ? 1 : 2;  // the first primitive's points
   double first = 0, second = 0;
   for (int k = 0; k < 4; ++k) {
     double& moved = k < split ? first : second;
     moved = std::max(moved, moved_[q[k]]);
   }
-  return c.distance - first - second < spec_.distance * (1 + 1e-9);  // the slack: rounding of the moves
+  return first + second;
+}
+
+bool SelfContactTerm::may_be_within_d(const Candidate& c) const {
+  return c.distance - pair_moves(c.pair) < spec_.distance * (1 + 1e-9);  // the slack: rounding of the moves
 }
 
 template <class Visit>
@@ -614,8 +645,13 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   PetscCall(VecRestoreArrayRead(step.x_start, &x));
   PetscCall(VecRestoreArrayRead(step.y, &y));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &motion, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
-  // A list that covers the step's predicted motion from where it is built; at least d.
-  step_margin_ = std::max(spec_.distance, motion / kMoveFraction);
+  // A list that covers the step's predicted motion from where it is built, at least d, but at
+  // most half the surface's mean edge (or d if that is larger): beyond the mesh's spacing every
+  // primitive has neighbours of its own surface in reach, and the list grows with the square of the
+  // reach while no more of them touch (a 41 x 41 cloth: 0.13 million candidates at 3.7 cm, 0.8 at
+  // 12 cm, and evaluations 7x slower than a list rebuilt more often). What the terms compute does
+  // not depend on the margin (refresh_candidates, limit_step); docs/contact.md has the timings.
+  step_margin_ = std::max(spec_.distance, std::min(motion / kMoveFraction, mean_edge_ / 2));
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;
@@ -884,7 +920,7 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const {
+PetscErrorCode SelfContactTerm::bound_step(Vec x, Vec dir, double* alpha, bool may_use_list) const {
   const PetscScalar *a, *u;
   PetscInt lo, hi;
   PetscFunctionBeginUser;
@@ -924,11 +960,20 @@ PetscErrorCode SelfContactTerm::limit_step(Vec x, Vec dir, double* alpha) const 
                                                               : edge_edge_impact(start, stop, xi);
     t = std::min(t, impact);
   };
-  bool covered;
-  PetscCall(candidates_cover(x_, &end_, &covered));
-  if (covered) {  // no other pair comes within d along the step (refresh_candidates)
-    for (const Candidate& c : candidates_)
-      if (may_be_within_d(c)) bound(c.pair);
+  bool covered = false;
+  if (may_use_list) PetscCall(candidates_cover(x_, &end_, &covered));
+  if (covered) {
+    ++list_bounds_;
+    // The candidates the other branch's broad phase would visit, so that t does not depend on the
+    // branch. A pair off the list stays farther than d + margin/5 along the step, more than a ninth
+    // of where it starts, so its impact time is infinite (pair_ccd.hpp: a tenth) in both branches;
+    // so is that of a listed pair whose clearance along the step is at least a quarter of its
+    // largest possible start (bounds from the build's distance and the moves).
+    for (const Candidate& c : candidates_) {
+      const double moves = pair_moves(c.pair);
+      if (c.distance - moves >= 0.25 * (c.distance + moves)) continue;
+      if (boxes_meet(c.pair, x_, &end_, largest_offset_)) bound(c.pair);
+    }
   } else {  // a ghost layer for this step alone: the primitives whose swept boxes reach this rank's
     Exchange swept;
     PetscCall(plan_exchange(x_, &end_, largest_offset_, &swept));

@@ -45,7 +45,9 @@
 // kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
 // build less their vertices' moves is below d (refresh_candidates says why no pair within d is
 // ever missed). The pairs are visited in a canonical order, so the sums do not depend on where the
-// list was built either.
+// list was built either. The margin covers the step's predicted motion, capped by half the mean
+// edge (begin_step); the step bound visits the same pairs whether it uses the list or a broad phase
+// of its own (limit_step), so no result depends on the margin.
 #pragma once
 #include <petsclog.h>
 
@@ -53,6 +55,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/box_tree.hpp"
 #include "geometry/pair_distance.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/contact_spec.hpp"
@@ -129,7 +132,10 @@ class SelfContactTerm : public EnergyTerm {
   // The largest alpha at which no pair comes within its xi along the straight path (additive CCD
   // of every pair whose swept boxes, grown by xi, overlap; collective). Fixed vertices stay where
   // the step has them (begin_step).
-  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override;
+  PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return bound_step(x, dir, alpha, true); }
+  // The same bound from a broad phase of the step alone, never the candidate list (tests: the two
+  // give the same alpha).
+  PetscErrorCode limit_step_without_list(Vec x, Vec dir, double* alpha) const { return bound_step(x, dir, alpha, false); }
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
   // The activation distance and thickness must fit the rest spacing of the surface: no two
@@ -159,6 +165,7 @@ class SelfContactTerm : public EnergyTerm {
   // This rank's candidate pairs, and how many times they were built (tests).
   size_t candidate_pairs() const { return candidates_.size(); }
   size_t candidate_builds() const { return builds_; }
+  size_t step_bounds_from_list() const { return list_bounds_; }
   // A candidate list may serve until a surface vertex has moved this fraction of its margin.
   static constexpr double kMoveFraction = 0.4;
 
@@ -203,6 +210,11 @@ class SelfContactTerm : public EnergyTerm {
   template <class Visit>
   void broad_phase(const std::vector<double>& x, const std::vector<double>* end, double reach,
                    const std::vector<char>* known, Visit&& visit) const;
+  // A primitive's box in broad_phase: its vertices at x and end (if given), inflated by inflate.
+  Box primitive_box(std::initializer_list<int> vertices, const std::vector<double>& x, const std::vector<double>* end,
+                    double inflate) const;
+  // True if broad_phase(x, end, reach) visits the pair: the same boxes, the same test.
+  bool boxes_meet(const Pair& p, const std::vector<double>& x, const std::vector<double>* end, double reach) const;
   // Builds the candidate pairs again at x_ (and the ghost layer for them) unless the list covers
   // x_ (collective: the ranks decide together from their own vertices' moves).
   PetscErrorCode refresh_candidates() const;
@@ -218,6 +230,11 @@ class SelfContactTerm : public EnergyTerm {
   // False if the candidate's distance (less xi) at the build less its primitives' moves (moved_)
   // is d or more: it cannot be within d.
   bool may_be_within_d(const Candidate& c) const;
+  // limit_step, from the candidate list when it covers the step and may_use_list.
+  PetscErrorCode bound_step(Vec x, Vec dir, double* alpha, bool may_use_list) const;
+  // The most a pair's distance can have changed since the build: its two primitives' largest moves
+  // (moved_).
+  double pair_moves(const Pair& p) const;
   // Calls visit(pair) for the candidates that may be within d at x_, in the candidates' order
   // (after refresh_candidates).
   template <class Visit>
@@ -293,8 +310,10 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<double> built_at_, moved_;
   mutable double built_margin_ = 0;
   double step_margin_ = 0;
+  double mean_edge_ = 0;  // the surface's mean edge length at rest (caps the margin)
   mutable bool stale_ = true;
   mutable size_t builds_ = 0;
+  mutable size_t list_bounds_ = 0;
   // The gradient per surface vertex of this rank's pairs (3 each) and the vertices it touched.
   mutable std::vector<double> accumulated_;
   mutable std::vector<char> touched_;
