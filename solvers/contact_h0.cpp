@@ -1,5 +1,6 @@
 #include "solvers/contact_h0.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace hyperqn {
@@ -80,7 +81,7 @@ PetscErrorCode ContactH0::update() {
   for (size_t a = 0; same && a < blocks_.size(); ++a) same = before[a] == blocks_[a].dof;
   active_ = !blocks_.empty();
   if (mode_ == H0Contact::woodbury) PetscCall(update_woodbury(same));
-  if (mode_ == H0Contact::refactor) PetscCall(update_refactor(same));
+  if (mode_ == H0Contact::refactor) PetscCall(update_refactor());
   PetscFunctionReturn(0);
 }
 
@@ -151,19 +152,36 @@ PetscErrorCode ContactH0::update_woodbury(bool same_vertices) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ContactH0::update_refactor(bool same_vertices) {
+double rounded_mean_stiffness(const VertexStiffness& s) {
+  const double mean = (s.K[0] + s.K[4] + s.K[8]) / 3;
+  if (!(mean > 0)) return 0;
+  int e;
+  const double m = std::frexp(mean, &e);  // mean = m 2^e, m in [0.5, 1)
+  return std::ldexp(1.0, m >= M_SQRT1_2 ? e : e - 1);
+}
+
+// The diagonal is rounded so that H0 is a function of x_n alone: the factor is kept while no
+// vertex's rounded value changes (keeping it gives the matrix a new factorization would), so a
+// restart and the uninterrupted run factor the same matrices, and round-off in x_n (another rank
+// count) changes H0 only where a value sits at a rounding boundary. The rounding's error, up to
+// a factor of sqrt 2 in a vertex's stiffness, is what an approximate H0 tolerates.
+PetscErrorCode ContactH0::update_refactor() {
+  std::vector<std::pair<PetscInt, double>> diagonal;  // (dof, rounded stiffness) over all ranks
   PetscFunctionBeginUser;
-  if (!active_) {
+  for (const VertexStiffness& s : blocks_)
+    if (const double k = rounded_mean_stiffness(s); k > 0) diagonal.emplace_back(s.dof, k);
+  if (diagonal == factored_diagonal_) PetscFunctionReturn(0);
+  factored_diagonal_ = diagonal;
+  if (diagonal.empty()) {
     refactored_.reset();
     PetscFunctionReturn(0);
   }
-  if (same_vertices && refactored_) PetscFunctionReturn(0);
   PetscScalar* d;
   PetscCall(VecSet(b_, 0.0));
   PetscCall(VecGetArray(b_, &d));
-  for (const VertexStiffness& s : blocks_)
-    if (s.dof >= lo_ && s.dof < lo_ + local_)
-      for (int c = 0; c < 3; ++c) d[s.dof - lo_ + c] = (s.K[0] + s.K[4] + s.K[8]) / 3;
+  for (const auto& [dof, k] : diagonal)
+    if (dof >= lo_ && dof < lo_ + local_)
+      for (int c = 0; c < 3; ++c) d[dof - lo_ + c] = k;
   PetscCall(VecRestoreArray(b_, &d));
   refactored_ = std::make_unique<FactoredSystem>();
   PetscCall(refactored_->setup(step_, h0_.kind(), h0_.package(), b_));

@@ -10,8 +10,9 @@
 // contact, three of them per solve of A (one in each of x, y, z), computed again only when the set of
 // vertices changes; S (dense, one row per column of U) is factored every step. A solve is then A's
 // and O(n k) more (k vertices in contact).
-// refactor: A + D_c factored anew (FactoredSystem::setup) whenever the set of vertices changes, D_c
-// the diagonal of the blocks' mean eigenvalues (trace / 3), so that it stays D1 (x) I3.
+// refactor: A + D_c factored anew (FactoredSystem::setup) whenever D_c changes, D_c the diagonal of
+// the blocks' mean eigenvalues (trace / 3, so that it stays D1 (x) I3) rounded to powers of 2, so
+// that H0 is a function of x_n alone and a resting contact keeps its factor.
 //
 // Either way, a step whose vertices have no contact stiffness is solved by A^{-1} itself.
 #pragma once
@@ -26,6 +27,10 @@
 #include "solvers/solver_spec.hpp"
 
 namespace hyperqn {
+
+// What refactor puts on a vertex's diagonal: its block's mean eigenvalue (trace / 3) rounded to the
+// nearest power of 2 in log scale (from 2^(k - 1/2) up: 2^k); 0 if it is not positive.
+double rounded_mean_stiffness(const VertexStiffness& s);
 
 class ContactH0 {
  public:
@@ -51,7 +56,7 @@ class ContactH0 {
  private:
   PetscErrorCode gather(const std::vector<VertexStiffness>& local);  // blocks_ over all ranks
   PetscErrorCode update_woodbury(bool same_vertices);
-  PetscErrorCode update_refactor(bool same_vertices);
+  PetscErrorCode update_refactor();
   PetscErrorCode compute_columns();  // Z_ and G_ for blocks_' vertices
 
   const Objective& step_;
@@ -70,6 +75,7 @@ class ContactH0 {
   Eigen::VectorXd column_scale_;
   Eigen::LLT<Eigen::MatrixXd> S_;
   std::unique_ptr<FactoredSystem> refactored_;  // refactor
+  std::vector<std::pair<PetscInt, double>> factored_diagonal_;  // refactor: its (dof, rounded stiffness)
   long long column_solves_ = 0;
   int refactorizations_ = 0;
 };

@@ -23,8 +23,10 @@ static PetscErrorCode set_default_option(const char* name, const std::string& va
 PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscFunctionBeginUser;
   PetscCall(create_tao(spec, TAOLMVM, true));
-  // The contacts' stiffness needs A = A1 (x) I3 (solvers/contact_h0.hpp).
-  if (h0_ && spec.h0_contact != H0Contact::off && (h0_->kind() == ConstantMatrix::laplacian || spec.h0_contact == H0Contact::refactor)) {
+  // The contacts' stiffness (a scene with contact only; woodbury needs A = A1 (x) I3,
+  // solvers/contact_h0.hpp).
+  if (h0_ && spec.h0_contact != H0Contact::off && step_.has_vertex_stiffness() &&
+      (h0_->kind() == ConstantMatrix::laplacian || spec.h0_contact == H0Contact::refactor)) {
     contact_h0_ = std::make_unique<ContactH0>(step_, *h0_, spec.h0_contact);
     PetscCall(contact_h0_->setup());
     PetscCall(TaoLMVMSetH0(tao_, contact_h0_->inverse_operator()));

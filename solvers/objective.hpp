@@ -52,6 +52,7 @@ class Objective {
   virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
   // h'^2 times the 3 x 3 blocks of d2E/dx2 on single free vertices (obstacle contact and friction)
   // at the step's start x_n: this rank's vertices, by global dof (solver.h0_contact).
+  virtual bool has_vertex_stiffness() const { return false; }  // false: vertex_stiffness is always empty
   virtual PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const {
     out.clear();
     return 0;

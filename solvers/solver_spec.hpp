@@ -47,7 +47,7 @@ struct SolverSpec {
   // iterations, docs/contact.md): never | contact-change
   HistoryReset history_reset = HistoryReset::never;
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
-  H0Contact h0_contact = H0Contact::off;  // lbfgs
+  H0Contact h0_contact = H0Contact::refactor;  // lbfgs
   WarmStart warm_start = WarmStart::inertial;  // (lower: the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).

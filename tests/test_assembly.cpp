@@ -337,6 +337,7 @@ class ForwardingObjective : public Objective {
   PetscErrorCode force_scale(Vec x, double* scale) override { return o_.force_scale(x, scale); }
   double length_scale() const override { return o_.length_scale(); }
   bool bounds_steps() const override { return o_.bounds_steps(); }
+  bool has_vertex_stiffness() const override { return o_.has_vertex_stiffness(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return o_.limit_step(x, dir, alpha); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const override {
     return o_.assemble_constant_matrix(A, components, kind);
@@ -371,6 +372,9 @@ class SingularConstantMatrix : public ForwardingObjective {
 class GivenVertexStiffness : public ForwardingObjective {
  public:
   GivenVertexStiffness(Objective& o, double c) : ForwardingObjective(o), c_(c) {}
+  double c() const { return c_; }
+  void set_c(double c) { c_ = c; }
+  bool has_vertex_stiffness() const override { return true; }
   PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
     PetscInt lo, hi, n;
     PetscFunctionBeginUser;
@@ -399,7 +403,8 @@ class GivenVertexStiffness : public ForwardingObjective {
 };
 
 // solver.h0_contact: ContactH0's solve is (A + K_c)^{-1} against the explicitly assembled A + K_c
-// (woodbury: K_c the blocks; refactor: their trace / 3 on the diagonal), and its mult is A + K_c.
+// (woodbury: K_c the blocks; refactor: their trace / 3, rounded to a power of 2, on the diagonal),
+// and its mult is A + K_c.
 PetscErrorCode check_contact_h0(H0Contact mode, FactorPackage package) {
   TestScene s;
   FactoredSystem sys;
@@ -431,7 +436,7 @@ PetscErrorCode check_contact_h0(H0Contact mode, FactorPackage package) {
     if (mode == H0Contact::woodbury) {
       PetscCall(MatSetValues(A, 3, idx, 3, idx, k.K.data(), ADD_VALUES));
     } else {
-      const double d = (k.K[0] + k.K[4] + k.K[8]) / 3;
+      const double d = rounded_mean_stiffness(k);
       for (PetscInt i : idx) PetscCall(MatSetValue(A, i, i, d, ADD_VALUES));
     }
   }
@@ -461,6 +466,20 @@ PetscErrorCode check_contact_h0(H0Contact mode, FactorPackage package) {
   PetscCall(h0.update());
   CHECK(h0.column_solves() == solves && h0.refactorizations() == factorizations);
   CHECK(mode == H0Contact::woodbury ? solves == 2 : factorizations == 1);  // 5 vertices, 3 per solve
+  if (mode == H0Contact::refactor) {
+    // The blocks' mean eigenvalues are 4c/3 and c/3 (a factor 4 apart): moved to the middle of the
+    // power of 2 they round to, then 20% stiffer, they round the same (the factor is kept); twice as
+    // stiff, they do not (a new one).
+    const double centred = std::exp2(std::round(std::log2(4 * step.c() / 3))) * 3 / 4;
+    for (double scale : {1.0, 1.2}) {
+      step.set_c(scale * centred);
+      PetscCall(h0.update());
+      CHECK_MSG(h0.refactorizations() == 1, what + ": refactored at " + std::to_string(scale) + " times the middle");
+    }
+    step.set_c(2 * centred);
+    PetscCall(h0.update());
+    CHECK_MSG(h0.refactorizations() == 2, what + ": twice as stiff kept the factor");
+  }
   for (Vec* v : {&b, &x, &r, &diag}) PetscCall(VecDestroy(v));
   PetscCall(MatDestroy(&A));
   PetscFunctionReturn(0);

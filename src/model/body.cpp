@@ -207,6 +207,12 @@ bool Body::bounds_steps() const {
   return false;
 }
 
+bool Body::has_vertex_stiffness() const {
+  for (const auto& t : terms_)
+    if (t->has_vertex_stiffness()) return true;
+  return false;
+}
+
 bool Body::couples_surfaces() const {
   for (const auto& t : terms_)
     if (t->couples_surfaces()) return true;

@@ -65,6 +65,7 @@ class Body {
   PetscErrorCode volume_ratios(Vec x, double* min_J, double* max_abs_J) const;
   // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
   bool bounds_steps() const;
+  bool has_vertex_stiffness() const;  // a term's EnergyTerm::has_vertex_stiffness
   // True if a term couples surfaces that come close (EnergyTerm::couples_surfaces).
   bool couples_surfaces() const;
   // The terms' active sets at the last evaluated point, over all ranks (collective).

@@ -95,6 +95,7 @@ class StepObjective : public Objective {
   bool bounds_steps() const override { return body_.bounds_steps(); }
   unsigned long long active_set() const override { return body_.active_set(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
+  bool has_vertex_stiffness() const override { return body_.has_vertex_stiffness(); }
   PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
     return body_.vertex_stiffness(x_n_, solve_dt_ * solve_dt_, out);
   }

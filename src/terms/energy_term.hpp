@@ -77,6 +77,8 @@ class EnergyTerm {
   // The part of add_hessian (psd) that sits on single vertices, per owned free vertex that has one
   // (appended to out; a vertex may appear more than once).
   virtual void add_vertex_stiffness(const std::vector<double>& /*pos*/, std::vector<VertexStiffness>& /*out*/) const {}
+  // True if add_vertex_stiffness may add blocks (else L-BFGS's H0 never asks).
+  virtual bool has_vertex_stiffness() const { return false; }
 
   // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
   // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
