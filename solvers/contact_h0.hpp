@@ -1,8 +1,9 @@
 // L-BFGS's initial inverse Hessian with the contacts in it (solver.h0_contact):
 //   H0 = (A + K_c)^{-1},
-// A = M + h^2 L the scene's factored constant matrix (A1 (x) I3) and K_c = h'^2 times the 3 x 3 blocks
-// of d2E/dx2 that obstacle contact and friction put on single vertices (Objective::vertex_stiffness),
-// taken once per step, at its start.
+// A = M + h^2 L the scene's factored constant matrix (A1 (x) I3) and K_c = h'^2 times the 3 x 3
+// diagonal blocks of d2E/dx2 of obstacle contact, self-contact and their friction, per vertex
+// (Objective::vertex_stiffness; obstacle contact's whole Hessian, self-contact's pairs without the
+// blocks between their vertices), taken once per step, at its start.
 //
 // woodbury: with K_c = U C U^T (a column e_v (x) q per eigenpair (c, q) of a vertex's block, c > 0),
 //   (A + U C U^T)^{-1} = A^{-1} - W S^{-1} W^T,  W = A^{-1} U C^{1/2},  S = I + C^{1/2} U^T A^{-1} U C^{1/2},

@@ -178,9 +178,10 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "error: its steps need the exact solve); `newton`, `lbfgs-identity` factor no constant matrix: they ignore "
        "`h0`"),
       enum_key<S>("h0_contact", &S::h0_contact, kH0ContactNames,
-       "`lbfgs` only: the stiffness of obstacle contact and friction in its initial Hessian, taken at each step's "
-       "start x_n (the 3 × 3 blocks h²K_v of the vertices within the activation distance); a scene without colliders "
-       "has none and runs none of it. `off`: (M + h²L)⁻¹ alone. `refactor`: (M + h²L + h²D_c)⁻¹, D_c the blocks' mean "
+       "`lbfgs` only: the stiffness of obstacle contact, self-contact and their friction in its initial Hessian, "
+       "taken at each step's start x_n (the 3 × 3 diagonal blocks h²K_v of the vertices within the activation "
+       "distance; a self-contact pair's blocks between two vertices are left out); a scene without contact has none "
+       "and runs none of it. `off`: (M + h²L)⁻¹ alone. `refactor`: (M + h²L + h²D_c)⁻¹, D_c the blocks' mean "
        "eigenvalues rounded to powers of 2 on the diagonal, factored again when a rounded value changes (so H0 is a "
        "function of x_n: restarts stay bitwise, ranks agree as with `off`). `woodbury`: (M + h²L + h²K_c)⁻¹ with the "
        "blocks themselves, by a Sherman–Morrison–Woodbury correction of the scene's factor (one A⁻¹ solve per 3 new "

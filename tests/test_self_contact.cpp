@@ -8,7 +8,9 @@
 // against a search of every pair, over random motions. Pairs with a thickness offset xi: the same
 // derivative checks, and the energy at distance xi + s that of a pair without offset at s. Then
 // friction between surfaces: one pair's lagged friction (vertex-triangle and edge-edge) and the
-// two blocks' with the body's gradient and Hessian, against differences.
+// two blocks' with the body's gradient and Hessian, against differences. The blocks solver.h0_contact
+// takes (add_vertex_stiffness) against the diagonal blocks of the term's Hessian, with and without
+// friction, the same at any rank count.
 #include <petscdmplex.h>
 
 #include <cmath>
@@ -290,6 +292,68 @@ PetscErrorCode check_step_bound_with_thickness() {
   PetscFunctionReturn(0);
 }
 
+// The blocks solver.h0_contact takes at x (Body::vertex_stiffness, the self-contact term's alone):
+// each at a vertex this rank owns, equal to the 3 x 3 diagonal block of the term's Hessian (psd,
+// assembled alone) there to round-off (a block's sums run in another order than the matrix's), and
+// no free vertex with a nonzero diagonal block left out. Over the ranks: how many vertices have one
+// and the sum of their traces, expected as printed at 1 rank (vertices exactly, the trace to 1e-12).
+PetscErrorCode check_vertex_stiffness(TestScene& s, SelfContactTerm& term, Vec x, const std::string& what,
+                                      long expected_vertices, double expected_trace) {
+  std::vector<double> pos;
+  std::vector<VertexStiffness> blocks;
+  Mat K;
+  PetscInt lo, hi;
+  PetscFunctionBeginUser;
+  PetscCall(s.body->vertex_stiffness(x, 1.0, blocks));
+  PetscCall(s.body->local_positions(x, pos));
+  PetscCall(s.step->create_hessian(&K));
+  PetscCall(MatZeroEntries(K));
+  PetscCall(term.add_hessian(pos, K, 1.0, true));
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatGetOwnershipRange(K, &lo, &hi));
+  const auto diagonal_block = [&](PetscInt dof, Eigen::Matrix<double, 3, 3, Eigen::RowMajor>* D) {
+    const PetscInt idx[3] = {dof, dof + 1, dof + 2};
+    return MatGetValues(K, 3, idx, 3, idx, D->data());
+  };
+  Eigen::Matrix<double, 3, 3, Eigen::RowMajor> D;
+  double worst = 0, largest = 0, trace = 0;
+  long elsewhere = 0, missing = 0;
+  std::set<PetscInt> have;
+  for (const VertexStiffness& b : blocks) {
+    if (b.dof < lo || b.dof >= hi) {
+      ++elsewhere;
+      continue;
+    }
+    have.insert(b.dof);
+    PetscCall(diagonal_block(b.dof, &D));
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> B(b.K.data());
+    worst = std::max(worst, (B - D).cwiseAbs().maxCoeff());
+    largest = std::max(largest, D.cwiseAbs().maxCoeff());
+    trace += B.trace();
+  }
+  for (PetscInt dof = lo; dof < hi; dof += 3) {
+    PetscCall(diagonal_block(dof, &D));
+    missing += D.cwiseAbs().maxCoeff() > 0 && !have.count(dof);
+  }
+  PetscCall(MatDestroy(&K));
+  long counts[3] = {(long)have.size(), elsewhere + (long)(blocks.size() - elsewhere - have.size()), missing};
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &trace, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD,
+                        "%s: H0's blocks at %ld vertices, traces summed %.17g; against the Hessian's diagonal blocks %.1e "
+                        "of %.1e\n",
+                        what.c_str(), counts[0], trace, worst, largest));
+  CHECK_MSG(counts[1] == 0, what + ": blocks not at their owner or twice: " + std::to_string(counts[1]));
+  CHECK_MSG(counts[2] == 0, what + ": vertices with a diagonal block and no H0 block: " + std::to_string(counts[2]));
+  CHECK_MSG(largest > 0 && worst <= 1e-12 * largest, what + ": blocks against the Hessian's: " + std::to_string(worst / largest));
+  CHECK_MSG(counts[0] == expected_vertices, what + ": vertices with blocks " + std::to_string(counts[0]));
+  CHECK_MSG(std::abs(trace - expected_trace) <= 1e-12 * expected_trace, what + ": the traces summed " + std::to_string(trace));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode check_two_blocks(const std::string& model) {
   TestScene s;
   SelfContactTerm* term = nullptr;
@@ -330,6 +394,7 @@ PetscErrorCode check_two_blocks(const std::string& model) {
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s: Hessian vs FD of the gradient: %.2e\n", model.c_str(), err));
   CHECK_MSG(err < 1e-5, "Hessian vs FD of the gradient: " + std::to_string(err));
   PetscCall(MatDestroy(&K));
+  PetscCall(check_vertex_stiffness(s, *term, x, model, 28, model == "penalty" ? 17119589.841492631 : 94621032.811991885));
 
   if (model == "barrier") {  // the second block moves by 2 gaps towards the first: stopped short
     double alpha, Ep;
@@ -364,6 +429,7 @@ PetscErrorCode check_two_blocks_friction() {
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &pairs, 1, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "friction: %ld pairs frozen at x_n\n", pairs));
   CHECK_MSG(pairs == 67, "friction pairs within d at x_n: " + std::to_string(pairs));
+  PetscCall(check_vertex_stiffness(s, *term, x0, "barrier with friction", 28, 2305904067.1535816));
   PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
   PetscCall(PetscRandomSetInterval(rnd, -1.0, 1.0));
   const double eps_h = 0.01 * 0.05;

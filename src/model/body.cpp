@@ -260,7 +260,7 @@ PetscErrorCode Body::vertex_stiffness(Vec x, PetscReal scale, std::vector<Vertex
   std::vector<VertexStiffness> blocks;
   PetscFunctionBeginUser;
   PetscCall(local_positions(x, pos_));
-  for (const auto& term : terms_) term->add_vertex_stiffness(pos_, blocks);
+  for (const auto& term : terms_) PetscCall(term->add_vertex_stiffness(pos_, blocks));
   std::stable_sort(blocks.begin(), blocks.end(), [](const VertexStiffness& a, const VertexStiffness& b) { return a.dof < b.dof; });
   out.clear();
   for (const VertexStiffness& b : blocks) {

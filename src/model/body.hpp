@@ -81,8 +81,8 @@ class Body {
   // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
   // exact. Adds into H's existing pattern.
   PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
-  // The terms' single-vertex stiffness blocks at x (EnergyTerm::add_vertex_stiffness) times scale,
-  // one per owned free vertex that has any, in the order of the global dofs.
+  // The terms' diagonal stiffness blocks at x (EnergyTerm::add_vertex_stiffness) times scale,
+  // summed to one per owned free vertex that has any, in the order of the global dofs (collective).
   PetscErrorCode vertex_stiffness(Vec x, PetscReal scale, std::vector<VertexStiffness>& out) const;
   // H += scale * K(x_rest): the PSD-fixed Hessian at the rest shape (every vertex, fixed ones too,
   // at its rest position), on the free dofs.

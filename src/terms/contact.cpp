@@ -187,8 +187,9 @@ PetscErrorCode ContactTerm::add_hessian(const std::vector<double>& pos, Mat H, d
   PetscFunctionReturn(0);
 }
 
-void ContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const {
+PetscErrorCode ContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const {
   Mat3 h;
+  PetscFunctionBeginUser;
   const auto add = [&](PetscInt v) {
     VertexStiffness s;
     s.dof = mesh_.global_dof[v];
@@ -205,6 +206,7 @@ void ContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vect
     friction_energy(f, Vec3(&pos[3 * v]), nullptr, &h);
     add(v);
   }
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode ContactTerm::begin_step(const StepStart& step) {

@@ -63,7 +63,7 @@ class ContactTerm : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   // Its whole Hessian (psd): every block is a single vertex's.
-  void add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
+  PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
   bool has_vertex_stiffness() const override { return true; }
   bool projective_dynamics_exact() const override { return false; }
   // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.

@@ -52,7 +52,7 @@ struct InputProblem {
   std::string key, what;
 };
 
-// A 3 x 3 block of d2E/dx2 that a term adds on one free vertex alone (obstacle contact and its
+// A 3 x 3 diagonal block of d2E/dx2 (psd) at one free vertex (contact, self-contact and their
 // friction): what solver.h0_contact puts into L-BFGS's initial Hessian.
 struct VertexStiffness {
   PetscInt dof = 0;            // global index of the vertex's x dof (y, z follow)
@@ -74,9 +74,12 @@ class EnergyTerm {
   // H += scale * d2E/dx2 at pos on the free dofs (global indices), with the per-element
   // definiteness fix (psd, Newton) or exact (possibly indefinite; tests, the study's reference).
   virtual PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const = 0;
-  // The part of add_hessian (psd) that sits on single vertices, per owned free vertex that has one
-  // (appended to out; a vertex may appear more than once).
-  virtual void add_vertex_stiffness(const std::vector<double>& /*pos*/, std::vector<VertexStiffness>& /*out*/) const {}
+  // The 3 x 3 diagonal blocks of add_hessian (psd) at pos, per owned free vertex that has one
+  // (appended to out; a vertex may appear more than once); blocks between two vertices are left
+  // out. Collective (a term that couples vertices of several ranks sends each block to its owner).
+  virtual PetscErrorCode add_vertex_stiffness(const std::vector<double>& /*pos*/, std::vector<VertexStiffness>& /*out*/) const {
+    return 0;
+  }
   // True if add_vertex_stiffness may add blocks (else L-BFGS's H0 never asks).
   virtual bool has_vertex_stiffness() const { return false; }
 

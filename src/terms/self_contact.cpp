@@ -838,51 +838,59 @@ void SelfContactTerm::accumulate(const std::array<int, 4>& q, const Vector12d& g
   }
 }
 
-PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
+template <class Add>
+PetscErrorCode SelfContactTerm::sum_at_owners(int width, const std::vector<double>& sums, std::vector<int>& vertices,
+                                              Add&& add) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
   PetscMPIInt size, rank;
   PetscFunctionBeginUser;
-  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
   PetscCallMPI(MPI_Comm_size(comm, &size));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  // Per owner, in the surface's order: each touched vertex once, with its sum over this rank's
-  // pairs (in the pairs' order). The owner adds its own sums, then the received ones in the order
-  // of the sending ranks (MPI_Alltoallv places them so): the same bits whatever order the
-  // messages arrive in.
-  std::sort(touched_list_.begin(), touched_list_.end(),
+  // Per owner, in the surface's order; MPI_Alltoallv places the received ones in rank order.
+  std::sort(vertices.begin(), vertices.end(),
             [&](int a, int b) { return std::make_pair(owner_[a], a) < std::make_pair(owner_[b], b); });
   std::vector<int> send_counts(size, 0), recv_counts(size), send_offsets(size + 1, 0), recv_offsets(size + 1, 0);
   std::vector<int> send_vertices;
   std::vector<double> send_values;
-  for (int s : touched_list_) {
+  for (int s : vertices) {
     if (owner_[s] == rank) {
-      for (int d = 0; d < 3; ++d) gradient[mesh_.local_dof[local_of_[s]] + d] += accumulated_[3 * s + d];
+      add(s, &sums[width * s]);
     } else {
       ++send_counts[owner_[s]];
       send_vertices.push_back(s);
-      send_values.insert(send_values.end(), &accumulated_[3 * s], &accumulated_[3 * s] + 3);
+      send_values.insert(send_values.end(), &sums[width * s], &sums[width * s] + width);
     }
+  }
+  if (size == 1) PetscFunctionReturn(0);
+  PetscCallMPI(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm));
+  for (int r = 0; r < size; ++r) {
+    send_offsets[r + 1] = send_offsets[r] + send_counts[r];
+    recv_offsets[r + 1] = recv_offsets[r] + recv_counts[r];
+  }
+  std::vector<int> recv_vertices(recv_offsets[size]);
+  PetscCallMPI(MPI_Alltoallv(send_vertices.data(), send_counts.data(), send_offsets.data(), MPI_INT, recv_vertices.data(),
+                             recv_counts.data(), recv_offsets.data(), MPI_INT, comm));
+  for (int r = 0; r <= size; ++r) send_offsets[r] *= width, recv_offsets[r] *= width;
+  for (int r = 0; r < size; ++r) send_counts[r] *= width, recv_counts[r] *= width;
+  std::vector<double> recv_values(recv_offsets[size]);
+  PetscCallMPI(MPI_Alltoallv(send_values.data(), send_counts.data(), send_offsets.data(), MPI_DOUBLE, recv_values.data(),
+                             recv_counts.data(), recv_offsets.data(), MPI_DOUBLE, comm));
+  for (size_t k = 0; k < recv_vertices.size(); ++k) add(recv_vertices[k], &recv_values[width * k]);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode SelfContactTerm::exchange_gradient(PetscScalar* gradient) const {
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(gather_event_, 0, 0, 0, 0));
+  // Each touched vertex once, with its sum over this rank's pairs (in the pairs' order).
+  PetscCall(sum_at_owners(3, accumulated_, touched_list_, [&](int s, const double* g) {
+    for (int d = 0; d < 3; ++d) gradient[mesh_.local_dof[local_of_[s]] + d] += g[d];
+  }));
+  for (int s : touched_list_) {
     touched_[s] = 0;
     for (int d = 0; d < 3; ++d) accumulated_[3 * s + d] = 0;
   }
   touched_list_.clear();
-  if (size > 1) {
-    PetscCallMPI(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm));
-    for (int r = 0; r < size; ++r) {
-      send_offsets[r + 1] = send_offsets[r] + send_counts[r];
-      recv_offsets[r + 1] = recv_offsets[r] + recv_counts[r];
-    }
-    std::vector<int> recv_vertices(recv_offsets[size]);
-    PetscCallMPI(MPI_Alltoallv(send_vertices.data(), send_counts.data(), send_offsets.data(), MPI_INT,
-                               recv_vertices.data(), recv_counts.data(), recv_offsets.data(), MPI_INT, comm));
-    for (int r = 0; r <= size; ++r) send_offsets[r] *= 3, recv_offsets[r] *= 3;
-    for (int r = 0; r < size; ++r) send_counts[r] *= 3, recv_counts[r] *= 3;
-    std::vector<double> recv_values(recv_offsets[size]);
-    PetscCallMPI(MPI_Alltoallv(send_values.data(), send_counts.data(), send_offsets.data(), MPI_DOUBLE,
-                               recv_values.data(), recv_counts.data(), recv_offsets.data(), MPI_DOUBLE, comm));
-    for (size_t k = 0; k < recv_vertices.size(); ++k)
-      for (int d = 0; d < 3; ++d) gradient[mesh_.local_dof[local_of_[recv_vertices[k]]] + d] += recv_values[3 * k + d];
-  }
   PetscCall(PetscLogEventEnd(gather_event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }
@@ -916,6 +924,47 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
     add(q);
   }
   PetscCall(error);
+  PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
+  PetscFunctionReturn(0);
+}
+
+// Each pair's diagonal blocks summed per surface vertex on this rank (in the pairs' order, then
+// the friction pairs'), then sent to the owners as the gradient is: an owner appends its own sum and
+// one per other rank with pairs at the vertex (Body::vertex_stiffness adds them up), so
+// ContactH0::gather receives every block from its vertex's owner only.
+PetscErrorCode SelfContactTerm::add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const {
+  PetscFunctionBeginUser;
+  if (rejecting_region_) PetscFunctionReturn(0);  // a rejected step (add_energy)
+  PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
+  PetscCall(gather_positions(pos));
+  PetscCall(refresh_candidates());
+  std::vector<double> sums(9 * ids_.size(), 0.0);
+  std::vector<int> vertices;
+  std::vector<char> seen(ids_.size(), 0);
+  const auto add = [&](const std::array<int, 4>& q, const Matrix12d& h) {
+    for (int k = 0; k < 4; ++k) {
+      const int s = q[k];
+      if (dof_[s] < 0) continue;
+      if (!seen[s]) seen[s] = 1, vertices.push_back(s);
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(&sums[9 * s]) += h.block<3, 3>(3 * k, 3 * k);
+    }
+  };
+  Matrix12d h;
+  near_pairs([&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (pair_energy(p, coordinates(x_, q), nullptr, &h) != 0 && std::isfinite(h.sum())) add(q, clamp_psd(h));
+  });
+  for (const auto& [p, friction] : friction_) {  // positive semidefinite as they are
+    const std::array<int, 4> q = points(p);
+    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
+    add(q, h);
+  }
+  PetscCall(sum_at_owners(9, sums, vertices, [&](int s, const double* K) {
+    VertexStiffness block;
+    block.dof = dof_[s];
+    std::copy_n(K, 9, block.K.begin());
+    out.push_back(block);
+  }));
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
 }

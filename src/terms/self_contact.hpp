@@ -48,6 +48,12 @@
 // list was built either. The margin covers the step's predicted motion, capped by half the mean
 // edge (begin_step); the step bound visits the same pairs whether it uses the list or a broad phase
 // of its own (limit_step), so no result depends on the margin.
+//
+// L-BFGS's initial Hessian (solver.h0_contact) takes the 3 x 3 diagonal blocks of each pair's
+// Hessian (the same PSD projection as add_hessian's) and of its friction at each free point
+// (add_vertex_stiffness); the blocks between two points of a pair are left out, since H0's
+// correction is per vertex. A block of another rank's vertex is summed and sent to its owner as
+// the gradient is, so each vertex gets one sum per rank that has pairs at it, at its owner.
 #pragma once
 #include <petsclog.h>
 
@@ -117,6 +123,10 @@ class SelfContactTerm : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   // The pairs' 12 x 12 blocks (psd: each projected to positive semidefinite); collective.
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  // The 3 x 3 diagonal blocks of add_hessian (psd) at the free points of the pairs within d and of
+  // the frozen friction pairs, at each vertex's owner (collective).
+  PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
+  bool has_vertex_stiffness() const override { return true; }
   bool projective_dynamics_exact() const override { return false; }
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
@@ -267,6 +277,12 @@ class SelfContactTerm : public EnergyTerm {
   // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:
   // this rank's vertices directly, the others' sent to their owners (collective).
   PetscErrorCode exchange_gradient(PetscScalar* gradient) const;
+  // Hands width values per surface vertex in vertices (sums[width * s ...]) to the vertex's owner:
+  // there add(s, values) is called for this rank's own vertices first (in the surface's order),
+  // then for those received, in the order of the sending ranks, so the owner's sums do not depend
+  // on the order messages arrive in. Sorts vertices (collective).
+  template <class Add>
+  PetscErrorCode sum_at_owners(int width, const std::vector<double>& sums, std::vector<int>& vertices, Add&& add) const;
 
   const DistributedMesh& mesh_;
   ContactSpec spec_;
