@@ -10,6 +10,7 @@ with their strand_material) hang from their own fixed regions beside a falling b
 does alone, at 1 and 2 ranks; a cloth, a rope and a block dropped onto the ground plane come to
 rest on it, none below it, at 1 and 2 ranks alike; bad body keys are input errors."""
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -59,17 +60,31 @@ def run(tmp_path, name, deck, ranks=1):
     return final_frame(out)
 
 
+@pytest.fixture(scope="module")
+def run_once(tmp_path_factory):
+    """run() for the whole module, each deck at each rank count once: several tests compare with
+    the same runs (both blocks, a block alone, a hanging scene at 1 rank)."""
+    tmp, frames = tmp_path_factory.mktemp("bodies"), {}
+
+    def run_or_reuse(name, deck, ranks=1):
+        key = (json.dumps(deck, sort_keys=True), ranks)
+        if key not in frames:
+            frames[key] = run(tmp, f"{name}_{len(frames)}", deck, ranks)
+        return frames[key]
+    return run_or_reuse
+
+
 def by_id(m):
     """Final positions in vertex-id order (ids 0, 1, ... without gaps: boxes)."""
     assert np.array_equal(m.vertex_id, np.arange(len(m.vertex_id)))
     return m.points
 
 
-def test_each_body_lands_as_it_does_alone(tmp_path):
-    both = run(tmp_path, "both", scene([SOFT, STIFF]))
+def test_each_body_lands_as_it_does_alone(run_once):
+    both = run_once("both", scene([SOFT, STIFF]))
     x = by_id(both)
     for k, body in enumerate((SOFT, STIFF)):
-        alone = by_id(run(tmp_path, body["name"], scene([body])))
+        alone = by_id(run_once(body["name"], scene([body])))
         difference = np.max(np.linalg.norm(x[k * VERTICES:(k + 1) * VERTICES] - alone, axis=1)) / DIAGONAL
         print(f"{body['name']}: together against alone {difference:.2e} of its diagonal; lowest y {alone[:, 1].min():.4f}")
         assert difference <= 1e-8
@@ -77,7 +92,7 @@ def test_each_body_lands_as_it_does_alone(tmp_path):
     assert np.bincount(both.body).tolist() == [48, 48]
 
 
-def test_total_mass_is_spread_over_its_own_body(tmp_path):
+def test_total_mass_is_spread_over_its_own_body(tmp_path, run_once):
     """A material given by total_mass spreads it over its own body's volume, not the scene's: the
     soft block given as 8 kg (its density times its volume) settles under its weight as with its
     density, beside the stiff block."""
@@ -85,16 +100,16 @@ def test_total_mass_is_spread_over_its_own_body(tmp_path):
     del by_mass["material"]["density"]
     by_mass["material"]["total_mass"] = 1000 * SIZE ** 3
     x = by_id(run(tmp_path, "by_mass", scene([by_mass, STIFF])))[:VERTICES]
-    alone = by_id(run(tmp_path, "by_density", scene([SOFT])))
+    alone = by_id(run_once("soft", scene([SOFT])))
     difference = np.max(np.linalg.norm(x - alone, axis=1)) / DIAGONAL
     print(f"total_mass against density: {difference:.2e} of the diagonal")
     assert difference <= 1e-8
 
 
-def test_one_two_and_four_ranks_agree(tmp_path):
-    a = by_id(run(tmp_path, "np1", scene([SOFT, STIFF])))
+def test_one_two_and_four_ranks_agree(run_once):
+    a = by_id(run_once("both", scene([SOFT, STIFF])))
     for ranks in (2, 4):
-        b = by_id(run(tmp_path, f"np{ranks}", scene([SOFT, STIFF]), ranks=ranks))
+        b = by_id(run_once("both", scene([SOFT, STIFF]), ranks=ranks))
         difference = np.max(np.linalg.norm(a - b, axis=1)) / DIAGONAL
         print(f"1 against {ranks} ranks: {difference:.2e} of a block's diagonal")
         assert difference <= 1e-8
@@ -158,15 +173,15 @@ HANGING = {"cloth": (CLOTH, CLOTH_VERTICES, CLOTH_DIAGONAL, 32, 5, 0.3),
 
 
 @pytest.mark.parametrize("kind", HANGING)
-def test_a_cloth_or_rope_hangs_beside_a_falling_block_as_each_does_alone(tmp_path, kind):
+def test_a_cloth_or_rope_hangs_beside_a_falling_block_as_each_does_alone(run_once, kind):
     """The cloth or rope swings down from its own fixed region; the block falls freely (that
     region's box covers some of its vertices but holds none of them); each moves as it does alone."""
     body, n, size, elements, held, height = HANGING[kind]
     frames = 20
-    both = run(tmp_path, "both", hanging_scene([body, SOFT], frames))
+    both = run_once(f"{kind}_and_block", hanging_scene([body, SOFT], frames))
     x = by_id(both)
-    for name, together, alone, scale in ((kind, x[:n], by_id(run(tmp_path, kind, hanging_scene([body], frames))), size),
-                                         ("block", x[n:], by_id(run(tmp_path, "block", hanging_scene([SOFT], frames))), DIAGONAL)):
+    for name, together, alone, scale in ((kind, x[:n], by_id(run_once(kind, hanging_scene([body], frames))), size),
+                                         ("block", x[n:], by_id(run_once("block", hanging_scene([SOFT], frames))), DIAGONAL)):
         difference = np.max(np.linalg.norm(together - alone, axis=1)) / scale
         print(f"{name}: together against alone {difference:.2e} of its size")
         assert difference <= 1e-8
@@ -182,21 +197,21 @@ def test_a_cloth_or_rope_hangs_beside_a_falling_block_as_each_does_alone(tmp_pat
 
 
 @pytest.mark.parametrize("kind", HANGING)
-def test_a_cloth_or_rope_and_a_block_at_one_and_two_ranks(tmp_path, kind):
+def test_a_cloth_or_rope_and_a_block_at_one_and_two_ranks(run_once, kind):
     body, _, size, _, _, _ = HANGING[kind]
-    a = by_id(run(tmp_path, "np1", hanging_scene([body, SOFT])))
-    b = by_id(run(tmp_path, "np2", hanging_scene([body, SOFT]), ranks=2))
+    a = by_id(run_once(f"{kind}_and_block", hanging_scene([body, SOFT])))
+    b = by_id(run_once(f"{kind}_and_block", hanging_scene([body, SOFT]), ranks=2))
     difference = np.max(np.linalg.norm(a - b, axis=1)) / size
     print(f"1 against 2 ranks: {difference:.2e} of the {kind}'s size")
     assert difference <= 1e-8
 
 
-def test_a_list_of_one_body_is_the_plain_deck(tmp_path):
+def test_a_list_of_one_body_is_the_plain_deck(tmp_path, run_once):
     plain = copy.deepcopy(scene([]))
     del plain["bodies"]
     plain["mesh"], plain["material"] = SOFT["mesh"], SOFT["material"]
     a = by_id(run(tmp_path, "plain", plain))
-    b = by_id(run(tmp_path, "list", scene([SOFT])))
+    b = by_id(run_once("soft", scene([SOFT])))
     assert np.max(np.linalg.norm(a - b, axis=1)) / DIAGONAL <= 1e-10
 
 

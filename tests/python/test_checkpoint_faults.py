@@ -6,8 +6,10 @@ found in the field is reproduced here and must end as documented.
   earlier run's checkpoint_100 was resumed, leaving a .pvd of missing frames with status ok).
 - A full disk during a checkpoint ends every rank with exit 1 naming the path and the reason, at 1
   and 2 ranks (before: 2 ranks hung in HDF5; 1 rank blamed an option).
-- No length limit: 2,600 frames, every one written, checkpoint every 200 (before: exit 1 at 2,000,
-  the .pvd listing was a 64 KiB HDF5 attribute); a SIGTERM after that point exits 3.
+- No length limit: a .pvd listing past 64 KiB in the checkpoint (before: exit 1 there, near frame
+  2,000 of a run named "run": the listing was a 64 KiB HDF5 attribute); here 600 frames of a run
+  with a 100-character name, every one written, checkpoint every 100, past 64 KiB near frame 500;
+  a SIGTERM after that point exits 3.
 - Damage is detected: a flipped byte in positions or velocities, a truncated or garbage file; latest
   falls back to the newest whole checkpoint; a stray checkpoint_999.h5 or a name that does not parse
   does not block it; --restart PATH of another run says whose it is.
@@ -181,14 +183,18 @@ def load_bar():
         return dict(yaml.safe_load(f), name="bar")
 
 
+# The .pvd listing's lines ("time file") hold the name: with the longest name a deck may have
+# (100 characters) it passes 64 KiB near frame 500 instead of 2,000 (a cost that grows with the
+# frames squared: the .pvd is rewritten whole at every frame).
+LONG_NAME = "long_" + "n" * 95
 LONG = {
-    "name": "run",
+    "name": LONG_NAME,
     "mesh": {"box": {"size": [1.0, 0.25, 0.25], "cells": [4, 1, 1]}},
     "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
     "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
     "gravity": [0, -9.81, 0],
-    "time": {"dt": 1 / 30, "frames": 2600},
-    "checkpoint": {"every": 200},
+    "time": {"dt": 1 / 30, "frames": 600},
+    "checkpoint": {"every": 100},
 }
 
 
@@ -197,15 +203,17 @@ def test_no_length_limit(tmp_path, ranks):
     path = write_deck(tmp_path / "long.yaml", LONG)
     out = tmp_path / "out"
     run_hyperqn([path, "-o", out], ranks=ranks)
-    assert checkpoints(out) == ["checkpoint_2400.h5", "checkpoint_2600.h5"]
-    listing = read_checkpoint(out / "checkpoints" / "checkpoint_2600.h5")["writer_vtk_pvd"].splitlines()
-    assert len(listing) == 2601 and len("\n".join(listing)) > 65536
-    assert len(read_pvd(out / "run.pvd")) == 2601
-    if ranks is None:  # a signal past frame 2,000: a checkpoint, exit 3, and the restart finishes
+    assert checkpoints(out) == ["checkpoint_500.h5", "checkpoint_600.h5"]
+    listing = read_checkpoint(out / "checkpoints" / "checkpoint_600.h5")["writer_vtk_pvd"].splitlines()
+    assert len(listing) == 601 and len("\n".join(listing)) > 65536
+    assert len(read_pvd(out / f"{LONG_NAME}.pvd")) == 601
+    if ranks is None:  # a signal past 64 KiB of listing: a checkpoint, exit 3, and the restart finishes
         stopped = tmp_path / "stopped"
-        done = run_hyperqn([path, "-o", stopped, "-hyperqn_test_signal_after_frame", "2100"], check=False)
+        done = run_hyperqn([path, "-o", stopped, "-hyperqn_test_signal_after_frame", "550"], check=False)
         assert done.returncode == 3, done.stdout[-2000:]
-        assert checkpoints(stopped)[-1] == "checkpoint_2100.h5"
+        assert checkpoints(stopped)[-1] == "checkpoint_550.h5"
+        listing = read_checkpoint(stopped / "checkpoints" / "checkpoint_550.h5")["writer_vtk_pvd"]
+        assert len(listing) > 65536
         run_hyperqn([path, "-o", stopped, "--restart", "latest"])
         assert_same_run(out, stopped)
 
