@@ -184,7 +184,7 @@ PetscErrorCode ContactH0::update_refactor() {
       for (int c = 0; c < 3; ++c) d[dof - lo_ + c] = k;
   PetscCall(VecRestoreArray(b_, &d));
   refactored_ = std::make_unique<FactoredSystem>();
-  PetscCall(refactored_->setup(step_, h0_.kind(), h0_.package(), b_));
+  PetscCall(refactored_->setup(h0_, b_));
   ++refactorizations_;
   PetscFunctionReturn(0);
 }

@@ -246,14 +246,33 @@ PetscErrorCode FactoredSystem::factor(Mat A) {
 
 PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind, FactorPackage package,
                                      Vec extra_diagonal) {
-  PetscInt n, N, m, M;
   PetscFunctionBeginUser;
   kind_ = kind;
-  const int components = kind == ConstantMatrix::laplacian ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
-  PetscCall(step.assemble_constant_matrix(&A_, components, kind));
-  if (extra_diagonal && components == 3) PetscCall(MatDiagonalSet(A_, extra_diagonal, ADD_VALUES));
-  if (extra_diagonal && components == 1) {  // its x entries, in A1's vertex layout
+  PetscCall(step.assemble_constant_matrix(&A_, kind == ConstantMatrix::laplacian ? 1 : 3, kind));
+  PetscCall(add_diagonal(extra_diagonal));
+  PetscCall(event_end(&LogEvents::h0_assembly));
+  PetscCall(factor_assembled(package));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diagonal) {
+  PetscFunctionBeginUser;
+  kind_ = base.kind_;
+  PetscCall(event_begin(&LogEvents::h0_assembly));
+  PetscCall(MatDuplicate(base.A_, MAT_COPY_VALUES, &A_));  // the values setup(step, ...) would assemble
+  PetscCall(MatSetOption(A_, MAT_SPD, PETSC_TRUE));
+  PetscCall(add_diagonal(extra_diagonal));
+  PetscCall(event_end(&LogEvents::h0_assembly));
+  PetscCall(factor_assembled(base.package_));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
+  PetscFunctionBeginUser;
+  const bool vertex_layout = kind_ == ConstantMatrix::laplacian;
+  if (extra_diagonal && !vertex_layout) PetscCall(MatDiagonalSet(A_, extra_diagonal, ADD_VALUES));
+  if (extra_diagonal && vertex_layout) {  // its x entries, in A1's vertex layout
     Vec d;
     const PetscScalar* e;
     PetscScalar* a;
@@ -268,7 +287,13 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
     PetscCall(MatDiagonalSet(A_, d, ADD_VALUES));
     PetscCall(VecDestroy(&d));
   }
-  PetscCall(event_end(&LogEvents::h0_assembly));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package) {
+  PetscInt n, N, m, M;
+  const int components = kind_ == ConstantMatrix::laplacian ? 1 : 3;
+  PetscFunctionBeginUser;
   // -hyperqn_h0_matrix_view binary:A1.bin: the matrix, e.g. for bench/mumps_repro.cpp.
   PetscCall(MatViewFromOptions(A_, nullptr, "-hyperqn_h0_matrix_view"));
   if (package == FactorPackage::automatic) PetscCall(choose_factor_package(A_, &package));

@@ -75,6 +75,10 @@ class FactoredSystem {
   // before it is factored (solver.h0_contact: refactor).
   PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
                        FactorPackage package = default_factor_package(), Vec extra_diagonal = nullptr);
+  // The same as setup(step, base.kind(), base.package(), extra_diagonal) from a copy of base's
+  // assembled matrix, with no assembly (solver.h0_contact: refactor, once per change of its
+  // diagonal).
+  PetscErrorCode setup(const FactoredSystem& base, Vec extra_diagonal);
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
@@ -102,6 +106,9 @@ class FactoredSystem {
   PetscInt interface_size() const { return split_ ? split_->separator_size() : 0; }
 
  private:
+  PetscErrorCode add_diagonal(Vec extra_diagonal);  // to A_ (nothing if null)
+  // The rest of setup once A_ is assembled: the factorization or the V-cycle, the shell.
+  PetscErrorCode factor_assembled(FactorPackage package);
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A);
   PetscErrorCode factor_supernodal(Mat A);
