@@ -74,14 +74,18 @@ PetscErrorCode ContactH0::update() {
   std::vector<VertexStiffness> local;
   PetscFunctionBeginUser;
   PetscCall(step_.vertex_stiffness(local));
+  if (mode_ == H0Contact::refactor) {  // each rank its own vertices' diagonal: nothing gathered
+    PetscCall(update_refactor(local));
+    PetscFunctionReturn(0);
+  }
   std::vector<PetscInt> before;
   for (const VertexStiffness& s : blocks_) before.push_back(s.dof);
   PetscCall(gather(local));
   bool same = before.size() == blocks_.size();
   for (size_t a = 0; same && a < blocks_.size(); ++a) same = before[a] == blocks_[a].dof;
   active_ = !blocks_.empty();
-  if (mode_ == H0Contact::woodbury) PetscCall(update_woodbury(same));
-  if (mode_ == H0Contact::refactor) PetscCall(update_refactor());
+  vertices_ = static_cast<PetscInt>(blocks_.size());
+  PetscCall(update_woodbury(same));
   PetscFunctionReturn(0);
 }
 
@@ -165,23 +169,29 @@ double rounded_mean_stiffness(const VertexStiffness& s) {
 // restart and the uninterrupted run factor the same matrices, and round-off in x_n (another rank
 // count) changes H0 only where a value sits at a rounding boundary. The rounding's error, up to
 // a factor of sqrt 2 in a vertex's stiffness, is what an approximate H0 tolerates.
-PetscErrorCode ContactH0::update_refactor() {
-  std::vector<std::pair<PetscInt, double>> diagonal;  // (dof, rounded stiffness) over all ranks
+PetscErrorCode ContactH0::update_refactor(const std::vector<VertexStiffness>& local) {
+  std::vector<std::pair<PetscInt, double>> diagonal;  // (dof, rounded stiffness) of this rank's vertices
   PetscFunctionBeginUser;
-  for (const VertexStiffness& s : blocks_)
+  for (const VertexStiffness& s : local)
     if (const double k = rounded_mean_stiffness(s); k > 0) diagonal.emplace_back(s.dof, k);
-  if (diagonal == factored_diagonal_) PetscFunctionReturn(0);
+  // Over the ranks: whether any rank's diagonal changed, the vertices with a block, those with a
+  // positive diagonal.
+  long counts[3] = {diagonal != factored_diagonal_, (long)local.size(), (long)diagonal.size()};
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)b_)));
+  vertices_ = static_cast<PetscInt>(counts[1]);
+  if (counts[0] == 0) PetscFunctionReturn(0);
   factored_diagonal_ = diagonal;
-  if (diagonal.empty()) {
+  if (counts[2] == 0) {
     refactored_.reset();
     PetscFunctionReturn(0);
   }
   PetscScalar* d;
   PetscCall(VecSet(b_, 0.0));
   PetscCall(VecGetArray(b_, &d));
-  for (const auto& [dof, k] : diagonal)
-    if (dof >= lo_ && dof < lo_ + local_)
-      for (int c = 0; c < 3; ++c) d[dof - lo_ + c] = k;
+  for (const auto& [dof, k] : diagonal) {
+    PetscCheck(dof >= lo_ && dof < lo_ + local_, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a stiffness block of another rank's dof %" PetscInt_FMT, dof);
+    for (int c = 0; c < 3; ++c) d[dof - lo_ + c] = k;
+  }
   PetscCall(VecRestoreArray(b_, &d));
   refactored_ = std::make_unique<FactoredSystem>();
   PetscCall(refactored_->setup(h0_, b_));

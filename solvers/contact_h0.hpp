@@ -50,14 +50,14 @@ class ContactH0 {
   Mat inverse_operator() const { return shell_; }
   // Vertices with contact stiffness in H0 at the last update (over all ranks), and A's solves and
   // factorizations spent on the corrections so far.
-  PetscInt vertices() const { return static_cast<PetscInt>(blocks_.size()); }
+  PetscInt vertices() const { return vertices_; }
   long long column_solves() const { return column_solves_; }
   int refactorizations() const { return refactorizations_; }
 
  private:
   PetscErrorCode gather(const std::vector<VertexStiffness>& local);  // blocks_ over all ranks
   PetscErrorCode update_woodbury(bool same_vertices);
-  PetscErrorCode update_refactor();
+  PetscErrorCode update_refactor(const std::vector<VertexStiffness>& local);
   PetscErrorCode compute_columns();  // Z_ and G_ for blocks_' vertices
 
   const Objective& step_;
@@ -66,7 +66,8 @@ class ContactH0 {
   Mat shell_ = nullptr;
   Vec b_ = nullptr, x_ = nullptr;  // work
   PetscInt lo_ = 0, local_ = 0;     // this rank's first dof and its dofs
-  std::vector<VertexStiffness> blocks_;  // every rank's, by global dof
+  std::vector<VertexStiffness> blocks_;  // woodbury: every rank's, by global dof
+  PetscInt vertices_ = 0;                // with a block, over all ranks
   bool active_ = false;                  // blocks_ not empty: the correction applies
   // woodbury: Z_ (local vertices x k, by columns) = A1^{-1} e_v, G_ = its rows of the k vertices
   // (k x k, the same on every rank); per column of U its vertex, direction q and sqrt(c); S's factor.
@@ -76,7 +77,7 @@ class ContactH0 {
   Eigen::VectorXd column_scale_;
   Eigen::LLT<Eigen::MatrixXd> S_;
   std::unique_ptr<FactoredSystem> refactored_;  // refactor
-  std::vector<std::pair<PetscInt, double>> factored_diagonal_;  // refactor: its (dof, rounded stiffness)
+  std::vector<std::pair<PetscInt, double>> factored_diagonal_;  // refactor: this rank's (dof, rounded stiffness)
   long long column_solves_ = 0;
   int refactorizations_ = 0;
 };
