@@ -194,7 +194,7 @@ PetscErrorCode ContactH0::update_refactor(const std::vector<VertexStiffness>& lo
   }
   PetscCall(VecRestoreArray(b_, &d));
   refactored_ = std::make_unique<FactoredSystem>();
-  PetscCall(refactored_->setup(h0_, b_));
+  PetscCall(refactored_->setup(h0_, b_, &analysis_));
   ++refactorizations_;
   PetscFunctionReturn(0);
 }

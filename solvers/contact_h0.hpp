@@ -77,6 +77,7 @@ class ContactH0 {
   Eigen::VectorXd column_scale_;
   Eigen::LLT<Eigen::MatrixXd> S_;
   std::unique_ptr<FactoredSystem> refactored_;  // refactor
+  CholeskyAnalysis analysis_;                   // refactor: the pattern of A + D_c, analysed once
   std::vector<std::pair<PetscInt, double>> factored_diagonal_;  // refactor: this rank's (dof, rounded stiffness)
   long long column_solves_ = 0;
   int refactorizations_ = 0;

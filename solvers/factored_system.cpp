@@ -153,7 +153,7 @@ PetscErrorCode FactoredSystem::setup_amg() {
 }
 
 // A's rows (sorted columns) handed to SupernodalCholesky, which reads their upper triangle.
-PetscErrorCode FactoredSystem::factor_supernodal(Mat A) {
+PetscErrorCode FactoredSystem::factor_supernodal(Mat A, CholeskyAnalysis* analysis) {
   PetscInt n;
   PetscFunctionBeginUser;
   PetscCall(MatGetSize(A, &n, nullptr));
@@ -173,7 +173,7 @@ PetscErrorCode FactoredSystem::factor_supernodal(Mat A) {
     PetscCall(MatRestoreRow(A, i, &nc, &c, &v));
   }
   supernodal_ = std::make_unique<SupernodalCholesky>();
-  const SupernodalCholesky::Status status = supernodal_->factor(n, start.data(), columns.data(), values.data());
+  const SupernodalCholesky::Status status = supernodal_->factor(n, start.data(), columns.data(), values.data(), 0, nullptr, analysis);
   if (status != SupernodalCholesky::Status::ok) supernodal_.reset();
   if (status == SupernodalCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
   PetscCheck(status != SupernodalCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
@@ -184,11 +184,11 @@ PetscErrorCode FactoredSystem::factor_supernodal(Mat A) {
 }
 
 // Each rank's interior and the shared Schur complement of the interface (solvers/split_cholesky.hpp).
-PetscErrorCode FactoredSystem::factor_split(Mat A) {
+PetscErrorCode FactoredSystem::factor_split(Mat A, CholeskyAnalysis* analysis) {
   SplitCholesky::Status status;
   PetscFunctionBeginUser;
   split_ = std::make_unique<SplitCholesky>();
-  PetscCall(split_->factor(A, kind_ == ConstantMatrix::laplacian ? 3 : 1, &status));
+  PetscCall(split_->factor(A, kind_ == ConstantMatrix::laplacian ? 3 : 1, &status, analysis));
   if (status != SplitCholesky::Status::ok) split_.reset();
   if (status == SplitCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
   PetscCheck(status != SplitCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
@@ -199,19 +199,19 @@ PetscErrorCode FactoredSystem::factor_split(Mat A) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::factor(Mat A) {
+PetscErrorCode FactoredSystem::factor(Mat A, CholeskyAnalysis* analysis) {
   MatFactorInfo info;
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
   if (package_ == FactorPackage::supernodal) {
-    PetscCall(factor_supernodal(A));
+    PetscCall(factor_supernodal(A, analysis));
     PetscFunctionReturn(0);
   }
   if (package_ == FactorPackage::split) {
     PetscMPIInt size;
     PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A), &size));
-    PetscCall(size > 1 ? factor_split(A) : factor_supernodal(A));
+    PetscCall(size > 1 ? factor_split(A, analysis) : factor_supernodal(A, analysis));
     PetscFunctionReturn(0);
   }
   PetscCheck(factor_package_available(package_), PETSC_COMM_SELF, PETSC_ERR_SUP,
@@ -256,7 +256,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diagonal) {
+PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diagonal, CholeskyAnalysis* analysis) {
   PetscFunctionBeginUser;
   kind_ = base.kind_;
   PetscCall(event_begin(&LogEvents::h0_assembly));
@@ -264,7 +264,7 @@ PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diago
   PetscCall(MatSetOption(A_, MAT_SPD, PETSC_TRUE));
   PetscCall(add_diagonal(extra_diagonal));
   PetscCall(event_end(&LogEvents::h0_assembly));
-  PetscCall(factor_assembled(base.package_));
+  PetscCall(factor_assembled(base.package_, analysis));
   PetscFunctionReturn(0);
 }
 
@@ -290,7 +290,7 @@ PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package) {
+PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyAnalysis* analysis) {
   PetscInt n, N, m, M;
   const int components = kind_ == ConstantMatrix::laplacian ? 1 : 3;
   PetscFunctionBeginUser;
@@ -320,7 +320,7 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package) {
     PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
   }
   PetscErrorCode ierr = 0;
-  if (package != FactorPackage::amg && (!gathered || rank == 0)) ierr = factor(factored);
+  if (package != FactorPackage::amg && (!gathered || rank == 0)) ierr = factor(factored, analysis);
   if (gathered) {  // an error on rank 0 (e.g. a bad -h0_mat_*_* value) must stop every rank
     int failed = ierr != 0, any = 0;
     PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));

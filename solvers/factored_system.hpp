@@ -77,8 +77,9 @@ class FactoredSystem {
                        FactorPackage package = default_factor_package(), Vec extra_diagonal = nullptr);
   // The same as setup(step, base.kind(), base.package(), extra_diagonal) from a copy of base's
   // assembled matrix, with no assembly (solver.h0_contact: refactor, once per change of its
-  // diagonal).
-  PetscErrorCode setup(const FactoredSystem& base, Vec extra_diagonal);
+  // diagonal). With `analysis` (kept by the caller from one such setup to the next) the supernodal
+  // and split packages analyse the pattern once (CholeskyAnalysis); the others ignore it.
+  PetscErrorCode setup(const FactoredSystem& base, Vec extra_diagonal, CholeskyAnalysis* analysis = nullptr);
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
@@ -108,11 +109,11 @@ class FactoredSystem {
  private:
   PetscErrorCode add_diagonal(Vec extra_diagonal);  // to A_ (nothing if null)
   // The rest of setup once A_ is assembled: the factorization or the V-cycle, the shell.
-  PetscErrorCode factor_assembled(FactorPackage package);
+  PetscErrorCode factor_assembled(FactorPackage package, CholeskyAnalysis* analysis = nullptr);
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
-  PetscErrorCode factor(Mat A);
-  PetscErrorCode factor_supernodal(Mat A);
-  PetscErrorCode factor_split(Mat A);  // A_ itself, on more than one rank
+  PetscErrorCode factor(Mat A, CholeskyAnalysis* analysis);
+  PetscErrorCode factor_supernodal(Mat A, CholeskyAnalysis* analysis);
+  PetscErrorCode factor_split(Mat A, CholeskyAnalysis* analysis);  // A_ itself, on more than one rank
   PetscErrorCode setup_amg();  // ksp_ on A_
   // x = A^{-1} b with the factor on this rank (b and x: all of A's rows, on rank 0 when gathered).
   PetscErrorCode solve_here(Vec b, Vec x) const;

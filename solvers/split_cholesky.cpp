@@ -69,7 +69,7 @@ PetscErrorCode SplitCholesky::interface_size(Mat A, PetscInt* s) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode SplitCholesky::factor(Mat A, int k, Status* status) {
+PetscErrorCode SplitCholesky::factor(Mat A, int k, Status* status, CholeskyAnalysis* analysis) {
   PetscMPIInt size, rank;
   PetscInt rstart, rend;
   PetscFunctionBeginUser;
@@ -144,7 +144,7 @@ PetscErrorCode SplitCholesky::factor(Mat A, int k, Status* status) {
   *status = Status::ok;
   if (n > 0)
     *status = status_of(interior_.factor(n, block.start.data(), block.columns.data(), block.values.data(), separator_,
-                                         separator_ > 0 ? &dense : nullptr));
+                                         separator_ > 0 ? &dense : nullptr, analysis));
   PetscCall(agree(comm_, status));
   if (*status != Status::ok) PetscFunctionReturn(0);
 

@@ -32,8 +32,9 @@ class SplitCholesky {
 
   // Factors the assembled parallel SPD matrix A (collective). k: the right-hand sides per row a
   // solve takes interleaved (3 for the vertex matrix A1 applied to x, y, z; 1 for a dof matrix).
-  // Every rank returns the same status.
-  PetscErrorCode factor(Mat A, int k, Status* status);
+  // Every rank returns the same status. With `analysis`, this rank's interior is factored as
+  // SupernodalCholesky::factor does with it (its pattern analysed once, relaxed supernodes).
+  PetscErrorCode factor(Mat A, int k, Status* status, CholeskyAnalysis* analysis = nullptr);
 
   // x = A^{-1} b on this rank's rows (k interleaved values per row; collective).
   PetscErrorCode solve(const double* b, double* x) const;

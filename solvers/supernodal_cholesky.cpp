@@ -14,7 +14,7 @@ namespace {
 // cholmod_common for one factorization, finished whatever way the factorization ends.
 struct Cholmod {
   cholmod_common c;
-  Cholmod() {
+  explicit Cholmod(bool relaxed = false) {
     cholmod_l_start(&c);
     c.print = 0;  // the caller reports the status
     // A supernodal factor, kept as CHOLMOD leaves it: its dense column blocks are what solve() reads.
@@ -23,7 +23,8 @@ struct Cholmod {
     // Supernodes are merged only where that adds no zeros: every zero would be read and multiplied
     // by every solve (CHOLMOD's default merges up to 80 % zeros for its BLAS; on strands' chains
     // that tripled the solve, docs/performance.md#h0-package).
-    for (int i = 0; i < 3; ++i) {
+    // A relaxed analysis (CholeskyAnalysis) keeps CHOLMOD's defaults.
+    for (int i = 0; i < 3 && !relaxed; ++i) {
       c.nrelax[i] = 0;
       c.zrelax[i] = 0.0;
     }
@@ -83,14 +84,25 @@ std::vector<int64_t> ordering_with_separator(int64_t n, const int64_t* row_start
 
 }  // namespace
 
+CholeskyAnalysis::~CholeskyAnalysis() {
+  if (!symbolic_) return;
+  Cholmod cm;
+  cholmod_l_free_factor(&symbolic_, &cm.c);
+}
+
 SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* row_start, const int64_t* columns,
                                                       const double* values, int64_t separator,
-                                                      std::vector<double>* separator_factor) {
+                                                      std::vector<double>* separator_factor,
+                                                      CholeskyAnalysis* analysis) {
   *this = SupernodalCholesky();
-  Cholmod cm;
+  Cholmod cm(analysis != nullptr);
   cholmod_sparse A = lower_view(n, row_start, columns, values);
   cholmod_factor* L = nullptr;
-  if (separator == 0) {
+  const bool reuse = analysis && analysis->symbolic_ && analysis->n_ == n && analysis->entries_ == row_start[n] &&
+                     analysis->separator_ == separator;
+  if (reuse) {
+    L = cholmod_l_copy_factor(analysis->symbolic_, &cm.c);
+  } else if (separator == 0) {
     L = cholmod_l_analyze(&A, &cm.c);
   } else {
     std::vector<int64_t> perm = ordering_with_separator(n, row_start, columns, values, separator, &cm.c);
@@ -103,6 +115,18 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
     L = cholmod_l_analyze_p(&A, perm.data(), nullptr, 0, &cm.c);
   }
   if (!L) return status_of(cm.c) == Status::ok ? Status::failed : status_of(cm.c);
+  if (analysis && !reuse) {  // kept before the numeric factorization fills L
+    if (analysis->symbolic_) cholmod_l_free_factor(&analysis->symbolic_, &cm.c);
+    analysis->symbolic_ = cholmod_l_copy_factor(L, &cm.c);
+    analysis->n_ = n;
+    analysis->entries_ = row_start[n];
+    analysis->separator_ = separator;
+    ++analysis->analyses_;
+    if (!analysis->symbolic_) {
+      cholmod_l_free_factor(&L, &cm.c);
+      return status_of(cm.c) == Status::ok ? Status::failed : status_of(cm.c);
+    }
+  }
   const int done = cholmod_l_factorize(&A, L, &cm.c);
   Status status = done ? status_of(cm.c) : Status::failed;
   if (status == Status::ok && (L->minor < L->n || !L->is_super)) status = Status::failed;

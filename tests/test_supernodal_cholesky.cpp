@@ -6,7 +6,9 @@
 // entries (no zeros are merged in: a chain's L has 2n - 1, a dense block's n(n + 1)/2), and a
 // matrix that is not positive definite refused. With a separator (the split factor's interior, its
 // last rows ordered last): the two halves of a solve with the dense separator block between them
-// give A^{-1} b, on a grid whose last rows are the separator, and with every row in it.
+// give A^{-1} b, on a grid whose last rows are the separator, and with every row in it. With a kept
+// analysis (CholeskyAnalysis): a second matrix of the same pattern is factored without analysing
+// it again, to the same bits as a new analysis gives, and another pattern is analysed anew.
 #include <cmath>
 #include <random>
 #include <vector>
@@ -151,6 +153,63 @@ void check_separator(const std::string& name, const Csr& A, int64_t s) {
   }
 }
 
+// The first n entries of A^{-1} b (k = 3) by the factor f, for a fixed b.
+std::vector<double> solution(const SupernodalCholesky& f, int64_t n) {
+  std::vector<double> b(3 * n);
+  for (size_t i = 0; i < b.size(); ++i) b[i] = std::sin(1.0 + static_cast<double>(i));
+  f.solve(3, b.data(), b.data());
+  return b;
+}
+
+// A with `extra` added to the diagonal of every third row (the pattern unchanged).
+Csr with_diagonal(Csr A, double extra) {
+  for (int64_t i = 0; i < A.n; i += 3)
+    for (int64_t p = A.start[i]; p < A.start[i + 1]; ++p)
+      if (A.column[p] == i) A.value[p] += extra;
+  return A;
+}
+
+void check_kept_analysis(const std::string& name, const Csr& A) {
+  CholeskyAnalysis kept;
+  SupernodalCholesky first, second, fresh;
+  CHECK_MSG(first.factor(A.n, A.start.data(), A.column.data(), A.value.data(), 0, nullptr, &kept) ==
+                SupernodalCholesky::Status::ok && kept.analyses() == 1, name + ": the first factorization");
+  const Csr B = with_diagonal(A, 5.0);
+  CHECK_MSG(second.factor(B.n, B.start.data(), B.column.data(), B.value.data(), 0, nullptr, &kept) ==
+                SupernodalCholesky::Status::ok, name + ": the second factorization");
+  CHECK_MSG(kept.analyses() == 1, name + ": the same pattern analysed " + std::to_string(kept.analyses()) + " times");
+  CholeskyAnalysis once;
+  CHECK(fresh.factor(B.n, B.start.data(), B.column.data(), B.value.data(), 0, nullptr, &once) ==
+        SupernodalCholesky::Status::ok);
+  CHECK_MSG(solution(second, B.n) == solution(fresh, B.n), name + ": the kept analysis's factor differs from a new one's");
+  const std::vector<double> x = solution(second, B.n), b = B.times(x, 3);
+  double err = 0;
+  for (size_t i = 0; i < x.size(); ++i) err = std::max(err, std::fabs(b[i] - std::sin(1.0 + static_cast<double>(i))));
+  CHECK_MSG(err <= 1e-12, name + ": |A A^-1 b - b| = " + std::to_string(err));
+  SupernodalCholesky exact;  // without an analysis no zeros are merged in
+  CHECK(exact.factor(A.n, A.start.data(), A.column.data(), A.value.data()) == SupernodalCholesky::Status::ok);
+  CHECK_MSG(second.nonzeros() >= exact.nonzeros(), name + ": the relaxed factor has fewer entries than the exact one");
+
+  const Csr other = chain(A.n + 1);  // another pattern: analysed again
+  SupernodalCholesky third;
+  CHECK(third.factor(other.n, other.start.data(), other.column.data(), other.value.data(), 0, nullptr, &kept) ==
+        SupernodalCholesky::Status::ok);
+  CHECK_MSG(kept.analyses() == 2 && third.size() == other.n, name + ": another pattern was not analysed again");
+
+  // With a separator (the split factor's interior): the same bits for the separator block too.
+  const int64_t s = A.n / 10;
+  CholeskyAnalysis split_kept, split_once;
+  std::vector<double> L1, L2, L3;
+  SupernodalCholesky s1, s2, s3;
+  CHECK(s1.factor(A.n, A.start.data(), A.column.data(), A.value.data(), s, &L1, &split_kept) ==
+        SupernodalCholesky::Status::ok);
+  CHECK(s2.factor(B.n, B.start.data(), B.column.data(), B.value.data(), s, &L2, &split_kept) ==
+        SupernodalCholesky::Status::ok);
+  CHECK(s3.factor(B.n, B.start.data(), B.column.data(), B.value.data(), s, &L3, &split_once) ==
+        SupernodalCholesky::Status::ok);
+  CHECK_MSG(split_kept.analyses() == 1 && L2 == L3 && L2 != L1, name + ": with a separator, the kept analysis");
+}
+
 }  // namespace
 
 int main() {
@@ -165,6 +224,7 @@ int main() {
   check_separator("9-point grid 30 x 30, its last 3 rows the separator", grid(30), 90);
   check_separator("chain of 40, its last 5 the separator", chain(40), 5);
   check_separator("dense 12 x 12, all of it the separator", dense_blocks({12}), 12);
+  check_kept_analysis("9-point grid 40 x 40, kept analysis", grid(40));
 
   Csr indefinite = chain(10);
   indefinite.value[indefinite.start[4] + 1] = -3.0;  // a negative diagonal entry (row 4's middle)
