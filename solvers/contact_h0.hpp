@@ -32,6 +32,8 @@ namespace hyperqn {
 // What refactor puts on a vertex's diagonal: its block's mean eigenvalue (trace / 3) rounded to the
 // nearest power of 2 in log scale (from 2^(k - 1/2) up: 2^k); 0 if it is not positive.
 double rounded_mean_stiffness(const VertexStiffness& s);
+// refactor leaves out a vertex whose rounded stiffness is below this fraction of A's diagonal there.
+constexpr double kNegligibleStiffness = 1.0 / 16;
 
 class ContactH0 {
  public:
@@ -79,6 +81,7 @@ class ContactH0 {
   std::unique_ptr<FactoredSystem> refactored_;  // refactor
   CholeskyAnalysis analysis_;                   // refactor: the pattern of A + D_c, analysed once
   std::vector<std::pair<PetscInt, double>> factored_diagonal_;  // refactor: this rank's (dof, rounded stiffness)
+  std::vector<double> a_diagonal_;                              // refactor: A's diagonal at this rank's dofs
   long long column_solves_ = 0;
   int refactorizations_ = 0;
 };

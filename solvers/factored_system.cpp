@@ -268,6 +268,29 @@ PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diago
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode FactoredSystem::diagonal(Vec d) const {
+  PetscFunctionBeginUser;
+  if (kind_ != ConstantMatrix::laplacian) {
+    PetscCall(MatGetDiagonal(A_, d));
+    PetscFunctionReturn(0);
+  }
+  Vec d1;
+  const PetscScalar* a;
+  PetscScalar* out;
+  PetscInt n1;
+  PetscCall(MatCreateVecs(A_, &d1, nullptr));
+  PetscCall(MatGetDiagonal(A_, d1));
+  PetscCall(VecGetLocalSize(d1, &n1));
+  PetscCall(VecGetArrayRead(d1, &a));
+  PetscCall(VecGetArrayWrite(d, &out));
+  for (PetscInt i = 0; i < n1; ++i)
+    for (int c = 0; c < 3; ++c) out[3 * i + c] = a[i];  // local vertex i holds local dofs 3i..3i+2
+  PetscCall(VecRestoreArrayWrite(d, &out));
+  PetscCall(VecRestoreArrayRead(d1, &a));
+  PetscCall(VecDestroy(&d1));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionBeginUser;
   const bool vertex_layout = kind_ == ConstantMatrix::laplacian;

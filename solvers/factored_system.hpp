@@ -92,6 +92,8 @@ class FactoredSystem {
   PetscErrorCode solve_by_columns(Vec b, Vec x) const;
   // y = A x.
   PetscErrorCode mult(Vec x, Vec y) const;
+  // A's diagonal in the dof layout (x, y and z alike for the Laplacian's A1 (x) I3).
+  PetscErrorCode diagonal(Vec d) const;
   // A shell matrix whose MatSolve applies A^{-1} and whose MatMult applies A: the form
   // TaoLMVMSetH0 takes.
   Mat inverse_operator() const { return shell_; }

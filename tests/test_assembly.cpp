@@ -479,6 +479,21 @@ PetscErrorCode check_contact_h0(H0Contact mode, FactorPackage package) {
     step.set_c(2 * centred);
     PetscCall(h0.update());
     CHECK_MSG(h0.refactorizations() == 2, what + ": twice as stiff kept the factor");
+    // Every block below kNegligibleStiffness of its vertex's diagonal in A: left out, H0 is A^{-1}
+    // itself (the same bits) with no factorization.
+    PetscReal smallest;
+    PetscCall(VecMin(diag, nullptr, &smallest));
+    step.set_c(kNegligibleStiffness * smallest / 4);
+    PetscCall(h0.update());
+    CHECK_MSG(h0.refactorizations() == 2, what + ": negligible stiffness refactored");
+    Vec y;
+    PetscBool same;
+    PetscCall(VecDuplicate(b, &y));
+    PetscCall(h0.solve(b, x));
+    PetscCall(sys.solve(b, y));
+    PetscCall(VecEqual(x, y, &same));
+    CHECK_MSG(same, what + ": with negligible stiffness H0 is not A^{-1}");
+    PetscCall(VecDestroy(&y));
   }
   for (Vec* v : {&b, &x, &r, &diag}) PetscCall(VecDestroy(v));
   PetscCall(MatDestroy(&A));
