@@ -178,8 +178,8 @@ double rounded_mean_stiffness(const VertexStiffness& s) {
 // a factor of sqrt 2 in a vertex's stiffness, is what an approximate H0 tolerates.
 // A vertex whose rounded value is below kNegligibleStiffness of A's diagonal entry is left out: it
 // would change H0 there by a few percent, and such vertices, entering and leaving the activation
-// layer, caused most refactorizations (the bunny's deck: 52 -> 20 for 16.08 -> 16.35 it/frame,
-// docs/contact.md#what-l-bfgs-does-with-contact).
+// layer, caused many refactorizations (the bunny's deck: 52 -> 38, 16.08 -> 15.77 it/frame). At 1/16
+// the bunny took 20 but the 41 x 41 cloth pile 38 % more iterations (docs/contact.md#what-l-bfgs-does-with-contact).
 PetscErrorCode ContactH0::update_refactor(const std::vector<VertexStiffness>& local) {
   std::vector<std::pair<PetscInt, double>> diagonal;  // (dof, rounded stiffness) of this rank's vertices
   PetscFunctionBeginUser;

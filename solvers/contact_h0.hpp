@@ -33,7 +33,7 @@ namespace hyperqn {
 // nearest power of 2 in log scale (from 2^(k - 1/2) up: 2^k); 0 if it is not positive.
 double rounded_mean_stiffness(const VertexStiffness& s);
 // refactor leaves out a vertex whose rounded stiffness is below this fraction of A's diagonal there.
-constexpr double kNegligibleStiffness = 1.0 / 16;
+constexpr double kNegligibleStiffness = 1.0 / 64;
 
 class ContactH0 {
  public:

@@ -182,14 +182,14 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "taken at each step's start x_n (the 3 × 3 diagonal blocks h²K_v of the vertices within the activation "
        "distance; a self-contact pair's blocks between two vertices are left out); a scene without contact has none "
        "and runs none of it. `off`: (M + h²L)⁻¹ alone. `refactor`: (M + h²L + h²D_c)⁻¹, D_c the blocks' mean "
-       "eigenvalues rounded to powers of 2 on the diagonal (a vertex below 1/16 of A's diagonal there left out), "
+       "eigenvalues rounded to powers of 2 on the diagonal (a vertex below 1/64 of A's diagonal there left out), "
        "factored again when a rounded value changes, the pattern analysed once (so H0 is a function of x_n: "
        "restarts stay bitwise, ranks agree as with `off`). `woodbury`: (M + h²L + h²K_c)⁻¹ with the "
        "blocks themselves, by a Sherman–Morrison–Woodbury correction of the scene's factor (one A⁻¹ solve per 3 new "
        "vertices in contact, a dense system of up to 3 rows per vertex per step: fast for a few dozen vertices, slow "
        "for hundreds; it needs A = A1 ⊗ I3, so with `h0: rest-stiffness` it is `off`). Measured in "
-       "[contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop's 60 frames 32.5 → 16.4 iterations "
-       "per frame and 0.47× the ms per frame with `refactor`"),
+       "[contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop's 60 frames 32.5 → 15.8 iterations "
+       "per frame and about half the ms per frame with `refactor`"),
       enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
        "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),
       enum_key<S>("newton_method", &S::newton_method, kNewtonMethodNames,

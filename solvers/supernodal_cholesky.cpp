@@ -1,6 +1,7 @@
 #include "solvers/supernodal_cholesky.hpp"
 
 #include <cholmod.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <stdexcept>
@@ -15,6 +16,12 @@ namespace {
 struct Cholmod {
   cholmod_common c;
   explicit Cholmod(bool relaxed = false) {
+    // CHOLMOD's supernodal factorization opens parallel regions of 4 OpenMP threads (its build's
+    // CHOLMOD_OMP_NUM_THREADS, whatever OMP_NUM_THREADS says), but hyperqn's ranks already take the
+    // cores (as for the serial BLAS, docs/performance.md): with another job on the 2 cores the
+    // bunny's 38 refactorizations took 0.71-0.84 s with them and 0.40-0.46 s without. No OpenMP
+    // region of this process runs more than one thread.
+    omp_set_max_active_levels(0);
     cholmod_l_start(&c);
     c.print = 0;  // the caller reports the status
     // A supernodal factor, kept as CHOLMOD leaves it: its dense column blocks are what solve() reads.
@@ -82,6 +89,17 @@ std::vector<int64_t> ordering_with_separator(int64_t n, const int64_t* row_start
   return perm;
 }
 
+// FNV-1a over the row starts and columns: which pattern a kept analysis belongs to.
+uint64_t pattern_hash(int64_t n, const int64_t* row_start, const int64_t* columns) {
+  uint64_t h = 1469598103934665603ull;
+  const auto mix = [&h](int64_t v) {
+    for (int b = 0; b < 8; ++b) h = (h ^ ((static_cast<uint64_t>(v) >> (8 * b)) & 0xff)) * 1099511628211ull;
+  };
+  for (int64_t i = 0; i <= n; ++i) mix(row_start[i]);
+  for (int64_t p = 0; p < row_start[n]; ++p) mix(columns[p]);
+  return h;
+}
+
 }  // namespace
 
 CholeskyAnalysis::~CholeskyAnalysis() {
@@ -98,8 +116,9 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
   Cholmod cm(analysis != nullptr);
   cholmod_sparse A = lower_view(n, row_start, columns, values);
   cholmod_factor* L = nullptr;
-  const bool reuse = analysis && analysis->symbolic_ && analysis->n_ == n && analysis->entries_ == row_start[n] &&
-                     analysis->separator_ == separator;
+  const uint64_t pattern = analysis ? pattern_hash(n, row_start, columns) : 0;
+  const bool reuse = analysis && analysis->symbolic_ && analysis->n_ == n && analysis->separator_ == separator &&
+                     analysis->pattern_ == pattern;
   if (reuse) {
     L = cholmod_l_copy_factor(analysis->symbolic_, &cm.c);
   } else if (separator == 0) {
@@ -119,7 +138,7 @@ SupernodalCholesky::Status SupernodalCholesky::factor(int64_t n, const int64_t* 
     if (analysis->symbolic_) cholmod_l_free_factor(&analysis->symbolic_, &cm.c);
     analysis->symbolic_ = cholmod_l_copy_factor(L, &cm.c);
     analysis->n_ = n;
-    analysis->entries_ = row_start[n];
+    analysis->pattern_ = pattern;
     analysis->separator_ = separator;
     ++analysis->analyses_;
     if (!analysis->symbolic_) {

@@ -22,7 +22,7 @@ namespace hyperqn {
 // later factorizations of other values in the same pattern skip it (SupernodalCholesky::factor's
 // `analysis`): H0's refactorizations with contact (solvers/contact_h0.hpp) change only the diagonal.
 // A kept analysis merges small supernodes as CHOLMOD does by default (`relaxed`): on the bunny's
-// 6,308 rows that factors 3-4x faster and adds 27% explicit zeros that each solve reads, the
+// 6,308 rows that factors 3-5x faster and adds 27% explicit zeros that each solve reads, the
 // trade for a matrix factored about once per frame (docs/performance.md#h0-package).
 class CholeskyAnalysis {
  public:
@@ -35,7 +35,8 @@ class CholeskyAnalysis {
  private:
   friend class SupernodalCholesky;
   cholmod_factor_struct* symbolic_ = nullptr;  // the symbolic factor, copied before a numeric factorization
-  int64_t n_ = 0, entries_ = 0, separator_ = 0;  // the pattern it was made for
+  int64_t n_ = 0, separator_ = 0;  // the pattern it was made for
+  uint64_t pattern_ = 0;           // a hash of its row starts and columns
   int analyses_ = 0;
 };
 
@@ -47,8 +48,8 @@ class SupernodalCholesky {
   // row: both triangles or the upper one (only entries with column >= row are read).
   // On a status other than ok the object holds no factor.
   // With `analysis`, an empty one receives this pattern's analysis (relaxed supernodes, see
-  // CholeskyAnalysis) and one made for the same n, entries and separator is used instead of
-  // analysing again: the same factor, bit for bit, as a new analysis would give.
+  // CholeskyAnalysis) and one made for the same pattern and separator is used instead of analysing
+  // again: the same factor, bit for bit, as a new analysis would give.
   //
   // With separator s > 0 the last s rows and columns (the separator S; the others are the
   // interior I) are ordered last, after CHOLMOD's ordering of the interior block alone, so that

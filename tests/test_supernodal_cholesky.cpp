@@ -195,6 +195,15 @@ void check_kept_analysis(const std::string& name, const Csr& A) {
   CHECK(third.factor(other.n, other.start.data(), other.column.data(), other.value.data(), 0, nullptr, &kept) ==
         SupernodalCholesky::Status::ok);
   CHECK_MSG(kept.analyses() == 2 && third.size() == other.n, name + ": another pattern was not analysed again");
+  // The same size and count of entries in another pattern: analysed again, and solved right.
+  CholeskyAnalysis blocks;
+  const Csr P = dense_blocks({3, 5}), Q = dense_blocks({5, 3});
+  SupernodalCholesky p, q, q_alone;
+  CHECK(p.factor(P.n, P.start.data(), P.column.data(), P.value.data(), 0, nullptr, &blocks) == SupernodalCholesky::Status::ok);
+  CHECK(q.factor(Q.n, Q.start.data(), Q.column.data(), Q.value.data(), 0, nullptr, &blocks) == SupernodalCholesky::Status::ok);
+  CHECK(q_alone.factor(Q.n, Q.start.data(), Q.column.data(), Q.value.data()) == SupernodalCholesky::Status::ok);
+  CHECK_MSG(blocks.analyses() == 2 && solution(q, Q.n) == solution(q_alone, Q.n),
+            name + ": a pattern of the same size and entries took the kept analysis");
 
   // With a separator (the split factor's interior): the same bits for the separator block too.
   const int64_t s = A.n / 10;
