@@ -10,7 +10,8 @@
 // friction between surfaces: one pair's lagged friction (vertex-triangle and edge-edge) and the
 // two blocks' with the body's gradient and Hessian, against differences. The blocks solver.h0_contact
 // takes (add_vertex_stiffness) against the diagonal blocks of the term's Hessian, with and without
-// friction, the same at any rank count.
+// friction, the same at any rank count. Newton's Hessian: its pattern grown once for the pairs, its
+// values those of a matrix that takes every entry as it comes.
 #include <petscdmplex.h>
 
 #include <cmath>
@@ -463,6 +464,68 @@ PetscErrorCode check_two_blocks_friction() {
   PetscFunctionReturn(0);
 }
 
+// Newton's Hessian (StepObjective::assemble_hessian) in a matrix made with the mesh's pattern only
+// (create_hessian), without and with friction (mu): at x_n and where the second block has slid, equal to
+// h^2 K(x) + M assembled into a fresh matrix that takes every entry as it comes (an entry the
+// couplings left out would be an error in assemble_hessian). Its pattern grows once, at the first
+// assembly; not again at points the candidate list still covers, nor at the same point, and the
+// nonzero state (MUMPS analyses again when it changes) stays the same.
+PetscErrorCode check_newton_pattern(double mu) {
+  TestScene s;
+  SelfContactTerm* term = nullptr;
+  Vec x0, x, xl;
+  Mat H;
+  PetscFunctionBeginUser;
+  PetscCall(make_two_blocks("barrier", s, &term, 0, mu));
+  PetscCall(VecDuplicate(s.step->layout(), &x0));
+  PetscCall(VecDuplicate(x0, &x));
+  PetscCall(test_scene::deformed_positions(s, x0, 0.01));
+  PetscCall(s.body->begin_step(StepStart{0.05, 0.05, x0, x0}));
+  PetscCall(VecCopy(x0, x));  // slid by 0.002 along the faces: within the list's cover (0.4 d)
+  PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
+  PetscCall(DMGlobalToLocal(s.mesh.dm, x0, INSERT_VALUES, xl));
+  PetscScalar* a;
+  PetscCall(VecGetArray(xl, &a));
+  for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+    if (s.mesh.local_dof[v] >= 0 && s.mesh.rest[3 * v] > kSize + kGap / 2) a[s.mesh.local_dof[v] + 2] += 0.002;
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, x));
+  PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
+
+  PetscCall(s.step->create_hessian(&H));
+  MatInfo info;
+  PetscCall(MatGetInfo(H, MAT_GLOBAL_SUM, &info));
+  const double mesh_nonzeros = info.nz_used;
+  PetscObjectState state = 0;
+  int step = 0;
+  for (Vec at : {x0, x, x0}) {
+    PetscCall(s.step->assemble_hessian(at, H));
+    PetscObjectState now;
+    PetscCall(MatGetNonzeroState(H, &now));
+    const std::string where = "Newton's pattern, mu " + std::to_string(mu) + ", assembly " + std::to_string(++step);
+    CHECK_MSG(s.step->hessian_patterns() == 1, where + ": grown " + std::to_string(s.step->hessian_patterns()) + " times");
+    CHECK_MSG(step == 1 || now == state, where + ": the nonzero state changed");
+    state = now;
+    Mat K;
+    PetscReal diff, norm;
+    PetscCall(test_scene::stiffness(s, at, true, &K));
+    PetscCall(MatScale(K, 0.05 * 0.05));
+    PetscCall(MatDiagonalSet(K, s.step->mass(), ADD_VALUES));
+    PetscCall(MatNorm(K, NORM_FROBENIUS, &norm));
+    PetscCall(MatAXPY(K, -1.0, H, DIFFERENT_NONZERO_PATTERN));
+    PetscCall(MatNorm(K, NORM_FROBENIUS, &diff));
+    PetscCall(MatDestroy(&K));
+    CHECK_MSG(diff <= 1e-13 * norm, where + ": differs from the fresh matrix's by " + std::to_string(diff / norm));
+  }
+  PetscCall(MatGetInfo(H, MAT_GLOBAL_SUM, &info));
+  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "Newton's pattern, mu %g: %.0f nonzeros of the mesh, %.0f with the couplings, grown %lld time(s)\n",
+                        mu, mesh_nonzeros, info.nz_used, s.step->hessian_patterns()));
+  CHECK_MSG(info.nz_used > mesh_nonzeros, "Newton's pattern took no couplings");
+  PetscCall(MatDestroy(&H));
+  for (Vec* w : {&x0, &x}) PetscCall(VecDestroy(w));
+  PetscFunctionReturn(0);
+}
+
 // Every pair of the serial mesh's surface (its tets' faces that belong to one tet only) that shares
 // no vertex and is closer than d at positions x: a search without any broad phase.
 long pairs_within(const TetMesh& mesh, const std::vector<double>& x, double d) {
@@ -604,6 +667,7 @@ int main(int argc, char** argv) {
   PetscCall(check_step_bound_with_thickness());
   if (rank == 0) check_frictions();
   PetscCall(check_two_blocks_friction());
+  for (double mu : {0.0, 0.5}) PetscCall(check_newton_pattern(mu));
   PetscCall(check_candidates_against_all_pairs());
   const int code = test_scene::tally("test_self_contact");
   PetscCall(PetscFinalize());

@@ -256,6 +256,16 @@ PetscErrorCode Body::add_hessian(Vec x, Mat H, PetscReal scale, bool psd) const 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Body::hessian_couplings(Vec x, std::vector<std::array<PetscInt, 2>>* out,
+                                       unsigned long long* generation) const {
+  PetscFunctionBeginUser;
+  if (out) out->clear();
+  *generation = 0;
+  PetscCall(local_positions(x, pos_));
+  for (const auto& term : terms_) PetscCall(term->add_couplings(pos_, out, generation));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::vertex_stiffness(Vec x, PetscReal scale, std::vector<VertexStiffness>& out) const {
   std::vector<VertexStiffness> blocks;
   PetscFunctionBeginUser;

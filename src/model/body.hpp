@@ -81,6 +81,9 @@ class Body {
   // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
   // exact. Adds into H's existing pattern.
   PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;
+  // The terms' couplings at x outside the mesh's pattern into out (unless null) and the sum of
+  // their generations (EnergyTerm::add_couplings; collective).
+  PetscErrorCode hessian_couplings(Vec x, std::vector<std::array<PetscInt, 2>>* out, unsigned long long* generation) const;
   // The terms' diagonal stiffness blocks at x (EnergyTerm::add_vertex_stiffness) times scale,
   // summed to one per owned free vertex that has any, in the order of the global dofs (collective).
   PetscErrorCode vertex_stiffness(Vec x, PetscReal scale, std::vector<VertexStiffness>& out) const;

@@ -108,6 +108,17 @@ class EnergyTerm {
   // primitives that passed through each other are apart again, so their energy alone would not
   // refuse the guess, unlike a vertex inside an obstacle).
   virtual bool couples_surfaces() const { return false; }
+  // Pairs of free vertices (each by its global x dof) that add_hessian may couple outside the
+  // mesh's pattern, at pos and at every point until the term's own lists are next rebuilt
+  // (self-contact: its candidate pairs and friction pairs), appended to out unless it is null.
+  // Adds to *generation a count of those rebuilds (the lists updated at pos first): the couplings
+  // change only when it does. Newton's Hessian preallocates them in one go, so that its pattern,
+  // and MUMPS's analysis, change only when new ones come (StepObjective::assemble_hessian).
+  // Collective.
+  virtual PetscErrorCode add_couplings(const std::vector<double>& /*pos*/, std::vector<std::array<PetscInt, 2>>* /*out*/,
+                                       unsigned long long* /*generation*/) const {
+    return 0;
+  }
   // A signature of the term's active set at the last point it evaluated (0: none; contact).
   virtual unsigned long long active_set() const { return 0; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for

@@ -928,6 +928,31 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   PetscFunctionReturn(0);
 }
 
+// The candidates hold every pair add_hessian visits until the list is built again (near_pairs,
+// may_be_within_d).
+PetscErrorCode SelfContactTerm::add_couplings(const std::vector<double>& pos, std::vector<std::array<PetscInt, 2>>* out,
+                                              unsigned long long* generation) const {
+  PetscFunctionBeginUser;
+  if (rejecting_region_) PetscFunctionReturn(0);  // a rejected step (add_energy)
+  PetscCall(gather_positions(pos));
+  PetscCall(refresh_candidates());
+  *generation += builds_;
+  if (!out) PetscFunctionReturn(0);
+  const auto add = [&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        if (dof_[q[i]] >= 0 && dof_[q[j]] >= 0 && q[i] != q[j]) out->push_back({dof_[q[i]], dof_[q[j]]});
+  };
+  // While the list serves, no vertex moves more than kMoveFraction of its margin from the build, so
+  // a pair's distance falls by at most twice that: the farther candidates are never visited.
+  const double farthest = spec_.distance + 2 * kMoveFraction * built_margin_;
+  for (const Candidate& c : candidates_)
+    if (c.distance < farthest * (1 + 1e-9)) add(c.pair);
+  for (const auto& f : friction_) add(f.first);
+  PetscFunctionReturn(0);
+}
+
 // Each pair's diagonal blocks summed per surface vertex on this rank (in the pairs' order, then
 // the friction pairs'), then sent to the owners as the gradient is: an owner appends its own sum and
 // one per other rank with pairs at the vertex (Body::vertex_stiffness adds them up), so

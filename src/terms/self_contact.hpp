@@ -130,6 +130,11 @@ class SelfContactTerm : public EnergyTerm {
   bool projective_dynamics_exact() const override { return false; }
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }
+  // The vertex pairs of the candidates that may come within d while the list serves and of the
+  // friction pairs; the generation counts the list's builds (it is built again after every
+  // begin_step, so they count the friction pairs' changes too; collective).
+  PetscErrorCode add_couplings(const std::vector<double>& pos, std::vector<std::array<PetscInt, 2>>* out,
+                               unsigned long long* generation) const override;
   // The step's margin from its predicted motion (the largest |y - x_n| of a surface vertex); the
   // candidate pairs are built again at the step's first evaluation; with friction, the pairs
   // within d at x_n freeze their friction. With the step's positions (StepStart::positions), the
