@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "io/fnv_hash.hpp"
 #include "materials/lanes.hpp"
 
 namespace hyperqn {
@@ -89,15 +90,12 @@ std::vector<int64_t> ordering_with_separator(int64_t n, const int64_t* row_start
   return perm;
 }
 
-// FNV-1a over the row starts and columns: which pattern a kept analysis belongs to.
+// A hash of the row starts and columns: which pattern a kept analysis belongs to.
 uint64_t pattern_hash(int64_t n, const int64_t* row_start, const int64_t* columns) {
-  uint64_t h = 1469598103934665603ull;
-  const auto mix = [&h](int64_t v) {
-    for (int b = 0; b < 8; ++b) h = (h ^ ((static_cast<uint64_t>(v) >> (8 * b)) & 0xff)) * 1099511628211ull;
-  };
-  for (int64_t i = 0; i <= n; ++i) mix(row_start[i]);
-  for (int64_t p = 0; p < row_start[n]; ++p) mix(columns[p]);
-  return h;
+  Fnv1a h;
+  h.add(row_start, sizeof(int64_t) * static_cast<size_t>(n + 1));
+  h.add(columns, sizeof(int64_t) * static_cast<size_t>(row_start[n]));
+  return h.value;
 }
 
 }  // namespace
