@@ -630,6 +630,20 @@ void SelfContactTerm::near_pairs(Visit&& visit) const {
     if (may_be_within_d(c)) visit(c.pair);
 }
 
+template <class Visit>
+void SelfContactTerm::pair_hessians(bool psd, Visit&& visit) const {
+  Matrix12d h;
+  near_pairs([&](const Pair& p) {
+    const std::array<int, 4> q = points(p);
+    if (pair_energy(p, coordinates(x_, q), nullptr, &h) != 0) visit(q, psd ? clamp_psd(h) : h);
+  });
+  for (const auto& [p, friction] : friction_) {
+    const std::array<int, 4> q = points(p);
+    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
+    visit(q, h);
+  }
+}
+
 PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   const PetscScalar *x, *y;
   PetscInt lo, hi;
@@ -901,7 +915,6 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
   PetscCall(PetscLogEventBegin(event_, 0, 0, 0, 0));
   PetscCall(gather_positions(pos));
   PetscCall(refresh_candidates());
-  Matrix12d h;
   Eigen::Matrix<double, 12, 12, Eigen::RowMajor> block;
   PetscErrorCode error = 0;
   const auto add = [&](const std::array<int, 4>& q) {
@@ -910,19 +923,11 @@ PetscErrorCode SelfContactTerm::add_hessian(const std::vector<double>& pos, Mat 
       for (int d = 0; d < 3; ++d) idx[3 * k + d] = dof_[q[k]] < 0 ? -1 : dof_[q[k]] + d;
     error = MatSetValues(H, 12, idx, 12, idx, block.data(), ADD_VALUES);
   };
-  near_pairs([&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    if (error || pair_energy(p, coordinates(x_, q), nullptr, &h) == 0) return;
-    block = scale * (psd ? clamp_psd(h) : h);
-    add(q);
-  });
-  for (const auto& [p, friction] : friction_) {  // positive semidefinite as they are
-    const std::array<int, 4> q = points(p);
-    if (error) break;
-    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
+  pair_hessians(psd, [&](const std::array<int, 4>& q, const Matrix12d& h) {
+    if (error) return;
     block = scale * h;
     add(q);
-  }
+  });
   PetscCall(error);
   PetscCall(PetscLogEventEnd(event_, 0, 0, 0, 0));
   PetscFunctionReturn(0);
@@ -974,16 +979,9 @@ PetscErrorCode SelfContactTerm::add_vertex_stiffness(const std::vector<double>& 
       Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(&sums[9 * s]) += h.block<3, 3>(3 * k, 3 * k);
     }
   };
-  Matrix12d h;
-  near_pairs([&](const Pair& p) {
-    const std::array<int, 4> q = points(p);
-    if (pair_energy(p, coordinates(x_, q), nullptr, &h) != 0 && std::isfinite(h.sum())) add(q, clamp_psd(h));
+  pair_hessians(true, [&](const std::array<int, 4>& q, const Matrix12d& h) {
+    if (std::isfinite(h.sum())) add(q, h);
   });
-  for (const auto& [p, friction] : friction_) {  // positive semidefinite as they are
-    const std::array<int, 4> q = points(p);
-    pair_friction_energy(friction, eps_h_, coordinates(x_, q), nullptr, &h);
-    add(q, h);
-  }
   PetscCall(sum_at_owners(9, sums, vertices, [&](int s, const double* K) {
     VertexStiffness block;
     block.dof = dof_[s];

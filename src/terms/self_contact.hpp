@@ -254,6 +254,11 @@ class SelfContactTerm : public EnergyTerm {
   // (after refresh_candidates).
   template <class Visit>
   void near_pairs(Visit&& visit) const;
+  // Calls visit(points, H) with the 12 x 12 Hessian at x_ of every near pair with energy (projected
+  // to positive semidefinite if psd), then of every friction pair (semidefinite as it is), in that
+  // order: what add_hessian assembles and add_vertex_stiffness takes the diagonal blocks of.
+  template <class Visit>
+  void pair_hessians(bool psd, Visit&& visit) const;
   double pair_energy(const Pair& p, const Vector12d& x, Vector12d* g, Matrix12d* H) const;
   // k of a pair (the mean lumped mass of its free points times the stiffness per mass; 0 if none
   // is free) and an edge pair's mollifier threshold (0 for a vertex and a triangle).
