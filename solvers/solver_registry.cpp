@@ -121,11 +121,17 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "solver (each sub-step size factors its own M + (h/k)²L the first time it is needed); 0 turns it off",
        between(0, 10, "each halving may factor one more M + h^2 L")},
       {"newton_fallback", &S::newton_fallback, "stage 3: then the frame is redone by `newton` (projected Hessian)"},
+      {"keep_substeps", &S::keep_substeps,
+       "stage 2 kept: a frame accepted in 2^k sub-steps makes the next ones start at 2^k (the full step and the "
+       "sizes between only if it and the finer ones fail). The frame after one accepted at 2^k tries 2^(k−1); each "
+       "try that fails doubles the frames kept at 2^k before the next try, up to this many; a try that holds sets "
+       "them back to 1. 0: every frame starts at the full step ([guardrails.md](guardrails.md#fallback))",
+       between(0, 1e6)},
       {"budget", std::monostate{},
-       "`adaptive`: the fallback chain as the three keys above set it. `fixed`: the paper's fixed budget, every frame "
+       "`adaptive`: the fallback chain as the keys above set it. `fixed`: the paper's fixed budget, every frame "
        "takes `iterations` iterations (fewer only when it converges by `grad_atol`/`grad_rtol`; set both to 0 for "
        "exactly `iterations`), with no stage of the chain: no more iterations, no sub-steps, no Newton (and none of "
-       "their factorizations). Giving `max_iterations`, `max_halvings` or `newton_fallback` beside `fixed` is an "
+       "their factorizations). Giving `max_iterations`, `max_halvings`, `newton_fallback` or `keep_substeps` beside `fixed` is an "
        "error. Without it, `max_iterations: 10` alone still leaves stages 2 and 3 on: the 81 × 81 sheet of "
        "`input/cloth/sheet_corners.yaml` then took 69 iterations per frame over 20 frames (5 sub-stepped, 13 by "
        "Newton, 1,426 ms per frame) against 10 and 17 ms with `budget: fixed`",

@@ -62,6 +62,7 @@ struct SolverSpec {
   // turn the stages off one by one; use_fixed_budget turns them all off.
   int max_iterations = 100;
   int max_halvings = 3;
+  int keep_substeps = 8;  // the longest a sub-step size is kept before a larger one is tried (model/substep_memory.hpp; 0: never kept)
   bool newton_fallback = true;
   bool quiet = false;  // set up without a word (the chain's solvers: the run's own one has spoken)
 };

@@ -706,7 +706,10 @@ void test_budget() {
         !fixed.solver.newton_fallback);
   const Deck explicit_adaptive = load_ok("budget_adaptive", kHead + "solver: {budget: adaptive, newton_fallback: false}\n");
   CHECK(explicit_adaptive.solver.max_halvings == 3 && !explicit_adaptive.solver.newton_fallback);
-  for (const char* key : {"max_iterations: 50", "max_halvings: 2", "newton_fallback: true"}) {
+  CHECK(adaptive.solver.keep_substeps == 8);
+  CHECK(load_ok("keep_substeps_off", kHead + "solver: {keep_substeps: 0}\n").solver.keep_substeps == 0);
+  expect_error("keep_substeps_negative", kHead + "solver: {keep_substeps: -1}\n", "solver.keep_substeps", 3, "");
+  for (const char* key : {"max_iterations: 50", "max_halvings: 2", "newton_fallback: true", "keep_substeps: 2"}) {
     const std::string name = std::string(key).substr(0, std::string(key).find(':'));
     expect_error("budget_fixed_" + name, kHead + "solver:\n  budget: fixed\n  " + key + "\n", "solver." + name, 5,
                  "budget: fixed turns off the fallback chain");

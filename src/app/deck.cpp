@@ -733,10 +733,10 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == H0::amg)
     r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
                "approximates (give laplacian, or leave h0 out)");
-  // adaptive: the fallback chain as the three keys above set it; fixed: none of it, and then
+  // adaptive: the fallback chain as the keys above set it; fixed: none of it, and then
   // those keys would say nothing, so giving one is an error rather than silently overruled.
   if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")
-    for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"})
+    for (const char* key : {"max_iterations", "max_halvings", "newton_fallback", "keep_substeps"})
       if (const Value* stage = s.find(key))
         r.fail(*stage, std::string("budget: fixed turns off the fallback chain (") + key +
                            " among it): leave " + key + " out, or use budget: adaptive");

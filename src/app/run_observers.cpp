@@ -70,6 +70,7 @@ PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl
   summary.iterations += step.iterations;
   summary.extended_frames += step.extended;
   summary.substepped_frames += step.substeps > 1;
+  summary.kept_substep_frames += step.kept_substeps;
   summary.newton_frames += step.newton;
   summary.converged_frames += r.converged;
   summary.failed_frames += r.failed;
@@ -88,7 +89,7 @@ PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl
   }
 
   std::string note;
-  if (step.substeps > 1) note += "  [" + std::to_string(step.substeps) + " sub-steps]";
+  if (step.substeps > 1) note += "  [" + std::to_string(step.substeps) + (step.kept_substeps ? " sub-steps, kept]" : " sub-steps]");
   if (step.newton) note += "  [newton fallback]";
   if (step.iterations != r.iterations) note += "  [" + std::to_string(step.iterations) + " iterations in all]";
   if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";

@@ -14,7 +14,8 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, started_inverted, writers, history, each dataset's checksum
+//    released_attachments, started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "physics" (one "section hash" line per physics section of the deck), "flagged_frames",
 //    "inverted_frames", and each output writer's restart state ("writer_<key>"): texts that grow
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include "io/records.hpp"
+#include "model/substep_memory.hpp"
 #include "mesh/distributed_mesh.hpp"
 
 namespace hyperqn {
@@ -55,6 +57,7 @@ struct CheckpointHeader {
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state
   int history = 0;  // 1: the integrator's history is stored (previous_positions, previous_velocities)
+  SubstepMemory substeps;  // State's
   // Checksums of each dataset's values in row order (kVertexSets' order), written with them and
   // checked on every read: HDF5's own checksums guard the chunks and metadata, this guards what
   // they hold.

@@ -56,6 +56,7 @@ struct RunSummary {
   // The fallback chain (model/fallback_chain.hpp): frames that iterated past the budget, that
   // were solved in sub-steps, and by Newton.
   long long extended_frames = 0, substepped_frames = 0, newton_frames = 0;
+  long long kept_substep_frames = 0;  // of substepped_frames, those started at the frames before's size
   // Solved frames with an inverted or flat element (det F <= 0); the status says so (docs/guardrails.md).
   std::vector<int> inverted_frames;
   // Contact (scenes with colliders): the deepest penetration of any vertex into any collider at

@@ -158,6 +158,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"ls_failures\": " << s.ls_failures << ",\n"
       << "  \"extended_frames\": " << s.extended_frames << ",\n"
       << "  \"substepped_frames\": " << s.substepped_frames << ",\n"
+      << "  \"kept_substep_frames\": " << s.kept_substep_frames << ",\n"
       << "  \"newton_frames\": " << s.newton_frames << ",\n"
       << "  \"inverted_frames\": " << s.inverted_frames.size() << ",\n"
       << "  \"rejected_evaluations\": " << s.rejected_evaluations << ",\n"

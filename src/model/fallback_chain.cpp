@@ -1,5 +1,6 @@
 #include "model/fallback_chain.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "solvers/frame_budget.hpp"
@@ -101,10 +102,45 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
     PetscCall(scene_.body->volume_ratios(s.x, &start_min_J_, &unused));
     start_known_ = true;
   }
+  // Stage 2 kept from the frames before (model/substep_memory.hpp): start at their sub-step size;
+  // the full step and the sizes between only if it and every finer size fail.
+  const int start = spec_.keep_substeps > 0 ? std::min(s.substeps.halvings, spec_.max_halvings) : 0;
+  int accepted = -1;  // the sub-step size the frame is accepted at (0: the full step), -1: none
+  StepSolve kept;     // the attempts from start on
+  if (start > 0) {
+    PetscCall(g.begin_step(s));  // x_n, v_n for end_step; s back at x_n
+    PetscCall(g.undo_step(s));
+    bool ok = false;
+    for (int k = start; k <= spec_.max_halvings && !ok; ++k) {
+      PetscCall(substeps(s, k, kept, &ok));
+      if (ok) accepted = k;
+    }
+  }
+  if (accepted > 0) {
+    out = kept;
+    out.kept_substeps = true;
+  } else {
+    PetscCall(solve_from_full_step(s, start > 0 ? start - 1 : spec_.max_halvings, out, &accepted));
+    add_cost(kept, out);
+  }
+  s.substeps.after_frame(start, accepted, spec_.keep_substeps);
+  out.min_J = outcome_.min_J;
+  out.max_abs_J = outcome_.max_abs_J;
+  out.measured = true;
+  start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
+  for (const IterationRecord& r : records_) on_iteration(r);
+  PetscFunctionReturn(0);
+}
+
+// Stages 1 to 3 from the full step, with sub-steps of up to 2^finest.
+PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSolve& out, int* accepted) {
+  StepObjective& g = *scene_.step;
+  PetscFunctionBeginUser;
   records_.clear();
   PetscCall(g.solve_step(solver_, s, record_, out));
   out.extended = out.result.extended;
   PetscCall(judge(out.result, g, s.x, &outcome_));
+  if (outcome_.acceptable()) *accepted = 0;
   if (!outcome_.acceptable() && (spec_.max_halvings > 0 || spec_.newton_fallback)) {
     const FrameResult first = out.result;
     const Outcome first_outcome = outcome_;
@@ -113,9 +149,10 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
     PetscCall(VecCopy(s.x, kept_x_));
     PetscCall(g.keep_end());  // how that solve's step ends (the midpoint's may end by Euler)
     bool ok = false;
-    for (int k = 1; k <= spec_.max_halvings && !ok; ++k) {
+    for (int k = 1; k <= finest && !ok; ++k) {
       PetscCall(g.undo_step(s));
       PetscCall(substeps(s, k, out, &ok));
+      if (ok) *accepted = k;
     }
     if (!ok) {
       StepSolve newton;
@@ -155,11 +192,6 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
       }
     }
   }
-  out.min_J = outcome_.min_J;
-  out.max_abs_J = outcome_.max_abs_J;
-  out.measured = true;
-  start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
-  for (const IterationRecord& r : records_) on_iteration(r);
   PetscFunctionReturn(0);
 }
 

@@ -8,6 +8,9 @@
 //     sub-step size with its own integrator and factored M + (h/k)^2 L, made the first time needed);
 //     a sub-step that fails the same test abandons that size;
 //  3. the frame is redone with Newton (projected Hessian).
+// A frame accepted in sub-steps makes the next ones start at that sub-step size (stage 2 first;
+// the full step and the sizes between only if it and every finer size fail), for as long as
+// model/substep_memory.hpp says.
 // A result is acceptable if it is finite, not far from converged, and sound: no element with
 // |det F| past the run's element limit, none inverted that was not at x_n. The first stage whose
 // result is acceptable is kept; if none is, the better of 1 and 3 (finite, then sound, then
@@ -57,6 +60,9 @@ class FallbackChain {
   // Redoes the step from x_n in 2^halvings sub-steps; *ok: every one acceptable (s then holds the
   // end positions and velocity_ the end velocity), else s is back at x_n.
   PetscErrorCode substeps(State& s, int halvings, StepSolve& out, bool* ok);
+  // The chain from the full step, with sub-steps of up to 2^finest (the finer ones were tried);
+  // *accepted: the sub-step size whose result is kept (0: the full step), unchanged if none.
+  PetscErrorCode solve_from_full_step(State& s, int finest, StepSolve& out, int* accepted);
 
   Scene& scene_;
   SolverSpec spec_;

@@ -5,6 +5,8 @@
 
 #include <vector>
 
+#include "model/substep_memory.hpp"
+
 namespace hyperqn {
 
 struct State {
@@ -17,6 +19,7 @@ struct State {
   // null before its first step, after a release and at a sub-step's first (the integrator takes a
   // starting step there).
   Vec x_prev = nullptr, v_prev = nullptr;
+  SubstepMemory substeps;  // where the fallback chain starts the next frame
 
   State() = default;
   ~State() { destroy(); }
@@ -48,6 +51,7 @@ struct State {
     time = other.time;
     released = other.released;
     released_attachments = other.released_attachments;
+    substeps = other.substeps;
     PetscFunctionReturn(0);
   }
   // Copies x_prev, v_prev into the history.

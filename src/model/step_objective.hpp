@@ -32,6 +32,7 @@ struct StepSolve {
   PetscInt iterations = 0;
   bool extended = false;         // iterated past the budget
   int substeps = 1;              // solved in this many sub-steps
+  bool kept_substeps = false;    // started at the sub-step size of the frames before
   bool newton = false;           // solved by the Newton fallback
   Vec velocity = nullptr;
   double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
