@@ -96,7 +96,10 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   for (const auto& w : setup_.frames.writers())
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   h.history = state.x_prev ? 1 : 0;
-  h.substeps = state.substeps;
+  h.substep_halvings = state.substeps.halvings;
+  h.substep_kept = state.substeps.kept;
+  h.substep_hold = state.substeps.hold;
+  h.substep_trying = state.substeps.trying;
   VertexRows rows(h.vertex_sets());
   PetscCall(s.body->local_positions(state.x, rows[0]));
   PetscCall(s.body->local_velocities(state.v, rows[1]));
@@ -122,7 +125,7 @@ PetscErrorCode resume_state(MPI_Comm comm, const std::string& path, const Checkp
   state.time = h.time;
   state.released = h.released;
   state.released_attachments = h.released_attachments;
-  state.substeps = h.substeps;
+  state.substeps = SubstepMemory{h.substep_halvings, h.substep_kept, h.substep_hold, h.substep_trying != 0};
   VertexRows rows;
   PetscCall(read_checkpoint_vertices(comm, path, scene.mesh, h, rows));
   PetscCall(scene.body->resume(h.body_time, rows[0], rows[1], state.x, state.v));

@@ -158,10 +158,10 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
   head.put("writers", keys);
   head.put("history", (long long)h.history);
-  head.put("substep_halvings", (long long)h.substeps.halvings);
-  head.put("substep_kept", (long long)h.substeps.kept);
-  head.put("substep_hold", (long long)h.substeps.hold);
-  head.put("substep_trying", (long long)h.substeps.trying);
+  head.put("substep_halvings", (long long)h.substep_halvings);
+  head.put("substep_kept", (long long)h.substep_kept);
+  head.put("substep_hold", (long long)h.substep_hold);
+  head.put("substep_trying", (long long)h.substep_trying);
   for (size_t k = 0; k < h.hashes.size(); ++k) head.put(std::string(kVertexSets[k]) + "_hash", h.hashes[k]);
 
   std::map<std::string, std::string> texts;
@@ -247,10 +247,10 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   h.history = head.has("history") ? (int)head.get_long("history") : 0;  // absent before the history was
   // Absent before the chain kept sub-step sizes: the full step, as that build started every frame.
   if (head.has("substep_halvings")) {
-    h.substeps.halvings = (int)head.get_long("substep_halvings");
-    h.substeps.kept = (int)head.get_long("substep_kept");
-    h.substeps.hold = (int)head.get_long("substep_hold");
-    h.substeps.trying = head.get_long("substep_trying") != 0;
+    h.substep_halvings = (int)head.get_long("substep_halvings");
+    h.substep_kept = (int)head.get_long("substep_kept");
+    h.substep_hold = (int)head.get_long("substep_hold");
+    h.substep_trying = (int)head.get_long("substep_trying");
   }
   for (size_t k = 0; k < h.vertex_sets(); ++k) h.hashes.push_back(head.get(std::string(kVertexSets[k]) + "_hash"));
   return h;

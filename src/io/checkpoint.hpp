@@ -28,7 +28,6 @@
 #include <vector>
 
 #include "io/records.hpp"
-#include "model/substep_memory.hpp"
 #include "mesh/distributed_mesh.hpp"
 
 namespace hyperqn {
@@ -57,7 +56,8 @@ struct CheckpointHeader {
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state
   int history = 0;  // 1: the integrator's history is stored (previous_positions, previous_velocities)
-  SubstepMemory substeps;  // State's
+  // Where the fallback chain starts the next frame: State's SubstepMemory (model/substep_memory.hpp).
+  int substep_halvings = 0, substep_kept = 0, substep_hold = 1, substep_trying = 0;
   // Checksums of each dataset's values in row order (kVertexSets' order), written with them and
   // checked on every read: HDF5's own checksums guard the chunks and metadata, this guards what
   // they hold.
