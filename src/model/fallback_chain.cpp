@@ -108,8 +108,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   int accepted = -1;  // the sub-step size the frame is accepted at (0: the full step), -1: none
   StepSolve kept;     // the attempts from start on
   if (start > 0) {
-    PetscCall(g.begin_step(s));  // x_n, v_n for end_step; s back at x_n
-    PetscCall(g.undo_step(s));
+    PetscCall(g.begin_substepped_step(s));
     bool ok = false;
     for (int k = start; k <= spec_.max_halvings && !ok; ++k) {
       PetscCall(substeps(s, k, kept, &ok));

@@ -76,6 +76,13 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode StepObjective::begin_substepped_step(const State& s) {
+  PetscFunctionBeginUser;
+  PetscCall(VecCopy(s.x, x_n_));
+  PetscCall(VecCopy(s.v, v_n_));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
   PetscFunctionBeginUser;
   if (warm_start_ == WarmStart::previous) {

@@ -63,6 +63,9 @@ class StepObjective : public Objective {
   // undo_step. An integrator that keeps a history and finds none in s (the first step, after a
   // release, a sub-step's first) is told so and takes a starting step of its own.
   PetscErrorCode begin_step(State& s);
+  // Only what end_step (with the sub-steps' velocity) and undo_step need of a step that its
+  // sub-steps solve alone: x_n and v_n (the fallback chain's kept sub-step size).
+  PetscErrorCode begin_substepped_step(const State& s);
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
   // elements of a material without an extension), once more from x_n. For an integrator whose
   // end map extrapolates (the midpoint), an end that would invert or blow up a tet is replaced
