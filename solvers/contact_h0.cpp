@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "io/collectives.hpp"
+
 namespace hyperqn {
 
 static PetscErrorCode shell_solve(Mat S, Vec b, Vec x) {
@@ -54,21 +56,13 @@ PetscErrorCode ContactH0::setup() {
 // Every rank's blocks, in rank order: by global dof, as each rank's are.
 PetscErrorCode ContactH0::gather(const std::vector<VertexStiffness>& local) {
   constexpr int kWidth = 10;  // dof, then K
-  MPI_Comm comm = PetscObjectComm((PetscObject)b_);
-  PetscMPIInt size;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(comm, &size));
   std::vector<double> mine;
   for (const VertexStiffness& s : local) {
     mine.push_back(static_cast<double>(s.dof));
     mine.insert(mine.end(), s.K.begin(), s.K.end());
   }
-  int count = static_cast<int>(mine.size());
-  std::vector<int> counts(size), offsets(size + 1, 0);
-  PetscCallMPI(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm));
-  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
-  std::vector<double> all(offsets[size]);
-  PetscCallMPI(MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE, comm));
+  const std::vector<double> all = all_gathered(PetscObjectComm((PetscObject)b_), mine, MPI_DOUBLE);
   blocks_.resize(all.size() / kWidth);
   for (size_t a = 0; a < blocks_.size(); ++a) {
     blocks_[a].dof = static_cast<PetscInt>(all[kWidth * a]);

@@ -8,6 +8,7 @@
 #include <numeric>
 #include <utility>
 
+#include "io/collectives.hpp"
 #include "io/log_events.hpp"
 
 namespace hyperqn {
@@ -80,15 +81,12 @@ PetscErrorCode SplitCholesky::factor(Mat A, int k, Status* status, CholeskyAnaly
   PetscCallMPI(MPI_Comm_rank(comm_, &rank));
   PetscCall(MatGetOwnershipRange(A, &rstart, &rend));
   PetscCall(local_separator(A, &separator_rows_, &interior_rows_));
-  const PetscMPIInt own = static_cast<PetscMPIInt>(separator_rows_.size());
-  std::vector<PetscMPIInt> counts(size), offsets(size + 1, 0);
-  PetscCallMPI(MPI_Allgather(&own, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_));
-  for (int r = 0; r < size; ++r) offsets[r + 1] = offsets[r] + counts[r];
-  separator_ = offsets[size];
-  own_separator_begin_ = offsets[rank];
-  std::vector<PetscInt> mine(separator_rows_.size()), all(separator_);
+  std::vector<PetscInt> mine(separator_rows_.size());
   for (size_t t = 0; t < mine.size(); ++t) mine[t] = rstart + separator_rows_[t];
-  PetscCallMPI(MPI_Allgatherv(mine.data(), own, MPIU_INT, all.data(), counts.data(), offsets.data(), MPIU_INT, comm_));
+  std::vector<int> counts;
+  const std::vector<PetscInt> all = all_gathered(comm_, mine, MPIU_INT, &counts);
+  separator_ = static_cast<PetscInt>(all.size());
+  own_separator_begin_ = std::accumulate(counts.begin(), counts.begin() + rank, PetscInt(0));
 
   // This rank's block, rows and columns [I_r, S]: fetched in increasing global order (as
   // MatCreateSubMatrices wants them), then renumbered.
