@@ -173,18 +173,19 @@ def run_case(args, name, deck, ranks, rundir):
 
 
 def steady_frames(args, name, deck, ranks):
-    """The frames for this case: --frames, or more if a probe run solves in under --min-solve-s (a run
-    of a few milliseconds is mostly its first frames: caches, page faults, the ranks' first messages)."""
+    """(frames, first run): --frames and the first timed run at `ranks`, or more frames and no run if
+    that run solves in under --min-solve-s (a run of a few milliseconds is mostly its first frames:
+    caches, page faults, the ranks' first messages)."""
     if args.min_solve_s <= 0:
-        return args.frames
-    s, status = run_case(args, name, deck, ranks, os.path.join(args.out, "runs", f"{name}-probe"))
-    if s is None or status.startswith("failed") or not s.get("solve_s"):
-        return args.frames                         # the timed runs will say what is wrong
-    if s["solve_s"] >= args.min_solve_s:
-        return args.frames
+        return args.frames, None
+    t0 = time.time()
+    s, status = run_case(args, name, deck, ranks, os.path.join(args.out, "runs", f"{name}-np{ranks}-0"))
+    if s is None or status.startswith("failed") or not s.get("solve_s") or s["solve_s"] >= args.min_solve_s:
+        print(f"[{time.time() - t0:7.1f} s] {name} np={ranks} #0: {status}", file=sys.stderr, flush=True)
+        return args.frames, (s, status)
     frames = min(100 * args.frames, math.ceil(args.frames * args.min_solve_s / s["solve_s"]))
     print(f"note: {name}: {1e3 * s['solve_s']:.1f} ms for {args.frames} frames; timed with {frames}", file=sys.stderr)
-    return frames
+    return frames, None
 
 
 def make_row(name, ranks, frames, s, status, bandwidth):
@@ -286,15 +287,18 @@ def main():
         deck = write_deck(name, deckdir, args.frames, args.material)
         if deck is None:
             continue
-        frames = steady_frames(args, name, deck, ranks[0])
+        frames, first = steady_frames(args, name, deck, ranks[0])
         if frames != args.frames:
             deck = write_deck(name, deckdir, frames, args.material)
         for r in ranks:
             best = None
             for k in range(args.repeat):
-                t0 = time.time()
-                s, status = run_case(args, name, deck, r, os.path.join(args.out, "runs", f"{name}-np{r}-{k}"))
-                print(f"[{time.time() - t0:7.1f} s] {name} np={r} #{k}: {status}", file=sys.stderr, flush=True)
+                if first and r == ranks[0] and k == 0:  # the frames' probe was this run
+                    s, status = first
+                else:
+                    t0 = time.time()
+                    s, status = run_case(args, name, deck, r, os.path.join(args.out, "runs", f"{name}-np{r}-{k}"))
+                    print(f"[{time.time() - t0:7.1f} s] {name} np={r} #{k}: {status}", file=sys.stderr, flush=True)
                 # Keep the fastest good run: on a shared machine other jobs only ever add time.
                 good = s is not None and not status.startswith("failed")
                 if best is None or (good and (not best[2] or s["wall_s"] < best[0]["wall_s"])):
