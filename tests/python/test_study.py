@@ -158,7 +158,10 @@ def test_a_trajectory_that_diverges_is_stopped_and_said(tmp_path):
     """The study steps through the run's guardrails (src/app/frame_step.hpp): at h = 1 s with 10
     iterations, each step from y itself and no fallback chain, lbfgs's trajectory runs away
     (test_stability.py's h = 1 run-away); the study says so, writes the stopping frame with its
-    reason in trajectory.csv's status, and goes on with the other solvers to the last frame."""
+    reason in trajectory.csv's status, and goes on with the other solvers. Which guardrail stops it,
+    and whether Newton's 10-iteration trajectory runs away too, depends on the CPU's round-off
+    (an edge too long at frame 8-12, or |det F| too large at frame 9), so either reason is taken."""
+    reasons = ("diverged: ", "elements exploded: ")
     deck = os.path.join(REPO, "tests/decks/stability_dt_1.yaml")
     text = open(deck).read().replace("solver: {type: lbfgs}", "solver: {type: lbfgs, upright_guess: false}")
     text += "study: {frames: [1], solvers: [lbfgs, newton], trajectory_iterations: {lbfgs: 10, newton: 10}}\n"
@@ -166,14 +169,19 @@ def test_a_trajectory_that_diverges_is_stopped_and_said(tmp_path):
     path.write_text(text)
     out = tmp_path / "h1"
     proc = run_hyperqn(["study", path, "-o", out], ranks=1)
-    assert "lbfgs           trajectory stopped by a guardrail: diverged" in proc.stdout
+    assert any(f"lbfgs           trajectory stopped by a guardrail: {r}" in proc.stdout for r in reasons)
     with open(out / "trajectory.csv") as f:
         rows = list(csv.DictReader(f))
     lbfgs = [r for r in rows if r["solver"] == "lbfgs"]
     assert [r["status"] for r in lbfgs[:-1]] == ["ok"] * (len(lbfgs) - 1)
-    assert lbfgs[-1]["status"].startswith("diverged") and np.isnan(float(lbfgs[-1]["rms_error"]))
+    assert lbfgs[-1]["status"].startswith(reasons) and np.isnan(float(lbfgs[-1]["rms_error"]))
     assert int(lbfgs[-1]["frame"]) < 20
-    assert [int(r["frame"]) for r in rows if r["solver"] == "newton"] == list(range(1, 21))
+    # Newton goes on past lbfgs's stop: to the last frame, or to its own guardrail's stop.
+    newton = [r for r in rows if r["solver"] == "newton"]
+    assert [int(r["frame"]) for r in newton] == list(range(1, len(newton) + 1))
+    assert len(newton) > int(lbfgs[-1]["frame"])
+    assert len(newton) == 20 or newton[-1]["status"].startswith(reasons)
+    assert [r["status"] for r in newton[:-1]] == ["ok"] * (len(newton) - 1)
     report = tmp_path / "report.md"
     subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(report)],
                    check=True)
