@@ -5,6 +5,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <algorithm>
+#include <initializer_list>
 #include <vector>
 
 namespace hyperqn {
@@ -12,6 +13,17 @@ namespace hyperqn {
 struct Box {
   Eigen::Vector3d lo, hi;
   bool overlaps(const Box& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
+  // The box of the points (at least one), grown by inflate on every side.
+  static Box around(std::initializer_list<Eigen::Vector3d> points, double inflate) {
+    Box b{*points.begin(), *points.begin()};
+    for (const Eigen::Vector3d& p : points) {
+      b.lo = b.lo.cwiseMin(p);
+      b.hi = b.hi.cwiseMax(p);
+    }
+    b.lo.array() -= inflate;
+    b.hi.array() += inflate;
+    return b;
+  }
 };
 
 class BoxTree {
