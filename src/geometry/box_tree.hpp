@@ -13,15 +13,19 @@ namespace hyperqn {
 struct Box {
   Eigen::Vector3d lo, hi;
   bool overlaps(const Box& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
+  void include(const Eigen::Vector3d& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  void inflate(double by) {
+    lo.array() -= by;
+    hi.array() += by;
+  }
   // The box of the points (at least one), grown by inflate on every side.
   static Box around(std::initializer_list<Eigen::Vector3d> points, double inflate) {
     Box b{*points.begin(), *points.begin()};
-    for (const Eigen::Vector3d& p : points) {
-      b.lo = b.lo.cwiseMin(p);
-      b.hi = b.hi.cwiseMax(p);
-    }
-    b.lo.array() -= inflate;
-    b.hi.array() += inflate;
+    for (const Eigen::Vector3d& p : points) b.include(p);
+    b.inflate(inflate);
     return b;
   }
 };

@@ -224,13 +224,8 @@ Box SelfContactTerm::primitive_box(std::initializer_list<int> vertices, const st
   Box b{first, first};
   for (int s : vertices)
     for (const std::vector<double>* at : {&x, end})
-      if (at) {
-        const Vec3 p(&(*at)[3 * s]);
-        b.lo = b.lo.cwiseMin(p);
-        b.hi = b.hi.cwiseMax(p);
-      }
-  b.lo.array() -= inflate;
-  b.hi.array() += inflate;
+      if (at) b.include(Vec3(&(*at)[3 * s]));
+  b.inflate(inflate);
   return b;
 }
 
