@@ -2,7 +2,7 @@
 // triangle, an edge against an edge, every point moving on a straight line
 //   x(t) = start + t (end - start),  t in [0, 1],
 // 12-vectors in the kernels' order ((p, t0, t1, t2) or (a0, a1, b0, b1)). What a barrier's step
-// bound for self-contact needs (docs/contact.md#pair-kernels-for-self-contact); no PETSc.
+// bound for self-contact needs (docs/self-contact.md#pair-kernels-for-self-contact); no PETSc.
 //
 // Additive CCD (Li, Kaufman, Jiang 2021, "Codimensional Incremental Potential Contact", as in the
 // IPC toolkit's additive_ccd): the pair's distance changes at most l_p per unit of t, l_p the

@@ -1,7 +1,7 @@
 // Squared distances between the surface primitives of deformable bodies, with first and second
 // derivatives: a vertex against a triangle and an edge against an edge, each pair four points
 // x = (x0, x1, x2, x3) stacked into 12 numbers. What a self-contact or body-against-body term
-// needs (docs/contact.md#pair-kernels-for-self-contact); no PETSc.
+// needs (docs/self-contact.md#pair-kernels-for-self-contact); no PETSc.
 //
 // The squared distance D is the minimum of |r|^2 over the closest-point parameters, which is
 // smooth within each sub-case of where the closest points lie (as in the IPC toolkit): on the

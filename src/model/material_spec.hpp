@@ -96,7 +96,7 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
        "mid-surface reaches t/2, so a pair of primitives measures its distance less half the thickness of each "
        "(two layers of the cloth rest about t + `contact.distance` apart, the cloth on a solid about t/2 + "
        "`contact.distance`); the continuous collision test keeps that much apart. t + `contact.distance` must stay "
-       "below the mesh's spacing at rest ([contact.md](contact.md#cloth-thickness))",
+       "below the mesh's spacing at rest ([self-contact.md](self-contact.md#cloth-thickness))",
        at_least(0, "a length")},
   };
   return keys;

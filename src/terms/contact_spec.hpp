@@ -55,7 +55,7 @@ inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
        "`true`: self-contact, the surfaces (tets' boundary faces, cloth triangles) of all bodies and cloths against "
        "each other and themselves, vertex against triangle and edge against edge, with the same `model`, `distance` "
        "and `stiffness` (a cloth's `thickness` adds to the distance its pairs keep; surfaces that cross at frame 0 "
-       "are an input error; friction between them: `self_friction`; [contact.md](contact.md#self-contact)). A deck "
+       "are an input error; friction between them: `self_friction`; [self-contact.md](self-contact.md)). A deck "
        "may then have no colliders"},
       {"self_friction", &C::self_friction,
        "Coulomb coefficient μ between surfaces in self-contact (`self: true`), lagged and smoothed like the "

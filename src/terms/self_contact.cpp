@@ -397,7 +397,7 @@ PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   // primitive has neighbours of its own surface in reach, and the list grows with the square of the
   // reach while no more of them touch (a 41 x 41 cloth: 0.13 million candidates at 3.7 cm, 0.8 at
   // 12 cm, and evaluations 7x slower than a list rebuilt more often). What the terms compute does
-  // not depend on the margin (refresh_candidates, limit_step); docs/contact.md has the timings.
+  // not depend on the margin (refresh_candidates, limit_step); docs/records/2026-11-26-margin-cap.md has the timings.
   step_margin_ = std::max(spec_.distance, std::min(motion / kMoveFraction, mean_edge_ / 2));
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).

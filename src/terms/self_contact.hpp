@@ -1,5 +1,5 @@
 // Self-contact: the surfaces of all bodies and cloths against each other and themselves, as one
-// energy term (deck contact: {self: true}; docs/contact.md#self-contact). The scene holds it only
+// energy term (deck contact: {self: true}; docs/self-contact.md). The scene holds it only
 // when the deck turns it on.
 //
 // The surface is the tets' boundary faces and the cloth triangles, with their edges and vertices.

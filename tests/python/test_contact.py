@@ -200,7 +200,7 @@ def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path, model):
     deck = sphere_press(30)  # the ball moves down 5 cm/s for 1 s
     deck["contact"] = {"model": model}
     # Solved to round-off: with the 10-iteration budget the frames end where the iterations stop,
-    # and that depends on the order of the sums over ranks (1.4e-4 m apart here; docs/contact.md).
+    # and that depends on the order of the sums over ranks (1.4e-4 m apart here; docs/records/2026-11-23-contact-defaults.md).
     deck["solver"] = {"type": "lbfgs", "iterations": 300, "grad_rtol": 1.0e-11}
     outs = {r: run(tmp_path, f"press_np{r}", deck, ranks=r) for r in (1, 2)}
     frames = {r: final_frame(o) for r, o in outs.items()}
@@ -219,7 +219,7 @@ def test_moving_ball_presses_block_same_at_1_and_2_ranks(tmp_path, model):
     print(f"1 vs 2 ranks: max |x1 - x2| = {diff:.3e} m")
     # The barrier's frames stall at the round-off of g (its log) before grad_rtol, where the line
     # search can no longer decrease g, at a residual below 1e-3 of the force scale: measured 6e-11
-    # to 6e-7 m apart, depending on history and grad_rtol (docs/contact.md).
+    # to 6e-7 m apart, depending on history and grad_rtol (docs/records/2026-11-23-contact-defaults.md).
     assert diff < (1e-8 if model == "penalty" else 1e-6)
 
 

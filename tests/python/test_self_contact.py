@@ -1,4 +1,4 @@
-"""Self-contact (deck `contact: {self: true}`, docs/contact.md#self-contact): two identical soft
+"""Self-contact (deck `contact: {self: true}`, docs/self-contact.md): two identical soft
 blocks (two `bodies:`) fly at each other in empty space (no gravity, no damping, no colliders),
 collide and bounce apart. With the barrier, hyperqn_tools.intersections finds no intersecting
 surface triangles in any frame; the total momentum stays 0 to 1e-8 of one block's (every step
@@ -298,7 +298,7 @@ def test_friction_ranks_agree(incline_runs):
 
 
 # bodies_stack at 2 ranks only: 10 frames take 24 s at 1 rank (the whole scenes at 1 and 2 ranks
-# are in docs/contact.md; the blocks above compare 1, 2 and 4 ranks). blocks_stack3 at 1 rank
+# are in docs/self-contact.md#tests-and-scenes; the blocks above compare 1, 2 and 4 ranks). blocks_stack3 at 1 rank
 # until all three blocks have landed; cloth_ball on a coarser sheet; twist 3 times as fast, until
 # the rod has buckled into a loop.
 @pytest.mark.parametrize("name, frames, ranks", [("bodies_stack", 10, 2), ("cloth_pile", 6, 1), ("cloth_pile", 6, 2),
