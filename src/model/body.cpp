@@ -56,6 +56,16 @@ void Body::set_time(double t) {
   time_ = t;
 }
 
+void Body::keep_motion(MotionState& m) const {
+  m.time = time_;
+  m.velocities = fixed_vel_;
+}
+
+void Body::restore_motion(const MotionState& m) {
+  set_time(m.time);
+  fixed_vel_ = m.velocities;
+}
+
 PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
   PetscFunctionBeginUser;
   time_ = t;

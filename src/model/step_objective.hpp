@@ -10,6 +10,7 @@
 #include <petscvec.h>
 
 #include <array>
+#include <cmath>
 #include <memory>
 
 #include "model/body.hpp"
@@ -79,7 +80,8 @@ class StepObjective : public Objective {
   // its z), kept and put back: the fallback chain keeps its first solve's x while it tries others.
   PetscErrorCode keep_end();
   PetscErrorCode restore_end();
-  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
+  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n (with the velocities
+  // they had there, if the step began with the body at t_n).
   PetscErrorCode undo_step(State& s);
 
   // Objective: g of the current step.
@@ -114,6 +116,8 @@ class StepObjective : public Objective {
   std::string energy_names() const override { return body_.material_names(); }
 
  private:
+  // The fixed vertices' motion into motion_n_ if the body is at s's time t_n.
+  void keep_motion(const State& s);
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
   PetscErrorCode upright_guess(Vec from, Vec x);
@@ -146,6 +150,7 @@ class StepObjective : public Objective {
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
   bool euler_completed_ = false;  // this step ended by complete_by_euler
+  Body::MotionState motion_n_{NAN, {}};  // the fixed vertices' motion at t_n, for undo_step (NaN: none kept)
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
   bool kept_euler_completed_ = false;      // keep_end's
   Vec kept_hat_ = nullptr;
