@@ -2,6 +2,7 @@
 
 #include "io/log_events.hpp"
 #include "model/ordered_assembly.hpp"
+#include "solvers/stop_request.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -162,7 +163,7 @@ PetscErrorCode StepObjective::solve_from(TimeStepSolver& solver, Vec from, Vec x
   PetscCall(solver.solve(x, on_iteration, out.result));
   out.evaluations += evaluations_;
   out.iterations += out.result.iterations;
-  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS") {
+  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS" && !stop_agreed()) {
     out.restarted = true;
     PetscCall(VecCopy(from, x));
     PetscCall(solver.solve(x, on_iteration, out.result));
@@ -180,7 +181,7 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
   const double before = event_seconds(log_events().step);
   PetscCall(event_begin(&LogEvents::step));
   PetscCall(solve_from(solver, x_n_, s.x, on_iteration, out));
-  if (integrator_->extrapolates() && !rejected(out.result.energy)) {
+  if (integrator_->extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
     bool sound;
     PetscCall(end_is_sound(s, &sound));
     if (!sound) PetscCall(complete_by_euler(solver, s, on_iteration, out));

@@ -35,6 +35,9 @@ struct StepSolve {
   int substeps = 1;              // solved in this many sub-steps
   bool kept_substeps = false;    // started at the sub-step size of the frames before
   bool newton = false;           // solved by the Newton fallback
+  // A stop signal ended the solve (solvers/stop_request.hpp): the frame is given up, and the
+  // caller undoes the step; iterations and seconds are then those of every stage so far.
+  bool interrupted = false;
   Vec velocity = nullptr;
   double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
   bool measured = false;
@@ -96,6 +99,16 @@ class StepObjective : public Objective {
   long long pulled_back_guesses() const { return counts_->pulled_back; }
   // Steps of an extrapolating integrator (the midpoint) completed by implicit Euler (complete_by_euler).
   long long euler_completed_steps() const { return counts_->euler_completed; }
+  // The run's counters (shared with the sub-step integrators) as they stand, and back to them: a
+  // frame given up counts for nothing.
+  struct RunCounts {
+    PetscInt rejected = 0;
+    long long pulled_back = 0;
+    long long euler_completed = 0;
+    long long hessian_patterns = 0;
+  };
+  RunCounts counts() const { return *counts_; }
+  void restore_counts(const RunCounts& c) { *counts_ = c; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
@@ -155,12 +168,6 @@ class StepObjective : public Objective {
   bool kept_euler_completed_ = false;      // keep_end's
   Vec kept_hat_ = nullptr;
   PetscInt evaluations_ = 0;
-  struct RunCounts {
-    PetscInt rejected = 0;
-    long long pulled_back = 0;
-    long long euler_completed = 0;
-    long long hessian_patterns = 0;
-  };
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
   // The Hessian grow_pattern last looked at, its nonzero state then and the couplings' generation:
   // while all three are the same, its pattern holds the couplings.
