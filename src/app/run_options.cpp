@@ -87,7 +87,8 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
                             "Tests only: the last rank sends itself SIGTERM during this frame's solve (< 0: off)",
                             "docs/outputs.md", o->signal_in_frame, &o->signal_in_frame, nullptr));
   PetscCall(PetscOptionsInt("-hyperqn_test_signal_at_iteration",
-                            "Tests only: ... after this many iterations of it, every stage of the fallback chain counted",
+                            "Tests only: with -hyperqn_test_signal_in_frame, after this many iterations of that frame "
+                            "(every stage of the fallback chain counted)",
                             "docs/outputs.md", o->signal_at_iteration, &o->signal_at_iteration, nullptr));
   PetscCall(PetscOptionsReal("-hyperqn_progress_seconds",
                              "A frame whose solve has run this many seconds prints a progress line (iteration, g, "
