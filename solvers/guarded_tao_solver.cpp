@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "solvers/line_search.hpp"
+#include "solvers/stop_request.hpp"
 
 namespace hyperqn {
 
@@ -96,7 +97,7 @@ PetscErrorCode GuardedTaoSolver::report(PetscInt iteration, Vec x, PetscReal f, 
     gnorm0_ = gnorm;
     f0_ = f;
   }
-  *stop = on_iteration_ && *on_iteration_ && (*on_iteration_)(r);
+  *stop = (on_iteration_ && *on_iteration_ && (*on_iteration_)(r)) || stop_agreed();  // a caller's stop, or a signal's
   PetscFunctionReturn(0);
 }
 
@@ -123,8 +124,8 @@ PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
   PetscFunctionReturn(0);
 }
 
-// TAO's own test, plus: a stop the iteration callback asked for; a rejected point ends the solve
-// (solve() takes over); the relative tolerance also holds against the step's force scale
+// TAO's own test, plus: a stop the iteration callback or a signal (stop_request.hpp) asked for; a
+// rejected point ends the solve (solve() takes over); the relative tolerance also holds against the step's force scale
 // (frame_budget.hpp), and after a recovery stays relative to the frame's first gradient (TAO's
 // gttol would restart from the resumed point's); past the budget the frame goes on while it is
 // far from converged, up to the cap.
@@ -161,7 +162,7 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   }
   if (self->history_reset_requested_ && reason == TAO_CONTINUE_ITERATING)
     PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));  // solve() resumes with no history
-  if (self->stop_requested_) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
+  if (self->stop_requested_ || stop_agreed()) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_USER));
   PetscFunctionReturn(0);
 }
 
@@ -211,6 +212,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
       bad_point_ = false;
       reason = TAO_DIVERGED_LS_FAILURE;
     }
+    if (stop_agreed()) break;  // a stop signal: no retry, no new TaoSolve
     const bool reset_history = history_reset_requested_ && reason == TAO_CONVERGED_USER && !stop_requested_;
     history_reset_requested_ = false;
     if (reset_history) {  // a new TaoSolve from this iterate: TAOLMVM starts it with no (s, y) pairs

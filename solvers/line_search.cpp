@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "io/log_events.hpp"
+#include "solvers/stop_request.hpp"
 
 namespace hyperqn {
 
@@ -21,6 +22,7 @@ PetscErrorCode backtrack(Objective& step, Vec x, PetscReal g, Vec grad, Vec dir,
   for (int halvings = 0; halvings <= ls.max_halvings; ++halvings, a *= ls.shrink) {
     PetscCall(VecWAXPY(trial, a, dir, x));
     PetscCall(step.objective(trial, g_trial, trial_grad));
+    if (stop_agreed()) break;  // a stop signal: nothing accepted, the solve ends
     if (Objective::rejected(*g_trial)) continue;  // non-finite g or grad g: never accepted
     if ((accept_first && halvings == 0) || *g_trial <= g + ls.c1 * a * slope) {
       *accepted = true;

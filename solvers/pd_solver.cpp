@@ -6,6 +6,7 @@
 
 #include "solvers/frame_budget.hpp"
 #include "solvers/line_search.hpp"
+#include "solvers/stop_request.hpp"
 
 namespace hyperqn {
 
@@ -72,7 +73,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
     r.grad_norm = gnorm;
     r.step = alpha;
     r.evaluations = step_.evaluations();
-    return on_iteration ? on_iteration(r) : false;
+    return (on_iteration && on_iteration(r)) || stop_agreed();  // a caller's stop, or a signal's
   };
 
   result = FrameResult{};
@@ -128,6 +129,10 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
     const PetscInt rejected_before = step_.rejected_evaluations();
     PetscCall(backtrack(step_, x, g, grad_, dir_, 1.0, armijo, exact_, trial_, &g_trial, trial_grad_, &alpha,
                         &accepted));
+    if (stop_agreed()) {  // a stop signal during the line search: no retry
+      result.reason = "STOPPED_BY_SIGNAL";
+      break;
+    }
     if (!accepted) {
       // Guardrail: if the backtracking met rejected (non-finite) points, retry from the last
       // accepted iterate along -grad g (-A^{-1} grad g just failed), first trial as long as the

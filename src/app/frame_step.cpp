@@ -69,6 +69,7 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
   PetscFunctionBeginUser;
   out = FrameStep{};
   PetscCall(solve(state, on_iteration, out.solve));
+  if (out.solve.interrupted) PetscFunctionReturn(0);  // given up: the caller undoes the step
   const FrameResult& r = out.solve.result;
   bool finite_x = false;
   PetscCall(all_finite(comm, state.x, &finite_x));

@@ -1,26 +1,28 @@
 #include "app/run_checkpoints.hpp"
 
 #include <csignal>
+#include <cstdio>
 
 #include "app/simulation.hpp"
 #include "io/log_events.hpp"
 
 namespace hyperqn {
 
-// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop after
-// the current frame with a checkpoint. The handler only records the signal (async-signal-safe);
-// the ranks agree on it once per frame (Checkpointer::after_frame).
-static volatile std::sig_atomic_t g_stop_signal = 0;
-extern "C" void record_stop_signal(int sig) { g_stop_signal = sig; }
+// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop with a
+// checkpoint of its last whole frame. The handler only records the signal (async-signal-safe,
+// solvers/stop_request.hpp); the ranks agree on it at the next evaluation of g during a frame's
+// solve (which then ends), or between frames once per frame (Checkpointer::after_frame).
+extern "C" void on_stop_signal(int sig) { record_stop_signal(sig); }
 void catch_stop_signals() {
   struct sigaction action = {};
-  action.sa_handler = record_stop_signal;
+  action.sa_handler = on_stop_signal;
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESTART;  // blocking calls (MPI, file writes) go on
   sigaction(SIGTERM, &action, nullptr);
   sigaction(SIGUSR1, &action, nullptr);
 }
-int stop_signal() { return (int)g_stop_signal; }
+
+static const char* signal_name(int sig) { return sig == SIGTERM ? "SIGTERM" : "SIGUSR1"; }
 
 Checkpointer::Checkpointer(const RunContext& run, const Setup& setup) : run_(run), setup_(setup) {
   if (setup.restarted) {
@@ -66,9 +68,44 @@ PetscErrorCode Checkpointer::stop_for_signal(int sig, int frame) {
   if (sig == 0 || frame >= run_.deck.time.frames) PetscFunctionReturn(0);
   if (last_checkpoint_frame_ != frame) PetscCall(write_checkpoint());
   interrupted_ = true;
-  run_.summary.status = std::string("interrupted: ") + (sig == SIGTERM ? "SIGTERM" : "SIGUSR1") + " after frame " +
-                        std::to_string(frame) + " of " + std::to_string(run_.deck.time.frames) +
+  run_.summary.status = std::string("interrupted: ") + signal_name(sig) + " after frame " + std::to_string(frame) +
+                        " of " + std::to_string(run_.deck.time.frames) +
                         "; a checkpoint was written: continue with --restart latest";
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Checkpointer::before_frame(int frame) {
+  PetscFunctionBeginUser;
+  frame_ = frame;
+  iterations_ = 0;
+  PetscFunctionReturn(0);
+}
+
+void Checkpointer::watch(const IterationRecord& r) {
+  if (r.iteration == 0 || frame_ != setup_.options.signal_in_frame) return;
+  if (++iterations_ != setup_.options.signal_at_iteration) return;
+  int rank, size;
+  MPI_Comm_rank(run_.comm, &rank);
+  MPI_Comm_size(run_.comm, &size);
+  if (rank == size - 1) raise(SIGTERM);  // test hook: one rank only, the others learn it from it
+}
+
+// The frame whose solve a signal ended is undone: the state is the frame before's, of which a
+// checkpoint is written unless there is one.
+PetscErrorCode Checkpointer::interrupted(const FrameOutcome& outcome) {
+  const int frame = outcome.frame, done = run_.state.frame;
+  int sig = stop_signal(), any;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, run_.comm));  // which signal: once, at the end
+  if (last_checkpoint_frame_ != done) PetscCall(write_checkpoint());
+  interrupted_ = true;
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "interrupted: %s during frame %d of %d (its solve stopped after %lld iterations, %.3g s, and was undone); ",
+                signal_name(any), frame, run_.deck.time.frames, (long long)outcome.lead.solve.iterations,
+                outcome.lead.solve.seconds);
+  run_.summary.status = text + std::string("frame ") + std::to_string(done) +
+                        " is the last done and checkpointed: continue with --restart latest";
   PetscFunctionReturn(0);
 }
 

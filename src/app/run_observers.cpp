@@ -53,6 +53,35 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode ProgressLog::before_frame(int frame) {
+  PetscFunctionBeginUser;
+  frame_ = frame;
+  frame_start_ = MPI_Wtime();
+  next_line_ = frame_start_ + progress_seconds_;
+  PetscFunctionReturn(0);
+}
+
+// Iteration numbers start again at each stage of the fallback chain (sub-steps, Newton).
+void ProgressLog::watch(const IterationRecord& r) {
+  if (progress_seconds_ <= 0) return;
+  const double now = MPI_Wtime();
+  if (now < next_line_) return;
+  int rank;
+  MPI_Comm_rank(run_.comm, &rank);
+  if (rank == 0)
+    PetscPrintf(PETSC_COMM_SELF, "frame %5d  solving: it %4d  g %+.9e  |grad| %.3e  %.1f s so far\n", frame_,
+                (int)r.iteration, r.energy, r.grad_norm, now - frame_start_);
+  next_line_ = now + progress_seconds_;
+}
+
+// The frame a stop signal ended is not done: one line says so (the counters stay the frame before's).
+PetscErrorCode ProgressLog::interrupted(const FrameOutcome& outcome) {
+  PetscFunctionBeginUser;
+  PetscCall(PetscPrintf(run_.comm, "frame %5d  interrupted by a stop signal after %d iterations, %.2f ms: given up\n",
+                        outcome.frame, (int)outcome.lead.solve.iterations, 1e3 * outcome.lead.solve.seconds));
+  PetscFunctionReturn(0);
+}
+
 // Guardrails: a frame whose solver could not decrease g is flagged (progress line, summary's
 // flagged_frames and status) and the run goes on from its last accepted iterate.
 PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl&) {

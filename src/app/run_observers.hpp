@@ -28,19 +28,29 @@ void read_log_events(RunSummary& s);
 void add_step_counters(RunSummary& summary, const StepObjective& step);
 
 // The console's line per frame and the summary's frame counters (iterations, flagged and inverted
-// frames, min det F, the frames done); after a release, the scene's new size.
+// frames, min det F, the frames done); after a release, the scene's new size. During a slow
+// frame, a progress line every `progress_seconds` (-hyperqn_progress_seconds; rank 0's clock
+// alone decides, so it costs no reduction).
 class ProgressLog : public FrameObserver {
  public:
-  ProgressLog(const RunContext& run, bool inverted_at_start) : run_(run), inverted_now_(inverted_at_start) {}
+  ProgressLog(const RunContext& run, bool inverted_at_start, double progress_seconds)
+      : run_(run), inverted_now_(inverted_at_start), progress_seconds_(progress_seconds) {}
   PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
+  PetscErrorCode before_frame(int frame) override;
   PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
   PetscErrorCode stopped(const FrameOutcome& outcome, const std::string& why) override;
+  PetscErrorCode interrupted(const FrameOutcome& outcome) override;
+  // Every iteration of the frame's solve, as it comes (FallbackChain's watch).
+  void watch(const IterationRecord& r);
   // Whether the last frame done has inverted or flat elements.
   bool inverted_now() const { return inverted_now_; }
 
  private:
   RunContext run_;
   bool inverted_now_;
+  double progress_seconds_;
+  int frame_ = 0;
+  double frame_start_ = 0, next_line_ = 0;  // MPI_Wtime: the frame's start, the next progress line's time
 };
 
 // iterations.csv and the terms' own logs (EnergyTerm::log, e.g. contact.csv): rows appended

@@ -57,6 +57,8 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
   if (!std::isfinite(o->element_limit))
     refuse(deck, "-hyperqn_element_limit", "must be a finite number (<= 0 turns the check off)");
   if (!std::isfinite(o->nan_beyond)) refuse(deck, "-hyperqn_test_nan_energy_beyond", "must be a finite number");
+  if (!std::isfinite(o->progress_seconds))
+    refuse(deck, "-hyperqn_progress_seconds", "must be a finite number of seconds (<= 0: no progress lines)");
   PetscFunctionReturn(0);
 }
 
@@ -81,6 +83,17 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscCall(PetscOptionsInt("-hyperqn_test_signal_after_frame",
                             "Tests only: every rank sends itself SIGTERM after this frame (0: during setup; < 0: off)",
                             "docs/outputs.md", o->signal_after_frame, &o->signal_after_frame, nullptr));
+  PetscCall(PetscOptionsInt("-hyperqn_test_signal_in_frame",
+                            "Tests only: the last rank sends itself SIGTERM during this frame's solve (< 0: off)",
+                            "docs/outputs.md", o->signal_in_frame, &o->signal_in_frame, nullptr));
+  PetscCall(PetscOptionsInt("-hyperqn_test_signal_at_iteration",
+                            "Tests only: with -hyperqn_test_signal_in_frame, after this many iterations of that frame "
+                            "(every stage of the fallback chain counted)",
+                            "docs/outputs.md", o->signal_at_iteration, &o->signal_at_iteration, nullptr));
+  PetscCall(PetscOptionsReal("-hyperqn_progress_seconds",
+                             "A frame whose solve has run this many seconds prints a progress line (iteration, g, "
+                             "|grad g|), and again every as many seconds (<= 0: never)",
+                             "docs/outputs.md", o->progress_seconds, &o->progress_seconds, nullptr));
   PetscInt package = 0;  // auto
   for (int k = 1; k < kH0PackageCount; ++k)
     if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;

@@ -29,6 +29,13 @@ struct RunOptions {
   // frame N is done (its checkpoint included), as kill -9 would; or sends itself SIGTERM after
   // frame N (0: during setup), as a batch system would (< 0: off).
   PetscInt kill_after_frame = -1, signal_after_frame = -1;
+  // Test hook (tests/python/test_interrupt.py): the last rank alone sends itself SIGTERM after
+  // signal_at_iteration iterations of frame signal_in_frame's solve, every stage of the fallback
+  // chain counted, as a batch system's signal that reaches one rank first (< 0: off).
+  PetscInt signal_in_frame = -1, signal_at_iteration = 1;
+  // A frame whose solve has run this long prints a progress line (rank 0), and again each time
+  // this much more has passed (<= 0: never). Fast frames print nothing.
+  PetscReal progress_seconds = 2.0;
   // Who factors and solves the constant matrices M + h^2 L and M + h^2 K(x_rest)
   // (-hyperqn_h0_package: auto, supernodal, split, mumps or cholmod; auto is default_factor_package(),
   // resolved by choose_factor_package).

@@ -108,12 +108,20 @@ PetscErrorCode Run::time_loop(bool& ok) {
   PetscCall(scene.current().body->volume_ratios(state.x, &min_J, &max_abs_J));
   const bool started_inverted = restart ? resumed_inverted : degenerate(min_J);
 
-  ProgressLog progress(context, degenerate(min_J));
+  ProgressLog progress(context, degenerate(min_J), options.progress_seconds);
   Checkpointer checkpointer(context, {options, identity, *checkpoints, frames, logs, started_inverted, t_start, earlier,
                                       restart != nullptr});
+  // Every iteration of every stage of the chain, as it comes: progress lines of a slow frame, the
+  // signal test hook.
+  const IterationWatch watch = [&](const IterationRecord& r) {
+    progress.watch(r);
+    checkpointer.watch(r);
+  };
   TimeLoop loop(
       scene, Guardrails::of(options, scene.current()), state,
-      [this](State& st, const IterationCallback& cb, StepSolve& out) { return chain->solve_frame(st, cb, out); },
+      [this, &watch](State& st, const IterationCallback& cb, StepSolve& out) {
+        return chain->solve_frame(st, cb, out, watch);
+      },
       [this](const Scene& o, Scene& f) { return rebind(o, f); });
   // In this order: the console line and counters, the logs (flushed before a checkpoint), the
   // frames (a frame that cannot be written stops the run), then checkpoints and signals.

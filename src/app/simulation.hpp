@@ -14,9 +14,10 @@ inline constexpr int kExitInverted = 2;
 // A run stopped by SIGTERM or SIGUSR1 after writing a checkpoint: `--restart latest` continues it.
 inline constexpr int kExitInterrupted = 3;
 
-// SIGTERM and SIGUSR1 from now on only ask a run to stop after its current frame, with a
-// checkpoint (docs/outputs.md#checkpoints). main calls it first thing for a simulation, so that
-// a signal during start-up (MPI, PETSc, reading the deck and mesh) is not fatal either.
+// SIGTERM and SIGUSR1 from now on only ask a run to stop, with a checkpoint of its last whole
+// frame: a frame whose solve they interrupt is given up (docs/outputs.md#checkpoints). main calls
+// it first thing for a simulation, so that a signal during start-up (MPI, PETSc, reading the deck
+// and mesh) is not fatal either.
 void catch_stop_signals();
 
 // Returns the process exit code: 0 on success, 1 on input errors (nothing written) or when the

@@ -46,6 +46,11 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     outcome.frame = frame;
     PetscCall(stepper_.step(scene, solve_, lead_, iterations(frame), outcome.lead));
     outcome.followers.resize(followers_.size());
+    if (outcome.lead.solve.interrupted) {  // a stop signal during the solve: the frame is given up
+      PetscCall(scene.step->undo_step(lead_));
+      for (FrameObserver* o : observers_) PetscCall(o->interrupted(outcome));
+      break;
+    }
     for (size_t k = 0; k < followers_.size() && outcome.lead.stop.empty(); ++k) {
       Follower& f = followers_[k];
       if (f.stopped) continue;

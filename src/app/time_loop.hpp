@@ -35,7 +35,7 @@ struct FrameOutcome {
 // What observers may ask of the loop.
 struct LoopControl {
   std::string stop;          // why the lead cannot go on: the loop undoes its step and ends
-  bool interrupted = false;  // end after this frame, which stands (a signal asked to stop)
+  bool interrupted = false;  // end after this frame, which stands (a signal asked to stop between frames)
 };
 
 // Everything has a do-nothing default: an observer overrides what it needs. All are collective.
@@ -58,6 +58,10 @@ class FrameObserver {
   // The lead could not go on from outcome.frame (why): its step is undone, it is at
   // outcome.frame - 1, and the loop ends.
   virtual PetscErrorCode stopped(const FrameOutcome& /*outcome*/, const std::string& /*why*/) { return 0; }
+  // A stop signal ended the lead's solve of outcome.frame (outcome.lead.solve.interrupted): the
+  // frame is given up, its step undone (the lead at outcome.frame - 1, as that frame left it), no
+  // follower stepped, and the loop ends. after_frame is not called for it.
+  virtual PetscErrorCode interrupted(const FrameOutcome& /*outcome*/) { return 0; }
 };
 
 class TimeLoop {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "geometry/motion.hpp"
+#include "solvers/stop_request.hpp"
 #include "terms/element_kernels.hpp"
 
 namespace hyperqn {
@@ -54,6 +55,16 @@ void Body::set_time(double t) {
     }
   }
   time_ = t;
+}
+
+void Body::keep_motion(MotionState& m) const {
+  m.time = time_;
+  m.velocities = fixed_vel_;
+}
+
+void Body::restore_motion(const MotionState& m) {
+  set_time(m.time);
+  fixed_vel_ = m.velocities;
 }
 
 PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
@@ -160,9 +171,13 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
     // gradient asked for on every rank alike: self-contact's gradient exchange is collective.
     gl = array ? array : &no_dofs;
   }
-  double e_local = 0;
-  for (const auto& term : terms_) PetscCall(term->add_energy(x, pos_, &e_local, gl));
-  PetscCallMPI(MPI_Allreduce(&e_local, energy, 1, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  // The energies and the ranks' stop votes in one reduction (solvers/stop_request.hpp): a signal
+  // that reached any rank is known to all at this evaluation, at no cost of its own.
+  double local[2] = {0, stop_vote()}, global[2];
+  for (const auto& term : terms_) PetscCall(term->add_energy(x, pos_, &local[0], gl));
+  PetscCallMPI(MPI_Allreduce(local, global, 2, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  *energy = global[0];
+  count_stop_votes(global[1]);
   if (grad) {
     PetscCall(VecRestoreArray(local_, &array));
     PetscCall(VecSet(grad, 0.0));

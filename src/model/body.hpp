@@ -34,6 +34,15 @@ class Body {
   // nothing changes (the study steps several states to the same t).
   void set_time(double t);
   double time() const { return time_; }
+  // The fixed vertices' motion as it stands (its time, their velocities), and back to it: a step
+  // that is undone leaves them as they were at its start (set_time back to that time alone would
+  // leave their velocities 0, and a checkpoint or an output frame then says so).
+  struct MotionState {
+    double time = 0;
+    std::vector<double> velocities;
+  };
+  void keep_motion(MotionState& m) const;
+  void restore_motion(const MotionState& m);
   // A restart (io/checkpoint.hpp): time t and every local vertex's position and velocity (3 each;
   // fixed vertices: the prescribed ones the checkpointed run had, which set_time from a fresh body
   // would not give) into the body and the global vectors x, v of free dofs.

@@ -5,6 +5,7 @@
 
 #include "solvers/frame_budget.hpp"
 #include "solvers/solver_registry.hpp"
+#include "solvers/stop_request.hpp"
 
 namespace hyperqn {
 
@@ -12,6 +13,8 @@ FallbackChain::FallbackChain(Scene& scene, const SolverSpec& spec, TimeStepSolve
     : scene_(scene), spec_(spec), solver_(solver), element_limit_(element_limit) {
   record_ = [this](const IterationRecord& r) {
     records_.push_back(r);
+    if (r.iteration > 0) ++iterations_seen_;
+    if (watch_ && *watch_) (*watch_)(r);
     return false;
   };
 }
@@ -80,6 +83,7 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
     records_.clear();
     PetscCall(l->step->solve_step(*l->solver, sub_, record_, part));
     add_cost(part, out);
+    if (stop_agreed()) PetscFunctionReturn(0);  // s is still at x_n
     PetscCall(judge(part.result, *l->step, sub_.x, &outcome_));
     if (!outcome_.acceptable()) PetscFunctionReturn(0);
     PetscCall(l->step->end_step(sub_));
@@ -94,9 +98,14 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out) {
+PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out,
+                                          const IterationWatch& watch) {
   StepObjective& g = *scene_.step;
   PetscFunctionBeginUser;
+  const StepObjective::RunCounts counts = g.counts();  // put back if the frame is given up
+  const double t0 = MPI_Wtime();
+  watch_ = &watch;
+  iterations_seen_ = 0;
   if (!start_known_) {  // else the last frame's end, measured then
     double unused;
     PetscCall(scene_.body->volume_ratios(s.x, &start_min_J_, &unused));
@@ -110,7 +119,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   if (start > 0) {
     PetscCall(g.begin_substepped_step(s));
     bool ok = false;
-    for (int k = start; k <= spec_.max_halvings && !ok; ++k) {
+    for (int k = start; k <= spec_.max_halvings && !ok && !stop_agreed(); ++k) {
       PetscCall(substeps(s, k, kept, &ok));
       if (ok) accepted = k;
     }
@@ -118,9 +127,18 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   if (accepted > 0) {
     out = kept;
     out.kept_substeps = true;
-  } else {
+  } else if (!stop_agreed()) {
     PetscCall(solve_from_full_step(s, start > 0 ? start - 1 : spec_.max_halvings, out, &accepted));
     add_cost(kept, out);
+  }
+  watch_ = nullptr;
+  if (stop_agreed()) {  // given up: nothing of the frame stays, nothing of it is reported
+    g.restore_counts(counts);
+    out = StepSolve{};
+    out.interrupted = true;
+    out.iterations = iterations_seen_;
+    out.seconds = MPI_Wtime() - t0;
+    PetscFunctionReturn(0);
   }
   s.substeps.after_frame(start, accepted, spec_.keep_substeps);
   out.min_J = outcome_.min_J;
@@ -137,6 +155,7 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
   PetscFunctionBeginUser;
   records_.clear();
   PetscCall(g.solve_step(solver_, s, record_, out));
+  if (stop_agreed()) PetscFunctionReturn(0);  // solve_frame gives the frame up
   out.extended = out.result.extended;
   PetscCall(judge(out.result, g, s.x, &outcome_));
   if (outcome_.acceptable()) *accepted = 0;
@@ -151,6 +170,7 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
     for (int k = 1; k <= finest && !ok; ++k) {
       PetscCall(g.undo_step(s));
       PetscCall(substeps(s, k, out, &ok));
+      if (stop_agreed()) PetscFunctionReturn(0);
       if (ok) *accepted = k;
     }
     if (!ok) {
@@ -166,6 +186,7 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
         records_.clear();
         PetscCall(g.solve_step(*newton_, s, record_, newton));
         add_cost(newton, out);
+        if (stop_agreed()) PetscFunctionReturn(0);
       } else {
         PetscCall(g.undo_step(s));
         PetscCall(g.begin_step(s));  // the step again, to keep the first solve's x

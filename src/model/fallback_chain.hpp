@@ -15,7 +15,10 @@
 // |det F| past the run's element limit, none inverted that was not at x_n. The first stage whose
 // result is acceptable is kept; if none is, the better of 1 and 3 (finite, then sound, then
 // smaller ||grad g||: both minimize the frame's own g), and the caller flags or stops the run.
+// A stop signal (solvers/stop_request.hpp) ends the solve at hand and the chain with it: no stage
+// after it, and the frame is given up as if it had not begun (StepSolve::interrupted).
 #pragma once
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -24,6 +27,10 @@
 #include "solvers/solver_spec.hpp"
 
 namespace hyperqn {
+
+// Sees every iteration of every stage of a frame's solve as it happens (the console's progress of a
+// slow frame, a test hook); it cannot stop the solve.
+using IterationWatch = std::function<void(const IterationRecord&)>;
 
 class FallbackChain {
  public:
@@ -38,8 +45,12 @@ class FallbackChain {
 
   // Begins the step from s and solves it, as StepObjective::solve_step does, through the chain.
   // Then the caller ends the step (integrator.end_step(s, out.velocity)) or undoes it.
-  // on_iteration sees the iterations of the kept solve only (for sub-steps: the last one's).
-  PetscErrorCode solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out);
+  // on_iteration sees the iterations of the kept solve only (for sub-steps: the last one's), once
+  // the chain is done; watch, every iteration as it comes. After a stop signal, out.interrupted:
+  // on_iteration has seen nothing, s holds no trace of the frame (SubstepMemory, the step's
+  // counters) but the positions and velocities the caller's undo_step puts back.
+  PetscErrorCode solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out,
+                             const IterationWatch& watch = {});
 
  private:
   // The sub-step integrator, factored matrix and solver for h / 2^halvings.
@@ -76,7 +87,9 @@ class FallbackChain {
   State sub_;                               // the sub-steps' state
   Vec kept_x_ = nullptr, velocity_ = nullptr;
   std::vector<IterationRecord> records_;    // the current solve's iterations
-  IterationCallback record_;                // appends to records_
+  IterationCallback record_;                // appends to records_, shows watch_
+  const IterationWatch* watch_ = nullptr;   // solve_frame's, while it runs
+  PetscInt iterations_seen_ = 0;            // in the frame so far, every stage's
 };
 
 }  // namespace hyperqn

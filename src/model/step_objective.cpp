@@ -2,6 +2,7 @@
 
 #include "io/log_events.hpp"
 #include "model/ordered_assembly.hpp"
+#include "solvers/stop_request.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -62,6 +63,7 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
 
 PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
+  keep_motion(s);
   without_history_ = integrator_->keeps_history() && !s.x_prev;
   const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
   body_.set_time(t);  // prescribed positions of the fixed vertices at t
@@ -78,9 +80,16 @@ PetscErrorCode StepObjective::begin_step(State& s) {
 
 PetscErrorCode StepObjective::begin_substepped_step(const State& s) {
   PetscFunctionBeginUser;
+  keep_motion(s);
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
   PetscFunctionReturn(0);
+}
+
+// Only with the body at t_n: a step begun after sub-steps that failed, or after another state's step
+// to the same time (the study), keeps the motion kept before, or none.
+void StepObjective::keep_motion(const State& s) {
+  if (body_.time() == s.frame * dt_) body_.keep_motion(motion_n_);
 }
 
 PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
@@ -154,7 +163,7 @@ PetscErrorCode StepObjective::solve_from(TimeStepSolver& solver, Vec from, Vec x
   PetscCall(solver.solve(x, on_iteration, out.result));
   out.evaluations += evaluations_;
   out.iterations += out.result.iterations;
-  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS") {
+  if (warm_start_ != WarmStart::previous && out.result.reason == "REJECTED_INITIAL_GUESS" && !stop_agreed()) {
     out.restarted = true;
     PetscCall(VecCopy(from, x));
     PetscCall(solver.solve(x, on_iteration, out.result));
@@ -172,7 +181,7 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
   const double before = event_seconds(log_events().step);
   PetscCall(event_begin(&LogEvents::step));
   PetscCall(solve_from(solver, x_n_, s.x, on_iteration, out));
-  if (integrator_->extrapolates() && !rejected(out.result.energy)) {
+  if (integrator_->extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
     bool sound;
     PetscCall(end_is_sound(s, &sound));
     if (!sound) PetscCall(complete_by_euler(solver, s, on_iteration, out));
@@ -267,7 +276,10 @@ PetscErrorCode StepObjective::undo_step(State& s) {
   PetscFunctionBeginUser;
   PetscCall(VecCopy(x_n_, s.x));
   PetscCall(VecCopy(v_n_, s.v));
-  body_.set_time(s.frame * dt_);
+  if (motion_n_.time == s.frame * dt_)
+    body_.restore_motion(motion_n_);
+  else
+    body_.set_time(s.frame * dt_);
   PetscFunctionReturn(0);
 }
 

@@ -10,6 +10,7 @@
 #include <petscvec.h>
 
 #include <array>
+#include <cmath>
 #include <memory>
 
 #include "model/body.hpp"
@@ -34,6 +35,9 @@ struct StepSolve {
   int substeps = 1;              // solved in this many sub-steps
   bool kept_substeps = false;    // started at the sub-step size of the frames before
   bool newton = false;           // solved by the Newton fallback
+  // A stop signal ended the solve (solvers/stop_request.hpp): the frame is given up, and the
+  // caller undoes the step; iterations and seconds are then those of every stage so far.
+  bool interrupted = false;
   Vec velocity = nullptr;
   double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
   bool measured = false;
@@ -79,7 +83,8 @@ class StepObjective : public Objective {
   // its z), kept and put back: the fallback chain keeps its first solve's x while it tries others.
   PetscErrorCode keep_end();
   PetscErrorCode restore_end();
-  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n.
+  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n (with the velocities
+  // they had there, if the step began with the body at t_n).
   PetscErrorCode undo_step(State& s);
 
   // Objective: g of the current step.
@@ -94,6 +99,16 @@ class StepObjective : public Objective {
   long long pulled_back_guesses() const { return counts_->pulled_back; }
   // Steps of an extrapolating integrator (the midpoint) completed by implicit Euler (complete_by_euler).
   long long euler_completed_steps() const { return counts_->euler_completed; }
+  // The run's counters (shared with the sub-step integrators) as they stand, and back to them: a
+  // frame given up counts for nothing.
+  struct RunCounts {
+    PetscInt rejected = 0;
+    long long pulled_back = 0;
+    long long euler_completed = 0;
+    long long hessian_patterns = 0;
+  };
+  RunCounts counts() const { return *counts_; }
+  void restore_counts(const RunCounts& c) { *counts_ = c; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
@@ -114,6 +129,8 @@ class StepObjective : public Objective {
   std::string energy_names() const override { return body_.material_names(); }
 
  private:
+  // The fixed vertices' motion into motion_n_ if the body is at s's time t_n.
+  void keep_motion(const State& s);
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
   PetscErrorCode upright_guess(Vec from, Vec x);
@@ -146,16 +163,11 @@ class StepObjective : public Objective {
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
   bool euler_completed_ = false;  // this step ended by complete_by_euler
+  Body::MotionState motion_n_{NAN, {}};  // the fixed vertices' motion at t_n, for undo_step (NaN: none kept)
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
   bool kept_euler_completed_ = false;      // keep_end's
   Vec kept_hat_ = nullptr;
   PetscInt evaluations_ = 0;
-  struct RunCounts {
-    PetscInt rejected = 0;
-    long long pulled_back = 0;
-    long long euler_completed = 0;
-    long long hessian_patterns = 0;
-  };
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
   // The Hessian grow_pattern last looked at, its nonzero state then and the couplings' generation:
   // while all three are the same, its pattern holds the couplings.
