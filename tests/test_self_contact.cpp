@@ -569,8 +569,11 @@ long pairs_within(const TetMesh& mesh, const std::vector<double>& x, double d) {
 // the second block driven 0.008 a time into the first and through it), the term finds within d
 // exactly the pairs that a search of every pair finds, while its list is built again only when a
 // vertex has moved more than 0.4 of the margin (d without a step) since. (With 1.5 instead of 0.4
-// pairs are missed.)
-PetscErrorCode check_candidates_against_all_pairs() {
+// pairs are missed.) With drift, both blocks also move together by drift per evaluation and each
+// step carries them by 3 drift more (a body in free fall): a translation moves no pair, so the list
+// is kept as without it (built again at every evaluation when the moves counted the translation),
+// and the step bound from the list stays the broad phase's, whose swept boxes do count it.
+PetscErrorCode check_candidates_against_all_pairs(double drift) {
   TestScene s;
   SelfContactTerm* term = nullptr;
   Vec x, grad, xl, dir;
@@ -593,7 +596,8 @@ PetscErrorCode check_candidates_against_all_pairs() {
   PetscCall(VecDuplicate(x, &dir));
   for (int trial = 0; trial < trials; ++trial) {
     for (int64_t v = 0; v < serial.num_vertices(); ++v)
-      for (int d = 0; d < 3; ++d) at[3 * v + d] += jitter(random) + (v >= first_block && d == 0 ? -kApproach : 0.0);
+      for (int d = 0; d < 3; ++d)
+        at[3 * v + d] += jitter(random) + (v >= first_block && d == 0 ? -kApproach : 0.0) + (d == 1 ? drift : 0.0);
     PetscScalar* a;
     PetscCall(DMGetLocalVector(s.mesh.dm, &xl));
     PetscCall(VecGetArray(xl, &a));
@@ -615,7 +619,10 @@ PetscErrorCode check_candidates_against_all_pairs() {
     PetscCall(DMGlobalToLocal(s.mesh.dm, dir, INSERT_VALUES, xl));
     PetscCall(VecGetArray(xl, &a));
     for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
-      if (s.mesh.local_dof[v] >= 0 && s.mesh.vertex_ids[v] >= first_block) a[s.mesh.local_dof[v]] -= 0.1 * kDistance;
+      if (s.mesh.local_dof[v] >= 0) {
+        if (s.mesh.vertex_ids[v] >= first_block) a[s.mesh.local_dof[v]] -= 0.1 * kDistance;
+        a[s.mesh.local_dof[v] + 1] += 3 * drift;
+      }
     PetscCall(VecRestoreArray(xl, &a));
     PetscCall(DMLocalToGlobal(s.mesh.dm, xl, INSERT_VALUES, dir));
     PetscCall(DMRestoreLocalVector(s.mesh.dm, &xl));
@@ -634,9 +641,9 @@ PetscErrorCode check_candidates_against_all_pairs() {
   }
   const size_t builds = term->candidate_builds();
   PetscCall(PetscPrintf(PETSC_COMM_WORLD,
-                        "random motions: %d evaluations, %ld pairs within d in all, %ld evaluations missing or adding "
-                        "pairs against every pair; the list built %zu times\n",
-                        trials, total, mismatches, builds));
+                        "random motions with a drift of %.3g per evaluation: %d evaluations, %ld pairs within d in all, %ld "
+                        "evaluations missing or adding pairs against every pair; the list built %zu times\n",
+                        drift, trials, total, mismatches, builds));
   CHECK_MSG(mismatches == 0, "the candidates missed pairs within d in " + std::to_string(mismatches) + " evaluations");
   CHECK_MSG(total > 10 * trials, "the motions bring many pairs within d: " + std::to_string(total));
   CHECK_MSG(builds > 3 && builds < (size_t)trials / 2, "the list is kept between evaluations: built " + std::to_string(builds) + " times");
@@ -668,7 +675,7 @@ int main(int argc, char** argv) {
   if (rank == 0) check_frictions();
   PetscCall(check_two_blocks_friction());
   for (double mu : {0.0, 0.5}) PetscCall(check_newton_pattern(mu));
-  PetscCall(check_candidates_against_all_pairs());
+  for (double drift : {0.0, 2 * kDistance}) PetscCall(check_candidates_against_all_pairs(drift));
   const int code = test_scene::tally("test_self_contact");
   PetscCall(PetscFinalize());
   return code;

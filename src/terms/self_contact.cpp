@@ -14,6 +14,28 @@
 namespace hyperqn {
 
 namespace {
+// The moves of a set of vertices, for how far they move apart: per component the largest and
+// the least (negated) move, and the largest move's length. A translation of them all changes no
+// distance between them; taking out the middle of the moves' range leaves moves at most
+// spread() long. Reduced over the ranks (MPI_MAX) as 7 doubles from data().
+struct MoveRange {
+  std::array<double, 7> r{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  void add(const Vec3& u) {
+    for (int d = 0; d < 3; ++d) r[d] = std::max(r[d], u[d]), r[3 + d] = std::max(r[3 + d], -u[d]);
+    r[6] = std::max(r[6], u.norm());
+  }
+  bool empty() const { return r[6] < 0; }
+  double largest() const { return empty() ? 0.0 : r[6]; }
+  Vec3 middle() const {
+    return empty() ? Vec3::Zero() : Vec3(0.5 * (r[0] - r[3]), 0.5 * (r[1] - r[4]), 0.5 * (r[2] - r[5]));
+  }
+  double spread() const {
+    return empty() ? 0.0 : Vec3(0.5 * (r[0] + r[3]), 0.5 * (r[1] + r[4]), 0.5 * (r[2] + r[5])).norm();
+  }
+};
+}  // namespace
+
+namespace {
 
 using Vec3 = Eigen::Vector3d;
 using Key3 = std::array<int64_t, 3>;
@@ -286,15 +308,28 @@ PetscErrorCode SelfContactTerm::candidates_cover(const std::vector<double>& x, c
   PetscFunctionBeginUser;
   *covered = false;
   if (stale_) PetscFunctionReturn(0);
+  // The moves since the build less a translation common to the whole surface (refresh_candidates),
+  // so that a body that falls or flies keeps its list: at x and at end, the middle of the owners'
+  // moves; unless that leaves moves no shorter than the largest (a body that spins about its
+  // centre, say), and then none.
+  std::array<MoveRange, 2> moves;
+  for (int s : owned_surface_) {
+    const Vec3 built(&built_at_[3 * s]);
+    moves[0].add(Vec3(&x[3 * s]) - built);
+    if (end) moves[1].add(Vec3(&(*end)[3 * s]) - built);
+  }
+  static_assert(sizeof(moves) == 14 * sizeof(double), "two MoveRanges reduce as 14 doubles");
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, moves[0].r.data(), 14, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
+  const double spread = std::max(moves[0].spread(), moves[1].spread());
+  const double largest = std::max(moves[0].largest(), moves[1].largest());
+  const bool translated = spread < largest;
+  const Vec3 shift_x = translated ? moves[0].middle() : Vec3::Zero(), shift_end = translated ? moves[1].middle() : Vec3::Zero();
   for (int s : ghosts_.known_list) {
     const Vec3 built(&built_at_[3 * s]);
-    moved_[s] = (Vec3(&x[3 * s]) - built).norm();
-    if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built).norm());
+    moved_[s] = (Vec3(&x[3 * s]) - built - shift_x).norm();
+    if (end) moved_[s] = std::max(moved_[s], (Vec3(&(*end)[3 * s]) - built - shift_end).norm());
   }
-  double largest = 0;  // over the surface: each vertex's move is its owner's to count
-  for (int s : owned_surface_) largest = std::max(largest, moved_[s]);
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
-  *covered = largest <= kMoveFraction * built_margin_;
+  *covered = std::min(spread, largest) <= kMoveFraction * built_margin_;
   PetscFunctionReturn(0);
 }
 
@@ -305,8 +340,10 @@ PetscErrorCode SelfContactTerm::candidates_cover(const std::vector<double>& x, c
 // The list holds every pair of this rank within d + margin at the build (the broad phase's boxes
 // grown by d + margin hold the ball of that radius, then the distance decides), with that distance;
 // any other pair is still farther than d + margin - 2 delta (delta: the largest move of a vertex),
-// which is more than d while delta < margin / 2. The list is built again once a vertex has moved
-// more than kMoveFraction (0.4) of the margin; the rest covers rounding. Within the list, a pair
+// which is more than d while delta < margin / 2. A translation of the whole surface changes no
+// pair's distance, so the moves delta may be measured less any one translation common to all
+// vertices (candidates_cover takes out the middle of their range). The list is built again once a
+// vertex has moved more than kMoveFraction (0.4) of the margin; the rest covers rounding. Within the list, a pair
 // whose distance at the build less its primitives' moves is d or more cannot be within d and is
 // passed over. The same holds all along a straight step whose both ends are within 0.4 of the
 // margin (the path stays in the ball around the build's position), which is what limit_step needs.
@@ -316,6 +353,9 @@ PetscErrorCode SelfContactTerm::refresh_candidates() const {
   PetscCall(candidates_cover(x_, nullptr, &covered));
   if (covered) PetscFunctionReturn(0);
   PetscCall(PetscLogEventBegin(pairs_event_, 0, 0, 0, 0));
+  // Built again within the step: its iterates move farther than the margin foresaw (a body that
+  // stops on an obstacle, whose predicted motion was a free flight), so twice the margin, up to the cap.
+  if (!stale_) step_margin_ = std::max(step_margin_, std::min(2 * step_margin_, margin_cap()));
   const double reach = spec_.distance + step_margin_;  // in distance less xi
   // The ghost layer for the list: every primitive within reach of this rank's (see plan_exchange).
   PetscCall(plan_exchange(x_, nullptr, reach + largest_offset_, &ghosts_));
@@ -380,25 +420,26 @@ void SelfContactTerm::pair_hessians(bool psd, Visit&& visit) const {
 PetscErrorCode SelfContactTerm::begin_step(const StepStart& step) {
   const PetscScalar *x, *y;
   PetscInt lo, hi;
-  double motion = 0;
+  MoveRange motion;  // of the free vertices from x_n to y
   PetscFunctionBeginUser;
   PetscCall(VecGetOwnershipRange(step.y, &lo, &hi));
   PetscCall(VecGetArrayRead(step.x_start, &x));
   PetscCall(VecGetArrayRead(step.y, &y));
   for (PetscInt v : owned_local_) {
     const PetscInt g = mesh_.global_dof[v] - lo;
-    if (mesh_.global_dof[v] >= 0) motion = std::max(motion, (Vec3(&y[g]) - Vec3(&x[g])).norm());
+    if (mesh_.global_dof[v] >= 0) motion.add(Vec3(&y[g]) - Vec3(&x[g]));
   }
   PetscCall(VecRestoreArrayRead(step.x_start, &x));
   PetscCall(VecRestoreArrayRead(step.y, &y));
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &motion, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
-  // A list that covers the step's predicted motion from where it is built, at least d, but at
-  // most half the surface's mean edge (or d if that is larger): beyond the mesh's spacing every
-  // primitive has neighbours of its own surface in reach, and the list grows with the square of the
-  // reach while no more of them touch (a 41 x 41 cloth: 0.13 million candidates at 3.7 cm, 0.8 at
-  // 12 cm, and evaluations 7x slower than a list rebuilt more often). What the terms compute does
-  // not depend on the margin (refresh_candidates, limit_step); docs/records/2026-11-26-margin-cap.md has the timings.
-  step_margin_ = std::max(spec_.distance, std::min(motion / kMoveFraction, mean_edge_ / 2));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, motion.r.data(), 7, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)mesh_.dm)));
+  // A list that covers the step's predicted motion from where it is built (less the translation
+  // common to all vertices, which moves no pair: candidates_cover), at least d, but at most
+  // margin_cap(): beyond the mesh's spacing every primitive has neighbours of its own surface in
+  // reach, and the list grows with the square of the reach while no more of them touch (a 41 x 41
+  // cloth: 0.13 million candidates at 3.7 cm, 0.8 at 12 cm, and evaluations 7x slower than a list
+  // rebuilt more often). What the terms compute does not depend on the margin (refresh_candidates,
+  // limit_step); docs/records/2026-11-26-margin-cap.md has the timings.
+  step_margin_ = std::max(spec_.distance, std::min(std::min(motion.spread(), motion.largest()) / kMoveFraction, margin_cap()));
   // Built again at the step's first evaluation whatever it covers: what a step computes depends
   // only on its start (a restart or the study's other trajectories in the same scene alike).
   stale_ = true;

@@ -42,11 +42,13 @@
 // Broad phase: each rank keeps a list of candidate pairs (its own pairs within d + margin at the
 // positions where it was built, with their distance then, all less xi; geometry/box_tree.hpp), built at the
 // first evaluation of each step and again only when a surface vertex has moved more than
-// kMoveFraction of the margin since; an evaluation visits the candidates whose distance at the
+// kMoveFraction of the margin since, less the translation common to the surface (which moves no
+// pair: a falling body keeps its list); an evaluation visits the candidates whose distance at the
 // build less their vertices' moves is below d (refresh_candidates says why no pair within d is
 // ever missed). The pairs are visited in a canonical order, so the sums do not depend on where the
-// list was built either. The margin covers the step's predicted motion, capped by half the mean
-// edge (begin_step); the step bound visits the same pairs whether it uses the list or a broad phase
+// list was built either. The margin covers the step's predicted motion less that translation,
+// doubles when the list is built again within the step, and is capped by half the mean edge
+// (begin_step, refresh_candidates); the step bound visits the same pairs whether it uses the list or a broad phase
 // of its own (limit_step), so no result depends on the margin.
 //
 // L-BFGS's initial Hessian (solver.h0_contact) takes the 3 x 3 diagonal blocks of each pair's
@@ -57,6 +59,7 @@
 #pragma once
 #include <petsclog.h>
 
+#include <algorithm>
 #include <array>
 #include <string>
 #include <vector>
@@ -183,6 +186,11 @@ class SelfContactTerm : public EnergyTerm {
   size_t step_bounds_from_list() const { return list_bounds_; }
   // A candidate list may serve until a surface vertex has moved this fraction of its margin.
   static constexpr double kMoveFraction = 0.4;
+  // The margin's cap in activation distances d: with d far below the mesh's spacing (a body with a
+  // narrow gap), half the mean edge listed 40 pairs per surface primitive of the bunny, none of
+  // them near d, and cost 5x the time of a 1000 d cap (docs/self-contact.md#cost); every deck whose
+  // d is above 1/2000 of the mean edge keeps half the mean edge.
+  static constexpr double kMarginPerDistance = 1000;
 
  private:
   struct Pair {
@@ -335,8 +343,10 @@ class SelfContactTerm : public EnergyTerm {
   mutable std::vector<Candidate> candidates_;
   mutable std::vector<double> built_at_, moved_;
   mutable double built_margin_ = 0;
-  double step_margin_ = 0;
+  mutable double step_margin_ = 0;
   double mean_edge_ = 0;  // the surface's mean edge length at rest (caps the margin)
+  // The largest margin: half the surface's mean edge, and at most kMarginPerDistance d (at least d).
+  double margin_cap() const { return std::max(spec_.distance, std::min(mean_edge_ / 2, kMarginPerDistance * spec_.distance)); }
   mutable bool stale_ = true;
   mutable size_t builds_ = 0;
   mutable size_t list_bounds_ = 0;

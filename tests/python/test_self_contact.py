@@ -10,7 +10,10 @@ mu = 0.2 and sticks for mu = 0.8, at 1 and 2 ranks. A deck without self-contact 
 code (its log event's count is 0); self-contact needs an integrator whose end of step is the
 solve's, an activation distance and thickness below the surface's spacing at rest, and surfaces
 that do not cross at frame 0 (the same pairs as hyperqn_tools.intersections counts)."""
+import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -18,6 +21,7 @@ import pytest
 from conftest import event_count, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import read_frames, read_summary
+from hyperqn_tools.paths import REPO
 
 SIZE, GAP, SPEED, DENSITY = 0.2, 0.05, 1.0, 1000.0
 DIAGONAL = np.linalg.norm([2 * SIZE + GAP, SIZE, SIZE])
@@ -404,3 +408,38 @@ def test_self_friction_needs_self_contact(tmp_path):
     print(proc.stdout)
     assert proc.returncode == 1 and not (tmp_path / "noself").exists()
     assert f"noself.yaml:{line}: 'contact.self_friction': self_friction is the friction between surfaces" in proc.stdout
+
+
+# A body with a narrow gap: scripts/slit_mesh.py's split ring (0.5 m outer and 0.3 m inner
+# radius, 0.2 m deep, 32 x 3 x 3 cells), its slit 5e-5 of the diagonal wide, dropped 10 cm onto
+# the ground with the activation distance half the slit (what the message of a larger distance
+# suggests).
+def slit_ring_deck(tmp_path, frames, self_contact=True):
+    mesh = tmp_path / "ring.mesh"
+    if not mesh.exists():
+        printed = subprocess.run([sys.executable, os.path.join(REPO, "scripts", "slit_mesh.py"), str(mesh),
+                                  "--cells", "32", "3", "3"], capture_output=True, text=True, check=True).stdout
+        print(printed)
+    gap = 5e-5 * float(np.sqrt(0.5 ** 2 * 8 + 0.2 ** 2))
+    return {"mesh": {"file": str(mesh), "transform": {"translate": [0, 0.6, 0]}},
+            "material": {"model": "neohookean", "youngs_modulus": 2.0e5, "poisson_ratio": 0.4, "density": 1000},
+            "colliders": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "friction": 0.5}],
+            "contact": {"model": "barrier", "distance": gap / 2, "self": self_contact},
+            "gravity": [0, -9.81, 0], "time": {"dt": 1 / 30, "frames": frames}, "output": {"every": 1}}
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_body_with_a_narrow_slit_lands_without_crossing(tmp_path, ranks):
+    """The split ring lands on the ground (frame 4) and squashes (frames 5, 6) with self-contact at
+    a distance 2.5e-5 of its diagonal: every frame written, status ok, 0 intersecting pairs."""
+    out, _ = run(tmp_path, f"ring{ranks}", slit_ring_deck(tmp_path, 6), ranks)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 7
+
+
+def test_a_falling_body_keeps_its_candidate_list(tmp_path):
+    """In free fall (frames 1 to 3) the surface only translates, which moves no pair: the candidate
+    list is built once per step (hqnSelfPairs), not at every evaluation (7 builds in 3 steps when
+    the translation counted as moves)."""
+    out, log = run(tmp_path, "fall", slit_ring_deck(tmp_path, 3))
+    assert read_summary(out)["iterations"] == 0  # every step solved at its start: a free fall
+    assert event_count(log, "hqnSelfPairs") == 3
