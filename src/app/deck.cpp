@@ -348,8 +348,13 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
     r.fail(v, "unsupported file '" + file.string() + "': expected " + kinds);
   fs::path resolved = file.is_absolute() ? file : (deck_dir / file).lexically_normal();
   std::error_code ec;
-  if (!fs::is_regular_file(resolved, ec))
-    r.fail(v, "file not found: '" + resolved.string() + "'");
+  if (!fs::is_regular_file(resolved, ec)) {
+    // The full path, whatever the working directory, and the deck's own spelling if it differs.
+    const fs::path full = fs::absolute(resolved, ec).lexically_normal();
+    r.fail(v, "file not found: '" + full.string() + "'" +
+                  (full == file ? "" : " (the deck's '" + file.string() + "'" +
+                                           (file.is_absolute() ? "" : ", relative to the deck's directory") + ")"));
+  }
   return resolved.string();
 }
 

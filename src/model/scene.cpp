@@ -399,7 +399,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                        : body_terms(s.mesh, spec.bodies);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
-  if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path)) terms.push_back(std::move(contact));
+  if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path, spec.bodies)) terms.push_back(std::move(contact));
   if (auto self = self_contact_term(s.mesh, spec)) terms.push_back(std::move(self));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);

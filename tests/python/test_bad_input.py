@@ -1,6 +1,7 @@
 """Bad decks, meshes and options: a non-zero exit, a message naming the file and key or line,
 and no output directory left behind."""
 import copy
+import os
 
 import pytest
 
@@ -291,3 +292,68 @@ def test_start_inside_an_obstacle_in_a_study(tmp_path):
     outdir = tmp_path / "out"
     proc = run_hyperqn(["study", path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, outdir, [f"study.yaml:{deck_line_of_collider(path, index)}: 'colliders[0]'"] + fragments)
+
+
+# In a deck of bodies the body that starts inside an obstacle is named, and the count is of its own
+# free vertices (before: "the body starts inside this plane: 4 of its 35 free vertices", the count
+# over the whole scene and no body named). The right block (8 vertices, the lower 4 at y = -0.15)
+# is 0.05 into the ground; the left one (27 vertices) is clear of it.
+BODIES_ONE_INSIDE = {
+    "bodies": [
+        {"mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [2, 2, 2]}}, "material": GOOD["material"]},
+        {"name": "right", "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [1, 1, 1]},
+                                   "transform": {"translate": [1, -0.15, 0]}}, "material": GOOD["material"]},
+    ],
+    "colliders": [{"type": "plane", "point": [0, -0.1, 0], "normal": [0, 1, 0]}],
+    "time": {"dt": 0.01, "frames": 2},
+}
+
+
+def test_start_inside_an_obstacle_names_the_body(tmp_path):
+    path = write_deck(tmp_path / "bodies.yaml", BODIES_ONE_INSIDE)
+    lines = open(path).read().splitlines()
+    body_line = next(n for n, text in enumerate(lines, 1) if "name: right" in text)
+    messages = {}
+    for ranks in (None, 2):
+        outdir = tmp_path / f"out{ranks}"
+        proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+        assert proc.returncode == 1
+        assert_clean_failure(proc, outdir, [f"bodies.yaml:{deck_line_of_collider(path, 0)}: 'colliders[0]': "
+                                            f"bodies[1] 'right' (deck line {body_line}) starts inside this plane: "
+                                            "4 of its 8 free vertices", "vertex 27 at (1, -0.15, 0)"])
+        messages[ranks] = [l for l in proc.stdout.splitlines() if "hyperqn: error" in l]
+    assert messages[None] == messages[2]
+
+
+# A one-body cloth that crosses itself at frame 0 (two squares of one .obj through each other): the
+# crossing is the error, naming contact.self (docs/contact.md) (before: the rest gap of 0 between
+# the crossing triangles was, advising a contact.distance of 1.8e-17).
+CROSSED_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0.5 -0.5 0.2\nv 0.5 0.5 0.2\nv 0.5 0.5 0.8\nv 0.5 -0.5 0.8\n"
+               "f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\n")
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_cloth_crossing_itself_names_contact_self(tmp_path, ranks):
+    (tmp_path / "crossed.obj").write_text(CROSSED_OBJ)
+    deck = dict(copy.deepcopy(CLOTH), mesh={"file": "crossed.obj"}, contact={"self": True, "distance": 0.01})
+    path = write_deck(tmp_path / "crossed.yaml", deck)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "self:" in text)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode == 1
+    assert_clean_failure(proc, outdir, [f"crossed.yaml:{line}: 'contact.self': the body's surface crosses itself at frame 0",
+                                        "start from a mesh that does not cross itself"])
+    assert "contact.distance" not in proc.stdout
+
+
+def test_missing_mesh_file_gives_the_resolved_path(tmp_path, monkeypatch):
+    """Run from another directory than the deck's: the message gives the full path the deck's
+    relative one resolves to, and the deck's spelling (before: 'meshes/bar.mesh', the path joined
+    to the deck's directory as the command line gave it)."""
+    (tmp_path / "sub").mkdir()
+    write_deck(tmp_path / "sub" / "deck.yaml", deck_with(mesh={"file": "../meshes/bar.mesh"}))
+    monkeypatch.chdir(tmp_path)
+    proc = run_hyperqn(["sub/deck.yaml", "-o", "out"], ranks=None, check=False, timeout=60)
+    full = os.path.join(os.getcwd(), "meshes", "bar.mesh")
+    assert_clean_failure(proc, tmp_path / "out", [f"sub/deck.yaml:1: 'mesh.file': file not found: '{full}' "
+                                                  "(the deck's '../meshes/bar.mesh', relative to the deck's directory)"])
