@@ -32,6 +32,12 @@ BAD_MESHES = {
                        ["inf_coordinate.mesh:7: 'Vertices'", "'inf'", "not finite"]),
     "nan_coordinate": (TET_HEADER.replace("0 0 1 0", "0 0 NaN 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                        ["nan_coordinate.mesh:8: 'Vertices'", "'NaN'", "not finite"]),
+    # numbers a run cannot compute with: subnormal (they underflow) or past 1e100 (they overflow)
+    "subnormal_coordinate": (TET_HEADER.replace("0 1 0 0", "1e-320 1 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                             ["subnormal_coordinate.mesh:7: 'Vertices'", "vertex 3: its coordinate '1e-320' must be 0 or at least 1e-100",
+                              "subnormal"]),
+    "huge_coordinate": (TET_HEADER.replace("0 0 1 0", "0 0 1e101 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                        ["huge_coordinate.mesh:8: 'Vertices'", "'1e101' must be at most 1e100"]),
     "version_99": (TET_HEADER.replace("MeshVersionFormatted 1", "MeshVersionFormatted 99") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                    ["version_99.mesh:1: 'MeshVersionFormatted'", "99"]),
     # the sections the reader skips (Triangles, and Edges unless edges: strands) are checked too
@@ -94,6 +100,16 @@ BAD_DECKS = {
                                  ["colliders[0].radius", "> 0"]),
     "collider_negative_friction": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
                                                          "friction": -0.2}]), ["colliders[0].friction"]),
+    # a box whose cells are far flatter than wide: M + h^2 L would not be positive definite (before:
+    # "setting up the scene failed: PETSc: the constant matrix A ... is not positive definite")
+    "box_flat": (deck_with(**{"mesh.box.size": [1e-9, 0.2, 0.2]}),
+                 [".yaml:3: 'mesh.box.size'", "its cells would be 2.5e-10 x 0.2 x 0.2", "less than 1e-06 of the longest",
+                  "not be positive definite", "Check the size"]),
+    "box_thin": (deck_with(**{"mesh.box.size": [1.0, 0.2, 1e-8]}), ["'mesh.box.size'", "its cells would be 0.25 x 0.2 x 1e-08"]),
+    "box_size_1e-300": (deck_with(**{"mesh.box.size": [1e-300, 0.2, 0.2]}),
+                        [".yaml:3: 'mesh.box.size[0]': must be 0 or at least 1e-100 in magnitude", "underflow"]),
+    "sheet_flat": (dict(copy.deepcopy(CLOTH), mesh={"sheet": {"size": [1e-9, 0.5], "cells": [4, 2]}}),
+                   ["'mesh.sheet.size'", "its cells would be 2.5e-10 x 0.25", "the triangles' stiffness"]),
     "collider_missing_file": (deck_with(colliders=[{"type": "mesh", "file": "nowhere.obj"}]),
                               ["colliders[0].file", "nowhere.obj", "not found"]),
     "collider_unknown_type": (deck_with(colliders=[{"type": "torus"}]), ["colliders[0].type", "plane, sphere"]),
@@ -171,6 +187,9 @@ BAD_OBSTACLES = {
     "obj_bad_number": ("num.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", ["num.obj:2"]),
     "obj_no_triangles": ("empty.obj", "v 0 0 0\n", ["empty.obj", "colliders[0].file"]),
     "medit_truncated": ("cut.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n", ["cut.mesh"]),
+    "obj_subnormal": ("tiny.obj", "v 0 0 0\nv 1 0 0\nv 0 1e-320 0\nf 1 2 3\n", ["tiny.obj:3: 'v'", "'1e-320' must be 0 or"]),
+    "medit_subnormal": ("tiny.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n1 0 0 0\n0 1 -1e-310 0\n"
+                        "Triangles\n1\n1 2 3 0\nEnd\n", ["tiny.mesh:7: 'Vertices'", "'-1e-310' must be 0 or"]),
 }
 
 
