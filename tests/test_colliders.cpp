@@ -18,6 +18,7 @@
 #include "input_error_check.hpp"
 #include "geometry/bvh.hpp"
 #include "geometry/collider.hpp"
+#include "geometry/motion.hpp"
 #include "geometry/surface_file.hpp"
 #include "geometry/triangle_queries.hpp"
 #include "mesh/input_error.hpp"
@@ -603,9 +604,37 @@ void test_errors(const fs::path& dir) {
                      {(dir / "none.obj").string()});
 }
 
+// velocity_at: the motion's velocity as it reaches t (what a released fixed vertex keeps), against
+// finite differences of moved(): central inside (start, end), backward at end, 0 from the left
+// of start and after end.
+void test_motion_velocity() {
+  Motion m;
+  m.active = true;
+  m.axis = {1, 2, 3};
+  m.center = {0.5, 0, -0.2};
+  m.rate_deg = 360;
+  m.velocity = {0.1, -0.2, 0.3};
+  m.start = 0.2;
+  m.end = 0.9;
+  const Vec3 X(0.3, -0.7, 1.1);
+  const double e = 1e-6;
+  double worst = 0;
+  for (double t : {0.25, 0.5, 0.8999})
+    worst = std::max(worst, (velocity_at(m, X, t) - (moved(m, X, t + e) - moved(m, X, t - e)) / (2 * e)).norm());
+  const Vec3 backward = (3 * moved(m, X, m.end) - 4 * moved(m, X, m.end - e) + moved(m, X, m.end - 2 * e)) / (2 * e);
+  worst = std::max(worst, (velocity_at(m, X, m.end) - backward).norm());
+  CHECK_MSG(worst < 1e-6, "velocity_at against finite differences of moved: " + std::to_string(worst));
+  CHECK_MSG(velocity_at(m, X, 0.9).norm() > 1, "at end the motion is still the one that reached it");
+  for (double t : {0.0, 0.2, 0.95})
+    CHECK_MSG(velocity_at(m, X, t).norm() == 0, "no velocity at t = " + std::to_string(t) + " (not yet moving, or held)");
+  m.active = false;
+  CHECK_MSG(velocity_at(m, X, 0.5).norm() == 0, "an inactive motion has no velocity");
+}
+
 }  // namespace
 
 int main() {
+  test_motion_velocity();
   test_plane();
   test_sphere();
   test_box();

@@ -513,6 +513,17 @@ void test_attachments() {
   expect_error("attach_stiffness_negative", kHead + box + "    stiffness: -1\n", "attachments[0].stiffness", 5, "> 0");
   expect_error("attach_stiffness_nan", kHead + box + "    stiffness: .nan\n", "attachments[0].stiffness", 5, "number");
   expect_error("attach_stiffness_huge", kHead + box + "    stiffness: 1e300\n", "attachments[0].stiffness", 5, "1e100");
+  // Every number 0 or at least 1e-100 in magnitude: a subnormal is named at its key.
+  expect_error("attach_stiffness_subnormal", kHead + box + "    stiffness: 1e-320\n", "attachments[0].stiffness", 5,
+               "0 or at least 1e-100");
+  expect_error("youngs_modulus_subnormal", kMesh + "material: {youngs_modulus: 1e-320, poisson_ratio: 0.3, density: 1000}\n",
+               "material.youngs_modulus", 2, "subnormal");
+  // A generated box or sheet of flat cells (M + h^2 L would not be positive definite).
+  expect_error("box_flat_cells", "mesh:\n  box: {size: [1, 1, 1e-7], cells: [1, 1, 1]}\n" + kMaterial, "mesh.box.size", 2,
+               "1 x 1 x 1e-07");
+  expect_error("sheet_flat_cells", "mesh:\n  sheet: {size: [1, 1], cells: [1, 10000000]}\n", "mesh.sheet.size", 2,
+               "less than 1e-06 of the longest");
+  load_ok("box_thin_cells", "mesh:\n  box: {size: [1, 1, 2e-6], cells: [1, 1, 1]}\n" + kMaterial);
   expect_error("attach_release_zero", kHead + box + "    stiffness: 1\n    release: 0\n", "attachments[0].release", 6, "> 0");
   expect_error("attach_release_text", kHead + box + "    stiffness: 1\n    release: later\n", "attachments[0].release", 6);
   expect_error("attach_unknown_key", kHead + box + "    stiffness: 1\n    damping: 1\n", "attachments[0].damping", 6, "allowed");

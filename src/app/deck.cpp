@@ -30,13 +30,18 @@ using Names = std::vector<std::string>;
 
 // Solver names come from their registry (solvers/solver_registry.hpp).
 const Names kSolverTypes = solver_names();
-// Bounds that keep a deck from exhausting the machine or the floating-point range.
-constexpr double kLargestNumber = 1e100;
+// Bounds that keep a deck from exhausting the machine or the floating-point range (each number's:
+// number_limits_problem, materials/key_range.hpp).
 constexpr int kMaxIterations = 1000000;   // per frame
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kContactHistory = 20;         // solver.history's default with colliders
 constexpr std::uintmax_t kMaxDeckBytes = 10 << 20;
 constexpr size_t kMaxNameLength = 100;
+// A generated box's or sheet's cells: the shortest side (size / cells) at least this fraction of
+// the longest. An element's stiffness across a side grows as 1 / side^2: past (1e8)^2 = 1e16 the
+// rest of M + h^2 L is lost to round-off and its factorization fails (measured: box cells of
+// 1.5e-8 do; 1e-6 leaves a margin).
+constexpr double kFlattestCell = 1e-6;
 
 
 std::string join(const Names& names) {
@@ -97,8 +102,7 @@ class Reader {
     double x = 0;
     if (!plain_scalar(v.node) || !YAML::convert<double>::decode(v.node, x) || !std::isfinite(x))
       fail(v, "expected a number, got " + describe(v.node));
-    if (std::fabs(x) > kLargestNumber)
-      fail(v, "must be at most 1e100 in magnitude (larger values overflow the energies), got " + v.node.Scalar());
+    if (const std::string rule = number_limits_problem(x); !rule.empty()) fail(v, "must be " + rule + ", got " + v.node.Scalar());
     return x;
   }
   // Decimal only: yaml-cpp's own conversion would read "010" as octal 8.
@@ -348,8 +352,13 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
     r.fail(v, "unsupported file '" + file.string() + "': expected " + kinds);
   fs::path resolved = file.is_absolute() ? file : (deck_dir / file).lexically_normal();
   std::error_code ec;
-  if (!fs::is_regular_file(resolved, ec))
-    r.fail(v, "file not found: '" + resolved.string() + "'");
+  if (!fs::is_regular_file(resolved, ec)) {
+    // The full path, whatever the working directory, and the deck's own spelling if it differs.
+    const fs::path full = fs::absolute(resolved, ec).lexically_normal();
+    r.fail(v, "file not found: '" + full.string() + "'" +
+                  (full == file ? "" : " (the deck's '" + file.string() + "'" +
+                                           (file.is_absolute() ? "" : ", relative to the deck's directory") + ")"));
+  }
   return resolved.string();
 }
 
@@ -401,12 +410,34 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     m.line = x.line;
     return x;
   };
+  // ... and its cells are not too flat (kFlattestCell).
+  const auto not_flat = [&](const Value& grid, const double* size, const int* n, int dims, const char* elements) {
+    double shortest = HUGE_VAL, longest = 0;
+    std::string sides;
+    for (int d = 0; d < dims; ++d) {
+      const double side = size[d] / n[d];
+      shortest = std::min(shortest, side);
+      longest = std::max(longest, side);
+      char text[32];
+      std::snprintf(text, sizeof text, "%s%.3g", d ? " x " : "", side);
+      sides += text;
+    }
+    if (shortest >= kFlattestCell * longest) return;
+    char rule[40];
+    std::snprintf(rule, sizeof rule, "%g", kFlattestCell);
+    r.fail(*Section(r, grid, {}).find("size"),
+           "its cells would be " + sides + " (size / cells): the shortest side is less than " + rule +
+               " of the longest, and the " + elements + "' stiffness across so thin a cell (as 1 / side^2) would bury " +
+               "the rest of M + h^2 L in round-off (it would not be positive definite). Check the size and its units; a " +
+               "thin plate is a cloth (mesh.sheet)");
+  };
   if (sheet) {
     m.is_sheet = true;
     const Value x = cells(*sheet);
     const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
     if (3 * triangles > kMaxBoxTets)
       r.fail(x, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
+    not_flat(*sheet, m.sheet_size.data(), m.sheet_cells.data(), 2, "triangles");
   }
   if (m.has_cloth() && strands) r.fail(*strands, "a cloth cannot share a mesh with strands");
   if (const Value* x = s.find("edges"))
@@ -428,6 +459,7 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
     const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
     if (tets > kMaxBoxTets)
       r.fail(x, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
+    not_flat(*box, m.box_size.data(), m.box_cells.data(), 3, "tets");
   }
 }
 

@@ -16,6 +16,16 @@ Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t) {
   return c + R * (X - c) + tau * Eigen::Vector3d(m.velocity[0], m.velocity[1], m.velocity[2]);
 }
 
+Eigen::Vector3d velocity_at(const Motion& m, const Eigen::Vector3d& X, double t) {
+  if (!m.active || !(t > m.start && t <= m.end)) return Eigen::Vector3d::Zero();
+  const double tau = active_time(m, t);
+  const Eigen::Vector3d axis = Eigen::Vector3d(m.axis[0], m.axis[1], m.axis[2]).normalized();
+  const Eigen::Vector3d c(m.center[0], m.center[1], m.center[2]);
+  const double rate = m.rate_deg * M_PI / 180.0;
+  const Eigen::AngleAxisd R(rate * tau, axis);
+  return rate * axis.cross(R * (X - c)) + Eigen::Vector3d(m.velocity[0], m.velocity[1], m.velocity[2]);
+}
+
 RigidPose pose_at(const Motion& m, double t) {
   RigidPose pose;
   if (!m.active) return pose;

@@ -49,5 +49,9 @@ RigidPose pose_at(const Motion& m, double t);
 // Position at time t of the point X (X itself if the motion is not active): pose_at(m, t).apply(X)
 // up to round-off, computed as c + R (X - c) + velocity tau.
 Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t);
+// Velocity at time t of the point X as the motion reaches t: w x (moved(X, t) - c - velocity tau)
+// + velocity (w = rate about the axis) for start < t <= end, else 0 (not yet moving, or held).
+// What a fixed region's vertices keep when released at t.
+Eigen::Vector3d velocity_at(const Motion& m, const Eigen::Vector3d& X, double t);
 
 }  // namespace hyperqn

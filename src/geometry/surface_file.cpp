@@ -57,6 +57,7 @@ class ObjReader {
         const Token& c = line[k + 1];
         if (!parse_double(c, x[k]) || !std::isfinite(x[k]))
           throw InputError(path_, c.line, "v", "expected a finite number, found '" + c.str() + "'" + number_note(c));
+        check_coordinate(path_, "v", c, x[k], "the coordinate");
       }
       surface_.vertices.push_back(x);
     } else if (line[0].is("f")) {
@@ -124,6 +125,7 @@ class MeditSurfaceReader {
             const Token c = number(t, x[k]);
             if (!std::isfinite(x[k]))
               throw InputError(path_, c.line, "Vertices", "non-finite coordinate '" + c.str() + "'");
+            check_coordinate(path_, "Vertices", c, x[k], "the coordinate");
           }
           double ref;
           number(t, ref);

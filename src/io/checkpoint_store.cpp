@@ -37,7 +37,8 @@ bool is_checkpoint_temporary(const std::string& name) {
 }
 
 // The checkpoint files of dir by frame, newest first; a warning for each other file that is not a
-// temporary of ours (rank 0).
+// temporary of ours (rank 0). Only regular files (or links to one) count: opening a FIFO would
+// block forever, and a directory or device is no checkpoint either.
 std::vector<std::pair<int, std::string>> checkpoint_files(const std::string& dir, bool warn_others) {
   std::vector<std::pair<int, std::string>> files;
   std::error_code ec;
@@ -45,9 +46,12 @@ std::vector<std::pair<int, std::string>> checkpoint_files(const std::string& dir
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
     const int frame = checkpoint_frame(name);
-    if (frame >= 0)
+    std::error_code type;
+    if (frame >= 0 && !it->is_regular_file(type)) {
+      if (warn_others) warn(it->path().string() + " is not a regular file: passed over");
+    } else if (frame >= 0) {
       files.emplace_back(frame, it->path().string());
-    else if (warn_others && !is_checkpoint_temporary(name))
+    } else if (warn_others && !is_checkpoint_temporary(name))
       warn(it->path().string() + " is not named as a checkpoint (checkpoint_<frame>.h5): ignored");
   }
   std::sort(files.rbegin(), files.rend());
@@ -59,6 +63,11 @@ void choose_on_rank0(const std::string& restart, const std::string& outdir, std:
   const std::string run = summary_run_id(outdir + "/summary.json");
   CheckpointHeader h;
   if (restart != "latest" && restart != "auto") {  // a path
+    std::error_code ec;
+    if (fs::exists(restart, ec) && !fs::is_regular_file(restart, ec)) {  // a FIFO would block the open
+      error = "cannot restart from " + restart + ": not a regular file";
+      return;
+    }
     const std::string damage = inspect_checkpoint(restart, &h);
     if (!damage.empty())
       error = "cannot restart from " + restart + ": " + damage;

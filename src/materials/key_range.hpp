@@ -10,6 +10,19 @@
 
 namespace hyperqn {
 
+// Every number hyperqn reads, a deck's value or a mesh or surface file's coordinate, is finite and
+// 0 or between these in magnitude: larger values overflow the energies, smaller ones (subnormal
+// ones among them) underflow as they are multiplied. "" if x is one, else what it must be, to
+// follow "must be" in a message.
+constexpr double kLargestNumber = 1e100, kSmallestNumber = 1e-100;
+inline std::string number_limits_problem(double x) {
+  if (!std::isfinite(x)) return "finite";
+  if (std::fabs(x) > kLargestNumber) return "at most 1e100 in magnitude (larger values overflow the energies)";
+  if (x != 0 && std::fabs(x) < kSmallestNumber)
+    return "0 or at least 1e-100 in magnitude (smaller values, subnormal ones among them, underflow)";
+  return "";
+}
+
 // A number's allowed values: lo .. hi, either end open or unbounded (infinite); `why` follows the
 // rule in messages and docs. A vec3's range applies to each of its numbers, or (nonzero) to the
 // vector as a whole.

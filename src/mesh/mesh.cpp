@@ -164,6 +164,7 @@ class MeditReader {
         Token t = number(s, i, x);
         if (!std::isfinite(x))
           throw InputError(path_, t.line, s.name, "vertex " + std::to_string(i + 1) + " has a non-finite coordinate '" + t.str() + "'");
+        check_coordinate(path_, s.name, t, x, "vertex " + std::to_string(i + 1) + ": its coordinate");
         mesh.coords.push_back(x);
       }
       double ref;  // vertex refs are not used

@@ -127,12 +127,14 @@ class GmshReader {
       throw InputError(path_, line, s.name, what + " is " + std::to_string(v) + ", outside " + std::to_string(lo) + ".." + std::to_string(hi));
     return v;
   }
-  double number(const Section& s, const std::string& what) {
+  // coordinate: a node's, within the limits of every coordinate (check_coordinate).
+  double number(const Section& s, const std::string& what, bool coordinate = false) {
     Token t = next(s, what);
     double v;
     if (!parse_double(t, v))
       throw InputError(path_, t.line, s.name, "expected " + what + " (a number), found '" + shown(t) + "'" + number_note(t));
     if (!std::isfinite(v)) throw InputError(path_, t.line, s.name, what + " is not finite: '" + shown(t) + "'");
+    if (coordinate) check_coordinate(path_, s.name, t, v, what);
     return v;
   }
   void expect_end(const Section& s, const std::string& after) {
@@ -213,7 +215,7 @@ class GmshReader {
     mesh.vertex_ids.push_back(index);
   }
   void read_coordinates(const Section& s, const std::string& what, TetMesh& mesh) {
-    for (int k = 0; k < 3; ++k) mesh.coords.push_back(number(s, what + ": coordinate " + "xyz"[k]));
+    for (int k = 0; k < 3; ++k) mesh.coords.push_back(number(s, what + ": coordinate " + "xyz"[k], true));
   }
 
   void read_nodes_v2(const Token& key, TetMesh& mesh) {

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "materials/key_range.hpp"
 #include "mesh/input_error.hpp"
 
 namespace hyperqn {
@@ -86,6 +87,12 @@ std::string number_note(const Token& t) {
   if (is_decimal(t.begin, t.end) || !strtod_reads(t, v)) return "";
   return std::isfinite(v) ? " (hexadecimal: numbers in mesh files are plain decimals)"
                           : " (not finite: numbers in mesh files are plain decimals)";
+}
+
+void check_coordinate(const std::string& path, const std::string& section, const Token& t, double x,
+                      const std::string& what) {
+  const std::string rule = number_limits_problem(x);
+  if (!rule.empty()) throw InputError(path, t.line, section, what + " '" + t.str() + "' must be " + rule);
 }
 
 bool parse_int(const Token& t, long long& v) {

@@ -51,6 +51,11 @@ bool parse_int(const Token& t, long long& v);
 // For a token parse_double refused that strtod reads (hexadecimal, inf, nan): why, as a note to
 // append to a message; "" for any other token.
 std::string number_note(const Token& t);
+// A coordinate x read from t must be a number hyperqn takes (number_limits_problem,
+// materials/key_range.hpp: finite, 0 or between 1e-100 and 1e100 in magnitude); else an InputError
+// naming path, t's line and section: "<what> '<t>' must be ...".
+void check_coordinate(const std::string& path, const std::string& section, const Token& t, double x,
+                      const std::string& what);
 
 // A Medit section a reader may skip (Triangles, Tetrahedra, Edges, Corners, ...): tokens per
 // record, the first `vertices` of them vertex indices; size 0 for any other keyword. A reader

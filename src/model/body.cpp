@@ -67,6 +67,20 @@ void Body::restore_motion(const MotionState& m) {
   fixed_vel_ = m.velocities;
 }
 
+void Body::prescribed_state(double t, std::vector<double>& pos, std::vector<double>& vel) const {
+  for (PetscInt v = 0; v < mesh_.num_vertices; ++v) {
+    if (mesh_.local_dof[v] >= 0) continue;
+    const Vec3 X(&mesh_.rest[3 * v]);
+    const Motion* motion = prescribed_motion(v);
+    const Vec3 p = motion ? moved(*motion, X, t) : X;
+    const Vec3 u = motion ? velocity_at(*motion, X, t) : Vec3::Zero();
+    for (int d = 0; d < 3; ++d) {
+      pos[3 * v + d] = p[d];
+      vel[3 * v + d] = u[d];
+    }
+  }
+}
+
 PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
   PetscFunctionBeginUser;
   time_ = t;

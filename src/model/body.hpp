@@ -43,6 +43,11 @@ class Body {
   };
   void keep_motion(MotionState& m) const;
   void restore_motion(const MotionState& m);
+  // The prescribed position and velocity at time t (geometry/motion.hpp's moved and velocity_at:
+  // the velocity as the motion reaches t; rest position and 0 without a motion) of every local
+  // fixed vertex, 3 each into pos and vel; free vertices' entries are left as they are. What a
+  // vertex released at t keeps (LiveScene::release_due), whatever set_time's mean velocities are.
+  void prescribed_state(double t, std::vector<double>& pos, std::vector<double>& vel) const;
   // A restart (io/checkpoint.hpp): time t and every local vertex's position and velocity (3 each;
   // fixed vertices: the prescribed ones the checkpointed run had, which set_time from a fresh body
   // would not give) into the body and the global vectors x, v of free dofs.

@@ -108,12 +108,19 @@ std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const s
 }
 
 std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std::vector<ColliderSpec>& colliders,
-                                         const ContactSpec& contact, const std::string& deck_path) {
+                                         const ContactSpec& contact, const std::string& deck_path,
+                                         const std::vector<BodySpec>& bodies) {
   if (colliders.empty()) return nullptr;
   std::vector<std::unique_ptr<Collider>> built;
   for (size_t c = 0; c < colliders.size(); ++c) built.push_back(make_collider(colliders[c], deck_path, (int)c));
+  std::vector<std::string> names;  // "bodies[1] 'ball' (deck line 12)"; the name only if the deck gave one
+  for (size_t k = 0; k < bodies.size(); ++k) {
+    const std::string index = std::to_string(k);
+    names.push_back("bodies[" + index + "]" + (bodies[k].name == "body" + index ? "" : " '" + bodies[k].name + "'") +
+                    " (deck line " + std::to_string(bodies[k].line) + ")");
+  }
   return std::make_unique<ContactTerm>(mesh, std::move(built), resolved_contact(contact, rest_diagonal(mesh)),
-                                       log_events().contact);
+                                       log_events().contact, std::move(names));
 }
 
 std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const SceneSpec& spec) {

@@ -35,8 +35,10 @@ std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const s
 
 // Contact with the colliders (their files read again on every rank; deck_path names errors), its
 // defaults resolved for the mesh's rest diagonal; null without colliders (no contact code at all).
+// bodies: the deck's (empty: one body), which its start check names.
 std::unique_ptr<EnergyTerm> contact_term(const DistributedMesh& mesh, const std::vector<ColliderSpec>& colliders,
-                                         const ContactSpec& contact, const std::string& deck_path);
+                                         const ContactSpec& contact, const std::string& deck_path,
+                                         const std::vector<BodySpec>& bodies = {});
 
 // Self-contact of the surfaces of all bodies and cloths (terms/self_contact.hpp) with the contact
 // section's model, its defaults resolved for the mesh's rest diagonal, each cloth's thickness and

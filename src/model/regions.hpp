@@ -24,8 +24,8 @@ struct BoxRegion {
   std::array<double, 3> min{0, 0, 0}, max{0, 0, 0};
   int line = 0;                      // deck line, for error messages
   Motion motion;                     // fixed regions and attachments only
-  double release = -1;               // fixed regions: time at which its vertices become free (< 0: never);
-                                     // attachments: time at which the springs are gone
+  double release = -1;               // fixed regions: time from which its vertices are free (< 0: never);
+                                     // attachments: the springs are gone (LiveScene::release_due)
   int body = -1;                     // fixed regions and attachments: only the vertices of this body
                                      // (bodies[body].fixed, bodies[body].attachments; -1: any)
 };
@@ -50,8 +50,8 @@ inline const std::vector<DeckKey<BoxRegion>>& fixed_keys() {
     k.push_back(custom_key<B>("motion", "map: [`motion`](#motion)",
                               "how the region moves; the vertices follow it until `release`", "none (at rest)"));
     k.push_back({"release", &B::release,
-                 "from this time on the region's vertices are free: they keep their prescribed position and velocity "
-                 "at that moment and then move freely",
+                 "the region's vertices are free from the first step that starts at or after this time (below): they "
+                 "start it with their prescribed position and velocity at its start and then move freely",
                  above(0, "a time"), {}, "", "never"});
     return k;
   }();
@@ -79,7 +79,8 @@ inline const std::vector<DeckKey<AttachmentSpec>>& attachment_keys() {
                                   above(0, "N/m per vertex")}));
     k.push_back(custom_key<A>("motion", "map: [`motion`](#motion)", "how the targets move", "none (targets at rest)"));
     k.push_back({"release", Field<A, double>([](A& a) -> double& { return a.region.release; }),
-                 "a time from which the springs are gone", above(0, "a time"), {}, "", "never"});
+                 "the springs are gone from the first step that starts at or after this time, as for [`fixed`](#fixed)",
+                 above(0, "a time"), {}, "", "never"});
     return k;
   }();
   return keys;

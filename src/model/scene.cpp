@@ -399,7 +399,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                        : body_terms(s.mesh, spec.bodies);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
-  if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path)) terms.push_back(std::move(contact));
+  if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path, spec.bodies)) terms.push_back(std::move(contact));
   if (auto self = self_contact_term(s.mesh, spec)) terms.push_back(std::move(self));
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.body->set_fixed_motion(spec.fixed);
@@ -462,9 +462,10 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
   PetscFunctionReturn(0);
 }
 
-// x, v of scene `from` as new vectors of scene `to` (same local vertices): every vertex keeps its
-// position and velocity; a vertex freed in `to` keeps the prescribed ones it had.
-static PetscErrorCode carry_state(const Scene& from, const Scene& to, State& s) {
+// x, v of scene `from` at time t as new vectors of scene `to` (same local vertices): every vertex
+// keeps its position and velocity; a vertex freed in `to` the prescribed ones at t (Body::
+// prescribed_state: the motion's velocity at t, not the mean over the last step that set_time holds).
+static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s) {
   std::vector<double> pos, vel;
   Vec xl, vl, x_to, v_to;
   PetscScalar *a, *b;
@@ -474,6 +475,7 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, State& s) 
              "the local vertices changed when fixed regions were released");
   PetscCall(from.body->local_positions(s.x, pos));
   PetscCall(from.body->local_velocities(s.v, vel));
+  from.body->prescribed_state(t, pos, vel);
   PetscCall(DMGetLocalVector(to.mesh.dm, &xl));
   PetscCall(DMGetLocalVector(to.mesh.dm, &vl));
   PetscCall(VecGetArray(xl, &a));
@@ -526,9 +528,12 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   const double h = spec_->time.dt;
   PetscFunctionBeginUser;
   *released = false;
-  // Marks what the step from main.frame reaches: fixed regions and attachments alike.
+  // Marks what is due at the step that starts at t = main.frame h (release <= t, up to a millionth
+  // of a step: decks write h = 1/30 as 0.0333333333, and frame 45 then starts at 1.4999999985,
+  // which release: 1.5 means): fixed regions and attachments alike.
+  const double t = main.frame * h;
   auto mark_due = [&](double release, char& done) {
-    if (!done && release > 0 && release <= (main.frame + 1) * h + 1e-12 * h) {
+    if (!done && release > 0 && release <= t + 1e-6 * h) {
       done = 1;
       *released = true;
     }
@@ -542,10 +547,10 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
 
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh));
-  fresh->body->set_time(main.frame * h);
-  PetscCall(carry_state(*scene_, *fresh, main));
+  fresh->body->set_time(t);
+  PetscCall(carry_state(*scene_, *fresh, t, main));
   for (State* s : others) {
-    PetscCall(carry_state(*scene_, *fresh, *s));
+    PetscCall(carry_state(*scene_, *fresh, t, *s));
     s->released = main.released;
     s->released_attachments = main.released_attachments;
   }

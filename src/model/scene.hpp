@@ -74,8 +74,8 @@ struct SceneOptions {
   std::function<void(const DistributedMesh&, std::vector<std::unique_ptr<EnergyTerm>>&)> extra_terms;
 };
 
-// The scene of a run as time goes on. Fixed regions with a release time (fixed[].release) become
-// free at the start of the step that reaches it: the scene is rebuilt from the kept serial input
+// The scene of a run as time goes on. Fixed regions with a release time t (fixed[].release) become
+// free at the start of the first step that starts at or after t: the scene is rebuilt from the kept serial input
 // with those vertices free (same partition, so the same local vertices), the constant matrices
 // are factored again, and the states carry over. Attachments with a release time
 // (attachments[].release) go the same way: the scene is rebuilt without their springs (they are
@@ -93,11 +93,11 @@ class LiveScene {
   // run reached.
   PetscErrorCode check_start(const State& s, bool* ok) const;
 
-  // Called before the step from main (frame n to n + 1). If a region or attachment is due (release
-  // time <= (n + 1) h) that main has not released yet, the scene is rebuilt with its vertices free
-  // or its springs gone,
-  // main and every state in others move to the new scene (each vertex keeps its position and
-  // velocity; a freed vertex the prescribed ones it had), and rebind(old, fresh) moves what refers
+  // Called before the step from main (frame n to n + 1, starting at t = n h). If a region or
+  // attachment is due (release time <= t) that main has not released yet, the scene is rebuilt
+  // with its vertices free or its springs gone, main and every state in others move to the new
+  // scene (each vertex keeps its position and velocity; a freed vertex its prescribed position and
+  // velocity at t, Body::prescribed_state; the integrator's history is dropped), and rebind(old, fresh) moves what refers
   // to the old scene (solvers, writers, counters) before the old scene goes. *released: it happened.
   using Rebind = std::function<PetscErrorCode(const Scene& old_scene, Scene& fresh)>;
   PetscErrorCode release_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* released);

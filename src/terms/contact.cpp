@@ -18,8 +18,9 @@ ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
 }
 
 ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
-                         const ContactSpec& spec, PetscLogEvent event)
-    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), barrier_(spec.model == ContactModel::barrier), event_(event) {
+                         const ContactSpec& spec, PetscLogEvent event, std::vector<std::string> bodies)
+    : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), bodies_(std::move(bodies)),
+      barrier_(spec.model == ContactModel::barrier), event_(event) {
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     if (mesh.owned[v] && mesh.local_dof[v] >= 0) vertices_.push_back(v);
   stiffness_.assign(vertices_.size(), stiffness_per_mass());
@@ -338,13 +339,14 @@ PetscErrorCode ContactTerm::report(const std::vector<double>& pos, TermReport& o
 
 template <typename Test>
 PetscErrorCode ContactTerm::held_vertices(const std::vector<double>& pos, bool moving_only, Test test,
-                                          std::vector<HeldVertices>& out) const {
+                                          std::vector<HeldVertices>& out, int body) const {
   const size_t nc = colliders_.size();
   std::vector<long> count(nc, 0);
   std::vector<double> depth(nc, -HUGE_VAL), where(3 * nc, 0.0);  // the deepest's position
   std::vector<long long> id(nc, LLONG_MAX);
   PetscFunctionBeginUser;
   for (PetscInt v : vertices_) {
+    if (body >= 0 && mesh_.vertex_body[v] != body) continue;
     const Vec3 p(&pos[3 * v]);
     const long long vid = mesh_.vertex_ids[v];
     for (size_t c = 0; c < nc; ++c) {
@@ -400,19 +402,35 @@ std::string ContactTerm::held_sentence(size_t c, const HeldVertices& held, const
 PetscErrorCode ContactTerm::check_start(const std::vector<double>& pos, InputProblem& out) const {
   std::vector<HeldVertices> held;
   PetscFunctionBeginUser;
-  PetscCall(held_vertices(pos, false, [this](double phi) { return too_deep(phi); }, held));
-  long free_vertices = (long)vertices_.size(), others = 0;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  const auto deep = [this](double phi) { return too_deep(phi); };
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
+  PetscCall(held_vertices(pos, false, deep, held));
+  long others = 0;
   for (size_t c = 0; c < held.size(); ++c) {
     if (held[c].count == 0) continue;
     if (!out.what.empty()) {
       ++others;
       continue;
     }
+    // In a scene of bodies: the body of the deepest vertex, and its own vertices counted.
+    int body = -1;
+    std::string who = "the body";
+    if (!bodies_.empty()) {
+      for (PetscInt v : vertices_)
+        if (mesh_.vertex_ids[v] == held[c].vertex) body = mesh_.vertex_body[v];
+      PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &body, 1, MPI_INT, MPI_MAX, comm));
+      std::vector<HeldVertices> own;
+      PetscCall(held_vertices(pos, false, deep, own, body));
+      held[c] = own[c];
+      who = bodies_[body];
+    }
+    long free_vertices = 0;
+    for (PetscInt v : vertices_) free_vertices += body < 0 || mesh_.vertex_body[v] == body;
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &free_vertices, 1, MPI_LONG, MPI_SUM, comm));
     const HeldVertices& h = held[c];
-    char text[500];
-    std::snprintf(text, sizeof text, "the body starts inside this %s: %ld of its %ld free vertices are %s at frame 0; the deepest, vertex %lld at (%.6g, %.6g, %.6g), is %.4g inside. Move the body or the obstacle",
-                  colliders_[c]->type_name().c_str(), h.count, free_vertices, too_deep_words().c_str(), h.vertex, h.position[0], h.position[1], h.position[2], h.depth);
+    char text[700];
+    std::snprintf(text, sizeof text, "%s starts inside this %s: %ld of its %ld free vertices are %s at frame 0; the deepest, vertex %lld at (%.6g, %.6g, %.6g), is %.4g inside. Move the body or the obstacle",
+                  who.c_str(), colliders_[c]->type_name().c_str(), h.count, free_vertices, too_deep_words().c_str(), h.vertex, h.position[0], h.position[1], h.position[2], h.depth);
     out.line = colliders_[c]->line();
     out.key = "colliders[" + std::to_string(c) + "]";
     out.what = text;

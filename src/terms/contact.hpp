@@ -56,9 +56,10 @@ double contact_stiffness_per_mass(const ContactSpec& spec);
 
 class ContactTerm : public EnergyTerm {
  public:
-  // event: the PETSc log event its work is timed under (hqnContact).
+  // event: the PETSc log event its work is timed under (hqnContact); bodies: how its start check
+  // names each body of mesh.vertex_body (empty: one body, "the body").
   ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders, const ContactSpec& spec,
-              PetscLogEvent event);
+              PetscLogEvent event, std::vector<std::string> bodies = {});
   std::string name() const override { return "contact"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
@@ -87,8 +88,8 @@ class ContactTerm : public EnergyTerm {
   PetscErrorCode point_field(const std::string& name, const std::vector<double>& pos, Vec out) const override;
   // A body must not start inside an obstacle: at frame 0 (the obstacles at their pose at t = 0) no
   // free vertex may be deeper inside a collider than the model lets it be (too_deep). The problem
-  // names the first such collider (its deck line and colliders[i]), how many vertices it holds and
-  // the deepest one.
+  // names the first such collider (its deck line and colliders[i]), the body of the deepest vertex
+  // in a scene of bodies, how many of that body's free vertices it holds and the deepest one.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
   // The barrier's energy is infinite where a free vertex is at or inside an obstacle: which
   // colliders hold which vertices (the penalty is always finite: "").
@@ -119,9 +120,10 @@ class ContactTerm : public EnergyTerm {
     long long vertex = -1;     // its id in the input mesh (the output's vertex_id)
     Vec3 position = Vec3::Zero();
   };
+  // body >= 0: only that body's vertices (mesh.vertex_body).
   template <typename Test>
   PetscErrorCode held_vertices(const std::vector<double>& pos, bool moving_only, Test test,
-                               std::vector<HeldVertices>& out) const;
+                               std::vector<HeldVertices>& out, int body = -1) const;
   // "colliders[1] (box, deck line 23) holds 4 free vertices <what> (the deepest: vertex 840 at
   // (x, y, z), 0.031 inside)".
   std::string held_sentence(size_t c, const HeldVertices& held, const std::string& what) const;
@@ -138,6 +140,7 @@ class ContactTerm : public EnergyTerm {
   const DistributedMesh& mesh_;
   std::vector<std::unique_ptr<Collider>> colliders_;
   ContactSpec spec_;
+  std::vector<std::string> bodies_;  // the bodies' names for messages (empty: one body)
   std::vector<PetscInt> vertices_;   // the owned free local vertices (each vertex on one rank)
   std::vector<double> stiffness_;    // per slot: k_i
   std::vector<FrictionPoint> friction_;

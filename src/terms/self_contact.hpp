@@ -156,13 +156,14 @@ class SelfContactTerm : public EnergyTerm {
   PetscErrorCode limit_step_without_list(Vec x, Vec dir, double* alpha) const { return bound_step(x, dir, alpha, false); }
   PetscErrorCode set_masses(Vec mass) override;
   std::string describe() const override;
-  // The activation distance and thickness must fit the rest spacing of the surface: no two
+  // No two surface triangles may cross at frame 0, with either model (the problem names the
+  // bodies, or contact.self in a deck of one body, how many pairs cross and one of them: checked
+  // first, since crossing triangles are also 0 apart at rest, which no distance fits). Then the
+  // activation distance and thickness must fit the rest spacing of the surface: no two
   // primitives of one body that share no vertex may be closer than d + xi at rest (the problem
   // names contact.distance, the gap found and a value that fits, or the cloth's thickness when the
-  // gap is within xi). Then no two surface triangles may cross at frame 0, with either model (the
-  // problem names the bodies, how many pairs cross and one of them); and, with the barrier, no
-  // pair may be within its xi (the problem names contact.self and how many pairs touch).
-  // Collective.
+  // gap is within xi); and, with the barrier, no pair may be within its xi (the problem names
+  // contact.self and how many pairs touch). Collective.
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
   // The barrier's energy is infinite where pairs are within their xi: how many; or the step was
   // rejected at its start: which fixed region moves its surface into another (collective).

@@ -168,13 +168,15 @@ PetscErrorCode SelfContactTerm::check_start(const std::vector<double>& pos, Inpu
   int64_t vertex;
   long touching;
   PetscFunctionBeginUser;
+  // Crossing triangles first: their rest gap is 0 too, and no contact.distance would fix them.
+  PetscCall(check_intersections(pos, out));
+  if (!out.what.empty()) PetscFunctionReturn(0);
   PetscCall(closest_rest_pair(&gap, &xi, &vertex));
   if (gap < spec_.distance) {
     rest_gap_problem(gap, xi, vertex, out);
     PetscFunctionReturn(0);
   }
-  PetscCall(check_intersections(pos, out));
-  if (!out.what.empty() || !barrier_) PetscFunctionReturn(0);
+  if (!barrier_) PetscFunctionReturn(0);
   PetscCall(touching_pairs(pos, &touching));
   if (touching == 0) PetscFunctionReturn(0);
   out.line = spec_.self_line;

@@ -1,6 +1,7 @@
 """Bad decks, meshes and options: a non-zero exit, a message naming the file and key or line,
 and no output directory left behind."""
 import copy
+import os
 
 import pytest
 
@@ -31,6 +32,12 @@ BAD_MESHES = {
                        ["inf_coordinate.mesh:7: 'Vertices'", "'inf'", "not finite"]),
     "nan_coordinate": (TET_HEADER.replace("0 0 1 0", "0 0 NaN 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                        ["nan_coordinate.mesh:8: 'Vertices'", "'NaN'", "not finite"]),
+    # numbers a run cannot compute with: subnormal (they underflow) or past 1e100 (they overflow)
+    "subnormal_coordinate": (TET_HEADER.replace("0 1 0 0", "1e-320 1 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                             ["subnormal_coordinate.mesh:7: 'Vertices'", "vertex 3: its coordinate '1e-320' must be 0 or at least 1e-100",
+                              "subnormal"]),
+    "huge_coordinate": (TET_HEADER.replace("0 0 1 0", "0 0 1e101 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
+                        ["huge_coordinate.mesh:8: 'Vertices'", "'1e101' must be at most 1e100"]),
     "version_99": (TET_HEADER.replace("MeshVersionFormatted 1", "MeshVersionFormatted 99") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                    ["version_99.mesh:1: 'MeshVersionFormatted'", "99"]),
     # the sections the reader skips (Triangles, and Edges unless edges: strands) are checked too
@@ -93,6 +100,16 @@ BAD_DECKS = {
                                  ["colliders[0].radius", "> 0"]),
     "collider_negative_friction": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0],
                                                          "friction": -0.2}]), ["colliders[0].friction"]),
+    # a box whose cells are far flatter than wide: M + h^2 L would not be positive definite (before:
+    # "setting up the scene failed: PETSc: the constant matrix A ... is not positive definite")
+    "box_flat": (deck_with(**{"mesh.box.size": [1e-9, 0.2, 0.2]}),
+                 [".yaml:3: 'mesh.box.size'", "its cells would be 2.5e-10 x 0.2 x 0.2", "less than 1e-06 of the longest",
+                  "not be positive definite", "Check the size"]),
+    "box_thin": (deck_with(**{"mesh.box.size": [1.0, 0.2, 1e-8]}), ["'mesh.box.size'", "its cells would be 0.25 x 0.2 x 1e-08"]),
+    "box_size_1e-300": (deck_with(**{"mesh.box.size": [1e-300, 0.2, 0.2]}),
+                        [".yaml:3: 'mesh.box.size[0]': must be 0 or at least 1e-100 in magnitude", "underflow"]),
+    "sheet_flat": (dict(copy.deepcopy(CLOTH), mesh={"sheet": {"size": [1e-9, 0.5], "cells": [4, 2]}}),
+                   ["'mesh.sheet.size'", "its cells would be 2.5e-10 x 0.25", "the triangles' stiffness"]),
     "collider_missing_file": (deck_with(colliders=[{"type": "mesh", "file": "nowhere.obj"}]),
                               ["colliders[0].file", "nowhere.obj", "not found"]),
     "collider_unknown_type": (deck_with(colliders=[{"type": "torus"}]), ["colliders[0].type", "plane, sphere"]),
@@ -170,6 +187,9 @@ BAD_OBSTACLES = {
     "obj_bad_number": ("num.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", ["num.obj:2"]),
     "obj_no_triangles": ("empty.obj", "v 0 0 0\n", ["empty.obj", "colliders[0].file"]),
     "medit_truncated": ("cut.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n", ["cut.mesh"]),
+    "obj_subnormal": ("tiny.obj", "v 0 0 0\nv 1 0 0\nv 0 1e-320 0\nf 1 2 3\n", ["tiny.obj:3: 'v'", "'1e-320' must be 0 or"]),
+    "medit_subnormal": ("tiny.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n1 0 0 0\n0 1 -1e-310 0\n"
+                        "Triangles\n1\n1 2 3 0\nEnd\n", ["tiny.mesh:7: 'Vertices'", "'-1e-310' must be 0 or"]),
 }
 
 
@@ -291,3 +311,68 @@ def test_start_inside_an_obstacle_in_a_study(tmp_path):
     outdir = tmp_path / "out"
     proc = run_hyperqn(["study", path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, outdir, [f"study.yaml:{deck_line_of_collider(path, index)}: 'colliders[0]'"] + fragments)
+
+
+# In a deck of bodies the body that starts inside an obstacle is named, and the count is of its own
+# free vertices (before: "the body starts inside this plane: 4 of its 35 free vertices", the count
+# over the whole scene and no body named). The right block (8 vertices, the lower 4 at y = -0.15)
+# is 0.05 into the ground; the left one (27 vertices) is clear of it.
+BODIES_ONE_INSIDE = {
+    "bodies": [
+        {"mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [2, 2, 2]}}, "material": GOOD["material"]},
+        {"name": "right", "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [1, 1, 1]},
+                                   "transform": {"translate": [1, -0.15, 0]}}, "material": GOOD["material"]},
+    ],
+    "colliders": [{"type": "plane", "point": [0, -0.1, 0], "normal": [0, 1, 0]}],
+    "time": {"dt": 0.01, "frames": 2},
+}
+
+
+def test_start_inside_an_obstacle_names_the_body(tmp_path):
+    path = write_deck(tmp_path / "bodies.yaml", BODIES_ONE_INSIDE)
+    lines = open(path).read().splitlines()
+    body_line = next(n for n, text in enumerate(lines, 1) if "name: right" in text)
+    messages = {}
+    for ranks in (None, 2):
+        outdir = tmp_path / f"out{ranks}"
+        proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+        assert proc.returncode == 1
+        assert_clean_failure(proc, outdir, [f"bodies.yaml:{deck_line_of_collider(path, 0)}: 'colliders[0]': "
+                                            f"bodies[1] 'right' (deck line {body_line}) starts inside this plane: "
+                                            "4 of its 8 free vertices", "vertex 27 at (1, -0.15, 0)"])
+        messages[ranks] = [l for l in proc.stdout.splitlines() if "hyperqn: error" in l]
+    assert messages[None] == messages[2]
+
+
+# A one-body cloth that crosses itself at frame 0 (two squares of one .obj through each other): the
+# crossing is the error, naming contact.self (docs/contact.md) (before: the rest gap of 0 between
+# the crossing triangles was, advising a contact.distance of 1.8e-17).
+CROSSED_OBJ = ("v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 0.5 -0.5 0.2\nv 0.5 0.5 0.2\nv 0.5 0.5 0.8\nv 0.5 -0.5 0.8\n"
+               "f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\n")
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_cloth_crossing_itself_names_contact_self(tmp_path, ranks):
+    (tmp_path / "crossed.obj").write_text(CROSSED_OBJ)
+    deck = dict(copy.deepcopy(CLOTH), mesh={"file": "crossed.obj"}, contact={"self": True, "distance": 0.01})
+    path = write_deck(tmp_path / "crossed.yaml", deck)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "self:" in text)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode == 1
+    assert_clean_failure(proc, outdir, [f"crossed.yaml:{line}: 'contact.self': the body's surface crosses itself at frame 0",
+                                        "start from a mesh that does not cross itself"])
+    assert "contact.distance" not in proc.stdout
+
+
+def test_missing_mesh_file_gives_the_resolved_path(tmp_path, monkeypatch):
+    """Run from another directory than the deck's: the message gives the full path the deck's
+    relative one resolves to, and the deck's spelling (before: 'meshes/bar.mesh', the path joined
+    to the deck's directory as the command line gave it)."""
+    (tmp_path / "sub").mkdir()
+    write_deck(tmp_path / "sub" / "deck.yaml", deck_with(mesh={"file": "../meshes/bar.mesh"}))
+    monkeypatch.chdir(tmp_path)
+    proc = run_hyperqn(["sub/deck.yaml", "-o", "out"], ranks=None, check=False, timeout=60)
+    full = os.path.join(os.getcwd(), "meshes", "bar.mesh")
+    assert_clean_failure(proc, tmp_path / "out", [f"sub/deck.yaml:1: 'mesh.file': file not found: '{full}' "
+                                                  "(the deck's '../meshes/bar.mesh', relative to the deck's directory)"])

@@ -12,7 +12,8 @@ found in the field is reproduced here and must end as documented.
   a SIGTERM after that point exits 3.
 - Damage is detected: a flipped byte in positions or velocities, a truncated or garbage file; latest
   falls back to the newest whole checkpoint; a stray checkpoint_999.h5 or a name that does not parse
-  does not block it; --restart PATH of another run says whose it is.
+  does not block it; a FIFO or a directory named as the newest checkpoint is passed over (before:
+  a FIFO blocked --restart latest and auto forever); --restart PATH of another run says whose it is.
 - Smaller faults: a killed part's temporaries go; a restart with another name or vtk: false leaves
   no .pvd listing abandoned frames; a signal during setup stops before the first frame with a
   checkpoint; a signal after the last frame leaves a complete run that says so.
@@ -276,6 +277,30 @@ def test_values_changed_behind_hdf5s_checksums(tmp_path, item):
     reason = "velocities: checksum" if item == "velocities" else "its texts: checksum"
     assert f"checkpoint_15.h5 is damaged or not a checkpoint ({reason}" in done.stdout, done.stdout[-2000:]
     assert f"falling back to {out}/checkpoints/checkpoint_10.h5" in done.stdout
+    assert_same_run(ref, out)
+
+
+@pytest.mark.parametrize("mode", ["latest", "auto"])
+def test_a_fifo_or_directory_named_as_a_checkpoint_is_passed_over(tmp_path, mode):
+    """A FIFO named as the newest checkpoint (before: --restart latest and auto blocked forever in
+    H5Fopen, waiting for a writer) and a directory named as one: each passed over with a warning,
+    the restart continues checkpoint 15 and equals the uninterrupted run; --restart naming the FIFO
+    is an error. Every run has a timeout, so that a hang fails the test."""
+    first = deck(tmp_path, "first", time={"dt": 1 / 30, "frames": 15})
+    path = deck(tmp_path)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], timeout=60)
+    out = tmp_path / "out"
+    run_hyperqn([first, "-o", out], timeout=60)  # checkpoints 10 and 15
+    fifo = out / "checkpoints" / "checkpoint_45.h5"
+    os.mkfifo(fifo)
+    (out / "checkpoints" / "checkpoint_30.h5").mkdir()
+    done = run_hyperqn([path, "-o", out, "--restart", fifo], check=False, timeout=60)
+    assert done.returncode == 1 and f"cannot restart from {fifo}: not a regular file" in done.stdout, done.stdout[-2000:]
+    done = run_hyperqn([path, "-o", out, "--restart", mode], timeout=60)
+    assert f"{fifo} is not a regular file: passed over" in done.stdout, done.stdout[-2000:]
+    assert f"{out}/checkpoints/checkpoint_30.h5 is not a regular file: passed over" in done.stdout
+    assert f"restart from {out}/checkpoints/checkpoint_15.h5" in done.stdout
     assert_same_run(ref, out)
 
 

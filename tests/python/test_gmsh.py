@@ -149,6 +149,8 @@ BAD = {
     "coordinate_nan": (changed(MSH22, "3 0 1 0", "3 0 nan 0"), "$Nodes", 13, "not finite"),
     "coordinate_hex": (changed(MSH22, "3 0 1 0", "3 0 0x1 0"), "$Nodes", 13, "'0x1' (hexadecimal"),
     "coordinate_inf": (changed(MSH22, "3 0 1 0", "3 0 1 -Infinity"), "$Nodes", 13, "'-Infinity' (not finite"),
+    "coordinate_subnormal": (changed(MSH22, "3 0 1 0", "3 0 1 1e-320"), "$Nodes", 13, "'1e-320' must be 0 or at least 1e-100"),
+    "coordinate_huge": (changed(MSH22, "3 0 1 0", "3 0 1e200 0"), "$Nodes", 13, "'1e200' must be at most 1e100"),
     "duplicate_node": (changed(MSH22, "5 1 1 1", "4 1 1 1"), "$Nodes", 15, "appears twice"),
     "missing_end_nodes": (changed(MSH22, "$EndNodes\n", ""), "$Nodes", 16, "expected $EndNodes"),
     "missing_end_elements": (changed(MSH22, "$EndElements\n", ""), "$Elements", 22, "no $EndElements"),

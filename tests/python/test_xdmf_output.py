@@ -102,8 +102,9 @@ def test_one_and_two_ranks_write_the_same_arrays(tmp_path):
         f.close()
 
 
-# The rotating end of test_checkpoint.py's MOTION, released at t = 0.25: the step to frame 5, after
-# the checkpoint at 4, so both the restarted and the uninterrupted run hand the writer a new mesh.
+# The rotating end of test_checkpoint.py's MOTION, released at t = 0.25: the step to frame 6 (it
+# starts at 0.25), after the checkpoint at 4, so both the restarted and the uninterrupted run hand
+# the writer a new mesh.
 BAR = {
     "mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
     "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
