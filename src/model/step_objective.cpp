@@ -334,6 +334,26 @@ PetscErrorCode StepObjective::force_scale(Vec x, double* scale) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode StepObjective::momentum(Vec v, std::array<double, 3>& P, double* mass_speed) const {
+  const PetscScalar *m, *a;
+  PetscInt n;
+  double local[4] = {0, 0, 0, 0}, global[4];
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(v, &n));
+  PetscCall(VecGetArrayRead(mass_, &m));
+  PetscCall(VecGetArrayRead(v, &a));
+  for (PetscInt i = 0; i + 2 < n; i += 3) {  // a rank holds whole vertices (x, y, z interleaved)
+    for (int c = 0; c < 3; ++c) local[c] += m[i + c] * a[i + c];
+    local[3] += m[i] * std::sqrt(a[i] * a[i] + a[i + 1] * a[i + 1] + a[i + 2] * a[i + 2]);
+  }
+  PetscCall(VecRestoreArrayRead(v, &a));
+  PetscCall(VecRestoreArrayRead(mass_, &m));
+  PetscCallMPI(MPI_Allreduce(local, global, 4, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)v)));
+  P = {global[0], global[1], global[2]};
+  *mass_speed = global[3];
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, ConstantMatrix kind) const {
   PetscFunctionBeginUser;
   PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
