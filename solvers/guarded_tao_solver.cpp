@@ -125,10 +125,10 @@ PetscErrorCode GuardedTaoSolver::monitor(Tao tao, void* ctx) {
 }
 
 // TAO's own test, plus: a stop the iteration callback or a signal (stop_request.hpp) asked for; a
-// rejected point ends the solve (solve() takes over); the relative tolerance also holds against the step's force scale
-// (frame_budget.hpp), and after a recovery stays relative to the frame's first gradient (TAO's
-// gttol would restart from the resumed point's); past the budget the frame goes on while it is
-// far from converged, up to the cap.
+// rejected point ends the solve (solve() takes over); frame_budget.hpp's rule instead of TAO's
+// relative test (which it contains), at every iterate, relative to the frame's first gradient also
+// after a recovery (TAO's gttol would restart from the resumed point's); past the budget the frame
+// goes on while it is far from converged, up to the cap.
 PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   auto* self = static_cast<GuardedTaoSolver*>(ctx);
   TaoConvergedReason reason;
@@ -140,18 +140,16 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   PetscCall(TaoDefaultConvergenceTest(tao, nullptr));
   PetscCall(TaoGetSolutionStatus(tao, &it, nullptr, &gnorm, nullptr, nullptr, &reason));
   PetscCall(TaoGetSolution(tao, &x));
-  const double gnorm0 = self->gnorm0_;
   const FrameBudget& budget = self->budget_;
   if (self->bad_point_) {
     PetscCall(TaoSetConvergedReason(tao, self->reported_ < 0 ? TAO_DIVERGED_NAN : TAO_DIVERGED_LS_FAILURE));
-  } else if (it == 0 && !self->restarted_ && reason == TAO_CONTINUE_ITERATING) {
+  } else if (reason == TAO_CONTINUE_ITERATING || reason == TAO_CONVERGED_GTTOL || reason == TAO_DIVERGED_MAXITS) {
     PetscCall(self->step_.force_scale(x, &scale));
-    if (budget.solved_at_start(gnorm, scale)) PetscCall(TaoSetConvergedReason(tao, TAO_CONVERGED_GATOL));
-  } else if (reason == TAO_CONVERGED_GTTOL ||
-             (self->restarted_ && reason == TAO_CONTINUE_ITERATING && budget.relative(gnorm, gnorm0))) {
-    PetscCall(self->step_.force_scale(x, &scale));
-    PetscCall(TaoSetConvergedReason(tao, budget.converged(gnorm, gnorm0, scale) ? TAO_CONVERGED_GTTOL
-                                                                                 : TAO_CONTINUE_ITERATING));
+    const bool at_start = it == 0 && !self->restarted_;  // the initial guess: converged only by the floor
+    if (budget.converged(gnorm, at_start ? gnorm : self->gnorm0_, scale))
+      PetscCall(TaoSetConvergedReason(tao, at_start ? TAO_CONVERGED_GATOL : TAO_CONVERGED_GTTOL));
+    else if (reason == TAO_CONVERGED_GTTOL)
+      PetscCall(TaoSetConvergedReason(tao, TAO_CONTINUE_ITERATING));
   }
   PetscCall(TaoGetConvergedReason(tao, &reason));
   if (!self->bad_point_ && (reason == TAO_CONTINUE_ITERATING || reason == TAO_DIVERGED_MAXITS) &&

@@ -98,18 +98,17 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
       result.reason = "CONVERGED_GATOL";
       break;
     }
-    double scale = -1;  // the force scale at x, once needed
-    if (budget.relative(gnorm, gnorm0)) PetscCall(step_.force_scale(x, &scale));
-    if (scale >= 0 && budget.converged(gnorm, gnorm0, scale)) {
+    double scale;  // the force scale at x
+    PetscCall(step_.force_scale(x, &scale));
+    if (budget.converged(gnorm, gnorm0, scale)) {
       result.converged = true;
-      result.reason = "CONVERGED_GTTOL";
+      result.reason = k == 0 ? "CONVERGED_GATOL" : "CONVERGED_GTTOL";
       break;
     }
     if (stop) {
       result.reason = "STOPPED_BY_CALLER";
       break;
     }
-    if (k >= budget.budget && scale < 0) PetscCall(step_.force_scale(x, &scale));
     if (k >= budget.budget && budget.spent(progress, scale, step_.length_scale())) {
       result.reason = "MAX_ITERATIONS";
       break;

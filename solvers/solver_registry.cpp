@@ -142,8 +142,10 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        [](const S&) { return std::string("adaptive"); }},
       {"grad_atol", &S::grad_atol, "stop when ‖∇g‖ ≤ grad_atol", at_least(0)},
       {"grad_rtol", &S::grad_rtol,
-       "or stop when ‖∇g‖ < grad_rtol · min(‖∇g(x₀)‖, W), W the ‖∇g‖ of the body's own weight over one step (so a "
-       "huge initial gradient does not make a huge residual \"converged\"; [guardrails.md](guardrails.md#fallback))",
+       "or stop when ‖∇g‖ < grad_rtol · ‖∇g(x₀)‖ or ‖∇g‖ ≤ grad_rtol · S, and in either case ‖∇g‖ ≤ 10⁻³ S; S the "
+       "force scale of the step, at least W, the ‖∇g‖ of the body's own weight over one step (so a huge initial "
+       "gradient does not make a huge residual \"converged\", nor a body at rest run its whole budget; "
+       "[guardrails.md](guardrails.md#fallback))",
        at_least(0)},
       {"history", &S::history,
        "number of L-BFGS correction pairs (`lbfgs`, `lbfgs-identity`); with 0 and an ARAP material, `lbfgs` takes the "

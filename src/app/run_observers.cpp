@@ -42,6 +42,30 @@ void add_step_counters(RunSummary& summary, const StepObjective& step) {
 
 // --- ProgressLog
 
+// A new run's P_0 (at frame 0: also a restart from a checkpoint written during setup, whose state
+// is frame 0's); a restart's comes from its checkpoint.
+PetscErrorCode ProgressLog::begin(LoopControl&) {
+  PetscFunctionBeginUser;
+  if (run_.summary.free_scene && run_.state.frame == 0) PetscCall(measure_momentum(0));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode ProgressLog::measure_momentum(int frame) {
+  RunSummary& summary = run_.summary;
+  std::array<double, 3> P;
+  double mass_speed;
+  PetscFunctionBeginUser;
+  PetscCall(run_.scene.current().step->momentum(run_.state.v, P, &mass_speed));
+  if (frame == 0) summary.momentum0 = P;
+  const double drift = std::hypot(P[0] - summary.momentum0[0], P[1] - summary.momentum0[1], P[2] - summary.momentum0[2]);
+  if (drift > summary.momentum_drift) {  // (false once unknown: NaN)
+    summary.momentum_drift = drift;
+    summary.momentum_drift_frame = frame;
+  }
+  summary.momentum_scale = std::fmax(summary.momentum_scale, mass_speed);
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) {
   RunSummary& summary = run_.summary;
   PetscFunctionBeginUser;
@@ -115,6 +139,11 @@ PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl
     inverted_now_ = outcome.lead.inverted;
     if (inverted_now_) summary.inverted_frames.push_back(frame);
     summary.min_J = std::fmin(summary.min_J, outcome.lead.min_J);
+    if (step.residual > summary.max_residual) {
+      summary.max_residual = step.residual;
+      summary.max_residual_frame = frame;
+    }
+    if (summary.free_scene) PetscCall(measure_momentum(frame));
   }
 
   std::string note;

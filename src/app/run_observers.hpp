@@ -28,13 +28,14 @@ void read_log_events(RunSummary& s);
 void add_step_counters(RunSummary& summary, const StepObjective& step);
 
 // The console's line per frame and the summary's frame counters (iterations, flagged and inverted
-// frames, min det F, the frames done); after a release, the scene's new size. During a slow
-// frame, a progress line every `progress_seconds` (-hyperqn_progress_seconds; rank 0's clock
-// alone decides, so it costs no reduction).
+// frames, min det F, the largest residual, a free scene's momentum, the frames done); after a
+// release, the scene's new size. During a slow frame, a progress line every `progress_seconds`
+// (-hyperqn_progress_seconds; rank 0's clock alone decides, so it costs no reduction).
 class ProgressLog : public FrameObserver {
  public:
   ProgressLog(const RunContext& run, bool inverted_at_start, double progress_seconds)
       : run_(run), inverted_now_(inverted_at_start), progress_seconds_(progress_seconds) {}
+  PetscErrorCode begin(LoopControl& control) override;
   PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
   PetscErrorCode before_frame(int frame) override;
   PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
@@ -46,6 +47,9 @@ class ProgressLog : public FrameObserver {
   bool inverted_now() const { return inverted_now_; }
 
  private:
+  // A free scene's momentum at the end of the frame done (summary.momentum_drift).
+  PetscErrorCode measure_momentum(int frame);
+
   RunContext run_;
   bool inverted_now_;
   double progress_seconds_;

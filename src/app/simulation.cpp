@@ -300,6 +300,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   summary.dofs = scene.mesh.global_dofs;
   summary.fixed_vertices = scene.mesh.global_fixed_vertices;
   summary.dt = deck.time.dt;
+  summary.free_scene = free_scene(deck);
   if (const FactoredSystem* h0 = scene.constant_matrix(deck.solver)) {
     summary.h0_package = factor_package_name(h0->package());
     summary.h0_factor_nonzeros = h0->factor_nonzeros();

@@ -1,6 +1,7 @@
 #include "io/checkpoint.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -47,6 +48,8 @@ const LongField kLongFields[] = {
     {"max_active_contacts", &RunSummary::max_active_contacts, false},
     {"collider_intrusions", &RunSummary::collider_intrusions, false},
     {"first_intrusion_frame", &RunSummary::first_intrusion_frame, false},
+    {"max_residual_frame", &RunSummary::max_residual_frame, false},
+    {"momentum_drift_frame", &RunSummary::momentum_drift_frame, false},
     {"h0_solves", &RunSummary::h0_solves, true},
     {"hessian_assemblies", &RunSummary::hessian_assemblies, true},
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
@@ -60,6 +63,9 @@ const RealField kRealFields[] = {
     {"max_penetration", &RunSummary::max_penetration, false},
     {"final_energy", &RunSummary::final_energy, false},
     {"final_grad_norm", &RunSummary::final_grad_norm, false},
+    {"max_residual", &RunSummary::max_residual, false},
+    {"momentum_drift", &RunSummary::momentum_drift, false},
+    {"momentum_scale", &RunSummary::momentum_scale, false},
     {"assembly_s", &RunSummary::assembly_s, true},
     {"factor_s", &RunSummary::factor_s, true},
     {"solve_s", &RunSummary::solve_s, true},
@@ -154,6 +160,9 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   for (const auto& f : kIntFields) head.put(std::string("summary_") + f.name, (long long)(s.*f.member));
   for (const auto& f : kRealFields) head.put(std::string("summary_") + f.name, s.*f.member);
   head.put("summary_first_intrusion", s.first_intrusion);
+  char momentum0[80];
+  std::snprintf(momentum0, sizeof momentum0, "%.17g %.17g %.17g", s.momentum0[0], s.momentum0[1], s.momentum0[2]);
+  head.put("summary_momentum0", std::string(momentum0));
   std::string keys;
   for (const auto& w : h.writers) keys += (keys.empty() ? "" : " ") + w.first;
   head.put("writers", keys);
@@ -232,8 +241,20 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     s.*f.member = head.has(key) ? head.get_long(key) : 0;
   }
   for (const auto& f : kIntFields) s.*f.member = (int)head.get_long(std::string("summary_") + f.name);
-  for (const auto& f : kRealFields) s.*f.member = head.get_real(std::string("summary_") + f.name);
+  // A counter newer than the file reads as 0 (max_residual and the momentum's came after format
+  // version 3); without P_0 the momentum's drift is unknown (NaN).
+  for (const auto& f : kRealFields) {
+    const std::string key = std::string("summary_") + f.name;
+    s.*f.member = head.has(key) ? head.get_real(key) : 0;
+  }
   if (head.has("summary_first_intrusion")) s.first_intrusion = head.get("summary_first_intrusion");
+  if (head.has("summary_momentum0")) {
+    std::istringstream in(head.get("summary_momentum0"));
+    for (double& p : s.momentum0)
+      if (!(in >> p)) throw std::runtime_error("its header's summary_momentum0 is not three numbers");
+  } else {
+    s.momentum_drift = NAN;
+  }
   h.physics = text("physics");
   std::istringstream flagged(text("flagged_frames"));
   for (std::string line; std::getline(flagged, line);) {
@@ -614,6 +635,7 @@ void restore_frame_counters(RunSummary& s, const RunSummary& saved) {
   s.flagged_frames = saved.flagged_frames;
   s.inverted_frames = saved.inverted_frames;
   s.first_intrusion = saved.first_intrusion;
+  s.momentum0 = saved.momentum0;
 }
 
 void add_earlier_work(RunSummary& s, const RunSummary& earlier) {

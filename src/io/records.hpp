@@ -3,6 +3,7 @@
 #pragma once
 #include <petscsys.h>
 
+#include <array>
 #include <string>
 #include <utility>
 #include <vector>
@@ -69,6 +70,18 @@ struct RunSummary {
   long long collider_intrusions = 0, first_intrusion_frame = 0;
   std::string first_intrusion;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
+  // What the iteration budget left undone (docs/method.md#what-the-budget-gives-up): the largest
+  // ||grad g|| / S at the end of a frame (StepSolve::residual, S the frame's force scale) and that
+  // frame; and, in a free scene (free_scene in model/scene_spec.hpp), whose linear momentum the
+  // time step conserves, the momentum P_0 = sum m v at frame 0, the largest |P_n - P_0| at the end
+  // of a frame (NaN: unknown, a restart from a checkpoint that did not hold P_0) and that frame,
+  // and the largest sum m |v| of a frame, its scale.
+  double max_residual = 0;
+  long long max_residual_frame = 0;
+  bool free_scene = false;
+  std::array<double, 3> momentum0{0, 0, 0};
+  double momentum_drift = 0, momentum_scale = 0;
+  long long momentum_drift_frame = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)
 };

@@ -115,6 +115,9 @@ void write_summary(const std::string& path, const RunSummary& s) {
   const std::string first_intrusion =
       s.collider_intrusions ? "{\"frame\": " + std::to_string(s.first_intrusion_frame) + ", \"what\": " + quoted(s.first_intrusion) + "}"
                             : std::string("null");
+  // A free scene's |P_n - P_0| over its scale (0 for a scene that never moved); null otherwise.
+  const std::string momentum_change =
+      !s.free_scene ? "null" : number(s.momentum_scale > 0 ? s.momentum_drift / s.momentum_scale : s.momentum_drift);
   std::ostringstream out;
   out << "{\n"
       << "  \"deck\": " << quoted(s.deck) << ",\n"
@@ -166,6 +169,10 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"euler_completed_steps\": " << s.euler_completed_steps << ",\n"
       << "  \"final_energy\": " << number(s.final_energy) << ",\n"
       << "  \"final_grad_norm\": " << number(s.final_grad_norm) << ",\n"
+      << "  \"max_residual\": " << number(s.max_residual) << ",\n"
+      << "  \"max_residual_frame\": " << s.max_residual_frame << ",\n"
+      << "  \"momentum_change\": " << momentum_change << ",\n"
+      << "  \"momentum_change_frame\": " << (s.free_scene ? std::to_string(s.momentum_drift_frame) : "null") << ",\n"
       << "  \"min_J\": " << number(s.min_J) << ",\n"
       << "  \"max_penetration\": " << number(s.max_penetration) << ",\n"
       << "  \"max_active_contacts\": " << s.max_active_contacts << ",\n"

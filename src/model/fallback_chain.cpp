@@ -40,6 +40,7 @@ PetscErrorCode FallbackChain::judge(const FrameResult& r, Objective& g, Vec x, O
   if (Objective::rejected(r.energy) || !std::isfinite(r.grad_norm)) PetscFunctionReturn(0);
   o->finite = true;
   PetscCall(g.force_scale(x, &scale));
+  o->residual = r.grad_norm / scale;
   o->converged_enough = !FrameBudget::far(
       {(int)r.iterations, r.energy0, r.energy, r.last_decrease, r.grad_norm0, r.grad_norm, r.failed, r.last_step},
       scale, g.length_scale());
@@ -78,6 +79,7 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
   PetscCall(sub_.copy_from(s));
   sub_.drop_history();  // its steps are h / parts apart: their own history starts at x_n
   sub_.frame = s.frame * parts;  // so that sub-step j ends at (frame + (j + 1) / parts) h exactly
+  double residual = 0;           // the largest of the sub-steps'
   for (int j = 0; j < parts; ++j) {
     StepSolve part;
     records_.clear();
@@ -88,7 +90,9 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
     if (!outcome_.acceptable()) PetscFunctionReturn(0);
     PetscCall(l->step->end_step(sub_));
     out.result = part.result;
+    residual = std::fmax(residual, outcome_.residual);
   }
+  outcome_.residual = residual;
   if (!velocity_) PetscCall(VecDuplicate(s.v, &velocity_));
   PetscCall(VecCopy(sub_.x, s.x));
   PetscCall(VecCopy(sub_.v, velocity_));
@@ -143,6 +147,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   s.substeps.after_frame(start, accepted, spec_.keep_substeps);
   out.min_J = outcome_.min_J;
   out.max_abs_J = outcome_.max_abs_J;
+  out.residual = outcome_.residual;
   out.measured = true;
   start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
   for (const IterationRecord& r : records_) on_iteration(r);

@@ -64,6 +64,7 @@ class FallbackChain {
   struct Outcome {
     bool finite = false, converged_enough = false, sound = false;
     double min_J = 0, max_abs_J = 0;  // of the tets at x
+    double residual = 0;              // ||grad g|| / S at x (StepSolve::residual)
     bool acceptable() const { return finite && converged_enough && sound; }
   };
   PetscErrorCode judge(const FrameResult& r, Objective& g, Vec x, Outcome* o) const;

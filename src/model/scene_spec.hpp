@@ -224,6 +224,15 @@ struct SceneSpec {
   TimeSpec time;
 };
 
+// A free scene: nothing acts on its bodies but their own forces (elastic, self-contact): no fixed
+// regions, attachments, colliders, gravity or damping. The time step conserves its linear
+// momentum (every integrator; not its angular momentum: implicit Euler does not), so what a frame
+// changes of it is the solve's error (summary.json's momentum_change).
+inline bool free_scene(const SceneSpec& s) {
+  return s.fixed.empty() && s.attachments.empty() && s.colliders.empty() && s.gravity == std::array<double, 3>{0, 0, 0} &&
+         s.time.damping == 0;
+}
+
 // The deck's gravity: (io/deck_keys.hpp), a section that is one value: its one key is the section.
 inline const std::vector<DeckKey<SceneSpec>>& gravity_keys() {
   static const std::vector<DeckKey<SceneSpec>> keys = {

@@ -41,6 +41,9 @@ struct StepSolve {
   Vec velocity = nullptr;
   double min_J = 0, max_abs_J = 0;  // of the tets at the end, if measured (FallbackChain measures them)
   bool measured = false;
+  // ||grad g|| / S at the end of the kept solve, S its force scale (Objective::force_scale); of
+  // sub-steps, the largest. Measured by FallbackChain (0 otherwise).
+  double residual = 0;
 };
 
 class StepObjective : public Objective {
@@ -110,6 +113,9 @@ class StepObjective : public Objective {
   RunCounts counts() const { return *counts_; }
   void restore_counts(const RunCounts& c) { *counts_ = c; }
   PetscErrorCode force_scale(Vec x, double* scale) override;
+  // The free vertices' linear momentum P = sum m v at velocity v and their sum m |v| (one
+  // reduction; collective).
+  PetscErrorCode momentum(Vec v, std::array<double, 3>& P, double* mass_speed) const;
   double length_scale() const override { return diagonal_; }
   bool bounds_steps() const override { return body_.bounds_steps(); }
   unsigned long long active_set() const override { return body_.active_set(); }
