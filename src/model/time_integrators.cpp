@@ -39,7 +39,7 @@ class ImplicitMidpoint : public Integrator {
 // BDF2: x_{n+1} = (4 x_n - x_{n-1}) / 3 + h' v_{n+1} and v_{n+1} = (4 v_n - v_{n-1}) / 3 + h' a_{n+1},
 // h' = 2h/3. Eliminating v_{n+1} gives the minimization with x^ = (4 x_n - x_{n-1}) / 3 and
 // v^ = (4 v_n - v_{n-1}) / 3; then x_{n+1} = z and v_{n+1} = (z - x^) / h'. Second order and
-// L-stable: it damps the unresolved (stiff) modes as Euler does, the resolved ones far less.
+// L-stable: it damps the unresolved (stiff) modes as Euler does, the resolved ones less (docs/method.md).
 // Without a history the step starts it, as implicit as the rest and with the same h' (so the
 // same constant matrix): x^ = x_n + (h - h') v_n, v^ = v_n make y = x_n + h v_n + h'^2 a_gravity,
 // so z = x_n + h v_n + h'^2 a(z), and v_{n+1} = v_n + h a(z) (Newmark with beta = 4/9, gamma = 1).
