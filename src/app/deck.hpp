@@ -43,7 +43,7 @@ struct OutputSpec {
   bool vtk = true;                   // write frames at all (in `format`)
   OutputFormat format = OutputFormat::vtu;  // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
   bool iterations_csv = true;
-  bool contact_csv = true;           // contact.csv (scenes with colliders only)
+  bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
 };
 
 // The deck's output: keys (io/deck_keys.hpp).
@@ -62,7 +62,8 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "([outputs.md](outputs.md#xdmf-output-for-many-ranks))"),
       {"iterations_csv", &OutputSpec::iterations_csv, "write the per-iteration solver log as CSV"},
       {"contact_csv", &OutputSpec::contact_csv,
-       "with colliders: write `contact.csv` (per frame and collider, [outputs.md](outputs.md))"},
+       "with colliders: write `contact.csv` (per frame and collider); with penalty self-contact: write "
+       "`self-contact.csv` (per frame, the surface triangle pairs that cross; [outputs.md](outputs.md))"},
   };
   return keys;
 }

@@ -193,7 +193,7 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
   for (const auto& term : scene.body->terms()) {
     const TermLog l = term->log();
     term_logs_.emplace_back();
-    if (l.file.empty() || (l.file == "contact.csv" && !output.contact_csv)) continue;  // output.contact_csv
+    if (l.file.empty() || !output.contact_csv) continue;  // contact.csv and self-contact.csv
     term_logs_.back() = std::make_unique<FrameLog>();
     if (restart)
       term_logs_.back()->resume(outdir + "/" + l.file, l.columns, rank, restart_frame);

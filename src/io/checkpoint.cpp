@@ -48,6 +48,9 @@ const LongField kLongFields[] = {
     {"max_active_contacts", &RunSummary::max_active_contacts, false},
     {"collider_intrusions", &RunSummary::collider_intrusions, false},
     {"first_intrusion_frame", &RunSummary::first_intrusion_frame, false},
+    {"max_self_crossings", &RunSummary::max_self_crossings, false},
+    {"self_crossing_frames", &RunSummary::self_crossing_frames, false},
+    {"first_self_crossing_frame", &RunSummary::first_self_crossing_frame, false},
     {"max_residual_frame", &RunSummary::max_residual_frame, false},
     {"momentum_drift_frame", &RunSummary::momentum_drift_frame, false},
     {"h0_solves", &RunSummary::h0_solves, true},
@@ -160,6 +163,7 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   for (const auto& f : kIntFields) head.put(std::string("summary_") + f.name, (long long)(s.*f.member));
   for (const auto& f : kRealFields) head.put(std::string("summary_") + f.name, s.*f.member);
   head.put("summary_first_intrusion", s.first_intrusion);
+  head.put("summary_first_self_crossing", s.first_self_crossing);
   char momentum0[80];
   std::snprintf(momentum0, sizeof momentum0, "%.17g %.17g %.17g", s.momentum0[0], s.momentum0[1], s.momentum0[2]);
   head.put("summary_momentum0", std::string(momentum0));
@@ -248,6 +252,7 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     s.*f.member = head.has(key) ? head.get_real(key) : 0;
   }
   if (head.has("summary_first_intrusion")) s.first_intrusion = head.get("summary_first_intrusion");
+  if (head.has("summary_first_self_crossing")) s.first_self_crossing = head.get("summary_first_self_crossing");
   if (head.has("summary_momentum0")) {
     std::istringstream in(head.get("summary_momentum0"));
     for (double& p : s.momentum0)
@@ -635,6 +640,7 @@ void restore_frame_counters(RunSummary& s, const RunSummary& saved) {
   s.flagged_frames = saved.flagged_frames;
   s.inverted_frames = saved.inverted_frames;
   s.first_intrusion = saved.first_intrusion;
+  s.first_self_crossing = saved.first_self_crossing;
   s.momentum0 = saved.momentum0;
 }
 

@@ -69,6 +69,10 @@ struct RunSummary {
   // (it pushed into the body faster than contact pushed back), the first of them and what was said.
   long long collider_intrusions = 0, first_intrusion_frame = 0;
   std::string first_intrusion;
+  // Penalty self-contact (terms/self_contact.hpp, report): the most surface triangle pairs that
+  // cross at the end of a frame, the frames that end with any, the first of them and what was said.
+  long long max_self_crossings = 0, self_crossing_frames = 0, first_self_crossing_frame = 0;
+  std::string first_self_crossing;
   double final_energy = 0, final_grad_norm = 0, min_J = 0;
   // What the iteration budget left undone (docs/method.md#what-the-budget-gives-up): the largest
   // ||grad g|| / S at the end of a frame (StepSolve::residual, S the frame's force scale) and that

@@ -72,16 +72,26 @@ void raise_summary_maximum(RunSummary& s, const std::string& name, double value)
     s.max_penetration = std::fmax(s.max_penetration, value);
   } else if (name == "max_active_contacts") {
     s.max_active_contacts = std::max(s.max_active_contacts, (long long)value);
+  } else if (name == "max_self_crossings") {
+    s.max_self_crossings = std::max(s.max_self_crossings, (long long)value);
   } else {
     throw std::logic_error("summary.json has no maximum named " + name);
   }
 }
 
 void count_summary_flag(RunSummary& s, const std::string& name, int frame, const std::string& what) {
-  if (name != "collider_intrusions") throw std::logic_error("summary.json has no flag named " + name);
-  if (s.collider_intrusions++ == 0) {
-    s.first_intrusion_frame = frame;
-    s.first_intrusion = what;
+  if (name == "collider_intrusions") {
+    if (s.collider_intrusions++ == 0) {
+      s.first_intrusion_frame = frame;
+      s.first_intrusion = what;
+    }
+  } else if (name == "self_crossing_frames") {
+    if (s.self_crossing_frames++ == 0) {
+      s.first_self_crossing_frame = frame;
+      s.first_self_crossing = what;
+    }
+  } else {
+    throw std::logic_error("summary.json has no flag named " + name);
   }
 }
 
@@ -115,6 +125,10 @@ void write_summary(const std::string& path, const RunSummary& s) {
   const std::string first_intrusion =
       s.collider_intrusions ? "{\"frame\": " + std::to_string(s.first_intrusion_frame) + ", \"what\": " + quoted(s.first_intrusion) + "}"
                             : std::string("null");
+  const std::string first_self_crossing =
+      s.self_crossing_frames ? "{\"frame\": " + std::to_string(s.first_self_crossing_frame) + ", \"what\": " +
+                                   quoted(s.first_self_crossing) + "}"
+                             : std::string("null");
   // A free scene's |P_n - P_0| over its scale (0 for a scene that never moved); null otherwise.
   const std::string momentum_change =
       !s.free_scene ? "null" : number(s.momentum_scale > 0 ? s.momentum_drift / s.momentum_scale : s.momentum_drift);
@@ -178,6 +192,9 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"max_active_contacts\": " << s.max_active_contacts << ",\n"
       << "  \"collider_intrusions\": " << s.collider_intrusions << ",\n"
       << "  \"first_intrusion\": " << first_intrusion << ",\n"
+      << "  \"max_self_crossings\": " << s.max_self_crossings << ",\n"
+      << "  \"self_crossing_frames\": " << s.self_crossing_frames << ",\n"
+      << "  \"first_self_crossing\": " << first_self_crossing << ",\n"
       << "  \"contact_s\": " << number(s.contact_s) << ",\n"
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"

@@ -39,11 +39,11 @@ class FrameLog {
 };
 
 // Raises the summary's field `name` (a maximum over the run's frames that a term reports:
-// max_penetration, max_active_contacts) to value if it is larger. Throws std::logic_error for a
+// max_penetration, max_active_contacts, max_self_crossings) to value if it is larger. Throws std::logic_error for a
 // name summary.json does not have.
 void raise_summary_maximum(RunSummary& s, const std::string& name, double value);
-// Counts `frame` under the summary's field `name` (a flag a term reports: collider_intrusions),
-// keeping what the first flagged frame said. Throws std::logic_error for a name summary.json
+// Counts `frame` under the summary's field `name` (a flag a term reports: collider_intrusions,
+// self_crossing_frames), keeping what the first flagged frame said. Throws std::logic_error for a name summary.json
 // does not have.
 void count_summary_flag(RunSummary& s, const std::string& name, int frame, const std::string& what);
 

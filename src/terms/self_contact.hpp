@@ -168,6 +168,12 @@ class SelfContactTerm : public EnergyTerm {
   // The barrier's energy is infinite where pairs are within their xi: how many; or the step was
   // rejected at its start: which fixed region moves its surface into another (collective).
   PetscErrorCode explain_rejection(const std::vector<double>& pos, std::string& why) const override;
+  // The penalty only (the barrier keeps every pair apart): self-contact.csv's row per frame, the
+  // surface triangle pairs that cross at the frame's end (as check_start counts them); summary.json's
+  // max_self_crossings, and the frame flagged under self_crossing_frames with a warning that says
+  // how many cross and where the first does (collective).
+  TermLog log() const override { return barrier_ ? TermLog{} : TermLog{"self-contact.csv", "crossing_pairs"}; }
+  PetscErrorCode report(const std::vector<double>& pos, TermReport& out) const override;
 
   // The surface, the same on every rank: surface vertex indices in the order of their input ids.
   size_t surface_vertices() const { return ids_.size(); }
@@ -291,6 +297,16 @@ class SelfContactTerm : public EnergyTerm {
   // the scene's bounding box there), over all ranks: the problem names the bodies of the first
   // such pair in the surface's order, how many pairs cross and where the first does (collective).
   PetscErrorCode check_intersections(const std::vector<double>& pos, InputProblem& out) const;
+  // The surface triangle pairs that cross at pos, over all ranks: how many, the first in the
+  // surface's order (the same at any rank count) and a point where it crosses (collective).
+  struct Crossings {
+    long count = 0;
+    std::array<long, 2> first{-1, -1};
+    Eigen::Vector3d at = Eigen::Vector3d::Zero();
+  };
+  PetscErrorCode count_crossings(const std::vector<double>& pos, Crossings& out) const;
+  // "N pairs of surface triangles in the scene cross (...); the first: ... near (x, y, z)".
+  std::string crossings_sentence(const Crossings& c) const;
   // Adds a pair's gradient g into the sums per surface vertex (accumulated_, touched_) at its free points q.
   void accumulate(const std::array<int, 4>& q, const Vector12d& g) const;
   // Adds the gradient summed per surface vertex (accumulated_, at touched_) into the local array:

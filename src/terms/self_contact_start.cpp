@@ -69,7 +69,7 @@ void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, In
   }
 }
 
-PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& pos, InputProblem& out) const {
+PetscErrorCode SelfContactTerm::count_crossings(const std::vector<double>& pos, Crossings& out) const {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
   PetscMPIInt rank;
   PetscFunctionBeginUser;
@@ -127,16 +127,36 @@ PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& p
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_LONG, MPI_SUM, comm));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_LONG_LONG, MPI_MIN, comm));
+  out = Crossings();
+  out.count = count;
   if (count == 0) PetscFunctionReturn(0);
   const long t = (long)(first / n), u = (long)(first % n);
   Vec3 at = Vec3::Zero();  // from the rank of t, which found the pair
   if (owner_[triangles_[t][0]] == rank) triangles_cross(corners(t), corners(u), tol, &at);
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, at.data(), 3, MPI_DOUBLE, MPI_SUM, comm));
+  out.first = {t, u};
+  out.at = at;
+  PetscFunctionReturn(0);
+}
+
+std::string SelfContactTerm::crossings_sentence(const Crossings& c) const {
   const auto ids = [&](long k) {
     const auto& tri = triangles_[k];
     return std::to_string(ids_[tri[0]]) + ", " + std::to_string(ids_[tri[1]]) + ", " + std::to_string(ids_[tri[2]]);
   };
-  const int32_t bt = body_[triangles_[t][0]], bu = body_[triangles_[u][0]];
+  char where[200];
+  std::snprintf(where, sizeof where, ", near (%.6g, %.6g, %.6g)", c.at[0], c.at[1], c.at[2]);
+  return std::to_string(c.count) + " pair" + (c.count == 1 ? "" : "s") + " of surface triangles in the scene cross (by " +
+         "more than 1e-8 of its diagonal, as hyperqn_tools.intersections counts them); the first: the triangle of " +
+         "vertices " + ids(c.first[0]) + " and that of vertices " + ids(c.first[1]) + where;
+}
+
+PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& pos, InputProblem& out) const {
+  Crossings c;
+  PetscFunctionBeginUser;
+  PetscCall(count_crossings(pos, c));
+  if (c.count == 0) PetscFunctionReturn(0);
+  const int32_t bt = body_[triangles_[c.first[0]][0]], bu = body_[triangles_[c.first[1]][0]];
   const int32_t b1 = std::min(bt, bu), b2 = std::max(bt, bu);
   const bool named = b2 < (int32_t)bodies_.size() && !bodies_[b1].key.empty();
   std::string what;
@@ -151,15 +171,26 @@ PetscErrorCode SelfContactTerm::check_intersections(const std::vector<double>& p
                     : "its surface and that of " + bodies_[b2].key + " (deck line " + std::to_string(bodies_[b2].line) +
                           ") cross at frame 0: ";
   }
-  char where[200];
-  std::snprintf(where, sizeof where, ", near (%.6g, %.6g, %.6g)", at[0], at[1], at[2]);
-  what += std::to_string(count) + " pair" + (count == 1 ? "" : "s") + " of surface triangles in the scene cross (by more " +
-          "than 1e-8 of its diagonal, as hyperqn_tools.intersections counts them); the first: the triangle of " +
-          "vertices " + ids(t) + " and that of vertices " + ids(u) + where + ". Self-contact cannot separate " +
+  what += crossings_sentence(c) + ". Self-contact cannot separate " +
           "surfaces that start crossed (the barrier's energy is infinite on the way out; the penalty pushes each pair " +
           "to its nearer side, which keeps them crossed): " +
           (named && b1 != b2 ? "move the bodies apart" : "start from a mesh that does not cross itself");
   out.what = what;
+  PetscFunctionReturn(0);
+}
+
+// The penalty's frames: crossings are counted at every frame's end (the barrier cannot cross).
+PetscErrorCode SelfContactTerm::report(const std::vector<double>& pos, TermReport& out) const {
+  Crossings c;
+  PetscFunctionBeginUser;
+  if (barrier_) PetscFunctionReturn(0);
+  PetscCall(count_crossings(pos, c));
+  out.rows.push_back(std::to_string(c.count));
+  out.maxima.emplace_back("max_self_crossings", (double)c.count);
+  if (c.count > 0)
+    out.flags.emplace_back("self_crossing_frames", "self-contact (penalty): " + crossings_sentence(c) +
+                                                       ". The penalty does not keep surfaces apart; the barrier does "
+                                                       "(contact.model: barrier, docs/self-contact.md)");
   PetscFunctionReturn(0);
 }
 

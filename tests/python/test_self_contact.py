@@ -117,6 +117,64 @@ def test_penalty_bounces_too(tmp_path):
     assert left[0] < 0 < right[0]
 
 
+def crossing_deck():
+    """The blocks thrown at each other at 10 m/s with the penalty at stiffness 1 (one weight at the
+    layer's bottom): they pass through each other."""
+    d = deck("penalty", frames=8)
+    for body in d["bodies"]:
+        body["velocity"] = [10 * v for v in body["velocity"]]
+    d["contact"]["stiffness"] = 1.0
+    return d
+
+
+def crossing_rows(out):
+    """self-contact.csv's crossing_pairs per frame."""
+    lines = (out / "self-contact.csv").read_text().splitlines()
+    assert lines[0] == "frame,time,crossing_pairs"
+    return {int(r.split(",")[0]): int(r.split(",")[2]) for r in lines[1:]}
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_penalty_counts_and_flags_crossed_frames(tmp_path, ranks):
+    """Penalty self-contact gives no guarantee: the frames that end with crossing surface triangles
+    are counted (self-contact.csv's crossing_pairs, the same pairs hyperqn_tools.intersections
+    finds in the written frame), flagged (summary.json's self_crossing_frames, max_self_crossings
+    and first_self_crossing; a WARNING line each), at 1 and 2 ranks. Before: status ok and no word."""
+    out = tmp_path / "through"
+    done = run_hyperqn([write_deck(tmp_path / "through.yaml", crossing_deck()), "-o", out], ranks=ranks)
+    rows = crossing_rows(out)
+    checked = {r["frame"]: r["intersecting_pairs"] for r in check_run(out)}
+    assert rows == {f: n for f, n in checked.items() if f > 0}
+    crossed = [f for f, n in rows.items() if n > 0]
+    assert crossed, rows  # the blocks pass through each other
+    summary = read_summary(out)
+    assert summary["status"] == "ok"
+    assert summary["self_crossing_frames"] == len(crossed)
+    assert summary["max_self_crossings"] == max(rows.values())
+    first = summary["first_self_crossing"]
+    assert first["frame"] == crossed[0]
+    assert first["what"].startswith(f"self-contact (penalty): {rows[crossed[0]]} pair")
+    warnings = re.findall(r"^frame +(\d+) +WARNING: self-contact \(penalty\): (\d+) pairs? of surface triangles",
+                          done.stdout, re.M)
+    assert [(int(f), int(n)) for f, n in warnings] == [(f, rows[f]) for f in crossed]
+
+
+def test_penalty_without_crossings_and_the_barrier_report_none(tmp_path):
+    """The blocks at 1 m/s with the penalty at stiffness 1e4 bounce without crossing: every row 0 and
+    nothing flagged (at the default stiffness, 1e3, they cross: 28 pairs from frame 3 on, which
+    test_penalty_bounces_too's momenta do not see); the barrier, which cannot cross, counts nothing
+    and writes no self-contact.csv."""
+    stiff = deck("penalty", frames=8)
+    stiff["contact"]["stiffness"] = 1e4
+    out, _ = run(tmp_path, "bounce", stiff)
+    assert set(crossing_rows(out).values()) == {0}
+    summary = read_summary(out)
+    assert (summary["self_crossing_frames"], summary["max_self_crossings"], summary["first_self_crossing"]) == (0, 0, None)
+    out, _ = run(tmp_path, "barrier", deck("barrier", frames=2))
+    assert not (out / "self-contact.csv").exists()
+    assert read_summary(out)["self_crossing_frames"] == 0
+
+
 def halves_gap(f):
     """The distance between the closest vertices of the folded sheet's two halves in frame f."""
     rest = f.points - f.displacement
