@@ -1,5 +1,6 @@
 // A scene deck: one YAML file describing one simulation: the scene (model/scene_spec.hpp) and
-// how to run it (solver, output, study, extra PETSc options). The format is documented in docs/decks.md.
+// how to run it (solver, output, study, extra PETSc options). The format is documented in docs/decks.md
+// (and the pages it links: docs/deck-scene.md, docs/deck-run.md).
 #pragma once
 #include <array>
 #include <map>
@@ -68,7 +69,7 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
   return keys;
 }
 
-// When a run writes checkpoints (docs/decks.md#checkpoint): every `every` frames and/or when
+// When a run writes checkpoints (docs/deck-run.md#checkpoint): every `every` frames and/or when
 // `seconds` of wall time passed since the last one (0: not by that rule); the newest `keep` remain.
 struct CheckpointSpec {
   int every = 0;

@@ -1,6 +1,6 @@
 // Every deck section declared with io/deck_keys.hpp, in the deck's order: what `hyperqn
 // --help-deck` prints, `hyperqn registry` exports and scripts/deck_tables.py turns into
-// docs/decks.md's tables.
+// the tables of docs/deck-scene.md and docs/deck-run.md.
 #include "app/deck.hpp"
 #include "materials/material_factory.hpp"
 #include "solvers/solver_registry.hpp"

@@ -169,7 +169,7 @@ std::string registry_json() {
 
 // hyperqn --help-deck: the declared deck keys, section by section.
 std::string deck_keys_text() {
-  std::string s = "Deck keys declared with their types, ranges and defaults (docs/decks.md has every section):\n";
+  std::string s = "Deck keys declared with their types, ranges and defaults (docs/decks.md lists every section and the page of its table):\n";
   std::string section;
   for (const hyperqn::KeyInfo& k : hyperqn::declared_deck_keys()) {
     if (k.section != section) s += "\n" + (section = k.section) + ":\n";

@@ -1,8 +1,9 @@
 // A deck section's keys declared once, beside the struct they fill: name, type, range, unit, one
 // line of documentation and the allowed choices. From these declarations the deck reader reads
 // the section (app/deck.cpp, read_keys: every check and message alike), `hyperqn --help-deck`
-// prints them, `hyperqn registry` exports them, and docs/decks.md's tables of those sections are
-// generated (scripts/deck_tables.py; tests/python/test_deck_tables.py fails when they differ).
+// prints them, `hyperqn registry` exports them, and the tables of those sections on
+// docs/deck-scene.md and docs/deck-run.md are generated (scripts/deck_tables.py;
+// tests/python/test_deck_tables.py fails when they differ).
 // The default is the struct's own (a default-constructed one), so it is stated once too.
 #pragma once
 #include <algorithm>

@@ -28,7 +28,7 @@ struct MaterialParams {
 
 // A deck key of material models (material.<name>), declared once here: its range, and which
 // models take it (their lists below). The deck's material keys (model/material_spec.hpp) are made
-// from these, so the deck reader, --help-deck and docs/decks.md take them from here.
+// from these, so the deck reader, --help-deck and docs/deck-scene.md take them from here.
 struct MaterialKey {
   const char* name;           // a key of a map follows the map's own entry: "fiber.stiffness"
   const char* doc;

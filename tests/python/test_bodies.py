@@ -1,14 +1,14 @@
-"""Scenes of several bodies (deck `bodies:`, docs/decks.md#bodies): a soft and a stiff block of
-different materials fall side by side onto a ground plane, in one mesh with one factor and one
-solve per iteration. Each lands as it does alone (to 1e-8 of its diagonal; every step solved by
-Newton to round-off, so that only the coupling of the two solves could differ, and the contact's
-distance-dependent defaults given explicitly: they follow the whole scene's diagonal); 1 and 2
-ranks agree to 1e-8 (and 4, oversubscribed); a body's velocity, fixed regions and attachments are
-its own; the `body` cell field names each element's body, in the VTK and the XDMF frames; a
-one-body list is the plain deck. A cloth body (a sheet with its cloth block) and a rope (strands
-with their strand_material) hang from their own fixed regions beside a falling block, each as it
-does alone, at 1 and 2 ranks; a cloth, a rope and a block dropped onto the ground plane come to
-rest on it, none below it, at 1 and 2 ranks alike; bad body keys are input errors."""
+"""Scenes of several bodies (deck `bodies:`, docs/deck-scene.md#bodies-instead-of-mesh-and-material):
+a soft and a stiff block of different materials fall side by side onto a ground plane, in one mesh
+with one factor and one solve per iteration. Each lands as it does alone (to 1e-8 of its diagonal;
+every step solved by Newton to round-off, so that only the coupling of the two solves could differ,
+and the contact's distance-dependent defaults given explicitly: they follow the whole scene's
+diagonal); 1 and 2 ranks agree to 1e-8 (and 4, oversubscribed); a body's velocity, fixed regions
+and attachments are its own; the `body` cell field names each element's body, in the VTK and the
+XDMF frames; a one-body list is the plain deck. A cloth body (a sheet with its cloth block) and a
+rope (strands with their strand_material) hang from their own fixed regions beside a falling block,
+each as it does alone, at 1 and 2 ranks; a cloth, a rope and a block dropped onto the ground plane
+come to rest on it, none below it, at 1 and 2 ranks alike; bad body keys are input errors."""
 import copy
 import json
 

@@ -184,7 +184,7 @@ def test_pd_is_lbfgs_with_history_0_on_mass_spring_cloth(tmp_path, bending):
 
 
 def test_fixed_budget_takes_exactly_the_iterations(tmp_path):
-    """solver.budget: fixed (docs/decks.md#solver): every frame takes `iterations` iterations, no more,
+    """solver.budget: fixed (docs/deck-run.md#solver): every frame takes `iterations` iterations, no more,
     no sub-steps, no Newton, where the adaptive default goes on with frames left far from converged."""
     deck = small_liu_sheet(frames=8)
     deck["output"] = {"vtk": False}

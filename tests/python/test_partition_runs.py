@@ -106,8 +106,8 @@ def test_a_run_from_the_mesh_file_continues_from_the_partition_file(runs, tmp_pa
     assert proc.returncode == 1 and "the mesh differs" in proc.stdout, proc.stdout[-2000:]
 
 
-# A scene of bodies (docs/decks.md#bodies): a cloth and a rope hanging from their own fixed boxes,
-# a block flying off with its own velocity and a block held by its own attachment, all solved to
+# A scene of bodies (docs/deck-scene.md#bodies-instead-of-mesh-and-material): a cloth and a rope
+# hanging from their own fixed boxes, a block flying off with its own velocity and a block held by its own attachment, all solved to
 # round-off, so that only the order of sums differs between partitions.
 BODIES = {
     "bodies": [CLOTH, ROPE, dict(SOFT, velocity=[0, 0, 0.5]),

@@ -123,7 +123,7 @@ def test_released_end_untwists(tmp_path, ranks):
             assert cur["energy"] <= prev["energy"] * (1 + 1e-12) + 1e-300
 
 
-# A spinning body let go (docs/decks.md#fixed, `release`): the 2 m x 0.5 m x 0.5 m bar of 8 x 2 x 2
+# A spinning body let go (docs/deck-scene.md#fixed, `release`): the 2 m x 0.5 m x 0.5 m bar of 8 x 2 x 2
 # cells is held by two fixed regions, its halves but the middle layer of vertices (x = 1), both
 # turning at 360 degrees/s about the bar's long axis, and released at t = dt. From the step that
 # starts at t = dt on it is free, and the released vertices keep the prescribed velocity at that
