@@ -60,8 +60,8 @@ MIXED_MATERIALS = {
     "solver": {"type": "lbfgs", "iterations": 20},
 }
 
-# (name, deck: a path from the repository root or a dict, rank counts, frames or None: the deck's,
-# and optionally extra command-line options)
+# (name, deck: a path from the repository root, a (path, {section: replacement}) pair or a dict,
+# rank counts, frames or None: the deck's, and optionally extra command-line options)
 CASES = [
     ("bar", "input/bar.yaml", (1, 2), 20),
     ("strands", "input/strands.yaml", (2,), 30),
@@ -79,6 +79,9 @@ CASES = [
     # Self-contact: two blocks that meet (Newton), a cloth that folds onto itself (L-BFGS, barrier).
     ("self_blocks", "tests/decks/self_contact_blocks.yaml", (1, 2), None),
     ("cloth_pile", "input/contact/cloth_pile.yaml", (1, 2), 8),
+    # The blocks with the penalty, whose frames end with a count of the crossing triangles.
+    ("self_penalty", ("tests/decks/self_contact_blocks.yaml",
+                      {"contact": {"self": True, "model": "penalty", "distance": 5.0e-3}}), (1, 2), None),
 ]
 TIMEOUT_S = 300
 
@@ -88,8 +91,9 @@ def prepared_deck(name, source, frames, deckdir):
     if isinstance(source, dict):
         deck = copy.deepcopy(source)
     else:
+        source, changes = source if isinstance(source, tuple) else (source, {})
         path = os.path.join(REPO, source)
-        deck = portable_copy(load_deck(path), path)
+        deck = {**portable_copy(load_deck(path), path), **changes}
     if frames:
         deck["time"]["frames"] = frames
     deck["output"] = {**(deck.get("output") or {}), "vtk": True}

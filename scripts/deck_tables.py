@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The tables of the declared deck sections in the deck's pages (DOCS below), from the binary's
-declarations (src/io/deck_keys.hpp, exported by `hyperqn registry`): one place for each key's
+declarations (src/params/deck_keys.hpp, exported by `hyperqn registry`): one place for each key's
 type, range, default and documentation.
 
     export PYTHONPATH=$PWD/postprocess

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "io/collectives.hpp"
+#include "parallel/collectives.hpp"
 
 namespace hyperqn {
 

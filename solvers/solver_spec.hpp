@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 
 namespace hyperqn {
 
@@ -67,7 +67,7 @@ struct SolverSpec {
   bool quiet = false;  // set up without a word (the chain's solvers: the run's own one has spoken)
 };
 
-// The deck's solver: keys (io/deck_keys.hpp; solvers/solver_registry.cpp, which knows the types).
+// The deck's solver: keys (params/deck_keys.hpp; solvers/solver_registry.cpp, which knows the types).
 const std::vector<DeckKey<SolverSpec>>& solver_keys();
 
 // The paper's fixed budget (the deck's solver: {budget: fixed}, and every study contender): a

@@ -8,7 +8,7 @@
 #include <numeric>
 #include <utility>
 
-#include "io/collectives.hpp"
+#include "parallel/collectives.hpp"
 #include "io/log_events.hpp"
 
 namespace hyperqn {

@@ -1,4 +1,4 @@
-// Unit test of io/collectives.hpp at any rank count: all_gathered and all_to_all with vectors of
+// Unit test of parallel/collectives.hpp at any rank count: all_gathered and all_to_all with vectors of
 // a different length on every rank, one rank with none, and the counts they report.
 #include <mpi.h>
 
@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "check.hpp"
-#include "io/collectives.hpp"
+#include "parallel/collectives.hpp"
 
 using namespace hyperqn;
 

@@ -62,7 +62,7 @@ def registry(binary=None):
     """The material models and solvers the binary registers (`hyperqn registry`): a dict with
     lists "materials" ({name, summary, parameters}), "solvers" ({name, summary,
     uses_constant_matrix}) and "deck_keys" ({section, name, type, default, unit, choices, doc}: the
-    declared deck keys, io/deck_keys.hpp), in the binary's order."""
+    declared deck keys, params/deck_keys.hpp), in the binary's order."""
     done = run(["registry"], ranks=None, binary=binary, stderr=subprocess.DEVNULL, check=True, timeout=60)
     return json.loads(done.stdout)
 

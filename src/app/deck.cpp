@@ -31,7 +31,7 @@ using Names = std::vector<std::string>;
 // Solver names come from their registry (solvers/solver_registry.hpp).
 const Names kSolverTypes = solver_names();
 // Bounds that keep a deck from exhausting the machine or the floating-point range (each number's:
-// number_limits_problem, materials/key_range.hpp).
+// number_limits_problem, params/key_range.hpp).
 constexpr int kMaxIterations = 1000000;   // per frame
 constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
 constexpr int kContactHistory = 20;         // solver.history's default with colliders
@@ -280,7 +280,7 @@ void read_value(const Reader& r, const DeckKey<Spec>& k, const Value& x, Spec& s
       k.member.field);
 }
 
-// Reads a section of declared keys (io/deck_keys.hpp) into spec, in their declared order, with
+// Reads a section of declared keys (params/deck_keys.hpp) into spec, in their declared order, with
 // the same messages as every other key: a wrong type, a value out of its range ("must be <rule>,
 // got X"), an unknown choice, an unknown key, an empty list, a key of another model or type. A
 // nested map's keys ("box.min") are read from its map, as a section of their own. `more`: keys the

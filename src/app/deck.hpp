@@ -30,7 +30,7 @@ struct StudySpec {
 enum class OutputFormat { vtu, xdmf };
 inline const std::vector<std::string> kOutputFormatNames = {"vtu", "xdmf"};  // in the enum's order
 
-// The deck's study: keys (io/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
+// The deck's study: keys (params/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
 const std::vector<DeckKey<StudySpec>>& study_keys();
 
 // The deck's material: keys (app/deck_keys.cpp): model, then each key of the material registry
@@ -47,7 +47,7 @@ struct OutputSpec {
   bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
 };
 
-// The deck's output: keys (io/deck_keys.hpp).
+// The deck's output: keys (params/deck_keys.hpp).
 inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
   static const std::vector<DeckKey<OutputSpec>> keys = {
       {"directory", &OutputSpec::directory,
@@ -77,7 +77,7 @@ struct CheckpointSpec {
   int keep = 2;
 };
 
-// The deck's checkpoint: keys (io/deck_keys.hpp).
+// The deck's checkpoint: keys (params/deck_keys.hpp).
 inline const std::vector<DeckKey<CheckpointSpec>>& checkpoint_keys() {
   static const std::vector<DeckKey<CheckpointSpec>> keys = {
       {"every", &CheckpointSpec::every, "a checkpoint every N frames (at frames N, 2N, …)",
@@ -113,7 +113,7 @@ struct Deck : SceneSpec {
 constexpr int kMaxPetscOptions = 1000;
 constexpr int kMaxPetscDepth = 8;
 
-// The deck's petsc: keys (io/deck_keys.hpp): a free map, any option name, read by read_petsc.
+// The deck's petsc: keys (params/deck_keys.hpp): a free map, any option name, read by read_petsc.
 inline const std::vector<DeckKey<Deck>>& petsc_keys() {
   static const std::string doc =
       "a PETSc option, named without its leading `-`: letters, digits and `_`, starting with a letter; a nested "

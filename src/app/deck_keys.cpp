@@ -1,4 +1,4 @@
-// Every deck section declared with io/deck_keys.hpp, in the deck's order: what `hyperqn
+// Every deck section declared with params/deck_keys.hpp, in the deck's order: what `hyperqn
 // --help-deck` prints, `hyperqn registry` exports and scripts/deck_tables.py turns into
 // the tables of docs/deck-scene.md and docs/deck-run.md.
 #include "app/deck.hpp"

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "geometry/motion.hpp"
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 
 namespace hyperqn {
 
@@ -32,7 +32,7 @@ struct ColliderSpec {
   int line = 0;                                // deck line, for error messages
 };
 
-// The deck's keys of one of its colliders: (io/deck_keys.hpp): each type's own keys, friction and
+// The deck's keys of one of its colliders: (params/deck_keys.hpp): each type's own keys, friction and
 // motion. Its reader resolves `file` and checks min < max.
 inline const std::vector<DeckKey<ColliderSpec>>& collider_keys() {
   using C = ColliderSpec;

@@ -6,7 +6,7 @@
 #include <Eigen/Dense>
 #include <array>
 
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 
 namespace hyperqn {
 
@@ -18,7 +18,7 @@ struct Motion {
   double start = 0, end = 1e300;
 };
 
-// The deck's motion: keys, of a fixed region, an attachment or a collider (io/deck_keys.hpp). Its
+// The deck's motion: keys, of a fixed region, an attachment or a collider (params/deck_keys.hpp). Its
 // reader sets `active` and checks end >= start.
 inline const std::vector<DeckKey<Motion>>& motion_keys() {
   using M = Motion;

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "materials/key_range.hpp"
+#include "params/key_range.hpp"
 #include "materials/material.hpp"
 #include "materials/scalar_function.hpp"
 

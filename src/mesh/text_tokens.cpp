@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "materials/key_range.hpp"
+#include "params/key_range.hpp"
 #include "mesh/input_error.hpp"
 
 namespace hyperqn {

@@ -52,7 +52,7 @@ bool parse_int(const Token& t, long long& v);
 // append to a message; "" for any other token.
 std::string number_note(const Token& t);
 // A coordinate x read from t must be a number hyperqn takes (number_limits_problem,
-// materials/key_range.hpp: finite, 0 or between 1e-100 and 1e100 in magnitude); else an InputError
+// params/key_range.hpp: finite, 0 or between 1e-100 and 1e100 in magnitude); else an InputError
 // naming path, t's line and section: "<what> '<t>' must be ...".
 void check_coordinate(const std::string& path, const std::string& section, const Token& t, double x,
                       const std::string& what);

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 #include "materials/cloth_models.hpp"
 
 namespace hyperqn {
@@ -18,7 +18,7 @@ struct StrandMaterial {
   double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
 };
 
-// The deck's strand_material: keys (io/deck_keys.hpp).
+// The deck's strand_material: keys (params/deck_keys.hpp).
 inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
   using S = StrandMaterial;
   static const std::vector<DeckKey<S>> keys = {
@@ -62,7 +62,7 @@ struct ClothSpec {
   int thickness_line = 0;            // deck line of thickness, when given
 };
 
-// The deck's cloth: keys (io/deck_keys.hpp).
+// The deck's cloth: keys (params/deck_keys.hpp).
 inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
   using C = ClothSpec;
   static const std::vector<DeckKey<C>> keys = {

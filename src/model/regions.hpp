@@ -30,7 +30,7 @@ struct BoxRegion {
                                      // (bodies[body].fixed, bodies[body].attachments; -1: any)
 };
 
-// The keys box, box.min and box.max of a deck section whose box is box(spec) (io/deck_keys.hpp).
+// The keys box, box.min and box.max of a deck section whose box is box(spec) (params/deck_keys.hpp).
 // The section's reader checks min <= max.
 template <typename Spec>
 std::vector<DeckKey<Spec>> box_keys(BoxRegion& (*box)(Spec&), const char* doc, bool required) {
@@ -41,7 +41,7 @@ std::vector<DeckKey<Spec>> box_keys(BoxRegion& (*box)(Spec&), const char* doc, b
                                "the opposite corner: `min` ≤ `max` on every axis (equality gives a plane)"})};
 }
 
-// The keys of one of the deck's fixed: regions (io/deck_keys.hpp).
+// The keys of one of the deck's fixed: regions (params/deck_keys.hpp).
 inline const std::vector<DeckKey<BoxRegion>>& fixed_keys() {
   using B = BoxRegion;
   static const std::vector<DeckKey<B>> keys = [] {
@@ -66,7 +66,7 @@ struct AttachmentSpec {
   double stiffness = 0;
 };
 
-// The keys of one of the deck's attachments: (io/deck_keys.hpp).
+// The keys of one of the deck's attachments: (params/deck_keys.hpp).
 inline const std::vector<DeckKey<AttachmentSpec>>& attachment_keys() {
   using A = AttachmentSpec;
   static const std::vector<DeckKey<A>> keys = [] {
@@ -96,7 +96,7 @@ struct MaterialRegion {
   int line = 0;
 };
 
-// The keys of one of the deck's regions: (io/deck_keys.hpp). Its reader checks that it gives box
+// The keys of one of the deck's regions: (params/deck_keys.hpp). Its reader checks that it gives box
 // or tags.
 inline const std::vector<DeckKey<MaterialRegion>>& region_keys() {
   using R = MaterialRegion;

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "geometry/collider.hpp"
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 #include "mesh/mesh_spec.hpp"
 #include "model/material_spec.hpp"
 #include "model/regions.hpp"
@@ -23,7 +23,7 @@ struct TimeSpec {
   TimeIntegrator integrator = TimeIntegrator::implicit_euler;
 };
 
-// The deck's time: keys (io/deck_keys.hpp).
+// The deck's time: keys (params/deck_keys.hpp).
 inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
   static const std::vector<DeckKey<TimeSpec>> keys = {
       {"dt", &TimeSpec::dt, "time step (one step per frame)", above(0), {}, "s", "1/30"},
@@ -44,7 +44,7 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
   return keys;
 }
 
-// The deck's mesh: keys (io/deck_keys.hpp; MeshSpec is the mesh layer's, below io). Its reader
+// The deck's mesh: keys (params/deck_keys.hpp; MeshSpec is the mesh layer's, below io). Its reader
 // resolves the file, reads the strands (strand_line_keys) and checks which keys go together.
 inline const std::vector<DeckKey<MeshSpec>>& mesh_keys() {
   using M = MeshSpec;
@@ -95,7 +95,7 @@ inline const std::vector<DeckKey<MeshSpec>>& mesh_keys() {
   return keys;
 }
 
-// The keys of one of mesh.strands (io/deck_keys.hpp; documented as mesh_keys' strands).
+// The keys of one of mesh.strands (params/deck_keys.hpp; documented as mesh_keys' strands).
 inline const std::vector<DeckKey<StrandLine>>& strand_line_keys() {
   using L = StrandLine;
   static const std::vector<DeckKey<L>> keys = {
@@ -117,7 +117,7 @@ struct InitialSpec {
   int seed = 1;                      // random: uniform in the rest bounding box, per vertex id
 };
 
-// The deck's initial: keys (io/deck_keys.hpp): one form, a map of its own keys (collapse: a bool).
+// The deck's initial: keys (params/deck_keys.hpp): one form, a map of its own keys (collapse: a bool).
 // Its reader checks that one is given and sets kind.
 inline const std::vector<DeckKey<InitialSpec>>& initial_keys() {
   using I = InitialSpec;
@@ -151,7 +151,7 @@ struct BodySpec {
   int line = 0;                          // deck line of bodies[k]
 };
 
-// The keys of one of the deck's bodies (io/deck_keys.hpp). Its reader reads the mesh and the
+// The keys of one of the deck's bodies (params/deck_keys.hpp). Its reader reads the mesh and the
 // material of each part with their sections' own keys, and checks which parts the mesh has.
 inline const std::vector<DeckKey<BodySpec>>& body_keys() {
   using B = BodySpec;
@@ -235,7 +235,7 @@ inline bool free_scene(const SceneSpec& s) {
          s.time.damping == 0;
 }
 
-// The deck's gravity: (io/deck_keys.hpp), a section that is one value: its one key is the section.
+// The deck's gravity: (params/deck_keys.hpp), a section that is one value: its one key is the section.
 inline const std::vector<DeckKey<SceneSpec>>& gravity_keys() {
   static const std::vector<DeckKey<SceneSpec>> keys = {
       {"gravity", &SceneSpec::gravity, "the acceleration of every vertex, in the units of the deck (m/s² in SI)"},

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "io/deck_keys.hpp"
+#include "params/deck_keys.hpp"
 
 namespace hyperqn {
 
@@ -27,7 +27,7 @@ struct ContactSpec {
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
 ContactSpec resolved_contact(ContactSpec spec, double diagonal);
 
-// The deck's contact: keys (io/deck_keys.hpp). Its defaults of 0 are resolved for the scene
+// The deck's contact: keys (params/deck_keys.hpp). Its defaults of 0 are resolved for the scene
 // (resolved_contact).
 inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
   using C = ContactSpec;

@@ -8,7 +8,7 @@
 #include <tuple>
 
 #include "geometry/pair_ccd.hpp"
-#include "io/collectives.hpp"
+#include "parallel/collectives.hpp"
 #include "terms/contact.hpp"
 
 namespace hyperqn {

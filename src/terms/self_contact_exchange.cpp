@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "geometry/box_tree.hpp"
-#include "io/collectives.hpp"
+#include "parallel/collectives.hpp"
 #include "terms/self_contact.hpp"
 
 namespace hyperqn {

@@ -1,4 +1,4 @@
-"""Parameters declared once (src/io/deck_keys.hpp): the tables of every section on the deck's pages
+"""Parameters declared once (src/params/deck_keys.hpp): the tables of every section on the deck's pages
 (the pages scripts/deck_tables.py lists in DOCS) are what the binary declares, and `hyperqn
 --help-deck` lists every declared key with its default."""
 import subprocess

@@ -15,7 +15,7 @@
 #include <variant>
 #include <vector>
 
-#include "materials/key_range.hpp"
+#include "params/key_range.hpp"
 
 namespace hyperqn {
 

@@ -1,5 +1,5 @@
 // A deck key's allowed numbers (KeyRange), in the lowest layer: the material registry
-// (materials/material_factory.hpp) declares its models' keys with them, and io/deck_keys.hpp every
+// (materials/material_factory.hpp) declares its models' keys with them, and params/deck_keys.hpp every
 // other section's.
 #pragma once
 #include <cmath>
