@@ -170,8 +170,8 @@ def test_penalty_without_crossings_and_the_barrier_report_none(tmp_path):
     assert set(crossing_rows(out).values()) == {0}
     summary = read_summary(out)
     assert (summary["self_crossing_frames"], summary["max_self_crossings"], summary["first_self_crossing"]) == (0, 0, None)
-    out, _ = run(tmp_path, "barrier", deck("barrier", frames=2))
-    assert not (out / "self-contact.csv").exists()
+    out, _ = run(tmp_path, "bounce", deck("barrier", frames=2))  # into the penalty run's directory
+    assert not (out / "self-contact.csv").exists()  # the earlier run's removed, none written
     assert read_summary(out)["self_crossing_frames"] == 0
 
 
