@@ -17,35 +17,23 @@ StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>&
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_, &kept_hat_}) VecDestroy(v);
+  for (Vec* v : {&work_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_, &kept_hat_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
-  DM dm = body_.mesh().dm;
-  PetscInt lo, hi;
-  PetscScalar* a;
   PetscFunctionBeginUser;
-  PetscCall(DMCreateGlobalVector(dm, &mass_));
-  PetscCall(PetscObjectSetName((PetscObject)mass_, "mass"));
-  PetscCall(body_.lumped_mass(mass_));
-  PetscCall(VecDuplicate(mass_, &y_));
-  PetscCall(VecDuplicate(mass_, &work_));
-  PetscCall(VecDuplicate(mass_, &diff_));
-  PetscCall(VecDuplicate(mass_, &x_n_));
-  PetscCall(VecDuplicate(mass_, &v_n_));
-  PetscCall(VecDuplicate(mass_, &x_hat_));
-  PetscCall(VecDuplicate(mass_, &v_hat_));
-  // h^2 * gravity, repeated for every free vertex (dofs are interleaved x, y, z).
-  PetscCall(VecDuplicate(mass_, &gravity_step_));
-  PetscCall(VecGetOwnershipRange(gravity_step_, &lo, &hi));
-  PetscCall(VecGetArray(gravity_step_, &a));
-  for (PetscInt i = lo; i < hi; ++i) a[i - lo] = solve_dt_ * solve_dt_ * gravity_[i % 3];
-  PetscCall(VecRestoreArray(gravity_step_, &a));
+  PetscCall(inertia_.setup(body_, solve_dt_, gravity_));
+  Vec mass = inertia_.mass();
+  PetscCall(VecDuplicate(mass, &work_));
+  PetscCall(VecDuplicate(mass, &x_n_));
+  PetscCall(VecDuplicate(mass, &v_n_));
+  PetscCall(VecDuplicate(mass, &x_hat_));
+  PetscCall(VecDuplicate(mass, &v_hat_));
   // W = h^2 g0 sqrt(sum of m_i^2 over free vertices) (force_scale); the mass vector repeats m_i
   // three times.
   constexpr double kStandardGravity = 9.80665;
   PetscReal mass_norm;
-  PetscCall(VecNorm(mass_, NORM_2, &mass_norm));
+  PetscCall(VecNorm(mass, NORM_2, &mass_norm));
   weight_scale_ = solve_dt_ * solve_dt_ * kStandardGravity * mass_norm / std::sqrt(3.0);
   diagonal_ = rest_diagonal(body_.mesh());
   PetscFunctionReturn(0);
@@ -68,9 +56,8 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
   body_.set_time(t);  // prescribed positions of the fixed vertices at t
   PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
-  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
-  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, s.x, y_, s.frame * dt_}));
+  PetscCall(inertia_.set_target(x_hat_, v_hat_));
+  PetscCall(body_.begin_step({t, solve_dt_, s.x, inertia_.target(), s.frame * dt_}));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
   euler_completed_ = false;
@@ -128,12 +115,12 @@ PetscErrorCode StepObjective::upright_guess(Vec from, Vec x) {
   constexpr int kMaxHalvings = 30;
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
-  PetscCall(VecCopy(y_, x));
+  PetscCall(VecCopy(inertia_.target(), x));
   // Only tets can invert (not cells == 0 alone: a rank may have none, the others some).
   if (!upright_guess_ || body_.mesh().global_cells == 0) PetscFunctionReturn(0);
   PetscCall(body_.local_positions(from, pos_));
   body_.cell_jacobians(pos_, J_n_);
-  PetscCall(VecWAXPY(work_, -1.0, from, y_));  // y - x_n
+  PetscCall(VecWAXPY(work_, -1.0, from, inertia_.target()));  // y - x_n
   double t = 1;
   for (int halvings = 0;; ++halvings, t *= 0.5) {
     if (halvings > kMaxHalvings) {
@@ -196,8 +183,8 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
   PetscFunctionBeginUser;
   *sound = true;
   if (body_.mesh().global_cells == 0) PetscFunctionReturn(0);  // nothing to invert
-  if (!end_x_) PetscCall(VecDuplicate(mass_, &end_x_));
-  if (!end_v_) PetscCall(VecDuplicate(mass_, &end_v_));
+  if (!end_x_) PetscCall(VecDuplicate(inertia_.mass(), &end_x_));
+  if (!end_v_) PetscCall(VecDuplicate(inertia_.mass(), &end_v_));
   PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
   body_.cell_jacobians(pos_, J_n_);
   PetscCall(VecCopy(s.x, end_x_));
@@ -231,9 +218,8 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
   PetscCall(VecWAXPY(v_hat_, -1.0, x_n_, s.x));       // (z - x_n) / h'
   PetscCall(VecScale(v_hat_, 1.0 / solve_dt_));
   body_.set_time(t);
-  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
-  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, y_, t_z}));
+  PetscCall(inertia_.set_target(x_hat_, v_hat_));
+  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, inertia_.target(), t_z}));
   PetscCall(initial_guess(x_hat_, s.x));
   PetscCall(solve_from(solver, x_hat_, s.x, on_iteration, out));
   PetscFunctionReturn(0);
@@ -289,60 +275,36 @@ PetscErrorCode StepObjective::objective(Vec x, PetscReal* g, Vec grad) {
   PetscCall(event_begin(&LogEvents::objective));
   ++evaluations_;
   PetscCall(body_.energy_gradient(x, &E, grad));
-  PetscCall(VecWAXPY(diff_, -1.0, y_, x));                // x - y
-  PetscCall(VecPointwiseMult(work_, diff_, mass_));       // M (x - y)
+  // A non-finite entry of dE/dx on this rank poisons this rank's part of the inertia, so g
+  // (reduced over all ranks) says on every rank that the point is rejected, without a reduction
+  // of its own.
+  bool finite = true;
   if (grad) {
-    // A non-finite entry of dE/dx on this rank poisons this rank's part of the inertia dot
-    // product, so g (reduced over all ranks) says on every rank that the point is rejected,
-    // without a reduction of its own.
     const PetscScalar* dE;
     PetscInt n;
-    bool finite = true;
     PetscCall(VecGetLocalSize(grad, &n));
     PetscCall(VecGetArrayRead(grad, &dE));
     for (PetscInt i = 0; i < n; ++i) finite = finite && std::isfinite(dE[i]);
     PetscCall(VecRestoreArrayRead(grad, &dE));
-    if (!finite && n > 0) {
-      PetscScalar* w;
-      PetscCall(VecGetArray(work_, &w));
-      w[0] = NAN;
-      PetscCall(VecRestoreArray(work_, &w));
-    }
   }
-  PetscCall(VecDot(work_, diff_, &inertia));
-  *g = 0.5 * inertia + solve_dt_ * solve_dt_ * E;
+  PetscCall(inertia_.evaluate(x, !finite, &inertia));
+  *g = inertia + solve_dt_ * solve_dt_ * E;  // the sum's order decides its bits
   if (rejected(*g)) {
     ++counts_->rejected;
     *g = kRejectedEnergy;
     if (grad) PetscCall(VecSet(grad, 0.0));
   } else if (grad) {
-    PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, work_));  // M (x - y) + h'^2 dE/dx
+    PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, inertia_.gradient()));  // M (x - y) + h'^2 dE/dx
   }
   PetscCall(event_end(&LogEvents::objective));
   PetscFunctionReturn(0);
 }
 
-// One pass over the dofs and one reduction: the solvers ask for it at every iterate
-// (solvers/frame_budget.hpp), where VecWAXPY, VecPointwiseMult and VecNorm took 9 us of an
-// iteration's 0.55 ms on input/bar.yaml (-log_view, 1 rank).
 PetscErrorCode StepObjective::force_scale(Vec x, double* scale) {
-  const PetscScalar *xa, *ya, *m;
-  PetscInt n;
-  double local = 0, global;
+  double norm;
   PetscFunctionBeginUser;
-  PetscCall(VecGetLocalSize(x, &n));
-  PetscCall(VecGetArrayRead(x, &xa));
-  PetscCall(VecGetArrayRead(y_, &ya));
-  PetscCall(VecGetArrayRead(mass_, &m));
-  for (PetscInt i = 0; i < n; ++i) {
-    const double f = m[i] * (xa[i] - ya[i]);  // M (x - y)
-    local += f * f;
-  }
-  PetscCall(VecRestoreArrayRead(mass_, &m));
-  PetscCall(VecRestoreArrayRead(y_, &ya));
-  PetscCall(VecRestoreArrayRead(x, &xa));
-  PetscCallMPI(MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)x)));
-  *scale = std::fmax(std::sqrt(global), weight_scale_);
+  PetscCall(inertia_.gradient_norm(x, &norm));
+  *scale = std::fmax(norm, weight_scale_);
   PetscFunctionReturn(0);
 }
 
@@ -352,14 +314,14 @@ PetscErrorCode StepObjective::momentum(Vec v, std::array<double, 3>& P, double* 
   double local[4] = {0, 0, 0, 0}, global[4];
   PetscFunctionBeginUser;
   PetscCall(VecGetLocalSize(v, &n));
-  PetscCall(VecGetArrayRead(mass_, &m));
+  PetscCall(VecGetArrayRead(inertia_.mass(), &m));
   PetscCall(VecGetArrayRead(v, &a));
   for (PetscInt i = 0; i + 2 < n; i += 3) {  // a rank holds whole vertices (x, y, z interleaved)
     for (int c = 0; c < 3; ++c) local[c] += m[i + c] * a[i + c];
     local[3] += m[i] * std::sqrt(a[i] * a[i] + a[i + 1] * a[i + 1] + a[i + 2] * a[i + 2]);
   }
   PetscCall(VecRestoreArrayRead(v, &a));
-  PetscCall(VecRestoreArrayRead(mass_, &m));
+  PetscCall(VecRestoreArrayRead(inertia_.mass(), &m));
   PetscCallMPI(MPI_Allreduce(local, global, 4, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)v)));
   P = {global[0], global[1], global[2]};
   *mass_speed = global[3];
@@ -377,23 +339,7 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
     return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, solve_dt_ * solve_dt_, components)
                                              : body_.add_rest_hessian(S, solve_dt_ * solve_dt_);
   }));
-  if (components == 3) {
-    PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
-  } else {
-    Vec vertex_mass;  // the x component of the lumped mass: one entry per free vertex
-    const PetscScalar* m3;
-    PetscScalar* m1;
-    PetscInt n1;
-    PetscCall(MatCreateVecs(*A, &vertex_mass, nullptr));
-    PetscCall(VecGetLocalSize(vertex_mass, &n1));
-    PetscCall(VecGetArrayRead(mass_, &m3));
-    PetscCall(VecGetArray(vertex_mass, &m1));
-    for (PetscInt i = 0; i < n1; ++i) m1[i] = m3[3 * i];  // local vertex i holds local dofs 3i..3i+2
-    PetscCall(VecRestoreArray(vertex_mass, &m1));
-    PetscCall(VecRestoreArrayRead(mass_, &m3));
-    PetscCall(MatDiagonalSet(*A, vertex_mass, ADD_VALUES));
-    PetscCall(VecDestroy(&vertex_mass));
-  }
+  PetscCall(inertia_.add_to(*A, components));
   PetscCall(MatSetOption(*A, MAT_SPD, PETSC_TRUE));
   PetscFunctionReturn(0);
 }
@@ -528,7 +474,7 @@ PetscErrorCode StepObjective::assemble_hessian(Vec x, Mat H, bool exact) {
   }
   PetscCall(MatZeroEntries(H));  // keeps the pattern
   PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, solve_dt_ * solve_dt_, !exact); }));
-  PetscCall(MatDiagonalSet(H, mass_, ADD_VALUES));
+  PetscCall(inertia_.add_to(H));
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(H, MAT_SPD, exact ? PETSC_FALSE : PETSC_TRUE));

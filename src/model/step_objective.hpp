@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "model/body.hpp"
+#include "model/inertia_term.hpp"
 #include "model/time_integrator.hpp"
 #include "model/state.hpp"
 #include "solvers/objective.hpp"
@@ -62,7 +63,7 @@ class StepObjective : public Objective {
   Body& body() { return body_; }
   double dt() const { return dt_; }  // a frame's step h (the solve's is h' = solve_dt_)
   const Integrator& integrator() const { return *integrator_; }
-  Vec mass() const { return mass_; }
+  Vec mass() const { return inertia_.mass(); }
 
   // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
   // prescribed positions at the solve's time, y is formed, the energy terms update for the step,
@@ -91,7 +92,7 @@ class StepObjective : public Objective {
   PetscErrorCode undo_step(State& s);
 
   // Objective: g of the current step.
-  Vec layout() const override { return mass_; }
+  Vec layout() const override { return inertia_.mass(); }
   PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override;
   PetscInt evaluations() const override { return evaluations_; }
   void reset_evaluations() override { evaluations_ = 0; }
@@ -165,7 +166,8 @@ class StepObjective : public Objective {
   WarmStart warm_start_;
   bool upright_guess_;
   double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
-  Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
+  InertiaTerm inertia_;  // 1/2 (x - y)^T M (x - y): M, y
+  Vec work_ = nullptr;    // the initial guess's step from x_n
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
   bool euler_completed_ = false;  // this step ended by complete_by_euler
