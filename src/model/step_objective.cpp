@@ -12,12 +12,11 @@ namespace hyperqn {
 StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
                              WarmStart warm_start, bool upright_guess, double element_limit,
                              TimeIntegrator integrator)
-    : body_(body), dt_(dt), damping_(damping), kind_(integrator), integrator_(make_integrator(integrator)),
-      solve_dt_(integrator_->solve_fraction() * dt), gravity_(gravity),
+    : body_(body), dt_(dt), life_(body, dt, damping, integrator), solve_dt_(life_.solve_dt()), gravity_(gravity),
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&work_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_, &kept_hat_}) VecDestroy(v);
+  for (Vec* v : {&work_, &end_x_, &end_v_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
@@ -25,10 +24,7 @@ PetscErrorCode StepObjective::setup() {
   PetscCall(inertia_.setup(body_, solve_dt_, gravity_));
   Vec mass = inertia_.mass();
   PetscCall(VecDuplicate(mass, &work_));
-  PetscCall(VecDuplicate(mass, &x_n_));
-  PetscCall(VecDuplicate(mass, &v_n_));
-  PetscCall(VecDuplicate(mass, &x_hat_));
-  PetscCall(VecDuplicate(mass, &v_hat_));
+  PetscCall(life_.setup(mass));
   // W = h^2 g0 sqrt(sum of m_i^2 over free vertices) (force_scale); the mass vector repeats m_i
   // three times.
   constexpr double kStandardGravity = 9.80665;
@@ -41,9 +37,9 @@ PetscErrorCode StepObjective::setup() {
 
 PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObjective>& sub) const {
   PetscFunctionBeginUser;
-  const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
+  const double damping = 1.0 - std::pow(1.0 - life_.damping(), 1.0 / parts);
   sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
-                                       element_limit_, kind_);
+                                       element_limit_, life_.kind());
   sub->counts_ = counts_;
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
@@ -51,32 +47,11 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
 
 PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
-  keep_motion(s);
-  without_history_ = integrator_->keeps_history() && !s.x_prev;
-  const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
-  body_.set_time(t);  // prescribed positions of the fixed vertices at t
-  PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
-  PetscCall(inertia_.set_target(x_hat_, v_hat_));
-  PetscCall(body_.begin_step({t, solve_dt_, s.x, inertia_.target(), s.frame * dt_}));
-  PetscCall(VecCopy(s.x, x_n_));
-  PetscCall(VecCopy(s.v, v_n_));
-  euler_completed_ = false;
-  PetscCall(initial_guess(x_n_, s.x));
+  PetscCall(life_.begin(s));
+  PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.begin_step({life_.solve_time(s), solve_dt_, s.x, inertia_.target(), s.frame * dt_}));
+  PetscCall(initial_guess(life_.x_n(), s.x));
   PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::begin_substepped_step(const State& s) {
-  PetscFunctionBeginUser;
-  keep_motion(s);
-  PetscCall(VecCopy(s.x, x_n_));
-  PetscCall(VecCopy(s.v, v_n_));
-  PetscFunctionReturn(0);
-}
-
-// Only with the body at t_n: a step begun after sub-steps that failed, or after another state's step
-// to the same time (the study), keeps the motion kept before, or none.
-void StepObjective::keep_motion(const State& s) {
-  if (body_.time() == s.frame * dt_) body_.keep_motion(motion_n_);
 }
 
 PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
@@ -167,8 +142,8 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
   PetscCall(begin_step(s));
   const double before = event_seconds(log_events().step);
   PetscCall(event_begin(&LogEvents::step));
-  PetscCall(solve_from(solver, x_n_, s.x, on_iteration, out));
-  if (integrator_->extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
+  PetscCall(solve_from(solver, life_.x_n(), s.x, on_iteration, out));
+  if (life_.integrator().extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
     bool sound;
     PetscCall(end_is_sound(s, &sound));
     if (!sound) PetscCall(complete_by_euler(solver, s, on_iteration, out));
@@ -188,7 +163,7 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
   PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
   body_.cell_jacobians(pos_, J_n_);
   PetscCall(VecCopy(s.x, end_x_));
-  PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, end_x_, end_v_));
+  PetscCall(life_.end_map(end_x_, end_v_));
   const double solve_time = body_.time();
   body_.set_time((s.frame + 1) * dt_);
   PetscCall(body_.local_positions(end_x_, pos_));
@@ -212,60 +187,13 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
   const double t = (s.frame + 1) * dt_;
   PetscFunctionBeginUser;
   const double t_z = body_.time();  // z's
-  euler_completed_ = true;
   ++counts_->euler_completed;
-  PetscCall(VecCopy(s.x, x_hat_));                    // z
-  PetscCall(VecWAXPY(v_hat_, -1.0, x_n_, s.x));       // (z - x_n) / h'
-  PetscCall(VecScale(v_hat_, 1.0 / solve_dt_));
+  PetscCall(life_.complete_by_euler(s.x));  // x^ = z, v^ = (z - x_n) / h'
   body_.set_time(t);
-  PetscCall(inertia_.set_target(x_hat_, v_hat_));
-  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, inertia_.target(), t_z}));
-  PetscCall(initial_guess(x_hat_, s.x));
-  PetscCall(solve_from(solver, x_hat_, s.x, on_iteration, out));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
-  PetscFunctionBeginUser;
-  if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
-    PetscCall(VecCopy(velocity, s.v));
-  } else if (euler_completed_) {  // x_hat_ holds z (complete_by_euler)
-    PetscCall(VecWAXPY(s.v, -1.0, x_hat_, s.x));
-    PetscCall(VecScale(s.v, (1.0 - damping_) / solve_dt_));
-  } else {
-    PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, s.x, s.v));
-  }
-  if (integrator_->keeps_history()) PetscCall(s.set_history(x_n_, v_n_));
-  ++s.frame;
-  s.time = s.frame * dt_;
-  if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::keep_end() {
-  PetscFunctionBeginUser;
-  kept_euler_completed_ = euler_completed_;
-  if (!euler_completed_) PetscFunctionReturn(0);
-  if (!kept_hat_) PetscCall(VecDuplicate(x_hat_, &kept_hat_));
-  PetscCall(VecCopy(x_hat_, kept_hat_));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::restore_end() {
-  PetscFunctionBeginUser;
-  euler_completed_ = kept_euler_completed_;
-  if (euler_completed_) PetscCall(VecCopy(kept_hat_, x_hat_));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::undo_step(State& s) {
-  PetscFunctionBeginUser;
-  PetscCall(VecCopy(x_n_, s.x));
-  PetscCall(VecCopy(v_n_, s.v));
-  if (motion_n_.time == s.frame * dt_)
-    body_.restore_motion(motion_n_);
-  else
-    body_.set_time(s.frame * dt_);
+  PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.begin_step({t, solve_dt_, life_.x_hat(), inertia_.target(), t_z}));
+  PetscCall(initial_guess(life_.x_hat(), s.x));
+  PetscCall(solve_from(solver, life_.x_hat(), s.x, on_iteration, out));
   PetscFunctionReturn(0);
 }
 
