@@ -16,6 +16,7 @@
 #include <memory>
 
 #include "model/body.hpp"
+#include "model/hessian_pattern.hpp"
 #include "model/inertia_term.hpp"
 #include "model/step_lifecycle.hpp"
 #include "model/time_integrator.hpp"
@@ -120,7 +121,7 @@ class StepObjective : public Objective {
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   PetscErrorCode create_hessian(Mat* H) const override;
   PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;
-  // Times a Hessian was preallocated again for couplings new to its pattern (grow_pattern), over
+  // Times a Hessian was preallocated again for couplings new to its pattern (HessianPattern), over
   // the run (shared with the sub-step integrators, as the counts above).
   long long hessian_patterns() const { return counts_->hessian_patterns; }
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
@@ -141,11 +142,6 @@ class StepObjective : public Objective {
   // Ends such a step by a second implicit Euler step of h' from z instead (docs/method.md#time-integrators).
   PetscErrorCode complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
                                    StepSolve& out);
-  // Makes room in H for the couplings the terms may add at x beyond the mesh's pattern
-  // (Body::hessian_couplings): if some are not in H's pattern, H is preallocated again for the
-  // mesh's pattern and the couplings, with explicit zeros at every entry (collective).
-  PetscErrorCode grow_pattern(Vec x, Mat H);
-
   Body& body_;
   double dt_;
   StepLifecycle life_;
@@ -159,13 +155,7 @@ class StepObjective : public Objective {
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
   PetscInt evaluations_ = 0;
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
-  // The Hessian grow_pattern last looked at, its nonzero state then and the couplings' generation:
-  // while all three are the same, its pattern holds the couplings.
-  struct {
-    PetscObjectId id = -1;
-    PetscObjectState state = 0;
-    unsigned long long generation = 0;
-  } pattern_;
+  HessianPattern pattern_;  // Newton's H holds the couplings of the terms' lists
   std::vector<double> pos_, J_n_, J_;  // upright_guess's work space
   double weight_scale_ = 0;  // W of force_scale()
   double diagonal_ = 0;      // length_scale()
