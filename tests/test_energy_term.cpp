@@ -111,7 +111,7 @@ PetscErrorCode run(TestScene& s, State& state) {
   for (int frame = 0; frame < 10; ++frame) {
     StepSolve step;
     PetscCall(s.step->solve_step(*solver, state, IterationCallback(), step));
-    PetscCall(s.step->end_step(state));
+    PetscCall(s.step->lifecycle().accept(state));
   }
   PetscFunctionReturn(0);
 }

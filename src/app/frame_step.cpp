@@ -98,7 +98,7 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
     if (out.stop.empty()) out.stop = exploded(out.max_abs_J, limits_.element_limit);
     out.inverted = degenerate(out.min_J);
   }
-  if (out.stop.empty()) PetscCall(scene.step->end_step(state, out.solve.velocity));
+  if (out.stop.empty()) PetscCall(scene.step->lifecycle().accept(state, out.solve.velocity));
   PetscFunctionReturn(0);
 }
 

@@ -35,7 +35,7 @@ class FrameStepper {
  public:
   explicit FrameStepper(const Guardrails& limits) : limits_(limits) {}
   // solve, then the guardrails, in order: g and grad g finite, positions finite, no edge longer
-  // than divergence_limit diagonals, no |det F| above element_limit; then end_step. A solve that
+  // than divergence_limit diagonals, no |det F| above element_limit; then StepLifecycle::accept. A solve that
   // a stop signal ended (out.solve.interrupted) is neither judged nor ended.
   PetscErrorCode step(const Scene& scene, const FrameSolve& solve, State& state, const IterationCallback& on_iteration,
                       FrameStep& out);

@@ -41,7 +41,7 @@ PetscErrorCode advance(FrameStepper& stepper, const Scene& scene, TimeStepSolver
     return objective.solve_step(solver, st, c, out);
   };
   PetscCall(stepper.step(scene, solve, s, cb, f));
-  if (!f.stop.empty()) PetscCall(objective.undo_step(s));
+  if (!f.stop.empty()) PetscCall(objective.lifecycle().undo(s));
   PetscFunctionReturn(0);
 }
 

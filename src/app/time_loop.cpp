@@ -47,7 +47,7 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     PetscCall(stepper_.step(scene, solve_, lead_, iterations(frame), outcome.lead));
     outcome.followers.resize(followers_.size());
     if (outcome.lead.solve.interrupted) {  // a stop signal during the solve: the frame is given up
-      PetscCall(scene.step->undo_step(lead_));
+      PetscCall(scene.step->lifecycle().undo(lead_));
       for (FrameObserver* o : observers_) PetscCall(o->interrupted(outcome));
       break;
     }
@@ -57,7 +57,7 @@ PetscErrorCode TimeLoop::run(int last_frame) {
       FollowerStep& out = outcome.followers[k];
       const double t0 = MPI_Wtime();
       PetscCall(stepper_.step(scene, f.solve, *f.state, IterationCallback(), out.step));
-      if (!out.step.stop.empty()) PetscCall(scene.step->undo_step(*f.state));
+      if (!out.step.stop.empty()) PetscCall(scene.step->lifecycle().undo(*f.state));
       out.seconds = MPI_Wtime() - t0;
       out.stepped = true;
       f.stopped = !out.step.stop.empty();
@@ -70,7 +70,7 @@ PetscErrorCode TimeLoop::run(int last_frame) {
       lead_.frame = frame - 1;
       lead_.time = time;
     }
-    PetscCall(scene.step->undo_step(lead_));
+    PetscCall(scene.step->lifecycle().undo(lead_));
     stop_ = control.stop;
     stop_frame_ = frame;
     for (FrameObserver* o : observers_) PetscCall(o->stopped(outcome, stop_));

@@ -88,7 +88,7 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
     if (stop_agreed()) PetscFunctionReturn(0);  // s is still at x_n
     PetscCall(judge(part.result, *l->step, sub_.x, &outcome_));
     if (!outcome_.acceptable()) PetscFunctionReturn(0);
-    PetscCall(l->step->end_step(sub_));
+    PetscCall(l->step->lifecycle().accept(sub_));
     out.result = part.result;
     residual = std::fmax(residual, outcome_.residual);
   }
@@ -121,7 +121,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   int accepted = -1;  // the sub-step size the frame is accepted at (0: the full step), -1: none
   StepSolve kept;     // the attempts from start on
   if (start > 0) {
-    PetscCall(g.begin_substepped_step(s));
+    PetscCall(g.lifecycle().begin_substepped(s));
     bool ok = false;
     for (int k = start; k <= spec_.max_halvings && !ok && !stop_agreed(); ++k) {
       PetscCall(substeps(s, k, kept, &ok));
@@ -170,10 +170,10 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
     std::vector<IterationRecord> first_records = std::move(records_);
     if (!kept_x_) PetscCall(VecDuplicate(s.x, &kept_x_));
     PetscCall(VecCopy(s.x, kept_x_));
-    PetscCall(g.keep_end());  // how that solve's step ends (the midpoint's may end by Euler)
+    PetscCall(g.lifecycle().keep());  // how that solve's step ends (the midpoint's may end by Euler)
     bool ok = false;
     for (int k = 1; k <= finest && !ok; ++k) {
-      PetscCall(g.undo_step(s));
+      PetscCall(g.lifecycle().undo(s));
       PetscCall(substeps(s, k, out, &ok));
       if (stop_agreed()) PetscFunctionReturn(0);
       if (ok) *accepted = k;
@@ -187,13 +187,13 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
           spec.quiet = true;
           PetscCall(create_solver(spec, g, nullptr, newton_));
         }
-        PetscCall(g.undo_step(s));
+        PetscCall(g.lifecycle().undo(s));
         records_.clear();
         PetscCall(g.solve_step(*newton_, s, record_, newton));
         add_cost(newton, out);
         if (stop_agreed()) PetscFunctionReturn(0);
       } else {
-        PetscCall(g.undo_step(s));
+        PetscCall(g.lifecycle().undo(s));
         PetscCall(g.begin_step(s));  // the step again, to keep the first solve's x
       }
       // Neither acceptable: the one that is finite, then sound, then nearer its answer.
@@ -210,7 +210,7 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
         outcome_ = newton_outcome;
       } else {
         PetscCall(VecCopy(kept_x_, s.x));
-        PetscCall(g.restore_end());
+        PetscCall(g.lifecycle().restore());
         out.result = first;
         outcome_ = first_outcome;
         records_ = std::move(first_records);

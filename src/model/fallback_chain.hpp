@@ -44,11 +44,11 @@ class FallbackChain {
   FallbackChain& operator=(const FallbackChain&) = delete;
 
   // Begins the step from s and solves it, as StepObjective::solve_step does, through the chain.
-  // Then the caller ends the step (integrator.end_step(s, out.velocity)) or undoes it.
+  // Then the caller ends the step (the lifecycle's accept(s, out.velocity)) or undoes it.
   // on_iteration sees the iterations of the kept solve only (for sub-steps: the last one's), once
   // the chain is done; watch, every iteration as it comes. After a stop signal, out.interrupted:
   // on_iteration has seen nothing, s holds no trace of the frame (SubstepMemory, the step's
-  // counters) but the positions and velocities the caller's undo_step puts back.
+  // counters) but the positions and velocities the caller's StepLifecycle::undo puts back.
   PetscErrorCode solve_frame(State& s, const IterationCallback& on_iteration, StepSolve& out,
                              const IterationWatch& watch = {});
 

@@ -12,40 +12,24 @@ namespace hyperqn {
 StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
                              WarmStart warm_start, bool upright_guess, double element_limit,
                              TimeIntegrator integrator)
-    : body_(body), dt_(dt), damping_(damping), kind_(integrator), integrator_(make_integrator(integrator)),
-      solve_dt_(integrator_->solve_fraction() * dt), gravity_(gravity),
+    : body_(body), dt_(dt), life_(body, dt, damping, integrator), solve_dt_(life_.solve_dt()), gravity_(gravity),
       warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &x_n_, &v_n_, &x_hat_, &v_hat_, &end_x_, &end_v_, &kept_hat_}) VecDestroy(v);
+  for (Vec* v : {&work_, &end_x_, &end_v_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
-  DM dm = body_.mesh().dm;
-  PetscInt lo, hi;
-  PetscScalar* a;
   PetscFunctionBeginUser;
-  PetscCall(DMCreateGlobalVector(dm, &mass_));
-  PetscCall(PetscObjectSetName((PetscObject)mass_, "mass"));
-  PetscCall(body_.lumped_mass(mass_));
-  PetscCall(VecDuplicate(mass_, &y_));
-  PetscCall(VecDuplicate(mass_, &work_));
-  PetscCall(VecDuplicate(mass_, &diff_));
-  PetscCall(VecDuplicate(mass_, &x_n_));
-  PetscCall(VecDuplicate(mass_, &v_n_));
-  PetscCall(VecDuplicate(mass_, &x_hat_));
-  PetscCall(VecDuplicate(mass_, &v_hat_));
-  // h^2 * gravity, repeated for every free vertex (dofs are interleaved x, y, z).
-  PetscCall(VecDuplicate(mass_, &gravity_step_));
-  PetscCall(VecGetOwnershipRange(gravity_step_, &lo, &hi));
-  PetscCall(VecGetArray(gravity_step_, &a));
-  for (PetscInt i = lo; i < hi; ++i) a[i - lo] = solve_dt_ * solve_dt_ * gravity_[i % 3];
-  PetscCall(VecRestoreArray(gravity_step_, &a));
+  PetscCall(inertia_.setup(body_, solve_dt_, gravity_));
+  Vec mass = inertia_.mass();
+  PetscCall(VecDuplicate(mass, &work_));
+  PetscCall(life_.setup(mass));
   // W = h^2 g0 sqrt(sum of m_i^2 over free vertices) (force_scale); the mass vector repeats m_i
   // three times.
   constexpr double kStandardGravity = 9.80665;
   PetscReal mass_norm;
-  PetscCall(VecNorm(mass_, NORM_2, &mass_norm));
+  PetscCall(VecNorm(mass, NORM_2, &mass_norm));
   weight_scale_ = solve_dt_ * solve_dt_ * kStandardGravity * mass_norm / std::sqrt(3.0);
   diagonal_ = rest_diagonal(body_.mesh());
   PetscFunctionReturn(0);
@@ -53,9 +37,9 @@ PetscErrorCode StepObjective::setup() {
 
 PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObjective>& sub) const {
   PetscFunctionBeginUser;
-  const double damping = 1.0 - std::pow(1.0 - damping_, 1.0 / parts);
+  const double damping = 1.0 - std::pow(1.0 - life_.damping(), 1.0 / parts);
   sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
-                                       element_limit_, kind_);
+                                       element_limit_, life_.kind());
   sub->counts_ = counts_;
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
@@ -63,33 +47,11 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
 
 PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
-  keep_motion(s);
-  without_history_ = integrator_->keeps_history() && !s.x_prev;
-  const double t = (s.frame + integrator_->time_fraction()) * dt_;  // the solve's time
-  body_.set_time(t);  // prescribed positions of the fixed vertices at t
-  PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
-  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
-  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, s.x, y_, s.frame * dt_}));
-  PetscCall(VecCopy(s.x, x_n_));
-  PetscCall(VecCopy(s.v, v_n_));
-  euler_completed_ = false;
-  PetscCall(initial_guess(x_n_, s.x));
+  PetscCall(life_.begin(s));
+  PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.begin_step({life_.solve_time(s), solve_dt_, s.x, inertia_.target(), s.frame * dt_}));
+  PetscCall(initial_guess(life_.x_n(), s.x));
   PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::begin_substepped_step(const State& s) {
-  PetscFunctionBeginUser;
-  keep_motion(s);
-  PetscCall(VecCopy(s.x, x_n_));
-  PetscCall(VecCopy(s.v, v_n_));
-  PetscFunctionReturn(0);
-}
-
-// Only with the body at t_n: a step begun after sub-steps that failed, or after another state's step
-// to the same time (the study), keeps the motion kept before, or none.
-void StepObjective::keep_motion(const State& s) {
-  if (body_.time() == s.frame * dt_) body_.keep_motion(motion_n_);
 }
 
 PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
@@ -128,12 +90,12 @@ PetscErrorCode StepObjective::upright_guess(Vec from, Vec x) {
   constexpr int kMaxHalvings = 30;
   const PetscInt cells = body_.mesh().num_cells;
   PetscFunctionBeginUser;
-  PetscCall(VecCopy(y_, x));
+  PetscCall(VecCopy(inertia_.target(), x));
   // Only tets can invert (not cells == 0 alone: a rank may have none, the others some).
   if (!upright_guess_ || body_.mesh().global_cells == 0) PetscFunctionReturn(0);
   PetscCall(body_.local_positions(from, pos_));
   body_.cell_jacobians(pos_, J_n_);
-  PetscCall(VecWAXPY(work_, -1.0, from, y_));  // y - x_n
+  PetscCall(VecWAXPY(work_, -1.0, from, inertia_.target()));  // y - x_n
   double t = 1;
   for (int halvings = 0;; ++halvings, t *= 0.5) {
     if (halvings > kMaxHalvings) {
@@ -180,8 +142,8 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
   PetscCall(begin_step(s));
   const double before = event_seconds(log_events().step);
   PetscCall(event_begin(&LogEvents::step));
-  PetscCall(solve_from(solver, x_n_, s.x, on_iteration, out));
-  if (integrator_->extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
+  PetscCall(solve_from(solver, life_.x_n(), s.x, on_iteration, out));
+  if (life_.integrator().extrapolates() && !rejected(out.result.energy) && !stop_agreed()) {
     bool sound;
     PetscCall(end_is_sound(s, &sound));
     if (!sound) PetscCall(complete_by_euler(solver, s, on_iteration, out));
@@ -196,12 +158,12 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
   PetscFunctionBeginUser;
   *sound = true;
   if (body_.mesh().global_cells == 0) PetscFunctionReturn(0);  // nothing to invert
-  if (!end_x_) PetscCall(VecDuplicate(mass_, &end_x_));
-  if (!end_v_) PetscCall(VecDuplicate(mass_, &end_v_));
+  if (!end_x_) PetscCall(VecDuplicate(inertia_.mass(), &end_x_));
+  if (!end_v_) PetscCall(VecDuplicate(inertia_.mass(), &end_v_));
   PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
   body_.cell_jacobians(pos_, J_n_);
   PetscCall(VecCopy(s.x, end_x_));
-  PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, end_x_, end_v_));
+  PetscCall(life_.end_map(end_x_, end_v_));
   const double solve_time = body_.time();
   body_.set_time((s.frame + 1) * dt_);
   PetscCall(body_.local_positions(end_x_, pos_));
@@ -225,61 +187,13 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
   const double t = (s.frame + 1) * dt_;
   PetscFunctionBeginUser;
   const double t_z = body_.time();  // z's
-  euler_completed_ = true;
   ++counts_->euler_completed;
-  PetscCall(VecCopy(s.x, x_hat_));                    // z
-  PetscCall(VecWAXPY(v_hat_, -1.0, x_n_, s.x));       // (z - x_n) / h'
-  PetscCall(VecScale(v_hat_, 1.0 / solve_dt_));
+  PetscCall(life_.complete_by_euler(s.x));  // x^ = z, v^ = (z - x_n) / h'
   body_.set_time(t);
-  PetscCall(VecWAXPY(y_, solve_dt_, v_hat_, x_hat_));
-  PetscCall(VecAXPY(y_, 1.0, gravity_step_));
-  PetscCall(body_.begin_step({t, solve_dt_, x_hat_, y_, t_z}));
-  PetscCall(initial_guess(x_hat_, s.x));
-  PetscCall(solve_from(solver, x_hat_, s.x, on_iteration, out));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::end_step(State& s, Vec velocity) {
-  PetscFunctionBeginUser;
-  if (velocity) {  // the fallback chain's sub-steps: s.x and velocity are their end already
-    PetscCall(VecCopy(velocity, s.v));
-  } else if (euler_completed_) {  // x_hat_ holds z (complete_by_euler)
-    PetscCall(VecWAXPY(s.v, -1.0, x_hat_, s.x));
-    PetscCall(VecScale(s.v, (1.0 - damping_) / solve_dt_));
-  } else {
-    PetscCall(integrator_->finish({x_n_, v_n_, x_hat_, v_hat_, without_history_}, dt_, 1.0 - damping_, s.x, s.v));
-  }
-  if (integrator_->keeps_history()) PetscCall(s.set_history(x_n_, v_n_));
-  ++s.frame;
-  s.time = s.frame * dt_;
-  if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::keep_end() {
-  PetscFunctionBeginUser;
-  kept_euler_completed_ = euler_completed_;
-  if (!euler_completed_) PetscFunctionReturn(0);
-  if (!kept_hat_) PetscCall(VecDuplicate(x_hat_, &kept_hat_));
-  PetscCall(VecCopy(x_hat_, kept_hat_));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::restore_end() {
-  PetscFunctionBeginUser;
-  euler_completed_ = kept_euler_completed_;
-  if (euler_completed_) PetscCall(VecCopy(kept_hat_, x_hat_));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode StepObjective::undo_step(State& s) {
-  PetscFunctionBeginUser;
-  PetscCall(VecCopy(x_n_, s.x));
-  PetscCall(VecCopy(v_n_, s.v));
-  if (motion_n_.time == s.frame * dt_)
-    body_.restore_motion(motion_n_);
-  else
-    body_.set_time(s.frame * dt_);
+  PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.begin_step({t, solve_dt_, life_.x_hat(), inertia_.target(), t_z}));
+  PetscCall(initial_guess(life_.x_hat(), s.x));
+  PetscCall(solve_from(solver, life_.x_hat(), s.x, on_iteration, out));
   PetscFunctionReturn(0);
 }
 
@@ -289,60 +203,36 @@ PetscErrorCode StepObjective::objective(Vec x, PetscReal* g, Vec grad) {
   PetscCall(event_begin(&LogEvents::objective));
   ++evaluations_;
   PetscCall(body_.energy_gradient(x, &E, grad));
-  PetscCall(VecWAXPY(diff_, -1.0, y_, x));                // x - y
-  PetscCall(VecPointwiseMult(work_, diff_, mass_));       // M (x - y)
+  // A non-finite entry of dE/dx on this rank poisons this rank's part of the inertia, so g
+  // (reduced over all ranks) says on every rank that the point is rejected, without a reduction
+  // of its own.
+  bool finite = true;
   if (grad) {
-    // A non-finite entry of dE/dx on this rank poisons this rank's part of the inertia dot
-    // product, so g (reduced over all ranks) says on every rank that the point is rejected,
-    // without a reduction of its own.
     const PetscScalar* dE;
     PetscInt n;
-    bool finite = true;
     PetscCall(VecGetLocalSize(grad, &n));
     PetscCall(VecGetArrayRead(grad, &dE));
     for (PetscInt i = 0; i < n; ++i) finite = finite && std::isfinite(dE[i]);
     PetscCall(VecRestoreArrayRead(grad, &dE));
-    if (!finite && n > 0) {
-      PetscScalar* w;
-      PetscCall(VecGetArray(work_, &w));
-      w[0] = NAN;
-      PetscCall(VecRestoreArray(work_, &w));
-    }
   }
-  PetscCall(VecDot(work_, diff_, &inertia));
-  *g = 0.5 * inertia + solve_dt_ * solve_dt_ * E;
+  PetscCall(inertia_.evaluate(x, !finite, &inertia));
+  *g = inertia + solve_dt_ * solve_dt_ * E;  // the sum's order decides its bits
   if (rejected(*g)) {
     ++counts_->rejected;
     *g = kRejectedEnergy;
     if (grad) PetscCall(VecSet(grad, 0.0));
   } else if (grad) {
-    PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, work_));  // M (x - y) + h'^2 dE/dx
+    PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, inertia_.gradient()));  // M (x - y) + h'^2 dE/dx
   }
   PetscCall(event_end(&LogEvents::objective));
   PetscFunctionReturn(0);
 }
 
-// One pass over the dofs and one reduction: the solvers ask for it at every iterate
-// (solvers/frame_budget.hpp), where VecWAXPY, VecPointwiseMult and VecNorm took 9 us of an
-// iteration's 0.55 ms on input/bar.yaml (-log_view, 1 rank).
 PetscErrorCode StepObjective::force_scale(Vec x, double* scale) {
-  const PetscScalar *xa, *ya, *m;
-  PetscInt n;
-  double local = 0, global;
+  double norm;
   PetscFunctionBeginUser;
-  PetscCall(VecGetLocalSize(x, &n));
-  PetscCall(VecGetArrayRead(x, &xa));
-  PetscCall(VecGetArrayRead(y_, &ya));
-  PetscCall(VecGetArrayRead(mass_, &m));
-  for (PetscInt i = 0; i < n; ++i) {
-    const double f = m[i] * (xa[i] - ya[i]);  // M (x - y)
-    local += f * f;
-  }
-  PetscCall(VecRestoreArrayRead(mass_, &m));
-  PetscCall(VecRestoreArrayRead(y_, &ya));
-  PetscCall(VecRestoreArrayRead(x, &xa));
-  PetscCallMPI(MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)x)));
-  *scale = std::fmax(std::sqrt(global), weight_scale_);
+  PetscCall(inertia_.gradient_norm(x, &norm));
+  *scale = std::fmax(norm, weight_scale_);
   PetscFunctionReturn(0);
 }
 
@@ -352,14 +242,14 @@ PetscErrorCode StepObjective::momentum(Vec v, std::array<double, 3>& P, double* 
   double local[4] = {0, 0, 0, 0}, global[4];
   PetscFunctionBeginUser;
   PetscCall(VecGetLocalSize(v, &n));
-  PetscCall(VecGetArrayRead(mass_, &m));
+  PetscCall(VecGetArrayRead(inertia_.mass(), &m));
   PetscCall(VecGetArrayRead(v, &a));
   for (PetscInt i = 0; i + 2 < n; i += 3) {  // a rank holds whole vertices (x, y, z interleaved)
     for (int c = 0; c < 3; ++c) local[c] += m[i + c] * a[i + c];
     local[3] += m[i] * std::sqrt(a[i] * a[i] + a[i + 1] * a[i + 1] + a[i + 2] * a[i + 2]);
   }
   PetscCall(VecRestoreArrayRead(v, &a));
-  PetscCall(VecRestoreArrayRead(mass_, &m));
+  PetscCall(VecRestoreArrayRead(inertia_.mass(), &m));
   PetscCallMPI(MPI_Allreduce(local, global, 4, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)v)));
   P = {global[0], global[1], global[2]};
   *mass_speed = global[3];
@@ -377,23 +267,7 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
     return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, solve_dt_ * solve_dt_, components)
                                              : body_.add_rest_hessian(S, solve_dt_ * solve_dt_);
   }));
-  if (components == 3) {
-    PetscCall(MatDiagonalSet(*A, mass_, ADD_VALUES));
-  } else {
-    Vec vertex_mass;  // the x component of the lumped mass: one entry per free vertex
-    const PetscScalar* m3;
-    PetscScalar* m1;
-    PetscInt n1;
-    PetscCall(MatCreateVecs(*A, &vertex_mass, nullptr));
-    PetscCall(VecGetLocalSize(vertex_mass, &n1));
-    PetscCall(VecGetArrayRead(mass_, &m3));
-    PetscCall(VecGetArray(vertex_mass, &m1));
-    for (PetscInt i = 0; i < n1; ++i) m1[i] = m3[3 * i];  // local vertex i holds local dofs 3i..3i+2
-    PetscCall(VecRestoreArray(vertex_mass, &m1));
-    PetscCall(VecRestoreArrayRead(mass_, &m3));
-    PetscCall(MatDiagonalSet(*A, vertex_mass, ADD_VALUES));
-    PetscCall(VecDestroy(&vertex_mass));
-  }
+  PetscCall(inertia_.add_to(*A, components));
   PetscCall(MatSetOption(*A, MAT_SPD, PETSC_TRUE));
   PetscFunctionReturn(0);
 }
@@ -402,119 +276,8 @@ PetscErrorCode StepObjective::create_hessian(Mat* H) const {
   PetscFunctionBeginUser;
   PetscCall(DMCreateMatrix(body_.mesh().dm, H));
   // Self-contact couples vertices of no common element: assemble_hessian makes room for its pairs
-  // (grow_pattern); a caller that adds them itself (tests) takes them as they come.
+  // (HessianPattern); a caller that adds them itself (tests) takes them as they come.
   PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, body_.couples_surfaces() ? PETSC_FALSE : PETSC_TRUE));
-  PetscFunctionReturn(0);
-}
-
-// Inserting each coupling new to H as it came reallocated the whole matrix for every row that
-// overflowed (the 81 x 81 cloth pile's Newton frame: 591 s, 70% in memmove), and preallocating
-// each assembly's own pattern made MUMPS analyse it again at every iteration. So H holds the
-// couplings of the terms' lists (self-contact's candidates: all an assembly may add until the
-// lists are built again) as explicit zeros, which MatZeroEntries keeps, and is preallocated again
-// only when a list built again holds couplings H lacks: for the mesh's pattern and that list's
-// couplings (not every coupling it ever had, whose fill-in would slow every factorization). A
-// vertex's three dofs are on one rank and a coupling adds the whole 3 x 3 block, so a vertex pair
-// is in H's pattern iff its first entry is.
-PetscErrorCode StepObjective::grow_pattern(Vec x, Mat H) {
-  MPI_Comm comm = PetscObjectComm((PetscObject)H);
-  PetscMPIInt size;
-  std::vector<std::array<PetscInt, 2>> couplings;
-  unsigned long long generation;
-  PetscObjectId id;
-  PetscObjectState state;
-  PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(comm, &size));
-  PetscCall(body_.hessian_couplings(x, nullptr, &generation));
-  PetscCall(PetscObjectGetId((PetscObject)H, &id));
-  PetscCall(MatGetNonzeroState(H, &state));
-  int changed = id != pattern_.id || state != pattern_.state || generation != pattern_.generation;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm));
-  if (!changed) PetscFunctionReturn(0);
-  PetscCall(body_.hessian_couplings(x, &couplings, &generation));
-  // Both orders, each to the owner of its row.
-  const size_t n = couplings.size();
-  couplings.resize(2 * n);
-  for (size_t k = 0; k < n; ++k) couplings[n + k] = {couplings[k][1], couplings[k][0]};
-  std::sort(couplings.begin(), couplings.end());
-  couplings.erase(std::unique(couplings.begin(), couplings.end()), couplings.end());
-  const PetscInt* ranges;
-  PetscCall(MatGetOwnershipRanges(H, &ranges));
-  std::vector<PetscMPIInt> send_counts(size, 0), recv_counts(size), send_offsets(size + 1, 0), recv_offsets(size + 1, 0);
-  int owner = 0;
-  for (const auto& c : couplings) {
-    while (c[0] >= ranges[owner + 1]) ++owner;
-    send_counts[owner] += 2;
-  }
-  PetscCallMPI(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm));
-  for (int r = 0; r < size; ++r) {
-    send_offsets[r + 1] = send_offsets[r] + send_counts[r];
-    recv_offsets[r + 1] = recv_offsets[r] + recv_counts[r];
-  }
-  std::vector<std::array<PetscInt, 2>> mine(recv_offsets[size] / 2);
-  PetscCallMPI(MPI_Alltoallv(couplings.data(), send_counts.data(), send_offsets.data(), MPIU_INT, mine.data(),
-                             recv_counts.data(), recv_offsets.data(), MPIU_INT, comm));
-  std::sort(mine.begin(), mine.end());
-  mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
-  // How many H lacks.
-  long missing = 0;
-  for (size_t k = 0; k < mine.size();) {
-    const PetscInt row = mine[k][0];
-    PetscInt count;
-    const PetscInt* columns;
-    PetscCheck(row % 3 == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a coupling's dof %" PetscInt_FMT " is not a vertex's x dof", row);
-    PetscCall(MatGetRow(H, row, &count, &columns, nullptr));
-    for (; k < mine.size() && mine[k][0] == row; ++k) missing += !std::binary_search(columns, columns + count, mine[k][1]);
-    PetscCall(MatRestoreRow(H, row, &count, &columns, nullptr));
-  }
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &missing, 1, MPI_LONG, MPI_SUM, comm));
-  if (missing > 0) {
-    // The mesh's pattern (a matrix made as create_hessian makes it) and the couplings, row by row.
-    PetscBool aij;
-    PetscCall(PetscObjectTypeCompareAny((PetscObject)H, &aij, MATSEQAIJ, MATMPIAIJ, ""));
-    PetscCheck(aij, comm, PETSC_ERR_SUP, "Newton with self-contact needs an AIJ Hessian");
-    Mat mesh;
-    PetscCall(DMCreateMatrix(body_.mesh().dm, &mesh));
-    PetscInt rstart, rend, cstart, cend;
-    PetscCall(MatGetOwnershipRange(H, &rstart, &rend));
-    PetscCall(MatGetOwnershipRangeColumn(H, &cstart, &cend));
-    std::vector<PetscInt> offsets(1, 0), columns, diagonal, off_diagonal;
-    size_t f = 0;
-    for (PetscInt row = rstart; row < rend; ++row) {
-      PetscInt count;
-      const PetscInt* have;
-      PetscCall(MatGetRow(mesh, row, &count, &have, nullptr));
-      const size_t begin = columns.size();
-      columns.insert(columns.end(), have, have + count);
-      PetscCall(MatRestoreRow(mesh, row, &count, &have, nullptr));
-      const PetscInt vertex = row - row % 3;
-      while (f < mine.size() && mine[f][0] < vertex) ++f;
-      for (size_t g = f; g < mine.size() && mine[g][0] == vertex; ++g)
-        for (int d = 0; d < 3; ++d) columns.push_back(mine[g][1] + d);
-      std::sort(columns.begin() + begin, columns.end());
-      columns.erase(std::unique(columns.begin() + begin, columns.end()), columns.end());
-      const PetscInt inside =
-          std::count_if(columns.begin() + begin, columns.end(), [&](PetscInt c) { return c >= cstart && c < cend; });
-      diagonal.push_back(inside);
-      off_diagonal.push_back((PetscInt)(columns.size() - begin) - inside);
-      offsets.push_back((PetscInt)columns.size());
-    }
-    PetscCall(MatDestroy(&mesh));
-    PetscCall(MatSeqAIJSetPreallocation(H, 0, diagonal.data()));  // whichever H is, the other does nothing
-    PetscCall(MatMPIAIJSetPreallocation(H, 0, diagonal.data(), 0, off_diagonal.data()));
-    const std::vector<PetscScalar> zeros(columns.size(), 0.0);
-    for (PetscInt row = rstart; row < rend; ++row) {
-      const PetscInt k = row - rstart;
-      PetscCall(MatSetValues(H, 1, &row, offsets[k + 1] - offsets[k], &columns[offsets[k]], zeros.data(), INSERT_VALUES));
-    }
-    PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
-    PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
-    ++counts_->hessian_patterns;
-    PetscCall(PetscInfo(H, "Hessian pattern made again for %ld new vertex couplings (%lld times in the run)\n", missing,
-                        counts_->hessian_patterns));
-    PetscCall(MatGetNonzeroState(H, &state));
-  }
-  pattern_ = {id, state, generation};
   PetscFunctionReturn(0);
 }
 
@@ -522,13 +285,13 @@ PetscErrorCode StepObjective::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::hessian));
   if (body_.couples_surfaces()) {
-    PetscCall(grow_pattern(x, H));
+    PetscCall(pattern_.grow(body_, x, H, &counts_->hessian_patterns));
     // A coupling the terms did not announce is an error, not a reallocation at each row.
     PetscCall(MatSetOption(H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   }
   PetscCall(MatZeroEntries(H));  // keeps the pattern
   PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, solve_dt_ * solve_dt_, !exact); }));
-  PetscCall(MatDiagonalSet(H, mass_, ADD_VALUES));
+  PetscCall(inertia_.add_to(H));
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(H, MAT_SPD, exact ? PETSC_FALSE : PETSC_TRUE));

@@ -3,9 +3,11 @@
 // (the paper's 1/(2h^2)||x - y||_M^2 + E(x) times h^2 for implicit Euler, so g and grad g are in
 // units of M x). The integrator gives h' = h or a fraction of it, x^ and v^, the fixed vertices'
 // time during the solve and the end map to x_{n+1}, v_{n+1}; damping scales v_{n+1} by
-// 1 - damping. begin_step and end_step hold all of a step; the solvers see g through the
-// Objective interface. The simulation and the study both step with it. The frame's step h
-// advances frames and time whatever h' is.
+// 1 - damping. g is the sum of its terms: the inertia (InertiaTerm) and h'^2 times the body's
+// energy terms; the solvers see it through the Objective interface. The step around the solve
+// (x_n, v_n, x^, v^, the end map, accept, undo) is the StepLifecycle's (model/step_lifecycle.hpp);
+// begin_step and solve_step start and solve it. The simulation and the study both step with it.
+// The frame's step h advances frames and time whatever h' is.
 #pragma once
 #include <petscvec.h>
 
@@ -14,6 +16,9 @@
 #include <memory>
 
 #include "model/body.hpp"
+#include "model/hessian_pattern.hpp"
+#include "model/inertia_term.hpp"
+#include "model/step_lifecycle.hpp"
 #include "model/time_integrator.hpp"
 #include "model/state.hpp"
 #include "solvers/objective.hpp"
@@ -29,7 +34,8 @@ struct StepSolve {
   double seconds = 0;            // wall time of the solve(s)
   bool restarted = false;        // g was not finite at y: solved again from x_n
   // The fallback chain (model/fallback_chain.hpp): iterations over every attempt, and which
-  // stage produced the step. With sub-steps, velocity is the last sub-step's (for end_step).
+  // stage produced the step. With sub-steps, velocity is the last sub-step's (for
+  // StepLifecycle::accept).
   PetscInt iterations = 0;
   bool extended = false;         // iterated past the budget
   int substeps = 1;              // solved in this many sub-steps
@@ -61,37 +67,24 @@ class StepObjective : public Objective {
 
   Body& body() { return body_; }
   double dt() const { return dt_; }  // a frame's step h (the solve's is h' = solve_dt_)
-  const Integrator& integrator() const { return *integrator_; }
-  Vec mass() const { return mass_; }
+  const Integrator& integrator() const { return life_.integrator(); }
+  // The step's x_n, v_n, x^, v^ and its end: accept, undo, keep and restore are the caller's.
+  StepLifecycle& lifecycle() { return life_; }
+  Vec mass() const { return inertia_.mass(); }
 
-  // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the fixed vertices move to their
-  // prescribed positions at the solve's time, y is formed, the energy terms update for the step,
-  // and s.x becomes the initial guess (y, or x_n). x_n and v_n are kept for end_step and
-  // undo_step. An integrator that keeps a history and finds none in s (the first step, after a
-  // release, a sub-step's first) is told so and takes a starting step of its own.
+  // Starts the step from s (at t_n = s.frame h) to t_{n+1}: the lifecycle begins it (x_n, v_n
+  // kept, the fixed vertices at the solve's time, x^ and v^), y is formed, the energy terms update
+  // for the step, and s.x becomes the initial guess (y, or x_n).
   PetscErrorCode begin_step(State& s);
-  // Only what end_step (with the sub-steps' velocity) and undo_step need of a step that its
-  // sub-steps solve alone: x_n and v_n (the fallback chain's kept sub-step size).
-  PetscErrorCode begin_substepped_step(const State& s);
   // begin_step, then the solver from the initial guess; if g is not finite at y (e.g. y inverts
   // elements of a material without an extension), once more from x_n. For an integrator whose
   // end map extrapolates (the midpoint), an end that would invert or blow up a tet is replaced
-  // by a second implicit Euler step of h' from z (complete_by_euler). Then end_step or undo_step.
+  // by a second implicit Euler step of h' from z (complete_by_euler). Then lifecycle().accept or
+  // lifecycle().undo.
   PetscErrorCode solve_step(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration, StepSolve& out);
-  // Completes the step with the solver's s.x: the integrator's end map (or, with velocity given,
-  // s.x as it is and a copy of velocity: the last sub-step's), the history moves on, frame and
-  // time advance.
-  PetscErrorCode end_step(State& s, Vec velocity = nullptr);
-  // What end_step needs of the solve at hand beyond its x (whether complete_by_euler ended it, and
-  // its z), kept and put back: the fallback chain keeps its first solve's x while it tries others.
-  PetscErrorCode keep_end();
-  PetscErrorCode restore_end();
-  // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n (with the velocities
-  // they had there, if the step began with the body at t_n).
-  PetscErrorCode undo_step(State& s);
 
   // Objective: g of the current step.
-  Vec layout() const override { return mass_; }
+  Vec layout() const override { return inertia_.mass(); }
   PetscErrorCode objective(Vec x, PetscReal* g, Vec grad) override;
   PetscInt evaluations() const override { return evaluations_; }
   void reset_evaluations() override { evaluations_ = 0; }
@@ -122,21 +115,19 @@ class StepObjective : public Objective {
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
   bool has_vertex_stiffness() const override { return body_.has_vertex_stiffness(); }
   PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
-    return body_.vertex_stiffness(x_n_, solve_dt_ * solve_dt_, out);
+    return body_.vertex_stiffness(life_.x_n(), solve_dt_ * solve_dt_, out);
   }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   PetscErrorCode create_hessian(Mat* H) const override;
   PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;
-  // Times a Hessian was preallocated again for couplings new to its pattern (grow_pattern), over
+  // Times a Hessian was preallocated again for couplings new to its pattern (HessianPattern), over
   // the run (shared with the sub-step integrators, as the counts above).
   long long hessian_patterns() const { return counts_->hessian_patterns; }
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
   std::string energy_names() const override { return body_.material_names(); }
 
  private:
-  // The fixed vertices' motion into motion_n_ if the body is at s's time t_n.
-  void keep_motion(const State& s);
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n
   // inverted, nor past det F = 100 unless it was (x_n itself if none within 30 halvings).
   PetscErrorCode upright_guess(Vec from, Vec x);
@@ -151,37 +142,20 @@ class StepObjective : public Objective {
   // Ends such a step by a second implicit Euler step of h' from z instead (docs/method.md#time-integrators).
   PetscErrorCode complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
                                    StepSolve& out);
-  // Makes room in H for the couplings the terms may add at x beyond the mesh's pattern
-  // (Body::hessian_couplings): if some are not in H's pattern, H is preallocated again for the
-  // mesh's pattern and the couplings, with explicit zeros at every entry (collective).
-  PetscErrorCode grow_pattern(Vec x, Mat H);
-
   Body& body_;
-  double dt_, damping_;
-  TimeIntegrator kind_;
-  std::unique_ptr<Integrator> integrator_;
-  double solve_dt_;  // h' of the minimization: integrator_->solve_fraction() h
+  double dt_;
+  StepLifecycle life_;
+  double solve_dt_;  // h' of the minimization: the integrator's solve_fraction() h
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
   bool upright_guess_;
   double element_limit_;  // -hyperqn_element_limit: the guess blows no tet past it (<= 0: no such test)
-  Vec mass_ = nullptr, y_ = nullptr, gravity_step_ = nullptr, work_ = nullptr, diff_ = nullptr;
-  Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
-  bool without_history_ = false;  // this step's integrator keeps a history and s had none
-  bool euler_completed_ = false;  // this step ended by complete_by_euler
-  Body::MotionState motion_n_{NAN, {}};  // the fixed vertices' motion at t_n, for undo_step (NaN: none kept)
+  InertiaTerm inertia_;  // 1/2 (x - y)^T M (x - y): M, y
+  Vec work_ = nullptr;    // the initial guess's step from x_n
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
-  bool kept_euler_completed_ = false;      // keep_end's
-  Vec kept_hat_ = nullptr;
   PetscInt evaluations_ = 0;
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
-  // The Hessian grow_pattern last looked at, its nonzero state then and the couplings' generation:
-  // while all three are the same, its pattern holds the couplings.
-  struct {
-    PetscObjectId id = -1;
-    PetscObjectState state = 0;
-    unsigned long long generation = 0;
-  } pattern_;
+  HessianPattern pattern_;  // Newton's H holds the couplings of the terms' lists
   std::vector<double> pos_, J_n_, J_;  // upright_guess's work space
   double weight_scale_ = 0;  // W of force_scale()
   double diagonal_ = 0;      // length_scale()
