@@ -242,6 +242,27 @@ bool Body::has_vertex_stiffness() const {
   return false;
 }
 
+void Body::begin_element_states() {
+  for (const auto& t : terms_)
+    if (ElementState* state = t->element_state()) state->begin();
+}
+
+PetscErrorCode Body::accept_element_states(Vec x) {
+  PetscFunctionBeginUser;
+  bool any = false;
+  for (const auto& t : terms_) any = any || t->element_state();
+  if (!any) PetscFunctionReturn(0);
+  PetscCall(local_positions(x, pos_));
+  for (const auto& t : terms_)
+    if (t->element_state()) PetscCall(t->update_state(pos_));
+  PetscFunctionReturn(0);
+}
+
+void Body::undo_element_states() {
+  for (const auto& t : terms_)
+    if (ElementState* state = t->element_state()) state->undo();
+}
+
 bool Body::couples_surfaces() const {
   for (const auto& t : terms_)
     if (t->couples_surfaces()) return true;

@@ -61,6 +61,13 @@ class Body {
   // positions; the fixed vertices already at the time set by set_time).
   PetscErrorCode begin_step(const StepStart& step);
 
+  // The terms' per-element state (EnergyTerm::element_state): a frame's begin takes its current
+  // values as the start; an accepted frame ending at x calls each term's update_state; an undone
+  // one puts the start back.
+  void begin_element_states();
+  PetscErrorCode accept_element_states(Vec x);
+  void undo_element_states();
+
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.
   PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;

@@ -14,7 +14,9 @@
 //                 after complete_by_euler: z and (z - x_n) / h'
 //
 // The fixed vertices move with the step: begin puts them at the solve's time t_n + c h, accept at
-// t_{n+1}, undo back at t_n with the velocities they had there (Body::keep_motion).
+// t_{n+1}, undo back at t_n with the velocities they had there (Body::keep_motion). So does the
+// terms' per-element state (terms/element_state.hpp): begin takes it as the start, accept updates
+// it (EnergyTerm::update_state), undo puts the start back, even after accept.
 #pragma once
 #include <petscvec.h>
 
@@ -60,15 +62,21 @@ class StepLifecycle {
   PetscErrorCode end_map(Vec x, Vec v) const;
   // Completes the step with the solver's s.x: the end map (or, with velocity given, s.x as it is
   // and a copy of velocity: the last sub-step's; after complete_by_euler, Euler's), the history
-  // moves on, frame and time advance, the fixed vertices reach t_{n+1}.
+  // moves on, frame and time advance, the fixed vertices reach t_{n+1}, and the terms' per-element
+  // state is updated (Body::accept_element_states; not by a sub-step's lifecycle).
   PetscErrorCode accept(State& s, Vec velocity = nullptr);
   // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n (with the velocities
-  // they had there, if the step began with the body at t_n).
+  // they had there, if the step began with the body at t_n), the terms' element state at the
+  // step's start.
   PetscErrorCode undo(State& s);
   // What accept needs of the solve at hand beyond its x (whether complete_by_euler ended it, and
   // its z), kept and put back: the fallback chain keeps its first solve's x while it tries others.
   PetscErrorCode keep();
   PetscErrorCode restore();
+
+  // A sub-step's lifecycle (StepObjective::create_substep) leaves the terms' element state alone:
+  // the frame's begin, accept and undo move it.
+  void set_substep() { substep_ = true; }
 
   Vec x_n() const { return x_n_; }
   Vec v_n() const { return v_n_; }
@@ -90,6 +98,7 @@ class StepLifecycle {
   Body::MotionState motion_n_{NAN, {}};  // the fixed vertices' motion at t_n, for undo (NaN: none kept)
   bool kept_euler_completed_ = false;    // keep's
   Vec kept_hat_ = nullptr;
+  bool substep_ = false;
 };
 
 }  // namespace hyperqn

@@ -41,6 +41,7 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
   sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
                                        element_limit_, life_.kind());
   sub->counts_ = counts_;
+  sub->life_.set_substep();
   PetscCall(sub->setup());
   PetscFunctionReturn(0);
 }

@@ -14,6 +14,8 @@
 #include <utility>
 #include <vector>
 
+#include "terms/element_state.hpp"
+
 namespace hyperqn {
 
 // What a term learns at the start of every time step (sub-steps included).
@@ -121,6 +123,12 @@ class EnergyTerm {
   }
   // A signature of the term's active set at the last point it evaluated (0: none; contact).
   virtual unsigned long long active_set() const { return 0; }
+  // Per-element values the term carries across steps (terms/element_state.hpp), or null. At the
+  // end of every accepted frame the body calls update_state with the accepted local positions, to
+  // write the state's current values from its start; an undone frame puts the start back. The
+  // fallback chain's sub-steps leave it alone: the frame's accept updates it once.
+  virtual ElementState* element_state() { return nullptr; }
+  virtual PetscErrorCode update_state(const std::vector<double>& /*pos*/) { return 0; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for
   // a term whose parameters scale with the mass (the contact penalty).
   virtual PetscErrorCode set_masses(Vec /*mass*/) { return 0; }

@@ -1,0 +1,42 @@
+// Per-element values that a term carries from step to step (a material with history: plastic
+// strain, damage), owned with its elements: n values for each of the term's local elements, keyed
+// by the element's global id (DistributedMesh::cell_ids and the like), so that what they mean does
+// not depend on the partition. Like the positions, they have a value at the step's start (t_n,
+// start) and a current one (current): the step's begin takes the current values as its start, its
+// accept writes the current ones (EnergyTerm::update_state), its undo puts the start back, also
+// after an accept (a frame an observer refuses). docs/architecture.md, "The step core".
+#pragma once
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace hyperqn {
+
+class ElementState {
+ public:
+  // name: the term's key for its values; ids: the global id of each local element, in the term's order.
+  ElementState(std::string name, int per_element, std::vector<int64_t> ids, double initial = 0)
+      : name_(std::move(name)), per_element_(per_element), ids_(std::move(ids)),
+        start_(ids_.size() * per_element, initial), current_(start_) {}
+
+  const std::string& name() const { return name_; }
+  int per_element() const { return per_element_; }
+  size_t elements() const { return ids_.size(); }
+  const std::vector<int64_t>& ids() const { return ids_; }
+  // Element e's values at the step's start, and its current ones.
+  const double* start(size_t e) const { return &start_[per_element_ * e]; }
+  double* current(size_t e) { return &current_[per_element_ * e]; }
+  const std::vector<double>& current_values() const { return current_; }
+
+  void begin() { start_ = current_; }
+  void undo() { current_ = start_; }
+
+ private:
+  std::string name_;
+  int per_element_;
+  std::vector<int64_t> ids_;
+  std::vector<double> start_, current_;
+};
+
+}  // namespace hyperqn
