@@ -107,6 +107,8 @@ struct Deck : SceneSpec {
     std::string key;  // dotted, e.g. "petsc.tao.ls_type"
   };
   std::map<std::string, OptionPlace> petsc_option_places;  // "-key" -> where the deck gives it
+  // The keys the deck leaves out that a rule set (dotted key -> the rule, app/deck_rules.hpp).
+  std::map<std::string, std::string> rule_sources;
 };
 
 // Bounds of the petsc: section (a YAML alias bomb expands past them).
