@@ -159,7 +159,9 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        [](S& s, const std::string& name) {
          if (name == "fixed") use_fixed_budget(s);
        },
-       [](const S&) { return std::string("adaptive"); }},
+       [](const S& s) {
+         return std::string(s.max_iterations == 0 && s.max_halvings == 0 && !s.newton_fallback ? "fixed" : "adaptive");
+       }},
       {"grad_atol", &S::grad_atol, "stop when ‖∇g‖ ≤ grad_atol", at_least(0)},
       {"grad_rtol", &S::grad_rtol,
        "or stop when ‖∇g‖ < grad_rtol · ‖∇g(x₀)‖ or ‖∇g‖ ≤ grad_rtol · S, and in either case ‖∇g‖ ≤ 10⁻³ S; S the "

@@ -160,11 +160,14 @@ Deck load_deck(const std::string& path) {
   if (!in) throw InputError(path, 0, "", "cannot read the deck file");
   if (fs::file_size(path, ec) > kMaxDeckBytes) throw InputError(path, 0, "", "larger than 10 MB: not a deck");
 
-  Reader r(path);
+  std::map<std::string, KeyPlace> places;
+  Reader r(path, &places);
   try {
     std::vector<YAML::Node> docs = YAML::LoadAll(in);
     if (docs.size() > 1) r.fail(line_of(docs[1]), "", "a deck holds one YAML document (found a second one)");
-    return parse(r, docs.empty() ? YAML::Node() : docs[0], path);
+    Deck deck = parse(r, docs.empty() ? YAML::Node() : docs[0], path);
+    deck.key_places = std::move(places);
+    return deck;
   } catch (const YAML::ParserException& e) {
     throw InputError(path, e.mark.line + 1, "", "YAML syntax error: " + e.msg);
   } catch (const YAML::Exception& e) {

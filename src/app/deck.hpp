@@ -93,6 +93,14 @@ inline const std::vector<DeckKey<CheckpointSpec>>& checkpoint_keys() {
   return keys;
 }
 
+// A key the deck gives: its line, its value as written (YAML flow style), and whether it is a
+// leaf (not a map, nor a list of maps).
+struct KeyPlace {
+  int line = 0;
+  std::string written;
+  bool leaf = true;
+};
+
 struct Deck : SceneSpec {
   SolverSpec solver;
   OutputSpec output;
@@ -107,7 +115,10 @@ struct Deck : SceneSpec {
     std::string key;  // dotted, e.g. "petsc.tao.ls_type"
   };
   std::map<std::string, OptionPlace> petsc_option_places;  // "-key" -> where the deck gives it
-  // The keys the deck leaves out that a rule set (dotted key -> the rule, app/deck_rules.hpp).
+  // Where the values came from (`hyperqn config`, app/deck_config.hpp): every key the deck gives
+  // (dotted, e.g. "bodies[0].material.mu"), and the keys it leaves out that a rule set (-> the
+  // rule, app/deck_rules.hpp).
+  std::map<std::string, KeyPlace> key_places;
   std::map<std::string, std::string> rule_sources;
 };
 

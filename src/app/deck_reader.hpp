@@ -12,11 +12,13 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <type_traits>
 #include <variant>
 #include <vector>
 
+#include "app/deck.hpp"
 #include "io/deck_keys.hpp"
 #include "mesh/input_error.hpp"
 
@@ -42,7 +44,19 @@ struct Value {
 // Typed reading of values; every failure throws InputError for this deck file.
 class Reader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
+  // places: where every key the deck gives is noted (Deck::key_places), or null.
+  explicit Reader(std::string file, std::map<std::string, KeyPlace>* places = nullptr)
+      : file_(std::move(file)), places_(places) {}
+  // Notes a map's entry (Section does, for each key it holds).
+  void note(const Value& entry) const {
+    if (!places_) return;
+    bool leaf = !entry.node.IsMap();
+    if (entry.node.IsSequence())
+      for (const YAML::Node& item : entry.node) leaf = leaf && !item.IsMap();
+    YAML::Emitter text;
+    text << YAML::Flow << entry.node;
+    (*places_)[entry.key] = {entry.line, entry.node.IsNull() ? "" : text.c_str(), leaf};
+  }
 
   [[noreturn]] void fail(int line, const std::string& key, const std::string& msg) const {
     throw InputError(file_, line, key, msg);
@@ -141,6 +155,7 @@ class Reader {
  private:
   static bool plain_scalar(const YAML::Node& n) { return n.IsScalar() && n.Tag() != "!"; }
   std::string file_;
+  std::map<std::string, KeyPlace>* places_;
 };
 
 // One YAML map of the deck. Construction rejects non-maps, unknown and duplicate keys
@@ -163,6 +178,7 @@ class Section {
         r.fail(entry, "unknown key '" + name + "'" + (v.key.empty() ? "" : " in " + v.key) +
                           "; allowed: " + join(shown.empty() ? allowed : shown));
       if (find(name)) r.fail(entry, "duplicate key '" + name + "'");
+      r.note(entry);
       entries_.push_back({name, entry});
     }
   }
