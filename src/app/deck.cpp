@@ -53,7 +53,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
 
   Section s(r, Value{root, "", line_of(root)},
             {"name", "mesh", "bodies", "partition", "material", "strand_material", "cloth", "regions", "fixed", "attachments",
-             "colliders", "contact", "initial", "gravity", "time", "solver", "output", "checkpoint", "study", "petsc"});
+             "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -131,6 +131,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   apply_contact_solver_defaults(r, s.find("solver"), deck);
+  if (const Value* x = s.find("guardrails")) read_guardrails(r, *x, deck.guardrails);
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   deck.physics = physics_sections(root);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "solvers/solver_registry.hpp"
 
@@ -267,7 +268,8 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
   c.keys("checkpoint.", checkpoint_keys(), deck.checkpoint);
   if (c.given("study")) c.keys("study.", study_keys(), deck.study);
 
-  // hyperqn's own options (-hyperqn_*; the test hooks below, if given).
+  // hyperqn's own options (-hyperqn_*; the test hooks below, if given); the guardrails' limits
+  // under their deck keys, from the deck or from their options.
   const std::vector<std::pair<std::string, std::string>> database = all_options();
   const auto find = [&](const std::string& name) {
     return std::find_if(database.begin(), database.end(), [&](const auto& o) { return o.first == name; });
@@ -278,8 +280,14 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     c.line(std::string("options.") + (name + 1), value, at == database.end() ? "default" : option_source(deck, name, at->second));
     seen.insert(name);
   };
-  option("-hyperqn_divergence_limit", text_of(double(options.divergence_limit)));
-  option("-hyperqn_element_limit", text_of(double(options.element_limit)));
+  for (const auto& [key, name, value] : {std::tuple<std::string, std::string, double>{
+           "divergence_limit", "-hyperqn_divergence_limit", options.divergence_limit},
+       {"element_limit", "-hyperqn_element_limit", options.element_limit}}) {
+    const auto at = find(name);
+    const std::string path = "guardrails." + key;
+    c.line(path, text_of(value), at == database.end() ? c.source(path) : option_source(deck, name, at->second));
+    seen.insert(name);
+  }
   option("-hyperqn_progress_seconds", text_of(double(options.progress_seconds)));
   option("-hyperqn_h0_package", factor_package_name(options.h0_package));
   // The PETSc options: the deck's (under their deck key), then those of the command line alone.

@@ -92,7 +92,8 @@ std::vector<KeyInfo> declared_deck_keys() {
        key_infos("attachments", attachment_keys()), key_infos("colliders", collider_keys()),
        key_infos("contact", contact_keys()), key_infos("regions", region_keys()),
        key_infos("initial", initial_keys()), key_infos("gravity", gravity_keys()), key_infos("time", time_keys()),
-       key_infos("solver", solver_keys()), key_infos("output", output_keys()),
+       key_infos("solver", solver_keys()), key_infos("guardrails", guardrail_keys()),
+       key_infos("output", output_keys()),
        key_infos("checkpoint", checkpoint_keys()), key_infos("study", study_keys()),
        key_infos("petsc", petsc_keys())})
     all.insert(all.end(), section.begin(), section.end());

@@ -461,6 +461,8 @@ void read_output(const Reader& r, const Value& v, OutputSpec& o) { read_keys(r, 
 
 void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) { read_keys(r, v, checkpoint_keys(), c); }
 
+void read_guardrails(const Reader& r, const Value& v, GuardrailSpec& g) { read_keys(r, v, guardrail_keys(), g); }
+
 // petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
 // spelled true/false and an empty value is "" (an option without argument).
 void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth) {

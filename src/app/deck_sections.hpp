@@ -39,6 +39,7 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv);
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st);
 void read_output(const Reader& r, const Value& v, OutputSpec& o);
 void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c);
+void read_guardrails(const Reader& r, const Value& v, GuardrailSpec& g);
 // petsc: {a: {b: 1}} -> ("-a_b", "1").
 void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth = 0);
 

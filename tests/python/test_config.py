@@ -82,7 +82,7 @@ def test_every_key_of_every_deck(deck):
             assert same(yaml.safe_load(shown), value), (key, shown, value)
     # What the deck leaves out is there too, with its default.
     given = {key for key, _, _ in deck_leaves(deck)}
-    for key in ("solver.iterations", "time.dt", "output.every", "options.hyperqn_element_limit"):
+    for key in ("solver.iterations", "time.dt", "output.every", "guardrails.element_limit"):
         assert key in settings and (key in given or settings[key][1].startswith("default")), (key, settings.get(key))
 
 
@@ -100,6 +100,7 @@ def test_derived_values_and_the_command_line(tmp_path):
         "material": {"model": "corotated", "youngs_modulus": 1e5, "poisson_ratio": 0.25, "density": 1000},
         "time": {"dt": 0.01, "frames": 1},
         "solver": {"budget": "fixed"},
+        "guardrails": {"element_limit": 40},
         "petsc": {"tao": {"ls_type": "armijo"}},
     })
     settings = config([deck, "-o", tmp_path / "out", "-hyperqn_element_limit", "50", "-tao_ls_type", "unit",
@@ -108,13 +109,14 @@ def test_derived_values_and_the_command_line(tmp_path):
     assert "material.total_mass" not in settings  # the deck gives density
     assert settings["solver.max_halvings"] == ("0", "rule: budget: fixed")
     assert settings["output.directory"] == (str(tmp_path / "out"), "command line")
-    assert settings["options.hyperqn_element_limit"] == ("50", "command line")
-    assert settings["options.hyperqn_divergence_limit"] == ("10", "default")
+    assert settings["guardrails.element_limit"] == ("50", "command line")  # over the deck's 40
+    assert settings["guardrails.divergence_limit"] == ("10", "default")
     assert settings["petsc.tao.ls_type"] == ("unit", "command line")  # the command line wins over the deck
     assert settings["options.log_view_memory"] == ('""', "command line")
     # Without the override the deck's value and line.
     settings = config([deck])
     assert settings["petsc.tao.ls_type"][1].startswith("deck line ")
+    assert settings["guardrails.element_limit"][0] == "40" and settings["guardrails.element_limit"][1].startswith("deck line ")
     assert settings["output.directory"] == ("output/d", "default (output/<name>)")
 
 
@@ -129,7 +131,7 @@ def test_a_run_writes_the_same_config(tmp_path):
     run_hyperqn(args, ranks=None, timeout=120)
     printed = run_hyperqn(["config"] + args, ranks=None, timeout=120).stdout
     assert (out / "config.yaml").read_text() == printed
-    assert yaml.safe_load(printed)["options.hyperqn_divergence_limit"] == 20  # the file is YAML
+    assert yaml.safe_load(printed)["guardrails.divergence_limit"] == 20  # the file is YAML
 
 
 @pytest.mark.parametrize("section,key,value,words", [
