@@ -97,9 +97,29 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
   PetscFunctionReturn(0);
 }
 
+namespace {
+
+// The default column of a key with a contact default (kContactSolverDefaults): "5; 20 with contact".
+void add_contact_defaults(std::vector<DeckKey<SolverSpec>>& keys) {
+  static std::vector<std::string> texts;  // the keys' default_text point into it
+  texts.reserve(kContactSolverDefaults.size());
+  const std::vector<KeyInfo> infos = key_infos("solver", keys);
+  for (const RuleDefault& rule : kContactSolverDefaults)
+    for (size_t i = 0; i < keys.size(); ++i)
+      if (std::string(keys[i].name) == rule.key) {
+        const bool word = !keys[i].choices.empty();
+        const auto shown = [&](const std::string& v) { return word ? "`" + v + "`" : v; };
+        texts.push_back(shown(infos[i].default_value) + "; " + shown(rule.value) + " with colliders or self-contact");
+        keys[i].default_text = texts.back().c_str();
+      }
+}
+
+}  // namespace
+
 const std::vector<DeckKey<SolverSpec>>& solver_keys() {
   using S = SolverSpec;
-  static const std::vector<DeckKey<S>> keys = {
+  static const std::vector<DeckKey<S>> keys = [] {
+  std::vector<DeckKey<S>> keys = {
       {"type", &S::type,
        "minimiser of the incremental potential. `lbfgs`: L-BFGS with initial inverse Hessian (M + h²L)⁻¹ (Liu et al. "
        "2017). `lbfgs-identity`: the same L-BFGS with TAO's default initial Hessian instead (ablation, no "
@@ -139,7 +159,9 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        [](S& s, const std::string& name) {
          if (name == "fixed") use_fixed_budget(s);
        },
-       [](const S&) { return std::string("adaptive"); }},
+       [](const S& s) {
+         return std::string(s.max_iterations == 0 && s.max_halvings == 0 && !s.newton_fallback ? "fixed" : "adaptive");
+       }},
       {"grad_atol", &S::grad_atol, "stop when ‖∇g‖ ≤ grad_atol", at_least(0)},
       {"grad_rtol", &S::grad_rtol,
        "or stop when ‖∇g‖ < grad_rtol · ‖∇g(x₀)‖ or ‖∇g‖ ≤ grad_rtol · S, and in either case ‖∇g‖ ≤ 10⁻³ S; S the "
@@ -149,10 +171,9 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        at_least(0)},
       {"history", &S::history,
        "number of L-BFGS correction pairs (`lbfgs`, `lbfgs-identity`); with 0 and an ARAP material, `lbfgs` takes the "
-       "same steps as `pd`. With colliders the default is 20: contact and friction stiffness are not in M + h²L and "
-       "L-BFGS learns them from its pairs ([contact.md](contact.md#defaults))",
-       between(0, kMaxHistory, "each pair holds two vectors of all unknowns; the paper uses 5"), {}, "",
-       "5; 20 with colliders"},
+       "same steps as `pd`. With colliders or self-contact the default is larger: contact and friction stiffness are "
+       "not in M + h²L and L-BFGS learns them from its pairs ([contact.md](contact.md#defaults))",
+       between(0, kMaxHistory, "each pair holds two vectors of all unknowns; the paper uses 5")},
       {"line_search", &S::line_search,
        "TAO line search. `unit` always takes the full step. Not used by `pd`, which has its own (see `type`).", {},
        {"more-thuente", "armijo", "unit"}},
@@ -164,7 +185,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "initial guess: the inertial prediction y, the previous positions x_n, or whichever of the two has the lower g "
        "(two evaluations per step; with contact y often lies deep inside an obstacle while x_n rests on it: a cube "
        "resting on the ground takes 33 iterations per frame from y and 6.3 from the lower, "
-       "[contact.md](contact.md#defaults))", "`inertial`; `lower` with colliders"),
+       "[contact.md](contact.md#defaults))"),
       {"upright_guess", &S::upright_guess,
        "the guess from y (`inertial`, and the y of `lower`) is pulled back to x_n + t(y − x_n), t = 1, ½, ¼, …, until "
        "it leaves no tet that is upright at x_n inverted, nor past the element limit (\\|det F\\| = 100, "
@@ -212,6 +233,9 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "the matrix. With `ntr` the Krylov method is STCG (TAONTR requires a trust-region CG), preconditioned by the "
        "Cholesky factor or by BoomerAMG."),
   };
+  add_contact_defaults(keys);
+  return keys;
+  }();
   return keys;
 }
 

@@ -70,6 +70,19 @@ struct SolverSpec {
 // The deck's solver: keys (params/deck_keys.hpp; solvers/solver_registry.cpp, which knows the types).
 const std::vector<DeckKey<SolverSpec>>& solver_keys();
 
+// A solver key's default under a rule of the scene, written as a deck would write it: the deck
+// reader sets it where the deck leaves the key out (and `hyperqn config` names the rule), and the
+// key's default in the docs is made from it.
+struct RuleDefault {
+  const char* key;    // a key of solver_keys()
+  const char* value;
+};
+// With contact (colliders or self-contact; docs/contact.md#defaults): contact's stiff, lagged
+// friction is learnt from more (s, y) pairs, and y often lies deep inside an obstacle while x_n
+// rests on it.
+inline const char* const kContactRule = "contact (colliders or self-contact)";
+inline const std::vector<RuleDefault> kContactSolverDefaults = {{"history", "20"}, {"warm_start", "lower"}};
+
 // The paper's fixed budget (the deck's solver: {budget: fixed}, and every study contender): a
 // frame takes `iterations` iterations (fewer only if it converges), never more, never sub-steps,
 // never Newton.

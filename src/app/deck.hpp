@@ -69,6 +69,37 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
   return keys;
 }
 
+// The guardrails' limits (docs/guardrails.md): a run stops where one is passed, so they change
+// results. The command line's -hyperqn_divergence_limit and -hyperqn_element_limit override them
+// (RunOptions, app/run_options.hpp, starts from these values).
+struct GuardrailSpec {
+  // Divergence: an element edge (tet edge or strand segment) longer than this many rest
+  // bounding-box diagonals D stops the run. At rest every edge is at most D long and rigid motions
+  // (free fall, prescribed rotation or translation, pieces moving apart) keep edge lengths, so a
+  // longer edge needs the body itself stretched about that much. Measured on the stability suite:
+  // at most 0.91 D in the runs that stay bounded (random start), up to 1e9 D in those that run
+  // away (docs/guardrails.md). <= 0: no check.
+  double divergence_limit = 10.0;
+  // Local blow-up: an element whose volume ratio |det F| exceeds this stops the run (a sliver can
+  // grow a thousandfold and stay far below the divergence limit's edge length). No solid these
+  // materials model changes its volume a hundredfold. <= 0: no check.
+  double element_limit = 100.0;
+};
+
+// The deck's guardrails: keys (params/deck_keys.hpp).
+inline const std::vector<DeckKey<GuardrailSpec>>& guardrail_keys() {
+  static const std::vector<DeckKey<GuardrailSpec>> keys = {
+      {"divergence_limit", &GuardrailSpec::divergence_limit,
+       "the run stops when an element edge (tet edge or strand segment) is longer than this many rest bounding-box "
+       "diagonals; ≤ 0: never. `-hyperqn_divergence_limit` on the command line overrides it "
+       "([guardrails.md](guardrails.md))"},
+      {"element_limit", &GuardrailSpec::element_limit,
+       "the run stops when an element's \\|det F\\| exceeds this; ≤ 0: never. `-hyperqn_element_limit` on the command "
+       "line overrides it ([guardrails.md](guardrails.md#element-blow-up-and-inversion))"},
+  };
+  return keys;
+}
+
 // When a run writes checkpoints (docs/deck-run.md#checkpoint): every `every` frames and/or when
 // `seconds` of wall time passed since the last one (0: not by that rule); the newest `keep` remain.
 struct CheckpointSpec {
@@ -93,10 +124,19 @@ inline const std::vector<DeckKey<CheckpointSpec>>& checkpoint_keys() {
   return keys;
 }
 
+// A key the deck gives: its line, its value as written (YAML flow style), and whether it is a
+// leaf (not a map, nor a list of maps).
+struct KeyPlace {
+  int line = 0;
+  std::string written;
+  bool leaf = true;
+};
+
 struct Deck : SceneSpec {
   SolverSpec solver;
   OutputSpec output;
   CheckpointSpec checkpoint;
+  GuardrailSpec guardrails;
   // (section, its YAML text) of the sections that define the physics (time without frames), in
   // a fixed order: a restart refuses a checkpoint whose sections' hashes differ.
   std::vector<std::pair<std::string, std::string>> physics;
@@ -107,6 +147,11 @@ struct Deck : SceneSpec {
     std::string key;  // dotted, e.g. "petsc.tao.ls_type"
   };
   std::map<std::string, OptionPlace> petsc_option_places;  // "-key" -> where the deck gives it
+  // Where the values came from (`hyperqn config`, app/deck_config.hpp): every key the deck gives
+  // (dotted, e.g. "bodies[0].material.mu"), and the keys it leaves out that a rule set (-> the
+  // rule, app/deck_rules.hpp).
+  std::map<std::string, KeyPlace> key_places;
+  std::map<std::string, std::string> rule_sources;
 };
 
 // Bounds of the petsc: section (a YAML alias bomb expands past them).

@@ -9,22 +9,6 @@ namespace hyperqn {
 
 namespace {
 
-// Where a key of the material registry goes in MaterialSpec (none: a map or a function, which
-// read_material reads).
-KeyMember<MaterialSpec> material_member(const std::string& key) {
-  using M = MaterialSpec;
-  if (key == "youngs_modulus") return &M::youngs_modulus;
-  if (key == "poisson_ratio") return &M::poisson_ratio;
-  if (key == "mu") return &M::mu;
-  if (key == "lambda") return &M::lambda;
-  if (key == "J0") return &M::J0;
-  if (key == "kappa") return &M::kappa;
-  if (key == "spring_stiffness") return &M::spring_stiffness;
-  if (key == "fiber.direction") return &M::fiber_direction;
-  if (key == "fiber.stiffness") return &M::fiber_stiffness;
-  return std::monostate{};
-}
-
 // A key of the registry as a deck key of the models that take it.
 DeckKey<MaterialSpec> material_key(const MaterialKey& key) {
   using M = MaterialSpec;
@@ -32,7 +16,9 @@ DeckKey<MaterialSpec> material_key(const MaterialKey& key) {
   for (const MaterialModel& model : material_models())
     for (const MaterialKey& k : model_keys(model))
       if (std::string(k.name) == key.name) owners.push_back(model.name);
-  DeckKey<M> k{key.name, material_member(key.name), key.doc, key.range};
+  KeyMember<M> member;
+  std::visit([&](auto m) { if constexpr (!std::is_same_v<decltype(m), std::monostate>) member = m; }, key.member);
+  DeckKey<M> k{key.name, member, key.doc, key.range};
   k.default_text = key.default_text;
   k.type_text = key.type;
   k.required = key.required;
@@ -106,7 +92,8 @@ std::vector<KeyInfo> declared_deck_keys() {
        key_infos("attachments", attachment_keys()), key_infos("colliders", collider_keys()),
        key_infos("contact", contact_keys()), key_infos("regions", region_keys()),
        key_infos("initial", initial_keys()), key_infos("gravity", gravity_keys()), key_infos("time", time_keys()),
-       key_infos("solver", solver_keys()), key_infos("output", output_keys()),
+       key_infos("solver", solver_keys()), key_infos("guardrails", guardrail_keys()),
+       key_infos("output", output_keys()),
        key_infos("checkpoint", checkpoint_keys()), key_infos("study", study_keys()),
        key_infos("petsc", petsc_keys())})
     all.insert(all.end(), section.begin(), section.end());

@@ -4,6 +4,7 @@
 //   mpiexec -n N hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]
 //   mpiexec -n N hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]
 //   hyperqn partition DECK.yaml -n N [-o FILE.h5]
+//   hyperqn config DECK.yaml [-o OUTDIR] [PETSc options...]
 #include <petscsys.h>
 
 #include <cerrno>
@@ -13,6 +14,7 @@
 #include <string>
 
 #include "app/deck.hpp"
+#include "app/deck_config.hpp"
 #include "app/run_options.hpp"
 #include "mesh/input_error.hpp"
 #include "app/partition_command.hpp"
@@ -25,6 +27,7 @@ static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
     "       hyperqn study DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn partition DECK.yaml -n N [-o FILE.h5]\n"
+    "       hyperqn config DECK.yaml [-o OUTDIR] [PETSc options...]\n"
     "       hyperqn registry   (the material models, solvers and declared deck keys, as JSON)\n"
     "       hyperqn --help-deck   (the deck keys declared with their types, ranges and defaults)\n"
     "  Runs the scene described by DECK.yaml (see docs/decks.md), or with 'study' compares the\n"
@@ -35,6 +38,8 @@ static const char usage[] =
     "              it, or from its newest whole one in OUTDIR/checkpoints; auto: that, or the deck afresh\n"
     "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
     "              SIGUSR1 after writing a checkpoint\n"
+    "  config: prints every setting of the run with its value and source (deck line, default, a rule, or\n"
+    "              the command line); a run writes the same to OUTDIR/config.yaml (docs/deck-run.md)\n"
     "  partition: cuts the deck's mesh into N parts and writes them to FILE.h5, a partition file that a\n"
     "              deck names as mesh.file: a run then reads its part directly (docs/performance.md#partition-files);\n"
     "              a deck of bodies joins them, and names the file as partition: (then -o may be left out)\n"
@@ -45,7 +50,7 @@ namespace {
 
 struct CommandLine {
   std::string deck, outdir, restart;
-  bool help = false, study = false, registry = false, partition = false, help_deck = false;
+  bool help = false, study = false, registry = false, partition = false, help_deck = false, config = false;
   int parts = 0;  // partition: -n
 };
 
@@ -97,6 +102,10 @@ CommandLine parse_command_line(int argc, char** argv) {
     cl.study = true;
     first = 2;
   }
+  if (argc > 1 && std::strcmp(argv[1], "config") == 0) {
+    cl.config = true;
+    first = 2;
+  }
   if (argc > 1 && std::strcmp(argv[1], "partition") == 0) return parse_partition_command(argc, argv);
   if (argc > 1 && std::strcmp(argv[1], "registry") == 0) {
     cl.registry = true;
@@ -120,6 +129,7 @@ CommandLine parse_command_line(int argc, char** argv) {
       cl.deck = a;
     }
   }
+  if (cl.config && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run; config only reads the deck");
   if (cl.study && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run, not a study");
   if (!cl.help && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
@@ -216,7 +226,7 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
 int main(int argc, char** argv) {
   // A simulation (not a study, not the registry) turns stop signals into a checkpoint from the start.
   if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0 &&
-      std::strcmp(argv[1], "partition") != 0)
+      std::strcmp(argv[1], "partition") != 0 && std::strcmp(argv[1], "config") != 0)
     hyperqn::catch_stop_signals();
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   int status = 0;
@@ -238,14 +248,19 @@ int main(int argc, char** argv) {
       const hyperqn::Deck deck = hyperqn::load_deck(cl.deck);
       PetscCall(insert_deck_options(deck));
       std::string outdir = cl.outdir;
-      if (cl.study) {
+      if (cl.config) {
+        if (outdir.empty()) outdir = deck.output.directory.empty() ? "output/" + deck.name : deck.output.directory;
+        hyperqn::RunOptions options;
+        PetscCall(hyperqn::read_run_options(PETSC_COMM_WORLD, &options, &deck));
+        PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", hyperqn::effective_config(deck, options, outdir).c_str()));
+      } else if (cl.study) {
         if (outdir.empty()) outdir = "output/study/" + deck.name;
         status = hyperqn::run_study(PETSC_COMM_WORLD, deck, outdir);
       } else {
         if (outdir.empty()) outdir = deck.output.directory.empty() ? "output/" + deck.name : deck.output.directory;
         status = hyperqn::run_simulation(PETSC_COMM_WORLD, deck, outdir, cl.restart);
       }
-      if (status == 0 || status == hyperqn::kExitInverted || status == hyperqn::kExitInterrupted) PetscCall(warn_unused_options());  // after a failure they may just not be reached
+      if (!cl.config && (status == 0 || status == hyperqn::kExitInverted || status == hyperqn::kExitInterrupted)) PetscCall(warn_unused_options());  // after a failure they may just not be reached
     }
   } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
     PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: error: %s\n", e.what()));

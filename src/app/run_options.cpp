@@ -49,6 +49,10 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
       throw InputError("option -hyperqn_h0_package cholmod: this PETSc was built without SuiteSparse, so it has no "
                        "CHOLMOD (use supernodal, mumps or auto)");
   }
+  if (deck) {  // the deck's limits, unless the options set them
+    o->divergence_limit = deck->guardrails.divergence_limit;
+    o->element_limit = deck->guardrails.element_limit;
+  }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
   if (parse_run_options(comm, o)) throw InputError(deck ? errors.describe(*deck) : errors.describe());
   // Every rank reads the same options, so every rank throws alike.

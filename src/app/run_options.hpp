@@ -10,17 +10,10 @@
 namespace hyperqn {
 
 struct RunOptions {
-  // Divergence: an element edge (tet edge or strand segment) longer than this many rest
-  // bounding-box diagonals D stops the run. At rest every edge is at most D long and rigid motions
-  // (free fall, prescribed rotation or translation, pieces moving apart) keep edge lengths, so a
-  // longer edge needs the body itself stretched about that much. Measured on the stability suite:
-  // at most 0.91 D in the runs that stay bounded (random start), up to 1e9 D in those that run
-  // away (docs/guardrails.md). <= 0: no check.
-  PetscReal divergence_limit = 10.0;
-  // Local blow-up: an element whose volume ratio |det F| exceeds this stops the run (a sliver can
-  // grow a thousandfold and stay far below the divergence limit's edge length). No solid these
-  // materials model changes its volume a hundredfold. <= 0: no check.
-  PetscReal element_limit = 100.0;
+  // The guardrails' limits (GuardrailSpec, app/deck.hpp): the deck's guardrails: section, or
+  // these defaults without a deck; -hyperqn_divergence_limit and -hyperqn_element_limit override.
+  PetscReal divergence_limit = GuardrailSpec{}.divergence_limit;
+  PetscReal element_limit = GuardrailSpec{}.element_limit;
   // Test hooks (tests/python/test_guardrails.py, terms/nan_injection.hpp): g = NaN where
   // ||x - y||_inf > nan_beyond, or from the nan_from_step-th step on (< 0: off).
   PetscReal nan_beyond = -1;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "app/deck_config.hpp"
 #include "app/petsc_errors.hpp"
 #include "app/run_checkpoints.hpp"
 #include "app/run_observers.hpp"
@@ -232,6 +233,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   // 1. Everything that can be wrong with the input is checked before any output exists.
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
+  const std::string config = effective_config(deck, options, outdir);  // OUTDIR/config.yaml
   SceneInput input;
   if (!load_scene_input_or_report(comm, deck, input, memory_plan(deck.solver, options.h0_package))) return 1;
   const CleanReport repaired = input.repaired;
@@ -344,6 +346,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
         } else {
           remove_interrupted_writes(outdir);  // a killed part's temporaries
         }
+        write_file_atomically(outdir + "/config.yaml", config);
         run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1);
       } catch (const std::exception& e) {
         error = e.what();

@@ -12,7 +12,7 @@ namespace hyperqn {
 void create_output_directory(MPI_Comm comm, const std::string& dir);
 
 // Whether the file `name` in `dir` is one a run writes: summary.json, iterations.csv,
-// contact.csv, NAME_NNNNN.vtu, NAME_NNNNN.pvtu, NAME_NNNNN_RANK.vtu, a NAME.pvd that lists
+// contact.csv, config.yaml, NAME_NNNNN.vtu, NAME_NNNNN.pvtu, NAME_NNNNN_RANK.vtu, a NAME.pvd that lists
 // NAME_ frames, a NAME.xdmf whose data are in NAME.h5 and that NAME.h5, and the temporaries of an
 // interrupted write of any of these.
 bool is_run_output(const std::string& dir, const std::string& name);

@@ -16,20 +16,20 @@ std::unique_ptr<Material> create_neohookean(const MaterialParams& p) {
 
 const std::vector<MaterialKey>& elastic_constant_keys() {
   static const std::vector<MaterialKey> keys = {
-      {"youngs_modulus", "Young's modulus E (a pressure), with `poisson_ratio`", above(0), "", false, "—"},
-      {"poisson_ratio", "Poisson's ratio ν, with `youngs_modulus`", {-1, 0.5, true, true}, "", false, "—"},
-      {"mu", "Lamé μ (a pressure), with `lambda`", above(0), "", false, "—"},
-      {"lambda", "Lamé λ (a pressure), with `mu`", at_least(0), "", false, "—"},
+      {"youngs_modulus", &MaterialSpec::youngs_modulus, "Young's modulus E (a pressure), with `poisson_ratio`", above(0), "", false, "—"},
+      {"poisson_ratio", &MaterialSpec::poisson_ratio, "Poisson's ratio ν, with `youngs_modulus`", {-1, 0.5, true, true}, "", false, "—"},
+      {"mu", &MaterialSpec::mu, "Lamé μ (a pressure), with `lambda`", above(0), "", false, "—"},
+      {"lambda", &MaterialSpec::lambda, "Lamé λ (a pressure), with `mu`", at_least(0), "", false, "—"},
   };
   return keys;
 }
 
 const std::vector<MaterialKey>& fiber_keys() {
   static const std::vector<MaterialKey> keys = {
-      {"fiber", "adds the fibre term k/2 (‖F d‖ − 1)² (d normalized, in the rest configuration) to the model", {},
+      {"fiber", {}, "adds the fibre term k/2 (‖F d‖ − 1)² (d normalized, in the rest configuration) to the model", {},
        "map", false, "none"},
-      {"fiber.direction", "d", nonzero_vector(), "", true},
-      {"fiber.stiffness", "k (a pressure)", at_least(0), "", true},
+      {"fiber.direction", &MaterialSpec::fiber_direction, "d", nonzero_vector(), "", true},
+      {"fiber.stiffness", &MaterialSpec::fiber_stiffness, "k (a pressure)", at_least(0), "", true},
   };
   return keys;
 }
@@ -39,22 +39,22 @@ const std::vector<MaterialModel>& material_models() {
       {"corotated", "mu ||F - R||^2 + lambda/2 (tr(R^T F) - 3)^2 (ARAP when lambda = 0)", true, {}, true,
        [](const MaterialParams& p) { return make_corotated(p.mu, p.lambda); }},
       {"neohookean", "mu/2 (I1 - 3) - mu log J + lambda/2 log^2 J, log J extended quadratically below J0", true,
-       {{"J0", "log J is replaced by a quadratic below J0", {0, 1, true, true}}}, true, create_neohookean},
+       {{"J0", &MaterialSpec::J0, "log J is replaced by a quadratic below J0", {0, 1, true, true}}}, true, create_neohookean},
       {"stvk", "St. Venant-Kirchhoff mu ||E||^2 + lambda/2 (tr E)^2, plus kappa (1 - J)^3 / 2592 for J < 1", true,
-       {{"kappa", "compression term κ(1 − J)³/2592 for J < 1", at_least(0)}}, true,
+       {{"kappa", &MaterialSpec::kappa, "compression term κ(1 − J)³/2592 for J < 1", at_least(0)}}, true,
        [](const MaterialParams& p) { return make_stvk(p.mu, p.lambda, p.kappa); }},
       {"principal-stretch", "sum f(s_i) + sum g(s_i s_j) + h(s_1 s_2 s_3) in the signed singular values s", false,
-       {{"f",
+       {{"f", {},
          "ψ = Σ f(σᵢ) + Σ g(σᵢσⱼ) + h(σ₁σ₂σ₃) in the signed singular values σ. A function is "
          "`{polynomial: [c0, c1, ...]}` (Σ c_k (x − 1)^k) or `{spline: {x: [...], y: [...]}}` (a monotone cubic "
          "spline through the points (x, y) of its **derivative**, the stress curve; the energy is its exact "
          "integral, zero at x = 1). At least one of f, g, h.",
          {}, "function", false, "none"},
-        {"g", "as `f`", {}, "function", false, "none"},
-        {"h", "as `f`", {}, "function", false, "none"}},
+        {"g", {}, "as `f`", {}, "function", false, "none"},
+        {"h", {}, "as `f`", {}, "function", false, "none"}},
        true, [](const MaterialParams& p) { return make_principal_stretch(p.f, p.g, p.h); }},
       {"mass-spring", "a spring k/2 (l - L)^2 on each edge of each tet", false,
-       {{"spring_stiffness",
+       {{"spring_stiffness", &MaterialSpec::spring_stiffness,
          "a spring k/2 (ℓ − L)² on each of the 6 edges of every tet (an edge shared by m tets carries m springs); a "
          "Projective Dynamics energy, so `pd` runs exact steps",
          above(0), "", true}},

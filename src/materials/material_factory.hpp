@@ -1,7 +1,9 @@
 // The material models by name (as written in decks): one registry entry per model, read by the
 // deck reader, the factory below and --help. docs/architecture.md, "Add a material".
 #pragma once
+#include <array>
 #include <memory>
+#include <variant>
 #include <string>
 #include <vector>
 
@@ -26,14 +28,42 @@ struct MaterialParams {
   double fiber_stiffness = 0.0;
 };
 
+// A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
+// or a monotone cubic spline through control points (x_i, y_i) of its derivative.
+struct FunctionSpec {
+  std::string kind;                  // "" (absent) | polynomial | spline
+  std::vector<double> coefficients, x, y;
+};
+
+// The deck's material (a body's, model/scene_spec.hpp): its keys (app/deck_keys.cpp, material_keys) come from
+// the registry below, each MaterialKey naming the member it sets.
+struct MaterialSpec {
+  std::string model = "corotated";   // a model of the registry below
+  double youngs_modulus = 0, poisson_ratio = 0;  // as the deck gives them (if it does)
+  double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
+  double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
+  double spring_stiffness = 0;       // mass-spring: k of the spring on each edge of each tet
+  FunctionSpec f, g, h;              // principal-stretch: psi = sum f(s_i) + sum g(s_i s_j) + h(J)
+  bool has_fiber = false;            // fibre term k/2 (|F d| - 1)^2 on top of the model
+  std::array<double, 3> fiber_direction{1, 0, 0};
+  double fiber_stiffness = 0;
+  bool has_density = false;
+  double density = 1000;             // mass per unit volume, or
+  double total_mass = 0;             // total mass (used when has_density is false)
+  double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
+  double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
+};
+
 // A deck key of material models (material.<name>), declared once here: its range, and which
-// models take it (their lists below). The deck's material keys (model/material_spec.hpp) are made
+// models take it (their lists below). The deck's material keys (app/deck_keys.cpp) are made
 // from these, so the deck reader, --help-deck and docs/deck-scene.md take them from here.
 struct MaterialKey {
   const char* name;           // a key of a map follows the map's own entry: "fiber.stiffness"
+  // The member of MaterialSpec it sets (none: a map or a function, which the deck reader reads).
+  std::variant<std::monostate, double MaterialSpec::*, std::array<double, 3> MaterialSpec::*> member;
   const char* doc;
   KeyRange range = {};
-  const char* type = "";      // "": a number or vec3 (its field in MaterialSpec); else as docs show it ("map", ...)
+  const char* type = "";      // "": a number or vec3 (its member); else as docs show it ("map", ...)
   bool required = false;      // required with the models that take it
   const char* default_text = "";  // instead of MaterialSpec's default
 };

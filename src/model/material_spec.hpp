@@ -1,5 +1,6 @@
 // A material as a scene describes it: the model and its parameters, its mass, and its weight in
-// L; and the materials of strand segments and of cloth. (materials/ holds the constitutive models themselves.)
+// L (MaterialSpec, declared beside the material registry that names its keys:
+// materials/material_factory.hpp); and the materials of strand segments and of cloth.
 #pragma once
 #include <array>
 #include <string>
@@ -7,6 +8,7 @@
 
 #include "params/deck_keys.hpp"
 #include "materials/cloth_models.hpp"
+#include "materials/material_factory.hpp"
 
 namespace hyperqn {
 
@@ -33,13 +35,6 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
   };
   return keys;
 }
-
-// A scalar function of the principal-stretch materials: polynomial coefficients c_k of (x - 1)^k,
-// or a monotone cubic spline through control points (x_i, y_i) of its derivative.
-struct FunctionSpec {
-  std::string kind;                  // "" (absent) | polynomial | spline
-  std::vector<double> coefficients, x, y;
-};
 
 // The material of a cloth surface (docs/cloth.md): in-plane stretching by springs on the edges
 // (Liu et al. 2013) or a triangle-FEM membrane, bending across interior edges, and areal density.
@@ -101,23 +96,5 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
   };
   return keys;
 }
-
-// The deck's material: its keys (app/deck.hpp, material_keys) come from the material registry.
-struct MaterialSpec {
-  std::string model = "corotated";   // a name of materials/material_factory.hpp's registry
-  double youngs_modulus = 0, poisson_ratio = 0;  // as the deck gives them (if it does)
-  double mu = 0, lambda = 0;         // Lame parameters (from E, nu if those were given)
-  double kappa = 0;                  // stvk: compression term kappa (1 - J)^3 / 2592 for J < 1
-  double spring_stiffness = 0;       // mass-spring: k of the spring on each edge of each tet
-  FunctionSpec f, g, h;              // principal-stretch: psi = sum f(s_i) + sum g(s_i s_j) + h(J)
-  bool has_fiber = false;            // fibre term k/2 (|F d| - 1)^2 on top of the model
-  std::array<double, 3> fiber_direction{1, 0, 0};
-  double fiber_stiffness = 0;
-  bool has_density = false;
-  double density = 1000;             // mass per unit volume, or
-  double total_mass = 0;             // total mass (used when has_density is false)
-  double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
-  double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
-};
 
 }  // namespace hyperqn

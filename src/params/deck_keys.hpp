@@ -1,6 +1,6 @@
 // A deck section's keys declared once, beside the struct they fill: name, type, range, unit, one
 // line of documentation and the allowed choices. From these declarations the deck reader reads
-// the section (app/deck.cpp, read_keys: every check and message alike), `hyperqn --help-deck`
+// the section (app/deck_reader.hpp, read_keys: every check and message alike), `hyperqn --help-deck`
 // prints them, `hyperqn registry` exports them, and the tables of those sections on
 // docs/deck-scene.md and docs/deck-run.md are generated (scripts/deck_tables.py;
 // tests/python/test_deck_tables.py fails when they differ).

@@ -18,7 +18,7 @@ def test_help_deck_lists_every_declared_key():
     keys = launch.registry(HYPERQN)["deck_keys"]
     assert {k["section"] for k in keys} == {"mesh", "bodies", "strand_material", "cloth", "material", "fixed", "motion",
                                             "attachments", "colliders", "contact", "regions", "initial", "gravity", "time",
-                                            "solver", "output", "checkpoint", "study", "petsc"}
+                                            "solver", "guardrails", "output", "checkpoint", "study", "petsc"}
     text = launch.run(["--help-deck"], ranks=None, binary=HYPERQN, check=True, timeout=60).stdout
     for k in keys:
         given = f"({k['default']}" if k["default"].startswith("required") else f"(default {k['default']}"

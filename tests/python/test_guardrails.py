@@ -291,15 +291,20 @@ def test_diverging_run_stops_cleanly(tmp_path, solver, ranks):
     assert longest_edge(frames[-1][1]) <= DIVERGENCE_LIMIT
 
 
-def test_divergence_check_can_be_turned_off(tmp_path):
-    """-hyperqn_divergence_limit 0 and -hyperqn_element_limit 0 (also in a deck's petsc: section):
-    the run-away goes on to the last frame; its inverted elements and line-search failures are in
-    the status, and the exit code is 2, never 0; still nothing NaN."""
+@pytest.mark.parametrize("given", ["command line", "deck"])
+def test_divergence_check_can_be_turned_off(tmp_path, given):
+    """-hyperqn_divergence_limit 0 and -hyperqn_element_limit 0 (also in a deck's petsc: section), or
+    the deck's guardrails: {divergence_limit: 0, element_limit: 0}: the run-away goes on to the last
+    frame; its inverted elements and line-search failures are in the status, and the exit code is 2,
+    never 0; still nothing NaN."""
     outdir = tmp_path / "out"
     deck = load_deck(DIVERGING_DECK)
     deck["solver"].update(NO_FALLBACK, **FROM_Y)
-    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir, "-hyperqn_divergence_limit", 0,
-                        "-hyperqn_element_limit", 0], check=False)
+    options = ["-hyperqn_divergence_limit", 0, "-hyperqn_element_limit", 0]
+    if given == "deck":
+        deck["guardrails"] = {"divergence_limit": 0, "element_limit": 0}
+        options = []
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", outdir] + options, check=False)
     assert proc.returncode == 2, proc.stdout[-2000:]
     s = read_summary(outdir)
     assert s["frames"] == 20 and s["failed_frames"] > 0 and s["inverted_frames"] > 0

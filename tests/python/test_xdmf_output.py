@@ -69,7 +69,7 @@ def test_xdmf_holds_the_vtk_frames(tmp_path, name, ranks):
     deck = scene(name)
     vtu = read_frames(run_format(tmp_path, deck, "vtu", ranks))
     out = run_format(tmp_path, deck, "xdmf", ranks)
-    assert set(os.listdir(out)) - {"iterations.csv", "contact.csv", "summary.json"} == {"run.h5", "run.xdmf"}
+    assert set(os.listdir(out)) - {"iterations.csv", "contact.csv", "summary.json", "config.yaml"} == {"run.h5", "run.xdmf"}
     xdmf = read_frames(out)
     assert_frames_close(xdmf, vtu, rest_diagonal(vtu[0][1]), same_order=False)
     # meshio alone: the topology, each frame's time and fields.

@@ -1,0 +1,55 @@
+// The deck's rules between sections: checks that a key makes sense given other sections, and the
+// defaults that other sections change. The deck's top level (app/deck.cpp) calls each where its
+// sections have been read.
+#include "app/deck_rules.hpp"
+
+namespace hyperqn::deck_reading {
+
+bool has_contact(const Deck& deck) { return !deck.colliders.empty() || deck.contact.self; }
+
+void check_contact_has_surfaces(const Reader& r, const Value& contact, const Deck& deck) {
+  const Value* self = Section(r, contact, {}).find("self");
+  if (deck.colliders.empty() && !(self && r.boolean(*self)))
+    r.fail(contact, "contact describes how the body touches colliders, and there are none (or self-contact: self: true)");
+}
+
+void check_thickness_in_self_contact(const Reader& r, const Deck& deck) {
+  if (deck.contact.self) return;
+  std::vector<std::pair<std::string, const ClothSpec*>> cloths{{"cloth", &deck.cloth}};
+  for (size_t k = 0; k < deck.bodies.size(); ++k)
+    cloths.push_back({"bodies[" + std::to_string(k) + "].cloth", &deck.bodies[k].cloth});
+  for (const auto& [key, cloth] : cloths)
+    if (cloth->thickness_line > 0)
+      r.fail(cloth->thickness_line, key + ".thickness",
+             "a cloth's thickness acts in self-contact only, and the deck has none: leave thickness out, or turn "
+             "self-contact on (contact: {self: true})");
+}
+
+void check_integrator_takes_contact(const Reader& r, const Value& time, const Deck& deck) {
+  const IntegratorInfo& integrator = integrator_info(deck.time.integrator);
+  if (!integrator.with_colliders && has_contact(deck))
+    r.fail(*Section(r, time, {}).find("integrator"),
+           std::string(integrator.name) + " does not take colliders or self-contact yet: its end-of-step map can carry "
+           "vertices through an obstacle or a surface that the solve's z rests on (use implicit-euler)");
+}
+
+void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {
+  for (TimeIntegrator kind : deck.study.integrators)
+    if (!integrator_info(kind).with_colliders && has_contact(deck))
+      r.fail(*Section(r, study, {}).find("integrators"),
+             std::string(integrator_info(kind).name) + " does not take colliders yet (see time.integrator)");
+}
+
+void apply_contact_solver_defaults(const Reader& r, const Value* solver, Deck& deck) {
+  if (!has_contact(deck)) return;
+  for (const RuleDefault& rule : kContactSolverDefaults) {
+    if (solver && Section(r, *solver, {}).find(rule.key)) continue;
+    const std::string key = std::string("solver.") + rule.key;
+    const auto& keys = solver_keys();
+    const auto declared = std::find_if(keys.begin(), keys.end(), [&](const DeckKey<SolverSpec>& k) { return k.name == std::string(rule.key); });
+    read_value(r, *declared, Value{YAML::Node(rule.value), key, 0}, deck.solver);
+    deck.rule_sources[key] = kContactRule;
+  }
+}
+
+}  // namespace hyperqn::deck_reading

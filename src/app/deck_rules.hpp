@@ -1,0 +1,24 @@
+// The deck's rules between sections (app/deck_rules.cpp): each a check or a default that one
+// section's value depends on another's.
+#pragma once
+#include "app/deck.hpp"
+#include "app/deck_reader.hpp"
+
+namespace hyperqn::deck_reading {
+
+// Colliders or self-contact.
+bool has_contact(const Deck& deck);
+// contact: describes touching colliders or the body itself: without either it would say nothing.
+void check_contact_has_surfaces(const Reader& r, const Value& contact, const Deck& deck);
+// A cloth's thickness acts in self-contact only: without it the key would say nothing.
+void check_thickness_in_self_contact(const Reader& r, const Deck& deck);
+// Colliders and self-contact need an integrator whose end of step is the solve's z (which the
+// barrier kept free of intersections): time.integrator, and each of study.integrators.
+void check_integrator_takes_contact(const Reader& r, const Value& time, const Deck& deck);
+void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
+// With contact, the solver keys the deck leaves out take their contact defaults
+// (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is
+// recorded in deck.rule_sources. solver: the deck's solver section, if any.
+void apply_contact_solver_defaults(const Reader& r, const Value* solver, Deck& deck);
+
+}  // namespace hyperqn::deck_reading

@@ -1,0 +1,506 @@
+// The deck's section readers: each reads its section's declared keys (read_keys; the keys are
+// declared beside the struct they fill), then the checks that involve several keys of that section.
+// Rules between sections are in app/deck_rules.cpp.
+#include "app/deck_sections.hpp"
+
+#include <cctype>
+#include <cmath>
+
+#include "io/partition_file.hpp"
+#include "materials/material.hpp"
+#include "materials/material_factory.hpp"
+#include "model/material_params.hpp"
+#include "solvers/solver_registry.hpp"
+
+namespace hyperqn::deck_reading {
+
+namespace {
+
+// Solver names come from their registry (solvers/solver_registry.hpp).
+const Names kSolverTypes = solver_names();
+constexpr double kMaxBoxTets = 2147483647;  // the generator indexes tets and vertices with int32
+// A generated box's or sheet's cells: the shortest side (size / cells) at least this fraction of
+// the longest. An element's stiffness across a side grows as 1 / side^2: past (1e8)^2 = 1e16 the
+// rest of M + h^2 L is lost to round-off and its factorization fails (measured: box cells of
+// 1.5e-8 do; 1e-6 leaves a margin).
+constexpr double kFlattestCell = 1e-6;
+
+}  // namespace
+
+// A partition file's header: what its mesh holds. The keys that shape a mesh belong to the deck
+// the file was made from, and are applied in it already.
+static void read_partition_header(const Reader& r, const Value& file, const Section& s, MeshSpec& m) {
+  for (const char* key : {"transform", "strands", "edges", "surface"})
+    if (const Value* x = s.find(key))
+      r.fail(*x, "shapes the mesh, and mesh.file is a partition file: give it in the deck given to hyperqn partition "
+                 "(the file holds the mesh with it applied)");
+  PartitionFileInfo info;
+  try {
+    info = read_partition_info(m.file);
+  } catch (const InputError& e) {
+    r.fail(file, e.what());
+  }
+  if (info.bodies.count > 0)
+    r.fail(file, "holds the " + std::to_string(info.bodies.count) + " bodies of a deck's bodies: name it as partition: "
+                 "beside those bodies");
+  m.is_partition_file = true;
+  m.file_tets = info.tets;
+  m.file_segments = info.segments;
+  m.file_triangles = info.triangles;
+  m.surface_as_cloth = info.triangles > 0;
+}
+
+void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m) {
+  Names names;  // the section's keys: unknown keys are reported before which keys go together
+  for (const DeckKey<MeshSpec>& k : mesh_keys())
+    if (!std::strchr(k.name, '.')) names.push_back(k.name);
+  const Section s(r, v, names);
+  const Value *file = s.find("file"), *box = s.find("box"), *sheet = s.find("sheet"), *strands = s.find("strands");
+  if ((file != nullptr) + (box != nullptr) + (sheet != nullptr) > 1) r.fail(v, "give one of file, box and sheet");
+  if (!file && !box && !sheet && !strands)
+    r.fail(v, "missing the mesh: give file (a .mesh, .msh or .obj path), box, sheet or strands");
+  read_keys(r, v, mesh_keys(), m);
+  if (file) {
+    m.file = resolve_input_file(r, *file, deck_dir, {".mesh", ".msh", ".obj", ".h5"},
+                                ".mesh (Medit), .msh (Gmsh), .obj (a cloth surface) or .h5 (a partition file of hyperqn partition)");
+    m.line = file->line;
+    m.surface_as_cloth = m.surface_as_cloth || fs::path(m.file).extension() == ".obj";
+    if (fs::path(m.file).extension() == ".h5") read_partition_header(r, *file, s, m);
+  }
+  if (const Value* x = s.find("surface"); x && !file)
+    r.fail(*x, "surface: cloth reads the triangles of mesh.file as a cloth; give a .mesh, .msh or .obj file");
+  // A generated grid's cells: its line is the mesh's (the memory check names it), its size is capped.
+  const auto cells = [&](const Value& grid) {
+    const Value x = *Section(r, grid, {}).find("cells");
+    m.line = x.line;
+    return x;
+  };
+  // ... and its cells are not too flat (kFlattestCell).
+  const auto not_flat = [&](const Value& grid, const double* size, const int* n, int dims, const char* elements) {
+    double shortest = HUGE_VAL, longest = 0;
+    std::string sides;
+    for (int d = 0; d < dims; ++d) {
+      const double side = size[d] / n[d];
+      shortest = std::min(shortest, side);
+      longest = std::max(longest, side);
+      char text[32];
+      std::snprintf(text, sizeof text, "%s%.3g", d ? " x " : "", side);
+      sides += text;
+    }
+    if (shortest >= kFlattestCell * longest) return;
+    char rule[40];
+    std::snprintf(rule, sizeof rule, "%g", kFlattestCell);
+    r.fail(*Section(r, grid, {}).find("size"),
+           "its cells would be " + sides + " (size / cells): the shortest side is less than " + rule +
+               " of the longest, and the " + elements + "' stiffness across so thin a cell (as 1 / side^2) would bury " +
+               "the rest of M + h^2 L in round-off (it would not be positive definite). Check the size and its units; a " +
+               "thin plate is a cloth (mesh.sheet)");
+  };
+  if (sheet) {
+    m.is_sheet = true;
+    const Value x = cells(*sheet);
+    const double triangles = 2.0 * m.sheet_cells[0] * m.sheet_cells[1];
+    if (3 * triangles > kMaxBoxTets)
+      r.fail(x, "makes " + std::to_string((long long)triangles) + " triangles; the sheet generator takes at most 715827882");
+    not_flat(*sheet, m.sheet_size.data(), m.sheet_cells.data(), 2, "triangles");
+  }
+  if (m.has_cloth() && strands) r.fail(*strands, "a cloth cannot share a mesh with strands");
+  if (const Value* x = s.find("edges"))
+    if (m.edges_as_strands && (!file || fs::path(m.file).extension() != ".mesh" || m.surface_as_cloth))
+      r.fail(*x, "edges: strands reads the Edges section of a Medit .mesh file; give one as mesh.file");
+  if (strands) {
+    for (const Value& item : r.items(*strands)) {
+      StrandLine line;
+      const Section st = read_keys(r, item, strand_line_keys(), line);
+      line.line = item.line;
+      if (line.from == line.to) r.fail(*st.find("to"), "a strand needs distinct from and to points");
+      m.strands.push_back(line);
+    }
+    if (m.strands.empty()) r.fail(*strands, "expected a non-empty list of strands {from, to, segments}");
+  }
+  if (box) {
+    m.is_box = true;
+    const Value x = cells(*box);
+    const double tets = 6.0 * m.box_cells[0] * m.box_cells[1] * m.box_cells[2];
+    if (tets > kMaxBoxTets)
+      r.fail(x, "makes " + std::to_string((long long)tets) + " tets; the box generator takes at most 2147483647");
+    not_flat(*box, m.box_size.data(), m.box_cells.data(), 3, "tets");
+  }
+}
+
+void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
+  read_keys(r, v, strand_material_keys(), m);
+}
+
+void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
+  const Section s = read_keys(r, v, cloth_keys(), c);
+  if (const Value* x = s.find("thickness")) c.thickness_line = x->line;
+  if (c.model == ClothModel::membrane) {
+    const double e = c.youngs_modulus, n = c.poisson_ratio;
+    c.mu = e / (2 * (1 + n));        // plane stress: the 2-D Lame constants of a thin sheet
+    c.lambda = e * n / (1 - n * n);
+  }
+}
+
+// A pair of keys that only make sense together: the missing one is reported at the other's line.
+static void need_both(const Reader& r, const Section& s, const char* a, const char* b) {
+  const Value *va = s.find(a), *vb = s.find(b);
+  if (va && !vb) r.fail(va->line, s.path(b), std::string("missing; ") + a + " is given, so " + b + " is needed too");
+  if (vb && !va) r.fail(vb->line, s.path(a), std::string("missing; ") + b + " is given, so " + a + " is needed too");
+}
+
+// The elastic constants as read_keys read them: one pair, both of it; E and nu become mu and lambda.
+static void check_elastic_constants(const Reader& r, const Section& s, MaterialSpec& m) {
+  const Value *E = s.find("youngs_modulus"), *nu = s.find("poisson_ratio");
+  const Value *mu = s.find("mu"), *lambda = s.find("lambda");
+  if ((E || nu) && (mu || lambda))
+    r.fail(mu ? *mu : *lambda, "give either youngs_modulus and poisson_ratio, or mu and lambda, not both");
+  if (!E && !nu && !mu && !lambda)
+    r.fail(s.value(), "missing elastic constants: give youngs_modulus and poisson_ratio, or mu and lambda");
+  if (E || nu) {
+    need_both(r, s, "youngs_modulus", "poisson_ratio");
+    m.mu = lame_mu(m.youngs_modulus, m.poisson_ratio);
+    m.lambda = lame_lambda(m.youngs_modulus, m.poisson_ratio);
+  } else {
+    need_both(r, s, "mu", "lambda");
+  }
+}
+
+// f: {polynomial: [c0, c1, ...]} or f: {spline: {x: [...], y: [...]}}
+static FunctionSpec read_function(const Reader& r, const Value& v) {
+  Section s(r, v, {"polynomial", "spline"});
+  const Value *poly = s.find("polynomial"), *spline = s.find("spline");
+  if (!poly == !spline) r.fail(v, "give either polynomial or spline");
+  FunctionSpec f;
+  if (poly) {
+    f.kind = "polynomial";
+    for (const Value& c : r.items(*poly)) f.coefficients.push_back(r.number(c));
+    r.check(!f.coefficients.empty(), *poly, "a non-empty list of coefficients of (x - 1)^k");
+  } else {
+    f.kind = "spline";
+    Section sp(r, *spline, {"x", "y"});
+    const Value &x = sp.need("x"), &y = sp.need("y");
+    for (const Value& c : r.items(x)) f.x.push_back(r.number(c));
+    for (const Value& c : r.items(y)) f.y.push_back(r.number(c));
+    r.check(f.x.size() >= 2 && f.x.size() == f.y.size(), y, "as many values as x (at least 2)");
+    for (size_t i = 1; i < f.x.size(); ++i) r.check(f.x[i] > f.x[i - 1], x, "strictly increasing");
+  }
+  return f;
+}
+
+// The keys, ranges and models of material_keys() (from the material registry), then the rules
+// that involve several keys, then the model's own checks.
+void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
+  {
+    // A model without elastic constants names the keys it takes instead (read_keys would name the
+    // models that take elastic constants).
+    const Section probe(r, v, {});
+    const Value* word = probe.find("model");
+    const MaterialModel& model = *find_material_model(word ? r.choice(*word, material_keys()[0].choices) : m.model);
+    for (const MaterialKey& k : elastic_constant_keys())
+      if (const Value* x = probe.find(k.name); x && !model.elastic_constants) {
+        std::string own;
+        for (const MaterialKey& key : model.keys) own += (own.empty() ? "" : ", ") + std::string(key.name);
+        r.fail(*x, model.name + " takes " + own + " instead of elastic constants");
+      }
+  }
+  const Section s = read_keys(r, v, material_keys(), m);
+  const MaterialModel& model = *find_material_model(m.model);
+  if (model.elastic_constants) check_elastic_constants(r, s, m);
+  if (const Value* x = s.find("f")) m.f = read_function(r, *x);
+  if (const Value* x = s.find("g")) m.g = read_function(r, *x);
+  if (const Value* x = s.find("h")) m.h = read_function(r, *x);
+  // A model of functions (principal-stretch) needs one of them.
+  const bool of_functions = std::any_of(model.keys.begin(), model.keys.end(),
+                                        [](const MaterialKey& k) { return std::string(k.type) == "function"; });
+  if (of_functions && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
+    r.fail(v, m.model + " needs f, g or h");
+  m.has_fiber = s.find("fiber") != nullptr;
+
+  const Value *density = s.find("density"), *total = s.find("total_mass");
+  if (density && total) r.fail(*total, "give either density or total_mass, not both");
+  if (!density && !total) r.fail(v, "missing the mass: give density or total_mass");
+  m.has_density = density != nullptr;
+
+  // The material's own checks (e.g. spline shapes) with the deck's place in the message.
+  try {
+    if (model.create) make_material(m);
+  } catch (const std::invalid_argument& e) {
+    r.fail(v, e.what());
+  }
+}
+
+// A box of fixed:, attachments: or regions:, read by read_keys (box_keys): min <= max on every axis.
+static void check_box(const Reader& r, const Section& s, const BoxRegion& b) {
+  const Value* box = s.find("box");
+  if (!box) return;
+  const Section corners(r, *box, {});
+  for (int i = 0; i < 3; ++i)
+    if (b.min[i] > b.max[i])
+      r.fail(*box, std::string("min > max along ") + "xyz"[i] + ": " + r.items(*corners.find("min"))[i].node.Scalar() +
+                       " > " + r.items(*corners.find("max"))[i].node.Scalar());
+}
+
+static Motion read_motion(const Reader& r, const Value& v) {
+  Motion m;
+  const Section s = read_keys(r, v, motion_keys(), m);
+  m.active = true;
+  if (const Value* x = s.find("end")) r.check(m.end >= m.start, *x, ">= motion.start");
+  return m;
+}
+
+// body >= 0: bodies[body].fixed, which selects that body's vertices only.
+void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, int body) {
+  for (const Value& item : r.items(v)) {
+    BoxRegion b;
+    const Section s = read_keys(r, item, fixed_keys(), b);
+    check_box(r, s, b);
+    b.line = item.line;
+    b.body = body;
+    if (const Value* x = s.find("motion")) b.motion = read_motion(r, *x);
+    fixed.push_back(b);
+  }
+}
+
+// bodies: a list of bodies, each a mesh (tets, a cloth, strands, or tets with strands, with its
+// transform) with the material of each of its parts, an initial velocity and its own fixed regions
+// and attachments (returned in regions, read after the scene's).
+void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck, BodyRegions& regions) {
+  for (const Value& item : r.items(v)) {
+    const int k = (int)deck.bodies.size();
+    BodySpec b;
+    b.line = item.line;
+    b.name = "body" + std::to_string(k);
+    const Section s = read_keys(r, item, body_keys(), b);
+    if (const Value* x = s.find("name"))
+      for (const BodySpec& other : deck.bodies)
+        if (other.name == b.name) r.fail(*x, "another body is named " + b.name + " (line " + std::to_string(other.line) + ")");
+    const Value& mesh = *s.find("mesh");
+    read_mesh(r, mesh, deck_dir, b.mesh);
+    const MeshSpec& m = b.mesh;
+    if (m.is_partition_file)
+      r.fail(mesh, "a body's mesh is not a partition file: name the partition file of all the bodies as partition: "
+                   "beside bodies: (written by hyperqn partition DECK -n N)");
+    // Each part of the body's mesh takes its own material, read as for a scene of one body. A
+    // Medit file read for its edges may hold no tets (load_scene_input checks).
+    const struct {
+      const char* key;
+      bool has;
+      bool required;
+      const char* part;
+    } parts[] = {{"material", m.has_solid(), m.has_solid() && !m.edges_as_strands, "tetrahedra (a box or a .mesh or .msh file)"},
+                 {"cloth", m.has_cloth(), m.has_cloth(), "a cloth (a sheet, an .obj file, or a file with surface: cloth)"},
+                 {"strand_material", m.has_strands(), m.has_strands(), "strands (mesh.strands, or edges: strands)"}};
+    for (const auto& part : parts) {
+      const Value* x = s.find(part.key);
+      if (x && !part.has) r.fail(*x, std::string(part.key) + " describes " + part.part + ", and the body's mesh has none");
+      if (part.required) s.need(part.key);
+    }
+    if (const Value* x = s.find("material")) {
+      read_material(r, *x, b.material);
+      b.has_material = true;
+    }
+    if (const Value* x = s.find("cloth")) read_cloth(r, *x, b.cloth);
+    if (const Value* x = s.find("strand_material")) read_strand_material(r, *x, b.strand_material);
+    if (const Value* x = s.find("fixed")) regions.fixed.emplace_back(k, *x);
+    if (const Value* x = s.find("attachments")) regions.attachments.emplace_back(k, *x);
+    deck.bodies.push_back(b);
+  }
+  r.check(!deck.bodies.empty(), v, "a non-empty list");
+  for (const BodySpec& b : deck.bodies)
+    if (b.has_material) {  // the scene's material (what the study names): the first body's with tets
+      deck.material = b.material;
+      deck.has_material = true;
+      break;
+    }
+  deck.mesh.line = deck.bodies[0].mesh.line;
+}
+
+// partition: the file `hyperqn partition` writes of the joined bodies. It need not exist yet (the
+// command writes it from this deck); the run checks it against the bodies (load_scene_input).
+void read_bodies_partition(const Reader& r, const Value& v, const fs::path& deck_dir, Deck& deck) {
+  const fs::path file = r.text(v);
+  if (file.extension() != ".h5")
+    r.fail(v, "'" + file.string() + "': a partition file's name ends in .h5 (hyperqn partition DECK -n N writes it)");
+  deck.partition_file = (file.is_absolute() ? file : (deck_dir / file).lexically_normal()).string();
+  deck.partition_line = v.line;
+}
+
+// colliders: a list of obstacles, each of one type with that type's keys (collider_keys()).
+void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, std::vector<ColliderSpec>& colliders) {
+  for (const Value& item : r.items(v)) {
+    ColliderSpec c;
+    const Section s = read_keys(r, item, collider_keys(), c);
+    c.line = item.line;
+    if (c.type == ColliderType::box)
+      for (int i = 0; i < 3; ++i)
+        if (!(c.min[i] < c.max[i]))
+          r.fail(*s.find("max"), std::string("must exceed min along ") + "xyz"[i] + " (a solid box of positive size)");
+    if (c.type == ColliderType::mesh)
+      c.file = resolve_input_file(r, *s.find("file"), deck_dir, {".obj", ".mesh"},
+                                  ".obj (Wavefront) or .mesh (Medit, its Triangles)");
+    if (const Value* x = s.find("motion")) c.motion = read_motion(r, *x);
+    colliders.push_back(c);
+  }
+}
+
+void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
+  const Section s = read_keys(r, v, contact_keys(), c);
+  c.line = v.line;
+  if (const Value* x = s.find("distance")) c.distance_line = x->line;
+  if (const Value* x = s.find("self_friction"); x && !c.self)
+    r.fail(*x, "self_friction is the friction between surfaces in self-contact, which is off (self: true turns it on); "
+               "each collider has its own friction");
+}
+
+// attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.
+void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments) {
+  for (const Value& item : r.items(v)) {
+    AttachmentSpec a;
+    const Section s = read_keys(r, item, attachment_keys(), a);
+    check_box(r, s, a.region);
+    a.region.line = item.line;
+    if (const Value* x = s.find("motion")) a.region.motion = read_motion(r, *x);
+    attachments.push_back(a);
+  }
+}
+
+// Each body's own fixed regions and attachments (BoxRegion::body), after the scene's.
+void read_body_regions(const Reader& r, const BodyRegions& regions, Deck& deck) {
+  for (const auto& [k, item] : regions.fixed) read_fixed(r, item, deck.fixed, k);
+  for (const auto& [k, item] : regions.attachments) {
+    std::vector<AttachmentSpec> own;
+    read_attachments(r, item, own);
+    for (AttachmentSpec& a : own) {
+      a.region.body = k;
+      deck.attachments.push_back(a);
+    }
+  }
+}
+
+void read_initial(const Reader& r, const Value& v, InitialSpec& in) {
+  const Section s(r, v, {"squash", "collapse", "random", "invert"});
+  if (s.entries().size() != 1) r.fail(v, "give exactly one of squash, collapse, random, invert");
+  read_keys(r, v, initial_keys(), in);
+  const auto& [form, x] = s.entries()[0];
+  if (form == "squash") in.kind = InitialKind::squash;
+  if (form == "collapse" && r.boolean(x)) in.kind = InitialKind::collapse;
+  if (form == "random") in.kind = InitialKind::random;
+  if (form == "invert") in.kind = InitialKind::invert;
+}
+
+void read_regions(const Reader& r, const Value& v, const MaterialSpec& base, std::vector<MaterialRegion>& regions) {
+  for (const Value& item : r.items(v)) {
+    MaterialRegion region;
+    const Section s = read_keys(r, item, region_keys(), region);
+    region.line = item.line;
+    const Value *box = s.find("box"), *tags = s.find("tags");
+    if (!box == !tags) r.fail(item, "give either box or tags");
+    check_box(r, s, region.box);
+    region.by_box = box != nullptr;
+    if (box) region.box.line = box->line;
+    const Value& mat = *s.find("material");
+    read_material(r, mat, region.material);
+    // Masses are per unit volume when the body has several materials.
+    if (!region.material.has_density || !base.has_density)
+      r.fail(mat, "with regions, every material (the default one too) gives density, not total_mass");
+    regions.push_back(region);
+  }
+}
+
+// An integrator's name (study.integrators; time.integrator is read by time_keys()).
+static TimeIntegrator read_integrator(const Reader& r, const Value& v) {
+  return integrator_named(r.choice(v, integrator_names()))->kind;
+}
+
+void read_time(const Reader& r, const Value& v, TimeSpec& t) {
+  const Section s = read_keys(r, v, time_keys(), t);
+  if (const Value* x = s.find("dt")) r.check(t.dt >= 1e-100, *x, ">= 1e-100 (h^2 must not underflow)");
+}
+
+void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
+  const Section s = read_keys(r, v, solver_keys(), sv);
+  // lbfgs only, like the other solvers' own keys (pd is defined by M + h^2 L). amg would not
+  // be ignored by pd but break it: its steps are exact solves with M + h^2 L.
+  if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == H0::amg)
+    r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
+               "approximates (give laplacian, or leave h0 out)");
+  // adaptive: the fallback chain as the keys above set it; fixed: none of it, and then
+  // those keys would say nothing, so giving one is an error rather than silently overruled.
+  if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")
+    for (const char* key : {"max_iterations", "max_halvings", "newton_fallback", "keep_substeps"})
+      if (const Value* stage = s.find(key))
+        r.fail(*stage, std::string("budget: fixed turns off the fallback chain (") + key +
+                           " among it): leave " + key + " out, or use budget: adaptive");
+}
+
+void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
+  const Section s = read_keys(r, v, study_keys(), st);
+  if (const Value* x = s.find("frames"))
+    for (const Value& item : r.items(*x))
+      r.check(r.integer(item) >= 1 && r.integer(item) <= scene_frames, item, "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
+  if (const Value* x = s.find("integrators")) {
+    for (const Value& item : r.items(*x)) {
+      const TimeIntegrator kind = read_integrator(r, item);
+      r.check(std::find(st.integrators.begin(), st.integrators.end(), kind) == st.integrators.end(), item,
+              "each integrator once");
+      st.integrators.push_back(kind);
+    }
+    r.check(!st.integrators.empty(), *x, "a non-empty list");
+  }
+  if (const Value* x = s.find("trajectory_iterations")) {
+    Section t(r, *x, kSolverTypes);
+    for (const auto& [name, item] : t.entries()) {
+      st.trajectory_iterations[name] = r.integer(item);
+      r.check(st.trajectory_iterations[name] >= 1, item, ">= 1");
+    }
+  }
+}
+
+void read_output(const Reader& r, const Value& v, OutputSpec& o) { read_keys(r, v, output_keys(), o); }
+
+void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) { read_keys(r, v, checkpoint_keys(), c); }
+
+void read_guardrails(const Reader& r, const Value& v, GuardrailSpec& g) { read_keys(r, v, guardrail_keys(), g); }
+
+// petsc: {a: {b: 1}} -> ("-a_b", "1"). Values go to PETSc as written, except that booleans are
+// spelled true/false and an empty value is "" (an option without argument).
+void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck& deck, int depth) {
+  auto& out = deck.petsc_options;
+  if (depth > kMaxPetscDepth) r.fail(v, "nested more than " + std::to_string(kMaxPetscDepth) + " levels deep");
+  const Section s = read_keys(r, v, petsc_keys(), deck);
+  for (const auto& [name, x] : s.entries()) {
+    if ((int)out.size() >= kMaxPetscOptions)
+      r.fail(x, "more than " + std::to_string(kMaxPetscOptions) + " PETSc options (YAML aliases repeating maps?)");
+    if (name.empty() || name[0] == '-')
+      r.fail(x, "PETSc option names are written without the leading '-'");
+    // PETSc would take anything else as the end of the name, or as another option.
+    const bool plain = std::all_of(name.begin(), name.end(), [](char c) { return std::isalnum((unsigned char)c) || c == '_'; });
+    if (!plain || (prefix.empty() && !std::isalpha((unsigned char)name[0])))
+      r.fail(x, "not a PETSc option name: letters, digits and '_' only, starting with a letter");
+    std::string option = prefix.empty() ? name : prefix + "_" + name;
+    if (x.node.IsMap()) {
+      read_petsc(r, x, option, deck, depth + 1);
+      continue;
+    }
+    std::string value;
+    if (x.node.IsScalar()) {
+      value = x.node.Scalar();
+      bool b = false;
+      if (x.node.Tag() != "!" && YAML::convert<bool>::decode(x.node, b)) value = b ? "true" : "false";
+      // PETSc splits a value at whitespace: "unit -tao_type x" would set a second option.
+      if (std::any_of(value.begin(), value.end(), [](char c) { return std::isspace((unsigned char)c) || std::iscntrl((unsigned char)c); }))
+        r.fail(x, "a PETSc option value is one word: no spaces or control characters, got " + describe(x.node));
+    } else if (!x.node.IsNull()) {
+      r.fail(x, "expected a single value or a nested map, got " + describe(x.node) +
+                    " (write PETSc lists as a comma-separated string)");
+    }
+    if (const auto seen = deck.petsc_option_places.find("-" + option); seen != deck.petsc_option_places.end())
+      r.fail(x, "option -" + option + " is also given at line " + std::to_string(seen->second.line) +
+                    " (as '" + seen->second.key + "')");
+    out.emplace_back("-" + option, value);
+    deck.petsc_option_places["-" + option] = {x.line, x.key};
+  }
+}
+
+}  // namespace hyperqn::deck_reading

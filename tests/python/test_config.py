@@ -1,0 +1,158 @@
+"""`hyperqn config DECK` (docs/deck-run.md#the-effective-configuration): every setting with its value
+and source. On every deck of input/: it exits 0, and every key the deck gives appears with its deck
+line and the value the deck wrote; contact's solver defaults come from their rule; the command line's
+options and -o are marked as such; a run writes the same text to OUTDIR/config.yaml; bad input is
+exit 1 with the key named."""
+import glob
+import os
+import re
+
+import pytest
+import yaml
+
+from conftest import REPO, run_hyperqn, write_deck
+
+LINE = re.compile(r"^(\S+): (.*?)  # (.*)$")
+SHARED_MESHES = os.path.join(REPO, "..", "shared", "meshes")
+
+
+def config(args):
+    """{key: (value as YAML, source)} of `hyperqn config args...` (1 process)."""
+    proc = run_hyperqn(["config"] + list(args), ranks=None, timeout=120)
+    out = {}
+    for text in proc.stdout.splitlines():
+        if text.startswith("#") or not text.strip():
+            continue
+        m = LINE.match(text)
+        assert m, f"not a 'key: value  # source' line: {text!r}"
+        assert m.group(1) not in out, f"{m.group(1)} listed twice"
+        out[m.group(1)] = (m.group(2), m.group(3))
+    return out
+
+
+def deck_leaves(path):
+    """(dotted key, line, value) of every leaf the deck gives (a scalar, or a list of non-maps), keyed as
+    the deck reader keys them ("bodies[0].material.mu"), from PyYAML's node tree."""
+    root = yaml.compose(open(path).read())
+    leaves = []
+
+    def walk(node, key, line):
+        if isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                walk(v, f"{key}.{k.value}" if key else k.value, k.start_mark.line + 1)
+        elif isinstance(node, yaml.SequenceNode) and any(isinstance(i, yaml.MappingNode) for i in node.value):
+            for i, item in enumerate(node.value):
+                walk(item, f"{key}[{i}]", line)
+        else:
+            leaves.append((key, line, yaml.safe_load(yaml.serialize(node))))
+
+    walk(root, "", 0)
+    return leaves
+
+
+def same(a, b):
+    """Values equal as the run reads them: numbers as numbers (PyYAML reads 1e5 as text)."""
+    if isinstance(a, list) or isinstance(b, list):
+        return isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and all(map(same, a, b))
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a == b
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return a == b or (a is None and b == "") or (b is None and a == "")
+
+
+def decks():
+    paths = sorted(glob.glob(os.path.join(REPO, "input", "**", "*.yaml"), recursive=True))
+    return [p for p in paths if "sweep" not in yaml.safe_load(open(p))]  # a sweep names a deck, it is none
+
+
+@pytest.mark.parametrize("deck", decks(), ids=lambda p: os.path.relpath(p, os.path.join(REPO, "input")))
+def test_every_key_of_every_deck(deck):
+    if "shared/meshes" in open(deck).read() and not os.path.isdir(SHARED_MESHES):
+        pytest.skip("needs ../shared/meshes")
+    settings = config([deck])
+    for key, line, value in deck_leaves(deck):
+        assert key in settings, f"{key} (deck line {line}) is not listed"
+        shown, source = settings[key]
+        assert source == f"deck line {line}", (key, source)
+        if key.endswith(".file") or key == "partition":  # resolved against the deck's directory
+            assert os.path.normpath(os.path.join(os.path.dirname(deck), value)) == os.path.normpath(yaml.safe_load(shown))
+        else:
+            assert same(yaml.safe_load(shown), value), (key, shown, value)
+    # What the deck leaves out is there too, with its default.
+    given = {key for key, _, _ in deck_leaves(deck)}
+    for key in ("solver.iterations", "time.dt", "output.every", "guardrails.element_limit"):
+        assert key in settings and (key in given or settings[key][1].startswith("default")), (key, settings.get(key))
+
+
+def test_contact_defaults_come_from_their_rule():
+    settings = config([os.path.join(REPO, "input", "contact", "incline_slide.yaml")])
+    assert settings["solver.history"] == ("20", "rule: contact (colliders or self-contact)")
+    assert settings["solver.warm_start"] == ("lower", "rule: contact (colliders or self-contact)")
+    bar = config([os.path.join(REPO, "input", "bar.yaml")])  # no contact: the keys' own defaults
+    assert bar["solver.history"][1].startswith("default") and bar["solver.warm_start"][1].startswith("default")
+
+
+def test_derived_values_and_the_command_line(tmp_path):
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+        "material": {"model": "corotated", "youngs_modulus": 1e5, "poisson_ratio": 0.25, "density": 1000},
+        "time": {"dt": 0.01, "frames": 1},
+        "solver": {"budget": "fixed"},
+        "guardrails": {"element_limit": 40},
+        "petsc": {"tao": {"ls_type": "armijo"}},
+    })
+    settings = config([deck, "-o", tmp_path / "out", "-hyperqn_element_limit", "50", "-tao_ls_type", "unit",
+                       "-log_view_memory"])
+    assert settings["material.mu"] == ("40000", "rule: from youngs_modulus and poisson_ratio")  # E / (2 (1 + nu))
+    assert "material.total_mass" not in settings  # the deck gives density
+    assert settings["solver.max_halvings"] == ("0", "rule: budget: fixed")
+    assert settings["output.directory"] == (str(tmp_path / "out"), "command line")
+    assert settings["guardrails.element_limit"] == ("50", "command line")  # over the deck's 40
+    assert settings["guardrails.divergence_limit"] == ("10", "default")
+    assert settings["petsc.tao.ls_type"] == ("unit", "command line")  # the command line wins over the deck
+    assert settings["options.log_view_memory"] == ('""', "command line")
+    # Without the override the deck's value and line.
+    settings = config([deck])
+    assert settings["petsc.tao.ls_type"][1].startswith("deck line ")
+    assert settings["guardrails.element_limit"][0] == "40" and settings["guardrails.element_limit"][1].startswith("deck line ")
+    assert settings["output.directory"] == ("output/d", "default (output/<name>)")
+
+
+def test_a_run_writes_the_same_config(tmp_path):
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+        "material": {"model": "corotated", "mu": 1e5, "lambda": 1e5, "density": 1000},
+        "time": {"dt": 0.01, "frames": 1},
+    })
+    out = tmp_path / "out"
+    args = [deck, "-o", out, "-hyperqn_divergence_limit", "20"]
+    run_hyperqn(args, ranks=None, timeout=120)
+    printed = run_hyperqn(["config"] + args, ranks=None, timeout=120).stdout
+    assert (out / "config.yaml").read_text() == printed
+    assert yaml.safe_load(printed)["guardrails.divergence_limit"] == 20  # the file is YAML
+
+
+@pytest.mark.parametrize("section,key,value,words", [
+    ("solver", "history", -1, "solver.history"),
+    ("solver", "histroy", 5, "unknown key 'histroy'"),
+    ("time", "dt", "fast", "time.dt"),
+])
+def test_bad_input_names_the_key(tmp_path, section, key, value, words):
+    deck = {"mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+            "material": {"model": "corotated", "mu": 1e5, "lambda": 1e5, "density": 1000},
+            "time": {"dt": 0.01, "frames": 1}}
+    deck.setdefault(section, {})[key] = value
+    proc = run_hyperqn(["config", write_deck(tmp_path / "bad.yaml", deck)], ranks=None, check=False, timeout=120)
+    assert proc.returncode == 1, proc.stdout
+    assert "error" in proc.stdout and words in proc.stdout, proc.stdout
+
+
+def test_bad_option_names_it(tmp_path):
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+        "material": {"model": "corotated", "mu": 1e5, "lambda": 1e5, "density": 1000},
+    })
+    proc = run_hyperqn(["config", deck, "-hyperqn_h0_package", "nope"], ranks=None, check=False, timeout=120)
+    assert proc.returncode == 1 and "-hyperqn_h0_package" in proc.stdout, proc.stdout
