@@ -1,7 +1,8 @@
-"""Every relative Markdown link [text](path#anchor) in README.md, docs/*.md and docs/records/*.md
-leads somewhere: the file exists and, for a page with an anchor, one of its headings has that
-GitHub-style anchor (lower case, punctuation dropped, spaces as '-', '-1', '-2' for repeats). Pages
-move (docs/decks.md's sections went to deck-scene.md and deck-run.md); their links must follow."""
+"""No page of docs/ over 450 lines, and every relative Markdown link [text](path#anchor) in
+README.md, docs/*.md and docs/records/*.md leads somewhere: the file exists and, for a page with
+an anchor, one of its headings has that GitHub-style anchor (lower case, punctuation dropped,
+spaces as '-', '-1', '-2' for repeats). Pages move (docs/decks.md's sections went to
+deck-scene.md and deck-run.md); their links must follow."""
 import glob
 import os
 import re
@@ -69,3 +70,10 @@ def test_every_relative_link_resolves():
                     broken.append(f"{where}: no heading with that anchor")
     assert checked > 500  # the pages were found
     assert not broken, "\n".join(broken)
+
+
+def test_no_design_page_over_450_lines():
+    """A page of docs/ describes one topic's design and use; its history goes to docs/records/."""
+    long = {os.path.relpath(p, REPO): n for p in glob.glob(os.path.join(REPO, "docs", "*.md"))
+            if (n := sum(1 for _ in open(p, encoding="utf-8"))) > 450}
+    assert not long, long
