@@ -291,25 +291,31 @@ PetscErrorCode FactoredSystem::diagonal(Vec d) const {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components) {
+  PetscFunctionBeginUser;
+  if (components == 3) {
+    PetscCall(MatDiagonalSet(A, diagonal, ADD_VALUES));
+    PetscFunctionReturn(0);
+  }
+  Vec d;  // the x entries: one per free vertex
+  const PetscScalar* e;
+  PetscScalar* a;
+  PetscInt n1;
+  PetscCall(MatCreateVecs(A, &d, nullptr));
+  PetscCall(VecGetLocalSize(d, &n1));
+  PetscCall(VecGetArrayRead(diagonal, &e));
+  PetscCall(VecGetArrayWrite(d, &a));
+  for (PetscInt i = 0; i < n1; ++i) a[i] = e[3 * i];  // local vertex i holds local dofs 3i..3i+2
+  PetscCall(VecRestoreArrayWrite(d, &a));
+  PetscCall(VecRestoreArrayRead(diagonal, &e));
+  PetscCall(MatDiagonalSet(A, d, ADD_VALUES));
+  PetscCall(VecDestroy(&d));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionBeginUser;
-  const bool vertex_layout = kind_ == ConstantMatrix::laplacian;
-  if (extra_diagonal && !vertex_layout) PetscCall(MatDiagonalSet(A_, extra_diagonal, ADD_VALUES));
-  if (extra_diagonal && vertex_layout) {  // its x entries, in A1's vertex layout
-    Vec d;
-    const PetscScalar* e;
-    PetscScalar* a;
-    PetscInt n1;
-    PetscCall(MatCreateVecs(A_, &d, nullptr));
-    PetscCall(VecGetLocalSize(d, &n1));
-    PetscCall(VecGetArrayRead(extra_diagonal, &e));
-    PetscCall(VecGetArrayWrite(d, &a));
-    for (PetscInt i = 0; i < n1; ++i) a[i] = e[3 * i];
-    PetscCall(VecRestoreArrayWrite(d, &a));
-    PetscCall(VecRestoreArrayRead(extra_diagonal, &e));
-    PetscCall(MatDiagonalSet(A_, d, ADD_VALUES));
-    PetscCall(VecDestroy(&d));
-  }
+  if (extra_diagonal) PetscCall(add_dof_diagonal(A_, extra_diagonal, kind_ == ConstantMatrix::laplacian ? 1 : 3));
   PetscFunctionReturn(0);
 }
 

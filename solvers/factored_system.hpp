@@ -61,6 +61,11 @@ inline bool splits_on_many_ranks(FactorPackage package) {
   return package == FactorPackage::split || package == FactorPackage::automatic;
 }
 
+// A += diag(diagonal), diagonal in the dof layout (x, y, z per free vertex): the whole of it into a
+// matrix of that layout (components = 3), its x entries into one of the vertex layout (components =
+// 1, A1 of A = A1 (x) I3, whose diagonal is the same for x, y and z).
+PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components);
+
 class FactoredSystem {
  public:
   FactoredSystem() = default;

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "solvers/factored_system.hpp"
+
 namespace hyperqn {
 
 InertiaTerm::~InertiaTerm() {
@@ -81,23 +83,7 @@ PetscErrorCode InertiaTerm::gradient_norm(Vec x, double* norm) const {
 
 PetscErrorCode InertiaTerm::add_to(Mat A, int components) const {
   PetscFunctionBeginUser;
-  if (components == 3) {
-    PetscCall(MatDiagonalSet(A, mass_, ADD_VALUES));
-    PetscFunctionReturn(0);
-  }
-  Vec vertex_mass;  // the x component of the lumped mass: one entry per free vertex
-  const PetscScalar* m3;
-  PetscScalar* m1;
-  PetscInt n1;
-  PetscCall(MatCreateVecs(A, &vertex_mass, nullptr));
-  PetscCall(VecGetLocalSize(vertex_mass, &n1));
-  PetscCall(VecGetArrayRead(mass_, &m3));
-  PetscCall(VecGetArray(vertex_mass, &m1));
-  for (PetscInt i = 0; i < n1; ++i) m1[i] = m3[3 * i];  // local vertex i holds local dofs 3i..3i+2
-  PetscCall(VecRestoreArray(vertex_mass, &m1));
-  PetscCall(VecRestoreArrayRead(mass_, &m3));
-  PetscCall(MatDiagonalSet(A, vertex_mass, ADD_VALUES));
-  PetscCall(VecDestroy(&vertex_mass));
+  PetscCall(add_dof_diagonal(A, mass_, components));
   PetscFunctionReturn(0);
 }
 
