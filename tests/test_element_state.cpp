@@ -2,10 +2,18 @@
 // that counts each tet's accepted frames: a frame's accept adds one to every element, an undone
 // frame (before or after its accept) leaves the count where the frame started, the fallback
 // chain's sub-steps count nothing; the elements are keyed by their global ids, each on one rank.
-// At 1 and 2 ranks. Checkpoints do not hold element state yet (docs/architecture.md).
+// Then a checkpoint: a term whose state follows the positions (each tet's frames and the sum of
+// its det F at each accepted frame) checkpointed after 3 frames and restarted in a fresh scene goes
+// on bit for bit as the uninterrupted run; a scene whose terms keep other state cannot restart from
+// it; a rebuilt scene carries the state over by id. At 1 and 2 ranks.
 #include <petscdmplex.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+#include "io/checkpoint.hpp"
+#include "terms/element_kernels.hpp"
 
 #include "check.hpp"
 #include "test_scene.hpp"
@@ -28,6 +36,29 @@ class FrameCounter : public EnergyTerm {
     for (size_t e = 0; e < state_.elements(); ++e) *state_.current(e) = *state_.start(e) + 1;
     return 0;
   }
+  ElementState state_;
+};
+
+// Each tet's accepted frames and the sum of its det F at their ends: a state that depends on x.
+class VolumeHistory : public EnergyTerm {
+ public:
+  VolumeHistory(const DistributedMesh& mesh, const char* name)
+      : mesh_(mesh), state_(name, 2, mesh.cell_ids) {}
+  std::string name() const override { return "volume-history"; }
+  PetscErrorCode add_energy(Vec, const std::vector<double>&, double*, PetscScalar*) const override { return 0; }
+  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
+  bool projective_dynamics_exact() const override { return true; }
+  ElementState* element_state() override { return &state_; }
+  PetscErrorCode update_state(const std::vector<double>& pos) override {
+    for (size_t e = 0; e < state_.elements(); ++e) {
+      const PetscInt* cell = &mesh_.cells[4 * e];
+      const double J = edge_matrix(pos.data(), cell).determinant() / edge_matrix(mesh_.rest.data(), cell).determinant();
+      state_.current(e)[0] = state_.start(e)[0] + 1;
+      state_.current(e)[1] = state_.start(e)[1] + J;
+    }
+    return 0;
+  }
+  const DistributedMesh& mesh_;
   ElementState state_;
 };
 
@@ -90,11 +121,130 @@ PetscErrorCode check_counts() {
   PetscFunctionReturn(0);
 }
 
+// A scene with a VolumeHistory term named `name`, its state at the rest positions.
+PetscErrorCode history_scene(TestScene& s, VolumeHistory*& term, State& state, const char* name = "volumes") {
+  PetscFunctionBeginUser;
+  PetscCall(test_scene::make_scene("neohookean", true, s, {0, -9.81, 0},
+                                   [&](const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>>& terms) {
+                                     auto t = std::make_unique<VolumeHistory>(mesh, name);
+                                     term = t.get();
+                                     terms.push_back(std::move(t));
+                                   }));
+  PetscCall(state.create(s.step->layout()));
+  PetscCall(s.body->rest_positions(state.x));
+  PetscFunctionReturn(0);
+}
+
+// n frames, each the step's first guess stretched by 0.1% and accepted (no solve).
+PetscErrorCode frames(TestScene& s, State& state, int n) {
+  PetscFunctionBeginUser;
+  for (int k = 0; k < n; ++k) {
+    PetscCall(s.step->begin_step(state));
+    PetscCall(VecScale(state.x, 1.001));
+    PetscCall(s.step->lifecycle().accept(state));
+  }
+  PetscFunctionReturn(0);
+}
+
+// Whether a and b are bitwise equal on every rank (collective).
+bool same_everywhere(const std::vector<double>& a, const std::vector<double>& b) {
+  int same = a == b;
+  MPI_Allreduce(MPI_IN_PLACE, &same, 1, MPI_INT, MPI_LAND, PETSC_COMM_WORLD);
+  return same;
+}
+
+PetscErrorCode check_checkpoint() {
+  int size;
+  MPI_Comm_size(PETSC_COMM_WORLD, &size);
+  const std::string path = "test_element_state_np" + std::to_string(size) + ".h5";
+  TestScene a, b;
+  VolumeHistory *ta = nullptr, *tb = nullptr;
+  State sa, sb;
+  PetscFunctionBeginUser;
+  PetscCall(history_scene(a, ta, sa));
+  PetscCall(frames(a, sa, 3));
+  // The checkpoint of frame 3: positions, velocities and the element state.
+  CheckpointHeader h;
+  h.frame = sa.frame;
+  h.time = sa.time;
+  h.body_time = a.body->time();
+  long long top = 0;
+  for (int64_t id : a.mesh.vertex_ids) top = std::max(top, (long long)id + 1);
+  MPI_Allreduce(MPI_IN_PLACE, &top, 1, MPI_LONG_LONG, MPI_MAX, PETSC_COMM_WORLD);
+  h.vertex_slots = top;
+  VertexRows rows(2);
+  PetscCall(a.body->local_positions(sa.x, rows[0]));
+  PetscCall(a.body->local_velocities(sa.v, rows[1]));
+  const ElementState& sta = ta->state_;
+  PetscCall(write_checkpoint(PETSC_COMM_WORLD, path, h, a.mesh, rows,
+                             {{sta.name(), sta.per_element(), sta.ids(), sta.current_values()}}));
+  CheckpointHeader saved;
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank == 0) {
+    const std::string why = inspect_checkpoint(path, &saved);
+    CHECK_MSG(why.empty(), why);
+    CHECK(saved.element_sets.size() == 1 && saved.element_sets[0].name == "volumes" &&
+          saved.element_sets[0].width == 2 && saved.element_sets[0].slots == a.mesh.global_cells);
+  }
+  saved = broadcast_header(PETSC_COMM_WORLD, saved);
+  PetscCall(frames(a, sa, 2));  // the uninterrupted run to frame 5
+
+  // The restart: a fresh scene, the checkpoint's state, the same 2 frames.
+  PetscCall(history_scene(b, tb, sb));
+  PetscCall(read_checkpoint_vertices(PETSC_COMM_WORLD, path, b.mesh, saved, rows));
+  PetscCall(b.body->resume(saved.body_time, rows[0], rows[1], sb.x, sb.v));
+  sb.frame = saved.frame;
+  sb.time = saved.time;
+  std::vector<ElementRows> elements = {{"volumes", 2, tb->state_.ids(), {}}};
+  PetscCall(read_checkpoint_elements(PETSC_COMM_WORLD, path, saved, elements));
+  tb->state_.restore(elements[0].values);
+  PetscCall(frames(b, sb, 2));
+  CHECK_MSG(same_everywhere(sta.current_values(), tb->state_.current_values()), "restarted element state bitwise");
+  std::vector<double> xa, xb;
+  PetscCall(a.body->local_positions(sa.x, xa));
+  PetscCall(b.body->local_positions(sb.x, xb));
+  CHECK_MSG(same_everywhere(xa, xb), "restarted positions bitwise");
+  double sum = 0;  // the state is not trivial: 5 frames of J near 1
+  for (size_t e = 0; e < sta.elements(); ++e) sum += std::fabs(sta.current_values()[2 * e + 1] - 5);
+  MPI_Allreduce(MPI_IN_PLACE, &sum, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+  CHECK_MSG(sum > 0, "the volumes changed");
+
+  // Terms that keep other state cannot restart from it: every rank throws.
+  std::vector<ElementRows> other = {{"plastic", 2, tb->state_.ids(), {}}};
+  bool refused = false;
+  try {
+    PetscCall(read_checkpoint_elements(PETSC_COMM_WORLD, path, saved, other));
+  } catch (const std::runtime_error& e) {
+    refused = std::string(e.what()).find("volumes (2)") != std::string::npos;
+  }
+  CHECK_MSG(refused, "a checkpoint of other element state is refused, naming it");
+  std::vector<ElementRows> none;
+  refused = false;
+  try {
+    PetscCall(read_checkpoint_elements(PETSC_COMM_WORLD, path, saved, none));
+  } catch (const std::runtime_error&) {
+    refused = true;
+  }
+  CHECK_MSG(refused, "a scene without element state cannot restart from a checkpoint with it");
+
+  // A rebuilt scene (a release) carries the state over by global id.
+  TestScene c;
+  VolumeHistory* tc = nullptr;
+  State sc;
+  PetscCall(history_scene(c, tc, sc));
+  c.body->carry_element_states(*a.body);
+  CHECK_MSG(same_everywhere(tc->state_.current_values(), sta.current_values()), "carried over");
+  if (rank == 0) std::remove(path.c_str());
+  PetscFunctionReturn(0);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   PetscCall(check_counts());
+  PetscCall(check_checkpoint());
   const int code = test_scene::tally("test_element_state");
   PetscCall(PetscFinalize());
   return code;

@@ -109,6 +109,15 @@ PetscErrorCode Checkpointer::interrupted(const FrameOutcome& outcome) {
   PetscFunctionReturn(0);
 }
 
+// The terms' element states (EnergyTerm::element_state) as a checkpoint's plain rows, their
+// current values or (values false) only their names, widths and ids.
+static std::vector<ElementRows> element_rows(const Body& body, bool values = true) {
+  std::vector<ElementRows> rows;
+  for (const ElementState* s : body.element_states())
+    rows.push_back({s->name(), s->per_element(), s->ids(), values ? s->current_values() : std::vector<double>()});
+  return rows;
+}
+
 // The run's state, the scene's identity and the counters so far into a checkpoint.
 PetscErrorCode Checkpointer::write_checkpoint() {
   const Scene& s = run_.scene.current();
@@ -146,7 +155,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   }
   setup_.logs.flush();  // the logs on disk reach the checkpoint's frame: a restart cuts them there
   PetscCall(event_begin(&LogEvents::checkpoint));
-  const std::string path = setup_.store.write(h, s.mesh, rows);
+  const std::string path = setup_.store.write(h, s.mesh, rows, element_rows(*s.body));
   PetscCall(event_end(&LogEvents::checkpoint));
   last_checkpoint_wtime_ = MPI_Wtime();
   last_checkpoint_frame_ = state.frame;
@@ -172,6 +181,10 @@ PetscErrorCode resume_state(MPI_Comm comm, const std::string& path, const Checkp
     PetscCall(scene.body->free_values(rows[2], state.x_prev));
     PetscCall(scene.body->free_values(rows[3], state.v_prev));
   }
+  std::vector<ElementRows> elements = element_rows(*scene.body, false);
+  PetscCall(read_checkpoint_elements(comm, path, h, elements));
+  const std::vector<ElementState*> states = scene.body->element_states();
+  for (size_t k = 0; k < states.size(); ++k) states[k]->restore(std::move(elements[k].values));
   PetscFunctionReturn(0);
 }
 

@@ -25,6 +25,7 @@ namespace {
 constexpr const char* kPrefix = "checkpoint_";
 constexpr const char* kSuffix = ".h5";
 constexpr int kTagRows = 7031;  // the messages that carry a rank's rows to or from rank 0
+const std::string kElementPrefix = "elements_";  // an element set's dataset: elements_<name>
 
 // The summary's counters, each stored as summary_<name>. Frame counters describe frames
 // 1..frame and are restored; work counters (times, factorizations, solves) are added to the
@@ -176,6 +177,12 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   head.put("substep_hold", (long long)h.substep_hold);
   head.put("substep_trying", (long long)h.substep_trying);
   for (size_t k = 0; k < h.hashes.size(); ++k) head.put(std::string(kVertexSets[k]) + "_hash", h.hashes[k]);
+  if (!h.element_sets.empty()) {
+    std::string sets;
+    for (const ElementSetInfo& e : h.element_sets)
+      sets += (sets.empty() ? "" : " ") + e.name + " " + std::to_string(e.width) + " " + std::to_string(e.slots) + " " + e.hash;
+    head.put("element_sets", sets);
+  }
 
   std::map<std::string, std::string> texts;
   texts["header"] = head.text();
@@ -279,16 +286,24 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     h.substep_trying = (int)head.get_long("substep_trying");
   }
   for (size_t k = 0; k < h.vertex_sets(); ++k) h.hashes.push_back(head.get(std::string(kVertexSets[k]) + "_hash"));
+  if (head.has("element_sets")) {  // absent: no term keeps element state
+    std::istringstream in(head.get("element_sets"));
+    for (ElementSetInfo e; in >> e.name;) {
+      if (!(in >> e.width >> e.slots >> e.hash) || e.width < 1 || e.slots < 0)
+        throw std::runtime_error("its header's element_sets is not \"name width slots hash\" items");
+      h.element_sets.push_back(e);
+    }
+  }
   return h;
 }
 
-// A vector of 3 entries per vertex slot in PETSc's default layout (the natural order): rank r
-// holds a contiguous block of rows, which it sends to or receives from rank 0.
-PetscErrorCode create_natural(MPI_Comm comm, long long slots, Vec* v) {
+// A vector of `width` entries per slot (vertex or element) in PETSc's default layout (the natural
+// order): rank r holds a contiguous block of rows, which it sends to or receives from rank 0.
+PetscErrorCode create_natural(MPI_Comm comm, long long slots, int width, Vec* v) {
   PetscFunctionBeginUser;
   PetscCall(VecCreate(comm, v));
-  PetscCall(VecSetSizes(*v, PETSC_DECIDE, (PetscInt)(3 * slots)));
-  PetscCall(VecSetBlockSize(*v, 3));
+  PetscCall(VecSetSizes(*v, PETSC_DECIDE, (PetscInt)(width * slots)));
+  PetscCall(VecSetBlockSize(*v, width));
   PetscCall(VecSetType(*v, VECSTANDARD));
   PetscFunctionReturn(0);
 }
@@ -296,7 +311,7 @@ PetscErrorCode create_natural(MPI_Comm comm, long long slots, Vec* v) {
 // Rank 0 receives every rank's rows of `natural` in rank order and hands each block to
 // `write(first_row, rows, data)` (which must not throw).
 using RowsOut = std::function<void(hsize_t, hsize_t, const double*)>;
-PetscErrorCode gather_rows(MPI_Comm comm, Vec natural, const RowsOut& write) {
+PetscErrorCode gather_rows(MPI_Comm comm, Vec natural, int width, const RowsOut& write) {
   int rank, size;
   const PetscInt* ranges;
   const PetscScalar* a;
@@ -315,7 +330,7 @@ PetscErrorCode gather_rows(MPI_Comm comm, Vec natural, const RowsOut& write) {
         PetscCallMPI(MPI_Recv(block.data(), (int)n, MPI_DOUBLE, r, kTagRows, comm, MPI_STATUS_IGNORE));
         data = block.data();
       }
-      write((hsize_t)ranges[r] / 3, (hsize_t)n / 3, data);
+      write((hsize_t)ranges[r] / width, (hsize_t)n / width, data);
     }
   } else {
     PetscCallMPI(MPI_Send(a, (int)(ranges[rank + 1] - ranges[rank]), MPI_DOUBLE, 0, kTagRows, comm));
@@ -327,7 +342,7 @@ PetscErrorCode gather_rows(MPI_Comm comm, Vec natural, const RowsOut& write) {
 // The reverse: rank 0 fills each rank's block with `read(first_row, rows, data)` (which must
 // not throw, and fills the block even when it fails) and sends it.
 using RowsIn = std::function<void(hsize_t, hsize_t, double*)>;
-PetscErrorCode scatter_rows(MPI_Comm comm, Vec natural, const RowsIn& read) {
+PetscErrorCode scatter_rows(MPI_Comm comm, Vec natural, int width, const RowsIn& read) {
   int rank, size;
   const PetscInt* ranges;
   PetscScalar* a;
@@ -341,7 +356,7 @@ PetscErrorCode scatter_rows(MPI_Comm comm, Vec natural, const RowsIn& read) {
     for (int r = 0; r < size; ++r) {
       const PetscInt n = ranges[r + 1] - ranges[r];
       block.assign(n, 0.0);
-      read((hsize_t)ranges[r] / 3, (hsize_t)n / 3, r == 0 ? a : block.data());
+      read((hsize_t)ranges[r] / width, (hsize_t)n / width, r == 0 ? a : block.data());
       if (r > 0) PetscCallMPI(MPI_Send(block.data(), (int)n, MPI_DOUBLE, r, kTagRows, comm));
     }
   } else {
@@ -351,18 +366,19 @@ PetscErrorCode scatter_rows(MPI_Comm comm, Vec natural, const RowsIn& read) {
   PetscFunctionReturn(0);
 }
 
-// Local per-vertex values (owned vertices) at their vertex ids in a natural vector.
-PetscErrorCode to_natural(MPI_Comm comm, const DistributedMesh& mesh, long long slots, const std::vector<double>& values,
-                          Vec* natural) {
+// Local items' values (`width` each, item i at slot ids[i]; ids[i] < 0: another rank sends it)
+// in a natural vector.
+PetscErrorCode to_natural(MPI_Comm comm, long long slots, int width, const std::vector<int64_t>& ids,
+                          const std::vector<double>& values, Vec* natural) {
   PetscFunctionBeginUser;
-  PetscCall(create_natural(comm, slots, natural));
+  PetscCall(create_natural(comm, slots, width, natural));
   std::vector<PetscInt> rows;
   std::vector<PetscScalar> data;
-  for (PetscInt i = 0; i < mesh.num_vertices; ++i) {
-    if (!mesh.owned[i]) continue;
-    for (int d = 0; d < 3; ++d) {
-      rows.push_back((PetscInt)(3 * mesh.vertex_ids[i] + d));
-      data.push_back(values[3 * i + d]);
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (ids[i] < 0) continue;
+    for (int d = 0; d < width; ++d) {
+      rows.push_back((PetscInt)(width * ids[i] + d));
+      data.push_back(values[width * i + d]);
     }
   }
   PetscCall(VecSet(*natural, 0.0));
@@ -372,15 +388,23 @@ PetscErrorCode to_natural(MPI_Comm comm, const DistributedMesh& mesh, long long 
   PetscFunctionReturn(0);
 }
 
-// Per-vertex values for every local vertex (ghosts included) from their vertex ids.
-PetscErrorCode from_natural(Vec natural, const DistributedMesh& mesh, std::vector<double>& values) {
+// The slot of each owned local vertex (its vertex id), -1 for a ghost: to_natural's ids.
+std::vector<int64_t> owned_vertex_ids(const DistributedMesh& mesh) {
+  std::vector<int64_t> ids(mesh.num_vertices, -1);
+  for (PetscInt i = 0; i < mesh.num_vertices; ++i)
+    if (mesh.owned[i]) ids[i] = mesh.vertex_ids[i];
+  return ids;
+}
+
+// Values (`width` each) for local items from their slots ids (vertices: ghosts included).
+PetscErrorCode from_natural(Vec natural, int width, const std::vector<int64_t>& ids, std::vector<double>& values) {
   Vec local;
   IS rows;
   VecScatter scatter;
   PetscFunctionBeginUser;
-  std::vector<PetscInt> idx(3 * mesh.num_vertices);
-  for (PetscInt i = 0; i < mesh.num_vertices; ++i)
-    for (int d = 0; d < 3; ++d) idx[3 * i + d] = (PetscInt)(3 * mesh.vertex_ids[i] + d);
+  std::vector<PetscInt> idx(width * ids.size());
+  for (size_t i = 0; i < ids.size(); ++i)
+    for (int d = 0; d < width; ++d) idx[width * i + d] = (PetscInt)(width * ids[i] + d);
   PetscCall(ISCreateGeneral(PETSC_COMM_SELF, (PetscInt)idx.size(), idx.data(), PETSC_COPY_VALUES, &rows));
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, (PetscInt)idx.size(), &local));
   PetscCall(VecScatterCreate(natural, rows, local, nullptr, &scatter));
@@ -469,42 +493,67 @@ std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointH
 }
 
 PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
-                                const DistributedMesh& mesh, const VertexRows& rows) {
+                                const DistributedMesh& mesh, const VertexRows& rows,
+                                const std::vector<ElementRows>& elements) {
   const size_t sets = h.vertex_sets();
   int rank;
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
+  PetscCheck(rows.size() == sets, comm, PETSC_ERR_ARG_SIZ, "%zu vertex datasets for a header of %zu", rows.size(), sets);
+  // Each element set's rows: one past its largest global id over the ranks.
+  std::vector<long long> element_slots;
+  for (const ElementRows& e : elements) {
+    long long top = 0;
+    for (int64_t id : e.ids) top = std::max(top, (long long)id + 1);
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &top, 1, MPI_LONG_LONG, MPI_MAX, comm));
+    element_slots.push_back(top);
+  }
   std::string error;  // rank 0's first failure; it goes on receiving so that no rank waits
   std::optional<Hdf5File> file;
   if (rank == 0) {
     try {
       file.emplace(Hdf5File::create(path));
       for (size_t k = 0; k < sets; ++k) file->create_rows(kVertexSets[k], (hsize_t)h.vertex_slots, 3);
+      for (size_t k = 0; k < elements.size(); ++k)
+        file->create_rows(kElementPrefix + elements[k].name, (hsize_t)element_slots[k], (hsize_t)elements[k].width);
     } catch (const std::exception& e) {
       error = e.what();
     }
   }
-  PetscCheck(rows.size() == sets, comm, PETSC_ERR_ARG_SIZ, "%zu vertex datasets for a header of %zu", rows.size(), sets);
-  std::vector<DataHash> hashes(sets);
-  for (size_t k = 0; k < sets; ++k) {
+  // One dataset from every rank's items (width values each, at slots ids) through rank 0.
+  const auto write_set = [&](const std::string& name, long long slots, int width, const std::vector<int64_t>& ids,
+                             const std::vector<double>& values, DataHash& hash) -> PetscErrorCode {
     Vec natural;
-    PetscCall(to_natural(comm, mesh, h.vertex_slots, rows[k], &natural));
-    PetscCall(gather_rows(comm, natural, [&](hsize_t first, hsize_t rows, const double* data) {
+    PetscFunctionBeginUser;
+    PetscCall(to_natural(comm, slots, width, ids, values, &natural));
+    PetscCall(gather_rows(comm, natural, width, [&](hsize_t first, hsize_t count, const double* data) {
       if (!error.empty()) return;
-      hashes[k].add(data, 3 * rows);
+      hash.add(data, width * count);
       try {
-        file->write_rows(kVertexSets[k], first, rows, 3, data);
+        file->write_rows(name, first, count, width, data);
       } catch (const std::exception& e) {
         error = e.what();
       }
     }));
     PetscCall(VecDestroy(&natural));
-  }
+    PetscFunctionReturn(0);
+  };
+  const std::vector<int64_t> vertex_slots_of = owned_vertex_ids(mesh);
+  std::vector<DataHash> hashes(sets), element_hashes(elements.size());
+  for (size_t k = 0; k < sets; ++k)
+    PetscCall(write_set(kVertexSets[k], h.vertex_slots, 3, vertex_slots_of, rows[k], hashes[k]));
+  for (size_t k = 0; k < elements.size(); ++k)
+    PetscCall(write_set(kElementPrefix + elements[k].name, element_slots[k], elements[k].width, elements[k].ids,
+                        elements[k].values, element_hashes[k]));
   if (rank == 0 && error.empty()) {
     try {
       CheckpointHeader with_hashes = h;
       with_hashes.hashes.clear();
       for (const DataHash& hash : hashes) with_hashes.hashes.push_back(hash.hex());
+      with_hashes.element_sets.clear();
+      for (size_t k = 0; k < elements.size(); ++k)
+        with_hashes.element_sets.push_back(
+            {elements[k].name, elements[k].width, element_slots[k], element_hashes[k].hex()});
       const std::map<std::string, std::string> texts = texts_of(with_hashes);
       for (const auto& [name, text] : texts) file->write_text(name, text);
       file->write_text("checksum", texts_checksum(texts));
@@ -543,6 +592,20 @@ std::string inspect_checkpoint(const std::string& path, CheckpointHeader* header
       }
       const std::string mismatch = hash_mismatch((int)k, hash, *header);
       if (!mismatch.empty()) return mismatch;
+    }
+    for (const ElementSetInfo& e : header->element_sets) {
+      const std::string name = kElementPrefix + e.name;
+      if (!file.has(name) || file.rows(name) != (hsize_t)e.slots)
+        return name + " is missing or not of the " + std::to_string(e.slots) + " rows its header says";
+      DataHash hash;
+      for (hsize_t first = 0; first < (hsize_t)e.slots; first += block) {
+        const hsize_t n = std::min(block, (hsize_t)e.slots - first);
+        rows.resize(e.width * n);
+        file.read_rows(name, first, n, e.width, rows.data());
+        hash.add(rows.data(), rows.size());
+      }
+      if (hash.hex() != e.hash)
+        return name + ": checksum " + hash.hex() + " of the values read, " + e.hash + " in the header";
     }
   } catch (const std::exception& e) {
     const std::string prefix = "cannot read " + path + ": ";
@@ -593,11 +656,12 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
     }
   }
   rows.assign(h.vertex_sets(), {});
+  const std::vector<int64_t>& vertex_ids = mesh.vertex_ids;
   for (size_t k = 0; k < rows.size(); ++k) {
     Vec natural;
     DataHash hash;
-    PetscCall(create_natural(comm, h.vertex_slots, &natural));
-    PetscCall(scatter_rows(comm, natural, [&](hsize_t first, hsize_t rows, double* data) {
+    PetscCall(create_natural(comm, h.vertex_slots, 3, &natural));
+    PetscCall(scatter_rows(comm, natural, 3, [&](hsize_t first, hsize_t rows, double* data) {
       if (!error.empty()) return;
       try {
         file->read_rows(kVertexSets[k], first, rows, 3, data);
@@ -610,7 +674,59 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
       const std::string mismatch = hash_mismatch((int)k, hash, h);
       if (!mismatch.empty()) error = "cannot read " + path + ": " + mismatch;
     }
-    PetscCall(from_natural(natural, mesh, rows[k]));
+    PetscCall(from_natural(natural, 3, vertex_ids, rows[k]));
+    PetscCall(VecDestroy(&natural));
+  }
+  file.reset();
+  throw_if_any_failed(comm, error);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode read_checkpoint_elements(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
+                                        std::vector<ElementRows>& elements) {
+  int rank;
+  PetscFunctionBeginUser;
+  MPI_Comm_rank(comm, &rank);
+  // The same sets in the same order as the scene's terms have them, each id within its rows.
+  std::string error, saved, scene;
+  for (const ElementSetInfo& e : h.element_sets) saved += (saved.empty() ? "" : ", ") + e.name + " (" + std::to_string(e.width) + ")";
+  for (const ElementRows& e : elements) scene += (scene.empty() ? "" : ", ") + e.name + " (" + std::to_string(e.width) + ")";
+  if (saved != scene)
+    error = "cannot read " + path + ": it holds the element state " + (saved.empty() ? "none" : saved) +
+            ", the scene's terms keep " + (scene.empty() ? "none" : scene);
+  int beyond = 0;
+  for (size_t k = 0; error.empty() && k < elements.size(); ++k)
+    for (int64_t id : elements[k].ids) beyond = beyond || id < 0 || id >= h.element_sets[k].slots;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_INT, MPI_LOR, comm));
+  if (beyond) error = "cannot read " + path + ": the scene has elements beyond its element state's rows";
+  throw_if_any_failed(comm, error);
+  std::optional<Hdf5File> file;
+  if (rank == 0) {
+    try {
+      file.emplace(Hdf5File::open(path));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }
+  for (size_t k = 0; k < elements.size(); ++k) {
+    const ElementSetInfo& info = h.element_sets[k];
+    const std::string name = kElementPrefix + info.name;
+    Vec natural;
+    DataHash hash;
+    PetscCall(create_natural(comm, info.slots, info.width, &natural));
+    PetscCall(scatter_rows(comm, natural, info.width, [&](hsize_t first, hsize_t count, double* data) {
+      if (!error.empty()) return;
+      try {
+        file->read_rows(name, first, count, info.width, data);
+        hash.add(data, info.width * count);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    }));
+    if (rank == 0 && error.empty() && hash.hex() != info.hash)
+      error = "cannot read " + path + ": " + name + ": checksum " + hash.hex() + " of the values read, " + info.hash +
+              " in the header";
+    PetscCall(from_natural(natural, info.width, elements[k].ids, elements[k].values));
     PetscCall(VecDestroy(&natural));
   }
   file.reset();

@@ -17,6 +17,10 @@
 //    released_attachments, started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
+//  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
+//    key element_sets lists them ("name width slots hash" each): (slots, width) doubles, row i =
+//    the element of global id i (rows no element has are 0). Like the vertices' order, the ids'
+//    does not depend on the partition.
 //  - "physics" (one "section hash" line per physics section of the deck), "flagged_frames",
 //    "inverted_frames", and each output writer's restart state ("writer_<key>"): texts that grow
 //    with the run, as datasets (an HDF5 attribute is limited to 64 KiB).
@@ -38,6 +42,22 @@ inline constexpr const char* kVertexSets[] = {"positions", "velocities", "previo
 // Their values, 3 per local vertex (fixed vertices: prescribed), one vector per dataset: 2, or 4
 // with the history.
 using VertexRows = std::vector<std::vector<double>>;
+
+// One term's per-element values as plain rows (io knows no term): `width` values per local
+// element, keyed by the element's global id.
+struct ElementRows {
+  std::string name;             // the term's key for them (ElementState::name)
+  int width = 0;                // values per element
+  std::vector<int64_t> ids;     // this rank's elements' global ids
+  std::vector<double> values;   // width per element, in ids' order
+};
+// What the header says of one element set: its name, width, rows in the file and checksum.
+struct ElementSetInfo {
+  std::string name;
+  int width = 0;
+  long long slots = 0;
+  std::string hash;
+};
 
 struct CheckpointHeader {
   static constexpr int kVersion = 3;  // 3: the mesh hash sums per-element hashes (any rank count)
@@ -62,6 +82,8 @@ struct CheckpointHeader {
   // checked on every read: HDF5's own checksums guard the chunks and metadata, this guards what
   // they hold.
   std::vector<std::string> hashes;
+  // The terms' element sets (write_checkpoint fills slots and hash; none: the key is absent).
+  std::vector<ElementSetInfo> element_sets;
   size_t vertex_sets() const { return history ? 4 : 2; }
 };
 
@@ -75,12 +97,14 @@ std::string physics_fingerprint(const std::vector<std::pair<std::string, std::st
 std::string checkpoint_mismatch(const CheckpointHeader& saved, const CheckpointHeader& now);
 
 // Writes the checkpoint file `path` through a temporary beside it, renamed once complete, so the
-// name appears only for a whole file. rows: h.vertex_sets() of them.
+// name appears only for a whole file. rows: h.vertex_sets() of them; elements: every term's
+// element state (the header's element_sets are made from them).
 // Collective; rank 0 alone writes the file and the others send it their rows, so a failure is one
 // rank's and no rank can be left waiting inside HDF5. Throws std::runtime_error on every rank
 // ("cannot write PATH: <reason>"), removing the temporary.
 PetscErrorCode write_checkpoint(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
-                                const DistributedMesh& mesh, const VertexRows& rows);
+                                const DistributedMesh& mesh, const VertexRows& rows,
+                                const std::vector<ElementRows>& elements = {});
 
 // Rank 0 alone: reads the header of path and, with `data`, every row of its datasets, so that each
 // checksum is checked. Returns "" for a whole checkpoint of this format (its header in *header),
@@ -95,6 +119,12 @@ CheckpointHeader broadcast_header(MPI_Comm comm, const CheckpointHeader& header)
 // std::runtime_error on every rank if path cannot be read or its values are not the header's.
 PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, const DistributedMesh& mesh,
                                         const CheckpointHeader& h, VertexRows& rows);
+
+// The values of the scene's element sets (each with its name, width and local ids set) from a
+// checkpoint whose header is h (collective). Throws std::runtime_error on every rank if the
+// checkpoint's sets are not the scene's (names, widths, an id beyond its rows) or cannot be read.
+PetscErrorCode read_checkpoint_elements(MPI_Comm comm, const std::string& path, const CheckpointHeader& h,
+                                        std::vector<ElementRows>& elements);
 
 // Frame of a checkpoint file name checkpoint_<frame>.h5, or -1; and the name of a frame's file.
 int checkpoint_frame(const std::string& filename);

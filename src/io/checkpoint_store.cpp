@@ -173,7 +173,8 @@ void CheckpointStore::resume(const std::string& run_id, int frame) {
   throw_if_any_failed(comm_, error);
 }
 
-std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows) {
+std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows,
+                                   const std::vector<ElementRows>& elements) {
   const std::string path = dir_ + "/" + checkpoint_name(h.frame);
   std::string error;
   if (rank_of(comm_) == 0) {
@@ -182,7 +183,7 @@ std::string CheckpointStore::write(const CheckpointHeader& h, const DistributedM
     if (ec) error = "cannot create the checkpoint directory " + dir_ + ": " + ec.message();
   }
   throw_if_any_failed(comm_, error);
-  if (write_checkpoint(comm_, path, h, mesh, rows))
+  if (write_checkpoint(comm_, path, h, mesh, rows, elements))
     throw std::runtime_error("cannot write " + path + ": PETSc error while gathering the rows");
   if (rank_of(comm_) == 0) {
     if (std::find(frames_.begin(), frames_.end(), h.frame) == frames_.end()) frames_.push_back(h.frame);

@@ -44,7 +44,8 @@ class CheckpointStore {
   void resume(const std::string& run_id, int frame);
   // Writes the checkpoint of h.frame, then removes this run's oldest beyond `keep`. Collective;
   // throws std::runtime_error on every rank ("cannot write PATH: <reason>"). Returns its path.
-  std::string write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows);
+  std::string write(const CheckpointHeader& h, const DistributedMesh& mesh, const VertexRows& rows,
+                    const std::vector<ElementRows>& elements = {});
 
  private:
   MPI_Comm comm_;

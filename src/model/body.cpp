@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <unordered_map>
 
 #include "geometry/motion.hpp"
 #include "solvers/stop_request.hpp"
@@ -261,6 +262,28 @@ PetscErrorCode Body::accept_element_states(Vec x) {
 void Body::undo_element_states() {
   for (const auto& t : terms_)
     if (ElementState* state = t->element_state()) state->undo();
+}
+
+std::vector<ElementState*> Body::element_states() const {
+  std::vector<ElementState*> states;
+  for (const auto& t : terms_)
+    if (ElementState* state = t->element_state()) states.push_back(state);
+  return states;
+}
+
+void Body::carry_element_states(const Body& from) {
+  for (ElementState* to : element_states())
+    for (const ElementState* old : from.element_states()) {
+      if (old->name() != to->name() || old->per_element() != to->per_element()) continue;
+      std::unordered_map<int64_t, size_t> at;  // global id -> the old state's element
+      for (size_t e = 0; e < old->elements(); ++e) at[old->ids()[e]] = e;
+      std::vector<double> values = to->current_values();
+      const int n = to->per_element();
+      for (size_t e = 0; e < to->elements(); ++e)
+        if (const auto it = at.find(to->ids()[e]); it != at.end())
+          std::copy_n(&old->current_values()[n * it->second], n, &values[n * e]);
+      to->restore(std::move(values));
+    }
 }
 
 bool Body::couples_surfaces() const {

@@ -67,6 +67,11 @@ class Body {
   void begin_element_states();
   PetscErrorCode accept_element_states(Vec x);
   void undo_element_states();
+  // Every term's element state, in the terms' order (checkpoints).
+  std::vector<ElementState*> element_states() const;
+  // The values of `from`'s element states (a scene before its rebuild) into this body's states of
+  // the same name, element by element through the global ids.
+  void carry_element_states(const Body& from);
 
   // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
   // ones from their prescribed positions.

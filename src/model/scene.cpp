@@ -548,6 +548,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh));
   fresh->body->set_time(t);
+  fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main));
   for (State* s : others) {
     PetscCall(carry_state(*scene_, *fresh, t, *s));

@@ -4,7 +4,9 @@
 // not depend on the partition. Like the positions, they have a value at the step's start (t_n,
 // start) and a current one (current): the step's begin takes the current values as its start, its
 // accept writes the current ones (EnergyTerm::update_state), its undo puts the start back, also
-// after an accept (a frame an observer refuses). docs/architecture.md, "The step core".
+// after an accept (a frame an observer refuses). A checkpoint saves the current values and a
+// restart restores them (io/checkpoint.hpp, elements_<name>); a rebuilt scene (a release) carries
+// them over by id (Body::carry_element_states). docs/architecture.md, "The step core".
 #pragma once
 #include <cstdint>
 #include <string>
@@ -31,6 +33,12 @@ class ElementState {
 
   void begin() { start_ = current_; }
   void undo() { current_ = start_; }
+  // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
+  // start and the current ones, as after an accepted step.
+  void restore(std::vector<double> values) {
+    current_ = std::move(values);
+    start_ = current_;
+  }
 
  private:
   std::string name_;
