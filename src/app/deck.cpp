@@ -31,10 +31,11 @@ constexpr size_t kMaxNameLength = 100;
 std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
   std::vector<std::pair<std::string, std::string>> out;
   for (const char* key : {"material", "strand_material", "regions", "fixed", "attachments", "colliders",
-                          "contact", "initial", "gravity", "time", "cloth", "bodies"}) {
+                          "contact", "initial", "gravity", "time", "cloth", "bodies", "loads"}) {
     const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
     if (!found || found.IsNull()) {
-      if (std::string(key) == "cloth" || std::string(key) == "bodies") continue;  // added later: decks without one keep their hash
+      if (std::string(key) == "cloth" || std::string(key) == "bodies" || std::string(key) == "loads")
+        continue;  // added later: decks without one keep their hash
       out.emplace_back(key, "");
       continue;
     }
@@ -53,7 +54,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
 
   Section s(r, Value{root, "", line_of(root)},
             {"name", "mesh", "bodies", "partition", "material", "strand_material", "cloth", "regions", "fixed", "attachments",
-             "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
+             "loads", "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -124,6 +125,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   check_thickness_in_self_contact(r, deck);
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   read_body_regions(r, body_regions, deck);
+  if (const Value* x = s.find("loads")) read_loads(r, *x, deck.loads);
   if (const Value* x = s.find("gravity")) read_value(r, gravity_keys()[0], *x, static_cast<SceneSpec&>(deck));
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);

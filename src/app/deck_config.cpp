@@ -11,6 +11,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "model/load_kinds.hpp"
 #include "solvers/solver_registry.hpp"
 
 namespace hyperqn {
@@ -241,6 +242,7 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
       c.keys(prefix, attachment_keys(), a);
       c.motion(prefix, a.region.motion);
     }
+  for (size_t k = 0; k < deck.loads.size(); ++k) c.keys("loads[" + std::to_string(k) + "].", load_keys(), deck.loads[k]);
   for (size_t k = 0; k < deck.colliders.size(); ++k) {
     const std::string prefix = "colliders[" + std::to_string(k) + "].";
     c.keys(prefix, collider_keys(), deck.colliders[k]);

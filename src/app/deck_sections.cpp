@@ -9,6 +9,7 @@
 #include "io/partition_file.hpp"
 #include "materials/material.hpp"
 #include "materials/material_factory.hpp"
+#include "model/load_kinds.hpp"
 #include "model/material_params.hpp"
 #include "solvers/solver_registry.hpp"
 
@@ -362,6 +363,26 @@ void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpe
     a.region.line = item.line;
     if (const Value* x = s.find("motion")) a.region.motion = read_motion(r, *x);
     attachments.push_back(a);
+  }
+}
+
+// loads: [{type, box, normal, angle, <the type's keys>}] (model/load_kinds.hpp).
+void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads) {
+  for (const Value& item : r.items(v)) {
+    LoadSpec l;
+    const Section s = read_keys(r, item, load_keys(), l);
+    if (const Value* box = s.find("box")) {
+      const Section corners(r, *box, {});
+      for (int i = 0; i < 3; ++i)
+        if (l.min[i] > l.max[i])
+          r.fail(*box, std::string("min > max along ") + "xyz"[i] + ": " + r.items(*corners.find("min"))[i].node.Scalar() +
+                           " > " + r.items(*corners.find("max"))[i].node.Scalar());
+    }
+    if (const Value* x = s.find("normal"); x && find_load_kind(l.type)->target != LoadTarget::faces)
+      r.fail(*x, "selects faces by their normal; a " + l.type + " load acts on vertices");
+    if (const Value* x = s.find("angle"); x && !s.find("normal")) r.fail(*x, "is the cone of `normal`, which is not given");
+    l.line = item.line;
+    loads.push_back(l);
   }
 }
 

@@ -30,6 +30,7 @@ void read_bodies_partition(const Reader& r, const Value& v, const fs::path& deck
 void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, std::vector<ColliderSpec>& colliders);
 void read_contact(const Reader& r, const Value& v, ContactSpec& c);
 void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments);
+void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads);
 // Each body's own fixed regions and attachments (BoxRegion::body), after the scene's.
 void read_body_regions(const Reader& r, const BodyRegions& regions, Deck& deck);
 void read_initial(const Reader& r, const Value& v, InitialSpec& in);

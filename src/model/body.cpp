@@ -123,7 +123,9 @@ PetscErrorCode Body::set_masses(Vec mass) {
 PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
   StepStart full = step;
-  if (couples_surfaces()) {
+  bool positions = false;
+  for (const auto& t : terms_) positions = positions || t->needs_step_positions();
+  if (positions) {
     // The moving fixed vertices jump from where they were at t_start to where set_time put them:
     // a term that couples surfaces checks that path (SelfContactTerm::begin_step).
     PetscCall(local_positions(step.x_start, step_positions_));

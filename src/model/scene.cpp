@@ -9,6 +9,7 @@
 #include "io/log_events.hpp"
 #include "io/partition_file.hpp"
 #include "model/elastic_terms.hpp"
+#include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
@@ -398,6 +399,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                        ? elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth)
                                                        : body_terms(s.mesh, spec.bodies);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
+  for (auto& load : load_terms(s.mesh, spec.loads)) terms.push_back(std::move(load));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
   if (auto contact = contact_term(s.mesh, spec.colliders, spec.contact, spec.path, spec.bodies)) terms.push_back(std::move(contact));
   if (auto self = self_contact_term(s.mesh, spec)) terms.push_back(std::move(self));

@@ -13,6 +13,7 @@
 #include "model/regions.hpp"
 #include "model/time_integrator.hpp"
 #include "terms/contact_spec.hpp"
+#include "terms/load_spec.hpp"
 
 namespace hyperqn {
 
@@ -221,6 +222,7 @@ struct SceneSpec {
   std::vector<ColliderSpec> colliders;   // obstacles (none: no contact code at all)
   ContactSpec contact;                   // how contact is modelled (if there are colliders)
   std::vector<AttachmentSpec> attachments;  // soft attachments (springs to moving targets)
+  std::vector<LoadSpec> loads;           // tractions, pressures, forces (none: no load code at all)
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
@@ -231,7 +233,7 @@ struct SceneSpec {
 // momentum (every integrator; not its angular momentum: implicit Euler does not), so what a frame
 // changes of it is the solve's error (summary.json's momentum_change).
 inline bool free_scene(const SceneSpec& s) {
-  return s.fixed.empty() && s.attachments.empty() && s.colliders.empty() && s.gravity == std::array<double, 3>{0, 0, 0} &&
+  return s.fixed.empty() && s.attachments.empty() && s.colliders.empty() && s.loads.empty() && s.gravity == std::array<double, 3>{0, 0, 0} &&
          s.time.damping == 0;
 }
 

@@ -110,6 +110,10 @@ class EnergyTerm {
   // primitives that passed through each other are apart again, so their energy alone would not
   // refuse the guess, unlike a vertex inside an obstacle).
   virtual bool couples_surfaces() const { return false; }
+  // True if begin_step needs the step's local positions (StepStart::start_positions, positions):
+  // a term that couples surfaces, or one that takes its directions from the step's start (a
+  // pressure on an open surface).
+  virtual bool needs_step_positions() const { return couples_surfaces(); }
   // Pairs of free vertices (each by its global x dof) that add_hessian may couple outside the
   // mesh's pattern, at pos and at every point until the term's own lists are next rebuilt
   // (self-contact: its candidate pairs and friction pairs), appended to out unless it is null.

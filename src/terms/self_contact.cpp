@@ -9,6 +9,7 @@
 
 #include "geometry/pair_ccd.hpp"
 #include "parallel/collectives.hpp"
+#include "terms/boundary_faces.hpp"
 #include "terms/contact.hpp"
 
 namespace hyperqn {
@@ -45,22 +46,12 @@ Key3 sorted(Key3 k) {
   return k;
 }
 
-// The tets' faces of this rank that no other local tet shares, as input vertex ids, 3 each (a
-// face between two ranks' tets is one of these on both ranks; the surface's faces on one only).
-std::vector<int64_t> local_boundary_faces(const DistributedMesh& m) {
-  static const int kFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};  // outward, as intersections.py
-  std::map<Key3, std::pair<int, Key3>> faces;
-  for (PetscInt c = 0; c < m.num_cells; ++c)
-    for (const auto& f : kFaces) {
-      const Key3 face{m.vertex_ids[m.cells[4 * c + f[0]]], m.vertex_ids[m.cells[4 * c + f[1]]],
-                      m.vertex_ids[m.cells[4 * c + f[2]]]};
-      auto& entry = faces[sorted(face)];
-      entry.first += 1;
-      entry.second = face;
-    }
+// The tets' faces of this rank that no other local tet shares, as input vertex ids, 3 each
+// (terms/boundary_faces.hpp).
+std::vector<int64_t> local_boundary_face_ids(const DistributedMesh& m) {
   std::vector<int64_t> out;
-  for (const auto& [key, entry] : faces)
-    if (entry.first == 1) out.insert(out.end(), entry.second.begin(), entry.second.end());
+  for (const auto& face : local_boundary_faces(m))
+    for (PetscInt v : face) out.push_back(m.vertex_ids[v]);
   return out;
 }
 
@@ -98,7 +89,7 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
   // The surface's triangles, in the order of their sorted ids (the same at any rank count): the
   // tets' faces on one rank only, then the cloth triangles (each on one rank).
   std::map<Key3, std::pair<int, Key3>> faces;
-  const std::vector<int64_t> boundary = all_gathered(comm, local_boundary_faces(mesh), MPI_INT64_T);
+  const std::vector<int64_t> boundary = all_gathered(comm, local_boundary_face_ids(mesh), MPI_INT64_T);
   for (size_t f = 0; f < boundary.size(); f += 3) {
     const Key3 face{boundary[f], boundary[f + 1], boundary[f + 2]};
     auto& entry = faces[sorted(face)];

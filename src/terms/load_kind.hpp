@@ -1,0 +1,57 @@
+// Loads: terms that apply an external force to a region of the body (the deck's loads: list,
+// docs/deck-scene.md#loads). One kind per `type`: a file of src/terms/ (traction.cpp, pressure.cpp,
+// nodal_force.cpp) holds its term, its own deck keys and its LoadKind, and one line of load_kinds()
+// (model/load_kinds.cpp) lists it. docs/architecture.md, "Add a load".
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mesh/distributed_mesh.hpp"
+#include "terms/energy_term.hpp"
+#include "terms/load_spec.hpp"
+
+namespace hyperqn {
+
+// What a load acts on, this rank's part: the boundary faces of the rank's tets in the region (each
+// face on one rank, its 3 local vertices ordered so that the rest normal points out of the body) or
+// the free vertices the rank owns in it; and how many there are over all ranks.
+enum class LoadTarget { faces, vertices };
+struct LoadRegion {
+  LoadTarget target = LoadTarget::faces;
+  std::vector<std::array<PetscInt, 3>> faces;
+  std::vector<PetscInt> vertices;
+  long long global_count = 0;
+};
+// Collective.
+LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target);
+
+// A load's term for the deck's spec, acting on region (loads[index]).
+using LoadBuilder = std::unique_ptr<EnergyTerm> (*)(const DistributedMesh& mesh, const LoadSpec& spec, int index,
+                                                    LoadRegion region);
+
+struct LoadKind {
+  const char* type;                     // the deck's `type:` word
+  const char* summary;                  // one line for --help and the docs
+  LoadTarget target;
+  std::vector<DeckKey<LoadSpec>> keys;  // its own keys (load_keys() makes them keys of this type only)
+  LoadBuilder build;
+};
+
+// The part every load's term shares: the region, its name in messages and the check that it selects something.
+class LoadTerm : public EnergyTerm {
+ public:
+  LoadTerm(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
+      : mesh_(mesh), spec_(spec), index_(index), region_(std::move(region)) {}
+  std::string name() const override { return spec_.type; }
+  std::string describe() const override;
+  PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
+
+ protected:
+  const DistributedMesh& mesh_;
+  LoadSpec spec_;
+  int index_;
+  LoadRegion region_;
+};
+
+}  // namespace hyperqn

@@ -1,0 +1,79 @@
+// The region of a load (terms/load_kind.hpp) and what every load's term says of it.
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "parallel/collectives.hpp"
+#include "terms/boundary_faces.hpp"
+#include "terms/element_kernels.hpp"
+#include "terms/load_kind.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+bool in_box(const LoadSpec& s, const double* p, double tol) {
+  for (int d = 0; d < 3; ++d)
+    if (p[d] < s.min[d] - tol || p[d] > s.max[d] + tol) return false;
+  return true;
+}
+
+}  // namespace
+
+LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target) {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
+  const double tol = 1e-9 * rest_diagonal(mesh);
+  LoadRegion region;
+  region.target = target;
+  if (target == LoadTarget::vertices) {
+    for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && in_box(spec, &mesh.rest[3 * v], tol)) region.vertices.push_back(v);
+    long long mine = (long long)region.vertices.size();
+    MPI_Allreduce(&mine, &region.global_count, 1, MPI_LONG_LONG, MPI_SUM, comm);
+    return region;
+  }
+  // The rank's boundary faces in the box (and the normal's cone); a face between two ranks' tets
+  // is a candidate on both, so only the faces that one rank alone holds are the body's.
+  const Vec3 n = Vec3(spec.normal.data());
+  const double cos_angle = std::cos(spec.angle * M_PI / 180);
+  std::vector<std::array<PetscInt, 3>> candidates;
+  std::vector<int64_t> keys;
+  for (const auto& f : local_boundary_faces(mesh)) {
+    if (!in_box(spec, &mesh.rest[3 * f[0]], tol) || !in_box(spec, &mesh.rest[3 * f[1]], tol) ||
+        !in_box(spec, &mesh.rest[3 * f[2]], tol))
+      continue;
+    if (n.squaredNorm() > 0) {
+      const Vec3 a(&mesh.rest[3 * f[0]]);
+      const Vec3 normal = (Vec3(&mesh.rest[3 * f[1]]) - a).cross(Vec3(&mesh.rest[3 * f[2]]) - a);
+      if (normal.dot(n) < cos_angle * normal.norm() * n.norm()) continue;
+    }
+    std::array<int64_t, 3> key{mesh.vertex_ids[f[0]], mesh.vertex_ids[f[1]], mesh.vertex_ids[f[2]]};
+    std::sort(key.begin(), key.end());
+    candidates.push_back(f);
+    keys.insert(keys.end(), key.begin(), key.end());
+  }
+  std::map<std::array<int64_t, 3>, int> holders;
+  const std::vector<int64_t> all = all_gathered(comm, keys, MPI_INT64_T);
+  for (size_t k = 0; k < all.size(); k += 3) ++holders[{all[k], all[k + 1], all[k + 2]}];
+  for (size_t f = 0; f < candidates.size(); ++f)
+    if (holders[{keys[3 * f], keys[3 * f + 1], keys[3 * f + 2]}] == 1) region.faces.push_back(candidates[f]);
+  for (const auto& [key, count] : holders) region.global_count += count == 1;
+  return region;
+}
+
+std::string LoadTerm::describe() const {
+  const bool faces = region_.target == LoadTarget::faces;
+  return "loads[" + std::to_string(index_) + "] " + spec_.type + " (deck line " + std::to_string(spec_.line) + ") on " +
+         std::to_string(region_.global_count) + (faces ? " boundary faces" : " free vertices");
+}
+
+PetscErrorCode LoadTerm::check_start(const std::vector<double>&, InputProblem& out) const {
+  const bool faces = region_.target == LoadTarget::faces;
+  if (region_.global_count == 0)
+    out = {spec_.line, "loads[" + std::to_string(index_) + "].box",
+           std::string("selects no ") + (faces ? "boundary face of the tets" : "free vertex") + " (loads[" +
+               std::to_string(index_) + "], " + spec_.type + "): widen the box" + (faces ? " or `angle`" : "")};
+  return 0;
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,144 @@
+// A pressure p on boundary faces that follows the deformed surface (a follower load): the force on
+// a face is -p n dA, n its deformed outward normal, shared by its three vertices. Positive p
+// pushes the surface into the body (an outer surface is compressed, a cavity's wall is pushed
+// out: inflation).
+//
+// On a closed surface (every edge of the region's faces shared by two of them: a body's whole
+// surface, a cavity) the load is conservative, E = p V with V = sum_faces (1/6) (a - c) . ((b - c)
+// x (d - c)) the volume the surface encloses (the body's, or minus a cavity's; the reference point
+// c, the centre of the region's box, drops out), and -dE/dx is exactly the follower force. Its
+// Hessian is indefinite: Newton's (psd) clamps each face's 9 x 9 block.
+//
+// On an open surface no such energy exists (the cone volume above gives a third of the force on a
+// flat patch), so the normals are lagged: each step takes the faces' normals and areas at its start
+// x_n and applies their force as a dead load through the step, E = -sum f . (x - X). The force
+// follows the surface from step to step; it is exact as the steps shrink (a quasi-static run's
+// load steps, a dynamic run's frames).
+#include <algorithm>
+#include <map>
+
+#include "parallel/collectives.hpp"
+#include "terms/element_kernels.hpp"
+#include "terms/load_kind.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+using Mat9x9 = Eigen::Matrix<double, 9, 9>;
+using Vec9 = Eigen::Matrix<double, 9, 1>;
+
+Mat3 cross_matrix(const Vec3& v) {
+  Mat3 m;
+  m << 0, -v[2], v[1], v[2], 0, -v[0], -v[1], v[0], 0;
+  return m;
+}
+
+// Whether every edge of the region's faces (over all ranks) is shared by exactly two of them.
+bool closed_surface(const DistributedMesh& mesh, const LoadRegion& region) {
+  std::vector<int64_t> edges;
+  for (const auto& f : region.faces)
+    for (int k = 0; k < 3; ++k) {
+      const int64_t a = mesh.vertex_ids[f[k]], b = mesh.vertex_ids[f[(k + 1) % 3]];
+      edges.push_back(std::min(a, b));
+      edges.push_back(std::max(a, b));
+    }
+  std::map<std::pair<int64_t, int64_t>, int> count;
+  const std::vector<int64_t> all = all_gathered(PetscObjectComm((PetscObject)mesh.dm), edges, MPI_INT64_T);
+  for (size_t k = 0; k < all.size(); k += 2) ++count[{all[k], all[k + 1]}];
+  for (const auto& [edge, n] : count)
+    if (n != 2) return false;
+  return !count.empty();
+}
+
+class Pressure : public LoadTerm {
+ public:
+  Pressure(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
+      : LoadTerm(mesh, spec, index, std::move(region)),
+        p_(spec_.number("pressure")),
+        c_((Vec3(spec_.min.data()) + Vec3(spec_.max.data())) / 2),
+        closed_(closed_surface(mesh_, region_)) {}
+  std::string describe() const override {
+    return LoadTerm::describe() + (closed_ ? ", closed: E = p V" : ", open: normals of each step's start");
+  }
+  bool needs_step_positions() const override { return !closed_; }
+  PetscErrorCode begin_step(const StepStart& step) override {
+    if (closed_) return 0;
+    const std::vector<double>& pos = *step.start_positions;
+    forces_.clear();
+    for (const auto& f : region_.faces) {
+      const Vec3 a(&pos[3 * f[0]]);
+      // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2.
+      forces_.push_back(-p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a));
+    }
+    return 0;
+  }
+  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
+    double e = *energy;
+    if (!closed_) {
+      for (size_t k = 0; k < forces_.size(); ++k)
+        for (PetscInt v : region_.faces[k]) {
+          e -= forces_[k].dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
+          if (gradient) add_vertex_vector(mesh_, v, -forces_[k], gradient);
+        }
+      *energy = e;
+      return 0;
+    }
+    for (const auto& f : region_.faces) {
+      const Vec3 a = Vec3(&pos[3 * f[0]]) - c_, b = Vec3(&pos[3 * f[1]]) - c_, d = Vec3(&pos[3 * f[2]]) - c_;
+      e += p_ / 6 * a.dot(b.cross(d));
+      if (gradient) {
+        add_vertex_vector(mesh_, f[0], p_ / 6 * b.cross(d), gradient);
+        add_vertex_vector(mesh_, f[1], p_ / 6 * d.cross(a), gradient);
+        add_vertex_vector(mesh_, f[2], p_ / 6 * a.cross(b), gradient);
+      }
+    }
+    *energy = e;
+    return 0;
+  }
+  PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override {
+    PetscFunctionBeginUser;
+    if (!closed_) PetscFunctionReturn(0);  // a dead load within the step
+    for (const auto& f : region_.faces) {
+      const Vec3 a = Vec3(&pos[3 * f[0]]) - c_, b = Vec3(&pos[3 * f[1]]) - c_, d = Vec3(&pos[3 * f[2]]) - c_;
+      Mat9x9 He = Mat9x9::Zero();
+      He.block<3, 3>(0, 3) = -cross_matrix(d);  // d/db (b x d)
+      He.block<3, 3>(0, 6) = cross_matrix(b);   // d/dd (b x d)
+      He.block<3, 3>(3, 6) = -cross_matrix(a);  // d/dd (d x a)
+      He.block<3, 3>(3, 0) = He.block<3, 3>(0, 3).transpose();
+      He.block<3, 3>(6, 0) = He.block<3, 3>(0, 6).transpose();
+      He.block<3, 3>(6, 3) = He.block<3, 3>(3, 6).transpose();
+      He *= p_ / 6;
+      if (psd) {
+        Eigen::SelfAdjointEigenSolver<Mat9x9> eig(He);
+        const Vec9 lambda = eig.eigenvalues().cwiseMax(0.0);
+        He = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+      }
+      PetscCall(add_element_hessian<3>(mesh_, H, f.data(), He, scale));
+    }
+    PetscFunctionReturn(0);
+  }
+  bool projective_dynamics_exact() const override { return !closed_; }
+
+ private:
+  double p_;
+  Vec3 c_;
+  bool closed_;
+  std::vector<Vec3> forces_;  // open: each face's force on each of its vertices, from the step's start
+};
+
+std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {
+  return std::make_unique<Pressure>(mesh, spec, index, std::move(region));
+}
+
+}  // namespace
+
+LoadKind pressure_kind() {
+  const DeckKey<LoadSpec> pressure{
+      "pressure", number_field("pressure"),
+      "force per deformed area (Pa in SI); positive pushes the surface into the body (a cavity inflates)", at_least(0)};
+  return {"pressure", "a pressure on boundary faces that follows the deformed normal (follower load)", LoadTarget::faces,
+          {pressure}, build};
+}
+
+}  // namespace hyperqn

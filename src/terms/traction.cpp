@@ -1,0 +1,55 @@
+// A dead-load traction: a force per rest area t on boundary faces, fixed in direction and size
+// (it does not follow the deformed surface). E = -sum_faces (A_f / 3) t . sum_a (x_a - X_a): each of
+// a face's vertices carries a third of its rest area. Linear in x: no Hessian, exact for PD.
+#include "terms/element_kernels.hpp"
+#include "terms/load_kind.hpp"
+
+namespace hyperqn {
+
+namespace {
+
+class Traction : public LoadTerm {
+ public:
+  Traction(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
+      : LoadTerm(mesh, spec, index, std::move(region)) {
+    const Vec3 t(spec_.vector("traction").data());
+    for (const auto& f : region_.faces) {
+      const Vec3 force = triangle_area(mesh_.rest.data(), f.data()) / 3 * t;
+      for (PetscInt v : f) {
+        vertices_.push_back(v);
+        forces_.push_back(force);
+      }
+    }
+  }
+  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
+    double e = *energy;
+    for (size_t k = 0; k < vertices_.size(); ++k) {
+      const PetscInt v = vertices_[k];
+      e -= forces_[k].dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
+      if (gradient) add_vertex_vector(mesh_, v, -forces_[k], gradient);
+    }
+    *energy = e;
+    return 0;
+  }
+  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
+  bool projective_dynamics_exact() const override { return true; }
+
+ private:
+  std::vector<PetscInt> vertices_;  // each face's vertices in turn
+  std::vector<Vec3> forces_;        // the face's force on it
+};
+
+std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {
+  return std::make_unique<Traction>(mesh, spec, index, std::move(region));
+}
+
+}  // namespace
+
+LoadKind traction_kind() {
+  const DeckKey<LoadSpec> traction{"traction", vector_field("traction"), "the force per rest area (stress units: Pa in SI)",
+                                   nonzero_vector()};
+  return {"traction", "a force per rest area on boundary faces, fixed in direction (dead load)", LoadTarget::faces,
+          {traction}, build};
+}
+
+}  // namespace hyperqn
