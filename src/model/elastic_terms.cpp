@@ -51,16 +51,19 @@ static void add_tet_terms(const DistributedMesh& mesh, const std::vector<Materia
   if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
 }
 
-// A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all).
+// A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all):
+// each term gets the elements it owns (body_elements), in the mesh's order.
 static void add_cloth_terms(const DistributedMesh& mesh, const ClothSpec& cloth, int body,
                             std::vector<std::unique_ptr<EnergyTerm>>& terms) {
-  terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density, body));
+  const std::vector<PetscInt> triangles = body_elements(mesh, mesh.triangles, 3, body);
+  terms.push_back(std::make_unique<SurfaceMass>(mesh, cloth.areal_density, triangles));
   if (cloth.model == ClothModel::membrane)
-    terms.push_back(std::make_unique<ClothMembrane>(mesh, cloth.material, cloth.mu, cloth.lambda, body));
+    terms.push_back(std::make_unique<ClothMembrane>(mesh, cloth.material, cloth.mu, cloth.lambda, triangles));
   else
-    terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, body));
+    terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, triangles));
   if (cloth.bending != BendingModel::none && mesh.global_hinges > 0)
-    terms.push_back(std::make_unique<ClothBending>(mesh, cloth.bending, cloth.bending_stiffness, body));
+    terms.push_back(std::make_unique<ClothBending>(mesh, cloth.bending, cloth.bending_stiffness,
+                                                   body_elements(mesh, mesh.hinges, 4, body)));
 }
 
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
@@ -70,7 +73,7 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
   add_tet_terms(mesh, materials, terms);
   if (mesh.global_segments > 0)
     terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
-                                                     strands.laplacian_weight));
+                                                     strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, -1)));
   if (mesh.global_triangles > 0) add_cloth_terms(mesh, cloth, -1, terms);
   return terms;
 }
@@ -82,7 +85,7 @@ std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh,
     const StrandMaterial& strands = bodies[k].strand_material;
     if (bodies[k].mesh.has_strands())
       terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
-                                                       strands.laplacian_weight, (int)k));
+                                                       strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, (int)k)));
     if (bodies[k].mesh.has_cloth()) add_cloth_terms(mesh, bodies[k].cloth, (int)k, terms);
   }
   return terms;

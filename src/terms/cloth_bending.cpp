@@ -14,8 +14,8 @@ std::string ClothBending::name() const {
   }
 }
 
-ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, int body)
-    : mesh_(mesh), model_(model), k_(stiffness), hinges_(body_elements(mesh, mesh.hinges, 4, body)), springs_(mesh) {
+ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges)
+    : mesh_(mesh), model_(model), k_(stiffness), hinges_(std::move(hinges)), springs_(mesh) {
   const double* X = mesh.rest.data();
   for (PetscInt h : hinges_) {
     const PetscInt* v = &mesh.hinges[4 * h];

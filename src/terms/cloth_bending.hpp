@@ -6,8 +6,8 @@
 //   dihedral   E = k (theta - theta0)^2 3|e|^2/(A1 + A2), theta the dihedral angle (Grinspun et
 //              al. 2003): large folds and curved rest shapes; the quadratic model's matrix is its
 //              weight in L (its Hessian at a flat rest state), not exact.
-// materials/hinge_bending.hpp holds the per-hinge formulas. With body >= 0 only that body's
-// hinges (body_elements).
+// materials/hinge_bending.hpp holds the per-hinge formulas. Over the hinges its builder hands it
+// (a body's: body_elements).
 #pragma once
 #include <array>
 #include <string>
@@ -24,7 +24,7 @@ namespace hyperqn {
 class ClothBending : public EnergyTerm {
  public:
   // model: not none (a cloth without bending has no bending term).
-  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, int body = -1);
+  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges);
   std::string name() const override;
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;

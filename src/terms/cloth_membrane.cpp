@@ -6,8 +6,9 @@
 
 namespace hyperqn {
 
-ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body)
-    : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda), triangles_(body_elements(mesh, mesh.triangles, 3, body)) {
+ClothMembrane::ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda,
+                             std::vector<PetscInt> triangles)
+    : mesh_(mesh), model_(model), mu_(mu), lambda_(lambda), triangles_(std::move(triangles)) {
   rest_.reserve(triangles_.size());
   for (PetscInt t : triangles_) {
     const PetscInt* tri = &mesh.triangles[3 * t];

@@ -2,7 +2,7 @@
 // deformation gradient of the triangle, psi StVK, corotated or Neo-Hookean in the 2-D Lame
 // constants (materials/membrane.hpp). Its weight in L is the rest stiffness of the in-plane modes
 // (2 mu + lambda) times the triangle's cotangent Laplacian; not exact, so PD is not offered.
-// With body >= 0 only that body's triangles (body_elements).
+// Over the triangles its builder hands it (a body's: body_elements).
 #pragma once
 #include <string>
 #include <vector>
@@ -15,7 +15,7 @@ namespace hyperqn {
 
 class ClothMembrane : public EnergyTerm {
  public:
-  ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, int body = -1);
+  ClothMembrane(const DistributedMesh& mesh, membrane::Model model, double mu, double lambda, std::vector<PetscInt> triangles);
   std::string name() const override { return "cloth membrane"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;

@@ -4,9 +4,9 @@
 
 namespace hyperqn {
 
-ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, int body)
+ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles)
     : mesh_(mesh), k_(stiffness), springs_(mesh) {
-  for (PetscInt t : body_elements(mesh, mesh.triangles, 3, body))
+  for (PetscInt t : triangles)
     for (int e = 0; e < 3; ++e)
       if (mesh.triangle_edges[t] & (1u << e)) {
         const PetscInt ab[2] = {mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]};

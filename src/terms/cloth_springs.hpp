@@ -1,8 +1,8 @@
 // Mass-spring cloth (Liu, Bao, Ladislav, Kavan 2013): a spring E = k/2 (l - L)^2 on every edge of
 // the surface, L its rest length, the same k for all. Each edge is carried by one of its
 // triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
-// weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. With
-// body >= 0 only that body's triangles (body_elements).
+// weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. Over the
+// triangles its builder hands it (a body's: body_elements).
 #pragma once
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
@@ -12,7 +12,7 @@ namespace hyperqn {
 
 class ClothSprings : public EnergyTerm {
  public:
-  ClothSprings(const DistributedMesh& mesh, double stiffness, int body = -1);
+  ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles);
   std::string name() const override { return "cloth springs"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;

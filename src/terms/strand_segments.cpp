@@ -5,12 +5,12 @@
 namespace hyperqn {
 
 StrandSegments::StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density,
-                               double laplacian_weight, int body)
+                               double laplacian_weight, std::vector<PetscInt> segments)
     : mesh_(mesh),
       axial_stiffness_(axial_stiffness),
       linear_density_(linear_density),
       weight_(laplacian_weight > 0 ? laplacian_weight : axial_stiffness),
-      segments_(body_elements(mesh, mesh.segments, 2, body)),
+      segments_(std::move(segments)),
       springs_(mesh) {
   for (PetscInt s : segments_) {
     const PetscInt* seg = &mesh.segments[2 * s];

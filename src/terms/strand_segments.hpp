@@ -13,9 +13,9 @@ namespace hyperqn {
 class StrandSegments : public EnergyTerm {
  public:
   // axial_stiffness EA, linear_density, laplacian_weight (0: EA) as in the deck's strand_material;
-  // with body >= 0 only that body's segments (body_elements).
+  // segments: its local segments (indices into mesh.segments' pairs), as its builder selects them.
   StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density, double laplacian_weight,
-                 int body = -1);
+                 std::vector<PetscInt> segments);
   std::string name() const override { return "strand"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;

@@ -4,8 +4,8 @@
 
 namespace hyperqn {
 
-SurfaceMass::SurfaceMass(const DistributedMesh& mesh, double areal_density, int body)
-    : mesh_(mesh), density_(areal_density), triangles_(body_elements(mesh, mesh.triangles, 3, body)) {
+SurfaceMass::SurfaceMass(const DistributedMesh& mesh, double areal_density, std::vector<PetscInt> triangles)
+    : mesh_(mesh), density_(areal_density), triangles_(std::move(triangles)) {
   for (PetscInt t : triangles_) area_.push_back(triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]));
 }
 
