@@ -1,7 +1,7 @@
 // The loads (terms/load_kind.hpp, model/load_kinds.hpp) on the test box (2 x 1 x 1, 4 x 2 x 2
 // cubes, fixed at x = 0): each kind's gradient against finite differences of its energy and its
 // Hessian against finite differences of its gradient, and what each must add up to: a traction's
-// and a force's total is the deck's, a pressure on the whole closed surface has the energy p V(x)
+// and a force's total is the deck's, a body force's gradient is -M a, a pressure on the whole closed surface has the energy p V(x)
 // (V the body's deformed volume), and on one end face (open) it pushes with p times the face's
 // area vector at the step's start. At 1 and 2 ranks (the same faces and totals).
 #include <petscdmplex.h>
@@ -130,6 +130,24 @@ PetscErrorCode check_loads() {
     CHECK_MSG(s.body->terms().back()->describe().find("9 free vertices") != std::string::npos,
               s.body->terms().back()->describe());
   }
+  {  // a body force on the whole box: -M a per free dof, as gravity's weight
+    LoadSpec l = load("body_force", kAllMin, kAllMax);
+    l.vectors["acceleration"] = {0.5, -9.81, 2.0};
+    TestScene s;
+    PetscCall(make_scene("neohookean", true, s, {0, 0, 0}, with_loads({l})));
+    double E;
+    Vec Ma;
+    PetscReal residual, scale;
+    PetscCall(load_part(s, plain, x, &E, grad));
+    PetscCall(VecDuplicate(x, &Ma));
+    for (int d = 0; d < 3; ++d) PetscCall(VecStrideSet(Ma, d, l.vectors["acceleration"][d]));
+    PetscCall(VecPointwiseMult(Ma, s.step->mass(), Ma));
+    PetscCall(VecNorm(Ma, NORM_INFINITY, &scale));
+    PetscCall(VecAXPY(grad, 1.0, Ma));
+    PetscCall(VecNorm(grad, NORM_INFINITY, &residual));
+    CHECK_MSG(residual <= 1e-14 * scale, "body force: gradient + M a = " + std::to_string(residual));
+    PetscCall(VecDestroy(&Ma));
+  }
   {  // a pressure on the whole (closed) surface: E = p V(x)
     LoadSpec l = load("pressure", kAllMin, kAllMax);
     l.numbers["pressure"] = 7.0;
@@ -178,7 +196,7 @@ PetscErrorCode check_loads() {
     PetscCall(make_scene("neohookean", true, s, {0, 0, 0}, with_loads({l})));
     InputProblem problem;
     PetscCall(s.body->terms().back()->check_start(pos, problem));
-    CHECK_MSG(problem.line == 12 && problem.key == "box" && problem.what.find("selects no boundary face") == 0,
+    CHECK_MSG(problem.line == 12 && problem.key == "loads[0].box" && problem.what.find("selects no boundary face") == 0,
               problem.what);
   }
   PetscCall(VecDestroy(&x));

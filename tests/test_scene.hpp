@@ -77,6 +77,7 @@ inline PetscErrorCode make_scene(const std::string& scene, bool fix_end, TestSce
   s.body = std::make_unique<Body>(s.mesh, std::move(terms));
   s.step = std::make_unique<StepObjective>(*s.body, 0.05, gravity);
   PetscCall(s.step->setup());
+  PetscCall(s.body->set_masses(s.step->mass()));  // as LiveScene::build does
   PetscFunctionReturn(0);
 }
 
