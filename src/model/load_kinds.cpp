@@ -8,9 +8,10 @@ namespace hyperqn {
 LoadKind traction_kind();
 LoadKind pressure_kind();
 LoadKind nodal_force_kind();
+LoadKind body_force_kind();
 
 const std::vector<LoadKind>& load_kinds() {
-  static const std::vector<LoadKind> kinds = {traction_kind(), pressure_kind(), nodal_force_kind()};
+  static const std::vector<LoadKind> kinds = {traction_kind(), pressure_kind(), nodal_force_kind(), body_force_kind()};
   return kinds;
 }
 
