@@ -123,9 +123,7 @@ PetscErrorCode Body::set_masses(Vec mass) {
 PetscErrorCode Body::begin_step(const StepStart& step) {
   PetscFunctionBeginUser;
   StepStart full = step;
-  bool positions = false;
-  for (const auto& t : terms_) positions = positions || t->needs_step_positions();
-  if (positions) {
+  if (any_term(&EnergyTerm::needs_step_positions)) {
     // The moving fixed vertices jump from where they were at t_start to where set_time put them:
     // a term that couples surfaces checks that path (SelfContactTerm::begin_step).
     PetscCall(local_positions(step.x_start, step_positions_));
@@ -233,17 +231,6 @@ unsigned long long Body::active_set() const {
   return global;
 }
 
-bool Body::bounds_steps() const {
-  for (const auto& t : terms_)
-    if (t->bounds_steps()) return true;
-  return false;
-}
-
-bool Body::has_vertex_stiffness() const {
-  for (const auto& t : terms_)
-    if (t->has_vertex_stiffness()) return true;
-  return false;
-}
 
 void Body::begin_element_states() {
   for (const auto& t : terms_)
@@ -288,11 +275,6 @@ void Body::carry_element_states(const Body& from) {
     }
 }
 
-bool Body::couples_surfaces() const {
-  for (const auto& t : terms_)
-    if (t->couples_surfaces()) return true;
-  return false;
-}
 
 PetscErrorCode Body::limit_step(Vec x, Vec dir, double* alpha) const {
   PetscFunctionBeginUser;

@@ -89,13 +89,16 @@ class Body {
   void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
   // The smallest det F and the largest |det F| of all tets at x, over all ranks (collective).
   PetscErrorCode volume_ratios(Vec x, double* min_J, double* max_abs_J) const;
-  // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
-  bool bounds_steps() const;
-  bool has_vertex_stiffness() const;  // a term's EnergyTerm::has_vertex_stiffness
-  // True if a term couples surfaces that come close (EnergyTerm::couples_surfaces).
-  bool couples_surfaces() const;
+  // Whether any term has a capability: any_term(&EnergyTerm::bounds_steps), ... A new capability
+  // of the terms is their virtual and its use; the body needs nothing of its own for it.
+  bool any_term(bool (EnergyTerm::*capability)() const) const {
+    for (const auto& t : terms_)
+      if (((*t).*capability)()) return true;
+    return false;
+  }
   // The terms' active sets at the last evaluated point, over all ranks (collective).
   unsigned long long active_set() const;
+  // Largest step alpha <= *alpha along dir from x that every term admits (all ranks agree).
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const;
 
   // Lumped mass per dof (global vector layout), summed over the terms.

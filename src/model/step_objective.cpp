@@ -62,7 +62,7 @@ PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
     PetscFunctionReturn(0);
   }
   PetscCall(upright_guess(from, x));
-  if (body_.couples_surfaces() && body_.bounds_steps()) {
+  if (body_.any_term(&EnergyTerm::couples_surfaces) && body_.any_term(&EnergyTerm::bounds_steps)) {
     // No surface may pass through another on the way from x_n (EnergyTerm::couples_surfaces).
     double alpha = 1;
     PetscCall(VecWAXPY(work_, -1.0, from, x));
@@ -278,14 +278,14 @@ PetscErrorCode StepObjective::create_hessian(Mat* H) const {
   PetscCall(DMCreateMatrix(body_.mesh().dm, H));
   // Self-contact couples vertices of no common element: assemble_hessian makes room for its pairs
   // (HessianPattern); a caller that adds them itself (tests) takes them as they come.
-  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, body_.couples_surfaces() ? PETSC_FALSE : PETSC_TRUE));
+  PetscCall(MatSetOption(*H, MAT_NEW_NONZERO_ALLOCATION_ERR, body_.any_term(&EnergyTerm::couples_surfaces) ? PETSC_FALSE : PETSC_TRUE));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode StepObjective::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::hessian));
-  if (body_.couples_surfaces()) {
+  if (body_.any_term(&EnergyTerm::couples_surfaces)) {
     PetscCall(pattern_.grow(body_, x, H, &counts_->hessian_patterns));
     // A coupling the terms did not announce is an error, not a reallocation at each row.
     PetscCall(MatSetOption(H, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));

@@ -110,10 +110,10 @@ class StepObjective : public Objective {
   // reduction; collective).
   PetscErrorCode momentum(Vec v, std::array<double, 3>& P, double* mass_speed) const;
   double length_scale() const override { return diagonal_; }
-  bool bounds_steps() const override { return body_.bounds_steps(); }
+  bool bounds_steps() const override { return body_.any_term(&EnergyTerm::bounds_steps); }
   unsigned long long active_set() const override { return body_.active_set(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
-  bool has_vertex_stiffness() const override { return body_.has_vertex_stiffness(); }
+  bool has_vertex_stiffness() const override { return body_.any_term(&EnergyTerm::has_vertex_stiffness); }
   PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
     return body_.vertex_stiffness(life_.x_n(), solve_dt_ * solve_dt_, out);
   }
