@@ -8,7 +8,8 @@
 - An attachment's targets moved by a ramp are the targets of the same motion given by start and
   end with the velocity over the ramp's length: the two runs agree to round-off.
 - A restart from a checkpoint in the middle of the curves (a fixed region turning with a sine and
-  released at the checkpoint's time, an attachment on a table) equals the uninterrupted run bitwise.
+  released at the checkpoint's time, an attachment on a table) equals the uninterrupted run bitwise;
+  one after the table file changed is refused (its values are physics).
 - Bad curves: exit 1, the deck line and key named, nothing written.
 """
 import copy
@@ -148,6 +149,20 @@ def test_restart_mid_curve_is_bitwise_exact(tmp_path, ranks):
     released = final_frame(ref)
     rest = released.points - released.displacement
     assert np.abs(released.velocity[rest[:, 0] > 2.0 - 1e-9]).max() > 0.01, "the released end should move"
+
+
+def test_restart_with_a_changed_table_file_is_refused(tmp_path):
+    """The values of a table read from a file are physics (the deck's text does not change with them)."""
+    deck = dict(pulled_bar(tmp_path), name="run")
+    deck["time"] = {"dt": 0.05, "frames": 4}
+    out = tmp_path / "out"
+    run_to(tmp_path, "first", dict(deck, checkpoint={"every": 2}), out)
+    (tmp_path / "pull.csv").write_text(TABLE.replace("0.4, 0.5", "0.4, 0.6"))
+    done = run_to(tmp_path, "then", dict(deck, time={"dt": 0.05, "frames": 8}), out, extra=["--restart", "latest"],
+                  check=False)
+    assert done.returncode == 1 and "the deck's physics differ" in done.stdout and "section(s) curve_tables" in done.stdout
+    (tmp_path / "pull.csv").write_text(TABLE)  # the same table again: accepted
+    run_to(tmp_path, "same", dict(deck, time={"dt": 0.05, "frames": 8}), out, extra=["--restart", "latest"])
 
 
 FIXED = "fixed[1].motion"
