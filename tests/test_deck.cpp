@@ -491,6 +491,62 @@ fixed:
   expect_error("motion_unknown_key", kHead + fixed + "      spin: 1\n", "fixed[0].motion.spin", 6);
 }
 
+// Curves (params/curve.hpp) in the motions of a fixed region, an attachment and a collider, inline
+// and from a CSV file beside the deck; each bad curve names its deck line and key.
+void test_curves() {
+  write_file("curves/pull.csv", "time,value\n0,0\n1,0.5\n2,0.5\n");
+  Deck d = load_ok("curves/good", kHead + R"(fixed:
+  - box: {min: [0, 0, 0], max: [0, 1, 1]}
+    motion:
+      translate: {velocity: [0, 0, 1]}
+      curve: {type: table, file: pull.csv}
+attachments:
+  - box: {min: [1, 0, 0], max: [1, 1, 1]}
+    stiffness: 10
+    motion: {rotate: {axis: [1, 0, 0], rate: 90}, curve: {type: ramp, start: 0.5, end: 1.5}}
+colliders:
+  - type: sphere
+    center: [0, -1, 0]
+    radius: 0.5
+    motion:
+      translate: {velocity: [0.1, 0, 0]}
+      curve: {type: sine, amplitude: 1, frequency: 2, phase: 180}
+)");
+  const hyperqn::Curve& table = d.fixed[0].motion.curve;
+  CHECK(table.given && table.type == hyperqn::CurveType::table && table.points.size() == 3 && table.points[1][1] == 0.5);
+  CHECK(fs::path(table.file) == (g_dir / "curves/pull.csv").lexically_normal());
+  const hyperqn::Curve& ramp = d.attachments[0].region.motion.curve;
+  CHECK(ramp.given && ramp.type == hyperqn::CurveType::ramp && ramp.start == 0.5 && ramp.end == 1.5);
+  const hyperqn::Curve& sine = d.colliders[0].motion.curve;
+  CHECK(sine.given && sine.type == hyperqn::CurveType::sine && sine.frequency == 2 && sine.phase_deg == 180);
+
+  const std::string fixed = "fixed:\n  - box: {min: [0, 0, 0], max: [0, 1, 1]}\n    motion:\n      translate: {velocity: [0, 0, 1]}\n";
+  const auto bad = [&](const std::string& name, const std::string& curve, const std::string& key, int line,
+                       const std::string& also) {
+    expect_error("curves/" + name, kHead + fixed + curve, "fixed[0].motion." + key, line, also);
+  };
+  bad("one_point", "      curve: {type: table, points: [[0, 0]]}\n", "curve.points", 7, "a table of 1 point");
+  bad("not_increasing", "      curve:\n        type: table\n        points:\n          - [0, 0]\n          - [1, 1]\n          - [1, 2]\n",
+      "curve.points[2]", 12, "has the time 1, not after the previous point's 1");
+  bad("nan_point", "      curve: {type: table, points: [[0, 0], [1, .nan]]}\n", "curve.points[1][1]", 7, "expected a number");
+  bad("both", "      curve: {type: table, points: [[0, 0], [1, 1]], file: pull.csv}\n", "curve", 7, "one of the two");
+  bad("neither", "      curve: {type: table}\n", "curve", 7, "one of the two");
+  bad("missing_file", "      curve: {type: table, file: none.csv}\n", "curve.file", 7, "none.csv");
+  write_file("curves/decreasing.csv", "0,0\n1,1\n0.5,2\n");
+  bad("bad_file", "      curve: {type: table, file: decreasing.csv}\n", "curve.file", 7,
+      "decreasing.csv' line 3: the row has the time 0.5, not after the previous point's 1");
+  write_file("curves/nan.csv", "t,v\n0,0\n1,NaN\n");
+  bad("nan_file", "      curve: {type: table, file: nan.csv}\n", "curve.file", 7, "nan.csv' line 3: the value must be finite");
+  bad("not_csv", "      curve: {type: table, file: pull.txt}\n", "curve.file", 7, ".csv");
+  bad("ramp_backwards", "      curve: {type: ramp, start: 2, end: 1}\n", "curve.end", 7, "> start (2)");
+  bad("ramp_no_end", "      curve: {type: ramp}\n", "curve.end", 7, "missing");
+  bad("sine_key_of_ramp", "      curve: {type: ramp, end: 1, amplitude: 1}\n", "curve.amplitude", 7, "sine only");
+  bad("sine_not_zero", "      curve: {type: sine, amplitude: 1, frequency: 1, phase: 90}\n", "curve", 7, "at t = 0");
+  bad("table_not_zero", "      curve: {type: table, points: [[0.5, 1], [1, 2]]}\n", "curve", 7, "is 1 at t = 0");
+  bad("curve_and_end", "      end: 2\n      curve: {type: ramp, end: 1}\n", "end", 7, "either start and end or curve");
+  bad("unknown_type", "      curve: {type: square}\n", "curve.type", 7, "allowed: ramp, sine, table");
+}
+
 void test_attachments() {
   Deck d = load_ok("attachments", kHead + R"(attachments:
   - {box: {min: [0, 0, 0], max: [0, 1, 1]}, stiffness: 1.0e4}
@@ -782,6 +838,7 @@ int main() {
   test_regions_and_motion();
   test_attachments();
   test_colliders();
+  test_curves();
   test_default_deck();
 #endif
 

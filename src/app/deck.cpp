@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 
 #include "app/deck_reader.hpp"
@@ -44,6 +45,27 @@ std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::No
     out.emplace_back(key, YAML::Dump(node));
   }
   return out;
+}
+
+// The tables of the curves read from files (params/curve.hpp, a table's `file`), as their values:
+// physics that the deck's text does not hold, so that a restart with a changed file is refused. ""
+// without one (those decks keep their hash).
+std::string curve_file_tables(const Deck& deck) {
+  std::string text;
+  const auto add = [&](const std::string& key, const Curve& c) {
+    if (c.file.empty()) return;
+    text += key + "\n";
+    char row[64];
+    for (const auto& p : c.points) {
+      std::snprintf(row, sizeof row, "%.17g, %.17g\n", p[0], p[1]);
+      text += row;
+    }
+  };
+  for (size_t k = 0; k < deck.fixed.size(); ++k) add("fixed " + std::to_string(k), deck.fixed[k].motion.curve);
+  for (size_t k = 0; k < deck.attachments.size(); ++k)
+    add("attachments " + std::to_string(k), deck.attachments[k].region.motion.curve);
+  for (size_t k = 0; k < deck.colliders.size(); ++k) add("colliders " + std::to_string(k), deck.colliders[k].motion.curve);
+  return text;
 }
 
 Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
@@ -137,6 +159,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   deck.physics = physics_sections(root);
+  if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     check_study_integrators_take_contact(r, *x, deck);

@@ -151,7 +151,14 @@ class Config {
   }
 
   void motion(const std::string& prefix, const Motion& m) {
-    if (m.active) keys(prefix + "motion.", motion_keys(), m);
+    if (!m.active) return;
+    // A curve replaces start and end (read_motion refuses them beside it).
+    keys(prefix + "motion.", motion_keys(), m, {}, m.curve.given ? std::set<std::string>{"start", "end"} : std::set<std::string>{});
+    curve(prefix + "motion.", m.curve);
+  }
+  // The curve a section gives as prefix + "curve" (params/curve.hpp), if it gives one.
+  void curve(const std::string& prefix, const Curve& c) {
+    if (c.given) keys(prefix + "curve.", curve_keys(), c);
   }
 
   // The deck's mesh and the materials of its parts (a scene's or a body's).

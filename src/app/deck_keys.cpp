@@ -90,6 +90,7 @@ std::vector<KeyInfo> declared_deck_keys() {
        key_infos("strand_material", strand_material_keys()), key_infos("cloth", cloth_keys()),
        key_infos("material", material_keys()),
        key_infos("fixed", fixed_keys()), key_infos("motion", motion_keys()),
+       key_infos("curve", curve_keys()),
        key_infos("attachments", attachment_keys()), key_infos("loads", load_keys()),
        key_infos("colliders", collider_keys()),
        key_infos("contact", contact_keys()), key_infos("regions", region_keys()),

@@ -58,6 +58,9 @@ class Reader {
     (*places_)[entry.key] = {entry.line, entry.node.IsNull() ? "" : text.c_str(), leaf};
   }
 
+  // Relative paths of input files are relative to this (resolve_input_file).
+  fs::path deck_dir() const { return fs::path(file_).parent_path(); }
+
   [[noreturn]] void fail(int line, const std::string& key, const std::string& msg) const {
     throw InputError(file_, line, key, msg);
   }

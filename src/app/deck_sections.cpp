@@ -242,10 +242,46 @@ static void check_box(const Reader& r, const Section& s, const BoxRegion& b) {
                        " > " + r.items(*corners.find("max"))[i].node.Scalar());
 }
 
+void read_curve(const Reader& r, const Value& v, Curve& c) {
+  const Section s = read_keys(r, v, curve_keys(), c);
+  c.given = true;
+  if (c.type == CurveType::ramp)
+    if (const Value* end = s.find("end")) r.check(c.end > c.start, *end, "> start (" + default_text(c.start) + ")");
+  if (c.type != CurveType::table) return;
+  const Value *points = s.find("points"), *file = s.find("file");
+  if ((points != nullptr) == (file != nullptr)) r.fail(v, "a table gives its points or a file of them (one of the two)");
+  if (points) {
+    const std::vector<Value> items = r.items(*points);
+    for (const Value& item : items) c.points.push_back(r.numbers<2>(item));
+    size_t at = 0;
+    if (const std::string problem = curve_table_problem(c.points, at); !problem.empty())
+      r.fail(c.points.size() < 2 ? *points : items[at], problem);
+    return;
+  }
+  c.file = resolve_input_file(r, *file, r.deck_dir(), {".csv"}, ".csv (a row 't, v' per point)");
+  try {
+    c.points = read_curve_table(c.file);
+  } catch (const std::runtime_error& e) {
+    r.fail(*file, e.what());
+  }
+}
+
 static Motion read_motion(const Reader& r, const Value& v) {
   Motion m;
   const Section s = read_keys(r, v, motion_keys(), m);
   m.active = true;
+  if (const Value* curve = s.find("curve")) {
+    for (const char* key : {"start", "end"})
+      if (const Value* x = s.find(key))
+        r.fail(*x, "a motion with a curve moves as its curve says (a ramp's start and end, a table's times): give "
+                   "either start and end or curve");
+    read_curve(r, *curve, m.curve);
+    // The vertices and obstacles start where the mesh and the deck put them.
+    const double c0 = m.curve.value(0);
+    if (!(std::fabs(c0) <= 1e-12 * m.curve.magnitude()))
+      r.fail(*curve, "is " + default_text(c0) + " at t = 0, and a motion's curve starts at 0 (the motion starts at "
+                     "the rest positions): shift it (a sine's offset or phase, the table's values)");
+  }
   if (const Value* x = s.find("end")) r.check(m.end >= m.start, *x, ">= motion.start");
   return m;
 }

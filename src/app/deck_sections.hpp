@@ -14,6 +14,10 @@ struct BodyRegions {
   std::vector<std::pair<int, Value>> fixed, attachments;
 };
 
+// A curve's map (params/curve.hpp: curve_keys()) into c, given: its type's keys, end > start for a
+// ramp, a table's points or its file (resolved against the deck's directory and read) and their
+// checks, each error naming the deck line and key (and the file's line).
+void read_curve(const Reader& r, const Value& v, Curve& c);
 void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSpec& m);
 void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m);
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c);

@@ -1,11 +1,14 @@
 // Prescribed rigid motion, shared by fixed regions, attachments and colliders: rotation about an
 // axis through a centre at a constant rate, plus a translation at a constant velocity, both active
 // for t in [start, end] and held afterwards. Position at time t of a point X given at t = 0:
-// c + R(rate * tau) (X - c) + velocity * tau, tau = clamp(t, start, end) - start.
+// c + R(rate * tau) (X - c) + velocity * tau, tau = clamp(t, start, end) - start. With a curve
+// (params/curve.hpp) tau = c(t) instead, and start and end are not given: the rotation turns by
+// rate * c(t) and the translation moves by velocity * c(t); c(0) = 0 (the deck reader checks).
 #pragma once
 #include <Eigen/Dense>
 #include <array>
 
+#include "params/curve.hpp"
 #include "params/deck_keys.hpp"
 
 namespace hyperqn {
@@ -16,10 +19,11 @@ struct Motion {
   double rate_deg = 0;               // degrees per unit time
   std::array<double, 3> velocity{0, 0, 0};
   double start = 0, end = 1e300;
+  Curve curve;                       // tau = curve(t) if given
 };
 
 // The deck's motion: keys, of a fixed region, an attachment or a collider (params/deck_keys.hpp). Its
-// reader sets `active` and checks end >= start.
+// reader sets `active`, checks end >= start, reads the curve and refuses start and end beside it.
 inline const std::vector<DeckKey<Motion>>& motion_keys() {
   using M = Motion;
   static const std::vector<DeckKey<M>> keys = {
@@ -29,9 +33,12 @@ inline const std::vector<DeckKey<Motion>>& motion_keys() {
       needed(DeckKey<M>{"rotate.rate", &M::rate_deg, "degrees per unit time (right-hand rule)"}),
       map_key<M>("translate", "a translation at a constant velocity", "none"),
       needed(DeckKey<M>{"translate.velocity", &M::velocity, "velocity (length per unit time)"}),
-      {"start", &M::start, "start time", at_least(0)},
-      {"end", &M::end, "end time, at least `start`; the motion holds its last position afterwards", {}, {}, "",
-       "never"},
+      {"start", &M::start, "start time (without `curve`)", at_least(0)},
+      {"end", &M::end, "end time, at least `start`; the motion holds its last position afterwards (without `curve`)",
+       {}, {}, "", "never"},
+      curve_key<M>("the motion's progress in time instead of `start` and `end`: the rotation turns by `rate`·c(t) "
+                   "degrees and the translation moves by `velocity`·c(t); c(0) must be 0",
+                   "none (τ above)"),
   };
   return keys;
 }
@@ -51,6 +58,7 @@ RigidPose pose_at(const Motion& m, double t);
 Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t);
 // Velocity at time t of the point X as the motion reaches t: w x (moved(X, t) - c - velocity tau)
 // + velocity (w = rate about the axis) for start < t <= end, else 0 (not yet moving, or held).
+// With a curve, that times dc/dt as c reaches t (Curve::derivative: from the left).
 // What a fixed region's vertices keep when released at t.
 Eigen::Vector3d velocity_at(const Motion& m, const Eigen::Vector3d& X, double t);
 

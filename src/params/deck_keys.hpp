@@ -169,7 +169,7 @@ inline const char* type_name(const std::vector<std::string>&) { return "list of 
 
 template <typename Spec>
 std::vector<KeyInfo> key_infos(const std::string& section, const std::vector<DeckKey<Spec>>& keys) {
-  const Spec defaults{};
+  const Spec defaults = Spec();  // not `defaults{}`: GCC 12 then warns of a nested string (a region's curve.file) maybe uninitialized
   std::vector<KeyInfo> out;
   for (const DeckKey<Spec>& k : keys) {
     KeyInfo i{section, k.name, *k.type_text ? k.type_text : "choice", k.default_text, k.unit, k.doc, k.choices};
