@@ -65,6 +65,7 @@ std::string curve_file_tables(const Deck& deck) {
   for (size_t k = 0; k < deck.attachments.size(); ++k)
     add("attachments " + std::to_string(k), deck.attachments[k].region.motion.curve);
   for (size_t k = 0; k < deck.colliders.size(); ++k) add("colliders " + std::to_string(k), deck.colliders[k].motion.curve);
+  for (size_t k = 0; k < deck.loads.size(); ++k) add("loads " + std::to_string(k), deck.loads[k].curve);
   return text;
 }
 

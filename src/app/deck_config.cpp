@@ -249,7 +249,11 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
       c.keys(prefix, attachment_keys(), a);
       c.motion(prefix, a.region.motion);
     }
-  for (size_t k = 0; k < deck.loads.size(); ++k) c.keys("loads[" + std::to_string(k) + "].", load_keys(), deck.loads[k]);
+  for (size_t k = 0; k < deck.loads.size(); ++k) {
+    const std::string prefix = "loads[" + std::to_string(k) + "].";
+    c.keys(prefix, load_keys(), deck.loads[k]);
+    c.curve(prefix, deck.loads[k].curve);
+  }
   for (size_t k = 0; k < deck.colliders.size(); ++k) {
     const std::string prefix = "colliders[" + std::to_string(k) + "].";
     c.keys(prefix, collider_keys(), deck.colliders[k]);

@@ -417,6 +417,7 @@ void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads) {
     if (const Value* x = s.find("normal"); x && find_load_kind(l.type)->target != LoadTarget::faces)
       r.fail(*x, "selects faces by their normal; a " + l.type + " load acts on vertices");
     if (const Value* x = s.find("angle"); x && !s.find("normal")) r.fail(*x, "is the cone of `normal`, which is not given");
+    if (const Value* x = s.find("curve")) read_curve(r, *x, l.curve);
     l.line = item.line;
     loads.push_back(l);
   }

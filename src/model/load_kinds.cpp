@@ -38,7 +38,9 @@ const std::vector<DeckKey<LoadSpec>>& load_keys() {
                                  {"normal", &L::normal,
                                   "faces only: those whose rest outward normal is within `angle` of this direction "
                                   "(none: every face in the box)", nonzero_vector(), {}, "", "none"},
-                                 {"angle", &L::angle, "the cone of `normal`, degrees", between(0, 180)}};
+                                 {"angle", &L::angle, "the cone of `normal`, degrees", between(0, 180)},
+                                 curve_key<L>("the load's value in time: its value times c(t), at the time a step solves for",
+                                              "none (constant)")};
     for (const LoadKind& kind : load_kinds())
       for (const DeckKey<L>& own : kind.keys) k.push_back(only_with(own, "type", {kind.type}, true));
     return k;

@@ -42,8 +42,13 @@ struct LoadKind {
 class LoadTerm : public EnergyTerm {
  public:
   LoadTerm(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
-      : mesh_(mesh), spec_(spec), index_(index), region_(std::move(region)) {}
+      : mesh_(mesh), spec_(spec), index_(index), region_(std::move(region)), factor_(spec_.factor(0)) {}
   std::string name() const override { return spec_.type; }
+  // The load's curve at the time the step solves for (StepStart::t).
+  PetscErrorCode begin_step(const StepStart& step) override {
+    factor_ = spec_.factor(step.t);
+    return 0;
+  }
   std::string describe() const override;
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
 
@@ -52,6 +57,7 @@ class LoadTerm : public EnergyTerm {
   LoadSpec spec_;
   int index_;
   LoadRegion region_;
+  double factor_;  // its value's factor now: the curve's c(t), 1 without one
 };
 
 }  // namespace hyperqn

@@ -4,6 +4,7 @@
 #include <map>
 #include <string>
 
+#include "params/curve.hpp"
 #include "params/deck_keys.hpp"
 
 namespace hyperqn {
@@ -16,10 +17,13 @@ struct LoadSpec {
   Array3 min{0, 0, 0}, max{0, 0, 0};    // the region: boundary faces or vertices in this box
   Array3 normal{0, 0, 0};               // faces only: rest outward normal within `angle` of it (0: any)
   double angle = 30;                    // degrees
+  Curve curve;                          // the load's magnitude is its value times c(t) (none: 1)
   std::map<std::string, double> numbers;
   std::map<std::string, Array3> vectors;
   double number(const std::string& key) const { return numbers.at(key); }
   const Array3& vector(const std::string& key) const { return vectors.at(key); }
+  // The factor of the load's value at time t.
+  double factor(double t) const { return curve.given ? curve.value(t) : 1.0; }
 };
 
 // A kind's own keys: a number or a vec3 kept by name.

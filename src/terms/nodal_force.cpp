@@ -16,9 +16,10 @@ class NodalForce : public LoadTerm {
   }
   PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
     double e = *energy;
+    const Vec3 f = factor_ * share_;
     for (PetscInt v : region_.vertices) {
-      e -= share_.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
-      if (gradient) add_vertex_vector(mesh_, v, -share_, gradient);
+      e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
+      if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
     }
     *energy = e;
     return 0;

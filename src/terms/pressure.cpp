@@ -63,13 +63,14 @@ class Pressure : public LoadTerm {
   }
   bool needs_step_positions() const override { return !closed_; }
   PetscErrorCode begin_step(const StepStart& step) override {
+    LoadTerm::begin_step(step);
     if (closed_) return 0;
     const std::vector<double>& pos = *step.start_positions;
     forces_.clear();
     for (const auto& f : region_.faces) {
       const Vec3 a(&pos[3 * f[0]]);
       // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2.
-      forces_.push_back(-p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a));
+      forces_.push_back(-factor_ * p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a));
     }
     return 0;
   }
@@ -84,13 +85,14 @@ class Pressure : public LoadTerm {
       *energy = e;
       return 0;
     }
+    const double p = factor_ * p_;
     for (const auto& f : region_.faces) {
       const Vec3 a = Vec3(&pos[3 * f[0]]) - c_, b = Vec3(&pos[3 * f[1]]) - c_, d = Vec3(&pos[3 * f[2]]) - c_;
-      e += p_ / 6 * a.dot(b.cross(d));
+      e += p / 6 * a.dot(b.cross(d));
       if (gradient) {
-        add_vertex_vector(mesh_, f[0], p_ / 6 * b.cross(d), gradient);
-        add_vertex_vector(mesh_, f[1], p_ / 6 * d.cross(a), gradient);
-        add_vertex_vector(mesh_, f[2], p_ / 6 * a.cross(b), gradient);
+        add_vertex_vector(mesh_, f[0], p / 6 * b.cross(d), gradient);
+        add_vertex_vector(mesh_, f[1], p / 6 * d.cross(a), gradient);
+        add_vertex_vector(mesh_, f[2], p / 6 * a.cross(b), gradient);
       }
     }
     *energy = e;
@@ -108,7 +110,7 @@ class Pressure : public LoadTerm {
       He.block<3, 3>(3, 0) = He.block<3, 3>(0, 3).transpose();
       He.block<3, 3>(6, 0) = He.block<3, 3>(0, 6).transpose();
       He.block<3, 3>(6, 3) = He.block<3, 3>(3, 6).transpose();
-      He *= p_ / 6;
+      He *= factor_ * p_ / 6;
       if (psd) {
         Eigen::SelfAdjointEigenSolver<Mat9x9> eig(He);
         const Vec9 lambda = eig.eigenvalues().cwiseMax(0.0);

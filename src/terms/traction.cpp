@@ -25,8 +25,9 @@ class Traction : public LoadTerm {
     double e = *energy;
     for (size_t k = 0; k < vertices_.size(); ++k) {
       const PetscInt v = vertices_[k];
-      e -= forces_[k].dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
-      if (gradient) add_vertex_vector(mesh_, v, -forces_[k], gradient);
+      const Vec3 f = factor_ * forces_[k];
+      e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
+      if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
     }
     *energy = e;
     return 0;

@@ -1,7 +1,8 @@
 """Loads (deck loads:, docs/loads.md), end to end.
 
 - Momentum: a free body (nothing fixed, no gravity) under a force and a traction gains, per
-  implicit-Euler step, h times the loads' total: sum m v = t F to the solver's tolerance.
+  implicit-Euler step, h times the loads' total: sum m v = t F to the solver's tolerance; under a
+  ramp curve, h F sum_k c(t_k).
 - input/engineering/bar_tip_load.yaml (a traction and an open pressure) gives the same frames at 1
   and 2 ranks (1e-10 of the sag) and bends the bar down.
 - Bad loads stop the run before anything is written, naming the deck line and key.
@@ -59,6 +60,21 @@ def test_momentum_of_a_free_body(tmp_path, ranks):
     assert np.abs(momentum - expected).max() <= 1e-6 * np.abs(expected).max()
 
 
+def test_momentum_under_a_ramp(tmp_path):
+    """A force whose curve ramps from 0 at t = 0 to 1 at t = 0.5: step k (k = 1..10, h = 0.02)
+    pushes with F c(k h), the load at the time the step solves for."""
+    deck = copy.deepcopy(FREE)
+    deck["loads"] = [{"type": "force", "box": EVERYWHERE, "force": FORCE.tolist(),
+                      "curve": {"type": "ramp", "start": 0, "end": 0.5}}]
+    out = tmp_path / "out"
+    run_hyperqn([write_deck(tmp_path / "ramp.yaml", deck), "-o", out], ranks=1)
+    frame = final_frame(out)
+    momentum = lumped_masses(frame) @ frame.velocity
+    expected = 0.02 * FORCE * sum(k * 0.02 / 0.5 for k in range(1, 11))
+    print(f"momentum {momentum}, h F sum c(t_k) = {expected}")
+    assert np.abs(momentum - expected).max() <= 1e-6 * np.abs(expected).max()
+
+
 def test_tip_load_deck_at_1_and_2_ranks(tmp_path):
     path = os.path.join(REPO, "input/engineering/bar_tip_load.yaml")
     outs = {}
@@ -103,6 +119,8 @@ BAD_LOADS = {
                                    "traction": [0, 1, 0]}), ["'loads[0].box'", "selects no boundary face"]),
     "no_face_with_normal": (with_loads({"type": "pressure", "box": END, "pressure": 1.0, "normal": [0, 1, 0],
                                         "angle": 10}), ["'loads[0].box'", "selects no boundary face"]),
+    "curve_of_one_point": (with_loads({"type": "force", "box": END, "force": [0, 1, 0],
+                                       "curve": {"type": "table", "points": [[0, 1]]}}), ["'loads[0].curve", "point"]),
     "no_free_vertex": (with_loads({"type": "force", "box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]},
                                    "force": [0, 1, 0]}), ["'loads[0].box'", "selects no free vertex"]),
 }
