@@ -98,6 +98,8 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
     cell_data.push_back(make_array("Int32", "body", 1, element_bodies(*mesh_)));
+  for (const FrameElementField& field : f.element_fields)  // a 9-component array is a tensor to ParaView
+    cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
@@ -133,8 +135,10 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
-      << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "")
-      << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+      << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "");
+  for (const FrameElementField& field : f.element_fields)
+    out << "<PDataArray type=\"Float64\" Name=\"" << field.name << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
+  out << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";
   write_file_atomically(path, out.str());
