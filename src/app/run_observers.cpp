@@ -345,7 +345,7 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
   for (size_t k = 0; k < names.size(); ++k) f.point_fields.emplace_back(names[k], &field_values_[k]);
   PetscCall(event_begin(&LogEvents::output));
   const std::vector<std::string>& asked = run_.deck.output.fields;
-  if (!asked.empty()) {  // each term fills its own elements; NaN where none does
+  if (!asked.empty() && !writers_.empty()) {  // each term fills its own elements; NaN where none does
     const std::vector<std::string> all = element_field_names();
     const size_t elements = size_t(s.mesh.num_cells + s.mesh.num_segments + s.mesh.num_triangles);
     element_values_.resize(asked.size());

@@ -29,12 +29,17 @@ inline double von_mises(const Mat3& sigma) {
   return std::sqrt(1.5 * s.squaredNorm());
 }
 
-// The principal stretches, the singular values of F (square roots of the eigenvalues of F^T F),
-// descending; never negative (an inverted tet shows in det F, not here).
+// The principal stretches, the singular values of F (square roots of the eigenvalues of C = F^T F),
+// descending; never negative (an inverted tet shows in det F, not here). The closed form
+// (computeDirect) is fast and accurate to round-off unless two eigenvalues nearly coincide: off by
+// about eps times the spread over the gap, up to 1e-9 for a uniaxial stretch. Those few go through
+// Eigen's QR iteration, accurate to round-off.
 inline Vec3 principal_stretches(const Mat3& F) {
+  const Mat3 C = F.transpose() * F;
   Eigen::SelfAdjointEigenSolver<Mat3> eig;
-  eig.computeDirect(F.transpose() * F, Eigen::EigenvaluesOnly);  // ascending
-  const Vec3 c = eig.eigenvalues();
+  eig.computeDirect(C, Eigen::EigenvaluesOnly);  // ascending
+  Vec3 c = eig.eigenvalues();
+  if (std::min(c(1) - c(0), c(2) - c(1)) < 1e-3 * (c(2) - c(0))) c = eig.compute(C, Eigen::EigenvaluesOnly).eigenvalues();
   return Vec3(std::sqrt(std::max(c(2), 0.0)), std::sqrt(std::max(c(1), 0.0)), std::sqrt(std::max(c(0), 0.0)));
 }
 

@@ -28,7 +28,7 @@ inline const std::vector<ElementFieldInfo>& element_field_infos() {
       {"energy_density", 1, "tets"},
       {"axial_force", 1, "strand segments"},
       {"membrane_stress", 9,
-       "cloth triangles of `cloth.model: membrane` (a mass-spring cloth's edge springs have no membrane stress)"},
+       "cloth triangles of the membrane model (cloth.model: membrane; a mass-spring cloth's edge springs have no membrane stress)"},
   };
   return infos;
 }
