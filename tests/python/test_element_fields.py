@@ -10,6 +10,7 @@
   the VTK and XDMF frames of one run hold the same values.
 - A membrane cloth writes membrane_stress, symmetric and in the deformed plane (sigma n = 0).
 - A deck without output.fields writes none of them.
+- A restart of an XDMF series keeps each frame's fields in the index and writes the same arrays.
 - Bad input (an unknown name, a field of elements the scene has none of, a name twice, the membrane
   stress of a mass-spring cloth): exit 1, the deck line and key named, no output directory.
 """
@@ -205,3 +206,30 @@ def test_bad_fields(tmp_path, case):
     for fragment in fragments:
         assert fragment in proc.stdout, f"{fragment!r} not in:\n{proc.stdout[-3000:]}"
     assert not outdir.exists(), "an output directory was left behind"
+
+
+def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path):
+    """A restart resumes the XDMF index with each frame's fields (the restart state names them) and
+    writes the same arrays as the run without a stop."""
+    import h5py
+
+    deck = rope(["cauchy_stress", "axial_force"], frames=4)
+    whole = run(tmp_path, deck, "whole", 1, "xdmf")
+    first = copy.deepcopy(deck)
+    first["checkpoint"] = {"every": 2}
+    first["time"]["frames"] = 3
+    out = run(tmp_path, first, "first", 1, "xdmf")
+    then = copy.deepcopy(deck)
+    then.update(name="run", output=dict(deck["output"], format="xdmf"))
+    run_hyperqn([write_deck(tmp_path / "then.yaml", then), "-o", out, "--restart",
+                 str(out / "checkpoints" / "checkpoint_2.h5")], ranks=1)
+    index = (out / "run.xdmf").read_text()
+    assert index == (whole / "run.xdmf").read_text()
+    assert index.count('<Attribute Name="cauchy_stress" AttributeType="Tensor" Center="Cell">') == 5
+    assert index.count('<Attribute Name="axial_force" AttributeType="Scalar" Center="Cell">') == 5
+    with h5py.File(out / "run.h5", "r") as a, h5py.File(whole / "run.h5", "r") as b:
+        assert list(a["frames"]) == list(b["frames"]) == ["00000", "00001", "00002", "00003", "00004"]
+        for frame in a["frames"]:
+            for field in ("cauchy_stress", "axial_force"):
+                x, y = a["frames"][frame][field][()], b["frames"][frame][field][()]
+                assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True), (frame, field)
