@@ -9,6 +9,7 @@
 
 #include "model/scene_spec.hpp"
 #include "solvers/solver_spec.hpp"
+#include "terms/element_fields.hpp"
 
 namespace hyperqn {
 
@@ -45,6 +46,8 @@ struct OutputSpec {
   OutputFormat format = OutputFormat::vtu;  // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
   bool iterations_csv = true;
   bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
+  std::vector<std::string> fields;   // per-element fields of the frames (terms/element_fields.hpp); none by default
+  std::vector<int> field_lines;      // the deck line of each of `fields` (read_output), for the scene's check
 };
 
 // The deck's output: keys (params/deck_keys.hpp).
@@ -65,6 +68,10 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
       {"contact_csv", &OutputSpec::contact_csv,
        "with colliders: write `contact.csv` (per frame and collider); with penalty self-contact: write "
        "`self-contact.csv` (per frame, the surface triangle pairs that cross; [outputs.md](outputs.md))"},
+      {"fields", &OutputSpec::fields,
+       "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
+       "elements a field is of ([outputs.md](outputs.md#element-fields))",
+       {}, element_field_names()},
   };
   return keys;
 }

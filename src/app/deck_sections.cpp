@@ -515,7 +515,15 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
   }
 }
 
-void read_output(const Reader& r, const Value& v, OutputSpec& o) { read_keys(r, v, output_keys(), o); }
+void read_output(const Reader& r, const Value& v, OutputSpec& o) {
+  const Section s = read_keys(r, v, output_keys(), o);
+  if (const Value* fields = s.find("fields"))
+    for (const Value& item : r.items(*fields)) {  // the choices are checked: each a field's name
+      if (std::count(o.fields.begin(), o.fields.begin() + o.field_lines.size(), item.node.Scalar()))
+        r.fail(item, item.node.Scalar() + " is listed twice");
+      o.field_lines.push_back(item.line);
+    }
+}
 
 void read_checkpoint(const Reader& r, const Value& v, CheckpointSpec& c) { read_keys(r, v, checkpoint_keys(), c); }
 

@@ -1,10 +1,12 @@
 #include "app/run_observers.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
+#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 
@@ -258,6 +260,24 @@ PetscErrorCode RunLogs::record_terms(int frame) {
 
 // --- FrameWriters
 
+bool check_element_fields(MPI_Comm comm, const Deck& deck, const Scene& scene) {
+  const std::vector<std::string>& asked = deck.output.fields;
+  const std::vector<std::string> names = element_field_names();
+  std::vector<int> given(names.size(), 0);
+  for (const auto& term : scene.body->terms())
+    for (ElementField f : term->element_fields()) given[size_t(f)] = 1;
+  MPI_Allreduce(MPI_IN_PLACE, given.data(), (int)given.size(), MPI_INT, MPI_MAX, comm);
+  for (size_t i = 0; i < asked.size(); ++i) {
+    const size_t f = size_t(std::find(names.begin(), names.end(), asked[i]) - names.begin());
+    if (given.at(f)) continue;
+    const InputError error(deck.path, deck.output.field_lines.at(i), "output.fields[" + std::to_string(i) + "]",
+                           asked[i] + " is a field of " + element_field_infos()[f].elements + ", and the scene has none");
+    PetscPrintf(comm, "hyperqn: error: %s\n", error.what());
+    return false;
+  }
+  return true;
+}
+
 PetscErrorCode FrameWriters::begin(LoopControl&) {
   const State& state = run_.state;
   PetscFunctionBeginUser;
@@ -312,7 +332,7 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
   *written = finite == 1;
   if (!*written) PetscFunctionReturn(0);
   run_.summary.min_J = std::fmin(run_.summary.min_J, global_min(comm, J_));
-  FrameData f{frame, frame * run_.deck.time.dt, &state, &pos_, &vel_, &J_, {}};
+  FrameData f{frame, frame * run_.deck.time.dt, &state, &pos_, &vel_, &J_, {}, {}};
   std::vector<std::string> names;
   for (const auto& term : s.body->terms())
     for (const std::string& name : term->point_fields()) {
@@ -324,6 +344,19 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
     }
   for (size_t k = 0; k < names.size(); ++k) f.point_fields.emplace_back(names[k], &field_values_[k]);
   PetscCall(event_begin(&LogEvents::output));
+  const std::vector<std::string>& asked = run_.deck.output.fields;
+  if (!asked.empty() && !writers_.empty()) {  // each term fills its own elements; NaN where none does
+    const std::vector<std::string> all = element_field_names();
+    const size_t elements = size_t(s.mesh.num_cells + s.mesh.num_segments + s.mesh.num_triangles);
+    element_values_.resize(asked.size());
+    for (size_t i = 0; i < asked.size(); ++i) {
+      element_values_[i].field = ElementField(std::find(all.begin(), all.end(), asked[i]) - all.begin());
+      element_values_[i].values.assign(field_info(element_values_[i].field).components * elements, NAN);
+    }
+    for (const auto& term : s.body->terms()) term->fill_element_fields(pos_, element_values_);
+    for (size_t i = 0; i < asked.size(); ++i)
+      f.element_fields.push_back({asked[i], field_info(element_values_[i].field).components, &element_values_[i].values});
+  }
   for (auto& w : writers_) w->write_frame(f);
   PetscCall(event_end(&LogEvents::output));
   last_written_ = frame;

@@ -83,6 +83,10 @@ class RunLogs : public FrameObserver {
   std::vector<double> pos_;  // work: local positions
 };
 
+// Whether the scene's terms give every field of the deck's output.fields (EnergyTerm::element_fields);
+// if not, an error naming the field's deck line is said and false returned. Collective.
+bool check_element_fields(MPI_Comm comm, const Deck& deck, const Scene& scene);
+
 // The frame series (OutputWriter: VTK, XDMF) at the output frames and the last; at a stop, the
 // last good frame if it was not written. Nothing non-finite is ever written.
 class FrameWriters : public FrameObserver {
@@ -107,6 +111,7 @@ class FrameWriters : public FrameObserver {
   int last_written_ = -1;
   std::vector<double> pos_, vel_, J_;                // work: local arrays of a frame
   std::vector<std::vector<double>> field_values_;    // work: the terms' point fields, local
+  std::vector<ElementFieldValues> element_values_;   // work: the deck's element fields, local
   Vec field_ = nullptr;                              // work: one point field (global free dofs)
 };
 

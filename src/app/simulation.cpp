@@ -265,7 +265,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
       PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
       return 1;
     }
-    if (!start_ok) return 1;
+    if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
   }
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();

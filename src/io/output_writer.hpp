@@ -15,7 +15,16 @@ namespace hyperqn {
 
 struct State;
 
-// One frame, as local arrays of this rank (all already finite).
+// A per-element field the deck asked for (output.fields, terms/element_fields.hpp): its name, its
+// values per element (1: a scalar, 3: a vector, 9: a 3 x 3 tensor, row-major), and `components`
+// values per local element in element_J's order (io/frame_fields.hpp; NaN: the element has none).
+struct FrameElementField {
+  std::string name;
+  int components = 1;
+  const std::vector<double>* values = nullptr;
+};
+
+// One frame, as local arrays of this rank (positions, velocities, J already finite).
 struct FrameData {
   int frame = 0;
   double time = 0;
@@ -25,6 +34,7 @@ struct FrameData {
   const std::vector<double>* J = nullptr;           // per local tet
   // The terms' point fields (EnergyTerm::point_fields, e.g. contact_force): name, 3 values per local vertex.
   std::vector<std::pair<std::string, const std::vector<double>*>> point_fields;
+  std::vector<FrameElementField> element_fields;  // the deck's output.fields, in its order
 };
 
 class OutputWriter {

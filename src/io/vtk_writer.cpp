@@ -28,34 +28,43 @@ Array make_array(const std::string& type, const std::string& name, int component
   return {type, name, components, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T))};
 }
 
-std::string base64(const char* data, size_t n) {
+// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time (a piece's
+// arrays are most of an output frame's time: docs/records/2026-12-02-element-fields-cost.md).
+void append_base64(std::string& out, const char* data, size_t n) {
   static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve(4 * ((n + 2) / 3));
-  for (size_t i = 0; i < n; i += 3) {
-    const uint32_t b0 = (unsigned char)data[i], b1 = i + 1 < n ? (unsigned char)data[i + 1] : 0,
-                   b2 = i + 2 < n ? (unsigned char)data[i + 2] : 0;
-    const uint32_t v = (b0 << 16) | (b1 << 8) | b2;
-    out += table[(v >> 18) & 63];
-    out += table[(v >> 12) & 63];
-    out += i + 1 < n ? table[(v >> 6) & 63] : '=';
-    out += i + 2 < n ? table[v & 63] : '=';
+  const size_t at = out.size();
+  out.resize(at + 4 * ((n + 2) / 3));
+  char* o = &out[at];
+  const auto* d = reinterpret_cast<const unsigned char*>(data);
+  size_t i = 0;
+  for (; i + 3 <= n; i += 3, o += 4) {
+    const uint32_t v = (uint32_t(d[i]) << 16) | (uint32_t(d[i + 1]) << 8) | d[i + 2];
+    o[0] = table[(v >> 18) & 63];
+    o[1] = table[(v >> 12) & 63];
+    o[2] = table[(v >> 6) & 63];
+    o[3] = table[v & 63];
   }
-  return out;
+  if (i < n) {  // 1 or 2 bytes left: padded with '='
+    const uint32_t v = (uint32_t(d[i]) << 16) | (i + 1 < n ? uint32_t(d[i + 1]) << 8 : 0);
+    o[0] = table[(v >> 18) & 63];
+    o[1] = table[(v >> 12) & 63];
+    o[2] = i + 1 < n ? table[(v >> 6) & 63] : '=';
+    o[3] = '=';
+  }
 }
 
-// Inline binary DataArray: base64 of the UInt64 byte count, then base64 of the bytes, encoded
-// separately as VTK does. (Raw appended data would be smaller, but readers that strip
+// Inline binary DataArray, appended to xml: base64 of the UInt64 byte count, then base64 of the
+// bytes, encoded separately as VTK does. (Raw appended data would be smaller, but readers that strip
 // whitespace around the appended block corrupt arrays that start or end with bytes 9-13 or 32,
 // such as the tetra cell type 10.)
-std::string data_array(const Array& a) {
-  std::ostringstream s;
-  s << "<DataArray type=\"" << a.type << "\"";
-  if (!a.name.empty()) s << " Name=\"" << a.name << "\"";
+void append_data_array(std::string& xml, const Array& a) {
+  xml += "<DataArray type=\"" + a.type + "\"";
+  if (!a.name.empty()) xml += " Name=\"" + a.name + "\"";
   const uint64_t n = a.bytes.size();
-  s << " NumberOfComponents=\"" << a.components << "\" format=\"binary\">\n"
-    << base64(reinterpret_cast<const char*>(&n), sizeof n) << base64(a.bytes.data(), n) << "\n</DataArray>\n";
-  return s.str();
+  xml += " NumberOfComponents=\"" + std::to_string(a.components) + "\" format=\"binary\">\n";
+  append_base64(xml, reinterpret_cast<const char*>(&n), sizeof n);
+  append_base64(xml, a.bytes.data(), n);
+  xml += "\n</DataArray>\n";
 }
 
 std::string frame_stem(const std::string& name, int frame) {
@@ -98,21 +107,32 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
     cell_data.push_back(make_array("Int32", "body", 1, element_bodies(*mesh_)));
+  for (const FrameElementField& field : f.element_fields)  // a 9-component array is a tensor to ParaView
+    cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
                                     make_array("UInt8", "types", 1, types)};
 
+  size_t size = 1024;  // the text around the arrays
+  const auto add_size = [&](const Array& a) { size += 4 * (a.bytes.size() + 8) / 3 + 200; };
+  for (const Array& a : point_data) add_size(a);
+  for (const Array& a : cell_data) add_size(a);
+  for (const Array& a : cells) add_size(a);
+  add_size(points);
   std::string xml;
+  xml.reserve(size);
   xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n";
   xml += "<Piece NumberOfPoints=\"" + std::to_string(nv) + "\" NumberOfCells=\"" + std::to_string(nc) + "\">\n";
   xml += "<PointData>\n";
-  for (const Array& a : point_data) xml += data_array(a);
+  for (const Array& a : point_data) append_data_array(xml, a);
   xml += "</PointData>\n<CellData>\n";
-  for (const Array& a : cell_data) xml += data_array(a);
-  xml += "</CellData>\n<Points>\n" + data_array(points) + "</Points>\n<Cells>\n";
-  for (const Array& a : cells) xml += data_array(a);
+  for (const Array& a : cell_data) append_data_array(xml, a);
+  xml += "</CellData>\n<Points>\n";
+  append_data_array(xml, points);
+  xml += "</Points>\n<Cells>\n";
+  for (const Array& a : cells) append_data_array(xml, a);
   xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
 
   write_file_atomically(path, xml);
@@ -133,8 +153,10 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
          "<PDataArray type=\"Int32\" Name=\"rank\" NumberOfComponents=\"1\"/>\n"
          "<PDataArray type=\"Float64\" Name=\"J\" NumberOfComponents=\"1\"/>\n"
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
-      << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "")
-      << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+      << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "");
+  for (const FrameElementField& field : f.element_fields)
+    out << "<PDataArray type=\"Float64\" Name=\"" << field.name << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
+  out << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";
   write_file_atomically(path, out.str());

@@ -23,6 +23,9 @@ constexpr int kMixedCode[kKinds] = {6, 2, 4};          // Tetrahedron, Polyline,
 constexpr int kMixedPrefix[kKinds] = {1, 2, 1};        // the code, and a polyline's vertex count
 constexpr const char* kTopology[kKinds] = {"Tetrahedron", "Polyline", "Triangle"};
 
+// In a restart state, an element field is NAME@COMPONENTS (a point field is its name alone).
+constexpr char kElementFieldMark = '@';
+
 std::string frame_group(int frame) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "/frames/%05d", frame);
@@ -168,18 +171,20 @@ struct XdmfSeries::Layout {
     }
   }
   int kinds_present() const { return (count[0] > 0) + (count[1] > 0) + (count[2] > 0); }
-  // One value per local element (element_J's order: tets, segments, triangles) gathered into
+  // `width` values per local element (element_J's order: tets, segments, triangles) gathered into
   // each kind's rows (in `gathered`), and the blocks of the list of all elements they fill.
   template <typename T>
   std::vector<ParallelFile::Block> element_blocks(const DistributedMesh& m, const std::vector<T>& values,
-                                                  std::vector<T> (&gathered)[kKinds]) const {
+                                                  std::vector<T> (&gathered)[kKinds], int width = 1) const {
     std::vector<ParallelFile::Block> blocks;
     const PetscInt local[kKinds] = {m.num_cells, m.num_segments, m.num_triangles};
     PetscInt at = 0;
     for (int k = 0; k < kKinds; ++k) {
-      gathered[k] = kinds[k]->gather(std::vector<T>(values.begin() + at, values.begin() + at + local[k]), 1);
+      gathered[k] = kinds[k]->gather(
+          std::vector<T>(values.begin() + width * at, values.begin() + width * (at + local[k])), width);
       at += local[k];
-      blocks.push_back({(hsize_t)(base[k] + kinds[k]->first()), (hsize_t)kinds[k]->count(), 1, gathered[k].data()});
+      blocks.push_back(
+          {(hsize_t)(base[k] + kinds[k]->first()), (hsize_t)kinds[k]->count(), (hsize_t)width, gathered[k].data()});
     }
     return blocks;
   }
@@ -281,6 +286,15 @@ void XdmfSeries::write_frame(const FrameData& f) {
     const bool cloth = L.count[2] > 0 && L.count[2] == L.elements();
     std::vector<double> stretch;
     if (cloth) stretch = L.kinds[2]->gather(triangle_stretch(*mesh_, *f.positions), 1);
+    // The deck's element fields: a dataset of E rows of `components` values each (E values for one).
+    struct Gathered {
+      std::vector<double> kind[kKinds];
+    };
+    std::vector<Gathered> field_blocks(f.element_fields.size());
+    std::vector<std::vector<ParallelFile::Block>> field_writes;
+    for (size_t i = 0; i < f.element_fields.size(); ++i)
+      field_writes.push_back(
+          L.element_blocks(*mesh_, *f.element_fields[i].values, field_blocks[i].kind, f.element_fields[i].components));
 
     const std::string group = frame_group(f.frame);
     ParallelFile file(comm_, h5_path(), false);
@@ -292,6 +306,11 @@ void XdmfSeries::write_frame(const FrameData& f) {
     if (cloth)
       file.dataset(group + "/stretch", false, (hsize_t)L.count[2], 0,
                    {{(hsize_t)L.kinds[2]->first(), (hsize_t)L.kinds[2]->count(), 1, stretch.data()}});
+    for (size_t i = 0; i < f.element_fields.size(); ++i) {
+      const int c = f.element_fields[i].components;
+      file.dataset(group + "/" + f.element_fields[i].name, false, (hsize_t)L.elements(), c > 1 ? (hsize_t)c : 0,
+                   field_writes[i]);
+    }
     file.close();
   } catch (const std::exception& e) {
     error = e.what();
@@ -301,7 +320,9 @@ void XdmfSeries::write_frame(const FrameData& f) {
   if (!written_.empty() && written_.back().frame == f.frame) written_.pop_back();
   std::vector<std::string> fields;
   for (const auto& field : f.point_fields) fields.push_back(field.first);
-  written_.push_back({f.time, f.frame, fields});
+  std::vector<std::pair<std::string, int>> element_fields;
+  for (const FrameElementField& field : f.element_fields) element_fields.emplace_back(field.name, field.components);
+  written_.push_back({f.time, f.frame, fields, element_fields});
   int rank;
   MPI_Comm_rank(comm_, &rank);
   try {
@@ -339,7 +360,7 @@ void XdmfSeries::write_index() const {
   out.precision(17);
   out << "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n<Domain>\n"
       << "<Grid Name=\"" << name_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const auto& [t, frame, fields] : written_) {
+  for (const auto& [t, frame, fields, element_fields] : written_) {
     const std::string group = frame_group(frame);
     out << "<Grid Name=\"frame_" << group.substr(group.rfind('/') + 1) << "\" GridType=\"Uniform\">\n<Time Value=\"" << t
         << "\"/>\n"
@@ -354,6 +375,9 @@ void XdmfSeries::write_index() const {
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
     if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
     if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
+    for (const auto& [name, c] : element_fields)  // XDMF's Tensor: 9 values, row-major
+      attribute(name.c_str(), c == 1 ? "Scalar" : c == 3 ? "Vector" : "Tensor", "Cell",
+                item(c == 1 ? E : E + " " + std::to_string(c), false, group + "/" + name));
     out << "</Grid>\n";
   }
   out << "</Grid>\n</Domain>\n</Xdmf>\n";
@@ -363,10 +387,11 @@ void XdmfSeries::write_index() const {
 std::string XdmfSeries::restart_state() const {
   std::string s = "xdmf " + name_ + "\n";
   char line[64];
-  for (const auto& [t, frame, fields] : written_) {
+  for (const auto& [t, frame, fields, element_fields] : written_) {
     std::snprintf(line, sizeof line, "%.17g %d", t, frame);  // read back exactly
     s += line;
     for (const std::string& name : fields) s += " " + name;
+    for (const auto& [name, c] : element_fields) s += " " + name + kElementFieldMark + std::to_string(c);
     s += "\n";
   }
   return s;
@@ -388,13 +413,16 @@ void XdmfSeries::resume(const std::string& state, int frame) {
     int k;
     if (!(words >> t >> k) || k > frame) continue;
     std::vector<std::string> fields;
+    std::vector<std::pair<std::string, int>> element_fields;
     for (std::string name; words >> name;)
-      if (name == "1") {
+      if (const size_t mark = name.find(kElementFieldMark); mark != std::string::npos) {
+        element_fields.emplace_back(name.substr(0, mark), std::atoi(name.c_str() + mark + 1));
+      } else if (name == "1") {
         fields.push_back("contact_force");  // the state of a run written before the fields had names
       } else if (name != "0") {
         fields.push_back(name);
       }
-    written_.push_back({t, k, fields});
+    written_.push_back({t, k, fields, element_fields});
   }
   int rank;
   MPI_Comm_rank(comm_, &rank);

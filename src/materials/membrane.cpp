@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/stress_measures.hpp"
 #include "materials/triangle_geometry.hpp"
 
 namespace hyperqn {
@@ -177,6 +178,17 @@ Mat9 hessian(Model m, double mu, double lambda, const TriangleRest& r, const Vec
     H = eig.eigenvectors() * lam.asDiagonal() * eig.eigenvectors().transpose();
   }
   return H;
+}
+
+Mat3 cauchy_stress(Model m, double mu, double lambda, const TriangleRest& r, const Vec9& x) {
+  // dE/d(e1, e2) = A P Dm^-T, so P F^T = (g1 e1^T + g2 e2^T) / A with F = [e1 e2] Dm^-1.
+  Vec9 g;
+  energy_gradient(m, mu, lambda, r, x, g);
+  Mat3x2 G, Ds;
+  G << g.segment<3>(3), g.segment<3>(6);
+  Ds << x.segment<3>(3) - x.segment<3>(0), x.segment<3>(6) - x.segment<3>(0);
+  const double J = std::max(Ds.col(0).cross(Ds.col(1)).norm(), kTinyJ * 2 * r.area) / (2 * r.area);  // as invariants'
+  return stress_measures::cauchy<2>(Ds, G / r.area, J);
 }
 
 double max_stretch(const TriangleRest& r, const Vec9& x) {

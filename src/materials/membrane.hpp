@@ -42,6 +42,12 @@ double energy_gradient(Model m, double mu, double lambda, const TriangleRest& r,
 // d2E/dx2 (symmetric). psd: negative eigenvalues clamped to 0 (the Newton definiteness fix).
 Mat9 hessian(Model m, double mu, double lambda, const TriangleRest& r, const Vec9& x, bool psd);
 
+// The membrane's Cauchy stress sigma = P F^T / J at x (P = dpsi/dF, 3 x 2; J the area ratio): a
+// force per deformed length (the units of mu), a symmetric 3 x 3 tensor in the deformed plane, from
+// energy_gradient's dE/dx (sigma = (g1 e1^T + g2 e2^T) / a, e the deformed edges, g their forces,
+// a = A J the deformed area).
+Mat3 cauchy_stress(Model m, double mu, double lambda, const TriangleRest& r, const Vec9& x);
+
 // The largest principal stretch sigma_1 of F.
 double max_stretch(const TriangleRest& r, const Vec9& x);
 

@@ -20,6 +20,9 @@ inline double energy(const Vec3& u, double L, double k) {
   return 0.5 * k * (l - L) * (l - L);
 }
 
+// The spring's tension dE/dl = k (l - L): > 0 stretched, < 0 compressed (the output field axial_force).
+inline double tension(const Vec3& u, double L, double k) { return k * (length(u, L) - L); }
+
 // dE/du = k (l - L) u / l (the force on x_b is minus this, on x_a plus this).
 inline Vec3 gradient(const Vec3& u, double L, double k) {
   const double l = length(u, L);

@@ -21,6 +21,9 @@ class ClothMembrane : public EnergyTerm {
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
   bool projective_dynamics_exact() const override { return false; }
+  // membrane_stress: each triangle's Cauchy stress (membrane::cauchy_stress), a force per length.
+  std::vector<ElementField> element_fields() const override { return {ElementField::membrane_stress}; }
+  void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
 
  private:
   const DistributedMesh& mesh_;

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "terms/element_fields.hpp"
 #include "terms/element_state.hpp"
 
 namespace hyperqn {
@@ -157,6 +158,11 @@ class EnergyTerm {
   virtual PetscErrorCode point_field(const std::string& /*name*/, const std::vector<double>& /*pos*/, Vec /*out*/) const {
     return 0;
   }
+  // Per-element fields of the output frames (deck output.fields, terms/element_fields.hpp): those
+  // the term gives, and their values at pos written at its own elements' places in each of
+  // `fields` it gives (local; other elements left alone).
+  virtual std::vector<ElementField> element_fields() const { return {}; }
+  virtual void fill_element_fields(const std::vector<double>& /*pos*/, std::vector<ElementFieldValues>& /*fields*/) const {}
   virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
 };
 

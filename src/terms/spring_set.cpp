@@ -104,6 +104,11 @@ HYPERQN_VECTOR_CLONES double spring_batches(size_t count, const PetscInt* a, con
 
 }  // namespace
 
+double SpringSet::tension(size_t s, const double* pos) const {
+  const PetscInt ab[2] = {a_[s], b_[s]};
+  return spring::tension(segment_edge(pos, ab), rest_[s], k_[s]);
+}
+
 PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bool psd) const {
   Eigen::Matrix<double, 6, 6> Ks;  // d2E/dx2 for x = (x_a, x_b): [K -K; -K K]
   PetscFunctionBeginUser;

@@ -25,6 +25,8 @@ class SpringSet {
   void arrange();
   size_t size() const { return count_; }
   double rest_length(size_t s) const { return rest_[s]; }
+  // Spring s's tension k (l - L) at pos (spring::tension).
+  double tension(size_t s, const double* pos) const;
 
   // *energy += the springs' energy at the local positions pos (3 per local vertex); their gradient
   // is added into `gradient` (the mesh's local dof array), unless it is null.

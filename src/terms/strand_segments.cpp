@@ -51,4 +51,11 @@ double StrandSegments::local_mass() const {
   return m;
 }
 
+void StrandSegments::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
+  for (ElementFieldValues& f : fields)
+    if (f.field == ElementField::axial_force)
+      for (size_t s = 0; s < segments_.size(); ++s)  // spring s is segment segments_[s] (never arranged)
+        f.values[mesh_.num_cells + segments_[s]] = springs_.tension(s, pos.data());
+}
+
 }  // namespace hyperqn

@@ -23,6 +23,9 @@ class StrandSegments : public EnergyTerm {
   void add_lumped_mass(PetscScalar* mass) const override;
   double local_mass() const override;
   bool projective_dynamics_exact() const override { return weight_ == axial_stiffness_; }
+  // axial_force: each segment's tension EA (l/L - 1).
+  std::vector<ElementField> element_fields() const override { return {ElementField::axial_force}; }
+  void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
 
  private:
   const DistributedMesh& mesh_;

@@ -1,6 +1,9 @@
 #include "terms/tet_elements.hpp"
 
+#include <algorithm>
 #include <cstring>
+
+#include "materials/stress_measures.hpp"
 
 namespace hyperqn {
 
@@ -70,6 +73,37 @@ PetscErrorCode TetElements::add_energy(Vec, const std::vector<double>& pos, doub
   }
   *energy = e_sum;
   PetscFunctionReturn(0);
+}
+
+std::vector<ElementField> TetElements::element_fields() const {
+  return {ElementField::cauchy_stress, ElementField::von_mises, ElementField::principal_stretches,
+          ElementField::green_strain, ElementField::energy_density};
+}
+
+// Element by element, with the per-element kernel (element_energy; the batches' agree with it,
+// tests/test_materials.cpp): an output frame's cost is about one gradient's.
+void TetElements::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
+  using Row = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
+  static_assert(size_t(ElementField::energy_density) == 4, "the tets' fields are the enum's first five");
+  double* out[5] = {};  // by ElementField: cauchy_stress, von_mises, principal_stretches, green_strain, energy_density
+  for (ElementFieldValues& f : fields)
+    if (f.field <= ElementField::energy_density) out[size_t(f.field)] = f.values.data();
+  if (std::none_of(std::begin(out), std::end(out), [](double* p) { return p; })) return;
+  for (size_t k = 0; k < cells_.size(); ++k) {
+    const PetscInt c = cells_[k];
+    const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv(k);
+    Mat3 P;
+    const double per_volume = weight_[k] / volume_[k];  // 1 for an energy density
+    const double psi = per_volume * element_energy(k, mesh_.cell_material[c], F, &P);
+    if (out[0] || out[1]) {
+      const Mat3 sigma = stress_measures::cauchy<3>(F, per_volume * P, F.determinant());
+      if (out[0]) Row(out[0] + 9 * c) = sigma;
+      if (out[1]) out[1][c] = stress_measures::von_mises(sigma);
+    }
+    if (out[2]) Eigen::Map<Vec3>(out[2] + 3 * c) = stress_measures::principal_stretches(F);
+    if (out[3]) Row(out[3] + 9 * c) = stress_measures::green_strain(F);
+    if (out[4]) out[4][c] = psi;
+  }
 }
 
 // kBatch consecutive doubles from p on (any alignment).

@@ -19,6 +19,11 @@ class TetElements : public EnergyTerm {
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
   void add_lumped_mass(PetscScalar* mass) const override;
   double local_mass() const override;
+  // Cauchy stress, von Mises stress, principal stretches, Green strain and energy density per rest
+  // volume of each tet, from element_energy's psi and P (per rest volume: divided by the volume
+  // where the energy is per element, as the mass-spring tets').
+  std::vector<ElementField> element_fields() const override;
+  void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
 
  protected:
   // cells: the local tets of this term (indices into mesh.cells), in mesh order; density: mass

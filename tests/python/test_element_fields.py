@@ -1,0 +1,235 @@
+"""output.fields (docs/outputs.md#element-fields): per-element fields of the frames.
+
+- The cube on a rope (tets and strand segments), stretched at frame 0 (initial.squash, the same
+  positions at any rank count), asking for every field its elements have: the .vtu pieces and the
+  XDMF file hold each field with its components (9 for a tensor), NaN at the elements of the other
+  kind; at frame 0 the Green strain, the principal stretches, the von Mises stress (from the Cauchy
+  stress written) and the axial force equal their definitions computed here from the written
+  positions; by element (its vertex ids) the values at 1 and 2 ranks agree to 1e-12 at frame 0
+  (the same positions) and to 1e-6 later (the positions agree to the solves' round-off only), and
+  the VTK and XDMF frames of one run hold the same values.
+- A membrane cloth writes membrane_stress, symmetric and in the deformed plane (sigma n = 0).
+- A deck without output.fields writes none of them.
+- A restart of an XDMF series keeps each frame's fields in the index and writes the same arrays.
+- Bad input (an unknown name, a field of elements the scene has none of, a name twice, the membrane
+  stress of a mass-spring cloth): exit 1, the deck line and key named, no output directory.
+"""
+import copy
+
+import numpy as np
+import pytest
+
+from conftest import load_deck, run_hyperqn, write_deck
+from hyperqn_tools.output import frame_list, frame_meshes
+
+TET_FIELDS = ["cauchy_stress", "von_mises", "principal_stretches", "green_strain", "energy_density"]
+COMPONENTS = {"cauchy_stress": 9, "von_mises": 1, "principal_stretches": 3, "green_strain": 9,
+              "energy_density": 1, "axial_force": 1, "membrane_stress": 9}
+EA = 1.0e4  # box_on_rope.yaml's strand_material.axial_stiffness
+
+
+def rope(fields, frames=3):
+    deck = load_deck("tests/decks/box_on_rope.yaml")
+    deck["time"]["frames"] = frames
+    deck["initial"] = {"squash": {"axis": 1, "factor": 1.05}}
+    deck["output"] = {"every": 1, "fields": fields}
+    return deck
+
+
+def run(tmp_path, deck, tag, ranks, fmt="vtu"):
+    d = copy.deepcopy(deck)
+    d["name"] = "run"
+    d["output"] = dict(d.get("output") or {}, format=fmt)
+    out = tmp_path / f"{tag}_{fmt}_np{ranks}"
+    run_hyperqn([write_deck(tmp_path / f"{tag}_{fmt}.yaml", d), "-o", out], ranks=ranks)
+    return out
+
+
+def frames(outdir):
+    """[{"points": {vertex id: position}, "rest": {...}, "cells": {(type, sorted vertex ids): (row ids)},
+    field: {(type, sorted vertex ids): values}}] per frame, over every piece."""
+    out = []
+    for _, _, path in frame_list(outdir):
+        frame = {"points": {}, "rest": {}, "cells": {}}
+        for m in frame_meshes(path):
+            ids = np.asarray(m.point_data["vertex_id"]).reshape(-1)
+            rest = m.points - m.point_data["displacement"]
+            for i, v in enumerate(ids):
+                frame["points"][int(v)] = m.points[i]
+                frame["rest"][int(v)] = rest[i]
+            for b, block in enumerate(m.cells):
+                for k, row in enumerate(block.data):
+                    key = (block.type, tuple(sorted(int(v) for v in ids[row])))
+                    frame["cells"][key] = tuple(int(v) for v in ids[row])
+                    for name in m.cell_data:
+                        if name in COMPONENTS:
+                            frame.setdefault(name, {})[key] = np.asarray(m.cell_data[name][b][k], dtype=float).reshape(-1)
+        out.append(frame)
+    return out
+
+
+def assert_same(a, b, rtol, fields):
+    assert len(a) == len(b)
+    for fa, fb in zip(a, b):
+        for name in fields:
+            assert fa[name].keys() == fb[name].keys(), name
+            x = np.array([fa[name][k] for k in sorted(fa[name])])
+            y = np.array([fb[name][k] for k in sorted(fa[name])])
+            assert np.array_equal(np.isnan(x), np.isnan(y)), name
+            scale = np.nanmax(np.abs(y))
+            assert np.nanmax(np.abs(x - y)) <= rtol * scale, (name, np.nanmax(np.abs(x - y)) / scale)
+
+
+def check_definitions(frame):
+    """Frame 0's fields against their definitions from the written positions."""
+    P, X = frame["points"], frame["rest"]
+    tets = [k for k in frame["cells"] if k[0] == "tetra"]
+    lines = [k for k in frame["cells"] if k[0] == "line"]
+    assert len(tets) == 48 and len(lines) == 10
+    for key in tets:
+        v = frame["cells"][key]
+        Ds = np.column_stack([P[v[j]] - P[v[0]] for j in (1, 2, 3)])
+        Dm = np.column_stack([X[v[j]] - X[v[0]] for j in (1, 2, 3)])
+        F = Ds @ np.linalg.inv(Dm)
+        E = 0.5 * (F.T @ F - np.eye(3))
+        assert np.abs(frame["green_strain"][key] - E.reshape(-1)).max() <= 1e-12 * max(np.abs(E).max(), 1e-3)
+        s = np.linalg.svd(F, compute_uv=False)
+        assert np.abs(frame["principal_stretches"][key] - s).max() <= 1e-12
+        sigma = frame["cauchy_stress"][key].reshape(3, 3)
+        assert np.abs(sigma - sigma.T).max() == 0
+        dev = sigma - np.trace(sigma) / 3 * np.eye(3)
+        assert frame["von_mises"][key][0] == pytest.approx(np.sqrt(1.5 * np.sum(dev * dev)), rel=1e-12)
+        assert frame["energy_density"][key][0] > 0
+        assert np.isnan(frame["axial_force"][key]).all()
+    forces = []
+    for key in lines:
+        a, b = frame["cells"][key]
+        force = EA * (np.linalg.norm(P[b] - P[a]) / np.linalg.norm(X[b] - X[a]) - 1)
+        assert frame["axial_force"][key][0] == pytest.approx(force, rel=1e-12, abs=1e-9)
+        forces.append(force)
+        for name in TET_FIELDS:
+            assert np.isnan(frame[name][key]).all()
+    assert max(forces) > 100  # stretched by about 5 %
+
+
+def test_fields_in_vtu_and_xdmf_at_1_and_2_ranks(tmp_path):
+    fields = TET_FIELDS + ["axial_force"]
+    deck = rope(fields)
+    runs = {(fmt, ranks): frames(run(tmp_path, deck, "rope", ranks, fmt)) for fmt in ("vtu", "xdmf") for ranks in (1, 2)}
+    check_definitions(runs[("vtu", 1)][0])
+    for (fmt, ranks), got in runs.items():
+        assert len(got) == 4
+        for name in fields:
+            assert all(len(v) == COMPONENTS[name] for v in got[0][name].values()), (fmt, ranks, name)
+        assert "membrane_stress" not in got[0]
+    for fmt in ("vtu", "xdmf"):
+        assert_same(runs[(fmt, 2)][:1], runs[(fmt, 1)][:1], 1e-12, fields)
+        assert_same(runs[(fmt, 2)], runs[(fmt, 1)], 1e-6, fields)
+    for ranks in (1, 2):
+        assert_same(runs[("xdmf", ranks)], runs[("vtu", ranks)], 1e-12, fields)
+
+
+MEMBRANE = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
+            "cloth": {"model": "membrane", "material": "neohookean", "youngs_modulus": 1.0e3, "poisson_ratio": 0.3,
+                      "areal_density": 0.2},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.51]}}],
+            "gravity": [0, -9.81, 0],
+            "time": {"dt": 0.05, "frames": 2},
+            "output": {"fields": ["membrane_stress"]}}
+
+
+@pytest.mark.parametrize("fmt", ["vtu", "xdmf"])
+def test_membrane_stress_lies_in_the_deformed_plane(tmp_path, fmt):
+    last = frames(run(tmp_path, MEMBRANE, "sheet", 1, fmt))[-1]
+    P = last["points"]
+    assert len(last["membrane_stress"]) == 16
+    largest = 0
+    for key, values in last["membrane_stress"].items():
+        a, b, c = last["cells"][key]
+        n = np.cross(P[b] - P[a], P[c] - P[a])
+        n /= np.linalg.norm(n)
+        sigma = values.reshape(3, 3)
+        assert np.abs(sigma - sigma.T).max() == 0
+        assert np.linalg.norm(sigma @ n) <= 1e-10 * np.abs(sigma).max()
+        largest = max(largest, np.abs(sigma).max())
+    assert largest > 0.1  # N/m: the sheet sags under its weight
+
+
+@pytest.mark.parametrize("fmt", ["vtu", "xdmf"])
+def test_no_fields_without_the_key(tmp_path, fmt):
+    deck = rope(None, frames=1)
+    del deck["output"]["fields"]
+    for frame in frames(run(tmp_path, deck, "plain", 1, fmt)):
+        assert not set(COMPONENTS) & set(frame)
+
+
+ROPE_TEXT = """mesh:
+  box: {size: [0.2, 0.2, 0.2], cells: [2, 2, 2]}
+material: {model: neohookean, youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 1000}
+time: {dt: 0.1, frames: 2}
+output:
+  every: 1
+  fields:
+    - von_mises
+    - FIELD
+"""
+SHEET_TEXT = """mesh: {sheet: {size: [1.0, 0.5], cells: [4, 2]}}
+cloth: {model: mass-spring, stretch_stiffness: 100.0, areal_density: 0.2}
+time: {dt: 0.05, frames: 2}
+output: {fields: [membrane_stress]}
+"""
+BAD = {
+    # name: (deck text, ranks, expected fragments)
+    "unknown": (ROPE_TEXT.replace("FIELD", "stress"), None,
+                ["unknown.yaml:9: 'output.fields[1]': unknown value 'stress'; allowed: cauchy_stress, von_mises"]),
+    "no_strands": (ROPE_TEXT.replace("FIELD", "axial_force"), None,
+                   ["no_strands.yaml:9: 'output.fields[1]': axial_force is a field of strand segments, and the scene has none"]),
+    "no_strands_2_ranks": (ROPE_TEXT.replace("FIELD", "axial_force"), 2,
+                           ["no_strands_2_ranks.yaml:9: 'output.fields[1]': axial_force is a field of strand segments"]),
+    "twice": (ROPE_TEXT.replace("FIELD", "von_mises"), None, ["twice.yaml:9: 'output.fields[1]': von_mises is listed twice"]),
+    "tets_of_cloth": (SHEET_TEXT.replace("membrane_stress", "cauchy_stress"), None,
+                      ["tets_of_cloth.yaml:4: 'output.fields[0]': cauchy_stress is a field of tets"]),
+    "springs_membrane": (SHEET_TEXT, None,
+                         ["springs_membrane.yaml:4: 'output.fields[0]': membrane_stress is a field of cloth triangles of "
+                          "the membrane model", "edge springs have no membrane stress"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_fields(tmp_path, case):
+    text, ranks, fragments = BAD[case]
+    path = tmp_path / f"{case}.yaml"
+    path.write_text(text)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=ranks, check=False, timeout=120)
+    assert proc.returncode == 1, proc.stdout
+    for fragment in fragments:
+        assert fragment in proc.stdout, f"{fragment!r} not in:\n{proc.stdout[-3000:]}"
+    assert not outdir.exists(), "an output directory was left behind"
+
+
+def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path):
+    """A restart resumes the XDMF index with each frame's fields (the restart state names them) and
+    writes the same arrays as the run without a stop."""
+    import h5py
+
+    deck = rope(["cauchy_stress", "axial_force"], frames=4)
+    whole = run(tmp_path, deck, "whole", 1, "xdmf")
+    first = copy.deepcopy(deck)
+    first["checkpoint"] = {"every": 2}
+    first["time"]["frames"] = 3
+    out = run(tmp_path, first, "first", 1, "xdmf")
+    then = copy.deepcopy(deck)
+    then.update(name="run", output=dict(deck["output"], format="xdmf"))
+    run_hyperqn([write_deck(tmp_path / "then.yaml", then), "-o", out, "--restart",
+                 str(out / "checkpoints" / "checkpoint_2.h5")], ranks=1)
+    index = (out / "run.xdmf").read_text()
+    assert index == (whole / "run.xdmf").read_text()
+    assert index.count('<Attribute Name="cauchy_stress" AttributeType="Tensor" Center="Cell">') == 5
+    assert index.count('<Attribute Name="axial_force" AttributeType="Scalar" Center="Cell">') == 5
+    with h5py.File(out / "run.h5", "r") as a, h5py.File(whole / "run.h5", "r") as b:
+        assert list(a["frames"]) == list(b["frames"]) == ["00000", "00001", "00002", "00003", "00004"]
+        for frame in a["frames"]:
+            for field in ("cauchy_stress", "axial_force"):
+                x, y = a["frames"][frame][field][()], b["frames"][frame][field][()]
+                assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True), (frame, field)
