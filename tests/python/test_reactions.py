@@ -5,7 +5,8 @@
 - The body's momentum balance at every frame with a moving clamp and a moving attachment:
   sum of the supports' forces + M g = sum_i m_i (v_{n+1,i} - v_{n,i}) / h over all vertices, the
   masses lumped from the frames' tets (rho V / 4), the velocities from the frames.
-- A bar held by an attachment alone, at rest: the attachment's force is the weight.
+- A release: the freed region's force is 0 from then on, the balance holds across it.
+- A bar held by attachments alone, at rest: their forces are the weight.
 - 1 and 2 ranks (and 4, oversubscribed) give the same reactions.
 - A restart gives the same reactions.csv (bitwise, same rank count) and summary as the
   uninterrupted run; a deck that does not ask writes no reactions.csv and a rerun removes one.
@@ -172,6 +173,24 @@ def test_rank_counts_agree(moving):
         assert worst < 1e-11
 
 
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_release_rebuilds_the_reactions(tmp_path, ranks):
+    """The tip is fixed until t = 0.07 and then free, and the attachment on it (which leaves fixed
+    vertices to their region) takes hold: the freed region's force is 0 from frame 5 on, the
+    attachment's from then on not, and the balance holds at every frame, the release's included."""
+    deck = bar(**MOVING)
+    deck["fixed"].append({"box": TIP, "release": 0.07})
+    out = run(tmp_path, f"released_np{ranks}", deck, ranks=ranks)
+    rows = reactions(out)
+    for n, r in rows.items():
+        assert list(r) == ["fixed[0]", "fixed[1]", "attachments[0]"]
+        held, pulled = np.linalg.norm(r["fixed[1]"][1]), np.linalg.norm(r["attachments[0]"][1])
+        assert (held > 0 and pulled == 0) if n <= 4 else (held == 0 and pulled > 0), (n, held, pulled)
+    errors = balance_errors(out)
+    print(f"{ranks} rank(s), momentum balance with a release: " + ", ".join(f"{e:.1e}" for e in errors))
+    assert max(errors) < 1e-11
+
+
 def test_attachment_at_rest_carries_the_weight(tmp_path):
     deck = bar(time={"dt": 1.0, "frames": 16})
     deck.pop("fixed")
@@ -218,3 +237,28 @@ def test_a_bad_value_is_an_input_error(tmp_path):
     proc = run_hyperqn([write_deck(tmp_path / "bad.yaml", deck), "-o", out], check=False)
     assert proc.returncode == 1 and "output.reactions" in proc.stdout, proc.stdout[-2000:]
     assert not out.exists()
+
+
+def test_bodies_own_supports_are_named_as_the_deck_names_them(tmp_path):
+    """A rope and a cloth hanging from their own fixed regions beside a block standing on its own:
+    named bodies[k].fixed[0], each carrying its own body's weight once at rest."""
+    rope = {"name": "rope", "mesh": {"strands": [{"from": [0.1, 0.5, 0.1], "to": [0.3, 0.5, 0.1], "segments": 4}]},
+            "strand_material": {"axial_stiffness": 50.0, "linear_density": 0.1},
+            "fixed": [{"box": {"min": [-1, -1, -1], "max": [0.1, 1, 1]}}]}
+    block = {"name": "block", "mesh": {"box": {"size": [0.2] * 3, "cells": [2, 2, 2]}, "transform": {"translate": [0.5, 0.0, 0]}},
+             "material": {"model": "neohookean", "youngs_modulus": 2.0e4, "poisson_ratio": 0.3, "density": 1000},
+             "fixed": [{"box": {"min": [-1, -1, -1], "max": [1, 0.001, 1]}}]}
+    cloth = {"name": "cloth", "mesh": {"sheet": {"size": [0.2, 0.2], "cells": [4, 4]}, "transform": {"translate": [-0.5, 0.3, 0]}},
+             "cloth": {"model": "mass-spring", "stretch_stiffness": 1.0e3, "bending": {"model": "springs", "stiffness": 1.0},
+                       "areal_density": 0.2},
+             "fixed": [{"box": {"min": [-1, -1, 0.19], "max": [1, 1, 1]}}]}
+    deck = {"bodies": [rope, block, cloth], "gravity": [0.0, -9.81, 0.0], "time": {"dt": 1.0, "frames": 16},
+            "solver": dict(NEWTON), "output": {"reactions": True}}
+    out = run(tmp_path, "bodies", deck)
+    last = reactions(out)[16]
+    assert list(last) == ["bodies[0].fixed[0]", "bodies[1].fixed[0]", "bodies[2].fixed[0]"]
+    for name, mass in (("bodies[0].fixed[0]", 0.1 * 0.2), ("bodies[1].fixed[0]", 1000 * 0.2 ** 3),
+                       ("bodies[2].fixed[0]", 0.2 * 0.2 ** 2)):
+        F = last[name][1]
+        print(f"{name}: {F}, weight {mass * 9.81}")
+        assert np.linalg.norm(F - [0, mass * 9.81, 0]) < 1e-8 * mass * 9.81
