@@ -4,6 +4,7 @@
 
 #include "geometry/motion.hpp"
 #include "model/elastic_terms.hpp"
+#include "model/load_kinds.hpp"
 
 namespace hyperqn {
 
@@ -66,6 +67,13 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   all_->vertex_dm = nullptr;
   for (PetscInt v = 0; v < mesh.num_vertices; ++v) all_->local_dof[v] = 3 * v;
   terms_ = scene_elastic_terms(*all_, spec_);
+  // The loads on faces, whose share at a fixed vertex goes into its support (the solver's terms
+  // drop it there). A load on vertices acts on free ones only: none of it reaches a support.
+  for (size_t k = 0; k < spec_.loads.size(); ++k) {
+    const LoadKind& kind = *find_load_kind(spec_.loads[k].type);
+    if (kind.target == LoadTarget::faces)
+      terms_.push_back(kind.build(*all_, spec_.loads[k], (int)k, select_load_region(*all_, spec_.loads[k], kind.target)));
+  }
   mass_.assign(3 * mesh.num_vertices, 0.0);
   for (const auto& t : terms_) t->add_lumped_mass(mass_.data());
   const double tol = 1e-9 * rest_diagonal(mesh);  // as attachment_term
@@ -79,6 +87,19 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
 PetscErrorCode Reactions::begin_frame(const State& s) {
   PetscFunctionBeginUser;
   PetscCall(body_->local_velocities(s.v, vel_start_));
+  // A term that takes its directions from the step's start (a pressure on an open surface), as
+  // Body::begin_step gives them: x_n, the fixed vertices where they are at t_n.
+  StepStart step;
+  step.t_start = s.time;
+  step.dt = spec_.time.dt;
+  step.t = s.time + spec_.time.dt;
+  step.x_start = s.x;
+  for (const auto& term : terms_)
+    if (term->needs_step_positions()) {
+      if (!step.start_positions) PetscCall(body_->local_positions(s.x, pos_));
+      step.start_positions = step.positions = &pos_;
+      PetscCall(term->begin_step(step));
+    }
   PetscFunctionReturn(0);
 }
 

@@ -9,7 +9,11 @@
 // The terms add their gradients at free dofs only; the reactions evaluate the scene's elastic terms
 // a second time, built over a copy of the mesh whose dof map covers every local vertex, so the
 // normal evaluation is untouched and a run without reactions builds nothing of this.
-// An attachment's force is -k (x_i - p_i(t)) summed over its springs.
+// The loads on faces are evaluated there too (their share at a fixed vertex is a force on the
+// support: r_i takes -f_i); loads on vertices act on free vertices only. An attachment's force is
+// -k (x_i - p_i(t)) summed over its springs.
+// Not yet: a term's ElementState (a material with history; none so far) starts afresh in the
+// second build and is not moved with the steps.
 #pragma once
 #include <array>
 #include <memory>
@@ -39,7 +43,7 @@ class Reactions {
   explicit Reactions(const SceneSpec& spec) : spec_(spec) {}
   // For the scene's body as built (again after a release; s: its released attachments). Collective.
   PetscErrorCode bind(const Body& body, const State& s);
-  // Before a frame: v_n of every local vertex.
+  // Before a frame: v_n of every local vertex (and the step's start for a load that needs it).
   PetscErrorCode begin_frame(const State& s);
   // After it: one force per support (names' order; a released one's is 0). Collective.
   PetscErrorCode end_frame(const State& s, std::vector<SupportForce>& out);
@@ -48,7 +52,7 @@ class Reactions {
   const SceneSpec& spec_;
   const Body* body_ = nullptr;
   std::unique_ptr<DistributedMesh> all_;             // the body's mesh with a dof for every local vertex
-  std::vector<std::unique_ptr<EnergyTerm>> terms_;   // the elastic terms over all_
+  std::vector<std::unique_ptr<EnergyTerm>> terms_;   // the elastic terms and face loads over all_
   std::vector<double> mass_;                         // 3 per local vertex: this rank's elements' lumped mass
   std::vector<std::vector<PetscInt>> attached_;      // per attachment: its vertices here (none if released)
   std::vector<double> vel_start_, pos_, vel_, grad_;  // work: local arrays
