@@ -48,6 +48,7 @@ struct OutputSpec {
   bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
   std::vector<std::string> fields;   // per-element fields of the frames (terms/element_fields.hpp); none by default
   std::vector<int> field_lines;      // the deck line of each of `fields` (read_output), for the scene's check
+  bool reactions = false;            // reactions.csv and summary.json's reactions (model/reactions.hpp)
 };
 
 // The deck's output: keys (params/deck_keys.hpp).
@@ -72,6 +73,9 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
        "elements a field is of ([outputs.md](outputs.md#element-fields))",
        {}, element_field_names()},
+      {"reactions", &OutputSpec::reactions,
+       "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
+       "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},
   };
   return keys;
 }

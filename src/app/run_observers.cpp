@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
@@ -183,9 +186,67 @@ PetscErrorCode ProgressLog::stopped(const FrameOutcome& outcome, const std::stri
 
 // --- RunLogs
 
+namespace {
+
+const char kReactionColumns[] = "region,fx,fy,fz,mx,my,mz,px,py,pz";
+
+// A support's force of `frame` into the summary: the last one, and the largest |force|.
+void note_reaction(SupportReaction& r, int frame, const SupportForce& f) {
+  r.force = f.force;
+  r.moment = f.moment;
+  r.point = f.point;
+  const double size = std::hypot(f.force[0], f.force[1], f.force[2]);
+  if (size > r.max_force || r.max_force_frame == 0) {
+    r.max_force = size;
+    r.max_force_frame = frame;
+  }
+}
+
+// The summary's reactions of the frames reactions.csv holds (a restart's, cut at its frame).
+void read_reactions(const std::string& path, std::vector<SupportReaction>& reactions) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // the header
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string cell;
+    std::vector<std::string> cells;
+    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    if (cells.size() != 12) continue;
+    SupportForce f;
+    for (int d = 0; d < 3; ++d) {
+      f.force[d] = std::strtod(cells[3 + d].c_str(), nullptr);
+      f.moment[d] = std::strtod(cells[6 + d].c_str(), nullptr);
+      f.point[d] = std::strtod(cells[9 + d].c_str(), nullptr);
+    }
+    for (SupportReaction& r : reactions)
+      if (r.name == cells[2]) note_reaction(r, std::atoi(cells[0].c_str()), f);
+  }
+}
+
+}  // namespace
+
+RunLogs::RunLogs(const RunContext& run) : run_(run) {
+  if (!run.deck.output.reactions) return;
+  reactions_ = std::make_unique<Reactions>(run.deck);
+  const std::vector<std::string> names = Reactions::names(run.deck);
+  const std::vector<int> lines = Reactions::lines(run.deck);
+  run_.summary.reactions.clear();
+  for (size_t k = 0; k < names.size(); ++k) run_.summary.reactions.push_back({names[k], lines[k]});
+}
+
 void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame) {
   const OutputSpec& output = run_.deck.output;
   const bool restart = restart_frame >= 0;
+  if (reactions_) {
+    const std::string path = outdir + "/reactions.csv";
+    if (restart) {
+      reaction_log_.resume(path, kReactionColumns, rank, restart_frame);
+      read_reactions(path, run_.summary.reactions);
+    } else {
+      reaction_log_.open(path, kReactionColumns, rank);
+    }
+  }
   if (output.iterations_csv) {  // at a restart, the log as it was at the checkpoint's frame, then continued
     if (restart)
       log_.resume(outdir + "/iterations.csv", rank, restart_frame);
@@ -211,15 +272,35 @@ IterationCallback RunLogs::iterations(int frame) {
   };
 }
 
+PetscErrorCode RunLogs::begin(LoopControl&) {
+  PetscFunctionBeginUser;
+  if (reactions_) PetscCall(reactions_->bind(*run_.scene.current().body, run_.state));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode RunLogs::scene_changed(const Scene&, Scene& fresh) {
+  PetscFunctionBeginUser;
+  if (reactions_) PetscCall(reactions_->bind(*fresh.body, run_.state));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode RunLogs::before_frame(int) {
+  PetscFunctionBeginUser;
+  if (reactions_) PetscCall(reactions_->begin_frame(run_.state));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
   PetscFunctionBeginUser;
   if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
+  if (outcome.lead.stop.empty() && reactions_) PetscCall(record_reactions(outcome.frame));
   flush();  // also the rows of a frame that stops the run; before a checkpoint, which cuts the logs at its frame
   PetscFunctionReturn(0);
 }
 
 void RunLogs::write_rows() {
   log_.flush();
+  reaction_log_.flush();
   for (auto& l : term_logs_)
     if (l) l->flush();
 }
@@ -255,6 +336,24 @@ PetscErrorCode RunLogs::record_terms(int frame) {
       PetscCall(PetscPrintf(run_.comm, "frame %5d  WARNING: %s\n", frame, what.c_str()));
     }
   }
+  PetscFunctionReturn(0);
+}
+
+// reactions.csv's rows of the frame (one per support, in the deck's order) and the summary's.
+PetscErrorCode RunLogs::record_reactions(int frame) {
+  std::vector<SupportForce> forces;
+  PetscFunctionBeginUser;
+  PetscCall(reactions_->end_frame(run_.state, forces));
+  std::vector<std::string> rows;
+  for (size_t k = 0; k < forces.size(); ++k) {
+    const SupportForce& f = forces[k];
+    char row[512];
+    std::snprintf(row, sizeof row, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", f.force[0], f.force[1],
+                  f.force[2], f.moment[0], f.moment[1], f.moment[2], f.point[0], f.point[1], f.point[2]);
+    rows.push_back(run_.summary.reactions[k].name + row);
+    note_reaction(run_.summary.reactions[k], frame, f);
+  }
+  reaction_log_.append(frame, run_.state.time, rows);
   PetscFunctionReturn(0);
 }
 

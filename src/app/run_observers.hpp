@@ -10,6 +10,7 @@
 #include "app/time_loop.hpp"
 #include "io/output_writer.hpp"
 #include "io/run_log.hpp"
+#include "model/reactions.hpp"
 
 namespace hyperqn {
 
@@ -57,14 +58,18 @@ class ProgressLog : public FrameObserver {
   double frame_start_ = 0, next_line_ = 0;  // MPI_Wtime: the frame's start, the next progress line's time
 };
 
-// iterations.csv and the terms' own logs (EnergyTerm::log, e.g. contact.csv): rows appended
-// during a frame, written at its end as whole lines (a kill leaves complete rows).
+// iterations.csv, the terms' own logs (EnergyTerm::log, e.g. contact.csv) and, if the deck asks
+// (output.reactions), reactions.csv and the summary's reactions (model/reactions.hpp): rows
+// appended during a frame, written at its end as whole lines (a kill leaves complete rows).
 class RunLogs : public FrameObserver {
  public:
-  explicit RunLogs(const RunContext& run) : run_(run) {}
+  explicit RunLogs(const RunContext& run);
   // Opens the logs in outdir (rank 0), or, at a restart, cuts them back to `restart_frame` and
-  // continues them. Throws std::runtime_error.
+  // continues them (the summary's reactions read back from reactions.csv). Throws std::runtime_error.
   void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1);
+  PetscErrorCode begin(LoopControl& control) override;
+  PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
+  PetscErrorCode before_frame(int frame) override;
   IterationCallback iterations(int frame) override;
   PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override;
   // Writes the rows appended so far; collective: a failure on rank 0 ends the run on every rank.
@@ -74,9 +79,12 @@ class RunLogs : public FrameObserver {
 
  private:
   PetscErrorCode record_terms(int frame);
+  PetscErrorCode record_reactions(int frame);
 
   RunContext run_;
   IterationLog log_;
+  std::unique_ptr<Reactions> reactions_;  // output.reactions only
+  FrameLog reaction_log_;
   // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
   // own log (null if it keeps none or the deck turned it off).
   std::vector<std::unique_ptr<FrameLog>> term_logs_;

@@ -19,6 +19,16 @@ struct IterationRecord {
   PetscInt evaluations = 0;  // g / grad g evaluations so far in this frame
 };
 
+// A support's reaction in summary.json (deck output.reactions; model/reactions.hpp): the last
+// frame's force, moment and moment point, and the largest |force| of any frame with that frame.
+struct SupportReaction {
+  std::string name;
+  int line = 0;  // deck line
+  std::array<double, 3> force{0, 0, 0}, moment{0, 0, 0}, point{0, 0, 0};
+  double max_force = 0;
+  long long max_force_frame = 0;
+};
+
 struct RunSummary {
   std::string deck, solver;
   // The run's id (io/checkpoint_store.hpp): which run wrote this directory; a restart keeps it.
@@ -86,6 +96,7 @@ struct RunSummary {
   std::array<double, 3> momentum0{0, 0, 0};
   double momentum_drift = 0, momentum_scale = 0;
   long long momentum_drift_frame = 0;
+  std::vector<SupportReaction> reactions;  // output.reactions only (empty: none, and no entry in summary.json)
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)
 };

@@ -116,6 +116,23 @@ static std::string quoted(const std::string& s) {
   return q + "\"";
 }
 
+// summary.json's "reactions" line and its comma, or nothing for a run that did not ask for them.
+static std::string reactions_entry(const std::vector<SupportReaction>& reactions) {
+  if (reactions.empty()) return "";
+  const auto vec = [](const std::array<double, 3>& a) {
+    return "[" + number(a[0]) + ", " + number(a[1]) + ", " + number(a[2]) + "]";
+  };
+  std::string out = "  \"reactions\": [";
+  for (size_t k = 0; k < reactions.size(); ++k) {
+    const SupportReaction& r = reactions[k];
+    out += std::string(k ? ", " : "") + "{\"name\": " + quoted(r.name) + ", \"line\": " + std::to_string(r.line) +
+           ", \"force\": " + vec(r.force) + ", \"moment\": " + vec(r.moment) + ", \"point\": " + vec(r.point) +
+           ", \"max_force\": " + number(r.max_force) + ", \"max_force_frame\": " + std::to_string(r.max_force_frame) +
+           "}";
+  }
+  return out + "],\n";
+}
+
 void write_summary(const std::string& path, const RunSummary& s) {
   std::string flagged = "[";
   for (const auto& [frame, reason] : s.flagged_frames)
@@ -197,6 +214,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"first_self_crossing\": " << first_self_crossing << ",\n"
       << "  \"contact_s\": " << number(s.contact_s) << ",\n"
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
+      << reactions_entry(s.reactions)
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"
       << "  \"peak_rss_mb_by_rank\": [";

@@ -91,6 +91,22 @@ std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh,
   return terms;
 }
 
+std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMesh& mesh, const SceneSpec& spec) {
+  if (!spec.bodies.empty()) return body_terms(mesh, spec.bodies);
+  std::vector<MaterialSpec> materials{spec.material};
+  for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
+  return elastic_terms(mesh, materials, spec.strand_material, spec.cloth);
+}
+
+std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol) {
+  std::vector<PetscInt> vertices;
+  // Fixed vertices are left to their fixed region; ghosts to the rank that owns them.
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+    if (mesh.owned[v] && mesh.local_dof[v] >= 0 && selects(a.region, &mesh.rest[3 * v], v, mesh.vertex_body, tol))
+      vertices.push_back(v);
+  return vertices;
+}
+
 std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                                             const std::vector<char>& released) {
   const double tol = 1e-9 * rest_diagonal(mesh);
@@ -100,10 +116,7 @@ std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const s
     AttachedVertices group;
     group.stiffness = attachments[k].stiffness;
     group.motion = attachments[k].region.motion;
-    // Fixed vertices are left to their fixed region; ghosts to the rank that owns them.
-    for (PetscInt v = 0; v < mesh.num_vertices; ++v)
-      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && selects(attachments[k].region, &mesh.rest[3 * v], v, mesh.vertex_body, tol))
-        group.vertices.push_back(v);
+    group.vertices = attached_vertices(mesh, attachments[k], tol);
     groups.push_back(std::move(group));
   }
   if (groups.empty()) return nullptr;

@@ -27,6 +27,14 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
 // triangles and hinges.
 std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh, const std::vector<BodySpec>& bodies);
 
+// The scene's elastic terms as the spec says: elastic_terms with the default material and the
+// material regions', or body_terms for a scene of bodies.
+std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMesh& mesh, const SceneSpec& spec);
+
+// The vertices attachment `a` holds on this rank: the free vertices it owns in its box (in_box with
+// tolerance tol, 1e-9 of rest_diagonal(mesh), so the springs do not depend on the rank count).
+std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol);
+
 // The springs of the attachments not released (released[k] != 0: attachments[k] is gone), on
 // the free vertices this rank owns in each box (in_box with the serial selection's tolerance, so
 // the springs do not depend on the rank count); null if none is left. Collective.

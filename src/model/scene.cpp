@@ -393,11 +393,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   s.mesh.num_bodies = (int)spec.bodies.size();
   s.mesh.vertex_body = std::move(input.vertex_body);  // the DMPlex keeps the piece's vertices in order
   input = SceneInput();  // the piece is no longer needed
-  std::vector<MaterialSpec> materials{spec.material};
-  for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
-  std::vector<std::unique_ptr<EnergyTerm>> terms = spec.bodies.empty()
-                                                       ? elastic_terms(s.mesh, materials, spec.strand_material, spec.cloth)
-                                                       : body_terms(s.mesh, spec.bodies);
+  std::vector<std::unique_ptr<EnergyTerm>> terms = scene_elastic_terms(s.mesh, spec);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
   for (auto& load : load_terms(s.mesh, spec.loads)) terms.push_back(std::move(load));
   if (options_.extra_terms) options_.extra_terms(s.mesh, terms);
