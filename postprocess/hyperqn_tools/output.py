@@ -39,6 +39,18 @@ def read_contact(outdir):
     return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else [])}
 
 
+def read_reactions(outdir):
+    """reactions.csv as {support name: {column: numpy array over its frames}} (docs/outputs.md)."""
+    supports = {}
+    with open(os.path.join(outdir, "reactions.csv")) as f:
+        for row in csv.DictReader(f):
+            columns = supports.setdefault(row["region"], {})
+            for k, v in row.items():
+                if k != "region":
+                    columns.setdefault(k, []).append(float(v))
+    return {name: {k: np.array(v) for k, v in columns.items()} for name, columns in supports.items()}
+
+
 def frames_of_iterations(rows):
     """{frame: [its rows of iterations.csv]} in order."""
     frames = {}

@@ -1,0 +1,77 @@
+"""The force-displacement curve of a support from a run's reactions.csv (`output: {reactions: true}`,
+docs/outputs.md#reactionscsv): the force the support exerts on the body along an axis, against the
+support's travel along it: its moment point p (the centre of its box moved by its motion) minus the
+box's centre at rest, read from the run's config.yaml.
+
+    /usr/bin/python3 -m hyperqn_tools.force_displacement OUTDIR --support 'fixed[1]' --axis x \\
+        --png curve.png --csv curve.csv
+
+Prints the curve's table; --png draws it (matplotlib), --csv writes it.
+"""
+import argparse
+import csv
+import sys
+
+import os
+
+import numpy as np
+import yaml
+
+from hyperqn_tools.output import read_reactions
+
+AXES = "xyz"
+
+
+def box_centre(outdir, support):
+    """The centre of a support's box at rest, from the run's config.yaml (its box.min and box.max)."""
+    with open(os.path.join(outdir, "config.yaml")) as f:
+        config = yaml.safe_load(f)
+    lo, hi = config.get(f"{support}.box.min"), config.get(f"{support}.box.max")
+    if lo is None or hi is None:
+        raise SystemExit(f"{outdir}/config.yaml has no {support}.box.min and .max")
+    return (np.array(lo, dtype=float) + np.array(hi, dtype=float)) / 2
+
+
+def curve(outdir, support, axis):
+    """(travel, force) arrays of one support along axis ('x', 'y' or 'z'), one entry per frame."""
+    supports = read_reactions(outdir)
+    if support not in supports:
+        raise SystemExit(f"{outdir}/reactions.csv has no support {support!r}; it has {', '.join(supports)}")
+    rows = supports[support]
+    k = AXES.index(axis)
+    return rows["p" + axis] - box_centre(outdir, support)[k], rows["f" + axis]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("outdir", help="a run's output directory (with reactions.csv)")
+    ap.add_argument("--support", required=True, help="the support's name as reactions.csv gives it, e.g. 'fixed[1]'")
+    ap.add_argument("--axis", choices=list(AXES), default="x")
+    ap.add_argument("--png", help="draw the curve into this PNG file")
+    ap.add_argument("--csv", help="write the curve into this CSV file")
+    a = ap.parse_args(argv)
+    travel, force = curve(a.outdir, a.support, a.axis)
+    print(f"travel_{a.axis} force_{a.axis}")
+    for u, f in zip(travel, force):
+        print(f"{u:.9g} {f:.9g}")
+    if a.csv:
+        with open(a.csv, "w", newline="") as out:
+            w = csv.writer(out)
+            w.writerow([f"travel_{a.axis}", f"force_{a.axis}"])
+            w.writerows(zip(travel, force))
+    if a.png:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        ax.plot(np.concatenate([[0], travel]), np.concatenate([[0], force]), marker=".")
+        ax.set_xlabel(f"travel of {a.support} along {a.axis}")
+        ax.set_ylabel(f"force of {a.support} on the body along {a.axis}")
+        ax.grid(True, alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(a.png, dpi=120)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
