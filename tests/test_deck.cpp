@@ -812,6 +812,20 @@ void test_integrator() {
                kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\ntime:\n  integrator: "
                        "implicit-midpoint\n",
                "time.integrator", 6, "colliders");
+  // static: needs a support (fixed, attachment or collider), takes no damping; pseudo_step is its own.
+  const std::string fixed = "fixed:\n  - box: {min: [-0.1, -0.1, -0.1], max: [0.01, 1.1, 1.1]}\n";
+  const Deck quasi = load_ok("integrator_static", kHead + fixed + "time: {integrator: static, pseudo_step: 2.5}\n");
+  CHECK(quasi.time.integrator == TimeIntegrator::quasi_static && quasi.time.pseudo_step == 2.5);
+  CHECK(load_ok("integrator_static_collider", kHead + "colliders:\n  - {type: plane, point: [0, -1, 0], normal: [0, 1, 0]}\n"
+                                                      "time: {integrator: static}\n")
+            .time.integrator == TimeIntegrator::quasi_static);
+  expect_error("integrator_static_no_support", kHead + "time:\n  integrator: static\n", "time.integrator", 4,
+               "nothing holds the body");
+  expect_error("integrator_static_damping", kHead + fixed + "time: {integrator: static, damping: 0.1}\n", "time.damping", 5,
+               "no velocities to damp");
+  expect_error("pseudo_step_dynamic", kHead + "time: {pseudo_step: 1}\n", "time.pseudo_step", 3, "integrator: static");
+  expect_error("study_integrators_static_no_support", kHead + "study:\n  integrators: [implicit-euler, static]\n",
+               "study.integrators", 4, "nothing holds the body");
 }
 
 int main() {

@@ -168,7 +168,8 @@ PetscErrorCode check_keep_restore() {
 
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
-  for (TimeIntegrator kind : {TimeIntegrator::implicit_euler, TimeIntegrator::implicit_midpoint, TimeIntegrator::bdf2})
+  for (TimeIntegrator kind : {TimeIntegrator::implicit_euler, TimeIntegrator::implicit_midpoint, TimeIntegrator::bdf2,
+                              TimeIntegrator::quasi_static})
     for (bool history : {false, true}) PetscCall(check_undo(kind, history));
   PetscCall(check_accept());
   PetscCall(check_keep_restore());

@@ -153,6 +153,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
     check_integrator_takes_contact(r, *x, deck);
+    check_static_has_support(r, *x, deck);
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   apply_contact_solver_defaults(r, s.find("solver"), deck);

@@ -33,11 +33,23 @@ void check_integrator_takes_contact(const Reader& r, const Value& time, const De
            "vertices through an obstacle or a surface that the solve's z rests on (use implicit-euler)");
 }
 
+void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
+  if (deck.time.integrator != TimeIntegrator::quasi_static) return;
+  if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;
+  r.fail(*Section(r, time, {}).find("integrator"),
+         "static finds an equilibrium, and nothing holds the body: add a fixed region (fixed:), an attachment "
+         "(attachments:) or a collider (colliders:)");
+}
+
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {
-  for (TimeIntegrator kind : deck.study.integrators)
+  for (TimeIntegrator kind : deck.study.integrators) {
+    if (kind == TimeIntegrator::quasi_static && deck.fixed.empty() && deck.attachments.empty() && deck.colliders.empty())
+      r.fail(*Section(r, study, {}).find("integrators"),
+             "static finds an equilibrium, and nothing holds the body (see time.integrator)");
     if (!integrator_info(kind).with_colliders && has_contact(deck))
       r.fail(*Section(r, study, {}).find("integrators"),
              std::string(integrator_info(kind).name) + " does not take colliders yet (see time.integrator)");
+  }
 }
 
 void apply_contact_solver_defaults(const Reader& r, const Value* solver, Deck& deck) {

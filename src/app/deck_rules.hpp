@@ -15,6 +15,9 @@ void check_thickness_in_self_contact(const Reader& r, const Deck& deck);
 // Colliders and self-contact need an integrator whose end of step is the solve's z (which the
 // barrier kept free of intersections): time.integrator, and each of study.integrators.
 void check_integrator_takes_contact(const Reader& r, const Value& time, const Deck& deck);
+// A static scene needs something that holds it (a fixed region, an attachment or a collider): with
+// none, no equilibrium exists under loads, and none is unique without them.
+void check_static_has_support(const Reader& r, const Value& time, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is

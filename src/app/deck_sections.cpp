@@ -474,6 +474,12 @@ static TimeIntegrator read_integrator(const Reader& r, const Value& v) {
 void read_time(const Reader& r, const Value& v, TimeSpec& t) {
   const Section s = read_keys(r, v, time_keys(), t);
   if (const Value* x = s.find("dt")) r.check(t.dt >= 1e-100, *x, ">= 1e-100 (h^2 must not underflow)");
+  const bool quasi_static = t.integrator == TimeIntegrator::quasi_static;
+  if (const Value* x = s.find("pseudo_step"); x && !quasi_static)
+    r.fail(*x, "pseudo_step is the static integrator's (integrator: static): leave it out");
+  // A static step has no velocity to damp.
+  if (const Value* x = s.find("damping"); x && quasi_static)
+    r.fail(*x, "integrator: static has no velocities to damp (each frame is an equilibrium): leave damping out");
 }
 
 void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {

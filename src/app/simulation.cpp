@@ -318,6 +318,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
   for (const auto& term : scene.body->terms())
     if (const std::string line = term->describe(); !line.empty()) PetscPrintf(comm, "hyperqn: %s\n", line.c_str());
+  if (!scene.step->has_inertia())
+    PetscPrintf(comm, "hyperqn: static: load steps of %g, pseudo step s = %.6g (%s)\n", deck.time.dt,
+                scene.step->solve_dt(), deck.time.pseudo_step > 0 ? "time.pseudo_step" : "automatic");
 
   // 3. Output directory, writers and logs. Every step that one rank does alone is followed by a
   // collective check, so a failure (unwritable directory, full disk) ends the run on every rank.

@@ -7,14 +7,15 @@
 namespace hyperqn {
 
 InertiaTerm::~InertiaTerm() {
-  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_}) VecDestroy(v);
+  for (Vec* v : {&mass_, &y_, &gravity_step_, &work_, &diff_, &load_}) VecDestroy(v);
 }
 
-PetscErrorCode InertiaTerm::setup(const Body& body, double solve_dt, const std::array<double, 3>& gravity) {
+PetscErrorCode InertiaTerm::setup(const Body& body, double solve_dt, const std::array<double, 3>& gravity, bool inertia) {
   PetscInt lo, hi;
   PetscScalar* a;
   PetscFunctionBeginUser;
   solve_dt_ = solve_dt;
+  inertia_ = inertia;
   PetscCall(DMCreateGlobalVector(body.mesh().dm, &mass_));
   PetscCall(PetscObjectSetName((PetscObject)mass_, "mass"));
   PetscCall(body.lumped_mass(mass_));
@@ -27,11 +28,20 @@ PetscErrorCode InertiaTerm::setup(const Body& body, double solve_dt, const std::
   PetscCall(VecGetArray(gravity_step_, &a));
   for (PetscInt i = lo; i < hi; ++i) a[i - lo] = solve_dt * solve_dt * gravity[i % 3];
   PetscCall(VecRestoreArray(gravity_step_, &a));
+  if (!inertia_) {
+    PetscCall(VecDuplicate(mass_, &load_));
+    PetscCall(VecPointwiseMult(load_, gravity_step_, mass_));
+    PetscCall(VecScale(load_, -1.0));
+  }
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode InertiaTerm::set_target(Vec x_hat, Vec v_hat) {
   PetscFunctionBeginUser;
+  if (!inertia_) {  // the origin of gravity's work within the step
+    PetscCall(VecCopy(x_hat, y_));
+    PetscFunctionReturn(0);
+  }
   PetscCall(VecWAXPY(y_, solve_dt_, v_hat, x_hat));
   PetscCall(VecAXPY(y_, 1.0, gravity_step_));
   PetscFunctionReturn(0);
@@ -41,7 +51,10 @@ PetscErrorCode InertiaTerm::evaluate(Vec x, bool poison, PetscReal* value) {
   PetscReal dot;
   PetscFunctionBeginUser;
   PetscCall(VecWAXPY(diff_, -1.0, y_, x));           // x - y
-  PetscCall(VecPointwiseMult(work_, diff_, mass_));  // M (x - y)
+  if (inertia_)
+    PetscCall(VecPointwiseMult(work_, diff_, mass_));  // M (x - y)
+  else
+    PetscCall(VecCopy(load_, work_));  // -M h'^2 a_gravity
   if (poison) {
     PetscInt n;
     PetscCall(VecGetLocalSize(work_, &n));
@@ -53,7 +66,7 @@ PetscErrorCode InertiaTerm::evaluate(Vec x, bool poison, PetscReal* value) {
     }
   }
   PetscCall(VecDot(work_, diff_, &dot));
-  *value = 0.5 * dot;
+  *value = inertia_ ? 0.5 * dot : dot;
   PetscFunctionReturn(0);
 }
 

@@ -403,7 +403,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   s.body->set_fixed_motion(spec.fixed);
   s.step = std::make_unique<StepObjective>(*s.body, spec.time.dt, spec.gravity, spec.time.damping,
                                                  options_.warm_start, options_.upright_guess,
-                                                 options_.element_limit, spec.time.integrator);
+                                                 options_.element_limit, spec.time.integrator, spec.time.pseudo_step);
   PetscCall(s.step->setup());
   PetscCall(s.body->set_masses(s.step->mass()));
   for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg}) {  // in this order, each once

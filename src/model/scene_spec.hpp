@@ -22,6 +22,7 @@ struct TimeSpec {
   int frames = 100;
   double damping = 0;                // v <- (1 - damping) v after each step
   TimeIntegrator integrator = TimeIntegrator::implicit_euler;
+  double pseudo_step = 0;            // static: s of H0 = (M + s^2 L)^-1 (0: automatic)
 };
 
 // The deck's time: keys (params/deck_keys.hpp).
@@ -37,10 +38,16 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
        "`implicit-midpoint` is second order and keeps the energy of vibrations that implicit Euler damps out; a step "
        "whose end would invert or blow up a tet is completed by implicit Euler instead (`euler_completed_steps` in "
        "`summary.json`), so it fails no stability case, but it is best in calm scenes (7 of the 21 cases degraded); "
-       "not with `colliders` (a deck error)",
+       "not with `colliders` (a deck error); `static`: each frame a load step to equilibrium at the loads and fixed "
+       "regions of its end, no inertia, velocities 0 ([method.md](method.md#time-integrators)); needs a `fixed` region, "
+       "an attachment or a collider, and takes no `damping`",
        {}, integrator_names(), "", "",
        [](TimeSpec& t, const std::string& name) { t.integrator = integrator_named(name)->kind; },
        [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
+      {"pseudo_step", &TimeSpec::pseudo_step,
+       "`static` only: the pseudo step s of L-BFGS's H0 = (M + s²L)⁻¹ (and Newton's M + s²K), where M only "
+       "regularizes what the supports leave free",
+       above(0), {}, "s", "auto: s² = 10⁸ N^(2/3) max m_i / L_ii over the N free vertices"},
   };
   return keys;
 }

@@ -11,17 +11,23 @@ namespace hyperqn {
 
 StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping,
                              WarmStart warm_start, bool upright_guess, double element_limit,
-                             TimeIntegrator integrator)
-    : body_(body), dt_(dt), life_(body, dt, damping, integrator), solve_dt_(life_.solve_dt()), gravity_(gravity),
-      warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
+                             TimeIntegrator integrator, double pseudo_step)
+    : body_(body), dt_(dt), life_(body, dt, damping, integrator), solve_dt_(life_.solve_dt()), pseudo_step_(pseudo_step),
+      gravity_(gravity), warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&work_, &end_x_, &end_v_}) VecDestroy(v);
+  for (Vec* v : {&work_, &end_x_, &end_v_, &rest_, &rest_grad_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
   PetscFunctionBeginUser;
-  PetscCall(inertia_.setup(body_, solve_dt_, gravity_));
+  if (!has_inertia()) {
+    if (pseudo_step_ > 0)
+      solve_dt_ = pseudo_step_;
+    else
+      PetscCall(automatic_pseudo_step(&solve_dt_));
+  }
+  PetscCall(inertia_.setup(body_, solve_dt_, gravity_, has_inertia()));
   Vec mass = inertia_.mass();
   PetscCall(VecDuplicate(mass, &work_));
   PetscCall(life_.setup(mass));
@@ -38,8 +44,9 @@ PetscErrorCode StepObjective::setup() {
 PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObjective>& sub) const {
   PetscFunctionBeginUser;
   const double damping = 1.0 - std::pow(1.0 - life_.damping(), 1.0 / parts);
+  // Static: the same s (a load increment changes no pseudo step).
   sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
-                                       element_limit_, life_.kind());
+                                       element_limit_, life_.kind(), has_inertia() ? 0.0 : solve_dt_);
   sub->counts_ = counts_;
   sub->life_.set_substep();
   PetscCall(sub->setup());
@@ -50,8 +57,56 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
   PetscCall(life_.begin(s));
   PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
-  PetscCall(body_.begin_step({life_.solve_time(s), solve_dt_, s.x, inertia_.target(), s.frame * dt_}));
+  // A static step spans h (contact's colliders and friction take the step's length from it).
+  PetscCall(body_.begin_step({life_.solve_time(s), has_inertia() ? solve_dt_ : dt_, s.x, inertia_.target(), s.frame * dt_}));
+  if (!has_inertia()) {
+    PetscReal g;
+    const PetscInt rejected_before = counts_->rejected;
+    if (!rest_) PetscCall(VecDuplicate(work_, &rest_));
+    if (!rest_grad_) PetscCall(VecDuplicate(work_, &rest_grad_));
+    PetscCall(body_.rest_positions(rest_));
+    PetscCall(objective(rest_, &g, rest_grad_));
+    load_scale_ = 0;
+    if (!rejected(g)) PetscCall(VecNorm(rest_grad_, NORM_2, &load_scale_));
+    --evaluations_;  // neither the solver's evaluation nor its rejection
+    counts_->rejected = rejected_before;
+  }
   PetscCall(initial_guess(life_.x_n(), s.x));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode StepObjective::automatic_pseudo_step(double* s) const {
+  Mat L;
+  Vec d, mass;
+  const PetscScalar *m, *l;
+  PetscInt n;
+  double local = 0, global;
+  PetscFunctionBeginUser;
+  PetscCall(DMCreateMatrix(body_.mesh().vertex_dm, &L));
+  PetscCall(MatSetOption(L, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  PetscCall(add_in_rank_order(L, [&](Mat S) { return body_.add_laplacian(S, 1.0, 1); }));
+  PetscCall(MatCreateVecs(L, &d, nullptr));
+  PetscCall(MatGetDiagonal(L, d));
+  PetscCall(DMCreateGlobalVector(body_.mesh().dm, &mass));
+  PetscCall(body_.lumped_mass(mass));
+  PetscCall(VecGetLocalSize(d, &n));
+  PetscCall(VecGetArrayRead(d, &l));
+  PetscCall(VecGetArrayRead(mass, &m));
+  for (PetscInt i = 0; i < n; ++i)
+    if (l[i] > 0) local = std::fmax(local, m[3 * i] / l[i]);
+  PetscCall(VecRestoreArrayRead(mass, &m));
+  PetscCall(VecRestoreArrayRead(d, &l));
+  PetscCallMPI(MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, PetscObjectComm((PetscObject)d)));
+  PetscCall(VecDestroy(&d));
+  PetscCall(VecDestroy(&mass));
+  PetscCall(MatDestroy(&L));
+  // max m_i / L_ii ~ (l / c)^2 at the mesh spacing l; the body's slowest modes are slower by about
+  // (D / l)^2 ~ N^(2/3) (N free vertices), a slender body's bending modes by its slenderness
+  // squared again; s must outlast them, or M slows Newton there (L-BFGS's counts do not change):
+  // on a 10 x 1 x 1 cantilever of 40 x 4 x 4 cubes under a tip load Newton took 13, 3, 2, 2
+  // iterations at kPseudoStepFactor 1e4, 1e6, 1e8, 1e10 (docs/method.md#time-integrators).
+  const double vertices = static_cast<double>(body_.mesh().global_dofs) / 3;
+  *s = global > 0 ? std::sqrt(kPseudoStepFactor * global * std::cbrt(vertices * vertices)) : dt_;  // no stiffness: h
   PetscFunctionReturn(0);
 }
 
@@ -232,6 +287,10 @@ PetscErrorCode StepObjective::objective(Vec x, PetscReal* g, Vec grad) {
 PetscErrorCode StepObjective::force_scale(Vec x, double* scale) {
   double norm;
   PetscFunctionBeginUser;
+  if (!has_inertia()) {  // no M (x - y): the forces acting are the loads' (begin_step)
+    *scale = std::fmax(load_scale_, weight_scale_);
+    PetscFunctionReturn(0);
+  }
   PetscCall(inertia_.gradient_norm(x, &norm));
   *scale = std::fmax(norm, weight_scale_);
   PetscFunctionReturn(0);

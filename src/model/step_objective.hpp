@@ -8,6 +8,9 @@
 // (x_n, v_n, x^, v^, the end map, accept, undo) is the StepLifecycle's (model/step_lifecycle.hpp);
 // begin_step and solve_step start and solve it. The simulation and the study both step with it.
 // The frame's step h advances frames and time whatever h' is.
+// The static integrator (Integrator::has_inertia false): g(z) = s^2 (E(z) - W_gravity(z)), a load
+// step to the loads and fixed vertices of t_{n+1}; h' is the pseudo step s, which weighs M against
+// s^2 L in H0 = (M + s^2 L)^{-1} and Newton's H (M only regularizes there), and nothing else.
 #pragma once
 #include <petscvec.h>
 
@@ -56,7 +59,8 @@ class StepObjective : public Objective {
  public:
   StepObjective(Body& body, double dt, const std::array<double, 3>& gravity, double damping = 0,
                 WarmStart warm_start = WarmStart::inertial, bool upright_guess = true,
-                double element_limit = 0, TimeIntegrator integrator = TimeIntegrator::implicit_euler);
+                double element_limit = 0, TimeIntegrator integrator = TimeIntegrator::implicit_euler,
+                double pseudo_step = 0);
   ~StepObjective() override;
   StepObjective(const StepObjective&) = delete;
   StepObjective& operator=(const StepObjective&) = delete;
@@ -67,6 +71,13 @@ class StepObjective : public Objective {
 
   Body& body() { return body_; }
   double dt() const { return dt_; }  // a frame's step h (the solve's is h' = solve_dt_)
+  double solve_dt() const { return solve_dt_; }  // h', for the static integrator the pseudo step s
+  bool has_inertia() const { return life_.integrator().has_inertia(); }
+  // The static integrator's automatic pseudo step: s^2 = kPseudoStepFactor N^(2/3) max_i m_i / L_ii
+  // over the N free vertices (collective): M is at most 1/kPseudoStepFactor of s^2 L on the
+  // diagonal, and of the body's slowest modes too (docs/method.md#time-integrators).
+  static constexpr double kPseudoStepFactor = 1e8;
+  PetscErrorCode automatic_pseudo_step(double* s) const;
   const Integrator& integrator() const { return life_.integrator(); }
   // The step's x_n, v_n, x^, v^ and its end: accept, undo, keep and restore are the caller's.
   StepLifecycle& lifecycle() { return life_; }
@@ -145,7 +156,11 @@ class StepObjective : public Objective {
   Body& body_;
   double dt_;
   StepLifecycle life_;
-  double solve_dt_;  // h' of the minimization: the integrator's solve_fraction() h
+  double solve_dt_;  // h' of the minimization: the integrator's solve_fraction() h, or static's s
+  double pseudo_step_;  // static: the deck's s (0: automatic_pseudo_step)
+  // Static: ||grad g|| at the rest positions (the fixed vertices where they are) at the step's
+  // start, the forces acting (the loads, gravity, supports' displacements) in force_scale.
+  double load_scale_ = 0;
   std::array<double, 3> gravity_;
   WarmStart warm_start_;
   bool upright_guess_;
@@ -153,6 +168,7 @@ class StepObjective : public Objective {
   InertiaTerm inertia_;  // 1/2 (x - y)^T M (x - y): M, y
   Vec work_ = nullptr;    // the initial guess's step from x_n
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
+  Vec rest_ = nullptr, rest_grad_ = nullptr;  // static: the rest positions and grad g there (load_scale_)
   PetscInt evaluations_ = 0;
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();
   HessianPattern pattern_;  // Newton's H holds the couplings of the terms' lists

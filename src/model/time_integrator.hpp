@@ -6,6 +6,8 @@
 // that gives x_{n+1} and v_{n+1} from z. An integrator says only what differs: h'/h, c, how x^
 // and v^ come from x_n, v_n (and the history x_{n-1}, v_{n-1} if it keeps one), and the end map.
 // The constant matrix of every solver is M + h'^2 L. Adding one: docs/architecture.md.
+// The static integrator has no inertia: g(z) = s^2 (E(z) - W_gravity(z)) with a pseudo step s
+// (TimeSpec::pseudo_step) that only sizes M against s^2 L in the constant matrix; x_{n+1} = z, v = 0.
 #pragma once
 #include <petscvec.h>
 
@@ -15,7 +17,7 @@
 
 namespace hyperqn {
 
-enum class TimeIntegrator { implicit_euler, implicit_midpoint, bdf2 };
+enum class TimeIntegrator { implicit_euler, implicit_midpoint, bdf2, quasi_static };
 
 // Each integrator's deck name and whether a scene with colliders may use it.
 struct IntegratorInfo {
@@ -46,6 +48,9 @@ class Integrator {
   virtual ~Integrator() = default;
   virtual double solve_fraction() const = 0;          // h' / h
   virtual double time_fraction() const { return 1; }  // c: the fixed vertices' time during the solve
+  // False for the static integrator: g has no inertia, only gravity's work (InertiaTerm), and h'
+  // is the pseudo step s, not a fraction of h (StepObjective).
+  virtual bool has_inertia() const { return true; }
   // x^, v^ need x_{n-1}, v_{n-1}; where there are none (the first step, after a release, a
   // sub-step's first), start and finish take a starting step of the integrator's own.
   virtual bool keeps_history() const { return false; }

@@ -77,6 +77,19 @@ class Bdf2 : public Integrator {
   }
 };
 
+// Quasi-static: each step is a load step, z = argmin s^2 (E(z) - W_gravity(z)) at the loads and
+// fixed vertices of t_{n+1}, with no inertia (StepObjective, InertiaTerm); x_{n+1} = z and v = 0.
+class QuasiStatic : public Integrator {
+ public:
+  double solve_fraction() const override { return 1; }  // unused: h' is the pseudo step s
+  bool has_inertia() const override { return false; }
+  PetscErrorCode finish(const StepVectors&, double, double, Vec, Vec v) const override {
+    PetscFunctionBeginUser;
+    PetscCall(VecSet(v, 0.0));
+    PetscFunctionReturn(0);
+  }
+};
+
 }  // namespace
 
 const std::vector<IntegratorInfo>& integrator_infos() {
@@ -85,6 +98,7 @@ const std::vector<IntegratorInfo>& integrator_infos() {
       // The end map doubles z - x_n: a contact barrier's z is safe, 2 z - x_n need not be.
       {TimeIntegrator::implicit_midpoint, "implicit-midpoint", false},
       {TimeIntegrator::bdf2, "bdf2", true},
+      {TimeIntegrator::quasi_static, "static", true},
   };
   return infos;
 }
@@ -112,6 +126,7 @@ std::unique_ptr<Integrator> make_integrator(TimeIntegrator kind) {
     case TimeIntegrator::implicit_euler: return std::make_unique<ImplicitEuler>();
     case TimeIntegrator::implicit_midpoint: return std::make_unique<ImplicitMidpoint>();
     case TimeIntegrator::bdf2: return std::make_unique<Bdf2>();
+    case TimeIntegrator::quasi_static: return std::make_unique<QuasiStatic>();
   }
   throw std::logic_error("integrator without a class in make_integrator()");
 }

@@ -1,0 +1,244 @@
+"""The static integrator (time.integrator: static, docs/method.md#time-integrators), end to end.
+
+- Against dynamics: a damped implicit-Euler run of a cantilever under gravity settles where the
+  static load step puts it (gravity acts in static as the inertia term's linear part).
+- Uniaxial tension of a compressible Neo-Hookean bar under equal and opposite dead tractions, held
+  only by a soft attachment at its centre vertex: the discrete equilibrium is the homogeneous state
+  F = diag(lambda, mu, mu) (linear tets pass the patch test, and the attached vertex does not move
+  in it, so its spring carries nothing); stretch and lateral contraction against the closed form of
+  the model's own psi (src/materials/neohookean.cpp) for stretches up to 2.
+- A cantilever under a tip traction against Timoshenko beam theory on a refined mesh.
+- input/engineering/static_cantilever.yaml at 1 and 2 ranks; lbfgs against Newton.
+- A restart equals the uninterrupted run bit for bit; a load step too large for the solver's budget
+  is split by the fallback chain; `hyperqn study` runs a static deck.
+- Bad input: a static deck with nothing that holds the body, damping, pseudo_step without static.
+"""
+import copy
+import math
+import os
+
+import numpy as np
+import pytest
+
+from conftest import load_deck, run_hyperqn, write_deck
+from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.output import final_frame, read_summary
+from hyperqn_tools.paths import REPO
+from test_bad_input import assert_clean_failure
+
+CANTILEVER = load_deck("input/engineering/static_cantilever.yaml")
+END = {"min": [3.99, -0.01, -0.01], "max": [4.01, 1.01, 1.01]}
+
+
+def run(tmp_path, name, deck, ranks=1):
+    out = tmp_path / name
+    run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out], ranks=ranks)
+    summary = read_summary(out)
+    assert summary["status"] == "ok", summary["status"]
+    return out
+
+
+def test_damped_dynamics_settles_at_the_static_answer(tmp_path):
+    """Gravity on a cantilever: the damped dynamic run's last frame (at rest: M (x - y) + h^2 grad E
+    = h^2 (grad E - M g) = 0) against one static load step, both solved to grad_rtol 1e-10."""
+    deck = copy.deepcopy(CANTILEVER)
+    deck["mesh"]["box"]["cells"] = [8, 2, 2]
+    del deck["loads"]
+    deck["gravity"] = [0, -9.81, 0]
+    deck["solver"] = {"type": "lbfgs", "iterations": 1000, "grad_rtol": 1e-10}
+    deck["time"] = {"dt": 1, "frames": 1, "integrator": "static"}
+    static = run(tmp_path, "static", deck)
+    deck["time"] = {"dt": 0.1, "frames": 300, "damping": 0.2}
+    deck["output"] = {"every": 300}
+    dynamic = run(tmp_path, "dynamic", deck)
+    rel, diff, sag = relative_difference(static, dynamic)
+    print(f"static against damped dynamics: {diff:.3e} of a displacement of {sag:.3e} ({rel:.2e})")
+    assert sag > 0.05  # the bar sags
+    assert rel <= 1e-6
+
+
+NEO_MU, NEO_LAMBDA = 1.0e4, 2.0e4
+
+
+def uniaxial_closed_form(stretch):
+    """(traction, lateral stretch) of F = diag(l, m, m) with P22 = 0, for the model's psi =
+    mu/2 (I1 - 3) - mu log J + lambda/2 log^2 J: P = mu F + (lambda log J - mu) F^-T, so
+    P11 = mu l + (lambda log J - mu) / l and P22 = mu m + (lambda log J - mu) / m, J = l m^2."""
+    def p22(m):
+        return NEO_MU * m + (NEO_LAMBDA * math.log(stretch * m * m) - NEO_MU) / m
+    lo, hi = 0.1, 1.0 + 1e-12  # p22 increases with m, negative at 0.1, >= 0 at 1 for l >= 1
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if p22(mid) > 0 else (mid, hi)
+    m = 0.5 * (lo + hi)
+    return NEO_MU * stretch + (NEO_LAMBDA * math.log(stretch * m * m) - NEO_MU) / stretch, m
+
+
+def uniaxial_deck(traction, solver="lbfgs"):
+    return {
+        "name": "uniaxial",
+        "mesh": {"box": {"size": [2.0, 1.0, 1.0], "cells": [4, 2, 2]}},
+        "material": {"model": "neohookean", "mu": NEO_MU, "lambda": NEO_LAMBDA, "density": 1000},
+        # the centre vertex (1, 0.5, 0.5) alone, on a soft spring
+        "attachments": [{"box": {"min": [0.99, 0.49, 0.49], "max": [1.01, 0.51, 0.51]}, "stiffness": 100.0}],
+        "loads": [
+            {"type": "traction", "box": {"min": [1.99, -0.01, -0.01], "max": [2.01, 1.01, 1.01]},
+             "traction": [traction, 0, 0]},
+            {"type": "traction", "box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]},
+             "traction": [-traction, 0, 0]},
+        ],
+        "gravity": [0, 0, 0],
+        "time": {"dt": 1, "frames": 1, "integrator": "static"},
+        "solver": {"type": solver, "iterations": 2000, "grad_rtol": 1e-12},
+        "output": {"every": 1},
+    }
+
+
+def deformation_gradient(frame):
+    """The affine map X -> x that fits the frame best, and the largest distance of a vertex from it."""
+    rest = frame.points - frame.displacement
+    X = np.c_[rest, np.ones(len(rest))]
+    fit = np.linalg.lstsq(X, frame.points, rcond=None)[0]
+    return fit[:3].T, np.abs(X @ fit - frame.points).max()
+
+
+@pytest.mark.parametrize("solver", ["lbfgs", "newton"])
+@pytest.mark.parametrize("stretch", [1.25, 1.5, 2.0])
+def test_uniaxial_tension_against_the_closed_form(tmp_path, stretch, solver):
+    traction, lateral = uniaxial_closed_form(stretch)
+    out = run(tmp_path, "uniaxial", uniaxial_deck(traction, solver))
+    F, off = deformation_gradient(final_frame(out))
+    # A rotation about the load's axis changes no energy (the dead tractions are along it): compare
+    # the stretch U of F = R U (Newton's iterates turn by 4e-5 rad about x, lbfgs's not at all).
+    w, V = np.linalg.eigh(F.T @ F)
+    U = V @ np.diag(np.sqrt(w)) @ V.T
+    errors = (abs(U[0, 0] / stretch - 1), abs(U[1, 1] / lateral - 1), abs(U[2, 2] / lateral - 1))
+    print(f"{solver}, stretch {stretch}: traction {traction:.6g} Pa gives stretch {U[0, 0]:.10f}, lateral "
+          f"{U[1, 1]:.10f} {U[2, 2]:.10f} (closed form {lateral:.10f}); relative errors {max(errors):.1e}, "
+          f"off the homogeneous state {off:.1e}")
+    assert max(errors) <= 1e-6
+    assert off <= 1e-6 * stretch
+    assert np.abs(U - np.diag(np.diag(U))).max() <= 1e-6  # no shear
+    assert abs(F[0, 0] - U[0, 0]) <= 1e-9 * stretch  # the bar's axis stays along x
+
+
+def test_cantilever_against_timoshenko(tmp_path):
+    """A 10 x 1 x 1 cantilever (nu = 0, so no anticlastic coupling) clamped at x = 0 under a small
+    uniform traction P on its end: the tip's mean deflection against Timoshenko's
+    P L^3 / (3 E I) + P L / (k G A), k = 5/6, by Newton. Linear tets are stiff in bending, so the mesh
+    is fine: 40 x 4 x 4 cubes gave -17.6 %, 80 x 8 x 8 -5.1 %, 200 x 10 x 10 -2.3 %, 240 x 12 x 12
+    -1.6 % (11 s, 0.8 GB), 160 x 16 x 16 -1.3 % (27 s, 1.1 GB)."""
+    E, L, P = 1.0e6, 10.0, 1.0
+    deck = {
+        "name": "timoshenko",
+        "mesh": {"box": {"size": [L, 1.0, 1.0], "cells": [240, 12, 12]}},
+        "material": {"model": "neohookean", "youngs_modulus": E, "poisson_ratio": 0.0, "density": 1000},
+        "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]}}],
+        "loads": [{"type": "traction", "box": {"min": [L - 0.01, -0.01, -0.01], "max": [L + 0.01, 1.01, 1.01]},
+                   "traction": [0, -P, 0]}],
+        "gravity": [0, 0, 0],
+        "time": {"dt": 1, "frames": 1, "integrator": "static"},
+        "solver": {"type": "newton", "iterations": 20, "grad_rtol": 1e-8},
+        "output": {"every": 1},
+    }
+    frame = final_frame(run(tmp_path, "timoshenko", deck))
+    tip = (frame.points - frame.displacement)[:, 0] > L - 0.01
+    deflection = -frame.displacement[tip, 1].mean()
+    theory = P * L**3 / (3 * E / 12) + P * L / (5 / 6 * E / 2)
+    print(f"tip deflection {deflection:.6e}, Timoshenko {theory:.6e}: {deflection / theory - 1:+.2%}")
+    assert abs(deflection / theory - 1) <= 0.02
+
+
+def test_same_at_1_and_2_ranks_and_newton(tmp_path):
+    path = os.path.join(REPO, "input/engineering/static_cantilever.yaml")
+    outs = {}
+    for ranks in (1, 2):
+        outs[ranks] = tmp_path / f"np{ranks}"
+        proc = run_hyperqn([path, "-o", outs[ranks]], ranks=ranks)
+        assert "static: load steps of" in proc.stdout and "pseudo step s =" in proc.stdout
+    rel, diff, sag = relative_difference(outs[1], outs[2])
+    print(f"1 vs 2 ranks: {diff:.3e} of a displacement of {sag:.3e}")
+    assert rel <= 1e-10
+    summary = read_summary(outs[1])
+    assert summary["converged_frames"] == 3
+    newton = copy.deepcopy(CANTILEVER)
+    newton["solver"] = {"type": "newton", "iterations": 50}
+    rel, diff, sag = relative_difference(outs[1], run(tmp_path, "newton", newton))
+    print(f"lbfgs vs newton: {diff:.3e} of {sag:.3e}")
+    assert sag > 0.3 and rel <= 1e-4
+
+
+def twisted(frames, solver):
+    """A bar clamped at both ends, the end x = 4 turned by 90 degrees per unit time."""
+    deck = copy.deepcopy(CANTILEVER)
+    deck["mesh"]["box"]["cells"] = [8, 2, 2]
+    del deck["loads"]
+    deck["fixed"].append({"box": END, "motion": {"rotate": {"axis": [1, 0, 0], "center": [4, 0.5, 0.5], "rate": 90}}})
+    deck["time"] = {"dt": 1, "frames": frames, "integrator": "static"}
+    deck["solver"] = solver
+    return deck
+
+
+def test_restart_is_bitwise(tmp_path):
+    solver = {"type": "lbfgs", "iterations": 100}
+    deck = twisted(4, solver)
+    full = run(tmp_path, "full", deck)
+    restarted = tmp_path / "restarted"
+    first = dict(deck, time=dict(deck["time"], frames=2), checkpoint={"every": 2})
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=1)
+    done = run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=1)
+    assert "restart from" in done.stdout
+    a, b = final_frame(full), final_frame(restarted)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.velocity, b.velocity)
+    rest_x = (a.points - a.displacement)[:, 0]
+    assert not a.velocity[(rest_x > 0.01) & (rest_x < 3.99)].any()  # free vertices end at rest
+
+
+def test_a_load_step_the_budget_cannot_reach_is_split(tmp_path):
+    """90 degrees of twist in one load step: 20 iterations do not reach the answer from the start
+    (the end turned, the rest at rest), so the chain splits the step into increments of h/2^k (the
+    fixed end at t_n + h/2^k) and ends near the converged answer; with no splitting, Newton's
+    fallback takes the step."""
+    converged = run(tmp_path, "converged", twisted(1, {"type": "lbfgs", "iterations": 1000, "grad_rtol": 1e-9}))
+    split = run(tmp_path, "split", twisted(1, {"type": "lbfgs", "iterations": 20, "max_iterations": 20,
+                                               "max_halvings": 4, "newton_fallback": False}))
+    summary = read_summary(split)
+    assert summary["substepped_frames"] == 1, summary
+    rel, diff, scale = relative_difference(converged, split)
+    print(f"split load step against the converged one: {diff:.3e} of {scale:.3e}")
+    assert rel <= 1e-2
+    newton = run(tmp_path, "newton", twisted(1, {"type": "lbfgs", "iterations": 20, "max_iterations": 20,
+                                                 "max_halvings": 0, "newton_fallback": True}))
+    assert read_summary(newton)["newton_frames"] == 1
+    rel, diff, scale = relative_difference(converged, newton)
+    print(f"Newton's fallback against the converged one: {diff:.3e} of {scale:.3e}")
+    assert rel <= 1e-3
+
+
+def test_study_of_a_static_deck(tmp_path):
+    deck = twisted(2, {"type": "lbfgs", "iterations": 20})
+    deck["study"] = {"frames": [1, 2], "solvers": ["lbfgs", "newton"], "iterations": 50}
+    proc = run_hyperqn(["study", write_deck(tmp_path / "study.yaml", deck), "-o", tmp_path / "study"], ranks=1)
+    assert "study written" in proc.stdout
+
+
+BAD = {
+    "no_support": (lambda d: d.pop("fixed"), ["'time.integrator'", "nothing holds the body", "fixed:",
+                                               "attachments:", "colliders:"]),
+    "damping": (lambda d: d["time"].update(damping=0.1), ["'time.damping'", "static has no velocities"]),
+    "pseudo_step_of_dynamics": (lambda d: d["time"].update(integrator="implicit-euler", pseudo_step=1.0),
+                                ["'time.pseudo_step'", "integrator: static"]),
+    "zero_pseudo_step": (lambda d: d["time"].update(pseudo_step=0.0), ["'time.pseudo_step'"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_static_deck(tmp_path, case):
+    deck = copy.deepcopy(CANTILEVER)
+    change, fragments = BAD[case]
+    change(deck)
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1
+    assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
