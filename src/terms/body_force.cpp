@@ -26,14 +26,7 @@ class BodyForce : public LoadTerm {
     PetscFunctionReturn(0);
   }
   PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
-    double e = *energy;
-    for (size_t k = 0; k < forces_.size(); ++k) {
-      const PetscInt v = region_.vertices[k];
-      const Vec3 f = factor_ * forces_[k];
-      e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
-      if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
-    }
-    *energy = e;
+    add_dead_load(region_.vertices, forces_, pos, energy, gradient);
     return 0;
   }
   PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mesh/distributed_mesh.hpp"
+#include "terms/element_kernels.hpp"
 #include "terms/energy_term.hpp"
 #include "terms/load_spec.hpp"
 
@@ -58,6 +59,11 @@ class LoadTerm : public EnergyTerm {
   int index_;
   LoadRegion region_;
   double factor_;  // its value's factor now: the curve's c(t), 1 without one
+
+  // A dead load (fixed forces, scaled by factor_): forces[k] on local vertex vertices[k] (a vertex
+  // may come several times), E = -sum_k factor_ f_k . (x_k - X_k) and its gradient.
+  void add_dead_load(const std::vector<PetscInt>& vertices, const std::vector<Vec3>& forces,
+                     const std::vector<double>& pos, double* energy, PetscScalar* gradient) const;
 };
 
 }  // namespace hyperqn

@@ -61,6 +61,18 @@ LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec,
   return region;
 }
 
+void LoadTerm::add_dead_load(const std::vector<PetscInt>& vertices, const std::vector<Vec3>& forces,
+                             const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+  double e = *energy;
+  for (size_t k = 0; k < vertices.size(); ++k) {
+    const PetscInt v = vertices[k];
+    const Vec3 f = factor_ * forces[k];
+    e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
+    if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
+  }
+  *energy = e;
+}
+
 std::string LoadTerm::describe() const {
   const bool faces = region_.target == LoadTarget::faces;
   return "loads[" + std::to_string(index_) + "] " + spec_.type + " (deck line " + std::to_string(spec_.line) + ") on " +

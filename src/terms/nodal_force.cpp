@@ -12,23 +12,18 @@ class NodalForce : public LoadTerm {
  public:
   NodalForce(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
       : LoadTerm(mesh, spec, index, std::move(region)) {
-    if (region_.global_count > 0) share_ = Vec3(spec_.vector("force").data()) / (double)region_.global_count;
+    if (region_.global_count > 0)
+      forces_.assign(region_.vertices.size(), Vec3(spec_.vector("force").data()) / (double)region_.global_count);
   }
   PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
-    double e = *energy;
-    const Vec3 f = factor_ * share_;
-    for (PetscInt v : region_.vertices) {
-      e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
-      if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
-    }
-    *energy = e;
+    add_dead_load(region_.vertices, forces_, pos, energy, gradient);
     return 0;
   }
   PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
   bool projective_dynamics_exact() const override { return true; }
 
  private:
-  Vec3 share_ = Vec3::Zero();
+  std::vector<Vec3> forces_;  // f / N on each
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {

@@ -66,23 +66,23 @@ class Pressure : public LoadTerm {
     LoadTerm::begin_step(step);
     if (closed_) return 0;
     const std::vector<double>& pos = *step.start_positions;
+    vertices_.clear();
     forces_.clear();
     for (const auto& f : region_.faces) {
       const Vec3 a(&pos[3 * f[0]]);
-      // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2.
-      forces_.push_back(-factor_ * p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a));
+      // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2; add_dead_load scales it by factor_.
+      const Vec3 share = -p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a);
+      for (PetscInt v : f) {
+        vertices_.push_back(v);
+        forces_.push_back(share);
+      }
     }
     return 0;
   }
   PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
     double e = *energy;
     if (!closed_) {
-      for (size_t k = 0; k < forces_.size(); ++k)
-        for (PetscInt v : region_.faces[k]) {
-          e -= forces_[k].dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
-          if (gradient) add_vertex_vector(mesh_, v, -forces_[k], gradient);
-        }
-      *energy = e;
+      add_dead_load(vertices_, forces_, pos, energy, gradient);
       return 0;
     }
     const double p = factor_ * p_;
@@ -126,7 +126,8 @@ class Pressure : public LoadTerm {
   double p_;
   Vec3 c_;
   bool closed_;
-  std::vector<Vec3> forces_;  // open: each face's force on each of its vertices, from the step's start
+  std::vector<PetscInt> vertices_;  // open: each face's vertices in turn
+  std::vector<Vec3> forces_;        // and the face's force on each, from the step's start
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {
