@@ -448,6 +448,35 @@ std::string hash_mismatch(int k, const DataHash& read, const CheckpointHeader& h
   return std::string(kVertexSets[k]) + ": checksum " + read.hex() + " of the values read, " + stored + " in the header";
 }
 
+// One dataset of `slots` rows of `width` from the file rank 0 holds open (null elsewhere) into each
+// rank's items at rows ids, its checksum checked against `stored` (collective). The first failure
+// goes into error on rank 0; nothing is read once there is one.
+PetscErrorCode read_set(MPI_Comm comm, std::optional<Hdf5File>& file, const std::string& path, const std::string& name,
+                        long long slots, int width, const std::string& stored, const std::vector<int64_t>& ids,
+                        std::vector<double>& values, std::string& error) {
+  int rank;
+  Vec natural;
+  DataHash hash;
+  PetscFunctionBeginUser;
+  MPI_Comm_rank(comm, &rank);
+  PetscCall(create_natural(comm, slots, width, &natural));
+  PetscCall(scatter_rows(comm, natural, width, [&](hsize_t first, hsize_t count, double* data) {
+    if (!error.empty()) return;
+    try {
+      file->read_rows(name, first, count, width, data);
+      hash.add(data, width * count);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  }));
+  if (rank == 0 && error.empty() && hash.hex() != stored)
+    error = "cannot read " + path + ": " + name + ": checksum " + hash.hex() + " of the values read, " + stored +
+            " in the header";
+  PetscCall(from_natural(natural, width, ids, values));
+  PetscCall(VecDestroy(&natural));
+  PetscFunctionReturn(0);
+}
+
 }  // namespace
 
 std::string text_hash(const std::string& text) {
@@ -658,24 +687,8 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
   rows.assign(h.vertex_sets(), {});
   const std::vector<int64_t>& vertex_ids = mesh.vertex_ids;
   for (size_t k = 0; k < rows.size(); ++k) {
-    Vec natural;
-    DataHash hash;
-    PetscCall(create_natural(comm, h.vertex_slots, 3, &natural));
-    PetscCall(scatter_rows(comm, natural, 3, [&](hsize_t first, hsize_t rows, double* data) {
-      if (!error.empty()) return;
-      try {
-        file->read_rows(kVertexSets[k], first, rows, 3, data);
-        hash.add(data, 3 * rows);
-      } catch (const std::exception& e) {
-        error = e.what();
-      }
-    }));
-    if (rank == 0 && error.empty()) {
-      const std::string mismatch = hash_mismatch((int)k, hash, h);
-      if (!mismatch.empty()) error = "cannot read " + path + ": " + mismatch;
-    }
-    PetscCall(from_natural(natural, 3, vertex_ids, rows[k]));
-    PetscCall(VecDestroy(&natural));
+    const std::string stored = k < h.hashes.size() ? h.hashes[k] : "none";
+    PetscCall(read_set(comm, file, path, kVertexSets[k], h.vertex_slots, 3, stored, vertex_ids, rows[k], error));
   }
   file.reset();
   throw_if_any_failed(comm, error);
@@ -710,24 +723,8 @@ PetscErrorCode read_checkpoint_elements(MPI_Comm comm, const std::string& path, 
   }
   for (size_t k = 0; k < elements.size(); ++k) {
     const ElementSetInfo& info = h.element_sets[k];
-    const std::string name = kElementPrefix + info.name;
-    Vec natural;
-    DataHash hash;
-    PetscCall(create_natural(comm, info.slots, info.width, &natural));
-    PetscCall(scatter_rows(comm, natural, info.width, [&](hsize_t first, hsize_t count, double* data) {
-      if (!error.empty()) return;
-      try {
-        file->read_rows(name, first, count, info.width, data);
-        hash.add(data, info.width * count);
-      } catch (const std::exception& e) {
-        error = e.what();
-      }
-    }));
-    if (rank == 0 && error.empty() && hash.hex() != info.hash)
-      error = "cannot read " + path + ": " + name + ": checksum " + hash.hex() + " of the values read, " + info.hash +
-              " in the header";
-    PetscCall(from_natural(natural, info.width, elements[k].ids, elements[k].values));
-    PetscCall(VecDestroy(&natural));
+    PetscCall(read_set(comm, file, path, kElementPrefix + info.name, info.slots, info.width, info.hash, elements[k].ids,
+                       elements[k].values, error));
   }
   file.reset();
   throw_if_any_failed(comm, error);
