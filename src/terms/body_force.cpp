@@ -20,21 +20,15 @@ class BodyForce : public LoadTerm {
     PetscFunctionBeginUser;
     PetscCall(VecGetOwnershipRange(mass, &lo, &hi));
     PetscCall(VecGetArrayRead(mass, &m));
-    forces_.clear();
-    for (PetscInt v : region_.vertices) forces_.push_back(m[mesh_.global_dof[v] - lo] * a_);
+    dead_vertices_ = region_.vertices;
+    dead_forces_.clear();
+    for (PetscInt v : region_.vertices) dead_forces_.push_back(m[mesh_.global_dof[v] - lo] * a_);
     PetscCall(VecRestoreArrayRead(mass, &m));
     PetscFunctionReturn(0);
   }
-  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
-    add_dead_load(region_.vertices, forces_, pos, energy, gradient);
-    return 0;
-  }
-  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
-  bool projective_dynamics_exact() const override { return true; }
 
  private:
   Vec3 a_;
-  std::vector<Vec3> forces_;  // m_v a per vertex of the region
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {

@@ -39,7 +39,10 @@ struct LoadKind {
   LoadBuilder build;
 };
 
-// The part every load's term shares: the region, its name in messages and the check that it selects something.
+// The part every load's term shares: the region, its name in messages, the check that it selects
+// something, its curve, and a dead load: fixed forces on vertices (a kind fills dead_vertices_ and
+// dead_forces_), E = -sum_k c(t) f_k . (x_k - X_k), linear in x (no Hessian, exact for PD). A kind
+// whose load follows x (the closed pressure) overrides the energy.
 class LoadTerm : public EnergyTerm {
  public:
   LoadTerm(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
@@ -52,6 +55,9 @@ class LoadTerm : public EnergyTerm {
   }
   std::string describe() const override;
   PetscErrorCode check_start(const std::vector<double>& pos, InputProblem& out) const override;
+  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
+  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
+  bool projective_dynamics_exact() const override { return true; }
 
  protected:
   const DistributedMesh& mesh_;
@@ -59,11 +65,10 @@ class LoadTerm : public EnergyTerm {
   int index_;
   LoadRegion region_;
   double factor_;  // its value's factor now: the curve's c(t), 1 without one
-
-  // A dead load (fixed forces, scaled by factor_): forces[k] on local vertex vertices[k] (a vertex
-  // may come several times), E = -sum_k factor_ f_k . (x_k - X_k) and its gradient.
-  void add_dead_load(const std::vector<PetscInt>& vertices, const std::vector<Vec3>& forces,
-                     const std::vector<double>& pos, double* energy, PetscScalar* gradient) const;
+  // The dead load: force dead_forces_[k] (times factor_) on local vertex dead_vertices_[k]; a
+  // vertex may come several times.
+  std::vector<PetscInt> dead_vertices_;
+  std::vector<Vec3> dead_forces_;
 };
 
 }  // namespace hyperqn

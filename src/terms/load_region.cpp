@@ -61,16 +61,16 @@ LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec,
   return region;
 }
 
-void LoadTerm::add_dead_load(const std::vector<PetscInt>& vertices, const std::vector<Vec3>& forces,
-                             const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
+PetscErrorCode LoadTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   double e = *energy;
-  for (size_t k = 0; k < vertices.size(); ++k) {
-    const PetscInt v = vertices[k];
-    const Vec3 f = factor_ * forces[k];
+  for (size_t k = 0; k < dead_vertices_.size(); ++k) {
+    const PetscInt v = dead_vertices_[k];
+    const Vec3 f = factor_ * dead_forces_[k];
     e -= f.dot(Vec3(&pos[3 * v]) - Vec3(&mesh_.rest[3 * v]));
     if (gradient) add_vertex_vector(mesh_, v, -f, gradient);
   }
   *energy = e;
+  return 0;
 }
 
 std::string LoadTerm::describe() const {

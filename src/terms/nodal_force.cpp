@@ -12,18 +12,10 @@ class NodalForce : public LoadTerm {
  public:
   NodalForce(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region)
       : LoadTerm(mesh, spec, index, std::move(region)) {
+    dead_vertices_ = region_.vertices;
     if (region_.global_count > 0)
-      forces_.assign(region_.vertices.size(), Vec3(spec_.vector("force").data()) / (double)region_.global_count);
+      dead_forces_.assign(region_.vertices.size(), Vec3(spec_.vector("force").data()) / (double)region_.global_count);
   }
-  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
-    add_dead_load(region_.vertices, forces_, pos, energy, gradient);
-    return 0;
-  }
-  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
-  bool projective_dynamics_exact() const override { return true; }
-
- private:
-  std::vector<Vec3> forces_;  // f / N on each
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {

@@ -66,25 +66,22 @@ class Pressure : public LoadTerm {
     LoadTerm::begin_step(step);
     if (closed_) return 0;
     const std::vector<double>& pos = *step.start_positions;
-    vertices_.clear();
-    forces_.clear();
+    dead_vertices_.clear();
+    dead_forces_.clear();
     for (const auto& f : region_.faces) {
       const Vec3 a(&pos[3 * f[0]]);
-      // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2; add_dead_load scales it by factor_.
+      // -p n A / 3 per vertex: n A = (b - a) x (d - a) / 2; the dead load scales it by factor_.
       const Vec3 share = -p_ / 6 * (Vec3(&pos[3 * f[1]]) - a).cross(Vec3(&pos[3 * f[2]]) - a);
       for (PetscInt v : f) {
-        vertices_.push_back(v);
-        forces_.push_back(share);
+        dead_vertices_.push_back(v);
+        dead_forces_.push_back(share);
       }
     }
     return 0;
   }
-  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
+  PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
+    if (!closed_) return LoadTerm::add_energy(x, pos, energy, gradient);
     double e = *energy;
-    if (!closed_) {
-      add_dead_load(vertices_, forces_, pos, energy, gradient);
-      return 0;
-    }
     const double p = factor_ * p_;
     for (const auto& f : region_.faces) {
       const Vec3 a = Vec3(&pos[3 * f[0]]) - c_, b = Vec3(&pos[3 * f[1]]) - c_, d = Vec3(&pos[3 * f[2]]) - c_;
@@ -126,8 +123,6 @@ class Pressure : public LoadTerm {
   double p_;
   Vec3 c_;
   bool closed_;
-  std::vector<PetscInt> vertices_;  // open: each face's vertices in turn
-  std::vector<Vec3> forces_;        // and the face's force on each, from the step's start
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {

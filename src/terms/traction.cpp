@@ -15,22 +15,12 @@ class Traction : public LoadTerm {
     const Vec3 t(spec_.vector("traction").data());
     for (const auto& f : region_.faces) {
       const Vec3 force = triangle_area(mesh_.rest.data(), f.data()) / 3 * t;
-      for (PetscInt v : f) {
-        vertices_.push_back(v);
-        forces_.push_back(force);
+      for (PetscInt v : f) {  // each face's vertices in turn, with the face's force on it
+        dead_vertices_.push_back(v);
+        dead_forces_.push_back(force);
       }
     }
   }
-  PetscErrorCode add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override {
-    add_dead_load(vertices_, forces_, pos, energy, gradient);
-    return 0;
-  }
-  PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
-  bool projective_dynamics_exact() const override { return true; }
-
- private:
-  std::vector<PetscInt> vertices_;  // each face's vertices in turn
-  std::vector<Vec3> forces_;        // the face's force on it
 };
 
 std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& spec, int index, LoadRegion region) {
