@@ -448,6 +448,19 @@ std::string hash_mismatch(int k, const DataHash& read, const CheckpointHeader& h
   return std::string(kVertexSets[k]) + ": checksum " + read.hex() + " of the values read, " + stored + " in the header";
 }
 
+// The checkpoint file, opened on rank 0 alone (empty elsewhere, and where it cannot be opened: then
+// error says why).
+std::optional<Hdf5File> open_on_rank0(int rank, const std::string& path, std::string& error) {
+  std::optional<Hdf5File> file;
+  if (rank != 0) return file;
+  try {
+    file.emplace(Hdf5File::open(path));
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  return file;
+}
+
 // One dataset of `slots` rows of `width` from the file rank 0 holds open (null elsewhere) into each
 // rank's items at rows ids, its checksum checked against `stored` (collective). The first failure
 // goes into error on rank 0; nothing is read once there is one.
@@ -676,14 +689,7 @@ PetscErrorCode read_checkpoint_vertices(MPI_Comm comm, const std::string& path, 
   PetscFunctionBeginUser;
   MPI_Comm_rank(comm, &rank);
   std::string error;
-  std::optional<Hdf5File> file;
-  if (rank == 0) {
-    try {
-      file.emplace(Hdf5File::open(path));
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
+  std::optional<Hdf5File> file = open_on_rank0(rank, path, error);
   rows.assign(h.vertex_sets(), {});
   const std::vector<int64_t>& vertex_ids = mesh.vertex_ids;
   for (size_t k = 0; k < rows.size(); ++k) {
@@ -713,14 +719,7 @@ PetscErrorCode read_checkpoint_elements(MPI_Comm comm, const std::string& path, 
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &beyond, 1, MPI_INT, MPI_LOR, comm));
   if (beyond) error = "cannot read " + path + ": the scene has elements beyond its element state's rows";
   throw_if_any_failed(comm, error);
-  std::optional<Hdf5File> file;
-  if (rank == 0) {
-    try {
-      file.emplace(Hdf5File::open(path));
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
+  std::optional<Hdf5File> file = open_on_rank0(rank, path, error);
   for (size_t k = 0; k < elements.size(); ++k) {
     const ElementSetInfo& info = h.element_sets[k];
     PetscCall(read_set(comm, file, path, kElementPrefix + info.name, info.slots, info.width, info.hash, elements[k].ids,

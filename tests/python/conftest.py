@@ -1,5 +1,6 @@
 """Shared helpers for the end-to-end tests: where the binary is, and how to run it under MPI.
 Running and deck writing are those of postprocess/hyperqn_tools (on PYTHONPATH; ctest sets it)."""
+import json
 import os
 import re
 
@@ -45,6 +46,17 @@ NO_FALLBACK = {"max_iterations": 0, "max_halvings": 0, "newton_fallback": False}
 # elements (docs/guardrails.md#element-blow-up-and-inversion): for the tests of run-aways that
 # the pulled-back guess would avoid.
 FROM_Y = {"upright_guess": False}
+
+
+def run_deck(tmp_path, name, deck, ranks=None, extra=()):
+    """Writes deck to tmp_path/NAME.yaml, runs it into tmp_path/NAME (with the extra arguments) and
+    returns that directory and its summary.json; the run must end with status ok."""
+    out = tmp_path / name
+    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out, *extra], ranks=ranks)
+    with open(out / "summary.json") as f:
+        summary = json.load(f)
+    assert summary["status"] == "ok", proc.stdout[-3000:]
+    return out, summary
 
 
 def write_deck(path, deck):

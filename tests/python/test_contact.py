@@ -22,7 +22,7 @@ import os
 import numpy as np
 import pytest
 
-from conftest import REPO, load_deck, run_hyperqn, write_deck
+from conftest import REPO, load_deck, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import final_frame, read_contact, read_frames, read_iterations, read_summary
 
 G = 9.81
@@ -32,10 +32,8 @@ DOWN_SLOPE = np.array([-COS30, -SIN30, 0.0])
 
 def run(tmp_path, name, deck, ranks=None):
     """Runs the deck and returns its output directory; the run must end ok."""
-    out = tmp_path / name
-    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out], ranks=ranks)
-    s = read_summary(out)
-    assert s["status"] == "ok" and s["failed_frames"] == 0, proc.stdout[-3000:]
+    out, s = run_deck(tmp_path, name, deck, ranks)
+    assert s["failed_frames"] == 0
     return out
 
 

@@ -18,9 +18,9 @@ import os
 import numpy as np
 import pytest
 
-from conftest import run_hyperqn, write_deck
+from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
-from hyperqn_tools.output import final_frame, read_frames, read_summary
+from hyperqn_tools.output import final_frame, read_frames
 from test_checkpoint import assert_same_run, interrupted_then_restarted
 from test_checkpoint import run as run_to
 
@@ -45,10 +45,8 @@ def table_value(t):
 
 
 def run(tmp_path, name, deck, ranks=None):
-    out = tmp_path / name
-    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out], ranks=ranks)
-    s = read_summary(out)
-    assert s["status"] == "ok" and s["failed_frames"] == 0, proc.stdout[-3000:]
+    out, s = run_deck(tmp_path, name, deck, ranks)
+    assert s["failed_frames"] == 0
     return out
 
 

@@ -20,7 +20,7 @@ import os
 import numpy as np
 import pytest
 
-from conftest import run_hyperqn, write_deck
+from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import Frame, read_pvd, read_summary
 
 RHO, G = 1000.0, np.array([0.0, -9.81, 0.0])
@@ -45,10 +45,8 @@ def bar(**extra):
 
 
 def run(tmp_path, name, deck, ranks=None, extra=()):
-    out = tmp_path / name
-    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out, *extra], ranks=ranks)
-    s = read_summary(out)
-    assert s["status"] == "ok" and s["failed_frames"] == 0 and s["substepped_frames"] == 0, proc.stdout[-2000:]
+    out, s = run_deck(tmp_path, name, deck, ranks, extra)
+    assert s["failed_frames"] == 0 and s["substepped_frames"] == 0
     return out
 
 

@@ -20,7 +20,7 @@ import os
 import numpy as np
 import pytest
 
-from conftest import load_deck, run_hyperqn, write_deck
+from conftest import load_deck, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import final_frame, read_summary
 from hyperqn_tools.paths import REPO
@@ -31,11 +31,7 @@ END = {"min": [3.99, -0.01, -0.01], "max": [4.01, 1.01, 1.01]}
 
 
 def run(tmp_path, name, deck, ranks=1):
-    out = tmp_path / name
-    run_hyperqn([write_deck(tmp_path / f"{name}.yaml", deck), "-o", out], ranks=ranks)
-    summary = read_summary(out)
-    assert summary["status"] == "ok", summary["status"]
-    return out
+    return run_deck(tmp_path, name, deck, ranks)[0]
 
 
 def test_damped_dynamics_settles_at_the_static_answer(tmp_path):
