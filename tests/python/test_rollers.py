@@ -93,7 +93,7 @@ def hanging(motion=None, **extra):
         "mesh": {"box": {"size": list(SIZE), "cells": [6, 2, 2]}},
         "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": RHO},
         "fixed": [end],
-        "gravity": list(G),
+        "gravity": [float(g) for g in G],
         "time": {"dt": 0.02, "frames": 6},
         "solver": {"type": "newton", "iterations": 50, "grad_rtol": 1e-13, "grad_atol": 0},
         "output": {"every": 1, "reactions": True},
@@ -124,7 +124,7 @@ def test_held_components_never_move(tmp_path):
 
 def test_a_moving_roller_moves_its_held_components(tmp_path):
     velocity = np.array([0.5, 0.25, 7.0])  # z is not held: its part of the motion does nothing
-    out, _ = run_deck(tmp_path, "moving", hanging({"translate": {"velocity": list(velocity)}}))
+    out, _ = run_deck(tmp_path, "moving", hanging({"translate": {"velocity": [float(v) for v in velocity]}}))
     for n, frame in read_frames(out):
         X, end = held_end(frame)
         t = 0.02 * n
@@ -172,7 +172,7 @@ def with_fixed(change):
 
 
 BAD = {
-    "unknown_component": (lambda d: d["fixed"][0].update(components=["x", "w"]), ["'fixed[0].components'", "w"]),
+    "unknown_component": (lambda d: d["fixed"][0].update(components=["x", "w"]), ["'fixed[0].components[1]'", "unknown value 'w'"]),
     "repeated_component": (lambda d: d["fixed"][0].update(components=["y", "x", "y"]),
                            ["'fixed[0].components'", "names y twice"]),
     "no_component": (lambda d: d["fixed"][0].update(components=[]), ["'fixed[0].components'", "non-empty"]),
