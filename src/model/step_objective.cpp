@@ -129,7 +129,13 @@ PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
   if (warm_start_ == WarmStart::lower) {
     PetscReal g_y, g_n;
     PetscCall(objective(x, &g_y, nullptr));
-    PetscCall(objective(from, &g_n, nullptr));
+    Vec at_n = from;
+    if (body_.holds_components()) {  // x_n with its held slots where y has them: no inertia there in g
+      PetscCall(VecCopy(from, work_));
+      PetscCall(body_.hold(work_));
+      at_n = work_;
+    }
+    PetscCall(objective(at_n, &g_n, nullptr));
     if (!rejected(g_n) && g_n < g_y) PetscCall(VecCopy(from, x));
   }
   PetscFunctionReturn(0);
