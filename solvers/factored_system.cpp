@@ -91,8 +91,8 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PC pc;
   PetscBool preonly, mg;
   PetscFunctionBeginUser;
-  PetscCheck(kind_ == ConstantMatrix::laplacian, PETSC_COMM_SELF, PETSC_ERR_SUP,
-             "solver.h0: amg applies M + h^2 L only");
+  PetscCheck(components_ == 1, PETSC_COMM_SELF, PETSC_ERR_SUP,
+             "solver.h0: amg applies M + h^2 L only, without rollers");
   PetscCall(KSPCreate(PetscObjectComm((PetscObject)A_), &ksp_));
   PetscCall(KSPSetOptionsPrefix(ksp_, "h0_"));
   PetscCall(KSPSetOperators(ksp_, A_, A_));
@@ -188,7 +188,7 @@ PetscErrorCode FactoredSystem::factor_split(Mat A, CholeskyAnalysis* analysis) {
   SplitCholesky::Status status;
   PetscFunctionBeginUser;
   split_ = std::make_unique<SplitCholesky>();
-  PetscCall(split_->factor(A, kind_ == ConstantMatrix::laplacian ? 3 : 1, &status, analysis));
+  PetscCall(split_->factor(A, components_ == 1 ? 3 : 1, &status, analysis));
   if (status != SplitCholesky::Status::ok) split_.reset();
   if (status == SplitCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
   PetscCheck(status != SplitCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
@@ -248,8 +248,10 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
                                      Vec extra_diagonal) {
   PetscFunctionBeginUser;
   kind_ = kind;
+  // Rollers' identity rows break A = A1 (x) I3: the full matrix (Objective::holds_components).
+  components_ = kind == ConstantMatrix::laplacian && !step.holds_components() ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
-  PetscCall(step.assemble_constant_matrix(&A_, kind == ConstantMatrix::laplacian ? 1 : 3, kind));
+  PetscCall(step.assemble_constant_matrix(&A_, components_, kind));
   PetscCall(add_diagonal(extra_diagonal));
   PetscCall(event_end(&LogEvents::h0_assembly));
   PetscCall(factor_assembled(package));
@@ -259,6 +261,7 @@ PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind,
 PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diagonal, CholeskyAnalysis* analysis) {
   PetscFunctionBeginUser;
   kind_ = base.kind_;
+  components_ = base.components_;
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(MatDuplicate(base.A_, MAT_COPY_VALUES, &A_));  // the values setup(step, ...) would assemble
   PetscCall(MatSetOption(A_, MAT_SPD, PETSC_TRUE));
@@ -270,7 +273,7 @@ PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diago
 
 PetscErrorCode FactoredSystem::diagonal(Vec d) const {
   PetscFunctionBeginUser;
-  if (kind_ != ConstantMatrix::laplacian) {
+  if (components_ == 3) {
     PetscCall(MatGetDiagonal(A_, d));
     PetscFunctionReturn(0);
   }
@@ -315,13 +318,13 @@ PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components) {
 
 PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionBeginUser;
-  if (extra_diagonal) PetscCall(add_dof_diagonal(A_, extra_diagonal, kind_ == ConstantMatrix::laplacian ? 1 : 3));
+  if (extra_diagonal) PetscCall(add_dof_diagonal(A_, extra_diagonal, components_));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyAnalysis* analysis) {
   PetscInt n, N, m, M;
-  const int components = kind_ == ConstantMatrix::laplacian ? 1 : 3;
+  const int components = components_;
   PetscFunctionBeginUser;
   // -hyperqn_h0_matrix_view binary:A1.bin: the matrix, e.g. for bench/mumps_repro.cpp.
   PetscCall(MatViewFromOptions(A_, nullptr, "-hyperqn_h0_matrix_view"));
@@ -452,14 +455,14 @@ PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
     if (split_)  // this rank's rows, every rank
       PetscCall(split_->solve(in, out));
     else
-      supernodal_->solve(kind_ == ConstantMatrix::laplacian ? 3 : 1, in, out);
+      supernodal_->solve(components_ == 1 ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
   } else if (interleaved_) {
     PetscCall(interleaved_->apply(b, x));
   } else if (ksp_) {  // one V-cycle per column x, y, z
     PetscCall(solve_by_columns(b, x));
-  } else if (kind_ == ConstantMatrix::laplacian) {
+  } else if (components_ == 1) {
     Mat rhs = rhs0_ ? rhs0_ : rhs_, sol = sol0_ ? sol0_ : sol_;
     PetscCall(copy_columns(b, rhs, true));
     PetscCall(MatMatSolve(factor_, rhs, sol));
@@ -495,7 +498,7 @@ PetscErrorCode FactoredSystem::solve_by_columns(Vec b, Vec x) const {
 
 PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
   PetscFunctionBeginUser;
-  if (kind_ == ConstantMatrix::rest_stiffness) {
+  if (components_ == 3) {
     PetscCall(MatMult(A_, x, y));
     PetscFunctionReturn(0);
   }

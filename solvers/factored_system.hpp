@@ -6,7 +6,8 @@
 // A1 = M1 + h^2 L1 is factored, and A^{-1} b is one solve with A1 for the three right-hand
 // sides b_x, b_y, b_z: a third of the unknowns and a ninth of the nonzeros of A.
 // A = M + h^2 K(x_rest) couples x, y and z: the full 3n x 3n matrix is factored and applied to b
-// as one vector.
+// as one vector. So is M + h^2 L in a scene with rollers (model/body.hpp hold): its held rows and
+// columns are the identity's, which A1 (x) I3 cannot say.
 //
 // FactorPackage::amg factors nothing: A1^{-1} is replaced by one algebraic multigrid V-cycle of A1
 // (solver.h0: amg), a fixed symmetric positive definite operator, set up once and kept distributed.
@@ -130,6 +131,7 @@ class FactoredSystem {
   PetscErrorCode copy_columns(Vec v, Mat cols, bool to_columns) const;
 
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
+  int components_ = 1;  // A_'s: 1 for A1 of A = A1 (x) I3 (the Laplacian's), 3 for the full A (rest stiffness, rollers)
   FactorPackage package_ = FactorPackage::mumps;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal

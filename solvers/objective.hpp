@@ -72,6 +72,9 @@ class Objective {
   // possibly indefinite Hessian of g). Flags H SPD (or only symmetric if exact).
   virtual PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact) = 0;
 
+  // True if some dofs are held (rollers, model/body.hpp): g's gradient is 0 there and the constant
+  // matrix (assembled with 3 components) and the Hessian have identity rows and columns there.
+  virtual bool holds_components() const { return false; }
   // True if every energy term is a Projective Dynamics energy with its own L (PD is then exact).
   virtual bool projective_dynamics_exact() const = 0;
   // The energy terms' names, for messages, e.g. "corotated, strand".

@@ -157,6 +157,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   apply_contact_solver_defaults(r, s.find("solver"), deck);
+  apply_roller_solver_rules(r, s.find("solver"), deck);
   if (const Value* x = s.find("guardrails")) read_guardrails(r, *x, deck.guardrails);
   if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);

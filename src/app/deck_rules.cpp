@@ -64,4 +64,18 @@ void apply_contact_solver_defaults(const Reader& r, const Value* solver, Deck& d
   }
 }
 
+void apply_roller_solver_rules(const Reader& r, const Value* solver, Deck& deck) {
+  const auto roller = std::find_if(deck.fixed.begin(), deck.fixed.end(), is_roller);
+  if (roller == deck.fixed.end()) return;
+  const std::string where = "the fixed region with components at line " + std::to_string(roller->components_line);
+  if (deck.solver.h0 == H0::amg)
+    r.fail(*Section(r, *solver, {}).find("h0"),
+           "amg is one V-cycle of M + h^2 L for x, y and z alike, and " + where +
+               " holds some components only: use laplacian or rest-stiffness (factored, with the held rows the identity's)");
+  if (deck.solver.h0 == H0::automatic) {
+    deck.solver.h0 = H0::laplacian;
+    deck.rule_sources["solver.h0"] = "rollers (fixed: components)";
+  }
+}
+
 }  // namespace hyperqn::deck_reading

@@ -24,4 +24,9 @@ void check_study_integrators_take_contact(const Reader& r, const Value& study, c
 // recorded in deck.rule_sources. solver: the deck's solver section, if any.
 void apply_contact_solver_defaults(const Reader& r, const Value* solver, Deck& deck);
 
+// Rollers (a fixed region with `components`, model/regions.hpp): lbfgs's H0 is a factor whose held
+// rows are the identity's, which one V-cycle of A1 cannot be: solver.h0: amg is an error, and an
+// automatic h0 is the Laplacian's factor (recorded in deck.rule_sources). solver: as above.
+void apply_roller_solver_rules(const Reader& r, const Value* solver, Deck& deck);
+
 }  // namespace hyperqn::deck_reading

@@ -295,6 +295,12 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, 
     b.line = item.line;
     b.body = body;
     if (const Value* x = s.find("motion")) b.motion = read_motion(r, *x);
+    if (const Value* x = s.find("components")) {
+      b.components_line = x->line;
+      for (size_t i = 0; i < b.components.size(); ++i)
+        if (std::count(b.components.begin(), b.components.begin() + i, b.components[i]))
+          r.fail(*x, "names " + b.components[i] + " twice: each component is held once");
+    }
     fixed.push_back(b);
   }
 }

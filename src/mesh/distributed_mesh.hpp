@@ -40,6 +40,10 @@ struct DistributedMesh {
   int num_bodies = 0;                // a scene of bodies (deck bodies:); 0: one body
   std::vector<int32_t> vertex_body;  // per local vertex: its body (model/regions.hpp vertex_bodies; empty: one body)
   std::vector<int32_t> fixed;        // per local vertex: 0 if free, k + 1 if fixed by region k
+  // 3 per local vertex: k + 1 if region k holds that component of the free vertex (a roller,
+  // model/regions.hpp select_held_components), else 0. Empty: no roller in the scene.
+  std::vector<int32_t> held;
+  bool rollers = false;              // held is not empty on some rank: every rank alike
   std::vector<int32_t> cell_material;  // per local tet: 0 default material, k + 1 region k
   std::vector<char> owned;           // per local vertex: 1 if this rank owns it (not a ghost)
   std::vector<PetscInt> local_dof;   // per local vertex: offset of its x dof in the local Vec, -1 if fixed

@@ -22,6 +22,21 @@ Body::Body(const DistributedMesh& mesh, std::vector<std::unique_ptr<EnergyTerm>>
     rest_measure_.push_back(edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant());
   for (PetscInt t = 0; t < mesh.num_triangles; ++t)
     rest_measure_.push_back(triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]));
+  if (!mesh.rollers) return;
+  Vec layout;
+  PetscInt start;
+  DMGetGlobalVector(mesh.dm, &layout);
+  VecGetOwnershipRange(layout, &start, nullptr);
+  DMRestoreGlobalVector(mesh.dm, &layout);
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+    for (int d = 0; d < 3; ++d) {
+      if (mesh.held[3 * v + d] == 0) continue;
+      held_local_.push_back(3 * v + d);
+      if (!mesh.owned[v]) continue;
+      held_rows_.push_back(mesh.global_dof[v] + d);
+      held_at_.push_back(mesh.global_dof[v] + d - start);
+      held_entry_.push_back(3 * v + d);
+    }
 }
 
 bool Body::projective_dynamics_exact() const {
@@ -42,6 +57,40 @@ const Motion* Body::prescribed_motion(PetscInt v) const {
   return &fixed_regions_[region - 1].motion;
 }
 
+const Motion* Body::region_motion(int32_t region) const {
+  if (region == 0 || region > (int32_t)fixed_regions_.size() || !fixed_regions_[region - 1].motion.active) return nullptr;
+  return &fixed_regions_[region - 1].motion;
+}
+
+PetscErrorCode Body::hold(Vec x) const {
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  if (!mesh_.rollers) PetscFunctionReturn(0);
+  PetscCall(VecGetArray(x, &a));
+  for (size_t i = 0; i < held_at_.size(); ++i) a[held_at_[i]] = fixed_pos_[held_entry_[i]];
+  PetscCall(VecRestoreArray(x, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::zero_held(Vec g) const {
+  PetscScalar* a;
+  PetscFunctionBeginUser;
+  if (!mesh_.rollers) PetscFunctionReturn(0);
+  PetscCall(VecGetArray(g, &a));
+  for (PetscInt i : held_at_) a[i] = 0;
+  PetscCall(VecRestoreArray(g, &a));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode Body::identity_at_held(Mat M) const {
+  PetscFunctionBeginUser;
+  if (!mesh_.rollers) PetscFunctionReturn(0);
+  // Keeps the pattern (zeros stay stored): a factorization's symbolic analysis does not change.
+  PetscCall(MatSetOption(M, MAT_KEEP_NONZERO_PATTERN, PETSC_TRUE));
+  PetscCall(MatZeroRowsColumns(M, (PetscInt)held_rows_.size(), held_rows_.data(), 1.0, nullptr, nullptr));
+  PetscFunctionReturn(0);
+}
+
 void Body::set_time(double t) {
   if (t == time_) return;  // the velocities stay those of the step that reached t
   const double dt = t - time_;
@@ -54,6 +103,13 @@ void Body::set_time(double t) {
       fixed_vel_[3 * v + d] = dt > 0 ? (p[d] - fixed_pos_[3 * v + d]) / dt : 0.0;
       fixed_pos_[3 * v + d] = p[d];
     }
+  }
+  for (PetscInt e : held_local_) {  // a roller's held components follow its motion
+    const Motion* motion = region_motion(mesh_.held[e]);
+    if (!motion) continue;
+    const double p = moved(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), t)[e % 3];
+    fixed_vel_[e] = dt > 0 ? (p - fixed_pos_[e]) / dt : 0.0;
+    fixed_pos_[e] = p;
   }
   time_ = t;
 }
@@ -80,6 +136,12 @@ void Body::prescribed_state(double t, std::vector<double>& pos, std::vector<doub
       vel[3 * v + d] = u[d];
     }
   }
+  for (PetscInt e : held_local_) {
+    const Vec3 X(&mesh_.rest[3 * (e / 3)]);
+    const Motion* motion = region_motion(mesh_.held[e]);
+    pos[e] = motion ? moved(*motion, X, t)[e % 3] : X[e % 3];
+    vel[e] = motion ? velocity_at(*motion, X, t)[e % 3] : 0.0;
+  }
 }
 
 PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std::vector<double>& vel, Vec x, Vec v) {
@@ -91,6 +153,10 @@ PetscErrorCode Body::resume(double t, const std::vector<double>& pos, const std:
       fixed_pos_[3 * i + d] = pos[3 * i + d];
       fixed_vel_[3 * i + d] = vel[3 * i + d];
     }
+  }
+  for (PetscInt e : held_local_) {
+    fixed_pos_[e] = pos[e];
+    fixed_vel_[e] = vel[e];
   }
   PetscCall(free_values(pos, x));
   PetscCall(free_values(vel, v));
@@ -133,6 +199,9 @@ PetscErrorCode Body::begin_step(const StepStart& step) {
         const Vec3 p = moved(*motion, Vec3(&mesh_.rest[3 * v]), step.t_start);
         for (int d = 0; d < 3; ++d) step_start_[3 * v + d] = p[d];
       }
+    for (PetscInt e : held_local_)
+      if (const Motion* motion = region_motion(mesh_.held[e]))
+        step_start_[e] = moved(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), step.t_start)[e % 3];
     full.start_positions = &step_start_;
     full.positions = &step_positions_;
   }
@@ -159,6 +228,7 @@ PetscErrorCode Body::scatter_to_local(Vec global, const std::vector<double>& fix
 PetscErrorCode Body::local_positions(Vec x, std::vector<double>& pos) const {
   PetscFunctionBeginUser;
   PetscCall(scatter_to_local(x, fixed_pos_, pos));
+  for (PetscInt e : held_local_) pos[e] = fixed_pos_[e];
   PetscFunctionReturn(0);
 }
 
@@ -329,6 +399,15 @@ PetscErrorCode Body::vertex_stiffness(Vec x, PetscReal scale, std::vector<Vertex
   PetscCall(local_positions(x, pos_));
   for (const auto& term : terms_) PetscCall(term->add_vertex_stiffness(pos_, blocks));
   std::stable_sort(blocks.begin(), blocks.end(), [](const VertexStiffness& a, const VertexStiffness& b) { return a.dof < b.dof; });
+  if (mesh_.rollers) {  // no stiffness at a held slot: H0's update keeps its identity row (ContactH0)
+    std::unordered_map<PetscInt, int> held;  // global x dof -> held components' bits
+    for (PetscInt e : held_local_) held[mesh_.global_dof[e / 3]] |= 1 << (e % 3);
+    for (VertexStiffness& b : blocks)
+      if (const auto it = held.find(b.dof); it != held.end())
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            if (it->second & (1 << i | 1 << j)) b.K[3 * i + j] = 0;
+  }
   out.clear();
   for (const VertexStiffness& b : blocks) {
     if (out.empty() || out.back().dof != b.dof) {

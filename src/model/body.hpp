@@ -73,8 +73,24 @@ class Body {
   // the same name, element by element through the global ids.
   void carry_element_states(const Body& from);
 
-  // Local positions of all local vertices (3 each): free ones from the global vector x, fixed
-  // ones from their prescribed positions.
+  // Rollers (fixed regions with `components`, model/regions.hpp select_held_components): a held
+  // component of a free vertex keeps its slot in the global vector, and that slot holds the
+  // prescribed value (hold, wherever a step's target, guess or state is formed); its gradient is 0
+  // (zero_held) and the constant matrices and Hessians have identity rows and columns there
+  // (held_rows), so no solver moves it. Without rollers (every rank alike) none of this runs.
+  bool holds_components() const { return mesh_.rollers; }
+  // x's held slots = their prescribed positions at the body's time (set_time).
+  PetscErrorCode hold(Vec x) const;
+  // g's held slots = 0.
+  PetscErrorCode zero_held(Vec g) const;
+  // The global rows of this rank's held slots.
+  const std::vector<PetscInt>& held_rows() const { return held_rows_; }
+  // M's rows and columns at the held slots replaced by the identity's (M assembled, square, in the
+  // dof layout; collective). Nothing without rollers.
+  PetscErrorCode identity_at_held(Mat M) const;
+
+  // Local positions of all local vertices (3 each): free ones from the global vector x (a held
+  // component: its prescribed position), fixed ones from their prescribed positions.
   PetscErrorCode local_positions(Vec x, std::vector<double>& pos) const;
   // The free vertices' entries of local values (3 per local vertex) into the global vector of free
   // dofs: the inverse of local_values.
@@ -125,6 +141,8 @@ class Body {
  private:
   // The motion of local vertex v if it is fixed by a region that moves, else null.
   const Motion* prescribed_motion(PetscInt v) const;
+  // The motion of fixed region `region` (k + 1) if it moves, else null.
+  const Motion* region_motion(int32_t region) const;
   // out = fixed_values, then the free vertices' entries overwritten from the global vector.
   PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
 
@@ -141,6 +159,9 @@ class Body {
   std::vector<double> rest_measure_;  // per local tet det Dm, then per triangle its rest area: J's denominators
   mutable std::vector<double> zeros_;  // work: 0 at every local vertex (local_values)
   std::vector<double> step_start_, step_positions_;  // begin_step's StepStart::start_positions, positions
+  // Rollers: every local held component as its entry 3 v + d of the local arrays (ghosts too), and
+  // this rank's held slots as global rows, as indices into its part of a global vector, and as local entries.
+  std::vector<PetscInt> held_local_, held_rows_, held_at_, held_entry_;
 };
 
 }  // namespace hyperqn

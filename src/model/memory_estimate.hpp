@@ -42,7 +42,8 @@ struct MemoryPlan {
 // constant matrix (gathered to rank 0, or by AMG), again for every sub-step size of the fallback
 // chain, and Newton's Hessian with linear_solver mumps, as the solver or as the chain's last stage.
 // Counted whether or not the chain will need them: once made, they stay for the rest of the run.
-MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_factor_package());
+// rollers: the deck has a fixed region with `components` (the constant matrix is then factored whole).
+MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_factor_package(), bool rollers = false);
 
 // The plan for this mesh: solver.h0: auto, the split factor and linear_solver: auto resolved as
 // the run will (resolved_h0, choose_factor_package with the interface of interface_vertices,

@@ -131,6 +131,16 @@ PetscErrorCode Reactions::end_frame(const State& s, std::vector<SupportForce>& o
     }
     add_force(Vec3(&pos_[3 * v]), r, points[k - 1], &local[6 * (k - 1)]);
   }
+  // A roller's held component: the same residual, in that component only (its free ones are solved).
+  if (mesh.rollers)
+    for (PetscInt i = 0; i < 3 * mesh.num_vertices; ++i) {
+      const int32_t k = mesh.held[i];
+      if (k <= 0 || (size_t)k > fixed) continue;
+      const int d = (int)(i % 3);
+      Vec3 r = Vec3::Zero();
+      r[d] = grad_[i] + mass_[i] * ((vel_[i] - vel_start_[i]) / h - g[d]);
+      add_force(Vec3(&pos_[i - d]), r, points[k - 1], &local[6 * (k - 1)]);
+    }
   for (size_t a = 0; a < attached_.size(); ++a) {
     const AttachmentSpec& spec = spec_.attachments[a];
     for (PetscInt v : attached_[a]) {  // the spring's pull on the body: -dE/dx_i

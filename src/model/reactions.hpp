@@ -12,6 +12,9 @@
 // The loads on faces are evaluated there too (their share at a fixed vertex is a force on the
 // support: r_i takes -f_i); loads on vertices act on free vertices only. An attachment's force is
 // -k (x_i - p_i(t)) summed over its springs.
+// A roller's vertex (a fixed region with `components`) is free but for its held components, whose
+// slots the solvers leave alone: r_i is the same residual in those components and 0 in the others.
+// Not yet: a vertex load, an attachment or contact acting at a held component is not counted.
 // Not yet: a term's ElementState (a material with history; none so far) starts afresh in the
 // second build and is not moved with the steps.
 #pragma once

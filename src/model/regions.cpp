@@ -83,6 +83,37 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
   return selected;
 }
 
+int held_components(const BoxRegion& region) {
+  if (region.components.empty()) return 7;
+  int bits = 0;
+  for (const std::string& c : region.components) bits |= 1 << (c[0] - 'x');
+  return bits;
+}
+
+void fixed_of_held(const std::vector<int32_t>& held, std::vector<int32_t>& fixed) {
+  for (size_t v = 0; v < fixed.size(); ++v) {
+    const int32_t* h = &held[3 * v];
+    fixed[v] = h[0] == h[1] && h[1] == h[2] ? h[0] : 0;  // one region holds all three: a fixed vertex
+  }
+}
+
+std::vector<int32_t> select_held_components(const TetMesh& mesh, const std::vector<BoxRegion>& boxes, double tol,
+                                            std::vector<int32_t>& fixed, const std::vector<int32_t>& vertex_body) {
+  if (std::none_of(boxes.begin(), boxes.end(), is_roller)) return {};
+  std::vector<int32_t> held(3 * mesh.num_vertices(), 0);
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
+    if (fixed[v] == 0) continue;  // in no box
+    for (size_t b = 0; b < boxes.size(); ++b)
+      if (selects(boxes[b], &mesh.coords[3 * v], v, vertex_body, tol)) {
+        const int bits = held_components(boxes[b]);
+        for (int d = 0; d < 3; ++d)
+          if (bits & (1 << d)) held[3 * v + d] = (int32_t)b + 1;
+      }
+  }
+  fixed_of_held(held, fixed);
+  return held;
+}
+
 std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path, const std::vector<int32_t>& vertex_body) {
   return select_vertices(comm, mesh, boxes, deck_path, "fixed", vertex_body);

@@ -28,7 +28,14 @@ struct BoxRegion {
                                      // attachments: the springs are gone (LiveScene::release_due)
   int body = -1;                     // fixed regions and attachments: only the vertices of this body
                                      // (bodies[body].fixed, bodies[body].attachments; -1: any)
+  std::vector<std::string> components;  // fixed regions: the components held, "x", "y", "z" (empty: all three)
+  int components_line = 0;              // its deck line
 };
+
+// The components a fixed region holds as bits (1: x, 2: y, 4: z); 7 for all three (no `components`).
+int held_components(const BoxRegion& region);
+// Whether a fixed region holds only some components (a roller, a symmetry plane).
+inline bool is_roller(const BoxRegion& region) { return held_components(region) != 7; }
 
 // The keys box, box.min and box.max of a deck section whose box is box(spec) (params/deck_keys.hpp).
 // The section's reader checks min <= max.
@@ -49,6 +56,11 @@ inline const std::vector<DeckKey<BoxRegion>>& fixed_keys() {
         +[](B& b) -> B& { return b; }, "the vertices fixed: those in this axis-aligned box, inclusive", true);
     k.push_back(custom_key<B>("motion", "map: [`motion`](#motion)",
                               "how the region moves; the vertices follow it until `release`", "none (at rest)"));
+    k.push_back({"components", &B::components,
+                 "the components held, each once (e.g. `[z]`: a frictionless floor, `[x]`: a symmetry plane x = const): "
+                 "they follow `motion`, the others are free; a vertex held in all three by one region is fixed "
+                 "([loads.md](loads.md#rollers-components-of-fixed))",
+                 {}, {"x", "y", "z"}, "", "[x, y, z]"});
     k.push_back({"release", &B::release,
                  "the region's vertices are free from the first step that starts at or after this time (below): they "
                  "start it with their prescribed position and velocity at its start and then move freely",
@@ -144,6 +156,15 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
 // select_vertices of the deck's fixed regions: 0 if free, k + 1 if fixed by fixed[k].
 std::vector<int32_t> select_fixed_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                            const std::string& deck_path, const std::vector<int32_t>& vertex_body = {});
+// With rollers (is_roller), per vertex and component (3 per vertex): k + 1 if fixed[k] holds it (the
+// last region holding that component wins, as select_vertices' last box does for whole vertices), 0
+// if free; and *fixed as fixed_of_held says. Empty (and *fixed untouched) when no region is a
+// roller. fixed: from select_fixed_vertices of the same boxes.
+std::vector<int32_t> select_held_components(const TetMesh& mesh, const std::vector<BoxRegion>& boxes, double tol,
+                                            std::vector<int32_t>& fixed, const std::vector<int32_t>& vertex_body = {});
+// Per vertex from held (3 per vertex, as above): k + 1 if region k holds all three components (a
+// fixed vertex, as without rollers), else 0 (free, its held components, if any, held by their slots).
+void fixed_of_held(const std::vector<int32_t>& held, std::vector<int32_t>& fixed);
 
 // Every attachment box selects a vertex (select_vertices' check) and at least one that is not
 // fixed for good (free, or fixed by a region that is released): an attachment whose vertices all

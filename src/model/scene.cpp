@@ -333,6 +333,9 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   if (!deck.bodies.empty()) check_body_materials(comm, deck, in.piece);
   in.vertex_body = vertex_bodies(comm, in.piece, (int)deck.bodies.size());
   in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path, in.vertex_body);
+  in.rollers = std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller);
+  if (in.rollers)
+    in.held = select_held_components(mesh, deck.fixed, 1e-9 * mesh_diagonal(comm, mesh), in.fixed, in.vertex_body);
   // Bodies: a tet's material is its body's (its tag is the body, read_bodies_mesh); they take no regions.
   if (deck.bodies.empty()) {
     in.cell_material = select_material_regions(comm, mesh, deck.regions, deck.path);
@@ -392,6 +395,13 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscCall(distribute_mesh(comm_, input.piece, input.fixed, input.cell_material, s.mesh));
   s.mesh.num_bodies = (int)spec.bodies.size();
   s.mesh.vertex_body = std::move(input.vertex_body);  // the DMPlex keeps the piece's vertices in order
+  s.mesh.rollers = input.rollers;
+  if (s.mesh.rollers) {  // the free vertices' held components
+    s.mesh.held.assign(3 * s.mesh.num_vertices, 0);
+    for (PetscInt v = 0; v < s.mesh.num_vertices; ++v)
+      if (s.mesh.fixed[v] == 0)
+        for (int d = 0; d < 3; ++d) s.mesh.held[3 * v + d] = input.held[3 * v + d];
+  }
   input = SceneInput();  // the piece is no longer needed
   std::vector<std::unique_ptr<EnergyTerm>> terms = scene_elastic_terms(s.mesh, spec);
   if (auto attached = attachment_term(s.mesh, spec.attachments, released_attachments)) terms.push_back(std::move(attached));
@@ -429,6 +439,7 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscCall(s.create(scene_->step->layout()));
   PetscCall(scene_->body->rest_positions(s.x));
   PetscCall(apply_initial_state(spec_->initial, *scene_->body, s.x));
+  PetscCall(scene_->body->hold(s.x));  // rollers: held components where their supports are
   if (!spec_->bodies.empty()) {  // each body's initial velocity
     const DistributedMesh& m = scene_->mesh;
     std::vector<double> v(3 * m.num_vertices, 0.0);
@@ -504,6 +515,12 @@ PetscErrorCode LiveScene::rebuild(const std::vector<char>& regions, const std::v
   SceneInput input = kept_;
   for (int32_t& f : input.fixed)
     if (f > 0 && regions[f - 1]) f = 0;
+  for (int32_t& h : input.held)
+    if (h > 0 && regions[h - 1]) h = 0;
+  if (!input.held.empty()) fixed_of_held(input.held, input.fixed);  // what the regions left still hold
+  input.rollers = false;  // decided by the deck, the same on every rank
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) input.rollers = input.rollers || (is_roller(spec_->fixed[k]) && !regions[k]);
+  if (!input.rollers) input.held.clear();  // no roller left: the scene runs as one without
   fresh = std::make_unique<Scene>();
   PetscCall(build(std::move(input), attachments, *fresh));
   PetscFunctionReturn(0);
@@ -548,8 +565,10 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   fresh->body->set_time(t);
   fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main));
+  PetscCall(fresh->body->hold(main.x));  // rollers: what the regions left hold, at t
   for (State* s : others) {
     PetscCall(carry_state(*scene_, *fresh, t, *s));
+    PetscCall(fresh->body->hold(s->x));
     s->released = main.released;
     s->released_attachments = main.released_attachments;
   }

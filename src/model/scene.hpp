@@ -44,6 +44,8 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
 struct SceneInput {
   MeshPiece piece;
   std::vector<int32_t> fixed;          // per local vertex, see select_fixed_vertices
+  std::vector<int32_t> held;           // 3 per local vertex, see select_held_components (empty: no rollers)
+  bool rollers = false;                // a fixed region not released holds only some components (every rank alike)
   std::vector<int32_t> cell_material;  // per local tet, see select_material_regions
   std::vector<int32_t> vertex_body;    // per local vertex, see vertex_bodies (empty: one body)
   CleanReport repaired;                // what cleaning the mesh changed (rank 0)

@@ -76,6 +76,7 @@ PetscErrorCode StepLifecycle::accept(State& s, Vec velocity) {
   ++s.frame;
   s.time = s.frame * dt_;
   if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
+  PetscCall(body_.hold(s.x));  // rollers: an end map that extrapolates (the midpoint's) leaves the held slots where their supports are
   if (!substep_) PetscCall(body_.accept_element_states(s.x));
   PetscFunctionReturn(0);
 }

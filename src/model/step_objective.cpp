@@ -57,6 +57,7 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscFunctionBeginUser;
   PetscCall(life_.begin(s));
   PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.hold(inertia_.target()));  // rollers: y's held slots where their supports are
   // A static step spans h (contact's colliders and friction take the step's length from it).
   PetscCall(body_.begin_step({life_.solve_time(s), has_inertia() ? solve_dt_ : dt_, s.x, inertia_.target(), s.frame * dt_}));
   if (!has_inertia()) {
@@ -72,6 +73,7 @@ PetscErrorCode StepObjective::begin_step(State& s) {
     counts_->rejected = rejected_before;
   }
   PetscCall(initial_guess(life_.x_n(), s.x));
+  PetscCall(body_.hold(s.x));  // x_n's held slots are those of t_n (the lower warm start)
   PetscFunctionReturn(0);
 }
 
@@ -127,7 +129,13 @@ PetscErrorCode StepObjective::initial_guess(Vec from, Vec x) {
   if (warm_start_ == WarmStart::lower) {
     PetscReal g_y, g_n;
     PetscCall(objective(x, &g_y, nullptr));
-    PetscCall(objective(from, &g_n, nullptr));
+    Vec at_n = from;
+    if (body_.holds_components()) {  // x_n with its held slots where y has them: no inertia there in g
+      PetscCall(VecCopy(from, work_));
+      PetscCall(body_.hold(work_));
+      at_n = work_;
+    }
+    PetscCall(objective(at_n, &g_n, nullptr));
     if (!rejected(g_n) && g_n < g_y) PetscCall(VecCopy(from, x));
   }
   PetscFunctionReturn(0);
@@ -247,8 +255,10 @@ PetscErrorCode StepObjective::complete_by_euler(TimeStepSolver& solver, State& s
   PetscCall(life_.complete_by_euler(s.x));  // x^ = z, v^ = (z - x_n) / h'
   body_.set_time(t);
   PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
+  PetscCall(body_.hold(inertia_.target()));
   PetscCall(body_.begin_step({t, solve_dt_, life_.x_hat(), inertia_.target(), t_z}));
   PetscCall(initial_guess(life_.x_hat(), s.x));
+  PetscCall(body_.hold(s.x));
   PetscCall(solve_from(solver, life_.x_hat(), s.x, on_iteration, out));
   PetscFunctionReturn(0);
 }
@@ -279,6 +289,7 @@ PetscErrorCode StepObjective::objective(Vec x, PetscReal* g, Vec grad) {
     if (grad) PetscCall(VecSet(grad, 0.0));
   } else if (grad) {
     PetscCall(VecAYPX(grad, solve_dt_ * solve_dt_, inertia_.gradient()));  // M (x - y) + h'^2 dE/dx
+    PetscCall(body_.zero_held(grad));  // rollers: no solver moves a held slot
   }
   PetscCall(event_end(&LogEvents::objective));
   PetscFunctionReturn(0);
@@ -328,6 +339,13 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
                                              : body_.add_rest_hessian(S, solve_dt_ * solve_dt_);
   }));
   PetscCall(inertia_.add_to(*A, components));
+  // Rollers: A's held rows and columns are the identity's, so A^{-1} is the inverse of A reduced to
+  // the other slots and maps a vector that is 0 at the held slots to one that is 0 there. A1 (x) I3
+  // then no longer holds: the factor is of the full matrix (FactoredSystem).
+  if (body_.holds_components()) {
+    PetscCheck(components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "with rollers the constant matrix has 3 components");
+    PetscCall(body_.identity_at_held(*A));
+  }
   PetscCall(MatSetOption(*A, MAT_SPD, PETSC_TRUE));
   PetscFunctionReturn(0);
 }
@@ -352,6 +370,7 @@ PetscErrorCode StepObjective::assemble_hessian(Vec x, Mat H, bool exact) {
   PetscCall(MatZeroEntries(H));  // keeps the pattern
   PetscCall(add_in_rank_order(H, [&](Mat S) { return body_.add_hessian(x, S, solve_dt_ * solve_dt_, !exact); }));
   PetscCall(inertia_.add_to(H));
+  PetscCall(body_.identity_at_held(H));  // rollers: Newton's step is 0 at the held slots
   // Set after every assembly (new values may clear the flags). SPD makes MUMPS use LL^T.
   PetscCall(MatSetOption(H, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(H, MAT_SPD, exact ? PETSC_FALSE : PETSC_TRUE));

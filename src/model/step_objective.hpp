@@ -136,6 +136,7 @@ class StepObjective : public Objective {
   // the run (shared with the sub-step integrators, as the counts above).
   long long hessian_patterns() const { return counts_->hessian_patterns; }
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
+  bool holds_components() const override { return body_.holds_components(); }
   std::string energy_names() const override { return body_.material_names(); }
 
  private:

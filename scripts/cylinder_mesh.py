@@ -1,0 +1,70 @@
+#!/usr/bin/python3
+"""Writes a quarter of a thick-walled cylinder slab as a Medit .mesh file: Lamé's cylinder in plane
+strain under internal pressure (docs/loads.md#rollers-components-of-fixed).
+
+The slab lies between radii `--inner` and `--outer` about the z axis, at angles 0 to 90 degrees
+(x >= 0, y >= 0), and 0 <= z <= `--thickness`: `--cells` hexahedra through the wall, twice as many
+around the quarter, `--layers` through the thickness, every vertex on its circle (the curved
+surfaces are faceted by chords). Each hexahedron is cut into 6 tetrahedra about its diagonal from
+its corner of least indices (Kuhn's cut, conforming across the structured grid). Every tet is
+positively oriented. Standard library and numpy.
+
+    /usr/bin/python3 scripts/cylinder_mesh.py cylinder.mesh --inner 1 --outer 2 --cells 8
+"""
+import argparse
+import itertools
+import sys
+
+import numpy as np
+
+from slit_mesh import write_medit
+
+
+def quarter_cylinder(inner, outer, thickness, cells, layers):
+    """Vertices and positively oriented tets of the slab."""
+    nr, nt, nz = cells, 2 * cells, layers
+    r = np.linspace(inner, outer, nr + 1)
+    theta = np.linspace(0, np.pi / 2, nt + 1)
+    z = np.linspace(0, thickness, nz + 1)
+    R, TH, Z = np.meshgrid(r, theta, z, indexing="ij")
+    X = np.c_[(R * np.cos(TH)).ravel(), (R * np.sin(TH)).ravel(), Z.ravel()]
+    X[np.isclose(TH.ravel(), np.pi / 2), 0] = 0.0  # exactly on the plane x = 0
+
+    def vid(i, j, k):
+        return (i * (nt + 1) + j) * (nz + 1) + k
+
+    tets = []
+    for i, j, k in itertools.product(range(nr), range(nt), range(nz)):
+        for order in itertools.permutations(range(3)):  # the 6 paths from (0,0,0) to (1,1,1)
+            step = [0, 0, 0]
+            path = [vid(i, j, k)]
+            for axis in order:
+                step[axis] = 1
+                path.append(vid(i + step[0], j + step[1], k + step[2]))
+            tets.append(path)
+    T = np.array(tets, dtype=np.int64)
+    a, b, c, d = (X[T[:, m]] for m in range(4))
+    vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
+    T[vol < 0, 2], T[vol < 0, 3] = T[vol < 0, 3].copy(), T[vol < 0, 2].copy()
+    return X, T
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("out", help="the .mesh file to write")
+    p.add_argument("--inner", type=float, default=1.0, help="inner radius (m)")
+    p.add_argument("--outer", type=float, default=2.0, help="outer radius (m)")
+    p.add_argument("--thickness", type=float, default=0.25, help="the slab's thickness along z (m)")
+    p.add_argument("--cells", type=int, default=4, help="cells through the wall (twice as many around)")
+    p.add_argument("--layers", type=int, default=1, help="cells through the thickness")
+    a = p.parse_args(argv)
+    if not (0 < a.inner < a.outer) or a.thickness <= 0 or a.cells < 1 or a.layers < 1:
+        p.error("need 0 < inner < outer, thickness > 0, cells >= 1 and layers >= 1")
+    X, T = quarter_cylinder(a.inner, a.outer, a.thickness, a.cells, a.layers)
+    write_medit(a.out, X, T)
+    print("quarter cylinder: %d vertices, %d tets" % (len(X), len(T)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
