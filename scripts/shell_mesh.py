@@ -4,7 +4,9 @@ internal pressure (docs/loads.md).
 
 The shell lies between radii `--inner` and `--outer` around the origin. Its surface is a cube
 sphere: each of the cube's 6 faces is an n x n grid, projected radially; `--layers` hexahedra
-through the thickness, their radii spaced evenly. Each hexahedron is cut into 24 tetrahedra around
+through the thickness, their radii spaced evenly or, with `--grading g`, their thicknesses
+growing geometrically outwards, the outermost g times the innermost (finer where the stress
+varies most, at the cavity). Each hexahedron is cut into 24 tetrahedra around
 its centre and its faces' centres (every face into 4 triangles about its centre), so the cut is
 conforming across the cube's faces, where the grids meet with different orientations. Every tet is
 positively oriented. Standard library and numpy.
@@ -22,8 +24,19 @@ from slit_mesh import write_medit
 FACES = [(axis, sign) for axis in range(3) for sign in (-1, 1)]
 
 
-def shell(inner, outer, cells, layers):
+def layer_radii(inner, outer, layers, grading=1.0):
+    """The radii of the layers' surfaces, inner to outer: the layers' thicknesses in geometric
+    progression, the outermost `grading` times the innermost (1: even)."""
+    if grading == 1.0:
+        return [inner + (outer - inner) * k / layers for k in range(layers + 1)]
+    q = grading ** (1.0 / (layers - 1)) if layers > 1 else 1.0
+    widths = q ** np.arange(layers)
+    return inner + (outer - inner) * np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
+
+
+def shell(inner, outer, cells, layers, grading=1.0):
     """Vertices and positively oriented tets of the shell."""
+    radii = layer_radii(inner, outer, layers, grading)
     index = {}  # a point's key -> its vertex
     X = []
 
@@ -49,7 +62,7 @@ def shell(inner, outer, cells, layers):
                         c[axis] = sign
                         c[u_axis] = -1 + 2 * (i + di) / cells
                         c[v_axis] = -1 + 2 * (j + dj) / cells
-                        return c, inner + (outer - inner) * (k + dk) / layers
+                        return c, radii[k + dk]
 
                     corners = {(di, dj, dk): corner(di, dj, dk) for di in (0, 1) for dj in (0, 1) for dk in (0, 1)}
                     ids = {key: vertex(on_shell(*corners[key])) for key in corners}
@@ -87,10 +100,12 @@ def main(argv=None):
     p.add_argument("--outer", type=float, default=2.0, help="outer radius (m)")
     p.add_argument("--cells", type=int, default=4, help="cells along each edge of a cube face")
     p.add_argument("--layers", type=int, default=2, help="cells through the thickness")
+    p.add_argument("--grading", type=float, default=1.0,
+                   help="the outermost layer's thickness over the innermost's (1: even)")
     a = p.parse_args(argv)
-    if not (0 < a.inner < a.outer) or a.cells < 1 or a.layers < 1:
-        p.error("need 0 < inner < outer, cells >= 1 and layers >= 1")
-    X, T = shell(a.inner, a.outer, a.cells, a.layers)
+    if not (0 < a.inner < a.outer) or a.cells < 1 or a.layers < 1 or not a.grading > 0:
+        p.error("need 0 < inner < outer, cells >= 1, layers >= 1 and grading > 0")
+    X, T = shell(a.inner, a.outer, a.cells, a.layers, a.grading)
     write_medit(a.out, X, T)
     print("shell: %d vertices, %d tets" % (len(X), len(T)))
     return 0
