@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
-from hyperqn_tools.output import read_frames, read_reactions
+from hyperqn_tools.output import read_frames, read_reactions, read_summary
 from hyperqn_tools.paths import REPO
 
 A, B = 1.0, 1.8
@@ -257,6 +257,22 @@ def test_inflation_against_the_exact_curve(tmp_path):
             print(f"{surface}: max |error| {errors[coarse, 2][k]:.3%} ({coarse[0]} cells) -> "
                   f"{errors[finer, 2][k]:.3%} ({finer[0]} cells): rate {rate:.2f}")
             assert rate > 1.5
+
+
+def test_pressure_control_stops_at_the_limit_point(tmp_path):
+    """Past the limit pressure there is no equilibrium (the energy falls without bound as the
+    sphere grows): on the coarse mesh, 5 steps to 1.5 times the limit pressure take 0.3, 0.6 and
+    0.9 of it and the fourth (1.2) ends the run with an error, exit 1, the three frames written."""
+    p_limit, _ = limit_point(MU, LAMBDA)
+    deck = inflation_deck(mesh_file(tmp_path, *MESHES[0]), float(1.5 * p_limit))
+    deck["time"]["frames"] = 5
+    deck["loads"][0]["curve"]["end"] = 5
+    out = tmp_path / "past"
+    proc = run_hyperqn([write_deck(tmp_path / "past.yaml", deck), "-o", out], ranks=1, check=False)
+    print(proc.stdout[-600:])
+    assert proc.returncode == 1
+    assert [n for n, _ in read_frames(out)] == [0, 1, 2, 3]
+    assert read_summary(out)["status"].startswith("error")
 
 
 @pytest.mark.skipif(not os.environ.get("HYPERQN_FINE"), reason="the finer mesh: HYPERQN_FINE=1")
