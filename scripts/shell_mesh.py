@@ -6,7 +6,9 @@ The shell lies between radii `--inner` and `--outer` around the origin. Its surf
 sphere: each of the cube's 6 faces is an n x n grid, projected radially; `--layers` hexahedra
 through the thickness, their radii spaced evenly or, with `--grading g`, their thicknesses
 growing geometrically outwards, the outermost g times the innermost (finer where the stress
-varies most, at the cavity). Each hexahedron is cut into 24 tetrahedra around
+varies most, at the cavity). With `--tags` the boundary triangles follow the tets, with
+reference 1 on the cavity's wall and 2 on the outer surface, for a region that selects a surface
+by its tag. Each hexahedron is cut into 24 tetrahedra around
 its centre and its faces' centres (every face into 4 triangles about its centre), so the cut is
 conforming across the cube's faces, where the grids meet with different orientations. Every tet is
 positively oriented. Standard library and numpy.
@@ -93,6 +95,16 @@ def shell(inner, outer, cells, layers, grading=1.0):
     return X, T
 
 
+def boundary_triangles(X, T, inner, outer):
+    """The shell's boundary faces, each once and oriented outwards of the body, and their
+    references: 1 on the cavity's wall, 2 on the outer surface."""
+    faces = np.concatenate([T[:, [1, 2, 3]], T[:, [0, 3, 2]], T[:, [0, 1, 3]], T[:, [0, 2, 1]]])
+    _, first, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
+    tri = faces[first[count == 1]]  # outward: each tet's faces above are ordered so (positive tets)
+    radius = np.linalg.norm(X[tri].mean(axis=1), axis=1)
+    return tri, np.where(radius < (inner + outer) / 2, 1, 2)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
@@ -102,11 +114,16 @@ def main(argv=None):
     p.add_argument("--layers", type=int, default=2, help="cells through the thickness")
     p.add_argument("--grading", type=float, default=1.0,
                    help="the outermost layer's thickness over the innermost's (1: even)")
+    p.add_argument("--tags", action="store_true",
+                   help="also write the boundary triangles: reference 1 the cavity's wall, 2 the outer surface")
     a = p.parse_args(argv)
     if not (0 < a.inner < a.outer) or a.cells < 1 or a.layers < 1 or not a.grading > 0:
         p.error("need 0 < inner < outer, cells >= 1, layers >= 1 and grading > 0")
     X, T = shell(a.inner, a.outer, a.cells, a.layers, a.grading)
-    write_medit(a.out, X, T)
+    if a.tags:
+        write_medit(a.out, X, T, *boundary_triangles(X, T, a.inner, a.outer))
+    else:
+        write_medit(a.out, X, T)
     print("shell: %d vertices, %d tets" % (len(X), len(T)))
     return 0
 
