@@ -4,7 +4,11 @@ internal pressure (docs/loads.md).
 
 The shell lies between radii `--inner` and `--outer` around the origin. Its surface is a cube
 sphere: each of the cube's 6 faces is an n x n grid, projected radially; `--layers` hexahedra
-through the thickness, their radii spaced evenly. Each hexahedron is cut into 24 tetrahedra around
+through the thickness, their radii spaced evenly or, with `--grading g`, their thicknesses
+growing geometrically outwards, the outermost g times the innermost (finer where the stress
+varies most, at the cavity). With `--tags` the boundary triangles follow the tets, with
+reference 1 on the cavity's wall and 2 on the outer surface, for a region that selects a surface
+by its tag. Each hexahedron is cut into 24 tetrahedra around
 its centre and its faces' centres (every face into 4 triangles about its centre), so the cut is
 conforming across the cube's faces, where the grids meet with different orientations. Every tet is
 positively oriented. Standard library and numpy.
@@ -22,8 +26,19 @@ from slit_mesh import write_medit
 FACES = [(axis, sign) for axis in range(3) for sign in (-1, 1)]
 
 
-def shell(inner, outer, cells, layers):
+def layer_radii(inner, outer, layers, grading=1.0):
+    """The radii of the layers' surfaces, inner to outer: the layers' thicknesses in geometric
+    progression, the outermost `grading` times the innermost (1: even)."""
+    if grading == 1.0:
+        return [inner + (outer - inner) * k / layers for k in range(layers + 1)]
+    q = grading ** (1.0 / (layers - 1)) if layers > 1 else 1.0
+    widths = q ** np.arange(layers)
+    return inner + (outer - inner) * np.concatenate([[0.0], np.cumsum(widths) / widths.sum()])
+
+
+def shell(inner, outer, cells, layers, grading=1.0):
     """Vertices and positively oriented tets of the shell."""
+    radii = layer_radii(inner, outer, layers, grading)
     index = {}  # a point's key -> its vertex
     X = []
 
@@ -49,7 +64,7 @@ def shell(inner, outer, cells, layers):
                         c[axis] = sign
                         c[u_axis] = -1 + 2 * (i + di) / cells
                         c[v_axis] = -1 + 2 * (j + dj) / cells
-                        return c, inner + (outer - inner) * (k + dk) / layers
+                        return c, radii[k + dk]
 
                     corners = {(di, dj, dk): corner(di, dj, dk) for di in (0, 1) for dj in (0, 1) for dk in (0, 1)}
                     ids = {key: vertex(on_shell(*corners[key])) for key in corners}
@@ -80,6 +95,16 @@ def shell(inner, outer, cells, layers):
     return X, T
 
 
+def boundary_triangles(X, T, inner, outer):
+    """The shell's boundary faces, each once and oriented outwards of the body, and their
+    references: 1 on the cavity's wall, 2 on the outer surface."""
+    faces = np.concatenate([T[:, [1, 2, 3]], T[:, [0, 3, 2]], T[:, [0, 1, 3]], T[:, [0, 2, 1]]])
+    _, first, count = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
+    tri = faces[first[count == 1]]  # outward: each tet's faces above are ordered so (positive tets)
+    radius = np.linalg.norm(X[tri].mean(axis=1), axis=1)
+    return tri, np.where(radius < (inner + outer) / 2, 1, 2)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
@@ -87,11 +112,18 @@ def main(argv=None):
     p.add_argument("--outer", type=float, default=2.0, help="outer radius (m)")
     p.add_argument("--cells", type=int, default=4, help="cells along each edge of a cube face")
     p.add_argument("--layers", type=int, default=2, help="cells through the thickness")
+    p.add_argument("--grading", type=float, default=1.0,
+                   help="the outermost layer's thickness over the innermost's (1: even)")
+    p.add_argument("--tags", action="store_true",
+                   help="also write the boundary triangles: reference 1 the cavity's wall, 2 the outer surface")
     a = p.parse_args(argv)
-    if not (0 < a.inner < a.outer) or a.cells < 1 or a.layers < 1:
-        p.error("need 0 < inner < outer, cells >= 1 and layers >= 1")
-    X, T = shell(a.inner, a.outer, a.cells, a.layers)
-    write_medit(a.out, X, T)
+    if not (0 < a.inner < a.outer) or a.cells < 1 or a.layers < 1 or not a.grading > 0:
+        p.error("need 0 < inner < outer, cells >= 1, layers >= 1 and grading > 0")
+    X, T = shell(a.inner, a.outer, a.cells, a.layers, a.grading)
+    if a.tags:
+        write_medit(a.out, X, T, *boundary_triangles(X, T, a.inner, a.outer))
+    else:
+        write_medit(a.out, X, T)
     print("shell: %d vertices, %d tets" % (len(X), len(T)))
     return 0
 

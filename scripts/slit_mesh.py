@@ -60,7 +60,9 @@ def split_ring(outer, inner, depth, gap, cells):
     return X, T
 
 
-def write_medit(path, X, T):
+def write_medit(path, X, T, triangles=None, references=None):
+    """X, T (0-based) as a Medit .mesh; with triangles (0-based rows) and their references, a
+    Triangles section after the tets (boundary faces tagged for a region)."""
     with open(path, "w") as f:
         f.write("MeshVersionFormatted 1\nDimension 3\nVertices\n%d\n" % len(X))
         for p in X:
@@ -68,6 +70,10 @@ def write_medit(path, X, T):
         f.write("Tetrahedra\n%d\n" % len(T))
         for t in T:
             f.write("%d %d %d %d 0\n" % tuple(int(v) + 1 for v in t))
+        if triangles is not None:
+            f.write("Triangles\n%d\n" % len(triangles))
+            for t, ref in zip(triangles, references):
+                f.write("%d %d %d %d\n" % (int(t[0]) + 1, int(t[1]) + 1, int(t[2]) + 1, int(ref)))
         f.write("End\n")
 
 
