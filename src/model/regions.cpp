@@ -70,6 +70,21 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
   std::vector<int32_t> selected(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
     int64_t count = 0;
+    if (boxes[b].has_face_tag) {  // the vertices of the tag's triangles (a rank has those touching its piece)
+      const BoxRegion& region = boxes[b];
+      const std::vector<int64_t> ids = mesh.tagged_faces.vertex_ids_of(region.face_tag);
+      for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+        if (std::binary_search(ids.begin(), ids.end(), mesh.vertex_ids[v]) &&
+            (!region.has_box || in_box(&mesh.coords[3 * v], region, tol))) {
+          selected[v] = (int32_t)b + 1;
+          ++count;
+        }
+      if (global_count(comm, count) == 0)
+        throw InputError(deck_path, region.face_tag_line, section + "[" + std::to_string(b) + "].face_tag",
+                         "selects no vertex of the mesh: tag " + std::to_string(region.face_tag) + "'s triangles have " +
+                             (region.has_box ? "no vertex in the box" : "no vertex of a tet"));
+      continue;
+    }
     for (int64_t v = 0; v < mesh.num_vertices(); ++v)
       if (selects(boxes[b], &mesh.coords[3 * v], v, vertex_body, tol)) {
         selected[v] = (int32_t)b + 1;

@@ -2,7 +2,9 @@
 // stepping. The deck (app/deck.hpp) is a scene plus how to run it (solver, output, study); the
 // model builds from this alone.
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -233,6 +235,18 @@ struct SceneSpec {
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
+  // The face tags the fixed regions and loads name, ascending, each once (empty: the mesh file's
+  // triangles are not read).
+  std::vector<int32_t> face_tags() const {
+    std::vector<int32_t> tags;
+    for (const BoxRegion& b : fixed)
+      if (b.has_face_tag) tags.push_back(b.face_tag);
+    for (const LoadSpec& l : loads)
+      if (l.has_face_tag) tags.push_back(l.face_tag);
+    std::sort(tags.begin(), tags.end());
+    tags.erase(std::unique(tags.begin(), tags.end()), tags.end());
+    return tags;
+  }
 };
 
 // A free scene: nothing acts on its bodies but their own forces (elastic, self-contact): no fixed
