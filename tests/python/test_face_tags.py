@@ -7,6 +7,7 @@ The test writes a 2 x 1 x 1 bar of 4 x 2 x 2 cubes (6 tets each) as a Medit .mes
 - A bar clamped by face_tag 5 under a traction on face_tag 3 ends bitwise where the same bar
   clamped and loaded by the equivalent boxes ends, from each file, at 1, 2 and 4 ranks; the run
   says how many of the tag's triangles it left out (the interior one).
+- A force on the free vertices of a tag is the force on the equivalent box, bitwise.
 - Bad input stops with exit 1 before anything is written, naming the deck line and key: a tag on
   no triangle, a tag on interior triangles only, a fixed tag on no triangle, a region with neither
   box nor face_tag, a face_tag on a generated box or sheet, on a mesh of strands alone.
@@ -172,6 +173,19 @@ def test_tag_gives_the_box_results(tmp_path, meshes, mesh, ranks):
     half = deck_for(meshes[mesh], {"face_tag": CLAMP}, {"face_tag": LOAD, "box": {"min": [-1, -1, -1], "max": [3, 0.5, 2]}})
     proc, _ = run(tmp_path, "half", half, ranks)
     assert "on 4 boundary faces of face_tag 3" in proc.stdout, proc.stdout[-2000:]
+
+
+def test_force_on_a_tag(tmp_path, meshes):
+    """A force on the free vertices of face_tag 5 (the end x = 0, the bar clamped at x = 2) is the
+    force on the box around that end, bitwise (2 ranks)."""
+    results = {}
+    for name, region in (("box", {"box": CLAMP_BOX}), ("tag", {"face_tag": CLAMP})):
+        deck = deck_for(meshes["bar.mesh"], {"box": END_BOX}, {})
+        deck["loads"] = [dict(region, type="force", force=[0.0, -50.0, 0.0])]
+        results[name] = run(tmp_path, name, deck, 2)
+    assert "on 9 free vertices of face_tag 5" in results["tag"][0].stdout, results["tag"][0].stdout[-2000:]
+    assert np.abs(results["tag"][1].displacement).max() > 1e-4
+    assert np.array_equal(results["tag"][1].points, results["box"][1].points)
 
 
 def bad(tmp_path, case, deck, fragments):
