@@ -26,13 +26,10 @@ void check_thickness_in_self_contact(const Reader& r, const Deck& deck) {
 }
 
 void check_face_tags_have_a_file(const Reader& r, const Deck& deck) {
-  std::vector<std::pair<std::string, int>> named;  // (key, line) of every face_tag
-  for (size_t k = 0; k < deck.fixed.size(); ++k)
-    if (deck.fixed[k].has_face_tag) named.push_back({"fixed[" + std::to_string(k) + "].face_tag", deck.fixed[k].face_tag_line});
-  for (size_t k = 0; k < deck.loads.size(); ++k)
-    if (deck.loads[k].has_face_tag) named.push_back({"loads[" + std::to_string(k) + "].face_tag", deck.loads[k].face_tag_line});
+  const std::vector<SceneSpec::NamedFaceTag> named = deck.named_face_tags();
   if (named.empty()) return;
-  const auto& [key, line] = named[0];
+  const std::string& key = named[0].key;
+  const int line = named[0].line;
   const MeshSpec& m = deck.mesh;
   const std::string ext = m.file.size() >= 4 ? m.file.substr(m.file.size() - 4) : "";
   std::string why;

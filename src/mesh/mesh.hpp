@@ -12,7 +12,7 @@
 namespace hyperqn {
 
 // Triangles of a tet mesh's file kept for their tag (Medit Triangles' reference, Gmsh's physical
-// group), which a deck's face_tag selects boundary faces by (docs/loads.md#regions). Read only
+// group), which a deck's face_tag selects boundary faces by (docs/loads.md#face-tags). Read only
 // for the tags a deck names (none: nothing is read); a rank keeps those that touch its piece.
 struct TaggedFaces {
   std::vector<int64_t> vertices;  // 3 per triangle: its vertices' ids (TetMesh::vertex_ids), ascending

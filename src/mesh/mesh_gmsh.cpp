@@ -198,7 +198,7 @@ class GmshReader {
         for (long long p = 0; p < nphys; ++p) {
           const long long phys = integer(s, what + ": a physical tag", std::numeric_limits<int32_t>::min(), max_count);
           if (p == 0) first = phys;
-          groups.push_back(int32_t(phys));
+          if (!face_tags_.empty()) groups.push_back(int32_t(phys));
         }
         if (d == 2 && !face_tags_.empty()) surface_groups_[tag] = groups;
         if (d > 0) {

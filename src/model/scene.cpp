@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <functional>
-#include <tuple>
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
@@ -245,17 +244,11 @@ TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
 // Every face tag the deck names is on a triangle of the mesh file, and the mesh has tets (rank 0,
 // on the serial mesh).
 static void check_face_tags_in_file(const SceneSpec& deck, const TetMesh& mesh) {
-  std::vector<std::tuple<std::string, int, int32_t>> named;  // key, deck line, tag
-  for (size_t k = 0; k < deck.fixed.size(); ++k)
-    if (deck.fixed[k].has_face_tag)
-      named.emplace_back("fixed[" + std::to_string(k) + "].face_tag", deck.fixed[k].face_tag_line, deck.fixed[k].face_tag);
-  for (size_t k = 0; k < deck.loads.size(); ++k)
-    if (deck.loads[k].has_face_tag)
-      named.emplace_back("loads[" + std::to_string(k) + "].face_tag", deck.loads[k].face_tag_line, deck.loads[k].face_tag);
+  const std::vector<SceneSpec::NamedFaceTag> named = deck.named_face_tags();
   if (named.empty()) return;
   const std::string& file = deck.mesh.file;
   if (mesh.num_tets() == 0)
-    throw InputError(deck.path, std::get<1>(named[0]), std::get<0>(named[0]),
+    throw InputError(deck.path, named[0].line, named[0].key,
                      "the mesh " + file + " has no tetrahedra: face_tag selects boundary faces of tets");
   const std::vector<int32_t>& in_file = mesh.tagged_faces.file_tags;
   for (const auto& [key, line, tag] : named) {
@@ -291,7 +284,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
 
 // Rank 0's tagged faces to every rank, which keeps those with a vertex in its piece: a boundary
 // face of its tets, or a vertex a fixed face_tag selects. The list of the deck's tags is on every
-// rank while it is sent, then each rank keeps its part (docs/loads.md#regions).
+// rank while it is sent, then each rank keeps its part (docs/loads.md#face-tags).
 static void share_tagged_faces(MPI_Comm comm, const TaggedFaces& all, MeshPiece& piece) {
   int rank;
   MPI_Comm_rank(comm, &rank);

@@ -235,14 +235,25 @@ struct SceneSpec {
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
-  // The face tags the fixed regions and loads name, ascending, each once (empty: the mesh file's
-  // triangles are not read).
+  // The face_tag of each fixed region and load that gives one, in the deck's order: its key
+  // ("loads[2].face_tag"), deck line and tag.
+  struct NamedFaceTag {
+    std::string key;
+    int line;
+    int32_t tag;
+  };
+  std::vector<NamedFaceTag> named_face_tags() const {
+    std::vector<NamedFaceTag> named;
+    for (size_t k = 0; k < fixed.size(); ++k)
+      if (fixed[k].has_face_tag) named.push_back({"fixed[" + std::to_string(k) + "].face_tag", fixed[k].face_tag_line, fixed[k].face_tag});
+    for (size_t k = 0; k < loads.size(); ++k)
+      if (loads[k].has_face_tag) named.push_back({"loads[" + std::to_string(k) + "].face_tag", loads[k].face_tag_line, loads[k].face_tag});
+    return named;
+  }
+  // Their tags, ascending, each once (empty: the mesh file's triangles are not read).
   std::vector<int32_t> face_tags() const {
     std::vector<int32_t> tags;
-    for (const BoxRegion& b : fixed)
-      if (b.has_face_tag) tags.push_back(b.face_tag);
-    for (const LoadSpec& l : loads)
-      if (l.has_face_tag) tags.push_back(l.face_tag);
+    for (const NamedFaceTag& n : named_face_tags()) tags.push_back(n.tag);
     std::sort(tags.begin(), tags.end());
     tags.erase(std::unique(tags.begin(), tags.end()), tags.end());
     return tags;

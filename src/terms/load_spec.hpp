@@ -16,7 +16,7 @@ struct LoadSpec {
   int line = 0;                         // deck line, for messages
   Array3 min{0, 0, 0}, max{0, 0, 0};    // the region: boundary faces or vertices in this box
   bool has_box = true;                  // the deck gives box (false: face_tag alone)
-  // And/or the faces (vertices) of the mesh file's triangles of this tag (docs/loads.md#regions).
+  // And/or the faces (vertices) of the mesh file's triangles of this tag (docs/loads.md#face-tags).
   int face_tag = 0;
   bool has_face_tag = false;
   int face_tag_line = 0;
