@@ -17,6 +17,7 @@
 #include "input_error_check.hpp"
 #include "mesh/input_error.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/mesh_gmsh.hpp"
 
 using namespace hyperqn;
 namespace fs = std::filesystem;
@@ -566,6 +567,57 @@ void test_surface_errors(const fs::path& dir) {
   expect_input_error("cloth with tets", [&] { clean_mesh(mixed, "mixed"); }, {"mixed", "cloth", "tetrahedra"});
 }
 
+// The triangles of a tet mesh kept for the deck's face tags (TaggedFaces): Medit references, Gmsh
+// physical groups (2.2's first tag; 4.1's surface groups, every one of them; without $Entities
+// the surface's tag); nothing without face tags.
+void test_tagged_faces(const fs::path& dir) {
+  const std::string head = "MeshVersionFormatted 1\nDimension 3\n";
+  const std::string verts = "Vertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n1 1 1 0\n";
+  const std::string tris = "Triangles\n3\n3 2 1 4\n1 2 4 6\n2 3 4 4\n";
+  std::string p = write(dir, "tagged.mesh", head + verts + tris + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n");
+  TetMesh m = read_medit(p);
+  CHECK(m.tagged_faces.empty() && m.tagged_faces.file_tags.empty() && m.num_triangles() == 0);
+  m = read_medit(p, false, false, {4, 9});
+  CHECK(m.tagged_faces.size() == 2 && m.num_triangles() == 0 && m.num_tets() == 1);
+  CHECK((m.tagged_faces.vertices == std::vector<int64_t>{0, 1, 2, 1, 2, 3}));  // ascending ids per triangle
+  CHECK((m.tagged_faces.tags == std::vector<int32_t>{4, 4}));
+  CHECK((m.tagged_faces.file_tags == std::vector<int32_t>{4, 6}));
+  CHECK((m.tagged_faces.vertex_ids_of(4) == std::vector<int64_t>{0, 1, 2, 3}));
+  clean_mesh(m, p);  // drops vertex 5 (no tet), keeps the ids the faces name
+  CHECK(m.num_vertices() == 4 && m.tagged_faces.size() == 2);
+  // A cloth reads its triangles as the cloth, no face tags.
+  CHECK(read_medit(p, false, true, {4}).tagged_faces.empty());
+  p = write(dir, "tagged_early.mesh", head + "Triangles\n1\n1 2 3 4\n" + verts + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n");
+  CHECK(read_medit(p).num_tets() == 1);  // skipped as before without face tags
+  expect_input_error("face tags before Vertices", [&] { read_medit(p, false, false, {4}); },
+                     {p + ":3:", "'Triangles'", "before the Vertices"});
+  p = write(dir, "tagged_bad.mesh", head + verts + "Triangles\n1\n1 2 6 4\nTetrahedra\n1\n1 2 3 4 0\nEnd\n");
+  expect_input_error("face tag index", [&] { read_medit(p, false, false, {4}); }, {p + ":12:", "triangle 1", "index 6", "1..5"});
+
+  const std::string nodes22 = "$Nodes\n4\n10 0 0 0\n20 1 0 0\n30 0 1 0\n40 0 0 1\n$EndNodes\n";
+  p = write(dir, "tagged22.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n" + nodes22 +
+                                     "$Elements\n4\n1 2 2 3 1 10 20 30\n2 2 2 5 1 10 20 30\n3 2 2 3 2 20 30 40\n"
+                                     "4 4 2 1 1 10 20 30 40\n$EndElements\n");
+  CHECK(read_gmsh(p).tagged_faces.empty());
+  m = read_gmsh(p, false, {3, 5});
+  CHECK(m.num_tets() == 1 && m.tagged_faces.size() == 3);
+  CHECK((m.tagged_faces.tags == std::vector<int32_t>{3, 5, 3}));
+  CHECK((m.tagged_faces.vertex_ids_of(3) == std::vector<int64_t>{0, 1, 2, 3}));  // node positions, not tags
+  // 4.1: surface 1 is in physical groups 3 and 5, surface 2 in none.
+  const std::string nodes41 = "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n";
+  const std::string elements41 = "$Elements\n3 3 1 3\n2 1 2 1\n1 1 2 3\n2 2 2 1\n2 2 3 4\n3 1 4 1\n3 1 2 3 4\n$EndElements\n";
+  p = write(dir, "tagged41.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Entities\n0 0 2 1\n"
+                                     "1 0 0 0 1 1 0 2 3 5 0\n2 0 0 0 1 1 1 0 0\n1 0 0 0 1 1 1 1 7 0\n$EndEntities\n" +
+                                     nodes41 + elements41);
+  m = read_gmsh(p, false, {5});
+  CHECK(m.num_tets() == 1 && m.tet_tags[0] == 7 && m.tagged_faces.size() == 1);
+  CHECK((m.tagged_faces.vertices == std::vector<int64_t>{0, 1, 2}) && m.tagged_faces.tags[0] == 5);
+  CHECK((m.tagged_faces.file_tags == std::vector<int32_t>{3, 5}));
+  p = write(dir, "tagged41_bare.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n" + nodes41 + elements41);
+  m = read_gmsh(p, false, {2});
+  CHECK(m.tagged_faces.size() == 1 && (m.tagged_faces.vertices == std::vector<int64_t>{1, 2, 3}));
+}
+
 }  // namespace
 
 int main() {
@@ -582,6 +634,7 @@ int main() {
     test_strands(dir);
     test_sheet();
     test_surface_errors(dir);
+    test_tagged_faces(dir);
   } catch (const std::exception& e) {
     CHECK_MSG(false, std::string("unexpected exception: ") + e.what());
   }

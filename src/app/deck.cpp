@@ -149,6 +149,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   read_body_regions(r, body_regions, deck);
   if (const Value* x = s.find("loads")) read_loads(r, *x, deck.loads);
+  check_face_tags_have_a_file(r, deck);
   if (const Value* x = s.find("gravity")) read_value(r, gravity_keys()[0], *x, static_cast<SceneSpec&>(deck));
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);

@@ -25,6 +25,27 @@ void check_thickness_in_self_contact(const Reader& r, const Deck& deck) {
              "self-contact on (contact: {self: true})");
 }
 
+void check_face_tags_have_a_file(const Reader& r, const Deck& deck) {
+  const std::vector<SceneSpec::NamedFaceTag> named = deck.named_face_tags();
+  if (named.empty()) return;
+  const std::string& key = named[0].key;
+  const int line = named[0].line;
+  const MeshSpec& m = deck.mesh;
+  const std::string ext = m.file.size() >= 4 ? m.file.substr(m.file.size() - 4) : "";
+  std::string why;
+  if (!deck.bodies.empty())
+    why = "face tags are those of one mesh file (mesh.file), and a scene of bodies has several: select by box";
+  else if (m.is_box || m.is_sheet)
+    why = std::string("the mesh is generated (mesh.") + (m.is_box ? "box" : "sheet") + "): it has no tagged faces; select by box";
+  else if (m.has_cloth())
+    why = "the mesh is a cloth surface: face_tag selects boundary faces of tetrahedra (a .mesh or .msh file of tets)";
+  else if (m.is_partition_file)
+    why = "a partition file keeps no face tags: give the .mesh or .msh file as mesh.file";
+  else if (ext != "mesh" && ext != ".msh")
+    why = "face tags are read from a Medit .mesh or Gmsh .msh file";
+  if (!why.empty()) r.fail(line, key, why);
+}
+
 void check_integrator_takes_contact(const Reader& r, const Value& time, const Deck& deck) {
   const IntegratorInfo& integrator = integrator_info(deck.time.integrator);
   if (!integrator.with_colliders && has_contact(deck))

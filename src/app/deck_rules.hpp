@@ -12,6 +12,8 @@ bool has_contact(const Deck& deck);
 void check_contact_has_surfaces(const Reader& r, const Value& contact, const Deck& deck);
 // A cloth's thickness acts in self-contact only: without it the key would say nothing.
 void check_thickness_in_self_contact(const Reader& r, const Deck& deck);
+// A face_tag (fixed, loads) needs the deck's one mesh file, a Medit or Gmsh file of tets.
+void check_face_tags_have_a_file(const Reader& r, const Deck& deck);
 // Colliders and self-contact need an integrator whose end of step is the solve's z (which the
 // barrier kept free of intersections): time.integrator, and each of study.integrators.
 void check_integrator_takes_contact(const Reader& r, const Value& time, const Deck& deck);

@@ -293,6 +293,14 @@ void read_fixed(const Reader& r, const Value& v, std::vector<BoxRegion>& fixed, 
     const Section s = read_keys(r, item, fixed_keys(), b);
     check_box(r, s, b);
     b.line = item.line;
+    b.has_box = s.find("box") != nullptr;
+    if (const Value* tag = s.find("face_tag")) {
+      b.face_tag = r.integer(*tag);
+      b.has_face_tag = true;
+      b.face_tag_line = tag->line;
+    } else if (!b.has_box) {
+      r.fail(item, "give box or face_tag (or both)");
+    }
     b.body = body;
     if (const Value* x = s.find("motion")) b.motion = read_motion(r, *x);
     if (const Value* x = s.find("components")) {
@@ -413,6 +421,14 @@ void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads) {
   for (const Value& item : r.items(v)) {
     LoadSpec l;
     const Section s = read_keys(r, item, load_keys(), l);
+    l.has_box = s.find("box") != nullptr;
+    if (const Value* tag = s.find("face_tag")) {
+      l.face_tag = r.integer(*tag);
+      l.has_face_tag = true;
+      l.face_tag_line = tag->line;
+    } else if (!l.has_box) {
+      r.fail(item, "give box or face_tag (or both)");
+    }
     if (const Value* box = s.find("box")) {
       const Section corners(r, *box, {});
       for (int i = 0; i < 3; ++i)

@@ -276,6 +276,7 @@ PetscErrorCode distribute_mesh(MPI_Comm comm, const MeshPiece& piece, const std:
   PetscCall(DMPlexDistributeSetDefault(dm, PETSC_FALSE));  // never re-partition behind our back
   out.dm = dm;
   PetscCall(fill_local_arrays(out, data));
+  out.tagged_faces = piece.mesh.tagged_faces;
   PetscCall(create_dof_section(out.dm, out, 3));
   // Same points, same order, 1 dof instead of 3: vertex dof i of vertex_dm is dof 3i of dm.
   PetscCall(DMClone(out.dm, &out.vertex_dm));

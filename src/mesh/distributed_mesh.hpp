@@ -32,6 +32,8 @@ struct DistributedMesh {
   std::vector<uint8_t> triangle_edges;  // per local triangle: the edges it carries (TetMesh::triangle_edges)
   std::vector<PetscInt> hinges;      // 4 local vertex indices per local hinge (TetMesh::hinges)
   std::vector<int64_t> vertex_ids;   // per local vertex: index in the input mesh file
+  TaggedFaces tagged_faces;          // the mesh file's triangles of the deck's face tags that touch the
+                                     // rank's piece, by vertex id (empty without face tags)
   // Per local tet, segment, triangle: its index among the serial mesh's elements of its kind (the
   // same at every rank count: output in a global order, io/xdmf_writer.hpp).
   std::vector<int64_t> cell_ids, segment_ids, triangle_ids;

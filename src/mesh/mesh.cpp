@@ -25,9 +25,10 @@ namespace {
 
 class MeditReader {
  public:
-  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands, bool triangles_as_cloth)
+  MeditReader(const std::string& path, const std::string& text, bool edges_as_strands, bool triangles_as_cloth,
+              const std::vector<int32_t>& face_tags)
       : path_(path), tok_(text, '#'), skipped_(path), text_size_(text.size()), edges_as_strands_(edges_as_strands),
-        triangles_as_cloth_(triangles_as_cloth) {}
+        triangles_as_cloth_(triangles_as_cloth), face_tags_(face_tags) {}
 
   TetMesh read() {
     TetMesh mesh;
@@ -52,6 +53,12 @@ class MeditReader {
         if (!have_vertices)
           throw InputError(path_, t.line, "Triangles", "Triangles section comes before the Vertices section");
         read_elements(t, 3, "triangle", mesh.num_vertices(), mesh.triangles, mesh.triangle_tags);
+        have_triangles = true;
+      } else if (t.is("Triangles") && !face_tags_.empty()) {
+        if (have_triangles) throw InputError(path_, t.line, "Triangles", "second Triangles section");
+        if (!have_vertices)
+          throw InputError(path_, t.line, "Triangles", "Triangles section comes before the Vertices section");
+        read_tagged_faces(t, mesh);
         have_triangles = true;
       } else if (t.is("Tetrahedra") && !triangles_as_cloth_) {
         if (have_tets) throw InputError(path_, t.line, "Tetrahedra", "second Tetrahedra section");
@@ -197,6 +204,27 @@ class MeditReader {
     }
   }
 
+  // The Triangles of a tet mesh: only those of the deck's face tags are kept (TaggedFaces).
+  void read_tagged_faces(const Token& key, TetMesh& mesh) {
+    Section s = open_section(key);
+    const long long nv = mesh.num_vertices();
+    for (long long i = 0; i < s.count; ++i) {
+      long long v[3];
+      for (int k = 0; k < 3; ++k) {
+        Token t = integer(s, i, v[k]);
+        if (v[k] < 1 || v[k] > nv)
+          throw InputError(path_, t.line, s.name, "triangle " + std::to_string(i + 1) + ": vertex index " + t.str() +
+                                                      " is out of range 1.." + std::to_string(nv));
+      }
+      long long ref;
+      Token t = integer(s, i, ref);
+      if (ref < std::numeric_limits<int32_t>::min() || ref > std::numeric_limits<int32_t>::max())
+        throw InputError(path_, t.line, s.name, "triangle " + std::to_string(i + 1) + ": reference " + t.str() + " is too large");
+      // A vertex's id is its 0-based position in the file (read_vertices).
+      mesh.tagged_faces.read(face_tags_, int32_t(ref), v[0] - 1, v[1] - 1, v[2] - 1);
+    }
+  }
+
   // Reserve no more records than the file could hold (a record takes >= 2 bytes per token), so
   // a corrupt count gives a truncation error rather than a huge allocation.
   size_t capacity(const Section& s, int tokens_per_record) const {
@@ -209,6 +237,7 @@ class MeditReader {
   size_t text_size_;
   bool edges_as_strands_;
   bool triangles_as_cloth_;
+  std::vector<int32_t> face_tags_;  // ascending; empty: Triangles skipped
 };
 
 // det[X1-X0, X2-X0, X3-X0] = 6 * signed volume.
@@ -225,9 +254,30 @@ double distance(const double* p, const double* q) {
 
 }  // namespace
 
-TetMesh read_medit(const std::string& path, bool edges_as_strands, bool triangles_as_cloth) {
+TetMesh read_medit(const std::string& path, bool edges_as_strands, bool triangles_as_cloth,
+                   const std::vector<int32_t>& face_tags) {
   const std::string text = read_text_file(path);
-  return MeditReader(path, text, edges_as_strands, triangles_as_cloth).read();
+  return MeditReader(path, text, edges_as_strands, triangles_as_cloth, triangles_as_cloth ? std::vector<int32_t>{} : face_tags)
+      .read();
+}
+
+void TaggedFaces::read(const std::vector<int32_t>& wanted, int32_t tag, int64_t a, int64_t b, int64_t c) {
+  auto seen = std::lower_bound(file_tags.begin(), file_tags.end(), tag);
+  if (seen == file_tags.end() || *seen != tag) file_tags.insert(seen, tag);
+  if (!std::binary_search(wanted.begin(), wanted.end(), tag)) return;
+  std::array<int64_t, 3> ids{a, b, c};
+  std::sort(ids.begin(), ids.end());
+  vertices.insert(vertices.end(), ids.begin(), ids.end());
+  tags.push_back(tag);
+}
+
+std::vector<int64_t> TaggedFaces::vertex_ids_of(int32_t tag) const {
+  std::vector<int64_t> ids;
+  for (size_t f = 0; f < tags.size(); ++f)
+    if (tags[f] == tag) ids.insert(ids.end(), &vertices[3 * f], &vertices[3 * f] + 3);
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return ids;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,9 +6,32 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hyperqn {
+
+// Triangles of a tet mesh's file kept for their tag (Medit Triangles' reference, Gmsh's physical
+// group), which a deck's face_tag selects boundary faces by (docs/loads.md#face-tags). Read only
+// for the tags a deck names (none: nothing is read); a rank keeps those that touch its piece.
+struct TaggedFaces {
+  std::vector<int64_t> vertices;  // 3 per triangle: its vertices' ids (TetMesh::vertex_ids), ascending
+  std::vector<int32_t> tags;      // per triangle: the tag (a triangle of several Gmsh groups: once per group)
+  std::vector<int32_t> file_tags; // every tag the file's triangles carry, ascending (rank 0: messages)
+  std::vector<std::pair<int32_t, int64_t>> file_counts;  // per tag kept: its distinct triangles in the file
+  int64_t size() const { return (int64_t)tags.size(); }
+  bool empty() const { return tags.empty(); }
+  int64_t count_in_file(int32_t tag) const {
+    for (const auto& [t, n] : file_counts)
+      if (t == tag) return n;
+    return 0;
+  }
+  // The sorted vertex ids of the triangles of this tag.
+  std::vector<int64_t> vertex_ids_of(int32_t tag) const;
+  // A reader's triangle of vertex ids a, b, c and this tag: noted in file_tags, kept if its tag is
+  // in wanted (ascending).
+  void read(const std::vector<int32_t>& wanted, int32_t tag, int64_t a, int64_t b, int64_t c);
+};
 
 struct TetMesh {
   std::vector<double> coords;        // 3 per vertex, x y z
@@ -24,6 +47,7 @@ struct TetMesh {
                                         // triangle (a, b, c); d opposite it in the other triangle
   std::vector<uint8_t> triangle_edges;  // per triangle: bit k if it carries its edge k = (v_k, v_{k+1 mod 3});
                                         // every edge is carried by exactly one triangle
+  TaggedFaces tagged_faces;             // read for the deck's face tags only (empty otherwise)
   int64_t num_vertices() const { return (int64_t)coords.size() / 3; }
   int64_t num_tets() const { return (int64_t)tets.size() / 4; }
   int64_t num_segments() const { return (int64_t)segments.size() / 2; }
@@ -36,8 +60,11 @@ struct TetMesh {
 // generators write for feature lines, are skipped like the other sections and '#' comments).
 // With triangles_as_cloth its Triangles section is read as a cloth surface instead, and its
 // Tetrahedra (if any) are skipped.
+// With face_tags (ascending), the Triangles whose reference is one of them are kept in
+// tagged_faces (a tet mesh's boundary faces; not with triangles_as_cloth).
 // Counts, indices and truncation are checked: throws InputError naming the file and line.
-TetMesh read_medit(const std::string& path, bool edges_as_strands = false, bool triangles_as_cloth = false);
+TetMesh read_medit(const std::string& path, bool edges_as_strands = false, bool triangles_as_cloth = false,
+                   const std::vector<int32_t>& face_tags = {});
 
 // The bounding box [lo, hi] of points stored x y z one after the other (lo > hi if there are none).
 void bounding_box(const std::vector<double>& coords, double lo[3], double hi[3]);

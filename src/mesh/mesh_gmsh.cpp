@@ -51,8 +51,9 @@ std::string shown(const Token& t) {
 
 class GmshReader {
  public:
-  GmshReader(const std::string& path, const std::string& text, bool triangles_as_cloth)
-      : path_(path), tok_(text), kept_type_(triangles_as_cloth ? kTriangle : kTet) {}
+  GmshReader(const std::string& path, const std::string& text, bool triangles_as_cloth, const std::vector<int32_t>& face_tags)
+      : path_(path), tok_(text), kept_type_(triangles_as_cloth ? kTriangle : kTet),
+        face_tags_(triangles_as_cloth ? std::vector<int32_t>{} : face_tags) {}
 
   TetMesh read() {
     read_format();
@@ -193,10 +194,13 @@ class GmshReader {
         for (int k = 0; k < (d == 0 ? 3 : 6); ++k) number(s, what + ": a coordinate of its box");
         const long long nphys = integer(s, what + ": its number of physical tags", 0, max_count);
         long long first = 0;
+        std::vector<int32_t> groups;
         for (long long p = 0; p < nphys; ++p) {
           const long long phys = integer(s, what + ": a physical tag", std::numeric_limits<int32_t>::min(), max_count);
           if (p == 0) first = phys;
+          if (!face_tags_.empty()) groups.push_back(int32_t(phys));
         }
+        if (d == 2 && !face_tags_.empty()) surface_groups_[tag] = groups;
         if (d > 0) {
           const long long nbound = integer(s, what + ": its number of bounding entities", 0, max_count);
           for (long long b = 0; b < nbound; ++b) integer(s, what + ": a bounding entity");
@@ -307,8 +311,11 @@ class GmshReader {
   }
 
   // The nodes of an element; those of the kept type (tets, or triangles for a cloth) are kept
-  // with the element's tag, the others skipped.
-  void read_element_nodes(const Section& s, const std::string& what, long long type, int nodes, int32_t tag, TetMesh& mesh) {
+  // with the element's tag, the others skipped; a tet mesh's triangle of one of the deck's face
+  // tags (groups: its physical groups) goes to tagged_faces.
+  void read_element_nodes(const Section& s, const std::string& what, long long type, int nodes, int32_t tag, TetMesh& mesh,
+                          const std::vector<int32_t>* groups = nullptr) {
+    const bool face = groups && type == kTriangle && kept_type_ == kTet;
     int32_t v[4];
     for (int k = 0; k < nodes; ++k) {
       int line;
@@ -316,8 +323,10 @@ class GmshReader {
       auto it = node_index_.find(node);
       if (it == node_index_.end())
         throw InputError(path_, line, s.name, what + ": node " + std::to_string(node) + " is not in $Nodes");
-      if (type == kept_type_) v[k] = it->second;
+      if (type == kept_type_ || face) v[k] = it->second;
     }
+    if (face)  // a vertex's id is its node's 0-based position in the file (add_node_tag)
+      for (int32_t group : *groups) mesh.tagged_faces.read(face_tags_, group, v[0], v[1], v[2]);
     if (type != kept_type_) return;
     if (type == kTet) {
       mesh.tets.insert(mesh.tets.end(), v, v + 4);
@@ -344,7 +353,12 @@ class GmshReader {
         const long long v = integer(s, what + ": a tag", std::numeric_limits<int32_t>::min(), std::numeric_limits<int32_t>::max());
         if (k == 0) tag = int32_t(v);
       }
-      read_element_nodes(s, what, type, et.nodes, tag, mesh);
+      if (face_tags_.empty()) {
+        read_element_nodes(s, what, type, et.nodes, tag, mesh);
+      } else {
+        const std::vector<int32_t> groups{tag};  // 2.2 writes a triangle once per physical group
+        read_element_nodes(s, what, type, et.nodes, tag, mesh, &groups);
+      }
     }
     expect_end(s, "the " + std::to_string(n) + " elements it declares");
   }
@@ -383,11 +397,24 @@ class GmshReader {
           throw InputError(path_, entity_line, s.name, block + ": entity tag " + std::to_string(entity) + " is too large");
         tag = int32_t(entity);
       }
+      // A tet mesh's triangles: their surface's physical groups, for the deck's face tags.
+      std::vector<int32_t> groups;
+      const bool faces = type == kTriangle && kept_type_ == kTet && !face_tags_.empty();
+      if (faces && have_entities_) {
+        auto it = surface_groups_.find(entity);
+        if (it == surface_groups_.end())
+          throw InputError(path_, entity_line, s.name, block + ": surface " + std::to_string(entity) + " is not in $Entities");
+        groups = it->second;
+      } else if (faces) {
+        if (entity < std::numeric_limits<int32_t>::min() || entity > std::numeric_limits<int32_t>::max())
+          throw InputError(path_, entity_line, s.name, block + ": entity tag " + std::to_string(entity) + " is too large");
+        groups = {int32_t(entity)};
+      }
       const long long count = block_count(s, "element", block, h, read);
       for (long long i = 0; i < count; ++i) {
         const std::string what = block + ": element " + std::to_string(i + 1);
         integer(s, what + ": its tag");
-        read_element_nodes(s, what, type, et.nodes, tag, mesh);
+        read_element_nodes(s, what, type, et.nodes, tag, mesh, faces ? &groups : nullptr);
       }
       read += count;
     }
@@ -399,15 +426,17 @@ class GmshReader {
   bool version4_ = false;
   long long kept_type_;  // kTet, or kTriangle for a cloth
   bool have_entities_ = false;
+  std::vector<int32_t> face_tags_;  // the deck's face tags, ascending (empty: triangles skipped)
   std::unordered_map<long long, int32_t> volume_tag_;  // 4.1 volume entity -> its tets' tag
+  std::unordered_map<long long, std::vector<int32_t>> surface_groups_;  // 4.1 surface entity -> its physical tags
   std::unordered_map<long long, int32_t> node_index_;  // node tag -> 0-based position in the file
 };
 
 }  // namespace
 
-TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth) {
+TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth, const std::vector<int32_t>& face_tags) {
   const std::string text = read_text_file(path);
-  return GmshReader(path, text, triangles_as_cloth).read();
+  return GmshReader(path, text, triangles_as_cloth, face_tags).read();
 }
 
 }  // namespace hyperqn

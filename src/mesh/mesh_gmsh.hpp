@@ -1,6 +1,7 @@
 // Gmsh .msh files: MSH 4.1 (with or without $Entities) and 2.2, ASCII.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "mesh/mesh.hpp"
 
@@ -13,7 +14,10 @@ namespace hyperqn {
 // the file. Throws InputError naming the file, line and section for anything malformed,
 // binary files and MSH versions other than 2.x and 4.1 included. With triangles_as_cloth the
 // 3-node triangles (type 2) are read as a cloth surface instead (tag: the first physical tag in
-// 2.2, the surface entity's tag in 4.1) and the tets are skipped.
-TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth = false);
+// 2.2, the surface entity's tag in 4.1) and the tets are skipped. With face_tags (ascending), the
+// triangles of those physical groups are kept in tagged_faces (a tet mesh's boundary faces): in
+// 2.2 a triangle's first tag, in 4.1 every physical tag of its surface in $Entities (without
+// $Entities, the surface's own tag, as for tets).
+TetMesh read_gmsh(const std::string& path, bool triangles_as_cloth = false, const std::vector<int32_t>& face_tags = {});
 
 }  // namespace hyperqn

@@ -31,10 +31,16 @@ const std::vector<DeckKey<LoadSpec>>& load_keys() {
     type.set = [](L& s, const std::string& word) { s.type = word; };
     type.get = [](const L& s) { return s.type; };
     std::vector<DeckKey<L>> k = {needed(type),
-                                 map_key<L>("box", "the region: the boundary faces (or, for `force`, the free vertices) "
-                                                   "in this axis-aligned box, inclusive", "", true),
+                                 map_key<L>("box", "the region: the boundary faces (or, for `force` and `body_force`, the "
+                                                   "free vertices) in this axis-aligned box, inclusive (or give `face_tag`)",
+                                            "none"),
                                  needed(DeckKey<L>{"box.min", &L::min, "the corner of least coordinates"}),
                                  needed(DeckKey<L>{"box.max", &L::max, "the opposite corner: `min` ≤ `max` on every axis"}),
+                                 custom_key<L>("face_tag", "integer",
+                                               "or the boundary faces (the free vertices) of the mesh file's triangles "
+                                               "of this tag (a Medit reference, a Gmsh physical group; "
+                                               "[loads.md](loads.md#face-tags)); with `box`, those in the box",
+                                               "none"),
                                  {"normal", &L::normal,
                                   "faces only: those whose rest outward normal is within `angle` of this direction "
                                   "(none: every face in the box)", nonzero_vector(), {}, "", "none"},

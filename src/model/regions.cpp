@@ -63,22 +63,44 @@ bool selects(const BoxRegion& box, const double* p, int64_t v, const std::vector
   return in_box(p, box, tol) && (box.body < 0 || vertex_body.at(v) == box.body);
 }
 
+// Whether region selects each local vertex: those of its face tag's triangles (a rank has those
+// touching its piece), in its box if it has one; or those in its box (of its body, if it names one).
+static std::vector<char> region_members(const TetMesh& mesh, const BoxRegion& region, double tol,
+                                        const std::vector<int32_t>& vertex_body) {
+  std::vector<char> member(mesh.num_vertices(), 0);
+  if (region.has_face_tag) {
+    const std::vector<int64_t> ids = mesh.tagged_faces.vertex_ids_of(region.face_tag);
+    for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+      member[v] = std::binary_search(ids.begin(), ids.end(), mesh.vertex_ids[v]) &&
+                  (!region.has_box || in_box(&mesh.coords[3 * v], region, tol));
+  } else {
+    for (int64_t v = 0; v < mesh.num_vertices(); ++v) member[v] = selects(region, &mesh.coords[3 * v], v, vertex_body, tol);
+  }
+  return member;
+}
+
 std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const std::vector<BoxRegion>& boxes,
                                      const std::string& deck_path, const std::string& section,
                                      const std::vector<int32_t>& vertex_body) {
   const double tol = 1e-9 * mesh_diagonal(comm, mesh);
   std::vector<int32_t> selected(mesh.num_vertices(), 0);
   for (size_t b = 0; b < boxes.size(); ++b) {
+    const BoxRegion& region = boxes[b];
+    const std::vector<char> member = region_members(mesh, region, tol, vertex_body);
     int64_t count = 0;
     for (int64_t v = 0; v < mesh.num_vertices(); ++v)
-      if (selects(boxes[b], &mesh.coords[3 * v], v, vertex_body, tol)) {
+      if (member[v]) {
         selected[v] = (int32_t)b + 1;
         ++count;
       }
-    if (global_count(comm, count) == 0)
-      throw InputError(deck_path, boxes[b].line, box_key(boxes, b, section),
-                       boxes[b].body >= 0 ? "selects no vertex of its body (boxes are in coordinates after the body's mesh.transform)"
-                                          : "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
+    if (global_count(comm, count) > 0) continue;
+    if (region.has_face_tag)
+      throw InputError(deck_path, region.face_tag_line, section + "[" + std::to_string(b) + "].face_tag",
+                       "selects no vertex of the mesh: tag " + std::to_string(region.face_tag) + "'s triangles have " +
+                           (region.has_box ? "no vertex in the box" : "no vertex of a tet"));
+    throw InputError(deck_path, region.line, box_key(boxes, b, section),
+                     region.body >= 0 ? "selects no vertex of its body (boxes are in coordinates after the body's mesh.transform)"
+                                      : "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
   return selected;
 }
@@ -101,14 +123,13 @@ std::vector<int32_t> select_held_components(const TetMesh& mesh, const std::vect
                                             std::vector<int32_t>& fixed, const std::vector<int32_t>& vertex_body) {
   if (std::none_of(boxes.begin(), boxes.end(), is_roller)) return {};
   std::vector<int32_t> held(3 * mesh.num_vertices(), 0);
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
-    if (fixed[v] == 0) continue;  // in no box
-    for (size_t b = 0; b < boxes.size(); ++b)
-      if (selects(boxes[b], &mesh.coords[3 * v], v, vertex_body, tol)) {
-        const int bits = held_components(boxes[b]);
+  for (size_t b = 0; b < boxes.size(); ++b) {  // in deck order: a component follows the last region holding it
+    const std::vector<char> member = region_members(mesh, boxes[b], tol, vertex_body);
+    const int bits = held_components(boxes[b]);
+    for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+      if (member[v] && fixed[v] != 0)
         for (int d = 0; d < 3; ++d)
           if (bits & (1 << d)) held[3 * v + d] = (int32_t)b + 1;
-      }
   }
   fixed_of_held(held, fixed);
   return held;

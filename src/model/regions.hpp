@@ -30,6 +30,12 @@ struct BoxRegion {
                                      // (bodies[body].fixed, bodies[body].attachments; -1: any)
   std::vector<std::string> components;  // fixed regions: the components held, "x", "y", "z" (empty: all three)
   int components_line = 0;              // its deck line
+  // Fixed regions: the vertices of the mesh file's triangles of this tag (TetMesh::tagged_faces),
+  // and in the box if it is given too (has_box).
+  bool has_box = true;
+  int face_tag = 0;
+  bool has_face_tag = false;
+  int face_tag_line = 0;
 };
 
 // The components a fixed region holds as bits (1: x, 2: y, 4: z); 7 for all three (no `components`).
@@ -53,7 +59,12 @@ inline const std::vector<DeckKey<BoxRegion>>& fixed_keys() {
   using B = BoxRegion;
   static const std::vector<DeckKey<B>> keys = [] {
     std::vector<DeckKey<B>> k = box_keys<B>(
-        +[](B& b) -> B& { return b; }, "the vertices fixed: those in this axis-aligned box, inclusive", true);
+        +[](B& b) -> B& { return b; }, "the vertices fixed: those in this axis-aligned box, inclusive (or give `face_tag`)",
+        false);
+    k.push_back(custom_key<B>("face_tag", "integer",
+                              "or the vertices of the mesh file's triangles of this tag (a Medit reference, a Gmsh "
+                              "physical group; [loads.md](loads.md#face-tags)); with `box`, those in the box",
+                              "none"));
     k.push_back(custom_key<B>("motion", "map: [`motion`](#motion)",
                               "how the region moves; the vertices follow it until `release`", "none (at rest)"));
     k.push_back({"components", &B::components,

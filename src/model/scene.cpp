@@ -131,9 +131,10 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-// One mesh as a MeshSpec describes it: made or read, transformed, its strands added, cleaned
-// (errors name `deck_path` for a generated mesh).
-static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path, CleanReport* repaired) {
+// One mesh as a MeshSpec describes it: made or read (with the triangles of face_tags: TetMesh::tagged_faces),
+// transformed, its strands added, cleaned (errors name `deck_path` for a generated mesh).
+static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path, CleanReport* repaired,
+                              const std::vector<int32_t>& face_tags = {}) {
   TetMesh mesh;
   if (spec.is_box) {
     mesh = generate_box(spec.box_size, spec.box_cells);
@@ -142,9 +143,9 @@ static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path
   } else if (ends_with(spec.file, ".obj")) {
     mesh = surface_mesh(read_triangle_surface(spec.file));
   } else if (ends_with(spec.file, ".msh")) {
-    mesh = read_gmsh(spec.file, spec.surface_as_cloth);
+    mesh = read_gmsh(spec.file, spec.surface_as_cloth, face_tags);
   } else if (!spec.file.empty()) {
-    mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth);
+    mesh = read_medit(spec.file, spec.edges_as_strands, spec.surface_as_cloth, face_tags);
   }
   apply_transform(mesh, spec.transform);
   for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
@@ -233,11 +234,32 @@ static void check_bodies_partition(const SceneSpec& deck, const PartitionFileInf
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
   if (!deck.bodies.empty()) return read_bodies_mesh(deck, repaired);
   const MeshSpec& spec = deck.mesh;
-  TetMesh mesh = read_mesh_spec(spec, deck.path, repaired);
+  TetMesh mesh = read_mesh_spec(spec, deck.path, repaired, deck.face_tags());
   if (mesh.num_tets() > 0 && !deck.has_material)
     throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
                                                    std::to_string(mesh.num_tets()) + " tetrahedra");
   return mesh;
+}
+
+// Every face tag the deck names is on a triangle of the mesh file, and the mesh has tets (rank 0,
+// on the serial mesh).
+static void check_face_tags_in_file(const SceneSpec& deck, const TetMesh& mesh) {
+  const std::vector<SceneSpec::NamedFaceTag> named = deck.named_face_tags();
+  if (named.empty()) return;
+  const std::string& file = deck.mesh.file;
+  if (mesh.num_tets() == 0)
+    throw InputError(deck.path, named[0].line, named[0].key,
+                     "the mesh " + file + " has no tetrahedra: face_tag selects boundary faces of tets");
+  const std::vector<int32_t>& in_file = mesh.tagged_faces.file_tags;
+  for (const auto& [key, line, tag] : named) {
+    if (std::binary_search(in_file.begin(), in_file.end(), tag)) continue;
+    std::string tags;
+    for (size_t k = 0; k < in_file.size() && k < 20; ++k) tags += (k ? ", " : "") + std::to_string(in_file[k]);
+    if (in_file.size() > 20) tags += ", ...";
+    throw InputError(deck.path, line, key,
+                     "no triangle of the mesh file " + file + " carries tag " + std::to_string(tag) +
+                         (in_file.empty() ? " (it has no tagged triangles)" : " (its triangles' tags: " + tags + ")"));
+  }
 }
 
 TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repaired, const MemoryPlan& plan) {
@@ -253,10 +275,45 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
       check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
     }
     mesh = read_serial_mesh(deck, repaired);
+    check_face_tags_in_file(deck, mesh);
     if (!spec.file.empty() || !deck.bodies.empty())  // before distributing and factoring it
       check_memory(deck, mesh.num_vertices(), mesh.num_tets(), plan, limits);
   });
   return mesh;
+}
+
+// Rank 0's tagged faces to every rank, which keeps those with a vertex in its piece: a boundary
+// face of its tets, or a vertex a fixed face_tag selects. The list of the deck's tags is on every
+// rank while it is sent, then each rank keeps its part (docs/loads.md#face-tags).
+static void share_tagged_faces(MPI_Comm comm, const TaggedFaces& all, MeshPiece& piece) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  long long n = rank == 0 ? (long long)all.size() : 0;
+  MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm);
+  std::vector<int64_t> vertices = rank == 0 ? all.vertices : std::vector<int64_t>(size_t(3 * n));
+  std::vector<int32_t> tags = rank == 0 ? all.tags : std::vector<int32_t>(size_t(n));
+  MPI_Bcast(vertices.data(), int(3 * n), MPI_INT64_T, 0, comm);
+  MPI_Bcast(tags.data(), int(n), MPI_INT32_T, 0, comm);
+  std::vector<int64_t> ids = piece.mesh.vertex_ids;
+  std::sort(ids.begin(), ids.end());
+  TaggedFaces mine;
+  std::vector<std::array<int64_t, 4>> distinct;  // (tag, vertex ids): a triangle listed twice counts once
+  for (long long f = 0; f < n; ++f) distinct.push_back({tags[f], vertices[3 * f], vertices[3 * f + 1], vertices[3 * f + 2]});
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  for (const auto& d : distinct) {
+    if (mine.file_counts.empty() || mine.file_counts.back().first != int32_t(d[0])) mine.file_counts.push_back({int32_t(d[0]), 0});
+    ++mine.file_counts.back().second;
+  }
+  for (long long f = 0; f < n; ++f) {
+    const int64_t* v = &vertices[3 * f];
+    if (!std::binary_search(ids.begin(), ids.end(), v[0]) && !std::binary_search(ids.begin(), ids.end(), v[1]) &&
+        !std::binary_search(ids.begin(), ids.end(), v[2]))
+      continue;
+    mine.vertices.insert(mine.vertices.end(), v, v + 3);
+    mine.tags.push_back(tags[f]);
+  }
+  piece.mesh.tagged_faces = std::move(mine);
 }
 
 // This rank's piece of the deck's mesh: a block of a generated box or sheet, made on every rank;
@@ -319,11 +376,14 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     return read_partition_piece(comm, partition);
   }
   const TetMesh serial = load_scene_mesh(comm, deck, repaired, plan);
+  MeshPiece piece;
   try {
-    return scatter_serial_mesh(comm, serial);
+    piece = scatter_serial_mesh(comm, serial);
   } catch (const std::runtime_error& e) {
     throw InputError(e.what());
   }
+  if (!deck.face_tags().empty()) share_tagged_faces(comm, serial.tagged_faces, piece);
+  return piece;
 }
 
 SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPlan& plan) {

@@ -2,7 +2,9 @@
 // stepping. The deck (app/deck.hpp) is a scene plus how to run it (solver, output, study); the
 // model builds from this alone.
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -233,6 +235,29 @@ struct SceneSpec {
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;
+  // The face_tag of each fixed region and load that gives one, in the deck's order: its key
+  // ("loads[2].face_tag"), deck line and tag.
+  struct NamedFaceTag {
+    std::string key;
+    int line;
+    int32_t tag;
+  };
+  std::vector<NamedFaceTag> named_face_tags() const {
+    std::vector<NamedFaceTag> named;
+    for (size_t k = 0; k < fixed.size(); ++k)
+      if (fixed[k].has_face_tag) named.push_back({"fixed[" + std::to_string(k) + "].face_tag", fixed[k].face_tag_line, fixed[k].face_tag});
+    for (size_t k = 0; k < loads.size(); ++k)
+      if (loads[k].has_face_tag) named.push_back({"loads[" + std::to_string(k) + "].face_tag", loads[k].face_tag_line, loads[k].face_tag});
+    return named;
+  }
+  // Their tags, ascending, each once (empty: the mesh file's triangles are not read).
+  std::vector<int32_t> face_tags() const {
+    std::vector<int32_t> tags;
+    for (const NamedFaceTag& n : named_face_tags()) tags.push_back(n.tag);
+    std::sort(tags.begin(), tags.end());
+    tags.erase(std::unique(tags.begin(), tags.end()), tags.end());
+    return tags;
+  }
 };
 
 // A free scene: nothing acts on its bodies but their own forces (elastic, self-contact): no fixed

@@ -23,8 +23,11 @@ struct LoadRegion {
   std::vector<std::array<PetscInt, 3>> faces;
   std::vector<PetscInt> vertices;
   long long global_count = 0;
+  // A face_tag's faces: how many of the tag's triangles are not boundary faces of the tets (interior
+  // faces, or no face of a tet), which the region leaves out (-1: no face_tag).
+  long long tag_not_boundary = -1;
 };
-// Collective.
+// Collective. With a face_tag, the tag's boundary faces (vertices) in the box if there is one too.
 LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target);
 
 // A load's term for the deck's spec, acting on region (loads[index]).

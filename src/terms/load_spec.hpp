@@ -15,6 +15,11 @@ struct LoadSpec {
   std::string type;
   int line = 0;                         // deck line, for messages
   Array3 min{0, 0, 0}, max{0, 0, 0};    // the region: boundary faces or vertices in this box
+  bool has_box = true;                  // the deck gives box (false: face_tag alone)
+  // And/or the faces (vertices) of the mesh file's triangles of this tag (docs/loads.md#face-tags).
+  int face_tag = 0;
+  bool has_face_tag = false;
+  int face_tag_line = 0;
   Array3 normal{0, 0, 0};               // faces only: rest outward normal within `angle` of it (0: any)
   double angle = 30;                    // degrees
   Curve curve;                          // the load's magnitude is its value times c(t) (none: 1)
