@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -30,10 +31,19 @@ Array make_array(const std::string& type, const std::string& name, int component
   return {type, name, components, reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)};
 }
 
-// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time (a piece's
-// arrays are most of an output frame's time: docs/records/2026-12-02-element-fields-cost.md).
+// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time, each 12
+// bits through a table of character pairs (a piece's arrays are most of an output frame's time:
+// docs/records/2026-12-02-field-output-cost.md).
 void append_base64(std::string& out, const char* data, size_t n) {
   static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static const std::vector<char> pairs = [] {  // 4096 pairs: the characters of 12 bits
+    std::vector<char> p(2 * 4096);
+    for (int v = 0; v < 4096; ++v) {
+      p[2 * v] = table[v >> 6];
+      p[2 * v + 1] = table[v & 63];
+    }
+    return p;
+  }();
   const size_t at = out.size();
   out.resize(at + 4 * ((n + 2) / 3));
   char* o = &out[at];
@@ -41,10 +51,8 @@ void append_base64(std::string& out, const char* data, size_t n) {
   size_t i = 0;
   for (; i + 3 <= n; i += 3, o += 4) {
     const uint32_t v = (uint32_t(d[i]) << 16) | (uint32_t(d[i + 1]) << 8) | d[i + 2];
-    o[0] = table[(v >> 18) & 63];
-    o[1] = table[(v >> 12) & 63];
-    o[2] = table[(v >> 6) & 63];
-    o[3] = table[v & 63];
+    std::memcpy(o, &pairs[2 * (v >> 12)], 2);
+    std::memcpy(o + 2, &pairs[2 * (v & 4095)], 2);
   }
   if (i < n) {  // 1 or 2 bytes left: padded with '='
     const uint32_t v = (uint32_t(d[i]) << 16) | (i + 1 < n ? uint32_t(d[i + 1]) << 8 : 0);
