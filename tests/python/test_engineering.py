@@ -4,7 +4,8 @@
   forces balance (no gravity, no inertia), the moving clamp's force grows with its travel, which
   hyperqn_tools.force_displacement reads as 5 mm per step; 1 and 2 ranks agree; the tool writes the
   curve's CSV and PNG.
-- dogbone.yaml (its mesh from scripts/dogbone_mesh.py, static, each grip held by a clamp, one
+- dogbone.yaml (its mesh from scripts/dogbone_mesh.py, written again here and the same as the
+  committed one beside the deck; static, each grip held by a clamp, one
   moved 10 mm by a ramp): the moving clamp's force grows with its travel; its initial slope (the
   first two load steps extrapolated to zero travel, (4 F(u) - F(2u)) / 2u, which cancels the
   curve's quadratic term) is the small-strain stiffness of the specimen between the clamps, the
@@ -65,6 +66,8 @@ def test_dogbone(tmp_path):
     shutil.copy(deck("dogbone.yaml"), tmp_path / "dogbone.yaml")
     subprocess.run([sys.executable, os.path.join(REPO, "scripts", "dogbone_mesh.py"), str(tmp_path / "dogbone.mesh")],
                    check=True, stdout=subprocess.DEVNULL)
+    with open(tmp_path / "dogbone.mesh") as a, open(deck("dogbone.mesh")) as b:
+        assert a.read() == b.read(), "input/engineering/dogbone.mesh is what scripts/dogbone_mesh.py writes"
     outs = {}
     for ranks in (1, 2):
         outs[ranks] = tmp_path / f"np{ranks}"
