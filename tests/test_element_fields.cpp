@@ -27,7 +27,6 @@ namespace {
 
 constexpr double kTol = 1e-10;
 constexpr double kMu = 3.0, kLambda = 5.0, kSpring = 7.0, kEA = 20.0;
-using Row = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
 // A general deformation (not symmetric, det F = 1.26..., a little shear in every plane).
 Mat3 deformation() {
@@ -88,6 +87,14 @@ const double* at(const std::vector<ElementFieldValues>& fields, ElementField f, 
   return &fields[size_t(f)].values[field_info(f).components * element];
 }
 
+// A symmetric tensor field's matrix from its 6 values (kSymmetricRow's order).
+Mat3 tensor_at(const std::vector<ElementFieldValues>& fields, ElementField f, size_t element) {
+  const double* v = at(fields, f, element);
+  Mat3 A;
+  for (int i = 0; i < 6; ++i) A(kSymmetricRow[i], kSymmetricCol[i]) = A(kSymmetricCol[i], kSymmetricRow[i]) = v[i];
+  return A;
+}
+
 double relative(const Mat3& a, const Mat3& b) { return (a - b).norm() / std::max(b.norm(), 1e-300); }
 
 bool all_nan(const std::vector<ElementFieldValues>& fields, ElementField f, size_t first, size_t end) {
@@ -124,7 +131,7 @@ void check_tets(const std::string& what, const MaterialSpec& spec, const Mat3& F
       psi = material->energy_and_stress(F, P);
     }
     const Mat3 sigma = P * F.transpose() / J;
-    const Mat3 field = Eigen::Map<const Row>(at(fields, ElementField::cauchy_stress, c));
+    const Mat3 field = tensor_at(fields, ElementField::cauchy_stress, c);
     worst_sigma = std::max(worst_sigma, relative(field, sigma));
     Mat3 sigma_closed;
     double psi_closed;
@@ -143,7 +150,7 @@ void check_tets(const std::string& what, const MaterialSpec& spec, const Mat3& F
     worst_other = std::max(worst_other, (Eigen::Map<const Vec3>(at(fields, ElementField::principal_stretches, c)) -
                                          stretches).norm() / stretches.norm());
     const Mat3 E = 0.5 * (F.transpose() * F - Mat3::Identity());
-    worst_other = std::max(worst_other, relative(Eigen::Map<const Row>(at(fields, ElementField::green_strain, c)), E));
+    worst_other = std::max(worst_other, relative(tensor_at(fields, ElementField::green_strain, c), E));
     worst_other = std::max(worst_other, std::fabs(*at(fields, ElementField::energy_density, c) - psi) / std::fabs(psi));
   }
   CHECK_MSG(worst_sigma <= kTol, what + ": sigma vs P F^T / J, worst " + std::to_string(worst_sigma));
@@ -191,7 +198,7 @@ void check_spring_virial(const Mat3& F) {
         sigma += kSpring * (u.norm() - D.norm()) / u.norm() * u * u.transpose();
       }
     sigma /= F.determinant() * Dm.determinant() / 6;
-    worst = std::max(worst, relative(Eigen::Map<const Row>(at(fields, ElementField::cauchy_stress, c)), sigma));
+    worst = std::max(worst, relative(tensor_at(fields, ElementField::cauchy_stress, c), sigma));
   }
   CHECK_MSG(worst <= kTol, "mass-spring: sigma vs the springs' virial stress, worst " + std::to_string(worst));
 }
@@ -283,7 +290,7 @@ void check_membrane() {
     const size_t first = s.mesh.num_cells + s.mesh.num_segments;
     for (PetscInt t = 0; t < s.mesh.num_triangles; ++t) {
       const PetscInt* tri = &s.mesh.triangles[3 * t];
-      const Mat3 field = Eigen::Map<const Row>(at(fields, ElementField::membrane_stress, first + t));
+      const Mat3 field = tensor_at(fields, ElementField::membrane_stress, first + t);
       if (m != membrane::Model::corotated) worst_closed = std::max(worst_closed, relative(field, closed));
       // sigma = (g1 e1^T + g2 e2^T) / a with g the central differences of E(x) at x1, x2.
       const membrane::TriangleRest r =

@@ -114,6 +114,27 @@ def xdmf_grid(path):
     return meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data), time
 
 
+# Where each of a symmetric tensor field's 6 values per element sits in the 3 x 3 matrix: in a .vtu
+# piece VTK's order (xx, yy, zz, xy, yz, xz: the order ParaView reads a 6-component array as a
+# symmetric tensor), in the .h5 of an XDMF series XDMF's Tensor6 (xx, xy, xz, yy, yz, zz).
+VTK_SYMMETRIC = [(0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2)]
+XDMF_TENSOR6 = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+
+
+def tensors(values, xdmf=False):
+    """(n, 3, 3) from a tensor field's rows as a file holds them: 6 values of a symmetric tensor per
+    row (in VTK_SYMMETRIC's order, XDMF_TENSOR6's with xdmf) or 9, the matrix row by row (a run
+    before symmetric tensors were written as 6)."""
+    values = np.asarray(values, dtype=float)
+    values = values.reshape(-1, values.shape[-1]) if values.ndim > 1 else values.reshape(1, -1)
+    if values.shape[1] == 9:
+        return values.reshape(-1, 3, 3)
+    out = np.empty((len(values), 3, 3))
+    for k, (i, j) in enumerate(XDMF_TENSOR6 if xdmf else VTK_SYMMETRIC):
+        out[:, i, j] = out[:, j, i] = values[:, k]
+    return out
+
+
 def frame_meshes(path):
     """A frame as meshio meshes with point_data displacement: one per .vtu piece, one for an
     XDMF frame."""

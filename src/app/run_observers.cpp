@@ -452,7 +452,9 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
       element_values_[i].field = ElementField(std::find(all.begin(), all.end(), asked[i]) - all.begin());
       element_values_[i].values.assign(field_info(element_values_[i].field).components * elements, NAN);
     }
+    PetscCall(event_begin(&LogEvents::fields));
     for (const auto& term : s.body->terms()) term->fill_element_fields(pos_, element_values_);
+    PetscCall(event_end(&LogEvents::fields));
     for (size_t i = 0; i < asked.size(); ++i)
       f.element_fields.push_back({asked[i], field_info(element_values_[i].field).components, &element_values_[i].values});
   }

@@ -38,6 +38,7 @@ static LogEvents register_events() {
   add("hqnBacktrack", &e.backtrack);
   add("hqnScene", &e.scene);
   add("hqnOutput", &e.output);
+  add("hqnFields", &e.fields);
   add("hqnContact", &e.contact);
   add("hqnSelfContact", &e.self_contact);
   add("hqnSelfGather", &e.self_gather);

@@ -17,6 +17,7 @@ struct LogEvents {
   PetscLogEvent backtrack;    // hyperqn's own backtracking line search (PD, retries after failures)
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
   PetscLogEvent output;       // writing one output frame
+  PetscLogEvent fields;       // within it, computing the frame's element fields (output.fields)
   PetscLogEvent contact;      // contact and friction: energy, gradient, Hessian, per-step update
   PetscLogEvent self_contact; // self-contact: energy, gradient, Hessian, step bound (its gather included)
   PetscLogEvent self_gather;  // within it, gathering the surface's positions to every rank and the

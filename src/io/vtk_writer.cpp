@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -16,22 +17,33 @@ namespace hyperqn {
 
 namespace {
 
-// One data array: its XML attributes and its raw bytes.
+// One data array: its XML attributes and its raw bytes, read where they are (no copy: the frame's
+// arrays are most of its output time, docs/records/2026-12-02-field-output-cost.md).
 struct Array {
   std::string type, name;
   int components;
-  std::string bytes;
+  const char* bytes;
+  size_t size;
 };
 
 template <typename T>
 Array make_array(const std::string& type, const std::string& name, int components, const std::vector<T>& v) {
-  return {type, name, components, std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T))};
+  return {type, name, components, reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)};
 }
 
-// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time (a piece's
-// arrays are most of an output frame's time: docs/records/2026-12-02-element-fields-cost.md).
+// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time, each 12
+// bits through a table of character pairs (a piece's arrays are most of an output frame's time:
+// docs/records/2026-12-02-field-output-cost.md).
 void append_base64(std::string& out, const char* data, size_t n) {
   static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static const std::vector<char> pairs = [] {  // 4096 pairs: the characters of 12 bits
+    std::vector<char> p(2 * 4096);
+    for (int v = 0; v < 4096; ++v) {
+      p[2 * v] = table[v >> 6];
+      p[2 * v + 1] = table[v & 63];
+    }
+    return p;
+  }();
   const size_t at = out.size();
   out.resize(at + 4 * ((n + 2) / 3));
   char* o = &out[at];
@@ -39,10 +51,8 @@ void append_base64(std::string& out, const char* data, size_t n) {
   size_t i = 0;
   for (; i + 3 <= n; i += 3, o += 4) {
     const uint32_t v = (uint32_t(d[i]) << 16) | (uint32_t(d[i + 1]) << 8) | d[i + 2];
-    o[0] = table[(v >> 18) & 63];
-    o[1] = table[(v >> 12) & 63];
-    o[2] = table[(v >> 6) & 63];
-    o[3] = table[v & 63];
+    std::memcpy(o, &pairs[2 * (v >> 12)], 2);
+    std::memcpy(o + 2, &pairs[2 * (v & 4095)], 2);
   }
   if (i < n) {  // 1 or 2 bytes left: padded with '='
     const uint32_t v = (uint32_t(d[i]) << 16) | (i + 1 < n ? uint32_t(d[i + 1]) << 8 : 0);
@@ -60,10 +70,10 @@ void append_base64(std::string& out, const char* data, size_t n) {
 void append_data_array(std::string& xml, const Array& a) {
   xml += "<DataArray type=\"" + a.type + "\"";
   if (!a.name.empty()) xml += " Name=\"" + a.name + "\"";
-  const uint64_t n = a.bytes.size();
+  const uint64_t n = a.size;
   xml += " NumberOfComponents=\"" + std::to_string(a.components) + "\" format=\"binary\">\n";
   append_base64(xml, reinterpret_cast<const char*>(&n), sizeof n);
-  append_base64(xml, a.bytes.data(), n);
+  append_base64(xml, a.bytes, n);
   xml += "\n</DataArray>\n";
 }
 
@@ -97,6 +107,8 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   std::fill(types.begin() + nt + ns, types.end(), 5);         // VTK_TRIANGLE
   std::vector<int32_t> ranks(nc, rank);
   const std::vector<double> J = element_J(*mesh_, f);
+  const std::vector<double> stretch = cloth() ? triangle_stretch(*mesh_, *f.positions) : std::vector<double>();
+  const std::vector<int32_t> body = mesh_->num_bodies > 0 ? element_bodies(*mesh_) : std::vector<int32_t>();
 
   std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                    make_array("Float64", "velocity", 3, *f.velocities),
@@ -104,10 +116,10 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   for (const auto& [name, values] : f.point_fields) point_data.push_back(make_array("Float64", name, 3, *values));
   std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
   if (cloth())  // the largest principal stretch of each triangle
-    cell_data.push_back(make_array("Float64", "stretch", 1, triangle_stretch(*mesh_, *f.positions)));
+    cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
-    cell_data.push_back(make_array("Int32", "body", 1, element_bodies(*mesh_)));
-  for (const FrameElementField& field : f.element_fields)  // a 9-component array is a tensor to ParaView
+    cell_data.push_back(make_array("Int32", "body", 1, body));
+  for (const FrameElementField& field : f.element_fields)  // 6 components: a symmetric tensor to ParaView
     cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
@@ -115,12 +127,15 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
                                     make_array("UInt8", "types", 1, types)};
 
   size_t size = 1024;  // the text around the arrays
-  const auto add_size = [&](const Array& a) { size += 4 * (a.bytes.size() + 8) / 3 + 200; };
+  const auto add_size = [&](const Array& a) { size += 4 * (a.size + 8) / 3 + 200; };
   for (const Array& a : point_data) add_size(a);
   for (const Array& a : cell_data) add_size(a);
   for (const Array& a : cells) add_size(a);
   add_size(points);
-  std::string xml;
+  // The text of the piece, in a buffer kept from frame to frame: a fresh one of tens of MB would be
+  // new pages from the kernel, faulted in and zeroed, at every frame.
+  std::string& xml = xml_;
+  xml.clear();
   xml.reserve(size);
   xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n";

@@ -43,6 +43,7 @@ class VtkSeries : public OutputWriter {
   bool cloth() const { return mesh_->global_triangles > 0 && mesh_->global_cells + mesh_->global_segments == 0; }
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
+  mutable std::string xml_;  // the last piece's text (write_piece): its capacity serves the next
 };
 
 }  // namespace hyperqn

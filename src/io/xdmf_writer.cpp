@@ -23,6 +23,18 @@ constexpr int kMixedCode[kKinds] = {6, 2, 4};          // Tetrahedron, Polyline,
 constexpr int kMixedPrefix[kKinds] = {1, 2, 1};        // the code, and a polyline's vertex count
 constexpr const char* kTopology[kKinds] = {"Tetrahedron", "Polyline", "Triangle"};
 
+// XDMF's Tensor6 holds a symmetric tensor's values as xx, xy, xz, yy, yz, zz (the upper triangle
+// row by row; ParaView's XDMF reader expands it so); value i of it is value kTensor6[i] of the
+// frame's (terms/element_fields.hpp's kSymmetricRow order).
+int tensor6_source(int i) {
+  static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
+  for (int j = 0; j < 6; ++j)
+    if (kSymmetricRow[j] == row[i] && kSymmetricCol[j] == col[i]) return j;
+  return -1;
+}
+const int kTensor6[6] = {tensor6_source(0), tensor6_source(1), tensor6_source(2),
+                         tensor6_source(3), tensor6_source(4), tensor6_source(5)};
+
 // In a restart state, an element field is NAME@COMPONENTS (a point field is its name alone).
 constexpr char kElementFieldMark = '@';
 
@@ -172,16 +184,21 @@ struct XdmfSeries::Layout {
   }
   int kinds_present() const { return (count[0] > 0) + (count[1] > 0) + (count[2] > 0); }
   // `width` values per local element (element_J's order: tets, segments, triangles) gathered into
-  // each kind's rows (in `gathered`), and the blocks of the list of all elements they fill.
+  // each kind's rows (in `gathered`), and the blocks of the list of all elements they fill. With
+  // `order`, value i of a row is value order[i] of the element's.
   template <typename T>
   std::vector<ParallelFile::Block> element_blocks(const DistributedMesh& m, const std::vector<T>& values,
-                                                  std::vector<T> (&gathered)[kKinds], int width = 1) const {
+                                                  std::vector<T> (&gathered)[kKinds], int width = 1,
+                                                  const int* order = nullptr) const {
     std::vector<ParallelFile::Block> blocks;
     const PetscInt local[kKinds] = {m.num_cells, m.num_segments, m.num_triangles};
     PetscInt at = 0;
     for (int k = 0; k < kKinds; ++k) {
-      gathered[k] = kinds[k]->gather(
-          std::vector<T>(values.begin() + width * at, values.begin() + width * (at + local[k])), width);
+      std::vector<T> mine(values.begin() + width * at, values.begin() + width * (at + local[k]));
+      if (order)
+        for (PetscInt e = 0; e < local[k]; ++e)
+          for (int i = 0; i < width; ++i) mine[width * e + i] = values[width * (at + e) + order[i]];
+      gathered[k] = kinds[k]->gather(mine, width);
       at += local[k];
       blocks.push_back(
           {(hsize_t)(base[k] + kinds[k]->first()), (hsize_t)kinds[k]->count(), (hsize_t)width, gathered[k].data()});
@@ -293,8 +310,9 @@ void XdmfSeries::write_frame(const FrameData& f) {
     std::vector<Gathered> field_blocks(f.element_fields.size());
     std::vector<std::vector<ParallelFile::Block>> field_writes;
     for (size_t i = 0; i < f.element_fields.size(); ++i)
-      field_writes.push_back(
-          L.element_blocks(*mesh_, *f.element_fields[i].values, field_blocks[i].kind, f.element_fields[i].components));
+      field_writes.push_back(L.element_blocks(*mesh_, *f.element_fields[i].values, field_blocks[i].kind,
+                                              f.element_fields[i].components,
+                                              f.element_fields[i].components == 6 ? kTensor6 : nullptr));
 
     const std::string group = frame_group(f.frame);
     ParallelFile file(comm_, h5_path(), false);
@@ -375,8 +393,8 @@ void XdmfSeries::write_index() const {
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
     if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
     if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
-    for (const auto& [name, c] : element_fields)  // XDMF's Tensor: 9 values, row-major
-      attribute(name.c_str(), c == 1 ? "Scalar" : c == 3 ? "Vector" : "Tensor", "Cell",
+    for (const auto& [name, c] : element_fields)  // a symmetric tensor: Tensor6 (a run before it: Tensor, 9 values)
+      attribute(name.c_str(), c == 1 ? "Scalar" : c == 3 ? "Vector" : c == 6 ? "Tensor6" : "Tensor", "Cell",
                 item(c == 1 ? E : E + " " + std::to_string(c), false, group + "/" + name));
     out << "</Grid>\n";
   }

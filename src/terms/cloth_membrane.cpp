@@ -57,14 +57,14 @@ PetscErrorCode ClothMembrane::add_laplacian(Mat A, double scale, int components)
 }
 
 void ClothMembrane::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
-  using Row = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
+  const int sym = field_info(ElementField::membrane_stress).components;
   for (ElementFieldValues& f : fields)
     if (f.field == ElementField::membrane_stress)
       for (size_t i = 0; i < triangles_.size(); ++i) {
         const PetscInt t = triangles_[i];
         const membrane::Vec9 x = element_positions<3>(pos.data(), &mesh_.triangles[3 * t]);
-        Row(&f.values[9 * (mesh_.num_cells + mesh_.num_segments + t)]) =
-            membrane::cauchy_stress(model_, mu_, lambda_, rest_[i], x);
+        store_symmetric(membrane::cauchy_stress(model_, mu_, lambda_, rest_[i], x),
+                        &f.values[sym * (mesh_.num_cells + mesh_.num_segments + t)]);
       }
 }
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "io/output_writer.hpp"  // kSymmetricRow: the order of a symmetric tensor's values
+
 namespace hyperqn {
 
 enum class ElementField { cauchy_stress, von_mises, principal_stretches, green_strain, energy_density, axial_force,
@@ -14,20 +16,20 @@ enum class ElementField { cauchy_stress, von_mises, principal_stretches, green_s
 
 struct ElementFieldInfo {
   const char* name;      // as the deck and the files name it
-  int components;        // values per element: 1 a scalar, 3 a vector, 9 a 3 x 3 tensor (row-major)
+  int components;        // values per element: 1 a scalar, 3 a vector, 6 a symmetric 3 x 3 tensor (kSymmetricRow's order)
   const char* elements;  // the elements that have it, for the deck's error when the scene has none
 };
 
 // In the enum's order.
 inline const std::vector<ElementFieldInfo>& element_field_infos() {
   static const std::vector<ElementFieldInfo> infos = {
-      {"cauchy_stress", 9, "tets"},
+      {"cauchy_stress", 6, "tets"},
       {"von_mises", 1, "tets"},
       {"principal_stretches", 3, "tets"},
-      {"green_strain", 9, "tets"},
+      {"green_strain", 6, "tets"},
       {"energy_density", 1, "tets"},
       {"axial_force", 1, "strand segments"},
-      {"membrane_stress", 9,
+      {"membrane_stress", 6,
        "cloth triangles of the membrane model (cloth.model: membrane; a mass-spring cloth's edge springs have no membrane stress)"},
   };
   return infos;

@@ -80,29 +80,47 @@ std::vector<ElementField> TetElements::element_fields() const {
           ElementField::green_strain, ElementField::energy_density};
 }
 
-// Element by element, with the per-element kernel (element_energy; the batches' agree with it,
-// tests/test_materials.cpp): an output frame's cost is about one gradient's.
+// In add_energy's batches (the same kernels, psi and P of a batch at once), one pass for all the
+// fields asked for; then the measures of F and P element by element: an output frame's cost is
+// about one gradient's.
 void TetElements::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
-  using Row = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
   static_assert(size_t(ElementField::energy_density) == 4, "the tets' fields are the enum's first five");
   double* out[5] = {};  // by ElementField: cauchy_stress, von_mises, principal_stretches, green_strain, energy_density
   for (ElementFieldValues& f : fields)
     if (f.field <= ElementField::energy_density) out[size_t(f.field)] = f.values.data();
   if (std::none_of(std::begin(out), std::end(out), [](double* p) { return p; })) return;
-  for (size_t k = 0; k < cells_.size(); ++k) {
-    const PetscInt c = cells_[k];
-    const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv(k);
-    Mat3 P;
-    const double per_volume = weight_[k] / volume_[k];  // 1 for an energy density
-    const double psi = per_volume * element_energy(k, mesh_.cell_material[c], F, &P);
-    if (out[0] || out[1]) {
-      const Mat3 sigma = stress_measures::cauchy<3>(F, per_volume * P, F.determinant());
-      if (out[0]) Row(out[0] + 9 * c) = sigma;
-      if (out[1]) out[1][c] = stress_measures::von_mises(sigma);
+  const int sym = field_info(ElementField::cauchy_stress).components;
+  StressBatch b;
+  Lanes Ds[9] = {};
+  const size_t count = cells_.size();
+  for (size_t k = 0; k < count;) {
+    const int m = mesh_.cell_material[cells_[k]];
+    int n = 0;
+    while (n < kBatch && k + n < count && mesh_.cell_material[cells_[k + n]] == m) ++n;
+    for (int e = 0; e < n; ++e) {  // Ds: columns x_j - x_0, j = 1..3
+      const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
+      const double* x0 = &pos[3 * cell[0]];
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
     }
-    if (out[2]) Eigen::Map<Vec3>(out[2] + 3 * c) = stress_measures::principal_stretches(F);
-    if (out[3]) Row(out[3] + 9 * c) = stress_measures::green_strain(F);
-    if (out[4]) out[4][c] = psi;
+    batch_deformation_gradients(Ds, k, b);
+    if (out[0] || out[1] || out[4]) element_energy_batch(k, m, b, n);
+    for (int e = 0; e < n; ++e) {
+      const PetscInt c = cells_[k + e];
+      Mat3 F, P;
+      for (int i = 0; i < 9; ++i) F(i) = b.F[i][e];
+      const double per_volume = weight_[k + e] / volume_[k + e];  // 1 for an energy density
+      if (out[0] || out[1]) {
+        for (int i = 0; i < 9; ++i) P(i) = per_volume * b.P[i][e];
+        const Mat3 sigma = stress_measures::cauchy<3>(F, P, F.determinant());
+        if (out[0]) store_symmetric(sigma, out[0] + sym * c);
+        if (out[1]) out[1][c] = stress_measures::von_mises(sigma);
+      }
+      if (out[2]) Eigen::Map<Vec3>(out[2] + 3 * c) = stress_measures::principal_stretches(F);
+      if (out[3]) store_symmetric(stress_measures::green_strain(F), out[3] + sym * c);
+      if (out[4]) out[4][c] = per_volume * b.psi[e];
+    }
+    k += static_cast<size_t>(n);
   }
 }
 

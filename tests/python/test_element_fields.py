@@ -2,7 +2,8 @@
 
 - The cube on a rope (tets and strand segments), stretched at frame 0 (initial.squash, the same
   positions at any rank count), asking for every field its elements have: the .vtu pieces and the
-  XDMF file hold each field with its components (9 for a tensor), NaN at the elements of the other
+  XDMF file hold each field with its components (6 for a symmetric tensor, in VTK's order in the
+  .vtu and XDMF's Tensor6 order in the .h5, read back as the 3 x 3 matrix), NaN at the elements of the other
   kind; at frame 0 the Green strain, the principal stretches, the von Mises stress (from the Cauchy
   stress written) and the axial force equal their definitions computed here from the written
   positions; by element (its vertex ids) the values at 1 and 2 ranks agree to 1e-12 at frame 0
@@ -20,11 +21,11 @@ import numpy as np
 import pytest
 
 from conftest import load_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import frame_list, frame_meshes
+from hyperqn_tools.output import frame_list, frame_meshes, is_xdmf_frame, tensors
 
 TET_FIELDS = ["cauchy_stress", "von_mises", "principal_stretches", "green_strain", "energy_density"]
-COMPONENTS = {"cauchy_stress": 9, "von_mises": 1, "principal_stretches": 3, "green_strain": 9,
-              "energy_density": 1, "axial_force": 1, "membrane_stress": 9}
+COMPONENTS = {"cauchy_stress": 6, "von_mises": 1, "principal_stretches": 3, "green_strain": 6,
+              "energy_density": 1, "axial_force": 1, "membrane_stress": 6}
 EA = 1.0e4  # box_on_rope.yaml's strand_material.axial_stiffness
 
 
@@ -47,10 +48,11 @@ def run(tmp_path, deck, tag, ranks, fmt="vtu"):
 
 def frames(outdir):
     """[{"points": {vertex id: position}, "rest": {...}, "cells": {(type, sorted vertex ids): (row ids)},
-    field: {(type, sorted vertex ids): values}}] per frame, over every piece."""
+    field: {(type, sorted vertex ids): values}, "components": {field: values per element in the file}}]
+    per frame, over every piece; a symmetric tensor's 6 values as the 9 of its matrix, row by row."""
     out = []
     for _, _, path in frame_list(outdir):
-        frame = {"points": {}, "rest": {}, "cells": {}}
+        frame = {"points": {}, "rest": {}, "cells": {}, "components": {}}
         for m in frame_meshes(path):
             ids = np.asarray(m.point_data["vertex_id"]).reshape(-1)
             rest = m.points - m.point_data["displacement"]
@@ -63,7 +65,11 @@ def frames(outdir):
                     frame["cells"][key] = tuple(int(v) for v in ids[row])
                     for name in m.cell_data:
                         if name in COMPONENTS:
-                            frame.setdefault(name, {})[key] = np.asarray(m.cell_data[name][b][k], dtype=float).reshape(-1)
+                            values = np.asarray(m.cell_data[name][b][k], dtype=float).reshape(-1)
+                            frame["components"].setdefault(name, set()).add(len(values))
+                            if len(values) == 6:
+                                values = tensors(values, is_xdmf_frame(path)).reshape(-1)
+                            frame.setdefault(name, {})[key] = values
         out.append(frame)
     return out
 
@@ -120,7 +126,7 @@ def test_fields_in_vtu_and_xdmf_at_1_and_2_ranks(tmp_path):
     for (fmt, ranks), got in runs.items():
         assert len(got) == 4
         for name in fields:
-            assert all(len(v) == COMPONENTS[name] for v in got[0][name].values()), (fmt, ranks, name)
+            assert got[0]["components"][name] == {COMPONENTS[name]}, (fmt, ranks, name)
         assert "membrane_stress" not in got[0]
     for fmt in ("vtu", "xdmf"):
         assert_same(runs[(fmt, 2)][:1], runs[(fmt, 1)][:1], 1e-12, fields)
@@ -160,7 +166,7 @@ def test_no_fields_without_the_key(tmp_path, fmt):
     deck = rope(None, frames=1)
     del deck["output"]["fields"]
     for frame in frames(run(tmp_path, deck, "plain", 1, fmt)):
-        assert not set(COMPONENTS) & set(frame)
+        assert not set(COMPONENTS) & set(frame) and not frame["components"]
 
 
 ROPE_TEXT = """mesh:
@@ -225,7 +231,7 @@ def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path):
                  str(out / "checkpoints" / "checkpoint_2.h5")], ranks=1)
     index = (out / "run.xdmf").read_text()
     assert index == (whole / "run.xdmf").read_text()
-    assert index.count('<Attribute Name="cauchy_stress" AttributeType="Tensor" Center="Cell">') == 5
+    assert index.count('<Attribute Name="cauchy_stress" AttributeType="Tensor6" Center="Cell">') == 5
     assert index.count('<Attribute Name="axial_force" AttributeType="Scalar" Center="Cell">') == 5
     with h5py.File(out / "run.h5", "r") as a, h5py.File(whole / "run.h5", "r") as b:
         assert list(a["frames"]) == list(b["frames"]) == ["00000", "00001", "00002", "00003", "00004"]

@@ -21,7 +21,7 @@ import meshio
 import numpy as np
 
 from conftest import run_hyperqn, write_deck
-from hyperqn_tools.output import final_frame
+from hyperqn_tools.output import final_frame, tensors
 from hyperqn_tools.paths import REPO
 
 E, NU, P, A, B = 1.0e6, 0.3, 1.0e3, 1.0, 2.0
@@ -46,7 +46,7 @@ def hoop_error(out):
             centre = rest[block.data].mean(axis=1)
             radius = np.linalg.norm(centre, axis=1)
             n = centre / radius[:, None]
-            S = np.asarray(sigma).reshape(-1, 3, 3)
+            S = tensors(sigma)
             radial = np.einsum("ei,eij,ej->e", n, S, n)
             r.append(radius)
             t.append((np.trace(S, axis1=1, axis2=2) - radial) / 2)
