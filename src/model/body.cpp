@@ -232,9 +232,9 @@ unsigned long long Body::active_set() const {
 }
 
 
-void Body::begin_element_states() {
+void Body::begin_element_states(bool substep) {
   for (const auto& t : terms_)
-    if (ElementState* state = t->element_state()) state->begin();
+    if (ElementState* state = t->element_state()) substep ? state->begin_substep() : state->begin();
 }
 
 PetscErrorCode Body::accept_element_states(Vec x) {
@@ -248,9 +248,9 @@ PetscErrorCode Body::accept_element_states(Vec x) {
   PetscFunctionReturn(0);
 }
 
-void Body::undo_element_states() {
+void Body::undo_element_states(bool substep) {
   for (const auto& t : terms_)
-    if (ElementState* state = t->element_state()) state->undo();
+    if (ElementState* state = t->element_state()) substep ? state->undo_substep() : state->undo();
 }
 
 std::vector<ElementState*> Body::element_states() const {
