@@ -31,6 +31,7 @@ class ElementState {
   // Element e's values at the step's start, and its current ones.
   const double* start(size_t e) const { return &start_[per_element_ * e]; }
   double* current(size_t e) { return &current_[per_element_ * e]; }
+  const double* current(size_t e) const { return &current_[per_element_ * e]; }
   const std::vector<double>& current_values() const { return current_; }
 
   // A frame's step: its start, and back to it (after sub-steps too).

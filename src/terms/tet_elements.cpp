@@ -80,7 +80,7 @@ std::vector<ElementField> TetElements::element_fields() const {
           ElementField::green_strain, ElementField::energy_density};
 }
 
-// Element by element, with the per-element kernel (element_energy; the batches' agree with it,
+// Element by element, with the per-element kernel (element_stored_energy; the batches' agree with it,
 // tests/test_materials.cpp): an output frame's cost is about one gradient's.
 void TetElements::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
   using Row = Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
@@ -94,7 +94,7 @@ void TetElements::fill_element_fields(const std::vector<double>& pos, std::vecto
     const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * c]) * Dm_inv(k);
     Mat3 P;
     const double per_volume = weight_[k] / volume_[k];  // 1 for an energy density
-    const double psi = per_volume * element_energy(k, mesh_.cell_material[c], F, &P);
+    const double psi = per_volume * element_stored_energy(k, mesh_.cell_material[c], F, &P);
     if (out[0] || out[1]) {
       const Mat3 sigma = stress_measures::cauchy<3>(F, per_volume * P, F.determinant());
       if (out[0]) Row(out[0] + 9 * c) = sigma;

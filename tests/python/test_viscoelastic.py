@@ -1,0 +1,147 @@
+"""Viscoelastic materials (material.viscoelastic, docs/materials.md#viscoelasticity), end to end.
+
+- Standard linear solid, relaxation, in simple shear: a 1 x 1 x 1 block whose boundary vertices all
+  follow u = gamma0 y e_x (the bottom face fixed, the top face and each layer's ring of boundary
+  vertices clamps that a ramp moves in the first load step and then holds), static load steps of
+  dt = tau/20. With every boundary vertex on the affine field the discrete equilibrium is
+  homogeneous (linear tets pass the patch test), so every tet's Cauchy shear stress is the
+  material's. Neo-Hookean's sigma_xy = mu gamma exactly in simple shear (J = 1) and one branch of
+  shear modulus mu_1 = g mu / (1 - g) gives sigma_xy(t) = gamma0 (E_inf + E_1 e^{-t/tau}) with
+  E_inf = mu (the deck's, the equilibrium part's) and E_1 = mu_1: within 0.5% over t in (0, 5 tau],
+  and equal (to the solver's tolerance) to the backward-Euler recurrence gamma0 (mu + mu_1 (1 +
+  dt/tau)^-n) that tests/test_viscoelastic.cpp checks is first order.
+- The same at 2 ranks (agrees to 1e-9 of the stress); a restart from the checkpoint of frame 40
+  (mid-relaxation) ends bit for bit as the uninterrupted run.
+- Bad input: tau <= 0, g <= 0, sum g >= 1, 5 branches, no branches, a model without elastic
+  constants, the midpoint integrator, a study: the deck line named, exit 1, nothing written.
+"""
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run_deck, run_hyperqn, write_deck
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes
+from test_bad_input import assert_clean_failure
+
+MU, LAMBDA, G, TAU, GAMMA = 1.0e4, 2.0e4, 0.3, 0.1, 1.0e-3
+MU1 = G * MU / (1 - G)
+DT = TAU / 20
+CELLS = [2, 4, 2]
+E = 0.01  # half the thickness of a clamp's box
+
+
+def clamp(lo, hi, y):
+    """A fixed region over [lo, hi] (x, z) at height y that a ramp moves by gamma0 y along x in the first step."""
+    box = {"min": [lo[0], y - E, lo[1]], "max": [hi[0], y + E, hi[1]]}
+    if y == 0:
+        return {"box": box}
+    return {"box": box, "motion": {"translate": {"velocity": [GAMMA * y, 0, 0]},
+                                   "curve": {"type": "ramp", "start": 0, "end": DT}}}
+
+
+def shear_deck(frames=100, every=1):
+    fixed = [clamp((-E, -E), (1 + E, 1 + E), 0.0), clamp((-E, -E), (1 + E, 1 + E), 1.0)]
+    for j in range(1, CELLS[1]):  # each inner layer's ring: x = 0 and x = 1 whole, z = 0 and z = 1 between
+        y = j / CELLS[1]
+        fixed += [clamp((-E, -E), (E, 1 + E), y), clamp((1 - E, -E), (1 + E, 1 + E), y),
+                  clamp((2 * E, -E), (1 - 2 * E, E), y), clamp((2 * E, 1 - E), (1 - 2 * E, 1 + E), y)]
+    return {
+        "name": "relaxation",
+        "mesh": {"box": {"size": [1, 1, 1], "cells": CELLS}},
+        "material": {"model": "neohookean", "mu": MU, "lambda": LAMBDA, "density": 1000,
+                     "viscoelastic": {"branches": [{"g": G, "tau": TAU}]}},
+        "fixed": fixed,
+        "gravity": [0, 0, 0],
+        "time": {"dt": DT, "frames": frames, "integrator": "static"},
+        "solver": {"type": "lbfgs", "iterations": 500, "grad_rtol": 1e-11},
+        "output": {"every": every, "fields": ["cauchy_stress"]},
+    }
+
+
+def shear_stresses(outdir):
+    """[(time, sigma_xy of every tet)] per output frame."""
+    out = []
+    for _, time, path in frame_list(outdir):
+        values = [np.asarray(m.cell_data["cauchy_stress"][b]).reshape(-1, 9)[:, 1]
+                  for m in frame_meshes(path) for b in range(len(m.cells))]
+        out.append((time, np.concatenate(values)))
+    return out
+
+
+def test_relaxation_in_simple_shear(tmp_path):
+    out, summary = run_deck(tmp_path, "np1", shear_deck())
+    frames = shear_stresses(out)[1:]
+    assert len(frames) == 100
+    worst_closed, worst_recurrence, spread = 0.0, 0.0, 0.0
+    for n, (t, s) in enumerate(frames, start=1):
+        assert abs(t - n * DT) < 1e-12
+        closed = GAMMA * (MU + MU1 * math.exp(-t / TAU))
+        recurrence = GAMMA * (MU + MU1 * (1 + DT / TAU) ** -n)
+        spread = max(spread, (s.max() - s.min()) / closed)
+        worst_closed = max(worst_closed, abs(s.mean() - closed) / closed)
+        worst_recurrence = max(worst_recurrence, abs(s.mean() - recurrence) / recurrence)
+    print(f"relaxation in shear: against the closed form {worst_closed:.3e}, against backward Euler's "
+          f"recurrence {worst_recurrence:.2e}, spread over the tets {spread:.1e}")
+    assert spread < 1e-6  # homogeneous
+    assert worst_closed <= 5e-3
+    assert worst_recurrence <= 1e-6
+    # The first frame holds the instantaneous modulus mu / (1 - g) (relaxed by one step).
+    assert frames[0][1].mean() > GAMMA * MU * 1.2
+
+
+def test_two_ranks_and_restart(tmp_path):
+    deck = shear_deck(frames=60, every=20)
+    one, _ = run_deck(tmp_path, "np1", deck)
+    two, _ = run_deck(tmp_path, "np2", deck, ranks=2)
+    a, b = shear_stresses(one), shear_stresses(two)
+    for (_, sa), (_, sb) in zip(a, b):
+        assert abs(sa.mean() - sb.mean()) <= 1e-9 * abs(sa.mean())
+    restarted = tmp_path / "restarted"
+    first = dict(deck, time=dict(deck["time"], frames=40), checkpoint={"every": 40})
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=1)
+    done = run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=1)
+    assert "restart from" in done.stdout
+    fa, fb = final_frame(one), final_frame(restarted)
+    assert np.array_equal(fa.points, fb.points)
+    sa, sb = shear_stresses(one)[-1][1], shear_stresses(restarted)[-1][1]
+    assert np.array_equal(np.sort(sa), np.sort(sb)), "the restarted stresses bit for bit"
+
+
+def bad(material=None, **top):
+    deck = copy.deepcopy(shear_deck(frames=2))
+    if material is not None:
+        deck["material"] = material
+    deck.update(top)
+    return deck
+
+
+VISCO = {"model": "neohookean", "mu": MU, "lambda": LAMBDA, "density": 1000}
+BAD = {
+    "tau_zero": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.3, "tau": 0}]})),
+                 ["viscoelastic.branches[0].tau", "must be > 0"]),
+    "g_negative": (bad(dict(VISCO, viscoelastic={"branches": [{"g": -0.1, "tau": 1}]})),
+                   ["viscoelastic.branches[0].g", "must be > 0"]),
+    "sum_g_one": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.5, "tau": 1}, {"g": 0.5, "tau": 2}]})),
+                  ["viscoelastic.branches", "sum to 1"]),
+    "five_branches": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.1, "tau": k + 1} for k in range(5)]})),
+                      ["viscoelastic.branches", "1 to 4 branches, got 5"]),
+    "no_branches": (bad(dict(VISCO, viscoelastic={})), ["branches"]),
+    "principal_stretch": (bad({"model": "principal-stretch", "f": {"polynomial": [0, 0, 1]}, "density": 1000,
+                               "viscoelastic": {"branches": [{"g": 0.3, "tau": 1}]}}),
+                          ["viscoelastic"]),
+    "midpoint": (bad(time={"dt": DT, "frames": 2, "integrator": "implicit-midpoint"}),
+                 ["time.integrator", "implicit-midpoint does not take viscoelastic"]),
+    "study": (bad(study={"frames": [1], "solvers": ["lbfgs"]}), ["study", "keeps a history per element"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input(tmp_path, case):
+    deck, fragments = BAD[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"{case}.yaml:"] + fragments)
+    assert proc.returncode == 1
