@@ -9,7 +9,13 @@
 //  - the standard linear solid in simple shear gamma0 = 1e-3 held from t = 0 (the equilibrium part
 //    a linear shear modulus mu_inf, the branch mu_1 = g mu_inf / (1 - g)): the shear stress after
 //    n steps of dt = tau/20 against gamma0 (mu_inf + mu_1 e^{-t/tau}), within 0.5% for t <= 5 tau,
-//    and the observed order in dt (backward Euler: 1).
+//    and the observed order in dt (backward Euler: 1);
+//  - the same solid's loss per cycle under gamma0 sin(omega t) against pi gamma0^2 E_1 omega tau /
+//    (1 + omega^2 tau^2) within 1% for omega tau = 0.1, 1, 10 (400 steps over the shorter of tau
+//    and the period), and its creep under a held shear stress against the closed form within 0.5%
+//    at dt = tau/20. These are material points under prescribed simple-shear kinematics (the normal
+//    stresses of order gamma^2 left unbalanced); tests/python/test_viscoelastic.py runs relaxation
+//    through the whole solver.
 #include "materials/maxwell_branches.hpp"
 
 #include <cmath>
@@ -181,10 +187,91 @@ void check_relaxation() {
   CHECK_MSG(std::fabs(order - 1) < 0.1, "first order in dt: " + std::to_string(order));
 }
 
+// The shear stress of the standard linear solid at shear gamma after a step of dt from the branch's
+// history h: mu_inf gamma (the equilibrium part, linear in shear) + the branch's sigma_xy.
+double shear_stress(const MaxwellBranches& m, double mu_inf, double gamma, const double* h, double dt) {
+  Mat3 F = Mat3::Identity();
+  F(0, 1) = gamma;
+  return mu_inf * gamma + (stress(m, F, h, dt) * F.transpose())(0, 1);
+}
+
+// Loss per cycle under gamma = gamma0 sin(omega t): the area of the stress-strain loop over one cycle
+// after 8 tau (or 2 cycles) of transient, by the trapezoid rule in gamma (exact for the elastic part),
+// against pi gamma0^2 mu1 omega tau / (1 + omega^2 tau^2).
+void check_loss_per_cycle() {
+  const double mu_inf = 1.0, g = 0.3, tau = 0.1, gamma0 = 1e-3, mu1 = g * mu_inf / (1 - g);
+  const MaxwellBranches m({{mu1, tau}});
+  for (double wt : {0.1, 1.0, 10.0}) {
+    const double omega = wt / tau, period = 2 * M_PI / omega;
+    const int per_cycle = (int)std::ceil(period / std::min(tau, period) * 400);
+    const double dt = period / per_cycle;
+    const int transient = per_cycle * (int)std::ceil(std::max(8 * tau, 2 * period) / period);
+    std::vector<double> h(kViscousValues), next(kViscousValues);
+    m.rest(h.data());
+    double gamma_prev = 0, sigma_prev = 0, loss = 0;
+    for (int n = 1; n <= transient + per_cycle; ++n) {
+      const double gamma = gamma0 * std::sin(omega * n * dt);
+      const double sigma = shear_stress(m, mu_inf, gamma, h.data(), dt);
+      if (n > transient) loss += 0.5 * (sigma + sigma_prev) * (gamma - gamma_prev);
+      Mat3 F = Mat3::Identity();
+      F(0, 1) = gamma;
+      m.update(F, h.data(), dt, next.data());
+      h = next;
+      gamma_prev = gamma;
+      sigma_prev = sigma;
+    }
+    const double exact = M_PI * gamma0 * gamma0 * mu1 * wt / (1 + wt * wt);
+    const double rel = std::fabs(loss - exact) / exact;
+    std::printf("  loss per cycle, omega tau = %g: %.6e against %.6e, rel %.2e (%d steps per cycle)\n", wt, loss, exact,
+                rel, per_cycle);
+    CHECK_MSG(rel <= 1e-2, "loss per cycle within 1% at omega tau = " + std::to_string(wt) + ": " + std::to_string(rel));
+  }
+}
+
+// Creep under a shear stress s0 held from t = 0: each step's gamma solves mu_inf gamma + sigma_branch
+// = s0 (Newton on the scalar, with the exact tangent), against gamma(t) = s0/E_inf - s0 E_1 /
+// (E_inf (E_inf + E_1)) e^{-t/tau_c}, tau_c = tau (E_inf + E_1) / E_inf (E_inf = mu_inf, E_1 = mu1).
+void check_creep() {
+  const double mu_inf = 1.0, g = 0.3, tau = 0.1, mu1 = g * mu_inf / (1 - g), s0 = 1e-3;
+  const double tau_c = tau * (mu_inf + mu1) / mu_inf;
+  const MaxwellBranches m({{mu1, tau}});
+  double worst[2] = {0, 0};
+  const double dts[2] = {tau / 20, tau / 40};
+  for (int r = 0; r < 2; ++r) {
+    const double dt = dts[r];
+    std::vector<double> h(kViscousValues), next(kViscousValues);
+    m.rest(h.data());
+    double gamma = 0;
+    for (int n = 1; n <= (int)std::lround(5 * tau_c / dt); ++n) {
+      for (int it = 0; it < 20; ++it) {
+        Mat3 F = Mat3::Identity();
+        F(0, 1) = gamma;
+        // d sigma_xy / d gamma at small strain: mu_inf + dP_xy/dF_xy of the branch (J = 1, sigma ~ P F^T).
+        const double slope = mu_inf + m.stress_derivative(F, h.data(), dt)(3, 3);
+        const double residual = shear_stress(m, mu_inf, gamma, h.data(), dt) - s0;
+        gamma -= residual / slope;
+        if (std::fabs(residual) < 1e-15) break;
+      }
+      Mat3 F = Mat3::Identity();
+      F(0, 1) = gamma;
+      m.update(F, h.data(), dt, next.data());
+      h = next;
+      const double t = n * dt;
+      const double exact = s0 / mu_inf - s0 * mu1 / (mu_inf * (mu_inf + mu1)) * std::exp(-t / tau_c);
+      worst[r] = std::max(worst[r], std::fabs(gamma - exact) / exact);
+    }
+  }
+  std::printf("  creep: worst rel error %.3e (dt = tau/20), %.3e (tau/40), order %.2f\n", worst[0], worst[1],
+              std::log2(worst[0] / worst[1]));
+  CHECK_MSG(worst[0] <= 5e-3, "creep within 0.5% at dt = tau/20: " + std::to_string(worst[0]));
+}
+
 }  // namespace
 
 int main() {
   check_fd_and_update();
   check_relaxation();
+  check_loss_per_cycle();
+  check_creep();
   return check::summary("test_viscoelastic");
 }

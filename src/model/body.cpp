@@ -260,19 +260,21 @@ std::vector<ElementState*> Body::element_states() const {
   return states;
 }
 
+void carry_values(ElementState& to, const ElementState& from) {
+  if (from.name() != to.name() || from.per_element() != to.per_element()) return;
+  std::unordered_map<int64_t, size_t> at;  // global id -> from's element
+  for (size_t e = 0; e < from.elements(); ++e) at[from.ids()[e]] = e;
+  std::vector<double> values = to.current_values();
+  const int n = to.per_element();
+  for (size_t e = 0; e < to.elements(); ++e)
+    if (const auto it = at.find(to.ids()[e]); it != at.end())
+      std::copy_n(&from.current_values()[n * it->second], n, &values[n * e]);
+  to.restore(std::move(values));
+}
+
 void Body::carry_element_states(const Body& from) {
   for (ElementState* to : element_states())
-    for (const ElementState* old : from.element_states()) {
-      if (old->name() != to->name() || old->per_element() != to->per_element()) continue;
-      std::unordered_map<int64_t, size_t> at;  // global id -> the old state's element
-      for (size_t e = 0; e < old->elements(); ++e) at[old->ids()[e]] = e;
-      std::vector<double> values = to->current_values();
-      const int n = to->per_element();
-      for (size_t e = 0; e < to->elements(); ++e)
-        if (const auto it = at.find(to->ids()[e]); it != at.end())
-          std::copy_n(&old->current_values()[n * it->second], n, &values[n * e]);
-      to->restore(std::move(values));
-    }
+    for (const ElementState* old : from.element_states()) carry_values(*to, *old);
 }
 
 

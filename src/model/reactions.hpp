@@ -12,8 +12,8 @@
 // The loads on faces are evaluated there too (their share at a fixed vertex is a force on the
 // support: r_i takes -f_i); loads on vertices act on free vertices only. An attachment's force is
 // -k (x_i - p_i(t)) summed over its springs.
-// Not yet: a term's ElementState (a material with history; none so far) starts afresh in the
-// second build and is not moved with the steps.
+// A term with an ElementState (a viscoelastic material) takes the body's values at each frame's
+// end (carry_values), as the accepted step left them: its stored stress, the step's own at x_{n+1}.
 #pragma once
 #include <array>
 #include <memory>

@@ -67,4 +67,9 @@ class ElementState {
   bool frame_kept_ = false;
 };
 
+// from's current values into to's (both as after an accepted step), element by element through the
+// global ids; elements of `to` that from does not hold keep theirs. Nothing unless both have the
+// same name and width (Body::carry_element_states; the reactions' copy of the terms).
+void carry_values(ElementState& to, const ElementState& from);
+
 }  // namespace hyperqn

@@ -10,6 +10,11 @@
   E_inf = mu (the deck's, the equilibrium part's) and E_1 = mu_1: within 0.5% over t in (0, 5 tau],
   and equal (to the solver's tolerance) to the backward-Euler recurrence gamma0 (mu + mu_1 (1 +
   dt/tau)^-n) that tests/test_viscoelastic.cpp checks is first order.
+  (The positions stay affine: after the first step the solve has nothing to move.)
+- Newton (exact tangent, projected) follows the same recurrence.
+- Through real solves, a bar clamped at both ends, its clamp's reaction: a step of 1e-5 tau gives
+  the instantaneous moduli's answer, steps of 100 tau the equilibrium material's; lbfgs and Newton
+  agree in between.
 - The same at 2 ranks (agrees to 1e-9 of the stress); a restart from the checkpoint of frame 40
   (mid-relaxation) ends bit for bit as the uninterrupted run.
 - Bad input: tau <= 0, g <= 0, sum g >= 1, 5 branches, no branches, a model without elastic
@@ -22,7 +27,7 @@ import numpy as np
 import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import final_frame, frame_list, frame_meshes
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_reactions
 from test_bad_input import assert_clean_failure
 
 MU, LAMBDA, G, TAU, GAMMA = 1.0e4, 2.0e4, 0.3, 0.1, 1.0e-3
@@ -89,6 +94,74 @@ def test_relaxation_in_simple_shear(tmp_path):
     assert worst_recurrence <= 1e-6
     # The first frame holds the instantaneous modulus mu / (1 - g) (relaxed by one step).
     assert frames[0][1].mean() > GAMMA * MU * 1.2
+
+
+def test_newton(tmp_path):
+    """Newton (the exact tangent of the condensed energy, projected to PSD) reaches the same
+    recurrence in its few iterations per step."""
+    deck = shear_deck(frames=20)
+    deck["solver"] = {"type": "newton", "iterations": 50, "grad_rtol": 1e-11}
+    out, summary = run_deck(tmp_path, "newton", deck)
+    worst = 0.0
+    for n, (t, s) in enumerate(shear_stresses(out)[1:], start=1):
+        recurrence = GAMMA * (MU + MU1 * (1 + DT / TAU) ** -n)
+        worst = max(worst, abs(s.mean() - recurrence) / recurrence)
+    print(f"newton: against the recurrence {worst:.2e}, {summary['iterations']} iterations in 20 steps")
+    assert worst <= 1e-6
+    assert summary["iterations"] <= 20 * 5
+
+
+def bar_deck(material, frames, solver="lbfgs"):
+    """A bar 0.1 x 0.01 x 0.01 clamped at both ends, the far clamp moved by 1e-4 (strain 1e-3) in
+    the first load step (dt = 1) and held; the moving clamp's reaction per frame."""
+    return {
+        "name": "bar",
+        "mesh": {"box": {"size": [0.1, 0.01, 0.01], "cells": [10, 2, 2]}},
+        "material": dict(material, density=1000),
+        "fixed": [{"box": {"min": [-0.001, -0.001, -0.001], "max": [0.001, 0.011, 0.011]}},
+                  {"box": {"min": [0.099, -0.001, -0.001], "max": [0.101, 0.011, 0.011]},
+                   "motion": {"translate": {"velocity": [1e-4, 0, 0]}, "curve": {"type": "ramp", "start": 0, "end": 1}}}],
+        "gravity": [0, 0, 0],
+        "time": {"dt": 1, "frames": frames, "integrator": "static"},
+        "solver": {"type": solver, "iterations": 2000, "grad_rtol": 1e-10},
+        "output": {"every": frames, "reactions": True},
+    }
+
+
+def pull(tmp_path, name, material, frames, solver="lbfgs"):
+    out, _ = run_deck(tmp_path, name, bar_deck(material, frames, solver))
+    return read_reactions(out)["fixed[1]"]["fx"]
+
+
+def test_instantaneous_and_relaxed_limits_through_the_solver(tmp_path):
+    """A clamped bar (not homogeneous: the clamps hold its ends' contraction), so every step is a
+    real solve, and its reaction (output.reactions: the viscoelastic term's stored stress at the
+    step's end). Load steps of dt = 1: with tau = 1e5 the bar answers with the instantaneous moduli,
+    Neo-Hookean with mu_0 = mu / (1 - g) and the same bulk modulus (lambda_0 = lambda - 2/3 (mu_0 -
+    mu)), to the strain's order (the log strain against Neo-Hookean's, 1e-3) and dt/tau; with tau =
+    0.01 the branch relaxes to (1 + 100)^-4 of itself in 4 steps, leaving the equilibrium material's
+    own answer. lbfgs and Newton agree on the relaxation between (tau = 20: dt = tau/20)."""
+    elastic = {"model": "neohookean", "mu": MU, "lambda": LAMBDA}
+    mu0 = MU / (1 - G)
+    instantaneous = {"model": "neohookean", "mu": mu0, "lambda": LAMBDA - 2 / 3 * (mu0 - MU)}
+
+    def visco(tau):
+        return dict(elastic, viscoelastic={"branches": [{"g": G, "tau": tau}]})
+
+    r_inf = pull(tmp_path, "relaxed_elastic", elastic, 4)[-1]
+    r_0 = pull(tmp_path, "instant_elastic", instantaneous, 1)[-1]
+    v_0 = pull(tmp_path, "instant_visco", visco(1e5), 1)[-1]
+    v_inf = pull(tmp_path, "relaxed_visco", visco(0.01), 4)[-1]
+    print(f"bar: instantaneous {v_0:.6e} against {r_0:.6e} ({abs(v_0 / r_0 - 1):.2e}); relaxed {v_inf:.6e} "
+          f"against {r_inf:.6e} ({abs(v_inf / r_inf - 1):.2e})")
+    assert abs(v_0 / r_0 - 1) <= 3e-3
+    assert abs(v_inf / r_inf - 1) <= 1e-6
+    assert v_0 / r_inf > 1.2  # the two limits are far apart
+    lb = pull(tmp_path, "lbfgs", visco(20), 10)
+    nt = pull(tmp_path, "newton", visco(20), 10, solver="newton")
+    print(f"bar, lbfgs against newton over 10 steps: {np.max(np.abs(lb / nt - 1)):.2e}")
+    assert np.all(np.diff(lb[1:]) < 0)  # relaxes
+    assert np.max(np.abs(lb / nt - 1)) <= 1e-6
 
 
 def test_two_ranks_and_restart(tmp_path):
