@@ -1,7 +1,10 @@
 // Per-element state (terms/element_state.hpp) through a step's lifecycle, with a test-only term
-// that counts each tet's accepted frames: a frame's accept adds one to every element, an undone
-// frame (before or after its accept) leaves the count where the frame started, the fallback
-// chain's sub-steps count nothing; the elements are keyed by their global ids, each on one rank.
+// that counts each tet's accepted steps and sums their lengths: a frame's accept adds one step of
+// h to every element, an undone frame (before or after its accept) leaves them where the frame
+// started; a frame the fallback chain solves in sub-steps counts each sub-step with its length
+// (h / parts) and the frame's accept adds nothing; a run of sub-steps that fails part-way (the
+// chain's restart) and a frame undone after its sub-steps leave them at the frame's start; the
+// elements are keyed by their global ids, each on one rank.
 // Then a checkpoint: a term whose state follows the positions (each tet's frames and the sum of
 // its det F at each accepted frame) checkpointed after 3 frames and restarted in a fresh scene goes
 // on bit for bit as the uninterrupted run; a scene whose terms keep other state cannot restart from
@@ -9,6 +12,7 @@
 #include <petscdmplex.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -26,17 +30,25 @@ using test_scene::TestScene;
 
 class FrameCounter : public EnergyTerm {
  public:
-  explicit FrameCounter(const DistributedMesh& mesh) : state_("frames", 1, mesh.cell_ids) {}
+  explicit FrameCounter(const DistributedMesh& mesh) : state_("frames", 2, mesh.cell_ids) {}
   std::string name() const override { return "frame-counter"; }
   PetscErrorCode add_energy(Vec, const std::vector<double>&, double*, PetscScalar*) const override { return 0; }
   PetscErrorCode add_hessian(const std::vector<double>&, Mat, double, bool) const override { return 0; }
   bool projective_dynamics_exact() const override { return true; }
+  PetscErrorCode begin_step(const StepStart& step) override {
+    dt_ = step.t - step.t_start;
+    return 0;
+  }
   ElementState* element_state() override { return &state_; }
   PetscErrorCode update_state(const std::vector<double>&) override {
-    for (size_t e = 0; e < state_.elements(); ++e) *state_.current(e) = *state_.start(e) + 1;
+    for (size_t e = 0; e < state_.elements(); ++e) {
+      state_.current(e)[0] = state_.start(e)[0] + 1;
+      state_.current(e)[1] = state_.start(e)[1] + dt_;
+    }
     return 0;
   }
   ElementState state_;
+  double dt_ = 0;  // the length of the step begun last
 };
 
 // Each tet's accepted frames and the sum of its det F at their ends: a state that depends on x.
@@ -62,10 +74,14 @@ class VolumeHistory : public EnergyTerm {
   ElementState state_;
 };
 
-// Every element's count is n, on every rank (collective).
-bool all_counts(const ElementState& s, double n) {
+// Every element's count is n and its steps' lengths sum to time (to round-off), on every rank
+// (collective); time < 0: not checked.
+bool all_counts(const ElementState& s, double n, double time = -1) {
   int ok = 1;
-  for (double c : s.current_values()) ok = ok && c == n;
+  for (size_t e = 0; e < s.elements(); ++e) {
+    const double* c = s.current_values().data() + 2 * e;
+    ok = ok && c[0] == n && (time < 0 || std::fabs(c[1] - time) < 1e-12);
+  }
   MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_LAND, PETSC_COMM_WORLD);
   return ok;
 }
@@ -104,20 +120,47 @@ PetscErrorCode check_counts() {
   CHECK(all_counts(counts, 2));
   PetscCall(life.undo(state));  // an observer refused the accepted frame
   CHECK_MSG(all_counts(counts, 1), "undone after its accept: back at its start");
-  // The fallback chain's way: sub-steps between the frame's begin and its accept count nothing.
-  std::unique_ptr<StepObjective> sub;
-  PetscCall(s.step->create_substep(2, sub));
+  const double h = s.step->dt();
+  CHECK_MSG(all_counts(counts, 1, h), "one step of h");
+  // The fallback chain's way (FallbackChain::substeps): a run of 4 sub-steps that fails after its
+  // first (the chain's restart puts the frame's start back), then 2 that hold: each sub-step
+  // counts, with its length h / 2, and the frame's accept after them adds nothing.
+  std::unique_ptr<StepObjective> sub2, sub4;
+  PetscCall(s.step->create_substep(2, sub2));
+  PetscCall(s.step->create_substep(4, sub4));
   PetscCall(life.begin_substepped(state));
   State sub_state;
   PetscCall(sub_state.copy_from(state));
+  sub_state.drop_history();
+  sub_state.frame = state.frame * 4;
+  PetscCall(sub4->begin_step(sub_state));
+  PetscCall(sub4->lifecycle().accept(sub_state));
+  CHECK_MSG(all_counts(counts, 2, 1.25 * h), "an accepted sub-step counts, with its length h / 4");
+  PetscCall(sub4->begin_step(sub_state));  // the next one fails
+  life.restart_element_states();
+  CHECK_MSG(all_counts(counts, 1, h), "a run of sub-steps that fails: back at the frame's start");
+  PetscCall(sub_state.copy_from(state));
+  sub_state.drop_history();
+  sub_state.frame = state.frame * 2;
   for (int j = 0; j < 2; ++j) {
-    PetscCall(sub->begin_step(sub_state));
-    PetscCall(sub->lifecycle().accept(sub_state));
+    PetscCall(sub2->begin_step(sub_state));
+    if (j == 1) {  // a sub-step undone (its solve refused) and begun again
+      PetscCall(sub2->lifecycle().undo(sub_state));
+      CHECK_MSG(all_counts(counts, 2, 1.5 * h), "an undone sub-step leaves the one before");
+      PetscCall(sub2->begin_step(sub_state));
+    }
+    PetscCall(sub2->lifecycle().accept(sub_state));
   }
-  CHECK_MSG(all_counts(counts, 1), "sub-steps count nothing");
+  CHECK_MSG(all_counts(counts, 3, 2 * h), "each sub-step counts once, with its length h / 2");
   PetscCall(VecCopy(sub_state.x, state.x));
   PetscCall(life.accept(state, sub_state.v));
-  CHECK_MSG(all_counts(counts, 2), "the frame they make counts once");
+  CHECK_MSG(all_counts(counts, 3, 2 * h), "the frame's accept after sub-steps adds nothing");
+  PetscCall(life.undo(state));  // an observer refused the frame
+  CHECK_MSG(all_counts(counts, 1, h), "the frame undone after its sub-steps: back at its start");
+  // The same frame again, in one step: its start is the frame's, not a sub-step's.
+  PetscCall(s.step->begin_step(state));
+  PetscCall(life.accept(state));
+  CHECK_MSG(all_counts(counts, 2, 2 * h), "then a frame of one step counts once");
   PetscFunctionReturn(0);
 }
 

@@ -44,6 +44,7 @@ const std::vector<DeckKey<MaterialSpec>>& material_keys() {
     std::vector<MaterialKey> registry = elastic_constant_keys();
     for (const MaterialModel& m : material_models()) registry.insert(registry.end(), m.keys.begin(), m.keys.end());
     registry.insert(registry.end(), fiber_keys().begin(), fiber_keys().end());
+    registry.insert(registry.end(), viscoelastic_keys().begin(), viscoelastic_keys().end());
     for (const MaterialKey& key : registry) k.push_back(material_key(key));
     const std::vector<DeckKey<M>> every = {
         {"density", &M::density, "mass per unit rest volume; give it or `total_mass`", above(0), {}, "", "—"},

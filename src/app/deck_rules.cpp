@@ -62,6 +62,33 @@ void check_static_has_support(const Reader& r, const Value& time, const Deck& de
          "(attachments:) or a collider (colliders:)");
 }
 
+// The deck line of the first viscoelastic material's first branch (default material, regions,
+// bodies), or 0 if none is viscoelastic.
+static int viscoelastic_line(const Deck& deck) {
+  std::vector<const MaterialSpec*> all{&deck.material};
+  for (const MaterialRegion& region : deck.regions) all.push_back(&region.material);
+  for (const BodySpec& body : deck.bodies)
+    if (body.has_material) all.push_back(&body.material);
+  for (const MaterialSpec* m : all)
+    if (!m->viscoelastic.empty()) return m->viscoelastic[0].line;
+  return 0;
+}
+
+void check_integrator_takes_viscoelastic(const Reader& r, const Value& time, const Deck& deck) {
+  const int line = viscoelastic_line(deck);
+  if (line == 0 || deck.time.integrator != TimeIntegrator::implicit_midpoint) return;
+  r.fail(*Section(r, time, {}).find("integrator"),
+         "implicit-midpoint does not take viscoelastic materials yet (deck line " + std::to_string(line) +
+             "): its step ends past the minimizer (x_{n+1} = 2z - x_n), where the viscous update would not hold "
+             "(use implicit-euler, bdf2 or static)");
+}
+
+void check_study_without_history(const Reader& r, const Value& study, const Deck& deck) {
+  if (const int line = viscoelastic_line(deck))
+    r.fail(study, "a study's trajectories share the scene's terms, and a viscoelastic material (deck line " +
+                      std::to_string(line) + ") keeps a history per element that they would share: not yet");
+}
+
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {
   for (TimeIntegrator kind : deck.study.integrators) {
     if (kind == TimeIntegrator::quasi_static && deck.fixed.empty() && deck.attachments.empty() && deck.colliders.empty())

@@ -189,6 +189,29 @@ static FunctionSpec read_function(const Reader& r, const Value& v) {
   return f;
 }
 
+// viscoelastic: {branches: [{g: 0.3, tau: 0.1}, ...]} (its keys were checked by read_keys): 1 to
+// kMaxMaxwellBranches branches, each g > 0 and tau > 0, the g summing to less than 1.
+static void read_viscoelastic(const Reader& r, const Value& v, MaterialSpec& m) {
+  const Section s(r, v, {"branches"});
+  const Value& list = s.need("branches");
+  const std::vector<Value> items = r.items(list);
+  if (items.empty() || (int)items.size() > kMaxMaxwellBranches)
+    r.fail(list, "1 to " + std::to_string(kMaxMaxwellBranches) + " branches, got " + std::to_string(items.size()));
+  double sum = 0;
+  for (const Value& item : items) {
+    const Section b(r, item, {"g", "tau"});
+    const Value &g = b.need("g"), &tau = b.need("tau");
+    ViscoelasticBranch branch{r.number(g), r.number(tau), item.line};
+    r.check(branch.g > 0, g, "> 0 (the branch's fraction of the instantaneous shear modulus)");
+    r.check(branch.tau > 0, tau, "> 0 (a relaxation time, s)");
+    sum += branch.g;
+    m.viscoelastic.push_back(branch);
+  }
+  if (!(sum < 1))
+    r.fail(list, "the fractions g sum to " + default_text(sum) + "; they must sum to less than 1 (the rest is the "
+                 "equilibrium part's)");
+}
+
 // The keys, ranges and models of material_keys() (from the material registry), then the rules
 // that involve several keys, then the model's own checks.
 void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
@@ -217,6 +240,7 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   if (of_functions && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
     r.fail(v, m.model + " needs f, g or h");
   m.has_fiber = s.find("fiber") != nullptr;
+  if (const Value* x = s.find("viscoelastic")) read_viscoelastic(r, *x, m);
 
   const Value *density = s.find("density"), *total = s.find("total_mass");
   if (density && total) r.fail(*total, "give either density or total_mass, not both");

@@ -34,6 +34,29 @@ const std::vector<MaterialKey>& fiber_keys() {
   return keys;
 }
 
+const std::vector<MaterialKey>& viscoelastic_keys() {
+  static const std::vector<MaterialKey> keys = {
+      {"viscoelastic", {},
+       "generalized Maxwell branches in parallel with the model, which is the equilibrium (long-term) part: "
+       "its shear modulus μ is the relaxed one, μ/(1 − Σg) the instantaneous; the bulk modulus does not relax "
+       "([materials.md](materials.md#viscoelasticity)). Not with `time.integrator: implicit-midpoint`, nor in a study",
+       {}, "map", false, "none"},
+      {"viscoelastic.branches", {},
+       "1 to 4 branches `{g: …, tau: …}`: g > 0 the branch's fraction of the instantaneous shear modulus (Σg < 1), "
+       "tau > 0 its relaxation time (s)",
+       {}, "list of maps", true},
+  };
+  return keys;
+}
+
+std::vector<MaxwellBranch> maxwell_branches(const MaterialSpec& spec) {
+  double sum = 0;
+  for (const ViscoelasticBranch& b : spec.viscoelastic) sum += b.g;
+  std::vector<MaxwellBranch> out;
+  for (const ViscoelasticBranch& b : spec.viscoelastic) out.push_back({b.g * spec.mu / (1.0 - sum), b.tau});
+  return out;
+}
+
 const std::vector<MaterialModel>& material_models() {
   static const std::vector<MaterialModel> models = {
       {"corotated", "mu ||F - R||^2 + lambda/2 (tr(R^T F) - 3)^2 (ARAP when lambda = 0)", true, {}, true,
@@ -68,6 +91,7 @@ std::vector<MaterialKey> model_keys(const MaterialModel& model) {
   if (model.elastic_constants) keys = elastic_constant_keys();
   keys.insert(keys.end(), model.keys.begin(), model.keys.end());
   if (model.fiber) keys.insert(keys.end(), fiber_keys().begin(), fiber_keys().end());
+  if (model.elastic_constants) keys.insert(keys.end(), viscoelastic_keys().begin(), viscoelastic_keys().end());
   return keys;
 }
 
@@ -77,7 +101,8 @@ std::string parameters_text(const MaterialModel& model) {
     const std::string rule = k.range.rule();
     s += (s.empty() ? "" : "; ") + std::string(k.name) + (rule.empty() ? "" : " (" + rule + ")");
   }
-  return s + (model.fiber ? "; fiber: {direction, stiffness} (optional)" : "");
+  return s + (model.fiber ? "; fiber: {direction, stiffness} (optional)" : "") +
+         (model.elastic_constants ? "; viscoelastic: {branches: [{g, tau}, ...]} (optional)" : "");
 }
 
 const MaterialModel* find_material_model(const std::string& name) {

@@ -9,6 +9,7 @@
 
 #include "params/key_range.hpp"
 #include "materials/material.hpp"
+#include "materials/maxwell_branches.hpp"
 #include "materials/scalar_function.hpp"
 
 namespace hyperqn {
@@ -37,6 +38,13 @@ struct FunctionSpec {
 
 // The deck's material (a body's, model/scene_spec.hpp): its keys (app/deck_keys.cpp, material_keys) come from
 // the registry below, each MaterialKey naming the member it sets.
+// A branch of the viscoelastic Prony series (materials/maxwell_branches.hpp), as the deck gives it.
+struct ViscoelasticBranch {
+  double g = 0;    // shear-modulus fraction of the instantaneous modulus, > 0 (sum over branches < 1)
+  double tau = 0;  // relaxation time, > 0
+  int line = 0;    // its deck line
+};
+
 struct MaterialSpec {
   std::string model = "corotated";   // a model of the registry below
   double youngs_modulus = 0, poisson_ratio = 0;  // as the deck gives them (if it does)
@@ -52,6 +60,10 @@ struct MaterialSpec {
   double total_mass = 0;             // total mass (used when has_density is false)
   double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
   double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
+  // Viscoelastic branches over the model as the equilibrium part (none: elastic). Branch i's shear
+  // modulus is mu_i = g_i mu / (1 - sum g): the deck's mu is the long-term one, mu / (1 - sum g)
+  // the instantaneous (docs/materials.md#viscoelasticity).
+  std::vector<ViscoelasticBranch> viscoelastic;
 };
 
 // A deck key of material models (material.<name>), declared once here: its range, and which
@@ -72,6 +84,10 @@ struct MaterialKey {
 const std::vector<MaterialKey>& elastic_constant_keys();
 // The optional fibre term k/2 (||F d|| - 1)^2 on top of a model with `fiber`: fiber, fiber.direction, fiber.stiffness.
 const std::vector<MaterialKey>& fiber_keys();
+// The viscoelastic branches over a model with elastic constants: viscoelastic, viscoelastic.branches.
+const std::vector<MaterialKey>& viscoelastic_keys();
+// The branches' shear moduli and relaxation times of a material with viscoelastic branches.
+std::vector<MaxwellBranch> maxwell_branches(const MaterialSpec& spec);
 
 struct MaterialModel {
   std::string name;        // material.model in a deck

@@ -302,9 +302,9 @@ unsigned long long Body::active_set() const {
 }
 
 
-void Body::begin_element_states() {
+void Body::begin_element_states(bool substep) {
   for (const auto& t : terms_)
-    if (ElementState* state = t->element_state()) state->begin();
+    if (ElementState* state = t->element_state()) substep ? state->begin_substep() : state->begin();
 }
 
 PetscErrorCode Body::accept_element_states(Vec x) {
@@ -318,9 +318,9 @@ PetscErrorCode Body::accept_element_states(Vec x) {
   PetscFunctionReturn(0);
 }
 
-void Body::undo_element_states() {
+void Body::undo_element_states(bool substep) {
   for (const auto& t : terms_)
-    if (ElementState* state = t->element_state()) state->undo();
+    if (ElementState* state = t->element_state()) substep ? state->undo_substep() : state->undo();
 }
 
 std::vector<ElementState*> Body::element_states() const {
@@ -330,19 +330,21 @@ std::vector<ElementState*> Body::element_states() const {
   return states;
 }
 
+void carry_values(ElementState& to, const ElementState& from) {
+  if (from.name() != to.name() || from.per_element() != to.per_element()) return;
+  std::unordered_map<int64_t, size_t> at;  // global id -> from's element
+  for (size_t e = 0; e < from.elements(); ++e) at[from.ids()[e]] = e;
+  std::vector<double> values = to.current_values();
+  const int n = to.per_element();
+  for (size_t e = 0; e < to.elements(); ++e)
+    if (const auto it = at.find(to.ids()[e]); it != at.end())
+      std::copy_n(&from.current_values()[n * it->second], n, &values[n * e]);
+  to.restore(std::move(values));
+}
+
 void Body::carry_element_states(const Body& from) {
   for (ElementState* to : element_states())
-    for (const ElementState* old : from.element_states()) {
-      if (old->name() != to->name() || old->per_element() != to->per_element()) continue;
-      std::unordered_map<int64_t, size_t> at;  // global id -> the old state's element
-      for (size_t e = 0; e < old->elements(); ++e) at[old->ids()[e]] = e;
-      std::vector<double> values = to->current_values();
-      const int n = to->per_element();
-      for (size_t e = 0; e < to->elements(); ++e)
-        if (const auto it = at.find(to->ids()[e]); it != at.end())
-          std::copy_n(&old->current_values()[n * it->second], n, &values[n * e]);
-      to->restore(std::move(values));
-    }
+    for (const ElementState* old : from.element_states()) carry_values(*to, *old);
 }
 
 

@@ -61,12 +61,13 @@ class Body {
   // positions; the fixed vertices already at the time set by set_time).
   PetscErrorCode begin_step(const StepStart& step);
 
-  // The terms' per-element state (EnergyTerm::element_state): a frame's begin takes its current
-  // values as the start; an accepted frame ending at x calls each term's update_state; an undone
-  // one puts the start back.
-  void begin_element_states();
+  // The terms' per-element state (EnergyTerm::element_state), once per accepted step: a step's
+  // begin takes its current values as the start; an accepted step ending at x calls each term's
+  // update_state; an undone one puts the start back. substep: a sub-step of the fallback chain
+  // (ElementState::begin_substep); the frame's undo goes back to the frame's start.
+  void begin_element_states(bool substep = false);
   PetscErrorCode accept_element_states(Vec x);
-  void undo_element_states();
+  void undo_element_states(bool substep = false);
   // Every term's element state, in the terms' order (checkpoints).
   std::vector<ElementState*> element_states() const;
   // The values of `from`'s element states (a scene before its rebuild) into this body's states of

@@ -12,6 +12,7 @@
 #include "terms/mass_spring_tets.hpp"
 #include "terms/self_contact.hpp"
 #include "terms/strand_segments.hpp"
+#include "terms/viscoelastic_tets.hpp"
 #include "terms/surface_mass.hpp"
 
 namespace hyperqn {
@@ -30,25 +31,35 @@ static double rest_volume(const DistributedMesh& mesh, int k) {
 static void add_tet_terms(const DistributedMesh& mesh, const std::vector<MaterialSpec>& materials,
                           std::vector<std::unique_ptr<EnergyTerm>>& terms) {
   if (mesh.global_cells == 0) return;
-  std::vector<std::unique_ptr<Material>> continuum;
+  std::vector<std::unique_ptr<Material>> continuum, equilibrium;
+  std::vector<std::unique_ptr<MaxwellBranches>> branches;
   std::vector<double> stiffness, weight, density;
-  bool any_continuum = false, any_springs = false;
+  bool any_continuum = false, any_springs = false, any_viscous = false;
   for (const MaterialSpec& spec : materials) {
     // A model that is not an energy density of F is the mass-spring one (material_factory.hpp).
     const bool springs = !find_material_model(spec.model)->create;
-    continuum.push_back(springs ? nullptr : make_material(spec));
+    // A viscoelastic material's tets are the viscoelastic term's, its model their equilibrium part.
+    const bool viscous = !spec.viscoelastic.empty();
+    std::unique_ptr<Material> material = springs ? nullptr : make_material(spec);
+    // A spring's own weight in L is its stiffness k; the branches add their instantaneous 2 sum mu_i.
+    double own = springs ? spec.spring_stiffness : material->laplacian_weight();
+    branches.push_back(viscous ? std::make_unique<MaxwellBranches>(maxwell_branches(spec)) : nullptr);
+    if (viscous) own += branches.back()->laplacian_weight();
+    continuum.push_back(viscous ? nullptr : std::move(material));
+    equilibrium.push_back(viscous ? std::move(material) : nullptr);
     stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
-    // A spring's own weight in L is its stiffness k.
-    const double own = springs ? spec.spring_stiffness : continuum.back()->laplacian_weight();
     weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
     const int k = (int)density.size();
     const double volume = spec.has_density ? 0.0 : rest_volume(mesh, k);
     density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
-    any_continuum = any_continuum || !springs;
+    any_continuum = any_continuum || (!springs && !viscous);
     any_springs = any_springs || springs;
+    any_viscous = any_viscous || viscous;
   }
   if (any_continuum) terms.push_back(std::make_unique<ContinuumTets>(mesh, std::move(continuum), weight, density));
   if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
+  if (any_viscous)
+    terms.push_back(std::make_unique<ViscoelasticTets>(mesh, std::move(equilibrium), std::move(branches), weight, density));
 }
 
 // A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all):

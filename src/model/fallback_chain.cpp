@@ -85,9 +85,16 @@ PetscErrorCode FallbackChain::substeps(State& s, int halvings, StepSolve& out, b
     records_.clear();
     PetscCall(l->step->solve_step(*l->solver, sub_, record_, part));
     add_cost(part, out);
-    if (stop_agreed()) PetscFunctionReturn(0);  // s is still at x_n
+    // s is still at x_n; the element state goes back to the frame's start with it
+    if (stop_agreed()) {
+      scene_.step->lifecycle().restart_element_states();
+      PetscFunctionReturn(0);
+    }
     PetscCall(judge(part.result, *l->step, sub_.x, &outcome_));
-    if (!outcome_.acceptable()) PetscFunctionReturn(0);
+    if (!outcome_.acceptable()) {
+      scene_.step->lifecycle().restart_element_states();
+      PetscFunctionReturn(0);
+    }
     PetscCall(l->step->lifecycle().accept(sub_));
     out.result = part.result;
     residual = std::fmax(residual, outcome_.residual);

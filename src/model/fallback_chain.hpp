@@ -69,8 +69,9 @@ class FallbackChain {
   };
   PetscErrorCode judge(const FrameResult& r, Objective& g, Vec x, Outcome* o) const;
   PetscErrorCode level(int halvings, Level** out);
-  // Redoes the step from x_n in 2^halvings sub-steps; *ok: every one acceptable (s then holds the
-  // end positions and velocity_ the end velocity), else s is back at x_n.
+  // Redoes the step from x_n in 2^halvings sub-steps, each moving the terms' element state; *ok:
+  // every one acceptable (s then holds the end positions and velocity_ the end velocity), else s
+  // is back at x_n and the element state at the frame's start.
   PetscErrorCode substeps(State& s, int halvings, StepSolve& out, bool* ok);
   // The chain from the full step, with sub-steps of up to 2^finest (the finer ones were tried);
   // *accepted: the sub-step size whose result is kept (0: the full step), unchanged if none.

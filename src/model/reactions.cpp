@@ -113,6 +113,11 @@ PetscErrorCode Reactions::end_frame(const State& s, std::vector<SupportForce>& o
   PetscCall(body_->local_velocities(s.v, vel_));
   grad_.assign(3 * mesh.num_vertices, 0.0);
   double energy = 0;
+  // A term with history (a viscoelastic material) evaluates the body's state as the accepted step
+  // left it, with no step begun: its stored stress, which equals the step's condensed one at x_{n+1}.
+  for (const auto& term : terms_)
+    if (ElementState* to = term->element_state())
+      for (const ElementState* from : body_->element_states()) carry_values(*to, *from);
   for (const auto& term : terms_) PetscCall(term->add_energy(s.x, pos_, &energy, grad_.data()));
   std::vector<Vec3> points;
   for (const BoxRegion& b : spec_.fixed) points.push_back(moment_point(b, t));

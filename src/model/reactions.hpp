@@ -15,8 +15,8 @@
 // A roller's vertex (a fixed region with `components`) is free but for its held components, whose
 // slots the solvers leave alone: r_i is the same residual in those components and 0 in the others.
 // Not yet: a vertex load, an attachment or contact acting at a held component is not counted.
-// Not yet: a term's ElementState (a material with history; none so far) starts afresh in the
-// second build and is not moved with the steps.
+// A term with an ElementState (a viscoelastic material) takes the body's values at each frame's
+// end (carry_values), as the accepted step left them: its stored stress, the step's own at x_{n+1}.
 #pragma once
 #include <array>
 #include <memory>

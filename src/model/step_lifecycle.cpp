@@ -28,7 +28,7 @@ void StepLifecycle::keep_motion(const State& s) {
 PetscErrorCode StepLifecycle::begin(const State& s) {
   PetscFunctionBeginUser;
   keep_motion(s);
-  if (!substep_) body_.begin_element_states();
+  body_.begin_element_states(substep_);
   without_history_ = integrator_->keeps_history() && !s.x_prev;
   body_.set_time(solve_time(s));  // prescribed positions of the fixed vertices at the solve's time
   PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
@@ -41,7 +41,7 @@ PetscErrorCode StepLifecycle::begin(const State& s) {
 PetscErrorCode StepLifecycle::begin_substepped(const State& s) {
   PetscFunctionBeginUser;
   keep_motion(s);
-  if (!substep_) body_.begin_element_states();
+  body_.begin_element_states();
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));
   PetscFunctionReturn(0);
@@ -77,7 +77,9 @@ PetscErrorCode StepLifecycle::accept(State& s, Vec velocity) {
   s.time = s.frame * dt_;
   if (integrator_->time_fraction() != 1) body_.set_time(s.time);  // fixed vertices at t_{n+1}
   PetscCall(body_.hold(s.x));  // rollers: an end map that extrapolates (the midpoint's) leaves the held slots where their supports are
-  if (!substep_) PetscCall(body_.accept_element_states(s.x));
+  // Once per accepted step: a sub-step's own, or the frame's if no sub-steps solved it (their
+  // accepts have moved the state already).
+  if (substep_ || !velocity) PetscCall(body_.accept_element_states(s.x));
   PetscFunctionReturn(0);
 }
 
@@ -105,8 +107,10 @@ PetscErrorCode StepLifecycle::undo(State& s) {
     body_.restore_motion(motion_n_);
   else
     body_.set_time(s.frame * dt_);
-  if (!substep_) body_.undo_element_states();
+  body_.undo_element_states(substep_);
   PetscFunctionReturn(0);
 }
+
+void StepLifecycle::restart_element_states() { body_.undo_element_states(); }
 
 }  // namespace hyperqn

@@ -15,8 +15,10 @@
 //
 // The fixed vertices move with the step: begin puts them at the solve's time t_n + c h, accept at
 // t_{n+1}, undo back at t_n with the velocities they had there (Body::keep_motion). So does the
-// terms' per-element state (terms/element_state.hpp): begin takes it as the start, accept updates
-// it (EnergyTerm::update_state), undo puts the start back, even after accept.
+// terms' per-element state (terms/element_state.hpp), once per accepted step: begin takes it as
+// the start, accept updates it (EnergyTerm::update_state), undo puts the start back, even after
+// accept. A sub-step's lifecycle does the same for its sub-step; the frame's undo goes back to the
+// frame's start, and the frame's accept after sub-steps leaves the state as they left it.
 #pragma once
 #include <petscvec.h>
 
@@ -63,7 +65,8 @@ class StepLifecycle {
   // Completes the step with the solver's s.x: the end map (or, with velocity given, s.x as it is
   // and a copy of velocity: the last sub-step's; after complete_by_euler, Euler's), the history
   // moves on, frame and time advance, the fixed vertices reach t_{n+1}, and the terms' per-element
-  // state is updated (Body::accept_element_states; not by a sub-step's lifecycle).
+  // state is updated from s.x (Body::accept_element_states), unless velocity is given: the
+  // sub-steps' lifecycles updated it, once per sub-step.
   PetscErrorCode accept(State& s, Vec velocity = nullptr);
   // Abandons the step: s back at x_n, v_n, the fixed vertices back at t_n (with the velocities
   // they had there, if the step began with the body at t_n), the terms' element state at the
@@ -74,9 +77,12 @@ class StepLifecycle {
   PetscErrorCode keep();
   PetscErrorCode restore();
 
-  // A sub-step's lifecycle (StepObjective::create_substep) leaves the terms' element state alone:
-  // the frame's begin, accept and undo move it.
+  // A sub-step's lifecycle (StepObjective::create_substep) moves the terms' element state per
+  // sub-step (ElementState::begin_substep, undo_substep); the frame's undo goes back to the frame's start.
   void set_substep() { substep_ = true; }
+  // The frame's element state back at the frame's start, before a run of sub-steps (an earlier
+  // run of another size may have moved it): the fallback chain's.
+  void restart_element_states();
 
   Vec x_n() const { return x_n_; }
   Vec v_n() const { return v_n_; }

@@ -36,11 +36,7 @@ Mat9 ContinuumTets::element_stress_derivative(PetscInt, int m, const Mat3& F, bo
 }
 
 Eigen::Matrix<double, 4, 4, Eigen::RowMajor> ContinuumTets::element_laplacian(PetscInt k, int m, double scale) const {
-  // Gradients of the 4 barycentric shape functions: rows of Dm^{-1}, and minus their sum.
-  Eigen::Matrix<double, 3, 4> G;
-  G.rightCols<3>() = Dm_inv(k).transpose();
-  G.col(0) = -G.rightCols<3>().rowwise().sum();
-  return ((scale * weight_[m] * volume_[k]) * (G.transpose() * G)).eval();
+  return weighted_laplacian(k, scale * weight_[m]);
 }
 
 }  // namespace hyperqn

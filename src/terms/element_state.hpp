@@ -4,7 +4,9 @@
 // not depend on the partition. Like the positions, they have a value at the step's start (t_n,
 // start) and a current one (current): the step's begin takes the current values as its start, its
 // accept writes the current ones (EnergyTerm::update_state), its undo puts the start back, also
-// after an accept (a frame an observer refuses). A checkpoint saves the current values and a
+// after an accept (a frame an observer refuses). A frame the fallback chain solves in sub-steps
+// moves them once per sub-step (begin_substep, the sub-step's accept); the frame's start is kept
+// then (only then: no copy for a frame of one step), and the frame's undo goes back to it. A checkpoint saves the current values and a
 // restart restores them (io/checkpoint.hpp, elements_<name>); a rebuilt scene (a release) carries
 // them over by id (Body::carry_element_states). docs/architecture.md, "The step core".
 #pragma once
@@ -29,15 +31,31 @@ class ElementState {
   // Element e's values at the step's start, and its current ones.
   const double* start(size_t e) const { return &start_[per_element_ * e]; }
   double* current(size_t e) { return &current_[per_element_ * e]; }
+  const double* current(size_t e) const { return &current_[per_element_ * e]; }
   const std::vector<double>& current_values() const { return current_; }
 
-  void begin() { start_ = current_; }
-  void undo() { current_ = start_; }
+  // A frame's step: its start, and back to it (after sub-steps too).
+  void begin() {
+    start_ = current_;
+    frame_kept_ = false;
+  }
+  void undo() {
+    if (frame_kept_) start_ = frame_start_;
+    current_ = start_;
+  }
+  // A sub-step of the frame: its start (the frame's kept at the first), and back to it.
+  void begin_substep() {
+    if (!frame_kept_) frame_start_ = start_;
+    frame_kept_ = true;
+    start_ = current_;
+  }
+  void undo_substep() { current_ = start_; }
   // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
   // start and the current ones, as after an accepted step.
   void restore(std::vector<double> values) {
     current_ = std::move(values);
     start_ = current_;
+    frame_kept_ = false;
   }
 
  private:
@@ -45,6 +63,13 @@ class ElementState {
   int per_element_;
   std::vector<int64_t> ids_;
   std::vector<double> start_, current_;
+  std::vector<double> frame_start_;  // the frame's start while sub-steps move start_
+  bool frame_kept_ = false;
 };
+
+// from's current values into to's (both as after an accepted step), element by element through the
+// global ids; elements of `to` that from does not hold keep theirs. Nothing unless both have the
+// same name and width (Body::carry_element_states; the reactions' copy of the terms).
+void carry_values(ElementState& to, const ElementState& from);
 
 }  // namespace hyperqn

@@ -129,9 +129,10 @@ class EnergyTerm {
   // A signature of the term's active set at the last point it evaluated (0: none; contact).
   virtual unsigned long long active_set() const { return 0; }
   // Per-element values the term carries across steps (terms/element_state.hpp), or null. At the
-  // end of every accepted frame the body calls update_state with the accepted local positions, to
-  // write the state's current values from its start; an undone frame puts the start back. The
-  // fallback chain's sub-steps leave it alone: the frame's accept updates it once.
+  // end of every accepted step (each of the fallback chain's sub-steps, or the frame's one) the
+  // body calls update_state with the accepted local positions, to write the state's current values
+  // from its start; an undone step puts the start back (an undone frame, the frame's start). The
+  // step's length is t - t_start of the last begin_step (StepStart).
   virtual ElementState* element_state() { return nullptr; }
   virtual PetscErrorCode update_state(const std::vector<double>& /*pos*/) { return 0; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for

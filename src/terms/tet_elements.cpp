@@ -104,7 +104,7 @@ void TetElements::fill_element_fields(const std::vector<double>& pos, std::vecto
         for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
     }
     batch_deformation_gradients(Ds, k, b);
-    if (out[0] || out[1] || out[4]) element_energy_batch(k, m, b, n);
+    if (out[0] || out[1] || out[4]) stored_energy_batch(k, m, b, n);
     for (int e = 0; e < n; ++e) {
       const PetscInt c = cells_[k + e];
       Mat3 F, P;

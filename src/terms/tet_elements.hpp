@@ -37,12 +37,24 @@ class TetElements : public EnergyTerm {
   // This default calls element_energy per element.
   virtual void element_energy_batch(size_t k, int m, StressBatch& b, int n) const;
   virtual Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const = 0;
+  // The same as element_energy_batch in the elements' state as it stands (the output fields): for
+  // a material with history, its current values and no step's dissipation; else element_energy_batch.
+  virtual void stored_energy_batch(size_t k, int m, StressBatch& b, int n) const { element_energy_batch(k, m, b, n); }
   virtual Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const = 0;
 
   // A batch's F = Ds Dm^{-1}, and its forces w P Dm^{-T} (column j: the force on vertex j + 1),
   // for the batch that starts at element k (see add_energy).
   void batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const;
   void batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const;
+  // w V_k G_k^T G_k, G_k the gradients of element k's 4 barycentric shape functions: its matrix in L
+  // with weight w.
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> weighted_laplacian(size_t k, double w) const {
+    // Gradients of the 4 barycentric shape functions: rows of Dm^{-1}, and minus their sum.
+    Eigen::Matrix<double, 3, 4> G;
+    G.rightCols<3>() = Dm_inv(k).transpose();
+    G.col(0) = -G.rightCols<3>().rowwise().sum();
+    return ((w * volume_[k]) * (G.transpose() * G)).eval();
+  }
   // Element k's inverse rest edge matrix Dm^{-1}.
   Mat3 Dm_inv(size_t k) const {
     Mat3 D;

@@ -1,0 +1,152 @@
+#include "materials/maxwell_branches.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace hyperqn {
+
+namespace {
+
+Mat3 unpack(const double* h) {
+  Mat3 A;
+  A << h[0], h[3], h[5], h[3], h[1], h[4], h[5], h[4], h[2];
+  return A;
+}
+
+void pack(const Mat3& A, double* h) {
+  h[0] = A(0, 0);
+  h[1] = A(1, 1);
+  h[2] = A(2, 2);
+  h[3] = 0.5 * (A(0, 1) + A(1, 0));
+  h[4] = 0.5 * (A(1, 2) + A(2, 1));
+  h[5] = 0.5 * (A(0, 2) + A(2, 0));
+}
+
+// One branch at F: the trial b = F A F^T (A = C_v,n^{-1}) in its eigenbasis N with eigenvalues
+// beta, the log strains e = 1/2 log beta and their deviator d.
+struct Trial {
+  Mat3 A, N;
+  Vec3 beta, d;
+  double mean = 0;  // tr e / 3
+  bool ok = false;  // b positive definite
+};
+
+Trial trial(const Mat3& F, const double* history) {
+  Trial t;
+  t.A = unpack(history);
+  const Mat3 b = F * t.A * F.transpose();
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (b + b.transpose()));
+  t.N = eig.eigenvectors();
+  t.beta = eig.eigenvalues();
+  t.ok = t.beta.minCoeff() > 0 && std::isfinite(t.beta.maxCoeff());
+  if (!t.ok) return t;
+  const Vec3 e = 0.5 * t.beta.array().log().matrix();
+  t.mean = e.sum() / 3.0;
+  t.d = e.array() - t.mean;
+  return t;
+}
+
+// (log x - log y) / (x - y), also where x and y (> 0) are close: 2 atanh(s) / (s (x + y)), s = (x - y) / (x + y).
+double log_divided(double x, double y) {
+  const double s = (x - y) / (x + y);
+  if (std::fabs(s) < 1e-3) {
+    const double s2 = s * s;
+    return 2.0 / (x + y) * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 / 7.0)));
+  }
+  return 2.0 * std::atanh(s) / (s * (x + y));
+}
+
+}  // namespace
+
+MaxwellBranches::MaxwellBranches(std::vector<MaxwellBranch> branches) : branches_(std::move(branches)) {
+  if (branches_.empty() || (int)branches_.size() > kMaxMaxwellBranches)
+    throw std::invalid_argument("viscoelastic: 1 to " + std::to_string(kMaxMaxwellBranches) + " branches, got " +
+                                std::to_string(branches_.size()));
+  for (const MaxwellBranch& b : branches_)
+    if (!(b.mu > 0) || !(b.tau > 0) || !std::isfinite(b.mu) || !std::isfinite(b.tau))
+      throw std::invalid_argument("viscoelastic: every branch needs a shear modulus > 0 and a relaxation time > 0");
+}
+
+void MaxwellBranches::rest(double* history) const {
+  for (int i = 0; i < size(); ++i) pack(Mat3::Identity(), history + kViscousValues * i);
+}
+
+double MaxwellBranches::laplacian_weight() const {
+  double w = 0;
+  for (const MaxwellBranch& b : branches_) w += 2.0 * b.mu;
+  return w;
+}
+
+// W = m |d|^2 with m = mu tau / (tau + dt); dW/dbeta_a = m d_a / beta_a =: phi_a, so dW/db = S =
+// N diag(phi) N^T and P = dW/dF = 2 S F A (db = dF A F^T + F A dF^T).
+double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, Mat3* P) const {
+  double W = 0;
+  for (int i = 0; i < size(); ++i) {
+    const Trial t = trial(F, history + kViscousValues * i);
+    if (!t.ok) return std::numeric_limits<double>::infinity();
+    const double m = branches_[i].mu * branches_[i].tau / (branches_[i].tau + dt);
+    W += m * t.d.squaredNorm();
+    if (P) {
+      const Vec3 phi = m * t.d.cwiseQuotient(t.beta);
+      const Mat3 S = t.N * phi.asDiagonal() * t.N.transpose();
+      *P += 2.0 * S * F * t.A;
+    }
+  }
+  return W;
+}
+
+// dP = 2 (dS F A + S dF A), dS from db by the derivative of a spectral function of b: in the
+// eigenbasis, dS'_aa = sum_b (dphi_a/dbeta_b) db'_bb and dS'_ab = (phi_a - phi_b) / (beta_a -
+// beta_b) db'_ab (a != b), the divided difference written so that it holds at equal eigenvalues.
+Mat9 MaxwellBranches::stress_derivative(const Mat3& F, const double* history, double dt) const {
+  Mat9 C = Mat9::Zero();
+  for (int i = 0; i < size(); ++i) {
+    const Trial t = trial(F, history + kViscousValues * i);
+    if (!t.ok) continue;
+    const double m = branches_[i].mu * branches_[i].tau / (branches_[i].tau + dt);
+    const Vec3 phi = m * t.d.cwiseQuotient(t.beta);
+    const Mat3 S = t.N * phi.asDiagonal() * t.N.transpose();
+    Mat3 f, D;  // dphi_a/dbeta_b; the divided differences
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) {
+        const double delta = a == b ? 1.0 : 0.0;
+        f(a, b) = m * ((delta - 1.0 / 3.0) / (2.0 * t.beta(a) * t.beta(b)) - delta * t.d(a) / (t.beta(a) * t.beta(a)));
+        D(a, b) = a == b ? 0.0
+                         : m * (0.5 * log_divided(t.beta(a), t.beta(b)) / t.beta(a) - t.d(b) / (t.beta(a) * t.beta(b)));
+      }
+    const Mat3 FA = F * t.A, AFt = t.A * F.transpose();
+    for (int c = 0; c < 9; ++c) {
+      Mat3 dF = Mat3::Zero();
+      dF(c) = 1.0;
+      const Mat3 db = dF * AFt;
+      const Mat3 dbp = t.N.transpose() * (db + db.transpose()) * t.N;
+      Mat3 dSp;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          dSp(a, b) = a == b ? f.row(a).dot(dbp.diagonal()) : D(a, b) * dbp(a, b);
+      const Mat3 dS = t.N * dSp * t.N.transpose();
+      const Mat3 dP = 2.0 * (dS * FA + S * dF * t.A);
+      for (int r = 0; r < 9; ++r) C(r, c) += dP(r);
+    }
+  }
+  return C;
+}
+
+void MaxwellBranches::update(const Mat3& F, const double* start, double dt, double* end) const {
+  const Mat3 Finv = F.inverse();
+  for (int i = 0; i < size(); ++i) {
+    const Trial t = trial(F, start + kViscousValues * i);
+    if (!t.ok) {  // no finite step ends here (its energy is infinite): keep the history
+      for (int k = 0; k < kViscousValues; ++k) end[kViscousValues * i + k] = start[kViscousValues * i + k];
+      continue;
+    }
+    const double keep = branches_[i].tau / (branches_[i].tau + dt);
+    const Vec3 be = (2.0 * (keep * t.d.array() + t.mean)).exp().matrix();
+    const Mat3 A = Finv * (t.N * be.asDiagonal() * t.N.transpose()) * Finv.transpose();
+    pack(A, end + kViscousValues * i);
+  }
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,263 @@
+"""Viscoelastic materials (material.viscoelastic, docs/materials.md#viscoelasticity), end to end.
+
+- Standard linear solid, relaxation, in simple shear: a 1 x 1 x 1 block whose boundary vertices all
+  follow u = gamma0 y e_x (the bottom face fixed, the top face and each layer's ring of boundary
+  vertices clamps that a ramp moves in the first load step and then holds), static load steps of
+  dt = tau/20. With every boundary vertex on the affine field the discrete equilibrium is
+  homogeneous (linear tets pass the patch test), so every tet's Cauchy shear stress is the
+  material's. Neo-Hookean's sigma_xy = mu gamma exactly in simple shear (J = 1) and one branch of
+  shear modulus mu_1 = g mu / (1 - g) gives sigma_xy(t) = gamma0 (E_inf + E_1 e^{-t/tau}) with
+  E_inf = mu (the deck's, the equilibrium part's) and E_1 = mu_1: within 0.5% over t in (0, 5 tau],
+  first order in dt (tau/20 against tau/40), and equal (to the solver's tolerance) to the
+  backward-Euler recurrence gamma0 (mu + mu_1 (1 + dt/tau)^-n).
+  (The positions stay affine: after the first step the solve has nothing to move.)
+- Newton (exact tangent, projected) follows the same recurrence.
+- Through real solves, a bar clamped at both ends, its clamp's reaction: a step of 1e-5 tau gives
+  the instantaneous moduli's answer, steps of 100 tau the equilibrium material's; lbfgs and Newton
+  agree in between.
+- The fallback chain's sub-steps move the history per sub-step: a load step solved in 4 sub-steps
+  ends bit for bit where load steps of a quarter end.
+- The same at 2 ranks (agrees to 1e-9 of the stress); a restart from the checkpoint of frame 40
+  (mid-relaxation) ends bit for bit as the uninterrupted run at 1 rank, and within 1e-12 at 2.
+- Bad input: tau <= 0, g <= 0, sum g >= 1, 5 branches, no branches, a model without elastic
+  constants, the midpoint integrator, a study: the deck line named, exit 1, nothing written.
+"""
+import copy
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run_deck, run_hyperqn, write_deck
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_reactions
+from test_bad_input import assert_clean_failure
+
+MU, LAMBDA, G, TAU, GAMMA = 1.0e4, 2.0e4, 0.3, 0.1, 1.0e-3
+MU1 = G * MU / (1 - G)
+DT = TAU / 20
+CELLS = [2, 4, 2]
+E = 0.01  # half the thickness of a clamp's box
+
+
+def clamp(lo, hi, y, dt=DT):
+    """A fixed region over [lo, hi] (x, z) at height y that a ramp moves by gamma0 y along x in the first step."""
+    box = {"min": [lo[0], y - E, lo[1]], "max": [hi[0], y + E, hi[1]]}
+    if y == 0:
+        return {"box": box}
+    return {"box": box, "motion": {"translate": {"velocity": [GAMMA * y, 0, 0]},
+                                   "curve": {"type": "ramp", "start": 0, "end": dt}}}
+
+
+def shear_deck(frames=100, every=1, dt=DT):
+    fixed = [clamp((-E, -E), (1 + E, 1 + E), 0.0, dt), clamp((-E, -E), (1 + E, 1 + E), 1.0, dt)]
+    for j in range(1, CELLS[1]):  # each inner layer's ring: x = 0 and x = 1 whole, z = 0 and z = 1 between
+        y = j / CELLS[1]
+        fixed += [clamp((-E, -E), (E, 1 + E), y, dt), clamp((1 - E, -E), (1 + E, 1 + E), y, dt),
+                  clamp((2 * E, -E), (1 - 2 * E, E), y, dt), clamp((2 * E, 1 - E), (1 - 2 * E, 1 + E), y, dt)]
+    return {
+        "name": "relaxation",
+        "mesh": {"box": {"size": [1, 1, 1], "cells": CELLS}},
+        "material": {"model": "neohookean", "mu": MU, "lambda": LAMBDA, "density": 1000,
+                     "viscoelastic": {"branches": [{"g": G, "tau": TAU}]}},
+        "fixed": fixed,
+        "gravity": [0, 0, 0],
+        "time": {"dt": dt, "frames": frames, "integrator": "static"},
+        "solver": {"type": "lbfgs", "iterations": 500, "grad_rtol": 1e-11},
+        "output": {"every": every, "fields": ["cauchy_stress"]},
+    }
+
+
+def shear_stresses(outdir):
+    """[(time, sigma_xy of every tet)] per output frame."""
+    out = []
+    for _, time, path in frame_list(outdir):
+        values = [np.asarray(m.cell_data["cauchy_stress"][b]).reshape(-1, 9)[:, 1]
+                  for m in frame_meshes(path) for b in range(len(m.cells))]
+        out.append((time, np.concatenate(values)))
+    return out
+
+
+def relaxation_errors(tmp_path, name, dt):
+    """(worst relative error against the closed form, against the recurrence, spread over the tets)
+    over t in (0, 5 tau] in load steps of dt; the first frame's mean stress."""
+    frames = int(round(5 * TAU / dt))
+    out, _ = run_deck(tmp_path, name, shear_deck(frames=frames, dt=dt))
+    stresses = shear_stresses(out)[1:]
+    assert len(stresses) == frames
+    worst_closed, worst_recurrence, spread = 0.0, 0.0, 0.0
+    for n, (t, s) in enumerate(stresses, start=1):
+        assert abs(t - n * dt) < 1e-12
+        closed = GAMMA * (MU + MU1 * math.exp(-t / TAU))
+        recurrence = GAMMA * (MU + MU1 * (1 + dt / TAU) ** -n)
+        spread = max(spread, (s.max() - s.min()) / closed)
+        worst_closed = max(worst_closed, abs(s.mean() - closed) / closed)
+        worst_recurrence = max(worst_recurrence, abs(s.mean() - recurrence) / recurrence)
+    return worst_closed, worst_recurrence, spread, stresses[0][1].mean()
+
+
+def test_relaxation_in_simple_shear(tmp_path):
+    closed, recurrence, spread, first = relaxation_errors(tmp_path, "tau20", DT)
+    closed40, recurrence40, _, _ = relaxation_errors(tmp_path, "tau40", DT / 2)
+    order = math.log2(closed / closed40)
+    print(f"relaxation in shear: against the closed form {closed:.3e} (dt = tau/20), {closed40:.3e} (tau/40), "
+          f"order {order:.2f}; against backward Euler's recurrence {max(recurrence, recurrence40):.2e}; spread over "
+          f"the tets {spread:.1e}")
+    assert spread < 1e-6  # homogeneous
+    assert closed <= 5e-3
+    assert abs(order - 1) < 0.1
+    assert max(recurrence, recurrence40) <= 1e-6
+    # The first frame holds the instantaneous modulus mu / (1 - g) (relaxed by one step).
+    assert first > GAMMA * MU * 1.2
+
+
+def test_newton(tmp_path):
+    """Newton (the exact tangent of the condensed energy, projected to PSD) reaches the same
+    recurrence in its few iterations per step."""
+    deck = shear_deck(frames=20)
+    deck["solver"] = {"type": "newton", "iterations": 50, "grad_rtol": 1e-11}
+    out, summary = run_deck(tmp_path, "newton", deck)
+    worst = 0.0
+    for n, (t, s) in enumerate(shear_stresses(out)[1:], start=1):
+        recurrence = GAMMA * (MU + MU1 * (1 + DT / TAU) ** -n)
+        worst = max(worst, abs(s.mean() - recurrence) / recurrence)
+    print(f"newton: against the recurrence {worst:.2e}, {summary['iterations']} iterations in 20 steps")
+    assert worst <= 1e-6
+    assert summary["iterations"] <= 20 * 5
+
+
+def bar_deck(material, frames, solver="lbfgs"):
+    """A bar 0.1 x 0.01 x 0.01 clamped at both ends, the far clamp moved by 1e-4 (strain 1e-3) in
+    the first load step (dt = 1) and held; the moving clamp's reaction per frame."""
+    return {
+        "name": "bar",
+        "mesh": {"box": {"size": [0.1, 0.01, 0.01], "cells": [10, 2, 2]}},
+        "material": dict(material, density=1000),
+        "fixed": [{"box": {"min": [-0.001, -0.001, -0.001], "max": [0.001, 0.011, 0.011]}},
+                  {"box": {"min": [0.099, -0.001, -0.001], "max": [0.101, 0.011, 0.011]},
+                   "motion": {"translate": {"velocity": [1e-4, 0, 0]}, "curve": {"type": "ramp", "start": 0, "end": 1}}}],
+        "gravity": [0, 0, 0],
+        "time": {"dt": 1, "frames": frames, "integrator": "static"},
+        "solver": {"type": solver, "iterations": 2000, "grad_rtol": 1e-10},
+        "output": {"every": frames, "reactions": True},
+    }
+
+
+def pull(tmp_path, name, material, frames, solver="lbfgs"):
+    out, _ = run_deck(tmp_path, name, bar_deck(material, frames, solver))
+    return read_reactions(out)["fixed[1]"]["fx"]
+
+
+def test_instantaneous_and_relaxed_limits_through_the_solver(tmp_path):
+    """A clamped bar (not homogeneous: the clamps hold its ends' contraction), so every step is a
+    real solve, and its reaction (output.reactions: the viscoelastic term's stored stress at the
+    step's end). Load steps of dt = 1: with tau = 1e5 the bar answers with the instantaneous moduli,
+    Neo-Hookean with mu_0 = mu / (1 - g) and the same bulk modulus (lambda_0 = lambda - 2/3 (mu_0 -
+    mu)), to the strain's order (the log strain against Neo-Hookean's, 1e-3) and dt/tau; with tau =
+    0.01 the branch relaxes to (1 + 100)^-4 of itself in 4 steps, leaving the equilibrium material's
+    own answer. lbfgs and Newton agree on the relaxation between (tau = 20: dt = tau/20)."""
+    elastic = {"model": "neohookean", "mu": MU, "lambda": LAMBDA}
+    mu0 = MU / (1 - G)
+    instantaneous = {"model": "neohookean", "mu": mu0, "lambda": LAMBDA - 2 / 3 * (mu0 - MU)}
+
+    def visco(tau):
+        return dict(elastic, viscoelastic={"branches": [{"g": G, "tau": tau}]})
+
+    r_inf = pull(tmp_path, "relaxed_elastic", elastic, 4)[-1]
+    r_0 = pull(tmp_path, "instant_elastic", instantaneous, 1)[-1]
+    v_0 = pull(tmp_path, "instant_visco", visco(1e5), 1)[-1]
+    v_inf = pull(tmp_path, "relaxed_visco", visco(0.01), 4)[-1]
+    print(f"bar: instantaneous {v_0:.6e} against {r_0:.6e} ({abs(v_0 / r_0 - 1):.2e}); relaxed {v_inf:.6e} "
+          f"against {r_inf:.6e} ({abs(v_inf / r_inf - 1):.2e})")
+    assert abs(v_0 / r_0 - 1) <= 3e-3
+    assert abs(v_inf / r_inf - 1) <= 1e-6
+    assert v_0 / r_inf > 1.2  # the two limits are far apart
+    lb = pull(tmp_path, "lbfgs", visco(20), 10)
+    nt = pull(tmp_path, "newton", visco(20), 10, solver="newton")
+    print(f"bar, lbfgs against newton over 10 steps: {np.max(np.abs(lb / nt - 1)):.2e}")
+    assert np.all(np.diff(lb[1:]) < 0)  # relaxes
+    assert np.max(np.abs(lb / nt - 1)) <= 1e-6
+
+
+def test_substeps_move_the_history_per_substep(tmp_path):
+    """The fallback chain's sub-steps each move the viscous history with their own length: a bar
+    stretched by half in one static load step of dt = tau/2, with a budget (10 iterations) that
+    the whole step misses, is solved in 4 sub-steps (frame 2 starts at that size), and ends where
+    the run of load steps of dt/4 ends, bit for bit (the same solves; a history moved once per
+    frame would leave the branch (8/9)^4 / (2/3) - 1 = 6% off)."""
+    material = {"model": "neohookean", "mu": MU, "lambda": LAMBDA,
+                "viscoelastic": {"branches": [{"g": G, "tau": 2.0}]}}
+    deck = bar_deck(material, 2)
+    deck["fixed"][1]["motion"]["translate"]["velocity"] = [0.05, 0, 0]
+    deck["solver"] = {"type": "lbfgs", "iterations": 10, "max_iterations": 10, "max_halvings": 2,
+                      "newton_fallback": False, "grad_rtol": 1e-8}
+    deck["output"] = {"every": 1}
+    coarse, summary = run_deck(tmp_path, "substeps", deck)
+    assert summary["substepped_frames"] == 2
+    fine = copy.deepcopy(deck)
+    fine["time"] = dict(deck["time"], dt=0.25, frames=8)
+    fine_out, fine_summary = run_deck(tmp_path, "fine", fine)
+    assert fine_summary["substepped_frames"] == 0
+    a, b = final_frame(coarse), final_frame(fine_out)
+    assert np.array_equal(a.points, b.points)
+
+
+def test_two_ranks_and_restart(tmp_path):
+    deck = shear_deck(frames=60, every=20)
+    one, _ = run_deck(tmp_path, "np1", deck)
+    two, _ = run_deck(tmp_path, "np2", deck, ranks=2)
+    a, b = shear_stresses(one), shear_stresses(two)
+    for (_, sa), (_, sb) in zip(a, b):
+        assert abs(sa.mean() - sb.mean()) <= 1e-9 * abs(sa.mean())
+    restarted = tmp_path / "restarted"
+    first = dict(deck, time=dict(deck["time"], frames=40), checkpoint={"every": 40})
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=1)
+    done = run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=1)
+    assert "restart from" in done.stdout
+    fa, fb = final_frame(one), final_frame(restarted)
+    assert np.array_equal(fa.points, fb.points)
+    sa, sb = shear_stresses(one)[-1][1], shear_stresses(restarted)[-1][1]
+    assert np.array_equal(np.sort(sa), np.sort(sb)), "the restarted stresses bit for bit"
+    # At 2 ranks (whose runs agree to round-off run to run, scripts/compare_revisions.py), to 1e-12.
+    restarted2 = tmp_path / "restarted2"
+    run_hyperqn([write_deck(tmp_path / "first2.yaml", first), "-o", restarted2], ranks=2)
+    run_hyperqn([write_deck(tmp_path / "then2.yaml", deck), "-o", restarted2, "--restart", "latest"], ranks=2)
+    s2, r2 = shear_stresses(two)[-1][1], shear_stresses(restarted2)[-1][1]
+    assert np.max(np.abs(np.sort(s2) - np.sort(r2))) <= 1e-12 * np.max(np.abs(s2))
+
+
+def bad(material=None, **top):
+    deck = copy.deepcopy(shear_deck(frames=2))
+    if material is not None:
+        deck["material"] = material
+    deck.update(top)
+    return deck
+
+
+VISCO = {"model": "neohookean", "mu": MU, "lambda": LAMBDA, "density": 1000}
+BAD = {
+    "tau_zero": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.3, "tau": 0}]})),
+                 ["viscoelastic.branches[0].tau", "must be > 0"]),
+    "g_negative": (bad(dict(VISCO, viscoelastic={"branches": [{"g": -0.1, "tau": 1}]})),
+                   ["viscoelastic.branches[0].g", "must be > 0"]),
+    "sum_g_one": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.5, "tau": 1}, {"g": 0.5, "tau": 2}]})),
+                  ["viscoelastic.branches", "sum to 1"]),
+    "five_branches": (bad(dict(VISCO, viscoelastic={"branches": [{"g": 0.1, "tau": k + 1} for k in range(5)]})),
+                      ["viscoelastic.branches", "1 to 4 branches, got 5"]),
+    "no_branches": (bad(dict(VISCO, viscoelastic={})), ["branches"]),
+    "principal_stretch": (bad({"model": "principal-stretch", "f": {"polynomial": [0, 0, 1]}, "density": 1000,
+                               "viscoelastic": {"branches": [{"g": 0.3, "tau": 1}]}}),
+                          ["viscoelastic"]),
+    "midpoint": (bad(time={"dt": DT, "frames": 2, "integrator": "implicit-midpoint"}),
+                 ["time.integrator", "implicit-midpoint does not take viscoelastic"]),
+    "study": (bad(study={"frames": [1], "solvers": ["lbfgs"]}), ["study", "keeps a history per element"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_input(tmp_path, case):
+    deck, fragments = BAD[case]
+    path = write_deck(tmp_path / f"{case}.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"{case}.yaml:"] + fragments)
+    assert proc.returncode == 1
