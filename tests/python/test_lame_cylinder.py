@@ -21,7 +21,7 @@ import meshio
 import numpy as np
 
 from conftest import run_deck
-from hyperqn_tools.output import final_frame
+from hyperqn_tools.output import final_frame, tensors
 from hyperqn_tools.paths import REPO
 
 E, NU, P, A, B, T = 1.0e6, 0.3, 100.0, 1.0, 2.0, 0.25
@@ -47,7 +47,7 @@ def hoop_error(out):
             centre = rest[block.data].mean(axis=1)
             radius = np.hypot(centre[:, 0], centre[:, 1])
             e = np.c_[-centre[:, 1] / radius, centre[:, 0] / radius, np.zeros(len(radius))]
-            S = np.asarray(sigma).reshape(-1, 3, 3)
+            S = tensors(sigma)
             r.append(radius)
             s.append(np.einsum("ei,eij,ej->e", e, S, e))
     r, s = np.concatenate(r), np.concatenate(s)

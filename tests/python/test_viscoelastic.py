@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_reactions
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_reactions, tensors
 from test_bad_input import assert_clean_failure
 
 MU, LAMBDA, G, TAU, GAMMA = 1.0e4, 2.0e4, 0.3, 0.1, 1.0e-3
@@ -71,7 +71,7 @@ def shear_stresses(outdir):
     """[(time, sigma_xy of every tet)] per output frame."""
     out = []
     for _, time, path in frame_list(outdir):
-        values = [np.asarray(m.cell_data["cauchy_stress"][b]).reshape(-1, 9)[:, 1]
+        values = [tensors(m.cell_data["cauchy_stress"][b])[:, 0, 1]
                   for m in frame_meshes(path) for b in range(len(m.cells))]
         out.append((time, np.concatenate(values)))
     return out
