@@ -125,15 +125,18 @@ PetscErrorCode Reactions::end_frame(const State& s, std::vector<SupportForce>& o
   // Force and moment per support from this rank's elements. A vertex shared by ranks gets each
   // rank's part of its gradient and mass (elements live on one rank each, a_i is known to all):
   // the sum over ranks is the whole, without an exchange of ghosts.
+  // r_i = dE/dx_i + m_i (a_i - g): the step's residual at a vertex the solve leaves out. A static
+  // step has no inertia (its velocities are the load path's, not the body's): r_i = dE/dx_i - m_i g.
+  const bool inertia = spec_.time.integrator != TimeIntegrator::quasi_static;
+  auto residual = [&](PetscInt i, int d) {
+    return grad_[i] + mass_[i] * ((inertia ? (vel_[i] - vel_start_[i]) / h : 0.0) - g[d]);
+  };
   std::vector<double> local(6 * supports, 0.0), sums(6 * supports, 0.0);
   for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
     const int32_t k = mesh.fixed[v];
     if (k <= 0 || (size_t)k > fixed) continue;
     Vec3 r;
-    for (int d = 0; d < 3; ++d) {
-      const PetscInt i = 3 * v + d;
-      r[d] = grad_[i] + mass_[i] * ((vel_[i] - vel_start_[i]) / h - g[d]);
-    }
+    for (int d = 0; d < 3; ++d) r[d] = residual(3 * v + d, d);
     add_force(Vec3(&pos_[3 * v]), r, points[k - 1], &local[6 * (k - 1)]);
   }
   // A roller's held component: the same residual, in that component only (its free ones are solved).
@@ -143,7 +146,7 @@ PetscErrorCode Reactions::end_frame(const State& s, std::vector<SupportForce>& o
       if (k <= 0 || (size_t)k > fixed) continue;
       const int d = (int)(i % 3);
       Vec3 r = Vec3::Zero();
-      r[d] = grad_[i] + mass_[i] * ((vel_[i] - vel_start_[i]) / h - g[d]);
+      r[d] = residual(i, d);
       add_force(Vec3(&pos_[i - d]), r, points[k - 1], &local[6 * (k - 1)]);
     }
   for (size_t a = 0; a < attached_.size(); ++a) {

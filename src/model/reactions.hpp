@@ -6,6 +6,8 @@
 // from the velocities the state holds (a fixed vertex's: its prescribed mean velocity over the
 // step) and dE/dx at the frame's end. That is implicit Euler's equation at a free vertex, so the
 // reactions, gravity and the free vertices' (solved) equations give the body's momentum balance.
+// A static step (time.integrator: static) has no inertia: r_i = dE/dx_i - m_i g, whatever the
+// supports' speed along the load path.
 // The terms add their gradients at free dofs only; the reactions evaluate the scene's elastic terms
 // a second time, built over a copy of the mesh whose dof map covers every local vertex, so the
 // normal evaluation is untouched and a run without reactions builds nothing of this.
