@@ -12,12 +12,11 @@ positively oriented. Standard library and numpy.
     /usr/bin/python3 scripts/cylinder_mesh.py cylinder.mesh --inner 1 --outer 2 --cells 8
 """
 import argparse
-import itertools
 import sys
 
 import numpy as np
 
-from slit_mesh import write_medit
+from tet_grid import kuhn_tets, orient_positive, write_medit
 
 
 def quarter_cylinder(inner, outer, thickness, cells, layers):
@@ -33,20 +32,7 @@ def quarter_cylinder(inner, outer, thickness, cells, layers):
     def vid(i, j, k):
         return (i * (nt + 1) + j) * (nz + 1) + k
 
-    tets = []
-    for i, j, k in itertools.product(range(nr), range(nt), range(nz)):
-        for order in itertools.permutations(range(3)):  # the 6 paths from (0,0,0) to (1,1,1)
-            step = [0, 0, 0]
-            path = [vid(i, j, k)]
-            for axis in order:
-                step[axis] = 1
-                path.append(vid(i + step[0], j + step[1], k + step[2]))
-            tets.append(path)
-    T = np.array(tets, dtype=np.int64)
-    a, b, c, d = (X[T[:, m]] for m in range(4))
-    vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
-    T[vol < 0, 2], T[vol < 0, 3] = T[vol < 0, 3].copy(), T[vol < 0, 2].copy()
-    return X, T
+    return X, orient_positive(X, kuhn_tets(vid, (nr, nt, nz)))
 
 
 def main(argv=None):

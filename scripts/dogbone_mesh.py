@@ -14,12 +14,11 @@ and numpy.
     /usr/bin/python3 scripts/dogbone_mesh.py dogbone.mesh --cells 40 4 2
 """
 import argparse
-import itertools
 import sys
 
 import numpy as np
 
-from slit_mesh import write_medit
+from tet_grid import kuhn_tets, orient_positive, write_medit
 
 # The specimen's shape (m): 100 mm long, 4 mm thick; 20 mm wide grips 20 mm long, 15 mm fillets,
 # a 10 mm wide gauge 30 mm long.
@@ -58,20 +57,7 @@ def dogbone(profile, cells):
     def vertex(i, j, k):
         return (i * (ny + 1) + j) * (nz + 1) + k
 
-    tets = []
-    for i, j, k in itertools.product(range(nx), range(ny), range(nz)):
-        for order in itertools.permutations(range(3)):  # a path from corner 000 to 111, one axis a step
-            corner = [0, 0, 0]
-            path = [vertex(i, j, k)]
-            for axis in order:
-                corner[axis] += 1
-                path.append(vertex(i + corner[0], j + corner[1], k + corner[2]))
-            tets.append(path)
-    T = np.array(tets)
-    e = X[T[:, 1:]] - X[T[:, :1]]
-    negative = np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2])) < 0
-    T[negative, 2], T[negative, 3] = T[negative, 3], T[negative, 2].copy()
-    return X, T
+    return X, orient_positive(X, kuhn_tets(vertex, (nx, ny, nz)))
 
 
 def main(argv=None):

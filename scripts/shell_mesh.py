@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from slit_mesh import write_medit
+from tet_grid import write_medit
 
 # The cube's faces: (axis, sign); a face's grid runs over the two other axes.
 FACES = [(axis, sign) for axis in range(3) for sign in (-1, 1)]

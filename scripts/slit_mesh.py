@@ -20,11 +20,12 @@ numpy.
         --gap-fraction 5e-5 --cells 48 4 4
 """
 import argparse
-import itertools
 import math
 import sys
 
 import numpy as np
+
+from tet_grid import kuhn_tets, orient_positive, write_medit
 
 
 def split_ring(outer, inner, depth, gap, cells):
@@ -44,37 +45,7 @@ def split_ring(outer, inner, depth, gap, cells):
     def vid(i, j, k):
         return i + (na + 1) * (j + (nr + 1) * k)
 
-    tets = []
-    for k, j, i in itertools.product(range(nz), range(nr), range(na)):
-        for perm in itertools.permutations(range(3)):
-            c = [i, j, k]
-            path = [vid(*c)]
-            for axis in perm:
-                c[axis] += 1
-                path.append(vid(*c))
-            tets.append(path)
-    T = np.array(tets, dtype=np.int64)
-    a, b, c, d = (X[T[:, m]] for m in range(4))
-    vol = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
-    T[vol < 0, 2], T[vol < 0, 3] = T[vol < 0, 3].copy(), T[vol < 0, 2].copy()
-    return X, T
-
-
-def write_medit(path, X, T, triangles=None, references=None):
-    """X, T (0-based) as a Medit .mesh; with triangles (0-based rows) and their references, a
-    Triangles section after the tets (boundary faces tagged for a region)."""
-    with open(path, "w") as f:
-        f.write("MeshVersionFormatted 1\nDimension 3\nVertices\n%d\n" % len(X))
-        for p in X:
-            f.write("%.17g %.17g %.17g 0\n" % tuple(p))
-        f.write("Tetrahedra\n%d\n" % len(T))
-        for t in T:
-            f.write("%d %d %d %d 0\n" % tuple(int(v) + 1 for v in t))
-        if triangles is not None:
-            f.write("Triangles\n%d\n" % len(triangles))
-            for t, ref in zip(triangles, references):
-                f.write("%d %d %d %d\n" % (int(t[0]) + 1, int(t[1]) + 1, int(t[2]) + 1, int(ref)))
-        f.write("End\n")
+    return X, orient_positive(X, kuhn_tets(vid, (na, nr, nz), i_fastest=True))
 
 
 def main(argv=None):

@@ -25,6 +25,8 @@ import sys
 
 import numpy as np
 
+from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit
+
 
 def box_mesh(size, element):
     """Vertices and positively oriented tets of the Kuhn subdivision of [0, size]."""
@@ -36,24 +38,7 @@ def box_mesh(size, element):
     def vid(i, j, k):
         return i + nx * (j + ny * k)
 
-    tets = []
-    for k, j, i in itertools.product(range(cells[2]), range(cells[1]), range(cells[0])):
-        for perm in itertools.permutations(range(3)):
-            c = [i, j, k]
-            path = [vid(*c)]
-            for axis in perm:
-                c[axis] += 1
-                path.append(vid(*c))
-            tets.append(path)
-    T = np.array(tets, dtype=np.int64)
-    vol = signed_volumes(X, T)
-    T[vol < 0, 2], T[vol < 0, 3] = T[vol < 0, 3].copy(), T[vol < 0, 2].copy()
-    return X, T, cells
-
-
-def signed_volumes(X, T):
-    a, b, c, d = (X[T[:, k]] for k in range(4))
-    return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6.0
+    return X, orient_positive(X, kuhn_tets(vid, cells, i_fastest=True)), cells
 
 
 def qualities(X, T):
@@ -144,17 +129,6 @@ def histogram(q):
         lines.append(f"  [{lo:.0e}, {min(hi, 1.0):.0e}): {count}")
     inverted = int(np.count_nonzero(q <= 0))
     return "\n".join(lines) + f"\n  inverted or flat: {inverted}"
-
-
-def write_medit(path, X, T):
-    with open(path, "w") as out:
-        out.write("MeshVersionFormatted 1\nDimension 3\nVertices\n%d\n" % len(X))
-        for x in X:
-            out.write("%.17g %.17g %.17g 0\n" % tuple(x))
-        out.write("Tetrahedra\n%d\n" % len(T))
-        for t in T:
-            out.write("%d %d %d %d 0\n" % tuple(int(v) + 1 for v in t))
-        out.write("End\n")
 
 
 def main(argv=None):

@@ -45,16 +45,8 @@ PetscErrorCode TetElements::add_energy(Vec, const std::vector<double>& pos, doub
   StressBatch b;
   Lanes Ds[9] = {};
   for (size_t k = 0; k < count;) {
-    const int m = mesh_.cell_material[cells_[k]];
-    int n = 0;
-    while (n < kBatch && k + n < count && mesh_.cell_material[cells_[k + n]] == m) ++n;
-    for (int e = 0; e < n; ++e) {  // Ds: columns x_j - x_0, j = 1..3
-      const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
-      const double* x0 = &pos[3 * cell[0]];
-      for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
-    }
-    batch_deformation_gradients(Ds, k, b);
+    int m;
+    const int n = load_batch(pos, k, Ds, b, &m);
     element_energy_batch(k, m, b, n);
     Lanes H[9];  // w P Dm^{-T}: column j is the force on vertex j + 1
     batch_forces(b, k, H);
@@ -94,16 +86,8 @@ void TetElements::fill_element_fields(const std::vector<double>& pos, std::vecto
   Lanes Ds[9] = {};
   const size_t count = cells_.size();
   for (size_t k = 0; k < count;) {
-    const int m = mesh_.cell_material[cells_[k]];
-    int n = 0;
-    while (n < kBatch && k + n < count && mesh_.cell_material[cells_[k + n]] == m) ++n;
-    for (int e = 0; e < n; ++e) {  // Ds: columns x_j - x_0, j = 1..3
-      const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
-      const double* x0 = &pos[3 * cell[0]];
-      for (int j = 0; j < 3; ++j)
-        for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
-    }
-    batch_deformation_gradients(Ds, k, b);
+    int m;
+    const int n = load_batch(pos, k, Ds, b, &m);
     if (out[0] || out[1] || out[4]) stored_energy_batch(k, m, b, n);
     for (int e = 0; e < n; ++e) {
       const PetscInt c = cells_[k + e];
@@ -128,6 +112,20 @@ void TetElements::fill_element_fields(const std::vector<double>& pos, std::vecto
 static inline void load_lanes(const double* p, Lanes& v) { std::memcpy(&v, p, sizeof v); }
 
 // b.F = Ds Dm^{-1} for the batch at element k: F(i, j) = sum_l Ds(i, l) Dm^{-1}(l, j).
+int TetElements::load_batch(const std::vector<double>& pos, size_t k, Lanes (&Ds)[9], StressBatch& b, int* material) const {
+  const int m = *material = mesh_.cell_material[cells_[k]];
+  int n = 0;
+  while (n < kBatch && k + n < cells_.size() && mesh_.cell_material[cells_[k + n]] == m) ++n;
+  for (int e = 0; e < n; ++e) {  // Ds: columns x_j - x_0, j = 1..3
+    const PetscInt* cell = &mesh_.cells[4 * cells_[k + e]];
+    const double* x0 = &pos[3 * cell[0]];
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) Ds[i + 3 * j][e] = pos[3 * cell[j + 1] + i] - x0[i];
+  }
+  batch_deformation_gradients(Ds, k, b);
+  return n;
+}
+
 HYPERQN_VECTOR_CLONES void TetElements::batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const {
   Lanes G[9];  // Dm^{-1} of the batch's elements
   for (int c = 0; c < 9; ++c) load_lanes(&Dm_inv_[c][k], G[c]);

@@ -44,6 +44,10 @@ class TetElements : public EnergyTerm {
 
   // A batch's F = Ds Dm^{-1}, and its forces w P Dm^{-T} (column j: the force on vertex j + 1),
   // for the batch that starts at element k (see add_energy).
+  // The batch that starts at element k: its n (returned) elements, up to kBatch consecutive ones of
+  // one material (*material), their edge matrices in Ds and F = Ds Dm^{-1} in b. Ds's lanes past n
+  // keep what they held.
+  int load_batch(const std::vector<double>& pos, size_t k, Lanes (&Ds)[9], StressBatch& b, int* material) const;
   void batch_deformation_gradients(const Lanes (&Ds)[9], size_t k, StressBatch& b) const;
   void batch_forces(const StressBatch& b, size_t k, Lanes (&H)[9]) const;
   // w V_k G_k^T G_k, G_k the gradients of element k's 4 barycentric shape functions: its matrix in L
