@@ -168,7 +168,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     check_study_integrators_take_contact(r, *x, deck);
-    check_study_without_history(r, *x, deck);
+    check_study_integrators_take_viscoelastic(r, *x, deck);
   }
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;

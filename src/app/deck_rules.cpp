@@ -83,10 +83,13 @@ void check_integrator_takes_viscoelastic(const Reader& r, const Value& time, con
              "(use implicit-euler, bdf2 or static)");
 }
 
-void check_study_without_history(const Reader& r, const Value& study, const Deck& deck) {
-  if (const int line = viscoelastic_line(deck))
-    r.fail(study, "a study's trajectories share the scene's terms, and a viscoelastic material (deck line " +
-                      std::to_string(line) + ") keeps a history per element that they would share: not yet");
+void check_study_integrators_take_viscoelastic(const Reader& r, const Value& study, const Deck& deck) {
+  const int line = viscoelastic_line(deck);
+  for (TimeIntegrator kind : deck.study.integrators)
+    if (line != 0 && kind == TimeIntegrator::implicit_midpoint)
+      r.fail(*Section(r, study, {}).find("integrators"),
+             "implicit-midpoint does not take viscoelastic materials yet (deck line " + std::to_string(line) +
+                 "; see time.integrator)");
 }
 
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {

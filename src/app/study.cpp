@@ -149,26 +149,34 @@ class FrameComparison : public FrameObserver {
     compare_here_ = std::find(frames.begin(), frames.end(), frame) != frames.end();
     curves_.clear();
     if (!compare_here_) PetscFunctionReturn(0);
+    // Each solve starts from the reference's element history too, and the reference keeps it.
+    const std::vector<ElementState> elements = scene.body->copy_element_states();
+    const auto from_reference = [&](TimeStepSolver& solver, const IterationCallback& cb, FrameStep& f) {
+      PetscFunctionBeginUser;
+      PetscCall(study_.probe.copy_from(study_.ref));
+      scene.body->set_element_states(elements);
+      PetscCall(advance(stepper_, scene, solver, study_.probe, cb, f));
+      PetscFunctionReturn(0);
+    };
     // One untimed run first, so one-time costs (allocations, Newton's symbolic analysis) are not
     // charged to the first compared frame.
     if (!warmed_up_) {
       for (auto& c : study_.contenders) {
         FrameStep f;
-        PetscCall(study_.probe.copy_from(study_.ref));
-        PetscCall(advance(stepper_, scene, *c->per_frame, study_.probe, IterationCallback(), f));
+        PetscCall(from_reference(*c->per_frame, IterationCallback(), f));
       }
       warmed_up_ = true;
     }
     for (auto& c : study_.contenders) {
       StudyCurve curve{c->type, frame, {}, 0, 0};
       FrameStep f;
-      PetscCall(study_.probe.copy_from(study_.ref));
-      PetscCall(advance(stepper_, scene, *c->per_frame, study_.probe, recorder(curve), f));
+      PetscCall(from_reference(*c->per_frame, recorder(curve), f));
       if (!f.stop.empty())
         PetscCall(PetscPrintf(study_.comm, "study frame %4d  %-15s stopped by a guardrail: %s\n", frame, c->type.c_str(),
                               f.stop.c_str()));
       curves_.push_back(std::move(curve));
     }
+    scene.body->set_element_states(elements);
     PetscFunctionReturn(0);
   }
 

@@ -7,7 +7,7 @@ namespace hyperqn {
 TimeLoop::TimeLoop(LiveScene& scene, const Guardrails& limits, State& lead, FrameSolve solve, LiveScene::Rebind rebind)
     : scene_(scene), stepper_(limits), lead_(lead), solve_(std::move(solve)), rebind_(std::move(rebind)) {}
 
-void TimeLoop::follow(State& state, FrameSolve solve) { followers_.push_back({&state, std::move(solve)}); }
+void TimeLoop::follow(State& state, FrameSolve solve) { followers_.push_back({&state, std::move(solve), false, {}}); }
 
 IterationCallback TimeLoop::iterations(int frame) {
   std::vector<IterationCallback> callbacks;
@@ -27,8 +27,22 @@ PetscErrorCode TimeLoop::run(int last_frame) {
   for (FrameObserver* o : observers_) PetscCall(o->begin(control));
   std::vector<State*> carried = carried_;
   for (const Follower& f : followers_) carried.push_back(f.state);
+  for (Follower& f : followers_) f.elements = scene_.current().body->copy_element_states();
   const LiveScene::Rebind rebind = [this](const Scene& old_scene, Scene& fresh) {
     PetscFunctionBeginUser;
+    // The fresh terms took the lead's history (LiveScene::release_due); each follower's own moves
+    // over the same way, through the old terms.
+    if (!followers_.empty() && !old_scene.body->element_states().empty()) {
+      const std::vector<ElementState> lead = old_scene.body->copy_element_states();
+      const std::vector<ElementState> lead_fresh = fresh.body->copy_element_states();
+      for (Follower& f : followers_) {
+        old_scene.body->set_element_states(f.elements);
+        fresh.body->carry_element_states(*old_scene.body);
+        f.elements = fresh.body->copy_element_states();
+      }
+      old_scene.body->set_element_states(lead);
+      fresh.body->set_element_states(lead_fresh);
+    }
     PetscCall(rebind_(old_scene, fresh));
     for (FrameObserver* o : observers_) PetscCall(o->scene_changed(old_scene, fresh));
     PetscFunctionReturn(0);
@@ -51,17 +65,23 @@ PetscErrorCode TimeLoop::run(int last_frame) {
       for (FrameObserver* o : observers_) PetscCall(o->interrupted(outcome));
       break;
     }
+    const bool own_elements = !followers_.empty() && !scene.body->element_states().empty();
+    const std::vector<ElementState> lead_elements =
+        own_elements ? scene.body->copy_element_states() : std::vector<ElementState>();
     for (size_t k = 0; k < followers_.size() && outcome.lead.stop.empty(); ++k) {
       Follower& f = followers_[k];
       if (f.stopped) continue;
       FollowerStep& out = outcome.followers[k];
+      if (own_elements) scene.body->set_element_states(f.elements);
       const double t0 = MPI_Wtime();
       PetscCall(stepper_.step(scene, f.solve, *f.state, IterationCallback(), out.step));
       if (!out.step.stop.empty()) PetscCall(scene.step->lifecycle().undo(*f.state));
       out.seconds = MPI_Wtime() - t0;
+      if (own_elements) f.elements = scene.body->copy_element_states();
       out.stepped = true;
       f.stopped = !out.step.stop.empty();
     }
+    if (own_elements) scene.body->set_element_states(lead_elements);
 
     control.stop = outcome.lead.stop;
     for (FrameObserver* o : observers_) PetscCall(o->after_frame(outcome, control));

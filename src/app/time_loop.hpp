@@ -86,6 +86,9 @@ class TimeLoop {
     State* state;
     FrameSolve solve;
     bool stopped = false;
+    // Its elements' history (a material with history: viscoelastic): the terms hold the lead's
+    // between steps, and a follower's own while it steps.
+    std::vector<ElementState> elements;
   };
   IterationCallback iterations(int frame);
 

@@ -330,6 +330,17 @@ std::vector<ElementState*> Body::element_states() const {
   return states;
 }
 
+std::vector<ElementState> Body::copy_element_states() const {
+  std::vector<ElementState> copies;
+  for (const ElementState* state : element_states()) copies.push_back(*state);
+  return copies;
+}
+
+void Body::set_element_states(const std::vector<ElementState>& copies) {
+  const std::vector<ElementState*> states = element_states();
+  for (size_t i = 0; i < states.size() && i < copies.size(); ++i) *states[i] = copies[i];
+}
+
 void carry_values(ElementState& to, const ElementState& from) {
   if (from.name() != to.name() || from.per_element() != to.per_element()) return;
   std::unordered_map<int64_t, size_t> at;  // global id -> from's element

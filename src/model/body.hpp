@@ -73,6 +73,10 @@ class Body {
   // The values of `from`'s element states (a scene before its rebuild) into this body's states of
   // the same name, element by element through the global ids.
   void carry_element_states(const Body& from);
+  // Copies of every element state (start, current and a frame's kept start), and back into this
+  // body's (the same terms): a study's trajectories each keep their own (app/time_loop.cpp).
+  std::vector<ElementState> copy_element_states() const;
+  void set_element_states(const std::vector<ElementState>& copies);
 
   // Rollers (fixed regions with `components`, model/regions.hpp select_held_components): a held
   // component of a free vertex keeps its slot in the global vector, and that slot holds the
