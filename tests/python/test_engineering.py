@@ -60,6 +60,36 @@ def test_tensile_bar(tmp_path):
     assert rows[0] == ["travel_x", "force_x"] and len(rows) == 11 and png.stat().st_size > 1000
 
 
+def test_cyclic_viscoelastic(tmp_path):
+    """The cyclic deck as it stands (3 cycles of 120 steps, 6 s): its loop closes after the first
+    cycle (the second and third agree to 1e-3 of the force's range), the moving end's work over a
+    cycle is positive (energy lost, the loop's area), and the same bar elastic (its branch removed)
+    draws no loop (|area| below 1e-6 of it). Loop area: the trapezoid sum of force d(travel)."""
+    import yaml
+    areas = {}
+    for name, visco in (("visco", True), ("elastic", False)):
+        d = load_deck(deck("cyclic_viscoelastic.yaml"))
+        if not visco:
+            del d["material"]["viscoelastic"]
+        d["output"] = {"vtk": False, "reactions": True}
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(yaml.safe_dump(d))
+        out = tmp_path / name
+        run_hyperqn([path, "-o", out])
+        travel, force = curve(out, "fixed[1]", "x")
+        n = len(force) // 3
+        assert len(force) == 3 * n == 360
+        cycle = [slice(k * n - 1, (k + 1) * n) for k in (1, 2)]  # t from 1 to 2 and from 2 to 3
+        area = [float(np.sum(0.5 * (force[c][1:] + force[c][:-1]) * np.diff(travel[c]))) for c in cycle]
+        areas[name] = area[1]
+        if visco:
+            span = force.max() - force.min()
+            assert np.abs(force[cycle[0]] - force[cycle[1]]).max() <= 1e-3 * span, "the loop settles"
+    print(f"cyclic deck: work lost per cycle {areas['visco']:.4e} J, elastic {areas['elastic']:.1e} J")
+    assert areas["visco"] > 0
+    assert abs(areas["elastic"]) <= 1e-6 * areas["visco"]
+
+
 def test_dogbone(tmp_path):
     """The dog-bone's force-displacement curve against the specimen's small-strain stiffness, and its
     gauge's von Mises stress against F / A."""
