@@ -1,4 +1,4 @@
-"""The scenes of input/inelastic/ (docs/materials.md#scenes), run coarse: what each shows, asserted.
+"""The scenes of input/inelastic/ (docs/loads.md#scenes), run coarse: what each shows, asserted.
 
 - ball_bounce.yaml: an elastic and a viscoelastic ball dropped side by side (bdf2, h = 1/240 s). On
   a coarse ball (scripts/ball_mesh.py, 1,296 tets, in place of the shared 10,671-tet sphere) over
