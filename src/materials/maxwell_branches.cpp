@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/spectral3.hpp"
+
 namespace hyperqn {
 
 namespace {
@@ -79,21 +81,31 @@ double MaxwellBranches::laplacian_weight() const {
   return w;
 }
 
-// W = m |d|^2 with m = mu tau / (tau + dt); dW/dbeta_a = m d_a / beta_a =: phi_a, so dW/db = S =
-// N diag(phi) N^T and P = dW/dF = 2 S F A (db = dF A F^T + F A dF^T).
+// W = m |d|^2 with m = mu tau / (tau + dt) and d = dev e, e = 1/2 log b: only b's eigenvalues. The
+// stress: dW/dbeta_a = m d_a / beta_a, so S = dW/db = m b^{-1} E with E = dev e as a matrix
+// (coaxial with b), and P = 2 S F A = 2 m E F^{-T} (b^{-1} F A = F^{-T}); E = 1/2 log b - mean I
+// in Newton's divided-difference form (materials/spectral3.hpp), no eigenvectors. All branches
+// share one F^{-T}: P += 2 (sum_i m_i E_i) F^{-T}.
 double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, Mat3* P) const {
   double W = 0;
+  Mat3 K = Mat3::Zero();  // sum_i m_i E_i
   for (int i = 0; i < size(); ++i) {
-    const Trial t = trial(F, history + kViscousValues * i);
-    if (!t.ok) return std::numeric_limits<double>::infinity();
+    const Mat3 A = unpack(history + kViscousValues * i);
+    const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose());
+    const double l1 = s.lambda(0), l2 = s.lambda(1), l3 = s.lambda(2);
+    if (!(l1 > 0) || !std::isfinite(l3)) return std::numeric_limits<double>::infinity();
+    const double g1 = std::log(l1), g2 = std::log(l2), g3 = std::log(l3);  // 2 e_a
+    const double mean = (g1 + g2 + g3) / 6.0;
+    const double d1 = 0.5 * g1 - mean, d2 = 0.5 * g2 - mean, d3 = 0.5 * g3 - mean;
     const double m = branches_[i].mu * branches_[i].tau / (branches_[i].tau + dt);
-    W += m * t.d.squaredNorm();
-    if (P) {
-      const Vec3 phi = m * t.d.cwiseQuotient(t.beta);
-      const Mat3 S = t.N * phi.asDiagonal() * t.N.transpose();
-      *P += 2.0 * S * F * t.A;
+    W += m * (d1 * d1 + d2 * d2 + d3 * d3);
+    if (P) {  // divided differences of 1/2 log x
+      const double f12 = 0.5 * spectral3::log_ratio(g2 - g1) / l1, f23 = 0.5 * spectral3::log_ratio(g3 - g2) / l2;
+      const double f123 = spectral3::spread_out(s) ? (f23 - f12) / s.spread : -0.25 / (s.q * s.q);
+      K += m * spectral3::newton_form(s, d1, f12, f123);
     }
   }
+  if (P) *P += 2.0 * K * F.inverse().transpose();
   return W;
 }
 
@@ -134,18 +146,30 @@ Mat9 MaxwellBranches::stress_derivative(const Mat3& F, const double* history, do
   return C;
 }
 
+// b_e = exp(2 eps_e) = exp(2 mean (1 - keep)) b^keep (eps_e = keep d + mean I), a spectral function
+// h of the trial b, in Newton's form like the stress; C_v^{-1} = F^{-1} b_e F^{-T}.
 void MaxwellBranches::update(const Mat3& F, const double* start, double dt, double* end) const {
   const Mat3 Finv = F.inverse();
   for (int i = 0; i < size(); ++i) {
-    const Trial t = trial(F, start + kViscousValues * i);
-    if (!t.ok) {  // no finite step ends here (its energy is infinite): keep the history
+    const Mat3 A = unpack(start + kViscousValues * i);
+    const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose());
+    const double l1 = s.lambda(0), l2 = s.lambda(1), l3 = s.lambda(2);
+    if (!(l1 > 0) || !std::isfinite(l3)) {  // no finite step ends here (its energy is infinite): keep the history
       for (int k = 0; k < kViscousValues; ++k) end[kViscousValues * i + k] = start[kViscousValues * i + k];
       continue;
     }
+    const double g1 = std::log(l1), g2 = std::log(l2), g3 = std::log(l3);
+    const double mean = (g1 + g2 + g3) / 6.0;
     const double keep = branches_[i].tau / (branches_[i].tau + dt);
-    const Vec3 be = (2.0 * (keep * t.d.array() + t.mean)).exp().matrix();
-    const Mat3 A = Finv * (t.N * be.asDiagonal() * t.N.transpose()) * Finv.transpose();
-    pack(A, end + kViscousValues * i);
+    // h(l_a) = exp(2 (keep d_a + mean)) = exp(keep g_a + 2 mean (1 - keep)).
+    const double shift = 2.0 * mean * (1.0 - keep);
+    const double h1 = std::exp(keep * g1 + shift), h2 = std::exp(keep * g2 + shift);
+    const double h12 = h1 / l1 * spectral3::power_ratio(g2 - g1, keep);
+    const double h23 = h2 / l2 * spectral3::power_ratio(g3 - g2, keep);
+    const double h123 = spectral3::spread_out(s) ? (h23 - h12) / s.spread
+                                                 : 0.5 * keep * (keep - 1.0) * h1 / (l1 * l1);  // h''/2 at ~l1
+    const Mat3 be = spectral3::newton_form(s, h1, h12, h123);
+    pack(Finv * be * Finv.transpose(), end + kViscousValues * i);
   }
 }
 

@@ -1,0 +1,92 @@
+// Spectral (isotropic) functions f(b) of a symmetric 3 x 3 matrix b without its eigenvectors: the
+// eigenvalues in closed form (trigonometric, Smith 1961) and f(b) in Newton's divided-difference
+// form f[l1] I + f[l1,l2] (b - l1 I) + f[l1,l2,l3] (b - l1 I)(b - l2 I), which is f(b) exactly for
+// any f when l1 <= l2 <= l3 are b's eigenvalues (the interpolating polynomial at the spectrum).
+// The divided differences are the caller's; the helpers below write the ones of log and of x^k from
+// t = log x - log y so that they keep full precision at (nearly) equal eigenvalues, and the second
+// one divides by l3 - l1 >= 3 p (p the deviator's size, below), never by a small gap: its error
+// is bounded by eps |f'| (l3 - l2) once multiplied by (b - l1 I)(b - l2 I). Used by
+// materials/maxwell_branches.cpp; tests/test_viscoelastic.cpp checks it against Eigen's
+// iterative solver at equal and nearly equal eigenvalues.
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "materials/material.hpp"
+
+namespace hyperqn {
+namespace spectral3 {
+
+struct Spectrum {
+  Mat3 dev;             // b - q I (b symmetrized)
+  double q = 0;         // tr b / 3
+  double shift[3] = {};  // l_a - q, ascending
+  double spread = 0;    // l3 - l1, from p and the angle (not by subtraction)
+  double lambda(int a) const { return q + shift[a]; }
+};
+
+// The eigenvalues of symmetric b: q = tr b / 3, p^2 = |b - q I|^2 / 6, r = det((b - q I) / p) / 2 =
+// cos 3 phi; l3, l1, l2 = q + 2 p cos(phi), cos(phi + 2 pi/3), cos(phi - 2 pi/3), ascending for phi in
+// [0, pi/3]. Where r is near +-1 (two eigenvalues close) the angle loses digits, but only in how the
+// close pair splits, which a smooth spectral function sees at second order.
+inline Spectrum spectrum(const Mat3& b) {
+  Spectrum s;
+  s.q = (b(0, 0) + b(1, 1) + b(2, 2)) / 3.0;
+  Mat3& B = s.dev;
+  B(0, 0) = b(0, 0) - s.q;
+  B(1, 1) = b(1, 1) - s.q;
+  B(2, 2) = b(2, 2) - s.q;
+  B(0, 1) = B(1, 0) = 0.5 * (b(0, 1) + b(1, 0));
+  B(1, 2) = B(2, 1) = 0.5 * (b(1, 2) + b(2, 1));
+  B(0, 2) = B(2, 0) = 0.5 * (b(0, 2) + b(2, 0));
+  const double p2 = (B(0, 0) * B(0, 0) + B(1, 1) * B(1, 1) + B(2, 2) * B(2, 2) +
+                     2.0 * (B(0, 1) * B(0, 1) + B(1, 2) * B(1, 2) + B(0, 2) * B(0, 2))) / 6.0;
+  if (!(p2 > 0)) return s;  // b = q I (or NaN, which the caller's positivity test refuses)
+  const double p = std::sqrt(p2), ip = 1.0 / p;
+  const double a = B(0, 0) * ip, d = B(1, 1) * ip, f = B(2, 2) * ip;
+  const double u = B(0, 1) * ip, v = B(1, 2) * ip, w = B(0, 2) * ip;
+  const double r = 0.5 * (a * (d * f - v * v) - u * (u * f - v * w) + w * (u * v - d * w));
+  const double phi = std::acos(std::clamp(r, -1.0, 1.0)) / 3.0;
+  const double c = std::cos(phi), sn = std::sqrt(3.0) * std::sin(phi);
+  s.shift[0] = -p * (c + sn);
+  s.shift[1] = -p * (c - sn);
+  s.shift[2] = 2.0 * p * c;
+  s.spread = p * (3.0 * c + sn);
+  return s;
+}
+
+// (log x - log y) / (x - y) = ratio / y with t = log x - log y: t / expm1(t), 1 at t = 0.
+inline double log_ratio(double t) { return t == 0 ? 1.0 : t / std::expm1(t); }
+
+// (x^k - y^k) / (x - y) = y^(k-1) ratio with t = log x - log y: expm1(k t) / expm1(t), k at t = 0.
+inline double power_ratio(double t, double k) { return t == 0 ? k : std::expm1(k * t) / std::expm1(t); }
+
+// f[l1,l2,l3] = (f[l2,l3] - f[l1,l2]) / (l3 - l1) where the spread is at least 1e-8 of q (relative);
+// below, the caller's limit f''(q) / 2 (the quotient would do too, but overflows at a spread of 0).
+inline bool spread_out(const Spectrum& s) { return s.spread > 1e-8 * std::fabs(s.q); }
+
+// f(b) = f1 I + f12 (b - l1 I) + f123 (b - l1 I)(b - l2 I), b - l_a I = dev - shift_a I (symmetric).
+inline Mat3 newton_form(const Spectrum& s, double f1, double f12, double f123) {
+  const Mat3& B = s.dev;
+  const double s1 = s.shift[0], s2 = s.shift[1];
+  // (B - s1 I)(B - s2 I) = B^2 - (s1 + s2) B + s1 s2 I; symmetric, as B commutes with itself.
+  const double xx = B(0, 0) * B(0, 0) + B(0, 1) * B(0, 1) + B(0, 2) * B(0, 2);
+  const double yy = B(0, 1) * B(0, 1) + B(1, 1) * B(1, 1) + B(1, 2) * B(1, 2);
+  const double zz = B(0, 2) * B(0, 2) + B(1, 2) * B(1, 2) + B(2, 2) * B(2, 2);
+  const double xy = B(0, 0) * B(0, 1) + B(0, 1) * B(1, 1) + B(0, 2) * B(1, 2);
+  const double yz = B(0, 1) * B(0, 2) + B(1, 1) * B(1, 2) + B(1, 2) * B(2, 2);
+  const double xz = B(0, 0) * B(0, 2) + B(0, 1) * B(1, 2) + B(0, 2) * B(2, 2);
+  const double lin = f12 - f123 * (s1 + s2);  // the coefficient of B
+  const double diag = f1 - f12 * s1 + f123 * s1 * s2;
+  Mat3 R;
+  R(0, 0) = diag + lin * B(0, 0) + f123 * xx;
+  R(1, 1) = diag + lin * B(1, 1) + f123 * yy;
+  R(2, 2) = diag + lin * B(2, 2) + f123 * zz;
+  R(0, 1) = R(1, 0) = lin * B(0, 1) + f123 * xy;
+  R(1, 2) = R(2, 1) = lin * B(1, 2) + f123 * yz;
+  R(0, 2) = R(2, 0) = lin * B(0, 2) + f123 * xz;
+  return R;
+}
+
+}  // namespace spectral3
+}  // namespace hyperqn
