@@ -100,7 +100,8 @@ double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, 
     const double m = branches_[i].mu * branches_[i].tau / (branches_[i].tau + dt);
     W += m * (d1 * d1 + d2 * d2 + d3 * d3);
     if (P) {  // divided differences of 1/2 log x
-      const double f12 = 0.5 * spectral3::log_ratio(g2 - g1) / l1, f23 = 0.5 * spectral3::log_ratio(g3 - g2) / l2;
+      const double f12 = 0.5 * spectral3::log_divided(l1, s.gap[0], g2, g1);
+      const double f23 = 0.5 * spectral3::log_divided(l2, s.gap[1], g3, g2);
       const double f123 = spectral3::spread_out(s) ? (f23 - f12) / s.spread : -0.25 / (s.q * s.q);
       K += m * spectral3::newton_form(s, d1, f12, f123);
     }
