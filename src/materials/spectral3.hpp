@@ -1,13 +1,13 @@
 // Spectral (isotropic) functions f(b) of a symmetric 3 x 3 matrix b without its eigenvectors: the
-// eigenvalues in closed form (Smith's 1961 cubic, its root without trigonometry) and f(b) in Newton's divided-difference
-// form f[l1] I + f[l1,l2] (b - l1 I) + f[l1,l2,l3] (b - l1 I)(b - l2 I), which is f(b) exactly for
-// any f when l1 <= l2 <= l3 are b's eigenvalues (the interpolating polynomial at the spectrum).
-// The divided differences are the caller's; the helpers below write the ones of log and of x^k from
-// t = log x - log y so that they keep full precision at (nearly) equal eigenvalues, and the second
-// one divides by l3 - l1 >= 3 p (p the deviator's size, below), never by a small gap: its error
-// is bounded by eps |f'| (l3 - l2) once multiplied by (b - l1 I)(b - l2 I). Used by
-// materials/maxwell_branches.cpp; tests/test_viscoelastic.cpp checks it against Eigen's
-// iterative solver at equal and nearly equal eigenvalues.
+// eigenvalues in closed form (the characteristic cubic's roots, below) and f(b) in Newton's
+// divided-difference form f[l1] I + f[l1,l2] (b - l1 I) + f[l1,l2,l3] (b - l1 I)(b - l2 I), which
+// is f(b) exactly for any f when l1 <= l2 <= l3 are b's eigenvalues (the interpolating polynomial
+// at the spectrum). The divided differences are the caller's; the helpers below write those of log
+// and of x^k so that they keep full precision at (nearly) equal eigenvalues, and the second one
+// divides by l3 - l1 >= 2.5 p (p the deviator's size), never by a small gap: once multiplied by
+// (b - l1 I)(b - l2 I) its error is at most about eps |f'| (l3 - l2). Used by
+// materials/maxwell_branches.cpp; tests/test_viscoelastic.cpp checks it against Eigen's iterative
+// solver at equal and nearly equal eigenvalues.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -18,11 +18,11 @@ namespace hyperqn {
 namespace spectral3 {
 
 struct Spectrum {
-  Mat3 dev;             // b - q I (b symmetrized)
-  double q = 0;         // tr b / 3
+  Mat3 dev;              // b - q I (b symmetrized)
+  double q = 0;          // tr b / 3
   double shift[3] = {};  // l_a - q, ascending
-  double gap[2] = {};   // l2 - l1, l3 - l2 (from p and the roots, not by subtraction)
-  double spread = 0;    // l3 - l1
+  double gap[2] = {};    // l2 - l1, l3 - l2 (from p and the roots, not by subtraction)
+  double spread = 0;     // l3 - l1
   double lambda(int a) const { return q + shift[a]; }
 };
 
@@ -30,8 +30,8 @@ struct Spectrum {
 // l = q + p x with x the roots of x^3 - 3 x = 2 r (x = 2 cos(acos(r) / 3 + 2 pi k / 3), Smith 1961)
 // in [-2, 2]. Instead of acos and sincos: y = 2 cos(acos(|r|) / 3) in [sqrt 3, 2], the largest root
 // at |r|, is a simple root and smooth in |r| (a cubic fit within 1.4e-4, two Newton steps to ~1
-// ulp); the other two are the quadratic's (-y -+ w) / 2, w = sqrt(3 (2 - y)(2 + y)); at r < 0 the
-// roots change sign. Where |r| is near 1 (two eigenvalues close) w loses digits, but only in how
+// ulp); the other two are the quadratic's (-y -+ z) / 2, z = sqrt(3 (2 - y)(2 + y)); at r < 0 the
+// roots change sign. Where |r| is near 1 (two eigenvalues close) z loses digits, but only in how
 // the close pair splits, which a smooth spectral function sees at second order.
 inline Spectrum spectrum(const Mat3& b) {
   Spectrum s;
@@ -82,14 +82,12 @@ inline double log_divided(double y, double gap, double log_x, double log_y) {
          (1.0 + s2 * (1.0 / 3 + s2 * (1.0 / 5 + s2 * (1.0 / 7 + s2 * (1.0 / 9 + s2 * (1.0 / 11 + s2 / 13))))));
 }
 
-// (log x - log y) / (x - y) = ratio / y with t = log x - log y: t / expm1(t), 1 at t = 0.
-inline double log_ratio(double t) { return t == 0 ? 1.0 : t / std::expm1(t); }
-
-// (x^k - y^k) / (x - y) = y^(k-1) ratio with t = log x - log y: expm1(k t) / expm1(t), k at t = 0.
+// (x^k - y^k) / (x - y) = y^(k-1) ratio with t = log x - log y: expm1(k t) / expm1(t), k at t = 0
+// (whose slope in t is bounded, so t's rounding from the logs does not matter).
 inline double power_ratio(double t, double k) { return t == 0 ? k : std::expm1(k * t) / std::expm1(t); }
 
-// f[l1,l2,l3] = (f[l2,l3] - f[l1,l2]) / (l3 - l1) where the spread is at least 1e-8 of q (relative);
-// below, the caller's limit f''(q) / 2 (the quotient would do too, but overflows at a spread of 0).
+// f[l1,l2,l3] = (f[l2,l3] - f[l1,l2]) / (l3 - l1) where the spread is at least 1e-8 of q; below,
+// the caller's limit f''/2 (the quotient would do too, but overflows at a spread of 0).
 inline bool spread_out(const Spectrum& s) { return s.spread > 1e-8 * std::fabs(s.q); }
 
 // f(b) = f1 I + f12 (b - l1 I) + f123 (b - l1 I)(b - l2 I), b - l_a I = dev - shift_a I (symmetric).
