@@ -4,7 +4,8 @@
 //    (stretches to 2 and 0.5, shear, an inverted F, equal eigenvalues), for dt = 0, tau/20, 10 tau;
 //  - the closed forms of W, P and the update (no eigenvectors; materials/spectral3.hpp) against
 //    Eigen's iterative eigensolver (the kernel before them, kept here as a reference) at those
-//    poses and at two or three eigenvalues of b apart by 1e-4 and 1e-8, within 1e-12;
+//    poses and at two or three eigenvalues of b apart by 1e-4 and 1e-8, within 1e-12; and at
+//    compressions to 1e-2 and 1e-3 against long double, within 1e-13;
 //  - objectivity: W(QF) = W(F) and the update from QF is the update from F;
 //  - the update keeps det C_v = 1 (isochoric flow) and is the minimizer it claims: the history it
 //    gives makes the branch stress 2 mu eps_e equal to the condensed P (the stationarity of the
@@ -284,6 +285,35 @@ void check_against_reference() {
   std::printf("  closed forms against the eigensolver: worst W %.1e, P %.1e, update %.1e\n", worst[0], worst[1], worst[2]);
 }
 
+// Strong compression: b's smallest eigenvalue far below the others, where q + shift would have an
+// absolute error of eps |b| (so would the eigensolver's) and spectral3 takes it from det b. W and P
+// of one branch at rest history against the same formulas in long double (b = F F^T and its
+// eigensolve; long double's eps 1e-19 keeps l1 = 1e-6 to 1e-13): within 1e-13 at stretches 1e-2
+// and 1e-3 (measured about 1e-15 and 7e-14 for P; the double eigensolver: 1.2e-12, 5.4e-12).
+void check_strong_compression() {
+  typedef Eigen::Matrix<long double, 3, 3> Mat3L;
+  typedef Eigen::Matrix<long double, 3, 1> Vec3L;
+  const MaxwellBranches m({{1.0, 1.0}});
+  std::vector<double> rest(kViscousValues);
+  m.rest(rest.data());
+  const Mat3 R = rotation(0.9, Vec3(1, -2, 0.5)), R2 = rotation(2.1, Vec3(0.3, 1, -0.7));
+  for (double stretch : {1e-2, 1e-3, -1e-3}) {
+    const Mat3 F = R * Vec3(stretch, 1.0, 1.0).asDiagonal() * R2;
+    const Mat3L FL = F.cast<long double>();
+    Eigen::SelfAdjointEigenSolver<Mat3L> eig(FL * FL.transpose());
+    const Vec3L beta = eig.eigenvalues();
+    const Vec3L e = 0.5L * beta.array().log().matrix();
+    const Vec3L d = e.array() - e.sum() / 3;
+    const long double W_ref = d.squaredNorm();
+    const Mat3L P_ref = 2.0L * (eig.eigenvectors() * d.cwiseQuotient(beta).asDiagonal() * eig.eigenvectors().transpose()) * FL;
+    Mat3 P = Mat3::Zero();
+    const double W = m.energy(F, rest.data(), 0.0, &P);
+    const double eW = (double)(std::fabs(W - W_ref) / W_ref), eP = (double)((P.cast<long double>() - P_ref).norm() / P_ref.norm());
+    std::printf("  compression to %g: W %.1e, P %.1e against long double\n", stretch, eW, eP);
+    CHECK_MSG(eW <= 1e-13 && eP <= 1e-13, "strong compression " + std::to_string(stretch) + ": W " + std::to_string(eW) + ", P " + std::to_string(eP));
+  }
+}
+
 // Simple shear gamma0 held from t = 0 (reached in the first step): the largest relative error of
 // the shear stress against the closed form over t in (0, 5 tau], in steps of dt.
 double relaxation_error(double dt, bool print) {
@@ -405,6 +435,7 @@ void check_creep() {
 int main() {
   check_fd_and_update();
   check_against_reference();
+  check_strong_compression();
   check_relaxation();
   check_loss_per_cycle();
   check_creep();

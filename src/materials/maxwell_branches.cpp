@@ -93,17 +93,21 @@ double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, 
   // In stages over the branches: their chains of dependent operations (b, its roots, the logs)
   // overlap in the processor (a quarter less time than branch after branch).
   const int n = size();
+  const double J = F.determinant();
   spectral3::Spectrum s[kMaxMaxwellBranches];
-  for (int i = 0; i < n; ++i) s[i] = spectral3::spectrum(F * unpack(history + kViscousValues * i) * F.transpose());
+  for (int i = 0; i < n; ++i) {
+    const Mat3 A = unpack(history + kViscousValues * i);
+    s[i] = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
+  }
   double g[kMaxMaxwellBranches][3];
   for (int i = 0; i < n; ++i) {
-    if (!(s[i].lambda(0) > 0) || !std::isfinite(s[i].lambda(2))) return std::numeric_limits<double>::infinity();
-    for (int a = 0; a < 3; ++a) g[i][a] = std::log(s[i].lambda(a));
+    if (!(s[i].lambda[0] > 0) || !std::isfinite(s[i].lambda[2])) return std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a) g[i][a] = std::log(s[i].lambda[a]);
   }
   double W = 0;
   Mat3 K = Mat3::Zero();  // sum_i m_i E_i
   for (int i = 0; i < n; ++i) {
-    const double l1 = s[i].lambda(0), l2 = s[i].lambda(1);
+    const double l1 = s[i].lambda[0], l2 = s[i].lambda[1];
     const double g1 = g[i][0], g2 = g[i][1], g3 = g[i][2];
     const double mean = (g1 + g2 + g3) / 6.0;
     const double d1 = 0.5 * g1 - mean, d2 = 0.5 * g2 - mean, d3 = 0.5 * g3 - mean;
@@ -161,10 +165,11 @@ Mat9 MaxwellBranches::stress_derivative(const Mat3& F, const double* history, do
 // h of the trial b, in Newton's form like the stress; C_v^{-1} = F^{-1} b_e F^{-T}.
 void MaxwellBranches::update(const Mat3& F, const double* start, double dt, double* end) const {
   const Mat3 Finv = F.inverse();
+  const double J = F.determinant();
   for (int i = 0; i < size(); ++i) {
     const Mat3 A = unpack(start + kViscousValues * i);
-    const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose());
-    const double l1 = s.lambda(0), l2 = s.lambda(1), l3 = s.lambda(2);
+    const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
+    const double l1 = s.lambda[0], l2 = s.lambda[1], l3 = s.lambda[2];
     if (!(l1 > 0) || !std::isfinite(l3)) {  // no finite step ends here (its energy is infinite): keep the history
       for (int k = 0; k < kViscousValues; ++k) end[kViscousValues * i + k] = start[kViscousValues * i + k];
       continue;

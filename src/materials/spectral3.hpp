@@ -21,9 +21,9 @@ struct Spectrum {
   Mat3 dev;              // b - q I (b symmetrized)
   double q = 0;          // tr b / 3
   double shift[3] = {};  // l_a - q, ascending
+  double lambda[3] = {}; // l_a
   double gap[2] = {};    // l2 - l1, l3 - l2 (from p and the roots, not by subtraction)
   double spread = 0;     // l3 - l1
-  double lambda(int a) const { return q + shift[a]; }
 };
 
 // The eigenvalues of symmetric b: q = tr b / 3, p^2 = |b - q I|^2 / 6, r = det((b - q I) / p) / 2;
@@ -32,8 +32,10 @@ struct Spectrum {
 // at |r|, is a simple root and smooth in |r| (a cubic fit within 1.4e-4, two Newton steps to ~1
 // ulp); the other two are the quadratic's (-y -+ z) / 2, z = sqrt(3 (2 - y)(2 + y)); at r < 0 the
 // roots change sign. Where |r| is near 1 (two eigenvalues close) z loses digits, but only in how
-// the close pair splits, which a smooth spectral function sees at second order.
-inline Spectrum spectrum(const Mat3& b) {
+// the close pair splits, which a smooth spectral function sees at second order. q + shift has an
+// absolute error of eps l3, too much for a small l1 (a strong compression): given det b > 0, l1 =
+// det b / (l2 l3) where l1 < l2 / 4, to its relative precision.
+inline Spectrum spectrum(const Mat3& b, double det_b = 0) {
   Spectrum s;
   s.q = (b(0, 0) + b(1, 1) + b(2, 2)) / 3.0;
   Mat3& B = s.dev;
@@ -45,7 +47,10 @@ inline Spectrum spectrum(const Mat3& b) {
   B(0, 2) = B(2, 0) = 0.5 * (b(0, 2) + b(2, 0));
   const double p2 = (B(0, 0) * B(0, 0) + B(1, 1) * B(1, 1) + B(2, 2) * B(2, 2) +
                      2.0 * (B(0, 1) * B(0, 1) + B(1, 2) * B(1, 2) + B(0, 2) * B(0, 2))) / 6.0;
-  if (!(p2 > 0)) return s;  // b = q I (or NaN, which the caller's positivity test refuses)
+  if (!(p2 > 0)) {  // b = q I (or NaN, which the caller's positivity test refuses)
+    s.lambda[0] = s.lambda[1] = s.lambda[2] = s.q;
+    return s;
+  }
   const double p = std::sqrt(p2), ip = 1.0 / p;
   const double a = B(0, 0) * ip, d = B(1, 1) * ip, f = B(2, 2) * ip;
   const double u = B(0, 1) * ip, v = B(1, 2) * ip, w = B(0, 2) * ip;
@@ -68,6 +73,13 @@ inline Spectrum spectrum(const Mat3& b) {
     s.gap[1] = p * z;
   }
   s.spread = 0.5 * p * (3.0 * y + z);
+  for (int a = 0; a < 3; ++a) s.lambda[a] = s.q + s.shift[a];
+  if (det_b > 0 && s.lambda[0] < 0.25 * s.lambda[1]) {
+    s.lambda[0] = det_b / (s.lambda[1] * s.lambda[2]);
+    s.shift[0] = s.lambda[0] - s.q;
+    s.gap[0] = s.lambda[1] - s.lambda[0];
+    s.spread = s.lambda[2] - s.lambda[0];
+  }
   return s;
 }
 
