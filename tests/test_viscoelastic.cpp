@@ -2,6 +2,10 @@
 //  - the condensed energy's P against central differences of W, and dP/dF against central
 //    differences of P, symmetric, at rest history and at a history left by large-strain steps
 //    (stretches to 2 and 0.5, shear, an inverted F, equal eigenvalues), for dt = 0, tau/20, 10 tau;
+//  - the closed forms of W, P and the update (no eigenvectors; materials/spectral3.hpp) against
+//    Eigen's iterative eigensolver (the kernel before them, kept here as a reference) at those
+//    poses and at two or three eigenvalues of b apart by 1e-4 and 1e-8, within 1e-12; and at
+//    compressions to 1e-2 and 1e-3 against long double, within 1e-13;
 //  - objectivity: W(QF) = W(F) and the update from QF is the update from F;
 //  - the update keeps det C_v = 1 (isochoric flow) and is the minimizer it claims: the history it
 //    gives makes the branch stress 2 mu eps_e equal to the condensed P (the stationarity of the
@@ -150,6 +154,166 @@ void check_fd_and_update() {
   CHECK_MSG(refused, "tau = 0 refused");
 }
 
+// The branches' energy, P and update by Eigen's iterative eigensolver of the trial b (the kernel
+// before the closed forms of materials/spectral3.hpp), as a reference for them.
+struct Reference {
+  const MaxwellBranches& m;
+  // The trial b of branch i in its eigenbasis: eigenvalues beta, vectors N; the log strains' deviator d.
+  bool trial(const Mat3& F, const double* h, Mat3& A, Mat3& N, Vec3& beta, Vec3& d, double& mean) const {
+    A << h[0], h[3], h[5], h[3], h[1], h[4], h[5], h[4], h[2];
+    const Mat3 b = F * A * F.transpose();
+    Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (b + b.transpose()));
+    N = eig.eigenvectors();
+    beta = eig.eigenvalues();
+    if (!(beta.minCoeff() > 0)) return false;
+    const Vec3 e = 0.5 * beta.array().log().matrix();
+    mean = e.sum() / 3.0;
+    d = e.array() - mean;
+    return true;
+  }
+  double energy(const Mat3& F, const double* h, double dt, Mat3& P) const {
+    double W = 0;
+    P.setZero();
+    for (int i = 0; i < m.size(); ++i) {
+      Mat3 A, N;
+      Vec3 beta, d;
+      double mean;
+      if (!trial(F, h + kViscousValues * i, A, N, beta, d, mean)) return INFINITY;
+      const double mi = m.branches()[i].mu * m.branches()[i].tau / (m.branches()[i].tau + dt);
+      W += mi * d.squaredNorm();
+      const Vec3 phi = mi * d.cwiseQuotient(beta);
+      P += 2.0 * (N * phi.asDiagonal() * N.transpose()) * F * A;
+    }
+    return W;
+  }
+  void update(const Mat3& F, const double* start, double dt, double* end) const {
+    const Mat3 Finv = F.inverse();
+    for (int i = 0; i < m.size(); ++i) {
+      Mat3 A, N;
+      Vec3 beta, d;
+      double mean;
+      if (!trial(F, start + kViscousValues * i, A, N, beta, d, mean)) continue;
+      const double keep = m.branches()[i].tau / (m.branches()[i].tau + dt);
+      const Vec3 be = (2.0 * (keep * d.array() + mean)).exp().matrix();
+      const Mat3 An = Finv * (N * be.asDiagonal() * N.transpose()) * Finv.transpose();
+      const double packed[6] = {An(0, 0), An(1, 1), An(2, 2), An(0, 1), An(1, 2), An(0, 2)};
+      for (int k = 0; k < kViscousValues; ++k) end[kViscousValues * i + k] = packed[k];
+    }
+  }
+};
+
+// The closed forms against the reference at the poses of check_fd_and_update and at poses whose
+// trial b has two or three eigenvalues apart by 1e-4 and 1e-8 (relative), for a rest history and a
+// flowed one (F = T^{1/2} A^{-1/2} puts b = F A F^T at T): W, P and the update agree to 1e-12 of
+// their size, plus 1e-15 of sum mu |F| for W and P. That floor is b's own rounding (eps |b|, in
+// both paths): at three nearly equal eigenvalues W ~ m |d|^2 and P ~ m |d| are tiny, and against a
+// long double computation both paths err by a few 1e-16 of mu |F| there (the closed forms no more
+// than the eigensolver).
+void check_against_reference() {
+  const MaxwellBranches m({{0.7, 0.1}, {0.4, 2.0}, {1.3, 0.01}, {0.2, 30.0}});
+  const Reference ref{m};
+  const int width = kViscousValues * m.size();
+  std::vector<double> rest(width), h(width), flowed(width);
+  m.rest(rest.data());
+  const Mat3 F1 = Vec3(2.0, 1 / std::sqrt(2.0), 1 / std::sqrt(2.0)).asDiagonal();
+  m.update(F1, rest.data(), 0.05, h.data());
+  Mat3 F2 = F1;
+  F2(0, 1) = 0.8;
+  F2 = rotation(0.7, Vec3(1, 2, 3)) * F2;
+  m.update(F2, h.data(), 0.05, flowed.data());
+  Mat3 shear = Mat3::Identity();
+  shear(0, 1) = 1.5;
+  Mat3 general;
+  general << 1.3, 0.2, -0.1, 0.05, 0.8, 0.3, -0.2, 0.1, 1.1;
+  const Mat3 R = rotation(0.9, Vec3(1, -2, 0.5));
+  std::vector<std::pair<std::string, Mat3>> targets;  // T = b's wanted value, or F itself (flag below)
+  for (double gap : {1e-4, 1e-8}) {
+    char name[80];
+    std::snprintf(name, sizeof name, "pair apart by %g, third below", gap);
+    targets.push_back({name, R * Vec3(1.69, 1.69 * (1 + gap), 0.64).asDiagonal() * R.transpose()});
+    std::snprintf(name, sizeof name, "pair apart by %g, third above", gap);
+    targets.push_back({name, R * Vec3(0.7, 0.7 * (1 + gap), 2.5).asDiagonal() * R.transpose()});
+    std::snprintf(name, sizeof name, "three apart by %g", gap);
+    targets.push_back({name, 1.44 * R * Vec3(1 - gap, 1, 1 + gap).asDiagonal() * R.transpose()});
+    std::snprintf(name, sizeof name, "three apart by %g near rest", gap);
+    targets.push_back({name, R * Vec3(1 - gap, 1, 1 + 0.5 * gap).asDiagonal() * R.transpose()});
+  }
+  std::vector<std::pair<std::string, Mat3>> poses = {
+      {"rest", Mat3::Identity()},
+      {"uniform 1.2", 1.2 * Mat3::Identity()},
+      {"stretch 2", Vec3(2.0, 0.75, 0.75).asDiagonal()},
+      {"compression 0.5", Vec3(0.5, 1.3, 1.3).asDiagonal()},
+      {"shear 1.5", shear},
+      {"general", general},
+      {"inverted", Vec3(1.1, 0.9, -0.8).asDiagonal()},
+      {"two equal, rotated", rotation(0.3, Vec3(0, 1, 1)) * Vec3(1.4, 0.9, 0.9).asDiagonal()},
+  };
+  double worst[3] = {0, 0, 0};
+  for (const std::vector<double>* hist : {&rest, &flowed}) {
+    Mat3 A;
+    const double* hv = hist->data();
+    A << hv[0], hv[3], hv[5], hv[3], hv[1], hv[4], hv[5], hv[4], hv[2];  // branch 0's; every branch differs
+    Eigen::SelfAdjointEigenSolver<Mat3> ea(A);
+    const Mat3 A_minus_half = ea.operatorInverseSqrt();
+    std::vector<std::pair<std::string, Mat3>> all = poses;
+    for (const auto& [name, T] : targets) {
+      Eigen::SelfAdjointEigenSolver<Mat3> et(T);
+      all.push_back({name, et.operatorSqrt() * A_minus_half});
+    }
+    for (const auto& [name, F] : all)
+      for (double dt : {0.0, 0.005, 1.0}) {
+        Mat3 P_ref, P = Mat3::Zero();
+        const double W_ref = ref.energy(F, hv, dt, P_ref), W = m.energy(F, hv, dt, &P);
+        double floor = 0;  // 1e-15 sum mu |F| over 1e-12
+        for (const MaxwellBranch& b : m.branches()) floor += 1e-3 * b.mu * F.norm();
+        const double eW = std::fabs(W - W_ref) / (W_ref + floor), eP = (P - P_ref).norm() / (P_ref.norm() + floor);
+        std::vector<double> end(width), end_ref(width);
+        m.update(F, hv, dt, end.data());
+        ref.update(F, hv, dt, end_ref.data());
+        double eA = 0;
+        for (int k = 0; k < width; ++k) eA = std::max(eA, std::fabs(end[k] - end_ref[k]));
+        const std::string where = name + ", dt " + std::to_string(dt) + (hist == &rest ? ", rest C_v" : ", flowed C_v");
+        CHECK_MSG(eW <= 1e-12, where + ": W against the eigensolver's, rel " + std::to_string(eW));
+        CHECK_MSG(eP <= 1e-12, where + ": P against the eigensolver's, rel " + std::to_string(eP));
+        CHECK_MSG(eA <= 1e-12, where + ": the update against the eigensolver's: " + std::to_string(eA));
+        worst[0] = std::max(worst[0], eW);
+        worst[1] = std::max(worst[1], eP);
+        worst[2] = std::max(worst[2], eA);
+        std::printf("  %-52s W %.1e  P %.1e  update %.1e\n", where.c_str(), eW, eP, eA);
+      }
+  }
+  std::printf("  closed forms against the eigensolver: worst W %.1e, P %.1e, update %.1e\n", worst[0], worst[1], worst[2]);
+}
+
+// Strong compression: b's smallest eigenvalue far below the others, where q + shift would have an
+// absolute error of eps |b| (so would the eigensolver's) and spectral3 takes it from det b. W and P
+// of one branch at rest history against the same formulas in long double (b = F F^T and its
+// eigensolve; long double's eps 1e-19 keeps l1 = 1e-6 to 1e-13): within 1e-13 at stretches 1e-2
+// and 1e-3 (measured about 1e-15 and 7e-14 for P; the double eigensolver: 1.2e-12, 5.4e-12).
+void check_strong_compression() {
+  typedef Eigen::Matrix<long double, 3, 3> Mat3L;
+  typedef Eigen::Matrix<long double, 3, 1> Vec3L;
+  const MaxwellBranches m({{1.0, 1.0}});
+  std::vector<double> rest(kViscousValues);
+  m.rest(rest.data());
+  const Mat3 R = rotation(0.9, Vec3(1, -2, 0.5)), R2 = rotation(2.1, Vec3(0.3, 1, -0.7));
+  for (double stretch : {1e-2, 1e-3, -1e-3}) {
+    const Mat3 F = R * Vec3(stretch, 1.0, 1.0).asDiagonal() * R2;
+    const Mat3L FL = F.cast<long double>();
+    Eigen::SelfAdjointEigenSolver<Mat3L> eig(FL * FL.transpose());
+    const Vec3L beta = eig.eigenvalues();
+    const Vec3L e = 0.5L * beta.array().log().matrix();
+    const Vec3L d = e.array() - e.sum() / 3;
+    const long double W_ref = d.squaredNorm();
+    const Mat3L P_ref = 2.0L * (eig.eigenvectors() * d.cwiseQuotient(beta).asDiagonal() * eig.eigenvectors().transpose()) * FL;
+    Mat3 P = Mat3::Zero();
+    const double W = m.energy(F, rest.data(), 0.0, &P);
+    const double eW = (double)(std::fabs(W - W_ref) / W_ref), eP = (double)((P.cast<long double>() - P_ref).norm() / P_ref.norm());
+    std::printf("  compression to %g: W %.1e, P %.1e against long double\n", stretch, eW, eP);
+    CHECK_MSG(eW <= 1e-13 && eP <= 1e-13, "strong compression " + std::to_string(stretch) + ": W " + std::to_string(eW) + ", P " + std::to_string(eP));
+  }
+}
+
 // Simple shear gamma0 held from t = 0 (reached in the first step): the largest relative error of
 // the shear stress against the closed form over t in (0, 5 tau], in steps of dt.
 double relaxation_error(double dt, bool print) {
@@ -270,6 +434,8 @@ void check_creep() {
 
 int main() {
   check_fd_and_update();
+  check_against_reference();
+  check_strong_compression();
   check_relaxation();
   check_loss_per_cycle();
   check_creep();

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/spectral3.hpp"
+
 namespace hyperqn {
 
 namespace {
@@ -24,8 +26,10 @@ void pack(const Mat3& A, double* h) {
   h[5] = 0.5 * (A(0, 2) + A(2, 0));
 }
 
-// One branch at F: the trial b = F A F^T (A = C_v,n^{-1}) in its eigenbasis N with eigenvalues
-// beta, the log strains e = 1/2 log beta and their deviator d.
+// One branch at F for stress_derivative (Newton's tangent keeps Eigen's iterative eigensolver:
+// Eigen's closed-form computeDirect failed its FD check at repeated eigenvalues): the trial b =
+// F A F^T (A = C_v,n^{-1}) in its eigenbasis N with eigenvalues beta, the log strains e = 1/2 log
+// beta and their deviator d.
 struct Trial {
   Mat3 A, N;
   Vec3 beta, d;
@@ -79,21 +83,44 @@ double MaxwellBranches::laplacian_weight() const {
   return w;
 }
 
-// W = m |d|^2 with m = mu tau / (tau + dt); dW/dbeta_a = m d_a / beta_a =: phi_a, so dW/db = S =
-// N diag(phi) N^T and P = dW/dF = 2 S F A (db = dF A F^T + F A dF^T).
+// W = m |d|^2 with m = mu tau / (tau + dt) and d = dev e, e = 1/2 log b: only b's eigenvalues. The
+// stress: dW/dbeta_a = m d_a / beta_a, so S = dW/db = m b^{-1} E with E = dev e as a matrix
+// (coaxial with b), and P = 2 S F A = 2 m E F^{-T} (b^{-1} F A = F^{-T}); E = 1/2 log b - mean I
+// in Newton's divided-difference form (materials/spectral3.hpp), no eigenvectors. All branches
+// share one F^{-T}: P += 2 (sum_i m_i E_i) F^{-T}. Equal to the eigensolver's within 1e-12
+// (tests/test_viscoelastic.cpp), several times cheaper.
 double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, Mat3* P) const {
+  // In stages over the branches: their chains of dependent operations (b, its roots, the logs)
+  // overlap in the processor (a quarter less time than branch after branch).
+  const int n = size();
+  const double J = F.determinant();
+  spectral3::Spectrum s[kMaxMaxwellBranches];
+  for (int i = 0; i < n; ++i) {
+    const Mat3 A = unpack(history + kViscousValues * i);
+    s[i] = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
+  }
+  double g[kMaxMaxwellBranches][3];
+  for (int i = 0; i < n; ++i) {
+    if (!(s[i].lambda[0] > 0) || !std::isfinite(s[i].lambda[2])) return std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a) g[i][a] = std::log(s[i].lambda[a]);
+  }
   double W = 0;
-  for (int i = 0; i < size(); ++i) {
-    const Trial t = trial(F, history + kViscousValues * i);
-    if (!t.ok) return std::numeric_limits<double>::infinity();
+  Mat3 K = Mat3::Zero();  // sum_i m_i E_i
+  for (int i = 0; i < n; ++i) {
+    const double l1 = s[i].lambda[0], l2 = s[i].lambda[1];
+    const double g1 = g[i][0], g2 = g[i][1], g3 = g[i][2];
+    const double mean = (g1 + g2 + g3) / 6.0;
+    const double d1 = 0.5 * g1 - mean, d2 = 0.5 * g2 - mean, d3 = 0.5 * g3 - mean;
     const double m = branches_[i].mu * branches_[i].tau / (branches_[i].tau + dt);
-    W += m * t.d.squaredNorm();
-    if (P) {
-      const Vec3 phi = m * t.d.cwiseQuotient(t.beta);
-      const Mat3 S = t.N * phi.asDiagonal() * t.N.transpose();
-      *P += 2.0 * S * F * t.A;
+    W += m * (d1 * d1 + d2 * d2 + d3 * d3);
+    if (P) {  // divided differences of 1/2 log x
+      const double f12 = 0.5 * spectral3::log_divided(l1, s[i].gap[0], g2, g1);
+      const double f23 = 0.5 * spectral3::log_divided(l2, s[i].gap[1], g3, g2);
+      const double f123 = spectral3::spread_out(s[i]) ? (f23 - f12) / s[i].spread : -0.25 / (s[i].q * s[i].q);
+      K += m * spectral3::newton_form(s[i], d1, f12, f123);
     }
   }
+  if (P) *P += 2.0 * K * F.inverse().transpose();
   return W;
 }
 
@@ -134,18 +161,31 @@ Mat9 MaxwellBranches::stress_derivative(const Mat3& F, const double* history, do
   return C;
 }
 
+// b_e = exp(2 eps_e) = exp(2 mean (1 - keep)) b^keep (eps_e = keep d + mean I), a spectral function
+// h of the trial b, in Newton's form like the stress; C_v^{-1} = F^{-1} b_e F^{-T}.
 void MaxwellBranches::update(const Mat3& F, const double* start, double dt, double* end) const {
   const Mat3 Finv = F.inverse();
+  const double J = F.determinant();
   for (int i = 0; i < size(); ++i) {
-    const Trial t = trial(F, start + kViscousValues * i);
-    if (!t.ok) {  // no finite step ends here (its energy is infinite): keep the history
+    const Mat3 A = unpack(start + kViscousValues * i);
+    const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
+    const double l1 = s.lambda[0], l2 = s.lambda[1], l3 = s.lambda[2];
+    if (!(l1 > 0) || !std::isfinite(l3)) {  // no finite step ends here (its energy is infinite): keep the history
       for (int k = 0; k < kViscousValues; ++k) end[kViscousValues * i + k] = start[kViscousValues * i + k];
       continue;
     }
+    const double g1 = std::log(l1), g2 = std::log(l2), g3 = std::log(l3);
+    const double mean = (g1 + g2 + g3) / 6.0;
     const double keep = branches_[i].tau / (branches_[i].tau + dt);
-    const Vec3 be = (2.0 * (keep * t.d.array() + t.mean)).exp().matrix();
-    const Mat3 A = Finv * (t.N * be.asDiagonal() * t.N.transpose()) * Finv.transpose();
-    pack(A, end + kViscousValues * i);
+    // h(l_a) = exp(2 (keep d_a + mean)) = exp(keep g_a + 2 mean (1 - keep)).
+    const double shift = 2.0 * mean * (1.0 - keep);
+    const double h1 = std::exp(keep * g1 + shift), h2 = std::exp(keep * g2 + shift);
+    const double h12 = h1 / l1 * spectral3::power_ratio(g2 - g1, keep);
+    const double h23 = h2 / l2 * spectral3::power_ratio(g3 - g2, keep);
+    const double h123 = spectral3::spread_out(s) ? (h23 - h12) / s.spread
+                                                 : 0.5 * keep * (keep - 1.0) * h1 / (l1 * l1);  // h''/2 at ~l1
+    const Mat3 be = spectral3::newton_form(s, h1, h12, h123);
+    pack(Finv * be * Finv.transpose(), end + kViscousValues * i);
   }
 }
 

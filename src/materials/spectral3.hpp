@@ -1,0 +1,129 @@
+// Spectral (isotropic) functions f(b) of a symmetric 3 x 3 matrix b without its eigenvectors: the
+// eigenvalues in closed form (the characteristic cubic's roots, below) and f(b) in Newton's
+// divided-difference form f[l1] I + f[l1,l2] (b - l1 I) + f[l1,l2,l3] (b - l1 I)(b - l2 I), which
+// is f(b) exactly for any f when l1 <= l2 <= l3 are b's eigenvalues (the interpolating polynomial
+// at the spectrum). The divided differences are the caller's; the helpers below write those of log
+// and of x^k so that they keep full precision at (nearly) equal eigenvalues, and the second one
+// divides by l3 - l1 >= 2.5 p (p the deviator's size), never by a small gap: once multiplied by
+// (b - l1 I)(b - l2 I) its error is at most about eps |f'| (l3 - l2). Used by
+// materials/maxwell_branches.cpp; tests/test_viscoelastic.cpp checks it against Eigen's iterative
+// solver at equal and nearly equal eigenvalues.
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "materials/material.hpp"
+
+namespace hyperqn {
+namespace spectral3 {
+
+struct Spectrum {
+  Mat3 dev;              // b - q I (b symmetrized)
+  double q = 0;          // tr b / 3
+  double shift[3] = {};  // l_a - q, ascending
+  double lambda[3] = {}; // l_a
+  double gap[2] = {};    // l2 - l1, l3 - l2 (from p and the roots, not by subtraction)
+  double spread = 0;     // l3 - l1
+};
+
+// The eigenvalues of symmetric b: q = tr b / 3, p^2 = |b - q I|^2 / 6, r = det((b - q I) / p) / 2;
+// l = q + p x with x the roots of x^3 - 3 x = 2 r (x = 2 cos(acos(r) / 3 + 2 pi k / 3), Smith 1961)
+// in [-2, 2]. Instead of acos and sincos: y = 2 cos(acos(|r|) / 3) in [sqrt 3, 2], the largest root
+// at |r|, is a simple root and smooth in |r| (a cubic fit within 1.4e-4, two Newton steps to ~1
+// ulp); the other two are the quadratic's (-y -+ z) / 2, z = sqrt(3 (2 - y)(2 + y)); at r < 0 the
+// roots change sign. Where |r| is near 1 (two eigenvalues close) z loses digits, but only in how
+// the close pair splits, which a smooth spectral function sees at second order. q + shift has an
+// absolute error of eps l3, too much for a small l1 (a strong compression): given det b > 0, l1 =
+// det b / (l2 l3) where l1 < l2 / 4, to its relative precision.
+inline Spectrum spectrum(const Mat3& b, double det_b = 0) {
+  Spectrum s;
+  s.q = (b(0, 0) + b(1, 1) + b(2, 2)) / 3.0;
+  Mat3& B = s.dev;
+  B(0, 0) = b(0, 0) - s.q;
+  B(1, 1) = b(1, 1) - s.q;
+  B(2, 2) = b(2, 2) - s.q;
+  B(0, 1) = B(1, 0) = 0.5 * (b(0, 1) + b(1, 0));
+  B(1, 2) = B(2, 1) = 0.5 * (b(1, 2) + b(2, 1));
+  B(0, 2) = B(2, 0) = 0.5 * (b(0, 2) + b(2, 0));
+  const double p2 = (B(0, 0) * B(0, 0) + B(1, 1) * B(1, 1) + B(2, 2) * B(2, 2) +
+                     2.0 * (B(0, 1) * B(0, 1) + B(1, 2) * B(1, 2) + B(0, 2) * B(0, 2))) / 6.0;
+  if (!(p2 > 0)) {  // b = q I (or NaN, which the caller's positivity test refuses)
+    s.lambda[0] = s.lambda[1] = s.lambda[2] = s.q;
+    return s;
+  }
+  const double p = std::sqrt(p2), ip = 1.0 / p;
+  const double a = B(0, 0) * ip, d = B(1, 1) * ip, f = B(2, 2) * ip;
+  const double u = B(0, 1) * ip, v = B(1, 2) * ip, w = B(0, 2) * ip;
+  const double r = 0.5 * (a * (d * f - v * v) - u * (u * f - v * w) + w * (u * v - d * w));
+  const double rho = std::min(std::fabs(r), 1.0);
+  double y = 1.7321850378747825 + rho * (0.3304294345645239 + rho * (-0.081261010009823 + rho * 0.01874896904804373));
+  for (int k = 0; k < 2; ++k) y -= (y * (y * y - 3.0) - 2.0 * rho) / (3.0 * (y * y - 1.0));
+  const double z = std::sqrt(std::max(0.0, 3.0 * (2.0 - y) * (2.0 + y)));
+  if (r >= 0) {
+    s.shift[0] = -0.5 * p * (y + z);
+    s.shift[1] = 0.5 * p * (z - y);
+    s.shift[2] = p * y;
+    s.gap[0] = p * z;
+    s.gap[1] = 0.5 * p * (3.0 * y - z);
+  } else {
+    s.shift[0] = -p * y;
+    s.shift[1] = 0.5 * p * (y - z);
+    s.shift[2] = 0.5 * p * (y + z);
+    s.gap[0] = 0.5 * p * (3.0 * y - z);
+    s.gap[1] = p * z;
+  }
+  s.spread = 0.5 * p * (3.0 * y + z);
+  for (int a = 0; a < 3; ++a) s.lambda[a] = s.q + s.shift[a];
+  if (det_b > 0 && s.lambda[0] < 0.25 * s.lambda[1]) {
+    s.lambda[0] = det_b / (s.lambda[1] * s.lambda[2]);
+    s.shift[0] = s.lambda[0] - s.q;
+    s.gap[0] = s.lambda[1] - s.lambda[0];
+    s.spread = s.lambda[2] - s.lambda[0];
+  }
+  return s;
+}
+
+// (log x - log y) / (x - y) for x = y + gap (y > 0, gap >= 0) from their logs: where s = gap / (x +
+// y) < 0.05, 2 atanh(s) / (s (x + y)) by its series (to 1e-17; it barely feels s's error, so the
+// close pair's imprecise gap does no harm), else the logs' difference over the gap.
+inline double log_divided(double y, double gap, double log_x, double log_y) {
+  const double inv = 1.0 / (2.0 * y + gap), s = gap * inv;
+  if (s >= 0.05) return (log_x - log_y) / gap;
+  const double s2 = s * s;
+  return 2.0 * inv *
+         (1.0 + s2 * (1.0 / 3 + s2 * (1.0 / 5 + s2 * (1.0 / 7 + s2 * (1.0 / 9 + s2 * (1.0 / 11 + s2 / 13))))));
+}
+
+// (x^k - y^k) / (x - y) = y^(k-1) ratio with t = log x - log y: expm1(k t) / expm1(t), k at t = 0
+// (whose slope in t is bounded, so t's rounding from the logs does not matter).
+inline double power_ratio(double t, double k) { return t == 0 ? k : std::expm1(k * t) / std::expm1(t); }
+
+// f[l1,l2,l3] = (f[l2,l3] - f[l1,l2]) / (l3 - l1) where the spread is at least 1e-8 of q; below,
+// the caller's limit f''/2 (the quotient would do too, but overflows at a spread of 0).
+inline bool spread_out(const Spectrum& s) { return s.spread > 1e-8 * std::fabs(s.q); }
+
+// f(b) = f1 I + f12 (b - l1 I) + f123 (b - l1 I)(b - l2 I), b - l_a I = dev - shift_a I (symmetric).
+inline Mat3 newton_form(const Spectrum& s, double f1, double f12, double f123) {
+  const Mat3& B = s.dev;
+  const double s1 = s.shift[0], s2 = s.shift[1];
+  // (B - s1 I)(B - s2 I) = B^2 - (s1 + s2) B + s1 s2 I; symmetric, as B commutes with itself.
+  const double xx = B(0, 0) * B(0, 0) + B(0, 1) * B(0, 1) + B(0, 2) * B(0, 2);
+  const double yy = B(0, 1) * B(0, 1) + B(1, 1) * B(1, 1) + B(1, 2) * B(1, 2);
+  const double zz = B(0, 2) * B(0, 2) + B(1, 2) * B(1, 2) + B(2, 2) * B(2, 2);
+  const double xy = B(0, 0) * B(0, 1) + B(0, 1) * B(1, 1) + B(0, 2) * B(1, 2);
+  const double yz = B(0, 1) * B(0, 2) + B(1, 1) * B(1, 2) + B(1, 2) * B(2, 2);
+  const double xz = B(0, 0) * B(0, 2) + B(0, 1) * B(1, 2) + B(0, 2) * B(2, 2);
+  const double lin = f12 - f123 * (s1 + s2);  // the coefficient of B
+  const double diag = f1 - f12 * s1 + f123 * s1 * s2;
+  Mat3 R;
+  R(0, 0) = diag + lin * B(0, 0) + f123 * xx;
+  R(1, 1) = diag + lin * B(1, 1) + f123 * yy;
+  R(2, 2) = diag + lin * B(2, 2) + f123 * zz;
+  R(0, 1) = R(1, 0) = lin * B(0, 1) + f123 * xy;
+  R(1, 2) = R(2, 1) = lin * B(1, 2) + f123 * yz;
+  R(0, 2) = R(2, 0) = lin * B(0, 2) + f123 * xz;
+  return R;
+}
+
+}  // namespace spectral3
+}  // namespace hyperqn
