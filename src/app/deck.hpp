@@ -30,6 +30,9 @@ struct StudySpec {
 
 enum class OutputFormat { vtu, xdmf };
 inline const std::vector<std::string> kOutputFormatNames = {"vtu", "xdmf"};  // in the enum's order
+// How output.fields' values are written (FrameElementField::single): as computed, or rounded to float.
+enum class FieldPrecision { double_precision, single_precision };
+inline const std::vector<std::string> kFieldPrecisionNames = {"double", "single"};  // in the enum's order
 
 // The deck's study: keys (params/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
 const std::vector<DeckKey<StudySpec>>& study_keys();
@@ -48,6 +51,7 @@ struct OutputSpec {
   bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
   std::vector<std::string> fields;   // per-element fields of the frames (terms/element_fields.hpp); none by default
   std::vector<int> field_lines;      // the deck line of each of `fields` (read_output), for the scene's check
+  FieldPrecision field_precision = FieldPrecision::double_precision;  // of `fields` in the files
   bool reactions = false;            // reactions.csv and summary.json's reactions (model/reactions.hpp)
 };
 
@@ -73,6 +77,10 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
        "elements a field is of ([outputs.md](outputs.md#element-fields))",
        {}, element_field_names()},
+      enum_key<OutputSpec>("field_precision", &OutputSpec::field_precision, kFieldPrecisionNames,
+       "how the values of `fields` are written: `double` as computed, `single` rounded to 32-bit floats (half the "
+       "bytes, about 7 significant digits; the frames' positions and other arrays stay double; "
+       "[outputs.md](outputs.md#element-fields))"),
       {"reactions", &OutputSpec::reactions,
        "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
        "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},

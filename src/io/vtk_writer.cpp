@@ -119,8 +119,16 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
     cell_data.push_back(make_array("Int32", "body", 1, body));
-  for (const FrameElementField& field : f.element_fields)  // 6 components: a symmetric tensor to ParaView
-    cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
+  single_.resize(f.element_fields.size());
+  for (size_t i = 0; i < f.element_fields.size(); ++i) {  // 6 components: a symmetric tensor to ParaView
+    const FrameElementField& field = f.element_fields[i];
+    if (field.single) {
+      single_[i].assign(field.values->begin(), field.values->end());  // rounded to nearest
+      cell_data.push_back(make_array("Float32", field.name, field.components, single_[i]));
+    } else {
+      cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
+    }
+  }
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
@@ -170,7 +178,8 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
       << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "");
   for (const FrameElementField& field : f.element_fields)
-    out << "<PDataArray type=\"Float64\" Name=\"" << field.name << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
+    out << "<PDataArray type=\"" << (field.single ? "Float32" : "Float64") << "\" Name=\"" << field.name
+        << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
   out << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";

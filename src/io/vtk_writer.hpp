@@ -44,6 +44,7 @@ class VtkSeries : public OutputWriter {
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
   mutable std::string xml_;  // the last piece's text (write_piece): its capacity serves the next
+  mutable std::vector<std::vector<float>> single_;  // the element fields written as Float32, rounded
 };
 
 }  // namespace hyperqn

@@ -94,6 +94,8 @@ BAD_DECKS = {
                                   ["attachments[0].stiffness", "> 0"]),
     "bad_line_search": (deck_with(**{"solver.line_search": "bogus"}), ["solver.line_search"]),
     "bad_output_format": (deck_with(**{"output.format": "vtk"}), ["'output.format'", "unknown value 'vtk'", "vtu, xdmf"]),
+    "bad_field_precision": (deck_with(**{"output.fields": ["von_mises"], "output.field_precision": "half"}),
+                            [".yaml:13: 'output.field_precision'", "unknown value 'half'", "double, single"]),
     "collider_zero_normal": (deck_with(colliders=[{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 0]}]),
                              ["colliders[0].normal", "nonzero"]),
     "collider_negative_radius": (deck_with(colliders=[{"type": "sphere", "center": [0, 0, 0], "radius": -0.1}]),
