@@ -11,8 +11,9 @@ the frame) and within it the fields' computation (hqnFields, where the binary ha
 Each set keeps the median of its runs (`--keep best`: its fastest). A frame is the solve plus the
 output without fields; the extra is a set's output minus that one's. The extra CPU time (user +
 system of every rank, from the children's rusage, per frame written, minus the set without
-fields') is less disturbed by other processes than the wall times on a shared machine. Prints a table; writes
-element_fields.json to --out.
+fields') is less disturbed by other processes than the wall times on a shared machine. With several
+builds, "% 1st frame" is a set's output minus the first build's output without fields, in % of the
+first build's frame: one yardstick for all. Prints a table; writes element_fields.json to --out.
 
 Two builds side by side (the runs interleaved, so both see the same load):
 
@@ -122,24 +123,31 @@ def main():
                 runs[(label, s)].append(run(args, binary, decks[(label, s)], os.path.join(args.out, "runs", f"{args.case}_{k}")))
     result = {"case": args.case, "format": args.format, "ranks": args.ranks, "frames": args.frames,
               "repeat": args.repeat, "keep": args.keep, "builds": {}}
+    first = None  # the first build's frame and output without fields: with several, the last column
     for label in binaries:
         kept = {s: keep(runs[(label, s)], args.keep) for s in sets}
         none = kept[sets[0]]
         frame = none["solve_ms"] + none["output_ms"]
+        first = first or (frame, none["output_ms"])
         print(f"{label + ': ' if label else ''}{args.case}, {args.format}, {args.ranks} rank(s), {args.frames} frames, "
               f"{args.keep} of {args.repeat}: frame = solve {none['solve_ms']:.1f} + output {none['output_ms']:.1f} "
               f"= {frame:.1f} ms")
         print(f"{'fields':<40} {'output ms':>10} {'extra ms':>9} {'% frame':>8} {'compute ms':>11} {'MB/frame':>9} "
-              f"{'extra CPU ms':>13}")
+              f"{'extra CPU ms':>13}" + (f" {'% 1st frame':>12}" if len(binaries) > 1 else ""))
         rows = []
         for s in sets:
             extra = kept[s]["output_ms"] - none["output_ms"]
             extra_cpu = kept[s]["cpu_ms"] - none["cpu_ms"]
+            # The output over the first build's output without fields, in % of that build's frame: the
+            # same yardstick for every build (a build's own frame varies with the load, and an
+            # output key may change the frame without fields too).
+            over_first = 100 * (kept[s]["output_ms"] - first[1]) / first[0]
             rows.append({"fields": s, **kept[s], "extra_ms": extra, "extra_percent": 100 * extra / frame,
-                         "extra_cpu_ms": extra_cpu})
+                         "extra_cpu_ms": extra_cpu, "percent_of_first_frame": over_first})
             name = "all five tet fields" if s == TETS else s
             print(f"{name:<40} {kept[s]['output_ms']:10.1f} {extra:9.1f} {100 * extra / frame:8.1f} "
-                  f"{kept[s]['compute_ms']:11.1f} {kept[s]['frame_bytes'] / 1e6:9.1f} {extra_cpu:13.1f}")
+                  f"{kept[s]['compute_ms']:11.1f} {kept[s]['frame_bytes'] / 1e6:9.1f} {extra_cpu:13.1f}"
+                  + (f" {over_first:12.1f}" if len(binaries) > 1 else ""))
         result["builds"][label] = {"binary": binaries[label], "output_keys": keys[label], "frame_ms": frame, "rows": rows,
                                    "runs": {s: runs[(label, s)] for s in sets}}
     with open(os.path.join(args.out, "element_fields.json"), "w") as f:
