@@ -72,10 +72,11 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "`vtu`: VTK files, one `.vtu` piece per rank and frame, a `.pvtu` and a `.pvd`; `xdmf`: one HDF5 file per run, "
        "`<name>.h5`, written by all ranks together, and its index `<name>.xdmf`, for runs on many ranks "
        "([outputs.md](outputs.md#xdmf-output-for-many-ranks))"),
-      enum_key<OutputSpec>("vtu_encoding", &OutputSpec::vtu_encoding, kVtuEncodingNames,
+      only_with(enum_key<OutputSpec>("vtu_encoding", &OutputSpec::vtu_encoding, kVtuEncodingNames,
        "how a `.vtu` piece holds its arrays: `base64` inline (what every reader reads), `raw` appended as they are, "
        "a quarter fewer bytes and no encoding (VTK, ParaView and meshio read it; a reader that strips whitespace "
        "around the appended block corrupts it; [outputs.md](outputs.md#element-fields))"),
+       "format", {"vtu"}, false),
       {"iterations_csv", &OutputSpec::iterations_csv, "write the per-iteration solver log as CSV"},
       {"contact_csv", &OutputSpec::contact_csv,
        "with colliders: write `contact.csv` (per frame and collider); with penalty self-contact: write "

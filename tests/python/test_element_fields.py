@@ -14,6 +14,8 @@
 - output.field_precision single: every field's values in the .vtu pieces (Float32) and in the .h5
   (32-bit floats, Precision="4" in the index) are the double run's rounded to float, exactly, at 1
   and 2 ranks; the positions and the other arrays stay double and equal the double run's.
+- output.vtu_encoding raw: the pieces hold the same arrays (of either precision) as raw appended
+  data, fewer bytes, and hyperqn_tools.output reads them as it reads the inline base64 pieces.
 - A restart of an XDMF series keeps each frame's fields (and their precision) in the index and
   writes the same arrays.
 - Bad input (an unknown name, a field of elements the scene has none of, a name twice, the membrane
@@ -25,7 +27,7 @@ import numpy as np
 import pytest
 
 from conftest import load_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import frame_list, frame_meshes, is_xdmf_frame, tensors
+from hyperqn_tools.output import Frame, frame_list, frame_meshes, is_xdmf_frame, piece_files, tensors
 
 TET_FIELDS = ["cauchy_stress", "von_mises", "principal_stretches", "green_strain", "energy_density"]
 COMPONENTS = {"cauchy_stress": 6, "von_mises": 1, "principal_stretches": 3, "green_strain": 6,
@@ -184,6 +186,27 @@ def test_single_precision_fields_are_the_double_ones_rounded(tmp_path, fmt):
             for name in fields:
                 assert f'Precision="4" Format="HDF">run.h5:/frames/00003/{name}<' in index
             assert index.count('Precision="8" Format="HDF">run.h5:/frames/') == 4 * 4  # positions, displacement, velocity, J
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_raw_vtu_pieces_hold_the_same_arrays(tmp_path, ranks):
+    deck = rope(TET_FIELDS + ["axial_force"])
+    for precision in ("double", "single"):
+        inline = run(tmp_path, deck, f"base64_{precision}", ranks, field_precision=precision)
+        raw = run(tmp_path, deck, f"raw_{precision}", ranks, field_precision=precision, vtu_encoding="raw")
+        a, _ = stored_arrays(inline)
+        b, _ = stored_arrays(raw)
+        assert a.keys() == b.keys()
+        for key, x in a.items():
+            assert x.dtype == b[key].dtype and np.array_equal(x, b[key], equal_nan=True), key
+        for (_, _, p), (_, _, q) in zip(frame_list(inline), frame_list(raw)):
+            for piece, raw_piece in zip(piece_files(p), piece_files(q)):
+                text, raw_bytes = open(piece, "rb").read(), open(raw_piece, "rb").read()
+                assert b"AppendedData" not in text and b'format="binary"' in text
+                assert b'<AppendedData encoding="raw">' in raw_bytes and b'format="binary"' not in raw_bytes
+                assert len(raw_bytes) < 0.85 * len(text)
+            x, y = Frame(p), Frame(q)
+            assert np.array_equal(x.points, y.points) and np.array_equal(x.J, y.J) and np.array_equal(x.ranks, y.ranks)
 
 
 MEMBRANE = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
