@@ -3,6 +3,9 @@ output.format xdmf), iterations.csv, summary.json.
 
 Frames are read with meshio (an independent reader); a .pvtu is read piece by piece and the
 pieces are merged by vertex_id, so runs at different rank counts can be compared vertex by vertex.
+meshio reads the pieces' arrays inline (base64, the default) or raw appended (output.vtu_encoding
+raw), and element fields of either precision (output.field_precision: Float32 arrays in a piece,
+32-bit datasets in the .h5) as they are stored: float32 arrays for single precision.
 An XDMF frame is one grid of the run's .xdmf index, named by a path "DIR/NAME.xdmf#K" (K: the
 grid's place in the index); its points are already in vertex_id order.
 """

@@ -30,6 +30,11 @@ struct StudySpec {
 
 enum class OutputFormat { vtu, xdmf };
 inline const std::vector<std::string> kOutputFormatNames = {"vtu", "xdmf"};  // in the enum's order
+enum class VtuEncoding { base64, raw };
+inline const std::vector<std::string> kVtuEncodingNames = {"base64", "raw"};  // in the enum's order
+// How output.fields' values are written (FrameElementField::single): as computed, or rounded to float.
+enum class FieldPrecision { double_precision, single_precision };
+inline const std::vector<std::string> kFieldPrecisionNames = {"double", "single"};  // in the enum's order
 
 // The deck's study: keys (params/deck_keys.hpp; app/deck_keys.cpp, which knows the solvers).
 const std::vector<DeckKey<StudySpec>>& study_keys();
@@ -44,10 +49,12 @@ struct OutputSpec {
   int every = 1;                     // write VTK every N frames (frame 0 = initial state is always written)
   bool vtk = true;                   // write frames at all (in `format`)
   OutputFormat format = OutputFormat::vtu;  // vtu: VTK pieces per rank; xdmf: one HDF5 file per run (io/xdmf_writer.hpp)
+  VtuEncoding vtu_encoding = VtuEncoding::base64;  // of the .vtu pieces' arrays (io/vtk_writer.hpp)
   bool iterations_csv = true;
   bool contact_csv = true;           // contact.csv (colliders), self-contact.csv (penalty self-contact)
   std::vector<std::string> fields;   // per-element fields of the frames (terms/element_fields.hpp); none by default
   std::vector<int> field_lines;      // the deck line of each of `fields` (read_output), for the scene's check
+  FieldPrecision field_precision = FieldPrecision::double_precision;  // of `fields` in the files
   bool reactions = false;            // reactions.csv and summary.json's reactions (model/reactions.hpp)
 };
 
@@ -65,6 +72,11 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "`vtu`: VTK files, one `.vtu` piece per rank and frame, a `.pvtu` and a `.pvd`; `xdmf`: one HDF5 file per run, "
        "`<name>.h5`, written by all ranks together, and its index `<name>.xdmf`, for runs on many ranks "
        "([outputs.md](outputs.md#xdmf-output-for-many-ranks))"),
+      only_with(enum_key<OutputSpec>("vtu_encoding", &OutputSpec::vtu_encoding, kVtuEncodingNames,
+       "how a `.vtu` piece holds its arrays: `base64` inline (what every reader reads), `raw` appended as they are, "
+       "a quarter fewer bytes and no encoding (VTK, ParaView and meshio read it; a reader that strips whitespace "
+       "around the appended block corrupts it; [outputs.md](outputs.md#element-fields))"),
+       "format", {"vtu"}, false),
       {"iterations_csv", &OutputSpec::iterations_csv, "write the per-iteration solver log as CSV"},
       {"contact_csv", &OutputSpec::contact_csv,
        "with colliders: write `contact.csv` (per frame and collider); with penalty self-contact: write "
@@ -73,6 +85,10 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
        "elements a field is of ([outputs.md](outputs.md#element-fields))",
        {}, element_field_names()},
+      enum_key<OutputSpec>("field_precision", &OutputSpec::field_precision, kFieldPrecisionNames,
+       "how the values of `fields` are written: `double` as computed, `single` rounded to 32-bit floats (half the "
+       "bytes, about 7 significant digits; the frames' positions and other arrays stay double; "
+       "[outputs.md](outputs.md#element-fields))"),
       {"reactions", &OutputSpec::reactions,
        "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
        "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},

@@ -456,7 +456,8 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
     for (const auto& term : s.body->terms()) term->fill_element_fields(pos_, element_values_);
     PetscCall(event_end(&LogEvents::fields));
     for (size_t i = 0; i < asked.size(); ++i)
-      f.element_fields.push_back({asked[i], field_info(element_values_[i].field).components, &element_values_[i].values});
+      f.element_fields.push_back({asked[i], field_info(element_values_[i].field).components, &element_values_[i].values,
+                                  run_.deck.output.field_precision == FieldPrecision::single_precision});
   }
   for (auto& w : writers_) w->write_frame(f);
   PetscCall(event_end(&LogEvents::output));

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <type_traits>
 
 #include "app/deck_config.hpp"
 #include "app/petsc_errors.hpp"
@@ -175,7 +176,11 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
   const std::string& deck_format = kOutputFormatNames[size_t(deck.output.format)];
   const bool wanted = deck.output.vtk && deck_format == format;
   if (!wanted && started_as.empty()) return;
-  auto series = std::make_unique<Series>(comm, outdir, name);
+  std::unique_ptr<Series> series;
+  if constexpr (std::is_same_v<Series, VtkSeries>)
+    series = std::make_unique<Series>(comm, outdir, name, deck.output.vtu_encoding == VtuEncoding::raw);
+  else
+    series = std::make_unique<Series>(comm, outdir, name);
   const std::string index = outdir + "/" + deck.name + (deck.output.format == OutputFormat::vtu ? ".pvd" : ".xdmf");
   std::string error;
   try {

@@ -44,6 +44,9 @@ std::vector<double> GlobalRows::gather(const std::vector<double>& values, int wi
 std::vector<int64_t> GlobalRows::gather(const std::vector<int64_t>& values, int width) const {
   return move(values, width, MPI_INT64_T);
 }
+std::vector<float> GlobalRows::gather(const std::vector<float>& values, int width) const {
+  return move(values, width, MPI_FLOAT);
+}
 
 std::vector<int64_t> GlobalRows::scatter(const std::vector<int64_t>& block) const {
   std::vector<int64_t> values(items_, -1);

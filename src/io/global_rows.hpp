@@ -26,6 +26,7 @@ class GlobalRows {
   // `width` values per local item in, `width` values per row of this rank's block out. Collective.
   std::vector<double> gather(const std::vector<double>& values, int width) const;
   std::vector<int64_t> gather(const std::vector<int64_t>& values, int width) const;
+  std::vector<float> gather(const std::vector<float>& values, int width) const;
   // The reverse for one value per row: each local item (ghosts too, given their row) gets its row's
   // value from the block that holds it. Collective.
   std::vector<int64_t> scatter(const std::vector<int64_t>& block) const;

@@ -33,6 +33,7 @@ struct FrameElementField {
   std::string name;
   int components = 1;
   const std::vector<double>* values = nullptr;
+  bool single = false;  // written rounded to 32-bit floats (output.field_precision: single): half the bytes
 };
 
 // One frame, as local arrays of this rank (positions, velocities, J already finite).

@@ -63,15 +63,26 @@ void append_base64(std::string& out, const char* data, size_t n) {
   }
 }
 
-// Inline binary DataArray, appended to xml: base64 of the UInt64 byte count, then base64 of the
-// bytes, encoded separately as VTK does. (Raw appended data would be smaller, but readers that strip
-// whitespace around the appended block corrupt arrays that start or end with bytes 9-13 or 32,
-// such as the tetra cell type 10.)
-void append_data_array(std::string& xml, const Array& a) {
+// A DataArray, appended to xml. Inline (the default): base64 of the UInt64 byte count, then base64
+// of the bytes, encoded separately as VTK does. Raw (output.vtu_encoding raw, `appended` not null):
+// the element says where in the <AppendedData> block its bytes will be (the count and the bytes as
+// they are, appended by the caller in the same order: a quarter fewer bytes than base64 and no
+// encoding); `appended` collects the arrays. (Raw is not the default: readers that strip whitespace
+// around the appended block corrupt arrays that start or end with bytes 9-13 or 32, such as the
+// tetra cell type 10.)
+void append_data_array(std::string& xml, const Array& a, std::vector<const Array*>* appended = nullptr,
+                       uint64_t* offset = nullptr) {
   xml += "<DataArray type=\"" + a.type + "\"";
   if (!a.name.empty()) xml += " Name=\"" + a.name + "\"";
   const uint64_t n = a.size;
-  xml += " NumberOfComponents=\"" + std::to_string(a.components) + "\" format=\"binary\">\n";
+  xml += " NumberOfComponents=\"" + std::to_string(a.components) + "\"";
+  if (appended) {
+    xml += " format=\"appended\" offset=\"" + std::to_string(*offset) + "\"/>\n";
+    appended->push_back(&a);
+    *offset += sizeof n + n;
+    return;
+  }
+  xml += " format=\"binary\">\n";
   append_base64(xml, reinterpret_cast<const char*>(&n), sizeof n);
   append_base64(xml, a.bytes, n);
   xml += "\n</DataArray>\n";
@@ -85,8 +96,8 @@ std::string frame_stem(const std::string& name, int frame) {
 
 }  // namespace
 
-VtkSeries::VtkSeries(MPI_Comm comm, std::string directory, std::string name)
-    : comm_(comm), dir_(std::move(directory)), name_(std::move(name)) {}
+VtkSeries::VtkSeries(MPI_Comm comm, std::string directory, std::string name, bool raw)
+    : comm_(comm), dir_(std::move(directory)), name_(std::move(name)), raw_(raw) {}
 
 void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   const PetscInt nv = mesh_->num_vertices, nt = mesh_->num_cells, ns = mesh_->num_segments, nf = mesh_->num_triangles;
@@ -119,15 +130,23 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
     cell_data.push_back(make_array("Int32", "body", 1, body));
-  for (const FrameElementField& field : f.element_fields)  // 6 components: a symmetric tensor to ParaView
-    cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
+  single_.resize(f.element_fields.size());
+  for (size_t i = 0; i < f.element_fields.size(); ++i) {  // 6 components: a symmetric tensor to ParaView
+    const FrameElementField& field = f.element_fields[i];
+    if (field.single) {
+      single_[i].assign(field.values->begin(), field.values->end());  // rounded to nearest
+      cell_data.push_back(make_array("Float32", field.name, field.components, single_[i]));
+    } else {
+      cell_data.push_back(make_array("Float64", field.name, field.components, *field.values));
+    }
+  }
   const Array points = make_array("Float64", "", 3, *f.positions);
   const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
                                     make_array("Int64", "offsets", 1, offsets),
                                     make_array("UInt8", "types", 1, types)};
 
   size_t size = 1024;  // the text around the arrays
-  const auto add_size = [&](const Array& a) { size += 4 * (a.size + 8) / 3 + 200; };
+  const auto add_size = [&](const Array& a) { size += (raw_ ? a.size + 8 : 4 * (a.size + 8) / 3) + 200; };
   for (const Array& a : point_data) add_size(a);
   for (const Array& a : cell_data) add_size(a);
   for (const Array& a : cells) add_size(a);
@@ -137,18 +156,31 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   std::string& xml = xml_;
   xml.clear();
   xml.reserve(size);
+  std::vector<const Array*> raw_arrays;  // raw: the arrays whose bytes follow the XML, in order
+  std::vector<const Array*>* appended = raw_ ? &raw_arrays : nullptr;
+  uint64_t offset = 0;
   xml += "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
          "byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n";
   xml += "<Piece NumberOfPoints=\"" + std::to_string(nv) + "\" NumberOfCells=\"" + std::to_string(nc) + "\">\n";
   xml += "<PointData>\n";
-  for (const Array& a : point_data) append_data_array(xml, a);
+  for (const Array& a : point_data) append_data_array(xml, a, appended, &offset);
   xml += "</PointData>\n<CellData>\n";
-  for (const Array& a : cell_data) append_data_array(xml, a);
+  for (const Array& a : cell_data) append_data_array(xml, a, appended, &offset);
   xml += "</CellData>\n<Points>\n";
-  append_data_array(xml, points);
+  append_data_array(xml, points, appended, &offset);
   xml += "</Points>\n<Cells>\n";
-  for (const Array& a : cells) append_data_array(xml, a);
-  xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  for (const Array& a : cells) append_data_array(xml, a, appended, &offset);
+  xml += "</Cells>\n</Piece>\n</UnstructuredGrid>\n";
+  if (raw_) {  // '_' starts the data, as the format says; the newline before the closing tag ends it
+    xml += "<AppendedData encoding=\"raw\">\n_";
+    for (const Array* a : raw_arrays) {
+      const uint64_t n = a->size;
+      xml.append(reinterpret_cast<const char*>(&n), sizeof n);
+      xml.append(a->bytes, n);
+    }
+    xml += "\n</AppendedData>\n";
+  }
+  xml += "</VTKFile>\n";
 
   write_file_atomically(path, xml);
 }
@@ -170,7 +202,8 @@ void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, con
       << (cloth() ? "<PDataArray type=\"Float64\" Name=\"stretch\" NumberOfComponents=\"1\"/>\n" : "")
       << (mesh_->num_bodies > 0 ? "<PDataArray type=\"Int32\" Name=\"body\" NumberOfComponents=\"1\"/>\n" : "");
   for (const FrameElementField& field : f.element_fields)
-    out << "<PDataArray type=\"Float64\" Name=\"" << field.name << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
+    out << "<PDataArray type=\"" << (field.single ? "Float32" : "Float64") << "\" Name=\"" << field.name
+        << "\" NumberOfComponents=\"" << field.components << "\"/>\n";
   out << "</PCellData>\n<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
   for (int r : pieces) out << "<Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
   out << "</PUnstructuredGrid>\n</VTKFile>\n";

@@ -1,5 +1,6 @@
 // ParaView output: per output frame one .vtu (1 rank) or a .pvtu with one .vtu piece per rank,
-// and a .pvd collection listing all frames with their times. XML VTK, inline base64 binary.
+// and a .pvd collection listing all frames with their times. XML VTK, inline base64 binary (or
+// raw appended data, output.vtu_encoding raw).
 // Points are the deformed positions; point fields displacement, velocity, vertex_id; cells are
 // the tets (VTK_TETRA) then the strand segments (VTK_LINE), with cell fields rank and J (det F of
 // a tet, stretch l / L of a segment).
@@ -17,7 +18,8 @@ namespace hyperqn {
 
 class VtkSeries : public OutputWriter {
  public:
-  VtkSeries(MPI_Comm comm, std::string directory, std::string name);
+  // raw: the pieces' arrays as raw appended data (output.vtu_encoding raw), else inline base64.
+  VtkSeries(MPI_Comm comm, std::string directory, std::string name, bool raw = false);
   void begin_run(const DistributedMesh& mesh) override { mesh_ = &mesh; }
   // Writes one frame and rewrites the .pvd so it is valid even if the run stops later.
   void write_frame(const FrameData& f) override;
@@ -44,6 +46,8 @@ class VtkSeries : public OutputWriter {
   std::string dir_, name_;
   std::vector<std::pair<double, std::string>> written_;  // (time, file) for the .pvd
   mutable std::string xml_;  // the last piece's text (write_piece): its capacity serves the next
+  mutable std::vector<std::vector<float>> single_;  // the element fields written as Float32, rounded
+  bool raw_ = false;
 };
 
 }  // namespace hyperqn

@@ -35,8 +35,10 @@ int tensor6_source(int i) {
 const int kTensor6[6] = {tensor6_source(0), tensor6_source(1), tensor6_source(2),
                          tensor6_source(3), tensor6_source(4), tensor6_source(5)};
 
-// In a restart state, an element field is NAME@COMPONENTS (a point field is its name alone).
+// In a restart state, an element field is NAME@COMPONENTS, NAME@COMPONENTS/4 if written as floats
+// (a point field is its name alone).
 constexpr char kElementFieldMark = '@';
+constexpr const char* kSingleMark = "/4";
 
 std::string frame_group(int frame) {
   char buf[32];
@@ -99,11 +101,14 @@ class ParallelFile {
     hsize_t start, rows, width;
     const void* data;
   };
-  void dataset(const std::string& name, bool integer, hsize_t rows, hsize_t width, const std::vector<Block>& blocks) {
+  // Values are int64 (integer), double, or float (single: an element field of output.field_precision single).
+  void dataset(const std::string& name, bool integer, hsize_t rows, hsize_t width, const std::vector<Block>& blocks,
+               bool single = false) {
     const int rank = width > 0 ? 2 : 1;
     const hsize_t dims[2] = {rows, width};
     Handle space{H5Screate_simple(rank, dims, nullptr), H5Sclose};
-    const hid_t file_type = integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, mem_type = integer ? H5T_NATIVE_INT64 : H5T_NATIVE_DOUBLE;
+    const hid_t file_type = integer ? H5T_STD_I64LE : single ? H5T_IEEE_F32LE : H5T_IEEE_F64LE;
+    const hid_t mem_type = integer ? H5T_NATIVE_INT64 : single ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
     Handle set{space.id < 0 ? -1 : H5Dcreate2(id_, name.c_str(), file_type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                H5Dclose};
     if (set.id < 0) fail(name);
@@ -304,15 +309,21 @@ void XdmfSeries::write_frame(const FrameData& f) {
     std::vector<double> stretch;
     if (cloth) stretch = L.kinds[2]->gather(triangle_stretch(*mesh_, *f.positions), 1);
     // The deck's element fields: a dataset of E rows of `components` values each (E values for one).
+    // A field of single precision is rounded to float first: half the bytes to move and to write.
     struct Gathered {
       std::vector<double> kind[kKinds];
+      std::vector<float> single[kKinds];
     };
     std::vector<Gathered> field_blocks(f.element_fields.size());
     std::vector<std::vector<ParallelFile::Block>> field_writes;
-    for (size_t i = 0; i < f.element_fields.size(); ++i)
-      field_writes.push_back(L.element_blocks(*mesh_, *f.element_fields[i].values, field_blocks[i].kind,
-                                              f.element_fields[i].components,
-                                              f.element_fields[i].components == 6 ? kTensor6 : nullptr));
+    for (size_t i = 0; i < f.element_fields.size(); ++i) {
+      const FrameElementField& field = f.element_fields[i];
+      const int* order = field.components == 6 ? kTensor6 : nullptr;
+      field_writes.push_back(
+          field.single ? L.element_blocks(*mesh_, std::vector<float>(field.values->begin(), field.values->end()),
+                                          field_blocks[i].single, field.components, order)
+                       : L.element_blocks(*mesh_, *field.values, field_blocks[i].kind, field.components, order));
+    }
 
     const std::string group = frame_group(f.frame);
     ParallelFile file(comm_, h5_path(), false);
@@ -327,7 +338,7 @@ void XdmfSeries::write_frame(const FrameData& f) {
     for (size_t i = 0; i < f.element_fields.size(); ++i) {
       const int c = f.element_fields[i].components;
       file.dataset(group + "/" + f.element_fields[i].name, false, (hsize_t)L.elements(), c > 1 ? (hsize_t)c : 0,
-                   field_writes[i]);
+                   field_writes[i], f.element_fields[i].single);
     }
     file.close();
   } catch (const std::exception& e) {
@@ -338,8 +349,8 @@ void XdmfSeries::write_frame(const FrameData& f) {
   if (!written_.empty() && written_.back().frame == f.frame) written_.pop_back();
   std::vector<std::string> fields;
   for (const auto& field : f.point_fields) fields.push_back(field.first);
-  std::vector<std::pair<std::string, int>> element_fields;
-  for (const FrameElementField& field : f.element_fields) element_fields.emplace_back(field.name, field.components);
+  std::vector<ListedField> element_fields;
+  for (const FrameElementField& field : f.element_fields) element_fields.push_back({field.name, field.components, field.single});
   written_.push_back({f.time, f.frame, fields, element_fields});
   int rank;
   MPI_Comm_rank(comm_, &rank);
@@ -356,9 +367,9 @@ void XdmfSeries::write_frame(const FrameData& f) {
 void XdmfSeries::write_index() const {
   const Layout& L = *layout_;
   const std::string h5 = name_ + ".h5:";
-  const auto item = [&](const std::string& dims, bool integer, const std::string& path) {
-    return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "Int" : "Float") +
-           "\" Precision=\"8\" Format=\"HDF\">" + h5 + path + "</DataItem>";
+  const auto item = [&](const std::string& dims, bool integer, const std::string& path, bool single = false) {
+    return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "Int" : "Float") + "\" Precision=\"" +
+           (single ? "4" : "8") + "\" Format=\"HDF\">" + h5 + path + "</DataItem>";
   };
   const std::string V = std::to_string(L.points), E = std::to_string(L.elements());
   std::string topology;
@@ -393,9 +404,9 @@ void XdmfSeries::write_index() const {
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
     if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
     if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
-    for (const auto& [name, c] : element_fields)  // a symmetric tensor: Tensor6 (a run before it: Tensor, 9 values)
+    for (const auto& [name, c, single] : element_fields)  // a symmetric tensor: Tensor6 (a run before it: Tensor, 9 values)
       attribute(name.c_str(), c == 1 ? "Scalar" : c == 3 ? "Vector" : c == 6 ? "Tensor6" : "Tensor", "Cell",
-                item(c == 1 ? E : E + " " + std::to_string(c), false, group + "/" + name));
+                item(c == 1 ? E : E + " " + std::to_string(c), false, group + "/" + name, single));
     out << "</Grid>\n";
   }
   out << "</Grid>\n</Domain>\n</Xdmf>\n";
@@ -409,7 +420,8 @@ std::string XdmfSeries::restart_state() const {
     std::snprintf(line, sizeof line, "%.17g %d", t, frame);  // read back exactly
     s += line;
     for (const std::string& name : fields) s += " " + name;
-    for (const auto& [name, c] : element_fields) s += " " + name + kElementFieldMark + std::to_string(c);
+    for (const auto& [name, c, single] : element_fields)
+      s += " " + name + kElementFieldMark + std::to_string(c) + (single ? kSingleMark : "");
     s += "\n";
   }
   return s;
@@ -431,10 +443,11 @@ void XdmfSeries::resume(const std::string& state, int frame) {
     int k;
     if (!(words >> t >> k) || k > frame) continue;
     std::vector<std::string> fields;
-    std::vector<std::pair<std::string, int>> element_fields;
+    std::vector<ListedField> element_fields;
     for (std::string name; words >> name;)
       if (const size_t mark = name.find(kElementFieldMark); mark != std::string::npos) {
-        element_fields.emplace_back(name.substr(0, mark), std::atoi(name.c_str() + mark + 1));
+        const bool single = name.size() > mark + 1 && name.find(kSingleMark, mark) != std::string::npos;
+        element_fields.push_back({name.substr(0, mark), std::atoi(name.c_str() + mark + 1), single});
       } else if (name == "1") {
         fields.push_back("contact_force");  // the state of a run written before the fields had names
       } else if (name != "0") {

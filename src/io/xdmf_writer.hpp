@@ -43,8 +43,8 @@ class XdmfSeries : public OutputWriter {
   // After a release: the same elements, with fewer fixed vertices. A mesh with other elements
   // cannot go on in the same file (throws std::runtime_error).
   void set_mesh(const DistributedMesh& mesh) override;
-  // The frames listed ("xdmf NAME" then "time frame FIELD... NAME@COMPONENTS..." lines: point, then
-  // element fields); resume keeps those up to `frame`,
+  // The frames listed ("xdmf NAME" then "time frame FIELD... NAME@COMPONENTS[/4]..." lines: point, then
+  // element fields, /4 for one written as floats); resume keeps those up to `frame`,
   // removes the later frames' data from NAME.h5 and rewrites NAME.xdmf.
   static constexpr const char* kRestartKey = "xdmf";
   std::string restart_key() const override { return kRestartKey; }
@@ -64,11 +64,16 @@ class XdmfSeries : public OutputWriter {
   const DistributedMesh* mesh_ = nullptr;
   std::unique_ptr<Layout> layout_;
   bool file_ready_ = false;                        // NAME.h5 exists and holds the mesh
+  struct ListedField {  // one of the deck's element fields of a frame
+    std::string name;
+    int components;
+    bool single;  // written as floats (FrameElementField::single)
+  };
   struct Listed {
     double time;
     int frame;
     std::vector<std::string> fields;  // the terms' point fields the frame has (FrameData::point_fields)
-    std::vector<std::pair<std::string, int>> element_fields;  // the deck's element fields: name, components
+    std::vector<ListedField> element_fields;
   };
   std::vector<Listed> written_;  // the index's frames
 };

@@ -11,7 +11,13 @@
   the VTK and XDMF frames of one run hold the same values.
 - A membrane cloth writes membrane_stress, symmetric and in the deformed plane (sigma n = 0).
 - A deck without output.fields writes none of them.
-- A restart of an XDMF series keeps each frame's fields in the index and writes the same arrays.
+- output.field_precision single: every field's values in the .vtu pieces (Float32) and in the .h5
+  (32-bit floats, Precision="4" in the index) are the double run's rounded to float, exactly, at 1
+  and 2 ranks; the positions and the other arrays stay double and equal the double run's.
+- output.vtu_encoding raw: the pieces hold the same arrays (of either precision) as raw appended
+  data, fewer bytes, and hyperqn_tools.output reads them as it reads the inline base64 pieces.
+- A restart of an XDMF series keeps each frame's fields (and their precision) in the index and
+  writes the same arrays.
 - Bad input (an unknown name, a field of elements the scene has none of, a name twice, the membrane
   stress of a mass-spring cloth): exit 1, the deck line and key named, no output directory.
 """
@@ -21,7 +27,7 @@ import numpy as np
 import pytest
 
 from conftest import load_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import frame_list, frame_meshes, is_xdmf_frame, tensors
+from hyperqn_tools.output import Frame, frame_list, frame_meshes, is_xdmf_frame, piece_files, tensors
 
 TET_FIELDS = ["cauchy_stress", "von_mises", "principal_stretches", "green_strain", "energy_density"]
 COMPONENTS = {"cauchy_stress": 6, "von_mises": 1, "principal_stretches": 3, "green_strain": 6,
@@ -37,10 +43,10 @@ def rope(fields, frames=3):
     return deck
 
 
-def run(tmp_path, deck, tag, ranks, fmt="vtu"):
+def run(tmp_path, deck, tag, ranks, fmt="vtu", **output):
     d = copy.deepcopy(deck)
     d["name"] = "run"
-    d["output"] = dict(d.get("output") or {}, format=fmt)
+    d["output"] = dict(d.get("output") or {}, format=fmt, **output)
     out = tmp_path / f"{tag}_{fmt}_np{ranks}"
     run_hyperqn([write_deck(tmp_path / f"{tag}_{fmt}.yaml", d), "-o", out], ranks=ranks)
     return out
@@ -135,6 +141,74 @@ def test_fields_in_vtu_and_xdmf_at_1_and_2_ranks(tmp_path):
         assert_same(runs[("xdmf", ranks)], runs[("vtu", ranks)], 1e-12, fields)
 
 
+def stored_arrays(outdir):
+    """{(frame, piece, array name): numpy array as stored} of every frame: each .vtu piece's arrays
+    as meshio reads them, or each /frames/NNNNN dataset of the .h5; and the index's text."""
+    import h5py
+
+    arrays, index = {}, ""
+    for n, _, path in frame_list(outdir):
+        if is_xdmf_frame(path):
+            index = (outdir / "run.xdmf").read_text()
+            with h5py.File(outdir / "run.h5", "r") as f:
+                for name, data in f["frames"][f"{n:05d}"].items():
+                    arrays[(n, 0, name)] = data[()]
+            continue
+        for p, m in enumerate(frame_meshes(path)):
+            arrays[(n, p, "points")] = m.points
+            for name, data in list(m.point_data.items()) + [(k, np.concatenate(v)) for k, v in m.cell_data.items()]:
+                arrays[(n, p, name)] = np.asarray(data)
+    return arrays, index
+
+
+@pytest.mark.parametrize("fmt", ["vtu", "xdmf"])
+def test_single_precision_fields_are_the_double_ones_rounded(tmp_path, fmt):
+    fields = TET_FIELDS + ["axial_force"]
+    deck = rope(fields)
+    for ranks in (1, 2):
+        double, _ = stored_arrays(run(tmp_path, deck, "double", ranks, fmt))
+        single, index = stored_arrays(run(tmp_path, deck, "single", ranks, fmt, field_precision="single"))
+        assert double.keys() == single.keys() and len(double) > 4 * len(fields)
+        rounded = set()
+        for key, x in double.items():
+            y = single[key]
+            assert x.shape == y.shape, key
+            if key[2] in fields:
+                assert x.dtype == np.float64 and y.dtype == np.float32, key
+                assert np.array_equal(x.astype(np.float32), y, equal_nan=True), key
+                if np.any((y != x) & ~np.isnan(x)):
+                    rounded.add(key[2])
+            else:  # positions, J, ids, ...: as without the key
+                assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True), key
+        assert rounded == set(fields)  # the values were not floats already
+        if fmt == "xdmf":
+            assert index.count('Precision="4" Format="HDF">run.h5:/frames/') == 4 * len(fields)
+            for name in fields:
+                assert f'Precision="4" Format="HDF">run.h5:/frames/00003/{name}<' in index
+            assert index.count('Precision="8" Format="HDF">run.h5:/frames/') == 4 * 4  # positions, displacement, velocity, J
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_raw_vtu_pieces_hold_the_same_arrays(tmp_path, ranks):
+    deck = rope(TET_FIELDS + ["axial_force"])
+    for precision in ("double", "single"):
+        inline = run(tmp_path, deck, f"base64_{precision}", ranks, field_precision=precision)
+        raw = run(tmp_path, deck, f"raw_{precision}", ranks, field_precision=precision, vtu_encoding="raw")
+        a, _ = stored_arrays(inline)
+        b, _ = stored_arrays(raw)
+        assert a.keys() == b.keys()
+        for key, x in a.items():
+            assert x.dtype == b[key].dtype and np.array_equal(x, b[key], equal_nan=True), key
+        for (_, _, p), (_, _, q) in zip(frame_list(inline), frame_list(raw)):
+            for piece, raw_piece in zip(piece_files(p), piece_files(q)):
+                text, raw_bytes = open(piece, "rb").read(), open(raw_piece, "rb").read()
+                assert b"AppendedData" not in text and b'format="binary"' in text
+                assert b'<AppendedData encoding="raw">' in raw_bytes and b'format="binary"' not in raw_bytes
+                assert len(raw_bytes) < 0.85 * len(text)
+            x, y = Frame(p), Frame(q)
+            assert np.array_equal(x.points, y.points) and np.array_equal(x.J, y.J) and np.array_equal(x.ranks, y.ranks)
+
+
 MEMBRANE = {"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
             "cloth": {"model": "membrane", "material": "neohookean", "youngs_modulus": 1.0e3, "poisson_ratio": 0.3,
                       "areal_density": 0.2},
@@ -214,12 +288,14 @@ def test_bad_fields(tmp_path, case):
     assert not outdir.exists(), "an output directory was left behind"
 
 
-def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path):
-    """A restart resumes the XDMF index with each frame's fields (the restart state names them) and
-    writes the same arrays as the run without a stop."""
+@pytest.mark.parametrize("precision", ["double", "single"])
+def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path, precision):
+    """A restart resumes the XDMF index with each frame's fields (the restart state names them, and
+    their precision) and writes the same arrays as the run without a stop."""
     import h5py
 
     deck = rope(["cauchy_stress", "axial_force"], frames=4)
+    deck["output"]["field_precision"] = precision
     whole = run(tmp_path, deck, "whole", 1, "xdmf")
     first = copy.deepcopy(deck)
     first["checkpoint"] = {"every": 2}
@@ -233,9 +309,11 @@ def test_xdmf_restart_keeps_the_fields_in_the_index(tmp_path):
     assert index == (whole / "run.xdmf").read_text()
     assert index.count('<Attribute Name="cauchy_stress" AttributeType="Tensor6" Center="Cell">') == 5
     assert index.count('<Attribute Name="axial_force" AttributeType="Scalar" Center="Cell">') == 5
+    assert index.count('Precision="4"') == (10 if precision == "single" else 0)
     with h5py.File(out / "run.h5", "r") as a, h5py.File(whole / "run.h5", "r") as b:
         assert list(a["frames"]) == list(b["frames"]) == ["00000", "00001", "00002", "00003", "00004"]
         for frame in a["frames"]:
             for field in ("cauchy_stress", "axial_force"):
                 x, y = a["frames"][frame][field][()], b["frames"][frame][field][()]
                 assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True), (frame, field)
+                assert x.dtype == (np.float32 if precision == "single" else np.float64)
