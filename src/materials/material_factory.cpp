@@ -17,6 +17,8 @@ std::unique_ptr<Material> create_neohookean(const MaterialParams& p) {
 
 }  // namespace
 
+std::unique_ptr<Material> make_hencky(const MaterialParams& p);  // log_strain_plasticity.cpp
+
 const std::vector<MaterialKey>& elastic_constant_keys() {
   static const std::vector<MaterialKey> keys = {
       {"youngs_modulus", &MaterialSpec::youngs_modulus, "Young's modulus E (a pressure), with `poisson_ratio`", above(0), "", false, "—"},
@@ -56,6 +58,8 @@ static std::unique_ptr<InelasticModel> create_viscoelastic(const MaterialSpec& s
   return std::make_unique<MaxwellBranches>(std::move(out));
 }
 
+const InelasticKind& plasticity_kind();  // log_strain_plasticity.cpp
+
 const std::vector<InelasticKind>& inelastic_kinds() {
   static const std::vector<InelasticKind> kinds = [] {
     InelasticKind visco{"viscoelastic", "viscous", {}, {}, 1, kMaxMaxwellBranches, {}, false,
@@ -76,7 +80,7 @@ const std::vector<InelasticKind>& inelastic_kinds() {
         {"g", {}, "", above(0, "the branch's fraction of the instantaneous shear modulus"), "", true},
         {"tau", {}, "", above(0, "a relaxation time, s"), "", true},
     };
-    return std::vector<InelasticKind>{visco};
+    return std::vector<InelasticKind>{visco, plasticity_kind()};
   }();
   return kinds;
 }
@@ -118,6 +122,8 @@ const std::vector<MaterialModel>& material_models() {
         {"g", {}, "as `f`", {}, "function", false, "none"},
         {"h", {}, "as `f`", {}, "function", false, "none"}},
        true, [](const MaterialParams& p) { return make_principal_stretch(p.f, p.g, p.h); }},
+      {"hencky", "mu |dev E|^2 + kappa/2 (tr E)^2, E = 1/2 log(F^T F), kappa = lambda + 2 mu/3 (the plastic law's)",
+       true, {}, false, make_hencky},
       {"mass-spring", "a spring k/2 (l - L)^2 on each edge of each tet", false,
        {{"spring_stiffness", &MaterialSpec::spring_stiffness,
          "a spring k/2 (ℓ − L)² on each of the 6 edges of every tet (an edge shared by m tets carries m springs); a "
