@@ -1,4 +1,4 @@
-// An inelastic model (docs/materials.md#inelastic-models): a material law with per-element history
+// An inelastic model (docs/inelastic.md#inelastic-models): a material law with per-element history
 // whose step is a variational constitutive update (Ortiz and Stainier 1999). Within a step of dt
 // from the history h_n at its start, the internal variables at the step's end minimize a local
 // incremental potential; condensed out, they leave an energy W(F; h_n, dt) of F alone, so the step

@@ -1,4 +1,4 @@
-// J2 (von Mises) plasticity in the Lagrangian logarithmic strain (docs/materials.md#plasticity):
+// J2 (von Mises) plasticity in the Lagrangian logarithmic strain (docs/inelastic.md#plasticity):
 // the additive form of Miehe, Apel and Lambrecht 2002. With E = 1/2 log C (C = F^T F), a plastic
 // strain E_p (symmetric, traceless: isochoric flow) and an equivalent plastic strain alpha, the
 // stored energy is the Hencky one of the elastic strain plus linear hardening,
@@ -267,7 +267,7 @@ const InelasticKind& plasticity_kind() {
         {"plastic", {},
          "J2 (von Mises) plasticity in the logarithmic strain over the Hencky elastic law, with linear isotropic and "
          "kinematic hardening; the history per element is E_p and the equivalent plastic strain "
-         "([materials.md](materials.md#plasticity)). Not with `time.integrator: implicit-midpoint`, nor in a study",
+         "([inelastic.md](inelastic.md#plasticity)). Not with `time.integrator: implicit-midpoint`, nor in a study",
          {}, "map", false, "none"},
         {"plastic.yield_stress", {}, "σ_y, the uniaxial (Kirchhoff) yield stress", above(0), "number", true},
         {"plastic.isotropic_hardening", {}, "H_iso: the yield stress grows by H_iso per unit equivalent plastic strain",

@@ -68,7 +68,7 @@ const std::vector<InelasticKind>& inelastic_kinds() {
         {"viscoelastic", {},
          "generalized Maxwell branches in parallel with the model, which is the equilibrium (long-term) part: "
          "its shear modulus μ is the relaxed one, μ/(1 − Σg) the instantaneous; the bulk modulus does not relax "
-         "([materials.md](materials.md#viscoelasticity)). Not with `time.integrator: implicit-midpoint`, nor in a "
+         "([inelastic.md](inelastic.md#viscoelasticity)). Not with `time.integrator: implicit-midpoint`, nor in a "
          "study",
          {}, "map", false, "none"},
         {"viscoelastic.branches", {},

@@ -1,4 +1,4 @@
-// Tets of inelastic materials (docs/materials.md#inelastic-models): per material an inelastic model
+// Tets of inelastic materials (docs/inelastic.md#inelastic-models): per material an inelastic model
 // (materials/inelastic_model.hpp: the viscoelastic Maxwell branches, J2 plasticity), over an
 // equilibrium hyperelastic material or alone (a model whose energy is the material's whole one).
 // Within a step of dt the element's energy is V_e (psi(F) + W(F; h_n, dt)), W the model's condensed

@@ -1,5 +1,5 @@
 """J2 plasticity in logarithmic strain (material.plastic over model hencky,
-docs/materials.md#plasticity), end to end.
+docs/inelastic.md#plasticity), end to end.
 
 - A static uniaxial bar: a unit cube of 2 x 2 x 2 cells held by rollers (the bottom face in y, the
   top face in y moved by a table curve, one bottom corner in x and z, another in z), so that the
