@@ -13,6 +13,7 @@ docs/inelastic.md#plasticity), end to end.
   4 sigma_y (eps_a - sigma_y / E) within 1%.
 - The same at 2 ranks (to 1e-9 of the stress); a restart from the checkpoint of a frame in the middle
   of plastic flow ends bit for bit as the uninterrupted run at 1 rank, and within 1e-12 at 2.
+- Two kinds in one scene (a plastic material and a viscoelastic region): a restart is bitwise.
 - Bad input: yield_stress <= 0, a negative hardening modulus, plastic with viscoelastic, plastic on
   a model other than hencky, the midpoint integrator, a study: the deck line named, exit 1, nothing
   written.
@@ -156,6 +157,28 @@ def test_two_ranks_and_restart(tmp_path):
     run_hyperqn([write_deck(tmp_path / "then2.yaml", deck), "-o", restarted2, "--restart", "latest"], ranks=2)
     s2, r2 = axial(two)[-1][1], axial(restarted2)[-1][1]
     assert np.max(np.abs(np.sort(s2) - np.sort(r2))) <= 1e-12 * np.max(np.abs(s2))
+
+
+def test_plastic_and_viscoelastic_regions_restart(tmp_path):
+    """Two inelastic kinds in one scene (a term each, a history each: elements_plastic and
+    elements_viscous in the checkpoint): a restart from frame 5, both flowing, is bitwise."""
+    deck = bar_deck(LOADING[:11], HARDENING, every=5)
+    deck["regions"] = [{"box": {"min": [-1, -1, -1], "max": [2, 0.5, 2]},
+                        "material": {"model": "neohookean", "mu": MU, "lambda": LAMBDA, "density": 1000,
+                                     "viscoelastic": {"branches": [{"g": 0.3, "tau": 2.0}]}}}]
+    whole, _ = run_deck(tmp_path, "whole", deck)
+    restarted = tmp_path / "restarted"
+    first = dict(deck, time=dict(deck["time"], frames=5), checkpoint={"every": 5})
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=1)
+    done = run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=1)
+    assert "restart from" in done.stdout
+    assert np.array_equal(final_frame(whole).points, final_frame(restarted).points)
+    # Without the histories the restart would differ: the same deck elastic ends elsewhere.
+    elastic = copy.deepcopy(deck)
+    del elastic["material"]["plastic"]
+    del elastic["regions"][0]["material"]["viscoelastic"]
+    other, _ = run_deck(tmp_path, "elastic", elastic)
+    assert not np.allclose(final_frame(whole).points, final_frame(other).points, rtol=0, atol=1e-9)
 
 
 def bad(material=None, **top):
