@@ -154,7 +154,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
     check_integrator_takes_contact(r, *x, deck);
-    check_integrator_takes_viscoelastic(r, *x, deck);
+    check_integrator_takes_inelastic(r, *x, deck);
     check_static_has_support(r, *x, deck);
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
@@ -168,7 +168,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     check_study_integrators_take_contact(r, *x, deck);
-    check_study_integrators_take_viscoelastic(r, *x, deck);
+    check_study_integrators_take_inelastic(r, *x, deck);
   }
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;

@@ -40,11 +40,12 @@ const std::vector<DeckKey<MaterialSpec>>& material_keys() {
         {"model", std::monostate{}, "hyperelastic energy (formulas and L weights: [materials.md](materials.md))", {},
          models, "", "", [](M& m, const std::string& name) { m.model = name; },
          [](const M& m) { return m.model; }}};
-    // The registry's keys, each once: the elastic constants, each model's own, the fibre term.
+    // The registry's keys, each once: the elastic constants, each model's own, the fibre term, the
+    // inelastic blocks.
     std::vector<MaterialKey> registry = elastic_constant_keys();
     for (const MaterialModel& m : material_models()) registry.insert(registry.end(), m.keys.begin(), m.keys.end());
     registry.insert(registry.end(), fiber_keys().begin(), fiber_keys().end());
-    registry.insert(registry.end(), viscoelastic_keys().begin(), viscoelastic_keys().end());
+    for (const InelasticKind& kind : inelastic_kinds()) registry.insert(registry.end(), kind.keys.begin(), kind.keys.end());
     for (const MaterialKey& key : registry) k.push_back(material_key(key));
     const std::vector<DeckKey<M>> every = {
         {"density", &M::density, "mass per unit rest volume; give it or `total_mass`", above(0), {}, "", "—"},

@@ -62,34 +62,33 @@ void check_static_has_support(const Reader& r, const Value& time, const Deck& de
          "(attachments:) or a collider (colliders:)");
 }
 
-// The deck line of the first viscoelastic material's first branch (default material, regions,
-// bodies), or 0 if none is viscoelastic.
-static int viscoelastic_line(const Deck& deck) {
+// The first inelastic material's block (default material, regions, bodies), or null if none has one.
+static const InelasticSpec* first_inelastic(const Deck& deck) {
   std::vector<const MaterialSpec*> all{&deck.material};
   for (const MaterialRegion& region : deck.regions) all.push_back(&region.material);
   for (const BodySpec& body : deck.bodies)
     if (body.has_material) all.push_back(&body.material);
   for (const MaterialSpec* m : all)
-    if (!m->viscoelastic.empty()) return m->viscoelastic[0].line;
-  return 0;
+    if (!m->inelastic.kind.empty()) return &m->inelastic;
+  return nullptr;
 }
 
-void check_integrator_takes_viscoelastic(const Reader& r, const Value& time, const Deck& deck) {
-  const int line = viscoelastic_line(deck);
-  if (line == 0 || deck.time.integrator != TimeIntegrator::implicit_midpoint) return;
+void check_integrator_takes_inelastic(const Reader& r, const Value& time, const Deck& deck) {
+  const InelasticSpec* inelastic = first_inelastic(deck);
+  if (!inelastic || deck.time.integrator != TimeIntegrator::implicit_midpoint) return;
   r.fail(*Section(r, time, {}).find("integrator"),
-         "implicit-midpoint does not take viscoelastic materials yet (deck line " + std::to_string(line) +
-             "): its step ends past the minimizer (x_{n+1} = 2z - x_n), where the viscous update would not hold "
-             "(use implicit-euler, bdf2 or static)");
+         "implicit-midpoint does not take " + inelastic->kind + " materials yet (deck line " +
+             std::to_string(inelastic->line) + "): its step ends past the minimizer (x_{n+1} = 2z - x_n), where the " +
+             "history's update would not hold (use implicit-euler, bdf2 or static)");
 }
 
-void check_study_integrators_take_viscoelastic(const Reader& r, const Value& study, const Deck& deck) {
-  const int line = viscoelastic_line(deck);
+void check_study_integrators_take_inelastic(const Reader& r, const Value& study, const Deck& deck) {
+  const InelasticSpec* inelastic = first_inelastic(deck);
   for (TimeIntegrator kind : deck.study.integrators)
-    if (line != 0 && kind == TimeIntegrator::implicit_midpoint)
+    if (inelastic && kind == TimeIntegrator::implicit_midpoint)
       r.fail(*Section(r, study, {}).find("integrators"),
-             "implicit-midpoint does not take viscoelastic materials yet (deck line " + std::to_string(line) +
-                 "; see time.integrator)");
+             "implicit-midpoint does not take " + inelastic->kind + " materials yet (deck line " +
+                 std::to_string(inelastic->line) + "; see time.integrator)");
 }
 
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {

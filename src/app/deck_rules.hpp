@@ -21,10 +21,10 @@ void check_integrator_takes_contact(const Reader& r, const Value& time, const De
 // none, no equilibrium exists under loads, and none is unique without them.
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
-// A viscoelastic material (materials/maxwell_branches.hpp) with the midpoint (the deck's integrator,
+// An inelastic material (materials/inelastic_model.hpp) with the midpoint (the deck's integrator,
 // or one of a study's): not yet.
-void check_integrator_takes_viscoelastic(const Reader& r, const Value& time, const Deck& deck);
-void check_study_integrators_take_viscoelastic(const Reader& r, const Value& study, const Deck& deck);
+void check_integrator_takes_inelastic(const Reader& r, const Value& time, const Deck& deck);
+void check_study_integrators_take_inelastic(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is
 // recorded in deck.rule_sources. solver: the deck's solver section, if any.

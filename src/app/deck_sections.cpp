@@ -189,27 +189,53 @@ static FunctionSpec read_function(const Reader& r, const Value& v) {
   return f;
 }
 
-// viscoelastic: {branches: [{g: 0.3, tau: 0.1}, ...]} (its keys were checked by read_keys): 1 to
-// kMaxMaxwellBranches branches, each g > 0 and tau > 0, the g summing to less than 1.
-static void read_viscoelastic(const Reader& r, const Value& v, MaterialSpec& m) {
-  const Section s(r, v, {"branches"});
-  const Value& list = s.need("branches");
-  const std::vector<Value> items = r.items(list);
-  if (items.empty() || (int)items.size() > kMaxMaxwellBranches)
-    r.fail(list, "1 to " + std::to_string(kMaxMaxwellBranches) + " branches, got " + std::to_string(items.size()));
-  double sum = 0;
-  for (const Value& item : items) {
-    const Section b(r, item, {"g", "tau"});
-    const Value &g = b.need("g"), &tau = b.need("tau");
-    ViscoelasticBranch branch{r.number(g), r.number(tau), item.line};
-    r.check(branch.g > 0, g, "> 0 (the branch's fraction of the instantaneous shear modulus)");
-    r.check(branch.tau > 0, tau, "> 0 (a relaxation time, s)");
-    sum += branch.g;
-    m.viscoelastic.push_back(branch);
+// A number of an inelastic block, with its declared range.
+static double inelastic_number(const Reader& r, const Value& x, const MaterialKey& key) {
+  const double value = r.number(x);
+  if (!key.range.rule().empty()) r.check(key.range.contains(value), x, key.range.rule());
+  return value;
+}
+
+// An inelastic block, material.<kind.key> (its keys were checked by read_keys): its number keys,
+// its list of maps of numbers (viscoelastic.branches: min_items to max_items, each key in its
+// range), then the kind's rules between them, the message at the key they name.
+static void read_inelastic(const Reader& r, const Value& v, const InelasticKind& kind, MaterialSpec& m) {
+  InelasticSpec& spec = m.inelastic;
+  spec.kind = kind.key;
+  spec.line = v.line;
+  const std::string prefix = std::string(kind.key) + ".";
+  Names names;
+  for (const MaterialKey& k : kind.keys)
+    if (std::string(k.name).rfind(prefix, 0) == 0) names.push_back(std::string(k.name).substr(prefix.size()));
+  const Section s(r, v, names);
+  for (const MaterialKey& k : kind.keys) {
+    if (std::string(k.name).rfind(prefix, 0) != 0) continue;
+    const std::string name = std::string(k.name).substr(prefix.size());
+    const Value* x = s.find(name);
+    if (!x) continue;
+    if (std::string(k.type) != "list of maps") {
+      spec.values[name] = inelastic_number(r, *x, k);
+      continue;
+    }
+    const std::vector<Value> items = r.items(*x);
+    if ((int)items.size() < kind.min_items || (int)items.size() > kind.max_items)
+      r.fail(*x, std::to_string(kind.min_items) + " to " + std::to_string(kind.max_items) + " " + name + ", got " +
+                     std::to_string(items.size()));
+    Names item_names;
+    for (const MaterialKey& ik : kind.item_keys) item_names.push_back(ik.name);
+    for (const Value& item : items) {
+      const Section b(r, item, item_names);
+      std::map<std::string, double> values;
+      for (const MaterialKey& ik : kind.item_keys)
+        if (const Value* y = ik.required ? &b.need(ik.name) : b.find(ik.name)) values[ik.name] = inelastic_number(r, *y, ik);
+      spec.items.push_back(std::move(values));
+    }
   }
-  if (!(sum < 1))
-    r.fail(list, "the fractions g sum to " + default_text(sum) + "; they must sum to less than 1 (the rest is the "
-                 "equilibrium part's)");
+  std::string key;
+  if (const std::string problem = kind.check(spec, &key); !problem.empty()) {
+    const Value* x = s.find(key);
+    r.fail(x ? *x : v, problem);
+  }
 }
 
 // The keys, ranges and models of material_keys() (from the material registry), then the rules
@@ -240,7 +266,14 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
   if (of_functions && m.f.kind.empty() && m.g.kind.empty() && m.h.kind.empty())
     r.fail(v, m.model + " needs f, g or h");
   m.has_fiber = s.find("fiber") != nullptr;
-  if (const Value* x = s.find("viscoelastic")) read_viscoelastic(r, *x, m);
+  // One inelastic block at most: a material is viscoelastic or plastic (or elastic).
+  for (const InelasticKind& kind : inelastic_kinds())
+    if (const Value* x = s.find(kind.key)) {
+      if (!m.inelastic.kind.empty())
+        r.fail(*x, "a material takes one inelastic block, and this one has " + m.inelastic.kind + " (deck line " +
+                       std::to_string(m.inelastic.line) + ") too: give one of the two");
+      read_inelastic(r, *x, kind, m);
+    }
 
   const Value *density = s.find("density"), *total = s.find("total_mass");
   if (density && total) r.fail(*total, "give either density or total_mass, not both");

@@ -2,6 +2,9 @@
 
 #include <stdexcept>
 
+#include "materials/maxwell_branches.hpp"
+#include "params/deck_keys.hpp"
+
 namespace hyperqn {
 
 namespace {
@@ -13,6 +16,8 @@ std::unique_ptr<Material> create_neohookean(const MaterialParams& p) {
 }
 
 }  // namespace
+
+std::unique_ptr<Material> make_hencky(const MaterialParams& p);  // log_strain_plasticity.cpp
 
 const std::vector<MaterialKey>& elastic_constant_keys() {
   static const std::vector<MaterialKey> keys = {
@@ -34,27 +39,68 @@ const std::vector<MaterialKey>& fiber_keys() {
   return keys;
 }
 
-const std::vector<MaterialKey>& viscoelastic_keys() {
-  static const std::vector<MaterialKey> keys = {
-      {"viscoelastic", {},
-       "generalized Maxwell branches in parallel with the model, which is the equilibrium (long-term) part: "
-       "its shear modulus μ is the relaxed one, μ/(1 − Σg) the instantaneous; the bulk modulus does not relax "
-       "([materials.md](materials.md#viscoelasticity)). Not with `time.integrator: implicit-midpoint`, nor in a study",
-       {}, "map", false, "none"},
-      {"viscoelastic.branches", {},
-       "1 to 4 branches `{g: …, tau: …}`: g > 0 the branch's fraction of the instantaneous shear modulus (Σg < 1), "
-       "tau > 0 its relaxation time (s)",
-       {}, "list of maps", true},
-  };
-  return keys;
+// The viscoelastic block: the Prony series' fractions g must leave the equilibrium part a share.
+static std::string check_viscoelastic(const InelasticSpec& s, std::string* key) {
+  double sum = 0;
+  for (const auto& b : s.items) sum += b.at("g");
+  *key = "branches";
+  if (sum < 1) return "";
+  return "the fractions g sum to " + default_text(sum) +
+         "; they must sum to less than 1 (the rest is the equilibrium part's)";
 }
 
-std::vector<MaxwellBranch> maxwell_branches(const MaterialSpec& spec) {
+// Branch i's shear modulus is mu_i = g_i mu / (1 - sum g): the deck's mu is the long-term one.
+static std::unique_ptr<InelasticModel> create_viscoelastic(const MaterialSpec& spec) {
   double sum = 0;
-  for (const ViscoelasticBranch& b : spec.viscoelastic) sum += b.g;
+  for (const auto& b : spec.inelastic.items) sum += b.at("g");
   std::vector<MaxwellBranch> out;
-  for (const ViscoelasticBranch& b : spec.viscoelastic) out.push_back({b.g * spec.mu / (1.0 - sum), b.tau});
-  return out;
+  for (const auto& b : spec.inelastic.items) out.push_back({b.at("g") * spec.mu / (1.0 - sum), b.at("tau")});
+  return std::make_unique<MaxwellBranches>(std::move(out));
+}
+
+const InelasticKind& plasticity_kind();  // log_strain_plasticity.cpp
+
+const std::vector<InelasticKind>& inelastic_kinds() {
+  static const std::vector<InelasticKind> kinds = [] {
+    InelasticKind visco{"viscoelastic", "viscous", {}, {}, 1, kMaxMaxwellBranches, {}, false,
+                        "viscoelastic: {branches: [{g, tau}, ...]}", check_viscoelastic, create_viscoelastic};
+    visco.keys = {
+        {"viscoelastic", {},
+         "generalized Maxwell branches in parallel with the model, which is the equilibrium (long-term) part: "
+         "its shear modulus μ is the relaxed one, μ/(1 − Σg) the instantaneous; the bulk modulus does not relax "
+         "([inelastic.md](inelastic.md#viscoelasticity)). Not with `implicit-midpoint` (the deck's integrator or one "
+         "of a study's)",
+         {}, "map", false, "none"},
+        {"viscoelastic.branches", {},
+         "1 to 4 branches `{g: …, tau: …}`: g > 0 the branch's fraction of the instantaneous shear modulus (Σg < 1), "
+         "tau > 0 its relaxation time (s)",
+         {}, "list of maps", true},
+    };
+    visco.item_keys = {
+        {"g", {}, "", above(0, "the branch's fraction of the instantaneous shear modulus"), "", true},
+        {"tau", {}, "", above(0, "a relaxation time, s"), "", true},
+    };
+    return std::vector<InelasticKind>{visco, plasticity_kind()};
+  }();
+  return kinds;
+}
+
+const InelasticKind* find_inelastic_kind(const std::string& key) {
+  for (const InelasticKind& k : inelastic_kinds())
+    if (k.key == key) return &k;
+  return nullptr;
+}
+
+std::unique_ptr<InelasticModel> make_inelastic(const MaterialSpec& spec) {
+  const InelasticKind* kind = find_inelastic_kind(spec.inelastic.kind);
+  return kind ? kind->create(spec) : nullptr;
+}
+
+bool takes_inelastic(const MaterialModel& model, const InelasticKind& kind) {
+  if (kind.models.empty()) return model.elastic_constants;
+  for (const std::string& m : kind.models)
+    if (m == model.name) return true;
+  return false;
 }
 
 const std::vector<MaterialModel>& material_models() {
@@ -76,6 +122,8 @@ const std::vector<MaterialModel>& material_models() {
         {"g", {}, "as `f`", {}, "function", false, "none"},
         {"h", {}, "as `f`", {}, "function", false, "none"}},
        true, [](const MaterialParams& p) { return make_principal_stretch(p.f, p.g, p.h); }},
+      {"hencky", "mu |dev E|^2 + kappa/2 (tr E)^2, E = 1/2 log(F^T F), kappa = lambda + 2 mu/3 (the plastic law's)",
+       true, {}, false, make_hencky},
       {"mass-spring", "a spring k/2 (l - L)^2 on each edge of each tet", false,
        {{"spring_stiffness", &MaterialSpec::spring_stiffness,
          "a spring k/2 (ℓ − L)² on each of the 6 edges of every tet (an edge shared by m tets carries m springs); a "
@@ -91,7 +139,8 @@ std::vector<MaterialKey> model_keys(const MaterialModel& model) {
   if (model.elastic_constants) keys = elastic_constant_keys();
   keys.insert(keys.end(), model.keys.begin(), model.keys.end());
   if (model.fiber) keys.insert(keys.end(), fiber_keys().begin(), fiber_keys().end());
-  if (model.elastic_constants) keys.insert(keys.end(), viscoelastic_keys().begin(), viscoelastic_keys().end());
+  for (const InelasticKind& kind : inelastic_kinds())
+    if (takes_inelastic(model, kind)) keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
   return keys;
 }
 
@@ -101,8 +150,10 @@ std::string parameters_text(const MaterialModel& model) {
     const std::string rule = k.range.rule();
     s += (s.empty() ? "" : "; ") + std::string(k.name) + (rule.empty() ? "" : " (" + rule + ")");
   }
-  return s + (model.fiber ? "; fiber: {direction, stiffness} (optional)" : "") +
-         (model.elastic_constants ? "; viscoelastic: {branches: [{g, tau}, ...]} (optional)" : "");
+  s += model.fiber ? "; fiber: {direction, stiffness} (optional)" : "";
+  for (const InelasticKind& kind : inelastic_kinds())
+    if (takes_inelastic(model, kind)) s += std::string("; ") + kind.parameters + " (optional)";
+  return s;
 }
 
 const MaterialModel* find_material_model(const std::string& name) {

@@ -9,7 +9,7 @@
 
 #include "params/key_range.hpp"
 #include "materials/material.hpp"
-#include "materials/maxwell_branches.hpp"
+#include "materials/inelastic_model.hpp"
 #include "materials/scalar_function.hpp"
 
 namespace hyperqn {
@@ -38,13 +38,6 @@ struct FunctionSpec {
 
 // The deck's material (a body's, model/scene_spec.hpp): its keys (app/deck_keys.cpp, material_keys) come from
 // the registry below, each MaterialKey naming the member it sets.
-// A branch of the viscoelastic Prony series (materials/maxwell_branches.hpp), as the deck gives it.
-struct ViscoelasticBranch {
-  double g = 0;    // shear-modulus fraction of the instantaneous modulus, > 0 (sum over branches < 1)
-  double tau = 0;  // relaxation time, > 0
-  int line = 0;    // its deck line
-};
-
 struct MaterialSpec {
   std::string model = "corotated";   // a model of the registry below
   double youngs_modulus = 0, poisson_ratio = 0;  // as the deck gives them (if it does)
@@ -60,10 +53,8 @@ struct MaterialSpec {
   double total_mass = 0;             // total mass (used when has_density is false)
   double J0 = 0.1;                   // Neo-Hookean: start of the quadratic extension of log J
   double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
-  // Viscoelastic branches over the model as the equilibrium part (none: elastic). Branch i's shear
-  // modulus is mu_i = g_i mu / (1 - sum g): the deck's mu is the long-term one, mu / (1 - sum g)
-  // the instantaneous (docs/materials.md#viscoelasticity).
-  std::vector<ViscoelasticBranch> viscoelastic;
+  // The inelastic block (material.viscoelastic, material.plastic, ...: inelastic_kinds below), if any.
+  InelasticSpec inelastic;
 };
 
 // A deck key of material models (material.<name>), declared once here: its range, and which
@@ -84,10 +75,37 @@ struct MaterialKey {
 const std::vector<MaterialKey>& elastic_constant_keys();
 // The optional fibre term k/2 (||F d|| - 1)^2 on top of a model with `fiber`: fiber, fiber.direction, fiber.stiffness.
 const std::vector<MaterialKey>& fiber_keys();
-// The viscoelastic branches over a model with elastic constants: viscoelastic, viscoelastic.branches.
-const std::vector<MaterialKey>& viscoelastic_keys();
-// The branches' shear moduli and relaxation times of a material with viscoelastic branches.
-std::vector<MaxwellBranch> maxwell_branches(const MaterialSpec& spec);
+// An inelastic model's deck block and its builder: one entry of inelastic_kinds() per model
+// (docs/extending.md, "Add an inelastic model"). The deck reader reads the block generically
+// (app/deck_sections.cpp, read_inelastic): its numbers with their ranges, then check; the scene
+// gives each material that has it one InelasticModel from create, in a term per kind
+// (terms/inelastic_tets.hpp, model/elastic_terms.cpp).
+struct InelasticKind {
+  const char* key;    // material.<key>, also the word of messages ("viscoelastic")
+  const char* state;  // its ElementState's name: the checkpoints' key (elements_<state>)
+  // The map and its keys ("plastic", "plastic.yield_stress"), for the deck reader, --help-deck and
+  // the docs; a number key's range is checked by the reader, its value lands in InelasticSpec.values.
+  std::vector<MaterialKey> keys;
+  // A key of type "list of maps" among keys: its items' number keys, and how many items.
+  std::vector<MaterialKey> item_keys;
+  int min_items = 0, max_items = 0;
+  // The elastic models it sits on; empty: every model with elastic constants.
+  std::vector<std::string> models;
+  // True: the model's energy is the material's whole energy (the elastic model only names its
+  // elastic law); false: it adds to the elastic model's energy (its equilibrium part).
+  bool whole_energy = false;
+  const char* parameters;  // one line for --help: "viscoelastic: {branches: [{g, tau}, ...]}"
+  // The rules between the block's keys: "" or the problem, with the key it names in *key.
+  std::string (*check)(const InelasticSpec&, std::string* key);
+  // The model of a material whose block check passed (its elastic constants in spec).
+  std::unique_ptr<InelasticModel> (*create)(const MaterialSpec&);
+};
+// Every inelastic model, in the order decks and --help list them.
+const std::vector<InelasticKind>& inelastic_kinds();
+// The kind of that key, or null.
+const InelasticKind* find_inelastic_kind(const std::string& key);
+// The inelastic model of a material with an inelastic block (null without one).
+std::unique_ptr<InelasticModel> make_inelastic(const MaterialSpec& spec);
 
 struct MaterialModel {
   std::string name;        // material.model in a deck
@@ -103,7 +121,9 @@ struct MaterialModel {
   // its own, terms/mass_spring_tets.hpp).
   std::unique_ptr<Material> (*create)(const MaterialParams&);
 };
-// Every key of the model, in that order.
+// Whether the inelastic kind sits on the model.
+bool takes_inelastic(const MaterialModel& model, const InelasticKind& kind);
+// Every key of the model, in that order (its inelastic kinds' last).
 std::vector<MaterialKey> model_keys(const MaterialModel& model);
 // The model's keys in one line, for --help and `hyperqn registry`.
 std::string parameters_text(const MaterialModel& model);

@@ -189,4 +189,15 @@ void MaxwellBranches::update(const Mat3& F, const double* start, double dt, doub
   }
 }
 
+double MaxwellBranches::dissipation(const Mat3& F, const double* start, double dt, const double*) const {
+  double D = 0;
+  for (int i = 0; i < size(); ++i) {
+    const Trial t = trial(F, start + kViscousValues * i);
+    if (!t.ok) continue;
+    const double tau = branches_[i].tau;
+    D += 2.0 * branches_[i].mu * tau * dt / ((tau + dt) * (tau + dt)) * t.d.squaredNorm();
+  }
+  return D;
+}
+
 }  // namespace hyperqn

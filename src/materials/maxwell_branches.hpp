@@ -12,11 +12,12 @@
 // becomes C_v^{-1} = F^{-1} b_e F^{-T}, b_e = exp(2 eps_e) coaxial with e, eps_e = tau/(tau + dt) dev e
 // + (tr e / 3) I. At small strain each branch is a linear Maxwell element (stress 2 mu eps_e,
 // d eps_v/dt = eps_e / tau) integrated by backward Euler: first order in dt.
-// No PETSc: unit-tested alone (tests/test_materials.cpp).
+// One InelasticModel (materials/inelastic_model.hpp). No PETSc: unit-tested alone
+// (tests/test_viscoelastic.cpp).
 #pragma once
 #include <vector>
 
-#include "materials/material.hpp"
+#include "materials/inelastic_model.hpp"
 
 namespace hyperqn {
 
@@ -29,24 +30,33 @@ inline constexpr int kMaxMaxwellBranches = 4;
 // A branch's history: C_v^{-1} (symmetric, det 1): xx, yy, zz, xy, yz, xz.
 inline constexpr int kViscousValues = 6;
 
-class MaxwellBranches {
+class MaxwellBranches : public InelasticModel {
  public:
   // Throws std::invalid_argument for no branch, more than kMaxMaxwellBranches, mu or tau not > 0.
   explicit MaxwellBranches(std::vector<MaxwellBranch> branches);
   int size() const { return (int)branches_.size(); }
   const std::vector<MaxwellBranch>& branches() const { return branches_; }
+  std::string name() const override { return "viscoelastic"; }
+  int history_width() const override { return kViscousValues * size(); }
   // The history at rest (C_v = I), kViscousValues per branch.
-  void rest(double* history) const;
+  void rest(double* history) const override;
   // The branches' condensed energy W(F) of a step of dt from history (per rest volume), and P =
   // dW/dF added to *P if P is not null. dt = 0: the energy stored in the branches as they stand
   // (history the current one). +inf where F F^T is singular (det F = 0); finite for inverted F.
-  double energy(const Mat3& F, const double* history, double dt, Mat3* P) const;
+  double energy(const Mat3& F, const double* history, double dt, Mat3* P) const override;
+  double stored_energy(const Mat3& F, const double* history, Mat3* P) const override {
+    return energy(F, history, 0.0, P);
+  }
   // d2W/dF2 (exact; symmetric, possibly indefinite).
-  Mat9 stress_derivative(const Mat3& F, const double* history, double dt) const;
+  Mat9 stress_derivative(const Mat3& F, const double* history, double dt) const override;
   // The history at the end of the step of dt from start that ends at F (det F != 0).
-  void update(const Mat3& F, const double* start, double dt, double* end) const;
+  void update(const Mat3& F, const double* start, double dt, double* end) const override;
+  // The branches' stress power over the step: per branch, the end's Kirchhoff stress 2 mu dev eps_e
+  // times the viscous increment dev e dt / (tau + dt), 2 mu tau dt / (tau + dt)^2 |dev e|^2 (twice the
+  // dissipation potential's share of W: the potential is quadratic). end is not read.
+  double dissipation(const Mat3& F, const double* start, double dt, const double* end) const override;
   // The instantaneous shear stiffness of the branches in L's weight: sum of 2 mu_i (as a fibre adds k).
-  double laplacian_weight() const;
+  double laplacian_weight() const override;
 
  private:
   std::vector<MaxwellBranch> branches_;

@@ -8,11 +8,11 @@
 #include "terms/cloth_membrane.hpp"
 #include "terms/cloth_springs.hpp"
 #include "terms/continuum_tets.hpp"
+#include "terms/inelastic_tets.hpp"
 #include "terms/element_kernels.hpp"
 #include "terms/mass_spring_tets.hpp"
 #include "terms/self_contact.hpp"
 #include "terms/strand_segments.hpp"
-#include "terms/viscoelastic_tets.hpp"
 #include "terms/surface_mass.hpp"
 
 namespace hyperqn {
@@ -32,34 +32,49 @@ static void add_tet_terms(const DistributedMesh& mesh, const std::vector<Materia
                           std::vector<std::unique_ptr<EnergyTerm>>& terms) {
   if (mesh.global_cells == 0) return;
   std::vector<std::unique_ptr<Material>> continuum, equilibrium;
-  std::vector<std::unique_ptr<MaxwellBranches>> branches;
+  std::vector<std::unique_ptr<InelasticModel>> inelastic;
   std::vector<double> stiffness, weight, density;
-  bool any_continuum = false, any_springs = false, any_viscous = false;
+  bool any_continuum = false, any_springs = false;
   for (const MaterialSpec& spec : materials) {
     // A model that is not an energy density of F is the mass-spring one (material_factory.hpp).
     const bool springs = !find_material_model(spec.model)->create;
-    // A viscoelastic material's tets are the viscoelastic term's, its model their equilibrium part.
-    const bool viscous = !spec.viscoelastic.empty();
+    // An inelastic material's tets are its kind's term's, its model their equilibrium part (or only
+    // its elastic law's name, for a kind whose energy is the whole: plasticity).
+    const InelasticKind* kind = find_inelastic_kind(spec.inelastic.kind);
     std::unique_ptr<Material> material = springs ? nullptr : make_material(spec);
-    // A spring's own weight in L is its stiffness k; the branches add their instantaneous 2 sum mu_i.
-    double own = springs ? spec.spring_stiffness : material->laplacian_weight();
-    branches.push_back(viscous ? std::make_unique<MaxwellBranches>(maxwell_branches(spec)) : nullptr);
-    if (viscous) own += branches.back()->laplacian_weight();
-    continuum.push_back(viscous ? nullptr : std::move(material));
-    equilibrium.push_back(viscous ? std::move(material) : nullptr);
+    if (kind && kind->whole_energy) material = nullptr;
+    inelastic.push_back(kind ? kind->create(spec) : nullptr);
+    // A spring's own weight in L is its stiffness k; an inelastic model adds its own (the branches
+    // their instantaneous 2 sum mu_i).
+    double own = springs ? spec.spring_stiffness : material ? material->laplacian_weight() : 0.0;
+    if (kind) own += inelastic.back()->laplacian_weight();
+    continuum.push_back(kind ? nullptr : std::move(material));
+    equilibrium.push_back(kind ? std::move(material) : nullptr);
     stiffness.push_back(springs ? spec.spring_stiffness : 0.0);
     weight.push_back(spec.laplacian_weight > 0 ? spec.laplacian_weight : own);
     const int k = (int)density.size();
     const double volume = spec.has_density ? 0.0 : rest_volume(mesh, k);
     density.push_back(spec.has_density ? spec.density : volume > 0 ? spec.total_mass / volume : 0.0);
-    any_continuum = any_continuum || (!springs && !viscous);
+    any_continuum = any_continuum || (!springs && !kind);
     any_springs = any_springs || springs;
-    any_viscous = any_viscous || viscous;
   }
   if (any_continuum) terms.push_back(std::make_unique<ContinuumTets>(mesh, std::move(continuum), weight, density));
   if (any_springs) terms.push_back(std::make_unique<MassSpringTets>(mesh, stiffness, weight, density));
-  if (any_viscous)
-    terms.push_back(std::make_unique<ViscoelasticTets>(mesh, std::move(equilibrium), std::move(branches), weight, density));
+  // One term per inelastic kind, with its materials' models (the others' null).
+  for (const InelasticKind& kind : inelastic_kinds()) {
+    std::vector<std::unique_ptr<Material>> its_materials;
+    std::vector<std::unique_ptr<InelasticModel>> its_models;
+    bool any = false;
+    for (size_t m = 0; m < materials.size(); ++m) {
+      const bool its = materials[m].inelastic.kind == kind.key;
+      its_materials.push_back(its ? std::move(equilibrium[m]) : nullptr);
+      its_models.push_back(its ? std::move(inelastic[m]) : nullptr);
+      any = any || its;
+    }
+    if (any)
+      terms.push_back(std::make_unique<InelasticTets>(mesh, kind.state, std::move(its_materials), std::move(its_models),
+                                                      weight, density));
+  }
 }
 
 // A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all):

@@ -22,6 +22,10 @@ MATERIALS = {
                          "h": {"spline": {"x": [0.0, 1.0, 2.0], "y": [-LAMBDA, 0.0, LAMBDA]}}},
     # k per tet edge chosen so the bar sags about as much as the continuum ones.
     "mass_spring": {"model": "mass-spring", "spring_stiffness": 2.0e3},
+    "hencky": {"model": "hencky", "youngs_modulus": E, "poisson_ratio": NU},
+    # J2 plasticity over it, yielding at the root as it sags (docs/inelastic.md#plasticity).
+    "hencky_plastic": {"model": "hencky", "youngs_modulus": E, "poisson_ratio": NU,
+                       "plastic": {"yield_stress": 2.0e3, "isotropic_hardening": 1.0e4, "kinematic_hardening": 1.0e4}},
     "neohookean_fiber": {"model": "neohookean", "youngs_modulus": E, "poisson_ratio": NU,
                          "fiber": {"direction": [1, 0, 0], "stiffness": 5 * E}},
 }

@@ -37,6 +37,6 @@ def test_material_keys_come_from_the_registry():
     for name in ("f", "g", "h"):
         assert keys[name]["doc"].startswith("with `principal-stretch` only:"), keys[name]
     for name in ("youngs_modulus", "poisson_ratio", "mu", "lambda"):
-        assert keys[name]["doc"].startswith("with `corotated`, `neohookean`, `stvk` only:"), keys[name]
+        assert keys[name]["doc"].startswith("with `corotated`, `neohookean`, `stvk`, `hencky` only:"), keys[name]
     assert keys["fiber.direction"]["default"] == "required with `fiber`"
     assert "only" not in keys["density"]["doc"] and "only" not in keys["laplacian_weight"]["doc"]

@@ -1,0 +1,92 @@
+#include "terms/inelastic_tets.hpp"
+
+#include <algorithm>
+
+namespace hyperqn {
+
+namespace {
+
+// The global ids of the local cells, in the term's order.
+std::vector<int64_t> ids_of(const DistributedMesh& mesh, const std::vector<PetscInt>& cells) {
+  std::vector<int64_t> ids;
+  for (PetscInt c : cells) ids.push_back(mesh.cell_ids[c]);
+  return ids;
+}
+
+// Values per element: the widest model's history.
+int width(const std::vector<std::unique_ptr<InelasticModel>>& models) {
+  int n = 0;
+  for (const auto& m : models)
+    if (m) n = std::max(n, m->history_width());
+  return n;
+}
+
+}  // namespace
+
+InelasticTets::InelasticTets(const DistributedMesh& mesh, const std::string& state,
+                             std::vector<std::unique_ptr<Material>> materials,
+                             std::vector<std::unique_ptr<InelasticModel>> models, std::vector<double> weight,
+                             std::vector<double> density)
+    : TetElements(mesh, cells_where(mesh, [&](int m) { return models[m] != nullptr; }), std::move(density), true),
+      materials_(std::move(materials)),
+      models_(std::move(models)),
+      weight_(std::move(weight)),
+      state_(state, width(models_), ids_of(mesh, cells_)) {
+  std::vector<double> rest(state_.elements() * state_.per_element(), 0.0);
+  for (size_t k = 0; k < cells_.size(); ++k)
+    models_[mesh.cell_material[cells_[k]]]->rest(&rest[k * state_.per_element()]);
+  state_.restore(std::move(rest));
+}
+
+std::string InelasticTets::name() const {
+  std::string s;
+  for (size_t m = 0; m < models_.size(); ++m) {
+    if (!models_[m]) continue;
+    const std::string material = materials_[m] ? materials_[m]->name() : "";  // none: the model names it
+    if (s.empty()) s = models_[m]->name() + (material.empty() ? "" : " " + material);
+    else if (!material.empty()) s += ", " + material;
+  }
+  return s;
+}
+
+PetscErrorCode InelasticTets::begin_step(const StepStart& step) {
+  dt_ = step.t - step.t_start;
+  return 0;
+}
+
+double InelasticTets::energy(int m, const Mat3& F, const double* h, double dt, Mat3* P) const {
+  const double psi = !materials_[m] ? 0.0 : P ? materials_[m]->energy_and_stress(F, *P) : materials_[m]->energy(F);
+  if (!materials_[m] && P) P->setZero();
+  return psi + models_[m]->energy(F, h, dt, P);
+}
+
+double InelasticTets::element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const {
+  return energy(m, F, state_.start(k), dt_, P);
+}
+
+void InelasticTets::stored_energy_batch(size_t k, int m, StressBatch& b, int n) const {
+  per_element(b, n, [&](int e, const Mat3& F, Mat3& P) {
+    const double psi = materials_[m] ? materials_[m]->energy_and_stress(F, P) : (P.setZero(), 0.0);
+    return psi + models_[m]->stored_energy(F, state_.current(k + e), &P);
+  });
+}
+
+Mat9 InelasticTets::element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const {
+  Mat9 C = models_[m]->stress_derivative(F, state_.start(k), dt_);
+  if (materials_[m]) C = materials_[m]->stress_derivative(F) + C;
+  return psd ? project_psd(C) : C;
+}
+
+Eigen::Matrix<double, 4, 4, Eigen::RowMajor> InelasticTets::element_laplacian(PetscInt k, int m, double scale) const {
+  return weighted_laplacian(k, scale * weight_[m]);
+}
+
+PetscErrorCode InelasticTets::update_state(const std::vector<double>& pos) {
+  for (size_t k = 0; k < cells_.size(); ++k) {
+    const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * cells_[k]]) * Dm_inv(k);
+    models_[mesh_.cell_material[cells_[k]]]->update(F, state_.start(k), dt_, state_.current(k));
+  }
+  return 0;
+}
+
+}  // namespace hyperqn

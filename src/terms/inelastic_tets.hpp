@@ -1,0 +1,51 @@
+// Tets of inelastic materials (docs/inelastic.md#inelastic-models): per material an inelastic model
+// (materials/inelastic_model.hpp: the viscoelastic Maxwell branches, J2 plasticity), over an
+// equilibrium hyperelastic material or alone (a model whose energy is the material's whole one).
+// Within a step of dt the element's energy is V_e (psi(F) + W(F; h_n, dt)), W the model's condensed
+// incremental energy from the history at the step's start, so the step stays one minimization; at
+// its accept the history moves to the step's end (update_state). Each element carries its history
+// in the term's ElementState (the kind's name: "viscous", "plastic"; the width of its widest
+// model), checkpointed and carried over by global cell id. L's weight is the equilibrium material's
+// (or the deck's laplacian_weight) plus the model's. One term per inelastic kind
+// (model/elastic_terms.cpp); a scene without inelastic materials has none.
+#pragma once
+#include <memory>
+
+#include "materials/inelastic_model.hpp"
+#include "terms/tet_elements.hpp"
+
+namespace hyperqn {
+
+class InelasticTets : public TetElements {
+ public:
+  // state: the history's name (the checkpoints' key); models[m]: the inelastic model of cells with
+  // cell_material m, or null where another term holds them; materials[m] its equilibrium material
+  // (null: the model's energy is the whole); weight[m] its weight in L; density[m] its mass per rest
+  // volume.
+  InelasticTets(const DistributedMesh& mesh, const std::string& state, std::vector<std::unique_ptr<Material>> materials,
+                std::vector<std::unique_ptr<InelasticModel>> models, std::vector<double> weight,
+                std::vector<double> density);
+  std::string name() const override;
+  bool projective_dynamics_exact() const override { return false; }
+  // The step's length dt = t - t_start (a sub-step's own; the static integrator's load step h).
+  PetscErrorCode begin_step(const StepStart& step) override;
+  ElementState* element_state() override { return &state_; }
+  PetscErrorCode update_state(const std::vector<double>& pos) override;
+  double step_length() const { return dt_; }
+
+ private:
+  double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
+  void stored_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
+  Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
+  // psi (if any) + the model's W with the history h and step length dt.
+  double energy(int m, const Mat3& F, const double* h, double dt, Mat3* P) const;
+
+  std::vector<std::unique_ptr<Material>> materials_;
+  std::vector<std::unique_ptr<InelasticModel>> models_;
+  std::vector<double> weight_;
+  ElementState state_;
+  double dt_ = 0;
+};
+
+}  // namespace hyperqn
