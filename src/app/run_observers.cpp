@@ -293,6 +293,9 @@ PetscErrorCode RunLogs::before_frame(int) {
 PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
   PetscFunctionBeginUser;
   if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
+  const Body& body = *run_.scene.current().body;
+  if (outcome.lead.stop.empty() && !body.element_states().empty())
+    PetscCall(body.dissipated_energy(&run_.summary.dissipated_energy));
   if (outcome.lead.stop.empty() && reactions_) PetscCall(record_reactions(outcome.frame));
   flush();  // also the rows of a frame that stops the run; before a checkpoint, which cuts the logs at its frame
   PetscFunctionReturn(0);

@@ -4,6 +4,7 @@
 #include <petscsys.h>
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -97,6 +98,9 @@ struct RunSummary {
   double momentum_drift = 0, momentum_scale = 0;
   long long momentum_drift_frame = 0;
   std::vector<SupportReaction> reactions;  // output.reactions only (empty: none, and no entry in summary.json)
+  // The energy the materials with history dissipated since the run began (J; NaN: a scene without
+  // them, and no entry in summary.json).
+  double dissipated_energy = std::nan("");
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)
 };

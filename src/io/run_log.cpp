@@ -215,6 +215,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"contact_s\": " << number(s.contact_s) << ",\n"
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << reactions_entry(s.reactions)
+      << (std::isnan(s.dissipated_energy) ? "" : "  \"dissipated_energy\": " + number(s.dissipated_energy) + ",\n")
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"
       << "  \"peak_rss_mb_by_rank\": [";

@@ -16,6 +16,10 @@
 
 namespace hyperqn {
 
+// What an output field reads from a model's history (terms/inelastic_tets.cpp gives them the
+// names of output.fields: viscous_strain, equivalent_plastic_strain).
+enum class HistoryMeasure { viscous_strain, equivalent_plastic_strain };
+
 class InelasticModel {
  public:
   virtual ~InelasticModel() = default;
@@ -38,6 +42,9 @@ class InelasticModel {
   virtual double dissipation(const Mat3& F, const double* start, double dt, const double* end) const = 0;
   // Its weight in L (the instantaneous stiffness it adds near rest, as a fibre adds k).
   virtual double laplacian_weight() const = 0;
+  // Whether its history has measure m, and m's value for a history (the output fields).
+  virtual bool has_measure(HistoryMeasure /*m*/) const { return false; }
+  virtual double measure(HistoryMeasure /*m*/, const double* /*history*/) const { return 0; }
 };
 
 // A material's inelastic block as the deck gives it (material.<kind>, one kind of

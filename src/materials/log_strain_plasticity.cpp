@@ -204,6 +204,11 @@ class LogStrainPlasticity : public InelasticModel {
     return std::sqrt(2.0 / 3.0) * p_.sigma_y * std::sqrt(d2);
   }
   double laplacian_weight() const override { return 2.0 * p_.mu + (p_.kappa - 2.0 * p_.mu / 3.0); }
+  // equivalent_plastic_strain: alpha.
+  bool has_measure(HistoryMeasure m) const override { return m == HistoryMeasure::equivalent_plastic_strain; }
+  double measure(HistoryMeasure m, const double* h) const override {
+    return m == HistoryMeasure::equivalent_plastic_strain ? h[6] : 0.0;
+  }
 
  private:
   double value(const Mat3& F, const double* h, bool flow, Mat3* P) const {

@@ -1,5 +1,6 @@
 #include "materials/maxwell_branches.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -198,6 +199,16 @@ double MaxwellBranches::dissipation(const Mat3& F, const double* start, double d
     D += 2.0 * branches_[i].mu * tau * dt / ((tau + dt) * (tau + dt)) * t.d.squaredNorm();
   }
   return D;
+}
+
+double MaxwellBranches::measure(HistoryMeasure m, const double* history) const {
+  if (m != HistoryMeasure::viscous_strain) return 0;
+  double largest = 0;
+  for (int i = 0; i < size(); ++i) {  // |1/2 log C_v| = |1/2 log C_v^{-1}|: from C_v^{-1}'s eigenvalues
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(unpack(history + kViscousValues * i), Eigen::EigenvaluesOnly);
+    largest = std::max(largest, 0.5 * eig.eigenvalues().array().log().matrix().norm());
+  }
+  return largest;
 }
 
 }  // namespace hyperqn

@@ -57,6 +57,9 @@ class MaxwellBranches : public InelasticModel {
   double dissipation(const Mat3& F, const double* start, double dt, const double* end) const override;
   // The instantaneous shear stiffness of the branches in L's weight: sum of 2 mu_i (as a fibre adds k).
   double laplacian_weight() const override;
+  // viscous_strain: the largest over the branches of |eps_v|, eps_v = 1/2 log C_v (the flowed log strain).
+  bool has_measure(HistoryMeasure m) const override { return m == HistoryMeasure::viscous_strain; }
+  double measure(HistoryMeasure m, const double* history) const override;
 
  private:
   std::vector<MaxwellBranch> branches_;

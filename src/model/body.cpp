@@ -330,6 +330,14 @@ std::vector<ElementState*> Body::element_states() const {
   return states;
 }
 
+PetscErrorCode Body::dissipated_energy(double* total) const {
+  double local = 0;
+  PetscFunctionBeginUser;
+  for (const auto& t : terms_) local += t->dissipated_energy();
+  PetscCallMPI(MPI_Allreduce(&local, total, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
+  PetscFunctionReturn(0);
+}
+
 std::vector<ElementState> Body::copy_element_states() const {
   std::vector<ElementState> copies;
   for (const ElementState* state : element_states()) copies.push_back(*state);

@@ -70,6 +70,9 @@ class Body {
   void undo_element_states(bool substep = false);
   // Every term's element state, in the terms' order (checkpoints).
   std::vector<ElementState*> element_states() const;
+  // The energy the terms' elements have dissipated since the run began (J, EnergyTerm::
+  // dissipated_energy), summed over the ranks (collective).
+  PetscErrorCode dissipated_energy(double* total) const;
   // The values of `from`'s element states (a scene before its rebuild) into this body's states of
   // the same name, element by element through the global ids.
   void carry_element_states(const Body& from);

@@ -12,7 +12,7 @@
 namespace hyperqn {
 
 enum class ElementField { cauchy_stress, von_mises, principal_stretches, green_strain, energy_density, axial_force,
-                          membrane_stress };
+                          membrane_stress, dissipated_energy, viscous_strain, equivalent_plastic_strain };
 
 struct ElementFieldInfo {
   const char* name;      // as the deck and the files name it
@@ -31,6 +31,9 @@ inline const std::vector<ElementFieldInfo>& element_field_infos() {
       {"axial_force", 1, "strand segments"},
       {"membrane_stress", 6,
        "cloth triangles of the membrane model (cloth.model: membrane; a mass-spring cloth's edge springs have no membrane stress)"},
+      {"dissipated_energy", 1, "tets of inelastic materials (material.viscoelastic, material.plastic)"},
+      {"viscous_strain", 1, "tets of viscoelastic materials (material.viscoelastic)"},
+      {"equivalent_plastic_strain", 1, "tets of plastic materials (material.plastic)"},
   };
   return infos;
 }

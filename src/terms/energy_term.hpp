@@ -135,6 +135,9 @@ class EnergyTerm {
   // step's length is t - t_start of the last begin_step (StepStart).
   virtual ElementState* element_state() { return nullptr; }
   virtual PetscErrorCode update_state(const std::vector<double>& /*pos*/) { return 0; }
+  // The energy its elements on this rank have dissipated since the run began (J, in the state as
+  // it stands; a material with history: docs/inelastic.md#what-a-run-reports), 0 for an elastic term.
+  virtual double dissipated_energy() const { return 0; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for
   // a term whose parameters scale with the mass (the contact penalty).
   virtual PetscErrorCode set_masses(Vec /*mass*/) { return 0; }

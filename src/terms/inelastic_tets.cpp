@@ -31,8 +31,9 @@ InelasticTets::InelasticTets(const DistributedMesh& mesh, const std::string& sta
       materials_(std::move(materials)),
       models_(std::move(models)),
       weight_(std::move(weight)),
-      state_(state, width(models_), ids_of(mesh, cells_)) {
-  std::vector<double> rest(state_.elements() * state_.per_element(), 0.0);
+      state_(state, width(models_) + 1, ids_of(mesh, cells_)),
+      dissipated_(state_.per_element() - 1) {
+  std::vector<double> rest(state_.elements() * state_.per_element(), 0.0);  // nothing dissipated
   for (size_t k = 0; k < cells_.size(); ++k)
     models_[mesh.cell_material[cells_[k]]]->rest(&rest[k * state_.per_element()]);
   state_.restore(std::move(rest));
@@ -84,9 +85,54 @@ Eigen::Matrix<double, 4, 4, Eigen::RowMajor> InelasticTets::element_laplacian(Pe
 PetscErrorCode InelasticTets::update_state(const std::vector<double>& pos) {
   for (size_t k = 0; k < cells_.size(); ++k) {
     const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * cells_[k]]) * Dm_inv(k);
-    models_[mesh_.cell_material[cells_[k]]]->update(F, state_.start(k), dt_, state_.current(k));
+    const InelasticModel& model = *models_[mesh_.cell_material[cells_[k]]];
+    const double* start = state_.start(k);
+    double* end = state_.current(k);
+    model.update(F, start, dt_, end);
+    end[dissipated_] = start[dissipated_] + model.dissipation(F, start, dt_, end);
   }
   return 0;
+}
+
+double InelasticTets::dissipated_energy() const {
+  double sum = 0;
+  for (size_t k = 0; k < cells_.size(); ++k) sum += volume_[k] * state_.current(k)[dissipated_];
+  return sum;
+}
+
+namespace {
+
+// The output field of a history measure.
+constexpr std::pair<ElementField, HistoryMeasure> kMeasureFields[] = {
+    {ElementField::viscous_strain, HistoryMeasure::viscous_strain},
+    {ElementField::equivalent_plastic_strain, HistoryMeasure::equivalent_plastic_strain}};
+
+}  // namespace
+
+std::vector<ElementField> InelasticTets::element_fields() const {
+  std::vector<ElementField> fields = TetElements::element_fields();
+  fields.push_back(ElementField::dissipated_energy);
+  for (const auto& [field, measure] : kMeasureFields)
+    if (std::any_of(models_.begin(), models_.end(), [&](const auto& m) { return m && m->has_measure(measure); }))
+      fields.push_back(field);
+  return fields;
+}
+
+void InelasticTets::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
+  TetElements::fill_element_fields(pos, fields);
+  for (ElementFieldValues& f : fields) {
+    if (f.field == ElementField::dissipated_energy) {
+      for (size_t k = 0; k < cells_.size(); ++k) f.values[cells_[k]] = state_.current(k)[dissipated_];
+      continue;
+    }
+    for (const auto& [field, measure] : kMeasureFields) {
+      if (f.field != field) continue;
+      for (size_t k = 0; k < cells_.size(); ++k) {
+        const InelasticModel& model = *models_[mesh_.cell_material[cells_[k]]];
+        if (model.has_measure(measure)) f.values[cells_[k]] = model.measure(measure, state_.current(k));
+      }
+    }
+  }
 }
 
 }  // namespace hyperqn

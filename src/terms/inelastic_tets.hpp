@@ -5,7 +5,7 @@
 // incremental energy from the history at the step's start, so the step stays one minimization; at
 // its accept the history moves to the step's end (update_state). Each element carries its history
 // in the term's ElementState (the kind's name: "viscous", "plastic"; the width of its widest
-// model), checkpointed and carried over by global cell id. L's weight is the equilibrium material's
+// model, and the energy it has dissipated), checkpointed and carried over by global cell id. L's weight is the equilibrium material's
 // (or the deck's laplacian_weight) plus the model's. One term per inelastic kind
 // (model/elastic_terms.cpp); a scene without inelastic materials has none.
 #pragma once
@@ -31,7 +31,12 @@ class InelasticTets : public TetElements {
   PetscErrorCode begin_step(const StepStart& step) override;
   ElementState* element_state() override { return &state_; }
   PetscErrorCode update_state(const std::vector<double>& pos) override;
+  double dissipated_energy() const override;
   double step_length() const { return dt_; }
+  // The tets' fields and dissipated_energy, and those of its models' histories (viscous_strain,
+  // equivalent_plastic_strain), each where a model has it (NaN in the others' tets).
+  std::vector<ElementField> element_fields() const override;
+  void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
 
  private:
   double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
@@ -44,7 +49,10 @@ class InelasticTets : public TetElements {
   std::vector<std::unique_ptr<Material>> materials_;
   std::vector<std::unique_ptr<InelasticModel>> models_;
   std::vector<double> weight_;
+  // Per element its models' history, then the energy dissipated since the run began per rest
+  // volume (the last value: the step's dissipation added at each accept).
   ElementState state_;
+  int dissipated_ = 0;  // that value's index in an element's values
   double dt_ = 0;
 };
 
