@@ -129,7 +129,9 @@ def test_perfectly_plastic_loop_area(tmp_path):
     up = [-eps_a + 2 * eps_a * k / (2 * steps) for k in range(1, 2 * steps + 1)]
     # The log strain cycles between +-eps_a: u = exp(e) - 1.
     path = [math.expm1(x) for x in quarter + down + up]
-    out, _ = run_deck(tmp_path, "loop", bar_deck(path, {"yield_stress": SIGMA_Y}))
+    deck = bar_deck(path, {"yield_stress": SIGMA_Y})
+    deck["output"]["fields"] += ["dissipated_energy", "equivalent_plastic_strain"]
+    out, summary = run_deck(tmp_path, "loop", deck)
     curve = axial(out)[steps:]  # from eps_a round to eps_a
     e = np.array([c[0] for c in curve])
     s = np.array([c[1].mean() for c in curve])
@@ -137,6 +139,23 @@ def test_perfectly_plastic_loop_area(tmp_path):
     exact = 4 * SIGMA_Y * (eps_a - SIGMA_Y / YOUNG)
     print(f"\nloop area {area:.6g}, 4 sigma_y (eps_a - sigma_y/E) {exact:.6g}, rel {area / exact - 1:.2e}")
     assert abs(area / exact - 1) <= 1e-2
+    # The material's account (the unit cube's 48 tets, each of volume 1/48): the energy it
+    # dissipated over the loop is sigma_y times the plastic strain it crossed, 4 (eps_a - sigma_y/E),
+    # and alpha ends at 5 (eps_a - sigma_y/E) (the first loading's, then the loop's).
+    frames = [(n, frame_meshes(p)) for n, _, p in frame_list(out)]
+    def field(meshes, name):
+        return np.concatenate([np.ravel(m.cell_data[name][b]) for m in meshes for b in range(len(m.cells))])
+    start, end = frames[steps][1], frames[-1][1]
+    lost = (field(end, "dissipated_energy") - field(start, "dissipated_energy")).mean()
+    alpha = field(end, "equivalent_plastic_strain")
+    flow = eps_a - SIGMA_Y / YOUNG
+    print(f"dissipated over the loop {lost:.6g} ({lost / exact - 1:+.2e} of the closed form, {lost / area - 1:+.2e} "
+          f"of the loop); alpha {alpha.mean():.6g} against {5 * flow:.6g}")
+    assert abs(lost / exact - 1) <= 1e-2 and abs(lost / area - 1) <= 1e-3
+    assert np.ptp(alpha) <= 1e-9 and abs(alpha.mean() / (5 * flow) - 1) <= 1e-2
+    assert summary["dissipated_energy"] == pytest.approx(field(end, "dissipated_energy").mean(), rel=1e-9)
+    for (_, a), (_, b) in zip(frames, frames[1:]):
+        assert np.all(field(b, "dissipated_energy") >= field(a, "dissipated_energy")), "dissipation never falls"
 
 
 def test_two_ranks_and_restart(tmp_path):
