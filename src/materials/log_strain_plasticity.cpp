@@ -23,6 +23,8 @@
 #include <stdexcept>
 
 #include "materials/material_factory.hpp"
+#include "materials/spectral3.hpp"
+#include "materials/symmetric6.hpp"
 
 namespace hyperqn {
 
@@ -30,31 +32,6 @@ namespace {
 
 // The history: E_p (xx, yy, zz, xy, yz, xz), then alpha.
 constexpr int kPlasticValues = 7;
-
-Mat3 unpack(const double* h) {
-  Mat3 A;
-  A << h[0], h[3], h[5], h[3], h[1], h[4], h[5], h[4], h[2];
-  return A;
-}
-
-void pack(const Mat3& A, double* h) {
-  h[0] = A(0, 0);
-  h[1] = A(1, 1);
-  h[2] = A(2, 2);
-  h[3] = 0.5 * (A(0, 1) + A(1, 0));
-  h[4] = 0.5 * (A(1, 2) + A(2, 1));
-  h[5] = 0.5 * (A(0, 2) + A(2, 0));
-}
-
-// (log x - log y) / (x - y), also where x and y (> 0) are close: 2 atanh(s) / (s (x + y)), s = (x - y) / (x + y).
-double log_divided(double x, double y) {
-  const double s = (x - y) / (x + y);
-  if (std::fabs(s) < 1e-3) {
-    const double s2 = s * s;
-    return 2.0 / (x + y) * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 / 7.0)));
-  }
-  return 2.0 * std::atanh(s) / (s * (x + y));
-}
 
 // The second divided difference log[x, y, z] (symmetric). Where the three are within 1e-4 of their
 // mean m, the Hermite-Genocchi integral of log'' = -1/t^2 over the simplex expanded about m:
@@ -68,7 +45,7 @@ double log_divided2(double x, double y, double z) {
     const double d2 = (x - m) * (x - m) + (y - m) * (y - m) + (z - m) * (z - m);
     return -1.0 / (2.0 * m * m) - d2 / (8.0 * m * m * m * m);
   }
-  return (log_divided(a, b) - log_divided(b, c)) / (a - c);
+  return (spectral3::log_divided(a, b) - spectral3::log_divided(b, c)) / (a - c);
 }
 
 // The return map at F from history h: C's eigenbasis N and eigenvalues l, E and T in that basis
@@ -102,7 +79,7 @@ Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
   const double theta = Ediag.sum();
   Mat3 e = Mat3::Zero();  // dev E (primed)
   for (int a = 0; a < 3; ++a) e(a, a) = Ediag(a) - theta / 3.0;
-  const Mat3 Epn = h ? unpack(h) : Mat3::Zero();
+  const Mat3 Epn = h ? unpack_symmetric(h) : Mat3::Zero();
   const double alpha_n = h ? h[6] : 0.0;
   const Mat3 Epn_p = r.N.transpose() * Epn * r.N;
   Mat3 Ep_p = Epn_p;
@@ -130,7 +107,7 @@ Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
 Mat3 first_piola(const Mat3& F, const Return& r) {
   Mat3 Sp;
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) Sp(a, b) = log_divided(r.l(a), r.l(b)) * r.Tp(a, b);
+    for (int b = 0; b < 3; ++b) Sp(a, b) = spectral3::log_divided(r.l(a), r.l(b)) * r.Tp(a, b);
   return F * (r.N * Sp * r.N.transpose());
 }
 
@@ -141,7 +118,7 @@ Mat9 tangent(const Params& p, const Mat3& F, const Return& r) {
   double f2[3][3][3];
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) {
-      f1(a, b) = log_divided(r.l(a), r.l(b));
+      f1(a, b) = spectral3::log_divided(r.l(a), r.l(b));
       for (int k = 0; k < 3; ++k) f2[a][k][b] = log_divided2(r.l(a), r.l(k), r.l(b));
     }
   Mat3 Sp = f1.cwiseProduct(r.Tp);
@@ -194,7 +171,7 @@ class LogStrainPlasticity : public InelasticModel {
       for (int k = 0; k < kPlasticValues; ++k) end[k] = start[k];
       return;
     }
-    pack(r.Ep, end);
+    pack_symmetric(r.Ep, end);
     end[6] = r.alpha;
   }
   // sqrt(2/3) sigma_y |E_p - E_p,n|: the stress power T : dE_p less the hardening's stored share.

@@ -7,25 +7,11 @@
 #include <string>
 
 #include "materials/spectral3.hpp"
+#include "materials/symmetric6.hpp"
 
 namespace hyperqn {
 
 namespace {
-
-Mat3 unpack(const double* h) {
-  Mat3 A;
-  A << h[0], h[3], h[5], h[3], h[1], h[4], h[5], h[4], h[2];
-  return A;
-}
-
-void pack(const Mat3& A, double* h) {
-  h[0] = A(0, 0);
-  h[1] = A(1, 1);
-  h[2] = A(2, 2);
-  h[3] = 0.5 * (A(0, 1) + A(1, 0));
-  h[4] = 0.5 * (A(1, 2) + A(2, 1));
-  h[5] = 0.5 * (A(0, 2) + A(2, 0));
-}
 
 // One branch at F for stress_derivative (Newton's tangent keeps Eigen's iterative eigensolver:
 // Eigen's closed-form computeDirect failed its FD check at repeated eigenvalues): the trial b =
@@ -40,7 +26,7 @@ struct Trial {
 
 Trial trial(const Mat3& F, const double* history) {
   Trial t;
-  t.A = unpack(history);
+  t.A = unpack_symmetric(history);
   const Mat3 b = F * t.A * F.transpose();
   Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (b + b.transpose()));
   t.N = eig.eigenvectors();
@@ -51,16 +37,6 @@ Trial trial(const Mat3& F, const double* history) {
   t.mean = e.sum() / 3.0;
   t.d = e.array() - t.mean;
   return t;
-}
-
-// (log x - log y) / (x - y), also where x and y (> 0) are close: 2 atanh(s) / (s (x + y)), s = (x - y) / (x + y).
-double log_divided(double x, double y) {
-  const double s = (x - y) / (x + y);
-  if (std::fabs(s) < 1e-3) {
-    const double s2 = s * s;
-    return 2.0 / (x + y) * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 / 7.0)));
-  }
-  return 2.0 * std::atanh(s) / (s * (x + y));
 }
 
 }  // namespace
@@ -75,7 +51,7 @@ MaxwellBranches::MaxwellBranches(std::vector<MaxwellBranch> branches) : branches
 }
 
 void MaxwellBranches::rest(double* history) const {
-  for (int i = 0; i < size(); ++i) pack(Mat3::Identity(), history + kViscousValues * i);
+  for (int i = 0; i < size(); ++i) pack_symmetric(Mat3::Identity(), history + kViscousValues * i);
 }
 
 double MaxwellBranches::laplacian_weight() const {
@@ -97,7 +73,7 @@ double MaxwellBranches::energy(const Mat3& F, const double* history, double dt, 
   const double J = F.determinant();
   spectral3::Spectrum s[kMaxMaxwellBranches];
   for (int i = 0; i < n; ++i) {
-    const Mat3 A = unpack(history + kViscousValues * i);
+    const Mat3 A = unpack_symmetric(history + kViscousValues * i);
     s[i] = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
   }
   double g[kMaxMaxwellBranches][3];
@@ -142,7 +118,7 @@ Mat9 MaxwellBranches::stress_derivative(const Mat3& F, const double* history, do
         const double delta = a == b ? 1.0 : 0.0;
         f(a, b) = m * ((delta - 1.0 / 3.0) / (2.0 * t.beta(a) * t.beta(b)) - delta * t.d(a) / (t.beta(a) * t.beta(a)));
         D(a, b) = a == b ? 0.0
-                         : m * (0.5 * log_divided(t.beta(a), t.beta(b)) / t.beta(a) - t.d(b) / (t.beta(a) * t.beta(b)));
+                         : m * (0.5 * spectral3::log_divided(t.beta(a), t.beta(b)) / t.beta(a) - t.d(b) / (t.beta(a) * t.beta(b)));
       }
     const Mat3 FA = F * t.A, AFt = t.A * F.transpose();
     for (int c = 0; c < 9; ++c) {
@@ -168,7 +144,7 @@ void MaxwellBranches::update(const Mat3& F, const double* start, double dt, doub
   const Mat3 Finv = F.inverse();
   const double J = F.determinant();
   for (int i = 0; i < size(); ++i) {
-    const Mat3 A = unpack(start + kViscousValues * i);
+    const Mat3 A = unpack_symmetric(start + kViscousValues * i);
     const spectral3::Spectrum s = spectral3::spectrum(F * A * F.transpose(), J * J * A.determinant());
     const double l1 = s.lambda[0], l2 = s.lambda[1], l3 = s.lambda[2];
     if (!(l1 > 0) || !std::isfinite(l3)) {  // no finite step ends here (its energy is infinite): keep the history
@@ -186,7 +162,7 @@ void MaxwellBranches::update(const Mat3& F, const double* start, double dt, doub
     const double h123 = spectral3::spread_out(s) ? (h23 - h12) / s.spread
                                                  : 0.5 * keep * (keep - 1.0) * h1 / (l1 * l1);  // h''/2 at ~l1
     const Mat3 be = spectral3::newton_form(s, h1, h12, h123);
-    pack(Finv * be * Finv.transpose(), end + kViscousValues * i);
+    pack_symmetric(Finv * be * Finv.transpose(), end + kViscousValues * i);
   }
 }
 
@@ -205,7 +181,7 @@ double MaxwellBranches::measure(HistoryMeasure m, const double* history) const {
   if (m != HistoryMeasure::viscous_strain) return 0;
   double largest = 0;
   for (int i = 0; i < size(); ++i) {  // |1/2 log C_v| = |1/2 log C_v^{-1}|: from C_v^{-1}'s eigenvalues
-    const Eigen::SelfAdjointEigenSolver<Mat3> eig(unpack(history + kViscousValues * i), Eigen::EigenvaluesOnly);
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(unpack_symmetric(history + kViscousValues * i), Eigen::EigenvaluesOnly);
     largest = std::max(largest, 0.5 * eig.eigenvalues().array().log().matrix().norm());
   }
   return largest;

@@ -6,7 +6,7 @@
 // and of x^k so that they keep full precision at (nearly) equal eigenvalues, and the second one
 // divides by l3 - l1 >= 2.5 p (p the deviator's size), never by a small gap: once multiplied by
 // (b - l1 I)(b - l2 I) its error is at most about eps |f'| (l3 - l2). Used by
-// materials/maxwell_branches.cpp; tests/test_viscoelastic.cpp checks it against Eigen's iterative
+// materials/maxwell_branches.cpp (log_divided(x, y) by log_strain_plasticity.cpp too); tests/test_viscoelastic.cpp checks it against Eigen's iterative
 // solver at equal and nearly equal eigenvalues.
 #pragma once
 #include <algorithm>
@@ -81,6 +81,17 @@ inline Spectrum spectrum(const Mat3& b, double det_b = 0) {
     s.spread = s.lambda[2] - s.lambda[0];
   }
   return s;
+}
+
+// (log x - log y) / (x - y) from x and y (> 0) alone, also where they are close: 2 atanh(s) / (s (x +
+// y)), s = (x - y) / (x + y) (the eigensolver paths: Newton's tangents, plasticity's).
+inline double log_divided(double x, double y) {
+  const double s = (x - y) / (x + y);
+  if (std::fabs(s) < 1e-3) {
+    const double s2 = s * s;
+    return 2.0 / (x + y) * (1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 / 7.0)));
+  }
+  return 2.0 * std::atanh(s) / (s * (x + y));
 }
 
 // (log x - log y) / (x - y) for x = y + gap (y > 0, gap >= 0) from their logs: where s = gap / (x +
