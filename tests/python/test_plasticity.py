@@ -20,14 +20,13 @@ docs/inelastic.md#plasticity), end to end.
   line named, exit 1, nothing written.
 """
 import copy
-import csv
 import math
 
 import numpy as np
 import pytest
 
-from conftest import NO_FALLBACK, run_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import Frame, final_frame, frame_list, frame_meshes, read_summary, tensors
+from conftest import run_deck, run_hyperqn, twisted_bar_study, write_deck
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes, tensors
 from test_bad_input import assert_clean_failure
 
 MU, LAMBDA = 8.0e4, 1.2e5
@@ -208,40 +207,9 @@ def test_study_keeps_each_trajectory_history(tmp_path, ranks):
     reference and each trajectory carry their own plastic history, so the lbfgs trajectory's RMS
     distance to the converged reference equals the distance between two plain runs (lbfgs, and the
     reference's Newton) to the reference's tolerance."""
-    deck = {
-        "mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
-        "material": {"model": "hencky", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000,
-                     "plastic": {"yield_stress": 2.0e3, "isotropic_hardening": 1.0e4, "kinematic_hardening": 5.0e3}},
-        "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}},
-                  {"box": {"min": [1.99, -1, -1], "max": [2.01, 1, 1]},
-                   "motion": {"rotate": {"axis": [1, 0, 0], "center": [2.0, 0.25, 0.25], "rate": 360.0}, "end": 0.25},
-                   "release": 0.3}],
-        "gravity": [0, 0, 0],
-        "time": {"dt": 0.05, "frames": 10},
-        "solver": {"type": "lbfgs", "iterations": 10},
-        "study": {"frames": [4, 8], "solvers": ["lbfgs", "newton"], "iterations": 100},
-    }
-    proc = run_hyperqn(["study", write_deck(tmp_path / "study.yaml", deck), "-o", tmp_path / "study"], ranks=ranks)
-    assert "fixed region(s) released" in proc.stdout
-    with open(tmp_path / "study" / "trajectory.csv") as f:
-        rows = list(csv.DictReader(f))
-    runs = {}
-    for name, solver in {"lbfgs": {**deck["solver"], **NO_FALLBACK},
-                         "reference": {"type": "newton", "newton_hessian": "exact", "iterations": 100,
-                                       "grad_rtol": 1e-10, **NO_FALLBACK}}.items():
-        d = dict(deck, solver=solver, output={"every": 1})
-        del d["study"]
-        runs[name] = tmp_path / name
-        run_hyperqn([write_deck(tmp_path / f"{name}.yaml", d), "-o", runs[name]], ranks=ranks)
-    free = read_summary(runs["lbfgs"])["dofs"] // 3
-    frames = {name: {n: path for n, _, path in frame_list(runs[name])} for name in runs}
-    worst = 0.0
-    for frame in (2, 5, 7, 10):
-        a, b = Frame(frames["lbfgs"][frame]).points, Frame(frames["reference"][frame]).points
-        rms = np.linalg.norm(a - b) / np.sqrt(free - (9 if frame * 0.05 <= 0.3 + 1e-9 else 0))
-        assert rms > 1e-6, "the comparison needs a visible difference"
-        row = next(r for r in rows if r["solver"] == "lbfgs" and int(r["frame"]) == frame)
-        worst = max(worst, abs(float(row["rms_error"]) - rms) / rms)
+    worst = twisted_bar_study(tmp_path, {"model": "hencky", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000,
+                                         "plastic": {"yield_stress": 2.0e3, "isotropic_hardening": 1.0e4,
+                                                     "kinematic_hardening": 5.0e3}}, ranks)
     print(f"\nstudy of a plastic deck at {ranks} rank(s): lbfgs trajectory against two plain runs, worst "
           f"relative difference of the RMS distance {worst:.1e}")
     assert worst <= 1e-6
