@@ -280,39 +280,53 @@ inline void subtract_below(typename RowOf<lanes>::type* z, const typename RowOf<
   for (int u = 0; u < q; ++u) z[u] -= t[u];
 }
 
+// Node k of the forward pass: y = its triangle's solve, then the rows below -= their values . y.
+template <int lanes>
+__attribute__((always_inline)) inline void forward_node(const SupernodalCholesky::Node* nodes, int64_t k,
+                                                        int64_t count, int64_t row_end, const int32_t* __restrict row,
+                                                        const double* __restrict L, double* __restrict block) {
+  using Row = typename RowOf<lanes>::type;
+  Row* w = reinterpret_cast<Row*>(block);
+  const SupernodalCholesky::Node& node = nodes[k];
+  const int width = node.width;
+  Row* y = w + node.column;
+  const double* v = L + node.value;
+  const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
+  const int32_t* below = row + node.rows;
+  if (width == 1) {  // a lone column (chains of strands, leaves): no triangle, no dot products
+    const Row yj = y[0] * v[0];
+    y[0] = yj;
+    for (int64_t r = 0; r < rows; ++r) w[below[r]] -= v[1 + r] * yj;
+    return;
+  }
+  for (int j = 0; j < width; ++j) {
+    const Row yj = y[j] * *v++;
+    y[j] = yj;
+    for (int i = j + 1; i < width; ++i) y[i] -= *v++ * yj;
+  }
+  int64_t r = 0;
+  for (; r + 4 <= rows; r += 4, v += 4 * width) dot_rows<4, lanes>(w, y, below + r, v, width);
+  switch (rows - r) {
+    case 3: dot_rows<3, lanes>(w, y, below + r, v, width); break;
+    case 2: dot_rows<2, lanes>(w, y, below + r, v, width); break;
+    case 1: dot_rows<1, lanes>(w, y, below + r, v, width); break;
+    default: break;
+  }
+}
+
 template <int lanes>
 HYPERQN_VECTOR_CLONES void forward_pass(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
                                         const int32_t* __restrict row, const double* __restrict L,
                                         double* __restrict block) {
-  using Row = typename RowOf<lanes>::type;
-  Row* w = reinterpret_cast<Row*>(block);
-  for (int64_t k = 0; k < count; ++k) {
-    const SupernodalCholesky::Node& node = nodes[k];
-    const int width = node.width;
-    Row* y = w + node.column;
-    const double* v = L + node.value;
-    const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
-    const int32_t* below = row + node.rows;
-    if (width == 1) {  // a lone column (chains of strands, leaves): no triangle, no dot products
-      const Row yj = y[0] * v[0];
-      y[0] = yj;
-      for (int64_t r = 0; r < rows; ++r) w[below[r]] -= v[1 + r] * yj;
-      continue;
-    }
-    for (int j = 0; j < width; ++j) {
-      const Row yj = y[j] * *v++;
-      y[j] = yj;
-      for (int i = j + 1; i < width; ++i) y[i] -= *v++ * yj;
-    }
-    int64_t r = 0;
-    for (; r + 4 <= rows; r += 4, v += 4 * width) dot_rows<4, lanes>(w, y, below + r, v, width);
-    switch (rows - r) {
-      case 3: dot_rows<3, lanes>(w, y, below + r, v, width); break;
-      case 2: dot_rows<2, lanes>(w, y, below + r, v, width); break;
-      case 1: dot_rows<1, lanes>(w, y, below + r, v, width); break;
-      default: break;
-    }
-  }
+  for (int64_t k = 0; k < count; ++k) forward_node<lanes>(nodes, k, count, row_end, row, L, block);
+}
+
+// The forward pass over the listed nodes only (ascending): a right-hand side that is 0 outside
+// them, whose rows below each of them are again in them (the nodes' ancestors).
+HYPERQN_VECTOR_CLONES void forward_pass_on(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
+                                           const int32_t* __restrict row, const double* __restrict L,
+                                           double* __restrict block, const int32_t* which, int64_t listed) {
+  for (int64_t a = 0; a < listed; ++a) forward_node<4>(nodes, which[a], count, row_end, row, L, block);
 }
 
 template <int lanes>
@@ -399,6 +413,74 @@ void SupernodalCholesky::backward_k(const double* separator_solution, double* x_
   backward_pass<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(), value_.data(), w);
   for (int64_t i = 0; i < interior; ++i)
     for (int c = 0; c < k; ++c) x_interior[k * perm_[i] + c] = w[lanes * i + c];
+}
+
+// solve_k with `middle` applied to P^T-ordered y = L^{-1} P b between the two passes.
+template <int k, int lanes>
+void SupernodalCholesky::solve_corrected_k(const double* b, double* x, const Middle& middle) const {
+  double* w = work_.data();
+  for (int64_t i = 0; i < n_; ++i)
+    for (int c = 0; c < k; ++c) w[lanes * i + c] = b[k * perm_[i] + c];
+  const int64_t count = static_cast<int64_t>(nodes_.size());
+  forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  middle(w, lanes);
+  backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  for (int64_t i = 0; i < n_; ++i)
+    for (int c = 0; c < k; ++c) x[k * perm_[i] + c] = w[lanes * i + c];
+}
+
+void SupernodalCholesky::solve_corrected(int k, const double* b, double* x, const Middle& middle) const {
+  if (separator_ != 0) throw std::logic_error("SupernodalCholesky::solve_corrected: a factor with a separator");
+  if (k == 3) return solve_corrected_k<3, 4>(b, x, middle);
+  if (k == 1) return solve_corrected_k<1, 1>(b, x, middle);
+  throw std::invalid_argument("SupernodalCholesky::solve_corrected: k must be 1 or 3");
+}
+
+int32_t SupernodalCholesky::node_of(int64_t position) const {
+  const auto after = std::upper_bound(nodes_.begin(), nodes_.end(), position,
+                                      [](int64_t p, const Node& node) { return p < node.column; });
+  return static_cast<int32_t>(after - nodes_.begin()) - 1;
+}
+
+std::vector<int32_t> SupernodalCholesky::path(int64_t position) const {
+  std::vector<int32_t> nodes;
+  const int64_t count = static_cast<int64_t>(nodes_.size());
+  for (int32_t k = node_of(position); k >= 0;) {
+    nodes.push_back(k);
+    const int64_t end = k + 1 < count ? nodes_[k + 1].rows : row_end_;
+    k = end > nodes_[k].rows ? node_of(row_[nodes_[k].rows]) : -1;  // the parent holds the first row below
+  }
+  return nodes;
+}
+
+// Four columns at a time in the lanes of work_, over the union of their paths: a lane is 0 on
+// the nodes of the union outside its own path and stays 0 there, so each column gets the bits it
+// would get alone (a column is a function of its position, whatever it is batched with).
+void SupernodalCholesky::forward_units(const int64_t* positions, int count, SparseColumn* out) const {
+  if (separator_ != 0) throw std::logic_error("SupernodalCholesky::forward_units: a factor with a separator");
+  double* w = work_.data();
+  const int64_t nodes = static_cast<int64_t>(nodes_.size());
+  for (int first = 0; first < count; first += 4) {
+    const int m = std::min(4, count - first);
+    std::vector<int32_t> all;
+    for (int c = 0; c < m; ++c) {
+      out[first + c].nodes = path(positions[first + c]);
+      all.insert(all.end(), out[first + c].nodes.begin(), out[first + c].nodes.end());
+    }
+    std::sort(all.begin(), all.end());
+    all.erase(std::unique(all.begin(), all.end()), all.end());
+    for (int32_t k : all) std::fill(w + 4 * nodes_[k].column, w + 4 * (nodes_[k].column + nodes_[k].width), 0.0);
+    for (int c = 0; c < m; ++c) w[4 * positions[first + c] + c] = 1.0;
+    forward_pass_on(nodes_.data(), nodes, row_end_, row_.data(), value_.data(), w, all.data(),
+                    static_cast<int64_t>(all.size()));
+    for (int c = 0; c < m; ++c) {
+      SparseColumn& col = out[first + c];
+      col.values.clear();
+      for (int32_t k : col.nodes)
+        for (int64_t i = nodes_[k].column; i < nodes_[k].column + nodes_[k].width; ++i) col.values.push_back(w[4 * i + c]);
+    }
+    for (int32_t k : all) std::fill(w + 4 * nodes_[k].column, w + 4 * (nodes_[k].column + nodes_[k].width), 0.0);
+  }
 }
 
 void SupernodalCholesky::solve(int k, const double* b, double* x) const {

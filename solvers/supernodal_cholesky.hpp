@@ -12,6 +12,7 @@
 // its own error.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 struct cholmod_factor_struct;
@@ -86,9 +87,31 @@ class SupernodalCholesky {
   // these are L's nonzeros).
   int64_t nonzeros() const { return entries_; }
 
+  // solve() with middle(w, lanes) applied between its two passes to y = L^{-1} P b, held as the
+  // n x lanes block w (row i: position i of the ordering, lanes >= k adjacent doubles, those past
+  // k zero): x = P^T L^{-T} middle(L^{-1} P b). TopologyH0's correction (solvers/topology_h0.hpp).
+  using Middle = std::function<void(double* w, int lanes)>;
+  void solve_corrected(int k, const double* b, double* x, const Middle& middle) const;
+
+  // L^{-1} P e_i for a row i of A at `position` of the ordering (perm()[position] == i), sparse:
+  // nonzero only on the columns of `nodes`, the supernodes from the one holding `position` up to
+  // the root (ascending), `values` those nodes' columns in order.
+  struct SparseColumn {
+    std::vector<int32_t> nodes;
+    std::vector<double> values;
+  };
+  void forward_units(const int64_t* positions, int count, SparseColumn* out) const;
+  // The ordering: row i of L L^T is row perm()[i] of A.
+  const std::vector<int64_t>& perm() const { return perm_; }
+  const std::vector<Node>& nodes() const { return nodes_; }
+
  private:
   template <int k, int lanes>
   void solve_k(const double* b, double* x) const;
+  template <int k, int lanes>
+  void solve_corrected_k(const double* b, double* x, const Middle& middle) const;
+  int32_t node_of(int64_t position) const;            // the node holding a column
+  std::vector<int32_t> path(int64_t position) const;  // its node and their ancestors, ascending
   template <int k, int lanes>
   void forward_k(const double* b_interior, double* separator_update) const;
   template <int k, int lanes>

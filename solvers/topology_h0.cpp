@@ -1,0 +1,237 @@
+#include "solvers/topology_h0.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace hyperqn {
+
+namespace {
+
+TopologyH0::Status status_of(SupernodalCholesky::Status s) {
+  if (s == SupernodalCholesky::Status::ok) return TopologyH0::Status::ok;
+  if (s == SupernodalCholesky::Status::not_positive_definite) return TopologyH0::Status::not_positive_definite;
+  return TopologyH0::Status::failed;
+}
+
+// The dot product of two columns of W over the nodes they share (their common ancestors).
+double sparse_dot(const SupernodalCholesky::SparseColumn& a, const SupernodalCholesky::SparseColumn& b,
+                  const std::vector<SupernodalCholesky::Node>& nodes) {
+  double s = 0;
+  size_t i = 0, j = 0, va = 0, vb = 0;
+  while (i < a.nodes.size() && j < b.nodes.size()) {
+    if (a.nodes[i] < b.nodes[j]) {
+      va += nodes[a.nodes[i++]].width;
+    } else if (b.nodes[j] < a.nodes[i]) {
+      vb += nodes[b.nodes[j++]].width;
+    } else {
+      const int w = nodes[a.nodes[i]].width;
+      for (int c = 0; c < w; ++c) s += a.values[va + c] * b.values[vb + c];
+      va += w;
+      vb += w;
+      ++i;
+      ++j;
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+TopologyH0::Status TopologyH0::setup(SymmetricCsr A, int64_t max_touched) {
+  *this = TopologyH0();
+  max_touched_ = max_touched;
+  A_ = std::move(A);
+  n_ = A_.n;
+  const Status s = status_of(factor_.factor(n_, A_.start.data(), A_.column.data(), A_.value.data()));
+  if (s != Status::ok) return s;
+  position_.assign(n_, 0);
+  for (int64_t q = 0; q < n_; ++q) position_[factor_.perm()[q]] = q;
+  return s;
+}
+
+int64_t TopologyH0::duplicate_vertex(int64_t vertex, double mass_moved) {
+  const int64_t copy = size();
+  ++pending_vertices_;
+  add_mass(vertex, -mass_moved);
+  add_mass(copy, mass_moved);
+  return copy;
+}
+
+void TopologyH0::add_mass(int64_t vertex, double delta) {
+  if (vertex < 0 || vertex >= size()) throw std::out_of_range("TopologyH0::add_mass: no such vertex");
+  edits_[{vertex, vertex}] += delta;
+  pending_ = true;
+}
+
+void TopologyH0::add_element(int count, const int64_t* vertices, const double* K, double scale) {
+  for (int a = 0; a < count; ++a)
+    if (vertices[a] < 0 || vertices[a] >= size()) throw std::out_of_range("TopologyH0::add_element: no such vertex");
+  for (int a = 0; a < count; ++a)
+    for (int b = 0; b < count; ++b) edits_[{vertices[a], vertices[b]}] += scale * K[a * count + b];
+  pending_ = true;
+}
+
+int64_t TopologyH0::slot_of(int64_t row) {
+  const auto [it, added] = slot_.emplace(row, slots_);
+  if (added) ++slots_;
+  return it->second;
+}
+
+TopologyH0::Status TopologyH0::commit() {
+  // T: every row with an edit, ascending (the map's order).
+  std::vector<int64_t> touched;
+  for (const auto& [key, value] : edits_)
+    if (touched.empty() || touched.back() != key.first) touched.push_back(key.first);
+  if (static_cast<int64_t>(touched.size()) > max_touched_) return refactor();
+  // The new vertices' D: their diagonal in A' as first committed (positive: a vertex has mass).
+  while (pending_vertices_ > 0) {
+    const int64_t v = n_ + static_cast<int64_t>(sqrt_d_.size());
+    const auto it = edits_.find({v, v});
+    const double d = it == edits_.end() ? 0.0 : it->second;
+    if (!(d > 0)) return Status::not_positive_definite;
+    sqrt_d_.push_back(std::sqrt(d));
+    --pending_vertices_;
+  }
+  pending_ = false;
+  // W's columns of the old rows not seen before, four per sparse forward solve.
+  std::vector<int64_t> fresh;
+  for (int64_t row : touched)
+    if (row < n_ && !slot_.count(row)) fresh.push_back(row);
+  const int64_t before = slots_;
+  std::vector<int64_t> positions;
+  for (int64_t row : fresh) {
+    slot_of(row);
+    positions.push_back(position_[row]);
+  }
+  column_.resize(slots_);
+  factor_.forward_units(positions.data(), static_cast<int>(positions.size()), column_.data() + before);
+  columns_computed_ += static_cast<int64_t>(fresh.size());
+  // G_ grown by the new slots' rows and columns (the old entries kept as they are).
+  if (slots_ > before) {
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(slots_, slots_);
+    G.topLeftCorner(before, before) = G_;
+    for (int64_t a = before; a < slots_; ++a)
+      for (int64_t b = 0; b <= a; ++b) G(a, b) = G(b, a) = sparse_dot(column_[a], column_[b], factor_.nodes());
+    G_ = std::move(G);
+  }
+  // E_TT (A' - blkdiag(A, D) on T) and the capacitance I + G_TT E_TT.
+  const int64_t t = static_cast<int64_t>(touched.size());
+  touched_ = touched;
+  E_ = Eigen::MatrixXd::Zero(t, t);
+  for (const auto& [key, value] : edits_) {
+    const int64_t a = std::lower_bound(touched_.begin(), touched_.end(), key.first) - touched_.begin();
+    const int64_t b = std::lower_bound(touched_.begin(), touched_.end(), key.second) - touched_.begin();
+    E_(a, b) = value;
+  }
+  for (int64_t a = 0; a < t; ++a)
+    if (touched_[a] >= n_) {
+      const double s = sqrt_d_[touched_[a] - n_];
+      E_(a, a) -= s * s;
+    }
+  if (t == 0) return Status::ok;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(t, t);
+  for (int64_t a = 0; a < t; ++a) {
+    const int64_t ra = touched_[a];
+    for (int64_t b = 0; b < t; ++b) {
+      const int64_t rb = touched_[b];
+      double g = 0;  // G(a, b): W's columns of T's rows a and b
+      if (ra < n_ && rb < n_) g = G_(slot_.at(ra), slot_.at(rb));
+      else if (ra == rb) g = 1.0 / (sqrt_d_[ra - n_] * sqrt_d_[ra - n_]);
+      if (g != 0) C.row(a) += g * E_.row(b);
+    }
+  }
+  capacitance_.compute(C);
+  // A' is positive definite only if det(I + W E W^T) = det(I + G E) > 0: its sign from the LU.
+  const Eigen::MatrixXd& lu = capacitance_.matrixLU();
+  double sign = capacitance_.permutationP().determinant();
+  for (int64_t a = 0; a < t; ++a) sign *= lu(a, a) > 0 ? 1.0 : (lu(a, a) < 0 ? -1.0 : 0.0);
+  return sign > 0 ? Status::ok : Status::not_positive_definite;
+}
+
+SymmetricCsr TopologyH0::changed_matrix() const {
+  SymmetricCsr B;
+  B.n = size();
+  auto edit = edits_.begin();
+  for (int64_t i = 0; i < B.n; ++i) {
+    int64_t p = i < n_ ? A_.start[i] : 0;
+    const int64_t end = i < n_ ? A_.start[i + 1] : 0;
+    while (p < end || (edit != edits_.end() && edit->first.first == i)) {
+      const bool from_edit = edit != edits_.end() && edit->first.first == i;
+      if (p < end && (!from_edit || A_.column[p] < edit->first.second)) {
+        B.column.push_back(A_.column[p]);
+        B.value.push_back(A_.value[p++]);
+      } else if (p < end && A_.column[p] == edit->first.second) {
+        B.column.push_back(A_.column[p]);
+        B.value.push_back(A_.value[p++] + (edit++)->second);
+      } else {
+        B.column.push_back(edit->first.second);
+        B.value.push_back((edit++)->second);
+      }
+    }
+    B.start.push_back(static_cast<int64_t>(B.column.size()));
+  }
+  return B;
+}
+
+TopologyH0::Status TopologyH0::refactor() {
+  const int refactorizations = refactorizations_ + 1;
+  const int64_t columns = columns_computed_;
+  const Status s = setup(changed_matrix(), max_touched_);
+  refactorizations_ = refactorizations;
+  columns_computed_ = columns;
+  return s;
+}
+
+int64_t TopologyH0::correction_nonzeros() const {
+  int64_t nnz = 0;
+  for (int64_t row : touched_) nnz += row < n_ ? static_cast<int64_t>(column_[slot_.at(row)].values.size()) : 1;
+  return nnz;
+}
+
+void TopologyH0::solve(int k, const double* b, double* x) const {
+  if (pending_ || pending_vertices_ > 0) throw std::logic_error("TopologyH0::solve: edits not committed");
+  const int64_t p = static_cast<int64_t>(sqrt_d_.size());
+  if (touched_.empty()) {
+    factor_.solve(k, b, x);
+    for (int64_t j = 0; j < p * k; ++j) x[k * n_ + j] = b[k * n_ + j] / (sqrt_d_[j / k] * sqrt_d_[j / k]);
+    return;
+  }
+  // The new rows of Lh^{-1} b: b / D^{1/2}.
+  extra_.resize(static_cast<size_t>(p * k));
+  for (int64_t j = 0; j < p * k; ++j) extra_[j] = b[k * n_ + j] / sqrt_d_[j / k];
+  const auto& nodes = factor_.nodes();
+  const int64_t t = static_cast<int64_t>(touched_.size());
+  factor_.solve_corrected(k, b, x, [&](double* w, int lanes) {
+    // s = W^T y, u = E (I + G E)^{-1} s, y -= W u.
+    Eigen::MatrixXd s = Eigen::MatrixXd::Zero(t, k);
+    for (int64_t a = 0; a < t; ++a) {
+      const int64_t row = touched_[a];
+      if (row >= n_) {
+        for (int c = 0; c < k; ++c) s(a, c) = extra_[k * (row - n_) + c] / sqrt_d_[row - n_];
+        continue;
+      }
+      const SupernodalCholesky::SparseColumn& col = column_[slot_.at(row)];
+      size_t v = 0;
+      for (int32_t node : col.nodes)
+        for (int64_t i = nodes[node].column; i < nodes[node].column + nodes[node].width; ++i, ++v)
+          for (int c = 0; c < k; ++c) s(a, c) += col.values[v] * w[lanes * i + c];
+    }
+    const Eigen::MatrixXd u = E_ * capacitance_.solve(s);
+    for (int64_t a = 0; a < t; ++a) {
+      const int64_t row = touched_[a];
+      if (row >= n_) {
+        for (int c = 0; c < k; ++c) extra_[k * (row - n_) + c] -= u(a, c) / sqrt_d_[row - n_];
+        continue;
+      }
+      const SupernodalCholesky::SparseColumn& col = column_[slot_.at(row)];
+      size_t v = 0;
+      for (int32_t node : col.nodes)
+        for (int64_t i = nodes[node].column; i < nodes[node].column + nodes[node].width; ++i, ++v)
+          for (int c = 0; c < k; ++c) w[lanes * i + c] -= col.values[v] * u(a, c);
+    }
+  });
+  for (int64_t j = 0; j < p * k; ++j) x[k * n_ + j] = extra_[j] / sqrt_d_[j / k];
+}
+
+}  // namespace hyperqn
