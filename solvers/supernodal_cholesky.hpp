@@ -126,6 +126,7 @@ class SupernodalCholesky {
   std::vector<double> value_;         // the nodes' values, a node's triangle twice (see Node)
   int64_t entries_ = 0;               // L's entries (each triangle counted once)
   mutable std::vector<double> work_;  // the permuted right-hand sides, n x 4 (lanes past k stay 0)
+  mutable std::vector<double> unit_work_;  // forward_units' columns (0 between calls)
 };
 
 }  // namespace hyperqn

@@ -115,32 +115,34 @@ TopologyH0::Status TopologyH0::commit() {
       for (int64_t b = 0; b <= a; ++b) G(a, b) = G(b, a) = sparse_dot(column_[a], column_[b], factor_.nodes());
     G_ = std::move(G);
   }
-  // E_TT (A' - blkdiag(A, D) on T) and the capacitance I + G_TT E_TT.
+  // E_TT (A' - blkdiag(A, D) on T, sparse: an element's rows) and the capacitance I + G_TT E_TT,
+  // by columns of E: t times E's nonzeros, not t^3.
   const int64_t t = static_cast<int64_t>(touched.size());
   touched_ = touched;
-  E_ = Eigen::MatrixXd::Zero(t, t);
+  e_column_.assign(t, {});
   for (const auto& [key, value] : edits_) {
     const int64_t a = std::lower_bound(touched_.begin(), touched_.end(), key.first) - touched_.begin();
     const int64_t b = std::lower_bound(touched_.begin(), touched_.end(), key.second) - touched_.begin();
-    E_(a, b) = value;
+    double e = value;
+    if (a == b && key.first >= n_) e -= sqrt_d_[key.first - n_] * sqrt_d_[key.first - n_];
+    e_column_[b].push_back({a, e});
   }
+  column_of_.assign(t, nullptr);
   for (int64_t a = 0; a < t; ++a)
-    if (touched_[a] >= n_) {
-      const double s = sqrt_d_[touched_[a] - n_];
-      E_(a, a) -= s * s;
-    }
+    if (touched_[a] < n_) column_of_[a] = &column_[slot_.at(touched_[a])];
   if (t == 0) return Status::ok;
-  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(t, t);
-  for (int64_t a = 0; a < t; ++a) {
-    const int64_t ra = touched_[a];
-    for (int64_t b = 0; b < t; ++b) {
-      const int64_t rb = touched_[b];
-      double g = 0;  // G(a, b): W's columns of T's rows a and b
-      if (ra < n_ && rb < n_) g = G_(slot_.at(ra), slot_.at(rb));
-      else if (ra == rb) g = 1.0 / (sqrt_d_[ra - n_] * sqrt_d_[ra - n_]);
-      if (g != 0) C.row(a) += g * E_.row(b);
+  Eigen::MatrixXd G(t, t);  // G_TT: W's columns of T's rows
+  for (int64_t b = 0; b < t; ++b) {
+    const int64_t rb = touched_[b];
+    for (int64_t a = 0; a < t; ++a) {
+      const int64_t ra = touched_[a];
+      if (ra < n_ && rb < n_) G(a, b) = G_(slot_.at(ra), slot_.at(rb));
+      else G(a, b) = ra == rb ? 1.0 / (sqrt_d_[ra - n_] * sqrt_d_[ra - n_]) : 0.0;
     }
   }
+  Eigen::MatrixXd C = Eigen::MatrixXd::Identity(t, t);
+  for (int64_t b = 0; b < t; ++b)
+    for (const auto& [c, e] : e_column_[b]) C.col(b) += e * G.col(c);
   capacitance_.compute(C);
   // A' is positive definite only if det(I + W E W^T) = det(I + G E) > 0: its sign from the LU.
   const Eigen::MatrixXd& lu = capacitance_.matrixLU();
@@ -185,8 +187,50 @@ TopologyH0::Status TopologyH0::refactor() {
 
 int64_t TopologyH0::correction_nonzeros() const {
   int64_t nnz = 0;
-  for (int64_t row : touched_) nnz += row < n_ ? static_cast<int64_t>(column_[slot_.at(row)].values.size()) : 1;
+  for (const SupernodalCholesky::SparseColumn* col : column_of_) nnz += col ? static_cast<int64_t>(col->values.size()) : 1;
   return nnz;
+}
+
+// y -= W E (I + G E)^{-1} W^T y on y = Lh^{-1} b: its old rows in w (the factor's order, `lanes`
+// per row), its new ones in extra_. A column of W is contiguous runs, one per node of its path.
+template <int k, int lanes>
+void TopologyH0::correct(double* w, int) const {
+  const auto& nodes = factor_.nodes();
+  const int64_t t = static_cast<int64_t>(touched_.size());
+  Eigen::Matrix<double, Eigen::Dynamic, k> s(t, k);
+  for (int64_t a = 0; a < t; ++a) {
+    double sum[k] = {};
+    if (const SupernodalCholesky::SparseColumn* col = column_of_[a]) {
+      const double* v = col->values.data();
+      for (int32_t node : col->nodes) {
+        const double* y = w + lanes * nodes[node].column;
+        for (int32_t i = 0; i < nodes[node].width; ++i, ++v)
+          for (int c = 0; c < k; ++c) sum[c] += *v * y[lanes * i + c];
+      }
+    } else {
+      const int64_t j = touched_[a] - n_;
+      for (int c = 0; c < k; ++c) sum[c] = extra_[k * j + c] / sqrt_d_[j];
+    }
+    for (int c = 0; c < k; ++c) s(a, c) = sum[c];
+  }
+  const Eigen::Matrix<double, Eigen::Dynamic, k> z = capacitance_.solve(s);
+  s.setZero();  // s = E z, E by columns
+  for (int64_t b = 0; b < t; ++b)
+    for (const auto& [a, e] : e_column_[b])
+      for (int c = 0; c < k; ++c) s(a, c) += e * z(b, c);
+  for (int64_t a = 0; a < t; ++a) {
+    if (const SupernodalCholesky::SparseColumn* col = column_of_[a]) {
+      const double* v = col->values.data();
+      for (int32_t node : col->nodes) {
+        double* y = w + lanes * nodes[node].column;
+        for (int32_t i = 0; i < nodes[node].width; ++i, ++v)
+          for (int c = 0; c < k; ++c) y[lanes * i + c] -= *v * s(a, c);
+      }
+    } else {
+      const int64_t j = touched_[a] - n_;
+      for (int c = 0; c < k; ++c) extra_[k * j + c] -= s(a, c) / sqrt_d_[j];
+    }
+  }
 }
 
 void TopologyH0::solve(int k, const double* b, double* x) const {
@@ -200,37 +244,9 @@ void TopologyH0::solve(int k, const double* b, double* x) const {
   // The new rows of Lh^{-1} b: b / D^{1/2}.
   extra_.resize(static_cast<size_t>(p * k));
   for (int64_t j = 0; j < p * k; ++j) extra_[j] = b[k * n_ + j] / sqrt_d_[j / k];
-  const auto& nodes = factor_.nodes();
-  const int64_t t = static_cast<int64_t>(touched_.size());
-  factor_.solve_corrected(k, b, x, [&](double* w, int lanes) {
-    // s = W^T y, u = E (I + G E)^{-1} s, y -= W u.
-    Eigen::MatrixXd s = Eigen::MatrixXd::Zero(t, k);
-    for (int64_t a = 0; a < t; ++a) {
-      const int64_t row = touched_[a];
-      if (row >= n_) {
-        for (int c = 0; c < k; ++c) s(a, c) = extra_[k * (row - n_) + c] / sqrt_d_[row - n_];
-        continue;
-      }
-      const SupernodalCholesky::SparseColumn& col = column_[slot_.at(row)];
-      size_t v = 0;
-      for (int32_t node : col.nodes)
-        for (int64_t i = nodes[node].column; i < nodes[node].column + nodes[node].width; ++i, ++v)
-          for (int c = 0; c < k; ++c) s(a, c) += col.values[v] * w[lanes * i + c];
-    }
-    const Eigen::MatrixXd u = E_ * capacitance_.solve(s);
-    for (int64_t a = 0; a < t; ++a) {
-      const int64_t row = touched_[a];
-      if (row >= n_) {
-        for (int c = 0; c < k; ++c) extra_[k * (row - n_) + c] -= u(a, c) / sqrt_d_[row - n_];
-        continue;
-      }
-      const SupernodalCholesky::SparseColumn& col = column_[slot_.at(row)];
-      size_t v = 0;
-      for (int32_t node : col.nodes)
-        for (int64_t i = nodes[node].column; i < nodes[node].column + nodes[node].width; ++i, ++v)
-          for (int c = 0; c < k; ++c) w[lanes * i + c] -= col.values[v] * u(a, c);
-    }
-  });
+  if (k == 3) factor_.solve_corrected(3, b, x, [this](double* w, int lanes) { correct<3, 4>(w, lanes); });
+  else if (k == 1) factor_.solve_corrected(1, b, x, [this](double* w, int lanes) { correct<1, 1>(w, lanes); });
+  else throw std::invalid_argument("TopologyH0::solve: k must be 1 or 3");
   for (int64_t j = 0; j < p * k; ++j) x[k * n_ + j] = extra_[j] / sqrt_d_[j / k];
 }
 

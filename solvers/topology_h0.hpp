@@ -48,7 +48,7 @@ class TopologyH0 {
  public:
   enum class Status { ok, not_positive_definite, failed };
   // A commit past this many touched rows refactors (measured: docs/topology.md#cost).
-  static constexpr int64_t kDefaultMaxTouched = 400;
+  static constexpr int64_t kDefaultMaxTouched = 200;
 
   // Factors A and forgets every change (what a refactorization at a checkpoint write does with
   // the changed matrix).
@@ -83,6 +83,8 @@ class TopologyH0 {
 
  private:
   int64_t slot_of(int64_t row);  // its place in G_ (the order rows were first touched)
+  template <int k, int lanes>
+  void correct(double* w, int) const;  // the step between the factor's passes
 
   SymmetricCsr A_;  // the factored matrix
   SupernodalCholesky factor_;
@@ -97,9 +99,11 @@ class TopologyH0 {
   std::vector<SupernodalCholesky::SparseColumn> column_;
   Eigen::MatrixXd G_;
   int64_t slots_ = 0;
-  // The last commit: T ascending, E_TT, (I + G E)'s LU.
+  // The last commit: T ascending, per row of T its column of W (null: a new vertex's), E_TT's
+  // nonzeros by columns (row in T, value), (I + G E)'s LU.
   std::vector<int64_t> touched_;
-  Eigen::MatrixXd E_;
+  std::vector<const SupernodalCholesky::SparseColumn*> column_of_;
+  std::vector<std::vector<std::pair<int64_t, double>>> e_column_;
   Eigen::PartialPivLU<Eigen::MatrixXd> capacitance_;
   int refactorizations_ = 0;
   int64_t columns_computed_ = 0;
