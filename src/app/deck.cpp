@@ -154,21 +154,22 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("time")) {
     read_time(r, *x, deck.time);
     check_integrator_takes_contact(r, *x, deck);
-    check_integrator_takes_inelastic(r, *x, deck);
     check_static_has_support(r, *x, deck);
   }
   if (const Value* x = s.find("solver")) read_solver(r, *x, deck.solver);
   apply_contact_solver_defaults(r, s.find("solver"), deck);
   apply_roller_solver_rules(r, s.find("solver"), deck);
   if (const Value* x = s.find("guardrails")) read_guardrails(r, *x, deck.guardrails);
-  if (const Value* x = s.find("output")) read_output(r, *x, deck.output);
+  if (const Value* x = s.find("output")) {
+    read_output(r, *x, deck.output);
+    check_energy_output(r, *x, deck);
+  }
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     check_study_integrators_take_contact(r, *x, deck);
-    check_study_integrators_take_inelastic(r, *x, deck);
   }
   if (const Value* x = s.find("petsc")) read_petsc(r, *x, "", deck);
   return deck;

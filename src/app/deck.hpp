@@ -56,6 +56,7 @@ struct OutputSpec {
   std::vector<int> field_lines;      // the deck line of each of `fields` (read_output), for the scene's check
   FieldPrecision field_precision = FieldPrecision::double_precision;  // of `fields` in the files
   bool reactions = false;            // reactions.csv and summary.json's reactions (model/reactions.hpp)
+  bool energy = false;               // energy.csv (model/energy_balance.hpp)
 };
 
 // The deck's output: keys (params/deck_keys.hpp).
@@ -92,6 +93,10 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
       {"reactions", &OutputSpec::reactions,
        "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
        "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},
+      {"energy", &OutputSpec::energy,
+       "write `energy.csv`: per frame, kinetic, stored and dissipated energy against the work of gravity, the loads "
+       "and the supports, and the balance's residual ([inelastic.md](inelastic.md#energy-balance)); not with "
+       "colliders or self-contact"},
   };
   return keys;
 }

@@ -54,41 +54,18 @@ void check_integrator_takes_contact(const Reader& r, const Value& time, const De
            "vertices through an obstacle or a surface that the solve's z rests on (use implicit-euler)");
 }
 
+void check_energy_output(const Reader& r, const Value& output, const Deck& deck) {
+  if (deck.output.energy && has_contact(deck))
+    r.fail(*Section(r, output, {}).find("energy"),
+           "energy.csv does not count the work of colliders or self-contact yet (leave out output.energy)");
+}
+
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;
   r.fail(*Section(r, time, {}).find("integrator"),
          "static finds an equilibrium, and nothing holds the body: add a fixed region (fixed:), an attachment "
          "(attachments:) or a collider (colliders:)");
-}
-
-// The first inelastic material's block (default material, regions, bodies), or null if none has one.
-static const InelasticSpec* first_inelastic(const Deck& deck) {
-  std::vector<const MaterialSpec*> all{&deck.material};
-  for (const MaterialRegion& region : deck.regions) all.push_back(&region.material);
-  for (const BodySpec& body : deck.bodies)
-    if (body.has_material) all.push_back(&body.material);
-  for (const MaterialSpec* m : all)
-    if (!m->inelastic.kind.empty()) return &m->inelastic;
-  return nullptr;
-}
-
-void check_integrator_takes_inelastic(const Reader& r, const Value& time, const Deck& deck) {
-  const InelasticSpec* inelastic = first_inelastic(deck);
-  if (!inelastic || deck.time.integrator != TimeIntegrator::implicit_midpoint) return;
-  r.fail(*Section(r, time, {}).find("integrator"),
-         "implicit-midpoint does not take " + inelastic->kind + " materials yet (deck line " +
-             std::to_string(inelastic->line) + "): its step ends past the minimizer (x_{n+1} = 2z - x_n), where the " +
-             "history's update would not hold (use implicit-euler, bdf2 or static)");
-}
-
-void check_study_integrators_take_inelastic(const Reader& r, const Value& study, const Deck& deck) {
-  const InelasticSpec* inelastic = first_inelastic(deck);
-  for (TimeIntegrator kind : deck.study.integrators)
-    if (inelastic && kind == TimeIntegrator::implicit_midpoint)
-      r.fail(*Section(r, study, {}).find("integrators"),
-             "implicit-midpoint does not take " + inelastic->kind + " materials yet (deck line " +
-                 std::to_string(inelastic->line) + "; see time.integrator)");
 }
 
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck) {

@@ -20,11 +20,9 @@ void check_integrator_takes_contact(const Reader& r, const Value& time, const De
 // A static scene needs something that holds it (a fixed region, an attachment or a collider): with
 // none, no equilibrium exists under loads, and none is unique without them.
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck);
+// output.energy: not with contact, whose work energy.csv does not count yet.
+void check_energy_output(const Reader& r, const Value& output, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
-// An inelastic material (materials/inelastic_model.hpp) with the midpoint (the deck's integrator,
-// or one of a study's): not yet.
-void check_integrator_takes_inelastic(const Reader& r, const Value& time, const Deck& deck);
-void check_study_integrators_take_inelastic(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is
 // recorded in deck.rule_sources. solver: the deck's solver section, if any.

@@ -9,6 +9,7 @@
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
+#include "model/time_integrator.hpp"
 #include "mesh/input_error.hpp"
 
 namespace hyperqn {
@@ -224,9 +225,30 @@ void read_reactions(const std::string& path, std::vector<SupportReaction>& react
   }
 }
 
+// energy.csv's rows of frame 0 and of `frame` (a restart's), if it holds them.
+bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow& at) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // the header
+  bool have_start = false, have_at = false;
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string cell;
+    std::vector<double> v;
+    while (std::getline(row, cell, ',')) v.push_back(std::strtod(cell.c_str(), nullptr));
+    if (v.size() != 9) continue;
+    const EnergyRow r{v[2], v[3], v[4], v[5], v[6], v[7], v[8]};
+    if ((int)v[0] == 0) start = r, have_start = true;
+    if ((int)v[0] == frame) at = r, have_at = true;
+  }
+  return have_start && have_at;
+}
+
 }  // namespace
 
 RunLogs::RunLogs(const RunContext& run) : run_(run) {
+  if (run.deck.output.energy)
+    energy_ = std::make_unique<EnergyBalance>(run.deck, make_integrator(run.deck.time.integrator)->time_fraction());
   if (!run.deck.output.reactions) return;
   reactions_ = std::make_unique<Reactions>(run.deck);
   const std::vector<std::string> names = Reactions::names(run.deck);
@@ -238,6 +260,20 @@ RunLogs::RunLogs(const RunContext& run) : run_(run) {
 void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame) {
   const OutputSpec& output = run_.deck.output;
   const bool restart = restart_frame >= 0;
+  restarted_ = restart;
+  if (energy_) {
+    const std::string path = outdir + "/energy.csv";
+    if (restart) {
+      EnergyRow start, at;
+      if (!read_energy(path, restart_frame, start, at))
+        throw std::runtime_error(path + " has no rows of frames 0 and " + std::to_string(restart_frame) +
+                                 " to go on from (output.energy: the checkpointed run must have written it)");
+      energy_->resume(at, start.kinetic + start.stored + start.dissipated);
+      energy_log_.resume(path, EnergyBalance::columns(), rank, restart_frame);
+    } else {
+      energy_log_.open(path, EnergyBalance::columns(), rank);
+    }
+  }
   if (reactions_) {
     const std::string path = outdir + "/reactions.csv";
     if (restart) {
@@ -275,19 +311,37 @@ IterationCallback RunLogs::iterations(int frame) {
 PetscErrorCode RunLogs::begin(LoopControl&) {
   PetscFunctionBeginUser;
   if (reactions_) PetscCall(reactions_->bind(*run_.scene.current().body, run_.state));
+  if (energy_) {
+    PetscCall(energy_->bind(*run_.scene.current().body, run_.state));
+    if (!restarted_) {  // frame 0: the energies the balance starts from
+      EnergyRow row;
+      PetscCall(energy_->start(run_.state, row));
+      append_energy(run_.state.frame, run_.state.time, row);
+      flush();
+    }
+  }
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode RunLogs::scene_changed(const Scene&, Scene& fresh) {
   PetscFunctionBeginUser;
   if (reactions_) PetscCall(reactions_->bind(*fresh.body, run_.state));
+  if (energy_) PetscCall(energy_->bind(*fresh.body, run_.state));
   PetscFunctionReturn(0);
 }
 
 PetscErrorCode RunLogs::before_frame(int) {
   PetscFunctionBeginUser;
   if (reactions_) PetscCall(reactions_->begin_frame(run_.state));
+  if (energy_) PetscCall(energy_->begin_frame(run_.state));
   PetscFunctionReturn(0);
+}
+
+void RunLogs::append_energy(int frame, double time, const EnergyRow& r) {
+  char row[512];
+  std::snprintf(row, sizeof row, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", r.kinetic, r.stored, r.dissipated,
+                r.gravity_work, r.load_work, r.support_work, r.residual);
+  energy_log_.append(frame, time, {row});
 }
 
 PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
@@ -297,6 +351,11 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
   if (outcome.lead.stop.empty() && !body.element_states().empty())
     PetscCall(body.dissipated_energy(&run_.summary.dissipated_energy));
   if (outcome.lead.stop.empty() && reactions_) PetscCall(record_reactions(outcome.frame));
+  if (outcome.lead.stop.empty() && energy_) {
+    EnergyRow row;
+    PetscCall(energy_->end_frame(run_.state, row));
+    append_energy(outcome.frame, run_.state.time, row);
+  }
   flush();  // also the rows of a frame that stops the run; before a checkpoint, which cuts the logs at its frame
   PetscFunctionReturn(0);
 }
@@ -304,6 +363,7 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
 void RunLogs::write_rows() {
   log_.flush();
   reaction_log_.flush();
+  energy_log_.flush();
   for (auto& l : term_logs_)
     if (l) l->flush();
 }

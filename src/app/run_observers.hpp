@@ -10,6 +10,7 @@
 #include "app/time_loop.hpp"
 #include "io/output_writer.hpp"
 #include "io/run_log.hpp"
+#include "model/energy_balance.hpp"
 #include "model/reactions.hpp"
 
 namespace hyperqn {
@@ -59,7 +60,8 @@ class ProgressLog : public FrameObserver {
 };
 
 // iterations.csv, the terms' own logs (EnergyTerm::log, e.g. contact.csv) and, if the deck asks
-// (output.reactions), reactions.csv and the summary's reactions (model/reactions.hpp): rows
+// (output.reactions), reactions.csv and the summary's reactions (model/reactions.hpp), and
+// (output.energy) energy.csv (model/energy_balance.hpp, from a row of frame 0 on): rows
 // appended during a frame, written at its end as whole lines (a kill leaves complete rows).
 class RunLogs : public FrameObserver {
  public:
@@ -80,11 +82,15 @@ class RunLogs : public FrameObserver {
  private:
   PetscErrorCode record_terms(int frame);
   PetscErrorCode record_reactions(int frame);
+  void append_energy(int frame, double time, const EnergyRow& row);
 
   RunContext run_;
   IterationLog log_;
   std::unique_ptr<Reactions> reactions_;  // output.reactions only
   FrameLog reaction_log_;
+  std::unique_ptr<EnergyBalance> energy_;  // output.energy only
+  FrameLog energy_log_;
+  bool restarted_ = false;
   // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
   // own log (null if it keeps none or the deck turned it off).
   std::vector<std::unique_ptr<FrameLog>> term_logs_;

@@ -249,8 +249,7 @@ const InelasticKind& plasticity_kind() {
         {"plastic", {},
          "J2 (von Mises) plasticity in the logarithmic strain over the Hencky elastic law, with linear isotropic and "
          "kinematic hardening; the history per element is E_p and the equivalent plastic strain "
-         "([inelastic.md](inelastic.md#plasticity)). Not with `implicit-midpoint` (the deck's integrator or one of a "
-         "study's)",
+         "([inelastic.md](inelastic.md#plasticity))",
          {}, "map", false, "none"},
         {"plastic.yield_stress", {}, "σ_y, the uniaxial (Kirchhoff) yield stress", above(0), "number", true},
         {"plastic.isotropic_hardening", {}, "H_iso: the yield stress grows by H_iso per unit equivalent plastic strain",

@@ -68,8 +68,7 @@ const std::vector<InelasticKind>& inelastic_kinds() {
         {"viscoelastic", {},
          "generalized Maxwell branches in parallel with the model, which is the equilibrium (long-term) part: "
          "its shear modulus μ is the relaxed one, μ/(1 − Σg) the instantaneous; the bulk modulus does not relax "
-         "([inelastic.md](inelastic.md#viscoelasticity)). Not with `implicit-midpoint` (the deck's integrator or one "
-         "of a study's)",
+         "([inelastic.md](inelastic.md#viscoelasticity))",
          {}, "map", false, "none"},
         {"viscoelastic.branches", {},
          "1 to 4 branches `{g: …, tau: …}`: g > 0 the branch's fraction of the instantaneous shear modulus (Σg < 1), "

@@ -55,17 +55,21 @@ std::vector<int> Reactions::lines(const SceneSpec& spec) {
   return out;
 }
 
+PetscErrorCode mesh_with_every_vertex(const DistributedMesh& mesh, std::unique_ptr<DistributedMesh>& out) {
+  PetscFunctionBeginUser;
+  out = std::make_unique<DistributedMesh>(mesh);
+  PetscCall(PetscObjectReference((PetscObject)out->dm));
+  out->vertex_dm = nullptr;
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v) out->local_dof[v] = 3 * v;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   const DistributedMesh& mesh = body.mesh();
   PetscFunctionBeginUser;
   body_ = &body;
   terms_.clear();
-  // The same mesh (its DM shared, for its communicator) with x dof 3 v for every local vertex v:
-  // the terms built over it add their gradients and masses at fixed vertices too.
-  all_ = std::make_unique<DistributedMesh>(mesh);
-  PetscCall(PetscObjectReference((PetscObject)all_->dm));
-  all_->vertex_dm = nullptr;
-  for (PetscInt v = 0; v < mesh.num_vertices; ++v) all_->local_dof[v] = 3 * v;
+  PetscCall(mesh_with_every_vertex(mesh, all_));
   terms_ = scene_elastic_terms(*all_, spec_);
   // The loads on faces, whose share at a fixed vertex goes into its support (the solver's terms
   // drop it there). A load on vertices acts on free ones only: none of it reaches a support.

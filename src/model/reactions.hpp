@@ -31,6 +31,10 @@
 
 namespace hyperqn {
 
+// The same mesh (its DM shared, for its communicator) with x dof 3 v for every local vertex v: the
+// terms built over it add their gradients and masses at fixed vertices too (also model/energy_balance.hpp).
+PetscErrorCode mesh_with_every_vertex(const DistributedMesh& mesh, std::unique_ptr<DistributedMesh>& out);
+
 // One support's force on the body at the end of a frame, the same on every rank.
 struct SupportForce {
   std::array<double, 3> force{0, 0, 0};   // sum over its vertices of r_i (N)

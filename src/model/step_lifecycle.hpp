@@ -17,7 +17,8 @@
 // t_{n+1}, undo back at t_n with the velocities they had there (Body::keep_motion). So does the
 // terms' per-element state (terms/element_state.hpp), once per accepted step: begin takes it as
 // the start, accept updates it (EnergyTerm::update_state), undo puts the start back, even after
-// accept. A sub-step's lifecycle does the same for its sub-step; the frame's undo goes back to the
+// accept. The midpoint updates it at z over h/2 and extrapolates it to 2 q_{n+1/2} - q_n (a step
+// completed by Euler: from the values at z over the second half). A sub-step's lifecycle does the same for its sub-step; the frame's undo goes back to the
 // frame's start, and the frame's accept after sub-steps leaves the state as they left it.
 #pragma once
 #include <petscvec.h>
@@ -92,6 +93,7 @@ class StepLifecycle {
  private:
   // The fixed vertices' motion into motion_n_ if the body is at s's time t_n.
   void keep_motion(const State& s);
+  PetscErrorCode element_states_at_z(Vec z);
 
   Body& body_;
   double dt_, damping_;
@@ -101,6 +103,7 @@ class StepLifecycle {
   Vec x_n_ = nullptr, v_n_ = nullptr, x_hat_ = nullptr, v_hat_ = nullptr;
   bool without_history_ = false;  // this step's integrator keeps a history and s had none
   bool euler_completed_ = false;  // this step ends by complete_by_euler
+  bool history_at_z_ = false;     // its element state was updated at z (the midpoint's)
   Body::MotionState motion_n_{NAN, {}};  // the fixed vertices' motion at t_n, for undo (NaN: none kept)
   bool kept_euler_completed_ = false;    // keep's
   Vec kept_hat_ = nullptr;

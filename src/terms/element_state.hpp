@@ -6,7 +6,8 @@
 // accept writes the current ones (EnergyTerm::update_state), its undo puts the start back, also
 // after an accept (a frame an observer refuses). A frame the fallback chain solves in sub-steps
 // moves them once per sub-step (begin_substep, the sub-step's accept); the frame's start is kept
-// then (only then: no copy for a frame of one step), and the frame's undo goes back to it. A checkpoint saves the current values and a
+// then (only then: no copy for a frame of one step), and the frame's undo goes back to it. The
+// midpoint updates them at its z over h/2 and extrapolates (extrapolate, advance). A checkpoint saves the current values and a
 // restart restores them (io/checkpoint.hpp, elements_<name>); a rebuilt scene (a release) carries
 // them over by id (Body::carry_element_states). docs/architecture.md, "The step core".
 #pragma once
@@ -37,9 +38,10 @@ class ElementState {
   // A frame's step: its start, and back to it (after sub-steps too).
   void begin() {
     start_ = current_;
-    frame_kept_ = false;
+    frame_kept_ = advanced_ = false;
   }
   void undo() {
+    back_from_advance();
     if (frame_kept_) start_ = frame_start_;
     current_ = start_;
   }
@@ -47,24 +49,47 @@ class ElementState {
   void begin_substep() {
     if (!frame_kept_) frame_start_ = start_;
     frame_kept_ = true;
+    advanced_ = false;
     start_ = current_;
   }
-  void undo_substep() { current_ = start_; }
+  void undo_substep() {
+    back_from_advance();
+    current_ = start_;
+  }
+  // The midpoint (docs/inelastic.md#the-midpoint): current, updated at the step's z over h/2, becomes
+  // 2 current - start, the midpoint rule for the values' ODE (the energy dissipated: start + 2 D_half).
+  void extrapolate() {
+    for (size_t i = 0; i < current_.size(); ++i) current_[i] = 2 * current_[i] - start_[i];
+  }
+  // A midpoint step completed by implicit Euler: its second half starts from the values at z
+  // (current, as updated there); undo and undo_substep still go back to the step's start.
+  void advance() {
+    if (!advanced_) step_start_ = start_;
+    advanced_ = true;
+    start_ = current_;
+  }
   // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
   // start and the current ones, as after an accepted step.
   void restore(std::vector<double> values) {
     current_ = std::move(values);
     start_ = current_;
-    frame_kept_ = false;
+    frame_kept_ = advanced_ = false;
   }
 
  private:
+  void back_from_advance() {
+    if (advanced_) start_ = step_start_;
+    advanced_ = false;
+  }
+
   std::string name_;
   int per_element_;
   std::vector<int64_t> ids_;
   std::vector<double> start_, current_;
   std::vector<double> frame_start_;  // the frame's start while sub-steps move start_
   bool frame_kept_ = false;
+  std::vector<double> step_start_;  // the step's start while advance() moved start_ to its z
+  bool advanced_ = false;
 };
 
 // from's current values into to's (both as after an accepted step), element by element through the

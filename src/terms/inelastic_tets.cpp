@@ -55,13 +55,20 @@ PetscErrorCode InelasticTets::begin_step(const StepStart& step) {
   return 0;
 }
 
-double InelasticTets::energy(int m, const Mat3& F, const double* h, double dt, Mat3* P) const {
+double InelasticTets::equilibrium_energy(int m, const Mat3& F, Mat3* P) const {
   const double psi = !materials_[m] ? 0.0 : P ? materials_[m]->energy_and_stress(F, *P) : materials_[m]->energy(F);
   if (!materials_[m] && P) P->setZero();
-  return psi + models_[m]->energy(F, h, dt, P);
+  return psi;
+}
+
+double InelasticTets::energy(int m, const Mat3& F, const double* h, double dt, Mat3* P) const {
+  return equilibrium_energy(m, F, P) + models_[m]->energy(F, h, dt, P);
 }
 
 double InelasticTets::element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const {
+  if (dt_ == 0) {  // no step (none begun, or one of no length): the energy stored with the history as it stands
+    return equilibrium_energy(m, F, P) + models_[m]->stored_energy(F, state_.start(k), P);
+  }
   return energy(m, F, state_.start(k), dt_, P);
 }
 

@@ -27,7 +27,9 @@ class InelasticTets : public TetElements {
                 std::vector<double> density);
   std::string name() const override;
   bool projective_dynamics_exact() const override { return false; }
-  // The step's length dt = t - t_start (a sub-step's own; the static integrator's load step h).
+  // The step's length dt = t - t_start (a sub-step's own; the static integrator's load step h). With
+  // none begun, or dt = 0, the energy is the one stored with the history as it stands (the reactions'
+  // and the energy balance's copies of the terms).
   PetscErrorCode begin_step(const StepStart& step) override;
   ElementState* element_state() override { return &state_; }
   PetscErrorCode update_state(const std::vector<double>& pos) override;
@@ -43,7 +45,8 @@ class InelasticTets : public TetElements {
   void stored_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
-  // psi (if any) + the model's W with the history h and step length dt.
+  // psi (if any; P set to its stress, or 0), and + the model's W with the history h and step length dt.
+  double equilibrium_energy(int m, const Mat3& F, Mat3* P) const;
   double energy(int m, const Mat3& F, const double* h, double dt, Mat3* P) const;
 
   std::vector<std::unique_ptr<Material>> materials_;

@@ -16,8 +16,8 @@ docs/inelastic.md#plasticity), end to end.
 - Two kinds in one scene (a plastic material and a viscoelastic region): a restart is bitwise.
 - A study keeps each trajectory's plastic history (as test_viscoelastic.py's, at 1 and 2 ranks).
 - Bad input: yield_stress <= 0, a negative hardening modulus, plastic with viscoelastic, plastic on
-  a model other than hencky, the midpoint integrator (also among a study's integrators): the deck
-  line named, exit 1, nothing written.
+  a model other than hencky: the deck line named, exit 1, nothing written (the midpoint takes it:
+  test_energy_balance.py).
 """
 import copy
 import math
@@ -237,11 +237,6 @@ BAD = {
                           ["one inelastic block"]),
     "on_neohookean": (bad(dict(PLASTIC, model="neohookean", plastic={"yield_stress": 1})),
                       ["plastic", "hencky"]),
-    "midpoint": (bad(time={"dt": 1, "frames": 2, "integrator": "implicit-midpoint"}),
-                 ["time.integrator", "implicit-midpoint does not take plastic"]),
-    "study_midpoint": (bad(study={"frames": [1], "solvers": ["lbfgs"],
-                                  "integrators": ["implicit-euler", "implicit-midpoint"]}),
-                       ["study.integrators", "implicit-midpoint does not take plastic"]),
 }
 
 

@@ -20,8 +20,8 @@
 - The same at 2 ranks (agrees to 1e-9 of the stress); a restart from the checkpoint of frame 40
   (mid-relaxation) ends bit for bit as the uninterrupted run at 1 rank, and within 1e-12 at 2.
 - Bad input: tau <= 0, g <= 0, sum g >= 1, 5 branches, no branches, a model without elastic
-  constants, the midpoint integrator (also among a study's integrators): the deck line named, exit 1,
-  nothing written.
+  constants: the deck line named, exit 1, nothing written (the midpoint takes it:
+  test_energy_balance.py).
 - A study keeps each trajectory's history apart: its lbfgs trajectory's distance to the converged
   reference equals the distance between two plain runs, through a release's rebuild too.
 """
@@ -251,11 +251,6 @@ BAD = {
     "principal_stretch": (bad({"model": "principal-stretch", "f": {"polynomial": [0, 0, 1]}, "density": 1000,
                                "viscoelastic": {"branches": [{"g": 0.3, "tau": 1}]}}),
                           ["viscoelastic"]),
-    "midpoint": (bad(time={"dt": DT, "frames": 2, "integrator": "implicit-midpoint"}),
-                 ["time.integrator", "implicit-midpoint does not take viscoelastic"]),
-    "study_midpoint": (bad(study={"frames": [1], "solvers": ["lbfgs"],
-                                  "integrators": ["implicit-euler", "implicit-midpoint"]}),
-                       ["study.integrators", "implicit-midpoint does not take viscoelastic"]),
 }
 
 
