@@ -11,6 +11,9 @@ implicit midpoint with inelastic materials (docs/inelastic.md#the-midpoint).
   next, and the plastic bar's root dissipates.
 - 1 and 2 ranks write the same energy.csv to round-off; a restart of the plastic bar from a frame
   in the middle of its flow writes the same energy.csv and ends at the same positions, bit for bit.
+- The midpoint's stabilized steps (completed by Euler) and the fallback chain's sub-steps with a
+  viscoelastic material, from the stability suite's inverted start: dissipation never falls, a
+  restart is bitwise.
 - Bad input: output.energy not a boolean, and output.energy with a collider: the deck line named,
   exit 1, nothing written.
 """
@@ -19,7 +22,7 @@ import copy
 import numpy as np
 import pytest
 
-from conftest import run_deck, run_hyperqn, write_deck
+from conftest import load_deck, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import neohookean_energies
 from hyperqn_tools.output import final_frame, frame_list, frame_meshes
 from test_bad_input import assert_clean_failure
@@ -133,6 +136,26 @@ def test_two_ranks_and_restart(tmp_path):
     assert "restart from" in done.stdout
     assert np.array_equal(final_frame(one).points, final_frame(restarted).points)
     assert (one / "energy.csv").read_bytes() == (restarted / "energy.csv").read_bytes()
+
+
+def test_euler_completed_and_substepped_steps(tmp_path):
+    """The stability suite's inverted start with a Maxwell branch, midpoint, 20 frames of lbfgs: some
+    steps end by the stabilization's second Euler half step (their history from z on) and some frames
+    in sub-steps; no tet's dissipation falls, and a restart from frame 10 is bitwise."""
+    deck = load_deck("input/stability/initial_invert.yaml")
+    deck["material"]["viscoelastic"] = {"branches": [{"g": 0.3, "tau": 0.05}]}
+    deck["time"] = dict(deck["time"], integrator="implicit-midpoint", frames=20)
+    deck["time"].pop("damping", None)
+    deck["output"] = {"every": 1, "fields": ["dissipated_energy"]}
+    out, summary = run_deck(tmp_path, "invert", deck)
+    print(f"euler_completed_steps {summary['euler_completed_steps']}, substepped_frames {summary['substepped_frames']}")
+    assert summary["euler_completed_steps"] > 0 and summary["substepped_frames"] > 0
+    assert np.all(np.diff(dissipation_per_frame(out), axis=0) >= 0)
+    restarted = tmp_path / "restarted"
+    first = dict(deck, time=dict(deck["time"], frames=10), checkpoint={"every": 10})
+    run_hyperqn([write_deck(tmp_path / "first.yaml", first), "-o", restarted], ranks=None)
+    run_hyperqn([write_deck(tmp_path / "then.yaml", deck), "-o", restarted, "--restart", "latest"], ranks=None)
+    assert np.array_equal(final_frame(out).points, final_frame(restarted).points)
 
 
 def bad(**changes):
