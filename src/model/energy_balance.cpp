@@ -109,7 +109,8 @@ PetscErrorCode EnergyBalance::end_frame(const State& s, EnergyRow& out) {
   body_->prescribed_state(tz, z, fixed_vel_);
   // The solve's forces at z: the elastic terms from the frame's start with the history it began with
   // (the inelastic ones' condensed stress over c h), the loads at their curves' t_n + c h.
-  const StepStart step{tz, c_ * h, s.x, nullptr, start_time_};
+  // A load that takes its directions from the step's start (a pressure on an open surface): x_n.
+  const StepStart step{tz, c_ * h, s.x, nullptr, start_time_, &pos_n_, &pos_n_};
   for (const auto& term : terms_)
     if (ElementState* to = term->element_state()) {
       for (const ElementState& from : start_states_) carry_values(*to, from);

@@ -103,12 +103,18 @@ def test_midpoint_balance_closes(tmp_path, name, material):
 
 
 def test_loads_and_moving_support_close_the_balance(tmp_path):
-    """No gravity; the clamp moves at a constant velocity and a traction on the free end ramps up."""
+    """No gravity; the clamp moves at a constant velocity, a traction on the free end ramps up, an open
+    pressure on the top face (normals of each step's start) and a force on the free vertices follow
+    sines."""
     deck = cantilever(ELASTIC)
     deck["gravity"] = [0, 0, 0]
     deck["fixed"][0]["motion"] = {"translate": {"velocity": [0, 0.05, 0.02]}}
     deck["loads"] = [{"type": "traction", "box": {"min": [0.999, -1, -1], "max": [1.001, 1, 1]},
-                      "traction": [0, -2.0e4, 1.0e4], "curve": {"type": "ramp", "end": 0.1}}]
+                      "traction": [0, -2.0e4, 1.0e4], "curve": {"type": "ramp", "end": 0.1}},
+                     {"type": "pressure", "box": {"min": [0.4, 0.099, -1], "max": [1.001, 0.101, 1]}, "normal": [0, 1, 0],
+                      "pressure": 2.0e3, "curve": {"type": "sine", "amplitude": 1, "frequency": 14}},
+                     {"type": "force", "box": {"min": [0.5, -1, -1], "max": [0.9, 1, 1]}, "force": [30, 0, -20],
+                      "curve": {"type": "sine", "amplitude": 1, "frequency": 20}}]
     out, _ = run_deck(tmp_path, "loads", deck)
     e = read_energy(out)
     assert e["gravity_work"].max() == 0
