@@ -8,7 +8,8 @@
 // Then a checkpoint: a term whose state follows the positions (each tet's frames and the sum of
 // its det F at each accepted frame) checkpointed after 3 frames and restarted in a fresh scene goes
 // on bit for bit as the uninterrupted run; a scene whose terms keep other state cannot restart from
-// it; a rebuilt scene carries the state over by id. At 1 and 2 ranks.
+// it; a rebuilt scene carries the state over by id. At 1 and 2 ranks. Then the midpoint's
+// extrapolate and advance, and undo after them.
 #include <petscdmplex.h>
 
 #include <algorithm>
@@ -284,10 +285,36 @@ PetscErrorCode check_checkpoint() {
 
 }  // namespace
 
+// The midpoint's moves (docs/inelastic.md#the-midpoint): extrapolate gives 2 current - start;
+// advance makes the values at z the start of a step's second half, and undo (of the frame, or of a
+// sub-step) still goes back to the step's start.
+void check_midpoint_moves() {
+  ElementState s("m", 2, {7, 3}, 1.0);
+  s.begin();
+  for (size_t e = 0; e < 2; ++e) s.current(e)[0] = 1.5, s.current(e)[1] = 1.25;  // updated at z
+  s.extrapolate();
+  CHECK(s.current(0)[0] == 2.0 && s.current(1)[1] == 1.5);
+  s.undo();
+  CHECK(s.current(0)[0] == 1.0 && s.start(1)[1] == 1.0);
+  s.begin();
+  s.current(0)[0] = 1.5;  // at z, then the second half from there
+  s.advance();
+  CHECK(s.start(0)[0] == 1.5);
+  s.current(0)[0] = 1.75;
+  s.undo();
+  CHECK(s.start(0)[0] == 1.0 && s.current(0)[0] == 1.0);
+  s.begin_substep();  // a sub-step's advance, undone as a sub-step: back to its start
+  s.current(1)[0] = 2.0;
+  s.advance();
+  s.undo_substep();
+  CHECK(s.start(1)[0] == 1.0 && s.current(1)[0] == 1.0);
+}
+
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   PetscCall(check_counts());
   PetscCall(check_checkpoint());
+  check_midpoint_moves();
   const int code = test_scene::tally("test_element_state");
   PetscCall(PetscFinalize());
   return code;
