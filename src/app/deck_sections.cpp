@@ -129,12 +129,21 @@ void read_mesh(const Reader& r, const Value& v, const fs::path& deck_dir, MeshSp
   }
 }
 
+// hardening without yield_strain (in section s) is an error at its line.
+static void hardening_needs_yield(const Reader& r, const Section& s) {
+  const Value* h = s.find("hardening");
+  if (h && !s.find("yield_strain"))
+    r.fail(*h, "hardening is that of a yield: give yield_strain too, or leave hardening out");
+}
+
 void read_strand_material(const Reader& r, const Value& v, StrandMaterial& m) {
-  read_keys(r, v, strand_material_keys(), m);
+  hardening_needs_yield(r, read_keys(r, v, strand_material_keys(), m));
 }
 
 void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
   const Section s = read_keys(r, v, cloth_keys(), c);
+  hardening_needs_yield(r, s);
+  if (const Value* bending = s.find("bending")) hardening_needs_yield(r, Section(r, *bending, {}));
   if (const Value* x = s.find("thickness")) c.thickness_line = x->line;
   if (c.model == ClothModel::membrane) {
     const double e = c.youngs_modulus, n = c.poisson_ratio;

@@ -77,6 +77,11 @@ static void add_tet_terms(const DistributedMesh& mesh, const std::vector<Materia
   }
 }
 
+// The name of a yielding spring set's history (the checkpoints' key): one per body (-1: the scene's).
+static std::string yield_state(const char* what, int body) {
+  return std::string(what) + (body < 0 ? "" : "_body" + std::to_string(body));
+}
+
 // A cloth's terms (mass, stretching, bending) over the triangles and hinges of one body (-1: all):
 // each term gets the elements it owns (body_elements), in the mesh's order.
 static void add_cloth_terms(const DistributedMesh& mesh, const ClothSpec& cloth, int body,
@@ -86,10 +91,12 @@ static void add_cloth_terms(const DistributedMesh& mesh, const ClothSpec& cloth,
   if (cloth.model == ClothModel::membrane)
     terms.push_back(std::make_unique<ClothMembrane>(mesh, cloth.material, cloth.mu, cloth.lambda, triangles));
   else
-    terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, triangles));
+    terms.push_back(std::make_unique<ClothSprings>(mesh, cloth.stretch_stiffness, triangles, cloth.yield,
+                                                   yield_state("edge_yield", body)));
   if (cloth.bending != BendingModel::none && mesh.global_hinges > 0)
     terms.push_back(std::make_unique<ClothBending>(mesh, cloth.bending, cloth.bending_stiffness,
-                                                   body_elements(mesh, mesh.hinges, 4, body)));
+                                                   body_elements(mesh, mesh.hinges, 4, body), cloth.bending_yield,
+                                                   yield_state("hinge_yield", body)));
 }
 
 std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& mesh,
@@ -99,7 +106,8 @@ std::vector<std::unique_ptr<EnergyTerm>> elastic_terms(const DistributedMesh& me
   add_tet_terms(mesh, materials, terms);
   if (mesh.global_segments > 0)
     terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
-                                                     strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, -1)));
+                                                     strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, -1),
+                                                     strands.yield, yield_state("strand_yield", -1)));
   if (mesh.global_triangles > 0) add_cloth_terms(mesh, cloth, -1, terms);
   return terms;
 }
@@ -111,7 +119,8 @@ std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh,
     const StrandMaterial& strands = bodies[k].strand_material;
     if (bodies[k].mesh.has_strands())
       terms.push_back(std::make_unique<StrandSegments>(mesh, strands.axial_stiffness, strands.linear_density,
-                                                       strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, (int)k)));
+                                                       strands.laplacian_weight, body_elements(mesh, mesh.segments, 2, (int)k),
+                                                       strands.yield, yield_state("strand_yield", (int)k)));
     if (bodies[k].mesh.has_cloth()) add_cloth_terms(mesh, bodies[k].cloth, (int)k, terms);
   }
   return terms;

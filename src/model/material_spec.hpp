@@ -9,6 +9,7 @@
 #include "params/deck_keys.hpp"
 #include "materials/cloth_models.hpp"
 #include "materials/material_factory.hpp"
+#include "materials/yielding_spring.hpp"
 
 namespace hyperqn {
 
@@ -18,6 +19,7 @@ struct StrandMaterial {
   double axial_stiffness = 0;        // EA: force per unit strain (N)
   double linear_density = 0;         // mass per unit rest length (kg/m)
   double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
+  SpringYield yield;                 // the segments' rest lengths flow past it (strain 0: elastic)
 };
 
 // The deck's strand_material: keys (params/deck_keys.hpp).
@@ -32,6 +34,14 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
       {"laplacian_weight", &S::laplacian_weight,
        "the EA used to build L (each segment adds weight/L). Omit it for the strands' own, exact weight.",
        above(0, "omit the key for the strands' own weight, axial_stiffness"), {}, "N", "`axial_stiffness`"},
+      {"yield_strain", Field<S, double>([](S& s) -> double& { return s.yield.strain; }),
+       "the segments yield: past this elastic strain, l/L_p − 1 in size, a segment's rest length L_p flows, so a stretched "
+       "strand keeps part of its stretch ([inelastic.md](inelastic.md#springs-that-yield))",
+       above(0, "an elastic strain, e.g. 0.01; omit the key for elastic strands"), {}, "", "none (elastic)"},
+      {"hardening", Field<S, double>([](S& s) -> double& { return s.yield.hardening; }),
+       "with `yield_strain`: the yield strain's growth per unit of accumulated plastic strain (H/E; 0: perfectly "
+       "plastic)",
+       at_least(0)},
   };
   return keys;
 }
@@ -53,6 +63,8 @@ struct ClothSpec {
   BendingModel bending = BendingModel::none;
   double bending_stiffness = 0;      // quadratic, dihedral: a bending modulus (N m); springs: k (N/m)
   double areal_density = 0;          // mass per unit rest area (kg/m^2)
+  SpringYield yield;                 // mass-spring: the edge springs' rest lengths flow past it
+  SpringYield bending_yield;         // springs bending: the bending springs' rest lengths flow past it
   double thickness = 0;              // in self-contact: its mid-surfaces keep this much farther apart
   int thickness_line = 0;            // deck line of thickness, when given
 };
@@ -66,6 +78,17 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
       only_with(DeckKey<C>{"stretch_stiffness", &C::stretch_stiffness, "k of every edge spring: E = k/2 (l − L)²",
                            above(0), {}, "N/m"},
                 "model", {"mass-spring"}, true),
+      only_with(DeckKey<C>{"yield_strain", Field<C, double>([](C& c) -> double& { return c.yield.strain; }),
+                           "the edge springs yield: past this elastic strain, l/L_p − 1 in size, a spring's rest length L_p "
+                           "flows ([inelastic.md](inelastic.md#springs-that-yield))",
+                           above(0, "an elastic strain, e.g. 0.01; omit the key for elastic springs"), {}, "",
+                           "none (elastic)"},
+                "model", {"mass-spring"}, false),
+      only_with(DeckKey<C>{"hardening", Field<C, double>([](C& c) -> double& { return c.yield.hardening; }),
+                           "with `yield_strain`: the yield strain's growth per unit of accumulated plastic strain (H/k; "
+                           "0: perfectly plastic)",
+                           at_least(0)},
+                "model", {"mass-spring"}, false),
       only_with(enum_key<C>("material", &C::material, kMembraneMaterialNames,
                             "the energy density of the 3×2 deformation gradient"),
                 "model", {"membrane"}, false),
@@ -84,6 +107,17 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
       only_with(DeckKey<C>{"bending.stiffness", &C::bending_stiffness,
                            "quadratic, dihedral: a bending modulus (N·m); springs: k (N/m)", above(0)},
                 "model", {"quadratic", "dihedral", "springs"}, true),
+      only_with(DeckKey<C>{"bending.yield_strain", Field<C, double>([](C& c) -> double& { return c.bending_yield.strain; }),
+                           "the bending springs yield: past this elastic strain a spring's rest length flows, so a fold "
+                           "keeps a crease ([inelastic.md](inelastic.md#springs-that-yield))",
+                           above(0, "an elastic strain, e.g. 0.05; omit the key for elastic bending"), {}, "",
+                           "none (elastic)"},
+                "model", {"springs"}, false),
+      only_with(DeckKey<C>{"bending.hardening", Field<C, double>([](C& c) -> double& { return c.bending_yield.hardening; }),
+                           "with `bending.yield_strain`: the yield strain's growth per unit of accumulated plastic "
+                           "strain (H/k; 0: perfectly plastic)",
+                           at_least(0)},
+                "model", {"springs"}, false),
       needed(DeckKey<C>{"areal_density", &C::areal_density,
                         "mass per unit rest area, lumped a third to each vertex of a triangle", above(0, "kg/m^2")}),
       {"thickness", &C::thickness,

@@ -1,5 +1,6 @@
 #include "terms/cloth_bending.hpp"
 
+#include <map>
 #include <stdexcept>
 
 #include "terms/element_kernels.hpp"
@@ -14,14 +15,36 @@ std::string ClothBending::name() const {
   }
 }
 
-ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges)
+// The global id 3 t + e of the edge a-b as its carrying local triangle t names it (-1: none here).
+static std::map<std::pair<PetscInt, PetscInt>, int64_t> carried_edge_ids(const DistributedMesh& mesh) {
+  std::map<std::pair<PetscInt, PetscInt>, int64_t> ids;
+  for (PetscInt t = 0; t < mesh.num_triangles; ++t)
+    for (int e = 0; e < 3; ++e)
+      if (mesh.triangle_edges[t] & (1u << e)) {
+        const PetscInt a = mesh.triangles[3 * t + e], b = mesh.triangles[3 * t + (e + 1) % 3];
+        ids[{std::min(a, b), std::max(a, b)}] = 3 * mesh.triangle_ids[t] + e;
+      }
+  return ids;
+}
+
+ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges,
+                           const SpringYield& yield, const std::string& state)
     : mesh_(mesh), model_(model), k_(stiffness), hinges_(std::move(hinges)), springs_(mesh) {
   const double* X = mesh.rest.data();
+  std::map<std::pair<PetscInt, PetscInt>, int64_t> edge_ids;
+  if (yield.active()) edge_ids = carried_edge_ids(mesh);
   for (PetscInt h : hinges_) {
     const PetscInt* v = &mesh.hinges[4 * h];
     if (model == BendingModel::springs) {
       const PetscInt cd[2] = {v[2], v[3]};
-      springs_.add(cd[0], cd[1], segment_edge(X, cd).norm(), stiffness);
+      int64_t id = -1;
+      if (yield.active()) {
+        const auto it = edge_ids.find({std::min(v[0], v[1]), std::max(v[0], v[1])});
+        if (it == edge_ids.end())
+          throw std::runtime_error("a yielding bending spring's hinge has no triangle carrying its edge on its rank");
+        id = it->second;
+      }
+      springs_.add(cd[0], cd[1], segment_edge(X, cd).norm(), stiffness, id);
       continue;
     }
     const Vec3 x0(&X[3 * v[0]]), x1(&X[3 * v[1]]), x2(&X[3 * v[2]]), x3(&X[3 * v[3]]);
@@ -30,6 +53,7 @@ ClothBending::ClothBending(const DistributedMesh& mesh, BendingModel model, doub
     if (model == BendingModel::dihedral) rest_.push_back(hinge::hinge_rest(x0, x1, x2, x3));
   }
   springs_.arrange();
+  if (yield.active()) springs_.set_yield(yield, state);
 }
 
 PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {

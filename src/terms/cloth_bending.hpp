@@ -24,12 +24,19 @@ namespace hyperqn {
 class ClothBending : public EnergyTerm {
  public:
   // model: not none (a cloth without bending has no bending term).
-  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges);
+  ClothBending(const DistributedMesh& mesh, BendingModel model, double stiffness, std::vector<PetscInt> hinges,
+               const SpringYield& yield = {}, const std::string& state = "");
   std::string name() const override;
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
-  bool projective_dynamics_exact() const override { return model_ != BendingModel::dihedral; }
+  bool projective_dynamics_exact() const override { return model_ != BendingModel::dihedral && !springs_.yields(); }
+  ElementState* element_state() override { return springs_.element_state(); }
+  PetscErrorCode update_state(const std::vector<double>& pos) override {
+    springs_.update_state(pos.data());
+    return 0;
+  }
+  double dissipated_energy() const override { return springs_.dissipated_energy(); }
 
  private:
   const DistributedMesh& mesh_;

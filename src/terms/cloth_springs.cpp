@@ -4,15 +4,17 @@
 
 namespace hyperqn {
 
-ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles)
+ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles,
+                           const SpringYield& yield, const std::string& state)
     : mesh_(mesh), k_(stiffness), springs_(mesh) {
   for (PetscInt t : triangles)
     for (int e = 0; e < 3; ++e)
       if (mesh.triangle_edges[t] & (1u << e)) {
         const PetscInt ab[2] = {mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]};
-        springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), stiffness);
+        springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), stiffness, 3 * mesh.triangle_ids[t] + e);
       }
   springs_.arrange();
+  if (yield.active()) springs_.set_yield(yield, state);
 }
 
 PetscErrorCode ClothSprings::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {

@@ -2,7 +2,9 @@
 // the surface, L its rest length, the same k for all. Each edge is carried by one of its
 // triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
 // weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. Over the
-// triangles its builder hands it (a body's: body_elements).
+// triangles its builder hands it (a body's: body_elements). With a yield (cloth.yield_strain) the
+// rest lengths flow (SpringSet::set_yield, docs/inelastic.md#springs-that-yield): the history is
+// the ElementState `state`, an edge's id 3 t + e (t the global id of the triangle carrying it).
 #pragma once
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
@@ -12,12 +14,19 @@ namespace hyperqn {
 
 class ClothSprings : public EnergyTerm {
  public:
-  ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles);
+  ClothSprings(const DistributedMesh& mesh, double stiffness, const std::vector<PetscInt>& triangles,
+               const SpringYield& yield = {}, const std::string& state = "");
   std::string name() const override { return "cloth springs"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
-  bool projective_dynamics_exact() const override { return true; }
+  bool projective_dynamics_exact() const override { return !springs_.yields(); }
+  ElementState* element_state() override { return springs_.element_state(); }
+  PetscErrorCode update_state(const std::vector<double>& pos) override {
+    springs_.update_state(pos.data());
+    return 0;
+  }
+  double dissipated_energy() const override { return springs_.dissipated_energy(); }
 
  private:
   const DistributedMesh& mesh_;

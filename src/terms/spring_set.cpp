@@ -10,10 +10,12 @@
 
 namespace hyperqn {
 
-void SpringSet::add(PetscInt a, PetscInt b, double rest_length, double stiffness) {
+void SpringSet::add(PetscInt a, PetscInt b, double rest_length, double stiffness, int64_t id) {
   for (auto* v : {&a_, &b_, &dof_a_, &dof_b_}) v->resize(count_);  // drop the padding
   rest_.resize(count_);
   k_.resize(count_);
+  ids_.resize(count_);
+  ids_.push_back(id);
   a_.push_back(a);
   b_.push_back(b);
   dof_a_.push_back(mesh_.local_dof[a]);
@@ -61,6 +63,7 @@ void SpringSet::arrange() {
   permute(dof_b_);
   permute(rest_);
   permute(k_);
+  permute(ids_);
 }
 
 namespace {
@@ -104,9 +107,36 @@ HYPERQN_VECTOR_CLONES double spring_batches(size_t count, const PetscInt* a, con
 
 }  // namespace
 
+void SpringSet::set_yield(const SpringYield& yield, const std::string& state) {
+  yield_ = yield;
+  state_.emplace(state, yielding_spring::kValues, std::vector<int64_t>(ids_.begin(), ids_.begin() + count_));
+}
+
+// W = k L^2 w(eps), eps = l/L - 1: dW/dl = k L w', d2W/dl2 = k w''.
+yielding_spring::Flow SpringSet::flow(size_t s, double length) const {
+  return yielding_spring::flow(length / rest_[s] - 1, state_->start(s), yield_);
+}
+
 double SpringSet::tension(size_t s, const double* pos) const {
   const PetscInt ab[2] = {a_[s], b_[s]};
-  return spring::tension(segment_edge(pos, ab), rest_[s], k_[s]);
+  const Vec3 u = segment_edge(pos, ab);
+  if (!state_) return spring::tension(u, rest_[s], k_[s]);
+  return k_[s] * rest_[s] * flow(s, spring::length(u, rest_[s])).slope;
+}
+
+void SpringSet::update_state(const double* pos) {
+  for (size_t s = 0; s < count_; ++s) {
+    const PetscInt ab[2] = {a_[s], b_[s]};
+    const double L = rest_[s];
+    yielding_spring::update(spring::length(segment_edge(pos, ab), L) / L - 1, state_->start(s), yield_,
+                            k_[s] * L * L, state_->current(s));
+  }
+}
+
+double SpringSet::dissipated_energy() const {
+  double e = 0;
+  for (size_t s = 0; state_ && s < count_; ++s) e += state_->current(s)[2];
+  return e;
 }
 
 PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bool psd) const {
@@ -114,7 +144,18 @@ PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bo
   PetscFunctionBeginUser;
   for (size_t s = 0; s < count_; ++s) {
     const PetscInt ab[2] = {a_[s], b_[s]};
-    const Mat3 K = spring::stiffness(segment_edge(pos, ab), rest_[s], k_[s], psd);
+    Mat3 K;
+    if (state_) {  // as spring::stiffness, with dW/dl and d2W/dl2 of the return map
+      const Vec3 u = segment_edge(pos, ab);
+      const double l = spring::length(u, rest_[s]);
+      const yielding_spring::Flow f = flow(s, l);
+      const Vec3 n = u / l;
+      double transverse = k_[s] * rest_[s] * f.slope / l;
+      if (psd) transverse = std::max(transverse, 0.0);
+      K = k_[s] * f.curvature * n * n.transpose() + transverse * (Mat3::Identity() - n * n.transpose());
+    } else {
+      K = spring::stiffness(segment_edge(pos, ab), rest_[s], k_[s], psd);
+    }
     Ks << K, -K, -K, K;
     PetscCall(add_element_hessian<2>(mesh_, H, ab, Ks, scale));
   }
@@ -134,6 +175,24 @@ PetscErrorCode SpringSet::add_laplacian(Mat A, double scale, int components) con
 }
 
 void SpringSet::add_energy(const double* pos, double* energy, PetscScalar* gradient) const {
+  if (state_) {  // spring by spring through the return map
+    double e = 0;
+    for (size_t s = 0; s < count_; ++s) {
+      const PetscInt ab[2] = {a_[s], b_[s]};
+      const Vec3 u = segment_edge(pos, ab);
+      const double L = rest_[s], l = spring::length(u, L);
+      const yielding_spring::Flow f = flow(s, l);
+      e += k_[s] * L * L * f.w;
+      if (!gradient) continue;
+      const Vec3 g = (k_[s] * L * f.slope / l) * u;  // dE/du
+      if (dof_a_[s] >= 0)
+        for (int d = 0; d < 3; ++d) gradient[dof_a_[s] + d] -= g[d];
+      if (dof_b_[s] >= 0)
+        for (int d = 0; d < 3; ++d) gradient[dof_b_[s] + d] += g[d];
+    }
+    *energy += e;
+    return;
+  }
   *energy += spring_batches(a_.size(), a_.data(), b_.data(), dof_a_.data(), dof_b_.data(), rest_.data(), k_.data(),
                             pos, gradient);
 }

@@ -4,18 +4,26 @@
 // vectorized loop; only reading the end points and adding the forces go spring by spring, the
 // latter straight to the ends' dofs, looked up once when the spring is added (a fixed end has
 // none; a release rebuilds the scene and its terms, so the dofs do not change under a term).
+// A set may yield (set_yield: materials/yielding_spring.hpp): then each spring carries its plastic
+// history in the set's ElementState and is evaluated one by one through the return map; a set
+// that does not yield runs the elastic batches alone.
 #pragma once
+#include <optional>
+#include <string>
 #include <vector>
 
+#include "materials/yielding_spring.hpp"
 #include "mesh/distributed_mesh.hpp"
+#include "terms/element_state.hpp"
 
 namespace hyperqn {
 
 class SpringSet {
  public:
   explicit SpringSet(const DistributedMesh& mesh) : mesh_(mesh) {}
-  // A spring between the local vertices a and b.
-  void add(PetscInt a, PetscInt b, double rest_length, double stiffness);
+  // A spring between the local vertices a and b; id: its global id (the same at every rank count),
+  // for the history of a set that yields.
+  void add(PetscInt a, PetscInt b, double rest_length, double stiffness, int64_t id = -1);
   // Reorders the springs, once the last one is added, so that side by side they rarely share a
   // vertex: the loop that adds the forces then does not wait, spring after spring, for the store
   // to a shared vertex's gradient before it (sheet81's g and grad g 7 % faster: docs/cloth.md#speed).
@@ -25,8 +33,18 @@ class SpringSet {
   void arrange();
   size_t size() const { return count_; }
   double rest_length(size_t s) const { return rest_[s]; }
-  // Spring s's tension k (l - L) at pos (spring::tension).
+  // Spring s's tension dE/dl at pos: k (l - L) (spring::tension), or its yielding one.
   double tension(size_t s, const double* pos) const;
+
+  // From now on the springs yield (after the last add and arrange): their history is an
+  // ElementState named `state` (the checkpoints' key), keyed by the ids given to add.
+  void set_yield(const SpringYield& yield, const std::string& state);
+  bool yields() const { return state_.has_value(); }
+  ElementState* element_state() { return state_ ? &*state_ : nullptr; }
+  // The history at the step's end from the step's start, at the accepted positions pos.
+  void update_state(const double* pos);
+  // The energy the springs have dissipated (J, as the history stands).
+  double dissipated_energy() const;
 
   // *energy += the springs' energy at the local positions pos (3 per local vertex); their gradient
   // is added into `gradient` (the mesh's local dof array), unless it is null.
@@ -45,6 +63,11 @@ class SpringSet {
   std::vector<PetscInt> a_, b_;          // local vertices
   std::vector<PetscInt> dof_a_, dof_b_;  // their x dofs in the local dof array, -1 if fixed
   std::vector<double> rest_, k_;
+  std::vector<int64_t> ids_;
+  SpringYield yield_;
+  std::optional<ElementState> state_;  // set_yield's: per spring yielding_spring::kValues values
+  // Spring s's condensed energy at its edge u: the return map from its history at the step's start.
+  yielding_spring::Flow flow(size_t s, double length) const;
 };
 
 }  // namespace hyperqn

@@ -5,7 +5,8 @@
 namespace hyperqn {
 
 StrandSegments::StrandSegments(const DistributedMesh& mesh, double axial_stiffness, double linear_density,
-                               double laplacian_weight, std::vector<PetscInt> segments)
+                               double laplacian_weight, std::vector<PetscInt> segments, const SpringYield& yield,
+                               const std::string& state)
     : mesh_(mesh),
       axial_stiffness_(axial_stiffness),
       linear_density_(linear_density),
@@ -15,8 +16,9 @@ StrandSegments::StrandSegments(const DistributedMesh& mesh, double axial_stiffne
   for (PetscInt s : segments_) {
     const PetscInt* seg = &mesh.segments[2 * s];
     const double L = segment_edge(mesh.rest.data(), seg).norm();
-    springs_.add(seg[0], seg[1], L, axial_stiffness / L);
+    springs_.add(seg[0], seg[1], L, axial_stiffness / L, mesh.segment_ids[s]);
   }
+  if (yield.active()) springs_.set_yield(yield, state);
 }
 
 PetscErrorCode StrandSegments::add_energy(Vec, const std::vector<double>& pos, double* energy,

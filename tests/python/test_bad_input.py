@@ -77,6 +77,24 @@ def cloth_with_thickness(thickness, self_contact):
     return deck
 
 
+STRAND = {"mesh": {"strands": [{"from": [0, 0, 0], "to": [1, 0, 0], "segments": 2}]},
+          "strand_material": {"axial_stiffness": 100.0, "linear_density": 0.1},
+          "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.01]}}],
+          "time": {"dt": 0.01, "frames": 2}}
+
+
+def with_keys(base, section, **keys):
+    """base with keys set in its section (a dotted section for a nested map)."""
+    deck = copy.deepcopy(base)
+    node = deck
+    for p in section.split("."):
+        node = node.setdefault(p, {})
+    node.update(keys)
+    return deck
+
+
+CLOTH_SPRINGS_BENDING = with_keys(CLOTH, "cloth.bending", model="springs", stiffness=1.0)
+
 BAD_DECKS = {
     "nu_half": (deck_with(**{"material.poisson_ratio": 0.5}), ["material.poisson_ratio"]),
     "dt_zero": (deck_with(**{"time.dt": 0.0}), ["time.dt"]),
@@ -155,6 +173,25 @@ BAD_DECKS = {
     "cloth_infinite_thickness": (cloth_with_thickness(float("inf"), True), ["'cloth.thickness'", "expected a number"]),
     "cloth_thickness_without_self_contact": (cloth_with_thickness(0.01, False),
                                              ["'cloth.thickness'", "acts in self-contact only"]),
+    # springs that yield (docs/inelastic.md#springs-that-yield): a yield strain > 0, a hardening >= 0
+    # that needs one, on the spring models only
+    "strand_negative_yield_strain": (with_keys(STRAND, "strand_material", yield_strain=-0.01),
+                                     [".yaml:6: 'strand_material.yield_strain'", "> 0"]),
+    "strand_negative_hardening": (with_keys(STRAND, "strand_material", yield_strain=0.01, hardening=-1.0),
+                                  [".yaml:7: 'strand_material.hardening'", ">= 0"]),
+    "strand_hardening_without_yield": (with_keys(STRAND, "strand_material", hardening=0.5),
+                                       [".yaml:6: 'strand_material.hardening'", "give yield_strain too"]),
+    "cloth_zero_yield_strain": (with_keys(CLOTH, "cloth", yield_strain=0.0), [".yaml:5: 'cloth.yield_strain'", "> 0"]),
+    "cloth_yield_on_membrane": (dict(CLOTH, cloth={"model": "membrane", "youngs_modulus": 100.0, "poisson_ratio": 0.3,
+                                                   "areal_density": 0.2, "yield_strain": 0.01}),
+                                ["'cloth.yield_strain'", "mass-spring"]),
+    "cloth_bending_yield_on_dihedral": (with_keys(with_keys(CLOTH_SPRINGS_BENDING, "cloth.bending", model="dihedral"),
+                                                  "cloth.bending", yield_strain=0.05),
+                                        ["'cloth.bending.yield_strain'", "springs"]),
+    "cloth_bending_negative_yield_strain": (with_keys(CLOTH_SPRINGS_BENDING, "cloth.bending", yield_strain=-0.05),
+                                            ["'cloth.bending.yield_strain'", "> 0"]),
+    "cloth_bending_hardening_without_yield": (with_keys(CLOTH_SPRINGS_BENDING, "cloth.bending", hardening=0.1),
+                                              ["'cloth.bending.hardening'", "give yield_strain too"]),
 }
 
 
