@@ -1,4 +1,4 @@
-// Springs that yield (materials/yielding_spring.hpp, SpringSet::set_yield; docs/inelastic.md#springs-that-yield):
+// Springs that yield (materials/yielding_spring.hpp, SpringSet::set_yield; docs/yielding-springs.md):
 //  - the 1-D return map: w against a brute-force minimization of stored + dissipation over the
 //    increment; dw/deps and d2w/deps2 against central differences of w and dw/deps, at rest
 //    history and after plastic flow either way, inside the elastic range, beyond yield, and within

@@ -1,4 +1,4 @@
-// A spring whose rest length flows (docs/inelastic.md#springs-that-yield): 1-D rate-independent
+// A spring whose rest length flows (docs/yielding-springs.md): 1-D rate-independent
 // plasticity of the strain eps = l/L - 1 (L the spring's original rest length), plastic strain
 // eps_p (the flowing rest length is L (1 + eps_p)), linear isotropic hardening with internal
 // variable alpha (the accumulated |d eps_p|):

@@ -36,7 +36,7 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
        above(0, "omit the key for the strands' own weight, axial_stiffness"), {}, "N", "`axial_stiffness`"},
       {"yield_strain", Field<S, double>([](S& s) -> double& { return s.yield.strain; }),
        "the segments yield: past this elastic strain, l/L_p − 1 in size, a segment's rest length L_p flows, so a stretched "
-       "strand keeps part of its stretch ([inelastic.md](inelastic.md#springs-that-yield))",
+       "strand keeps part of its stretch ([yielding-springs.md](yielding-springs.md))",
        above(0, "an elastic strain, e.g. 0.01; omit the key for elastic strands"), {}, "", "none (elastic)"},
       {"hardening", Field<S, double>([](S& s) -> double& { return s.yield.hardening; }),
        "with `yield_strain`: the yield strain's growth per unit of accumulated plastic strain (H/E; 0: perfectly "
@@ -80,7 +80,7 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
                 "model", {"mass-spring"}, true),
       only_with(DeckKey<C>{"yield_strain", Field<C, double>([](C& c) -> double& { return c.yield.strain; }),
                            "the edge springs yield: past this elastic strain, l/L_p − 1 in size, a spring's rest length L_p "
-                           "flows ([inelastic.md](inelastic.md#springs-that-yield))",
+                           "flows ([yielding-springs.md](yielding-springs.md))",
                            above(0, "an elastic strain, e.g. 0.01; omit the key for elastic springs"), {}, "",
                            "none (elastic)"},
                 "model", {"mass-spring"}, false),
@@ -109,7 +109,7 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
                 "model", {"quadratic", "dihedral", "springs"}, true),
       only_with(DeckKey<C>{"bending.yield_strain", Field<C, double>([](C& c) -> double& { return c.bending_yield.strain; }),
                            "the bending springs yield: past this elastic strain a spring's rest length flows, so a fold "
-                           "keeps a crease ([inelastic.md](inelastic.md#springs-that-yield))",
+                           "keeps a crease ([yielding-springs.md](yielding-springs.md))",
                            above(0, "an elastic strain, e.g. 0.05; omit the key for elastic bending"), {}, "",
                            "none (elastic)"},
                 "model", {"springs"}, false),

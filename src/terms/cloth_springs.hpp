@@ -3,7 +3,7 @@
 // triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
 // weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. Over the
 // triangles its builder hands it (a body's: body_elements). With a yield (cloth.yield_strain) the
-// rest lengths flow (SpringSet::set_yield, docs/inelastic.md#springs-that-yield): the history is
+// rest lengths flow (SpringSet::set_yield, docs/yielding-springs.md): the history is
 // the ElementState `state`, an edge's id 3 t + e (t the global id of the triangle carrying it).
 #pragma once
 #include "mesh/distributed_mesh.hpp"

@@ -2,7 +2,7 @@
 // E = EA/(2L) (l - L)^2, mass linear_density * L lumped half to each end, and weight EA/L in L
 // (exact for springs, so Projective Dynamics is exact unless the deck overrides the weight).
 // With a yield (strand_material.yield_strain) the segments' rest lengths flow (SpringSet::set_yield,
-// docs/inelastic.md#springs-that-yield): their history is the ElementState `state`, by segment id.
+// docs/yielding-springs.md): their history is the ElementState `state`, by segment id.
 #pragma once
 #include <vector>
 

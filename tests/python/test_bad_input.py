@@ -173,7 +173,7 @@ BAD_DECKS = {
     "cloth_infinite_thickness": (cloth_with_thickness(float("inf"), True), ["'cloth.thickness'", "expected a number"]),
     "cloth_thickness_without_self_contact": (cloth_with_thickness(0.01, False),
                                              ["'cloth.thickness'", "acts in self-contact only"]),
-    # springs that yield (docs/inelastic.md#springs-that-yield): a yield strain > 0, a hardening >= 0
+    # springs that yield (docs/yielding-springs.md): a yield strain > 0, a hardening >= 0
     # that needs one, on the spring models only
     "strand_negative_yield_strain": (with_keys(STRAND, "strand_material", yield_strain=-0.01),
                                      [".yaml:6: 'strand_material.yield_strain'", "> 0"]),

@@ -1,5 +1,5 @@
 """Springs that yield (strand_material.yield_strain, cloth.yield_strain, cloth.bending.yield_strain;
-docs/inelastic.md#springs-that-yield), end to end.
+docs/yielding-springs.md), end to end.
 
 - A strand of 4 segments, fixed at one end, pulled at the other by a force ramped to F and
   released (static load steps): each step's length against the closed form of 1-D plasticity with
