@@ -59,6 +59,7 @@ def hanging(tmp_path, size, mesh, solver=None):
         deck["solver"] = solver
     outdir = tmp_path / "out"
     proc = run_hyperqn([write_deck(tmp_path / "slivers.yaml", deck), "-o", outdir], ranks=None, check=False)
+    assert (outdir / "summary.json").exists(), f"exit {proc.returncode}, no summary:\n{proc.stdout[-3000:]}"
     return proc, read_summary(outdir)
 
 
