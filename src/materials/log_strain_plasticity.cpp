@@ -103,6 +103,51 @@ Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
   return r;
 }
 
+// Whether a history's E_p,n is zero (no history: hencky): then the step is coaxial with C (below).
+bool no_plastic_strain(const double* h) {
+  return !h || (h[0] == 0.0 && h[1] == 0.0 && h[2] == 0.0 && h[3] == 0.0 && h[4] == 0.0 && h[5] == 0.0);
+}
+
+// return_map and first_piola where E_p,n = 0 (the elastic model hencky, and every tet that has not
+// yielded yet): dev E, the trial stress, the flow and T are then spectral functions of C, so no
+// eigenvectors are needed. C's eigenvalues in closed form, E = 1/2 log C in Newton's form
+// (materials/spectral3.hpp, as the Maxwell branches' kernel); T coaxial with C makes S = Dlog(C)[T]
+// = C^{-1} T, so P = F^{-T} T. The same numbers as the eigensolver's to round-off, several times
+// cheaper (tests/test_plasticity.cpp checks hencky and this path by finite differences, and against
+// the general path from a flowed history). psi (+inf where det F = 0); P added to *P if not null;
+// *end the step's end history (E_p, alpha) if not null.
+double coaxial_value(const Params& p, const Mat3& F, double alpha_n, bool flow, Mat3* P, double* end) {
+  const double J = F.determinant();
+  const spectral3::Spectrum s = spectral3::spectrum(F.transpose() * F, J * J);
+  if (!(s.lambda[0] > 0) || !std::isfinite(s.lambda[2])) return std::numeric_limits<double>::infinity();
+  const double g1 = std::log(s.lambda[0]), g2 = std::log(s.lambda[1]), g3 = std::log(s.lambda[2]);
+  const double theta = 0.5 * (g1 + g2 + g3);  // tr E
+  const double e1 = 0.5 * g1 - theta / 3.0, e2 = 0.5 * g2 - theta / 3.0, e3 = 0.5 * g3 - theta / 3.0;
+  const double norm = std::sqrt(e1 * e1 + e2 * e2 + e3 * e3);  // |dev E|
+  double k = 1.0, gamma = 0.0, alpha = alpha_n;                 // elastic strain = k dev E
+  if (flow) {
+    const double f = 2.0 * p.mu * norm - std::sqrt(2.0 / 3.0) * (p.sigma_y + p.H_iso * alpha_n);
+    if (f > 0) {  // n = dev E / |dev E|
+      gamma = f / (2.0 * p.mu + (2.0 / 3.0) * (p.H_kin + p.H_iso));
+      k = 1.0 - gamma / norm;
+      alpha += std::sqrt(2.0 / 3.0) * gamma;
+    }
+  }
+  if (P || end) {  // dev E = 1/2 log C - theta/3 I
+    const double f12 = 0.5 * spectral3::log_divided(s.lambda[0], s.gap[0], g2, g1);
+    const double f23 = 0.5 * spectral3::log_divided(s.lambda[1], s.gap[1], g3, g2);
+    const double f123 = spectral3::spread_out(s) ? (f23 - f12) / s.spread : -0.25 / (s.q * s.q);
+    const Mat3 devE = spectral3::newton_form(s, 0.5 * g1, f12, f123) - (theta / 3.0) * Mat3::Identity();
+    if (P) *P += F.inverse().transpose() * (2.0 * p.mu * k * devE + p.kappa * theta * Mat3::Identity());
+    if (end) {
+      pack_symmetric(gamma > 0 ? Mat3(gamma / norm * devE) : Mat3::Zero(), end);
+      end[6] = alpha;
+    }
+  }
+  return p.mu * k * k * norm * norm + 0.5 * p.kappa * theta * theta + 0.5 * p.H_iso * alpha * alpha +
+         p.H_kin / 3.0 * gamma * gamma + std::sqrt(2.0 / 3.0) * p.sigma_y * gamma;
+}
+
 // P = F S, S = Dlog(C)[T]: in C's eigenbasis S'_ab = log[l_a, l_b] T'_ab.
 Mat3 first_piola(const Mat3& F, const Return& r) {
   Mat3 Sp;
@@ -166,6 +211,11 @@ class LogStrainPlasticity : public InelasticModel {
     return r.ok ? tangent(p_, F, r) : Mat9::Zero();
   }
   void update(const Mat3& F, const double* start, double, double* end) const override {
+    if (no_plastic_strain(start)) {
+      if (std::isinf(coaxial_value(p_, F, start[6], true, nullptr, end)))  // no finite step ends here
+        for (int k = 0; k < kPlasticValues; ++k) end[k] = start[k];
+      return;
+    }
     const Return r = return_map(p_, F, start, true);
     if (!r.ok) {  // no finite step ends here: keep the history
       for (int k = 0; k < kPlasticValues; ++k) end[k] = start[k];
@@ -189,6 +239,7 @@ class LogStrainPlasticity : public InelasticModel {
 
  private:
   double value(const Mat3& F, const double* h, bool flow, Mat3* P) const {
+    if (no_plastic_strain(h)) return coaxial_value(p_, F, h[6], flow, P, nullptr);
     const Return r = return_map(p_, F, h, flow);
     if (!r.ok) return std::numeric_limits<double>::infinity();
     if (P) *P += first_piola(F, r);
@@ -202,18 +253,10 @@ class Hencky : public Material {
  public:
   Hencky(double mu, double lambda) : p_{mu, lambda + 2.0 * mu / 3.0, 0, 0, 0} {}
   std::string name() const override { return "hencky"; }
-  double energy(const Mat3& F) const override {
-    const Return r = return_map(p_, F, nullptr, false);
-    return r.ok ? r.psi : std::numeric_limits<double>::infinity();
-  }
+  double energy(const Mat3& F) const override { return coaxial_value(p_, F, 0.0, false, nullptr, nullptr); }
   double energy_and_stress(const Mat3& F, Mat3& P) const override {
-    const Return r = return_map(p_, F, nullptr, false);
-    if (!r.ok) {
-      P.setZero();
-      return std::numeric_limits<double>::infinity();
-    }
-    P = first_piola(F, r);
-    return r.psi;
+    P.setZero();
+    return coaxial_value(p_, F, 0.0, false, &P, nullptr);
   }
   Mat9 stress_derivative(const Mat3& F) const override {
     const Return r = return_map(p_, F, nullptr, false);
