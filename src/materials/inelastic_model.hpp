@@ -31,6 +31,17 @@ class InelasticModel {
   // The condensed energy W(F) of a step of dt from history (per rest volume), P = dW/dF added to
   // *P if P is not null. +inf where no step ends (det F = 0).
   virtual double energy(const Mat3& F, const double* history, double dt, Mat3* P) const = 0;
+  // energy() for the first n elements of a batch (materials/material.hpp), element e's history
+  // history[e]: W added to b.psi and P to b.P (b.psi +inf where no step ends, its P left). This
+  // default goes element by element; the Maxwell branches loop over the lanes.
+  virtual void energy_batch(StressBatch& b, int n, const double* const* history, double dt) const {
+    for (int e = 0; e < n; ++e) {
+      Mat3 F, P = Mat3::Zero();
+      for (int c = 0; c < 9; ++c) F(c) = b.F[c][e];
+      b.psi[e] += energy(F, history[e], dt, &P);
+      for (int c = 0; c < 9; ++c) b.P[c][e] += P(c);
+    }
+  }
   // The energy stored at F with the history as it stands (no flow), P added as above: what the
   // output's energies and stresses read at a step's end.
   virtual double stored_energy(const Mat3& F, const double* history, Mat3* P) const = 0;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "materials/cofactor.hpp"
 #include "materials/spectral3.hpp"
 #include "materials/symmetric6.hpp"
 
@@ -39,7 +40,73 @@ Trial trial(const Mat3& F, const double* history) {
   return t;
 }
 
+// energy() across a batch's lanes (spectral3's lane helpers): per branch the lanes' A = C_v,n^{-1}
+// gathered from the histories, b = F A F^T, its spectrum, the logs (lane by lane), W and K += m E;
+// then P += 2 K F^{-T}, F^{-T} = cof(F) / J. About twice as fast as element by element.
+HYPERQN_VECTOR_CLONES void maxwell_batch(const MaxwellBranch* branches, int count, double dt, StressBatch& b, int n,
+                                         const double* const* history) {
+  const Lanes* F = b.F;  // F(i, j) = F[i + 3 j]
+  const Lanes zero = {};
+  Lanes C[9], J;
+  cofactor_lanes(F, C, J);
+  Lanes W = {}, K[6] = {}, bad = {};
+  for (int i = 0; i < count; ++i) {
+    Lanes A[6] = {};  // xx, yy, zz, xy, yz, xz; the identity in unused lanes
+    for (int e = 0; e < kBatch; ++e)
+      for (int c = 0; c < 6; ++c) A[c][e] = e < n ? history[e][kViscousValues * i + c] : (c < 3 ? 1.0 : 0.0);
+    const Lanes a[3][3] = {{A[0], A[3], A[5]}, {A[3], A[1], A[4]}, {A[5], A[4], A[2]}};
+    Lanes FA[3][3];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) FA[r][c] = F[r] * a[0][c] + F[r + 3] * a[1][c] + F[r + 6] * a[2][c];
+    const int rows[6] = {0, 1, 2, 0, 1, 0}, cols[6] = {0, 1, 2, 1, 2, 2};
+    Lanes bb[6];
+    for (int k = 0; k < 6; ++k) {  // (F A F^T)(r, c) = sum_j FA(r, j) F(c, j)
+      const int r = rows[k], c = cols[k];
+      bb[k] = FA[r][0] * F[c] + FA[r][1] * F[c + 3] + FA[r][2] * F[c + 6];
+    }
+    const Lanes detA = A[0] * (A[1] * A[2] - A[4] * A[4]) - A[3] * (A[3] * A[2] - A[4] * A[5]) +
+                       A[5] * (A[3] * A[4] - A[1] * A[5]);
+    spectral3::SpectrumLanes s;
+    spectral3::spectrum_lanes(bb, J * J * detA, s);
+    Lanes g[3] = {};
+    for (int e = 0; e < n; ++e) {
+      if (!(s.lambda[0][e] > 0) || !std::isfinite(s.lambda[2][e])) {
+        bad[e] = 1.0;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) g[k][e] = std::log(s.lambda[k][e]);
+    }
+    const Lanes mean = (g[0] + g[1] + g[2]) / 6.0;
+    const Lanes d1 = 0.5 * g[0] - mean, d2 = 0.5 * g[1] - mean, d3 = 0.5 * g[2] - mean;
+    const double m = branches[i].mu * branches[i].tau / (branches[i].tau + dt);
+    W += m * (d1 * d1 + d2 * d2 + d3 * d3);
+    Lanes f12, f23;  // divided differences of 1/2 log x
+    spectral3::log_divided_lanes(s.lambda[0], s.gap[0], g[1], g[0], f12);
+    spectral3::log_divided_lanes(s.lambda[1], s.gap[1], g[2], g[1], f23);
+    f12 *= 0.5;
+    f23 *= 0.5;
+    const Lanes absq = s.q < zero ? -s.q : s.q;
+    const Lanes f123 = s.spread > 1e-8 * absq ? (f23 - f12) / s.spread : -0.25 / (s.q * s.q);
+    const Lanes mm = zero + m;
+    spectral3::add_newton_form_lanes(s, d1, f12, f123, mm, K);
+  }
+  const Lanes k[3][3] = {{K[0], K[3], K[5]}, {K[3], K[1], K[4]}, {K[5], K[4], K[2]}};
+  const Lanes two_over_J = 2.0 / J;
+  const auto ok = bad == zero;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {  // 2 (K cof(F) / J)(r, c)
+      const Lanes add = (k[r][0] * C[3 * c] + k[r][1] * C[1 + 3 * c] + k[r][2] * C[2 + 3 * c]) * two_over_J;
+      b.P[r + 3 * c] = ok ? b.P[r + 3 * c] + add : b.P[r + 3 * c];
+    }
+  const Lanes inf = zero + std::numeric_limits<double>::infinity();
+  b.psi = ok ? b.psi + W : inf;
+}
+
 }  // namespace
+
+void MaxwellBranches::energy_batch(StressBatch& b, int n, const double* const* history, double dt) const {
+  maxwell_batch(branches_.data(), size(), dt, b, n, history);
+}
 
 MaxwellBranches::MaxwellBranches(std::vector<MaxwellBranch> branches) : branches_(std::move(branches)) {
   if (branches_.empty() || (int)branches_.size() > kMaxMaxwellBranches)

@@ -44,6 +44,8 @@ class MaxwellBranches : public InelasticModel {
   // dW/dF added to *P if P is not null. dt = 0: the energy stored in the branches as they stand
   // (history the current one). +inf where F F^T is singular (det F = 0); finite for inverted F.
   double energy(const Mat3& F, const double* history, double dt, Mat3* P) const override;
+  // The same across a batch's lanes (the same formulas, equal to round-off).
+  void energy_batch(StressBatch& b, int n, const double* const* history, double dt) const override;
   double stored_energy(const Mat3& F, const double* history, Mat3* P) const override {
     return energy(F, history, 0.0, P);
   }

@@ -136,5 +136,89 @@ inline Mat3 newton_form(const Spectrum& s, double f1, double f12, double f123) {
   return R;
 }
 
+// spectrum, log_divided(y, gap, log_x, log_y) and newton_form across a batch's lanes
+// (materials/lanes.hpp), the same operations lane by lane (the branches become selections; only
+// sqrt goes lane by lane): for the batched kernels of materials/maxwell_branches.cpp. A symmetric
+// matrix is 6 lanes: xx, yy, zz, xy, yz, xz. Out-parameters, for the x86-64 and AVX clones.
+struct SpectrumLanes {
+  Lanes dev[6];  // b - q I
+  Lanes q, shift[3], lambda[3], gap[2], spread;
+};
+
+inline void sqrt_lanes(const Lanes& x, Lanes& r) {
+  for (int e = 0; e < kBatch; ++e) r[e] = std::sqrt(x[e]);
+}
+
+inline void spectrum_lanes(const Lanes (&b)[6], const Lanes& det_b, SpectrumLanes& s) {
+  const Lanes zero = {}, one = zero + 1.0;
+  s.q = (b[0] + b[1] + b[2]) / 3.0;
+  Lanes* B = s.dev;
+  for (int c = 0; c < 3; ++c) B[c] = b[c] - s.q;
+  for (int c = 3; c < 6; ++c) B[c] = b[c];
+  const Lanes p2 = (B[0] * B[0] + B[1] * B[1] + B[2] * B[2] + 2.0 * (B[3] * B[3] + B[4] * B[4] + B[5] * B[5])) / 6.0;
+  Lanes p;
+  sqrt_lanes(p2 > zero ? p2 : one, p);
+  const Lanes ip = 1.0 / p;
+  const Lanes a = B[0] * ip, d = B[1] * ip, f = B[2] * ip, u = B[3] * ip, v = B[4] * ip, w = B[5] * ip;
+  const Lanes r = 0.5 * (a * (d * f - v * v) - u * (u * f - v * w) + w * (u * v - d * w));
+  const Lanes absr = r < zero ? -r : r;
+  const Lanes rho = absr < one ? absr : one;
+  Lanes y = 1.7321850378747825 + rho * (0.3304294345645239 + rho * (-0.081261010009823 + rho * 0.01874896904804373));
+  for (int k = 0; k < 2; ++k) y -= (y * (y * y - 3.0) - 2.0 * rho) / (3.0 * (y * y - 1.0));
+  const Lanes z2 = 3.0 * (2.0 - y) * (2.0 + y);
+  Lanes z;
+  sqrt_lanes(z2 > zero ? z2 : zero, z);
+  const auto first = r >= zero;  // the roots' first form (r >= 0) or the second
+  s.shift[0] = first ? -0.5 * p * (y + z) : -p * y;
+  s.shift[1] = first ? 0.5 * p * (z - y) : 0.5 * p * (y - z);
+  s.shift[2] = first ? p * y : 0.5 * p * (y + z);
+  s.gap[0] = first ? p * z : 0.5 * p * (3.0 * y - z);
+  s.gap[1] = first ? 0.5 * p * (3.0 * y - z) : p * z;
+  s.spread = 0.5 * p * (3.0 * y + z);
+  for (int k = 0; k < 3; ++k) s.lambda[k] = s.q + s.shift[k];
+  const auto small = (det_b > zero) & (s.lambda[0] < 0.25 * s.lambda[1]);
+  const Lanes l0 = det_b / (s.lambda[1] * s.lambda[2]);
+  s.lambda[0] = small ? l0 : s.lambda[0];
+  s.shift[0] = small ? l0 - s.q : s.shift[0];
+  s.gap[0] = small ? s.lambda[1] - l0 : s.gap[0];
+  s.spread = small ? s.lambda[2] - l0 : s.spread;
+  const auto round = p2 > zero;  // else b = q I (or NaN)
+  for (int k = 0; k < 3; ++k) {
+    s.lambda[k] = round ? s.lambda[k] : s.q;
+    s.shift[k] = round ? s.shift[k] : zero;
+  }
+  for (int k = 0; k < 2; ++k) s.gap[k] = round ? s.gap[k] : zero;
+  s.spread = round ? s.spread : zero;
+}
+
+inline void log_divided_lanes(const Lanes& y, const Lanes& gap, const Lanes& log_x, const Lanes& log_y, Lanes& r) {
+  const Lanes inv = 1.0 / (2.0 * y + gap), s = gap * inv, s2 = s * s;
+  const Lanes series =
+      2.0 * inv * (1.0 + s2 * (1.0 / 3 + s2 * (1.0 / 5 + s2 * (1.0 / 7 + s2 * (1.0 / 9 + s2 * (1.0 / 11 + s2 / 13))))));
+  const Lanes limit = {}, wide = limit + 0.05;
+  r = s >= wide ? (log_x - log_y) / gap : series;
+}
+
+// R = f1 I + f12 (b - l1 I) + f123 (b - l1 I)(b - l2 I), 6 lanes, added times scale to R.
+inline void add_newton_form_lanes(const SpectrumLanes& s, const Lanes& f1, const Lanes& f12, const Lanes& f123,
+                                  const Lanes& scale, Lanes (&R)[6]) {
+  const Lanes* B = s.dev;  // xx, yy, zz, xy, yz, xz
+  const Lanes s1 = s.shift[0], s2 = s.shift[1];
+  const Lanes xx = B[0] * B[0] + B[3] * B[3] + B[5] * B[5];
+  const Lanes yy = B[3] * B[3] + B[1] * B[1] + B[4] * B[4];
+  const Lanes zz = B[5] * B[5] + B[4] * B[4] + B[2] * B[2];
+  const Lanes xy = B[0] * B[3] + B[3] * B[1] + B[5] * B[4];
+  const Lanes yz = B[3] * B[5] + B[1] * B[4] + B[4] * B[2];
+  const Lanes xz = B[0] * B[5] + B[3] * B[4] + B[5] * B[2];
+  const Lanes lin = f12 - f123 * (s1 + s2);
+  const Lanes diag = f1 - f12 * s1 + f123 * s1 * s2;
+  R[0] += scale * (diag + lin * B[0] + f123 * xx);
+  R[1] += scale * (diag + lin * B[1] + f123 * yy);
+  R[2] += scale * (diag + lin * B[2] + f123 * zz);
+  R[3] += scale * (lin * B[3] + f123 * xy);
+  R[4] += scale * (lin * B[4] + f123 * yz);
+  R[5] += scale * (lin * B[5] + f123 * xz);
+}
+
 }  // namespace spectral3
 }  // namespace hyperqn

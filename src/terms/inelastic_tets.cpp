@@ -72,6 +72,18 @@ double InelasticTets::element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) 
   return energy(m, F, state_.start(k), dt_, P);
 }
 
+void InelasticTets::element_energy_batch(size_t k, int m, StressBatch& b, int n) const {
+  if (materials_[m]) {
+    materials_[m]->energy_and_stress_batch(b, n);
+  } else {
+    b.psi = Lanes{};
+    for (Lanes& P : b.P) P = Lanes{};
+  }
+  const double* history[kBatch];
+  for (int e = 0; e < n; ++e) history[e] = state_.start(k + e);
+  models_[m]->energy_batch(b, n, history, dt_);
+}
+
 void InelasticTets::stored_energy_batch(size_t k, int m, StressBatch& b, int n) const {
   per_element(b, n, [&](int e, const Mat3& F, Mat3& P) {
     const double psi = materials_[m] ? materials_[m]->energy_and_stress(F, P) : (P.setZero(), 0.0);

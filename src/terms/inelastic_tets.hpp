@@ -42,6 +42,8 @@ class InelasticTets : public TetElements {
 
  private:
   double element_energy(PetscInt k, int m, const Mat3& F, Mat3* P) const override;
+  // The material's batch kernel, then the model's (the Maxwell branches': across the lanes).
+  void element_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
   void stored_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
