@@ -142,16 +142,26 @@ std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const Attac
   return vertices;
 }
 
+std::vector<std::vector<PetscInt>> attached_vertex_sets(const DistributedMesh& mesh,
+                                                        const std::vector<AttachmentSpec>& attachments,
+                                                        const std::vector<char>& released) {
+  const double tol = 1e-9 * rest_diagonal(mesh);
+  std::vector<std::vector<PetscInt>> sets(attachments.size());
+  for (size_t k = 0; k < attachments.size(); ++k)
+    if (k >= released.size() || !released[k]) sets[k] = attached_vertices(mesh, attachments[k], tol);
+  return sets;
+}
+
 std::unique_ptr<EnergyTerm> attachment_term(const DistributedMesh& mesh, const std::vector<AttachmentSpec>& attachments,
                                             const std::vector<char>& released) {
-  const double tol = 1e-9 * rest_diagonal(mesh);
+  std::vector<std::vector<PetscInt>> sets = attached_vertex_sets(mesh, attachments, released);
   std::vector<AttachedVertices> groups;
   for (size_t k = 0; k < attachments.size(); ++k) {
     if (k < released.size() && released[k]) continue;
     AttachedVertices group;
     group.stiffness = attachments[k].stiffness;
     group.motion = attachments[k].region.motion;
-    group.vertices = attached_vertices(mesh, attachments[k], tol);
+    group.vertices = std::move(sets[k]);
     groups.push_back(std::move(group));
   }
   if (groups.empty()) return nullptr;

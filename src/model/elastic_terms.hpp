@@ -35,6 +35,12 @@ std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMe
 // tolerance tol, 1e-9 of rest_diagonal(mesh), so the springs do not depend on the rank count).
 std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol);
 
+// Per attachment, attached_vertices with that tolerance; none for a released one (released[k] != 0,
+// or past released's end: not released). Collective (rest_diagonal).
+std::vector<std::vector<PetscInt>> attached_vertex_sets(const DistributedMesh& mesh,
+                                                        const std::vector<AttachmentSpec>& attachments,
+                                                        const std::vector<char>& released);
+
 // The springs of the attachments not released (released[k] != 0: attachments[k] is gone), on
 // the free vertices this rank owns in each box (in_box with the serial selection's tolerance, so
 // the springs do not depend on the rank count); null if none is left. Collective.

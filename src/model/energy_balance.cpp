@@ -29,11 +29,7 @@ PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     for (int d = 0; d < 3; ++d)
       if (mesh.fixed[v] > 0 || (mesh.rollers && mesh.held[3 * v + d] > 0)) free_[3 * v + d] = 0;
-  const double tol = 1e-9 * rest_diagonal(mesh);  // as attachment_term
-  attached_.assign(spec_.attachments.size(), {});
-  for (size_t k = 0; k < spec_.attachments.size(); ++k)
-    if (k >= s.released_attachments.size() || !s.released_attachments[k])
-      attached_[k] = attached_vertices(mesh, spec_.attachments[k], tol);
+  attached_ = attached_vertex_sets(mesh, spec_.attachments, s.released_attachments);  // as attachment_term
   PetscFunctionReturn(0);
 }
 

@@ -80,11 +80,7 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   }
   mass_.assign(3 * mesh.num_vertices, 0.0);
   for (const auto& t : terms_) t->add_lumped_mass(mass_.data());
-  const double tol = 1e-9 * rest_diagonal(mesh);  // as attachment_term
-  attached_.assign(spec_.attachments.size(), {});
-  for (size_t k = 0; k < spec_.attachments.size(); ++k)
-    if (k >= s.released_attachments.size() || !s.released_attachments[k])
-      attached_[k] = attached_vertices(mesh, spec_.attachments[k], tol);
+  attached_ = attached_vertex_sets(mesh, spec_.attachments, s.released_attachments);  // as attachment_term
   PetscFunctionReturn(0);
 }
 
