@@ -203,6 +203,16 @@ def assert_clean_failure(proc, outdir, fragments):
     assert not outdir.exists(), "an output directory was left behind"
 
 
+def assert_deck_refused(tmp_path, name, deck, fragments):
+    """Writes deck as NAME.yaml and runs it alone: exit 1, an error naming NAME.yaml:LINE and each
+    fragment, nothing written. The bad-input tables of the material and output tests use it."""
+    path = write_deck(tmp_path / f"{name}.yaml", deck)
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"{name}.yaml:"] + fragments)
+    assert proc.returncode == 1
+
+
 @pytest.mark.parametrize("case", sorted(BAD_DECKS))
 def test_bad_deck(tmp_path, case):
     deck, fragments = BAD_DECKS[case]
