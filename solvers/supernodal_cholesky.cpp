@@ -321,16 +321,207 @@ HYPERQN_VECTOR_CLONES void forward_pass(const SupernodalCholesky::Node* nodes, i
   for (int64_t k = 0; k < count; ++k) forward_node<lanes>(nodes, k, count, row_end, row, L, block);
 }
 
-// Columns per pass of forward_units: 4, a row in one AVX2 register (8 lanes in two took the box's
-// commits of 12 rows from 1.4 to 3.3 ms).
+// forward_units' columns: groups of kUnitLanes, a row of a group in one AVX2 register. A group of 8
+// lanes in two registers per pass took the box's commits of 12 rows from 1.4 to 3.3 ms.
 constexpr int kUnitLanes = 4;
 
-// The forward pass over the listed nodes only (ascending): a right-hand side that is 0 outside
-// them, whose rows below each of them are again in them (the nodes' ancestors).
-HYPERQN_VECTOR_CLONES void forward_pass_on(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
-                                           const int32_t* __restrict row, const double* __restrict L,
-                                           double* __restrict block, const int32_t* which, int64_t listed) {
-  for (int64_t a = 0; a < listed; ++a) forward_node<kUnitLanes>(nodes, which[a], count, row_end, row, L, block);
+// What forward_units' pass visits: the union of the columns' paths (`listed` nodes `which`,
+// ascending), each node's columns at `offset` of the compact block (the union's columns one after
+// the other), its rows below as rows of that block, and the groups of columns whose path has it.
+// Group g is the block's rows × kUnitLanes doubles from g × stride.
+struct UnitPlan {
+  const int32_t* which;
+  int64_t listed;
+  const int32_t* offset;
+  const int64_t* below_start;  // listed + 1
+  const int32_t* below;
+  const int64_t* group_start;  // listed + 1
+  const int32_t* group;
+  int64_t stride;
+  int32_t* first;  // scratch: a node's first row that is not 0, per pair of its groups
+};
+
+// The kernels of forward_units_pass, on Q groups at once. Per lane each does forward_node's
+// arithmetic on each entry of the block in forward_node's order (only the loops around it are
+// reordered), so each lane gets the bits that forward_node<kUnitLanes> gives.
+using UnitRow = RowOf<kUnitLanes>::type;
+
+// y = L_nn^{-1} y on a node's triangle (by columns: 1 / L_jj, then L_ij below it), four columns
+// (a panel) at a time: the panel's own triangle, then each row below it loaded once, its four
+// updates in registers, in the order of j.
+template <int Q>
+inline void unit_triangle(UnitRow* const* y, const double* v, int first, int width) {
+  v += int64_t(first) * width - int64_t(first) * (first - 1) / 2;  // column `first`
+  int j0 = first;
+  for (; j0 + 4 <= width; j0 += 4) {
+    const double* c[4];
+    c[0] = v;
+    for (int p = 1; p < 4; ++p) c[p] = c[p - 1] + (width - j0 - p + 1);
+    v = c[3] + (width - j0 - 3);
+    UnitRow yj[Q][4];
+    for (int q = 0; q < Q; ++q)
+      for (int p = 0; p < 4; ++p) {
+        const UnitRow a = y[q][j0 + p] * c[p][0];
+        y[q][j0 + p] = a;
+        yj[q][p] = a;
+        for (int i = p + 1; i < 4; ++i) y[q][j0 + i] -= c[p][i - p] * a;
+      }
+    for (int i = j0 + 4; i < width; ++i) {
+      const double l0 = c[0][i - j0], l1 = c[1][i - j0 - 1], l2 = c[2][i - j0 - 2], l3 = c[3][i - j0 - 3];
+      for (int q = 0; q < Q; ++q) {
+        UnitRow t = y[q][i];
+        t -= l0 * yj[q][0];
+        t -= l1 * yj[q][1];
+        t -= l2 * yj[q][2];
+        t -= l3 * yj[q][3];
+        y[q][i] = t;
+      }
+    }
+  }
+  for (int j = j0; j < width; ++j) {  // the last columns one by one
+    for (int q = 0; q < Q; ++q) {
+      const UnitRow a = y[q][j] * v[0];
+      y[q][j] = a;
+      for (int i = j + 1; i < width; ++i) y[q][i] -= v[i - j] * a;
+    }
+    v += width - j;
+  }
+}
+
+// dot_rows on Q groups: w[row[u]] -= (row u's values) . y for the r <= 4 rows u, each value
+// loaded once for the Q groups.
+template <int r, int Q>
+inline void unit_dot_rows(UnitRow* const* w, UnitRow* const* y, const int32_t* row, const double* value, int first,
+                          int width) {
+  UnitRow s[Q][r] = {};
+  for (int j = first; j < width; ++j) {
+    UnitRow yj[Q];
+    for (int q = 0; q < Q; ++q) yj[q] = y[q][j];
+    for (int u = 0; u < r; ++u)
+      for (int q = 0; q < Q; ++q) s[q][u] += value[u * width + j] * yj[q];
+  }
+  for (int q = 0; q < Q; ++q)
+    for (int u = 0; u < r; ++u) w[q][row[u]] -= s[q][u];
+}
+
+template <int Q>
+inline void unit_rows_below(UnitRow* const* w, UnitRow* const* y, const int32_t* below, int64_t rows, const double* v,
+                            int first, int width) {
+  switch (rows) {
+    case 4: unit_dot_rows<4, Q>(w, y, below, v, first, width); break;
+    case 3: unit_dot_rows<3, Q>(w, y, below, v, first, width); break;
+    case 2: unit_dot_rows<2, Q>(w, y, below, v, first, width); break;
+    case 1: unit_dot_rows<1, Q>(w, y, below, v, first, width); break;
+    default: break;
+  }
+}
+
+// The first of a node's `width` rows where a lane of the Q groups is not 0. The lanes are 0 on the
+// rows before it (a column's first node starts below the others', or its path joins a node below
+// its first row), so the work with them is skipped: it would subtract +0 (y is never -0: it starts
+// as +0 and 1, and x - x rounds to +0), which changes no bit.
+template <int Q>
+inline int unit_first_nonzero(UnitRow* const* y, int width) {
+  for (int j = 0; j < width; ++j)
+    for (int q = 0; q < Q; ++q)
+      for (int l = 0; l < kUnitLanes; ++l)
+        if (y[q][j][l] != 0) return j;
+  return width;
+}
+
+// The forward pass of every group over the union, node by node: a node's values of L are read once
+// for all the groups through it, two groups at a time (from L1 while the pairs take their turns:
+// a panel of the triangle, a block of 4 rows below), not once per group. A lane that is 0 on a
+// node stays 0 there and adds 0 to the rows below, so each column gets the bits it would get alone.
+HYPERQN_VECTOR_CLONES void forward_units_pass(const SupernodalCholesky::Node* nodes, const double* __restrict L,
+                                              double* __restrict block, const UnitPlan& plan) {
+  for (int64_t a = 0; a < plan.listed; ++a) {
+    const SupernodalCholesky::Node& node = nodes[plan.which[a]];
+    const int width = node.width;
+    const int32_t* below = plan.below + plan.below_start[a];
+    const int64_t rows = plan.below_start[a + 1] - plan.below_start[a];
+    const int32_t* groups = plan.group + plan.group_start[a];
+    const int64_t count = plan.group_start[a + 1] - plan.group_start[a];
+    const double* v = L + node.value;
+    UnitRow* w[2];
+    UnitRow* y[2];
+    auto take = [&](int64_t q, int slot) {
+      w[slot] = reinterpret_cast<UnitRow*>(block + groups[q] * plan.stride);
+      y[slot] = w[slot] + plan.offset[a];
+    };
+    if (width == 1) {  // as forward_node's lone column
+      for (int64_t q = 0; q < count; ++q) {
+        take(q, 0);
+        const UnitRow yj = y[0][0] * v[0];
+        y[0][0] = yj;
+        for (int64_t r = 0; r < rows; ++r) w[0][below[r]] -= v[1 + r] * yj;
+      }
+      continue;
+    }
+    int32_t* first = plan.first;  // per pair of groups
+    for (int64_t q = 0, p = 0; q < count; q += 2, ++p) {
+      take(q, 0);
+      if (q + 1 < count) {
+        take(q + 1, 1);
+        first[p] = unit_first_nonzero<2>(y, width);
+        unit_triangle<2>(y, v, first[p], width);
+      } else {
+        first[p] = unit_first_nonzero<1>(y, width);
+        unit_triangle<1>(y, v, first[p], width);
+      }
+    }
+    v += int64_t(width) * (width + 1) / 2;
+    // The rows below, 4 at a time, each block for every pair of groups in turn.
+    for (int64_t r = 0; r < rows; r += 4, v += 4 * width) {
+      const int64_t block_rows = std::min<int64_t>(4, rows - r);
+      for (int64_t q = 0, p = 0; q < count; q += 2, ++p) {
+        take(q, 0);
+        if (q + 1 < count) {
+          take(q + 1, 1);
+          unit_rows_below<2>(w, y, below + r, block_rows, v, first[p], width);
+        } else {
+          unit_rows_below<1>(w, y, below + r, block_rows, v, first[p], width);
+        }
+      }
+    }
+  }
+}
+
+// result[kUnitLanes g + l] = column . (lane l of group g), g < groups, over the column's nodes
+// that are in the block (node_offset >= 0): one multiply-add per row, ascending, from 0. Four
+// groups at a time, each sum in a register of its own.
+template <int m>
+inline void unit_dots_of(const double* block, int64_t stride, const SupernodalCholesky::Node* nodes,
+                         const int32_t* node_offset, const SupernodalCholesky::SparseColumn& column, int g0,
+                         double* result) {
+  using Row = RowOf<kUnitLanes>::type;
+  Row s[m] = {};
+  const double* v = column.values.data();
+  for (int32_t k : column.nodes) {
+    const int width = nodes[k].width;
+    if (const int32_t offset = node_offset[k]; offset >= 0) {
+      const Row* g[m];
+      for (int q = 0; q < m; ++q) g[q] = reinterpret_cast<const Row*>(block + (g0 + q) * stride) + offset;
+      for (int i = 0; i < width; ++i)
+        for (int q = 0; q < m; ++q) s[q] += v[i] * g[q][i];
+    }
+    v += width;
+  }
+  for (int q = 0; q < m; ++q)
+    for (int l = 0; l < kUnitLanes; ++l) result[kUnitLanes * (g0 + q) + l] = s[q][l];
+}
+
+HYPERQN_VECTOR_CLONES void unit_dots(const double* block, int64_t stride, const SupernodalCholesky::Node* nodes,
+                                     const int32_t* node_offset, const SupernodalCholesky::SparseColumn& column,
+                                     int groups, double* result) {
+  int g = 0;
+  for (; g + 4 <= groups; g += 4) unit_dots_of<4>(block, stride, nodes, node_offset, column, g, result);
+  switch (groups - g) {
+    case 3: unit_dots_of<3>(block, stride, nodes, node_offset, column, g, result); break;
+    case 2: unit_dots_of<2>(block, stride, nodes, node_offset, column, g, result); break;
+    case 1: unit_dots_of<1>(block, stride, nodes, node_offset, column, g, result); break;
+    default: break;
+  }
 }
 
 template <int lanes>
@@ -457,35 +648,125 @@ std::vector<int32_t> SupernodalCholesky::path(int64_t position) const {
   return nodes;
 }
 
-// kUnitLanes columns at a time in the lanes of unit_work_, over the union of their paths: a lane is 0 on
-// the nodes of the union outside its own path and stays 0 there, so each column gets the bits it
-// would get alone (a column is a function of its position, whatever it is batched with).
-void SupernodalCholesky::forward_units(const int64_t* positions, int count, SparseColumn* out) const {
+// The columns in groups of kUnitLanes sorted by their first node (so a group's paths share most of
+// their nodes), as many groups per pass over the union of their paths (forward_units_pass) as
+// keep its compact block (the union's columns only) within max_block doubles.
+void SupernodalCholesky::forward_units(const int64_t* positions, int count, SparseColumn* out,
+                                       const SparseColumn* const* others, int other_count, double* gram,
+                                       int64_t max_block) const {
   if (separator_ != 0) throw std::logic_error("SupernodalCholesky::forward_units: a factor with a separator");
+  if (count <= 0) return;
   constexpr int L = kUnitLanes;
-  if (unit_work_.size() != static_cast<size_t>(L * n_)) unit_work_.assign(static_cast<size_t>(L * n_), 0.0);
-  double* w = unit_work_.data();
-  const int64_t nodes = static_cast<int64_t>(nodes_.size());
-  for (int first = 0; first < count; first += L) {
-    const int m = std::min(L, count - first);
-    std::vector<int32_t> all;
-    for (int c = 0; c < m; ++c) {
-      out[first + c].nodes = path(positions[first + c]);
-      all.insert(all.end(), out[first + c].nodes.begin(), out[first + c].nodes.end());
+  std::vector<int> order(count);
+  for (int c = 0; c < count; ++c) {
+    out[c].nodes = path(positions[c]);
+    order[c] = c;
+  }
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return std::pair(out[a].nodes[0], positions[a]) < std::pair(out[b].nodes[0], positions[b]);
+  });
+  if (node_offset_.size() != nodes_.size()) node_offset_.assign(nodes_.size(), -1);
+  if (column_offset_.size() != static_cast<size_t>(n_)) column_offset_.assign(static_cast<size_t>(n_), -1);
+  const int groups = (count + L - 1) / L;
+  const int64_t budget = max_block > 0 ? max_block : std::max<int64_t>(4 * n_, int64_t(1) << 21);
+  const int64_t stride_gram = count + other_count;
+  std::vector<double> dots;
+  for (int g_begin = 0; g_begin < groups;) {
+    // The pass's groups [g_begin, g_end) and the union of their paths (node_offset_ marks it).
+    std::vector<int32_t> which;
+    int64_t rows = 0;
+    int g_end = g_begin;
+    for (; g_end < groups; ++g_end) {
+      std::vector<int32_t> more;
+      int64_t more_rows = 0;
+      for (int s = L * g_end; s < std::min(count, L * (g_end + 1)); ++s)
+        for (int32_t k : out[order[s]].nodes)
+          if (node_offset_[k] < 0) {
+            node_offset_[k] = 0;
+            more.push_back(k);
+            more_rows += nodes_[k].width;
+          }
+      if (g_end > g_begin && int64_t(L) * (g_end + 1 - g_begin) * (rows + more_rows) > budget) {
+        for (int32_t k : more) node_offset_[k] = -1;
+        break;
+      }
+      which.insert(which.end(), more.begin(), more.end());
+      rows += more_rows;
     }
-    std::sort(all.begin(), all.end());
-    all.erase(std::unique(all.begin(), all.end()), all.end());
-    for (int32_t k : all) std::fill(w + L * nodes_[k].column, w + L * (nodes_[k].column + nodes_[k].width), 0.0);
-    for (int c = 0; c < m; ++c) w[L * positions[first + c] + c] = 1.0;
-    forward_pass_on(nodes_.data(), nodes, row_end_, row_.data(), value_.data(), w, all.data(),
-                    static_cast<int64_t>(all.size()));
-    for (int c = 0; c < m; ++c) {
-      SparseColumn& col = out[first + c];
+    std::sort(which.begin(), which.end());
+    const int64_t listed = static_cast<int64_t>(which.size());
+    std::vector<int32_t> offset(listed);
+    for (int64_t a = 0, at = 0; a < listed; ++a) {
+      const Node& node = nodes_[which[a]];
+      offset[a] = node_offset_[which[a]] = static_cast<int32_t>(at);
+      for (int32_t i = 0; i < node.width; ++i) column_offset_[node.column + i] = static_cast<int32_t>(at + i);
+      at += node.width;
+    }
+    // The rows below each node, as rows of the block (they are its ancestors' columns: in the union).
+    const int64_t count_nodes = static_cast<int64_t>(nodes_.size());
+    std::vector<int64_t> below_start(listed + 1, 0);
+    std::vector<int32_t> below;
+    for (int64_t a = 0; a < listed; ++a) {
+      const int32_t k = which[a];
+      const int64_t end = k + 1 < count_nodes ? nodes_[k + 1].rows : row_end_;
+      for (int64_t r = nodes_[k].rows; r < end; ++r) below.push_back(column_offset_[row_[r]]);
+      below_start[a + 1] = static_cast<int64_t>(below.size());
+    }
+    // Per node of the union, the pass's groups with a column through it (ascending, from 0).
+    const int pass_groups = g_end - g_begin;
+    std::vector<std::vector<int32_t>> through(listed);
+    for (int g = 0; g < pass_groups; ++g) {
+      std::vector<int32_t> mine;
+      for (int s = L * (g_begin + g); s < std::min(count, L * (g_begin + g + 1)); ++s)
+        mine.insert(mine.end(), out[order[s]].nodes.begin(), out[order[s]].nodes.end());
+      std::sort(mine.begin(), mine.end());
+      mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
+      for (int32_t k : mine) through[std::lower_bound(which.begin(), which.end(), k) - which.begin()].push_back(g);
+    }
+    std::vector<int64_t> group_start(listed + 1, 0);
+    std::vector<int32_t> group;
+    for (int64_t a = 0; a < listed; ++a) {
+      group.insert(group.end(), through[a].begin(), through[a].end());
+      group_start[a + 1] = static_cast<int64_t>(group.size());
+    }
+    const int64_t stride = int64_t(L) * rows;
+    unit_work_.assign(static_cast<size_t>(pass_groups * stride), 0.0);
+    double* block = unit_work_.data();
+    const int s_begin = L * g_begin, s_end = std::min(count, L * g_end);
+    for (int s = s_begin; s < s_end; ++s)
+      block[((s - s_begin) / L) * stride + L * column_offset_[positions[order[s]]] + s % L] = 1.0;
+    std::vector<int32_t> first((pass_groups + 1) / 2);
+    const UnitPlan plan{which.data(), listed, offset.data(), below_start.data(), below.data(),
+                        group_start.data(), group.data(), stride, first.data()};
+    forward_units_pass(nodes_.data(), value_.data(), block, plan);
+    for (int s = s_begin; s < s_end; ++s) {
+      SparseColumn& col = out[order[s]];
+      const double* lane = block + ((s - s_begin) / L) * stride + s % L;
       col.values.clear();
       for (int32_t k : col.nodes)
-        for (int64_t i = nodes_[k].column; i < nodes_[k].column + nodes_[k].width; ++i) col.values.push_back(w[L * i + c]);
+        for (int32_t i = 0; i < nodes_[k].width; ++i) col.values.push_back(lane[L * (node_offset_[k] + i)]);
     }
-    for (int32_t k : all) std::fill(w + L * nodes_[k].column, w + L * (nodes_[k].column + nodes_[k].width), 0.0);
+    // The Gram entries with this pass's columns: each of them against the groups up to its own
+    // (the pairs before it), the earlier passes' columns and the others against every group.
+    if (gram) {
+      dots.resize(static_cast<size_t>(L * pass_groups));
+      // column . (this pass's columns up to sorted `last`) into gram's column `at` (and row).
+      auto with = [&](const SparseColumn& column, int upto, int last, int64_t at, bool row_too) {
+        unit_dots(block, stride, nodes_.data(), node_offset_.data(), column, upto, dots.data());
+        for (int s = s_begin; s <= std::min(last, s_end - 1); ++s) {
+          gram[order[s] * stride_gram + at] = dots[s - s_begin];
+          if (row_too) gram[at * stride_gram + order[s]] = dots[s - s_begin];
+        }
+      };
+      for (int s = s_begin; s < s_end; ++s) with(out[order[s]], (s - s_begin) / L + 1, s, order[s], true);
+      for (int s = 0; s < s_begin; ++s) with(out[order[s]], pass_groups, s_end - 1, order[s], true);
+      for (int o = 0; o < other_count; ++o) with(*others[o], pass_groups, s_end - 1, count + o, false);
+    }
+    for (int64_t a = 0; a < listed; ++a) {
+      node_offset_[which[a]] = -1;
+      for (int32_t i = 0; i < nodes_[which[a]].width; ++i) column_offset_[nodes_[which[a]].column + i] = -1;
+    }
+    g_begin = g_end;
   }
 }
 

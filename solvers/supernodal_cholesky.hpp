@@ -95,12 +95,20 @@ class SupernodalCholesky {
 
   // L^{-1} P e_i for a row i of A at `position` of the ordering (perm()[position] == i), sparse:
   // nonzero only on the columns of `nodes`, the supernodes from the one holding `position` up to
-  // the root (ascending), `values` those nodes' columns in order.
+  // the root (ascending), `values` those nodes' columns in order. A column has the same bits
+  // whatever it is computed with.
   struct SparseColumn {
     std::vector<int32_t> nodes;
     std::vector<double> values;
   };
-  void forward_units(const int64_t* positions, int count, SparseColumn* out) const;
+  // All of them in passes over the union of their paths, each node's values read once per pass for
+  // all the columns through it; a pass's block holds at most max_block doubles (0: 4 n, the
+  // solve's, or 2^21 if more). With `gram` (count rows of count + other_count) also the dot
+  // products of the new columns with each other (gram[a (count + other_count) + b], b < count)
+  // and with `others` (b = count + o), columns from an earlier call. An entry is one multiply-add
+  // per row the two columns share, ascending, from 0: a function of the two columns alone.
+  void forward_units(const int64_t* positions, int count, SparseColumn* out, const SparseColumn* const* others = nullptr,
+                     int other_count = 0, double* gram = nullptr, int64_t max_block = 0) const;
   // The ordering: row i of L L^T is row perm()[i] of A.
   const std::vector<int64_t>& perm() const { return perm_; }
   const std::vector<Node>& nodes() const { return nodes_; }
@@ -126,7 +134,8 @@ class SupernodalCholesky {
   std::vector<double> value_;         // the nodes' values, a node's triangle twice (see Node)
   int64_t entries_ = 0;               // L's entries (each triangle counted once)
   mutable std::vector<double> work_;  // the permuted right-hand sides, n x 4 (lanes past k stay 0)
-  mutable std::vector<double> unit_work_;  // forward_units' columns (0 between calls)
+  mutable std::vector<double> unit_work_;  // forward_units' block of columns
+  mutable std::vector<int32_t> node_offset_, column_offset_;  // forward_units' rows in it (-1 between calls)
 };
 
 }  // namespace hyperqn

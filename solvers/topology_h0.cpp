@@ -14,28 +14,6 @@ TopologyH0::Status status_of(SupernodalCholesky::Status s) {
   return TopologyH0::Status::failed;
 }
 
-// The dot product of two columns of W over the nodes they share (their common ancestors).
-double sparse_dot(const SupernodalCholesky::SparseColumn& a, const SupernodalCholesky::SparseColumn& b,
-                  const std::vector<SupernodalCholesky::Node>& nodes) {
-  double s = 0;
-  size_t i = 0, j = 0, va = 0, vb = 0;
-  while (i < a.nodes.size() && j < b.nodes.size()) {
-    if (a.nodes[i] < b.nodes[j]) {
-      va += nodes[a.nodes[i++]].width;
-    } else if (b.nodes[j] < a.nodes[i]) {
-      vb += nodes[b.nodes[j++]].width;
-    } else {
-      const int w = nodes[a.nodes[i]].width;
-      for (int c = 0; c < w; ++c) s += a.values[va + c] * b.values[vb + c];
-      va += w;
-      vb += w;
-      ++i;
-      ++j;
-    }
-  }
-  return s;
-}
-
 }  // namespace
 
 TopologyH0::Status TopologyH0::setup(SymmetricCsr A, int64_t max_touched) {
@@ -94,25 +72,31 @@ TopologyH0::Status TopologyH0::commit() {
     --pending_vertices_;
   }
   pending_ = false;
-  // W's columns of the old rows not seen before, four per sparse forward solve.
-  std::vector<int64_t> fresh;
-  for (int64_t row : touched)
-    if (row < n_ && !slot_.count(row)) fresh.push_back(row);
-  const int64_t before = slots_;
+  // W's columns of the old rows not seen before, in one sparse forward solve over their paths,
+  // with their dot products with each other and with the columns kept from earlier commits.
   std::vector<int64_t> positions;
-  for (int64_t row : fresh) {
-    slot_of(row);
-    positions.push_back(position_[row]);
-  }
+  const int64_t before = slots_;
+  for (int64_t row : touched)
+    if (row < n_ && !slot_.count(row)) {
+      slot_of(row);
+      positions.push_back(position_[row]);
+    }
+  const int64_t fresh = slots_ - before;
   column_.resize(slots_);
-  factor_.forward_units(positions.data(), static_cast<int>(positions.size()), column_.data() + before);
-  columns_computed_ += static_cast<int64_t>(fresh.size());
+  std::vector<const SupernodalCholesky::SparseColumn*> kept(before);
+  for (int64_t a = 0; a < before; ++a) kept[a] = &column_[a];
+  std::vector<double> gram(fresh * slots_);  // fresh rows of (fresh, then kept) columns
+  factor_.forward_units(positions.data(), static_cast<int>(fresh), column_.data() + before, kept.data(),
+                        static_cast<int>(before), gram.data());
+  columns_computed_ += fresh;
   // G_ grown by the new slots' rows and columns (the old entries kept as they are).
-  if (slots_ > before) {
-    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(slots_, slots_);
+  if (fresh > 0) {
+    Eigen::MatrixXd G(slots_, slots_);
     G.topLeftCorner(before, before) = G_;
-    for (int64_t a = before; a < slots_; ++a)
-      for (int64_t b = 0; b <= a; ++b) G(a, b) = G(b, a) = sparse_dot(column_[a], column_[b], factor_.nodes());
+    for (int64_t a = 0; a < fresh; ++a) {
+      for (int64_t b = 0; b < fresh; ++b) G(before + a, before + b) = gram[a * slots_ + b];
+      for (int64_t b = 0; b < before; ++b) G(before + a, b) = G(b, before + a) = gram[a * slots_ + fresh + b];
+    }
     G_ = std::move(G);
   }
   // E_TT (A' - blkdiag(A, D) on T, sparse: an element's rows) and the capacitance I + G_TT E_TT,

@@ -52,7 +52,9 @@ CutMesh small_box() {
 }
 
 // L^{-1} P e_i by forward_units against the dense L^{-1} P A P^T L^{-T} = I check: for columns
-// w_i, w_j, w_i . w_j = (A^{-1})_ij; and solve_corrected with an identity middle = solve.
+// w_i, w_j, w_i . w_j = (A^{-1})_ij, densely and by forward_units' Gram entries; a column and a
+// Gram entry the same bits whatever they are computed with; and solve_corrected with an identity
+// middle = solve.
 void check_sparse_columns() {
   CutMesh mesh = small_box();
   const SymmetricCsr A = mesh.assemble();
@@ -60,22 +62,40 @@ void check_sparse_columns() {
   CHECK(L.factor(A.n, A.start.data(), A.column.data(), A.value.data()) == SupernodalCholesky::Status::ok);
   std::vector<int64_t> position(A.n);
   for (int64_t q = 0; q < A.n; ++q) position[L.perm()[q]] = q;
-  const std::vector<int64_t> rows = {0, 7, 8, 31, A.n / 2, A.n - 1};
+  const std::vector<int64_t> rows = {0, 7, 8, 31, A.n / 4, A.n / 3, A.n / 2, 2 * A.n / 3, A.n - 2, A.n - 1};
+  const int m = (int)rows.size();
   std::vector<int64_t> positions;
   for (int64_t r : rows) positions.push_back(position[r]);
-  std::vector<SupernodalCholesky::SparseColumn> cols(rows.size()), alone(rows.size());
-  L.forward_units(positions.data(), (int)rows.size(), cols.data());
-  for (size_t a = 0; a < rows.size(); ++a) L.forward_units(&positions[a], 1, &alone[a]);
-  bool same = true;  // batched or alone: the same bits
-  for (size_t a = 0; a < rows.size(); ++a)
-    same = same && cols[a].nodes == alone[a].nodes && cols[a].values == alone[a].values;
+  std::vector<SupernodalCholesky::SparseColumn> cols(m), alone(m), split(m);
+  std::vector<double> gram(m * m), split_gram(m * m);
+  L.forward_units(positions.data(), m, cols.data(), nullptr, 0, gram.data());
+  for (int a = 0; a < m; ++a) L.forward_units(&positions[a], 1, &alone[a]);
+  // A pass per group of columns (the smallest block), the earlier passes' columns dotted as others.
+  L.forward_units(positions.data(), m, split.data(), nullptr, 0, split_gram.data(), 1);
+  bool same = true;  // batched, alone or in passes: the same bits
+  for (int a = 0; a < m; ++a)
+    same = same && cols[a].nodes == alone[a].nodes && cols[a].values == alone[a].values &&
+           split[a].values == cols[a].values;
   CHECK_MSG(same, "a sparse column depends on the columns batched with it");
+  // A Gram entry is a function of its two columns: the batch's, the passes' and the pair's alone
+  // (b given as an earlier column) are the same bits, and the batch's is symmetric.
+  bool gram_same = std::memcmp(gram.data(), split_gram.data(), gram.size() * sizeof(double)) == 0;
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b) {
+      SupernodalCholesky::SparseColumn col;
+      double pair[2];
+      const SupernodalCholesky::SparseColumn* other = &alone[b];
+      L.forward_units(&positions[a], 1, &col, &other, 1, pair);
+      gram_same = gram_same && std::memcmp(&pair[1], &gram[a * m + b], sizeof(double)) == 0 &&
+                  std::memcmp(&gram[a * m + b], &gram[b * m + a], sizeof(double)) == 0;
+    }
+  CHECK_MSG(gram_same, "a Gram entry depends on the columns computed with it");
   double worst = 0;
-  for (size_t a = 0; a < rows.size(); ++a) {
+  for (int a = 0; a < m; ++a) {
     std::vector<double> e(A.n, 0.0), z(A.n);
     e[rows[a]] = 1;
     L.solve(1, e.data(), z.data());  // (A^{-1})_{., i}
-    for (size_t b = 0; b < rows.size(); ++b) {
+    for (int b = 0; b < m; ++b) {
       std::vector<double> wa(A.n, 0.0), wb(A.n, 0.0);
       for (auto [col, w] : {std::pair{&cols[a], &wa}, std::pair{&cols[b], &wb}}) {
         size_t v = 0;
@@ -85,9 +105,10 @@ void check_sparse_columns() {
       double dot = 0;
       for (int64_t i = 0; i < A.n; ++i) dot += wa[i] * wb[i];
       worst = std::max(worst, std::abs(dot - z[rows[b]]) / std::abs(z[rows[a]]));
+      worst = std::max(worst, std::abs(gram[a * m + b] - z[rows[b]]) / std::abs(z[rows[a]]));
     }
   }
-  CHECK_MSG(worst < 1e-12, "w_i . w_j against (A^{-1})_ij: " + std::to_string(worst));
+  CHECK_MSG(worst < 1e-12, "w_i . w_j (and forward_units' Gram entries) against (A^{-1})_ij: " + std::to_string(worst));
   std::mt19937_64 rng(3);
   const std::vector<double> b = random_vector(3 * A.n, rng);
   std::vector<double> x(b.size()), y(b.size());
