@@ -112,18 +112,16 @@ TopologyH0::Status TopologyH0::commit() {
     e_column_[b].push_back({a, e});
   }
   column_of_.assign(t, nullptr);
+  std::vector<int64_t> slot(t, -1);  // per row of T: its slot in G_ (-1: a new vertex)
   for (int64_t a = 0; a < t; ++a)
-    if (touched_[a] < n_) column_of_[a] = &column_[slot_.at(touched_[a])];
+    if (touched_[a] < n_) column_of_[a] = &column_[slot[a] = slot_.at(touched_[a])];
   if (t == 0) return Status::ok;
   Eigen::MatrixXd G(t, t);  // G_TT: W's columns of T's rows
-  for (int64_t b = 0; b < t; ++b) {
-    const int64_t rb = touched_[b];
+  for (int64_t b = 0; b < t; ++b)
     for (int64_t a = 0; a < t; ++a) {
-      const int64_t ra = touched_[a];
-      if (ra < n_ && rb < n_) G(a, b) = G_(slot_.at(ra), slot_.at(rb));
-      else G(a, b) = ra == rb ? 1.0 / (sqrt_d_[ra - n_] * sqrt_d_[ra - n_]) : 0.0;
+      if (slot[a] >= 0 && slot[b] >= 0) G(a, b) = G_(slot[a], slot[b]);
+      else G(a, b) = a == b ? 1.0 / (sqrt_d_[touched_[a] - n_] * sqrt_d_[touched_[a] - n_]) : 0.0;
     }
-  }
   Eigen::MatrixXd C = Eigen::MatrixXd::Identity(t, t);
   for (int64_t b = 0; b < t; ++b)
     for (const auto& [c, e] : e_column_[b]) C.col(b) += e * G.col(c);
