@@ -13,7 +13,9 @@
 //
 // P = F S with S = Dlog(C)[T] (the symmetric Frechet derivative of log at C), and dP/dF follows
 // from the consistent tangent dT/dE and the second derivative of log (Daleckii-Krein: first and
-// second divided differences of log at C's eigenvalues).
+// second divided differences of log at C's eigenvalues). Where E_p,n = 0, T is coaxial with C and
+// no eigenvectors are needed (coaxial_value); elsewhere C's eigenbasis comes in closed form
+// (spectral3::eigensystem, no iterative eigensolver: docs/inelastic.md#cost).
 //
 // The elastic model `hencky` (material_factory.cpp) is the same energy without flow (E_p = 0).
 // A model of the InelasticModel seam: this file and one registration line each in
@@ -57,7 +59,6 @@ struct Return {
   Vec3 l;
   Vec3 shift;          // l - tr C / 3: their differences are the gaps
   Vec3 g;              // log l
-  Mat3 Ep;             // E_p at the step's end (reference basis)
   double alpha = 0;    // alpha at its end
   double gamma = 0;    // the flow's size |E_p - E_p,n|
   Mat3 n;              // its direction (primed), where gamma > 0
@@ -100,7 +101,6 @@ Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
       r.alpha += std::sqrt(2.0 / 3.0) * r.gamma;
     }
   }
-  r.Ep = r.gamma > 0 ? Mat3(Epn + r.gamma * (r.N * r.n * r.N.transpose())) : Epn;
   const Mat3 ee = e - Ep_p;  // the elastic strain's deviator
   r.Tp = 2.0 * p.mu * ee + p.kappa * theta * Mat3::Identity();
   r.psi = p.mu * ee.squaredNorm() + 0.5 * p.kappa * theta * theta + 0.5 * p.H_iso * r.alpha * r.alpha +
@@ -235,7 +235,9 @@ class LogStrainPlasticity : public InelasticModel {
       for (int k = 0; k < kPlasticValues; ++k) end[k] = start[k];
       return;
     }
-    pack_symmetric(r.Ep, end);
+    // E_p at the step's end in the reference basis (only here: an evaluation needs it primed).
+    const Mat3 Epn = unpack_symmetric(start);
+    pack_symmetric(r.gamma > 0 ? Mat3(Epn + r.gamma * (r.N * r.n * r.N.transpose())) : Epn, end);
     end[6] = r.alpha;
   }
   // sqrt(2/3) sigma_y |E_p - E_p,n|: the stress power T : dE_p less the hardening's stored share.

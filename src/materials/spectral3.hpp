@@ -6,7 +6,8 @@
 // and of x^k so that they keep full precision at (nearly) equal eigenvalues, and the second one
 // divides by l3 - l1 >= 2.5 p (p the deviator's size), never by a small gap: once multiplied by
 // (b - l1 I)(b - l2 I) its error is at most about eps |f'| (l3 - l2). Used by
-// materials/maxwell_branches.cpp (log_divided(x, y) by log_strain_plasticity.cpp too); tests/test_viscoelastic.cpp checks it against Eigen's iterative
+// materials/maxwell_branches.cpp and materials/log_strain_plasticity.cpp (which also takes C's
+// eigenvectors from eigensystem() below: tests/test_plasticity.cpp checks them); tests/test_viscoelastic.cpp checks it against Eigen's iterative
 // solver at equal and nearly equal eigenvalues.
 #pragma once
 #include <algorithm>
@@ -145,7 +146,7 @@ inline Eigensystem eigensystem(const Mat3& b, double det_b = 0) {
 }
 
 // (log x - log y) / (x - y) from x and y (> 0) alone, also where they are close: 2 atanh(s) / (s (x +
-// y)), s = (x - y) / (x + y) (the eigensolver paths: Newton's tangents, plasticity's).
+// y)), s = (x - y) / (x + y) (the eigenbasis paths: Newton's tangents).
 inline double log_divided(double x, double y) {
   const double s = (x - y) / (x + y);
   if (std::fabs(s) < 1e-3) {
