@@ -5,6 +5,12 @@
 //    with isotropic, kinematic, both and no hardening, at poses inside the elastic range, beyond
 //    yield (stretch 2, shear 1.5, compression 0.5, equal eigenvalues), and within 1e-3 of the yield
 //    surface on either side; the elastic model hencky likewise;
+//    P against W also exactly on the yield surface (from a rest and a flowed history), and at
+//    eigenvalues of C 1e-4 and 1e-8 apart (a pair, all three) after flow;
+//  - the closed-form eigensystem (spectral3::eigensystem, the flowed tets' path): N orthonormal and
+//    N diag(l) N^T = C to a few eps |C|, the eigenvalues those of Eigen's iterative solver, at
+//    distinct, equal and nearly equal eigenvalues and strong compression; W and P from a flowed
+//    history against the same formulas on Eigen's iterative eigensolver (the path before it);
 //  - objectivity: W(QF) = W(F) and the update from QF is the update from F;
 //  - the update is the local minimizer: the stored stress from the new history equals the
 //    condensed P; the flow is isochoric (tr E_p = 0); dissipation >= 0 at every step here;
@@ -15,6 +21,7 @@
 //    ((sigma_max - sigma_y) / H; sigma_y / H_kin after the reverse yield of kinematic hardening), and
 //    the elastic-perfectly plastic loop of a strain cycle +-eps_a: its area (trapezoids of T_11 dE_11)
 //    and the sum of the steps' dissipation against 4 sigma_y (eps_a - sigma_y / E), within 1%.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -23,6 +30,8 @@
 
 #include "check.hpp"
 #include "materials/material_factory.hpp"
+#include "materials/spectral3.hpp"
+#include "materials/symmetric6.hpp"
 
 using namespace hyperqn;
 
@@ -55,15 +64,23 @@ Mat3 stress(const InelasticModel& m, const Mat3& F, const double* h) {
   return P;
 }
 
-// FD of W vs P (step 1e-6) and of P vs dP/dF (step ds).
+// FD of W vs P (step 1e-6) and of P vs dP/dF (step ds; ds = 0: P only, where dP/dF jumps: on the
+// yield surface).
 void check_derivatives(const InelasticModel& m, const Mat3& F, const double* h, const std::string& where,
                        double ds = 1e-6) {
   const Mat3 P = stress(m, F, h);
   Mat3 P_fd;
+  // On the surface W'' jumps: central differences err by about the step times the jump, so a step
+  // of 1e-9 there (W's rounding over it is still below 1e-7 of P).
+  const double dw = ds == 0 ? 1e-9 : 1e-6;
   for (int k = 0; k < 9; ++k)
-    P_fd(k) = (m.energy(F + 1e-6 * unit(k), h, 0.1, nullptr) - m.energy(F - 1e-6 * unit(k), h, 0.1, nullptr)) / 2e-6;
+    P_fd(k) = (m.energy(F + dw * unit(k), h, 0.1, nullptr) - m.energy(F - dw * unit(k), h, 0.1, nullptr)) / (2 * dw);
   const double err_P = (P_fd - P).norm() / std::max(1e-3, P.norm());
   CHECK_MSG(err_P <= 1e-6, where + ": P vs FD of W, rel err " + std::to_string(err_P));
+  if (ds == 0) {
+    std::printf("  %-58s P %.1e\n", where.c_str(), err_P);
+    return;
+  }
   const Mat9 H = m.stress_derivative(F, h, 0.1);
   Mat9 H_fd;
   for (int k = 0; k < 9; ++k) {
@@ -119,6 +136,14 @@ void check_fd() {
       {"inverted", Vec3(1.1, 0.9, -0.8).asDiagonal()},
       {"two equal eigenvalues, rotated", rotation(0.3, Vec3(0, 1, 1)) * Vec3(1.4, 0.9, 0.9).asDiagonal()},
   };
+  // Nearly equal eigenvalues of C (checked after flow: the closed-form eigenvectors' hard case).
+  std::vector<std::pair<std::string, Mat3>> close;
+  for (double gap : {1e-4, 1e-8}) {
+    const Mat3 R = rotation(0.9, Vec3(1, -2, 0.5));
+    close.push_back({"pair apart by " + std::to_string(gap), R * Vec3(1.3, 1.3 * std::sqrt(1 + gap), 0.8).asDiagonal()});
+    close.push_back(
+        {"three apart by " + std::to_string(gap), 1.2 * R * Vec3(std::sqrt(1 - gap), 1, std::sqrt(1 + gap)).asDiagonal()});
+  }
   for (const Hardening& hard : {Hardening{"iso", 5.0, 0.0}, Hardening{"kin", 0.0, 7.0}, Hardening{"both", 5.0, 7.0},
                                 Hardening{"none", 0.0, 0.0}}) {
     const auto m = plastic(kSigmaY, hard.iso, hard.kin);
@@ -131,6 +156,7 @@ void check_fd() {
     for (const auto& [name, F] : poses)
       for (const std::vector<double>* hist : {&rest, &h2})
         check_derivatives(*m, F, hist->data(), name + ", " + hard.name + (hist == &rest ? ", rest" : ", flowed"));
+    for (const auto& [name, F] : close) check_derivatives(*m, F, h2.data(), name + ", " + hard.name + ", flowed");
     // Near the yield surface, on either side (1e-3 of the yield scale; FD steps well inside).
     const Vec3 ray(std::log(1.3), -0.5 * std::log(1.3), -0.5 * std::log(1.3));
     for (const std::vector<double>* hist : {&rest, &h2}) {
@@ -142,6 +168,9 @@ void check_fd() {
                               (hist == &rest ? ", rest" : ", flowed"),
                           1e-8);
       }
+      const Mat3 F = rotation(0.4, Vec3(1, 1, 0)) * Mat3((s * ray).array().exp().matrix().asDiagonal());
+      check_derivatives(*m, F, hist->data(),
+                        std::string("on the yield surface, ") + hard.name + (hist == &rest ? ", rest" : ", flowed"), 0);
     }
     // Objectivity.
     const Mat3 Q = rotation(1.1, Vec3(-1, 0.5, 2));
@@ -189,6 +218,134 @@ void check_fd() {
     }
     CHECK_MSG((P_fd - P).norm() <= 1e-6 * std::max(1.0, P.norm()), "hencky P vs FD at " + name);
   }
+}
+
+// Deformation gradients F whose C = F^T F has eigenvalues distinct, equal, nearly equal (1e-4 to
+// 1e-12 apart: the low pair, the high pair, all three) and far apart (strong compression), rotated.
+std::vector<std::pair<std::string, Mat3>> spectra() {
+  const Mat3 R = rotation(0.9, Vec3(1, -2, 0.5)), R2 = rotation(2.1, Vec3(0.3, 1, -0.7));
+  std::vector<std::pair<std::string, Vec3>> stretches = {
+      {"distinct", Vec3(0.8, 1.1, 1.4)}, {"uniform", Vec3(1.2, 1.2, 1.2)}, {"low pair equal", Vec3(0.9, 0.9, 1.3)},
+      {"high pair equal", Vec3(0.9, 1.3, 1.3)}, {"compression 1e-2", Vec3(1e-2, 1.0, 1.1)},
+      {"compression 1e-3", Vec3(1e-3, 1.2, 0.9)}, {"two compressed", Vec3(1e-2, 2e-2, 1.0)}};
+  for (double gap : {1e-4, 1e-8, 1e-12}) {
+    char g[16];
+    std::snprintf(g, sizeof g, "%.0e", gap);
+    stretches.push_back({std::string("low pair ") + g, Vec3(0.9, 0.9 * std::sqrt(1 + gap), 1.3)});
+    stretches.push_back({std::string("high pair ") + g, Vec3(0.9, 1.3, 1.3 * std::sqrt(1 + gap))});
+    stretches.push_back({std::string("three ") + g, Vec3(std::sqrt(1 - gap), 1, std::sqrt(1 + gap))});
+  }
+  std::vector<std::pair<std::string, Mat3>> F;
+  for (const auto& [name, l] : stretches) F.push_back({name, R * l.asDiagonal() * R2});
+  return F;
+}
+
+// spectral3::eigensystem of C = F^T F (det C = (det F)^2, as the model passes it): N orthonormal to
+// 1e-15, N diag(l) N^T = C within 4 eps |C|, the eigenvalues those of the long-double solver within
+// 4 eps |C| and, where the smallest is far below the others (taken from det C), within 1e-13 of it.
+void check_eigensystem() {
+  double worst[4] = {};
+  for (const auto& [name, F] : spectra()) {
+    const Mat3 b = F.transpose() * F;
+    const double J = F.determinant();
+    const spectral3::Eigensystem e = spectral3::eigensystem(b, J * J);
+    const Vec3 l(e.lambda[0], e.lambda[1], e.lambda[2]);
+    const double orth = (e.N.transpose() * e.N - Mat3::Identity()).norm();
+    const double res = (e.N * l.asDiagonal() * e.N.transpose() - b).norm() / b.norm();
+    Vec3 sorted = l;
+    std::sort(sorted.data(), sorted.data() + 3);
+    const Eigen::Matrix<long double, 3, 3> FL = F.cast<long double>();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<long double, 3, 3>> ref(FL.transpose() * FL);
+    const double err = (sorted - ref.eigenvalues().cast<double>()).norm() / b.norm();
+    const double small = std::fabs(sorted(0) / (double)ref.eigenvalues()(0) - 1);
+    std::printf("  eigensystem, %-18s orthogonality %.1e  residual %.1e  eigenvalues %.1e (smallest rel %.1e)\n",
+                name.c_str(), orth, res, err, small);
+    CHECK_MSG(orth <= 1e-15 && res <= 4 * 2.2e-16 && err <= 4 * 2.2e-16, "eigensystem of " + name);
+    CHECK_MSG(sorted(0) > 0.25 * sorted(1) || small <= 1e-13, "the smallest eigenvalue from det C: " + name);
+    for (int a = 0; a < 3; ++a)
+      CHECK_MSG(std::fabs(e.lambda[a] - b.trace() / 3 - e.shift[a]) <= 4e-16 * b.norm(), "shift = l - q: " + name);
+    const double got[3] = {orth, res, err};
+    for (int k = 0; k < 3; ++k) worst[k] = std::max(worst[k], got[k]);
+    if (sorted(0) <= 0.25 * sorted(1)) worst[3] = std::max(worst[3], small);
+  }
+  std::printf("  eigensystem: worst orthogonality %.1e, residual %.1e, eigenvalues %.1e, a small one rel %.1e\n",
+              worst[0], worst[1], worst[2], worst[3]);
+}
+
+// W and P of the plastic model from a flowed history by the same formulas on Eigen's iterative
+// eigensolver (the path before the closed-form eigensystem: log[x, y] by atanh), in Scalar.
+template <class Scalar>
+Scalar reference_energy(const Mat3& F_in, const double* h, double sigma_y, double H_iso, double H_kin,
+                        Eigen::Matrix<Scalar, 3, 3>* P) {
+  typedef Eigen::Matrix<Scalar, 3, 3> M3;
+  typedef Eigen::Matrix<Scalar, 3, 1> V3;
+  const Scalar mu = kMu, kappa = kLambda + 2 * Scalar(kMu) / 3, two3 = Scalar(2) / 3, r23 = std::sqrt(two3);
+  const M3 F = F_in.cast<Scalar>();
+  const Eigen::SelfAdjointEigenSolver<M3> eig(F.transpose() * F);
+  const M3 N = eig.eigenvectors();
+  const V3 l = eig.eigenvalues();
+  V3 E;
+  for (int a = 0; a < 3; ++a) E(a) = std::log(l(a)) / 2;
+  const Scalar theta = E.sum();
+  M3 e = M3::Zero();
+  for (int a = 0; a < 3; ++a) e(a, a) = E(a) - theta / 3;
+  const M3 Epn = N.transpose() * unpack_symmetric(h).cast<Scalar>() * N;
+  const M3 xi = 2 * mu * (e - Epn) - two3 * Scalar(H_kin) * Epn;
+  const Scalar f = xi.norm() - r23 * (Scalar(sigma_y) + Scalar(H_iso) * Scalar(h[6]));
+  const Scalar gamma = f > 0 ? f / (2 * mu + two3 * Scalar(H_kin + H_iso)) : Scalar(0);
+  const M3 Ep = gamma > 0 ? M3(Epn + gamma * xi / xi.norm()) : Epn;
+  const Scalar alpha = Scalar(h[6]) + r23 * gamma;
+  const M3 T = 2 * mu * (e - Ep) + kappa * theta * M3::Identity();
+  M3 Sp;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const Scalar x = l(a), y = l(b), s = (x - y) / (x + y);
+      const Scalar d = std::fabs(s) < Scalar(1e-6) ? 2 / (x + y) * (1 + s * s / 3) : 2 * std::atanh(s) / (s * (x + y));
+      Sp(a, b) = d * T(a, b);
+    }
+  *P = F * (N * Sp * N.transpose());
+  return mu * (e - Ep).squaredNorm() + kappa * theta * theta / 2 + Scalar(H_iso) * alpha * alpha / 2 +
+         Scalar(H_kin) / 3 * Ep.squaredNorm() + r23 * Scalar(sigma_y) * gamma;
+}
+
+// The flowed tets' path (closed-form eigensystem) against the same formulas in long double: W
+// within 1e-13 and P within 1e-12 of their size at every spectrum above; the iterative eigensolver
+// in double (the path before) beside it, within the same bounds but at strong compression, where
+// its smallest eigenvalue has an absolute error of eps |C|.
+void check_against_eigensolver() {
+  const double iso = 5.0, kin = 7.0;
+  const auto m = plastic(kSigmaY, iso, kin);
+  std::vector<double> rest(m->history_width()), h1(m->history_width()), h2(m->history_width());
+  m->rest(rest.data());
+  const Mat3 F1 = Vec3(1.6, 1 / std::sqrt(1.6), 1 / std::sqrt(1.6)).asDiagonal();
+  Mat3 F2 = F1;
+  F2(0, 1) = 0.7;
+  m->update(F1, rest.data(), 0.1, h1.data());
+  m->update(rotation(0.7, Vec3(1, 2, 3)) * F2, h1.data(), 0.1, h2.data());
+  double worst[4] = {};
+  for (const auto& [name, F0] : spectra()) {
+    for (double scale : {1.0, 1.15}) {  // elastic from the flowed history, and flowing further
+      const Mat3 F = scale * F0;
+      Mat3 P = Mat3::Zero(), P_old;
+      Eigen::Matrix<long double, 3, 3> P_ref;
+      const double W = m->energy(F, h2.data(), 0.1, &P);
+      const long double W_ref = reference_energy<long double>(F, h2.data(), kSigmaY, iso, kin, &P_ref);
+      const double W_old = reference_energy<double>(F, h2.data(), kSigmaY, iso, kin, &P_old);
+      const Mat3 Pr = P_ref.cast<double>();
+      const double eW = std::fabs(W - (double)W_ref) / std::fabs((double)W_ref), eP = (P - Pr).norm() / Pr.norm();
+      const double oW = std::fabs(W_old - (double)W_ref) / std::fabs((double)W_ref), oP = (P_old - Pr).norm() / Pr.norm();
+      std::printf("  flowed history, %-18s x %.2f  W %.1e  P %.1e against long double (iterative solver: %.1e, %.1e)\n",
+                  name.c_str(), scale, eW, eP, oW, oP);
+      CHECK_MSG(eW <= 1e-13 && eP <= 1e-12, "closed form at " + name + ": W " + std::to_string(eW) + ", P " +
+                                                std::to_string(eP));
+      if (name.rfind("compression", 0) != 0 && name != "two compressed")
+        CHECK_MSG(oW <= 1e-13 && oP <= 1e-12, "the iterative solver's at " + name);
+      const double got[4] = {eW, eP, oW, oP};
+      for (int k = 0; k < 4; ++k) worst[k] = std::max(worst[k], got[k]);
+    }
+  }
+  std::printf("  flowed history against long double: worst W %.1e, P %.1e (the iterative solver's %.1e, %.1e)\n",
+              worst[0], worst[1], worst[2], worst[3]);
 }
 
 // A uniaxial-stress material point: F = diag(exp(e), l, l), l solved so that P_22 = P_33 = 0.
@@ -312,6 +469,8 @@ void check_refusals() {
 
 int main() {
   check_fd();
+  check_eigensystem();
+  check_against_eigensolver();
   check_uniaxial();
   check_refusals();
   return check::summary("test_plasticity");

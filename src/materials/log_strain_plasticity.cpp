@@ -13,7 +13,9 @@
 //
 // P = F S with S = Dlog(C)[T] (the symmetric Frechet derivative of log at C), and dP/dF follows
 // from the consistent tangent dT/dE and the second derivative of log (Daleckii-Krein: first and
-// second divided differences of log at C's eigenvalues).
+// second divided differences of log at C's eigenvalues). Where E_p,n = 0, T is coaxial with C and
+// no eigenvectors are needed (coaxial_value); elsewhere C's eigenbasis comes in closed form
+// (spectral3::eigensystem, no iterative eigensolver: docs/inelastic.md#cost).
 //
 // The elastic model `hencky` (material_factory.cpp) is the same energy without flow (E_p = 0).
 // A model of the InelasticModel seam: this file and one registration line each in
@@ -48,13 +50,15 @@ double log_divided2(double x, double y, double z) {
   return (spectral3::log_divided(a, b) - spectral3::log_divided(b, c)) / (a - c);
 }
 
-// The return map at F from history h: C's eigenbasis N and eigenvalues l, E and T in that basis
-// (primes), and the step's flow. flow = false: the stored state (no flow).
+// The return map at F from history h: C's eigenbasis N and eigenvalues l (in closed form,
+// spectral3::eigensystem), E and T in that basis (primes), and the step's flow. flow = false: the
+// stored state (no flow).
 struct Return {
   bool ok = false;     // C positive definite
   Mat3 N;              // C = N diag(l) N^T
   Vec3 l;
-  Mat3 Ep;             // E_p at the step's end (reference basis)
+  Vec3 shift;          // l - tr C / 3: their differences are the gaps
+  Vec3 g;              // log l
   double alpha = 0;    // alpha at its end
   double gamma = 0;    // the flow's size |E_p - E_p,n|
   Mat3 n;              // its direction (primed), where gamma > 0
@@ -69,13 +73,15 @@ struct Params {
 
 Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
   Return r;
-  const Mat3 C = F.transpose() * F;
-  Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
-  r.N = eig.eigenvectors();
-  r.l = eig.eigenvalues();
+  const double J = F.determinant();
+  const spectral3::Eigensystem eig = spectral3::eigensystem(F.transpose() * F, J * J);
+  r.N = eig.N;
+  r.l = Vec3(eig.lambda[0], eig.lambda[1], eig.lambda[2]);
+  r.shift = Vec3(eig.shift[0], eig.shift[1], eig.shift[2]);
   r.ok = r.l.minCoeff() > 0 && std::isfinite(r.l.maxCoeff());
   if (!r.ok) return r;
-  const Vec3 Ediag = 0.5 * r.l.array().log().matrix();
+  r.g = r.l.array().log().matrix();
+  const Vec3 Ediag = 0.5 * r.g;
   const double theta = Ediag.sum();
   Mat3 e = Mat3::Zero();  // dev E (primed)
   for (int a = 0; a < 3; ++a) e(a, a) = Ediag(a) - theta / 3.0;
@@ -95,7 +101,6 @@ Return return_map(const Params& p, const Mat3& F, const double* h, bool flow) {
       r.alpha += std::sqrt(2.0 / 3.0) * r.gamma;
     }
   }
-  r.Ep = r.gamma > 0 ? Mat3(Epn + r.gamma * (r.N * r.n * r.N.transpose())) : Epn;
   const Mat3 ee = e - Ep_p;  // the elastic strain's deviator
   r.Tp = 2.0 * p.mu * ee + p.kappa * theta * Mat3::Identity();
   r.psi = p.mu * ee.squaredNorm() + 0.5 * p.kappa * theta * theta + 0.5 * p.H_iso * r.alpha * r.alpha +
@@ -148,24 +153,33 @@ double coaxial_value(const Params& p, const Mat3& F, double alpha_n, bool flow, 
          p.H_kin / 3.0 * gamma * gamma + std::sqrt(2.0 / 3.0) * p.sigma_y * gamma;
 }
 
+// log[l_a, l_b] from the logs and the gaps (the shifts' differences): no atanh.
+Mat3 log_divided1(const Return& r) {
+  Mat3 f1;
+  for (int a = 0; a < 3; ++a) {
+    f1(a, a) = 1.0 / r.l(a);
+    for (int b = a + 1; b < 3; ++b) {
+      const int lo = r.l(a) <= r.l(b) ? a : b, hi = a + b - lo;
+      f1(a, b) = f1(b, a) = spectral3::log_divided(r.l(lo), r.shift(hi) - r.shift(lo), r.g(hi), r.g(lo));
+    }
+  }
+  return f1;
+}
+
 // P = F S, S = Dlog(C)[T]: in C's eigenbasis S'_ab = log[l_a, l_b] T'_ab.
 Mat3 first_piola(const Mat3& F, const Return& r) {
-  Mat3 Sp;
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) Sp(a, b) = spectral3::log_divided(r.l(a), r.l(b)) * r.Tp(a, b);
+  const Mat3 Sp = log_divided1(r).cwiseProduct(r.Tp);
   return F * (r.N * Sp * r.N.transpose());
 }
 
 // dP/dF: dP = dF S + F dS, dS' = log[l_a, l_b] dT'_ab + sum_k log[l_a, l_k, l_b] (T'_ak dC'_kb +
 // dC'_ak T'_kb), dT' the consistent tangent applied to dE' = 1/2 log[l_a, l_b] dC'_ab.
 Mat9 tangent(const Params& p, const Mat3& F, const Return& r) {
-  Mat3 f1;
+  const Mat3 f1 = log_divided1(r);
   double f2[3][3][3];
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      f1(a, b) = spectral3::log_divided(r.l(a), r.l(b));
+    for (int b = 0; b < 3; ++b)
       for (int k = 0; k < 3; ++k) f2[a][k][b] = log_divided2(r.l(a), r.l(k), r.l(b));
-    }
   Mat3 Sp = f1.cwiseProduct(r.Tp);
   const Mat3 S = r.N * Sp * r.N.transpose();
   // dev dT = a dev dE + b (n : dE) n (b = 0 in the elastic range), tr dT = 3 kappa tr dE.
@@ -221,7 +235,9 @@ class LogStrainPlasticity : public InelasticModel {
       for (int k = 0; k < kPlasticValues; ++k) end[k] = start[k];
       return;
     }
-    pack_symmetric(r.Ep, end);
+    // E_p at the step's end in the reference basis (only here: an evaluation needs it primed).
+    const Mat3 Epn = unpack_symmetric(start);
+    pack_symmetric(r.gamma > 0 ? Mat3(Epn + r.gamma * (r.N * r.n * r.N.transpose())) : Epn, end);
     end[6] = r.alpha;
   }
   // sqrt(2/3) sigma_y |E_p - E_p,n|: the stress power T : dE_p less the hardening's stored share.

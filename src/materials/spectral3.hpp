@@ -6,7 +6,8 @@
 // and of x^k so that they keep full precision at (nearly) equal eigenvalues, and the second one
 // divides by l3 - l1 >= 2.5 p (p the deviator's size), never by a small gap: once multiplied by
 // (b - l1 I)(b - l2 I) its error is at most about eps |f'| (l3 - l2). Used by
-// materials/maxwell_branches.cpp (log_divided(x, y) by log_strain_plasticity.cpp too); tests/test_viscoelastic.cpp checks it against Eigen's iterative
+// materials/maxwell_branches.cpp and materials/log_strain_plasticity.cpp (which also takes C's
+// eigenvectors from eigensystem() below: tests/test_plasticity.cpp checks them); tests/test_viscoelastic.cpp checks it against Eigen's iterative
 // solver at equal and nearly equal eigenvalues.
 #pragma once
 #include <algorithm>
@@ -83,8 +84,69 @@ inline Spectrum spectrum(const Mat3& b, double det_b = 0) {
   return s;
 }
 
+// b's eigenvectors too, for the paths whose result is not coaxial with b (plasticity's flowed tets,
+// materials/log_strain_plasticity.cpp), without an iterative solver: the eigenvalue farther from
+// the other two (a gap of at least a quarter of the spread; its shift from spectrum(), a simple
+// root) has the kernel of b - l I as its vector, the largest cross product of two of its rows;
+// in the plane orthogonal to it a Jacobi rotation diagonalizes the 2 x 2 block of b - q I, giving
+// the other two vectors and their eigenvalues to the block's rounding however close they are.
+// So N diag(l) N^T is b to about eps |b| (backward stable, as the iterative solver): a close pair's
+// vectors are ill-determined, but what a spectral function's derivative does with them is not.
+// The small-eigenvalue rule of spectrum() applies to the pair's lower one too. Eigenvalues in
+// N's column order (not sorted); shift = l - q, whose differences are the gaps to full precision.
+struct Eigensystem {
+  Mat3 N = Mat3::Identity();
+  double lambda[3] = {}, shift[3] = {};
+};
+
+inline Eigensystem eigensystem(const Mat3& b, double det_b = 0) {
+  const Spectrum s = spectrum(b, det_b);
+  Eigensystem e;
+  for (int a = 0; a < 3; ++a) {
+    e.lambda[a] = s.lambda[a];
+    e.shift[a] = s.shift[a];
+  }
+  if (!(s.spread > 0)) return e;  // b = q I (or NaN)
+  const int k = s.gap[0] >= s.gap[1] ? 0 : 2;  // the isolated eigenvalue
+  const Mat3& B = s.dev;
+  Mat3 M = B;
+  M.diagonal().array() -= s.shift[k];
+  const Vec3 c[3] = {M.row(0).cross(M.row(1)), M.row(0).cross(M.row(2)), M.row(1).cross(M.row(2))};
+  int best = 0;
+  for (int j = 1; j < 3; ++j)
+    if (c[j].squaredNorm() > c[best].squaredNorm()) best = j;
+  if (!(c[best].squaredNorm() > 0)) return e;  // NaN: the caller's positivity test refuses it
+  const Vec3 v = c[best].normalized();
+  // u: a unit vector orthogonal to v (from the axis v leans on least), w = v x u.
+  int axis = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::fabs(v(j)) < std::fabs(v(axis))) axis = j;
+  const Vec3 u = Vec3::Unit(axis).cross(v).normalized(), w = v.cross(u);
+  const Vec3 Bu = B * u, Bw = B * w;
+  const double p = u.dot(Bu), q = u.dot(Bw), r = w.dot(Bw);  // the block [[p, q], [q, r]]
+  double t = 0;                                                // tan of the rotation
+  if (q != 0) {
+    const double tau = (r - p) / (2.0 * q);
+    t = (tau >= 0 ? 1.0 : -1.0) / (std::fabs(tau) + std::sqrt(1.0 + tau * tau));
+  }
+  const double cs = 1.0 / std::sqrt(1.0 + t * t), sn = t * cs;
+  const int i = k == 0 ? 1 : 0, j = k == 0 ? 2 : 1;  // the pair's columns
+  e.N.col(k) = v;
+  e.N.col(i) = cs * u - sn * w;
+  e.N.col(j) = sn * u + cs * w;
+  e.shift[i] = p - t * q;
+  e.shift[j] = r + t * q;
+  for (int a : {i, j}) e.lambda[a] = s.q + e.shift[a];
+  const int lo = e.lambda[i] <= e.lambda[j] ? i : j, hi = i + j - lo;
+  if (det_b > 0 && e.lambda[lo] < 0.25 * e.lambda[hi]) {
+    e.lambda[lo] = det_b / (e.lambda[hi] * e.lambda[k]);
+    e.shift[lo] = e.lambda[lo] - s.q;
+  }
+  return e;
+}
+
 // (log x - log y) / (x - y) from x and y (> 0) alone, also where they are close: 2 atanh(s) / (s (x +
-// y)), s = (x - y) / (x + y) (the eigensolver paths: Newton's tangents, plasticity's).
+// y)), s = (x - y) / (x + y) (the eigenbasis paths: Newton's tangents).
 inline double log_divided(double x, double y) {
   const double s = (x - y) / (x + y);
   if (std::fabs(s) < 1e-3) {
