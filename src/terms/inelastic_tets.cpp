@@ -91,7 +91,7 @@ void InelasticTets::element_energy_batch(size_t k, int m, StressBatch& b, int n)
 // the Prony series reads 6 values per tet instead of its 30).
 const double* InelasticTets::step_values(size_t k) const {
   if (!step_valid_ || step_revision_ != state_.revision() || step_dt_ != dt_) {
-    step_values_.assign(cells_.size() * step_width_, 0.0);
+    step_values_.resize(cells_.size() * step_width_);  // a model without step values leaves its tets' unread
     for (size_t e = 0; e < cells_.size(); ++e) {
       const InelasticModel& model = *models_[mesh_.cell_material[cells_[e]]];
       if (model.step_width() > 0) model.step_values(state_.start(e), dt_, &step_values_[e * step_width_]);

@@ -9,7 +9,6 @@
 - Through real solves, the clamped bar of test_viscoelastic.py: with tau = 1e5 dt the bar answers as
   Neo-Hookean with the instantaneous mu/(1 - g) and lambda/(1 - g) (both relax here); with tau = dt/100
   as the equilibrium material; lbfgs and Newton agree in between.
-- The fallback chain's sub-steps move the history per sub-step (bit for bit as load steps of a quarter).
 - 1 and 2 ranks agree; a restart from frame 40 of 60 is bit for bit at 1 rank, within 1e-12 at 2.
 - The dissipated energy never falls in any tet, and the summary's total is the field's sum.
 - Bad input: tau <= 0, g <= 0, sum g >= 1, 5 branches, none, a model without elastic constants, both
@@ -109,21 +108,6 @@ def test_instantaneous_and_relaxed_limits_through_the_solver(tmp_path):
     print(f"prony bar, lbfgs against newton over 10 steps: {np.max(np.abs(lb / nt - 1)):.2e}")
     assert np.all(np.diff(lb[1:]) < 0)  # relaxes
     assert np.max(np.abs(lb / nt - 1)) <= 1e-6
-
-
-def test_substeps_move_the_history_per_substep(tmp_path):
-    deck = bar_deck(prony_material(branches=[{"g": G, "tau": 2.0}]), 2)
-    deck["fixed"][1]["motion"]["translate"]["velocity"] = [0.05, 0, 0]
-    deck["solver"] = {"type": "lbfgs", "iterations": 10, "max_iterations": 10, "max_halvings": 2,
-                      "newton_fallback": False, "grad_rtol": 1e-8}
-    deck["output"] = {"every": 1}
-    coarse, summary = run_deck(tmp_path, "substeps", deck)
-    assert summary["substepped_frames"] == 2
-    fine = copy.deepcopy(deck)
-    fine["time"] = dict(deck["time"], dt=0.25, frames=8)
-    fine_out, fine_summary = run_deck(tmp_path, "fine", fine)
-    assert fine_summary["substepped_frames"] == 0
-    assert np.array_equal(final_frame(coarse).points, final_frame(fine_out).points)
 
 
 def test_two_ranks_and_restart(tmp_path):
