@@ -82,8 +82,8 @@ void InelasticTets::element_energy_batch(size_t k, int m, StressBatch& b, int n)
     for (Lanes& P : b.P) P = Lanes{};
   }
   const double* history[kBatch];
-  const bool condensed = models_[m]->step_width() > 0;
-  for (int e = 0; e < n; ++e) history[e] = condensed ? step_values(k + e) : state_.start(k + e);
+  const double* condensed = models_[m]->step_width() > 0 ? step_values(k) : nullptr;  // k's, then k + 1's, ...
+  for (int e = 0; e < n; ++e) history[e] = condensed ? condensed + e * step_width_ : state_.start(k + e);
   models_[m]->energy_batch(b, n, history, dt_);
 }
 
