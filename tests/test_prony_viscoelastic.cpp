@@ -6,7 +6,7 @@
 //    compression, shear, general and (Neo-Hookean, StVK) inverted poses;
 //  - the gradient of W is the recursive update's stress: F^{-1} P(W) = S0(C) + sum H_i of the
 //    history update() leaves (to 1e-12), and the batched kernel with the step values (Q) equals
-//    energy() (to 1e-12);
+//    energy() (to 1e-12), every lane with its own F and history, batches of 8 and 5;
 //  - objectivity: W(RF) = W(F), P(RF) = R P(F), and the update from RF is the update from F;
 //  - relaxation in simple shear (Neo-Hookean: S_xy = mu gamma exactly), gamma0 = 1e-3 applied over
 //    the first step and held: S_xy = mu gamma0 (1 + sum gt_i (tau_i/dt)(1 - e^{-dt/tau_i})
@@ -144,6 +144,48 @@ void derivatives() {
               worst_S, worst_batch);
 }
 
+// The batched kernel with every lane its own F and step values (from three histories), batches of 8 and 5:
+// each lane against energy() (the lanes' gather).
+void batch_lanes() {
+  const auto m = prony("neohookean", kBranches);
+  const int w = m->history_width();
+  std::vector<double> rest(w), once(w), twice(w);
+  m->rest(rest.data());
+  m->update(Vec3(1.6, 0.85, 0.85).asDiagonal(), rest.data(), 0.02, once.data());
+  Mat3 G;
+  G << 1.3, 0.2, -0.1, 0.05, 0.8, 0.3, -0.2, 0.1, 1.1;
+  m->update(G, once.data(), 0.02, twice.data());
+  const std::vector<double>* hs[3] = {&rest, &once, &twice};
+  double worst = 0;
+  for (const double dt : {0.0005, 0.3}) {
+    std::vector<std::vector<double>> Q(kBatch, std::vector<double>(m->step_width()));
+    Mat3 F[kBatch];
+    StressBatch b;
+    const double* rows[kBatch];
+    for (int e = 0; e < kBatch; ++e) {
+      F[e] = rotation(0.3 * e, Vec3(1, e, 2)) * (Mat3::Identity() + 0.05 * (e + 1) * G);
+      m->step_values(hs[e % 3]->data(), dt, Q[e].data());
+      rows[e] = Q[e].data();
+    }
+    for (int n : {kBatch, 5}) {
+      for (int e = 0; e < kBatch; ++e) {
+        for (int c = 0; c < 9; ++c) b.F[c][e] = F[e](c), b.P[c][e] = 0.0;
+        b.psi[e] = 0.0;
+      }
+      m->energy_batch(b, n, rows, dt);
+      for (int e = 0; e < n; ++e) {
+        Mat3 P = Mat3::Zero(), Pb;
+        const double W = m->energy(F[e], hs[e % 3]->data(), dt, &P);
+        for (int c = 0; c < 9; ++c) Pb(c) = b.P[c][e];
+        worst = std::max(worst, std::max(std::fabs(b.psi[e] - W) / std::max(kMu, std::fabs(W)),
+                                         (Pb - P).norm() / std::max(kMu, P.norm())));
+      }
+    }
+  }
+  std::printf("  batched lanes, each its own F and history, against energy(): %.1e\n", worst);
+  CHECK_MSG(worst <= 1e-12, "batched lanes against energy(): " + std::to_string(worst));
+}
+
 void objectivity() {
   const auto m = prony("neohookean", kBranches);
   const int w = m->history_width();
@@ -258,6 +300,7 @@ void loss_per_cycle() {
 
 int main() {
   derivatives();
+  batch_lanes();
   objectivity();
   relaxation();
   loss_per_cycle();
