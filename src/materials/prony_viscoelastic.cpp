@@ -1,6 +1,6 @@
 // Finite-strain viscoelasticity by a Prony series of stress histories (material.viscoelastic_prony;
 // docs/viscoelastic-prony.md): the model of FEBio's `viscoelastic` material, Simo (1987) and
-// Holzapfel (2000, section 6.10) without their isochoric split (the whole elastic stress relaxes).
+// Holzapfel (2000, Nonlinear Solid Mechanics) without their isochoric split (the whole elastic stress relaxes).
 // The deck's model psi(C) (with its fibre, if any) is the equilibrium part; with S0 = dpsi/dE its
 // second Piola-Kirchhoff stress,
 //   S = S0(C) + sum_i H_i,   dH_i/dt = -H_i / tau_i + gt_i dS0/dt,
@@ -14,8 +14,8 @@
 // since dW/dE = (1 + G) S0(C) + Q = S0(C^{n+1}) + sum_i H_i^{n+1}: all branches collapse into one
 // evaluation of psi and a 3x3 contraction. P = (1 + G) P0 + F Q; dP/dF = (1 + G) dP0/dF + Q's geometric
 // stiffness (dP = dF Q). History per element: H_i (6 values each, symmetric) then S0(C^n) (6).
-// Dissipation: the model has no finite-strain free energy for its branches (Govindjee and Reese
-// 1997), so a branch stores its small-strain one, H_i : D0^{-1} : H_i / (2 gt_i), D0 the base's
+// Dissipation: the model postulates the evolution of H_i, not a finite-strain free energy of its
+// branches, so a branch stores its small-strain one, H_i : D0^{-1} : H_i / (2 gt_i), D0 the base's
 // isotropic rest tangent (mu, lambda; a fibre's share left out), and dissipates H_i : D0^{-1} : H_i /
 // (gt_i tau_i), integrated exactly over the step along the same S0 linear in time (>= 0).
 // Registered as one InelasticKind (viscoelastic_prony_kind, listed in material_factory.cpp).
