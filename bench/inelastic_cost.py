@@ -7,7 +7,8 @@
 
 bench/bench.py's deck of each case (bar66792; the bunny where its mesh is present: E = 1e6, nu = 0.3)
 with implicit Euler, 5 frames, 1 rank, in the variants of VARIANTS: Neo-Hookean elastic and with 1 and
-4 Maxwell branches (1: g 0.3, tau 0.1; 4: g 0.2, 0.15, 0.1, 0.05 with tau 0.01, 0.1, 1, 10), Hencky
+4 Maxwell branches (1: g 0.3, tau 0.1; 4: g 0.2, 0.15, 0.1, 0.05 with tau 0.01, 0.1, 1, 10) and with
+the same 4 branches as a Prony series of stress histories (viscoelastic_prony), Hencky
 elastic and with J2 plasticity (yield_stress 2e4, isotropic_hardening 1e5: the bar yields near its
 clamp in the first frames). Each variant's elastic deck (its `over`) is the one it is compared with.
 
@@ -43,6 +44,7 @@ VARIANTS = {
     "neohookean": ("neohookean", {}),
     "1 branch": ("neohookean", {"viscoelastic": {"branches": [{"g": 0.3, "tau": 0.1}]}}),
     "4 branches": ("neohookean", {"viscoelastic": {"branches": BRANCHES4}}),
+    "4 prony branches": ("neohookean", {"viscoelastic_prony": {"branches": BRANCHES4}}),
     "hencky": ("hencky", {"model": "hencky"}),
     "plastic": ("hencky", {"model": "hencky", "plastic": {"yield_stress": 2.0e4, "isotropic_hardening": 1.0e5}}),
 }
@@ -81,12 +83,19 @@ def main():
     ap.add_argument("--cases", default="bar66792,bunny", help="bench.py's cases (a missing mesh is skipped)")
     ap.add_argument("--binaries", default=f"new={os.path.join(REPO, 'build', 'hyperqn')}",
                     help="LABEL=PATH,LABEL=PATH: the builds, their runs interleaved")
+    ap.add_argument("--variants", default=",".join(VARIANTS),
+                    help="a comma-separated subset of VARIANTS (each with the elastic one it is compared with)")
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-inelastic"))
     ap.add_argument("--mpiexec", default=launch.default_mpiexec())
     ap.add_argument("--timeout", type=float, default=1800)
     args = ap.parse_args()
+    chosen = set(args.variants.split(","))
+    unknown = chosen - set(VARIANTS)
+    if unknown:
+        raise SystemExit(f"unknown variants {sorted(unknown)} (expected {', '.join(VARIANTS)})")
+    chosen |= {VARIANTS[v][0] for v in chosen}
     binaries = {label: os.path.abspath(path) for label, path in (b.split("=", 1) for b in args.binaries.split(","))}
     deckdir = os.path.join(args.out, "decks")
     os.makedirs(deckdir, exist_ok=True)
@@ -96,6 +105,8 @@ def main():
         if base is None:
             continue
         for k, (variant, (_, material)) in enumerate(VARIANTS.items()):
+            if variant not in chosen:
+                continue
             decks[(case, variant)] = deck_variant(base, deckdir, f"{case}_{k}", args.frames, material, 10)
             converged[(case, variant)] = deck_variant(base, deckdir, f"{case}_{k}_converged", args.frames, material,
                                                       CONVERGED_ITERATIONS)

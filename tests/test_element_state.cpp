@@ -9,7 +9,7 @@
 // its det F at each accepted frame) checkpointed after 3 frames and restarted in a fresh scene goes
 // on bit for bit as the uninterrupted run; a scene whose terms keep other state cannot restart from
 // it; a rebuilt scene carries the state over by id. At 1 and 2 ranks. Then the midpoint's
-// extrapolate and advance, and undo after them.
+// extrapolate and advance, and undo after them; and the revision that changes with the start values.
 #include <petscdmplex.h>
 
 #include <algorithm>
@@ -310,11 +310,32 @@ void check_midpoint_moves() {
   CHECK(s.start(1)[0] == 1.0 && s.current(1)[0] == 1.0);
 }
 
+// The revision a cache of the start values keys on (InelasticTets' step values): it changes with
+// every call that may move the start values, and not with extrapolate (the current ones only).
+void check_revision() {
+  ElementState st("r", 1, {0, 1});
+  uint64_t r = st.revision();
+  const auto changed = [&](const char* what) {
+    CHECK_MSG(st.revision() != r, std::string("revision changes with ") + what);
+    r = st.revision();
+  };
+  st.begin(), changed("begin");
+  st.current(0)[0] = 1.0;
+  st.extrapolate();
+  CHECK_MSG(st.revision() == r, "extrapolate leaves the revision");
+  st.begin_substep(), changed("begin_substep");
+  st.undo_substep(), changed("undo_substep");
+  st.advance(), changed("advance");
+  st.undo(), changed("undo");
+  st.restore({2.0, 3.0}), changed("restore");
+}
+
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   PetscCall(check_counts());
   PetscCall(check_checkpoint());
   check_midpoint_moves();
+  check_revision();
   const int code = test_scene::tally("test_element_state");
   PetscCall(PetscFinalize());
   return code;

@@ -32,7 +32,7 @@ class InelasticModel {
   // *P if P is not null. +inf where no step ends (det F = 0).
   virtual double energy(const Mat3& F, const double* history, double dt, Mat3* P) const = 0;
   // energy() for the first n elements of a batch (materials/material.hpp), element e's history
-  // history[e]: W added to b.psi and P to b.P (b.psi +inf where no step ends, its P left). This
+  // history[e] (its step_values, for a model with a step_width): W added to b.psi and P to b.P (b.psi +inf where no step ends, its P left). This
   // default goes element by element; the Maxwell branches loop over the lanes.
   virtual void energy_batch(StressBatch& b, int n, const double* const* history, double dt) const {
     for (int e = 0; e < n; ++e) {
@@ -42,6 +42,12 @@ class InelasticModel {
       for (int c = 0; c < 9; ++c) b.P[c][e] += P(c);
     }
   }
+  // What a step's energy_batch reads of the history at the step's start, where a model condenses it
+  // to fewer values (the Prony series: its step's constant stress Q): values per element (0: none,
+  // energy_batch reads the history), and those of a history for a step of dt. The term computes
+  // them once per step (terms/inelastic_tets.hpp) and gives energy_batch them in the history's place.
+  virtual int step_width() const { return 0; }
+  virtual void step_values(const double* /*history*/, double /*dt*/, double* /*out*/) const {}
   // The energy stored at F with the history as it stands (no flow), P added as above: what the
   // output's energies and stresses read at a step's end.
   virtual double stored_energy(const Mat3& F, const double* history, Mat3* P) const = 0;

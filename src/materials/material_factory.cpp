@@ -39,8 +39,9 @@ const std::vector<MaterialKey>& fiber_keys() {
   return keys;
 }
 
-// The viscoelastic block: the Prony series' fractions g must leave the equilibrium part a share.
-static std::string check_viscoelastic(const InelasticSpec& s, std::string* key) {
+// The viscoelastic blocks (also viscoelastic_prony's): the Prony series' fractions g must leave the
+// equilibrium part a share.
+std::string check_viscoelastic(const InelasticSpec& s, std::string* key) {
   double sum = 0;
   for (const auto& b : s.items) sum += b.at("g");
   *key = "branches";
@@ -58,7 +59,8 @@ static std::unique_ptr<InelasticModel> create_viscoelastic(const MaterialSpec& s
   return std::make_unique<MaxwellBranches>(std::move(out));
 }
 
-const InelasticKind& plasticity_kind();  // log_strain_plasticity.cpp
+const InelasticKind& plasticity_kind();          // log_strain_plasticity.cpp
+const InelasticKind& viscoelastic_prony_kind();  // prony_viscoelastic.cpp
 
 const std::vector<InelasticKind>& inelastic_kinds() {
   static const std::vector<InelasticKind> kinds = [] {
@@ -79,7 +81,7 @@ const std::vector<InelasticKind>& inelastic_kinds() {
         {"g", {}, "", above(0, "the branch's fraction of the instantaneous shear modulus"), "", true},
         {"tau", {}, "", above(0, "a relaxation time, s"), "", true},
     };
-    return std::vector<InelasticKind>{visco, plasticity_kind()};
+    return std::vector<InelasticKind>{visco, viscoelastic_prony_kind(), plasticity_kind()};
   }();
   return kinds;
 }

@@ -34,25 +34,32 @@ class ElementState {
   double* current(size_t e) { return &current_[per_element_ * e]; }
   const double* current(size_t e) const { return &current_[per_element_ * e]; }
   const std::vector<double>& current_values() const { return current_; }
+  // Changes whenever the start values may have (each call below but extrapolate): what a term
+  // computes once per step from them (InelasticTets' step values) is kept under it.
+  uint64_t revision() const { return revision_; }
 
   // A frame's step: its start, and back to it (after sub-steps too).
   void begin() {
+    ++revision_;
     start_ = current_;
     frame_kept_ = advanced_ = false;
   }
   void undo() {
+    ++revision_;
     back_from_advance();
     if (frame_kept_) start_ = frame_start_;
     current_ = start_;
   }
   // A sub-step of the frame: its start (the frame's kept at the first), and back to it.
   void begin_substep() {
+    ++revision_;
     if (!frame_kept_) frame_start_ = start_;
     frame_kept_ = true;
     advanced_ = false;
     start_ = current_;
   }
   void undo_substep() {
+    ++revision_;
     back_from_advance();
     current_ = start_;
   }
@@ -64,6 +71,7 @@ class ElementState {
   // A midpoint step completed by implicit Euler: its second half starts from the values at z
   // (current, as updated there); undo and undo_substep still go back to the step's start.
   void advance() {
+    ++revision_;
     if (!advanced_) step_start_ = start_;
     advanced_ = true;
     start_ = current_;
@@ -71,6 +79,7 @@ class ElementState {
   // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
   // start and the current ones, as after an accepted step.
   void restore(std::vector<double> values) {
+    ++revision_;
     current_ = std::move(values);
     start_ = current_;
     frame_kept_ = advanced_ = false;
@@ -90,6 +99,7 @@ class ElementState {
   bool frame_kept_ = false;
   std::vector<double> step_start_;  // the step's start while advance() moved start_ to its z
   bool advanced_ = false;
+  uint64_t revision_ = 0;
 };
 
 // from's current values into to's (both as after an accepted step), element by element through the

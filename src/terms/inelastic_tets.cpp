@@ -33,6 +33,8 @@ InelasticTets::InelasticTets(const DistributedMesh& mesh, const std::string& sta
       weight_(std::move(weight)),
       state_(state, width(models_) + 1, ids_of(mesh, cells_)),
       dissipated_(state_.per_element() - 1) {
+  for (const auto& m : models_)
+    if (m) step_width_ = std::max(step_width_, m->step_width());
   std::vector<double> rest(state_.elements() * state_.per_element(), 0.0);  // nothing dissipated
   for (size_t k = 0; k < cells_.size(); ++k)
     models_[mesh.cell_material[cells_[k]]]->rest(&rest[k * state_.per_element()]);
@@ -80,8 +82,25 @@ void InelasticTets::element_energy_batch(size_t k, int m, StressBatch& b, int n)
     for (Lanes& P : b.P) P = Lanes{};
   }
   const double* history[kBatch];
-  for (int e = 0; e < n; ++e) history[e] = state_.start(k + e);
+  const double* condensed = models_[m]->step_width() > 0 ? step_values(k) : nullptr;  // k's, then k + 1's, ...
+  for (int e = 0; e < n; ++e) history[e] = condensed ? condensed + e * step_width_ : state_.start(k + e);
   models_[m]->energy_batch(b, n, history, dt_);
+}
+
+// Kept while the start values and dt are (one pass over the history per step, not per evaluation:
+// the Prony series reads 6 values per tet instead of its 30).
+const double* InelasticTets::step_values(size_t k) const {
+  if (!step_valid_ || step_revision_ != state_.revision() || step_dt_ != dt_) {
+    step_values_.resize(cells_.size() * step_width_);  // a model without step values leaves its tets' unread
+    for (size_t e = 0; e < cells_.size(); ++e) {
+      const InelasticModel& model = *models_[mesh_.cell_material[cells_[e]]];
+      if (model.step_width() > 0) model.step_values(state_.start(e), dt_, &step_values_[e * step_width_]);
+    }
+    step_valid_ = true;
+    step_revision_ = state_.revision();
+    step_dt_ = dt_;
+  }
+  return &step_values_[k * step_width_];
 }
 
 void InelasticTets::stored_energy_batch(size_t k, int m, StressBatch& b, int n) const {

@@ -59,6 +59,14 @@ class InelasticTets : public TetElements {
   ElementState state_;
   int dissipated_ = 0;  // that value's index in an element's values
   double dt_ = 0;
+  // The models' step values (InelasticModel::step_width) per element, for the step of dt_ from the
+  // start values of revision step_revision_; computed at the first batch that needs them.
+  const double* step_values(size_t k) const;
+  int step_width_ = 0;  // the widest model's
+  mutable std::vector<double> step_values_;
+  mutable uint64_t step_revision_ = 0;
+  mutable double step_dt_ = 0;
+  mutable bool step_valid_ = false;
 };
 
 }  // namespace hyperqn
