@@ -449,6 +449,22 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
     id_offset_ = slots - input.piece.global_vertices;
+    // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal, as
+    // the body may move) over the run's frames cuts nothing: said, not refused.
+    double lo[3], hi[3];
+    bounding_box(input.piece.mesh.coords, lo, hi);
+    MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
+    MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);
+    const Eigen::Vector3d blo(lo[0], lo[1], lo[2]), bhi(hi[0], hi[1], hi[2]), grow = Eigen::Vector3d::Constant((bhi - blo).norm());
+    for (size_t k = 0; k < spec.cuts.size(); ++k) {
+      bool meets = false;
+      for (int f = 0; f < spec.time.frames && !meets; ++f)
+        meets = BladeSweep(spec.cuts[k], f * spec.time.dt, (f + 1) * spec.time.dt).may_meet_box(blo - grow, bhi + grow);
+      if (!meets)
+        PetscCall(PetscPrintf(comm, "hyperqn: warning: %s:%d: cuts[%zu]: the blade never comes near the body in the run's "
+                                    "%d frames (it stays farther than the body's size from its rest bounding box): it cuts nothing\n",
+                              spec.path.c_str(), spec.cuts[k].line, k, spec.time.frames));
+    }
   }
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
