@@ -33,10 +33,10 @@ inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
                         nonzero_vector()}),
       needed(DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
                         above(0, "a length")}),
-      custom_key<C>("motion", "map: [`motion`](#motion), a translation in the blade's plane",
+      custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane",
                     "how the blade moves: `translate.velocity` (in its plane) between `start` and `end`, or along a "
                     "`curve`; no `rotate`",
-                    "none (it cuts where it stands, at the first step)"),
+                    "none (it cuts where it stands, after the first step)"),
   };
   return keys;
 }
