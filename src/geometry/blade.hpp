@@ -12,12 +12,19 @@
 
 namespace hyperqn {
 
+// Which positions the blade is tested against (the faces' dual edges): the body's as it is now, in
+// the world, or its rest shape (a cut scripted in the material: a turning or falling body is cut
+// where the rest shape says, and the faces do not depend on the solve, so not on the rank count).
+enum class CutFrame { world, rest };
+inline const std::vector<std::string> kCutFrameNames = {"world", "rest"};  // in the enum's order
+
 struct CutSpec {
   std::array<double, 3> center{0, 0, 0};  // the rectangle's centre at t = 0
   std::array<double, 3> normal{1, 0, 0};  // its plane's normal (nonzero, any length)
   std::array<double, 3> axis{0, 1, 0};    // its first side's direction (projected into the plane)
   std::array<double, 2> size{1, 1};       // its side lengths along axis and normal x axis
   Motion motion;                          // a translation in the plane (the reader refuses others)
+  CutFrame frame = CutFrame::world;       // positions the blade meets
   int line = 0;                           // deck line, for messages
 };
 
@@ -33,6 +40,10 @@ inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
                         nonzero_vector()}),
       needed(DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
                         above(0, "a length")}),
+      enum_key<C>("frame", &C::frame, kCutFrameNames,
+                   "which positions the blade meets: `world`, the body's now (where it is); `rest`, its rest shape "
+                   "(a cut scripted in the material: the same faces whatever the body does, at any rank count)",
+                   "world"),
       custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane",
                     "how the blade moves: `translate.velocity` (in its plane) between `start` and `end`, or along a "
                     "`curve`; no `rotate`",

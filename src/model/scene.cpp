@@ -690,7 +690,17 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   PetscCall(scene_->body->local_positions(main.x, pos));
   PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "the scene's local vertices are not its kept piece's");
-  const std::vector<TetPair> batch = faces_crossed(comm_, kept_.piece, pos, spec_->cuts, t - h, t, separated_);
+  std::vector<CutSpec> by_frame[2];  // the blades that meet the body now, and its rest shape
+  for (const CutSpec& c : spec_->cuts) by_frame[int(c.frame)].push_back(c);
+  std::vector<TetPair> batch;
+  for (int f = 0; f < 2; ++f) {
+    if (by_frame[f].empty()) continue;
+    const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords,
+                                                       by_frame[f], t - h, t, separated_);
+    batch.insert(batch.end(), crossed.begin(), crossed.end());
+  }
+  std::sort(batch.begin(), batch.end());
+  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   if (batch.empty()) {
     PetscCall(event_end(&LogEvents::topology));
     PetscFunctionReturn(0);
