@@ -156,17 +156,18 @@ def test_ranks_agree_with_the_cut_on_the_partition_boundary(tmp_path, ranks):
     assert set(rank_of[x < 1]) != set(rank_of[x > 1])
 
 
-def test_restart_after_cuts_is_bitwise(tmp_path):
-    ref, _ = run_deck(tmp_path, "ref", BAR)
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_cuts_is_bitwise(tmp_path, ranks):
+    ref, _ = run_deck(tmp_path, "ref", BAR, ranks=ranks)
     out = tmp_path / "restarted"
     half = copy.deepcopy(BAR)
     half["time"]["frames"] = 10
     half["checkpoint"] = {"every": 10}
-    run_hyperqn([write_deck(tmp_path / "half.yaml", half), "-o", out], ranks=None)
+    run_hyperqn([write_deck(tmp_path / "half.yaml", half), "-o", out], ranks=ranks)
     from hyperqn_tools.output import read_checkpoint
     saved = read_checkpoint(out / "checkpoints" / "checkpoint_10.h5")
     assert "cuts" in saved  # the checkpoint was written after cuts
-    done = run_hyperqn([write_deck(tmp_path / "ref.yaml", BAR), "-o", out, "--restart", "latest"], ranks=None)
+    done = run_hyperqn([write_deck(tmp_path / "ref.yaml", BAR), "-o", out, "--restart", "latest"], ranks=ranks)
     assert "restart from" in done.stdout
     a, b = final_frame(ref), final_frame(out)
     assert np.array_equal(a.vertex_id, b.vertex_id)
