@@ -22,7 +22,7 @@ import sys
 from hyperqn_tools import launch
 
 # The pages of the deck's reference, from the repository root: the one place that lists them.
-DOCS = ("docs/decks.md", "docs/deck-scene.md", "docs/deck-run.md", "docs/loads.md")
+DOCS = ("docs/decks.md", "docs/deck-scene.md", "docs/deck-run.md", "docs/loads.md", "docs/topology.md")
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 

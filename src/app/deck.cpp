@@ -32,10 +32,10 @@ constexpr size_t kMaxNameLength = 100;
 std::vector<std::pair<std::string, std::string>> physics_sections(const YAML::Node& root) {
   std::vector<std::pair<std::string, std::string>> out;
   for (const char* key : {"material", "strand_material", "regions", "fixed", "attachments", "colliders",
-                          "contact", "initial", "gravity", "time", "cloth", "bodies", "loads"}) {
+                          "contact", "initial", "gravity", "time", "cloth", "bodies", "loads", "cuts"}) {
     const YAML::Node found = root.IsMap() ? root[key] : YAML::Node();
     if (!found || found.IsNull()) {
-      if (std::string(key) == "cloth" || std::string(key) == "bodies" || std::string(key) == "loads")
+      if (std::string(key) == "cloth" || std::string(key) == "bodies" || std::string(key) == "loads" || std::string(key) == "cuts")
         continue;  // added later: decks without one keep their hash
       out.emplace_back(key, "");
       continue;
@@ -77,7 +77,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
 
   Section s(r, Value{root, "", line_of(root)},
             {"name", "mesh", "bodies", "partition", "material", "strand_material", "cloth", "regions", "fixed", "attachments",
-             "loads", "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
+             "loads", "cuts", "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
     // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
@@ -149,6 +149,10 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("attachments")) read_attachments(r, *x, deck.attachments);
   read_body_regions(r, body_regions, deck);
   if (const Value* x = s.find("loads")) read_loads(r, *x, deck.loads);
+  if (const Value* x = s.find("cuts")) {
+    read_cuts(r, *x, deck.cuts);
+    deck.cuts_line = x->line;
+  }
   check_face_tags_have_a_file(r, deck);
   if (const Value* x = s.find("gravity")) read_value(r, gravity_keys()[0], *x, static_cast<SceneSpec&>(deck));
   if (const Value* x = s.find("time")) {
@@ -165,6 +169,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     check_energy_output(r, *x, deck);
   }
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
+  if (const Value* x = s.find("cuts")) check_cuts(r, *x, deck);
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
   if (const Value* x = s.find("study")) {

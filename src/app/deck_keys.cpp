@@ -94,7 +94,7 @@ std::vector<KeyInfo> declared_deck_keys() {
        key_infos("fixed", fixed_keys()), key_infos("motion", motion_keys()),
        key_infos("curve", curve_keys()),
        key_infos("attachments", attachment_keys()), key_infos("loads", load_keys()),
-       key_infos("colliders", collider_keys()),
+       key_infos("colliders", collider_keys()), key_infos("cuts", cut_keys()),
        key_infos("contact", contact_keys()), key_infos("regions", region_keys()),
        key_infos("initial", initial_keys()), key_infos("gravity", gravity_keys()), key_infos("time", time_keys()),
        key_infos("solver", solver_keys()), key_infos("guardrails", guardrail_keys()),

@@ -60,6 +60,24 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
            "energy.csv does not count the work of colliders or self-contact yet (leave out output.energy)");
 }
 
+void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
+  bool tets = deck.bodies.empty() ? deck.mesh.has_solid() : false, others = deck.bodies.empty() && (deck.mesh.has_strands() || deck.mesh.has_cloth());
+  for (const BodySpec& b : deck.bodies) {
+    tets = tets || b.mesh.has_solid();
+    others = others || b.mesh.has_strands() || b.mesh.has_cloth();
+  }
+  if (!tets) r.fail(cuts, "a cut separates tets along their faces, and the mesh has no tets");
+  if (others)
+    r.fail(cuts, "cuts act on meshes of tets alone for now: the mesh also has strands or a cloth, which a cut does "
+                 "not separate (docs/topology.md)");
+  if (deck.contact.self)
+    r.fail(cuts, "cuts with self-contact (contact.self) are not done yet: the surfaces a cut makes would not take part "
+                 "in it, so the fragments could pass through each other (docs/topology.md)");
+  if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
+    r.fail(cuts, "output.format: xdmf holds one mesh per run, and a cut changes the mesh: write vtu frames with cuts "
+                 "(docs/topology.md)");
+}
+
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;

@@ -482,6 +482,23 @@ void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpe
   }
 }
 
+// cuts: [{center, normal, axis, size, motion}]: scripted cuts (geometry/blade.hpp, docs/topology.md).
+void read_cuts(const Reader& r, const Value& v, std::vector<CutSpec>& cuts) {
+  for (const Value& item : r.items(v)) {
+    CutSpec c;
+    const Section s = read_keys(r, item, cut_keys(), c);
+    c.line = item.line;
+    const Eigen::Vector3d n(c.normal[0], c.normal[1], c.normal[2]), a(c.axis[0], c.axis[1], c.axis[2]);
+    if ((a - a.dot(n.normalized()) * n.normalized()).norm() <= 1e-9 * a.norm())
+      r.fail(*s.find("axis"), "is along normal: the rectangle's first side must lie in the blade's plane");
+    if (const Value* x = s.find("motion")) {
+      c.motion = read_motion(r, *x);
+      if (const std::string problem = blade_motion_problem(c); !problem.empty()) r.fail(*x, problem);
+    }
+    cuts.push_back(c);
+  }
+}
+
 // loads: [{type, box, normal, angle, <the type's keys>}] (model/load_kinds.hpp).
 void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads) {
   for (const Value& item : r.items(v)) {

@@ -35,6 +35,7 @@ void read_colliders(const Reader& r, const Value& v, const fs::path& deck_dir, s
 void read_contact(const Reader& r, const Value& v, ContactSpec& c);
 void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpec>& attachments);
 void read_loads(const Reader& r, const Value& v, std::vector<LoadSpec>& loads);
+void read_cuts(const Reader& r, const Value& v, std::vector<CutSpec>& cuts);
 // Each body's own fixed regions and attachments (BoxRegion::body), after the scene's.
 void read_body_regions(const Reader& r, const BodyRegions& regions, Deck& deck);
 void read_initial(const Reader& r, const Value& v, InitialSpec& in);

@@ -133,6 +133,14 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   h.dofs = s.mesh.global_dofs;
   h.released = state.released;
   h.released_attachments = state.released_attachments;
+  h.cuts = run_.scene.cut_history();
+  if (!h.cuts.empty()) {  // the cut mesh's vertices (a restart replays the cuts before it compares)
+    long long slots = 0;
+    for (int64_t id : s.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
+    MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, run_.comm);
+    h.vertex_slots = slots;
+    h.vertices = s.mesh.global_vertices;
+  }
   h.started_inverted = setup_.started_inverted;
   h.summary = run_.summary;
   read_log_events(h.summary);

@@ -14,6 +14,7 @@
 #include "app/run_checkpoints.hpp"
 #include "app/run_observers.hpp"
 #include "app/time_loop.hpp"
+#include "io/log_events.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_directory.hpp"
 #include "model/fallback_chain.hpp"
@@ -266,6 +267,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
+        (restart && run.scene.restore_cuts(saved.cuts)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
         (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
@@ -378,6 +380,16 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 4. Summary.
   read_log_events(summary);
+  if (!deck.cuts.empty()) {  // the counts so far (a restart's replay included) and the mesh they made
+    const LiveScene::CutCounts& c = run.scene.cut_counts();
+    summary.cuts = true;
+    summary.faces_separated = c.faces;
+    summary.cut_vertices = c.vertices;
+    summary.cut_batches = c.batches;
+    summary.topology_s = event_seconds(log_events().topology);
+    summary.vertices = run.scene.current().mesh.global_vertices;
+    summary.dofs = run.scene.current().mesh.global_dofs;
+  }
   add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run

@@ -53,6 +53,8 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     const double time = lead_.time;
     bool released;
     PetscCall(scene_.release_due(lead_, carried, rebind, &released));
+    bool cut;  // after the step before: its faces crossed by a blade separate (scripted cuts)
+    PetscCall(scene_.cut_due(lead_, carried, rebind, &cut));
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
     const Scene& scene = scene_.current();
 

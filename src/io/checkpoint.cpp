@@ -158,6 +158,12 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   head.put("body_time", h.body_time);
   head.put("released", flags_text(h.released));
   head.put("released_attachments", flags_text(h.released_attachments));
+  if (!h.cuts.empty()) {
+    std::string cuts;
+    for (const auto& f : h.cuts)
+      for (int64_t x : f) cuts += (cuts.empty() ? "" : " ") + std::to_string(x);
+    head.put("cuts", cuts);
+  }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
   for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
@@ -244,6 +250,12 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
   h.body_time = head.get_real("body_time");
   h.released = parse_flags(head.get("released"));
   h.released_attachments = parse_flags(head.get("released_attachments"));
+  if (head.has("cuts")) {
+    std::istringstream in(head.get("cuts"));
+    std::array<int64_t, 3> f;
+    while (in >> f[0] >> f[1] >> f[2]) h.cuts.push_back(f);
+    if (!in.eof()) throw std::runtime_error("its header's cuts are malformed");
+  }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;
   // A counter newer than the file reads as 0 (euler_completed_steps came after format version 3).

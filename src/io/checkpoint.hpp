@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts (scripted cuts only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
@@ -27,6 +27,8 @@
 #pragma once
 #include <petscsys.h>
 
+#include <array>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -72,6 +74,9 @@ struct CheckpointHeader {
   double time = 0;       // frame * dt
   double body_time = 0;  // the time of the fixed vertices' prescribed motion (after sub-steps: the last one's)
   std::vector<char> released, released_attachments;
+  // Scripted cuts: every face separated so far, (frame, tet, tet) in order (LiveScene::cut_history;
+  // header key cuts, absent without any), replayed by a restart.
+  std::vector<std::array<int64_t, 3>> cuts;
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state

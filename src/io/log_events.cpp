@@ -44,6 +44,7 @@ static LogEvents register_events() {
   add("hqnSelfGather", &e.self_gather);
   add("hqnSelfPairs", &e.self_pairs);
   add("hqnCheckpoint", &e.checkpoint);
+  add("hqnTopology", &e.topology);
   return e;
 }
 

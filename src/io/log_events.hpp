@@ -24,6 +24,8 @@ struct LogEvents {
                               // exchange of the gradients at vertices of other ranks
   PetscLogEvent self_pairs;   // within it, building the candidate pairs (once per step and when the surface moves)
   PetscLogEvent checkpoint;   // writing one checkpoint (rank 0 writes, the others send their rows)
+  PetscLogEvent topology;     // scripted cuts: finding the faces a blade crossed, separating them, and
+                              // the rebuild that follows (never begun in a deck without cuts)
 };
 
 // The events, registered on first use.

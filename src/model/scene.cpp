@@ -8,6 +8,7 @@
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
 #include "io/partition_file.hpp"
+#include "model/cuts.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
@@ -442,7 +443,29 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   bool releases = false;
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
-  if (releases) kept_ = input;  // a release rebuilds the scene from this rank's piece
+  if (releases || !spec.cuts.empty()) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
+  if (!spec.cuts.empty()) {  // copies' ids come after every id of the input
+    long long slots = 0;
+    for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
+    MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+    id_offset_ = slots - input.piece.global_vertices;
+    // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal, as
+    // the body may move) over the run's frames cuts nothing: said, not refused.
+    double lo[3], hi[3];
+    bounding_box(input.piece.mesh.coords, lo, hi);
+    MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
+    MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPI_DOUBLE, MPI_MAX, comm);
+    const Eigen::Vector3d blo(lo[0], lo[1], lo[2]), bhi(hi[0], hi[1], hi[2]), grow = Eigen::Vector3d::Constant((bhi - blo).norm());
+    for (size_t k = 0; k < spec.cuts.size(); ++k) {
+      bool meets = false;
+      for (int f = 0; f < spec.time.frames && !meets; ++f)
+        meets = BladeSweep(spec.cuts[k], f * spec.time.dt, (f + 1) * spec.time.dt).may_meet_box(blo - grow, bhi + grow);
+      if (!meets)
+        PetscCall(PetscPrintf(comm, "hyperqn: warning: %s:%d: cuts[%zu]: the blade never comes near the body in the run's "
+                                    "%d frames (it stays farther than the body's size from its rest bounding box): it cuts nothing\n",
+                              spec.path.c_str(), spec.cuts[k].line, k, spec.time.frames));
+    }
+  }
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
   PetscFunctionReturn(0);
@@ -534,14 +557,17 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
 // x, v of scene `from` at time t as new vectors of scene `to` (same local vertices): every vertex
 // keeps its position and velocity; a vertex freed in `to` the prescribed ones at t (Body::
 // prescribed_state: the motion's velocity at t, not the mean over the last step that set_time holds).
-static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s) {
+// source (a cut): per local vertex of `to`, the local vertex of `from` whose state it takes; empty:
+// the same local vertices.
+static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s,
+                                  const std::vector<int32_t>& source = {}) {
   std::vector<double> pos, vel;
   Vec xl, vl, x_to, v_to;
   PetscScalar *a, *b;
   PetscFunctionBeginUser;
   // The partition is the same, so the local vertices are too; check rather than assume.
-  PetscCheck(to.mesh.vertex_ids == from.mesh.vertex_ids, PETSC_COMM_SELF, PETSC_ERR_PLIB,
-             "the local vertices changed when fixed regions were released");
+  PetscCheck(source.empty() ? to.mesh.vertex_ids == from.mesh.vertex_ids : (PetscInt)source.size() == to.mesh.num_vertices,
+             PETSC_COMM_SELF, PETSC_ERR_PLIB, "the local vertices changed when fixed regions were released");
   PetscCall(from.body->local_positions(s.x, pos));
   PetscCall(from.body->local_velocities(s.v, vel));
   from.body->prescribed_state(t, pos, vel);
@@ -552,9 +578,10 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, 
   for (PetscInt i = 0; i < to.mesh.num_vertices; ++i) {
     const PetscInt off = to.mesh.local_dof[i];
     if (off < 0) continue;
+    const size_t j = source.empty() ? size_t(i) : size_t(source[i]);
     for (int d = 0; d < 3; ++d) {
-      a[off + d] = pos[3 * i + d];
-      b[off + d] = vel[3 * i + d];
+      a[off + d] = pos[3 * j + d];
+      b[off + d] = vel[3 * j + d];
     }
   }
   PetscCall(VecRestoreArray(xl, &a));
@@ -590,7 +617,8 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   PetscFunctionBeginUser;
   PetscCheck(regions.size() == spec_->fixed.size() && attachments.size() == spec_->attachments.size(), comm_,
              PETSC_ERR_ARG_SIZ, "the checkpoint's released flags do not match the deck's fixed regions and attachments");
-  bool any = false;
+  bool any = kept_changed_;
+  kept_changed_ = false;
   for (char r : regions) any = any || r;
   for (char a : attachments) any = any || a;
   if (!any) PetscFunctionReturn(0);
@@ -632,8 +660,84 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
     s->released = main.released;
     s->released_attachments = main.released_attachments;
   }
+  last_change_cut_ = false;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
+  PetscFunctionReturn(0);
+}
+
+std::vector<int32_t> LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch) {
+  for (const TetPair& f : batch) {
+    separated_.insert(f);
+    history_.push_back({frame, f[0], f[1]});
+  }
+  std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
+  SeparationResult r = separate_faces(comm_, kept_.piece, batch, separated_, id_offset_, arrays);
+  counts_.faces += (long long)batch.size();
+  counts_.vertices += r.new_vertices;
+  counts_.batches += 1;
+  return std::move(r.source);
+}
+
+PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut) {
+  const double h = spec_->time.dt;
+  PetscFunctionBeginUser;
+  *cut = false;
+  if (spec_->cuts.empty() || main.frame == 0) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  const double t = main.frame * h;
+  std::vector<double> pos;
+  PetscCall(scene_->body->local_positions(main.x, pos));
+  PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the scene's local vertices are not its kept piece's");
+  std::vector<CutSpec> by_frame[2];  // the blades that meet the body now, and its rest shape
+  for (const CutSpec& c : spec_->cuts) by_frame[int(c.frame)].push_back(c);
+  std::vector<TetPair> batch;
+  for (int f = 0; f < 2; ++f) {
+    if (by_frame[f].empty()) continue;
+    const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords,
+                                                       by_frame[f], t - h, t, separated_);
+    batch.insert(batch.end(), crossed.begin(), crossed.end());
+  }
+  std::sort(batch.begin(), batch.end());
+  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
+  if (batch.empty()) {
+    PetscCall(event_end(&LogEvents::topology));
+    PetscFunctionReturn(0);
+  }
+  *cut = true;
+  const std::vector<int32_t> source = separate(main.frame, batch);
+  std::unique_ptr<Scene> fresh;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh));
+  fresh->body->set_time(t);
+  fresh->body->carry_element_states(*scene_->body);
+  PetscCall(carry_state(*scene_, *fresh, t, main, source));
+  PetscCall(fresh->body->hold(main.x));
+  for (State* s : others) {
+    PetscCall(carry_state(*scene_, *fresh, t, *s, source));
+    PetscCall(fresh->body->hold(s->x));
+  }
+  last_change_cut_ = true;
+  PetscCall(rebind(*scene_, *fresh));
+  scene_ = std::move(fresh);
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history) {
+  PetscFunctionBeginUser;
+  if (history.empty()) PetscFunctionReturn(0);
+  PetscCheck(!spec_->cuts.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has cuts and the deck has none");
+  PetscCall(event_begin(&LogEvents::topology));
+  for (size_t i = 0; i < history.size();) {
+    size_t j = i;
+    std::vector<TetPair> batch;
+    for (; j < history.size() && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
+    separate(history[i][0], batch);
+    i = j;
+  }
+  kept_changed_ = true;
+  PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
 

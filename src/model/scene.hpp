@@ -3,13 +3,16 @@
 // simulation and the study.
 #pragma once
 #include <functional>
+#include <array>
 #include <map>
+#include <set>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "io/partition_file.hpp"
 #include "mesh/distributed_mesh.hpp"
+#include "mesh/separation.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
 #include "model/step_objective.hpp"
@@ -107,6 +110,28 @@ class LiveScene {
   // is), before anything refers to the scene.
   PetscErrorCode restore_released(const std::vector<char>& regions, const std::vector<char>& attachments);
 
+  // Scripted cuts (spec.cuts, docs/topology.md). Called before the step from main, after
+  // release_due: the interior faces whose dual edge a blade crossed over the step before, [t - h, t]
+  // at main's positions x(t) (model/cuts.hpp), separate on the kept pieces (mesh/separation.hpp),
+  // the scene is rebuilt on them as for a release (M + h^2 L factored again), and main and every
+  // state in others move to it (a copy with its original's position and velocity). Nothing
+  // happens, and the topology log event is not begun, in a scene without cuts. *cut: it happened.
+  PetscErrorCode cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut);
+  // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers).
+  using SeparatedFace = std::array<int64_t, 3>;
+  const std::vector<SeparatedFace>& cut_history() const { return history_; }
+  // A restart: the checkpoint's cut history replayed on the kept pieces, batch by batch as the run
+  // made them (so the same vertex numbers), before restore_released, which then rebuilds.
+  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history);
+  // Totals so far (a restart's replay included): faces separated, vertices added, batches (each one
+  // rebuild and refactorization of the scene).
+  struct CutCounts {
+    long long faces = 0, vertices = 0, batches = 0;
+  };
+  const CutCounts& cut_counts() const { return counts_; }
+  // The last change of the scene was a cut (not a release): for messages.
+  bool last_change_cut() const { return last_change_cut_; }
+
  private:
   // The scene without the attachments marked in released_attachments.
   PetscErrorCode build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const;
@@ -114,8 +139,18 @@ class LiveScene {
   PetscErrorCode rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
                          std::unique_ptr<Scene>& fresh) const;
 
+  // One batch of faces separated at the start of `frame` on kept_ (history and counts follow); the
+  // source of each local vertex after it (mesh/separation.hpp).
+  std::vector<int32_t> separate(int64_t frame, const std::vector<TetPair>& batch);
+
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;
+  std::vector<SeparatedFace> history_;
+  std::set<TetPair> separated_;
+  int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
+  CutCounts counts_;
+  bool kept_changed_ = false;  // restore_cuts changed kept_: restore_released rebuilds
+  bool last_change_cut_ = false;
   SceneOptions options_;
   SceneInput kept_;  // this rank's input, if a region is released later
   std::unique_ptr<Scene> scene_;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/blade.hpp"
 #include "geometry/collider.hpp"
 #include "params/deck_keys.hpp"
 #include "mesh/mesh_spec.hpp"
@@ -232,6 +233,8 @@ struct SceneSpec {
   ContactSpec contact;                   // how contact is modelled (if there are colliders)
   std::vector<AttachmentSpec> attachments;  // soft attachments (springs to moving targets)
   std::vector<LoadSpec> loads;           // tractions, pressures, forces (none: no load code at all)
+  std::vector<CutSpec> cuts;             // scripted cuts (none: no topology code at all; docs/topology.md)
+  int cuts_line = 0;                     // the deck line of cuts:
   InitialSpec initial;
   std::array<double, 3> gravity{0, -9.81, 0};
   TimeSpec time;

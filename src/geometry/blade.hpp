@@ -1,0 +1,88 @@
+// A scripted cut (deck cuts:, docs/topology.md): a rectangular blade that moves in its own plane.
+// Which interior faces of a tet mesh it separates in a step is decided here, geometrically; the
+// mesh operation that follows is mesh/separation.hpp's. No PETSc.
+#pragma once
+#include <Eigen/Dense>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "geometry/motion.hpp"
+#include "params/deck_keys.hpp"
+
+namespace hyperqn {
+
+// Which positions the blade is tested against (the faces' dual edges): the body's as it is now, in
+// the world, or its rest shape (a cut scripted in the material: a turning or falling body is cut
+// where the rest shape says, and the faces do not depend on the solve, so not on the rank count).
+enum class CutFrame { world, rest };
+inline const std::vector<std::string> kCutFrameNames = {"world", "rest"};  // in the enum's order
+
+struct CutSpec {
+  std::array<double, 3> center{0, 0, 0};  // the rectangle's centre at t = 0
+  std::array<double, 3> normal{1, 0, 0};  // its plane's normal (nonzero, any length)
+  std::array<double, 3> axis{0, 1, 0};    // its first side's direction (projected into the plane)
+  std::array<double, 2> size{1, 1};       // its side lengths along axis and normal x axis
+  Motion motion;                          // a translation in the plane (the reader refuses others)
+  CutFrame frame = CutFrame::world;       // positions the blade meets
+  int line = 0;                           // deck line, for messages
+};
+
+// The deck's keys of one cut (params/deck_keys.hpp); the reader checks axis against normal and
+// that the motion keeps the blade in its plane.
+inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
+  using C = CutSpec;
+  static const std::vector<DeckKey<C>> keys = {
+      needed(DeckKey<C>{"center", &C::center, "the blade's centre at t = 0 (a rectangle)"}),
+      needed(DeckKey<C>{"normal", &C::normal, "the normal of the blade's plane, any length", nonzero_vector()}),
+      needed(DeckKey<C>{"axis", &C::axis,
+                        "the direction of the rectangle's first side (its part in the plane; not along `normal`)",
+                        nonzero_vector()}),
+      needed(DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
+                        above(0, "a length")}),
+      enum_key<C>("frame", &C::frame, kCutFrameNames,
+                   "which positions the blade meets: `world`, the body's now (where it is); `rest`, its rest shape "
+                   "(a cut scripted in the material: the same faces whatever the body does, at any rank count)",
+                   "world"),
+      custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane",
+                    "how the blade moves: `translate.velocity` (in its plane) between `start` and `end`, or along a "
+                    "`curve`; no `rotate`",
+                    "none (it cuts where it stands, after the first step)"),
+  };
+  return keys;
+}
+
+// The blade's frame: the plane through the centre at t = 0 with unit normal n and in-plane unit
+// axes u (axis's part in the plane) and w = n x u; half side lengths.
+struct BladeFrame {
+  Eigen::Vector3d origin, n, u, w;
+  double half[2];
+  explicit BladeFrame(const CutSpec& c);
+};
+
+// The blade's sweep over one step [t0, t1]: its rectangle moved along the segment from its
+// position at t0 to that at t1 (the blade stays in its plane, so the swept patch is a planar
+// hexagon: the rectangle's Minkowski sum with that segment).
+class BladeSweep {
+ public:
+  BladeSweep(const CutSpec& c, double t0, double t1);
+  // Whether the segment from a to b crosses the swept patch: a and b on opposite sides of the
+  // plane (a point on it counts as on the normal's side) and the crossing point inside the patch.
+  bool crosses(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  // Whether p is within `reach` of the swept patch (a box around it: a cheap prefilter).
+  bool near(const Eigen::Vector3d& p, double reach) const;
+  // Whether the swept patch meets the axis-aligned box [lo, hi] (an overestimate: the patch's
+  // bounding box against the box).
+  bool may_meet_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const;
+
+ private:
+  bool inside(double s, double r, double grow) const;  // in-plane coordinates relative to the t0 centre
+  BladeFrame f_;
+  Eigen::Vector3d c0_;   // the centre at t0
+  double d_[2];          // the centre's in-plane displacement over the step
+};
+
+// A motion that keeps the blade in its plane, or why not ("").
+std::string blade_motion_problem(const CutSpec& c);
+
+}  // namespace hyperqn

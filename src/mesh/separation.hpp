@@ -1,0 +1,50 @@
+// Separating tets along their shared faces on the distributed pieces (docs/topology.md): a vertex
+// whose star of tets falls apart into several components (tets joined through faces that are not
+// separated) gets a copy for each component but the one holding the smallest tet number. Every
+// rank computes the same global list of copies from the stars it gathers, so numbering does not
+// depend on the rank count:
+//  - the list is ordered by (original vertex number, smallest tet number of the component);
+//  - copy k of a batch gets vertex number (vertices before the batch) + k, and vertex id
+//    number + id_offset (ids stay unique and ordered after those of the input);
+//  - a copy sits where its tets are: a piece holds it if it holds one of its tets, and its owner is
+//    the lowest rank holding it (distribute_mesh's rule for every vertex);
+//  - a copy has the original's rest position, flags (fixed, held, body) and, through `source`,
+//    its position and velocity: momentum is unchanged. Lumped mass is assembled from the tets, so
+//    each copy gets exactly its own tets' quarters.
+// Only tets are separated; a piece with other elements on a changed vertex keeps them on the
+// original (decks with cuts are refused for meshes with strands or cloth).
+#pragma once
+#include <mpi.h>
+
+#include <array>
+#include <cstdint>
+#include <set>
+#include <vector>
+
+#include "mesh/mesh_piece.hpp"
+
+namespace hyperqn {
+
+// A face between two tets, by their global tet numbers (element_numbers), first < second.
+using TetPair = std::array<int64_t, 2>;
+
+// Per-vertex arrays that travel with a piece (e.g. the fixed flags): `width` values per vertex;
+// an empty array stays empty.
+struct VertexArray {
+  std::vector<int32_t>* values;
+  int width;
+};
+
+struct SeparationResult {
+  int64_t new_vertices = 0;     // copies made by this batch (global)
+  std::vector<int32_t> source;  // per local vertex after the batch: the local vertex before it whose state it takes
+};
+
+// Separates the faces of `batch` (sorted, the same on every rank; each face's tets anywhere) in
+// `piece`; `separated` holds every face separated so far, the batch's included (the same on every
+// rank). Collective. Vertices that no local element uses any more leave the piece.
+SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
+                                const std::set<TetPair>& separated, int64_t id_offset,
+                                const std::vector<VertexArray>& arrays);
+
+}  // namespace hyperqn

@@ -1,0 +1,73 @@
+#include "model/cuts.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+
+#include "parallel/collectives.hpp"
+
+namespace hyperqn {
+
+std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                   const std::vector<CutSpec>& cuts, double t0, double t1,
+                                   const std::set<TetPair>& separated) {
+  const TetMesh& m = piece.mesh;
+  std::vector<BladeSweep> sweeps;
+  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
+  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  // A face's dual edge runs from one centroid to the other within its two tets, so both centroids
+  // of a face that is crossed lie within twice the longest edge of the patch.
+  double longest = 0;
+  for (int64_t e = 0; e < m.num_tets(); ++e)
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).norm());
+  MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
+  const double reach = 2 * longest;
+  std::vector<int64_t> ints;
+  std::vector<double> centroids;
+  for (int64_t e = 0; e < m.num_tets(); ++e) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int j = 0; j < 4; ++j) c += at(m.tets[4 * e + j]);
+    c *= 0.25;
+    bool near = false;
+    for (const BladeSweep& s : sweeps) near = near || s.near(c, reach);
+    if (!near) continue;
+    ints.push_back(piece.element_numbers[e]);
+    for (int j = 0; j < 4; ++j) ints.push_back(piece.vertex_numbers[m.tets[4 * e + j]]);
+    centroids.insert(centroids.end(), c.data(), c.data() + 3);
+  }
+  const std::vector<int64_t> all_ints = all_gathered(comm, ints, MPI_INT64_T);
+  const std::vector<double> all_centroids = all_gathered(comm, centroids, MPI_DOUBLE);
+  const size_t n = all_ints.size() / 5;
+  std::vector<size_t> order(n);
+  for (size_t i = 0; i < n; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return all_ints[5 * a] < all_ints[5 * b]; });
+  // The faces between gathered tets: a triangle that two of them share.
+  std::map<std::array<int64_t, 3>, std::vector<size_t>> faces;
+  for (size_t i : order)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<int64_t, 3> f;
+      for (int j = 0, k = 0; j < 4; ++j)
+        if (j != skip) f[k++] = all_ints[5 * i + 1 + j];
+      std::sort(f.begin(), f.end());
+      faces[f].push_back(i);
+    }
+  std::vector<TetPair> crossed;
+  for (const auto& [f, tets] : faces) {
+    if (tets.size() != 2) continue;
+    const size_t a = tets[0], b = tets[1];  // ascending tet numbers (order)
+    const TetPair pair{all_ints[5 * a], all_ints[5 * b]};
+    if (separated.count(pair)) continue;
+    const Eigen::Vector3d ca(&all_centroids[3 * a]), cb(&all_centroids[3 * b]);
+    for (const BladeSweep& s : sweeps)
+      if (s.crosses(ca, cb)) {
+        crossed.push_back(pair);
+        break;
+      }
+  }
+  std::sort(crossed.begin(), crossed.end());
+  return crossed;
+}
+
+}  // namespace hyperqn

@@ -1,0 +1,23 @@
+// Scripted cuts (deck cuts:, docs/topology.md): which interior faces the blades crossed in a step.
+#pragma once
+#include <mpi.h>
+
+#include <set>
+#include <vector>
+
+#include "geometry/blade.hpp"
+#include "mesh/mesh_piece.hpp"
+#include "mesh/separation.hpp"
+
+namespace hyperqn {
+
+// The interior faces (not in `separated`) whose dual edge, the segment between the centroids of
+// its two tets at the positions `pos` (3 per local vertex of `piece`, ghosts included), one of the
+// blades crossed while it swept over [t0, t1] (BladeSweep::crosses, from the lower tet's centroid).
+// Sorted, the same on every rank: the tets near a blade are gathered to every rank, which all
+// decide every face alike. Collective.
+std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                   const std::vector<CutSpec>& cuts, double t0, double t1,
+                                   const std::set<TetPair>& separated);
+
+}  // namespace hyperqn

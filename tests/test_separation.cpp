@@ -1,0 +1,154 @@
+// Unit test of mesh/separation.hpp at any rank count: a 6 x 2 x 2 box cut in two across x = 3.01
+// (every face between tets whose centroids lie on the two sides of that plane) in two batches, on
+// the distributed pieces (box_piece, one per rank) and on the whole box on this rank alone. The
+// distributed mesh must equal the serial one: the same tets on the same vertex numbers and ids,
+// the same rest positions and fixed flags; the copies' count is the section's vertices; lumped
+// masses (a quarter of each tet's rest volume) sum to the uncut total, each vertex's being its own
+// tets' quarters; the cut box falls into exactly two pieces.
+#include <mpi.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <set>
+#include <vector>
+
+#include "check.hpp"
+#include "mesh/mesh_piece.hpp"
+#include "mesh/separation.hpp"
+#include "parallel/collectives.hpp"
+
+using namespace hyperqn;
+
+namespace {
+
+const std::array<double, 3> kSize{6.0, 2.0, 2.0};
+const std::array<int, 3> kCells{6, 2, 2};
+constexpr double kPlane = 3.01;
+
+double centroid_x(const MeshPiece& p, int64_t e) {
+  double x = 0;
+  for (int j = 0; j < 4; ++j) x += p.mesh.coords[3 * size_t(p.mesh.tets[4 * e + j])];
+  return x / 4;
+}
+
+// Every face across the plane, as tet pairs, from the whole box (the same list on every rank); the
+// first batch those with y < 1 at their shared vertices' mean, the second the rest.
+std::vector<std::vector<TetPair>> batches() {
+  const MeshPiece whole = box_piece(kSize, kCells, 0, 1);
+  std::map<std::array<int32_t, 3>, std::vector<int64_t>> faces;
+  for (int64_t e = 0; e < whole.mesh.num_tets(); ++e)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<int32_t, 3> f;
+      for (int j = 0, k = 0; j < 4; ++j)
+        if (j != skip) f[k++] = whole.mesh.tets[4 * e + j];
+      std::sort(f.begin(), f.end());
+      faces[f].push_back(e);
+    }
+  std::vector<std::vector<TetPair>> out(2);
+  for (const auto& [f, tets] : faces) {
+    if (tets.size() != 2 || (centroid_x(whole, tets[0]) < kPlane) == (centroid_x(whole, tets[1]) < kPlane)) continue;
+    double y = 0;
+    for (int32_t v : f) y += whole.mesh.coords[3 * size_t(v) + 1] / 3;
+    const int64_t a = whole.element_numbers[tets[0]], b = whole.element_numbers[tets[1]];
+    out[y < 1 ? 0 : 1].push_back({std::min(a, b), std::max(a, b)});
+  }
+  for (auto& b : out) std::sort(b.begin(), b.end());
+  return out;
+}
+
+// A piece cut by the batches; fixed: vertices with x = 0 flagged 1, carried to their copies.
+struct Cut {
+  MeshPiece piece;
+  std::vector<int32_t> fixed;
+  int64_t copies = 0;
+};
+Cut cut(MPI_Comm comm, MeshPiece piece) {
+  Cut c;
+  for (int64_t v = 0; v < piece.mesh.num_vertices(); ++v) c.fixed.push_back(piece.mesh.coords[3 * size_t(v)] == 0);
+  std::set<TetPair> separated;
+  for (const std::vector<TetPair>& batch : batches()) {
+    separated.insert(batch.begin(), batch.end());
+    const int64_t before = piece.mesh.num_vertices();
+    const SeparationResult r = separate_faces(comm, piece, batch, separated, 1000, {{&c.fixed, 1}});
+    c.copies += r.new_vertices;
+    CHECK((int64_t)r.source.size() == piece.mesh.num_vertices());
+    for (int32_t s : r.source) CHECK(s >= 0 && s < before);
+  }
+  c.piece = std::move(piece);
+  return c;
+}
+
+// tet number -> (vertex numbers, ids, rest positions, fixed flags) of its 4 vertices, over all ranks.
+std::map<int64_t, std::vector<double>> tets_of(MPI_Comm comm, const Cut& c) {
+  std::vector<double> mine;
+  const MeshPiece& p = c.piece;
+  for (int64_t e = 0; e < p.mesh.num_tets(); ++e) {
+    mine.push_back((double)p.element_numbers[e]);
+    for (int j = 0; j < 4; ++j) {
+      const int32_t v = p.mesh.tets[4 * e + j];
+      mine.push_back((double)p.vertex_numbers[v]);
+      mine.push_back((double)p.mesh.vertex_ids[v]);
+      for (int d = 0; d < 3; ++d) mine.push_back(p.mesh.coords[3 * size_t(v) + d]);
+      mine.push_back(c.fixed[v]);
+    }
+  }
+  const std::vector<double> all = all_gathered(comm, mine, MPI_DOUBLE);
+  std::map<int64_t, std::vector<double>> out;
+  for (size_t i = 0; i < all.size(); i += 25) out[(int64_t)all[i]] = std::vector<double>(all.begin() + i + 1, all.begin() + i + 25);
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int rank, size;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  const Cut serial = cut(MPI_COMM_SELF, box_piece(kSize, kCells, 0, 1));
+  const Cut distributed = cut(MPI_COMM_WORLD, box_piece(kSize, kCells, rank, size));
+  const int64_t section = int64_t(kCells[1] + 1) * (kCells[2] + 1);
+  CHECK(serial.copies == section && distributed.copies == section);
+  CHECK(serial.piece.global_vertices == 7 * section + section && distributed.piece.global_vertices == serial.piece.global_vertices);
+  const auto a = tets_of(MPI_COMM_SELF, serial), b = tets_of(MPI_COMM_WORLD, distributed);
+  CHECK(a.size() == size_t(6 * 24) && a == b);  // the same mesh, numbers and ids at any rank count
+
+  // Lumped masses: every vertex gets a quarter of each of its tets' volumes.
+  std::map<int64_t, double> mass;
+  double total = 0;
+  for (const auto& [tet, v] : a) {
+    double X[4][3];
+    for (int j = 0; j < 4; ++j)
+      for (int d = 0; d < 3; ++d) X[j][d] = v[6 * j + 2 + d];
+    double D[3][3];
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d) D[j][d] = X[j + 1][d] - X[0][d];
+    const double volume = std::fabs(D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) - D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
+                                    D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0])) / 6;
+    for (int j = 0; j < 4; ++j) mass[(int64_t)v[6 * j]] += volume / 4;
+  }
+  for (const auto& [vertex, m] : mass) total += m;
+  CHECK((int64_t)mass.size() == 8 * section);  // every vertex, the copies too, has tets
+  CHECK_NEAR(total, kSize[0] * kSize[1] * kSize[2], 1e-13);
+  // The section's originals and copies: each has half the mass of an uncut section vertex.
+  double section_mass = 0;
+  for (const auto& [vertex, m] : mass)
+    if (vertex >= 7 * section) section_mass += m;
+  CHECK_NEAR(section_mass, 0.5 * (kSize[1] * kSize[2]), 1e-13);  // half a cell layer's volume on the copies' side
+
+  // Two pieces: tets joined through shared vertices.
+  std::vector<int64_t> parent(8 * section);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::function<int64_t(int64_t)> root = [&](int64_t i) { return parent[i] == i ? i : parent[i] = root(parent[i]); };
+  for (const auto& [tet, v] : a)
+    for (int j = 1; j < 4; ++j) parent[root((int64_t)v[6 * j])] = root((int64_t)v[0]);
+  std::set<int64_t> roots;
+  for (int64_t i = 0; i < 8 * section; ++i) roots.insert(root(i));
+  CHECK(roots.size() == 2);
+  const int code = check::summary("test_separation");
+  MPI_Finalize();
+  return code;
+}
