@@ -34,6 +34,48 @@ Array make_array(const std::string& type, const std::string& name, int component
   return {type, name, components, reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T), encoded};
 }
 
+// Where a piece's text goes: a buffer handed to the file whenever it holds kFlush bytes, so a
+// piece of tens of MB is never whole in memory and the bytes the kernel copies are still in cache;
+// or, without a file, the buffer alone (an array's element encoded whole for MeshArrays).
+struct Sink {
+  static constexpr size_t kFlush = size_t(1) << 20;
+  static constexpr size_t kChunk = 3 * (size_t(1) << 18);  // bytes encoded at a time: a multiple of 3,
+                                                           // so the characters are those of the whole
+  std::string& buf;
+  AtomicFileWriter* file = nullptr;
+
+  void flush() {
+    if (file) file->write(buf.data(), buf.size());
+    if (file) buf.clear();
+  }
+  void full() {
+    if (file && buf.size() >= kFlush) flush();
+  }
+  Sink& operator+=(const std::string& text) {
+    buf += text;
+    full();
+    return *this;
+  }
+  void bytes(const char* p, size_t n) {  // large ones straight to the file
+    if (file && n >= kFlush) {
+      flush();
+      file->write(p, n);
+    } else {
+      buf.append(p, n);
+      full();
+    }
+  }
+  void base64(const char* p, size_t n) {
+    do {
+      const size_t m = file ? std::min(n, kChunk) : n;
+      append_base64(buf, p, m);
+      p += m;
+      n -= m;
+      full();
+    } while (n > 0);
+  }
+};
+
 // A DataArray, appended to xml. Inline (the default): base64 of the UInt64 byte count, then base64
 // of the bytes, encoded separately as VTK does. Raw (output.vtu_encoding raw, `appended` not null):
 // the element says where in the <AppendedData> block its bytes will be (the count and the bytes as
@@ -41,14 +83,15 @@ Array make_array(const std::string& type, const std::string& name, int component
 // encoding); `appended` collects the arrays. (Raw is not the default: readers that strip whitespace
 // around the appended block corrupt arrays that start or end with bytes 9-13 or 32, such as the
 // tetra cell type 10.)
-void append_data_array(std::string& xml, const Array& a, std::vector<const Array*>* appended = nullptr,
+void append_data_array(Sink& xml, const Array& a, std::vector<const Array*>* appended = nullptr,
                        uint64_t* offset = nullptr) {
   if (a.encoded && !appended) {  // the same text at every frame of the mesh
     if (a.encoded->empty()) {
-      append_data_array(*a.encoded, Array{a.type, a.name, a.components, a.bytes, a.size});
+      Sink whole{*a.encoded};
+      append_data_array(whole, Array{a.type, a.name, a.components, a.bytes, a.size});
       a.encoded->shrink_to_fit();
     }
-    xml += *a.encoded;
+    xml.bytes(a.encoded->data(), a.encoded->size());
     return;
   }
   xml += "<DataArray type=\"" + a.type + "\"";
@@ -62,8 +105,8 @@ void append_data_array(std::string& xml, const Array& a, std::vector<const Array
     return;
   }
   xml += " format=\"binary\">\n";
-  append_base64(xml, reinterpret_cast<const char*>(&n), sizeof n);
-  append_base64(xml, a.bytes, n);
+  xml.base64(reinterpret_cast<const char*>(&n), sizeof n);
+  xml.base64(a.bytes, n);
   xml += "\n</DataArray>\n";
 }
 
@@ -131,17 +174,11 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
                                     make_array("Int64", "offsets", 1, m.offsets, &m.encoded[4]),
                                     make_array("UInt8", "types", 1, m.types, &m.encoded[5])};
 
-  size_t size = 1024;  // the text around the arrays
-  const auto add_size = [&](const Array& a) { size += (raw_ ? a.size + 8 : 4 * (a.size + 8) / 3) + 200; };
-  for (const Array& a : point_data) add_size(a);
-  for (const Array& a : cell_data) add_size(a);
-  for (const Array& a : cells) add_size(a);
-  add_size(points);
-  // The text of the piece, in a buffer kept from frame to frame: a fresh one of tens of MB would be
-  // new pages from the kernel, faulted in and zeroed, at every frame.
-  std::string& xml = xml_;
-  xml.clear();
-  xml.reserve(size);
+  // The text of the piece, through a buffer kept from frame to frame (a fresh one would be new
+  // pages from the kernel, faulted in and zeroed, at every frame).
+  xml_.clear();
+  AtomicFileWriter file(path);
+  Sink xml{xml_, &file};
   std::vector<const Array*> raw_arrays;  // raw: the arrays whose bytes follow the XML, in order
   std::vector<const Array*>* appended = raw_ ? &raw_arrays : nullptr;
   uint64_t offset = 0;
@@ -161,14 +198,14 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     xml += "<AppendedData encoding=\"raw\">\n_";
     for (const Array* a : raw_arrays) {
       const uint64_t n = a->size;
-      xml.append(reinterpret_cast<const char*>(&n), sizeof n);
-      xml.append(a->bytes, n);
+      xml.bytes(reinterpret_cast<const char*>(&n), sizeof n);
+      xml.bytes(a->bytes, n);
     }
     xml += "\n</AppendedData>\n";
   }
   xml += "</VTKFile>\n";
-
-  write_file_atomically(path, xml);
+  xml.flush();
+  file.commit();
 }
 
 void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,

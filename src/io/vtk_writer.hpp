@@ -63,7 +63,7 @@ class VtkSeries : public OutputWriter {
   };
   mutable std::unique_ptr<MeshArrays> mesh_arrays_;
   mutable std::vector<double> disp_;  // the frame's displacements, a buffer kept from frame to frame
-  mutable std::string xml_;  // the last piece's text (write_piece): its capacity serves the next
+  mutable std::string xml_;  // write_piece's buffer of the piece's text: its capacity serves the next
   mutable std::vector<std::vector<float>> single_;  // the element fields written as Float32, rounded
   bool raw_ = false;
 };
