@@ -206,6 +206,13 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   xml += "</VTKFile>\n";
   xml.flush();
   file.commit();
+  if (!raw_) {  // inline, the next frames take the mesh's arrays from their encoded elements alone
+    m.conn = {};
+    m.offsets = {};
+    m.types = {};
+    m.ranks = {};
+    m.body = {};
+  }
 }
 
 void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,

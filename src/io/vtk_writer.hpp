@@ -54,7 +54,8 @@ class VtkSeries : public OutputWriter {
   // A piece's arrays that only the mesh determines (the cells' connectivity, offsets and types,
   // each element's rank and body, vertex_id) and, inline, their encoded <DataArray> elements
   // (vertex_id, rank, body, connectivity, offsets, types): the same at every frame of a mesh, so
-  // built once, at its first frame, and dropped by set_mesh.
+  // built once, at its first frame, and dropped by set_mesh. Inline, the arrays themselves are
+  // freed once encoded (box130k: 14 MB would be held, 8 MB are).
   struct MeshArrays {
     std::vector<int64_t> conn, offsets;
     std::vector<uint8_t> types;
