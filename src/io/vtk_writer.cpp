@@ -45,8 +45,9 @@ struct Sink {
   AtomicFileWriter* file = nullptr;
 
   void flush() {
-    if (file) file->write(buf.data(), buf.size());
-    if (file) buf.clear();
+    if (!file) return;
+    file->write(buf.data(), buf.size());
+    buf.clear();
   }
   void full() {
     if (file && buf.size() >= kFlush) flush();
