@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 namespace hyperqn {
 
@@ -44,26 +45,50 @@ void commit_temporary(const std::string& tmp, const std::string& path) {
   }
 }
 
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)), tmp_(atomic_temporary(path_)) {
+  fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw std::runtime_error(failure(path_, errno));
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+  if (fd_ >= 0) {  // not committed
+    ::close(fd_);
+    ::unlink(tmp_.c_str());
+  }
+}
+
+void AtomicFileWriter::fail(int err) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  ::unlink(tmp_.c_str());  // frees the space a full disk needs for summary.json
+  throw std::runtime_error(failure(path_, err));
+}
+
+void AtomicFileWriter::write(const char* data, size_t n) {
+  if (!write_all(fd_, data, n)) fail(errno);
+}
+
+// A full disk may only show at close (NFS, Lustre): both are checked. No fsync: this guards
+// against the process dying, not the machine, and fsync per frame is slow on cluster file systems.
+void AtomicFileWriter::commit() {
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error(failure(path_, err));
+  }
+  if (::rename(tmp_.c_str(), path_.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp_.c_str());
+    throw std::runtime_error(failure(path_, err));
+  }
+}
+
 void write_file_atomically(const std::string& path, const std::string& contents) {
-  const std::string tmp = atomic_temporary(path);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error(failure(path, errno));
-  // A full disk may only show at close (NFS, Lustre): both are checked. No fsync: this guards
-  // against the process dying, not the machine, and fsync per frame is slow on cluster file systems.
-  bool ok = write_all(fd, contents.data(), contents.size());
-  int err = ok ? 0 : errno;
-  if (::close(fd) != 0 && ok) {
-    ok = false;
-    err = errno;
-  }
-  if (ok && ::rename(tmp.c_str(), path.c_str()) != 0) {
-    ok = false;
-    err = errno;
-  }
-  if (!ok) {
-    ::unlink(tmp.c_str());  // frees the space a full disk needs for summary.json
-    throw std::runtime_error(failure(path, err));
-  }
+  AtomicFileWriter file(path);
+  file.write(contents.data(), contents.size());
+  file.commit();
 }
 
 bool is_atomic_temporary(const std::string& name) {

@@ -14,6 +14,25 @@ namespace hyperqn {
 // system's reason; the temporary is removed and `path` is left as it was.
 void write_file_atomically(const std::string& path, const std::string& contents);
 
+// The same for a file written in parts (a .vtu piece of tens of MB, never whole in memory): the
+// constructor opens the temporary, write() appends, commit() closes and renames. Each throws as
+// write_file_atomically does, removing the temporary; so does the destructor of one not committed
+// (an exception on the way), silently.
+class AtomicFileWriter {
+ public:
+  explicit AtomicFileWriter(std::string path);
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+  ~AtomicFileWriter();
+  void write(const char* data, size_t n);
+  void commit();
+
+ private:
+  [[noreturn]] void fail(int err);  // removes the temporary, throws naming path_
+  std::string path_, tmp_;
+  int fd_ = -1;
+};
+
 // For a file another library writes (HDF5): the temporary name beside `path` to write it under,
 // and the rename that puts it in place once it is closed (throws naming `path`, removing the
 // temporary).

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/base64.hpp"
 #include "io/frame_fields.hpp"
 
 namespace hyperqn {
@@ -24,44 +25,57 @@ struct Array {
   int components;
   const char* bytes;
   size_t size;
+  std::string* encoded = nullptr;  // an array of the mesh: its inline element, encoded at its first frame
 };
 
 template <typename T>
-Array make_array(const std::string& type, const std::string& name, int components, const std::vector<T>& v) {
-  return {type, name, components, reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T)};
+Array make_array(const std::string& type, const std::string& name, int components, const std::vector<T>& v,
+                 std::string* encoded = nullptr) {
+  return {type, name, components, reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T), encoded};
 }
 
-// Appends the base64 of n bytes to out, written in place a group of 3 bytes at a time, each 12
-// bits through a table of character pairs (a piece's arrays are most of an output frame's time:
-// docs/records/2026-12-02-field-output-cost.md).
-void append_base64(std::string& out, const char* data, size_t n) {
-  static const char table[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  static const std::vector<char> pairs = [] {  // 4096 pairs: the characters of 12 bits
-    std::vector<char> p(2 * 4096);
-    for (int v = 0; v < 4096; ++v) {
-      p[2 * v] = table[v >> 6];
-      p[2 * v + 1] = table[v & 63];
+// Where a piece's text goes: a buffer handed to the file whenever it holds kFlush bytes, so a
+// piece of tens of MB is never whole in memory and the bytes the kernel copies are still in cache;
+// or, without a file, the buffer alone (an array's element encoded whole for MeshArrays).
+struct Sink {
+  static constexpr size_t kFlush = size_t(1) << 20;
+  static constexpr size_t kChunk = 3 * (size_t(1) << 18);  // bytes encoded at a time: a multiple of 3,
+                                                           // so the characters are those of the whole
+  std::string& buf;
+  AtomicFileWriter* file = nullptr;
+
+  void flush() {
+    if (!file) return;
+    file->write(buf.data(), buf.size());
+    buf.clear();
+  }
+  void full() {
+    if (file && buf.size() >= kFlush) flush();
+  }
+  Sink& operator+=(const std::string& text) {
+    buf += text;
+    full();
+    return *this;
+  }
+  void bytes(const char* p, size_t n) {  // large ones straight to the file
+    if (file && n >= kFlush) {
+      flush();
+      file->write(p, n);
+    } else {
+      buf.append(p, n);
+      full();
     }
-    return p;
-  }();
-  const size_t at = out.size();
-  out.resize(at + 4 * ((n + 2) / 3));
-  char* o = &out[at];
-  const auto* d = reinterpret_cast<const unsigned char*>(data);
-  size_t i = 0;
-  for (; i + 3 <= n; i += 3, o += 4) {
-    const uint32_t v = (uint32_t(d[i]) << 16) | (uint32_t(d[i + 1]) << 8) | d[i + 2];
-    std::memcpy(o, &pairs[2 * (v >> 12)], 2);
-    std::memcpy(o + 2, &pairs[2 * (v & 4095)], 2);
   }
-  if (i < n) {  // 1 or 2 bytes left: padded with '='
-    const uint32_t v = (uint32_t(d[i]) << 16) | (i + 1 < n ? uint32_t(d[i + 1]) << 8 : 0);
-    o[0] = table[(v >> 18) & 63];
-    o[1] = table[(v >> 12) & 63];
-    o[2] = i + 1 < n ? table[(v >> 6) & 63] : '=';
-    o[3] = '=';
+  void base64(const char* p, size_t n) {
+    do {
+      const size_t m = file ? std::min(n, kChunk) : n;
+      append_base64(buf, p, m);
+      p += m;
+      n -= m;
+      full();
+    } while (n > 0);
   }
-}
+};
 
 // A DataArray, appended to xml. Inline (the default): base64 of the UInt64 byte count, then base64
 // of the bytes, encoded separately as VTK does. Raw (output.vtu_encoding raw, `appended` not null):
@@ -70,8 +84,17 @@ void append_base64(std::string& out, const char* data, size_t n) {
 // encoding); `appended` collects the arrays. (Raw is not the default: readers that strip whitespace
 // around the appended block corrupt arrays that start or end with bytes 9-13 or 32, such as the
 // tetra cell type 10.)
-void append_data_array(std::string& xml, const Array& a, std::vector<const Array*>* appended = nullptr,
+void append_data_array(Sink& xml, const Array& a, std::vector<const Array*>* appended = nullptr,
                        uint64_t* offset = nullptr) {
+  if (a.encoded && !appended) {  // the same text at every frame of the mesh
+    if (a.encoded->empty()) {
+      Sink whole{*a.encoded};
+      append_data_array(whole, Array{a.type, a.name, a.components, a.bytes, a.size});
+      a.encoded->shrink_to_fit();
+    }
+    xml.bytes(a.encoded->data(), a.encoded->size());
+    return;
+  }
   xml += "<DataArray type=\"" + a.type + "\"";
   if (!a.name.empty()) xml += " Name=\"" + a.name + "\"";
   const uint64_t n = a.size;
@@ -83,8 +106,8 @@ void append_data_array(std::string& xml, const Array& a, std::vector<const Array
     return;
   }
   xml += " format=\"binary\">\n";
-  append_base64(xml, reinterpret_cast<const char*>(&n), sizeof n);
-  append_base64(xml, a.bytes, n);
+  xml.base64(reinterpret_cast<const char*>(&n), sizeof n);
+  xml.base64(a.bytes, n);
   xml += "\n</DataArray>\n";
 }
 
@@ -104,32 +127,39 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
   const PetscInt nc = nt + ns + nf;
   int rank;
   MPI_Comm_rank(comm_, &rank);
-  std::vector<double> disp(3 * nv);
+  std::vector<double>& disp = disp_;
+  disp.resize(3 * nv);
   for (PetscInt i = 0; i < 3 * nv; ++i) disp[i] = (*f.positions)[i] - mesh_->rest[i];
-  // Tets, then strand segments as lines, then cloth triangles; cell field J: det F of a tet,
-  // l / L of a segment, the area ratio of a triangle.
-  std::vector<int64_t> conn(mesh_->cells.begin(), mesh_->cells.end()), offsets(nc);
-  conn.insert(conn.end(), mesh_->segments.begin(), mesh_->segments.end());
-  conn.insert(conn.end(), mesh_->triangles.begin(), mesh_->triangles.end());
-  for (PetscInt c = 0; c < nc; ++c)
-    offsets[c] = c < nt ? 4 * (c + 1) : c < nt + ns ? 4 * nt + 2 * (c - nt + 1) : 4 * nt + 2 * ns + 3 * (c - nt - ns + 1);
-  std::vector<uint8_t> types(nc, 10);                           // VTK_TETRA
-  std::fill(types.begin() + nt, types.begin() + nt + ns, 3);  // VTK_LINE
-  std::fill(types.begin() + nt + ns, types.end(), 5);         // VTK_TRIANGLE
-  std::vector<int32_t> ranks(nc, rank);
+  if (!mesh_arrays_) {  // the mesh's own arrays: built (and, inline, encoded) at its first frame
+    mesh_arrays_ = std::make_unique<MeshArrays>();
+    MeshArrays& m = *mesh_arrays_;
+    // Tets, then strand segments as lines, then cloth triangles.
+    m.conn.assign(mesh_->cells.begin(), mesh_->cells.end());
+    m.conn.insert(m.conn.end(), mesh_->segments.begin(), mesh_->segments.end());
+    m.conn.insert(m.conn.end(), mesh_->triangles.begin(), mesh_->triangles.end());
+    m.offsets.resize(nc);
+    for (PetscInt c = 0; c < nc; ++c)
+      m.offsets[c] = c < nt ? 4 * (c + 1) : c < nt + ns ? 4 * nt + 2 * (c - nt + 1) : 4 * nt + 2 * ns + 3 * (c - nt - ns + 1);
+    m.types.assign(nc, 10);                                         // VTK_TETRA
+    std::fill(m.types.begin() + nt, m.types.begin() + nt + ns, 3);  // VTK_LINE
+    std::fill(m.types.begin() + nt + ns, m.types.end(), 5);         // VTK_TRIANGLE
+    m.ranks.assign(nc, rank);
+    if (mesh_->num_bodies > 0) m.body = element_bodies(*mesh_);
+  }
+  MeshArrays& m = *mesh_arrays_;
+  // Cell field J: det F of a tet, l / L of a segment, the area ratio of a triangle.
   const std::vector<double> J = element_J(*mesh_, f);
   const std::vector<double> stretch = cloth() ? triangle_stretch(*mesh_, *f.positions) : std::vector<double>();
-  const std::vector<int32_t> body = mesh_->num_bodies > 0 ? element_bodies(*mesh_) : std::vector<int32_t>();
 
   std::vector<Array> point_data = {make_array("Float64", "displacement", 3, disp),
                                    make_array("Float64", "velocity", 3, *f.velocities),
-                                   make_array("Int64", "vertex_id", 1, mesh_->vertex_ids)};
+                                   make_array("Int64", "vertex_id", 1, mesh_->vertex_ids, &m.encoded[0])};
   for (const auto& [name, values] : f.point_fields) point_data.push_back(make_array("Float64", name, 3, *values));
-  std::vector<Array> cell_data = {make_array("Int32", "rank", 1, ranks), make_array("Float64", "J", 1, J)};
+  std::vector<Array> cell_data = {make_array("Int32", "rank", 1, m.ranks, &m.encoded[1]), make_array("Float64", "J", 1, J)};
   if (cloth())  // the largest principal stretch of each triangle
     cell_data.push_back(make_array("Float64", "stretch", 1, stretch));
   if (mesh_->num_bodies > 0)  // each element's body: its index in the deck's bodies list
-    cell_data.push_back(make_array("Int32", "body", 1, body));
+    cell_data.push_back(make_array("Int32", "body", 1, m.body, &m.encoded[2]));
   single_.resize(f.element_fields.size());
   for (size_t i = 0; i < f.element_fields.size(); ++i) {  // 6 components: a symmetric tensor to ParaView
     const FrameElementField& field = f.element_fields[i];
@@ -141,21 +171,15 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     }
   }
   const Array points = make_array("Float64", "", 3, *f.positions);
-  const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, conn),
-                                    make_array("Int64", "offsets", 1, offsets),
-                                    make_array("UInt8", "types", 1, types)};
+  const std::vector<Array> cells = {make_array("Int64", "connectivity", 1, m.conn, &m.encoded[3]),
+                                    make_array("Int64", "offsets", 1, m.offsets, &m.encoded[4]),
+                                    make_array("UInt8", "types", 1, m.types, &m.encoded[5])};
 
-  size_t size = 1024;  // the text around the arrays
-  const auto add_size = [&](const Array& a) { size += (raw_ ? a.size + 8 : 4 * (a.size + 8) / 3) + 200; };
-  for (const Array& a : point_data) add_size(a);
-  for (const Array& a : cell_data) add_size(a);
-  for (const Array& a : cells) add_size(a);
-  add_size(points);
-  // The text of the piece, in a buffer kept from frame to frame: a fresh one of tens of MB would be
-  // new pages from the kernel, faulted in and zeroed, at every frame.
-  std::string& xml = xml_;
-  xml.clear();
-  xml.reserve(size);
+  // The text of the piece, through a buffer kept from frame to frame (a fresh one would be new
+  // pages from the kernel, faulted in and zeroed, at every frame).
+  xml_.clear();
+  AtomicFileWriter file(path);
+  Sink xml{xml_, &file};
   std::vector<const Array*> raw_arrays;  // raw: the arrays whose bytes follow the XML, in order
   std::vector<const Array*>* appended = raw_ ? &raw_arrays : nullptr;
   uint64_t offset = 0;
@@ -175,14 +199,21 @@ void VtkSeries::write_piece(const std::string& path, const FrameData& f) const {
     xml += "<AppendedData encoding=\"raw\">\n_";
     for (const Array* a : raw_arrays) {
       const uint64_t n = a->size;
-      xml.append(reinterpret_cast<const char*>(&n), sizeof n);
-      xml.append(a->bytes, n);
+      xml.bytes(reinterpret_cast<const char*>(&n), sizeof n);
+      xml.bytes(a->bytes, n);
     }
     xml += "\n</AppendedData>\n";
   }
   xml += "</VTKFile>\n";
-
-  write_file_atomically(path, xml);
+  xml.flush();
+  file.commit();
+  if (!raw_) {  // inline, the next frames take the mesh's arrays from their encoded elements alone
+    m.conn = {};
+    m.offsets = {};
+    m.types = {};
+    m.ranks = {};
+    m.body = {};
+  }
 }
 
 void VtkSeries::write_pvtu(const std::string& path, const std::string& stem, const std::vector<int>& pieces,

@@ -72,9 +72,33 @@ std::vector<ElementField> TetElements::element_fields() const {
           ElementField::green_strain, ElementField::energy_density};
 }
 
+// sigma = sym(P F^T) / J, J = det F, for the n elements of a batch, P scaled by per_volume first:
+// stress_measures::cauchy<3> and Eigen's 3 x 3 determinant lane by lane, each operation in the order
+// Eigen evaluates them, so the files hold the same bits as with that per-element form (compared
+// file by file, docs/records/2026-12-03-field-cost.md; this function is not cloned: no FMA
+// contraction). sigma in kSymmetricRow's order; lanes past n hold J = 1.
+static void batch_cauchy(const StressBatch& b, const Lanes& per_volume, int n, Lanes (&sigma)[6]) {
+  const Lanes* F = b.F;  // column-major: F(i, j) is F[i + 3 j]
+  Lanes J = (F[0] * (F[4] * F[8] - F[7] * F[5]) - F[3] * (F[1] * F[8] - F[7] * F[2])) + F[6] * (F[1] * F[5] - F[4] * F[2]);
+  for (int e = n; e < kBatch; ++e) J[e] = 1.0;
+  Lanes P[9];
+  for (int i = 0; i < 9; ++i) P[i] = per_volume * b.P[i];
+  // (P F^T)(i, j) / J, the sum over l of P(i, l) F(j, l) in the order of Eigen 3.4's 3 x 3 product
+  // at SSE2 (rows 0 and 1 as one packet: (t0 + t1) + t2; row 2 alone: t0 + (t1 + t2)), then over J.
+  Lanes A[9];
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 2; ++i) A[i + 3 * j] = ((P[i] * F[j] + P[i + 3] * F[j + 3]) + P[i + 6] * F[j + 6]) / J;
+    A[2 + 3 * j] = (P[2] * F[j] + (P[5] * F[j + 3] + P[8] * F[j + 6])) / J;
+  }
+  for (int c = 0; c < 6; ++c) {
+    const int i = kSymmetricRow[c], j = kSymmetricCol[c];
+    sigma[c] = 0.5 * (A[i + 3 * j] + A[j + 3 * i]);
+  }
+}
+
 // In add_energy's batches (the same kernels, psi and P of a batch at once), one pass for all the
-// fields asked for; then the measures of F and P element by element: an output frame's cost is
-// about one gradient's.
+// fields asked for; the Cauchy stress across the batch, the other measures of F and P element by
+// element: an output frame's cost is about one gradient's.
 void TetElements::fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const {
   static_assert(size_t(ElementField::energy_density) == 4, "the tets' fields are the enum's first five");
   double* out[5] = {};  // by ElementField: cauchy_stress, von_mises, principal_stretches, green_strain, energy_density
@@ -89,20 +113,25 @@ void TetElements::fill_element_fields(const std::vector<double>& pos, std::vecto
     int m;
     const int n = load_batch(pos, k, Ds, b, &m);
     if (out[0] || out[1] || out[4]) stored_energy_batch(k, m, b, n);
+    Lanes per_volume, sigma[6];  // per_volume: 1 for an energy density
+    for (int e = 0; e < kBatch; ++e) per_volume[e] = e < n ? weight_[k + e] / volume_[k + e] : 1.0;
+    if (out[0] || out[1]) batch_cauchy(b, per_volume, n, sigma);
     for (int e = 0; e < n; ++e) {
       const PetscInt c = cells_[k + e];
-      Mat3 F, P;
-      for (int i = 0; i < 9; ++i) F(i) = b.F[i][e];
-      const double per_volume = weight_[k + e] / volume_[k + e];  // 1 for an energy density
-      if (out[0] || out[1]) {
-        for (int i = 0; i < 9; ++i) P(i) = per_volume * b.P[i][e];
-        const Mat3 sigma = stress_measures::cauchy<3>(F, P, F.determinant());
-        if (out[0]) store_symmetric(sigma, out[0] + sym * c);
-        if (out[1]) out[1][c] = stress_measures::von_mises(sigma);
+      if (out[0])
+        for (int i = 0; i < sym; ++i) out[0][sym * c + i] = sigma[i][e];
+      if (out[1]) {
+        Mat3 s;
+        for (int i = 0; i < sym; ++i) s(kSymmetricRow[i], kSymmetricCol[i]) = s(kSymmetricCol[i], kSymmetricRow[i]) = sigma[i][e];
+        out[1][c] = stress_measures::von_mises(s);
       }
-      if (out[2]) Eigen::Map<Vec3>(out[2] + 3 * c) = stress_measures::principal_stretches(F);
-      if (out[3]) store_symmetric(stress_measures::green_strain(F), out[3] + sym * c);
-      if (out[4]) out[4][c] = per_volume * b.psi[e];
+      if (out[2] || out[3]) {
+        Mat3 F;
+        for (int i = 0; i < 9; ++i) F(i) = b.F[i][e];
+        if (out[2]) Eigen::Map<Vec3>(out[2] + 3 * c) = stress_measures::principal_stretches(F);
+        if (out[3]) store_symmetric(stress_measures::green_strain(F), out[3] + sym * c);
+      }
+      if (out[4]) out[4][c] = per_volume[e] * b.psi[e];
     }
     k += static_cast<size_t>(n);
   }
