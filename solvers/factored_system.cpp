@@ -76,7 +76,7 @@ static PetscErrorCode not_positive_definite(ConstantMatrix kind, FactorPackage p
   SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT,
           "the constant matrix A (solver.h0: %s) is not positive definite: its Cholesky factorization by %s met a "
           "zero or negative pivot",
-          kind == ConstantMatrix::laplacian ? "laplacian" : "rest-stiffness", factor_package_name(package));
+          kind == ConstantMatrix::laplacian ? "laplacian" : kind == ConstantMatrix::volumetric ? "volumetric" : "rest-stiffness", factor_package_name(package));
 }
 
 // One V-cycle of A1 as a fixed linear operator B: KSPPREONLY applies the preconditioner once from a

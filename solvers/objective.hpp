@@ -13,8 +13,9 @@ namespace hyperqn {
 
 // The constant SPD matrix A of the quasi-Newton methods (the deck's solver.h0, docs/method.md):
 // M + h^2 L with L the weighted Laplacian, or M + h^2 K(x_rest) with K the energy's Hessian at the
-// rest shape (per-element PSD fix), which also sees the volumetric modes.
-enum class ConstantMatrix { laplacian, rest_stiffness };
+// rest shape (per-element PSD fix), which also sees the volumetric modes, or M + h^2 K_vol: a
+// shear-weighted L plus a share of the rest divergence's volumetric stiffness.
+enum class ConstantMatrix { laplacian, rest_stiffness, volumetric };
 
 class Objective {
  public:
@@ -62,7 +63,7 @@ class Objective {
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since
   // A = A1 (x) I3, components = 1 assembles only the vertex matrix A1 = M1 + h^2 L1 (in the
   // vertex layout): a third of the rows, a ninth of the nonzeros. kind = rest_stiffness assembles
-  // A = M + h^2 K(x_rest) instead (components must be 3: K couples x, y and z).
+  // A = M + h^2 K(x_rest) instead, volumetric M + h^2 K_vol (components must be 3: both couple x, y and z).
   virtual PetscErrorCode assemble_constant_matrix(Mat* A, int components,
                                                   ConstantMatrix kind = ConstantMatrix::laplacian) const = 0;
   // A new matrix with the Hessian's nonzero pattern (the mesh's dof graph); inserting outside it

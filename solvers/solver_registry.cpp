@@ -76,7 +76,9 @@ H0 resolved_h0(H0 h0, int64_t tets) {
 }
 
 ConstantMatrix constant_matrix_of(H0 h0) {
-  return h0 == H0::rest_stiffness ? ConstantMatrix::rest_stiffness : ConstantMatrix::laplacian;
+  return h0 == H0::rest_stiffness ? ConstantMatrix::rest_stiffness
+         : h0 == H0::volumetric   ? ConstantMatrix::volumetric
+                                  : ConstantMatrix::laplacian;
 }
 
 PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const FactoredSystem* h0,
@@ -200,7 +202,11 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "
        "Hessian at the rest shape (per-element PSD fix), a full 3n × 3n matrix factored once per scene; it sees the "
        "volumetric modes but not rotations, so it wins on stiff, little-deformed scenes and loses on large "
-       "deformations (measured in [method.md](method.md#the-initial-hessian-h0)). `amg`: M + h²L applied through "
+       "deformations (measured in [method.md](method.md#the-initial-hessian-h0)). `volumetric`: (M + h²K_vol)⁻¹, "
+       "K_vol per tet V(μ GᵀG ⊗ I₃ + ½(λ + μ) d dᵀ), d the rest divergence (μ, λ the material's rest stiffness; "
+       "other terms add their L), factored like `rest-stiffness`: it sees near-incompressibility (the stability "
+       "suite's ν = 0.4999 becomes ok) but not a stiffness contrast "
+       "([record](records/2026-12-03-volumetric-h0.md)). `amg`: M + h²L applied through "
        "one algebraic-multigrid V-cycle (GAMG; options `-h0_*`) instead of a factorization, for meshes whose factor "
        "does not fit or whose solve does not scale: more iterations, no factor "
        "([performance.md](performance.md#amg-h0)). `pd` is defined by M + h²L (and `pd` with `h0: amg` is an "

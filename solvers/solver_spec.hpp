@@ -14,7 +14,7 @@ inline constexpr int kMaxHistory = 1000;
 // lbfgs's constant matrix A, its initial inverse Hessian (solver.h0): M + h^2 L factored, M + h^2
 // K(x_rest) factored, or M + h^2 L by one AMG V-cycle. automatic is resolved by the mesh, in one
 // place: resolved_h0 (solvers/solver_registry.hpp).
-enum class H0 { automatic, laplacian, rest_stiffness, amg };
+enum class H0 { automatic, laplacian, rest_stiffness, amg, volumetric };
 
 // Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
 // the lower g (two evaluations per step; for contact, where y often lies deep in an obstacle
@@ -29,7 +29,7 @@ enum class HistoryReset { never, contact_change };
 enum class H0Contact { off, woodbury, refactor };
 
 // The deck's words for these, in each enum's order.
-inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg"};
+inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg", "volumetric"};
 inline const std::vector<std::string> kWarmStartNames = {"inertial", "previous", "lower"};
 inline const std::vector<std::string> kLinearSolverNames = {"auto", "mumps", "cg-amg"};
 inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact"};

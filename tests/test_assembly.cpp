@@ -2,11 +2,13 @@
 // stiffness A = M + h^2 K(x_rest) against finite differences of grad g at rest, and the assembled
 // energy gradient against finite differences of the assembled energy; the factored systems and the
 // AMG V-cycle of solver.h0: amg.
+#include <functional>
 #include <petscdmplex.h>
 
 #include "check.hpp"
 #include "solvers/contact_h0.hpp"
 #include "solvers/factored_system.hpp"
+#include "terms/continuum_tets.hpp"
 #include "test_scene.hpp"
 
 using namespace hyperqn;
@@ -146,6 +148,66 @@ PetscErrorCode check_rest_stiffness(const std::string& model) {
   PetscCall(PetscRandomDestroy(&rnd));
   PetscCall(VecDestroy(&x));
   PetscCall(VecDestroy(&v));
+  PetscCall(MatDestroy(&A));
+  PetscFunctionReturn(0);
+}
+
+// h0: volumetric on a free box (no fixed vertex, mu = 3, lambda = 5 as in make_scene, h = 0.05):
+// u^T (A - M) u = h^2 V (mu |grad u|^2 + c (lambda + mu) (div u)^2) for affine u, c its
+// volumetric share: a dilation u = x (|grad u|^2 = 3, div u = 3), a rotation u = (-y, x, 0)
+// (2, 0: only the shear part, rotation invariant), and a translation (0: A u = M u).
+PetscErrorCode check_volumetric_h0(const std::string& model) {
+  TestScene s;
+  Mat A;
+  Vec X, u, Au;
+  PetscFunctionBeginUser;
+  PetscCall(make_scene(model, false, s));
+  PetscCall(s.step->assemble_constant_matrix(&A, 3, ConstantMatrix::volumetric));
+  PetscCall(VecDuplicate(s.step->layout(), &X));
+  PetscCall(VecDuplicate(X, &u));
+  PetscCall(VecDuplicate(X, &Au));
+  PetscCall(s.body->rest_positions(X));
+  const double mu = 3, lambda = 5, h = 0.05, V = 2.0, c = ContinuumTets::kVolumetricShare;
+  struct Field {
+    const char* name;
+    std::function<Vec3(const Vec3&)> u;
+    double expected;
+  };
+  const Field fields[] = {{"dilation", [](const Vec3& x) { return x; }, h * h * V * (3 * mu + 9 * c * (lambda + mu))},
+                          {"rotation", [](const Vec3& x) { return Vec3(-x[1], x[0], 0); }, h * h * V * 2 * mu},
+                          {"translation", [](const Vec3&) { return Vec3(0.3, -0.2, 0.7); }, 0.0}};
+  for (const Field& f : fields) {
+    const PetscScalar* x;
+    const PetscScalar* m;
+    PetscScalar* a;
+    PetscInt n;
+    double local[2] = {0, 0}, uMu[2];
+    PetscCall(VecGetLocalSize(X, &n));
+    PetscCall(VecGetArrayRead(X, &x));
+    PetscCall(VecGetArrayRead(s.step->mass(), &m));
+    PetscCall(VecGetArray(u, &a));
+    for (PetscInt i = 0; i < n; i += 3) {
+      const Vec3 v = f.u(Vec3(x[i], x[i + 1], x[i + 2]));
+      for (int d = 0; d < 3; ++d) {
+        a[i + d] = v[d];
+        local[0] += m[i + d] * v[d] * v[d];
+      }
+    }
+    PetscCall(VecRestoreArray(u, &a));
+    PetscCall(VecRestoreArrayRead(s.step->mass(), &m));
+    PetscCall(VecRestoreArrayRead(X, &x));
+    PetscCallMPI(MPI_Allreduce(local, uMu, 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD));
+    PetscReal uAu;
+    PetscCall(MatMult(A, u, Au));
+    PetscCall(VecDot(u, Au, &uAu));
+    const double stiffness = uAu - uMu[0];
+    CHECK_MSG(std::fabs(stiffness - f.expected) <= 1e-10 * (uAu + 1e-3),
+              model + " volumetric h0, " + f.name + ": u^T (A - M) u = " + std::to_string(stiffness) + ", expected " +
+                  std::to_string(f.expected));
+  }
+  PetscCall(VecDestroy(&X));
+  PetscCall(VecDestroy(&u));
+  PetscCall(VecDestroy(&Au));
   PetscCall(MatDestroy(&A));
   PetscFunctionReturn(0);
 }
@@ -564,10 +626,13 @@ int main(int argc, char** argv) {
     PetscCall(check_factored_system(model, ConstantMatrix::laplacian, FactorPackage::mumps));  // then the others
     PetscCall(check_factored_system(model, ConstantMatrix::rest_stiffness, FactorPackage::mumps));
     PetscCall(check_rest_stiffness(model));
+    PetscCall(check_factored_system(model, ConstantMatrix::volumetric, FactorPackage::mumps));
+    if (std::string(model) != "neohookean+strands") PetscCall(check_volumetric_h0(model));  // strands add their L
     PetscCall(check_gradients(model, 0.05));
     PetscCall(check_gradients(model, 0.5));  // large deformation, inverted elements likely
     PetscCall(check_spd(model, ConstantMatrix::laplacian));
     PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
+    PetscCall(check_spd(model, ConstantMatrix::volumetric));
   }
   PetscCall(check_substep_counts());
   PetscCall(check_not_positive_definite(FactorPackage::mumps));

@@ -624,6 +624,7 @@ contact: {model: barrier, distance: 0.01, stiffness: 100, friction_velocity: 0.0
   // Choices are enums once read: solver.h0 (auto stays auto until the mesh resolves it), output.format.
   CHECK(d.solver.h0 == hyperqn::H0::automatic);
   CHECK(load_ok("h0_rest", kHead + "solver: {h0: rest-stiffness}\n").solver.h0 == hyperqn::H0::rest_stiffness);
+  CHECK(load_ok("h0_volumetric", kHead + "solver: {h0: volumetric}\n").solver.h0 == hyperqn::H0::volumetric);
   CHECK(load_ok("format_xdmf", kHead + "output: {format: xdmf}\n").output.format == hyperqn::OutputFormat::xdmf);
   // study lists: declared list keys, each item checked
   const Deck st = load_ok("study_lists", kHead + "time: {frames: 4}\nstudy: {frames: [1, 4], solvers: [pd, newton]}\n");

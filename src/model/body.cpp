@@ -447,6 +447,12 @@ PetscErrorCode Body::add_rest_hessian(Mat H, PetscReal scale) const {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode Body::add_volumetric_h0(Mat A, PetscReal scale) const {
+  PetscFunctionBeginUser;
+  for (const auto& term : terms_) PetscCall(term->add_volumetric_h0(A, scale));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Body::rest_positions(Vec x) const {
   Vec xl;
   PetscScalar* a;

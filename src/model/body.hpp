@@ -143,6 +143,8 @@ class Body {
   // H += scale * K(x_rest): the PSD-fixed Hessian at the rest shape (every vertex, fixed ones too,
   // at its rest position), on the free dofs.
   PetscErrorCode add_rest_hessian(Mat H, PetscReal scale) const;
+  // A += scale * K_vol, the sum of the terms' add_volumetric_h0 (solver.h0: volumetric; dof layout).
+  PetscErrorCode add_volumetric_h0(Mat A, PetscReal scale) const;
   // Positions of the rest shape as a global vector of free dofs.
   PetscErrorCode rest_positions(Vec x) const;
 

@@ -68,7 +68,7 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package, bool rolle
   const bool constant = solver_uses_constant_matrix(spec.type);
   const H0 h0 = solver_h0(spec);
   plan.h0 = !constant ? H0Memory::none : h0 == H0::amg ? H0Memory::amg : H0Memory::gathered;
-  plan.components = constant && (h0 == H0::rest_stiffness || rollers) ? 3 : 1;  // rollers: FactoredSystem
+  plan.components = constant && (h0 == H0::rest_stiffness || h0 == H0::volumetric || rollers) ? 3 : 1;  // rollers: FactoredSystem
   plan.substep_sizes = constant ? spec.max_halvings : 0;  // (the chain's Newton takes no constant matrix)
   plan.newton_is_fallback = spec.type != "newton" && spec.newton_fallback;
   plan.newton = (spec.type == "newton" || spec.newton_fallback) && spec.linear_solver != LinearSolver::cg_amg;

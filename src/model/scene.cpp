@@ -499,7 +499,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit, spec.time.integrator, spec.time.pseudo_step);
   PetscCall(s.step->setup());
   PetscCall(s.body->set_masses(s.step->mass()));
-  for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg}) {  // in this order, each once
+  for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric}) {  // in this order, each once
     const bool wanted = std::any_of(options_.h0s.begin(), options_.h0s.end(),
                                     [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; });
     if (!wanted) continue;

@@ -62,7 +62,7 @@ struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
   std::unique_ptr<StepObjective> step;
-  // The constant matrices the solvers use, by resolved_h0 (laplacian, rest_stiffness, amg).
+  // The constant matrices the solvers use, by resolved_h0 (laplacian, rest_stiffness, amg, volumetric).
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;

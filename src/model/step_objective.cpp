@@ -331,12 +331,14 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
   PetscFunctionBeginUser;
   PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
   PetscCheck(kind == ConstantMatrix::laplacian || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
-             "the rest stiffness couples x, y and z: components must be 3");
+             "the rest stiffness and the volumetric H0 couple x, y and z: components must be 3");
   PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
   PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
   PetscCall(add_in_rank_order(*A, [&](Mat S) {
-    return kind == ConstantMatrix::laplacian ? body_.add_laplacian(S, solve_dt_ * solve_dt_, components)
-                                             : body_.add_rest_hessian(S, solve_dt_ * solve_dt_);
+    const double h2 = solve_dt_ * solve_dt_;
+    return kind == ConstantMatrix::laplacian  ? body_.add_laplacian(S, h2, components)
+           : kind == ConstantMatrix::volumetric ? body_.add_volumetric_h0(S, h2)
+                                                : body_.add_rest_hessian(S, h2);
   }));
   PetscCall(inertia_.add_to(*A, components));
   // Rollers: A's held rows and columns are the identity's, so A^{-1} is the inverse of A reduced to

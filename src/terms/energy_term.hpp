@@ -89,6 +89,9 @@ class EnergyTerm {
   // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
   // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
   virtual PetscErrorCode add_laplacian(Mat /*A*/, double /*scale*/, int /*components*/) const { return 0; }
+  // The term's part of solver.h0: volumetric's matrix, in the dof layout: A += scale * K_t. Terms
+  // without a volumetric form (springs, strands, cloth, inelastic tets) add their L.
+  virtual PetscErrorCode add_volumetric_h0(Mat A, double scale) const { return add_laplacian(A, scale, 3); }
   // Lumped mass of this rank's elements: added per free dof to mass (local ghosted array), and
   // the total over all of them, fixed vertices included.
   virtual void add_lumped_mass(PetscScalar* /*mass*/) const {}

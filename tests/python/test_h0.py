@@ -1,7 +1,8 @@
 """solver.h0: rest-stiffness end to end on tests/decks/h0_box.yaml (nu = 0.499): lbfgs with
 A = M + h^2 K(x_rest) reaches the converged answer of Newton (exact Hessian) at 1 and 2 ranks,
 the same at both, in fewer iterations than with M + h^2 L; after a fixed region is released the
-scene is rebuilt and the rest stiffness factored again; pd ignores h0. solver.h0: amg on
+scene is rebuilt and the rest stiffness factored again; pd ignores h0. solver.h0: volumetric the
+same way: Newton's answer at 1 and 2 ranks, the same at both, in fewer iterations than laplacian. solver.h0: amg on
 tests/decks/amg_bar.yaml: the converged answer of the exact solve at 1 and 2 ranks, 2-rank runs
 that repeat, and a study that reaches e <= 1e-3."""
 import copy
@@ -54,6 +55,28 @@ def test_rest_stiffness_reaches_newtons_answer(tmp_path):
     print(f"iterations: rest-stiffness {iterations(rest1)}, laplacian {iterations(lap)}")
     assert iterations(rest1) < iterations(lap)
     assert relative_difference(ref, lap)[0] <= 1e-6
+
+
+def test_volumetric_reaches_newtons_answer(tmp_path):
+    deck = load_deck(DECK)
+    deck["solver"]["h0"] = "volumetric"
+    newton = copy.deepcopy(deck)
+    newton["solver"] = {"type": "newton", "newton_hessian": "exact", "iterations": 100, "grad_rtol": 1e-12}
+    ref, _ = run(tmp_path, "newton", newton)
+    vol1, s1 = run(tmp_path, "vol_np1", deck, ranks=1)
+    vol2, s2 = run(tmp_path, "vol_np2", deck, ranks=2)
+    assert s1["converged_frames"] == s1["frames"] == 3 and s2["converged_frames"] == 3
+    assert s1["factorizations"] == 1
+    to_newton, _, _ = relative_difference(ref, vol1)
+    ranks, _, _ = relative_difference(vol1, vol2)
+    laplacian = copy.deepcopy(deck)
+    laplacian["solver"]["h0"] = "laplacian"
+    lap, _ = run(tmp_path, "laplacian", laplacian)
+    print(f"volumetric vs newton: {to_newton:.2e}, 1 vs 2 ranks: {ranks:.2e}; "
+          f"iterations: volumetric {iterations(vol1)}, laplacian {iterations(lap)}")
+    assert to_newton <= 1e-6
+    assert ranks <= 1e-8
+    assert iterations(vol1) < iterations(lap)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
