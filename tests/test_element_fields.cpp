@@ -17,7 +17,7 @@
 #include "check.hpp"
 #include "materials/membrane.hpp"
 #include "materials/tet_springs.hpp"
-#include "model/material_params.hpp"
+#include "materials/material_factory.hpp"
 #include "terms/element_kernels.hpp"
 #include "test_scene.hpp"
 

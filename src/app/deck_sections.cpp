@@ -10,7 +10,7 @@
 #include "materials/material.hpp"
 #include "materials/material_factory.hpp"
 #include "model/load_kinds.hpp"
-#include "model/material_params.hpp"
+#include "materials/material_factory.hpp"
 #include "solvers/solver_registry.hpp"
 
 namespace hyperqn::deck_reading {

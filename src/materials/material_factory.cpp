@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "materials/maxwell_branches.hpp"
+#include "materials/scalar_function.hpp"
 #include "params/deck_keys.hpp"
 
 namespace hyperqn {
@@ -188,5 +189,29 @@ std::unique_ptr<Material> make_material(const std::string& model, double mu, dou
   p.J0 = J0;
   return make_material(p);
 }
+
+static std::shared_ptr<ScalarFunction> make_function(const FunctionSpec& f) {
+  if (f.kind == "polynomial") return std::make_shared<PolynomialFunction>(f.coefficients);
+  if (f.kind == "spline") return std::make_shared<MonotoneSplineFunction>(f.x, f.y);
+  return nullptr;
+}
+
+MaterialParams material_params(const MaterialSpec& spec) {
+  MaterialParams p;
+  p.model = spec.model;
+  p.mu = spec.mu;
+  p.lambda = spec.lambda;
+  p.J0 = spec.J0;
+  p.kappa = spec.kappa;
+  p.f = make_function(spec.f);
+  p.g = make_function(spec.g);
+  p.h = make_function(spec.h);
+  p.has_fiber = spec.has_fiber;
+  p.fiber_direction = Vec3(spec.fiber_direction[0], spec.fiber_direction[1], spec.fiber_direction[2]);
+  p.fiber_stiffness = spec.fiber_stiffness;
+  return p;
+}
+
+std::unique_ptr<Material> make_material(const MaterialSpec& spec) { return make_material(material_params(spec)); }
 
 }  // namespace hyperqn

@@ -139,4 +139,9 @@ std::unique_ptr<Material> make_material(const MaterialParams& params);
 // (so "stvk" has kappa = 0 and "principal-stretch", having no f, g, h, throws).
 std::unique_ptr<Material> make_material(const std::string& model, double mu, double lambda, double J0);
 
+// The deck's material description in the form the factory takes (every field, the functions too),
+// and its Material. (mass-spring is not a Material of F alone: see materials/tet_springs.hpp.)
+MaterialParams material_params(const MaterialSpec& spec);
+std::unique_ptr<Material> make_material(const MaterialSpec& spec);
+
 }  // namespace hyperqn

@@ -226,21 +226,11 @@ class PronyViscoelastic : public InelasticModel {
 };
 
 std::unique_ptr<InelasticModel> create_prony(const MaterialSpec& spec) {
-  // The base from the deck's numbers: the models with elastic constants take no functions.
-  MaterialParams p;
-  p.model = spec.model;
-  p.mu = spec.mu;
-  p.lambda = spec.lambda;
-  p.J0 = spec.J0;
-  p.kappa = spec.kappa;
-  p.has_fiber = spec.has_fiber;
-  p.fiber_direction = Vec3(spec.fiber_direction[0], spec.fiber_direction[1], spec.fiber_direction[2]);
-  p.fiber_stiffness = spec.fiber_stiffness;
   double sum = 0;
   for (const auto& b : spec.inelastic.items) sum += b.at("g");
   std::vector<PronyBranch> branches;
   for (const auto& b : spec.inelastic.items) branches.push_back({b.at("g") / (1.0 - sum), b.at("tau")});
-  return std::make_unique<PronyViscoelastic>(make_material(p), std::move(branches), spec.mu, spec.lambda);
+  return std::make_unique<PronyViscoelastic>(make_material(spec), std::move(branches), spec.mu, spec.lambda);
 }
 
 }  // namespace

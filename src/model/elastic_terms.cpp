@@ -1,7 +1,7 @@
 #include "model/elastic_terms.hpp"
 
 #include "materials/material_factory.hpp"
-#include "model/material_params.hpp"
+#include "materials/material_factory.hpp"
 #include "io/log_events.hpp"
 #include "terms/attachments.hpp"
 #include "terms/cloth_bending.hpp"
