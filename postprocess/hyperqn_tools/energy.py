@@ -1,9 +1,25 @@
-"""The total energy of a neo-Hookean body in a VTK frame: kinetic, elastic and gravitational, with
-hyperqn's lumped masses (a quarter of each tet's). For the integrators' energy checks
-(tests/python/test_integrators.py, bench/integrator_energy.py); 1-rank frames."""
+"""hyperqn's lumped masses (a quarter of each tet's rest mass on each of its vertices), and the total
+energy of a neo-Hookean body in a VTK frame: kinetic, elastic and gravitational. For the tests'
+momentum and energy checks (tests/python/test_integrators.py, test_cuts.py, test_reactions.py, ...)
+and bench/integrator_energy.py; 1-rank frames."""
 import numpy as np
 
 from hyperqn_tools.output import frame_meshes
+
+
+def lumped_masses(rest, tets, density):
+    """Each vertex's mass as hyperqn lumps it: density times a quarter of the rest volume of each of
+    its tets (rest: the rest positions, n x 3; tets: m x 4 vertex indices)."""
+    e = rest[tets[:, 1:]] - rest[tets[:, :1]]
+    volume = np.abs(np.linalg.det(e)) / 6
+    mass = np.zeros(len(rest))
+    np.add.at(mass, tets.ravel(), np.repeat(density * volume / 4, 4))
+    return mass
+
+
+def frame_lumped_masses(frame, density):
+    """lumped_masses of a Frame (hyperqn_tools.output): its rest positions are points - displacement."""
+    return lumped_masses(frame.points - frame.displacement, frame.cells["tetra"], density)
 
 
 def neohookean_energies(path, youngs_modulus, poisson_ratio, density, gravity):
@@ -23,7 +39,6 @@ def neohookean_energies(path, youngs_modulus, poisson_ratio, density, gravity):
     F = Ds @ np.linalg.inv(Dm)
     logJ = np.log(np.linalg.det(F))
     psi = 0.5 * mu * (np.einsum("eij,eij->e", F, F) - 3) - mu * logJ + 0.5 * lam * logJ**2
-    mass = np.zeros(len(x))
-    np.add.at(mass, tets.ravel(), np.repeat(density * volume / 4, 4))
+    mass = lumped_masses(X, tets, density)
     kinetic = 0.5 * np.sum(mass * np.sum(v * v, axis=1))
     return float(kinetic), float(np.sum(volume * psi)), float(np.sum(mass * gravity * u[:, 1]))

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import run_hyperqn, write_deck
+from hyperqn_tools.energy import lumped_masses
 from hyperqn_tools.output import final_frame, read_frames, read_iterations, read_summary, rest_diagonal
 
 BUDGET = 200
@@ -92,11 +93,7 @@ def momentum_from_frames(outdir, density=1000):
     frames = read_frames(outdir)
     rest = frames[0][1]
     tets, X = rest.cells["tetra"], rest.points
-    volume = np.abs(np.einsum("ij,ij->i", np.cross(X[tets[:, 1]] - X[tets[:, 0]], X[tets[:, 2]] - X[tets[:, 0]]),
-                              X[tets[:, 3]] - X[tets[:, 0]])) / 6
-    mass = np.zeros(len(X))
-    for k in range(4):
-        np.add.at(mass, tets[:, k], density * volume / 4)
+    mass = lumped_masses(X, tets, density)
     P = np.array([(mass[:, None] * f.velocity).sum(axis=0) for _, f in frames])
     scale = max((mass * np.linalg.norm(f.velocity, axis=1)).sum() for _, f in frames)
     drift = np.linalg.norm(P - P[0], axis=1)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import event_count, run_deck, run_hyperqn, write_deck
-from hyperqn_tools.energy import neohookean_energies
+from hyperqn_tools.energy import frame_lumped_masses as lumped_masses, neohookean_energies
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_iterations, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 
@@ -45,17 +45,6 @@ SPINNING = {
     "time": {"dt": 0.02, "frames": 24, "integrator": "implicit-midpoint"},
     "solver": TIGHT,
 }
-
-
-def lumped_masses(frame, density):
-    """Each vertex's mass as hyperqn lumps it: a quarter of each of its tets' rest volume."""
-    rest = frame.points - frame.displacement
-    tets = frame.cells["tetra"]
-    d = rest[tets[:, 1:]] - rest[tets[:, :1]]
-    volume = np.abs(np.linalg.det(d)) / 6
-    m = np.zeros(len(rest))
-    np.add.at(m, tets.ravel(), np.repeat(density * volume / 4, 4))
-    return m
 
 
 def components(frame):

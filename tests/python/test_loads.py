@@ -15,6 +15,7 @@ import pytest
 
 from conftest import load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
+from hyperqn_tools.energy import frame_lumped_masses
 from hyperqn_tools.output import final_frame, read_summary
 from hyperqn_tools.paths import REPO
 from test_bad_input import assert_clean_failure
@@ -34,13 +35,8 @@ TRACTION = np.array([0.0, 0.0, 4.0])        # Pa, on the end x = 1 (area 0.25)
 
 
 def lumped_masses(frame):
-    """rho V / 4 per vertex of each tet, at the rest positions (as the continuum term lumps them)."""
-    rest = frame.points - frame.displacement
-    m = np.zeros(len(rest))
-    for tet in frame.cells["tetra"]:
-        v = np.linalg.det(np.array([rest[tet[k]] - rest[tet[0]] for k in (1, 2, 3)])) / 6
-        m[tet] += DENSITY * v / 4
-    return m
+    """Per vertex: DENSITY times a quarter of the rest volume of its tets (as hyperqn lumps them)."""
+    return frame_lumped_masses(frame, DENSITY)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])

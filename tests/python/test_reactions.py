@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
+from hyperqn_tools.energy import frame_lumped_masses
 from hyperqn_tools.output import Frame, read_pvd, read_summary
 
 RHO, G = 1000.0, np.array([0.0, -9.81, 0.0])
@@ -65,14 +66,8 @@ def frames(out):
 
 
 def lumped_masses(frame):
-    """rho V / 4 per tet vertex, from the rest positions (points - displacement)."""
-    X = frame.points - frame.displacement
-    tets = frame.cells["tetra"]
-    e = X[tets[:, 1:]] - X[tets[:, :1]]
-    volume = np.abs(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2]))) / 6
-    m = np.zeros(len(X))
-    np.add.at(m, tets.ravel(), np.repeat(RHO * volume / 4, 4))
-    return m
+    """Per vertex: RHO times a quarter of the rest volume of its tets (as hyperqn lumps them)."""
+    return frame_lumped_masses(frame, RHO)
 
 
 def weight():

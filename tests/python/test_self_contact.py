@@ -20,6 +20,7 @@ import pytest
 
 from conftest import event_count, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.intersections import check_run
+from hyperqn_tools.energy import frame_lumped_masses
 from hyperqn_tools.output import read_frames, read_summary
 from hyperqn_tools.paths import REPO
 
@@ -55,14 +56,8 @@ def run(tmp_path, name, d, ranks=1):
 
 
 def lumped_masses(frame):
-    """Per vertex: DENSITY times a quarter of the rest volume of its tets."""
-    rest = frame.points - frame.displacement
-    tets = frame.cells["tetra"]
-    e = rest[tets[:, 1:]] - rest[tets[:, :1]]
-    volume = np.abs(np.linalg.det(e)) / 6
-    m = np.zeros(len(rest))
-    np.add.at(m, tets.ravel(), np.repeat(DENSITY * volume / 4, 4))
-    return m
+    """Per vertex: DENSITY times a quarter of the rest volume of its tets (as hyperqn lumps them)."""
+    return frame_lumped_masses(frame, DENSITY)
 
 
 def momenta(frame):
