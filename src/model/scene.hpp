@@ -12,6 +12,7 @@
 
 #include "io/partition_file.hpp"
 #include "mesh/distributed_mesh.hpp"
+#include "materials/fracture_spec.hpp"
 #include "mesh/separation.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
@@ -129,6 +130,9 @@ class LiveScene {
     long long faces = 0, vertices = 0, batches = 0;
   };
   const CutCounts& cut_counts() const { return counts_; }
+  // A material of the scene has a fracture criterion (material.fracture): its overloaded faces
+  // separate in cut_due, after the scripted cuts' (model/fracture.hpp).
+  bool fracture() const { return !fracture_.empty(); }
   // The last change of the scene was a cut (not a release): for messages.
   bool last_change_cut() const { return last_change_cut_; }
 
@@ -147,6 +151,7 @@ class LiveScene {
   const SceneSpec* spec_ = nullptr;
   std::vector<SeparatedFace> history_;
   std::set<TetPair> separated_;
+  std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
   bool kept_changed_ = false;  // restore_cuts changed kept_: restore_released rebuilds
