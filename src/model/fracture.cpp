@@ -46,7 +46,7 @@ struct TetRecord {
   }
 };
 
-using FaceKey = std::array<int64_t, 3>;  // its vertex ids, ascending
+using FaceKey = TetFaces::Key;
 
 // The face of tet record (ints) without its vertex `skip`.
 FaceKey face_of(const int64_t* ints, int skip) {
@@ -82,7 +82,42 @@ bool breaks(const TetRecord& p, const TetRecord& q, const FaceKey& f, const std:
 
 }  // namespace
 
-PetscErrorCode overloaded_faces(MPI_Comm comm, const DistributedMesh& mesh, const Body& body, Vec x,
+TetFaces tet_faces(const DistributedMesh& mesh) {
+  TetFaces t;
+  std::map<TetFaces::Key, std::vector<PetscInt>> faces;
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    for (int skip = 0; skip < 4; ++skip) {
+      TetFaces::Key f;
+      for (int j = 0, k = 0; j < 4; ++j)
+        if (j != skip) f[k++] = mesh.vertex_ids[mesh.cells[4 * c + j]];
+      std::sort(f.begin(), f.end());
+      faces[f].push_back(c);
+    }
+  std::vector<char> exported(size_t(mesh.num_cells), 0);
+  for (const auto& [f, tets] : faces) {
+    if (tets.size() == 2) {
+      t.pairs.push_back({tets[0], tets[1]});
+      t.pair_keys.push_back(f);
+      continue;
+    }
+    const PetscInt c = tets[0];
+    t.lone.push_back(c);
+    t.lone_keys.push_back(f);
+    // A face of one local tet whose other tet is on another rank has a ghost vertex on one of the
+    // two ranks at least (on the higher rank all three are ghosts: a vertex's owner is the lowest
+    // rank that holds it), which sends its tet to every rank.
+    for (int j = 0; j < 4; ++j) {
+      const PetscInt v = mesh.cells[4 * c + j];
+      const int64_t id = mesh.vertex_ids[v];
+      if ((id == f[0] || id == f[1] || id == f[2]) && !mesh.owned[v]) exported[c] = 1;
+    }
+  }
+  for (PetscInt c = 0; c < mesh.num_cells; ++c)
+    if (exported[c]) t.exported.push_back(c);
+  return t;
+}
+
+PetscErrorCode overloaded_faces(MPI_Comm comm, const DistributedMesh& mesh, const TetFaces& table, const Body& body, Vec x,
                                 const std::vector<FractureSpec>& specs, const std::set<TetPair>& separated,
                                 std::vector<TetPair>& faces) {
   PetscFunctionBeginUser;
@@ -117,50 +152,31 @@ PetscErrorCode overloaded_faces(MPI_Comm comm, const DistributedMesh& mesh, cons
   auto broken_pair = [](const TetRecord& p, const TetRecord& q) {
     return TetPair{std::min(p.number(), q.number()), std::max(p.number(), q.number())};
   };
-  // The local faces: those of two local tets are judged here; a face of one local tet with a ghost
-  // vertex may have its other tet on another rank, which then gets this tet.
-  std::map<FaceKey, std::vector<size_t>> local;
-  for (PetscInt c = 0; c < nt; ++c)
-    for (int skip = 0; skip < 4; ++skip) local[face_of(&ints[kInts * size_t(c)], skip)].push_back(size_t(c));
   std::vector<TetPair> mine;
-  std::vector<char> exported(size_t(nt), 0);
-  for (const auto& [f, tets] : local) {
-    if (tets.size() == 2) {
-      const TetRecord p = record(ints, doubles, tets[0]), q = record(ints, doubles, tets[1]);
-      if (!separated.count(broken_pair(p, q)) && breaks(p, q, f, specs)) mine.push_back(broken_pair(p, q));
-      continue;
-    }
-    PetscInt c = PetscInt(tets[0]);
-    bool ghost = false;
-    for (int j = 0; j < 4; ++j) {
-      const PetscInt v = mesh.cells[4 * c + j];
-      const int64_t id = mesh.vertex_ids[v];
-      if (id == f[0] || id == f[1] || id == f[2]) ghost = ghost || !mesh.owned[v];
-    }
-    if (ghost) exported[tets[0]] = 1;
+  for (size_t k = 0; k < table.pairs.size(); ++k) {  // the faces of two local tets: judged here
+    const TetRecord p = record(ints, doubles, size_t(table.pairs[k][0])), q = record(ints, doubles, size_t(table.pairs[k][1]));
+    if (!separated.count(broken_pair(p, q)) && breaks(p, q, table.pair_keys[k], specs)) mine.push_back(broken_pair(p, q));
   }
   std::vector<int64_t> out_ints;
   std::vector<double> out_doubles;
-  for (PetscInt c = 0; c < nt; ++c)
-    if (exported[c]) {
-      out_ints.insert(out_ints.end(), &ints[kInts * size_t(c)], &ints[kInts * size_t(c)] + kInts);
-      out_doubles.insert(out_doubles.end(), &doubles[kDoubles * size_t(c)], &doubles[kDoubles * size_t(c)] + kDoubles);
-    }
+  for (PetscInt c : table.exported) {
+    out_ints.insert(out_ints.end(), &ints[kInts * size_t(c)], &ints[kInts * size_t(c)] + kInts);
+    out_doubles.insert(out_doubles.end(), &doubles[kDoubles * size_t(c)], &doubles[kDoubles * size_t(c)] + kDoubles);
+  }
   const std::vector<int64_t> all_ints = all_gathered(comm, out_ints, MPI_INT64_T);
   const std::vector<double> all_doubles = all_gathered(comm, out_doubles, MPI_DOUBLE);
   std::map<FaceKey, std::vector<size_t>> gathered;
   for (size_t k = 0; k < all_ints.size() / kInts; ++k)
     for (int skip = 0; skip < 4; ++skip) gathered[face_of(&all_ints[kInts * k], skip)].push_back(k);
-  // A local face of one local tet meets its other tet among the gathered ones (not itself).
-  for (const auto& [f, tets] : local) {
-    if (tets.size() != 1) continue;
-    const auto it = gathered.find(f);
+  // A face of one local tet meets its other tet among the gathered ones (not itself).
+  for (size_t k = 0; k < table.lone.size() && !gathered.empty(); ++k) {
+    const auto it = gathered.find(table.lone_keys[k]);
     if (it == gathered.end()) continue;
-    const TetRecord p = record(ints, doubles, tets[0]);
-    for (size_t k : it->second) {
-      const TetRecord q = record(all_ints, all_doubles, k);
+    const TetRecord p = record(ints, doubles, size_t(table.lone[k]));
+    for (size_t g : it->second) {
+      const TetRecord q = record(all_ints, all_doubles, g);
       if (q.number() == p.number()) continue;
-      if (!separated.count(broken_pair(p, q)) && breaks(p, q, f, specs)) mine.push_back(broken_pair(p, q));
+      if (!separated.count(broken_pair(p, q)) && breaks(p, q, table.lone_keys[k], specs)) mine.push_back(broken_pair(p, q));
     }
   }
   std::vector<int64_t> flat;

@@ -706,7 +706,8 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   }
   if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
     std::vector<TetPair> broken;
-    PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->body, main.x, fracture_, separated_, broken));
+    if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+    PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, broken));
     batch.insert(batch.end(), broken.begin(), broken.end());
   }
   std::sort(batch.begin(), batch.end());

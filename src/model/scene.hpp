@@ -59,6 +59,8 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
 bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input,
                                 const MemoryPlan& plan = MemoryPlan());
 
+struct TetFaces;  // model/fracture.hpp
+
 struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
@@ -67,6 +69,8 @@ struct Scene {
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
+  // With fracture: its local tets' faces, paired when first asked (model/fracture.hpp).
+  std::shared_ptr<TetFaces> fracture_faces;
 };
 
 // How to build a scene beside its description.
