@@ -8,6 +8,7 @@ clamp that moves at constant speed:
   frames, positions within 1e-8 of the diagonal;
 - a run killed after several breaks and restarted equals the uninterrupted one bit for bit;
 - fracture leaves the total mass unchanged; a deck without fracture runs no topology code;
+- fracture in a body of bodies: breaks;
 - bad fracture blocks are refused, naming the deck line, nothing written."""
 import copy
 import itertools
@@ -299,3 +300,28 @@ def test_fracture_with_cuts_is_refused(tmp_path):
     deck = bad(tmp_path)
     deck["cuts"] = [{"center": [0.5, 0.5, 0.05], "normal": [0, 1, 0], "axis": [1, 0, 0], "size": [2.0, 1.0]}]
     assert_deck_refused(tmp_path, "cuts", deck, ["material.fracture", "cuts"])
+
+
+def bodies_deck(threshold):
+    """A cantilever of one body (deck bodies:) under gravity, its material with fracture."""
+    return {
+        "bodies": [{"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [5, 1, 1]}},
+                    "material": {"model": "corotated", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000,
+                                 "fracture": {"criterion": "normal_stress", "threshold": threshold}}}],
+        "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.21, 0.21]}}],
+        "gravity": [0, -9.81, 0],
+        "time": {"dt": 0.02, "frames": 3},
+    }
+
+
+def test_fracture_in_bodies(tmp_path):
+    # the clamped root's tension in beam theory, 6 M / (b h^2) with M = rho g A L^2 / 2 = 196 N m,
+    # is about 1.5e5 Pa: faces break at a threshold of 2e3 Pa, none at 1e8 Pa
+    _, weak = run_deck(tmp_path, "weak", bodies_deck(2.0e3))
+    _, strong = run_deck(tmp_path, "strong", bodies_deck(1.0e8))
+    assert weak["fracture"]["faces_broken"] > 0 and strong["fracture"]["faces_broken"] == 0
+    assert strong["fracture"]["first_break_frame"] is None
+
+
+def test_bad_fracture_in_bodies_is_refused(tmp_path):
+    assert_deck_refused(tmp_path, "bodies", bodies_deck(-2.0), ["bodies[0].material.fracture.threshold", "> 0"])
