@@ -170,6 +170,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   }
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   if (const Value* x = s.find("cuts")) check_cuts(r, *x, deck);
+  check_fracture(r, deck);
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
   if (const Value* x = s.find("study")) {

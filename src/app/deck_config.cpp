@@ -148,6 +148,7 @@ class Config {
       skip.insert("poisson_ratio");
     }
     keys(prefix, material_keys(), m, rules, skip);
+    if (m.fracture.given) keys(prefix + "fracture.", fracture_keys(), m.fracture);
   }
 
   void motion(const std::string& prefix, const Motion& m) {

@@ -90,7 +90,7 @@ std::vector<KeyInfo> declared_deck_keys() {
   for (const std::vector<KeyInfo>& section :
        {key_infos("mesh", mesh_keys()), key_infos("bodies", body_keys()),
        key_infos("strand_material", strand_material_keys()), key_infos("cloth", cloth_keys()),
-       key_infos("material", material_keys()),
+       key_infos("material", material_keys()), key_infos("fracture", fracture_keys()),
        key_infos("fixed", fixed_keys()), key_infos("motion", motion_keys()),
        key_infos("curve", curve_keys()),
        key_infos("attachments", attachment_keys()), key_infos("loads", load_keys()),

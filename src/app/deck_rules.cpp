@@ -78,6 +78,32 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
                  "(docs/topology.md)");
 }
 
+// Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as
+// cuts' do, so the same scenes are refused, and cuts and fracture are not combined yet.
+void check_fracture(const Reader& r, const Deck& deck) {
+  std::vector<const MaterialSpec*> materials{&deck.material};
+  for (const MaterialRegion& region : deck.regions) materials.push_back(&region.material);
+  for (const BodySpec& b : deck.bodies) materials.push_back(&b.material);
+  for (const MaterialSpec* m : materials) {
+    if (!m->fracture.given) continue;
+    const int line = m->fracture.line;
+    bool others = deck.bodies.empty() && (deck.mesh.has_strands() || deck.mesh.has_cloth());
+    for (const BodySpec& b : deck.bodies) others = others || b.mesh.has_strands() || b.mesh.has_cloth();
+    if (others)
+      r.fail(line, "material.fracture", "fracture acts on meshes of tets alone for now: the mesh also has strands or a cloth "
+                               "(docs/topology.md#fracture)");
+    if (deck.contact.self)
+      r.fail(line, "material.fracture", "fracture with self-contact (contact.self) is not done yet: the new surfaces would not "
+                               "take part in it (docs/topology.md#fracture)");
+    if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
+      r.fail(line, "material.fracture", "output.format: xdmf holds one mesh per run, and fracture changes the mesh: write vtu "
+                               "frames (docs/topology.md#fracture)");
+    if (!deck.cuts.empty())
+      r.fail(line, "material.fracture", "fracture and cuts (deck line " + std::to_string(deck.cuts_line) +
+                                   ") in one deck are not done yet: give one of the two (docs/topology.md#fracture)");
+  }
+}
+
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;

@@ -263,8 +263,17 @@ void read_material(const Reader& r, const Value& v, MaterialSpec& m) {
         r.fail(*x, model.name + " takes " + own + " instead of elastic constants");
       }
   }
-  const Section s = read_keys(r, v, material_keys(), m);
+  const Section s = read_keys(r, v, material_keys(), m, {"fracture"});
   const MaterialModel& model = *find_material_model(m.model);
+  if (const Value* x = s.find("fracture")) {  // docs/topology.md#fracture
+    read_keys(r, *x, fracture_keys(), m.fracture);
+    m.fracture.given = true;
+    m.fracture.line = x->line;
+    // The criteria are values of the tets' stress and energy density, which the mass-spring model has not.
+    if (!model.create)
+      r.fail(*x, m.model + " tets have no stress or energy density, which fracture's criteria are: give a continuum "
+                           "model (docs/topology.md#fracture)");
+  }
   if (model.elastic_constants) check_elastic_constants(r, s, m);
   if (const Value* x = s.find("f")) m.f = read_function(r, *x);
   if (const Value* x = s.find("g")) m.g = read_function(r, *x);

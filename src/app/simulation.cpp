@@ -380,9 +380,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 4. Summary.
   read_log_events(summary);
-  if (!deck.cuts.empty()) {  // the counts so far (a restart's replay included) and the mesh they made
+  if (!deck.cuts.empty() || run.scene.fracture()) {  // the counts so far (a restart's replay included) and the mesh they made
     const LiveScene::CutCounts& c = run.scene.cut_counts();
-    summary.cuts = true;
+    summary.cuts = !deck.cuts.empty();  // a deck has cuts or fracture (deck_rules.cpp)
+    summary.fracture = run.scene.fracture();
+    if (!run.scene.cut_history().empty()) summary.first_break_frame = run.scene.cut_history().front()[0];
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
     summary.cut_batches = c.batches;

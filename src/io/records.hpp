@@ -106,6 +106,10 @@ struct RunSummary {
   // topology log event (finding, separating, rebuilding; a restart's replay included).
   bool cuts = false;
   long long faces_separated = 0, cut_vertices = 0, cut_batches = 0;
+  // Fracture (material.fracture; summary.json's "fracture" only with it): the same counts (faces
+  // broken, vertices added, refactorizations: steps with breaks), and the frame at whose start faces first broke (-1: none).
+  bool fracture = false;
+  long long first_break_frame = -1;
   double topology_s = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)

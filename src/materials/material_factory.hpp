@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "params/key_range.hpp"
+#include "materials/fracture_spec.hpp"
 #include "materials/material.hpp"
 #include "materials/inelastic_model.hpp"
 #include "materials/scalar_function.hpp"
@@ -55,6 +56,8 @@ struct MaterialSpec {
   double laplacian_weight = 0;       // 0: the material's own weight (mass-spring: k); > 0: override
   // The inelastic block (material.viscoelastic, material.plastic, ...: inelastic_kinds below), if any.
   InelasticSpec inelastic;
+  // Its fracture criterion (material.fracture, materials/fracture_spec.hpp), if any.
+  FractureSpec fracture;
 };
 
 // A deck key of material models (material.<name>), declared once here: its range, and which

@@ -9,6 +9,7 @@
 #include "io/log_events.hpp"
 #include "io/partition_file.hpp"
 #include "model/cuts.hpp"
+#include "model/fracture.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
@@ -443,12 +444,16 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   bool releases = false;
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
-  if (releases || !spec.cuts.empty()) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
-  if (!spec.cuts.empty()) {  // copies' ids come after every id of the input
+  fracture_ = fracture_specs(spec);  // empty without material.fracture
+  const bool separates = !spec.cuts.empty() || !fracture_.empty();
+  if (releases || separates) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
+  if (separates) {  // copies' ids come after every id of the input
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
     id_offset_ = slots - input.piece.global_vertices;
+  }
+  if (!spec.cuts.empty()) {
     // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal, as
     // the body may move) over the run's frames cuts nothing: said, not refused.
     double lo[3], hi[3];
@@ -683,7 +688,7 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   const double h = spec_->time.dt;
   PetscFunctionBeginUser;
   *cut = false;
-  if (spec_->cuts.empty() || main.frame == 0) PetscFunctionReturn(0);
+  if ((spec_->cuts.empty() && fracture_.empty()) || main.frame == 0) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   const double t = main.frame * h;
   std::vector<double> pos;
@@ -698,6 +703,12 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords,
                                                        by_frame[f], t - h, t, separated_);
     batch.insert(batch.end(), crossed.begin(), crossed.end());
+  }
+  if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
+    std::vector<TetPair> broken;
+    if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+    PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, broken));
+    batch.insert(batch.end(), broken.begin(), broken.end());
   }
   std::sort(batch.begin(), batch.end());
   batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
@@ -727,7 +738,8 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
 PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
-  PetscCheck(!spec_->cuts.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has cuts and the deck has none");
+  PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint has separated faces and the deck has neither cuts nor fracture");
   PetscCall(event_begin(&LogEvents::topology));
   for (size_t i = 0; i < history.size();) {
     size_t j = i;

@@ -12,6 +12,7 @@
 
 #include "io/partition_file.hpp"
 #include "mesh/distributed_mesh.hpp"
+#include "materials/fracture_spec.hpp"
 #include "mesh/separation.hpp"
 #include "model/scene_spec.hpp"
 #include "model/body.hpp"
@@ -58,6 +59,8 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
 bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput& input,
                                 const MemoryPlan& plan = MemoryPlan());
 
+struct TetFaces;  // model/fracture.hpp
+
 struct Scene {
   DistributedMesh mesh;
   std::unique_ptr<Body> body;
@@ -66,6 +69,8 @@ struct Scene {
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
+  // With fracture: its local tets' faces, paired when first asked (model/fracture.hpp).
+  std::shared_ptr<TetFaces> fracture_faces;
 };
 
 // How to build a scene beside its description.
@@ -129,6 +134,9 @@ class LiveScene {
     long long faces = 0, vertices = 0, batches = 0;
   };
   const CutCounts& cut_counts() const { return counts_; }
+  // A material of the scene has a fracture criterion (material.fracture): its overloaded faces
+  // separate in cut_due, after the scripted cuts' (model/fracture.hpp).
+  bool fracture() const { return !fracture_.empty(); }
   // The last change of the scene was a cut (not a release): for messages.
   bool last_change_cut() const { return last_change_cut_; }
 
@@ -147,6 +155,7 @@ class LiveScene {
   const SceneSpec* spec_ = nullptr;
   std::vector<SeparatedFace> history_;
   std::set<TetPair> separated_;
+  std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
   bool kept_changed_ = false;  // restore_cuts changed kept_: restore_released rebuilds

@@ -17,7 +17,7 @@ def test_docs_tables_match_the_declarations():
 def test_help_deck_lists_every_declared_key():
     keys = launch.registry(HYPERQN)["deck_keys"]
     assert {k["section"] for k in keys} == {"mesh", "bodies", "strand_material", "cloth", "material", "fixed", "motion", "curve",
-                                            "attachments", "loads", "colliders", "cuts", "contact", "regions", "initial", "gravity", "time",
+                                            "attachments", "loads", "colliders", "cuts", "fracture", "contact", "regions", "initial", "gravity", "time",
                                             "solver", "guardrails", "output", "checkpoint", "study", "petsc"}
     text = launch.run(["--help-deck"], ranks=None, binary=HYPERQN, check=True, timeout=60).stdout
     for k in keys:

@@ -1,0 +1,2 @@
+# Empty compiler generated dependencies file for cholmod_updown.
+# This may be replaced when dependencies are built.

@@ -1,0 +1,2 @@
+# Empty dependencies file for cholmod_updown.
+# This may be replaced when dependencies are built.

@@ -1,0 +1,3 @@
+file(REMOVE_RECURSE
+  "libhyperqn_core.a"
+)

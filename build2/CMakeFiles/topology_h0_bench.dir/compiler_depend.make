@@ -1,0 +1,2 @@
+# Empty compiler generated dependencies file for topology_h0_bench.
+# This may be replaced when dependencies are built.

@@ -1,0 +1,2 @@
+# Empty dependencies file for topology_h0_bench.
+# This may be replaced when dependencies are built.

@@ -1,0 +1,2 @@
+# Empty dependencies file for test_pair_contact.
+# This may be replaced when dependencies are built.

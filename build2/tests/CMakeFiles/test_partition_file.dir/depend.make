@@ -1,0 +1,2 @@
+# Empty dependencies file for test_partition_file.
+# This may be replaced when dependencies are built.
