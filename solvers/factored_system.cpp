@@ -204,7 +204,7 @@ PetscErrorCode FactoredSystem::factor_topology(Mat A) {
   PetscFunctionBeginUser;
   PetscCall(rows_of(A, false, &a));
   topology_ = std::make_unique<TopologyH0>();
-  const TopologyH0::Status status = topology_->setup(std::move(a));
+  const TopologyH0::Status status = topology_->setup(std::move(a), max_touched_);
   if (status != TopologyH0::Status::ok) topology_.reset();
   if (status == TopologyH0::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
   PetscCheck(status == TopologyH0::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
@@ -564,7 +564,7 @@ PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& s
   *corrected = false;
   kind_ = before.kind_;
   components_ = kind_ == ConstantMatrix::laplacian && !step.holds_components() ? 1 : 3;
-  row_ids_ = std::move(row_ids);
+  set_row_ids(std::move(row_ids), check.max_touched);
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components_, kind_));
   PetscCall(event_end(&LogEvents::h0_assembly));

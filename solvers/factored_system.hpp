@@ -72,8 +72,10 @@ PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components);
 // What follow() does beside the correction (tests and the check of docs/topology.md): check, the
 // corrected solve against a fresh factorization of the changed matrix on random vectors (printed);
 // drop_edit, the largest off-diagonal entry of the change left out (the check must see it).
+// max_touched: TopologyH0's size trigger (0: its default), smaller in tests to reach it.
 struct TopologyCheck {
   bool check = false, drop_edit = false;
+  int64_t max_touched = 0;
 };
 
 class FactoredSystem {
@@ -99,7 +101,10 @@ class FactoredSystem {
   // of each row of A1 (one rank; the constant matrix follows vertices by id across a cut). The
   // supernodal factor of A1 (the Laplacian without rollers) is then held by a TopologyH0, whose
   // solve with no change is the plain factor's, bit for bit.
-  void set_row_ids(std::vector<int64_t> row_ids) { row_ids_ = std::move(row_ids); }
+  void set_row_ids(std::vector<int64_t> row_ids, int64_t max_touched = 0) {
+    row_ids_ = std::move(row_ids);
+    max_touched_ = max_touched > 0 ? max_touched : TopologyH0::kDefaultMaxTouched;
+  }
   // The scene changed by a cut: this system is set up for `step` (A assembled, row ids as above)
   // and, where `before` holds a TopologyH0, takes it over: the change A' - A, mapped to its rows by
   // vertex id (a copy is a new vertex), becomes its edits and one commit (*corrected = true).
@@ -166,6 +171,7 @@ class FactoredSystem {
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
   std::unique_ptr<TopologyH0> topology_;                   // instead of supernodal_ in a scene with cuts
   std::vector<int64_t> row_ids_;       // per row of A1: its vertex id (empty: topology_ not used)
+  int64_t max_touched_ = TopologyH0::kDefaultMaxTouched;  // topology_'s size trigger
   std::vector<int64_t> topology_ids_;  // per row of topology_: its vertex id (the rows it had, then its new vertices)
   std::vector<int64_t> topology_row_;  // per row of A1: its row of topology_ (empty: the same)
   mutable std::vector<double> topology_work_;  // a solve's right-hand side in topology_'s rows

@@ -454,6 +454,9 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
     flag = PETSC_FALSE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_test_topology_h0_drop_edit", &flag, nullptr));
     topology_check_.drop_edit = flag;
+    PetscInt max_touched = 0;
+    PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-hyperqn_test_topology_h0_max_touched", &max_touched, nullptr));
+    topology_check_.max_touched = max_touched;
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
@@ -543,7 +546,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
       PetscCall(matrix->follow(*followed, *s.step, package, ids, topology_check_, &done));
       if (corrected) *corrected = done;
     } else {
-      matrix->set_row_ids(ids);
+      matrix->set_row_ids(ids, topology_check_.max_touched);
       PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), package));
     }
   }

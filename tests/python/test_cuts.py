@@ -197,6 +197,30 @@ def test_restart_after_a_kill_after_cuts_is_bitwise(tmp_path, ranks):
     assert sa["cuts"]["h0_corrections"] >= (2 if ranks is None else 0)
 
 
+def test_size_trigger_factors_again_and_a_restart_replays_from_there(tmp_path):
+    # A size trigger of 8 rows: the bar's 4 steps with separations touch 5, 12, 6 and 11 rows since
+    # the last factorization, so they go corrected, factored, corrected, factored. The checkpoint at
+    # frame 6 holds 3 batches, the scene of the first 2 factored: the restart factors that scene and
+    # replays the third batch as a correction, and then equals the uninterrupted run bit for bit.
+    trigger = ["-hyperqn_test_topology_h0_max_touched", "8"]
+    deck = copy.deepcopy(BAR)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "bar.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref, *trigger], ranks=None)
+    s = read_summary(ref)
+    assert (s["cuts"]["h0_corrections"], s["cuts"]["refactorizations"], s["factorizations"]) == (2, 2, 3)
+    out = tmp_path / "out"
+    killed(path, out, 7, None, trigger)
+    from hyperqn_tools.output import read_checkpoint
+    saved = read_checkpoint(out / "checkpoints" / "checkpoint_6.h5")
+    assert len(set(saved["cuts"].split()[::3])) == 3 and saved["cuts_factored"] == 2
+    run_hyperqn([path, "-o", out, "--restart", "latest", *trigger], ranks=None)
+    assert_same_run(ref, out)
+    assert {k: v for k, v in s["cuts"].items() if k != "topology_s"} == \
+        {k: v for k, v in read_summary(out)["cuts"].items() if k != "topology_s"}
+
+
 CHECK_LINE = re.compile(r"topology H0 check: (\d+) rows touched since the factorization, relative difference (\S+) from")
 
 
