@@ -1,5 +1,9 @@
 #include "solvers/factored_system.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <unordered_map>
 #include <vector>
 
 #include "io/log_events.hpp"
@@ -152,34 +156,61 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PetscFunctionReturn(0);
 }
 
-// A's rows (sorted columns) handed to SupernodalCholesky, which reads their upper triangle.
-PetscErrorCode FactoredSystem::factor_supernodal(Mat A, CholeskyAnalysis* analysis) {
+// A's rows (sorted columns) as compressed rows: both triangles, or (upper) the entries with column >= row.
+static PetscErrorCode rows_of(Mat A, bool upper, SymmetricCsr* csr) {
   PetscInt n;
   PetscFunctionBeginUser;
   PetscCall(MatGetSize(A, &n, nullptr));
-  std::vector<int64_t> start(n + 1, 0), columns;
-  std::vector<double> values;
+  csr->n = n;
+  csr->start.assign(n + 1, 0);
+  csr->column.clear();
+  csr->value.clear();
   for (PetscInt i = 0; i < n; ++i) {
     PetscInt nc;
     const PetscInt* c;
     const PetscScalar* v;
     PetscCall(MatGetRow(A, i, &nc, &c, &v));
     for (PetscInt k = 0; k < nc; ++k)
-      if (c[k] >= i) {
-        columns.push_back(c[k]);
-        values.push_back(v[k]);
+      if (!upper || c[k] >= i) {
+        csr->column.push_back(c[k]);
+        csr->value.push_back(v[k]);
       }
-    start[i + 1] = static_cast<int64_t>(columns.size());
+    csr->start[i + 1] = static_cast<int64_t>(csr->column.size());
     PetscCall(MatRestoreRow(A, i, &nc, &c, &v));
   }
+  PetscFunctionReturn(0);
+}
+
+// A's rows handed to SupernodalCholesky, which reads their upper triangle.
+PetscErrorCode FactoredSystem::factor_supernodal(Mat A, CholeskyAnalysis* analysis) {
+  SymmetricCsr a;
+  PetscFunctionBeginUser;
+  PetscCall(rows_of(A, true, &a));
   supernodal_ = std::make_unique<SupernodalCholesky>();
-  const SupernodalCholesky::Status status = supernodal_->factor(n, start.data(), columns.data(), values.data(), 0, nullptr, analysis);
+  const SupernodalCholesky::Status status =
+      supernodal_->factor(a.n, a.start.data(), a.column.data(), a.value.data(), 0, nullptr, analysis);
   if (status != SupernodalCholesky::Status::ok) supernodal_.reset();
   if (status == SupernodalCholesky::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
   PetscCheck(status != SupernodalCholesky::Status::out_of_memory, PETSC_COMM_SELF, PETSC_ERR_MEM,
              "the Cholesky factorization of the constant matrix by CHOLMOD (supernodal) ran out of memory");
   PetscCheck(status == SupernodalCholesky::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
              "the Cholesky factorization of the constant matrix by CHOLMOD (supernodal) failed");
+  PetscFunctionReturn(0);
+}
+
+// The same factor held by a TopologyH0 (it keeps A's both triangles, for the changes to come).
+PetscErrorCode FactoredSystem::factor_topology(Mat A) {
+  SymmetricCsr a;
+  PetscFunctionBeginUser;
+  PetscCall(rows_of(A, false, &a));
+  topology_ = std::make_unique<TopologyH0>();
+  const TopologyH0::Status status = topology_->setup(std::move(a), max_touched_);
+  if (status != TopologyH0::Status::ok) topology_.reset();
+  if (status == TopologyH0::Status::not_positive_definite) PetscCall(not_positive_definite(kind_, package_));
+  PetscCheck(status == TopologyH0::Status::ok, PETSC_COMM_SELF, PETSC_ERR_LIB,
+             "the Cholesky factorization of the constant matrix by CHOLMOD (supernodal) failed");
+  topology_ids_ = row_ids_;
+  topology_row_.clear();
   PetscFunctionReturn(0);
 }
 
@@ -204,6 +235,13 @@ PetscErrorCode FactoredSystem::factor(Mat A, CholeskyAnalysis* analysis) {
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
+  PetscMPIInt ranks;
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A_), &ranks));
+  const bool supernodal = package_ == FactorPackage::supernodal || package_ == FactorPackage::split;
+  if (supernodal && ranks == 1 && components_ == 1 && !row_ids_.empty()) {  // a scene with cuts
+    PetscCall(factor_topology(A));
+    PetscFunctionReturn(0);
+  }
   if (package_ == FactorPackage::supernodal) {
     PetscCall(factor_supernodal(A, analysis));
     PetscFunctionReturn(0);
@@ -322,7 +360,7 @@ PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyAnalysis* analysis) {
+PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyAnalysis* analysis, bool corrected) {
   PetscInt n, N, m, M;
   const int components = components_;
   PetscFunctionBeginUser;
@@ -338,9 +376,10 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
   // The V-cycle and the split factor stay distributed.
   const bool gathered = size > 1 && package != FactorPackage::amg && package != FactorPackage::split;
   const double before = event_seconds(log_events().h0_factor);
-  PetscCall(event_begin(&LogEvents::h0_factor));
+  if (!corrected) PetscCall(event_begin(&LogEvents::h0_factor));
   Mat factored = A_;
-  if (package == FactorPackage::amg) {
+  if (corrected) {  // follow's correction is the inverse
+  } else if (package == FactorPackage::amg) {
     PetscCall(setup_amg());
   } else if (gathered) {  // gathered to rank 0, for reproducible solves (see the header)
     IS all;
@@ -352,7 +391,7 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
     PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
   }
   PetscErrorCode ierr = 0;
-  if (package != FactorPackage::amg && (!gathered || rank == 0)) ierr = factor(factored, analysis);
+  if (!corrected && package != FactorPackage::amg && (!gathered || rank == 0)) ierr = factor(factored, analysis);
   if (gathered) {  // an error on rank 0 (e.g. a bad -h0_mat_*_* value) must stop every rank
     int failed = ierr != 0, any = 0;
     PetscCallMPI(MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm));
@@ -360,15 +399,18 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
     PetscCheck(!any, PETSC_COMM_SELF, PETSC_ERR_LIB, "the factorization of the constant matrix failed on rank 0");
   }
   PetscCall(ierr);
-  PetscCall(event_end(&LogEvents::h0_factor));
-  ++factorizations_;
-  factor_s_ = event_seconds(log_events().h0_factor) - before;
+  if (!corrected) {
+    PetscCall(event_end(&LogEvents::h0_factor));
+    ++factorizations_;
+    factor_s_ = event_seconds(log_events().h0_factor) - before;
+  }
   MatInfo factor_info;
   if (factor_) {
     PetscCall(MatGetInfo(factor_, MAT_LOCAL, &factor_info));
     factor_nonzeros_ = factor_info.nz_used;
   }
   if (supernodal_) factor_nonzeros_ = static_cast<double>(supernodal_->nonzeros());
+  if (topology_) factor_nonzeros_ = static_cast<double>(topology_->factor_nonzeros());
   if (split_) factor_nonzeros_ = split_->nonzeros();  // already the sum over the ranks
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // gathered: rank 0's
 
@@ -389,7 +431,7 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
     PetscCall(VecScatterCreateToZero(layout, &to_zero_, &b0_));
     PetscCall(VecDestroy(&layout));
     PetscCall(VecDuplicate(b0_, &x0_));
-    if (components == 1 && rank == 0 && !supernodal_) {  // MatMatSolve's columns (supernodal solves in place)
+    if (components == 1 && rank == 0 && !supernodal_ && !topology_) {  // MatMatSolve's columns (supernodal solves in place)
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &rhs0_));
       PetscCall(MatCreateSeqDense(PETSC_COMM_SELF, N, 3, nullptr, &sol0_));
     }
@@ -447,14 +489,24 @@ PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<Pets
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
-  if (split_ || supernodal_) {  // the dof layout is the interleaved one: no copies
+  if (split_ || supernodal_ || topology_) {  // the dof layout is the interleaved one: no copies
     const PetscScalar* in;
     PetscScalar* out;
     PetscCall(VecGetArrayRead(b, &in));
     PetscCall(VecGetArrayWrite(x, &out));
     if (split_)  // this rank's rows, every rank
       PetscCall(split_->solve(in, out));
-    else
+    else if (topology_ && topology_row_.empty())
+      topology_->solve(3, in, out);
+    else if (topology_) {  // in topology_'s rows and back
+      const size_t rows = topology_row_.size();
+      topology_work_.resize(3 * rows);
+      for (size_t r = 0; r < rows; ++r)
+        for (int c = 0; c < 3; ++c) topology_work_[3 * topology_row_[r] + c] = in[3 * r + c];
+      topology_->solve(3, topology_work_.data(), topology_work_.data());
+      for (size_t r = 0; r < rows; ++r)
+        for (int c = 0; c < 3; ++c) out[3 * r + c] = topology_work_[3 * topology_row_[r] + c];
+    } else
       supernodal_->solve(components_ == 1 ? 3 : 1, in, out);
     PetscCall(VecRestoreArrayWrite(x, &out));
     PetscCall(VecRestoreArrayRead(b, &in));
@@ -479,7 +531,7 @@ PetscErrorCode FactoredSystem::solve(Vec b, Vec x) const {
   if (to_zero_) {  // more than one rank: solved on rank 0
     PetscCall(VecScatterBegin(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
     PetscCall(VecScatterEnd(to_zero_, b, b0_, INSERT_VALUES, SCATTER_FORWARD));
-    if (factor_ || supernodal_) PetscCall(solve_here(b0_, x0_));
+    if (factor_ || supernodal_ || topology_) PetscCall(solve_here(b0_, x0_));
     PetscCall(VecScatterBegin(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(to_zero_, x0_, x, INSERT_VALUES, SCATTER_REVERSE));
   } else {
@@ -503,6 +555,146 @@ PetscErrorCode FactoredSystem::mult(Vec x, Vec y) const {
     PetscFunctionReturn(0);
   }
   PetscCall(by_columns(x, y, [this](Vec in, Vec out) { return MatMult(A_, in, out); }));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& step, FactorPackage package,
+                                      std::vector<int64_t> row_ids, const TopologyCheck& check, bool* corrected) {
+  PetscFunctionBeginUser;
+  *corrected = false;
+  kind_ = before.kind_;
+  components_ = kind_ == ConstantMatrix::laplacian && !step.holds_components() ? 1 : 3;
+  set_row_ids(std::move(row_ids), check.max_touched);
+  PetscCall(event_begin(&LogEvents::h0_assembly));
+  PetscCall(step.assemble_constant_matrix(&A_, components_, kind_));
+  PetscCall(event_end(&LogEvents::h0_assembly));
+  if (before.topology_ && components_ == 1 && !row_ids_.empty()) PetscCall(correct_from(before, check, corrected));
+  if (*corrected) {
+    package_ = before.package_;
+    PetscCall(factor_assembled(package_, nullptr, true));
+    if (check.check) PetscCall(check_correction());
+  } else {
+    PetscCall(factor_assembled(package));
+  }
+  PetscFunctionReturn(0);
+}
+
+// The change as edits of before's TopologyH0: its matrix C (the factored one and every change
+// since) and A_ in its rows, B; every entry where B - C is not zero is an edit (rows no element
+// of the cut touched are assembled from the same elements in the same order, so they are equal
+// bit for bit and stay out of T). A vertex of A_ that C does not have is a new vertex (a copy),
+// numbered in the order of A_'s rows. Not corrected: a vertex of C missing from A_, or more rows
+// touched than max_touched (the size trigger: the caller factors A_ anew).
+PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const TopologyCheck& check, bool* corrected) {
+  PetscFunctionBeginUser;
+  std::unique_ptr<TopologyH0> h0 = std::move(before.topology_);
+  std::vector<int64_t> ids = before.topology_ids_;
+  const int64_t old_rows = h0->size(), rows = static_cast<int64_t>(row_ids_.size());
+  std::unordered_map<int64_t, int64_t> old_row_of;
+  for (int64_t k = 0; k < old_rows; ++k) old_row_of.emplace(ids[k], k);
+  std::vector<int64_t> row(rows, -1);
+  int64_t kept = 0;
+  for (int64_t r = 0; r < rows; ++r) {
+    const auto it = old_row_of.find(row_ids_[r]);
+    if (it != old_row_of.end()) row[r] = it->second, ++kept;
+  }
+  if (kept != old_rows) PetscFunctionReturn(0);  // a vertex left the free rows: factor anew
+  const SymmetricCsr C = h0->changed_matrix();
+  for (int64_t r = 0; r < rows; ++r)
+    if (row[r] < 0) {
+      row[r] = h0->add_vertex();
+      ids.push_back(row_ids_[r]);
+    }
+  // B's rows in h0's order, each merged with C's: the upper triangle's differences.
+  std::vector<int64_t> scene_row(rows);
+  for (int64_t r = 0; r < rows; ++r) scene_row[row[r]] = r;
+  struct Edit {
+    int64_t i, j;
+    double delta;
+  };
+  std::vector<Edit> edits;
+  std::vector<std::pair<int64_t, double>> b;
+  for (int64_t i = 0; i < rows; ++i) {
+    PetscInt nc;
+    const PetscInt* c;
+    const PetscScalar* v;
+    PetscCall(MatGetRow(A_, scene_row[i], &nc, &c, &v));
+    b.clear();
+    for (PetscInt k = 0; k < nc; ++k)
+      if (row[c[k]] >= i) b.push_back({row[c[k]], v[k]});
+    PetscCall(MatRestoreRow(A_, scene_row[i], &nc, &c, &v));
+    std::sort(b.begin(), b.end());
+    size_t q = 0;
+    int64_t p = i < old_rows ? C.start[i] : 0;
+    const int64_t end = i < old_rows ? C.start[i + 1] : 0;
+    while (p < end && C.column[p] < i) ++p;
+    while (q < b.size() || p < end) {
+      const int64_t j = q < b.size() && (p >= end || b[q].first <= C.column[p]) ? b[q].first : C.column[p];
+      const double bij = q < b.size() && b[q].first == j ? b[q++].second : 0.0;
+      const double cij = p < end && C.column[p] == j ? C.value[p++] : 0.0;
+      if (bij != cij) edits.push_back({i, j, bij - cij});
+    }
+  }
+  if (check.drop_edit) {  // the largest off-diagonal one
+    size_t largest = edits.size();
+    for (size_t k = 0; k < edits.size(); ++k)
+      if (edits[k].i != edits[k].j && (largest == edits.size() || std::fabs(edits[k].delta) > std::fabs(edits[largest].delta)))
+        largest = k;
+    if (largest < edits.size()) edits.erase(edits.begin() + largest);
+  }
+  for (const Edit& e : edits) h0->add_entry(e.i, e.j, e.delta);
+  if (h0->pending_touched() > h0->max_touched()) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::h0_correct));
+  const TopologyH0::Status status = h0->commit();
+  PetscCall(event_end(&LogEvents::h0_correct));
+  if (status != TopologyH0::Status::ok) PetscFunctionReturn(0);  // factored anew, which says why
+  topology_ = std::move(h0);
+  topology_ids_ = std::move(ids);
+  topology_row_ = std::move(row);
+  *corrected = true;
+  PetscFunctionReturn(0);
+}
+
+// The corrected inverse against a fresh factorization of A_ on 2 x 3 random vectors (a fixed
+// seed): the largest relative difference, printed.
+PetscErrorCode FactoredSystem::check_correction() const {
+  SymmetricCsr a;
+  SupernodalCholesky fresh;
+  PetscFunctionBeginUser;
+  PetscCall(rows_of(A_, true, &a));
+  PetscCheck(fresh.factor(a.n, a.start.data(), a.column.data(), a.value.data()) == SupernodalCholesky::Status::ok,
+             PETSC_COMM_SELF, PETSC_ERR_LIB, "the check's factorization of the changed matrix failed");
+  std::mt19937_64 random(44);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Vec b, x;
+  PetscCall(MatCreateVecs(shell_, &b, &x));
+  double worst = 0;
+  for (int draw = 0; draw < 2; ++draw) {
+    PetscScalar* in;
+    PetscCall(VecGetArrayWrite(b, &in));
+    for (int64_t k = 0; k < 3 * a.n; ++k) in[k] = uniform(random);
+    PetscCall(VecRestoreArrayWrite(b, &in));
+    PetscCall(solve_here(b, x));
+    const PetscScalar *bin, *xin;
+    std::vector<double> y(3 * a.n);
+    PetscCall(VecGetArrayRead(b, &bin));
+    fresh.solve(3, bin, y.data());
+    PetscCall(VecRestoreArrayRead(b, &bin));
+    PetscCall(VecGetArrayRead(x, &xin));
+    double diff = 0, norm = 0;
+    for (int64_t k = 0; k < 3 * a.n; ++k) {
+      diff += (xin[k] - y[k]) * (xin[k] - y[k]);
+      norm += y[k] * y[k];
+    }
+    PetscCall(VecRestoreArrayRead(x, &xin));
+    worst = std::fmax(worst, std::sqrt(diff / norm));
+  }
+  PetscCall(VecDestroy(&b));
+  PetscCall(VecDestroy(&x));
+  PetscCall(PetscPrintf(PETSC_COMM_SELF,
+                        "hyperqn: topology H0 check: %lld rows touched since the factorization, relative difference "
+                        "%.3e from a fresh factorization\n",
+                        (long long)topology_->touched(), worst));
   PetscFunctionReturn(0);
 }
 

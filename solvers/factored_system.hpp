@@ -23,11 +23,13 @@
 
 #include <functional>
 #include <memory>
+#include <vector>
 
 #include "solvers/interleaved_vcycle.hpp"
 #include "solvers/objective.hpp"
 #include "solvers/split_cholesky.hpp"
 #include "solvers/supernodal_cholesky.hpp"
+#include "solvers/topology_h0.hpp"
 
 namespace hyperqn {
 
@@ -67,6 +69,15 @@ inline bool splits_on_many_ranks(FactorPackage package) {
 // 1, A1 of A = A1 (x) I3, whose diagonal is the same for x, y and z).
 PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components);
 
+// What follow() does beside the correction (tests and the check of docs/topology.md): check, the
+// corrected solve against a fresh factorization of the changed matrix on random vectors (printed);
+// drop_edit, the largest off-diagonal entry of the change left out (the check must see it).
+// max_touched: TopologyH0's size trigger (0: its default), smaller in tests to reach it.
+struct TopologyCheck {
+  bool check = false, drop_edit = false;
+  int64_t max_touched = 0;
+};
+
 class FactoredSystem {
  public:
   FactoredSystem() = default;
@@ -86,6 +97,23 @@ class FactoredSystem {
   // diagonal). With `analysis` (kept by the caller from one such setup to the next) the supernodal
   // and split packages analyse the pattern once (CholeskyAnalysis); the others ignore it.
   PetscErrorCode setup(const FactoredSystem& base, Vec extra_diagonal, CholeskyAnalysis* analysis = nullptr);
+  // A scene whose topology may change (deck cuts:, docs/topology.md): before setup, the vertex id
+  // of each row of A1 (one rank; the constant matrix follows vertices by id across a cut). The
+  // supernodal factor of A1 (the Laplacian without rollers) is then held by a TopologyH0, whose
+  // solve with no change is the plain factor's, bit for bit.
+  void set_row_ids(std::vector<int64_t> row_ids, int64_t max_touched = 0) {
+    row_ids_ = std::move(row_ids);
+    max_touched_ = max_touched > 0 ? max_touched : TopologyH0::kDefaultMaxTouched;
+  }
+  // The scene changed by a cut: this system is set up for `step` (A assembled, row ids as above)
+  // and, where `before` holds a TopologyH0, takes it over: the change A' - A, mapped to its rows by
+  // vertex id (a copy is a new vertex), becomes its edits and one commit (*corrected = true).
+  // Otherwise (another package, kind or rank count, rollers, or more than TopologyH0::max_touched
+  // rows touched since the last factorization) A' is factored as setup would with `package`.
+  PetscErrorCode follow(FactoredSystem& before, const Objective& step, FactorPackage package, std::vector<int64_t> row_ids,
+                        const TopologyCheck& check, bool* corrected);
+  // Whether this system's inverse is a TopologyH0's (a cut can be followed by a correction).
+  bool follows_topology() const { return topology_ != nullptr; }
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
@@ -117,7 +145,12 @@ class FactoredSystem {
  private:
   PetscErrorCode add_diagonal(Vec extra_diagonal);  // to A_ (nothing if null)
   // The rest of setup once A_ is assembled: the factorization or the V-cycle, the shell.
-  PetscErrorCode factor_assembled(FactorPackage package, CholeskyAnalysis* analysis = nullptr);
+  // corrected: the inverse is already in place (follow's correction): no factorization.
+  PetscErrorCode factor_assembled(FactorPackage package, CholeskyAnalysis* analysis = nullptr, bool corrected = false);
+  PetscErrorCode factor_topology(Mat A);  // A_ into topology_ (one rank)
+  // follow's correction: takes before's TopologyH0 and commits A_ - its matrix (*corrected: it did).
+  PetscErrorCode correct_from(FactoredSystem& before, const TopologyCheck& check, bool* corrected);
+  PetscErrorCode check_correction() const;  // TopologyCheck::check
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A, CholeskyAnalysis* analysis);
   PetscErrorCode factor_supernodal(Mat A, CholeskyAnalysis* analysis);
@@ -136,6 +169,12 @@ class FactoredSystem {
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
+  std::unique_ptr<TopologyH0> topology_;                   // instead of supernodal_ in a scene with cuts
+  std::vector<int64_t> row_ids_;       // per row of A1: its vertex id (empty: topology_ not used)
+  int64_t max_touched_ = TopologyH0::kDefaultMaxTouched;  // topology_'s size trigger
+  std::vector<int64_t> topology_ids_;  // per row of topology_: its vertex id (the rows it had, then its new vertices)
+  std::vector<int64_t> topology_row_;  // per row of A1: its row of topology_ (empty: the same)
+  mutable std::vector<double> topology_work_;  // a solve's right-hand side in topology_'s rows
   KSP ksp_ = nullptr;                                      // instead of a factor for amg
   std::unique_ptr<InterleavedVCycle> interleaved_;         // amg with GAMG's default smoothers
   Mat rhs_ = nullptr, sol_ = nullptr;  // Laplacian: n x 3 dense work matrices

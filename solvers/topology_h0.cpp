@@ -50,6 +50,30 @@ void TopologyH0::add_element(int count, const int64_t* vertices, const double* K
   pending_ = true;
 }
 
+int64_t TopologyH0::add_vertex() {
+  const int64_t v = size();
+  ++pending_vertices_;
+  pending_ = true;
+  return v;
+}
+
+void TopologyH0::add_entry(int64_t i, int64_t j, double delta) {
+  if (i < 0 || i >= size() || j < 0 || j >= size()) throw std::out_of_range("TopologyH0::add_entry: no such vertex");
+  edits_[{i, j}] += delta;
+  if (i != j) edits_[{j, i}] += delta;
+  pending_ = true;
+}
+
+int64_t TopologyH0::pending_touched() const {
+  int64_t t = 0, last = -1;
+  for (const auto& [key, value] : edits_)
+    if (key.first != last) {
+      ++t;
+      last = key.first;
+    }
+  return t;
+}
+
 int64_t TopologyH0::slot_of(int64_t row) {
   const auto [it, added] = slot_.emplace(row, slots_);
   if (added) ++slots_;

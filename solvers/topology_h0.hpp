@@ -61,6 +61,11 @@ class TopologyH0 {
   // Edits of A' (see above), in order; none applies to solve() before commit().
   int64_t duplicate_vertex(int64_t vertex, double mass_moved);  // the new vertex's index
   void add_mass(int64_t vertex, double delta);
+  // A new vertex whose row comes entirely from later edits (add_entry), e.g. a cut's copy when
+  // the change is given as the difference of two assembled matrices; its index.
+  int64_t add_vertex();
+  // A'(i, j) and A'(j, i) += delta (once if i == j).
+  void add_entry(int64_t i, int64_t j, double delta);
   // A'(v_a, v_b) += scale K[a count + b] for the element's `count` vertices (K row-major, symmetric).
   void add_element(int count, const int64_t* vertices, const double* K, double scale);
 
@@ -77,9 +82,12 @@ class TopologyH0 {
   SymmetricCsr changed_matrix() const;
 
   int64_t touched() const { return static_cast<int64_t>(touched_.size()); }  // t at the last commit
+  int64_t pending_touched() const;  // t if commit() were called now (> max_touched: it would refactor)
+  int64_t max_touched() const { return max_touched_; }
   int refactorizations() const { return refactorizations_; }                 // by commit() or refactor()
   int64_t columns_computed() const { return columns_computed_; }             // sparse forward solves since setup
   int64_t correction_nonzeros() const;                                       // nnz(W) at the last commit
+  int64_t factor_nonzeros() const { return factor_.nonzeros(); }             // of the factor L
 
  private:
   int64_t slot_of(int64_t row);  // its place in G_ (the order rows were first touched)

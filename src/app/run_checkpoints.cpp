@@ -140,6 +140,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, run_.comm);
     h.vertex_slots = slots;
     h.vertices = s.mesh.global_vertices;
+    h.cuts_factored = run_.scene.factored_batches();
   }
   h.started_inverted = setup_.started_inverted;
   h.summary = run_.summary;
@@ -147,6 +148,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   h.summary.wall_s = MPI_Wtime() - setup_.t_start;
   add_earlier_work(h.summary, setup_.earlier);
   add_step_counters(h.summary, *s.step);  // as at the end of a run
+  h.summary.cut_h0_corrections += run_.scene.cut_counts().corrections;  // (0 in the summary until the run's end)
+  h.summary.cut_refactorizations += run_.scene.cut_counts().refactorizations;
   for (const auto& w : setup_.frames.writers())
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   h.history = state.x_prev ? 1 : 0;

@@ -267,7 +267,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
-        (restart && run.scene.restore_cuts(saved.cuts)) ||
+        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
         (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
@@ -387,7 +387,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     if (!run.scene.cut_history().empty()) summary.first_break_frame = run.scene.cut_history().front()[0];
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
-    summary.cut_batches = c.batches;
+    summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
+    summary.cut_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);
     summary.vertices = run.scene.current().mesh.global_vertices;
     summary.dofs = run.scene.current().mesh.global_dofs;

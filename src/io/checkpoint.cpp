@@ -57,6 +57,8 @@ const LongField kLongFields[] = {
     {"h0_solves", &RunSummary::h0_solves, true},
     {"hessian_assemblies", &RunSummary::hessian_assemblies, true},
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
+    {"cut_h0_corrections", &RunSummary::cut_h0_corrections, true},
+    {"cut_refactorizations", &RunSummary::cut_refactorizations, true},
 };
 const IntField kIntFields[] = {
     {"frames", &RunSummary::frames, false},
@@ -163,6 +165,7 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
     for (const auto& f : h.cuts)
       for (int64_t x : f) cuts += (cuts.empty() ? "" : " ") + std::to_string(x);
     head.put("cuts", cuts);
+    head.put("cuts_factored", h.cuts_factored);
   }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
@@ -255,6 +258,7 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     std::array<int64_t, 3> f;
     while (in >> f[0] >> f[1] >> f[2]) h.cuts.push_back(f);
     if (!in.eof()) throw std::runtime_error("its header's cuts are malformed");
+    h.cuts_factored = head.has("cuts_factored") ? head.get_long("cuts_factored") : -1;
   }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;

@@ -32,6 +32,7 @@ static LogEvents register_events() {
   add("hqnHessian", &e.hessian);
   add("hqnH0Assembly", &e.h0_assembly);
   add("hqnH0Factor", &e.h0_factor);
+  add("hqnH0Correct", &e.h0_correct);
   add("hqnH0Solve", &e.h0_solve);
   add("hqnH0Interface", &e.h0_interface);
   add("hqnStep", &e.step);

@@ -11,6 +11,7 @@ struct LogEvents {
   PetscLogEvent hessian;      // Newton: assembling M + h^2 K(x)
   PetscLogEvent h0_assembly;  // assembling A1 = M1 + h^2 L1
   PetscLogEvent h0_factor;    // its Cholesky factorization
+  PetscLogEvent h0_correct;   // instead of it after a cut: the change as TopologyH0's correction (docs/topology.md)
   PetscLogEvent h0_solve;     // one A^{-1} b (3 right-hand sides)
   PetscLogEvent h0_interface; // within it, the split factor's interface: its Allreduce and dense solve
   PetscLogEvent step;         // one time step's solve (solver iterations, line searches)

@@ -102,12 +102,13 @@ struct RunSummary {
   // them, and no entry in summary.json).
   double dissipated_energy = std::nan("");
   // Scripted cuts (deck cuts:; summary.json's "cuts" only with them): faces separated, vertices
-  // added, batches (each a rebuild of the scene with M + h^2 L factored again) and the time in the
-  // topology log event (finding, separating, rebuilding; a restart's replay included).
+  // added (a restart's replay included), the steps with separations whose H0 followed by a
+  // TopologyH0 correction and those that factored M + h^2 L again (docs/topology.md), and the time
+  // in the topology log event (finding, separating, rebuilding; a restart's replay included).
   bool cuts = false;
-  long long faces_separated = 0, cut_vertices = 0, cut_batches = 0;
+  long long faces_separated = 0, cut_vertices = 0, cut_h0_corrections = 0, cut_refactorizations = 0;
   // Fracture (material.fracture; summary.json's "fracture" only with it): the same counts (faces
-  // broken, vertices added, refactorizations: steps with breaks), and the frame at whose start faces first broke (-1: none).
+  // broken, vertices added, H0 corrections and refactorizations), and the frame at whose start faces first broke (-1: none).
   bool fracture = false;
   long long first_break_frame = -1;
   double topology_s = 0;

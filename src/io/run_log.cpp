@@ -218,13 +218,15 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << (std::isnan(s.dissipated_energy) ? "" : "  \"dissipated_energy\": " + number(s.dissipated_energy) + ",\n")
       << (!s.cuts ? "" : "  \"cuts\": {\"faces_separated\": " + std::to_string(s.faces_separated) +
                              ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
-                             ", \"refactorizations\": " + std::to_string(s.cut_batches) +
+                             ", \"h0_corrections\": " + std::to_string(s.cut_h0_corrections) +
+                             ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                              ", \"topology_s\": " + number(s.topology_s) + "},\n")
       << (!s.fracture ? "" : "  \"fracture\": {\"faces_broken\": " + std::to_string(s.faces_separated) +
                                  ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
                                  ", \"first_break_frame\": " +
                                  (s.first_break_frame < 0 ? std::string("null") : std::to_string(s.first_break_frame)) +
-                                 ", \"refactorizations\": " + std::to_string(s.cut_batches) +
+                                 ", \"h0_corrections\": " + std::to_string(s.cut_h0_corrections) +
+                                 ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                                  ", \"topology_s\": " + number(s.topology_s) + "},\n")
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"

@@ -448,6 +448,18 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
   if (releases || separates) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
   if (separates) {  // copies' ids come after every id of the input
+    PetscBool flag = PETSC_TRUE, set = PETSC_FALSE;
+    PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_topology_h0", &flag, &set));
+    follow_cuts_ = !set || flag;
+    flag = PETSC_FALSE;
+    PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_test_topology_h0_check", &flag, nullptr));
+    topology_check_.check = flag;
+    flag = PETSC_FALSE;
+    PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_test_topology_h0_drop_edit", &flag, nullptr));
+    topology_check_.drop_edit = flag;
+    PetscInt max_touched = 0;
+    PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-hyperqn_test_topology_h0_max_touched", &max_touched, nullptr));
+    topology_check_.max_touched = max_touched;
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
@@ -476,7 +488,20 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const {
+// Per row of the scene's vertex matrix A1 (a free vertex), its vertex id, on one rank (the rows a
+// TopologyH0 follows across cuts); empty on more.
+static std::vector<int64_t> row_ids(MPI_Comm comm, const DistributedMesh& mesh) {
+  int size;
+  MPI_Comm_size(comm, &size);
+  if (size > 1) return {};
+  std::vector<int64_t> ids(mesh.global_dofs / 3, -1);
+  for (PetscInt v = 0; v < mesh.num_vertices; ++v)
+    if (mesh.global_dof[v] >= 0) ids[mesh.global_dof[v] / 3] = mesh.vertex_ids[v];
+  return ids;
+}
+
+PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& released_attachments, Scene& s,
+                                Scene* before, bool* corrected) const {
   const SceneSpec& spec = *spec_;
   PetscFunctionBeginUser;
   PetscCall(event_begin(&LogEvents::scene));
@@ -504,13 +529,31 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.element_limit, spec.time.integrator, spec.time.pseudo_step);
   PetscCall(s.step->setup());
   PetscCall(s.body->set_masses(s.step->mass()));
-  for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric}) {  // in this order, each once
-    const bool wanted = std::any_of(options_.h0s.begin(), options_.h0s.end(),
-                                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; });
-    if (!wanted) continue;
+  std::vector<H0> wanted;
+  for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric})  // in this order, each once
+    if (std::any_of(options_.h0s.begin(), options_.h0s.end(),
+                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; }))
+      wanted.push_back(h0);
+  // With cuts, the supernodal factor of M + h^2 L on one rank is a TopologyH0's, and a cut's scene
+  // follows the one before by a correction: only with one constant matrix, so that every matrix
+  // of a scene was last factored at the same batch (what a restart replays from).
+  const std::vector<int64_t> ids = follow_cuts_ ? row_ids(comm_, s.mesh) : std::vector<int64_t>();
+  FactoredSystem* followed = nullptr;
+  if (before && wanted.size() == 1 && before->constant_matrices.size() == 1 && before->constant_matrices.count(wanted[0]))
+    followed = before->constant_matrices.at(wanted[0]).get();
+  if (corrected) *corrected = false;
+  for (H0 h0 : wanted) {
     auto& matrix = s.constant_matrices[h0];
     matrix = std::make_unique<FactoredSystem>();
-    PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), h0 == H0::amg ? FactorPackage::amg : options_.h0_package));
+    const FactorPackage package = h0 == H0::amg ? FactorPackage::amg : options_.h0_package;
+    if (followed && followed->follows_topology() && !ids.empty()) {
+      bool done = false;
+      PetscCall(matrix->follow(*followed, *s.step, package, ids, topology_check_, &done));
+      if (corrected) *corrected = done;
+    } else {
+      matrix->set_row_ids(ids, topology_check_.max_touched);
+      PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), package));
+    }
   }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);
@@ -602,7 +645,7 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, 
 }
 
 PetscErrorCode LiveScene::rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
-                                  std::unique_ptr<Scene>& fresh) const {
+                                  std::unique_ptr<Scene>& fresh, Scene* before, bool* corrected) const {
   PetscFunctionBeginUser;
   SceneInput input = kept_;
   for (int32_t& f : input.fixed)
@@ -614,7 +657,7 @@ PetscErrorCode LiveScene::rebuild(const std::vector<char>& regions, const std::v
   for (size_t k = 0; k < spec_->fixed.size(); ++k) input.rollers = input.rollers || (is_roller(spec_->fixed[k]) && !regions[k]);
   if (!input.rollers) input.held.clear();  // no roller left: the scene runs as one without
   fresh = std::make_unique<Scene>();
-  PetscCall(build(std::move(input), attachments, *fresh));
+  PetscCall(build(std::move(input), attachments, *fresh, before, corrected));
   PetscFunctionReturn(0);
 }
 
@@ -626,8 +669,19 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   kept_changed_ = false;
   for (char r : regions) any = any || r;
   for (char a : attachments) any = any || a;
-  if (!any) PetscFunctionReturn(0);
-  PetscCall(rebuild(regions, attachments, scene_));
+  if (any) PetscCall(rebuild(regions, attachments, scene_));
+  // The batches the run followed by corrections, each as the run did (every release was before
+  // them: a release factors again).
+  if (replay_.empty()) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  for (const auto& [frame, batch] : replay_) {
+    separate(frame, batch);
+    std::unique_ptr<Scene> fresh;
+    PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
+    scene_ = std::move(fresh);
+  }
+  replay_.clear();
+  PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
 
@@ -666,6 +720,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
     s->released_attachments = main.released_attachments;
   }
   last_change_cut_ = false;
+  factored_batches_ = counts_.batches;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
   PetscFunctionReturn(0);
@@ -717,9 +772,26 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     PetscFunctionReturn(0);
   }
   *cut = true;
+  PetscCall(separate_due(batch, main, others, rebind));
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
+                                       const Rebind& rebind) {
+  const double t = main.frame * spec_->time.dt;
+  PetscFunctionBeginUser;
   const std::vector<int32_t> source = separate(main.frame, batch);
   std::unique_ptr<Scene> fresh;
-  PetscCall(rebuild(main.released, main.released_attachments, fresh));
+  bool corrected = false;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), &corrected));
+  last_cut_corrected_ = corrected;
+  if (corrected) {
+    ++counts_.corrections;
+  } else {
+    ++counts_.refactorizations;
+    factored_batches_ = counts_.batches;
+  }
   fresh->body->set_time(t);
   fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main, source));
@@ -731,24 +803,29 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   last_change_cut_ = true;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
-  PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history) {
+PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
   PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
              "the checkpoint has separated faces and the deck has neither cuts nor fracture");
   PetscCall(event_begin(&LogEvents::topology));
-  for (size_t i = 0; i < history.size();) {
+  long long batches = 0;
+  for (size_t i = 0; i < history.size(); ++batches) {
     size_t j = i;
     std::vector<TetPair> batch;
     for (; j < history.size() && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
-    separate(history[i][0], batch);
+    if (factored < 0 || batches < factored) {
+      separate(history[i][0], batch);
+      kept_changed_ = true;
+    } else {
+      replay_.push_back({history[i][0], std::move(batch)});
+    }
     i = j;
   }
-  kept_changed_ = true;
+  factored_batches_ = factored < 0 ? batches : std::min(factored, batches);
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }

@@ -117,21 +117,32 @@ class LiveScene {
 
   // Scripted cuts (spec.cuts, docs/topology.md). Called before the step from main, after
   // release_due: the interior faces whose dual edge a blade crossed over the step before, [t - h, t]
-  // at main's positions x(t) (model/cuts.hpp), separate on the kept pieces (mesh/separation.hpp),
-  // the scene is rebuilt on them as for a release (M + h^2 L factored again), and main and every
-  // state in others move to it (a copy with its original's position and velocity). Nothing
-  // happens, and the topology log event is not begun, in a scene without cuts. *cut: it happened.
+  // at main's positions x(t) (model/cuts.hpp), are separated by separate_due. Nothing happens, and
+  // the topology log event is not begun, in a scene without cuts. *cut: it happened.
   PetscErrorCode cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut);
+  // Whatever decided them (blades, a fracture criterion): the interior faces `batch` (tet pairs,
+  // sorted, none separated before) separate on the kept pieces at the start of main's frame
+  // (mesh/separation.hpp), the scene is rebuilt on them and main and every state in others move to
+  // it (a copy with its original's position and velocity), as for a release. Its constant matrix
+  // follows by a TopologyH0 correction where it can (FactoredSystem::follow), else is factored
+  // again. The caller has begun the topology log event.
+  PetscErrorCode separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
+                              const Rebind& rebind);
   // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers).
   using SeparatedFace = std::array<int64_t, 3>;
   const std::vector<SeparatedFace>& cut_history() const { return history_; }
   // A restart: the checkpoint's cut history replayed on the kept pieces, batch by batch as the run
-  // made them (so the same vertex numbers), before restore_released, which then rebuilds.
-  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history);
-  // Totals so far (a restart's replay included): faces separated, vertices added, batches (each one
-  // rebuild and refactorization of the scene).
+  // made them (so the same vertex numbers), before restore_released, which then rebuilds. The
+  // batches after the first `factored` (those the run followed by corrections, -1: none) are kept
+  // for restore_released, which replays them as the run did: the scene rebuilt after each, its
+  // constant matrix corrected, so the restart starts from the run's operator bit for bit.
+  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history, long long factored = -1);
+  // Totals so far: faces separated, vertices added, batches (each a rebuild of the scene; a
+  // restart's replay included); of this run's batches (not replayed), those whose constant matrix
+  // followed by a correction and those that factored it again.
   struct CutCounts {
     long long faces = 0, vertices = 0, batches = 0;
+    long long corrections = 0, refactorizations = 0;
   };
   const CutCounts& cut_counts() const { return counts_; }
   // A material of the scene has a fracture criterion (material.fracture): its overloaded faces
@@ -139,13 +150,19 @@ class LiveScene {
   bool fracture() const { return !fracture_.empty(); }
   // The last change of the scene was a cut (not a release): for messages.
   bool last_change_cut() const { return last_change_cut_; }
+  bool last_cut_corrected() const { return last_cut_corrected_; }  // and its H0 followed by a correction
+  // The batches separated in the scene whose constant matrix was last factored (a checkpoint's
+  // cuts_factored).
+  long long factored_batches() const { return factored_batches_; }
 
  private:
-  // The scene without the attachments marked in released_attachments.
-  PetscErrorCode build(SceneInput input, const std::vector<char>& released_attachments, Scene& s) const;
+  // The scene without the attachments marked in released_attachments. before (a cut): the scene it
+  // replaces, whose constant matrix it follows where it can (*corrected: it did).
+  PetscErrorCode build(SceneInput input, const std::vector<char>& released_attachments, Scene& s,
+                       Scene* before = nullptr, bool* corrected = nullptr) const;
   // The scene rebuilt from the kept input with these regions free and attachments gone.
   PetscErrorCode rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
-                         std::unique_ptr<Scene>& fresh) const;
+                         std::unique_ptr<Scene>& fresh, Scene* before = nullptr, bool* corrected = nullptr) const;
 
   // One batch of faces separated at the start of `frame` on kept_ (history and counts follow); the
   // source of each local vertex after it (mesh/separation.hpp).
@@ -159,7 +176,13 @@ class LiveScene {
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
   bool kept_changed_ = false;  // restore_cuts changed kept_: restore_released rebuilds
-  bool last_change_cut_ = false;
+  bool last_change_cut_ = false, last_cut_corrected_ = false;
+  long long factored_batches_ = 0;
+  std::vector<std::pair<int64_t, std::vector<TetPair>>> replay_;  // restore_cuts' (frame, batch) for restore_released
+  // -hyperqn_topology_h0 (default true: constant matrices follow cuts by corrections where they
+  // can; false: factored again at every cut) and its test hooks (TopologyCheck).
+  bool follow_cuts_ = true;
+  TopologyCheck topology_check_;
   SceneOptions options_;
   SceneInput kept_;  // this rank's input, if a region is released later
   std::unique_ptr<Scene> scene_;

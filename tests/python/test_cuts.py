@@ -1,9 +1,11 @@
 """Scripted cuts (deck cuts:, docs/topology.md), end to end: the bar sliced by a blade; mass,
 momentum and energy across cuts; 1, 2 and 4 ranks with the cut crossing the partition boundary;
-a restart after cuts equals the uninterrupted run bit for bit; a deck without cuts runs no
-topology code; bad cut decks are refused."""
+H0 follows the cuts by TopologyH0's corrections on one rank (checked against fresh factorizations
+in the run); a restart after cuts, and after a kill, equals the uninterrupted run bit for bit; a
+deck without cuts runs no topology code; bad cut decks are refused."""
 import copy
 import os
+import re
 
 import numpy as np
 import pytest
@@ -12,6 +14,8 @@ from conftest import event_count, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import frame_lumped_masses as lumped_masses, neohookean_energies
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_iterations, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
+from test_checkpoint import assert_same_run
+from test_checkpoint_faults import killed
 
 TIGHT = {"type": "lbfgs", "iterations": 300, "max_iterations": 300, "grad_rtol": 1e-12, "grad_atol": 0}
 MATERIAL = {"model": "neohookean", "youngs_modulus": 5.0e5, "poisson_ratio": 0.3, "density": 1000}
@@ -67,7 +71,8 @@ def components(frame):
 def test_bar_is_sliced_apart(tmp_path):
     out, s = run_deck(tmp_path, "bar", BAR)
     assert s["cuts"]["faces_separated"] >= 8 and s["cuts"]["vertices_added"] > 0
-    assert s["cuts"]["refactorizations"] >= 1 and s["factorizations"] == 1 + s["cuts"]["refactorizations"]
+    # One rank, supernodal: every step with separations corrects H0 (no refactorization).
+    assert s["cuts"]["h0_corrections"] >= 2 and s["cuts"]["refactorizations"] == 0 and s["factorizations"] == 1
     first, last = Frame(frame_list(out)[0][2]), final_frame(out)
     assert len(last.points) == len(first.points) + s["cuts"]["vertices_added"] == s["vertices"]
     assert components(first) == 1 and components(last) == 2
@@ -135,7 +140,12 @@ def test_ranks_agree_with_the_cut_on_the_partition_boundary(tmp_path, ranks):
     one, s1 = run_deck(tmp_path, "one", BAR)
     many, sn = run_deck(tmp_path, f"np{ranks}", BAR, ranks=ranks)
     assert sn["ranks"] == ranks
-    assert s1["cuts"] == {**sn["cuts"], "topology_s": s1["cuts"]["topology_s"]}
+    same = ["faces_separated", "vertices_added"]
+    assert {k: s1["cuts"][k] for k in same} == {k: sn["cuts"][k] for k in same}
+    # more ranks (the split factor) factor again at every step with separations, one rank corrects
+    steps = s1["cuts"]["h0_corrections"] + s1["cuts"]["refactorizations"]
+    assert sn["cuts"]["refactorizations"] == steps and sn["cuts"]["h0_corrections"] == 0
+    assert sn["factorizations"] == 1 + steps and s1["factorizations"] == 1
     a, b = final_frame(one), final_frame(many)
     assert np.array_equal(a.vertex_id, b.vertex_id)
     assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
@@ -156,6 +166,8 @@ def test_restart_after_cuts_is_bitwise(tmp_path, ranks):
     from hyperqn_tools.output import read_checkpoint
     saved = read_checkpoint(out / "checkpoints" / "checkpoint_10.h5")
     assert "cuts" in saved  # the checkpoint was written after cuts
+    # one rank: the restart replays the corrected batches from the uncut scene's factor
+    assert saved["cuts_factored"] == (0 if ranks is None else len({f for f in saved["cuts"].split()[::3]}))
     done = run_hyperqn([write_deck(tmp_path / "ref.yaml", BAR), "-o", out, "--restart", "latest"], ranks=ranks)
     assert "restart from" in done.stdout
     a, b = final_frame(ref), final_frame(out)
@@ -165,6 +177,84 @@ def test_restart_after_cuts_is_bitwise(tmp_path, ranks):
     assert strip(read_iterations(ref)) == strip(read_iterations(out))
     sa, sb = read_summary(ref), read_summary(out)
     assert {k: v for k, v in sa["cuts"].items() if k != "topology_s"} == {k: v for k, v in sb["cuts"].items() if k != "topology_s"}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_kill_after_cuts_is_bitwise(tmp_path, ranks):
+    # Checkpoints every 3 frames, killed (SIGKILL) after frame 10: the last checkpoint (9) comes
+    # after several steps with separations, all corrected on one rank.
+    deck = copy.deepcopy(BAR)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "bar.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    out = tmp_path / "out"
+    killed(path, out, 10, ranks)
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert_same_run(ref, out)
+    sa, sb = read_summary(ref), read_summary(out)
+    assert {k: v for k, v in sa["cuts"].items() if k != "topology_s"} == {k: v for k, v in sb["cuts"].items() if k != "topology_s"}
+    assert sa["cuts"]["h0_corrections"] >= (2 if ranks is None else 0)
+
+
+def test_size_trigger_factors_again_and_a_restart_replays_from_there(tmp_path):
+    # A size trigger of 8 rows: the bar's 4 steps with separations touch 5, 12, 6 and 11 rows since
+    # the last factorization, so they go corrected, factored, corrected, factored. The checkpoint at
+    # frame 6 holds 3 batches, the scene of the first 2 factored: the restart factors that scene and
+    # replays the third batch as a correction, and then equals the uninterrupted run bit for bit.
+    trigger = ["-hyperqn_test_topology_h0_max_touched", "8"]
+    deck = copy.deepcopy(BAR)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "bar.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref, *trigger], ranks=None)
+    s = read_summary(ref)
+    assert (s["cuts"]["h0_corrections"], s["cuts"]["refactorizations"], s["factorizations"]) == (2, 2, 3)
+    out = tmp_path / "out"
+    killed(path, out, 7, None, trigger)
+    from hyperqn_tools.output import read_checkpoint
+    saved = read_checkpoint(out / "checkpoints" / "checkpoint_6.h5")
+    assert len(set(saved["cuts"].split()[::3])) == 3 and saved["cuts_factored"] == 2
+    run_hyperqn([path, "-o", out, "--restart", "latest", *trigger], ranks=None)
+    assert_same_run(ref, out)
+    assert {k: v for k, v in s["cuts"].items() if k != "topology_s"} == \
+        {k: v for k, v in read_summary(out)["cuts"].items() if k != "topology_s"}
+
+
+CHECK_LINE = re.compile(r"topology H0 check: (\d+) rows touched since the factorization, relative difference (\S+) from")
+
+
+def checked_differences(tmp_path, name, extra):
+    out = tmp_path / name
+    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", BAR), "-o", out, "-hyperqn_test_topology_h0_check", *extra],
+                       ranks=None)
+    found = [(int(t), float(d)) for t, d in CHECK_LINE.findall(proc.stdout)]
+    return found, read_summary(out)
+
+
+def test_corrected_h0_equals_a_fresh_factorization_after_every_cut(tmp_path):
+    # After each step with separations, the run applies the corrected H0 and a fresh factorization
+    # of the changed M + h^2 L to random vectors (FactoredSystem::check_correction).
+    found, s = checked_differences(tmp_path, "check", [])
+    assert len(found) == s["cuts"]["h0_corrections"] >= 2
+    assert max(d for _, d in found) <= 1e-10
+    assert all(0 < t <= 200 for t, _ in found) and [t for t, _ in found] == sorted(t for t, _ in found)
+    # The check can fail: with the largest off-diagonal entry of each change left out, it sees it.
+    dropped, _ = checked_differences(tmp_path, "dropped", ["-hyperqn_test_topology_h0_drop_edit"])
+    assert len(dropped) == len(found) and min(d for _, d in dropped) > 1e-6
+
+
+def test_corrections_and_refactorizations_give_the_same_run(tmp_path):
+    # -hyperqn_topology_h0 false factors again at every step with separations: the same operator
+    # to round-off, so the same cut and the same iterations to within a few.
+    new, sn = run_deck(tmp_path, "new", BAR)
+    old, so = run_deck(tmp_path, "old", BAR, extra=["-hyperqn_topology_h0", "false"])
+    assert so["cuts"]["h0_corrections"] == 0 and so["cuts"]["refactorizations"] == sn["cuts"]["h0_corrections"]
+    assert so["factorizations"] == 1 + so["cuts"]["refactorizations"]
+    a, b = final_frame(new), final_frame(old)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+    assert abs(sn["iterations"] - so["iterations"]) <= 0.05 * so["iterations"]
 
 
 def test_a_blade_that_never_meets_the_body_is_a_warning(tmp_path):
