@@ -505,7 +505,8 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     if (!wanted) continue;
     auto& matrix = s.constant_matrices[h0];
     matrix = std::make_unique<FactoredSystem>();
-    PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), h0 == H0::amg ? FactorPackage::amg : options_.h0_package));
+    PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), h0 == H0::amg ? FactorPackage::amg : options_.h0_package,
+                            options_.h0_precision));
   }
   PetscCall(event_end(&LogEvents::scene));
   PetscFunctionReturn(0);

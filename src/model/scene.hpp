@@ -72,6 +72,7 @@ struct Scene {
 struct SceneOptions {
   std::vector<H0> h0s;                 // the solvers' constant matrices (solver_h0; automatic resolved at setup)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
+  H0Precision h0_precision = H0Precision::double_precision;  // their factors' values (solver.h0_precision)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (StepObjective)
   double element_limit = 0;                    // past which |det F| it is pulled back (-hyperqn_element_limit)
