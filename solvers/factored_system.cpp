@@ -282,10 +282,31 @@ PetscErrorCode FactoredSystem::factor(Mat A, CholeskyAnalysis* analysis) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode FactoredSystem::keep_single_precision() {
+  MPI_Comm comm = PetscObjectComm((PetscObject)A_);
+  bool kept = true;
+  PetscFunctionBeginUser;
+  PetscCheck(package_ == FactorPackage::supernodal || package_ == FactorPackage::split, comm, PETSC_ERR_SUP,
+             "solver.h0_precision: single is solved by hyperqn's own loops: -hyperqn_h0_package auto, supernodal or "
+             "split, not %s", factor_package_name(package_));
+  if (split_) {
+    PetscCall(split_->keep_single_precision(&kept));
+  } else {  // on rank 0 alone when gathered
+    int mine = supernodal_ ? supernodal_->keep_single_precision() : 1, all = 0;
+    PetscCallMPI(MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, comm));
+    kept = all == 1;
+  }
+  PetscCheck(kept, comm, PETSC_ERR_FP,
+             "solver.h0_precision: single: the factor of the constant matrix has values beyond a float's range "
+             "(give double)");
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::setup(const Objective& step, ConstantMatrix kind, FactorPackage package,
-                                     Vec extra_diagonal) {
+                                     H0Precision precision, Vec extra_diagonal) {
   PetscFunctionBeginUser;
   kind_ = kind;
+  precision_ = package == FactorPackage::amg ? H0Precision::double_precision : precision;
   // Rollers' identity rows break A = A1 (x) I3: the full matrix (Objective::holds_components).
   components_ = kind == ConstantMatrix::laplacian && !step.holds_components() ? 1 : 3;
   PetscCall(event_begin(&LogEvents::h0_assembly));
@@ -300,6 +321,7 @@ PetscErrorCode FactoredSystem::setup(const FactoredSystem& base, Vec extra_diago
   PetscFunctionBeginUser;
   kind_ = base.kind_;
   components_ = base.components_;
+  precision_ = base.precision_;
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(MatDuplicate(base.A_, MAT_COPY_VALUES, &A_));  // the values setup(step, ...) would assemble
   PetscCall(MatSetOption(A_, MAT_SPD, PETSC_TRUE));
@@ -400,6 +422,7 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
   }
   PetscCall(ierr);
   if (!corrected) {
+    if (precision_ == H0Precision::single_precision) PetscCall(keep_single_precision());
     PetscCall(event_end(&LogEvents::h0_factor));
     ++factorizations_;
     factor_s_ = event_seconds(log_events().h0_factor) - before;

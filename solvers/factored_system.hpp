@@ -27,6 +27,7 @@
 
 #include "solvers/interleaved_vcycle.hpp"
 #include "solvers/objective.hpp"
+#include "solvers/solver_spec.hpp"
 #include "solvers/split_cholesky.hpp"
 #include "solvers/supernodal_cholesky.hpp"
 #include "solvers/topology_h0.hpp"
@@ -88,11 +89,15 @@ class FactoredSystem {
   // Assembles A (A1 for the Laplacian) and computes its Cholesky factorization (once per scene),
   // or for amg sets up the V-cycle of A1 (kind must be laplacian). A factorization that fails
   // (A not positive definite) is an error saying so.
+  // With single_precision the factor's values are kept as floats (SupernodalCholesky::
+  // keep_single_precision): supernodal and split only (another package is an error); amg, which
+  // factors nothing, ignores it (precision() says double).
   // extra_diagonal (a dof vector, x, y and z alike for the Laplacian) is added to A's diagonal
-  // before it is factored (solver.h0_contact: refactor).
+  // before it is factored.
   PetscErrorCode setup(const Objective& step, ConstantMatrix kind = ConstantMatrix::laplacian,
-                       FactorPackage package = default_factor_package(), Vec extra_diagonal = nullptr);
-  // The same as setup(step, base.kind(), base.package(), extra_diagonal) from a copy of base's
+                       FactorPackage package = default_factor_package(),
+                       H0Precision precision = H0Precision::double_precision, Vec extra_diagonal = nullptr);
+  // The same as setup(step, base.kind(), base.package(), base.precision(), extra_diagonal) from a copy of base's
   // assembled matrix, with no assembly (solver.h0_contact: refactor, once per change of its
   // diagonal). With `analysis` (kept by the caller from one such setup to the next) the supernodal
   // and split packages analyse the pattern once (CholeskyAnalysis); the others ignore it.
@@ -117,6 +122,7 @@ class FactoredSystem {
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
+  H0Precision precision() const { return precision_; }
   // x = A^{-1} b (dof layout: x, y, z per free vertex); for amg x = B b, one V-cycle of A1 (x) I3
   // (solvers/interleaved_vcycle.hpp), or one per column x, y, z where it does not apply.
   PetscErrorCode solve(Vec b, Vec x) const;
@@ -153,6 +159,8 @@ class FactoredSystem {
   PetscErrorCode check_correction() const;  // TopologyCheck::check
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A, CholeskyAnalysis* analysis);
+  // supernodal_'s or split_'s values to float (precision_ single; collective).
+  PetscErrorCode keep_single_precision();
   PetscErrorCode factor_supernodal(Mat A, CholeskyAnalysis* analysis);
   PetscErrorCode factor_split(Mat A, CholeskyAnalysis* analysis);  // A_ itself, on more than one rank
   PetscErrorCode setup_amg();  // ksp_ on A_
@@ -166,6 +174,7 @@ class FactoredSystem {
   ConstantMatrix kind_ = ConstantMatrix::laplacian;
   int components_ = 1;  // A_'s: 1 for A1 of A = A1 (x) I3 (the Laplacian's), 3 for the full A (rest stiffness, rollers)
   FactorPackage package_ = FactorPackage::mumps;
+  H0Precision precision_ = H0Precision::double_precision;
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank

@@ -212,6 +212,16 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "([performance.md](performance.md#amg-h0)). `pd` is defined by M + h²L (and `pd` with `h0: amg` is an "
        "error: its steps need the exact solve); `newton`, `lbfgs-identity` factor no constant matrix: they ignore "
        "`h0`"),
+      enum_key<S>("h0_precision", &S::h0_precision, kH0PrecisionNames,
+       "`lbfgs` only: the precision of its factored initial Hessian's values. `double`: as CHOLMOD computes them. "
+       "`single`: each rounded to a float once it is factored (the doubles dropped), widened back to double as a "
+       "solve reads it, every product and sum in double: the solve streams half the bytes, H0 = (L_f L_fᵀ)⁻¹ of "
+       "the rounded factor stays symmetric positive definite, about 1e-7 from `double`'s, and runs stay bitwise "
+       "reproducible ([performance.md](performance.md#single-precision-factor)). Solved by hyperqn's own loops "
+       "only (`-hyperqn_h0_package` `auto`, `supernodal` or `split`; `mumps`, `cholmod` are an error); a V-cycle "
+       "(`h0: amg`, an error beside `single`, or `auto`'s on large meshes) factors nothing and ignores it. In a "
+       "study the `pd` contender shares `lbfgs`'s factor of M + h²L and so its precision; `type: pd` with "
+       "`single` is an error"),
       enum_key<S>("h0_contact", &S::h0_contact, kH0ContactNames,
        "`lbfgs` only: the stiffness of obstacle contact, self-contact and their friction in its initial Hessian, "
        "taken at each step's start x_n (the 3 × 3 diagonal blocks h²K_v of the vertices within the activation "

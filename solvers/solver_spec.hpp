@@ -16,6 +16,10 @@ inline constexpr int kMaxHistory = 1000;
 // place: resolved_h0 (solvers/solver_registry.hpp).
 enum class H0 { automatic, laplacian, rest_stiffness, amg, volumetric };
 
+// The precision of a factored H0's values (solver.h0_precision): double, or single, floats widened
+// to double as a solve loads them, all arithmetic in double (SupernodalCholesky::keep_single_precision).
+enum class H0Precision { double_precision, single_precision };
+
 // Where each step's solve starts: at the inertial target y, at x_n, or at the one of the two with
 // the lower g (two evaluations per step; for contact, where y often lies deep in an obstacle
 // while x_n rests on it).
@@ -30,6 +34,7 @@ enum class H0Contact { off, woodbury, refactor };
 
 // The deck's words for these, in each enum's order.
 inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg", "volumetric"};
+inline const std::vector<std::string> kH0PrecisionNames = {"double", "single"};
 inline const std::vector<std::string> kWarmStartNames = {"inertial", "previous", "lower"};
 inline const std::vector<std::string> kLinearSolverNames = {"auto", "mumps", "cg-amg"};
 inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact"};
@@ -56,6 +61,7 @@ struct SolverSpec {
   LinearSolver linear_solver = LinearSolver::automatic;        // newton: mumps (Cholesky) | cg-amg (CG + BoomerAMG)
   NewtonHessian newton_hessian = NewtonHessian::projected;     // newton
   H0 h0 = H0::automatic;                     // lbfgs: its constant matrix (pd's is M + h^2 L)
+  H0Precision h0_precision = H0Precision::double_precision;  // lbfgs: its factor's values
   // The fallback chain of a frame that ends far from converged (docs/guardrails.md#fallback):
   // iterate on up to max_iterations, then redo the frame in 2, 4, ... 2^max_halvings sub-steps,
   // then with Newton. max_iterations <= iterations, max_halvings = 0, newton_fallback = false

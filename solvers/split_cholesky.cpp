@@ -182,6 +182,14 @@ PetscErrorCode SplitCholesky::factor(Mat A, int k, Status* status, CholeskyAnaly
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode SplitCholesky::keep_single_precision(bool* kept) {
+  int mine = interior_.keep_single_precision() ? 1 : 0, all = 0;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, comm_));
+  *kept = all == 1;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode SplitCholesky::solve(const double* b, double* x) const {
   const int k = k_;
   PetscFunctionBeginUser;

@@ -39,6 +39,11 @@ class SplitCholesky {
   // x = A^{-1} b on this rank's rows (k interleaved values per row; collective).
   PetscErrorCode solve(const double* b, double* x) const;
 
+  // Keeps this rank's interior factor L_r, X_r in single precision
+  // (SupernodalCholesky::keep_single_precision); the dense L_S stays double (LAPACK's solve).
+  // Collective: *kept is false on every rank if one rank's values are beyond float's range.
+  PetscErrorCode keep_single_precision(bool* kept);
+
   // s for A without factoring it (collective, cheap: a pass over the local rows' columns).
   static PetscErrorCode interface_size(Mat A, PetscInt* s);
 

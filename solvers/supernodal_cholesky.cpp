@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "io/fnv_hash.hpp"
@@ -253,56 +254,58 @@ struct RowOf<4> {
 };
 
 // w[row[r]] -= (row r's `width` values) . y for the q <= 4 rows r from `value`.
-template <int q, int lanes>
+// Value: the factor's type, double or float (SupernodalCholesky::keep_single_precision); a float
+// is widened to double as it is loaded, so every product and sum is a double's.
+template <int q, int lanes, typename Value>
 inline void dot_rows(typename RowOf<lanes>::type* w, const typename RowOf<lanes>::type* y, const int32_t* row,
-                     const double* value, int width) {
+                     const Value* value, int width) {
   using Row = typename RowOf<lanes>::type;
   Row s[q] = {};
   for (int j = 0; j < width; ++j) {
     const Row yj = y[j];
-    for (int u = 0; u < q; ++u) s[u] += value[u * width + j] * yj;
+    for (int u = 0; u < q; ++u) s[u] += double(value[u * width + j]) * yj;
   }
   for (int u = 0; u < q; ++u) w[row[u]] -= s[u];
 }
 
 // z[0..q) -= sum over the rows below of (their values at these q <= 4 columns) * w[row], each
 // column's sum in a register of its own.
-template <int q, int lanes>
+template <int q, int lanes, typename Value>
 inline void subtract_below(typename RowOf<lanes>::type* z, const typename RowOf<lanes>::type* w, const int32_t* row,
-                           int64_t rows, const double* value, int width) {
+                           int64_t rows, const Value* value, int width) {
   using Row = typename RowOf<lanes>::type;
   Row t[q] = {};
   for (int64_t r = 0; r < rows; ++r) {
     const Row wr = w[row[r]];
-    const double* v = value + r * width;
-    for (int u = 0; u < q; ++u) t[u] += v[u] * wr;
+    const Value* v = value + r * width;
+    for (int u = 0; u < q; ++u) t[u] += double(v[u]) * wr;
   }
   for (int u = 0; u < q; ++u) z[u] -= t[u];
 }
 
 // Node k of the forward pass: y = its triangle's solve, then the rows below -= their values . y.
-template <int lanes>
+template <int lanes, typename Value>
 __attribute__((always_inline)) inline void forward_node(const SupernodalCholesky::Node* nodes, int64_t k,
                                                         int64_t count, int64_t row_end, const int32_t* __restrict row,
-                                                        const double* __restrict L, double* __restrict block) {
+                                                        const Value* __restrict L, double* __restrict block) {
   using Row = typename RowOf<lanes>::type;
   Row* w = reinterpret_cast<Row*>(block);
   const SupernodalCholesky::Node& node = nodes[k];
   const int width = node.width;
   Row* y = w + node.column;
-  const double* v = L + node.value;
+  const Value* v = L + node.value;
   const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
   const int32_t* below = row + node.rows;
   if (width == 1) {  // a lone column (chains of strands, leaves): no triangle, no dot products
-    const Row yj = y[0] * v[0];
+    const Row yj = y[0] * double(v[0]);
     y[0] = yj;
-    for (int64_t r = 0; r < rows; ++r) w[below[r]] -= v[1 + r] * yj;
+    for (int64_t r = 0; r < rows; ++r) w[below[r]] -= double(v[1 + r]) * yj;
     return;
   }
   for (int j = 0; j < width; ++j) {
-    const Row yj = y[j] * *v++;
+    const Row yj = y[j] * double(*v++);
     y[j] = yj;
-    for (int i = j + 1; i < width; ++i) y[i] -= *v++ * yj;
+    for (int i = j + 1; i < width; ++i) y[i] -= double(*v++) * yj;
   }
   int64_t r = 0;
   for (; r + 4 <= rows; r += 4, v += 4 * width) dot_rows<4, lanes>(w, y, below + r, v, width);
@@ -314,11 +317,11 @@ __attribute__((always_inline)) inline void forward_node(const SupernodalCholesky
   }
 }
 
-template <int lanes>
+template <int lanes, typename Value>
 HYPERQN_VECTOR_CLONES void forward_pass(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
-                                        const int32_t* __restrict row, const double* __restrict L,
+                                        const int32_t* __restrict row, const Value* __restrict L,
                                         double* __restrict block) {
-  for (int64_t k = 0; k < count; ++k) forward_node<lanes>(nodes, k, count, row_end, row, L, block);
+  for (int64_t k = 0; k < count; ++k) forward_node<lanes, Value>(nodes, k, count, row_end, row, L, block);
 }
 
 // forward_units' columns: groups of kUnitLanes, a row of a group in one AVX2 register. A group of 8
@@ -524,9 +527,9 @@ HYPERQN_VECTOR_CLONES void unit_dots(const double* block, int64_t stride, const 
   }
 }
 
-template <int lanes>
+template <int lanes, typename Value>
 HYPERQN_VECTOR_CLONES void backward_pass(const SupernodalCholesky::Node* nodes, int64_t count, int64_t row_end,
-                                         const int32_t* __restrict row, const double* __restrict L,
+                                         const int32_t* __restrict row, const Value* __restrict L,
                                          double* __restrict block) {
   using Row = typename RowOf<lanes>::type;
   Row* w = reinterpret_cast<Row*>(block);
@@ -536,17 +539,17 @@ HYPERQN_VECTOR_CLONES void backward_pass(const SupernodalCholesky::Node* nodes, 
     Row* z = w + node.column;
     const int64_t triangle = int64_t(width) * (width + 1) / 2;
     const int64_t rows = (k + 1 < count ? nodes[k + 1].rows : row_end) - node.rows;
-    const double* v = L + node.value + triangle;  // the rows below
+    const Value* v = L + node.value + triangle;  // the rows below
     const int32_t* below = row + node.rows;
     if (width == 1) {  // a lone column: one dot product, two partial sums
       Row s = z[0], t = Row{};
       int64_t r = 0;
       for (; r + 1 < rows; r += 2) {
-        s -= v[r] * w[below[r]];
-        t -= v[r + 1] * w[below[r + 1]];
+        s -= double(v[r]) * w[below[r]];
+        t -= double(v[r + 1]) * w[below[r + 1]];
       }
-      if (r < rows) s -= v[r] * w[below[r]];
-      z[0] = (s + t) * v[rows];
+      if (r < rows) s -= double(v[r]) * w[below[r]];
+      z[0] = (s + t) * double(v[rows]);
       continue;
     }
     int j = 0;
@@ -559,17 +562,35 @@ HYPERQN_VECTOR_CLONES void backward_pass(const SupernodalCholesky::Node* nodes, 
     }
     // The triangle by rows, last row first: row i holds L_i0 .. L_i,i-1 and 1 / L_ii, so it
     // starts i (i + 1) / 2 entries in.
-    const double* t = v + rows * width;
+    const Value* t = v + rows * width;
     for (int i = width - 1; i >= 0; --i) {
-      const double* ri = t + int64_t(i) * (i + 1) / 2;
-      const Row zi = z[i] * ri[i];
+      const Value* ri = t + int64_t(i) * (i + 1) / 2;
+      const Row zi = z[i] * double(ri[i]);
       z[i] = zi;
-      for (int c = 0; c < i; ++c) z[c] -= ri[c] * zi;
+      for (int c = 0; c < i; ++c) z[c] -= double(ri[c]) * zi;
     }
   }
 }
 
 }  // namespace
+
+template <int lanes>
+void SupernodalCholesky::forward(double* w) const {
+  const int64_t count = static_cast<int64_t>(nodes_.size());
+  if (single_precision())
+    forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), single_value_.data(), w);
+  else
+    forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+}
+
+template <int lanes>
+void SupernodalCholesky::backward(double* w) const {
+  const int64_t count = static_cast<int64_t>(nodes_.size());
+  if (single_precision())
+    backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), single_value_.data(), w);
+  else
+    backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+}
 
 // x = P^T (L L^T)^{-1} P b for k interleaved columns, worked on in `lanes` >= k lanes (the others
 // stay 0: 0 - l * 0).
@@ -578,9 +599,8 @@ void SupernodalCholesky::solve_k(const double* b, double* x) const {
   double* w = work_.data();
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) w[lanes * i + c] = b[k * perm_[i] + c];
-  const int64_t count = static_cast<int64_t>(nodes_.size());
-  forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
-  backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  forward<lanes>(w);
+  backward<lanes>(w);
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) x[k * perm_[i] + c] = w[lanes * i + c];
 }
@@ -593,7 +613,7 @@ void SupernodalCholesky::forward_k(const double* b_interior, double* separator_u
   for (int64_t i = 0; i < interior; ++i)
     for (int c = 0; c < k; ++c) w[lanes * i + c] = b_interior[k * perm_[i] + c];
   std::fill(w + lanes * interior, w + lanes * n_, 0.0);
-  forward_pass<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(), value_.data(), w);
+  forward<lanes>(w);
   for (int64_t i = interior; i < n_; ++i)
     for (int c = 0; c < k; ++c) separator_update[k * (i - interior) + c] = w[lanes * i + c];
 }
@@ -605,7 +625,7 @@ void SupernodalCholesky::backward_k(const double* separator_solution, double* x_
   const int64_t interior = n_ - separator_;
   for (int64_t i = interior; i < n_; ++i)
     for (int c = 0; c < k; ++c) w[lanes * i + c] = separator_solution[k * (i - interior) + c];
-  backward_pass<lanes>(nodes_.data(), static_cast<int64_t>(nodes_.size()), row_end_, row_.data(), value_.data(), w);
+  backward<lanes>(w);
   for (int64_t i = 0; i < interior; ++i)
     for (int c = 0; c < k; ++c) x_interior[k * perm_[i] + c] = w[lanes * i + c];
 }
@@ -616,16 +636,16 @@ void SupernodalCholesky::solve_corrected_k(const double* b, double* x, const Mid
   double* w = work_.data();
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) w[lanes * i + c] = b[k * perm_[i] + c];
-  const int64_t count = static_cast<int64_t>(nodes_.size());
-  forward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  forward<lanes>(w);
   middle(w, lanes);
-  backward_pass<lanes>(nodes_.data(), count, row_end_, row_.data(), value_.data(), w);
+  backward<lanes>(w);
   for (int64_t i = 0; i < n_; ++i)
     for (int c = 0; c < k; ++c) x[k * perm_[i] + c] = w[lanes * i + c];
 }
 
 void SupernodalCholesky::solve_corrected(int k, const double* b, double* x, const Middle& middle) const {
   if (separator_ != 0) throw std::logic_error("SupernodalCholesky::solve_corrected: a factor with a separator");
+  if (single_precision()) throw std::logic_error("SupernodalCholesky::solve_corrected: a factor kept in single precision");
   if (k == 3) return solve_corrected_k<3, 4>(b, x, middle);
   if (k == 1) return solve_corrected_k<1, 1>(b, x, middle);
   throw std::invalid_argument("SupernodalCholesky::solve_corrected: k must be 1 or 3");
@@ -655,6 +675,7 @@ void SupernodalCholesky::forward_units(const int64_t* positions, int count, Spar
                                        const SparseColumn* const* others, int other_count, double* gram,
                                        int64_t max_block) const {
   if (separator_ != 0) throw std::logic_error("SupernodalCholesky::forward_units: a factor with a separator");
+  if (single_precision()) throw std::logic_error("SupernodalCholesky::forward_units: a factor kept in single precision");
   if (count <= 0) return;
   constexpr int L = kUnitLanes;
   std::vector<int> order(count);
@@ -768,6 +789,18 @@ void SupernodalCholesky::forward_units(const int64_t* positions, int count, Spar
     }
     g_begin = g_end;
   }
+}
+
+bool SupernodalCholesky::keep_single_precision() {
+  if (single_precision() || value_.empty()) return true;
+  // Each value rounded to the nearest float. One that overflows, or a normal double that rounds to
+  // 0 (a reciprocal diagonal among them would make a pivot infinite), leaves the doubles in place.
+  std::vector<float> single(value_.begin(), value_.end());
+  for (size_t e = 0; e < single.size(); ++e)
+    if (!std::isfinite(single[e]) || (single[e] == 0 && std::isnormal(value_[e]))) return false;
+  single_value_ = std::move(single);
+  std::vector<double>().swap(value_);
+  return true;
 }
 
 void SupernodalCholesky::solve(int k, const double* b, double* x) const {

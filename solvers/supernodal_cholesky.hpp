@@ -73,6 +73,18 @@ class SupernodalCholesky {
   void solve_interior_forward(int k, const double* b_interior, double* separator_update) const;
   void solve_interior_backward(int k, const double* separator_solution, double* x_interior) const;
 
+  // Keeps the factor's values as floats, each the nearest float to the double it replaces (the
+  // reciprocal diagonals included), and drops the doubles: half the bytes a solve streams.
+  // solve() and solve_interior_*() then widen each value to double as they load it and do all
+  // their arithmetic in double, in the same order, on double right-hand sides: the operator
+  // P^T (L_f L_f^T)^{-1} P of the rounded factor L_f, symmetric positive definite as before,
+  // within about 1e-7 of A^{-1} (tests/test_supernodal_cholesky.cpp; solver.h0_precision).
+  // forward_units() and solve_corrected() need the doubles (TopologyH0 keeps its own factor).
+  // False, and the doubles kept, if a value is beyond float's range (overflows, or a normal
+  // double rounds to 0).
+  bool keep_single_precision();
+  bool single_precision() const { return !single_value_.empty(); }
+
   int64_t size() const { return n_; }
   int64_t separator() const { return separator_; }
 
@@ -116,6 +128,11 @@ class SupernodalCholesky {
  private:
   template <int k, int lanes>
   void solve_k(const double* b, double* x) const;
+  // L y = w, and L^T z = w, in place on the n x lanes block w, from the values kept (double or float).
+  template <int lanes>
+  void forward(double* w) const;
+  template <int lanes>
+  void backward(double* w) const;
   template <int k, int lanes>
   void solve_corrected_k(const double* b, double* x, const Middle& middle) const;
   int32_t node_of(int64_t position) const;            // the node holding a column
@@ -132,6 +149,7 @@ class SupernodalCholesky {
   std::vector<int32_t> row_;          // the rows below each node, node after node
   int64_t row_end_ = 0;               // row_.size(), where the last node's rows end
   std::vector<double> value_;         // the nodes' values, a node's triangle twice (see Node)
+  std::vector<float> single_value_;   // value_ rounded to float instead (keep_single_precision); then value_ is empty
   int64_t entries_ = 0;               // L's entries (each triangle counted once)
   mutable std::vector<double> work_;  // the permuted right-hand sides, n x 4 (lanes past k stay 0)
   mutable std::vector<double> unit_work_;  // forward_units' block of columns

@@ -8,9 +8,13 @@
 // last rows ordered last): the two halves of a solve with the dense separator block between them
 // give A^{-1} b, on a grid whose last rows are the separator, and with every row in it. With a kept
 // analysis (CholeskyAnalysis): a second matrix of the same pattern is factored without analysing
-// it again, to the same bits as a new analysis gives, and another pattern is analysed anew.
+// it again, to the same bits as a new analysis gives, and another pattern is analysed anew. Kept in
+// single precision (keep_single_precision): within 1e-6 of the double solve, symmetric to round-off,
+// positive definite, the same bits at every call, and refused beyond float's range.
 #include <cmath>
+#include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "check.hpp"
@@ -219,9 +223,109 @@ void check_kept_analysis(const std::string& name, const Csr& A) {
   CHECK_MSG(split_kept.analyses() == 1 && L2 == L3 && L2 != L1, name + ": with a separator, the kept analysis");
 }
 
+// y = A^{-1} b by f, k interleaved columns (the separator's half by its dense L_S, as SplitCholesky
+// does on one rank, when f has one).
+std::vector<double> apply(const SupernodalCholesky& f, const std::vector<double>& L, int k, std::vector<double> b) {
+  const int64_t s = f.separator(), interior = f.size() - s;
+  if (s == 0) {
+    f.solve(k, b.data(), b.data());
+    return b;
+  }
+  std::vector<double> g(k * s), x(b.size());
+  f.solve_interior_forward(k, b.data(), g.data());
+  for (int64_t i = 0; i < s; ++i)
+    for (int c = 0; c < k; ++c) g[k * i + c] += b[k * (interior + i) + c];
+  for (int c = 0; c < k; ++c) {
+    for (int64_t j = 0; j < s; ++j) {
+      g[k * j + c] /= L[j + j * s];
+      for (int64_t i = j + 1; i < s; ++i) g[k * i + c] -= L[i + j * s] * g[k * j + c];
+    }
+    for (int64_t j = s - 1; j >= 0; --j) {
+      for (int64_t i = j + 1; i < s; ++i) g[k * j + c] -= L[i + j * s] * g[k * i + c];
+      g[k * j + c] /= L[j + j * s];
+    }
+  }
+  f.solve_interior_backward(k, g.data(), x.data());
+  for (int64_t i = 0; i < k * s; ++i) x[k * interior + i] = g[i];
+  return x;
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d += a[i] * b[i];
+  return d;
+}
+
+// keep_single_precision: on random vectors H = (L_f L_f^T)^{-1} is within 1e-6 of the double
+// factor's A^{-1} (relative, 2-norm) yet not equal to it (the floats are used), symmetric to
+// double round-off (|<Hu, v> - <u, Hv>| <= 1e-13 sqrt(<Hu, u> <Hv, v>): the forward and the
+// backward pass use the same rounded values; a float's rounding would show at 1e-7), positive
+// definite, and the same bits at every call.
+void check_single(const std::string& name, const Csr& A, int64_t s = 0) {
+  SupernodalCholesky f, g;
+  std::vector<double> Lf, Lg;
+  CHECK(f.factor(A.n, A.start.data(), A.column.data(), A.value.data(), s, s ? &Lf : nullptr) ==
+        SupernodalCholesky::Status::ok);
+  CHECK(g.factor(A.n, A.start.data(), A.column.data(), A.value.data(), s, s ? &Lg : nullptr) ==
+        SupernodalCholesky::Status::ok);
+  CHECK_MSG(g.keep_single_precision() && g.single_precision() && !f.single_precision(), name + ": not kept in single");
+  std::mt19937 gen(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double worst = 0, asymmetry = 0;
+  for (int k : {1, 3})
+    for (int trial = 0; trial < 5; ++trial) {
+      std::vector<double> a(k * A.n), b(k * A.n);
+      for (double& v : a) v = u(gen);
+      for (double& v : b) v = u(gen);
+      const std::vector<double> exact = apply(f, Lf, k, a), ha = apply(g, Lg, k, a), hb = apply(g, Lg, k, b);
+      std::vector<double> diff(ha.size());
+      for (size_t i = 0; i < ha.size(); ++i) diff[i] = ha[i] - exact[i];
+      const double relative = std::sqrt(dot(diff, diff) / dot(exact, exact));
+      worst = std::max(worst, relative);
+      CHECK_MSG(relative <= 1e-6 && relative > 0,
+                name + ", k = " + std::to_string(k) + ": |H a - A^-1 a| / |A^-1 a| = " + std::to_string(relative));
+      const double haa = dot(ha, a), hbb = dot(hb, b);
+      CHECK_MSG(haa > 0 && hbb > 0, name + ": <H a, a> <= 0");
+      asymmetry = std::max(asymmetry, std::fabs(dot(ha, b) - dot(a, hb)) / std::sqrt(haa * hbb));
+      CHECK_MSG(apply(g, Lg, k, a) == ha, name + ": another call gave other bits");
+    }
+  CHECK_MSG(asymmetry <= 1e-13, name + ": |<Ha, b> - <a, Hb>| / sqrt(<Ha, a> <Hb, b>) = " + std::to_string(asymmetry));
+  std::printf("%s: single precision, relative difference %.2e, asymmetry %.2e\n", name.c_str(), worst, asymmetry);
+  if (s == 0) {  // forward_units and solve_corrected need the doubles
+    bool refused = false;
+    try {
+      const int64_t position = 0;
+      std::vector<SupernodalCholesky::SparseColumn> out(1);
+      g.forward_units(&position, 1, out.data());
+    } catch (const std::logic_error&) {
+      refused = true;
+    }
+    CHECK_MSG(refused, name + ": forward_units ran on a single-precision factor");
+  }
+}
+
+// Values beyond float's range: keep_single_precision refuses and keeps the doubles.
+void check_single_out_of_range() {
+  Csr huge = chain(20);
+  for (double& v : huge.value) v *= 1e90;  // L's entries about 1e45
+  SupernodalCholesky f;
+  CHECK(f.factor(huge.n, huge.start.data(), huge.column.data(), huge.value.data()) == SupernodalCholesky::Status::ok);
+  CHECK_MSG(!f.keep_single_precision() && !f.single_precision(), "a factor beyond float's range was kept in single");
+  std::vector<double> x(huge.n, 1.0), b = huge.times(x, 1);
+  f.solve(1, b.data(), b.data());
+  double err = 0;
+  for (int64_t i = 0; i < huge.n; ++i) err = std::max(err, std::fabs(b[i] - 1.0));
+  CHECK_MSG(err <= 1e-13, "the refused factor's doubles solve wrong: " + std::to_string(err));
+}
+
 }  // namespace
 
 int main() {
+  check_single("chain of 50", chain(50));
+  check_single("dense blocks of 1 to 9", dense_blocks({1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  check_single("9-point grid 40 x 40", grid(40));
+  check_single("9-point grid 30 x 30, its last 3 rows the separator", grid(30), 90);
+  check_single_out_of_range();
   check_solves("chain of 50", chain(50), 2 * 50 - 1);
   check_solves("dense 37 x 37", dense_blocks({37}), 37 * 38 / 2);
   const std::vector<int64_t> sizes{1, 2, 3, 4, 5, 6, 7, 8, 9};

@@ -603,6 +603,15 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
   if (const Value* x = s.find("h0"); x && sv.type == "pd" && sv.h0 == H0::amg)
     r.fail(*x, "amg is for lbfgs: pd's steps need the exact solve with M + h^2 L, which a V-cycle only "
                "approximates (give laplacian, or leave h0 out)");
+  // single: a factor's values (pd's steps are exact solves with M + h^2 L; a V-cycle has no factor).
+  if (const Value* x = s.find("h0_precision"); x && sv.h0_precision == H0Precision::single_precision) {
+    if (sv.type == "pd")
+      r.fail(*x, "single is for lbfgs: pd's steps need the exact solve with M + h^2 L (give double, or leave "
+                 "h0_precision out)");
+    if (sv.h0 == H0::amg)
+      r.fail(*x, "single rounds a factor's values, and h0: amg factors nothing (give double, or leave h0_precision "
+                 "out)");
+  }
   // adaptive: the fallback chain as the keys above set it; fixed: none of it, and then
   // those keys would say nothing, so giving one is an error rather than silently overruled.
   if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")

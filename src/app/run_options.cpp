@@ -55,6 +55,10 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
   }
   PetscErrors errors;  // a value that is not a number: said as an input error, not a trace
   if (parse_run_options(comm, o)) throw InputError(deck ? errors.describe(*deck) : errors.describe());
+  if (deck && deck->solver.h0_precision == H0Precision::single_precision &&
+      (o->h0_package == FactorPackage::mumps || o->h0_package == FactorPackage::cholmod))
+    refuse(deck, "-hyperqn_h0_package",
+           "solver.h0_precision: single is solved by hyperqn's own loops (choose auto, supernodal or split)");
   // Every rank reads the same options, so every rank throws alike.
   if (!std::isfinite(o->divergence_limit))
     refuse(deck, "-hyperqn_divergence_limit", "must be a finite number (<= 0 turns the check off)");
@@ -124,6 +128,7 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     s.h0s.push_back(solver_h0(spec));
   }
   s.h0_package = o.h0_package;
+  s.h0_precision = deck.solver.h0_precision;
   s.warm_start = deck.solver.warm_start;
   s.upright_guess = deck.solver.upright_guess;
   s.element_limit = o.element_limit;

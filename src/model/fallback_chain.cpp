@@ -56,11 +56,12 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
   if (!l.solver) {
     PetscCall(scene_.step->create_substep(1 << halvings, l.step));
     if (solver_uses_constant_matrix(spec_.type)) {
-      // By the package that factored the scene's own (-hyperqn_h0_package).
+      // By the package that factored the scene's own (-hyperqn_h0_package), in its precision.
       const FactoredSystem* scene_matrix = scene_.constant_matrix(spec_);
       l.factored = std::make_unique<FactoredSystem>();
       PetscCall(l.factored->setup(*l.step, constant_matrix_of(solver_h0(spec_)),
-                                  scene_matrix ? scene_matrix->package() : default_factor_package()));
+                                  scene_matrix ? scene_matrix->package() : default_factor_package(),
+                                  scene_matrix ? scene_matrix->precision() : H0Precision::double_precision));
     }
     SolverSpec spec = spec_;
     spec.quiet = true;

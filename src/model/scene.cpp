@@ -450,7 +450,8 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   if (separates) {  // copies' ids come after every id of the input
     PetscBool flag = PETSC_TRUE, set = PETSC_FALSE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_topology_h0", &flag, &set));
-    follow_cuts_ = !set || flag;
+    // TopologyH0 corrects a factor kept in double: a single-precision factor is factored again
+    follow_cuts_ = (!set || flag) && options_.h0_precision == H0Precision::double_precision;
     flag = PETSC_FALSE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_test_topology_h0_check", &flag, nullptr));
     topology_check_.check = flag;
@@ -552,7 +553,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
       if (corrected) *corrected = done;
     } else {
       matrix->set_row_ids(ids, topology_check_.max_touched);
-      PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), package));
+      PetscCall(matrix->setup(*s.step, constant_matrix_of(h0), package, options_.h0_precision));
     }
   }
   PetscCall(event_end(&LogEvents::scene));

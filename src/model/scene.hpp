@@ -77,6 +77,7 @@ struct Scene {
 struct SceneOptions {
   std::vector<H0> h0s;                 // the solvers' constant matrices (solver_h0; automatic resolved at setup)
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
+  H0Precision h0_precision = H0Precision::double_precision;  // their factors' values (solver.h0_precision)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
   bool upright_guess = true;                   // and whether y is pulled back (StepObjective)
   double element_limit = 0;                    // past which |det F| it is pulled back (-hyperqn_element_limit)
@@ -179,9 +180,10 @@ class LiveScene {
   bool last_change_cut_ = false, last_cut_corrected_ = false;
   long long factored_batches_ = 0;
   std::vector<std::pair<int64_t, std::vector<TetPair>>> replay_;  // restore_cuts' (frame, batch) for restore_released
-  // -hyperqn_topology_h0 (default true: constant matrices follow cuts by corrections where they
-  // can; false: factored again at every cut) and its test hooks (TopologyCheck).
-  bool follow_cuts_ = true;
+  // In a deck with cuts or fracture, -hyperqn_topology_h0 (default true: constant matrices follow
+  // cuts by corrections where they can; false: factored again at every cut) and its test hooks
+  // (TopologyCheck). Without them false: no TopologyH0 holds a factor.
+  bool follow_cuts_ = false;
   TopologyCheck topology_check_;
   SceneOptions options_;
   SceneInput kept_;  // this rank's input, if a region is released later

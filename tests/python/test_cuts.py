@@ -257,6 +257,20 @@ def test_corrections_and_refactorizations_give_the_same_run(tmp_path):
     assert abs(sn["iterations"] - so["iterations"]) <= 0.05 * so["iterations"]
 
 
+def test_a_single_precision_factor_is_factored_again_at_every_cut(tmp_path):
+    # TopologyH0 corrects a factor kept in double: with solver.h0_precision single every step with
+    # separations factors again (in single), and the run reaches the double run's answer.
+    single = copy.deepcopy(BAR)
+    single["solver"]["h0_precision"] = "single"
+    new, sn = run_deck(tmp_path, "single", single)
+    old, so = run_deck(tmp_path, "double", BAR)
+    assert sn["cuts"]["h0_corrections"] == 0 and sn["cuts"]["refactorizations"] == so["cuts"]["h0_corrections"] > 0
+    assert sn["factorizations"] == 1 + sn["cuts"]["refactorizations"]
+    a, b = final_frame(new), final_frame(old)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
 def test_a_blade_that_never_meets_the_body_is_a_warning(tmp_path):
     deck = copy.deepcopy(BAR)
     deck["time"]["frames"] = 2
