@@ -57,12 +57,6 @@ class InelasticModel {
   virtual void update(const Mat3& F, const double* start, double dt, double* end) const = 0;
   // The energy the step from start to end (at F) dissipated, per rest volume (>= 0).
   virtual double dissipation(const Mat3& F, const double* start, double dt, const double* end) const = 0;
-  // update() and dissipation() for the first n elements of a batch (materials/material.hpp) at b.F:
-  // element e's history from start[e] to end[e], its dissipation in dissipated[e]. Only where
-  // updates_batches() (the Prony series: across the lanes); the others go element by element.
-  virtual bool updates_batches() const { return false; }
-  virtual void update_batch(const StressBatch& /*b*/, int /*n*/, const double* const* /*start*/, double /*dt*/,
-                            double* const* /*end*/, double* /*dissipated*/) const {}
   // Its weight in L (the instantaneous stiffness it adds near rest, as a fibre adds k).
   virtual double laplacian_weight() const = 0;
   // Whether its history has measure m, and m's value for a history (the output fields).

@@ -19,14 +19,12 @@
 // isotropic rest tangent (mu, lambda; a fibre's share left out), and dissipates H_i : D0^{-1} : H_i /
 // (gt_i tau_i), integrated exactly over the step along the same S0 linear in time (>= 0).
 // Registered as one InelasticKind (viscoelastic_prony_kind, listed in material_factory.cpp).
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "materials/cofactor.hpp"
 #include "materials/material_factory.hpp"
 #include "materials/symmetric6.hpp"
 #include "params/deck_keys.hpp"
@@ -83,66 +81,6 @@ HYPERQN_VECTOR_CLONES void prony_batch(double G, const StressBatch& base, Stress
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c)  // (F Q)(r, c)
       b.P[r + 3 * c] += scale * base.P[r + 3 * c] + F[r] * q[0][c] + F[r + 3] * q[1][c] + F[r + 6] * q[2][c];
-}
-
-// What a step's update and dissipation take of the model and the step (PronyViscoelastic::update
-// and dissipation; I1..I3 the dissipation's integrals over g tau).
-struct UpdateConstants {
-  int count = 0;
-  double q[kMaxBranches] = {}, gamma[kMaxBranches] = {}, g[kMaxBranches] = {};
-  double I1[kMaxBranches] = {}, I2[kMaxBranches] = {}, I3[kMaxBranches] = {};
-  double mu = 0, lambda = 0;
-  bool dissipates = false;  // dt > 0
-};
-
-// a : D0^{-1} : b across the lanes (PronyViscoelastic::compliance).
-inline Lanes compliance_lanes(const Lanes* a, const Lanes* b, double mu, double lambda) {
-  const Lanes tra = a[0] + a[1] + a[2], trb = b[0] + b[1] + b[2];
-  const Lanes ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + 2.0 * (a[3] * b[3] + a[4] * b[4] + a[5] * b[5]);
-  return (ab - lambda / (2.0 * mu + 3.0 * lambda) * tra * trb) / (2.0 * mu);
-}
-
-// The update and dissipation of a batch's first n elements across the lanes: F in b, P0 of the
-// base in base; S0 = F^{-1} P0 = cof(F)^T P0 / J (its symmetric part), then each element's history
-// gathered into lanes, moved, and scattered to end.
-HYPERQN_VECTOR_CLONES void prony_update_batch(const UpdateConstants& k, const StressBatch& b, const StressBatch& base,
-                                              int n, const double* const* start, double* const* end,
-                                              double* dissipated) {
-  Lanes C[9], J, invJ = {};
-  cofactor_lanes(b.F, C, J);
-  for (int e = 0; e < n; ++e) invJ[e] = 1.0 / J[e];  // lanes past n: 0, never read
-  const Lanes* P = base.P;
-  auto A = [&](int r, int c) { return C[3 * r] * P[3 * c] + C[1 + 3 * r] * P[1 + 3 * c] + C[2 + 3 * r] * P[2 + 3 * c]; };
-  const Lanes s0[6] = {A(0, 0) * invJ,
-                       A(1, 1) * invJ,
-                       A(2, 2) * invJ,
-                       0.5 * (A(0, 1) + A(1, 0)) * invJ,
-                       0.5 * (A(1, 2) + A(2, 1)) * invJ,
-                       0.5 * (A(0, 2) + A(2, 0)) * invJ};
-  const int width = 6 * k.count + 6;
-  const double* r[kBatch];  // lanes past n repeat lane 0
-  for (int e = 0; e < kBatch; ++e) r[e] = start[e < n ? e : 0];
-  Lanes h[6 * kMaxBranches + 6], out[6 * kMaxBranches + 6];
-  for (int c = 0; c < width; ++c) h[c] = Lanes{r[0][c], r[1][c], r[2][c], r[3][c], r[4][c], r[5][c], r[6][c], r[7][c]};
-  const Lanes* s0n = h + 6 * k.count;
-  Lanes dS[6];
-  for (int c = 0; c < 6; ++c) dS[c] = s0[c] - s0n[c];
-  Lanes sum = {};
-  for (int i = 0; i < k.count; ++i) {
-    const Lanes* Hn = h + 6 * i;
-    Lanes R[6];
-    for (int c = 0; c < 6; ++c) {
-      out[6 * i + c] = k.q[i] * Hn[c] + k.gamma[i] * dS[c];
-      R[c] = k.g[i] * dS[c];
-    }
-    sum += k.I1[i] * compliance_lanes(Hn, Hn, k.mu, k.lambda) + 2.0 * k.I2[i] * compliance_lanes(Hn, R, k.mu, k.lambda) +
-           k.I3[i] * compliance_lanes(R, R, k.mu, k.lambda);
-  }
-  for (int c = 0; c < 6; ++c) out[6 * k.count + c] = s0[c];
-  for (int e = 0; e < n; ++e) {
-    for (int c = 0; c < width; ++c) end[e][c] = out[c][e];
-    dissipated[e] = k.dissipates ? std::max(0.0, sum[e]) : 0.0;
-  }
 }
 
 class PronyViscoelastic : public InelasticModel {
@@ -216,29 +154,6 @@ class PronyViscoelastic : public InelasticModel {
     for (int i = 0; i < count(); ++i)
       for (int c = 0; c < 6; ++c) end[6 * i + c] = k.q[i] * start[6 * i + c] + k.gamma[i] * (s0[c] - s0n[c]);
     for (int c = 0; c < 6; ++c) end[6 * count() + c] = s0[c];
-  }
-  // update() and dissipation() across a batch's lanes, at the evaluations' F and P0 (their batch kernels).
-  bool updates_batches() const override { return true; }
-  void update_batch(const StressBatch& b, int n, const double* const* start, double dt, double* const* end,
-                    double* dissipated) const override {
-    StressBatch base;
-    for (int c = 0; c < 9; ++c) base.F[c] = b.F[c];
-    base_->energy_and_stress_batch(base, n);
-    const StepCoefficients& k = coefficients(dt);
-    UpdateConstants u;
-    u.count = count();
-    for (int i = 0; i < count(); ++i) {
-      u.q[i] = k.q[i];
-      u.gamma[i] = k.gamma[i];
-      u.g[i] = branches_[i].g;
-      u.I1[i] = k.I1[i];
-      u.I2[i] = k.I2[i];
-      u.I3[i] = k.I3[i];
-    }
-    u.mu = mu_;
-    u.lambda = lambda_;
-    u.dissipates = dt > 0;
-    prony_update_batch(u, b, base, n, start, end, dissipated);
   }
   // Per branch the integral over the step of H : D0^{-1} : H / (gt tau), H(s) = e^{-s/tau} H_n +
   // phi(s) R, phi(s) = tau/dt (1 - e^{-s/tau}), R = gt (S0 end - S0 start): the Gram form of

@@ -120,34 +120,15 @@ Eigen::Matrix<double, 4, 4, Eigen::RowMajor> InelasticTets::element_laplacian(Pe
   return weighted_laplacian(k, scale * weight_[m]);
 }
 
-// Every element's current values written (ElementState::overwrite): a model that updates in
-// batches at the evaluations' F, the others element by element.
+// Every element's current values written (ElementState::overwrite: a step's begin copied none).
 PetscErrorCode InelasticTets::update_state(const std::vector<double>& pos) {
-  for (size_t k = 0; k < cells_.size();) {
-    const InelasticModel& model = *models_[mesh_.cell_material[cells_[k]]];
-    if (model.updates_batches()) {
-      Lanes Ds[9] = {};
-      StressBatch b;
-      int m;
-      const int n = load_batch(pos, k, Ds, b, &m);
-      const double* start[kBatch];
-      double* end[kBatch];
-      double dissipated[kBatch];
-      for (int e = 0; e < n; ++e) {
-        start[e] = state_.start(k + e);
-        end[e] = state_.overwrite(k + e);
-      }
-      model.update_batch(b, n, start, dt_, end, dissipated);
-      for (int e = 0; e < n; ++e) end[e][dissipated_] = start[e][dissipated_] + dissipated[e];
-      k += n;
-      continue;
-    }
+  for (size_t k = 0; k < cells_.size(); ++k) {
     const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * cells_[k]]) * Dm_inv(k);
+    const InelasticModel& model = *models_[mesh_.cell_material[cells_[k]]];
     const double* start = state_.start(k);
     double* end = state_.overwrite(k);
     model.update(F, start, dt_, end);
     end[dissipated_] = start[dissipated_] + model.dissipation(F, start, dt_, end);
-    ++k;
   }
   return 0;
 }
