@@ -9,7 +9,8 @@
 // its det F at each accepted frame) checkpointed after 3 frames and restarted in a fresh scene goes
 // on bit for bit as the uninterrupted run; a scene whose terms keep other state cannot restart from
 // it; a rebuilt scene carries the state over by id. At 1 and 2 ranks. Then the midpoint's
-// extrapolate and advance, and undo after them; and the revision that changes with the start values.
+// extrapolate and advance, and undo after them; a begin's swap (current standing for the start values
+// until written); and the revision that changes with the start values.
 #include <petscdmplex.h>
 
 #include <algorithm>
@@ -310,6 +311,32 @@ void check_midpoint_moves() {
   CHECK(s.start(1)[0] == 1.0 && s.current(1)[0] == 1.0);
 }
 
+// A step's begin swaps the values instead of copying them: current then stands for the start values
+// until written, element by element through current() (the others kept) or all through overwrite()
+// (InelasticTets' update); undo and extrapolate see the same values as with a copy.
+void check_overwrite() {
+  ElementState s("o", 2, {4, 9}, 1.0);
+  s.begin();
+  for (size_t e = 0; e < 2; ++e) s.overwrite(e)[0] = 2.0 + e, s.overwrite(e)[1] = 3.0 + e;
+  CHECK(s.current(0)[0] == 2.0 && s.current(1)[1] == 4.0 && s.start(0)[0] == 1.0 && s.start(1)[1] == 1.0);
+  s.begin();  // the written values become the start
+  CHECK(s.start(1)[1] == 4.0 && s.current(1)[1] == 4.0 && s.current_values() == std::vector<double>({2, 3, 3, 4}));
+  const ElementState copy = s;
+  CHECK(copy.current_values() == std::vector<double>({2, 3, 3, 4}));
+  for (size_t e = 0; e < 2; ++e) s.overwrite(e)[0] = 5.0, s.overwrite(e)[1] = 6.0;
+  s.undo();
+  CHECK(s.current_values() == std::vector<double>({2, 3, 3, 4}));
+  s.current(0)[1] = 7.0;  // one value written through current(): the others are the start's
+  CHECK(s.current_values() == std::vector<double>({2, 7, 3, 4}) && s.start(0)[1] == 3.0);
+  s.begin();
+  s.extrapolate();  // nothing written since: 2 start - start
+  CHECK(s.current_values() == std::vector<double>({2, 7, 3, 4}));
+  s.begin_substep();
+  s.overwrite(0)[0] = 8.0, s.overwrite(0)[1] = 8.0, s.overwrite(1)[0] = 8.0, s.overwrite(1)[1] = 8.0;
+  s.undo();  // back to the frame's start
+  CHECK(s.current_values() == std::vector<double>({2, 7, 3, 4}) && s.start(1)[0] == 3.0);
+}
+
 // The revision a cache of the start values keys on (InelasticTets' step values): it changes with
 // every call that may move the start values, and not with extrapolate (the current ones only).
 void check_revision() {
@@ -335,6 +362,7 @@ int main(int argc, char** argv) {
   PetscCall(check_counts());
   PetscCall(check_checkpoint());
   check_midpoint_moves();
+  check_overwrite();
   check_revision();
   const int code = test_scene::tally("test_element_state");
   PetscCall(PetscFinalize());

@@ -31,9 +31,18 @@ class ElementState {
   const std::vector<int64_t>& ids() const { return ids_; }
   // Element e's values at the step's start, and its current ones.
   const double* start(size_t e) const { return &start_[per_element_ * e]; }
-  double* current(size_t e) { return &current_[per_element_ * e]; }
-  const double* current(size_t e) const { return &current_[per_element_ * e]; }
-  const std::vector<double>& current_values() const { return current_; }
+  double* current(size_t e) {
+    materialize();
+    return &current_[per_element_ * e];
+  }
+  const double* current(size_t e) const { return &current_values()[per_element_ * e]; }
+  const std::vector<double>& current_values() const { return current_is_start_ ? start_ : current_; }
+  // For a term whose update writes every element's current values (InelasticTets): the values
+  // current has before are not needed, so a step's begin need not have copied them.
+  double* overwrite(size_t e) {
+    current_is_start_ = false;
+    return &current_[per_element_ * e];
+  }
   // Changes whenever the start values may have (each call below but extrapolate): what a term
   // computes once per step from them (InelasticTets' step values) is kept under it.
   uint64_t revision() const { return revision_; }
@@ -41,14 +50,14 @@ class ElementState {
   // A frame's step: its start, and back to it (after sub-steps too).
   void begin() {
     ++revision_;
-    start_ = current_;
+    take_current_as_start();
     frame_kept_ = advanced_ = false;
   }
   void undo() {
     ++revision_;
     back_from_advance();
     if (frame_kept_) start_ = frame_start_;
-    current_ = start_;
+    current_is_start_ = true;
   }
   // A sub-step of the frame: its start (the frame's kept at the first), and back to it.
   void begin_substep() {
@@ -56,16 +65,17 @@ class ElementState {
     if (!frame_kept_) frame_start_ = start_;
     frame_kept_ = true;
     advanced_ = false;
-    start_ = current_;
+    take_current_as_start();
   }
   void undo_substep() {
     ++revision_;
     back_from_advance();
-    current_ = start_;
+    current_is_start_ = true;
   }
   // The midpoint (docs/inelastic.md#the-midpoint): current, updated at the step's z over h/2, becomes
   // 2 current - start, the midpoint rule for the values' ODE (the energy dissipated: start + 2 D_half).
   void extrapolate() {
+    if (current_is_start_) return;  // 2 start - start
     for (size_t i = 0; i < current_.size(); ++i) current_[i] = 2 * current_[i] - start_[i];
   }
   // A midpoint step completed by implicit Euler: its second half starts from the values at z
@@ -74,18 +84,31 @@ class ElementState {
     ++revision_;
     if (!advanced_) step_start_ = start_;
     advanced_ = true;
-    start_ = current_;
+    take_current_as_start();
   }
   // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
   // start and the current ones, as after an accepted step.
   void restore(std::vector<double> values) {
     ++revision_;
-    current_ = std::move(values);
-    start_ = current_;
+    start_ = std::move(values);
+    current_is_start_ = true;
     frame_kept_ = advanced_ = false;
   }
 
  private:
+  // The current values become the start's, and current stands for them until written: a swap,
+  // not a copy of every value (a step's begin).
+  void take_current_as_start() {
+    if (current_is_start_) return;
+    start_.swap(current_);
+    current_is_start_ = true;
+  }
+  // current_ holding the values again before one is written (a copy only after a begin or undo).
+  void materialize() {
+    if (!current_is_start_) return;
+    current_ = start_;
+    current_is_start_ = false;
+  }
   void back_from_advance() {
     if (advanced_) start_ = step_start_;
     advanced_ = false;
@@ -95,6 +118,7 @@ class ElementState {
   int per_element_;
   std::vector<int64_t> ids_;
   std::vector<double> start_, current_;
+  bool current_is_start_ = false;  // current's values are start's (current_ is stale until written)
   std::vector<double> frame_start_;  // the frame's start while sub-steps move start_
   bool frame_kept_ = false;
   std::vector<double> step_start_;  // the step's start while advance() moved start_ to its z

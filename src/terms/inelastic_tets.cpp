@@ -120,12 +120,13 @@ Eigen::Matrix<double, 4, 4, Eigen::RowMajor> InelasticTets::element_laplacian(Pe
   return weighted_laplacian(k, scale * weight_[m]);
 }
 
+// Every element's current values written (ElementState::overwrite: a step's begin copied none).
 PetscErrorCode InelasticTets::update_state(const std::vector<double>& pos) {
   for (size_t k = 0; k < cells_.size(); ++k) {
     const Mat3 F = edge_matrix(pos.data(), &mesh_.cells[4 * cells_[k]]) * Dm_inv(k);
     const InelasticModel& model = *models_[mesh_.cell_material[cells_[k]]];
     const double* start = state_.start(k);
-    double* end = state_.current(k);
+    double* end = state_.overwrite(k);
     model.update(F, start, dt_, end);
     end[dissipated_] = start[dissipated_] + model.dissipation(F, start, dt_, end);
   }
