@@ -164,6 +164,12 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
       for (int64_t x : f) cuts += (cuts.empty() ? "" : " ") + std::to_string(x);
     head.put("cuts", cuts);
   }
+  if (!h.breaks.empty()) {
+    std::string breaks;
+    for (const auto& b : h.breaks)
+      for (int64_t x : b) breaks += (breaks.empty() ? "" : " ") + std::to_string(x);
+    head.put("breaks", breaks);
+  }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
   for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
@@ -255,6 +261,12 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     std::array<int64_t, 3> f;
     while (in >> f[0] >> f[1] >> f[2]) h.cuts.push_back(f);
     if (!in.eof()) throw std::runtime_error("its header's cuts are malformed");
+  }
+  if (head.has("breaks")) {
+    std::istringstream in(head.get("breaks"));
+    std::array<int64_t, 3> b;
+    while (in >> b[0] >> b[1] >> b[2]) h.breaks.push_back(b);
+    if (!in.eof()) throw std::runtime_error("its header's breaks are malformed");
   }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;

@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, cuts (scripted cuts only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts (scripted cuts only), breaks (snapped strands only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
@@ -77,6 +77,9 @@ struct CheckpointHeader {
   // Scripted cuts: every face separated so far, (frame, tet, tet) in order (LiveScene::cut_history;
   // header key cuts, absent without any), replayed by a restart.
   std::vector<std::array<int64_t, 3>> cuts;
+  // Breaks: every strand segment snapped so far, (frame, kind, element) in order
+  // (LiveScene::break_history; header key breaks, absent without any), replayed by a restart.
+  std::vector<std::array<int64_t, 3>> breaks;
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state

@@ -9,6 +9,8 @@
 #include "io/log_events.hpp"
 #include "io/partition_file.hpp"
 #include "model/cuts.hpp"
+#include "model/tearing.hpp"
+#include "mesh/strand_separation.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
@@ -443,12 +445,16 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   bool releases = false;
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
-  if (releases || !spec.cuts.empty()) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
-  if (!spec.cuts.empty()) {  // copies' ids come after every id of the input
+  snap_strains_ = snap_strains(spec);
+  const bool breaks = !spec.cuts.empty() || !snap_strains_.empty();
+  if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
+  if (breaks) {  // copies' ids come after every id of the input
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
     id_offset_ = slots - input.piece.global_vertices;
+  }
+  if (!spec.cuts.empty()) {
     // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal, as
     // the body may move) over the run's frames cuts nothing: said, not refused.
     double lo[3], hi[3];
@@ -661,6 +667,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
     s->released_attachments = main.released_attachments;
   }
   last_change_cut_ = false;
+  last_change_break_ = false;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
   PetscFunctionReturn(0);
@@ -706,7 +713,16 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     PetscFunctionReturn(0);
   }
   *cut = true;
-  const std::vector<int32_t> source = separate(main.frame, batch);
+  last_change_cut_ = true;
+  last_change_break_ = false;
+  PetscCall(move_to_rebuilt(main, others, rebind, t, separate(main.frame, batch)));
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind,
+                                          double t, const std::vector<int32_t>& source) {
+  PetscFunctionBeginUser;
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh));
   fresh->body->set_time(t);
@@ -717,9 +733,60 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     PetscCall(carry_state(*scene_, *fresh, t, *s, source));
     PetscCall(fresh->body->hold(s->x));
   }
-  last_change_cut_ = true;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
+  PetscFunctionReturn(0);
+}
+
+std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch) {
+  for (int64_t s : batch) {
+    snapped_.insert(s);
+    breaks_.push_back({frame, 0, s});
+  }
+  std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
+  SeparationResult r = snap_segments(comm_, kept_.piece, batch, snapped_, id_offset_, arrays);
+  break_counts_.segments += (long long)batch.size();
+  break_counts_.vertices += r.new_vertices;
+  break_counts_.batches += 1;
+  return std::move(r.source);
+}
+
+PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped) {
+  PetscFunctionBeginUser;
+  *snapped = false;
+  if (snap_strains_.empty() || main.frame == 0) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  std::vector<double> pos;
+  PetscCall(scene_->body->local_positions(main.x, pos));
+  PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the scene's local vertices are not its kept piece's");
+  const std::vector<int64_t> batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
+  if (!batch.empty()) {
+    *snapped = true;
+    last_change_cut_ = false;
+    last_change_break_ = true;
+    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch)));
+  }
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
+  PetscFunctionBeginUser;
+  if (history.empty()) PetscFunctionReturn(0);
+  PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
+  PetscCall(event_begin(&LogEvents::topology));
+  for (size_t i = 0; i < history.size();) {
+    size_t j = i;
+    std::vector<int64_t> batch;
+    for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
+      PetscCheck(history[j][1] == 0, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
+      batch.push_back(history[j][2]);
+    }
+    snap(history[i][0], batch);
+    i = j;
+  }
+  kept_changed_ = true;
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
