@@ -1,9 +1,10 @@
-"""Bodies that break by their strain (docs/topology.md#snapping-strands), end to end: a rope
-holding a swinging cube snaps in the frame after its strain first exceeds the deck's threshold;
-mass is unchanged exactly; 1, 2 and 4 ranks snap the same segments in the same frames; a restart
-after snaps equals the uninterrupted run bit for bit; bad thresholds are refused; a deck whose
-strands do not snap runs no topology code."""
+"""Bodies that break by their strain (docs/topology.md#snapping-strands), end to end: ropes
+holding a swinging cube snap in the frame after their strain first exceeds the deck's threshold;
+mass is unchanged exactly; 1, 2 and 4 ranks snap the same segments in the same frames; a run
+killed (kill -9) after snaps and restarted equals the uninterrupted run bit for bit; bad
+thresholds are refused; a deck whose strands do not snap runs no topology code."""
 import copy
+import random
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from conftest import event_count, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import lumped_masses
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_checkpoint, read_iterations, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
+from test_safe_outputs import run_and_kill
 
 # Newton, converged to round-off: the rank test compares positions to 1e-8 of the diagonal.
 TIGHT = {"type": "newton", "iterations": 50, "grad_rtol": 1e-12, "grad_atol": 0}
@@ -117,16 +119,17 @@ def test_ranks_snap_the_same_segments_in_the_same_frames(rope, tmp_path, ranks):
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
-def test_restart_after_snaps_is_bitwise(tmp_path, ranks):
-    ref, s = run_deck(tmp_path, "ref", ROPE, ranks=ranks)
-    out = tmp_path / "restarted"
-    half = copy.deepcopy(ROPE)
-    half["time"]["frames"] = 36
-    half["checkpoint"] = {"every": 36}
-    run_hyperqn([write_deck(tmp_path / "half.yaml", half), "-o", out], ranks=ranks)
+def test_restart_after_kill_after_snaps_is_bitwise(tmp_path, ranks):
+    deck = copy.deepcopy(ROPE)
+    deck["time"]["frames"] = 150  # the frames after the checkpoint take seconds: the kill lands mid-run
+    deck["checkpoint"] = {"every": 36}
+    ref, s = run_deck(tmp_path, "ref", deck, ranks=ranks)
+    out = tmp_path / "killed"
+    args = [write_deck(tmp_path / "killed.yaml", deck), "-o", out]
+    run_and_kill(args, ranks, lambda: (out / "checkpoints" / "checkpoint_36.h5").exists(), random.Random(44))
     saved = read_checkpoint(out / "checkpoints" / "checkpoint_36.h5")
     assert len(str(saved["breaks"]).split()) == 6  # the checkpoint was written after both snaps
-    done = run_hyperqn([write_deck(tmp_path / "ref.yaml", ROPE), "-o", out, "--restart", "latest"], ranks=ranks)
+    done = run_hyperqn(args + ["--restart", "latest"], ranks=ranks)
     assert "restart from" in done.stdout
     a, b = final_frame(ref), final_frame(out)
     assert np.array_equal(a.vertex_id, b.vertex_id)
