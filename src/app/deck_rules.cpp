@@ -104,6 +104,15 @@ void check_fracture(const Reader& r, const Deck& deck) {
   }
 }
 
+void check_snap(const Reader& r, const Value& where, const Deck& deck) {
+  if (deck.contact.self)
+    r.fail(where, "snapping strands (snap) with self-contact (contact.self) are not done yet: the new ends would not "
+                  "take part in it (docs/topology.md)");
+  if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
+    r.fail(where, "output.format: xdmf holds one mesh per run, and a snap changes the mesh: write vtu frames with "
+                  "snapping strands (docs/topology.md)");
+}
+
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;

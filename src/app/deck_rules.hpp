@@ -25,6 +25,9 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
 // cuts: (read) against the mesh, self-contact and the output format.
 void check_cuts(const Reader& r, const Value& cuts, const Deck& deck);
 void check_fracture(const Reader& r, const Deck& deck);
+// Snapping strands (strand_material.snap, reported at `where`) are refused with self-contact and
+// XDMF output, as cuts are.
+void check_snap(const Reader& r, const Value& where, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is

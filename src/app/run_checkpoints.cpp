@@ -134,7 +134,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   h.released = state.released;
   h.released_attachments = state.released_attachments;
   h.cuts = run_.scene.cut_history();
-  if (!h.cuts.empty()) {  // the cut mesh's vertices (a restart replays the cuts before it compares)
+  h.breaks = run_.scene.break_history();
+  if (!h.cuts.empty() || !h.breaks.empty()) {  // the cut mesh's vertices (a restart replays the cuts before it compares)
     long long slots = 0;
     for (int64_t id : s.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, run_.comm);

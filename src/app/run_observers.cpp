@@ -83,6 +83,10 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
     PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
                           run_.state.time, run_.scene.fracture() ? "fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
+  } else if (run_.scene.last_change_break()) {
+    const LiveScene::BreakCounts& c = run_.scene.break_counts();
+    PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
+                          run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
   } else {
     PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
                           run_.state.time, (long long)summary.dofs));

@@ -55,6 +55,8 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     PetscCall(scene_.release_due(lead_, carried, rebind, &released));
     bool cut;  // after the step before: its faces crossed by a blade separate (scripted cuts)
     PetscCall(scene_.cut_due(lead_, carried, rebind, &cut));
+    bool snapped;  // after the step before: its segments stretched past their snapping strain snap
+    PetscCall(scene_.snap_due(lead_, carried, rebind, &snapped));
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
     const Scene& scene = scene_.current();
 

@@ -167,6 +167,12 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
     head.put("cuts", cuts);
     head.put("cuts_factored", h.cuts_factored);
   }
+  if (!h.breaks.empty()) {
+    std::string breaks;
+    for (const auto& b : h.breaks)
+      for (int64_t x : b) breaks += (breaks.empty() ? "" : " ") + std::to_string(x);
+    head.put("breaks", breaks);
+  }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
   for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
@@ -259,6 +265,12 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     while (in >> f[0] >> f[1] >> f[2]) h.cuts.push_back(f);
     if (!in.eof()) throw std::runtime_error("its header's cuts are malformed");
     h.cuts_factored = head.has("cuts_factored") ? head.get_long("cuts_factored") : -1;
+  }
+  if (head.has("breaks")) {
+    std::istringstream in(head.get("breaks"));
+    std::array<int64_t, 3> b;
+    while (in >> b[0] >> b[1] >> b[2]) h.breaks.push_back(b);
+    if (!in.eof()) throw std::runtime_error("its header's breaks are malformed");
   }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;

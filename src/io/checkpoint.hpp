@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, cuts and cuts_factored (scripted cuts only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts and cuts_factored (scripted cuts only), breaks (snapped strands only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
@@ -81,6 +81,9 @@ struct CheckpointHeader {
   // cuts_factored; later batches were followed by TopologyH0's corrections, which a restart
   // replays from that scene; -1, absent: all).
   long long cuts_factored = -1;
+  // Breaks: every strand segment snapped so far, (frame, kind, element) in order
+  // (LiveScene::break_history; header key breaks, absent without any), replayed by a restart.
+  std::vector<std::array<int64_t, 3>> breaks;
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state

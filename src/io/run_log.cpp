@@ -228,6 +228,10 @@ void write_summary(const std::string& path, const RunSummary& s) {
                                  ", \"h0_corrections\": " + std::to_string(s.cut_h0_corrections) +
                                  ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                                  ", \"topology_s\": " + number(s.topology_s) + "},\n")
+      << (!s.breaks ? "" : "  \"breaks\": {\"segments_snapped\": " + std::to_string(s.segments_snapped) +
+                               ", \"vertices_added\": " + std::to_string(s.break_vertices) +
+                               ", \"refactorizations\": " + std::to_string(s.break_batches) +
+                               ", \"topology_s\": " + number(s.topology_s) + "},\n")
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"
       << "  \"peak_rss_mb_by_rank\": [";

@@ -54,6 +54,35 @@ struct Copy {
 
 }  // namespace
 
+void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const std::vector<VertexArray>& arrays) {
+  TetMesh& m = piece.mesh;
+  std::vector<char> used(m.num_vertices(), 0);
+  for (const std::vector<int32_t>* kind : {&m.tets, &m.segments, &m.triangles, &m.hinges})
+    for (int32_t v : *kind) used[v] = 1;
+  std::vector<int32_t> new_index(m.num_vertices(), -1);
+  int32_t kept = 0;
+  for (int64_t v = 0; v < m.num_vertices(); ++v) {
+    if (!used[v]) continue;
+    new_index[v] = kept;
+    for (int d = 0; d < 3; ++d) m.coords[3 * size_t(kept) + d] = m.coords[3 * size_t(v) + d];
+    m.vertex_ids[kept] = m.vertex_ids[v];
+    piece.vertex_numbers[kept] = piece.vertex_numbers[v];
+    source[kept] = source[v];
+    for (const VertexArray& a : arrays)
+      if (!a.values->empty())
+        for (int j = 0; j < a.width; ++j) (*a.values)[size_t(a.width) * kept + j] = (*a.values)[size_t(a.width) * v + j];
+    ++kept;
+  }
+  m.coords.resize(3 * size_t(kept));
+  m.vertex_ids.resize(kept);
+  piece.vertex_numbers.resize(kept);
+  source.resize(kept);
+  for (const VertexArray& a : arrays)
+    if (!a.values->empty()) a.values->resize(size_t(a.width) * kept);
+  for (std::vector<int32_t>* kind : {&m.tets, &m.segments, &m.triangles, &m.hinges})
+    for (int32_t& v : *kind) v = new_index[v];
+}
+
 SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
                                 const std::set<TetPair>& separated, int64_t id_offset,
                                 const std::vector<VertexArray>& arrays) {
@@ -138,32 +167,7 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
   }
   piece.global_vertices += result.new_vertices;
 
-  // Vertices no local element uses leave the piece (the order, by number, is kept).
-  std::vector<char> used(m.num_vertices(), 0);
-  for (const std::vector<int32_t>* kind : {&m.tets, &m.segments, &m.triangles, &m.hinges})
-    for (int32_t v : *kind) used[v] = 1;
-  std::vector<int32_t> new_index(m.num_vertices(), -1);
-  int32_t kept = 0;
-  for (int64_t v = 0; v < m.num_vertices(); ++v) {
-    if (!used[v]) continue;
-    new_index[v] = kept;
-    for (int d = 0; d < 3; ++d) m.coords[3 * size_t(kept) + d] = m.coords[3 * size_t(v) + d];
-    m.vertex_ids[kept] = m.vertex_ids[v];
-    piece.vertex_numbers[kept] = piece.vertex_numbers[v];
-    source[kept] = source[v];
-    for (const VertexArray& a : arrays)
-      if (!a.values->empty())
-        for (int j = 0; j < a.width; ++j) (*a.values)[size_t(a.width) * kept + j] = (*a.values)[size_t(a.width) * v + j];
-    ++kept;
-  }
-  m.coords.resize(3 * size_t(kept));
-  m.vertex_ids.resize(kept);
-  piece.vertex_numbers.resize(kept);
-  source.resize(kept);
-  for (const VertexArray& a : arrays)
-    if (!a.values->empty()) a.values->resize(size_t(a.width) * kept);
-  for (std::vector<int32_t>* kind : {&m.tets, &m.segments, &m.triangles, &m.hinges})
-    for (int32_t& v : *kind) v = new_index[v];
+  drop_unused_vertices(piece, source, arrays);
   result.source = std::move(source);
   return result;
 }

@@ -47,4 +47,8 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
                                 const std::set<TetPair>& separated, int64_t id_offset,
                                 const std::vector<VertexArray>& arrays);
 
+// The vertices that no local element uses any more leave `piece` (the order, by number, is kept);
+// `source` and `arrays` (per local vertex) follow.
+void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const std::vector<VertexArray>& arrays);
+
 }  // namespace hyperqn

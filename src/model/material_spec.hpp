@@ -20,6 +20,7 @@ struct StrandMaterial {
   double linear_density = 0;         // mass per unit rest length (kg/m)
   double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
   SpringYield yield;                 // the segments' rest lengths flow past it (strain 0: elastic)
+  double snap_strain = 0;            // a segment snaps past this strain l/L - 1 (0: never)
 };
 
 // The deck's strand_material: keys (params/deck_keys.hpp).
@@ -42,6 +43,12 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
        "with `yield_strain`: the yield strain's growth per unit of accumulated plastic strain (H/E; 0: perfectly "
        "plastic)",
        at_least(0)},
+      map_key<S>("snap", "the segments snap: after a step, a segment stretched past the strain lets go of the rest of "
+                         "the strand at both ends ([snapping.md](snapping.md))",
+                 "none (never snaps)"),
+      needed(DeckKey<S>{"snap.strain", &S::snap_strain,
+                        "a segment whose strain l/L − 1 (L its rest length) exceeds this after a step snaps",
+                        above(0, "a strain, e.g. 0.2")}),
   };
   return keys;
 }

@@ -10,6 +10,8 @@
 #include "io/partition_file.hpp"
 #include "model/cuts.hpp"
 #include "model/fracture.hpp"
+#include "model/tearing.hpp"
+#include "mesh/strand_separation.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
@@ -446,8 +448,10 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
   fracture_ = fracture_specs(spec);  // empty without material.fracture
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
-  if (releases || separates) kept_ = input;  // a release or cut rebuilds the scene from this rank's piece
-  if (separates) {  // copies' ids come after every id of the input
+  snap_strains_ = snap_strains(spec);
+  const bool breaks = separates || !snap_strains_.empty();
+  if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
+  if (separates) {  // cuts' H0 (snapped strands' scenes are factored again)
     PetscBool flag = PETSC_TRUE, set = PETSC_FALSE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_topology_h0", &flag, &set));
     // TopologyH0 corrects a factor kept in double: a single-precision factor is factored again
@@ -461,6 +465,8 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
     PetscInt max_touched = 0;
     PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-hyperqn_test_topology_h0_max_touched", &max_touched, nullptr));
     topology_check_.max_touched = max_touched;
+  }
+  if (breaks) {  // copies' ids come after every id of the input
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
@@ -721,6 +727,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
     s->released_attachments = main.released_attachments;
   }
   last_change_cut_ = false;
+  last_change_break_ = false;
   factored_batches_ = counts_.batches;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
@@ -780,12 +787,11 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
 
 PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
                                        const Rebind& rebind) {
-  const double t = main.frame * spec_->time.dt;
   PetscFunctionBeginUser;
-  const std::vector<int32_t> source = separate(main.frame, batch);
-  std::unique_ptr<Scene> fresh;
   bool corrected = false;
-  PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), &corrected));
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, separate(main.frame, batch), &corrected));
+  last_change_cut_ = true;
+  last_change_break_ = false;
   last_cut_corrected_ = corrected;
   if (corrected) {
     ++counts_.corrections;
@@ -793,6 +799,14 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
     ++counts_.refactorizations;
     factored_batches_ = counts_.batches;
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind,
+                                          double t, const std::vector<int32_t>& source, bool* corrected) {
+  PetscFunctionBeginUser;
+  std::unique_ptr<Scene> fresh;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
   fresh->body->set_time(t);
   fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main, source));
@@ -801,9 +815,62 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
     PetscCall(carry_state(*scene_, *fresh, t, *s, source));
     PetscCall(fresh->body->hold(s->x));
   }
-  last_change_cut_ = true;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
+  PetscFunctionReturn(0);
+}
+
+std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch) {
+  for (int64_t s : batch) {
+    snapped_.insert(s);
+    breaks_.push_back({frame, 0, s});
+  }
+  std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
+  SeparationResult r = snap_segments(comm_, kept_.piece, batch, snapped_, id_offset_, arrays);
+  break_counts_.segments += (long long)batch.size();
+  break_counts_.vertices += r.new_vertices;
+  break_counts_.batches += 1;
+  return std::move(r.source);
+}
+
+PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped) {
+  PetscFunctionBeginUser;
+  *snapped = false;
+  if (snap_strains_.empty() || main.frame == 0) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  std::vector<double> pos;
+  PetscCall(scene_->body->local_positions(main.x, pos));
+  PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the scene's local vertices are not its kept piece's");
+  const std::vector<int64_t> batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
+  if (!batch.empty()) {
+    *snapped = true;
+    last_change_cut_ = false;
+    last_change_break_ = true;
+    bool corrected = false;  // no TopologyH0 without cuts or fracture: factored again
+    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch), &corrected));
+  }
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
+  PetscFunctionBeginUser;
+  if (history.empty()) PetscFunctionReturn(0);
+  PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
+  PetscCall(event_begin(&LogEvents::topology));
+  for (size_t i = 0; i < history.size();) {
+    size_t j = i;
+    std::vector<int64_t> batch;
+    for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
+      PetscCheck(history[j][1] == 0, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
+      batch.push_back(history[j][2]);
+    }
+    snap(history[i][0], batch);
+    i = j;
+  }
+  kept_changed_ = true;
+  PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
 

@@ -1,0 +1,168 @@
+"""Bodies that break by their strain (docs/snapping.md), end to end: ropes
+holding a swinging cube snap in the frame after their strain first exceeds the deck's threshold;
+mass is unchanged exactly; 1, 2 and 4 ranks snap the same segments in the same frames; a run
+killed (kill -9) after snaps and restarted equals the uninterrupted run bit for bit; bad
+thresholds are refused; a deck whose strands do not snap runs no topology code."""
+import copy
+
+import numpy as np
+import pytest
+
+from conftest import event_count, run_deck, run_hyperqn, write_deck
+from hyperqn_tools.energy import lumped_masses
+from hyperqn_tools.output import Frame, final_frame, frame_list, read_checkpoint, read_iterations, read_summary, rest_diagonal
+from test_bad_input import assert_deck_refused
+from test_checkpoint_faults import killed
+
+# Newton, converged to round-off: the rank test compares positions to 1e-8 of the diagonal.
+TIGHT = {"type": "newton", "iterations": 50, "grad_rtol": 1e-12, "grad_atol": 0}
+SNAP = 0.1
+DENSITY, LINEAR_DENSITY = 1100, 0.05
+
+# A 0.2 m cube (8.8 kg) on two ropes of 10 segments (from (0, 0, 0) and (0, 0, 0.3) to the centre
+# of its face x = 1), released with the ropes horizontal: swinging down, the tension grows towards
+# 3 mg; one rope snaps, then the other, which then holds it all (input/topology/rope_snap.yaml, smaller).
+ROPE = {
+    "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [2, 2, 2]},
+             "transform": {"translate": [1.0, -0.1, -0.1]},
+             "strands": [{"from": [0, 0, 0], "to": [1, 0, 0], "segments": 10},
+                         {"from": [0, 0, 0.3], "to": [1, 0, 0], "segments": 10}]},
+    "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.4, "density": DENSITY},
+    "strand_material": {"axial_stiffness": 1.0e3, "linear_density": LINEAR_DENSITY, "snap": {"strain": SNAP}},
+    "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.01]}},
+              {"box": {"min": [-0.01, -0.01, 0.29], "max": [0.01, 0.01, 0.31]}}],
+    "gravity": [0, -9.81, 0],
+    "time": {"dt": 1 / 60, "frames": 40},
+    "solver": TIGHT,
+}
+
+
+def frames(out):
+    return [Frame(path) for _, _, path in frame_list(out)]
+
+
+def strains(frame):
+    """Each strand segment's strain l/L - 1 (L from the rest positions, points - displacement)."""
+    seg = frame.cells["line"]
+    x, X = frame.points, frame.points - frame.displacement
+    return np.linalg.norm(x[seg[:, 1]] - x[seg[:, 0]], axis=1) / np.linalg.norm(X[seg[:, 1]] - X[seg[:, 0]], axis=1) - 1
+
+
+def masses(frame):
+    """hyperqn's lumped masses: the tets' quarters and half of each segment's mass to each end."""
+    X = frame.points - frame.displacement
+    m = lumped_masses(X, frame.cells["tetra"], DENSITY)
+    seg = frame.cells["line"]
+    half = 0.5 * LINEAR_DENSITY * np.linalg.norm(X[seg[:, 1]] - X[seg[:, 0]], axis=1)
+    np.add.at(m, seg[:, 0], half)
+    np.add.at(m, seg[:, 1], half)
+    return m
+
+
+@pytest.fixture(scope="module")
+def rope(tmp_path_factory):
+    return run_deck(tmp_path_factory.mktemp("rope"), "rope", ROPE)
+
+
+def test_rope_snaps_in_the_frame_after_its_strain_exceeds_the_threshold(rope):
+    out, s = rope
+    fs = frames(out)
+    over = [k for k, f in enumerate(fs) if strains(f).max() > SNAP]
+    assert over, "the rope never stretched past the threshold"
+    first = over[0]
+    counts = [len(f.points) for f in fs]
+    # frame `first` is written before the break; the break is made at the start of the next step
+    assert all(c == counts[0] for c in counts[: first + 1]) and counts[first + 1] > counts[0]
+    assert s["breaks"]["segments_snapped"] >= 1 and s["breaks"]["vertices_added"] == counts[-1] - counts[0]
+    assert s["breaks"]["refactorizations"] == s["breaks"]["segments_snapped"]  # one segment per step
+    # the segment most over the threshold in that frame is the one that came apart: it has a
+    # vertex of its own (an id after the input's) at its end that had a neighbour
+    worst = int(np.argmax(strains(fs[first])))
+    seg = fs[-1].cells["line"]
+    assert (fs[-1].vertex_id[seg[worst]] >= counts[0]).any()
+    assert counts[first + 1] == counts[0] + 1  # one segment per step
+    assert s["breaks"]["segments_snapped"] == 2  # then the other rope, in a later frame
+    assert len(set(counts)) == 3
+    # the cube flies off: at the end it is far from where the rope would hold it
+    assert np.linalg.norm(fs[-1].points[fs[-1].cells["tetra"]].mean(axis=(0, 1))) > 1.1
+
+
+def test_total_mass_is_unchanged_exactly(rope):
+    out, _ = rope
+    fs = frames(out)
+    m0, m1 = masses(fs[0]).sum(), masses(fs[-1]).sum()
+    assert len(fs[-1].points) > len(fs[0].points)
+    assert abs(m1 - m0) <= 1e-14 * m0 and abs(m0 - (DENSITY * 0.008 + LINEAR_DENSITY * (1 + np.hypot(1, 0.3)))) <= 1e-12 * m0
+
+
+def test_a_deck_whose_strands_do_not_snap_runs_no_topology_code(tmp_path):
+    plain = copy.deepcopy(ROPE)
+    del plain["strand_material"]["snap"]
+    plain["time"]["frames"] = 3
+    log = tmp_path / "plain.log"
+    run_hyperqn([write_deck(tmp_path / "plain.yaml", plain), "-o", tmp_path / "plain", "-log_view", f":{log}"], ranks=None)
+    text = log.read_text()
+    # PETSc lists an event only once it has run: absent is a count of 0 (the objective's is there)
+    assert event_count(text, "hqnObjective") > 0 and event_count(text, "hqnTopology") == 0
+    assert "breaks" not in read_summary(tmp_path / "plain")
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_snap_the_same_segments_in_the_same_frames(rope, tmp_path, ranks):
+    ref, s1 = rope
+    out, s2 = run_deck(tmp_path, "rope", ROPE, ranks=ranks)
+    assert s1["breaks"] == {**s2["breaks"], "topology_s": s1["breaks"]["topology_s"]}
+    for a, b in zip(frames(ref), frames(out)):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_kill_after_snaps_is_bitwise(tmp_path, ranks):
+    deck = copy.deepcopy(ROPE)
+    deck["time"]["frames"] = 60
+    deck["checkpoint"] = {"every": 36}
+    ref, s = run_deck(tmp_path, "ref", deck, ranks=ranks)
+    out = tmp_path / "killed"
+    args = [write_deck(tmp_path / "killed.yaml", deck), "-o", out]
+    killed(args[0], out, 45, ranks)  # SIGKILL, every rank, after frame 45: 36 is the last checkpoint
+    saved = read_checkpoint(out / "checkpoints" / "checkpoint_36.h5")
+    assert len(str(saved["breaks"]).split()) == 6  # the checkpoint was written after both snaps
+    done = run_hyperqn(args + ["--restart", "latest"], ranks=ranks)
+    assert "restart from" in done.stdout
+    a, b = final_frame(ref), final_frame(out)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.velocity, b.velocity)
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "time_s"} for r in rows]
+    assert strip(read_iterations(ref)) == strip(read_iterations(out))
+    sb = read_summary(out)
+    assert {k: v for k, v in s["breaks"].items() if k != "topology_s"} == {k: v for k, v in sb["breaks"].items() if k != "topology_s"}
+
+
+def bad(**changes):
+    deck = copy.deepcopy(ROPE)
+    deck["time"]["frames"] = 2
+    for key, value in changes.items():
+        deck[key] = value
+    return deck
+
+
+def snap(strain):
+    return bad(strand_material={**ROPE["strand_material"], "snap": {"strain": strain}})
+
+
+BAD_DECKS = {
+    "negative_strain": (snap(-0.2), ["strand_material.snap.strain"]),
+    "zero_strain": (snap(0.0), ["strand_material.snap.strain"]),
+    "nan_strain": (snap(float("nan")), ["strand_material.snap.strain"]),
+    "inf_strain": (snap(float("inf")), ["strand_material.snap.strain"]),
+    "missing_strain": (bad(strand_material={**ROPE["strand_material"], "snap": {}}), ["strain"]),
+    "self_contact": (bad(contact={"self": True}), ["snap", "self-contact"]),
+    "xdmf": (bad(output={"format": "xdmf"}), ["snap", "xdmf"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_DECKS))
+def test_bad_snap_deck_is_refused(tmp_path, case):
+    deck, fragments = BAD_DECKS[case]
+    assert_deck_refused(tmp_path, case, deck, fragments)
