@@ -65,6 +65,20 @@ def killed(path, out, frame, ranks=None, extra=()):
     return proc
 
 
+def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None):
+    """deck (a dict) with a checkpoint every 2 frames over 6: a run killed (SIGKILL, every rank)
+    after frame 4's checkpoint and restarted equals the uninterrupted one in positions,
+    velocities, iterations and the .pvd."""
+    deck = {**deck, "time": {**deck["time"], "frames": 6}, "checkpoint": {"every": 2}}
+    path = write_deck(tmp_path / "killed.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    out = tmp_path / "out"
+    killed(path, out, 4, ranks)
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert_same_run(ref, out)
+
+
 def checkpoints(out):
     return sorted(os.listdir(out / "checkpoints"))
 

@@ -22,6 +22,7 @@ from hyperqn_tools.output import Frame, final_frame, frame_list, read_summary, r
 from test_bad_input import assert_deck_refused
 from test_checkpoint import assert_same_run
 from test_checkpoint_faults import killed
+from test_cuts import components
 
 H = 0.1  # the cubes' edge: the element size
 E, DENSITY = 1.0e6, 1000.0
@@ -113,21 +114,6 @@ def first_break(out):
         if faces:
             return n, np.array(list(faces.values()))
     return None, None
-
-
-def components(frame):
-    tets = frame.cells["tetra"]
-    parent = np.arange(len(frame.points))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-    for t in tets:
-        for x in t[1:]:
-            parent[root(x)] = root(t[0])
-    return len({root(v) for v in np.unique(tets)})
 
 
 # An edge-notched plate, 1.0 x 1.1 x 0.1 (10 x 11 x 1 cubes), the notch the cubes i < 3 of row

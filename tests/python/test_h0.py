@@ -15,8 +15,7 @@ import pytest
 from conftest import NO_FALLBACK, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import read_iterations, read_summary
-from test_checkpoint import assert_same_run
-from test_checkpoint_faults import killed
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 
 DECK = "tests/decks/h0_box.yaml"
 # amg against the exact solve, and 1 against 2 ranks, relative to the largest displacement: both
@@ -89,15 +88,7 @@ def test_volumetric_restart_after_a_kill_is_bitwise(tmp_path, ranks):
     # uninterrupted one in positions, velocities, iterations and the .pvd.
     deck = load_deck(DECK)
     deck["solver"]["h0"] = "volumetric"
-    deck["time"]["frames"] = 6
-    deck["checkpoint"] = {"every": 2}
-    path = write_deck(tmp_path / "vol.yaml", deck)
-    ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref], ranks=ranks)
-    out = tmp_path / "out"
-    killed(path, out, 4, ranks)
-    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
-    assert_same_run(ref, out)
+    assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])

@@ -14,7 +14,7 @@ from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import final_frame, read_summary
 from test_bad_input import assert_clean_failure, assert_deck_refused
 from test_checkpoint import assert_same_run
-from test_checkpoint_faults import killed
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 from test_h0 import iterations
 
 DECK = "tests/decks/h0_box.yaml"
@@ -69,16 +69,7 @@ def test_single_restart_after_a_kill_is_bitwise(tmp_path, ranks):
     # The floats are rounded from the factor of the rest shape's matrix, so a restart rebuilds them
     # bit for bit: a run killed (SIGKILL, every rank) after frame 4's checkpoint and restarted
     # equals the uninterrupted one in positions, velocities, iterations and the .pvd.
-    deck = deck_of("single")
-    deck["time"]["frames"] = 6
-    deck["checkpoint"] = {"every": 2}
-    path = write_deck(tmp_path / "single.yaml", deck)
-    ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref], ranks=ranks)
-    out = tmp_path / "out"
-    killed(path, out, 4, ranks)
-    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
-    assert_same_run(ref, out)
+    assert_restart_after_kill_is_bitwise(tmp_path, deck_of("single"), ranks)
 
 
 BAD = {

@@ -1,2 +1,0 @@
-# Empty dependencies file for hyperqn.
-# This may be replaced when dependencies are built.

@@ -1,3 +1,0 @@
-file(REMOVE_RECURSE
-  "libhyperqn_core.a"
-)

@@ -1,2 +1,0 @@
-# Empty compiler generated dependencies file for mumps_repro.
-# This may be replaced when dependencies are built.

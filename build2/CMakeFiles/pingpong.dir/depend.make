@@ -1,2 +1,0 @@
-# Empty dependencies file for pingpong.
-# This may be replaced when dependencies are built.

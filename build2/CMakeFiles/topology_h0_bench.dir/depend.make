@@ -1,2 +1,0 @@
-# Empty dependencies file for topology_h0_bench.
-# This may be replaced when dependencies are built.

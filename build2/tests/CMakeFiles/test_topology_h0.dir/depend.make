@@ -1,2 +1,0 @@
-# Empty dependencies file for test_topology_h0.
-# This may be replaced when dependencies are built.
