@@ -65,18 +65,19 @@ def killed(path, out, frame, ranks=None, extra=()):
     return proc
 
 
-def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None):
-    """deck (a dict) with a checkpoint every 2 frames over 6: a run killed (SIGKILL, every rank)
-    after frame 4's checkpoint and restarted equals the uninterrupted one in positions,
-    velocities, iterations and the .pvd."""
-    deck = {**deck, "time": {**deck["time"], "frames": 6}, "checkpoint": {"every": 2}}
+def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None, frames=6, every=2, kill_after=4):
+    """deck (a dict) run for `frames` with a checkpoint every `every` frames: a run killed
+    (SIGKILL, every rank) after frame `kill_after` and restarted from its latest checkpoint equals
+    the uninterrupted one in positions, velocities, iterations and the .pvd. Returns both outputs."""
+    deck = {**deck, "time": {**deck["time"], "frames": frames}, "checkpoint": {"every": every}}
     path = write_deck(tmp_path / "killed.yaml", deck)
     ref = tmp_path / "ref"
     run_hyperqn([path, "-o", ref], ranks=ranks)
     out = tmp_path / "out"
-    killed(path, out, 4, ranks)
+    killed(path, out, kill_after, ranks)
     run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
     assert_same_run(ref, out)
+    return ref, out
 
 
 def checkpoints(out):

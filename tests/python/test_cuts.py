@@ -15,7 +15,7 @@ from hyperqn_tools.energy import frame_lumped_masses as lumped_masses, neohookea
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_iterations, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint import assert_same_run
-from test_checkpoint_faults import killed
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
 
 TIGHT = {"type": "lbfgs", "iterations": 300, "max_iterations": 300, "grad_rtol": 1e-12, "grad_atol": 0}
 MATERIAL = {"model": "neohookean", "youngs_modulus": 5.0e5, "poisson_ratio": 0.3, "density": 1000}
@@ -183,15 +183,8 @@ def test_restart_after_cuts_is_bitwise(tmp_path, ranks):
 def test_restart_after_a_kill_after_cuts_is_bitwise(tmp_path, ranks):
     # Checkpoints every 3 frames, killed (SIGKILL) after frame 10: the last checkpoint (9) comes
     # after several steps with separations, all corrected on one rank.
-    deck = copy.deepcopy(BAR)
-    deck["checkpoint"] = {"every": 3}
-    path = write_deck(tmp_path / "bar.yaml", deck)
-    ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref], ranks=ranks)
-    out = tmp_path / "out"
-    killed(path, out, 10, ranks)
-    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
-    assert_same_run(ref, out)
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, BAR, ranks, frames=BAR["time"]["frames"], every=3,
+                                                    kill_after=10)
     sa, sb = read_summary(ref), read_summary(out)
     assert {k: v for k, v in sa["cuts"].items() if k != "topology_s"} == {k: v for k, v in sb["cuts"].items() if k != "topology_s"}
     assert sa["cuts"]["h0_corrections"] >= (2 if ranks is None else 0)
