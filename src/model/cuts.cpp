@@ -15,14 +15,17 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
   std::vector<BladeSweep> sweeps;
   for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
   auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
-  // A face's dual edge runs from one centroid to the other within its two tets, so both centroids
-  // of a face that is crossed lie within twice the longest edge of the patch.
-  double longest = 0;
+  // The centroids of two tets that share a face differ by a quarter of the difference of their
+  // opposite vertices, so by at most half the longest edge: both centroids of a face that is
+  // crossed lie within half the longest edge of the patch. Gathered: the tets within the longest
+  // edge (twice that, for round-off).
+  double longest2 = 0;  // squared (the root of the largest is the largest root)
   for (int64_t e = 0; e < m.num_tets(); ++e)
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).norm());
+      for (int j = i + 1; j < 4; ++j) longest2 = std::max(longest2, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).squaredNorm());
+  double longest = std::sqrt(longest2);
   MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
-  const double reach = 2 * longest;
+  const double reach = longest;
   std::vector<int64_t> ints;
   std::vector<double> centroids;
   for (int64_t e = 0; e < m.num_tets(); ++e) {
