@@ -82,6 +82,9 @@ CASES = [
     # The blocks with the penalty, whose frames end with a count of the crossing triangles.
     ("self_penalty", ("tests/decks/self_contact_blocks.yaml",
                       {"contact": {"self": True, "model": "penalty", "distance": 5.0e-3}}), (1, 2), None),
+    # Scripted cuts: H0 corrected across each cut at 1 rank (factored again at 2), and factored again.
+    ("bar_sliced", "input/topology/bar_sliced.yaml", (1, 2), None),
+    ("bar_sliced_refactor", "input/topology/bar_sliced.yaml", (1,), None, ["-hyperqn_topology_h0", "false"]),
 ]
 TIMEOUT_S = 300
 

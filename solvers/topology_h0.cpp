@@ -4,9 +4,91 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "materials/lanes.hpp"
+
 namespace hyperqn {
 
 namespace {
+
+// The correction's loops on rows of 4 lanes (k = 3 right-hand sides and a lane of padding, as the
+// factor's solve holds them), compiled for x86-64-v3 and plain x86-64 (HYPERQN_VECTOR_CLONES; a
+// row is one GCC vector, never passed by value across the clones).
+typedef double Row4 __attribute__((vector_size(32), aligned(8), may_alias));
+using Node = SupernodalCholesky::Node;
+using SparseColumn = SupernodalCholesky::SparseColumn;
+
+// out = col^T y for one column of W (a run per node of its path) on the rows y of w: two sums
+// (even and odd entries of each run), so that a multiply-add does not wait on the one before.
+HYPERQN_VECTOR_CLONES void column_dot4(const Node* nodes, const SparseColumn& col, const double* w, double* out) {
+  const double* v = col.values.data();
+  Row4 even = {}, odd = {};
+  for (int32_t node : col.nodes) {
+    const Row4* y = reinterpret_cast<const Row4*>(w + 4 * nodes[node].column);
+    const int32_t width = nodes[node].width;
+    int32_t i = 0;
+    for (; i + 1 < width; i += 2, v += 2) {
+      even += v[0] * y[i];
+      odd += v[1] * y[i + 1];
+    }
+    if (i < width) even += *v++ * y[i];
+  }
+  *reinterpret_cast<Row4*>(out) = even + odd;
+}
+
+// y -= col z on the rows y of w.
+HYPERQN_VECTOR_CLONES void column_subtract4(const Node* nodes, const SparseColumn& col, const double* z, double* w) {
+  const double* v = col.values.data();
+  const Row4 zr = *reinterpret_cast<const Row4*>(z);
+  for (int32_t node : col.nodes) {
+    Row4* y = reinterpret_cast<Row4*>(w + 4 * nodes[node].column);
+    for (int32_t i = 0; i < nodes[node].width; ++i, ++v) y[i] -= *v * zr;
+  }
+}
+
+// z = K s, K row-major t x t, s and z t rows of 4 lanes: four rows of K at a time (independent sums).
+HYPERQN_VECTOR_CLONES void multiply4(const double* K, int64_t t, const double* s, double* z) {
+  const Row4* S = reinterpret_cast<const Row4*>(s);
+  Row4* Z = reinterpret_cast<Row4*>(z);
+  int64_t a = 0;
+  for (; a + 4 <= t; a += 4) {
+    const double *k0 = K + a * t, *k1 = k0 + t, *k2 = k1 + t, *k3 = k2 + t;
+    Row4 z0 = {}, z1 = {}, z2 = {}, z3 = {};
+    for (int64_t b = 0; b < t; ++b) {
+      const Row4 sb = S[b];
+      z0 += k0[b] * sb;
+      z1 += k1[b] * sb;
+      z2 += k2[b] * sb;
+      z3 += k3[b] * sb;
+    }
+    Z[a] = z0, Z[a + 1] = z1, Z[a + 2] = z2, Z[a + 3] = z3;
+  }
+  for (; a < t; ++a) {
+    Row4 za = {};
+    for (int64_t b = 0; b < t; ++b) za += K[a * t + b] * S[b];
+    Z[a] = za;
+  }
+}
+
+// The same on rows of one lane (k = 1), plainly.
+void column_dot1(const Node* nodes, const SparseColumn& col, const double* w, double* out) {
+  const double* v = col.values.data();
+  double sum = 0;
+  for (int32_t node : col.nodes)
+    for (int32_t i = 0; i < nodes[node].width; ++i, ++v) sum += *v * w[nodes[node].column + i];
+  *out = sum;
+}
+void column_subtract1(const Node* nodes, const SparseColumn& col, const double* z, double* w) {
+  const double* v = col.values.data();
+  for (int32_t node : col.nodes)
+    for (int32_t i = 0; i < nodes[node].width; ++i, ++v) w[nodes[node].column + i] -= *v * *z;
+}
+void multiply1(const double* K, int64_t t, const double* s, double* z) {
+  for (int64_t a = 0; a < t; ++a) {
+    double sum = 0;
+    for (int64_t b = 0; b < t; ++b) sum += K[a * t + b] * s[b];
+    z[a] = sum;
+  }
+}
 
 TopologyH0::Status status_of(SupernodalCholesky::Status s) {
   if (s == SupernodalCholesky::Status::ok) return TopologyH0::Status::ok;
@@ -127,13 +209,13 @@ TopologyH0::Status TopologyH0::commit() {
   // by columns of E: t times E's nonzeros, not t^3.
   const int64_t t = static_cast<int64_t>(touched.size());
   touched_ = touched;
-  e_column_.assign(t, {});
+  std::vector<std::vector<std::pair<int64_t, double>>> e_column(t);  // E_TT's nonzeros by columns (row in T, value)
   for (const auto& [key, value] : edits_) {
     const int64_t a = std::lower_bound(touched_.begin(), touched_.end(), key.first) - touched_.begin();
     const int64_t b = std::lower_bound(touched_.begin(), touched_.end(), key.second) - touched_.begin();
     double e = value;
     if (a == b && key.first >= n_) e -= sqrt_d_[key.first - n_] * sqrt_d_[key.first - n_];
-    e_column_[b].push_back({a, e});
+    e_column[b].push_back({a, e});
   }
   column_of_.assign(t, nullptr);
   std::vector<int64_t> slot(t, -1);  // per row of T: its slot in G_ (-1: a new vertex)
@@ -148,11 +230,19 @@ TopologyH0::Status TopologyH0::commit() {
     }
   Eigen::MatrixXd C = Eigen::MatrixXd::Identity(t, t);
   for (int64_t b = 0; b < t; ++b)
-    for (const auto& [c, e] : e_column_[b]) C.col(b) += e * G.col(c);
-  capacitance_.compute(C);
+    for (const auto& [c, e] : e_column[b]) C.col(b) += e * G.col(c);
+  const Eigen::PartialPivLU<Eigen::MatrixXd> capacitance(C);
+  // K = E (I + G E)^{-1}, row-major: a solve's correction is then W K W^T y, one dense product
+  // between W's two passes (K^T solved from (I + G E)^T K^T = E^T by the LU).
+  Eigen::MatrixXd Et = Eigen::MatrixXd::Zero(t, t);
+  for (int64_t b = 0; b < t; ++b)
+    for (const auto& [a, e] : e_column[b]) Et(b, a) = e;
+  const Eigen::MatrixXd Kt = capacitance.transpose().solve(Et);
+  k_.resize(t * t);
+  Eigen::Map<Eigen::MatrixXd>(k_.data(), t, t) = Kt;  // column-major K^T: K row-major
   // A' is positive definite only if det(I + W E W^T) = det(I + G E) > 0: its sign from the LU.
-  const Eigen::MatrixXd& lu = capacitance_.matrixLU();
-  double sign = capacitance_.permutationP().determinant();
+  const Eigen::MatrixXd& lu = capacitance.matrixLU();
+  double sign = capacitance.permutationP().determinant();
   for (int64_t a = 0; a < t; ++a) sign *= lu(a, a) > 0 ? 1.0 : (lu(a, a) < 0 ? -1.0 : 0.0);
   return sign > 0 ? Status::ok : Status::not_positive_definite;
 }
@@ -197,44 +287,31 @@ int64_t TopologyH0::correction_nonzeros() const {
   return nnz;
 }
 
-// y -= W E (I + G E)^{-1} W^T y on y = Lh^{-1} b: its old rows in w (the factor's order, `lanes`
-// per row), its new ones in extra_. A column of W is contiguous runs, one per node of its path.
+// y -= W K W^T y (K = E (I + G E)^{-1}) on y = Lh^{-1} b: its old rows in w (the factor's order,
+// `lanes` per row), its new ones in extra_. A column of W is contiguous runs, one per node of its
+// path; a new vertex's is a unit column (its row of extra_ over D^{1/2}).
 template <int k, int lanes>
 void TopologyH0::correct(double* w, int) const {
-  const auto& nodes = factor_.nodes();
+  const Node* nodes = factor_.nodes().data();
   const int64_t t = static_cast<int64_t>(touched_.size());
-  Eigen::Matrix<double, Eigen::Dynamic, k> s(t, k);
+  constexpr bool four = lanes == 4;
+  s_.assign(static_cast<size_t>(lanes * t), 0.0);
+  z_.resize(static_cast<size_t>(lanes * t));
   for (int64_t a = 0; a < t; ++a) {
-    double sum[k] = {};
-    if (const SupernodalCholesky::SparseColumn* col = column_of_[a]) {
-      const double* v = col->values.data();
-      for (int32_t node : col->nodes) {
-        const double* y = w + lanes * nodes[node].column;
-        for (int32_t i = 0; i < nodes[node].width; ++i, ++v)
-          for (int c = 0; c < k; ++c) sum[c] += *v * y[lanes * i + c];
-      }
+    if (const SparseColumn* col = column_of_[a]) {
+      four ? column_dot4(nodes, *col, w, &s_[lanes * a]) : column_dot1(nodes, *col, w, &s_[lanes * a]);
     } else {
       const int64_t j = touched_[a] - n_;
-      for (int c = 0; c < k; ++c) sum[c] = extra_[k * j + c] / sqrt_d_[j];
+      for (int c = 0; c < k; ++c) s_[lanes * a + c] = extra_[k * j + c] / sqrt_d_[j];
     }
-    for (int c = 0; c < k; ++c) s(a, c) = sum[c];
   }
-  const Eigen::Matrix<double, Eigen::Dynamic, k> z = capacitance_.solve(s);
-  s.setZero();  // s = E z, E by columns
-  for (int64_t b = 0; b < t; ++b)
-    for (const auto& [a, e] : e_column_[b])
-      for (int c = 0; c < k; ++c) s(a, c) += e * z(b, c);
+  four ? multiply4(k_.data(), t, s_.data(), z_.data()) : multiply1(k_.data(), t, s_.data(), z_.data());
   for (int64_t a = 0; a < t; ++a) {
-    if (const SupernodalCholesky::SparseColumn* col = column_of_[a]) {
-      const double* v = col->values.data();
-      for (int32_t node : col->nodes) {
-        double* y = w + lanes * nodes[node].column;
-        for (int32_t i = 0; i < nodes[node].width; ++i, ++v)
-          for (int c = 0; c < k; ++c) y[lanes * i + c] -= *v * s(a, c);
-      }
+    if (const SparseColumn* col = column_of_[a]) {
+      four ? column_subtract4(nodes, *col, &z_[lanes * a], w) : column_subtract1(nodes, *col, &z_[lanes * a], w);
     } else {
       const int64_t j = touched_[a] - n_;
-      for (int c = 0; c < k; ++c) extra_[k * j + c] -= s(a, c) / sqrt_d_[j];
+      for (int c = 0; c < k; ++c) extra_[k * j + c] -= z_[lanes * a + c] / sqrt_d_[j];
     }
   }
 }

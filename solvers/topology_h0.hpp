@@ -15,7 +15,8 @@
 // vertex is L^{-1} P e_i, nonzero only on the supernodes from i's up to the root (a sparse forward
 // solve, SupernodalCholesky::forward_units), computed once per vertex; a new vertex's is a unit
 // column. The correction sits between the forward and backward passes of the one solve with L
-// (SupernodalCholesky::solve_corrected): a solve costs the factor's plus O(nnz(W) + t^2).
+// (SupernodalCholesky::solve_corrected) as y -= W K W^T y, K = E (I + G E)^{-1} formed at the
+// commit: a solve costs the factor's plus O(nnz(W) + t^2).
 //
 // Each column of W and each entry of G depends on its vertices alone, and I + G E is factored
 // anew (dense LU) from the whole T at every commit, so the operator is a function of the factor
@@ -107,15 +108,15 @@ class TopologyH0 {
   std::vector<SupernodalCholesky::SparseColumn> column_;
   Eigen::MatrixXd G_;
   int64_t slots_ = 0;
-  // The last commit: T ascending, per row of T its column of W (null: a new vertex's), E_TT's
-  // nonzeros by columns (row in T, value), (I + G E)'s LU.
+  // The last commit: T ascending, per row of T its column of W (null: a new vertex's), and
+  // K = E_TT (I + G_TT E_TT)^{-1} row-major (t x t).
   std::vector<int64_t> touched_;
   std::vector<const SupernodalCholesky::SparseColumn*> column_of_;
-  std::vector<std::vector<std::pair<int64_t, double>>> e_column_;
-  Eigen::PartialPivLU<Eigen::MatrixXd> capacitance_;
+  std::vector<double> k_;
   int refactorizations_ = 0;
   int64_t columns_computed_ = 0;
   mutable std::vector<double> extra_;  // the new rows' part of a solve (k per row)
+  mutable std::vector<double> s_, z_;  // a solve's W^T y and K W^T y (lanes per row of T)
 };
 
 }  // namespace hyperqn

@@ -2,11 +2,14 @@
 // stiffness A = M + h^2 K(x_rest) against finite differences of grad g at rest, and the assembled
 // energy gradient against finite differences of the assembled energy; the factored systems and the
 // AMG V-cycle of solver.h0: amg.
+#include <algorithm>
+#include <cstring>
 #include <functional>
 #include <petscdmplex.h>
 
 #include "check.hpp"
 #include "solvers/contact_h0.hpp"
+#include "mesh/vertex_matrix.hpp"
 #include "solvers/factored_system.hpp"
 #include "terms/continuum_tets.hpp"
 #include "test_scene.hpp"
@@ -617,6 +620,49 @@ PetscErrorCode check_substep_counts() {
   PetscFunctionReturn(0);
 }
 
+// One rank: create_vertex_matrix's pattern is DMCreateMatrix(vertex_dm)'s, row by row (explicit
+// zeros included), and A1 assembled on it (StepObjective::pattern_from_cells, the path of a scene
+// rebuilt after a cut) equals the default's bit for bit.
+PetscErrorCode check_vertex_matrix(const std::string& model, bool fix_end) {
+  PetscMPIInt size;
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  if (size > 1) PetscFunctionReturn(0);
+  TestScene s;
+  PetscCall(make_scene(model, fix_end, s));
+  Mat plex, cells, A, B;
+  PetscCall(DMCreateMatrix(s.mesh.vertex_dm, &plex));
+  PetscCall(create_vertex_matrix(s.mesh, &cells));
+  PetscCall(s.step->assemble_constant_matrix(&A, 1));
+  s.step->pattern_from_cells();
+  PetscCall(s.step->assemble_constant_matrix(&B, 1));
+  PetscInt m1, m2, n1, n2;
+  PetscCall(MatGetSize(plex, &m1, &n1));
+  PetscCall(MatGetSize(cells, &m2, &n2));
+  const std::string what = model + (fix_end ? ", fixed end" : "");
+  CHECK_MSG(m1 == m2 && n1 == n2, what + ": create_vertex_matrix's size");
+  long differing_rows = 0, differing_values = 0;
+  for (PetscInt r = 0; r < std::min(m1, m2); ++r) {
+    PetscInt c1, c2;
+    const PetscInt *j1, *j2;
+    PetscCall(MatGetRow(plex, r, &c1, &j1, nullptr));
+    PetscCall(MatGetRow(cells, r, &c2, &j2, nullptr));
+    differing_rows += c1 != c2 || !std::equal(j1, j1 + c1, j2);
+    PetscCall(MatRestoreRow(cells, r, &c2, &j2, nullptr));
+    PetscCall(MatRestoreRow(plex, r, &c1, &j1, nullptr));
+    const PetscScalar *a, *b;
+    PetscCall(MatGetRow(A, r, &c1, &j1, &a));
+    PetscCall(MatGetRow(B, r, &c2, &j2, &b));
+    differing_values += c1 != c2 || !std::equal(j1, j1 + c1, j2) || std::memcmp(a, b, c1 * sizeof(PetscScalar)) != 0;
+    PetscCall(MatRestoreRow(B, r, &c2, &j2, &b));
+    PetscCall(MatRestoreRow(A, r, &c1, &j1, &a));
+  }
+  CHECK_MSG(differing_rows == 0, what + ": rows of create_vertex_matrix unlike DMCreateMatrix's: " + std::to_string(differing_rows));
+  CHECK_MSG(differing_values == 0, what + ": rows of A1 on the cells' pattern unlike the default's: " + std::to_string(differing_values));
+  for (Mat* M : {&plex, &cells, &A, &B}) PetscCall(MatDestroy(M));
+  PetscFunctionReturn(0);
+}
+
 int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   // "+strands": the same box with strand segments attached and free (see test_scene.hpp).
@@ -633,6 +679,7 @@ int main(int argc, char** argv) {
     PetscCall(check_spd(model, ConstantMatrix::laplacian));
     PetscCall(check_spd(model, ConstantMatrix::rest_stiffness));
     PetscCall(check_spd(model, ConstantMatrix::volumetric));
+    for (bool fix_end : {false, true}) PetscCall(check_vertex_matrix(model, fix_end));
   }
   PetscCall(check_substep_counts());
   PetscCall(check_not_positive_definite(FactorPackage::mumps));

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <map>
 
 #include "parallel/collectives.hpp"
 
@@ -16,14 +15,17 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
   std::vector<BladeSweep> sweeps;
   for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
   auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
-  // A face's dual edge runs from one centroid to the other within its two tets, so both centroids
-  // of a face that is crossed lie within twice the longest edge of the patch.
-  double longest = 0;
+  // The centroids of two tets that share a face differ by a quarter of the difference of their
+  // opposite vertices, so by at most half the longest edge: both centroids of a face that is
+  // crossed lie within half the longest edge of the patch. Gathered: the tets within the longest
+  // edge (twice that, for round-off).
+  double longest2 = 0;  // squared (the root of the largest is the largest root)
   for (int64_t e = 0; e < m.num_tets(); ++e)
     for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).norm());
+      for (int j = i + 1; j < 4; ++j) longest2 = std::max(longest2, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).squaredNorm());
+  double longest = std::sqrt(longest2);
   MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
-  const double reach = 2 * longest;
+  const double reach = longest;
   std::vector<int64_t> ints;
   std::vector<double> centroids;
   for (int64_t e = 0; e < m.num_tets(); ++e) {
@@ -43,20 +45,33 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
   std::vector<size_t> order(n);
   for (size_t i = 0; i < n; ++i) order[i] = i;
   std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return all_ints[5 * a] < all_ints[5 * b]; });
-  // The faces between gathered tets: a triangle that two of them share.
-  std::map<std::array<int64_t, 3>, std::vector<size_t>> faces;
-  for (size_t i : order)
+  // The faces between gathered tets: a triangle that two of them share. Each tet's four faces,
+  // sorted by their vertices (then by the tet's place in `order`, so a pair's first tet is the
+  // lower-numbered): a face two tets share is a run of two. (A sorted array, not a map: this runs
+  // at every step of a deck with cuts.)
+  struct Face {
+    std::array<int64_t, 3> v;
+    size_t at;  // the tet's place in order
+  };
+  std::vector<Face> faces;
+  faces.reserve(4 * n);
+  for (size_t at = 0; at < n; ++at)
     for (int skip = 0; skip < 4; ++skip) {
-      std::array<int64_t, 3> f;
+      Face f{{}, at};
       for (int j = 0, k = 0; j < 4; ++j)
-        if (j != skip) f[k++] = all_ints[5 * i + 1 + j];
-      std::sort(f.begin(), f.end());
-      faces[f].push_back(i);
+        if (j != skip) f.v[k++] = all_ints[5 * order[at] + 1 + j];
+      std::sort(f.v.begin(), f.v.end());
+      faces.push_back(f);
     }
+  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.v < b.v || (a.v == b.v && a.at < b.at); });
   std::vector<TetPair> crossed;
-  for (const auto& [f, tets] : faces) {
-    if (tets.size() != 2) continue;
-    const size_t a = tets[0], b = tets[1];  // ascending tet numbers (order)
+  for (size_t p = 0; p < faces.size();) {
+    size_t q = p + 1;
+    while (q < faces.size() && faces[q].v == faces[p].v) ++q;
+    const bool shared = q - p == 2;
+    const size_t a = order[faces[p].at], b = order[faces[p + (shared ? 1 : 0)].at];
+    p = q;
+    if (!shared) continue;
     const TetPair pair{all_ints[5 * a], all_ints[5 * b]};
     if (separated.count(pair)) continue;
     const Eigen::Vector3d ca(&all_centroids[3 * a]), cb(&all_centroids[3 * b]);

@@ -554,6 +554,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     matrix = std::make_unique<FactoredSystem>();
     const FactorPackage package = h0 == H0::amg ? FactorPackage::amg : options_.h0_package;
     if (followed && followed->follows_topology() && !ids.empty()) {
+      s.step->pattern_from_cells();  // one rank (ids is not empty)
       bool done = false;
       PetscCall(matrix->follow(*followed, *s.step, package, ids, topology_check_, &done));
       if (corrected) *corrected = done;

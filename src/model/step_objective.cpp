@@ -1,6 +1,7 @@
 #include "model/step_objective.hpp"
 
 #include "io/log_events.hpp"
+#include "mesh/vertex_matrix.hpp"
 #include "model/ordered_assembly.hpp"
 #include "solvers/stop_request.hpp"
 
@@ -332,8 +333,12 @@ PetscErrorCode StepObjective::assemble_constant_matrix(Mat* A, int components, C
   PetscCheck(components == 1 || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "components must be 1 or 3");
   PetscCheck(kind == ConstantMatrix::laplacian || components == 3, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
              "the rest stiffness and the volumetric H0 couple x, y and z: components must be 3");
-  PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
-  PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  if (pattern_from_cells_ && components == 1) {
+    PetscCall(create_vertex_matrix(body_.mesh(), A));
+  } else {
+    PetscCall(DMCreateMatrix(components == 3 ? body_.mesh().dm : body_.mesh().vertex_dm, A));
+    PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  }
   PetscCall(add_in_rank_order(*A, [&](Mat S) {
     const double h2 = solve_dt_ * solve_dt_;
     return kind == ConstantMatrix::laplacian  ? body_.add_laplacian(S, h2, components)

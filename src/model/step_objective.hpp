@@ -130,6 +130,9 @@ class StepObjective : public Objective {
   }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
+  // A scene rebuilt after a cut on one rank: the 1-component constant matrix takes its pattern from
+  // the mesh's cells (create_vertex_matrix, the same pattern) instead of the DMPlex's preallocation.
+  void pattern_from_cells() { pattern_from_cells_ = true; }
   PetscErrorCode create_hessian(Mat* H) const override;
   PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;
   // Times a Hessian was preallocated again for couplings new to its pattern (HessianPattern), over
@@ -176,6 +179,7 @@ class StepObjective : public Objective {
   std::vector<double> pos_, J_n_, J_;  // upright_guess's work space
   double weight_scale_ = 0;  // W of force_scale()
   double diagonal_ = 0;      // length_scale()
+  bool pattern_from_cells_ = false;
 };
 
 }  // namespace hyperqn
