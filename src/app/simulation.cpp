@@ -361,7 +361,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
           remove_interrupted_writes(outdir);  // a killed part's temporaries
         }
         write_file_atomically(outdir + "/config.yaml", config);
-        run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1);
+        run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1, run.restart ? &saved.summary : nullptr);
       } catch (const std::exception& e) {
         error = e.what();
       }

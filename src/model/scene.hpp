@@ -175,6 +175,8 @@ class LiveScene {
     long long segments = 0, vertices = 0, batches = 0;
   };
   const BreakCounts& break_counts() const { return break_counts_; }
+  // Strand segments of the scene may snap (strand_material.snap).
+  bool snaps() const { return !snap_strains_.empty(); }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
 
