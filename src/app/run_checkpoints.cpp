@@ -142,6 +142,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     h.vertex_slots = slots;
     h.vertices = s.mesh.global_vertices;
     h.cuts_factored = run_.scene.factored_batches();
+    h.cut_batches = run_.scene.cut_batches();
+    h.cuts_resolved = run_.scene.resolved_after(state.frame);
   }
   h.started_inverted = setup_.started_inverted;
   h.summary = run_.summary;

@@ -268,7 +268,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
-        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored)) ||
+        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored, saved.cut_batches)) ||
         (restart && run.scene.restore_breaks(saved.breaks)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
@@ -278,6 +278,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     }
     if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
   }
+  if (restart) run.scene.restore_resolved(saved.frame, (int)saved.cuts_resolved);
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
   {  // the vertex counts complete the scene's identity (vertex ids are those of the mesh file)

@@ -447,6 +447,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
   fracture_ = fracture_specs(spec);  // empty without material.fracture
+  for (const FractureSpec& f : fracture_) fracture_resolve_ = std::max(fracture_resolve_, f.given ? f.resolve : 0);
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
   snap_strains_ = snap_strains(spec);
   const bool breaks = separates || !snap_strains_.empty();
@@ -744,7 +745,21 @@ std::vector<int32_t> LiveScene::separate(int64_t frame, const std::vector<TetPai
   counts_.faces += (long long)batch.size();
   counts_.vertices += r.new_vertices;
   counts_.batches += 1;
+  batch_sizes_.push_back((int64_t)batch.size());
   return std::move(r.source);
+}
+
+PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch) {
+  PetscFunctionBeginUser;
+  batch.clear();
+  if (resolved_.first != main.frame - 1) resolved_ = {main.frame - 1, 0};
+  if (resolved_.second >= fracture_resolve_) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+  PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, batch));
+  PetscCall(event_end(&LogEvents::topology));
+  if (!batch.empty()) ++resolved_.second;
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut) {
@@ -874,17 +889,23 @@ PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored) {
+PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored,
+                                       const std::vector<int64_t>& sizes) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
   PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
              "the checkpoint has separated faces and the deck has neither cuts nor fracture");
+  int64_t total = 0;
+  for (int64_t n : sizes) total += n;
+  PetscCheck(sizes.empty() || total == (int64_t)history.size(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint's cut batches do not add up to its separated faces");
   PetscCall(event_begin(&LogEvents::topology));
   long long batches = 0;
   for (size_t i = 0; i < history.size(); ++batches) {
     size_t j = i;
     std::vector<TetPair> batch;
-    for (; j < history.size() && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
+    const size_t end = sizes.empty() ? history.size() : i + (size_t)sizes[batches];
+    for (; j < end && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
     if (factored < 0 || batches < factored) {
       separate(history[i][0], batch);
       kept_changed_ = true;
