@@ -81,7 +81,7 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   if (run_.scene.last_change_cut()) {
     const LiveScene::CutCounts& c = run_.scene.cut_counts();
     PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                          run_.state.time, run_.scene.fracture() ? "fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
+                          run_.state.time, run_.deck.cuts.empty() ? "fracture" : run_.scene.fracture() ? "cut or fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();

@@ -387,7 +387,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     const LiveScene::CutCounts& c = run.scene.cut_counts();
     summary.cuts = !deck.cuts.empty();  // a deck has cuts or fracture (deck_rules.cpp)
     summary.fracture = run.scene.fracture();
-    if (!run.scene.cut_history().empty()) summary.first_break_frame = run.scene.cut_history().front()[0];
+    if (deck.cuts.empty())  // every face is the criterion's: the first of the history (a replay's included)
+      summary.first_break_frame = run.scene.cut_history().empty() ? -1 : run.scene.cut_history().front()[0];
+    else if (summary.first_break_frame < 0)  // with cuts: the checkpoint's, else this run's
+      summary.first_break_frame = c.first_broken;
+    summary.faces_broken = c.broken;  // this run's; a restart's earlier ones are added below
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
     summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
@@ -409,6 +413,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
+  if (summary.fracture && !summary.cuts) summary.faces_broken = summary.faces_separated;  // (a replay's included)
   if (summary.frames > 0) {
     summary.ms_per_frame = 1e3 * summary.solve_s / summary.frames;
     summary.mean_iterations = (double)summary.iterations / summary.frames;

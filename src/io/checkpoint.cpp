@@ -59,6 +59,8 @@ const LongField kLongFields[] = {
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
     {"cut_h0_corrections", &RunSummary::cut_h0_corrections, true},
     {"cut_refactorizations", &RunSummary::cut_refactorizations, true},
+    {"faces_broken", &RunSummary::faces_broken, true},  // a deck with cuts and fracture: of this run's faces
+    {"first_break_frame", &RunSummary::first_break_frame, false},
 };
 const IntField kIntFields[] = {
     {"frames", &RunSummary::frames, false},

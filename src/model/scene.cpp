@@ -759,7 +759,14 @@ PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>
   PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, batch));
   PetscCall(event_end(&LogEvents::topology));
   if (!batch.empty()) ++resolved_.second;
+  note_broken(main.frame - 1, (long long)batch.size());
   PetscFunctionReturn(0);
+}
+
+void LiveScene::note_broken(int64_t frame, long long faces) {
+  if (faces == 0) return;
+  counts_.broken += faces;
+  if (counts_.first_broken < 0) counts_.first_broken = frame;
 }
 
 PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut) {
@@ -782,19 +789,23 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
                                                        by_frame[f], t - h, t, separated_);
     batch.insert(batch.end(), crossed.begin(), crossed.end());
   }
+  std::sort(batch.begin(), batch.end());
+  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
+  const size_t crossed = batch.size();  // by the blades (a face also overloaded counts as cut)
   if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
     std::vector<TetPair> broken;
     if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
     PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, broken));
     batch.insert(batch.end(), broken.begin(), broken.end());
+    std::sort(batch.begin(), batch.end());
+    batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   }
-  std::sort(batch.begin(), batch.end());
-  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   if (batch.empty()) {
     PetscCall(event_end(&LogEvents::topology));
     PetscFunctionReturn(0);
   }
   *cut = true;
+  note_broken(main.frame, (long long)(batch.size() - crossed));
   PetscCall(separate_due(batch, main, others, rebind));
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);

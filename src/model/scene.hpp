@@ -155,9 +155,12 @@ class LiveScene {
   // Totals so far: faces separated, vertices added, batches (each a rebuild of the scene; a
   // restart's replay included); of this run's batches (not replayed), those whose constant matrix
   // followed by a correction and those that factored it again.
+  // Of this run's faces, those a fracture criterion broke (not a blade), and the frame of the first
+  // such batch (-1: none), for a deck with both.
   struct CutCounts {
     long long faces = 0, vertices = 0, batches = 0;
     long long corrections = 0, refactorizations = 0;
+    long long broken = 0, first_broken = -1;
   };
   const CutCounts& cut_counts() const { return counts_; }
   // A material of the scene has a fracture criterion (material.fracture): its overloaded faces
@@ -206,6 +209,8 @@ class LiveScene {
   // One batch of faces separated at the start of `frame` on kept_ (history and counts follow); the
   // source of each local vertex after it (mesh/separation.hpp).
   std::vector<int32_t> separate(int64_t frame, const std::vector<TetPair>& batch);
+  // `faces` of a batch at the start of `frame` broken by the fracture criterion (counts_.broken).
+  void note_broken(int64_t frame, long long faces);
   // One batch of segments snapped at the start of `frame` on kept_, as separate.
   std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch);
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local

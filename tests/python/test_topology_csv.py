@@ -1,7 +1,8 @@
 """topology.csv (docs/outputs.md#topologycsv), end to end: its rows sum to summary.json's totals for
 cuts, fracture and snapping strands; a run killed after changes, or stopped by a signal in a frame
-that began with a change, and restarted writes the same file as the uninterrupted run; a deck
-without a topology trigger, or with output.topology_csv: false, writes none."""
+that began with a change, and restarted writes the same file as the uninterrupted run; cuts and
+fracture in one deck, counted apart, restarted bitwise; a deck without a topology trigger, or
+with output.topology_csv: false, writes none."""
 import copy
 import csv
 
@@ -9,6 +10,7 @@ import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import read_summary
+from test_checkpoint import assert_same_run
 from test_checkpoint_faults import killed
 from test_cuts import BAR
 from test_fracture import NOTCHED, plate_mesh, pulled_plate
@@ -110,6 +112,40 @@ def test_restart_after_a_signal_in_a_frame_that_began_with_breaks(tmp_path):
     assert rows(out)[-1]["frame"] == frame - 1
     run_hyperqn([path, "-o", out, "--restart", "latest"])
     assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
+# test_cuts' bar sliced by its blade, its material also breaking where its tension exceeds 3e4 Pa
+# (near the clamp, away from the blade): cuts and fracture in one deck.
+BOTH = copy.deepcopy(BAR)
+BOTH["material"]["fracture"] = {"criterion": "normal_stress", "threshold": 3.0e4}
+
+
+def test_cuts_and_fracture_in_one_deck(tmp_path):
+    out, s = run_deck(tmp_path, "both", BOTH)
+    cut, broken, total = s["cuts"]["faces_separated"], s["fracture"]["faces_broken"], sums(rows(out))
+    print(f"{cut} faces cut by the blade, {broken} broken by the criterion")
+    assert cut > 0 and broken > 0
+    assert total["faces_separated"] == cut + broken
+    assert total["vertices_added"] == s["cuts"]["vertices_added"] == s["fracture"]["vertices_added"]
+    _, alone = run_deck(tmp_path, "alone", BAR)  # the blade alone cuts as many faces or more
+    assert alone["cuts"]["faces_separated"] >= cut
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_cuts_and_fracture_restart_after_a_kill(tmp_path, ranks):
+    deck = copy.deepcopy(BOTH)
+    deck["checkpoint"] = {"every": 2}
+    path = write_deck(tmp_path / "both.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    out = tmp_path / "out"
+    killed(path, out, 14, ranks)  # after cuts and the first breaks (frames 4 to 7 and 13)
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert_same_run(ref, out)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+    skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
+    a, b = read_summary(ref), read_summary(out)
+    assert skip(a["cuts"]) == skip(b["cuts"]) and skip(a["fracture"]) == skip(b["fracture"])
 
 
 def test_no_file_without_a_trigger_or_when_turned_off(tmp_path):
