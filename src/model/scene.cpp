@@ -791,7 +791,7 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   }
   std::sort(batch.begin(), batch.end());
   batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
-  const size_t crossed = batch.size();  // by the blades (a face also overloaded counts as cut)
+  const size_t by_blades = batch.size();  // (a face also overloaded counts as cut)
   if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
     std::vector<TetPair> broken;
     if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
@@ -805,7 +805,7 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     PetscFunctionReturn(0);
   }
   *cut = true;
-  note_broken(main.frame, (long long)(batch.size() - crossed));
+  note_broken(main.frame, (long long)(batch.size() - by_blades));
   PetscCall(separate_due(batch, main, others, rebind));
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
