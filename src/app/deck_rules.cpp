@@ -79,7 +79,7 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as
-// cuts' do, so the same scenes are refused, and cuts and fracture are not combined yet.
+// cuts' do, so the same scenes are refused.
 void check_fracture(const Reader& r, const Deck& deck) {
   std::vector<const MaterialSpec*> materials{&deck.material};
   for (const MaterialRegion& region : deck.regions) materials.push_back(&region.material);
@@ -98,9 +98,6 @@ void check_fracture(const Reader& r, const Deck& deck) {
     if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
       r.fail(line, "material.fracture", "output.format: xdmf holds one mesh per run, and fracture changes the mesh: write vtu "
                                "frames (docs/topology.md#fracture)");
-    if (!deck.cuts.empty())
-      r.fail(line, "material.fracture", "fracture and cuts (deck line " + std::to_string(deck.cuts_line) +
-                                   ") in one deck are not done yet: give one of the two (docs/topology.md#fracture)");
   }
 }
 

@@ -142,6 +142,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     h.vertex_slots = slots;
     h.vertices = s.mesh.global_vertices;
     h.cuts_factored = run_.scene.factored_batches();
+    h.cut_batches = run_.scene.cut_batches();
+    h.cuts_resolved = run_.scene.resolved_after(state.frame);
   }
   h.started_inverted = setup_.started_inverted;
   h.summary = run_.summary;
@@ -151,6 +153,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   add_step_counters(h.summary, *s.step);  // as at the end of a run
   h.summary.cut_h0_corrections += run_.scene.cut_counts().corrections;  // (0 in the summary until the run's end)
   h.summary.cut_refactorizations += run_.scene.cut_counts().refactorizations;
+  h.summary.faces_broken += run_.scene.cut_counts().broken;
+  if (h.summary.first_break_frame < 0) h.summary.first_break_frame = run_.scene.cut_counts().first_broken;
   for (const auto& w : setup_.frames.writers())
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
   h.history = state.x_prev ? 1 : 0;

@@ -81,7 +81,7 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   if (run_.scene.last_change_cut()) {
     const LiveScene::CutCounts& c = run_.scene.cut_counts();
     PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                          run_.state.time, run_.scene.fracture() ? "fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
+                          run_.state.time, run_.deck.cuts.empty() ? "fracture" : run_.scene.fracture() ? "cut or fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();
@@ -255,6 +255,28 @@ bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow
   return have_start && have_at;
 }
 
+const char kTopologyColumns[] = "faces_separated,faces_total,vertices_added,segments_snapped,h0_corrections,refactorizations";
+
+// The sums of topology.csv's rows of frames <= `frame` (a restart's); false if it has no row of
+// `frame` itself.
+bool read_topology(const std::string& path, int frame, long long sums[5]) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // the header
+  bool have_frame = false;
+  while (std::getline(in, line)) {
+    std::istringstream row(line);
+    std::string cell;
+    std::vector<std::string> cells;
+    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    if (cells.size() != 8 || std::atoi(cells[0].c_str()) > frame) continue;
+    have_frame |= std::atoi(cells[0].c_str()) == frame;
+    const int per_frame[5] = {2, 4, 5, 6, 7};  // faces_total is a running sum of faces_separated
+    for (int k = 0; k < 5; ++k) sums[k] += std::atoll(cells[per_frame[k]].c_str());
+  }
+  return have_frame;
+}
+
 }  // namespace
 
 RunLogs::RunLogs(const RunContext& run) : run_(run) {
@@ -268,10 +290,26 @@ RunLogs::RunLogs(const RunContext& run) : run_(run) {
   for (size_t k = 0; k < names.size(); ++k) run_.summary.reactions.push_back({names[k], lines[k]});
 }
 
-void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame) {
+void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame,
+                   const RunSummary* earlier) {
   const OutputSpec& output = run_.deck.output;
   const bool restart = restart_frame >= 0;
   restarted_ = restart;
+  topology_ = output.topology_csv && (!run_.deck.cuts.empty() || run_.scene.fracture() || run_.scene.snaps());
+  if (topology_) {
+    const std::string path = outdir + "/topology.csv";
+    if (restart) {
+      long long sums[5] = {0, 0, 0, 0, 0};
+      if (!read_topology(path, restart_frame, sums) && restart_frame > 0)
+        throw std::runtime_error(path + " has no row of frame " + std::to_string(restart_frame) +
+                                 " to go on from (output.topology_csv: the checkpointed run must have written it)");
+      topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4]};
+      if (earlier) topology_earlier_ = {0, 0, 0, earlier->cut_h0_corrections, earlier->cut_refactorizations};
+      topology_log_.resume(path, kTopologyColumns, rank, restart_frame);
+    } else {
+      topology_log_.open(path, kTopologyColumns, rank);
+    }
+  }
   if (energy_) {
     const std::string path = outdir + "/energy.csv";
     if (restart) {
@@ -367,14 +405,39 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
     PetscCall(energy_->end_frame(run_.state, row));
     append_energy(outcome.frame, run_.state.time, row);
   }
+  if (outcome.lead.stop.empty() && topology_) record_topology(outcome.frame);
   flush();  // also the rows of a frame that stops the run; before a checkpoint, which cuts the logs at its frame
   PetscFunctionReturn(0);
+}
+
+// As summary.json counts them (app/simulation.cpp): faces, vertices, segments and the snaps'
+// refactorizations are the scene's (a restart's replay included); the cuts' H0 corrections and
+// refactorizations are this run's, after those before a restart.
+RunLogs::TopologyTotals RunLogs::topology_totals() const {
+  const LiveScene::CutCounts& c = run_.scene.cut_counts();
+  const LiveScene::BreakCounts& b = run_.scene.break_counts();
+  return {c.faces, c.vertices + b.vertices, b.segments, topology_earlier_.corrections + c.corrections,
+          topology_earlier_.refactorizations + c.refactorizations + b.batches};
+}
+
+// topology.csv's row of the frame: what changed since the row before (at a restart, since the
+// rows up to its frame: a change at the start of a frame that a signal gave up, which the
+// checkpoint holds, is in the row of the frame redone).
+void RunLogs::record_topology(int frame) {
+  const TopologyTotals now = topology_totals(), &before = topology_rows_;
+  char row[256];
+  std::snprintf(row, sizeof row, "%lld,%lld,%lld,%lld,%lld,%lld", now.faces - before.faces, now.faces,
+                now.vertices - before.vertices, now.segments - before.segments, now.corrections - before.corrections,
+                now.refactorizations - before.refactorizations);
+  topology_log_.append(frame, run_.state.time, {row});
+  topology_rows_ = now;
 }
 
 void RunLogs::write_rows() {
   log_.flush();
   reaction_log_.flush();
   energy_log_.flush();
+  topology_log_.flush();
   for (auto& l : term_logs_)
     if (l) l->flush();
 }

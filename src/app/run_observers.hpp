@@ -61,14 +61,17 @@ class ProgressLog : public FrameObserver {
 
 // iterations.csv, the terms' own logs (EnergyTerm::log, e.g. contact.csv) and, if the deck asks
 // (output.reactions), reactions.csv and the summary's reactions (model/reactions.hpp), and
-// (output.energy) energy.csv (model/energy_balance.hpp, from a row of frame 0 on): rows
-// appended during a frame, written at its end as whole lines (a kill leaves complete rows).
+// (output.energy) energy.csv (model/energy_balance.hpp, from a row of frame 0 on), and in a scene
+// whose topology may change (cuts, fracture, snapping strands; output.topology_csv) topology.csv:
+// rows appended during a frame, written at its end as whole lines (a kill leaves complete rows).
 class RunLogs : public FrameObserver {
  public:
   explicit RunLogs(const RunContext& run);
   // Opens the logs in outdir (rank 0), or, at a restart, cuts them back to `restart_frame` and
-  // continues them (the summary's reactions read back from reactions.csv). Throws std::runtime_error.
-  void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1);
+  // continues them (the summary's reactions read back from reactions.csv; topology.csv's totals
+  // from its rows, with `earlier` the checkpoint's summary). Throws std::runtime_error.
+  void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1,
+            const RunSummary* earlier = nullptr);
   PetscErrorCode begin(LoopControl& control) override;
   PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
   PetscErrorCode before_frame(int frame) override;
@@ -83,6 +86,12 @@ class RunLogs : public FrameObserver {
   PetscErrorCode record_terms(int frame);
   PetscErrorCode record_reactions(int frame);
   void append_energy(int frame, double time, const EnergyRow& row);
+  // topology.csv's counts, each summed over the run's frames so far as summary.json counts them.
+  struct TopologyTotals {
+    long long faces = 0, vertices = 0, segments = 0, corrections = 0, refactorizations = 0;
+  };
+  TopologyTotals topology_totals() const;
+  void record_topology(int frame);
 
   RunContext run_;
   IterationLog log_;
@@ -91,6 +100,10 @@ class RunLogs : public FrameObserver {
   std::unique_ptr<EnergyBalance> energy_;  // output.energy only
   FrameLog energy_log_;
   bool restarted_ = false;
+  bool topology_ = false;           // topology.csv is written
+  FrameLog topology_log_;
+  TopologyTotals topology_rows_;    // the sums of topology.csv's rows so far
+  TopologyTotals topology_earlier_; // before a restart: the H0 corrections and refactorizations of cuts
   // Per term of the scene (Body::terms, the same kinds in the same order after a release): its
   // own log (null if it keeps none or the deck turned it off).
   std::vector<std::unique_ptr<FrameLog>> term_logs_;

@@ -268,7 +268,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
-        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored)) ||
+        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored, saved.cut_batches)) ||
         (restart && run.scene.restore_breaks(saved.breaks)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
@@ -278,6 +278,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     }
     if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
   }
+  if (restart) run.scene.restore_resolved(saved.frame, (int)saved.cuts_resolved);
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
   {  // the vertex counts complete the scene's identity (vertex ids are those of the mesh file)
@@ -361,7 +362,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
           remove_interrupted_writes(outdir);  // a killed part's temporaries
         }
         write_file_atomically(outdir + "/config.yaml", config);
-        run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1);
+        run.logs.open(outdir, rank, scene, run.restart ? saved.frame : -1, run.restart ? &saved.summary : nullptr);
       } catch (const std::exception& e) {
         error = e.what();
       }
@@ -386,7 +387,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     const LiveScene::CutCounts& c = run.scene.cut_counts();
     summary.cuts = !deck.cuts.empty();  // a deck has cuts or fracture (deck_rules.cpp)
     summary.fracture = run.scene.fracture();
-    if (!run.scene.cut_history().empty()) summary.first_break_frame = run.scene.cut_history().front()[0];
+    if (deck.cuts.empty())  // every face is the criterion's: the first of the history (a replay's included)
+      summary.first_break_frame = run.scene.cut_history().empty() ? -1 : run.scene.cut_history().front()[0];
+    else if (summary.first_break_frame < 0)  // with cuts: the checkpoint's, else this run's
+      summary.first_break_frame = c.first_broken;
+    summary.faces_broken = c.broken;  // this run's; a restart's earlier ones are added below
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
     summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
@@ -408,6 +413,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;
   add_earlier_work(summary, run.earlier);  // a restarted run's summary covers the whole run
+  if (summary.fracture && !summary.cuts) summary.faces_broken = summary.faces_separated;  // (a replay's included)
   if (summary.frames > 0) {
     summary.ms_per_frame = 1e3 * summary.solve_s / summary.frames;
     summary.mean_iterations = (double)summary.iterations / summary.frames;

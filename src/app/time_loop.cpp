@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "io/log_events.hpp"
+
 namespace hyperqn {
 
 TimeLoop::TimeLoop(LiveScene& scene, const Guardrails& limits, State& lead, FrameSolve solve, LiveScene::Rebind rebind)
@@ -58,11 +60,12 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     bool snapped;  // after the step before: its segments stretched past their snapping strain snap
     PetscCall(scene_.snap_due(lead_, carried, rebind, &snapped));
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
-    const Scene& scene = scene_.current();
 
     FrameOutcome outcome;
     outcome.frame = frame;
-    PetscCall(stepper_.step(scene, solve_, lead_, iterations(frame), outcome.lead));
+    PetscCall(stepper_.step(scene_.current(), solve_, lead_, iterations(frame), outcome.lead));
+    PetscCall(resolve_after_breaks(frame, time, carried, rebind, outcome.lead));
+    const Scene& scene = scene_.current();
     outcome.followers.resize(followers_.size());
     if (outcome.lead.solve.interrupted) {  // a stop signal during the solve: the frame is given up
       PetscCall(scene.step->lifecycle().undo(lead_));
@@ -99,6 +102,34 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     stop_frame_ = frame;
     for (FrameObserver* o : observers_) PetscCall(o->stopped(outcome, stop_));
     break;
+  }
+  PetscFunctionReturn(0);
+}
+
+// Fracture's re-solves (docs/topology.md#fracture): while the step's converged state breaks faces
+// (LiveScene::resolve_breaks, at most material.fracture.resolve times), the step is undone, the
+// faces separate at its start and it is solved again; the frame's solve counts every solve's
+// iterations, evaluations and time.
+PetscErrorCode TimeLoop::resolve_after_breaks(int frame, double time, const std::vector<State*>& carried,
+                                              const LiveScene::Rebind& rebind, FrameStep& lead) {
+  PetscFunctionBeginUser;
+  if (scene_.fracture_resolve() == 0) PetscFunctionReturn(0);
+  std::vector<TetPair> batch;
+  while (lead.stop.empty() && !lead.solve.interrupted) {
+    PetscCall(scene_.resolve_breaks(lead_, batch));
+    if (batch.empty()) break;
+    lead_.frame = frame - 1;  // back at the step's start
+    lead_.time = time;
+    PetscCall(scene_.current().step->lifecycle().undo(lead_));
+    PetscCall(event_begin(&LogEvents::topology));
+    PetscCall(scene_.separate_due(batch, lead_, carried, rebind));
+    PetscCall(event_end(&LogEvents::topology));
+    for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
+    const StepSolve before = lead.solve;
+    PetscCall(stepper_.step(scene_.current(), solve_, lead_, iterations(frame), lead));
+    lead.solve.iterations += before.iterations;
+    lead.solve.evaluations += before.evaluations;
+    lead.solve.seconds += before.seconds;
   }
   PetscFunctionReturn(0);
 }

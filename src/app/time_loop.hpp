@@ -91,6 +91,8 @@ class TimeLoop {
     std::vector<ElementState> elements;
   };
   IterationCallback iterations(int frame);
+  PetscErrorCode resolve_after_breaks(int frame, double time, const std::vector<State*>& carried,
+                                      const LiveScene::Rebind& rebind, FrameStep& lead);
 
   LiveScene& scene_;
   FrameStepper stepper_;

@@ -59,6 +59,8 @@ const LongField kLongFields[] = {
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
     {"cut_h0_corrections", &RunSummary::cut_h0_corrections, true},
     {"cut_refactorizations", &RunSummary::cut_refactorizations, true},
+    {"faces_broken", &RunSummary::faces_broken, true},  // a deck with cuts and fracture: of this run's faces
+    {"first_break_frame", &RunSummary::first_break_frame, false},
 };
 const IntField kIntFields[] = {
     {"frames", &RunSummary::frames, false},
@@ -166,6 +168,10 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
       for (int64_t x : f) cuts += (cuts.empty() ? "" : " ") + std::to_string(x);
     head.put("cuts", cuts);
     head.put("cuts_factored", h.cuts_factored);
+    std::string sizes;
+    for (int64_t n : h.cut_batches) sizes += (sizes.empty() ? "" : " ") + std::to_string(n);
+    head.put("cut_batches", sizes);
+    if (h.cuts_resolved) head.put("cuts_resolved", h.cuts_resolved);
   }
   if (!h.breaks.empty()) {
     std::string breaks;
@@ -265,6 +271,13 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     while (in >> f[0] >> f[1] >> f[2]) h.cuts.push_back(f);
     if (!in.eof()) throw std::runtime_error("its header's cuts are malformed");
     h.cuts_factored = head.has("cuts_factored") ? head.get_long("cuts_factored") : -1;
+    if (head.has("cut_batches")) {
+      std::istringstream sizes(head.get("cut_batches"));
+      int64_t n;
+      while (sizes >> n) h.cut_batches.push_back(n);
+      if (!sizes.eof()) throw std::runtime_error("its header's cut_batches are malformed");
+    }
+    h.cuts_resolved = head.has("cuts_resolved") ? head.get_long("cuts_resolved") : 0;
   }
   if (head.has("breaks")) {
     std::istringstream in(head.get("breaks"));

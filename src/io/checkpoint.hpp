@@ -81,6 +81,11 @@ struct CheckpointHeader {
   // cuts_factored; later batches were followed by TopologyH0's corrections, which a restart
   // replays from that scene; -1, absent: all).
   long long cuts_factored = -1;
+  // The faces of each batch of cuts (LiveScene::cut_batches; header key cut_batches; absent: a batch
+  // per frame, as before fracture's re-solves), and the re-solves of the step after `frame` that a
+  // signal gave up (LiveScene::resolved_after; header key cuts_resolved, absent: 0).
+  std::vector<int64_t> cut_batches;
+  long long cuts_resolved = 0;
   // Breaks: every strand segment snapped so far, (frame, kind, element) in order
   // (LiveScene::break_history; header key breaks, absent without any), replayed by a restart.
   std::vector<std::array<int64_t, 3>> breaks;

@@ -31,7 +31,8 @@ void create_output_directory(MPI_Comm comm, const std::string& dir) {
 bool is_run_output(const std::string& dir, const std::string& name) {
   if (is_atomic_temporary(name)) return is_run_output(dir, temporary_target(name));
   if (name == "summary.json" || name == "iterations.csv" || name == "contact.csv" || name == "self-contact.csv" ||
-      name == "reactions.csv" || name == "energy.csv" || name == "config.yaml")
+      name == "reactions.csv" || name == "energy.csv" || name == "topology.csv" ||
+      name == "config.yaml")
     return true;
   // Frames: the five-digit frame number (and the rank of a piece) is what marks them as ours.
   static const std::regex frame(R"(.+_\d{5}(\.p?vtu|_\d+\.vtu))");

@@ -111,6 +111,7 @@ struct RunSummary {
   // broken, vertices added, H0 corrections and refactorizations), and the frame at whose start faces first broke (-1: none).
   bool fracture = false;
   long long first_break_frame = -1;
+  long long faces_broken = 0;  // of faces_separated, those the criterion broke (the others: blades')
   double topology_s = 0;
   // Breaks (strand_material.snap; summary.json's "breaks" only with them): segments snapped,
   // vertices added, batches (each a rebuild and refactorization); topology_s as for cuts.

@@ -216,12 +216,12 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << reactions_entry(s.reactions)
       << (std::isnan(s.dissipated_energy) ? "" : "  \"dissipated_energy\": " + number(s.dissipated_energy) + ",\n")
-      << (!s.cuts ? "" : "  \"cuts\": {\"faces_separated\": " + std::to_string(s.faces_separated) +
+      << (!s.cuts ? "" : "  \"cuts\": {\"faces_separated\": " + std::to_string(s.faces_separated - s.faces_broken) +
                              ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
                              ", \"h0_corrections\": " + std::to_string(s.cut_h0_corrections) +
                              ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                              ", \"topology_s\": " + number(s.topology_s) + "},\n")
-      << (!s.fracture ? "" : "  \"fracture\": {\"faces_broken\": " + std::to_string(s.faces_separated) +
+      << (!s.fracture ? "" : "  \"fracture\": {\"faces_broken\": " + std::to_string(s.faces_broken) +
                                  ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
                                  ", \"first_break_frame\": " +
                                  (s.first_break_frame < 0 ? std::string("null") : std::to_string(s.first_break_frame)) +

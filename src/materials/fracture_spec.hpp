@@ -22,6 +22,7 @@ struct FractureSpec {
   double threshold = 0;  // the criterion's value at which a face breaks (Pa, or J/m^3)
   double spread = 0;     // each face's threshold is threshold (1 + spread u), u uniform in [-1, 1)
   int seed = 0;          // u's seed: with the face's two tet numbers it gives u
+  int resolve = 0;       // after a step with breaks: how many times it may be solved again (the scene: the largest)
   int line = 0;          // the deck line of the block
 };
 
@@ -39,6 +40,10 @@ inline const std::vector<DeckKey<FractureSpec>>& fracture_keys() {
        "each face's threshold is threshold·(1 + spread·u), u uniform in [−1, 1) from `seed` and the face's two tet "
        "numbers (the same at any rank count)", {0, 1, false, true, "0: every face alike"}},
       {"seed", &F::seed, "the seed of the faces' u", at_least(0)},
+      {"resolve", &F::resolve,
+       "how many times a step whose converged state breaks faces is solved again, from its start with the faces "
+       "broken, until no more break (0: they break at the next step's start; the scene takes its materials' largest)",
+       at_least(0)},
   };
   return keys;
 }

@@ -447,6 +447,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   for (const BoxRegion& b : spec.fixed) releases = releases || b.release > 0;
   for (const AttachmentSpec& a : spec.attachments) releases = releases || a.region.release > 0;
   fracture_ = fracture_specs(spec);  // empty without material.fracture
+  for (const FractureSpec& f : fracture_) fracture_resolve_ = std::max(fracture_resolve_, f.given ? f.resolve : 0);
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
   snap_strains_ = snap_strains(spec);
   const bool breaks = separates || !snap_strains_.empty();
@@ -745,7 +746,28 @@ std::vector<int32_t> LiveScene::separate(int64_t frame, const std::vector<TetPai
   counts_.faces += (long long)batch.size();
   counts_.vertices += r.new_vertices;
   counts_.batches += 1;
+  batch_sizes_.push_back((int64_t)batch.size());
   return std::move(r.source);
+}
+
+PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch) {
+  PetscFunctionBeginUser;
+  batch.clear();
+  if (resolved_.first != main.frame - 1) resolved_ = {main.frame - 1, 0};
+  if (resolved_.second >= fracture_resolve_) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+  PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, batch));
+  PetscCall(event_end(&LogEvents::topology));
+  if (!batch.empty()) ++resolved_.second;
+  note_broken(main.frame - 1, (long long)batch.size());
+  PetscFunctionReturn(0);
+}
+
+void LiveScene::note_broken(int64_t frame, long long faces) {
+  if (faces == 0) return;
+  counts_.broken += faces;
+  if (counts_.first_broken < 0) counts_.first_broken = frame;
 }
 
 PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut) {
@@ -768,19 +790,23 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
                                                        by_frame[f], t - h, t, separated_);
     batch.insert(batch.end(), crossed.begin(), crossed.end());
   }
+  std::sort(batch.begin(), batch.end());
+  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
+  const size_t by_blades = batch.size();  // (a face also overloaded counts as cut)
   if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
     std::vector<TetPair> broken;
     if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
     PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, broken));
     batch.insert(batch.end(), broken.begin(), broken.end());
+    std::sort(batch.begin(), batch.end());
+    batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   }
-  std::sort(batch.begin(), batch.end());
-  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   if (batch.empty()) {
     PetscCall(event_end(&LogEvents::topology));
     PetscFunctionReturn(0);
   }
   *cut = true;
+  note_broken(main.frame, (long long)(batch.size() - by_blades));
   PetscCall(separate_due(batch, main, others, rebind));
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
@@ -875,17 +901,23 @@ PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored) {
+PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored,
+                                       const std::vector<int64_t>& sizes) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
   PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
              "the checkpoint has separated faces and the deck has neither cuts nor fracture");
+  int64_t total = 0;
+  for (int64_t n : sizes) total += n;
+  PetscCheck(sizes.empty() || total == (int64_t)history.size(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint's cut batches do not add up to its separated faces");
   PetscCall(event_begin(&LogEvents::topology));
   long long batches = 0;
   for (size_t i = 0; i < history.size(); ++batches) {
     size_t j = i;
     std::vector<TetPair> batch;
-    for (; j < history.size() && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
+    const size_t end = sizes.empty() ? history.size() : i + (size_t)sizes[batches];
+    for (; j < end && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
     if (factored < 0 || batches < factored) {
       separate(history[i][0], batch);
       kept_changed_ = true;

@@ -132,18 +132,35 @@ class LiveScene {
   // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers).
   using SeparatedFace = std::array<int64_t, 3>;
   const std::vector<SeparatedFace>& cut_history() const { return history_; }
+  // The faces of each batch of cut_history, in order (a frame may have several: fracture's re-solves).
+  const std::vector<int64_t>& cut_batches() const { return batch_sizes_; }
+  // Fracture's re-solves (material.fracture.resolve, docs/topology.md#fracture): called after main's
+  // step to frame n + 1 has ended, the faces its converged state breaks (none once the step has
+  // been solved again `resolve` times), which the caller separates (separate_due, at the step's
+  // start) before it solves the step again. Collective.
+  int fracture_resolve() const { return fracture_resolve_; }
+  PetscErrorCode resolve_breaks(const State& main, std::vector<TetPair>& batch);
+  // The re-solves of the step after frame `frame` so far (a checkpoint of `frame` whose next frame
+  // a signal gave up after re-solves: header key cuts_resolved); restore_resolved sets them.
+  int resolved_after(int64_t frame) const { return resolved_.first == frame ? resolved_.second : 0; }
+  void restore_resolved(int64_t frame, int count) { resolved_ = {frame, count}; }
   // A restart: the checkpoint's cut history replayed on the kept pieces, batch by batch as the run
   // made them (so the same vertex numbers), before restore_released, which then rebuilds. The
   // batches after the first `factored` (those the run followed by corrections, -1: none) are kept
   // for restore_released, which replays them as the run did: the scene rebuilt after each, its
   // constant matrix corrected, so the restart starts from the run's operator bit for bit.
-  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history, long long factored = -1);
+  // batches: the faces of each batch (cut_batches; empty: a batch per frame, as before re-solves).
+  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history, long long factored = -1,
+                              const std::vector<int64_t>& batches = {});
   // Totals so far: faces separated, vertices added, batches (each a rebuild of the scene; a
   // restart's replay included); of this run's batches (not replayed), those whose constant matrix
   // followed by a correction and those that factored it again.
+  // Of this run's faces, those a fracture criterion broke (not a blade), and the frame of the first
+  // such batch (-1: none), for a deck with both.
   struct CutCounts {
     long long faces = 0, vertices = 0, batches = 0;
     long long corrections = 0, refactorizations = 0;
+    long long broken = 0, first_broken = -1;
   };
   const CutCounts& cut_counts() const { return counts_; }
   // A material of the scene has a fracture criterion (material.fracture): its overloaded faces
@@ -175,6 +192,8 @@ class LiveScene {
     long long segments = 0, vertices = 0, batches = 0;
   };
   const BreakCounts& break_counts() const { return break_counts_; }
+  // Strand segments of the scene may snap (strand_material.snap).
+  bool snaps() const { return !snap_strains_.empty(); }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
 
@@ -190,6 +209,8 @@ class LiveScene {
   // One batch of faces separated at the start of `frame` on kept_ (history and counts follow); the
   // source of each local vertex after it (mesh/separation.hpp).
   std::vector<int32_t> separate(int64_t frame, const std::vector<TetPair>& batch);
+  // `faces` of a batch at the start of `frame` broken by the fracture criterion (counts_.broken).
+  void note_broken(int64_t frame, long long faces);
   // One batch of segments snapped at the start of `frame` on kept_, as separate.
   std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch);
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local
@@ -201,6 +222,9 @@ class LiveScene {
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;
   std::vector<SeparatedFace> history_;
+  std::vector<int64_t> batch_sizes_;  // of history_'s batches
+  int fracture_resolve_ = 0;          // the largest material.fracture.resolve
+  std::pair<int64_t, int> resolved_{-1, 0};  // (frame n, the step to n + 1's re-solves so far)
   std::set<TetPair> separated_;
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)

@@ -8,7 +8,7 @@ clamp that moves at constant speed:
   frames, positions within 1e-8 of the diagonal;
 - a run killed after several breaks and restarted equals the uninterrupted one bit for bit;
 - fracture leaves the total mass unchanged; a deck without fracture runs no topology code;
-- fracture in a body of bodies: breaks;
+- fracture in a body of bodies: breaks (with cuts in one deck: test_topology_csv.py);
 - bad fracture blocks are refused, naming the deck line, nothing written."""
 import copy
 import itertools
@@ -286,12 +286,6 @@ def test_fracture_of_mass_spring_tets_is_refused(tmp_path):
     deck["material"] = {"model": "mass-spring", "spring_stiffness": 1.0e4, "density": DENSITY,
                         "fracture": deck["material"]["fracture"]}
     assert_deck_refused(tmp_path, "springs", deck, ["material.fracture", "mass-spring", "no stress"])
-
-
-def test_fracture_with_cuts_is_refused(tmp_path):
-    deck = bad(tmp_path)
-    deck["cuts"] = [{"center": [0.5, 0.5, 0.05], "normal": [0, 1, 0], "axis": [1, 0, 0], "size": [2.0, 1.0]}]
-    assert_deck_refused(tmp_path, "cuts", deck, ["material.fracture", "cuts"])
 
 
 def bodies_deck(threshold):

@@ -1,0 +1,159 @@
+"""topology.csv (docs/outputs.md#topologycsv), end to end: its rows sum to summary.json's totals for
+cuts, fracture and snapping strands; a run killed after changes, or stopped by a signal in a frame
+that began with a change, and restarted writes the same file as the uninterrupted run; cuts and
+fracture in one deck, counted apart, restarted bitwise; a deck without a topology trigger, or
+with output.topology_csv: false, writes none."""
+import copy
+import csv
+
+import pytest
+
+from conftest import run_deck, run_hyperqn, write_deck
+from hyperqn_tools.output import read_summary
+from test_checkpoint import assert_same_run
+from test_checkpoint_faults import killed
+from test_cuts import BAR
+from test_fracture import NOTCHED, plate_mesh, pulled_plate
+from test_tearing import ROPE
+
+COLUMNS = ["frame", "time", "faces_separated", "faces_total", "vertices_added", "segments_snapped",
+           "h0_corrections", "refactorizations"]
+
+
+def rows(out):
+    with open(out / "topology.csv") as f:
+        reader = csv.DictReader(f)
+        assert reader.fieldnames == COLUMNS
+        return [{k: (float(v) if k == "time" else int(v)) for k, v in r.items()} for r in reader]
+
+
+def sums(table):
+    return {k: sum(r[k] for r in table) for k in COLUMNS[2:] if k != "faces_total"}
+
+
+def assert_one_row_per_frame(table, frames, dt):
+    assert [r["frame"] for r in table] == list(range(1, frames + 1))
+    assert all(abs(r["time"] - r["frame"] * dt) <= 1e-12 for r in table)
+    total = 0
+    for r in table:
+        total += r["faces_separated"]
+        assert r["faces_total"] == total
+
+
+def plate(tmp_path, frames=40):
+    return pulled_plate(plate_mesh(tmp_path / "notched.mesh", **NOTCHED), 1.1, frames=frames)
+
+
+def test_fracture_rows_sum_to_the_summary(tmp_path):
+    out, s = run_deck(tmp_path, "plate", plate(tmp_path))
+    table = rows(out)
+    assert_one_row_per_frame(table, 40, 0.02)
+    f, total = s["fracture"], sums(table)
+    assert f["faces_broken"] > 0
+    assert total == {"faces_separated": f["faces_broken"], "vertices_added": f["vertices_added"], "segments_snapped": 0,
+                     "h0_corrections": f["h0_corrections"], "refactorizations": f["refactorizations"]}
+    # faces open at the start of the frame after the one whose state broke them
+    first = next(r["frame"] for r in table if r["faces_separated"])
+    assert first == f["first_break_frame"] + 1
+
+
+def test_cut_rows_sum_to_the_summary(tmp_path):
+    out, s = run_deck(tmp_path, "bar", BAR)
+    table = rows(out)
+    assert_one_row_per_frame(table, BAR["time"]["frames"], BAR["time"]["dt"])
+    c = s["cuts"]
+    assert c["faces_separated"] > 0
+    assert sums(table) == {"faces_separated": c["faces_separated"], "vertices_added": c["vertices_added"],
+                           "segments_snapped": 0, "h0_corrections": c["h0_corrections"],
+                           "refactorizations": c["refactorizations"]}
+    # every frame that separates faces is one step whose H0 followed or was factored again
+    assert all((r["h0_corrections"] + r["refactorizations"] == 1) == (r["faces_separated"] > 0) for r in table)
+
+
+def test_snap_rows_sum_to_the_summary(tmp_path):
+    out, s = run_deck(tmp_path, "rope", ROPE)
+    table = rows(out)
+    assert_one_row_per_frame(table, ROPE["time"]["frames"], ROPE["time"]["dt"])
+    b = s["breaks"]
+    assert b["segments_snapped"] == 2
+    assert sums(table) == {"faces_separated": 0, "vertices_added": b["vertices_added"],
+                           "segments_snapped": b["segments_snapped"], "h0_corrections": 0,
+                           "refactorizations": b["refactorizations"]}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_kill_writes_the_same_file(tmp_path, ranks):
+    deck = plate(tmp_path)
+    deck["checkpoint"] = {"every": 2}
+    path = write_deck(tmp_path / "plate.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    first = read_summary(ref)["fracture"]["first_break_frame"]
+    out = tmp_path / "out"
+    killed(path, out, first + 5, ranks)  # after several breaks, between checkpoints
+    assert rows(out)[-1]["frame"] == first + 5
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
+def test_restart_after_a_signal_in_a_frame_that_began_with_breaks(tmp_path):
+    # The frame given up began with breaks, which its checkpoint (of the frame before) holds: the
+    # restart's row of that frame still counts them.
+    deck = plate(tmp_path, frames=20)
+    path = write_deck(tmp_path / "plate.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref])
+    table = rows(ref)
+    frame = next(r["frame"] for r in table if r["faces_separated"])
+    out = tmp_path / "out"
+    done = run_hyperqn([path, "-o", out, "-hyperqn_test_signal_in_frame", frame, "-hyperqn_test_signal_at_iteration", 2],
+                       check=False)
+    assert done.returncode == 3
+    assert rows(out)[-1]["frame"] == frame - 1
+    run_hyperqn([path, "-o", out, "--restart", "latest"])
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
+# test_cuts' bar sliced by its blade, its material also breaking where its tension exceeds 3e4 Pa
+# (near the clamp, away from the blade): cuts and fracture in one deck.
+BOTH = copy.deepcopy(BAR)
+BOTH["material"]["fracture"] = {"criterion": "normal_stress", "threshold": 3.0e4}
+
+
+def test_cuts_and_fracture_in_one_deck(tmp_path):
+    out, s = run_deck(tmp_path, "both", BOTH)
+    cut, broken, total = s["cuts"]["faces_separated"], s["fracture"]["faces_broken"], sums(rows(out))
+    print(f"{cut} faces cut by the blade, {broken} broken by the criterion")
+    assert cut > 0 and broken > 0
+    assert total["faces_separated"] == cut + broken
+    assert total["vertices_added"] == s["cuts"]["vertices_added"] == s["fracture"]["vertices_added"]
+    _, alone = run_deck(tmp_path, "alone", BAR)  # the blade alone cuts as many faces or more
+    assert alone["cuts"]["faces_separated"] >= cut
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_cuts_and_fracture_restart_after_a_kill(tmp_path, ranks):
+    deck = copy.deepcopy(BOTH)
+    deck["checkpoint"] = {"every": 2}
+    path = write_deck(tmp_path / "both.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    out = tmp_path / "out"
+    killed(path, out, 14, ranks)  # after cuts and the first breaks (frames 4 to 7 and 13)
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert_same_run(ref, out)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+    skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
+    a, b = read_summary(ref), read_summary(out)
+    assert skip(a["cuts"]) == skip(b["cuts"]) and skip(a["fracture"]) == skip(b["fracture"])
+
+
+def test_no_file_without_a_trigger_or_when_turned_off(tmp_path):
+    deck = plate(tmp_path, frames=2)
+    plain = copy.deepcopy(deck)
+    del plain["material"]["fracture"]
+    out, s = run_deck(tmp_path, "plain", plain)
+    assert "fracture" not in s and not (out / "topology.csv").exists()
+    deck["output"] = {"topology_csv": False}
+    out, s = run_deck(tmp_path, "off", deck)
+    assert "fracture" in s and not (out / "topology.csv").exists()
