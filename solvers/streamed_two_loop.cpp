@@ -4,7 +4,7 @@
 #include <cfloat>
 #include <cmath>
 
-#include <petscblaslapack.h>
+#include "materials/lanes.hpp"
 
 #include "io/log_events.hpp"
 
@@ -13,18 +13,35 @@ namespace hyperqn {
 namespace {
 
 // Entries per chunk: a pass works through the unknowns chunk by chunk, so a chunk of g, s, y, q or
-// d stays in the core's cache while each pair's chunk is read once. The products are BLAS's, as
-// PETSc's own vector operations are.
-constexpr PetscInt kChunk = 2048;
+// d stays in the core's L1 cache while each pair's chunk is read once.
+constexpr PetscInt kChunk = 512;
 
-double dot(const double* a, const double* b, PetscInt n) {
-  const PetscBLASInt len = (PetscBLASInt)n, one = 1;
-  return BLASdot_(&len, a, &one, b, &one);
+// The loops are vectorized (the sums' order is the same on every run on one processor).
+HYPERQN_VECTOR_CLONES double dot(const double* a, const double* b, PetscInt n) {
+  double sum = 0;
+#pragma omp simd reduction(+ : sum)
+  for (PetscInt i = 0; i < n; ++i) sum += a[i] * b[i];
+  return sum;
 }
 
-void axpy(double* y, double a, const double* x, PetscInt n) {
-  const PetscBLASInt len = (PetscBLASInt)n, one = 1;
-  BLASaxpy_(&len, &a, x, &one, y, &one);
+// Pass 1's three products with one pair: s_j.g, y_j.s, s_j.y, added to out.
+HYPERQN_VECTOR_CLONES void pair_dots(const double* sj, const double* yj, const double* g, const double* s,
+                                     const double* y, PetscInt n, double* out) {
+  double sg = 0, ys = 0, sy = 0;
+#pragma omp simd reduction(+ : sg, ys, sy)
+  for (PetscInt i = 0; i < n; ++i) {
+    sg += sj[i] * g[i];
+    ys += yj[i] * s[i];
+    sy += sj[i] * y[i];
+  }
+  out[0] += sg;
+  out[1] += ys;
+  out[2] += sy;
+}
+
+HYPERQN_VECTOR_CLONES void axpy(double* y, double a, const double* x, PetscInt n) {
+#pragma omp simd
+  for (PetscInt i = 0; i < n; ++i) y[i] += a * x[i];
 }
 
 // PETSc's BFGS: a pair is kept if s.y > eps s.s (eps = machine epsilon^(2/3); 0 when s.s < eps).
@@ -87,12 +104,8 @@ PetscErrorCode StreamedTwoLoop::update(const PetscScalar* x, const PetscScalar* 
     sums[0] += dot(s + c, y + c, len);
     sums[1] += dot(s + c, s + c, len);
     sums[2] += dot(s + c, g + c, len);
-    for (int j = 0; j < k; ++j) {
-      const double* sj = s_slot(order_[j]) + c;
-      sums[3 + 3 * j] += dot(sj, g + c, len);
-      sums[4 + 3 * j] += dot(y_slot(order_[j]) + c, s + c, len);
-      sums[5 + 3 * j] += dot(sj, y + c, len);
-    }
+    for (int j = 0; j < k; ++j)
+      pair_dots(s_slot(order_[j]) + c, y_slot(order_[j]) + c, g + c, s + c, y + c, len, &sums[3 + 3 * j]);
   }
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, sums.data(), (int)sums.size(), MPI_DOUBLE, MPI_SUM, comm_));
   for (int j = 0; j < k; ++j) sg_[order_[j]] = sums[3 + 3 * j];
