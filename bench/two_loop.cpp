@@ -90,11 +90,15 @@ PetscErrorCode bench(PetscInt n, int history, int iterations, int rounds) {
     PetscCall(VecDuplicate(layout, &v->x));
     PetscCall(VecDuplicate(layout, &v->g));
     PetscCall(VecDuplicate(layout, &v->d));
-    PetscCall(MatCreateLMVMBFGS(comm, PETSC_DECIDE, n, &v->bfgs));
-    // MatLMVMSetHistorySize ignores 0 in 3.18; the option (as LbfgsSolver gives TAO) takes it.
-    PetscCall(MatSetOptionsPrefix(v->bfgs, v == &petsc ? "petsc_" : "streamed_"));
-    PetscCall(PetscOptionsSetValue(nullptr, v == &petsc ? "-petsc_mat_lmvm_hist_size" : "-streamed_mat_lmvm_hist_size",
-                                   v == &petsc ? std::to_string(history).c_str() : "0"));
+    // As TAOLMVM makes its matrix: the history is an option read before the matrix is allocated
+    // (MatLMVMSetHistorySize ignores 0 in 3.18, and resizing an allocated matrix crashes).
+    const bool own = v == &petsc;
+    PetscCall(MatCreate(comm, &v->bfgs));
+    PetscCall(MatSetType(v->bfgs, MATLMVMBFGS));
+    PetscCall(MatSetSizes(v->bfgs, PETSC_DECIDE, PETSC_DECIDE, n, n));
+    PetscCall(MatSetOptionsPrefix(v->bfgs, own ? "petsc_" : "streamed_"));
+    PetscCall(PetscOptionsSetValue(nullptr, own ? "-petsc_mat_lmvm_hist_size" : "-streamed_mat_lmvm_hist_size",
+                                   own ? std::to_string(history).c_str() : "0"));
     PetscCall(MatSetFromOptions(v->bfgs));
     PetscCall(MatLMVMAllocate(v->bfgs, v->x, v->g));
     PetscCall(MatLMVMSetJ0(v->bfgs, v == &petsc ? h0 : two_loop.operator_mat()));

@@ -237,9 +237,9 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "per frame and about half the ms per frame with `refactor`"),
       enum_key<S>("two_loop", &S::two_loop, kTwoLoopNames,
        "`lbfgs` only: who applies the L-BFGS pairs in each iteration's direction. `petsc`: TAO's BFGS matrix "
-       "(PETSc 3.18's two-loop, two reductions and five vector passes per pair). `streamed`: the pairs in one "
-       "block, read once per pass, with two reductions per iteration and half the vector traffic; the same "
-       "iterates to round-off, bitwise repeatable and restartable "
+       "(PETSc 3.18's two-loop: two reductions per pair). `streamed`: hyperqn's, the pairs in one block, two "
+       "reductions per iteration and half the vector reads and writes but 2 × history more products; the same "
+       "iterates to round-off, bitwise repeatable and restartable, and measured no faster at 1 and 2 ranks "
        "([performance.md](performance.md#streamed-two-loop)); `lbfgs-identity` ignores it"),
       enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
        "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),

@@ -4,12 +4,14 @@
 // loops' sequential dot products become scalar work). TAO (TAOLMVM) stays the driver: its own
 // history is set to 0 and this operator is its H0, so its MatSolve receives g and returns H g.
 //
-// Per iteration with k pairs, against PETSc 3.18's MATLMVMBFGS (2k + 3 reductions, about 10k + 20
-// vector reads and writes): 2 reductions and 5k + 14.
+// Per iteration with k pairs: 2 reductions (PETSc 3.18's MATLMVMBFGS: 2k + 2) and 5k + 14 vector
+// reads and writes (PETSc's: 10k + 20), counting by vector length:
 //   pass 1: s = x - x_prev, y = g - g_prev (and x_prev, g_prev updated); s.y, s.s, s.g and every
 //           pair's s_j.g, y_j.s, s_j.y (one reduction)
 //   pass 2: q = g - sum alpha_j y_j;  r = H0 q;
 //   pass 3: y_j.r and g.r (one reduction);  pass 4: d = r + sum (alpha_j - beta_j) s_j.
+// Keeping S^T Y costs 2k more products per iteration than PETSc's loops, so on one machine, where
+// the vectors stay in cache, it is no faster (docs/performance.md#streamed-two-loop).
 // The pairs are accepted, rejected and forgotten as PETSc's BFGS does (curvature s.y > eps s.s,
 // forgotten after history/2 rejections in a row, at each TaoSolve, and when d is no descent
 // direction, where TAO falls back to -g): a frame's iterates agree with PETSc's to round-off.
@@ -35,7 +37,7 @@ class StreamedTwoLoop {
  private:
   static PetscErrorCode solve(Mat shell, Vec g, Vec d);
   PetscErrorCode apply(Vec g, Vec d);
-  // Pass 1 at the current iterate x with gradient g; pairs accepted or not; *sg: s_j.g by slot.
+  // Pass 1 at the current iterate x with gradient g: the new pair kept or not, sg_ updated.
   PetscErrorCode update(const PetscScalar* x, const PetscScalar* g);
   double* s_slot(int slot) { return pairs_.data() + (size_t)(2 * slot) * n_; }
   double* y_slot(int slot) { return pairs_.data() + (size_t)(2 * slot + 1) * n_; }
