@@ -7,6 +7,8 @@ Needs postprocess/ on PYTHONPATH (`make bench` sets it), PyYAML and numpy (the b
 """
 import argparse, csv, datetime, json, math, os, platform, subprocess, sys, time
 
+import yaml
+
 from hyperqn_tools import launch
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO, SHARED_MESHES as MESHES
@@ -269,7 +271,7 @@ def main():
     bad = [kv for kv in args.solver if "=" not in kv]
     if bad:
         ap.error(f"--solver takes KEY=VALUE, not {bad}")
-    args.solver = [tuple(kv.split("=", 1)) for kv in args.solver]
+    args.solver = [(k, yaml.safe_load(v)) for k, v in (kv.split("=", 1) for kv in args.solver)]  # 20 is a number
     args.hyperqn = os.path.abspath(args.hyperqn)
     names = QUICK if args.quick else list(CASES)
     if args.cases:

@@ -1,4 +1,4 @@
-// What an L-BFGS direction costs besides H0 (docs/performance.md#streamed-two-loop): PETSc 3.18's
+// What an L-BFGS direction costs besides H0 (docs/performance.md#what-stops-scaling-first): PETSc 3.18's
 // BFGS matrix as TAOLMVM drives it (MatLMVMUpdate, then MatSolve) against solver.two_loop streamed
 // (solvers/streamed_two_loop.hpp, behind TAO's BFGS matrix with no pairs of its own, as
 // LbfgsSolver sets it up), in one process, rounds in turn. H0 is the identity (a copy), so only

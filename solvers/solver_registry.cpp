@@ -240,7 +240,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "(PETSc 3.18's two-loop: two reductions per pair). `streamed`: hyperqn's, the pairs in one block, two "
        "reductions per iteration and half the vector reads and writes but 2 × history more products; the same "
        "iterates to round-off, bitwise repeatable and restartable, and measured no faster at 1 and 2 ranks "
-       "([performance.md](performance.md#streamed-two-loop)); `lbfgs-identity` ignores it"),
+       "([performance.md](performance.md#what-stops-scaling-first)); `lbfgs-identity` ignores it"),
       enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
        "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),
       enum_key<S>("newton_method", &S::newton_method, kNewtonMethodNames,

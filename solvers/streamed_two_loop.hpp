@@ -11,7 +11,7 @@
 //   pass 2: q = g - sum alpha_j y_j;  r = H0 q;
 //   pass 3: y_j.r and g.r (one reduction);  pass 4: d = r + sum (alpha_j - beta_j) s_j.
 // Keeping S^T Y costs 2k more products per iteration than PETSc's loops, so on one machine, where
-// the vectors stay in cache, it is no faster (docs/performance.md#streamed-two-loop).
+// the vectors stay in cache, it is no faster (docs/performance.md#what-stops-scaling-first).
 // The pairs are accepted, rejected and forgotten as PETSc's BFGS does (curvature s.y > eps s.s,
 // forgotten after history/2 rejections in a row, at each TaoSolve, and when d is no descent
 // direction, where TAO falls back to -g): a frame's iterates agree with PETSc's to round-off.
