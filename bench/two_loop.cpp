@@ -5,7 +5,8 @@
 // the vector work is timed. The iterates: g = D x on a diagonal D in [1, 10], x <- x - 0.05 d with
 // each variant's own direction, the pairs forgotten every 30 iterations (about a hair84k step) as TAO does at each
 // step's start. Prints CPU ms per iteration (median of -rounds) for each length n.
-// Run: build/two_loop_bench [-n 266910,77568,67446] [-history 5] [-iterations 120] [-rounds 5]
+// Run: build/two_loop_bench [-lengths 266910,77568,67446] [-pairs 5] [-iterations 120] [-rounds 5]
+// (not -history: PETSc takes that as a file to write its log to)
 #include <petsctao.h>
 
 #include <ctime>
@@ -134,8 +135,8 @@ int main(int argc, char** argv) {
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   char lengths[256] = "266910,77568,67446";
   PetscInt history = 5, iterations = 120, rounds = 5;
-  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-n", lengths, sizeof lengths, nullptr));
-  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-history", &history, nullptr));
+  PetscCall(PetscOptionsGetString(nullptr, nullptr, "-lengths", lengths, sizeof lengths, nullptr));
+  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-pairs", &history, nullptr));
   PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-iterations", &iterations, nullptr));
   PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-rounds", &rounds, nullptr));
   PetscCall(PetscPrintf(PETSC_COMM_WORLD, "| n | history | PETSc BFGS ms/it | streamed ms/it | streamed/PETSc |\n|---|---|---|---|---|\n"));
