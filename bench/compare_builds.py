@@ -7,7 +7,11 @@
 The builds take turns case by case, round after round (--rounds), so that the machine's noise,
 which comes and goes over tens of seconds here, falls on both alike; each keeps its fastest run. Prints ms/iteration and ms/frame of both and the
 ratio new/old, and writes compare.csv and compare.json to --out. Arguments after the two binaries
-that bench.py knows (--quick, --cases, --ranks, --frames, --material) pass through to it.
+that bench.py knows (--quick, --cases, --ranks, --frames, --material, --solver) pass through to it.
+--old-solver/--new-solver KEY=VALUE give one build's decks a solver key, so one binary can be
+compared with itself under two settings:
+
+    PYTHONPATH=$PWD/postprocess /usr/bin/python3 bench/compare_builds.py build/hyperqn build/hyperqn --new-solver two_loop=streamed
 """
 import argparse
 import csv
@@ -27,7 +31,11 @@ def main():
     ap.add_argument("new")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-compare"))
+    ap.add_argument("--old-solver", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--new-solver", action="append", default=[], metavar="KEY=VALUE")
     args, bench_args = ap.parse_known_args()
+    solver = {"old": [a for kv in args.old_solver for a in ("--solver", kv)],
+              "new": [a for kv in args.new_solver for a in ("--solver", kv)]}
     builds = {"old": os.path.abspath(args.old), "new": os.path.abspath(args.new)}
     listed = subprocess.run([sys.executable, BENCH, "--list"] + bench_args, check=True, stdout=subprocess.PIPE, text=True)
     names = listed.stdout.strip().split(",")
@@ -38,7 +46,7 @@ def main():
         for name in names:
             for label, binary in builds.items():
                 out = os.path.join(args.out, f"{name}-{label}-{k}")
-                subprocess.run([sys.executable, BENCH, "--hyperqn", binary, "--out", out, "--cases", name] + others,
+                subprocess.run([sys.executable, BENCH, "--hyperqn", binary, "--out", out, "--cases", name] + others + solver[label],
                                check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                 with open(os.path.join(out, "bench.json")) as f:
                     for row in json.load(f)["rows"]:
@@ -63,7 +71,7 @@ def main():
         w.writeheader()
         w.writerows(table)
     with open(os.path.join(args.out, "compare.json"), "w") as f:
-        json.dump({"builds": builds, "rounds": args.rounds, "bench_args": bench_args, "rows": table}, f, indent=1)
+        json.dump({"builds": builds, "solver": {"old": args.old_solver, "new": args.new_solver}, "rounds": args.rounds, "bench_args": bench_args, "rows": table}, f, indent=1)
 
 
 if __name__ == "__main__":

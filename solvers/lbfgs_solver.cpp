@@ -3,6 +3,7 @@
 #include <string>
 
 #include "solvers/line_search.hpp"
+#include "solvers/streamed_two_loop.hpp"
 
 namespace hyperqn {
 
@@ -25,24 +26,37 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   PetscCall(create_tao(spec, TAOLMVM, true));
   // The contacts' stiffness (a scene with contact only; woodbury needs A = A1 (x) I3,
   // solvers/contact_h0.hpp).
+  Mat h0_inverse = nullptr;
   if (h0_ && spec.h0_contact != H0Contact::off && step_.has_vertex_stiffness() &&
       (h0_->kind() == ConstantMatrix::laplacian || spec.h0_contact == H0Contact::refactor)) {
     contact_h0_ = std::make_unique<ContactH0>(step_, *h0_, spec.h0_contact);
     PetscCall(contact_h0_->setup());
-    PetscCall(TaoLMVMSetH0(tao_, contact_h0_->inverse_operator()));
+    h0_inverse = contact_h0_->inverse_operator();
   } else if (h0_) {
-    PetscCall(TaoLMVMSetH0(tao_, h0_->inverse_operator()));
+    h0_inverse = h0_->inverse_operator();
   }
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
-  PetscCall(set_default_option("-tao_lmvm_mat_lmvm_hist_size", std::to_string(spec.history)));
+  const char* history_option = "-tao_lmvm_mat_lmvm_hist_size";
+  PetscCall(set_default_option(history_option, std::to_string(spec.history)));
   // The option may come from the user too: PETSc crashes on a negative size and allocates
   // without bound on a huge one, so check it before TAO reads it.
   PetscInt history = spec.history;
-  PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-tao_lmvm_mat_lmvm_hist_size", &history, nullptr));
+  PetscCall(PetscOptionsGetInt(nullptr, nullptr, history_option, &history, nullptr));
   PetscCheck(history >= 0 && history <= kMaxHistory, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
              "the L-BFGS history %" PetscInt_FMT " must be in [0, %d]", history, kMaxHistory);
   reset_on_contact_change_ = spec.history_reset == HistoryReset::contact_change;
+  // solver.two_loop streamed: the pairs and H0 are one operator, TAO's H0, and TAO's own BFGS keeps
+  // none (it then copies g and applies its H0). The option is TAO's only for finish_setup's read.
+  const bool streamed = h0_inverse && spec.two_loop == TwoLoop::streamed;
+  if (streamed) {
+    streamed_ = std::make_unique<StreamedTwoLoop>(tao_, h0_inverse, (int)history);
+    PetscCall(streamed_->setup(step_.layout()));
+    h0_inverse = streamed_->operator_mat();
+    PetscCall(PetscOptionsSetValue(nullptr, history_option, "0"));
+  }
+  if (h0_inverse) PetscCall(TaoLMVMSetH0(tao_, h0_inverse));
   PetscCall(finish_setup());
+  if (streamed) PetscCall(PetscOptionsSetValue(nullptr, history_option, std::to_string(history).c_str()));
   // Allocate TAO's work space now, so the first frame's timing holds only its iterations.
   Vec x;
   PetscCall(VecDuplicate(step_.layout(), &x));

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "solvers/contact_h0.hpp"
+#include "solvers/streamed_two_loop.hpp"
 #include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
 #include "solvers/guarded_tao_solver.hpp"
@@ -32,6 +33,7 @@ class LbfgsSolver : public GuardedTaoSolver {
 
   const FactoredSystem* h0_;
   std::unique_ptr<ContactH0> contact_h0_;  // solver.h0_contact other than off
+  std::unique_ptr<StreamedTwoLoop> streamed_;  // solver.two_loop streamed
 };
 
 }  // namespace hyperqn

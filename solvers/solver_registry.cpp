@@ -235,6 +235,12 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "for hundreds; it needs A = A1 ⊗ I3, so with `h0: rest-stiffness` it is `off`). Measured in "
        "[contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop's 60 frames 32.5 → 15.8 iterations "
        "per frame and about half the ms per frame with `refactor`"),
+      enum_key<S>("two_loop", &S::two_loop, kTwoLoopNames,
+       "`lbfgs` only: who applies the L-BFGS pairs in each iteration's direction. `petsc`: TAO's BFGS matrix "
+       "(PETSc 3.18's two-loop: two reductions per pair). `streamed`: hyperqn's, the pairs in one block, two "
+       "reductions per iteration and half the vector reads and writes but 2 × history more products; the same "
+       "iterates to round-off, bitwise repeatable and restartable, and measured no faster at 1 and 2 ranks "
+       "([performance.md](performance.md#what-stops-scaling-first)); `lbfgs-identity` ignores it"),
       enum_key<S>("newton_hessian", &S::newton_hessian, kNewtonHessianNames,
        "`newton` only: per-element PSD fix of dP/dF, or the exact Hessian (see below)"),
       enum_key<S>("newton_method", &S::newton_method, kNewtonMethodNames,

@@ -31,6 +31,8 @@ enum class NewtonMethod { nls, ntr };           // TAO's line search or trust re
 enum class HistoryReset { never, contact_change };
 // lbfgs: what of the contacts' stiffness its initial Hessian holds (solvers/contact_h0.hpp).
 enum class H0Contact { off, woodbury, refactor };
+// lbfgs: who applies the (s, y) pairs: PETSc's BFGS matrix, or solvers/streamed_two_loop.hpp.
+enum class TwoLoop { petsc, streamed };
 
 // The deck's words for these, in each enum's order.
 inline const std::vector<std::string> kH0Names = {"auto", "laplacian", "rest-stiffness", "amg", "volumetric"};
@@ -41,6 +43,7 @@ inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact
 inline const std::vector<std::string> kNewtonMethodNames = {"nls", "ntr"};
 inline const std::vector<std::string> kHistoryResetNames = {"never", "contact-change"};
 inline const std::vector<std::string> kH0ContactNames = {"off", "woodbury", "refactor"};
+inline const std::vector<std::string> kTwoLoopNames = {"petsc", "streamed"};
 
 struct SolverSpec {
   std::string type = "lbfgs";        // lbfgs | lbfgs-identity | newton | pd
@@ -53,6 +56,7 @@ struct SolverSpec {
   HistoryReset history_reset = HistoryReset::never;
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
   H0Contact h0_contact = H0Contact::refactor;  // lbfgs
+  TwoLoop two_loop = TwoLoop::petsc;           // lbfgs
   WarmStart warm_start = WarmStart::inertial;  // (lower: the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).

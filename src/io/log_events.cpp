@@ -35,6 +35,7 @@ static LogEvents register_events() {
   add("hqnH0Correct", &e.h0_correct);
   add("hqnH0Solve", &e.h0_solve);
   add("hqnH0Interface", &e.h0_interface);
+  add("hqnTwoLoop", &e.two_loop);
   add("hqnStep", &e.step);
   add("hqnBacktrack", &e.backtrack);
   add("hqnScene", &e.scene);

@@ -14,6 +14,7 @@ struct LogEvents {
   PetscLogEvent h0_correct;   // instead of it after a cut: the change as TopologyH0's correction (docs/topology.md)
   PetscLogEvent h0_solve;     // one A^{-1} b (3 right-hand sides)
   PetscLogEvent h0_interface; // within it, the split factor's interface: its Allreduce and dense solve
+  PetscLogEvent two_loop;     // solver.two_loop streamed: its passes over the pairs (not its H0 solve)
   PetscLogEvent step;         // one time step's solve (solver iterations, line searches)
   PetscLogEvent backtrack;    // hyperqn's own backtracking line search (PD, retries after failures)
   PetscLogEvent scene;        // building a scene (distribution, terms, integrator, factorization)
