@@ -816,10 +816,9 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
                                        const Rebind& rebind) {
   PetscFunctionBeginUser;
   bool corrected = false;
-  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, separate(main.frame, batch), &corrected));
-  last_change_cut_ = true;
+  last_change_cut_ = true;  // before the move: the rebind reports the change from these flags
   last_change_break_ = false;
-  last_cut_corrected_ = corrected;
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, separate(main.frame, batch), &corrected));
   if (corrected) {
     ++counts_.corrections;
   } else {
@@ -834,6 +833,7 @@ PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>
   PetscFunctionBeginUser;
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
+  last_cut_corrected_ = *corrected;  // known now, read by the rebind below
   fresh->body->set_time(t);
   fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main, source));

@@ -200,9 +200,12 @@ def test_size_trigger_factors_again_and_a_restart_replays_from_there(tmp_path):
     deck["checkpoint"] = {"every": 3}
     path = write_deck(tmp_path / "bar.yaml", deck)
     ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref, *trigger], ranks=None)
+    proc = run_hyperqn([path, "-o", ref, *trigger], ranks=None)
     s = read_summary(ref)
     assert (s["cuts"]["h0_corrections"], s["cuts"]["refactorizations"], s["factorizations"]) == (2, 2, 3)
+    # The console's line for each step with separations names the change it reports, not the one before.
+    lines = re.findall(r"t = \S+: (\S+): .*constant matrix (corrected|factored)", proc.stdout)
+    assert lines == [("cut", "corrected"), ("cut", "factored"), ("cut", "corrected"), ("cut", "factored")]
     out = tmp_path / "out"
     killed(path, out, 7, None, trigger)
     from hyperqn_tools.output import read_checkpoint
