@@ -85,8 +85,12 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();
-    PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
-                          run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
+    if (c.edges == 0)
+      PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
+                            run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
+    else
+      PetscCall(PetscPrintf(run_.comm, "t = %g: tear: %lld cloth edges torn, %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
+                            run_.state.time, c.edges, c.segments, c.vertices, (long long)summary.dofs));
   } else {
     PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
                           run_.state.time, (long long)summary.dofs));
