@@ -33,7 +33,7 @@ CLOTH = {
               {"box": {"min": [-0.001, -0.001, 0.499], "max": [0.501, 0.001, 0.501]},
                "motion": {"translate": {"velocity": [0.02, 0, 0.1]}}}],
     "gravity": [0, -9.81, 0],
-    "time": {"dt": 1 / 60, "frames": 40},
+    "time": {"dt": 1 / 60, "frames": 60},
     "solver": TIGHT,
 }
 
@@ -157,8 +157,8 @@ def test_ranks_tear_the_same_edges_in_the_same_frames(cloth, tmp_path, ranks):
 
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_restart_after_kill_after_tears_is_bitwise(tmp_path, ranks):
-    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, CLOTH, ranks, frames=30, every=24, kill_after=27)
-    saved = read_checkpoint(out / "checkpoints" / "checkpoint_24.h5")
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, CLOTH, ranks, frames=36, every=30, kill_after=33)
+    saved = read_checkpoint(out / "checkpoints" / "checkpoint_30.h5")
     kinds = [int(k) for k in str(saved["breaks"]).split()[1::3]]
     assert kinds and set(kinds) == {1}  # the checkpoint was written after tears
     a, b = read_summary(ref)["breaks"], read_summary(out)["breaks"]
