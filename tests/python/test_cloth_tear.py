@@ -165,6 +165,30 @@ def test_restart_after_kill_after_tears_is_bitwise(tmp_path, ranks):
     assert {k: v for k, v in a.items() if k != "topology_s"} == {k: v for k, v in b.items() if k != "topology_s"}
 
 
+# The other cloth terms on a tearing sheet: a membrane with dihedral bending, an attachment in its
+# middle and a sphere below it that it touches once torn (contact forces in the last frames).
+TERMS = {**CLOTH,
+         "cloth": {"model": "membrane", "youngs_modulus": 1000.0, "poisson_ratio": 0.3,
+                   "bending": {"model": "dihedral", "stiffness": 1e-4}, "areal_density": DENSITY, "tear": {"strain": TEAR}},
+         "attachments": [{"box": {"min": [0.2, -0.01, 0.2], "max": [0.3, 0.01, 0.3]}, "stiffness": 5.0}],
+         "colliders": [{"type": "sphere", "center": [0.25, -0.06, 0.25], "radius": 0.05}],
+         "time": {"dt": 1 / 60, "frames": 40}}
+
+
+def test_membrane_bending_attachment_and_contact_follow_the_tears_at_1_and_2_ranks(tmp_path):
+    ref, s1 = run_deck(tmp_path, "one", TERMS)
+    out, s2 = run_deck(tmp_path, "two", TERMS, ranks=2)
+    assert s1["breaks"]["edges_torn"] >= 10 and s1["breaks"]["vertices_added"] > 0
+    assert s1["breaks"] == {**s2["breaks"], "topology_s": s1["breaks"]["topology_s"]}
+    fa, fb = frames(ref), frames(out)
+    for a, b in zip(fa, fb):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+    assert np.abs(fa[-1].contact_force).max() > 0  # the torn sheet touches the sphere
+    m0, m1 = masses(fa[0]).sum(), masses(fa[-1]).sum()
+    assert abs(m1 - m0) <= 1e-14 * m0
+
+
 def bad(**changes):
     deck = copy.deepcopy(CLOTH)
     deck["time"]["frames"] = 2
