@@ -1,6 +1,7 @@
 #include "model/tearing.hpp"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <stdexcept>
 
@@ -65,36 +66,33 @@ std::vector<TrianglePair> edges_to_tear(MPI_Comm comm, const MeshPiece& piece, c
                                         const std::vector<double>& strains, const std::vector<int32_t>& vertex_body) {
   const TetMesh& m = piece.mesh;
   auto number = [&](int32_t v) { return piece.vertex_numbers[v]; };
-  // The local hinge most over its threshold: (ratio, then its ends' numbers lo, hi, then c, d).
-  double best = 0;
-  std::array<int64_t, 4> best_hinge = {-1, -1, -1, -1};
+  // Each local hinge's ratio strain / limit (0: not over its limit).
+  std::vector<double> ratio(m.num_hinges(), 0.0);
+  double most = 0;
   for (int64_t h = 0; h < m.num_hinges(); ++h) {
     const int32_t* v = &m.hinges[4 * h];
     const double limit = strains[vertex_body.empty() ? 0 : vertex_body[v[0]]];
     if (limit <= 0) continue;
     const double strain = strain_across_edge(m.coords.data(), pos.data(), v);
-    if (strain <= limit) continue;
-    const double ratio = strain / limit;
+    if (strain > limit) ratio[h] = strain / limit;
+    most = std::max(most, ratio[h]);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_DOUBLE, MPI_MAX, comm);
+  if (most == 0) return {};
+  // Of the hinges within kTie of the largest ratio (round-off apart: 1 and 2 ranks' positions differ
+  // by it, and a sheet's symmetric edges tie), the one whose (ends' numbers lo, hi, then c, d) is lowest.
+  constexpr double kTie = 1e-8;
+  std::array<int64_t, 4> best_hinge = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+  for (int64_t h = 0; h < m.num_hinges(); ++h) {
+    if (ratio[h] == 0 || ratio[h] < most * (1 - kTie)) continue;
+    const int32_t* v = &m.hinges[4 * h];
     const std::array<int64_t, 4> key = {std::min(number(v[0]), number(v[1])), std::max(number(v[0]), number(v[1])),
                                         number(v[2]), number(v[3])};
-    if (ratio > best || (ratio == best && key < best_hinge)) {
-      best = ratio;
-      best_hinge = key;
-    }
+    best_hinge = std::min(best_hinge, key);
   }
-  // The same choice over all ranks: every rank's candidate, then the same comparison.
-  const std::vector<double> ratios = all_gathered(comm, std::vector<double>{best}, MPI_DOUBLE);
   const std::vector<int64_t> hinges = all_gathered(comm, std::vector<int64_t>(best_hinge.begin(), best_hinge.end()), MPI_INT64_T);
-  best = 0;
-  best_hinge = {-1, -1, -1, -1};
-  for (size_t r = 0; r < ratios.size(); ++r) {
-    const std::array<int64_t, 4> key = {hinges[4 * r], hinges[4 * r + 1], hinges[4 * r + 2], hinges[4 * r + 3]};
-    if (key[0] >= 0 && (ratios[r] > best || (ratios[r] == best && key < best_hinge))) {
-      best = ratios[r];
-      best_hinge = key;
-    }
-  }
-  if (best_hinge[0] < 0) return {};
+  for (size_t r = 0; r < hinges.size() / 4; ++r)
+    best_hinge = std::min(best_hinge, std::array<int64_t, 4>{hinges[4 * r], hinges[4 * r + 1], hinges[4 * r + 2], hinges[4 * r + 3]});
   // Its two triangles (a, b, c) and (a, b, d), from the ranks that hold them.
   std::vector<int64_t> found;
   const int64_t first = m.num_tets() + m.num_segments();

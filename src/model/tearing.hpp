@@ -43,8 +43,9 @@ double strain_across_edge(const double* rest, const double* pos, const int32_t* 
 // The edge that tears after a step: of the interior edges not torn (the piece's hinges: a torn
 // edge has none) whose strain across (strain_across_edge) at the positions `pos` exceeds their body's tearing strain
 // (vertex_body: the body of each local vertex, empty for one), the one most over it (the largest
-// strain / tearing strain; ties: the lowest pair of end vertex numbers), as a list of its pair of
-// triangles, or empty. One per step, for the reason segments_to_snap gives. The same on every
+// strain / tearing strain; ratios within 1e-8 of the largest count as ties, so that round-off does
+// not make 1 and 2 ranks choose differently: of those, the lowest pair of end vertex numbers, then
+// of opposite vertices), as a list of its pair of triangles, or empty. One per step, for the reason segments_to_snap gives. The same on every
 // rank. Collective.
 std::vector<TrianglePair> edges_to_tear(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                         const std::vector<double>& strains, const std::vector<int32_t>& vertex_body);
