@@ -175,6 +175,9 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
     bool snaps = deck.strand_material.snap_strain > 0;
     for (const BodySpec& b : deck.bodies) snaps = snaps || b.strand_material.snap_strain > 0;
     if (snaps) check_snap(r, *(s.find("bodies") ? s.find("bodies") : s.find("strand_material")), deck);
+    bool tears = deck.cloth.tear_strain > 0;
+    for (const BodySpec& b : deck.bodies) tears = tears || b.cloth.tear_strain > 0;
+    if (tears) check_tear(r, *(s.find("bodies") ? s.find("bodies") : s.find("cloth")), deck);
   }
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);

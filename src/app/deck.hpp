@@ -57,7 +57,7 @@ struct OutputSpec {
   FieldPrecision field_precision = FieldPrecision::double_precision;  // of `fields` in the files
   bool reactions = false;            // reactions.csv and summary.json's reactions (model/reactions.hpp)
   bool energy = false;               // energy.csv (model/energy_balance.hpp)
-  bool topology_csv = true;          // topology.csv (cuts, fracture, snapping strands; app/run_observers.hpp)
+  bool topology_csv = true;          // topology.csv (cuts, fracture, snapping strands, tearing cloth; app/run_observers.hpp)
 };
 
 // The deck's output: keys (params/deck_keys.hpp).
@@ -99,8 +99,8 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "and the supports, and the balance's residual ([inelastic.md](inelastic.md#energy-balance)); not with "
        "colliders or self-contact"},
       {"topology_csv", &OutputSpec::topology_csv,
-       "with cuts, fracture or snapping strands: write `topology.csv` (per frame, the faces separated, vertices "
-       "added, segments snapped, H0 corrections and refactorizations; [outputs.md](outputs.md#files))"},
+       "with cuts, fracture, snapping strands or tearing cloth: write `topology.csv` (per frame, the faces "
+       "separated, vertices added, segments snapped, cloth edges torn, H0 corrections and refactorizations; [outputs.md](outputs.md#files))"},
   };
   return keys;
 }

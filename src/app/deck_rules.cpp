@@ -110,6 +110,15 @@ void check_snap(const Reader& r, const Value& where, const Deck& deck) {
                   "snapping strands (docs/topology.md)");
 }
 
+void check_tear(const Reader& r, const Value& where, const Deck& deck) {
+  if (deck.contact.self)
+    r.fail(where, "tearing cloth (cloth.tear) with self-contact (contact.self) is not done yet: the torn edges would not "
+                  "take part in it (docs/snapping.md#tearing-cloth)");
+  if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
+    r.fail(where, "output.format: xdmf holds one mesh per run, and a tear changes the mesh: write vtu frames with "
+                  "tearing cloth (docs/snapping.md#tearing-cloth)");
+}
+
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;

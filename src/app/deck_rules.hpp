@@ -28,6 +28,8 @@ void check_fracture(const Reader& r, const Deck& deck);
 // Snapping strands (strand_material.snap, reported at `where`) are refused with self-contact and
 // XDMF output, as cuts are.
 void check_snap(const Reader& r, const Value& where, const Deck& deck);
+// Tearing cloth (cloth.tear, a body's or the deck's): refused with self-contact and XDMF output.
+void check_tear(const Reader& r, const Value& where, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is

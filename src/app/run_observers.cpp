@@ -85,8 +85,12 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();
-    PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
-                          run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
+    if (c.edges == 0)
+      PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
+                            run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
+    else
+      PetscCall(PetscPrintf(run_.comm, "t = %g: tear: %lld cloth edges torn, %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
+                            run_.state.time, c.edges, c.segments, c.vertices, (long long)summary.dofs));
   } else {
     PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
                           run_.state.time, (long long)summary.dofs));
@@ -255,11 +259,11 @@ bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow
   return have_start && have_at;
 }
 
-const char kTopologyColumns[] = "faces_separated,faces_total,vertices_added,segments_snapped,h0_corrections,refactorizations";
+const char kTopologyColumns[] = "faces_separated,faces_total,vertices_added,segments_snapped,edges_torn,h0_corrections,refactorizations";
 
 // The sums of topology.csv's rows of frames <= `frame` (a restart's); false if it has no row of
 // `frame` itself.
-bool read_topology(const std::string& path, int frame, long long sums[5]) {
+bool read_topology(const std::string& path, int frame, long long sums[6]) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);  // the header
@@ -269,10 +273,10 @@ bool read_topology(const std::string& path, int frame, long long sums[5]) {
     std::string cell;
     std::vector<std::string> cells;
     while (std::getline(row, cell, ',')) cells.push_back(cell);
-    if (cells.size() != 8 || std::atoi(cells[0].c_str()) > frame) continue;
+    if (cells.size() != 9 || std::atoi(cells[0].c_str()) > frame) continue;
     have_frame |= std::atoi(cells[0].c_str()) == frame;
-    const int per_frame[5] = {2, 4, 5, 6, 7};  // faces_total is a running sum of faces_separated
-    for (int k = 0; k < 5; ++k) sums[k] += std::atoll(cells[per_frame[k]].c_str());
+    const int per_frame[6] = {2, 4, 5, 6, 7, 8};  // faces_total is a running sum of faces_separated
+    for (int k = 0; k < 6; ++k) sums[k] += std::atoll(cells[per_frame[k]].c_str());
   }
   return have_frame;
 }
@@ -295,16 +299,16 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
   const OutputSpec& output = run_.deck.output;
   const bool restart = restart_frame >= 0;
   restarted_ = restart;
-  topology_ = output.topology_csv && (!run_.deck.cuts.empty() || run_.scene.fracture() || run_.scene.snaps());
+  topology_ = output.topology_csv && (!run_.deck.cuts.empty() || run_.scene.fracture() || run_.scene.breaks());
   if (topology_) {
     const std::string path = outdir + "/topology.csv";
     if (restart) {
-      long long sums[5] = {0, 0, 0, 0, 0};
+      long long sums[6] = {0, 0, 0, 0, 0, 0};
       if (!read_topology(path, restart_frame, sums) && restart_frame > 0)
         throw std::runtime_error(path + " has no row of frame " + std::to_string(restart_frame) +
                                  " to go on from (output.topology_csv: the checkpointed run must have written it)");
-      topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4]};
-      if (earlier) topology_earlier_ = {0, 0, 0, earlier->cut_h0_corrections, earlier->cut_refactorizations};
+      topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]};
+      if (earlier) topology_earlier_ = {0, 0, 0, 0, earlier->cut_h0_corrections, earlier->cut_refactorizations};
       topology_log_.resume(path, kTopologyColumns, rank, restart_frame);
     } else {
       topology_log_.open(path, kTopologyColumns, rank);
@@ -416,7 +420,7 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
 RunLogs::TopologyTotals RunLogs::topology_totals() const {
   const LiveScene::CutCounts& c = run_.scene.cut_counts();
   const LiveScene::BreakCounts& b = run_.scene.break_counts();
-  return {c.faces, c.vertices + b.vertices, b.segments, topology_earlier_.corrections + c.corrections,
+  return {c.faces, c.vertices + b.vertices, b.segments, b.edges, topology_earlier_.corrections + c.corrections,
           topology_earlier_.refactorizations + c.refactorizations + b.batches};
 }
 
@@ -426,8 +430,9 @@ RunLogs::TopologyTotals RunLogs::topology_totals() const {
 void RunLogs::record_topology(int frame) {
   const TopologyTotals now = topology_totals(), &before = topology_rows_;
   char row[256];
-  std::snprintf(row, sizeof row, "%lld,%lld,%lld,%lld,%lld,%lld", now.faces - before.faces, now.faces,
-                now.vertices - before.vertices, now.segments - before.segments, now.corrections - before.corrections,
+  std::snprintf(row, sizeof row, "%lld,%lld,%lld,%lld,%lld,%lld,%lld", now.faces - before.faces, now.faces,
+                now.vertices - before.vertices, now.segments - before.segments, now.edges - before.edges,
+                now.corrections - before.corrections,
                 now.refactorizations - before.refactorizations);
   topology_log_.append(frame, run_.state.time, {row});
   topology_rows_ = now;

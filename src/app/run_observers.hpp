@@ -62,7 +62,7 @@ class ProgressLog : public FrameObserver {
 // iterations.csv, the terms' own logs (EnergyTerm::log, e.g. contact.csv) and, if the deck asks
 // (output.reactions), reactions.csv and the summary's reactions (model/reactions.hpp), and
 // (output.energy) energy.csv (model/energy_balance.hpp, from a row of frame 0 on), and in a scene
-// whose topology may change (cuts, fracture, snapping strands; output.topology_csv) topology.csv:
+// whose topology may change (cuts, fracture, snapping strands, tearing cloth; output.topology_csv) topology.csv:
 // rows appended during a frame, written at its end as whole lines (a kill leaves complete rows).
 class RunLogs : public FrameObserver {
  public:
@@ -88,7 +88,7 @@ class RunLogs : public FrameObserver {
   void append_energy(int frame, double time, const EnergyRow& row);
   // topology.csv's counts, each summed over the run's frames so far as summary.json counts them.
   struct TopologyTotals {
-    long long faces = 0, vertices = 0, segments = 0, corrections = 0, refactorizations = 0;
+    long long faces = 0, vertices = 0, segments = 0, edges = 0, corrections = 0, refactorizations = 0;
   };
   TopologyTotals topology_totals() const;
   void record_topology(int frame);

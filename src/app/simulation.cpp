@@ -400,10 +400,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.vertices = run.scene.current().mesh.global_vertices;
     summary.dofs = run.scene.current().mesh.global_dofs;
   }
-  if (!snap_strains(deck).empty()) {  // as for cuts
+  if (!snap_strains(deck).empty() || !tear_strains(deck).empty()) {  // as for cuts
     const LiveScene::BreakCounts& c = run.scene.break_counts();
     summary.breaks = true;
     summary.segments_snapped = c.segments;
+    summary.edges_torn = c.edges;
     summary.break_vertices = c.vertices;
     summary.break_batches = c.batches;
     summary.topology_s = event_seconds(log_events().topology);

@@ -229,6 +229,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
                                  ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                                  ", \"topology_s\": " + number(s.topology_s) + "},\n")
       << (!s.breaks ? "" : "  \"breaks\": {\"segments_snapped\": " + std::to_string(s.segments_snapped) +
+                               ", \"edges_torn\": " + std::to_string(s.edges_torn) +
                                ", \"vertices_added\": " + std::to_string(s.break_vertices) +
                                ", \"refactorizations\": " + std::to_string(s.break_batches) +
                                ", \"topology_s\": " + number(s.topology_s) + "},\n")

@@ -74,6 +74,7 @@ struct ClothSpec {
   SpringYield bending_yield;         // springs bending: the bending springs' rest lengths flow past it
   double thickness = 0;              // in self-contact: its mid-surfaces keep this much farther apart
   int thickness_line = 0;            // deck line of thickness, when given
+  double tear_strain = 0;            // an interior edge tears past this strain across it (0: never)
 };
 
 // The deck's cloth: keys (params/deck_keys.hpp).
@@ -134,6 +135,13 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
        "`contact.distance`); the continuous collision test keeps that much apart. t + `contact.distance` must stay "
        "below the mesh's spacing at rest ([self-contact.md](self-contact.md#cloth-thickness))",
        at_least(0, "a length")},
+      map_key<C>("tear", "the cloth tears: after a step, the interior edge most stretched across past the strain "
+                         "separates its two triangles ([snapping.md](snapping.md#tearing-cloth))",
+                 "none (never tears)"),
+      needed(DeckKey<C>{"tear.strain", &C::tear_strain,
+                        "an interior edge whose strain across (its two triangles' mean stretch perpendicular to it, "
+                        "less 1) exceeds this after a step tears",
+                        above(0, "a strain, e.g. 0.2")}),
   };
   return keys;
 }

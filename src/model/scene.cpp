@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <functional>
+#include <numeric>
 
 #include "io/atomic_file.hpp"
 #include "io/log_events.hpp"
@@ -11,6 +12,7 @@
 #include "model/cuts.hpp"
 #include "model/fracture.hpp"
 #include "model/tearing.hpp"
+#include "mesh/cloth_separation.hpp"
 #include "mesh/strand_separation.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
@@ -450,7 +452,8 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   for (const FractureSpec& f : fracture_) fracture_resolve_ = std::max(fracture_resolve_, f.given ? f.resolve : 0);
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
   snap_strains_ = snap_strains(spec);
-  const bool breaks = separates || !snap_strains_.empty();
+  tear_strains_ = tear_strains(spec);
+  const bool breaks = separates || !snap_strains_.empty() || !tear_strains_.empty();
   if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
   if (separates) {  // cuts' H0 (snapped strands' scenes are factored again)
     PetscBool flag = PETSC_TRUE, set = PETSC_FALSE;
@@ -847,35 +850,59 @@ PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>
   PetscFunctionReturn(0);
 }
 
-std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch) {
-  for (int64_t s : batch) {
-    snapped_.insert(s);
-    breaks_.push_back({frame, 0, s});
-  }
+// A torn edge's element in the break history: its two triangle numbers t1 < t2 as t1 * 2^32 + t2.
+static int64_t edge_element(const std::array<int64_t, 2>& pair) { return (pair[0] << 32) + pair[1]; }
+static std::array<int64_t, 2> edge_of_element(int64_t element) { return {element >> 32, element & 0xffffffffLL}; }
+
+std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch,
+                                     const std::vector<std::array<int64_t, 2>>& edges) {
   std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
-  SeparationResult r = snap_segments(comm_, kept_.piece, batch, snapped_, id_offset_, arrays);
-  break_counts_.segments += (long long)batch.size();
-  break_counts_.vertices += r.new_vertices;
+  std::vector<int32_t> source(kept_.piece.mesh.num_vertices());
+  std::iota(source.begin(), source.end(), 0);
+  if (!batch.empty()) {
+    for (int64_t s : batch) {
+      snapped_.insert(s);
+      breaks_.push_back({frame, 0, s});
+    }
+    SeparationResult r = snap_segments(comm_, kept_.piece, batch, snapped_, id_offset_, arrays);
+    break_counts_.segments += (long long)batch.size();
+    break_counts_.vertices += r.new_vertices;
+    source = std::move(r.source);
+  }
+  if (!edges.empty()) {
+    for (const auto& e : edges) {
+      torn_.insert(e);
+      breaks_.push_back({frame, 1, edge_element(e)});
+    }
+    SeparationResult r = tear_edges(comm_, kept_.piece, edges, torn_, id_offset_, arrays);
+    break_counts_.edges += (long long)edges.size();
+    break_counts_.vertices += r.new_vertices;
+    for (int32_t& v : r.source) v = source[v];  // through the snaps before it
+    source = std::move(r.source);
+  }
   break_counts_.batches += 1;
-  return std::move(r.source);
+  return source;
 }
 
 PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped) {
   PetscFunctionBeginUser;
   *snapped = false;
-  if (snap_strains_.empty() || main.frame == 0) PetscFunctionReturn(0);
+  if ((snap_strains_.empty() && tear_strains_.empty()) || main.frame == 0) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   std::vector<double> pos;
   PetscCall(scene_->body->local_positions(main.x, pos));
   PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "the scene's local vertices are not its kept piece's");
-  const std::vector<int64_t> batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
-  if (!batch.empty()) {
+  std::vector<int64_t> batch;
+  std::vector<TrianglePair> edges;
+  if (!snap_strains_.empty()) batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
+  if (!tear_strains_.empty()) edges = edges_to_tear(comm_, kept_.piece, pos, tear_strains_, kept_.vertex_body);
+  if (!batch.empty() || !edges.empty()) {
     *snapped = true;
     last_change_cut_ = false;
     last_change_break_ = true;
     bool corrected = false;  // no TopologyH0 without cuts or fracture: factored again
-    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch), &corrected));
+    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch, edges), &corrected));
   }
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
@@ -884,16 +911,22 @@ PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& other
 PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
-  PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
   PetscCall(event_begin(&LogEvents::topology));
   for (size_t i = 0; i < history.size();) {
     size_t j = i;
     std::vector<int64_t> batch;
+    std::vector<TrianglePair> edges;
     for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
-      PetscCheck(history[j][1] == 0, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
-      batch.push_back(history[j][2]);
+      PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
+      if (history[j][1] == 0) {
+        PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
+        batch.push_back(history[j][2]);
+      } else {
+        PetscCheck(!tear_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has torn cloth and the deck's cloth does not tear");
+        edges.push_back(edge_of_element(history[j][2]));
+      }
     }
-    snap(history[i][0], batch);
+    snap(history[i][0], batch, edges);
     i = j;
   }
   kept_changed_ = true;

@@ -173,27 +173,29 @@ class LiveScene {
   // cuts_factored).
   long long factored_batches() const { return factored_batches_; }
 
-  // Snapping strands (strand_material.snap, docs/snapping.md). Called before the
-  // step from main, after cut_due: the segment most stretched past its snapping strain at main's
-  // positions x(t) (model/tearing.hpp) snaps on the kept pieces
-  // (mesh/strand_separation.hpp), and the scene is rebuilt as for a cut. Nothing happens, and the
-  // topology log event is not begun, in a scene whose strands do not snap. *snapped: it happened.
+  // Snapping strands (strand_material.snap) and tearing cloth (cloth.tear), docs/snapping.md. Called
+  // before the step from main, after cut_due: the segment most stretched past its snapping strain
+  // and the interior cloth edge most stretched past its tearing strain at main's positions x(t)
+  // (model/tearing.hpp) come apart on the kept pieces (mesh/strand_separation.hpp,
+  // mesh/cloth_separation.hpp), and the scene is rebuilt as for a cut. Nothing happens, and the
+  // topology log event is not begun, in a scene that neither snaps nor tears. *snapped: it happened.
   PetscErrorCode snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped);
   // Every break so far, in order: (the frame at whose start, kind, element): kind 0, a strand
-  // segment snapped (the element is its segment number).
+  // segment snapped (the element is its segment number); kind 1, a cloth edge torn (the element is
+  // its two triangles' numbers t1 < t2 as t1 * 2^32 + t2). In a frame, snaps come before tears.
   using Break = std::array<int64_t, 3>;
   const std::vector<Break>& break_history() const { return breaks_; }
   // A restart: the checkpoint's breaks replayed on the kept pieces batch by batch, after
   // restore_cuts and before restore_released, which then rebuilds.
   PetscErrorCode restore_breaks(const std::vector<Break>& history);
-  // Totals so far (a restart's replay included): segments snapped, vertices added, batches (each one
-  // rebuild and refactorization of the scene).
+  // Totals so far (a restart's replay included): segments snapped, cloth edges torn, vertices added,
+  // batches (each one rebuild and refactorization of the scene).
   struct BreakCounts {
-    long long segments = 0, vertices = 0, batches = 0;
+    long long segments = 0, edges = 0, vertices = 0, batches = 0;
   };
   const BreakCounts& break_counts() const { return break_counts_; }
-  // Strand segments of the scene may snap (strand_material.snap).
-  bool snaps() const { return !snap_strains_.empty(); }
+  // Strand segments of the scene may snap (strand_material.snap) or cloth edges tear (cloth.tear).
+  bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty(); }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
 
@@ -211,8 +213,9 @@ class LiveScene {
   std::vector<int32_t> separate(int64_t frame, const std::vector<TetPair>& batch);
   // `faces` of a batch at the start of `frame` broken by the fracture criterion (counts_.broken).
   void note_broken(int64_t frame, long long faces);
-  // One batch of segments snapped at the start of `frame` on kept_, as separate.
-  std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch);
+  // One batch of segments snapped, then of cloth edges torn (pairs of triangle numbers), at the start
+  // of `frame` on kept_, as separate.
+  std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges);
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local
   // vertex of the current scene whose state each local vertex takes); *corrected: its constant
   // matrix followed the change by a TopologyH0 correction (else it was factored again).
@@ -241,6 +244,8 @@ class LiveScene {
   std::vector<double> snap_strains_;  // per segment tag (model/tearing.hpp); empty: nothing snaps
   std::vector<Break> breaks_;
   std::set<int64_t> snapped_;
+  std::vector<double> tear_strains_;  // per body (model/tearing.hpp); empty: no cloth tears
+  std::set<std::array<int64_t, 2>> torn_;
   BreakCounts break_counts_;
   bool last_change_break_ = false;
   SceneOptions options_;

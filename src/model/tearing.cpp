@@ -1,7 +1,9 @@
 #include "model/tearing.hpp"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <stdexcept>
 
 #include "parallel/collectives.hpp"
 
@@ -16,6 +18,95 @@ std::vector<double> snap_strains(const SceneSpec& spec) {
   }
   if (std::all_of(strains.begin(), strains.end(), [](double s) { return s == 0; })) strains.clear();
   return strains;
+}
+
+std::vector<double> tear_strains(const SceneSpec& spec) {
+  std::vector<double> strains;
+  if (spec.bodies.empty()) {
+    strains.push_back(spec.cloth.tear_strain);
+  } else {
+    for (const BodySpec& b : spec.bodies) strains.push_back(b.cloth.tear_strain);
+  }
+  if (std::all_of(strains.begin(), strains.end(), [](double s) { return s == 0; })) strains.clear();
+  return strains;
+}
+
+namespace {
+
+// The stretch |F n| of the triangle (a, b, c) across its edge a-b: n the unit rest vector in its
+// plane perpendicular to the edge (towards c), F the triangle's deformation gradient. From the
+// rest (X) and current (x) positions, 3 per vertex.
+double stretch_across(const double* X, const double* x, int32_t a, int32_t b, int32_t c) {
+  double e[3], w[3], de[3], dw[3], ee = 0, we = 0;
+  for (int k = 0; k < 3; ++k) {
+    e[k] = X[3 * size_t(b) + k] - X[3 * size_t(a) + k];
+    w[k] = X[3 * size_t(c) + k] - X[3 * size_t(a) + k];
+    de[k] = x[3 * size_t(b) + k] - x[3 * size_t(a) + k];
+    dw[k] = x[3 * size_t(c) + k] - x[3 * size_t(a) + k];
+    ee += e[k] * e[k];
+    we += w[k] * e[k];
+  }
+  // n = (w - s e) / h with s = w.e / e.e, h = |w - s e| (the height over the edge): F n = (dw - s de) / h
+  const double s = we / ee;
+  double h2 = 0, f2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    h2 += (w[k] - s * e[k]) * (w[k] - s * e[k]);
+    f2 += (dw[k] - s * de[k]) * (dw[k] - s * de[k]);
+  }
+  return std::sqrt(f2 / h2);
+}
+
+}  // namespace
+
+double strain_across_edge(const double* rest, const double* pos, const int32_t* hinge) {
+  return 0.5 * (stretch_across(rest, pos, hinge[0], hinge[1], hinge[2]) + stretch_across(rest, pos, hinge[0], hinge[1], hinge[3])) - 1;
+}
+
+std::vector<TrianglePair> edges_to_tear(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                        const std::vector<double>& strains, const std::vector<int32_t>& vertex_body) {
+  const TetMesh& m = piece.mesh;
+  auto number = [&](int32_t v) { return piece.vertex_numbers[v]; };
+  // Each local hinge's ratio strain / limit (0: not over its limit).
+  std::vector<double> ratio(m.num_hinges(), 0.0);
+  double most = 0;
+  for (int64_t h = 0; h < m.num_hinges(); ++h) {
+    const int32_t* v = &m.hinges[4 * h];
+    const double limit = strains[vertex_body.empty() ? 0 : vertex_body[v[0]]];
+    if (limit <= 0) continue;
+    const double strain = strain_across_edge(m.coords.data(), pos.data(), v);
+    if (strain > limit) ratio[h] = strain / limit;
+    most = std::max(most, ratio[h]);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &most, 1, MPI_DOUBLE, MPI_MAX, comm);
+  if (most == 0) return {};
+  // Of the hinges within kTie of the largest ratio (round-off apart: 1 and 2 ranks' positions differ
+  // by it, and a sheet's symmetric edges tie), the one whose (ends' numbers lo, hi, then c, d) is lowest.
+  constexpr double kTie = 1e-8;
+  std::array<int64_t, 4> best_hinge = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+  for (int64_t h = 0; h < m.num_hinges(); ++h) {
+    if (ratio[h] == 0 || ratio[h] < most * (1 - kTie)) continue;
+    const int32_t* v = &m.hinges[4 * h];
+    const std::array<int64_t, 4> key = {std::min(number(v[0]), number(v[1])), std::max(number(v[0]), number(v[1])),
+                                        number(v[2]), number(v[3])};
+    best_hinge = std::min(best_hinge, key);
+  }
+  const std::vector<int64_t> hinges = all_gathered(comm, std::vector<int64_t>(best_hinge.begin(), best_hinge.end()), MPI_INT64_T);
+  for (size_t r = 0; r < hinges.size() / 4; ++r)
+    best_hinge = std::min(best_hinge, std::array<int64_t, 4>{hinges[4 * r], hinges[4 * r + 1], hinges[4 * r + 2], hinges[4 * r + 3]});
+  // Its two triangles (a, b, c) and (a, b, d), from the ranks that hold them.
+  std::vector<int64_t> found;
+  const int64_t first = m.num_tets() + m.num_segments();
+  for (int64_t t = 0; t < m.num_triangles(); ++t) {
+    std::array<int64_t, 3> tv;
+    for (int j = 0; j < 3; ++j) tv[j] = number(m.triangles[3 * t + j]);
+    auto has = [&](int64_t x) { return std::count(tv.begin(), tv.end(), x) > 0; };
+    if (has(best_hinge[0]) && has(best_hinge[1]) && (has(best_hinge[2]) || has(best_hinge[3])))
+      found.push_back(piece.element_numbers[first + t]);
+  }
+  std::vector<int64_t> pair = all_gathered(comm, found, MPI_INT64_T);
+  if (pair.size() != 2) throw std::logic_error("edges_to_tear: a hinge does not have two triangles");
+  std::sort(pair.begin(), pair.end());
+  return {TrianglePair{pair[0], pair[1]}};
 }
 
 std::vector<int64_t> segments_to_snap(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,

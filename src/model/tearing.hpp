@@ -1,8 +1,9 @@
 // Breaks that follow from the strain (docs/snapping.md): which strand segments
-// snap after an accepted step.
+// snap and which cloth edges tear after an accepted step.
 #pragma once
 #include <mpi.h>
 
+#include <array>
 #include <cstdint>
 #include <set>
 #include <vector>
@@ -24,5 +25,29 @@ std::vector<double> snap_strains(const SceneSpec& spec);
 // The same on every rank. Collective.
 std::vector<int64_t> segments_to_snap(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                       const std::vector<double>& strains, const std::set<int64_t>& snapped);
+
+// The tearing strain of each body's cloth (one entry without bodies): 0 where it does not tear.
+// Empty if no cloth of the deck tears.
+std::vector<double> tear_strains(const SceneSpec& spec);
+
+// An interior cloth edge, by its two triangles' global numbers (element_numbers), first < second.
+using TrianglePair = std::array<int64_t, 2>;
+
+// The strain across an interior edge: of its two triangles (a, b, c) and (a, b, d) (hinge: a, b, c,
+// d, local indices), the mean of their stretches |F n| across it, less 1 (n the unit rest vector
+// in the triangle's plane perpendicular to the edge, F the triangle's deformation gradient), at
+// the positions `pos` with rest positions `rest` (3 per vertex). A tear along the edge relieves
+// this stretch: separating the two triangles frees them in the direction n.
+double strain_across_edge(const double* rest, const double* pos, const int32_t* hinge);
+
+// The edge that tears after a step: of the interior edges not torn (the piece's hinges: a torn
+// edge has none) whose strain across (strain_across_edge) at the positions `pos` exceeds their body's tearing strain
+// (vertex_body: the body of each local vertex, empty for one), the one most over it (the largest
+// strain / tearing strain; ratios within 1e-8 of the largest count as ties, so that round-off does
+// not make 1 and 2 ranks choose differently: of those, the lowest pair of end vertex numbers, then
+// of opposite vertices), as a list of its pair of triangles, or empty. One per step, for the reason segments_to_snap gives. The same on every
+// rank. Collective.
+std::vector<TrianglePair> edges_to_tear(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                        const std::vector<double>& strains, const std::vector<int32_t>& vertex_body);
 
 }  // namespace hyperqn

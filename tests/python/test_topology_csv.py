@@ -14,9 +14,10 @@ from test_checkpoint import assert_same_run
 from test_checkpoint_faults import killed
 from test_cuts import BAR
 from test_fracture import NOTCHED, plate_mesh, pulled_plate
+from test_cloth_tear import CLOTH
 from test_tearing import ROPE
 
-COLUMNS = ["frame", "time", "faces_separated", "faces_total", "vertices_added", "segments_snapped",
+COLUMNS = ["frame", "time", "faces_separated", "faces_total", "vertices_added", "segments_snapped", "edges_torn",
            "h0_corrections", "refactorizations"]
 
 
@@ -51,7 +52,7 @@ def test_fracture_rows_sum_to_the_summary(tmp_path):
     f, total = s["fracture"], sums(table)
     assert f["faces_broken"] > 0
     assert total == {"faces_separated": f["faces_broken"], "vertices_added": f["vertices_added"], "segments_snapped": 0,
-                     "h0_corrections": f["h0_corrections"], "refactorizations": f["refactorizations"]}
+                     "edges_torn": 0, "h0_corrections": f["h0_corrections"], "refactorizations": f["refactorizations"]}
     # faces open at the start of the frame after the one whose state broke them
     first = next(r["frame"] for r in table if r["faces_separated"])
     assert first == f["first_break_frame"] + 1
@@ -64,7 +65,7 @@ def test_cut_rows_sum_to_the_summary(tmp_path):
     c = s["cuts"]
     assert c["faces_separated"] > 0
     assert sums(table) == {"faces_separated": c["faces_separated"], "vertices_added": c["vertices_added"],
-                           "segments_snapped": 0, "h0_corrections": c["h0_corrections"],
+                           "segments_snapped": 0, "edges_torn": 0, "h0_corrections": c["h0_corrections"],
                            "refactorizations": c["refactorizations"]}
     # every frame that separates faces is one step whose H0 followed or was factored again
     assert all((r["h0_corrections"] + r["refactorizations"] == 1) == (r["faces_separated"] > 0) for r in table)
@@ -77,8 +78,19 @@ def test_snap_rows_sum_to_the_summary(tmp_path):
     b = s["breaks"]
     assert b["segments_snapped"] == 2
     assert sums(table) == {"faces_separated": 0, "vertices_added": b["vertices_added"],
-                           "segments_snapped": b["segments_snapped"], "h0_corrections": 0,
+                           "segments_snapped": b["segments_snapped"], "edges_torn": 0, "h0_corrections": 0,
                            "refactorizations": b["refactorizations"]}
+
+
+def test_tear_rows_sum_to_the_summary(tmp_path):
+    out, s = run_deck(tmp_path, "cloth", CLOTH)
+    table = rows(out)
+    assert_one_row_per_frame(table, CLOTH["time"]["frames"], CLOTH["time"]["dt"])
+    b = s["breaks"]
+    assert b["edges_torn"] > 0
+    assert sums(table) == {"faces_separated": 0, "vertices_added": b["vertices_added"], "segments_snapped": 0,
+                           "edges_torn": b["edges_torn"], "h0_corrections": 0, "refactorizations": b["refactorizations"]}
+    assert max(r["edges_torn"] for r in table) == 1  # one edge per step
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
