@@ -111,7 +111,7 @@ Vec3 most_receding(const std::vector<Vec3>& n) {
 
 struct SideShift {
   Vec3 shift;
-  double margin;  // min over its crack faces of -u . n: > 0, they all recede from the crack
+  double margin;  // min over its boundary faces of -u . n: > 0, they all recede
 };
 
 // The move of one side of a splitting vertex (CrackOpening) at the positions `at` of the gathered
@@ -247,8 +247,8 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
     for (size_t c = 1; c < order.size(); ++c) copies.push_back({vertex, components[order[c]]});
     if (!(opening.width > 0) || order.size() < 2) continue;
     // Each side's move in the rest shape (the blade's kerf: replayed on a restart from the rest
-    // shape alone) and at the positions. A side whose crack faces cannot all recede in the rest
-    // shape (margin <= 0: it wraps around the vertex) stays; where two or more stay (a saddle),
+    // shape alone) and at the positions. A side whose boundary faces cannot all recede in the
+    // rest shape (margin <= 0: it wraps around the vertex) stays; where two or more stay (a saddle),
     // they keep one rest position, and self-contact treats them as one vertex.
     for (size_t c = 0; c < order.size(); ++c) {
       std::vector<int> side;  // star_tets indices of the component, ascending

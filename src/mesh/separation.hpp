@@ -45,12 +45,14 @@ struct SeparationResult {
 // How a fresh crack opens, for self-contact (docs/records/2026-12-03-cut-contact.md): both sides
 // of a crack start coincident, where the barrier is infinite. Each side of a vertex that splits
 // (the original's component and each copy's) moves away from the crack into its own tets, along
-// the direction all its crack faces at the vertex recede from most, by width / 2 (at most a tenth
-// of the height of each of its tets above the vertex): in the rest shape (a kerf of the blade's
-// width, recomputed from the rest shape alone when a restart replays the cuts) and, with
-// positions, at the positions (SeparationResult::shift). A side whose crack faces cannot all
-// recede (it wraps around the vertex) stays where it is; where two sides stay (a saddle of the
-// crack), their vertices keep one rest position, which self-contact treats as one vertex.
+// the direction all its boundary faces at the vertex (the new crack, earlier cracks, the body's
+// surface) recede from most, by width / 2 (at most a tenth of the height of each of its tets above
+// the vertex): in the rest shape (a kerf of the blade's width, recomputed from the rest shape
+// alone when a restart replays the cuts) and, with positions, at the positions
+// (SeparationResult::shift). A side whose boundary faces cannot all recede in the rest shape (it
+// wraps around the vertex) stays where it is; where two sides stay (a saddle of the crack), their
+// vertices keep one rest position, which self-contact treats as one vertex
+// (ContactSpec::joined_twins).
 // Computed from the gathered stars in their tets' order: the same bits on every rank holding a
 // vertex, at any rank count.
 struct CrackOpening {
