@@ -70,9 +70,6 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
   if (others)
     r.fail(cuts, "cuts act on meshes of tets alone for now: the mesh also has strands or a cloth, which a cut does "
                  "not separate (docs/topology.md)");
-  if (deck.contact.self)
-    r.fail(cuts, "cuts with self-contact (contact.self) are not done yet: the surfaces a cut makes would not take part "
-                 "in it, so the fragments could pass through each other (docs/topology.md)");
   if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
     r.fail(cuts, "output.format: xdmf holds one mesh per run, and a cut changes the mesh: write vtu frames with cuts "
                  "(docs/topology.md)");

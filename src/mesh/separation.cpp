@@ -1,6 +1,8 @@
 #include "mesh/separation.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
 #include <map>
 #include <numeric>
 #include <stdexcept>
@@ -12,16 +14,20 @@ namespace hyperqn {
 
 namespace {
 
-// A tet as every rank sees it: its number and its vertices' numbers.
+// A tet as every rank sees it: its number, its vertices' numbers and (if gathered) their positions.
 struct GlobalTet {
   int64_t number;
   std::array<int64_t, 4> v;
+  std::array<double, 12> rest{}, x{};  // if gathered
 };
 
-// The local tets that `keep` selects, gathered from every rank, sorted by number.
+// The local tets that `keep` selects, gathered from every rank, sorted by number; with_rest: their
+// vertices' rest positions too; with positions (3 per local vertex), their positions there.
 template <typename Keep>
-std::vector<GlobalTet> gather_tets(MPI_Comm comm, const MeshPiece& piece, Keep&& keep) {
+std::vector<GlobalTet> gather_tets(MPI_Comm comm, const MeshPiece& piece, Keep&& keep, bool with_rest = false,
+                                   const std::vector<double>* positions = nullptr) {
   std::vector<int64_t> mine;
+  std::vector<double> mine_rest, mine_x;
   const TetMesh& m = piece.mesh;
   for (int64_t e = 0; e < m.num_tets(); ++e) {
     std::array<int64_t, 4> v;
@@ -29,12 +35,21 @@ std::vector<GlobalTet> gather_tets(MPI_Comm comm, const MeshPiece& piece, Keep&&
     if (!keep(piece.element_numbers[e], v)) continue;
     mine.push_back(piece.element_numbers[e]);
     mine.insert(mine.end(), v.begin(), v.end());
+    for (int j = 0; j < 4; ++j)
+      for (int d = 0; d < 3; ++d) {
+        if (with_rest) mine_rest.push_back(m.coords[3 * size_t(m.tets[4 * e + j]) + d]);
+        if (positions) mine_x.push_back((*positions)[3 * size_t(m.tets[4 * e + j]) + d]);
+      }
   }
   const std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);
+  const std::vector<double> all_rest = with_rest ? all_gathered(comm, mine_rest, MPI_DOUBLE) : std::vector<double>();
+  const std::vector<double> all_x = positions ? all_gathered(comm, mine_x, MPI_DOUBLE) : std::vector<double>();
   std::vector<GlobalTet> tets(all.size() / 5);
   for (size_t i = 0; i < tets.size(); ++i) {
     tets[i].number = all[5 * i];
     for (int j = 0; j < 4; ++j) tets[i].v[j] = all[5 * i + 1 + j];
+    if (with_rest) std::copy(all_rest.begin() + 12 * i, all_rest.begin() + 12 * (i + 1), tets[i].rest.begin());
+    if (positions) std::copy(all_x.begin() + 12 * i, all_x.begin() + 12 * (i + 1), tets[i].x.begin());
   }
   std::sort(tets.begin(), tets.end(), [](const GlobalTet& a, const GlobalTet& b) { return a.number < b.number; });
   return tets;
@@ -51,6 +66,100 @@ struct Copy {
   int64_t vertex;
   std::vector<int64_t> tets;
 };
+
+using Vec3 = std::array<double, 3>;
+Vec3 sub(const double* a, const double* b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3 cross(const Vec3& a, const Vec3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Vec3 unit(const Vec3& a) {
+  const double n = std::sqrt(dot(a, a));
+  return n > 0 ? Vec3{a[0] / n, a[1] / n, a[2] / n} : Vec3{0, 0, 0};
+}
+
+// The unit direction u that the unit normals n most recede from: the largest min_f (-u . n_f).
+// The optimum on the sphere is a -n_f, or equally far from two or from three of them: every such
+// candidate is tried, in a fixed order (the first best kept).
+Vec3 most_receding(const std::vector<Vec3>& n) {
+  Vec3 best{0, 0, 0};
+  double best_margin = -HUGE_VAL;
+  auto consider = [&](const Vec3& u) {
+    if (dot(u, u) == 0) return;
+    double margin = HUGE_VAL;
+    for (const Vec3& f : n) margin = std::min(margin, -dot(u, f));
+    if (margin > best_margin) {
+      best_margin = margin;
+      best = u;
+    }
+  };
+  const size_t k = n.size();
+  for (size_t i = 0; i < k; ++i) {
+    consider(unit({-n[i][0], -n[i][1], -n[i][2]}));
+    for (size_t j = i + 1; j < k; ++j) {
+      consider(unit({-n[i][0] - n[j][0], -n[i][1] - n[j][1], -n[i][2] - n[j][2]}));
+      for (size_t l = j + 1; l < k; ++l) {
+        const Vec3 a = {n[i][0] - n[j][0], n[i][1] - n[j][1], n[i][2] - n[j][2]};
+        const Vec3 b = {n[i][0] - n[l][0], n[i][1] - n[l][1], n[i][2] - n[l][2]};
+        Vec3 u = unit(cross(a, b));  // as far from all three
+        if (dot(u, n[i]) > 0) u = {-u[0], -u[1], -u[2]};
+        consider(u);
+      }
+    }
+  }
+  return best;
+}
+
+struct SideShift {
+  Vec3 shift;
+  double margin;  // min over its boundary faces of -u . n: > 0, they all recede
+};
+
+// The move of one side of a splitting vertex (CrackOpening) at the positions `at` of the gathered
+// tets (GlobalTet::rest or ::x): `side` indexes star_tets (ascending). Its boundary faces at the
+// vertex (faces of its tets there that no other of its tets shares: the new crack, earlier cracks,
+// the body's surface) give the directions: the vertex moves by width / 2 (at most a tenth of the
+// side's least height above the vertex) along the one they all recede most from (most_receding),
+// into the side's own tets, so each crack face moves away from its twin.
+SideShift side_shift(int64_t vertex, const std::vector<GlobalTet>& star_tets, std::array<double, 12> GlobalTet::*at,
+                     const std::vector<int>& side, double width) {
+  std::vector<Vec3> normals;  // unit, out of the side
+  double reach = width / 2;
+  for (int i : side) {
+    const GlobalTet& a = star_tets[i];
+    const double* x = (a.*at).data();
+    const int v = int(std::find(a.v.begin(), a.v.end(), vertex) - a.v.begin());
+    // The height above the vertex: 3 V / the opposite face's area.
+    const double* q[3];
+    for (int j = 0, k = 0; j < 4; ++j)
+      if (j != v) q[k++] = &x[3 * j];
+    const Vec3 opposite = cross(sub(q[1], q[0]), sub(q[2], q[0]));
+    const double area2 = std::sqrt(dot(opposite, opposite));
+    if (area2 > 0) reach = std::min(reach, 0.1 * std::abs(dot(opposite, sub(&x[3 * v], q[0]))) / area2);
+    // Its faces at the vertex that no other tet of the side shares: the side's boundary there
+    // (the new crack, earlier cracks and the body's surface).
+    std::array<bool, 4> inner{};  // by the index of the tet's vertex off the face
+    inner[v] = true;              // the face off the vertex
+    for (int j : side) {
+      if (j == i || shared_vertices(a, star_tets[j]) != 3) continue;
+      int away = 0;
+      while (std::count(star_tets[j].v.begin(), star_tets[j].v.end(), a.v[away])) ++away;
+      inner[away] = true;
+    }
+    for (int away = 0; away < 4; ++away) {
+      if (inner[away]) continue;
+      const double* f[3];
+      for (int k = 0, m = 0; k < 4; ++k)
+        if (k != away) f[m++] = &x[3 * k];
+      Vec3 n = unit(cross(sub(f[1], f[0]), sub(f[2], f[0])));
+      if (dot(n, sub(&x[3 * away], f[0])) > 0) n = {-n[0], -n[1], -n[2]};  // out of a
+      if (dot(n, n) > 0) normals.push_back(n);
+    }
+  }
+  const Vec3 u = most_receding(normals);
+  double margin = HUGE_VAL;
+  for (const Vec3& f : normals) margin = std::min(margin, -dot(u, f));
+  return {{reach * u[0], reach * u[1], reach * u[2]}, margin};
+}
 
 }  // namespace
 
@@ -85,7 +194,7 @@ void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const 
 
 SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
                                 const std::set<TetPair>& separated, int64_t id_offset,
-                                const std::vector<VertexArray>& arrays) {
+                                const std::vector<VertexArray>& arrays, const CrackOpening& opening) {
   TetMesh& m = piece.mesh;
   const int64_t nt = m.num_tets();
   SeparationResult result;
@@ -109,12 +218,14 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
     for (int64_t x : v)
       if (affected.count(x)) return true;
     return false;
-  });
+  }, opening.width > 0, opening.positions);
   std::map<int64_t, std::vector<int>> star;  // vertex -> indices into star_tets, ascending tet number
   for (int i = 0; i < (int)star_tets.size(); ++i)
     for (int64_t x : star_tets[i].v)
       if (affected.count(x)) star[x].push_back(i);
   std::vector<Copy> copies;
+  std::vector<std::array<Vec3, 2>> copy_shift;            // per copy, with an opening: at rest, now
+  std::map<int64_t, std::array<Vec3, 2>> original_shift;  // per vertex that splits, its original's
   for (const auto& [vertex, tets] : star) {
     const int n = (int)tets.size();
     std::vector<int> parent(n);
@@ -134,6 +245,22 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
       components[r].push_back(star_tets[tets[i]].number);
     }
     for (size_t c = 1; c < order.size(); ++c) copies.push_back({vertex, components[order[c]]});
+    if (!(opening.width > 0) || order.size() < 2) continue;
+    // Each side's move in the rest shape (the blade's kerf: replayed on a restart from the rest
+    // shape alone) and at the positions. A side whose boundary faces cannot all recede in the
+    // rest shape (margin <= 0: it wraps around the vertex) stays; where two or more stay (a saddle),
+    // they keep one rest position, and self-contact treats them as one vertex.
+    for (size_t c = 0; c < order.size(); ++c) {
+      std::vector<int> side;  // star_tets indices of the component, ascending
+      for (int i = 0; i < n; ++i)
+        if (root(i) == order[c]) side.push_back(tets[i]);
+      const SideShift rest = side_shift(vertex, star_tets, &GlobalTet::rest, side, opening.width);
+      std::array<Vec3, 2> moves = {rest.shift, Vec3{0, 0, 0}};
+      if (opening.positions) moves[1] = side_shift(vertex, star_tets, &GlobalTet::x, side, opening.width).shift;
+      if (!(rest.margin > 0)) moves = {};
+      if (c == 0) original_shift[vertex] = moves;
+      else copy_shift.push_back(moves);
+    }
   }
   result.new_vertices = (int64_t)copies.size();
 
@@ -165,10 +292,23 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
         if (m.tets[4 * found->second + j] == original) m.tets[4 * found->second + j] = copy;
     }
   }
+  const int64_t first_copy = piece.global_vertices;
   piece.global_vertices += result.new_vertices;
 
   drop_unused_vertices(piece, source, arrays);
   result.source = std::move(source);
+  if (opening.width > 0) {
+    if (opening.positions) result.shift.assign(3 * piece.vertex_numbers.size(), 0.0);
+    for (size_t i = 0; i < piece.vertex_numbers.size(); ++i) {
+      const int64_t number = piece.vertex_numbers[i];
+      const auto original = original_shift.find(number);
+      const std::array<Vec3, 2>* moves = number >= first_copy ? &copy_shift[size_t(number - first_copy)]
+                                         : original == original_shift.end() ? nullptr : &original->second;
+      if (!moves) continue;
+      for (int d = 0; d < 3; ++d) m.coords[3 * i + d] += (*moves)[0][d];
+      if (opening.positions) std::copy((*moves)[1].begin(), (*moves)[1].end(), result.shift.begin() + 3 * i);
+    }
+  }
   return result;
 }
 

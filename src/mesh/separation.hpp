@@ -9,7 +9,8 @@
 //  - a copy sits where its tets are: a piece holds it if it holds one of its tets, and its owner is
 //    the lowest rank holding it (distribute_mesh's rule for every vertex);
 //  - a copy has the original's rest position, flags (fixed, held, body) and, through `source`,
-//    its position and velocity: momentum is unchanged. Lumped mass is assembled from the tets, so
+//    its position and velocity: momentum is unchanged (with a CrackOpening, both sides' positions
+//    then move a little apart). Lumped mass is assembled from the tets, so
 //    each copy gets exactly its own tets' quarters.
 // Only tets are separated; a piece with other elements on a changed vertex keeps them on the
 // original (decks with cuts are refused for meshes with strands or cloth).
@@ -38,6 +39,25 @@ struct VertexArray {
 struct SeparationResult {
   int64_t new_vertices = 0;     // copies made by this batch (global)
   std::vector<int32_t> source;  // per local vertex after the batch: the local vertex before it whose state it takes
+  std::vector<double> shift;    // with an opening's positions: 3 per local vertex after the batch, its move
+};
+
+// How a fresh crack opens, for self-contact (docs/records/2026-12-03-cut-contact.md): both sides
+// of a crack start coincident, where the barrier is infinite. Each side of a vertex that splits
+// (the original's component and each copy's) moves away from the crack into its own tets, along
+// the direction all its boundary faces at the vertex (the new crack, earlier cracks, the body's
+// surface) recede from most, by width / 2 (at most a tenth of the height of each of its tets above
+// the vertex): in the rest shape (a kerf of the blade's width, recomputed from the rest shape
+// alone when a restart replays the cuts) and, with positions, at the positions
+// (SeparationResult::shift). A side whose boundary faces cannot all recede in the rest shape (it
+// wraps around the vertex) stays where it is; where two sides stay (a saddle of the crack), their
+// vertices keep one rest position, which self-contact treats as one vertex
+// (ContactSpec::joined_twins).
+// Computed from the gathered stars in their tets' order: the same bits on every rank holding a
+// vertex, at any rank count.
+struct CrackOpening {
+  const std::vector<double>* positions = nullptr;  // 3 per local vertex before the batch (or null)
+  double width = 0;                                // 0: no opening
 };
 
 // Separates the faces of `batch` (sorted, the same on every rank; each face's tets anywhere) in
@@ -45,7 +65,7 @@ struct SeparationResult {
 // rank). Collective. Vertices that no local element uses any more leave the piece.
 SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
                                 const std::set<TetPair>& separated, int64_t id_offset,
-                                const std::vector<VertexArray>& arrays);
+                                const std::vector<VertexArray>& arrays, const CrackOpening& opening = {});
 
 // The vertices that no local element uses any more leave `piece` (the order, by number, is kept);
 // `source` and `arrays` (per local vertex) follow.

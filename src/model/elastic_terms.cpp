@@ -195,7 +195,9 @@ std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const
   }
   std::vector<int> fixed_lines;
   for (const BoxRegion& r : spec.fixed) fixed_lines.push_back(r.line);
-  return std::make_unique<SelfContactTerm>(mesh, resolved_contact(spec.contact, rest_diagonal(mesh)),
+  ContactSpec contact = resolved_contact(spec.contact, rest_diagonal(mesh));
+  contact.joined_twins = !spec.cuts.empty();
+  return std::make_unique<SelfContactTerm>(mesh, contact,
                                            log_events().self_contact, log_events().self_gather, log_events().self_pairs,
                                            std::move(bodies), std::move(fixed_lines));
 }

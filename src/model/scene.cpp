@@ -496,6 +496,9 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   }
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
+  // With self-contact a fresh crack opens by the activation distance (mesh/separation.hpp,
+  // CrackOpening), the input's d whatever the cuts do to the rest shape later.
+  if (separates && spec.contact.self) opening_width_ = resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance;
   PetscFunctionReturn(0);
 }
 
@@ -618,9 +621,10 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
 // keeps its position and velocity; a vertex freed in `to` the prescribed ones at t (Body::
 // prescribed_state: the motion's velocity at t, not the mean over the last step that set_time holds).
 // source (a cut): per local vertex of `to`, the local vertex of `from` whose state it takes; empty:
-// the same local vertices.
+// the same local vertices. shift (a crack opened for self-contact): 3 per local vertex of `to`,
+// added to its position.
 static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s,
-                                  const std::vector<int32_t>& source = {}) {
+                                  const std::vector<int32_t>& source = {}, const std::vector<double>& shift = {}) {
   std::vector<double> pos, vel;
   Vec xl, vl, x_to, v_to;
   PetscScalar *a, *b;
@@ -640,7 +644,7 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, 
     if (off < 0) continue;
     const size_t j = source.empty() ? size_t(i) : size_t(source[i]);
     for (int d = 0; d < 3; ++d) {
-      a[off + d] = pos[3 * j + d];
+      a[off + d] = shift.empty() ? pos[3 * j + d] : pos[3 * j + d] + shift[3 * size_t(i) + d];
       b[off + d] = vel[3 * j + d];
     }
   }
@@ -687,7 +691,7 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   if (replay_.empty()) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   for (const auto& [frame, batch] : replay_) {
-    separate(frame, batch);
+    separate(frame, batch, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
     std::unique_ptr<Scene> fresh;
     PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
     scene_ = std::move(fresh);
@@ -739,18 +743,18 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   PetscFunctionReturn(0);
 }
 
-std::vector<int32_t> LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch) {
+SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch, const CrackOpening& opening) {
   for (const TetPair& f : batch) {
     separated_.insert(f);
     history_.push_back({frame, f[0], f[1]});
   }
   std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
-  SeparationResult r = separate_faces(comm_, kept_.piece, batch, separated_, id_offset_, arrays);
+  SeparationResult r = separate_faces(comm_, kept_.piece, batch, separated_, id_offset_, arrays, opening);
   counts_.faces += (long long)batch.size();
   counts_.vertices += r.new_vertices;
   counts_.batches += 1;
   batch_sizes_.push_back((int64_t)batch.size());
-  return std::move(r.source);
+  return r;
 }
 
 PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch) {
@@ -821,7 +825,13 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
   bool corrected = false;
   last_change_cut_ = true;  // before the move: the rebind reports the change from these flags
   last_change_break_ = false;
-  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, separate(main.frame, batch), &corrected));
+  // With self-contact the crack opens (CrackOpening): its two sides start coincident, where the
+  // barrier is infinite. The positions' part of the opening is carried in the state.
+  std::vector<double> pos;
+  if (opening_width_ > 0) PetscCall(scene_->body->local_positions(main.x, pos));
+  const CrackOpening opening{opening_width_ > 0 ? &pos : nullptr, opening_width_};
+  const SeparationResult r = separate(main.frame, batch, opening);
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
   if (corrected) {
     ++counts_.corrections;
   } else {
@@ -832,17 +842,18 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
 }
 
 PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind,
-                                          double t, const std::vector<int32_t>& source, bool* corrected) {
+                                          double t, const std::vector<int32_t>& source, bool* corrected,
+                                          const std::vector<double>& shift) {
   PetscFunctionBeginUser;
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
   last_cut_corrected_ = *corrected;  // known now, read by the rebind below
   fresh->body->set_time(t);
   fresh->body->carry_element_states(*scene_->body);
-  PetscCall(carry_state(*scene_, *fresh, t, main, source));
+  PetscCall(carry_state(*scene_, *fresh, t, main, source, shift));
   PetscCall(fresh->body->hold(main.x));
   for (State* s : others) {
-    PetscCall(carry_state(*scene_, *fresh, t, *s, source));
+    PetscCall(carry_state(*scene_, *fresh, t, *s, source, shift));
     PetscCall(fresh->body->hold(s->x));
   }
   PetscCall(rebind(*scene_, *fresh));
@@ -952,7 +963,7 @@ PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history
     const size_t end = sizes.empty() ? history.size() : i + (size_t)sizes[batches];
     for (; j < end && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
     if (factored < 0 || batches < factored) {
-      separate(history[i][0], batch);
+      separate(history[i][0], batch, {nullptr, opening_width_});  // as above
       kept_changed_ = true;
     } else {
       replay_.push_back({history[i][0], std::move(batch)});

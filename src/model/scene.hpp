@@ -209,8 +209,8 @@ class LiveScene {
                          std::unique_ptr<Scene>& fresh, Scene* before = nullptr, bool* corrected = nullptr) const;
 
   // One batch of faces separated at the start of `frame` on kept_ (history and counts follow); the
-  // source of each local vertex after it (mesh/separation.hpp).
-  std::vector<int32_t> separate(int64_t frame, const std::vector<TetPair>& batch);
+  // source of each local vertex after it and, with an opening, its move (mesh/separation.hpp).
+  SeparationResult separate(int64_t frame, const std::vector<TetPair>& batch, const CrackOpening& opening = {});
   // `faces` of a batch at the start of `frame` broken by the fracture criterion (counts_.broken).
   void note_broken(int64_t frame, long long faces);
   // One batch of segments snapped, then of cloth edges torn (pairs of triangle numbers), at the start
@@ -218,9 +218,11 @@ class LiveScene {
   std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges);
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local
   // vertex of the current scene whose state each local vertex takes); *corrected: its constant
-  // matrix followed the change by a TopologyH0 correction (else it was factored again).
+  // matrix followed the change by a TopologyH0 correction (else it was factored again). shift:
+  // 3 per local vertex, added to each state's positions (a crack opened), or empty.
   PetscErrorCode move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind, double t,
-                                 const std::vector<int32_t>& source, bool* corrected);
+                                 const std::vector<int32_t>& source, bool* corrected,
+                                 const std::vector<double>& shift = {});
 
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;
@@ -241,6 +243,7 @@ class LiveScene {
   // (TopologyCheck). Without them false: no TopologyH0 holds a factor.
   bool follow_cuts_ = false;
   TopologyCheck topology_check_;
+  double opening_width_ = 0;  // with self-contact, how far a fresh crack opens (CrackOpening); else 0
   std::vector<double> snap_strains_;  // per segment tag (model/tearing.hpp); empty: nothing snaps
   std::vector<Break> breaks_;
   std::set<int64_t> snapped_;

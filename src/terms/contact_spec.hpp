@@ -23,6 +23,10 @@ struct ContactSpec {
   int line = 0;                     // deck line of the section
   int distance_line = 0;            // and of distance, when given
   int self_line = 0;                // and of self, when given
+  // Not a deck key: self-contact treats surface vertices of one body at the same rest position as
+  // one vertex (a crack's sides that could not open, mesh/separation.hpp CrackOpening); set in
+  // scenes with cuts.
+  bool joined_twins = false;
 };
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
 ContactSpec resolved_contact(ContactSpec spec, double diagonal);

@@ -168,6 +168,12 @@ SelfContactTerm::SelfContactTerm(const DistributedMesh& mesh, const ContactSpec&
       for (int d = 0; d < 3; ++d) rest_[3 * s + d] = x_[3 * s + d] = rest[3 * k + d];
     }
   step_at_ = rest_;  // until a step says where its fixed vertices are
+  joined_.resize(n);
+  std::map<std::tuple<int32_t, double, double, double>, int> first_at;
+  for (size_t s = 0; s < n; ++s)
+    joined_[s] = spec_.joined_twins ? first_at.emplace(std::make_tuple(body_[s], rest_[3 * s], rest_[3 * s + 1], rest_[3 * s + 2]), (int)s)
+                                          .first->second
+                                    : (int)s;
   for (const auto& e : edges_) mean_edge_ += (Vec3(&rest_[3 * e[0]]) - Vec3(&rest_[3 * e[1]])).norm();
   if (!edges_.empty()) mean_edge_ /= edges_.size();
   for (size_t k = 0; k < owned_surface_.size(); ++k) local_of_[owned_surface_[k]] = owned_local_[k];
@@ -273,7 +279,8 @@ void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vecto
     triangles.overlapping(primitive_box({v}, x, end, reach), [&](int i) {
       const int t = index[i];
       const auto& tri = triangles_[t];
-      if (tri[0] != v && tri[1] != v && tri[2] != v) visit(Pair{PairKind::vertex_triangle, v, t});
+      const int j = joined_[v];
+      if (joined_[tri[0]] != j && joined_[tri[1]] != j && joined_[tri[2]] != j) visit(Pair{PairKind::vertex_triangle, v, t});
     });
   boxes.clear();
   index.clear();
@@ -289,7 +296,8 @@ void SelfContactTerm::broad_phase(const std::vector<double>& x, const std::vecto
     edges.overlapping(primitive_box({a[0], a[1]}, x, end, 0), [&](int i) {
       const int f = index[i];
       const auto& b = edges_[f];
-      if (f > e && a[0] != b[0] && a[0] != b[1] && a[1] != b[0] && a[1] != b[1]) visit(Pair{PairKind::edge_edge, e, f});
+      const int a0 = joined_[a[0]], a1 = joined_[a[1]], b0 = joined_[b[0]], b1 = joined_[b[1]];
+      if (f > e && a0 != b0 && a0 != b1 && a1 != b0 && a1 != b1) visit(Pair{PairKind::edge_edge, e, f});
     });
   }
 }

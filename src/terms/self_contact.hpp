@@ -338,6 +338,9 @@ class SelfContactTerm : public EnergyTerm {
   std::vector<double> half_thickness_;  // per surface vertex: half its body's cloth thickness
   double largest_offset_ = 0;           // the largest xi of any pair
   std::vector<int32_t> region_;
+  // Per surface vertex, the first surface vertex of its body at its rest position (itself unless
+  // spec_.joined_twins finds an earlier one): pairs whose primitives hold the same one share a vertex.
+  std::vector<int> joined_;
   std::vector<int> fixed_lines_;
   // This rank's part: the local vertex of each surface vertex it owns (in the order it sends
   // them; local_of_ per surface vertex, -1 if another rank's), and the primitives whose pairs it

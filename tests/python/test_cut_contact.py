@@ -1,0 +1,73 @@
+"""Cuts with self-contact (docs/records/2026-12-03-cut-contact.md): a fresh crack opens by the
+activation distance, so its two sides, which start coincident, never pass through each other. A
+block on two rails cut in two in its middle: its halves tip towards each other at the top, held
+apart with the barrier (0 intersecting triangle pairs in every frame), through each other without
+self-contact; 1 and 2 ranks agree; a restart after a kill is bitwise; the opening's rest part is
+replayed from the rest shape alone."""
+import copy
+import numpy as np
+
+from conftest import run_deck
+from hyperqn_tools.intersections import check_run
+from hyperqn_tools.output import final_frame, rest_diagonal
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
+from test_cuts import components
+
+TIGHT = {"type": "newton", "iterations": 60, "budget": "fixed", "grad_rtol": 1e-12, "grad_atol": 0}
+
+# A 0.4 m block (8 x 4 x 4 cells) laid on two rails near its ends; a blade comes down through it
+# just beside its middle plane x = 0. Each half then pivots on its rail, and their top edges at
+# the cut swing towards each other.
+BLOCK = {
+    "mesh": {"box": {"size": [0.4, 0.2, 0.2], "cells": [8, 4, 4]}, "transform": {"translate": [-0.2, 0.002, -0.1]}},
+    "material": {"model": "neohookean", "youngs_modulus": 2.0e5, "poisson_ratio": 0.4, "density": 1000},
+    "colliders": [{"type": "plane", "point": [0, -0.3, 0], "normal": [0, 1, 0], "friction": 0.5},
+                  {"type": "capsule", "a": [-0.17, -0.03, -0.2], "b": [-0.17, -0.03, 0.2], "radius": 0.03, "friction": 0.5},
+                  {"type": "capsule", "a": [0.17, -0.03, -0.2], "b": [0.17, -0.03, 0.2], "radius": 0.03, "friction": 0.5}],
+    "contact": {"model": "barrier", "self": True, "distance": 0.004},
+    "gravity": [0, -9.81, 0],
+    "cuts": [{"center": [0.013, 0.5, 0.0], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [0.4, 1.0],
+              "motion": {"translate": {"velocity": [0, -6, 0]}, "start": 0.0, "end": 0.15}}],
+    "time": {"dt": 0.0333333333, "frames": 15},
+    "solver": {"type": "lbfgs"},
+}
+
+
+def intersecting(out):
+    return [row["intersecting_pairs"] for row in check_run(out)]
+
+
+def test_the_halves_of_a_cut_block_stay_apart(tmp_path):
+    out, s = run_deck(tmp_path, "block", BLOCK)
+    assert s["cuts"]["faces_separated"] > 0 and components(final_frame(out)) == 2
+    assert intersecting(out) == [0] * (BLOCK["time"]["frames"] + 1)
+
+
+def test_without_self_contact_the_halves_pass_through_each_other(tmp_path):
+    # The check can fail: the same scene without self-contact (the crack does not open, and
+    # nothing keeps its sides apart).
+    deck = copy.deepcopy(BLOCK)
+    deck["contact"] = {"model": "barrier", "distance": 0.004}
+    out, s = run_deck(tmp_path, "through", deck)
+    counts = intersecting(out)
+    assert counts[0] == 0 and max(counts) > 100
+
+
+def test_one_and_two_ranks_agree(tmp_path):
+    deck = copy.deepcopy(BLOCK)
+    deck["solver"] = TIGHT
+    deck["time"]["frames"] = 6
+    one, s1 = run_deck(tmp_path, "one", deck)
+    two, s2 = run_deck(tmp_path, "two", deck, ranks=2)
+    assert s1["cuts"]["faces_separated"] == s2["cuts"]["faces_separated"] > 0
+    a, b = final_frame(one), final_frame(two)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    print("1 vs 2 ranks:", np.abs(a.points - b.points).max() / rest_diagonal(a), "of the diagonal")
+    assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+    assert intersecting(two) == [0] * 7
+
+
+def test_restart_after_a_kill_is_bitwise(tmp_path):
+    # Killed after the cuts (frames 3 and 4): the restart replays them, the opening's rest part
+    # from the rest shape alone, its positions' part from the checkpoint.
+    assert_restart_after_kill_is_bitwise(tmp_path, BLOCK, frames=7, every=5, kill_after=6)
