@@ -179,15 +179,7 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
     if (local_copy[k] < 0) continue;
     const auto where = std::lower_bound(piece.vertex_numbers.begin(), piece.vertex_numbers.begin() + nv0, copy_vertex[k]);
     const int32_t original = int32_t(where - piece.vertex_numbers.begin());
-    const int64_t n = piece.global_vertices + (int64_t)k;
-    local_copy[k] = (int32_t)m.num_vertices();
-    for (int d = 0; d < 3; ++d) m.coords.push_back(m.coords[3 * size_t(original) + d]);
-    m.vertex_ids.push_back(n + id_offset);
-    piece.vertex_numbers.push_back(n);
-    for (const VertexArray& a : arrays)
-      if (!a.values->empty())
-        for (int j = 0; j < a.width; ++j) a.values->push_back((*a.values)[size_t(a.width) * original + j]);
-    source.push_back(original);
+    local_copy[k] = append_vertex_copy(piece, original, piece.global_vertices + (int64_t)k, id_offset, arrays, source);
   }
   for (size_t i = 0; i < m.triangles.size(); ++i)
     if (triangle_moves[i] >= 0) m.triangles[i] = local_copy[triangle_moves[i]];

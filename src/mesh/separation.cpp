@@ -163,6 +163,20 @@ SideShift side_shift(int64_t vertex, const std::vector<GlobalTet>& star_tets, st
 
 }  // namespace
 
+int32_t append_vertex_copy(MeshPiece& piece, int32_t original, int64_t number, int64_t id_offset,
+                           const std::vector<VertexArray>& arrays, std::vector<int32_t>& source) {
+  TetMesh& m = piece.mesh;
+  const int32_t copy = (int32_t)m.num_vertices();
+  for (int d = 0; d < 3; ++d) m.coords.push_back(m.coords[3 * size_t(original) + d]);
+  m.vertex_ids.push_back(number + id_offset);
+  piece.vertex_numbers.push_back(number);
+  for (const VertexArray& a : arrays)
+    if (!a.values->empty())
+      for (int j = 0; j < a.width; ++j) a.values->push_back((*a.values)[size_t(a.width) * original + j]);
+  source.push_back(original);
+  return copy;
+}
+
 void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const std::vector<VertexArray>& arrays) {
   TetMesh& m = piece.mesh;
   std::vector<char> used(m.num_vertices(), 0);
@@ -278,16 +292,7 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
       if (found == local_tet.end()) continue;
       const auto at = std::lower_bound(piece.vertex_numbers.begin(), piece.vertex_numbers.begin() + nv0, copies[k].vertex);
       const int32_t original = int32_t(at - piece.vertex_numbers.begin());
-      if (copy < 0) {
-        copy = (int32_t)m.num_vertices();
-        for (int d = 0; d < 3; ++d) m.coords.push_back(m.coords[3 * size_t(original) + d]);
-        m.vertex_ids.push_back(number + id_offset);
-        piece.vertex_numbers.push_back(number);
-        for (const VertexArray& a : arrays)
-          if (!a.values->empty())
-            for (int j = 0; j < a.width; ++j) a.values->push_back((*a.values)[size_t(a.width) * original + j]);
-        source.push_back(original);
-      }
+      if (copy < 0) copy = append_vertex_copy(piece, original, number, id_offset, arrays, source);
       for (int j = 0; j < 4; ++j)
         if (m.tets[4 * found->second + j] == original) m.tets[4 * found->second + j] = copy;
     }

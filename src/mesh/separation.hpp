@@ -67,6 +67,12 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
                                 const std::set<TetPair>& separated, int64_t id_offset,
                                 const std::vector<VertexArray>& arrays, const CrackOpening& opening = {});
 
+// Appends to `piece` a copy of its local vertex `original`, with global number `number` (id
+// number + id_offset), the original's rest position and `arrays` values; `source` gets `original`.
+// Returns the copy's local index.
+int32_t append_vertex_copy(MeshPiece& piece, int32_t original, int64_t number, int64_t id_offset,
+                           const std::vector<VertexArray>& arrays, std::vector<int32_t>& source);
+
 // The vertices that no local element uses any more leave `piece` (the order, by number, is kept);
 // `source` and `arrays` (per local vertex) follow.
 void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const std::vector<VertexArray>& arrays);

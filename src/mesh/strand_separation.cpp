@@ -62,15 +62,7 @@ SeparationResult snap_segments(MPI_Comm comm, MeshPiece& piece, const std::vecto
     if (found == local_segment.end()) continue;
     const auto where = std::lower_bound(piece.vertex_numbers.begin(), piece.vertex_numbers.begin() + nv0, copies[k][0]);
     const int32_t original = int32_t(where - piece.vertex_numbers.begin());
-    const int32_t copy = (int32_t)m.num_vertices();
-    const int64_t n = piece.global_vertices + (int64_t)k;
-    for (int d = 0; d < 3; ++d) m.coords.push_back(m.coords[3 * size_t(original) + d]);
-    m.vertex_ids.push_back(n + id_offset);
-    piece.vertex_numbers.push_back(n);
-    for (const VertexArray& a : arrays)
-      if (!a.values->empty())
-        for (int j = 0; j < a.width; ++j) a.values->push_back((*a.values)[size_t(a.width) * original + j]);
-    source.push_back(original);
+    const int32_t copy = append_vertex_copy(piece, original, piece.global_vertices + (int64_t)k, id_offset, arrays, source);
     for (int j = 0; j < 2; ++j)
       if (m.segments[2 * found->second + j] == original) m.segments[2 * found->second + j] = copy;
   }
