@@ -1,0 +1,377 @@
+// A live scene's changes during a run: fixed regions and attachments released, faces separated by
+// cuts and fracture, strand segments snapped and cloth edges torn. Each change builds the scene
+// again from its kept input (LiveScene::rebuild) and carries the state over (carry_state); the
+// restore_* functions replay a checkpoint's changes so a restart builds the same scene.
+#include "model/scene.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+#include "io/log_events.hpp"
+#include "model/cuts.hpp"
+#include "model/fracture.hpp"
+#include "model/tearing.hpp"
+#include "model/regions.hpp"
+#include "mesh/cloth_separation.hpp"
+#include "mesh/strand_separation.hpp"
+
+namespace hyperqn {
+// x, v of scene `from` at time t as new vectors of scene `to` (same local vertices): every vertex
+// keeps its position and velocity; a vertex freed in `to` the prescribed ones at t (Body::
+// prescribed_state: the motion's velocity at t, not the mean over the last step that set_time holds).
+// source (a cut): per local vertex of `to`, the local vertex of `from` whose state it takes; empty:
+// the same local vertices. shift (a crack opened for self-contact): 3 per local vertex of `to`,
+// added to its position.
+static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s,
+                                  const std::vector<int32_t>& source = {}, const std::vector<double>& shift = {}) {
+  std::vector<double> pos, vel;
+  Vec xl, vl, x_to, v_to;
+  PetscScalar *a, *b;
+  PetscFunctionBeginUser;
+  // The partition is the same, so the local vertices are too; check rather than assume.
+  PetscCheck(source.empty() ? to.mesh.vertex_ids == from.mesh.vertex_ids : (PetscInt)source.size() == to.mesh.num_vertices,
+             PETSC_COMM_SELF, PETSC_ERR_PLIB, "the local vertices changed when fixed regions were released");
+  PetscCall(from.body->local_positions(s.x, pos));
+  PetscCall(from.body->local_velocities(s.v, vel));
+  from.body->prescribed_state(t, pos, vel);
+  PetscCall(DMGetLocalVector(to.mesh.dm, &xl));
+  PetscCall(DMGetLocalVector(to.mesh.dm, &vl));
+  PetscCall(VecGetArray(xl, &a));
+  PetscCall(VecGetArray(vl, &b));
+  for (PetscInt i = 0; i < to.mesh.num_vertices; ++i) {
+    const PetscInt off = to.mesh.local_dof[i];
+    if (off < 0) continue;
+    const size_t j = source.empty() ? size_t(i) : size_t(source[i]);
+    for (int d = 0; d < 3; ++d) {
+      a[off + d] = shift.empty() ? pos[3 * j + d] : pos[3 * j + d] + shift[3 * size_t(i) + d];
+      b[off + d] = vel[3 * j + d];
+    }
+  }
+  PetscCall(VecRestoreArray(xl, &a));
+  PetscCall(VecRestoreArray(vl, &b));
+  PetscCall(DMCreateGlobalVector(to.mesh.dm, &x_to));
+  PetscCall(VecDuplicate(x_to, &v_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, xl, INSERT_VALUES, x_to));
+  PetscCall(DMLocalToGlobal(to.mesh.dm, vl, INSERT_VALUES, v_to));
+  PetscCall(DMRestoreLocalVector(to.mesh.dm, &xl));
+  PetscCall(DMRestoreLocalVector(to.mesh.dm, &vl));
+  s.replace(x_to, v_to);
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::rebuild(const std::vector<char>& regions, const std::vector<char>& attachments,
+                                  std::unique_ptr<Scene>& fresh, Scene* before, bool* corrected) const {
+  PetscFunctionBeginUser;
+  SceneInput input = kept_;
+  for (int32_t& f : input.fixed)
+    if (f > 0 && regions[f - 1]) f = 0;
+  for (int32_t& h : input.held)
+    if (h > 0 && regions[h - 1]) h = 0;
+  if (!input.held.empty()) fixed_of_held(input.held, input.fixed);  // what the regions left still hold
+  input.rollers = false;  // decided by the deck, the same on every rank
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) input.rollers = input.rollers || (is_roller(spec_->fixed[k]) && !regions[k]);
+  if (!input.rollers) input.held.clear();  // no roller left: the scene runs as one without
+  fresh = std::make_unique<Scene>();
+  PetscCall(build(std::move(input), attachments, *fresh, before, corrected));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, const std::vector<char>& attachments) {
+  PetscFunctionBeginUser;
+  PetscCheck(regions.size() == spec_->fixed.size() && attachments.size() == spec_->attachments.size(), comm_,
+             PETSC_ERR_ARG_SIZ, "the checkpoint's released flags do not match the deck's fixed regions and attachments");
+  bool any = kept_changed_;
+  kept_changed_ = false;
+  for (char r : regions) any = any || r;
+  for (char a : attachments) any = any || a;
+  if (any) PetscCall(rebuild(regions, attachments, scene_));
+  // The batches the run followed by corrections, each as the run did (every release was before
+  // them: a release factors again).
+  if (replay_.empty()) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  for (const auto& [frame, batch] : replay_) {
+    separate(frame, batch, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
+    std::unique_ptr<Scene> fresh;
+    PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
+    scene_ = std::move(fresh);
+  }
+  replay_.clear();
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& others, const Rebind& rebind,
+                                      bool* released) {
+  const double h = spec_->time.dt;
+  PetscFunctionBeginUser;
+  *released = false;
+  // Marks what is due at the step that starts at t = main.frame h (release <= t, up to a millionth
+  // of a step: decks write h = 1/30 as 0.0333333333, and frame 45 then starts at 1.4999999985,
+  // which release: 1.5 means): fixed regions and attachments alike.
+  const double t = main.frame * h;
+  auto mark_due = [&](double release, char& done) {
+    if (!done && release > 0 && release <= t + 1e-6 * h) {
+      done = 1;
+      *released = true;
+    }
+  };
+  main.released.resize(spec_->fixed.size(), 0);
+  main.released_attachments.resize(spec_->attachments.size(), 0);
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) mark_due(spec_->fixed[k].release, main.released[k]);
+  for (size_t k = 0; k < spec_->attachments.size(); ++k)
+    mark_due(spec_->attachments[k].region.release, main.released_attachments[k]);
+  if (!*released) PetscFunctionReturn(0);
+
+  std::unique_ptr<Scene> fresh;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh));
+  fresh->body->set_time(t);
+  fresh->body->carry_element_states(*scene_->body);
+  PetscCall(carry_state(*scene_, *fresh, t, main));
+  PetscCall(fresh->body->hold(main.x));  // rollers: what the regions left hold, at t
+  for (State* s : others) {
+    PetscCall(carry_state(*scene_, *fresh, t, *s));
+    PetscCall(fresh->body->hold(s->x));
+    s->released = main.released;
+    s->released_attachments = main.released_attachments;
+  }
+  last_change_cut_ = false;
+  last_change_break_ = false;
+  factored_batches_ = counts_.batches;
+  PetscCall(rebind(*scene_, *fresh));
+  scene_ = std::move(fresh);
+  PetscFunctionReturn(0);
+}
+
+SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch, const CrackOpening& opening) {
+  for (const TetPair& f : batch) {
+    separated_.insert(f);
+    history_.push_back({frame, f[0], f[1]});
+  }
+  std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
+  SeparationResult r = separate_faces(comm_, kept_.piece, batch, separated_, id_offset_, arrays, opening);
+  counts_.faces += (long long)batch.size();
+  counts_.vertices += r.new_vertices;
+  counts_.batches += 1;
+  batch_sizes_.push_back((int64_t)batch.size());
+  return r;
+}
+
+PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch) {
+  PetscFunctionBeginUser;
+  batch.clear();
+  if (resolved_.first != main.frame - 1) resolved_ = {main.frame - 1, 0};
+  if (resolved_.second >= fracture_resolve_) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+  PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, batch));
+  PetscCall(event_end(&LogEvents::topology));
+  if (!batch.empty()) ++resolved_.second;
+  note_broken(main.frame - 1, (long long)batch.size());
+  PetscFunctionReturn(0);
+}
+
+void LiveScene::note_broken(int64_t frame, long long faces) {
+  if (faces == 0) return;
+  counts_.broken += faces;
+  if (counts_.first_broken < 0) counts_.first_broken = frame;
+}
+
+PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut) {
+  const double h = spec_->time.dt;
+  PetscFunctionBeginUser;
+  *cut = false;
+  if ((spec_->cuts.empty() && fracture_.empty()) || main.frame == 0) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  const double t = main.frame * h;
+  std::vector<double> pos;
+  PetscCall(scene_->body->local_positions(main.x, pos));
+  PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the scene's local vertices are not its kept piece's");
+  std::vector<CutSpec> by_frame[2];  // the blades that meet the body now, and its rest shape
+  for (const CutSpec& c : spec_->cuts) by_frame[int(c.frame)].push_back(c);
+  std::vector<TetPair> batch;
+  for (int f = 0; f < 2; ++f) {
+    if (by_frame[f].empty()) continue;
+    const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords,
+                                                       by_frame[f], t - h, t, separated_);
+    batch.insert(batch.end(), crossed.begin(), crossed.end());
+  }
+  std::sort(batch.begin(), batch.end());
+  batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
+  const size_t by_blades = batch.size();  // (a face also overloaded counts as cut)
+  if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
+    std::vector<TetPair> broken;
+    if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
+    PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, broken));
+    batch.insert(batch.end(), broken.begin(), broken.end());
+    std::sort(batch.begin(), batch.end());
+    batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
+  }
+  if (batch.empty()) {
+    PetscCall(event_end(&LogEvents::topology));
+    PetscFunctionReturn(0);
+  }
+  *cut = true;
+  note_broken(main.frame, (long long)(batch.size() - by_blades));
+  PetscCall(separate_due(batch, main, others, rebind));
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
+                                       const Rebind& rebind) {
+  PetscFunctionBeginUser;
+  bool corrected = false;
+  last_change_cut_ = true;  // before the move: the rebind reports the change from these flags
+  last_change_break_ = false;
+  // With self-contact the crack opens (CrackOpening): its two sides start coincident, where the
+  // barrier is infinite. The positions' part of the opening is carried in the state.
+  std::vector<double> pos;
+  if (opening_width_ > 0) PetscCall(scene_->body->local_positions(main.x, pos));
+  const CrackOpening opening{opening_width_ > 0 ? &pos : nullptr, opening_width_};
+  const SeparationResult r = separate(main.frame, batch, opening);
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
+  if (corrected) {
+    ++counts_.corrections;
+  } else {
+    ++counts_.refactorizations;
+    factored_batches_ = counts_.batches;
+  }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind,
+                                          double t, const std::vector<int32_t>& source, bool* corrected,
+                                          const std::vector<double>& shift) {
+  PetscFunctionBeginUser;
+  std::unique_ptr<Scene> fresh;
+  PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
+  last_cut_corrected_ = *corrected;  // known now, read by the rebind below
+  fresh->body->set_time(t);
+  fresh->body->carry_element_states(*scene_->body);
+  PetscCall(carry_state(*scene_, *fresh, t, main, source, shift));
+  PetscCall(fresh->body->hold(main.x));
+  for (State* s : others) {
+    PetscCall(carry_state(*scene_, *fresh, t, *s, source, shift));
+    PetscCall(fresh->body->hold(s->x));
+  }
+  PetscCall(rebind(*scene_, *fresh));
+  scene_ = std::move(fresh);
+  PetscFunctionReturn(0);
+}
+
+// A torn edge's element in the break history: its two triangle numbers t1 < t2 as t1 * 2^32 + t2.
+static int64_t edge_element(const std::array<int64_t, 2>& pair) { return (pair[0] << 32) + pair[1]; }
+static std::array<int64_t, 2> edge_of_element(int64_t element) { return {element >> 32, element & 0xffffffffLL}; }
+
+std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch,
+                                     const std::vector<std::array<int64_t, 2>>& edges) {
+  std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
+  std::vector<int32_t> source(kept_.piece.mesh.num_vertices());
+  std::iota(source.begin(), source.end(), 0);
+  if (!batch.empty()) {
+    for (int64_t s : batch) {
+      snapped_.insert(s);
+      breaks_.push_back({frame, 0, s});
+    }
+    SeparationResult r = snap_segments(comm_, kept_.piece, batch, snapped_, id_offset_, arrays);
+    break_counts_.segments += (long long)batch.size();
+    break_counts_.vertices += r.new_vertices;
+    source = std::move(r.source);
+  }
+  if (!edges.empty()) {
+    for (const auto& e : edges) {
+      torn_.insert(e);
+      breaks_.push_back({frame, 1, edge_element(e)});
+    }
+    SeparationResult r = tear_edges(comm_, kept_.piece, edges, torn_, id_offset_, arrays);
+    break_counts_.edges += (long long)edges.size();
+    break_counts_.vertices += r.new_vertices;
+    for (int32_t& v : r.source) v = source[v];  // through the snaps before it
+    source = std::move(r.source);
+  }
+  break_counts_.batches += 1;
+  return source;
+}
+
+PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped) {
+  PetscFunctionBeginUser;
+  *snapped = false;
+  if ((snap_strains_.empty() && tear_strains_.empty()) || main.frame == 0) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  std::vector<double> pos;
+  PetscCall(scene_->body->local_positions(main.x, pos));
+  PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+             "the scene's local vertices are not its kept piece's");
+  std::vector<int64_t> batch;
+  std::vector<TrianglePair> edges;
+  if (!snap_strains_.empty()) batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
+  if (!tear_strains_.empty()) edges = edges_to_tear(comm_, kept_.piece, pos, tear_strains_, kept_.vertex_body);
+  if (!batch.empty() || !edges.empty()) {
+    *snapped = true;
+    last_change_cut_ = false;
+    last_change_break_ = true;
+    bool corrected = false;  // no TopologyH0 without cuts or fracture: factored again
+    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch, edges), &corrected));
+  }
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
+  PetscFunctionBeginUser;
+  if (history.empty()) PetscFunctionReturn(0);
+  PetscCall(event_begin(&LogEvents::topology));
+  for (size_t i = 0; i < history.size();) {
+    size_t j = i;
+    std::vector<int64_t> batch;
+    std::vector<TrianglePair> edges;
+    for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
+      PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
+      if (history[j][1] == 0) {
+        PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
+        batch.push_back(history[j][2]);
+      } else {
+        PetscCheck(!tear_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has torn cloth and the deck's cloth does not tear");
+        edges.push_back(edge_of_element(history[j][2]));
+      }
+    }
+    snap(history[i][0], batch, edges);
+    i = j;
+  }
+  kept_changed_ = true;
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored,
+                                       const std::vector<int64_t>& sizes) {
+  PetscFunctionBeginUser;
+  if (history.empty()) PetscFunctionReturn(0);
+  PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint has separated faces and the deck has neither cuts nor fracture");
+  int64_t total = 0;
+  for (int64_t n : sizes) total += n;
+  PetscCheck(sizes.empty() || total == (int64_t)history.size(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint's cut batches do not add up to its separated faces");
+  PetscCall(event_begin(&LogEvents::topology));
+  long long batches = 0;
+  for (size_t i = 0; i < history.size(); ++batches) {
+    size_t j = i;
+    std::vector<TetPair> batch;
+    const size_t end = sizes.empty() ? history.size() : i + (size_t)sizes[batches];
+    for (; j < end && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
+    if (factored < 0 || batches < factored) {
+      separate(history[i][0], batch, {nullptr, opening_width_});  // as above
+      kept_changed_ = true;
+    } else {
+      replay_.push_back({history[i][0], std::move(batch)});
+    }
+    i = j;
+  }
+  factored_batches_ = factored < 0 ? batches : std::min(factored, batches);
+  PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+}  // namespace hyperqn
