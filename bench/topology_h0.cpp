@@ -1,4 +1,4 @@
-// What H0 costs after a topology change on box130k (docs/topology.md#cost): TopologyH0's
+// What H0 costs after a topology change on box130k (docs/topology-cost.md): TopologyH0's
 // correction (solvers/topology_h0.hpp) against a refactorization of the changed A, interleaved.
 //
 // box130k is bench/bench.py's box (100 x 15 x 15 cells of 6 tets, 6.67 x 1 x 1, its -x end's 1 %

@@ -48,7 +48,7 @@ struct SymmetricCsr {
 class TopologyH0 {
  public:
   enum class Status { ok, not_positive_definite, failed };
-  // A commit past this many touched rows refactors (measured: docs/topology.md#cost).
+  // A commit past this many touched rows refactors (measured: docs/topology-cost.md).
   static constexpr int64_t kDefaultMaxTouched = 200;
 
   // Factors A and forgets every change (what a refactorization at a checkpoint write does with
