@@ -1,6 +1,8 @@
-"""output.format xdmf with topology changes (io/xdmf_writer.hpp, docs/outputs.md#xdmf-output-for-many-ranks):
-a bar sliced by a blade (test_cuts.py's), a rope that snaps (test_tearing.py's) and a cloth that
-tears (test_cloth_tear.py's), small and short.
+"""output.format xdmf with topology changes (io/xdmf_writer.hpp, docs/outputs.md#changing-topology-in-xdmf):
+a bar sliced by a blade (test_cuts.py's), a rope that snaps (test_tearing.py's), a cloth that
+tears (test_cloth_tear.py's), small and short; and against VTK also a notched plate that cracks,
+several batches per step (test_fracture_resolve.py's), and a spinning body released and then cut
+(test_cuts.py's: a new mesh without a new topology, then new topologies).
 
 - The .h5 holds one mesh block per topology: /mesh, then /mesh/K after the Kth batch that added
   vertices; each frame's grid names the block current at that frame, and frames without a change
@@ -25,11 +27,17 @@ from hyperqn_tools.output import frame_list, read_checkpoint, read_frames, rest_
 from test_checkpoint_faults import killed
 import test_cloth_tear
 import test_cuts
+import test_fracture_resolve
 import test_tearing
 
 
-def scene(name):
-    if name == "cut":
+def scene(name, tmp_path=None):
+    if name == "fracture":
+        d = test_fracture_resolve.plate(tmp_path, 10, frames=24)
+    elif name == "spinning":
+        d = copy.deepcopy(test_cuts.SPINNING)
+        d["time"]["frames"] = 14  # released at frame 5, cut from frame 6 on
+    elif name == "cut":
         d = copy.deepcopy(test_cuts.BAR)
         d["time"]["frames"] = 10  # batches at frames 4, 5, 6 and 7
     elif name == "rope":
@@ -43,7 +51,7 @@ def scene(name):
 
 
 def run(tmp_path, name, fmt="xdmf", ranks=None, tag="", every=1):
-    d = scene(name)
+    d = scene(name, tmp_path)
     d["output"] = {"format": fmt, "every": every}
     out, summary = run_deck(tmp_path, f"{name}_{fmt}_{ranks}{tag}", d, ranks=ranks)
     return out
@@ -89,7 +97,7 @@ def cell_tuples(frame):
     return {kind: sorted(map(tuple, frame.vertex_id[rows].tolist())) for kind, rows in frame.cells.items()}
 
 
-@pytest.mark.parametrize("name", ["cut", "rope", "cloth"])
+@pytest.mark.parametrize("name", ["cut", "rope", "cloth", "fracture", "spinning"])
 def test_xdmf_follows_the_topology_and_holds_the_vtk_frames(tmp_path, name):
     out = run(tmp_path, name)
     changes = topology_rows(out)
@@ -98,7 +106,7 @@ def test_xdmf_follows_the_topology_and_holds_the_vtk_frames(tmp_path, name):
     found = blocks(out)
     assert set(found) == {"/mesh"} | {f"/mesh/{k}" for k in range(1, len(changes) + 1)}
     listed = grids(out)
-    assert [n for n, _, _ in listed] == list(range(scene(name)["time"]["frames"] + 1))
+    assert [n for n, _, _ in listed] == list(range(scene(name, tmp_path)["time"]["frames"] + 1))
     for frame, block, points in listed:
         k = sum(1 for c in changes if c <= frame)  # the batches the frame shows
         assert block == ("/mesh" if k == 0 else f"/mesh/{k}")
@@ -120,7 +128,7 @@ def test_xdmf_follows_the_topology_and_holds_the_vtk_frames(tmp_path, name):
     assert len(xdmf[-1][1].vertex_id) > len(xdmf[0][1].vertex_id)
 
 
-@pytest.mark.parametrize("name,ranks", [("cut", 2), ("cut", 4), ("rope", 2), ("cloth", 2)])
+@pytest.mark.parametrize("name,ranks", [("cut", 2), ("cut", 4), ("rope", 2), ("cloth", 2), ("fracture", 2)])
 def test_ranks_write_the_same_blocks_and_frames(tmp_path, name, ranks):
     one, many = run(tmp_path, name), run(tmp_path, name, ranks=ranks)
     a, b = blocks(one), blocks(many)
@@ -148,12 +156,13 @@ def h5_contents(path):
 # (scene, ranks, output.every, checkpoint.every, kill after): the kill comes after changes that
 # follow the checkpoint, so the restart removes mesh blocks and writes them again. With output
 # every 2 the cut's checkpoint at 5 falls after a change (frame 5) that no frame has shown yet.
-RESTARTS = [("cut", None, 1, 5, 9), ("cut", 2, 2, 5, 9), ("rope", None, 1, 30, 33), ("cloth", None, 1, 30, 33)]
+RESTARTS = [("cut", None, 1, 5, 9), ("cut", 2, 2, 5, 9), ("rope", None, 1, 30, 33), ("cloth", None, 1, 30, 33),
+            ("fracture", None, 1, 15, 19)]
 
 
 @pytest.mark.parametrize("name,ranks,every,checkpoint,kill_after", RESTARTS)
 def test_restart_after_a_kill_after_changes_writes_the_same_series(tmp_path, name, ranks, every, checkpoint, kill_after):
-    d = scene(name)
+    d = scene(name, tmp_path)
     d["output"] = {"format": "xdmf", "every": every}
     d["checkpoint"] = {"every": checkpoint}
     path = write_deck(tmp_path / "deck.yaml", d)
