@@ -14,8 +14,15 @@ several batches per step (test_fracture_resolve.py's), and a spinning body relea
 - A run killed (SIGKILL) after changes and restarted from its latest checkpoint writes the same
   index and the same .h5 datasets bit for bit (later blocks and frames go and are written again),
   also when the checkpoint falls between output frames after a change (output.every 2).
+- ParaView (pvbatch, bench/xdmf_paraview.py; skipped where it is not installed): its three XDMF
+  readers read every frame with its own block's points and cells, the positions exactly, and the
+  pieces apart (its Connectivity filter's regions).
 """
 import copy
+import json
+import os
+import shutil
+import subprocess
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -181,3 +188,23 @@ def test_restart_after_a_kill_after_changes_writes_the_same_series(tmp_path, nam
     listed = [line for line in str(saved).splitlines() if line.startswith("mesh ")]
     assert 1 < len(listed) < len(blocks_killed) <= len(blocks(ref))
     assert [n for n, _, _ in frame_list(out)] == list(range(0, d["time"]["frames"] + 1, every))
+
+
+@pytest.mark.skipif(shutil.which("pvbatch") is None, reason="ParaView (pvbatch) is not installed")
+@pytest.mark.parametrize("name,pieces", [("cut", 2), ("rope", 3)])
+def test_paraview_reads_each_frame_with_its_own_mesh(tmp_path, name, pieces):
+    out = run(tmp_path, name)
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "bench", "xdmf_paraview.py")
+    subprocess.run(["pvbatch", script, str(out / "run.xdmf"), "--json", str(tmp_path / "pv.json")], check=True,
+                   capture_output=True, timeout=300)
+    with open(tmp_path / "pv.json") as f:
+        found = json.load(f)
+    listed = grids(out)
+    cells = len(blocks(out)["/mesh"][0]) if name == "cut" else 68  # the rope's 48 tets and 20 segments
+    assert set(found) == {"XDMFReader", "Xdmf3ReaderS", "Xdmf3ReaderT"}
+    for reader, r in found.items():
+        assert "error" not in r, (reader, r)
+        assert [s[0] for s in r["steps"]] == [points for _, _, points in listed], reader
+        assert all(s[1] == cells for s in r["steps"]), reader
+        assert r["max_difference"] == 0.0, reader
+        assert r["steps"][0][3] == 1 and r["steps"][-1][3] == pieces, reader
