@@ -30,6 +30,18 @@ def frames(out):
     return [Frame(path) for _, _, path in frame_list(out)]
 
 
+def deviation(ref, out):
+    """The largest distance between the two runs' positions over all frames, over the rest
+    diagonal; every frame has the same vertex ids in both."""
+    worst = 0.0
+    fa, fb = frames(ref), frames(out)
+    assert len(fa) == len(fb)
+    for a, b in zip(fa, fb):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        worst = max(worst, np.abs(a.points - b.points).max() / rest_diagonal(a))
+    return worst
+
+
 def checked(stdout):
     """The check's relative differences, one per correction (FactoredSystem::check_correction)."""
     return [float(x) for x in re.findall(r"topology H0 check: .* relative difference (\S+) from a fresh", stdout)]
@@ -81,10 +93,7 @@ def test_corrected_equals_factored_again(checked_run, tmp_path):
     assert s1["factorizations"] == s2["factorizations"] - b2["refactorizations"]
     assert {k: b1[k] for k in ("segments_snapped", "edges_torn", "vertices_added")} == \
            {k: b2[k] for k in ("segments_snapped", "edges_torn", "vertices_added")}
-    worst = 0.0
-    for a, b in zip(frames(ref), frames(out)):
-        assert np.array_equal(a.vertex_id, b.vertex_id)
-        worst = max(worst, np.abs(a.points - b.points).max() / rest_diagonal(a))
+    worst = deviation(ref, out)
     print(f"{name}: corrected against factored again: {worst:.3e} of the diagonal, iterations {s1['iterations']} and {s2['iterations']}")
     assert worst <= 1e-8
     assert abs(s1["iterations"] - s2["iterations"]) <= 0.05 * s2["iterations"]
@@ -95,10 +104,7 @@ def test_two_ranks_factor_again_and_agree_with_one(checked_run, tmp_path):
     out, s2, _ = run(tmp_path, "np2", DECKS[name], ranks=2)
     b1, b2 = s1["breaks"], s2["breaks"]
     assert b2["h0_corrections"] == 0 and b2["refactorizations"] == b1["h0_corrections"]
-    worst = 0.0
-    for a, b in zip(frames(ref), frames(out)):
-        assert np.array_equal(a.vertex_id, b.vertex_id)
-        worst = max(worst, np.abs(a.points - b.points).max() / rest_diagonal(a))
+    worst = deviation(ref, out)
     print(f"{name}: 1 against 2 ranks: {worst:.3e} of the diagonal")
     assert worst <= 1e-8
 
