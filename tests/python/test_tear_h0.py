@@ -5,7 +5,7 @@ of the changed matrix to 1e-10 relative (the check fails with an edit left out);
 one with -hyperqn_topology_h0 false (factored again at every break) to 1e-8 of the diagonal with
 iterations within 5 %; 2 ranks factor again and agree with 1 rank; a run killed (kill -9) after
 corrected breaks and restarted with --restart latest equals the uninterrupted run bit for bit (also
-across a refactorization by the size trigger), at 1 and 2 ranks. Scenes: input/topology/
+across refactorizations by the size trigger, and across a release between tears), at 1 and 2 ranks. Scenes: input/topology/
 rope_snap.yaml shortened to 45 frames (its snap at frame 31) and the 10 x 10 tearing cloth of
 test_cloth_tear with L-BFGS."""
 import copy
@@ -152,3 +152,18 @@ def test_restart_across_a_refactorization_by_the_size_trigger_is_bitwise(tmp_pat
     assert 0 < int(saved["breaks_factored"]) < batches
     b = read_summary(ref)["breaks"]
     assert b["h0_corrections"] > 0 and b["refactorizations"] > 0
+
+
+def test_restart_across_a_release_between_corrected_tears_is_bitwise(tmp_path):
+    # an attachment in the sheet's middle let go at t = 0.45 (frame 27), between tears: the release
+    # factors again, the tears after it are corrected, and the restart replays them from that scene
+    deck = {**TEARING, "attachments": [{"box": {"min": [0.2, -0.01, 0.2], "max": [0.3, 0.01, 0.3]}, "stiffness": 5.0,
+                                        "release": 0.45}]}
+    ref, out, saved = restarted(tmp_path, deck, None, *RESTART["cloth"])
+    first = [int(f) for f in str(saved["breaks"]).split()[0::3]]
+    batches = len(set(first))
+    assert min(first) < 27 < max(first)  # tears before and after the release
+    assert 0 < int(saved["breaks_factored"]) < batches
+    b = read_summary(ref)["breaks"]
+    assert b["h0_corrections"] == b["edges_torn"] and b["refactorizations"] == 0  # the release factors, not a tear
+
