@@ -273,9 +273,35 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
           split.push_back(side);
           rest_shift.push_back(s);
         } else {
-          for (int i : side) {
-            split.push_back({i});
-            rest_shift.push_back(side_shift(vertex, star_tets, &GlobalTet::rest, split.back(), opening.width));
+          // Into groups that can recede, grown greedily from the side's smallest tet left through
+          // its faces not separated, tets in ascending order (a single tet always can).
+          std::vector<int> left = side;
+          while (!left.empty()) {
+            std::vector<int> group = {left[0]};
+            left.erase(left.begin());
+            SideShift group_shift = side_shift(vertex, star_tets, &GlobalTet::rest, group, opening.width);
+            for (bool grown = true; grown;) {
+              grown = false;
+              for (size_t k = 0; k < left.size(); ++k) {
+                const GlobalTet& t = star_tets[left[k]];
+                bool joined = false;
+                for (int g : group)
+                  joined |= shared_vertices(t, star_tets[g]) == 3 && !separated.count({std::min(t.number, star_tets[g].number),
+                                                                                        std::max(t.number, star_tets[g].number)});
+                if (!joined) continue;
+                std::vector<int> bigger = group;
+                bigger.insert(std::lower_bound(bigger.begin(), bigger.end(), left[k]), left[k]);
+                const SideShift s2 = side_shift(vertex, star_tets, &GlobalTet::rest, bigger, opening.width);
+                if (!(s2.margin > 0)) continue;
+                group = std::move(bigger);
+                group_shift = s2;
+                left.erase(left.begin() + k);
+                grown = true;
+                break;
+              }
+            }
+            split.push_back(std::move(group));
+            rest_shift.push_back(group_shift);
           }
         }
       }
