@@ -263,9 +263,10 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
     std::vector<SideShift> rest_shift;  // with an opening, per side
     if (opening.width > 0 && sides.size() > 1) {
       // A side whose boundary faces cannot all recede in the rest shape (margin <= 0: it wraps
-      // around the vertex, a saddle of a jagged crack) falls apart into its tets, each with its
-      // own copy: a tet's faces at the vertex always recede from a direction into it, so every
-      // side opens (docs/records/2026-12-04-bunny-saddle.md). Decided from the rest shape alone.
+      // around the vertex, a saddle of a jagged crack) falls apart into groups that can, each
+      // with its own copy: a tet's faces at the vertex always recede from a direction into it, so
+      // every side opens (docs/records/2026-12-04-bunny-saddle.md). Decided from the rest shape
+      // alone (a restart replays it), from the stars in their tets' order (any rank count).
       std::vector<std::vector<int>> split;
       for (const std::vector<int>& side : sides) {
         const SideShift s = side_shift(vertex, star_tets, &GlobalTet::rest, side, opening.width);
