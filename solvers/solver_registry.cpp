@@ -203,8 +203,11 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "solver recovers within the frame ([guardrails.md](guardrails.md#element-blow-up-and-inversion)). `false`: y "
        "itself (the tests of run-aways use it)"},
       enum_key<S>("h0", &S::h0, kH0Names,
-       "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more, else "
-       "`laplacian` (the crossover measured in [performance.md](performance.md#distributed-h0)). `laplacian`: (M + "
+       "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more (the "
+       "crossover measured in [performance.md](performance.md#distributed-h0)), else `volumetric` when a "
+       "hyperelastic tet material's Poisson ratio is 0.499 or more (the largest of the scene's; not with "
+       "`h0_contact: woodbury`; the crossover measured in [method.md](method.md#the-initial-hessian-h0)), else "
+       "`laplacian`. `laplacian`: (M + "
        "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "
        "Hessian at the rest shape (per-element PSD fix), a full 3n × 3n matrix factored once per scene; it sees the "
        "volumetric modes but not rotations, so it wins on stiff, little-deformed scenes and loses on large "
