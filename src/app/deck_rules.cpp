@@ -73,6 +73,11 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
   if (deck.output.vtk && deck.output.format == OutputFormat::xdmf)
     r.fail(cuts, "output.format: xdmf holds one mesh per run, and a cut changes the mesh: write vtu frames with cuts "
                  "(docs/topology.md)");
+  for (size_t k = 0; k < deck.cuts.size(); ++k)
+    if (deck.cuts[k].remove && deck.contact.self)
+      r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
+             "removing tets with self-contact (contact.self) is not done: a vertex whose star a removal splits starts "
+             "coincident with its copy, where the barrier is infinite, and removals open no gap (docs/removal.md)");
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as
