@@ -17,7 +17,7 @@ from hyperqn_tools.output import Frame, final_frame, frame_list, read_summary, r
 from test_bad_input import assert_deck_refused
 from test_checkpoint import assert_same_run
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
-from test_cuts import BAR, CHECK_LINE, components
+from test_cuts import BAR, CHECK_LINE, bad, components
 from test_topology_csv import rows, sums
 
 DENSITY = BAR["material"]["density"]
@@ -149,17 +149,10 @@ def test_an_older_topology_csv_is_padded_at_a_restart(tmp_path):
     assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
 
 
-def bad(**cut):
-    deck = copy.deepcopy(SAWN)
-    deck["time"]["frames"] = 2
-    deck["cuts"][0].update(cut)
-    return deck
-
-
-BAD = {
+BAD = {  # test_cuts' bad(): its bar for 2 frames, the cut's keys updated
     "remove_not_boolean": (bad(remove="yes"), ["cuts[0].remove"]),
     "remove_a_number": (bad(remove=1.5), ["cuts[0].remove"]),
-    "remove_with_self_contact": ({**bad(), "contact": {"self": True, "distance": 0.01}},
+    "remove_with_self_contact": ({**bad(remove=True), "contact": {"self": True, "distance": 0.01}},
                                  ["cuts[0].remove", "self-contact"]),
 }
 
