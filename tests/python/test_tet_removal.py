@@ -4,7 +4,8 @@ frames; 1, 2 and 4 ranks remove the same tets (the kerf on the partition boundar
 1e-8 of the diagonal; a restart after a kill is bitwise at 1 and 2 ranks; H0 follows removals by
 TopologyH0's corrections on one rank (checked against fresh factorizations, and the check fails
 with an edit dropped); topology.csv's column tets_removed, and an older file without it padded at a
-restart; bad decks are refused."""
+restart; a size trigger that factors again between corrections, and slicing and sawing blades in
+one deck, restarted bitwise; bad decks are refused."""
 import copy
 import re
 
@@ -91,6 +92,9 @@ def test_ranks_remove_the_same_tets(tmp_path, ranks):
     diff = np.abs(a.points - b.points).max() / rest_diagonal(a)
     print(f"{ranks} ranks: positions within {diff:.1e} of the diagonal")
     assert diff <= 1e-8
+    # more ranks factor again at every step with removals (the split factor), one rank corrects
+    steps = s1["cuts"]["h0_corrections"] + s1["cuts"]["refactorizations"]
+    assert sn["cuts"]["refactorizations"] == steps and sn["cuts"]["h0_corrections"] == 0 and steps >= 2
     # the kerf lies on the boundary between ranks
     x = (b.points - b.displacement)[b.cells["tetra"]].mean(axis=1)[:, 0]
     assert set(b.ranks[x < 1]) != set(b.ranks[x > 1])
@@ -110,6 +114,54 @@ def test_restart_after_a_kill_after_removals_is_bitwise(tmp_path, ranks):
     assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
     if ranks is None:
         assert sa["cuts"]["h0_corrections"] >= 2 and sa["cuts"]["refactorizations"] == 0
+
+
+def test_size_trigger_factors_again_and_a_restart_replays_removals(tmp_path):
+    # A size trigger of 10 rows (the 4 steps touch 9, 12, 21, 21 rows since the factorization
+    # without it): some steps with removals factor again, the others correct; a run
+    # killed after them restarts (replaying the corrected batches on the factored scene) bitwise.
+    trigger = ["-hyperqn_test_topology_h0_max_touched", "10"]
+    deck = copy.deepcopy(SAWN)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "sawn.yaml", deck)
+    ref = tmp_path / "ref"
+    proc = run_hyperqn([path, "-o", ref, *trigger], ranks=None)
+    s = read_summary(ref)
+    # the last step (its orphans' rows decoupled) is corrected after the factored ones, and its
+    # batch is the one the restart from checkpoint 9 replays as a correction
+    assert re.findall(r"constant matrix (corrected|factored)", proc.stdout) == ["corrected", "factored", "factored",
+                                                                                 "corrected"]
+    out = tmp_path / "out"
+    killed(path, out, 10, None, trigger)
+    run_hyperqn([path, "-o", out, "--restart", "latest", *trigger], ranks=None)
+    assert_same_run(ref, out)
+    skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
+    assert skip(s["cuts"]) == skip(read_summary(out)["cuts"])
+
+
+# A slicing blade at x = 0.77 and a saw at x = 1.52, both coming down at once: each step's batch
+# holds separated faces and removed tets (faces first, then tets).
+MIXED = copy.deepcopy(BAR)
+MIXED["cuts"] = [dict(BAR["cuts"][0], center=[0.77, 1.0, 0.25]), dict(BAR["cuts"][0], center=[1.52, 1.0, 0.25], remove=True)]
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_slicing_and_sawing_in_one_deck(tmp_path, ranks):
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, MIXED, ranks, frames=MIXED["time"]["frames"], every=3,
+                                                    kill_after=10)
+    s = read_summary(ref)
+    c = s["cuts"]
+    assert c["faces_separated"] > 0 and c["tets_removed"] > 0
+    first, last = Frame(frame_list(ref)[0][2]), final_frame(ref)
+    assert components(last) == 3
+    k0, v0 = rest_tets(first)
+    kept = set(rest_tets(last)[0])
+    removed = [i for i, k in enumerate(k0) if k not in kept]
+    assert len(removed) == c["tets_removed"]
+    m0, m1 = lumped_masses(first, DENSITY).sum(), lumped_masses(last, DENSITY).sum()
+    assert abs((m0 - m1) - DENSITY * v0[removed].sum()) <= 1e-14 * m0
+    assert_no_orphans(last)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
 
 
 def checked(tmp_path, name, extra):
