@@ -666,11 +666,13 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
       if (bij != cij) edits.push_back({i, j, bij - cij});
     }
   }
-  if (check.drop_edit) {  // the largest off-diagonal one
+  if (check.drop_edit) {  // the largest off-diagonal one; without any (a strand snapped at its end), an old row's diagonal one
     size_t largest = edits.size();
-    for (size_t k = 0; k < edits.size(); ++k)
-      if (edits[k].i != edits[k].j && (largest == edits.size() || std::fabs(edits[k].delta) > std::fabs(edits[largest].delta)))
-        largest = k;
+    for (int pass = 0; pass < 2 && largest == edits.size(); ++pass)
+      for (size_t k = 0; k < edits.size(); ++k)
+        if ((pass == 0 ? edits[k].i != edits[k].j : edits[k].i < old_rows) &&
+            (largest == edits.size() || std::fabs(edits[k].delta) > std::fabs(edits[largest].delta)))
+          largest = k;
     if (largest < edits.size()) edits.erase(edits.begin() + largest);
   }
   for (const Edit& e : edits) h0->add_entry(e.i, e.j, e.delta);

@@ -72,7 +72,8 @@ PetscErrorCode add_dof_diagonal(Mat A, Vec diagonal, int components);
 
 // What follow() does beside the correction (tests and the check of docs/topology.md): check, the
 // corrected solve against a fresh factorization of the changed matrix on random vectors (printed);
-// drop_edit, the largest off-diagonal entry of the change left out (the check must see it).
+// drop_edit, the largest off-diagonal entry of the change left out (the check must see it), or
+// where the change has none (a strand snapped next to its fixed end), an old row's largest diagonal one.
 // max_touched: TopologyH0's size trigger (0: its default), smaller in tests to reach it.
 struct TopologyCheck {
   bool check = false, drop_edit = false;

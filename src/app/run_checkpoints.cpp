@@ -142,6 +142,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     h.vertex_slots = slots;
     h.vertices = s.mesh.global_vertices;
     h.cuts_factored = run_.scene.factored_batches();
+    h.breaks_factored = run_.scene.factored_breaks();
     h.cut_batches = run_.scene.cut_batches();
     h.cuts_resolved = run_.scene.resolved_after(state.frame);
   }
@@ -153,6 +154,8 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   add_step_counters(h.summary, *s.step);  // as at the end of a run
   h.summary.cut_h0_corrections += run_.scene.cut_counts().corrections;  // (0 in the summary until the run's end)
   h.summary.cut_refactorizations += run_.scene.cut_counts().refactorizations;
+  h.summary.break_h0_corrections += run_.scene.break_counts().corrections;
+  h.summary.break_refactorizations += run_.scene.break_counts().refactorizations;
   h.summary.faces_broken += run_.scene.cut_counts().broken;
   if (h.summary.first_break_frame < 0) h.summary.first_break_frame = run_.scene.cut_counts().first_broken;
   for (const auto& w : setup_.frames.writers())

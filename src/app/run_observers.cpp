@@ -89,11 +89,13 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();
     if (c.edges == 0)
-      PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
-                            run_.state.time, c.segments, c.vertices, (long long)summary.dofs));
+      PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
+                            run_.state.time, c.segments, c.vertices, (long long)summary.dofs,
+                            run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
     else
-      PetscCall(PetscPrintf(run_.comm, "t = %g: tear: %lld cloth edges torn, %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix factored again\n",
-                            run_.state.time, c.edges, c.segments, c.vertices, (long long)summary.dofs));
+      PetscCall(PetscPrintf(run_.comm, "t = %g: tear: %lld cloth edges torn, %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
+                            run_.state.time, c.edges, c.segments, c.vertices, (long long)summary.dofs,
+                            run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else {
     PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
                           run_.state.time, (long long)summary.dofs));
@@ -312,7 +314,9 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
         throw std::runtime_error(path + " has no row of frame " + std::to_string(restart_frame) +
                                  " to go on from (output.topology_csv: the checkpointed run must have written it)");
       topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6]};
-      if (earlier) topology_earlier_ = {0, 0, 0, 0, earlier->cut_h0_corrections, earlier->cut_refactorizations, 0};
+      if (earlier)
+        topology_earlier_ = {0, 0, 0, 0, earlier->cut_h0_corrections + earlier->break_h0_corrections,
+                             earlier->cut_refactorizations + earlier->break_refactorizations, 0};
       topology_log_.resume(path, kTopologyColumns, rank, restart_frame, true);  // an older file's rows padded
     } else {
       topology_log_.open(path, kTopologyColumns, rank);
@@ -418,14 +422,14 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
   PetscFunctionReturn(0);
 }
 
-// As summary.json counts them (app/simulation.cpp): faces, vertices, segments and the snaps'
-// refactorizations are the scene's (a restart's replay included); the cuts' H0 corrections and
-// refactorizations are this run's, after those before a restart.
+// As summary.json counts them (app/simulation.cpp): faces, vertices, segments and edges are the
+// scene's (a restart's replay included); the H0 corrections and refactorizations of cuts and breaks
+// are this run's, after those before a restart.
 RunLogs::TopologyTotals RunLogs::topology_totals() const {
   const LiveScene::CutCounts& c = run_.scene.cut_counts();
   const LiveScene::BreakCounts& b = run_.scene.break_counts();
-  return {c.faces, c.vertices + b.vertices, b.segments, b.edges, topology_earlier_.corrections + c.corrections,
-          topology_earlier_.refactorizations + c.refactorizations + b.batches, c.removed};
+  return {c.faces, c.vertices + b.vertices, b.segments, b.edges, topology_earlier_.corrections + c.corrections + b.corrections,
+          topology_earlier_.refactorizations + c.refactorizations + b.refactorizations, c.removed};
 }
 
 // topology.csv's row of the frame: what changed since the row before (at a restart, since the

@@ -269,7 +269,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
         (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored, saved.cut_batches)) ||
-        (restart && run.scene.restore_breaks(saved.breaks)) ||
+        (restart && run.scene.restore_breaks(saved.breaks, saved.breaks_factored)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
         (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
@@ -407,7 +407,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.segments_snapped = c.segments;
     summary.edges_torn = c.edges;
     summary.break_vertices = c.vertices;
-    summary.break_batches = c.batches;
+    summary.break_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
+    summary.break_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);
     summary.vertices = run.scene.current().mesh.global_vertices;
     summary.dofs = run.scene.current().mesh.global_dofs;

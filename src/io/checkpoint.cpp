@@ -59,6 +59,8 @@ const LongField kLongFields[] = {
     {"contact_evaluations", &RunSummary::contact_evaluations, true},
     {"cut_h0_corrections", &RunSummary::cut_h0_corrections, true},
     {"cut_refactorizations", &RunSummary::cut_refactorizations, true},
+    {"break_h0_corrections", &RunSummary::break_h0_corrections, true},
+    {"break_refactorizations", &RunSummary::break_refactorizations, true},
     {"faces_broken", &RunSummary::faces_broken, true},  // a deck with cuts and fracture: of this run's faces
     {"first_break_frame", &RunSummary::first_break_frame, false},
 };
@@ -178,6 +180,7 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
     for (const auto& b : h.breaks)
       for (int64_t x : b) breaks += (breaks.empty() ? "" : " ") + std::to_string(x);
     head.put("breaks", breaks);
+    head.put("breaks_factored", h.breaks_factored);
   }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
@@ -284,6 +287,7 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     std::array<int64_t, 3> b;
     while (in >> b[0] >> b[1] >> b[2]) h.breaks.push_back(b);
     if (!in.eof()) throw std::runtime_error("its header's breaks are malformed");
+    h.breaks_factored = head.has("breaks_factored") ? head.get_long("breaks_factored") : -1;
   }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;

@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, cuts and cuts_factored (scripted cuts only), breaks (snapped strands only), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts and cuts_factored (scripted cuts only), breaks and breaks_factored (snapped strands, torn cloth), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
@@ -89,6 +89,9 @@ struct CheckpointHeader {
   // Breaks: every strand segment snapped so far, (frame, kind, element) in order
   // (LiveScene::break_history; header key breaks, absent without any), replayed by a restart.
   std::vector<std::array<int64_t, 3>> breaks;
+  // Of them, the batches (frames) in the scene whose constant matrix was last factored (header key
+  // breaks_factored, as cuts_factored; -1, absent: all).
+  long long breaks_factored = -1;
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state

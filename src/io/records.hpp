@@ -115,9 +115,10 @@ struct RunSummary {
   long long faces_broken = 0;  // of faces_separated, those the criterion broke (the others: blades')
   double topology_s = 0;
   // Breaks (strand_material.snap, cloth.tear; summary.json's "breaks" only with them): segments snapped, edges torn,
-  // vertices added, batches (each a rebuild and refactorization); topology_s as for cuts.
+  // vertices added (a restart's replay included), the batches (each a rebuild) whose H0 followed by
+  // a TopologyH0 correction and those that factored it again (as for cuts); topology_s as for cuts.
   bool breaks = false;
-  long long segments_snapped = 0, edges_torn = 0, break_vertices = 0, break_batches = 0;
+  long long segments_snapped = 0, edges_torn = 0, break_vertices = 0, break_h0_corrections = 0, break_refactorizations = 0;
   double peak_rss_mb = 0, peak_rss_mb_total = 0;  // max over ranks, sum over ranks
   std::vector<double> peak_rss_mb_by_rank;        // each rank's, in rank order (docs/guardrails.md#memory)
 };

@@ -238,7 +238,8 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << (!s.breaks ? "" : "  \"breaks\": {\"segments_snapped\": " + std::to_string(s.segments_snapped) +
                                ", \"edges_torn\": " + std::to_string(s.edges_torn) +
                                ", \"vertices_added\": " + std::to_string(s.break_vertices) +
-                               ", \"refactorizations\": " + std::to_string(s.break_batches) +
+                               ", \"h0_corrections\": " + std::to_string(s.break_h0_corrections) +
+                               ", \"refactorizations\": " + std::to_string(s.break_refactorizations) +
                                ", \"topology_s\": " + number(s.topology_s) + "},\n")
       << "  \"peak_rss_mb\": " << number(s.peak_rss_mb) << ",\n"
       << "  \"peak_rss_mb_total\": " << number(s.peak_rss_mb_total) << ",\n"

@@ -453,7 +453,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   tear_strains_ = tear_strains(spec);
   const bool breaks = separates || !snap_strains_.empty() || !tear_strains_.empty();
   if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
-  if (separates) {  // cuts' H0 (snapped strands' scenes are factored again)
+  if (breaks) {  // the H0 that follows cuts, fracture, snaps and tears (docs/topology.md#h0-across-a-cut)
     PetscBool flag = PETSC_TRUE, set = PETSC_FALSE;
     PetscCall(PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_topology_h0", &flag, &set));
     // TopologyH0 corrects a factor kept in double: a single-precision factor is factored again
@@ -546,7 +546,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     if (std::any_of(options_.h0s.begin(), options_.h0s.end(),
                     [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; }))
       wanted.push_back(h0);
-  // With cuts, the supernodal factor of M + h^2 L on one rank is a TopologyH0's, and a cut's scene
+  // With cuts or breaks, the supernodal factor of M + h^2 L on one rank is a TopologyH0's, and a changed scene
   // follows the one before by a correction: only with one constant matrix, so that every matrix
   // of a scene was last factored at the same batch (what a restart replays from).
   const std::vector<int64_t> ids = follow_cuts_ ? row_ids(comm_, s.mesh) : std::vector<int64_t>();

@@ -170,7 +170,7 @@ class LiveScene {
   bool fracture() const { return !fracture_.empty(); }
   // The last change of the scene was a cut (not a release): for messages.
   bool last_change_cut() const { return last_change_cut_; }
-  bool last_cut_corrected() const { return last_cut_corrected_; }  // and its H0 followed by a correction
+  bool last_cut_corrected() const { return last_cut_corrected_; }  // the last cut or break: its H0 followed by a correction
   // The batches separated in the scene whose constant matrix was last factored (a checkpoint's
   // cuts_factored).
   long long factored_batches() const { return factored_batches_; }
@@ -188,18 +188,25 @@ class LiveScene {
   using Break = std::array<int64_t, 3>;
   const std::vector<Break>& break_history() const { return breaks_; }
   // A restart: the checkpoint's breaks replayed on the kept pieces batch by batch, after
-  // restore_cuts and before restore_released, which then rebuilds.
-  PetscErrorCode restore_breaks(const std::vector<Break>& history);
+  // restore_cuts and before restore_released, which then rebuilds. As restore_cuts: the batches
+  // after the first `factored` (those the run followed by corrections; -1: none) are kept for
+  // restore_released, which replays them as the run did (rebuild, correction).
+  PetscErrorCode restore_breaks(const std::vector<Break>& history, long long factored = -1);
   // Totals so far (a restart's replay included): segments snapped, cloth edges torn, vertices added,
-  // batches (each one rebuild and refactorization of the scene).
+  // batches (each one rebuild of the scene); of this run's batches (not replayed), those whose
+  // constant matrix followed by a TopologyH0 correction and those that factored it again.
   struct BreakCounts {
     long long segments = 0, edges = 0, vertices = 0, batches = 0;
+    long long corrections = 0, refactorizations = 0;
   };
   const BreakCounts& break_counts() const { return break_counts_; }
   // Strand segments of the scene may snap (strand_material.snap) or cloth edges tear (cloth.tear).
   bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty(); }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
+  // The break batches in the scene whose constant matrix was last factored (a checkpoint's
+  // breaks_factored).
+  long long factored_breaks() const { return factored_breaks_; }
 
  private:
   // The scene without the attachments marked in released_attachments. before (a cut): the scene it
@@ -218,6 +225,9 @@ class LiveScene {
   // One batch of segments snapped, then of cloth edges torn (pairs of triangle numbers), at the start
   // of `frame` on kept_, as separate.
   std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges);
+  // A batch of breaks (one frame's) as its snapped segments and torn edges, for snap.
+  static void split_breaks(const std::vector<Break>& batch, std::vector<int64_t>& segments,
+                           std::vector<std::array<int64_t, 2>>& edges);
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local
   // vertex of the current scene whose state each local vertex takes); *corrected: its constant
   // matrix followed the change by a TopologyH0 correction (else it was factored again). shift:
@@ -240,9 +250,10 @@ class LiveScene {
   bool last_change_cut_ = false, last_cut_corrected_ = false;
   long long factored_batches_ = 0;
   std::vector<std::pair<int64_t, std::vector<TetPair>>> replay_;  // restore_cuts' (frame, batch) for restore_released
-  // In a deck with cuts or fracture, -hyperqn_topology_h0 (default true: constant matrices follow
-  // cuts by corrections where they can; false: factored again at every cut) and its test hooks
-  // (TopologyCheck). Without them false: no TopologyH0 holds a factor.
+  // In a deck with cuts, fracture, snapping strands or tearing cloth, -hyperqn_topology_h0 (default
+  // true: constant matrices follow cuts and breaks by corrections where they can; false: factored
+  // again at every change) and its test hooks (TopologyCheck). Without them false: no TopologyH0
+  // holds a factor.
   bool follow_cuts_ = false;
   TopologyCheck topology_check_;
   double opening_width_ = 0;  // with self-contact, how far a fresh crack opens (CrackOpening); else 0
@@ -253,6 +264,8 @@ class LiveScene {
   std::set<std::array<int64_t, 2>> torn_;
   BreakCounts break_counts_;
   bool last_change_break_ = false;
+  long long factored_breaks_ = 0;
+  std::vector<std::pair<int64_t, std::vector<Break>>> break_replay_;  // restore_breaks' (frame, batch) for restore_released
   SceneOptions options_;
   SceneInput kept_;  // this rank's input, if a region is released later
   std::unique_ptr<Scene> scene_;

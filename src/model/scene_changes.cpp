@@ -86,8 +86,8 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   for (char a : attachments) any = any || a;
   if (any) PetscCall(rebuild(regions, attachments, scene_));
   // The batches the run followed by corrections, each as the run did (every release was before
-  // them: a release factors again).
-  if (replay_.empty()) PetscFunctionReturn(0);
+  // them: a release factors again). Cuts and breaks are not in one deck (deck_rules.cpp).
+  if (replay_.empty() && break_replay_.empty()) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   for (const auto& [frame, batch] : replay_) {
     separate(frame, batch, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
@@ -96,6 +96,16 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
     scene_ = std::move(fresh);
   }
   replay_.clear();
+  for (const auto& [frame, batch] : break_replay_) {
+    std::vector<int64_t> segments;
+    std::vector<TrianglePair> edges;
+    split_breaks(batch, segments, edges);
+    snap(frame, segments, edges);
+    std::unique_ptr<Scene> fresh;
+    PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
+    scene_ = std::move(fresh);
+  }
+  break_replay_.clear();
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
@@ -137,6 +147,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   last_change_cut_ = false;
   last_change_break_ = false;
   factored_batches_ = counts_.batches;
+  factored_breaks_ = break_counts_.batches;
   PetscCall(rebind(*scene_, *fresh));
   scene_ = std::move(fresh);
   PetscFunctionReturn(0);
@@ -331,35 +342,57 @@ PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& other
     *snapped = true;
     last_change_cut_ = false;
     last_change_break_ = true;
-    bool corrected = false;  // no TopologyH0 without cuts or fracture: factored again
+    bool corrected = false;  // its constant matrix followed by a TopologyH0 correction (else factored again)
     PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch, edges), &corrected));
+    if (corrected) {
+      ++break_counts_.corrections;
+    } else {
+      ++break_counts_.refactorizations;
+      factored_breaks_ = break_counts_.batches;
+    }
   }
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history) {
+// A batch of the break history as its snapped segments and torn edges.
+void LiveScene::split_breaks(const std::vector<Break>& batch, std::vector<int64_t>& segments,
+                             std::vector<std::array<int64_t, 2>>& edges) {
+  for (const Break& b : batch) {
+    if (b[1] == 0)
+      segments.push_back(b[2]);
+    else
+      edges.push_back(edge_of_element(b[2]));
+  }
+}
+
+PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history, long long factored) {
   PetscFunctionBeginUser;
   if (history.empty()) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
-  for (size_t i = 0; i < history.size();) {
+  long long batches = 0;
+  for (size_t i = 0; i < history.size(); ++batches) {
     size_t j = i;
-    std::vector<int64_t> batch;
-    std::vector<TrianglePair> edges;
     for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
       PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
-      if (history[j][1] == 0) {
-        PetscCheck(!snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has snapped strands and the deck's strands do not snap");
-        batch.push_back(history[j][2]);
-      } else {
-        PetscCheck(!tear_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has torn cloth and the deck's cloth does not tear");
-        edges.push_back(edge_of_element(history[j][2]));
-      }
+      PetscCheck(history[j][1] == 1 || !snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG,
+                 "the checkpoint has snapped strands and the deck's strands do not snap");
+      PetscCheck(history[j][1] == 0 || !tear_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG,
+                 "the checkpoint has torn cloth and the deck's cloth does not tear");
     }
-    snap(history[i][0], batch, edges);
+    std::vector<Break> batch(history.begin() + i, history.begin() + j);
+    if (factored < 0 || batches < factored) {
+      std::vector<int64_t> segments;
+      std::vector<TrianglePair> edges;
+      split_breaks(batch, segments, edges);
+      snap(history[i][0], segments, edges);
+      kept_changed_ = true;
+    } else {
+      break_replay_.push_back({history[i][0], std::move(batch)});
+    }
     i = j;
   }
-  kept_changed_ = true;
+  factored_breaks_ = factored < 0 ? batches : std::min(factored, batches);
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
