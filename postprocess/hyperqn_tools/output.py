@@ -100,20 +100,16 @@ def is_empty_piece(path):
 
 
 def xdmf_grid(path):
-    """An XDMF frame "PATH#K" read with meshio: (mesh with the frame's positions as points and
-    its point and cell data, time)."""
-    import h5py  # only XDMF frames need it
-
+    """An XDMF frame "PATH#K" read with meshio: (mesh with the frame's positions as points, its
+    topology and its point and cell data, time)."""
     index, k = str(path).rsplit("#", 1)
     k = int(k)
     with meshio.xdmf.TimeSeriesReader(index) as reader:
-        _, cells = reader.read_points_cells()
+        # meshio reads the first grid's geometry and topology only; each frame's are its own (its
+        # positions, and the mesh block of its topology after cuts, snaps or tears).
+        reader.mesh_grid = reader.collection[k]
+        points, cells = reader.read_points_cells()
         time, point_data, cell_data = reader.read_data(k)
-    # meshio reads the first grid's geometry only; each frame's is its positions.
-    grid = ET.parse(index).getroot().find("Domain").find("Grid").findall("Grid")[k]
-    h5_name, h5_path = grid.find("Geometry").find("DataItem").text.strip().split(":")
-    with h5py.File(os.path.join(os.path.dirname(index), h5_name), "r") as f:
-        points = f[h5_path][()]
     return meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data), time
 
 

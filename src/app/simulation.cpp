@@ -395,6 +395,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.faces_broken = c.broken;  // this run's; a restart's earlier ones are added below
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
+    summary.tets_removed = c.removed;
     summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
     summary.cut_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -39,6 +40,13 @@ const int kTensor6[6] = {tensor6_source(0), tensor6_source(1), tensor6_source(2)
 // (a point field is its name alone).
 constexpr char kElementFieldMark = '@';
 constexpr const char* kSingleMark = "/4";
+
+// Mesh block K's group: /mesh (the first mesh), /mesh/K after the Kth topology change.
+std::string mesh_group(size_t block) { return block == 0 ? "/mesh" : "/mesh/" + std::to_string(block); }
+
+// In a restart state, a frame of mesh block K > 0 ends with mesh=K; block K is a line "mesh K POINTS".
+constexpr const char* kBlockMark = "mesh=";
+constexpr const char* kBlockLine = "mesh ";
 
 std::string frame_group(int frame) {
   char buf[32];
@@ -229,15 +237,19 @@ void XdmfSeries::set_mesh(const DistributedMesh& mesh) {
   auto layout = std::make_unique<Layout>(comm_, mesh);
   if (layout_)
     for (int k = 0; k < kKinds; ++k)
-      if (layout->count[k] != layout_->count[k] || layout->points != layout_->points)
+      if (layout->count[k] != layout_->count[k])
         throw std::runtime_error("the mesh's elements changed: " + dir_ + "/" + name_ +
-                                 ".xdmf holds one mesh per run (output.format xdmf)");
+                                 ".xdmf holds one set of elements per run (output.format xdmf)");
+  // A topology change (mesh/separation.hpp, snaps, tears) moves elements to copies of vertices,
+  // new points, and nothing else: the same number of points is the same mesh (a release).
+  block_current_ = block_current_ && layout->points == block_points_.back();
   layout_ = std::move(layout);
   mesh_ = &mesh;
 }
 
-// The topology of every frame: each kind's elements with their points, in each block's rows.
-void XdmfSeries::write_mesh() const {
+// The topology of the frames of mesh block `block`: each kind's elements with their points, in
+// each rank's block of rows.
+void XdmfSeries::write_mesh(size_t block) const {
   const Layout& L = *layout_;
   const bool mixed = L.kinds_present() > 1;
   const std::vector<PetscInt>* local[kKinds] = {&mesh_->cells, &mesh_->segments, &mesh_->triangles};
@@ -261,22 +273,27 @@ void XdmfSeries::write_mesh() const {
       topology.push_back({(hsize_t)L.kinds[k]->first(), (hsize_t)L.kinds[k]->count(), 0, blocks[k].data()});
     }
   }
-  ParallelFile file(comm_, h5_path(), true);
-  file.group("/mesh");
+  const std::string group = mesh_group(block);
+  ParallelFile file(comm_, h5_path(), block == 0);
+  file.group(group);
   if (mixed) {
-    file.dataset("/mesh/topology", true, (hsize_t)mixed_length, 0, topology);
+    file.dataset(group + "/topology", true, (hsize_t)mixed_length, 0, topology);
   } else {
     int k = 0;
     while (L.count[k] == 0) ++k;
-    file.dataset("/mesh/topology", true, (hsize_t)L.count[k], (hsize_t)kVertices[k], topology);
+    file.dataset(group + "/topology", true, (hsize_t)L.count[k], (hsize_t)kVertices[k], topology);
   }
   const ParallelFile::Block points{(hsize_t)L.vertices->first(), (hsize_t)L.vertices->count(), 0, nullptr};
   ParallelFile::Block rest = points, ids = points;
   rest.data = L.rest.data();
   ids.width = 1;
   ids.data = L.vertex_id.data();
-  file.dataset("/mesh/rest", false, (hsize_t)L.points, 3, {rest});
-  file.dataset("/mesh/vertex_id", true, (hsize_t)L.points, 0, {ids});
+  file.dataset(group + "/rest", false, (hsize_t)L.points, 3, {rest});
+  file.dataset(group + "/vertex_id", true, (hsize_t)L.points, 0, {ids});
+  if (block > 0) {  // each element's body and /frames are the first block's
+    file.close();
+    return;
+  }
   if (mesh_->num_bodies > 0) {  // each element's body: its index in the deck's bodies list
     const std::vector<int32_t> tags = element_bodies(*mesh_);
     std::vector<int64_t> body_blocks[kKinds];
@@ -291,8 +308,11 @@ void XdmfSeries::write_frame(const FrameData& f) {
   const Layout& L = *layout_;
   std::string error;
   try {
-    if (!file_ready_) write_mesh();
-    file_ready_ = true;
+    if (!block_current_) {  // the first frame, or the first after a topology change
+      write_mesh(block_points_.size());
+      block_points_.push_back(L.points);
+      block_current_ = true;
+    }
     // Point fields, in this rank's block of points.
     const PetscInt nv = mesh_->num_vertices;
     std::vector<double> disp(3 * nv);
@@ -351,7 +371,7 @@ void XdmfSeries::write_frame(const FrameData& f) {
   for (const auto& field : f.point_fields) fields.push_back(field.first);
   std::vector<ListedField> element_fields;
   for (const FrameElementField& field : f.element_fields) element_fields.push_back({field.name, field.components, field.single});
-  written_.push_back({f.time, f.frame, fields, element_fields});
+  written_.push_back({f.time, f.frame, fields, element_fields, block_points_.size() - 1});
   int rank;
   MPI_Comm_rank(comm_, &rank);
   try {
@@ -371,35 +391,36 @@ void XdmfSeries::write_index() const {
     return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "Int" : "Float") + "\" Precision=\"" +
            (single ? "4" : "8") + "\" Format=\"HDF\">" + h5 + path + "</DataItem>";
   };
-  const std::string V = std::to_string(L.points), E = std::to_string(L.elements());
-  std::string topology;
-  if (L.kinds_present() > 1) {
-    PetscInt length = 0;
-    for (int k = 0; k < kKinds; ++k) length += L.count[k] * (kVertices[k] + kMixedPrefix[k]);
-    topology = "<Topology TopologyType=\"Mixed\" NumberOfElements=\"" + E + "\">" +
-               item(std::to_string(length), true, "/mesh/topology") + "</Topology>";
-  } else {
+  const std::string E = std::to_string(L.elements());
+  const auto topology = [&](const std::string& mesh) {  // mesh block `mesh`'s
+    if (L.kinds_present() > 1) {
+      PetscInt length = 0;
+      for (int k = 0; k < kKinds; ++k) length += L.count[k] * (kVertices[k] + kMixedPrefix[k]);
+      return "<Topology TopologyType=\"Mixed\" NumberOfElements=\"" + E + "\">" +
+             item(std::to_string(length), true, mesh + "/topology") + "</Topology>";
+    }
     int k = 0;
     while (k < kKinds - 1 && L.count[k] == 0) ++k;
-    topology = std::string("<Topology TopologyType=\"") + kTopology[k] + "\" NumberOfElements=\"" + E + "\"" +
-               (k == 1 ? " NodesPerElement=\"2\"" : "") + ">" +
-               item(E + " " + std::to_string(kVertices[k]), true, "/mesh/topology") + "</Topology>";
-  }
+    return std::string("<Topology TopologyType=\"") + kTopology[k] + "\" NumberOfElements=\"" + E + "\"" +
+           (k == 1 ? " NodesPerElement=\"2\"" : "") + ">" +
+           item(E + " " + std::to_string(kVertices[k]), true, mesh + "/topology") + "</Topology>";
+  };
   std::ostringstream out;
   out.precision(17);
   out << "<?xml version=\"1.0\"?>\n<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n<Domain>\n"
       << "<Grid Name=\"" << name_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const auto& [t, frame, fields, element_fields] : written_) {
-    const std::string group = frame_group(frame);
+  for (const auto& [t, frame, fields, element_fields, block] : written_) {
+    const std::string group = frame_group(frame), mesh = mesh_group(block);
+    const std::string V = std::to_string(block_points_.at(block));
     out << "<Grid Name=\"frame_" << group.substr(group.rfind('/') + 1) << "\" GridType=\"Uniform\">\n<Time Value=\"" << t
         << "\"/>\n"
-        << topology << "\n<Geometry GeometryType=\"XYZ\">" << item(V + " 3", false, group + "/positions") << "</Geometry>\n";
+        << topology(mesh) << "\n<Geometry GeometryType=\"XYZ\">" << item(V + " 3", false, group + "/positions") << "</Geometry>\n";
     const auto attribute = [&](const char* name, const char* type, const char* center, const std::string& data) {
       out << "<Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"" << center << "\">" << data
           << "</Attribute>\n";
     };
     for (const char* name : {"displacement", "velocity"}) attribute(name, "Vector", "Node", item(V + " 3", false, group + "/" + name));
-    attribute("vertex_id", "Scalar", "Node", item(V, true, "/mesh/vertex_id"));
+    attribute("vertex_id", "Scalar", "Node", item(V, true, mesh + "/vertex_id"));
     for (const std::string& name : fields) attribute(name.c_str(), "Vector", "Node", item(V + " 3", false, group + "/" + name));
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
     if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
@@ -416,14 +437,19 @@ void XdmfSeries::write_index() const {
 std::string XdmfSeries::restart_state() const {
   std::string s = "xdmf " + name_ + "\n";
   char line[64];
-  for (const auto& [t, frame, fields, element_fields] : written_) {
+  for (const auto& [t, frame, fields, element_fields, block] : written_) {
     std::snprintf(line, sizeof line, "%.17g %d", t, frame);  // read back exactly
     s += line;
     for (const std::string& name : fields) s += " " + name;
     for (const auto& [name, c, single] : element_fields)
       s += " " + name + kElementFieldMark + std::to_string(c) + (single ? kSingleMark : "");
+    if (block > 0) s += std::string(" ") + kBlockMark + std::to_string(block);
     s += "\n";
   }
+  // The blocks, once the topology changed (a state without them: one block, the mesh's).
+  if (block_points_.size() > 1 || !block_current_)
+    for (size_t k = 0; k < block_points_.size(); ++k)
+      s += kBlockLine + std::to_string(k) + " " + std::to_string(block_points_[k]) + "\n";
   return s;
 }
 
@@ -438,14 +464,25 @@ void XdmfSeries::resume(const std::string& state, int frame) {
   std::istringstream lines(state);
   std::string line;
   std::getline(lines, line);  // xdmf NAME
+  std::vector<PetscInt> blocks;
   for (double t; std::getline(lines, line);) {
     std::istringstream words(line);
+    if (line.compare(0, std::strlen(kBlockLine), kBlockLine) == 0) {  // mesh K POINTS
+      std::string word;
+      size_t k;
+      long long points;
+      if (words >> word >> k >> points && k == blocks.size()) blocks.push_back((PetscInt)points);
+      continue;
+    }
     int k;
     if (!(words >> t >> k) || k > frame) continue;
     std::vector<std::string> fields;
     std::vector<ListedField> element_fields;
+    size_t block = 0;
     for (std::string name; words >> name;)
-      if (const size_t mark = name.find(kElementFieldMark); mark != std::string::npos) {
+      if (name.compare(0, std::strlen(kBlockMark), kBlockMark) == 0) {
+        block = (size_t)std::atoll(name.c_str() + std::strlen(kBlockMark));
+      } else if (const size_t mark = name.find(kElementFieldMark); mark != std::string::npos) {
         const bool single = name.size() > mark + 1 && name.find(kSingleMark, mark) != std::string::npos;
         element_fields.push_back({name.substr(0, mark), std::atoi(name.c_str() + mark + 1), single});
       } else if (name == "1") {
@@ -453,8 +490,16 @@ void XdmfSeries::resume(const std::string& state, int frame) {
       } else if (name != "0") {
         fields.push_back(name);
       }
-    written_.push_back({t, k, fields, element_fields});
+    written_.push_back({t, k, fields, element_fields, block});
   }
+  // The kept frames' blocks; without blocks listed, the one block is the mesh's (no change since).
+  size_t kept = 1;
+  for (const Listed& l : written_) kept = std::max(kept, l.block + 1);
+  if (blocks.empty()) blocks.push_back(layout_->points);
+  if (blocks.size() < kept) throw std::runtime_error("cannot continue " + h5_path() + ": the checkpoint lists fewer mesh blocks than its frames use");
+  blocks.resize(std::min(blocks.size(), kept));
+  block_points_ = blocks;
+  block_current_ = layout_->points == block_points_.back();
   int rank;
   MPI_Comm_rank(comm_, &rank);
   std::string error;
@@ -472,13 +517,19 @@ void XdmfSeries::resume(const std::string& state, int frame) {
       for (const std::string& g : later)
         if (H5Ldelete(frames.id, g.c_str(), H5P_DEFAULT) < 0)
           throw std::runtime_error("cannot continue " + h5_path() + ": removing frame " + g + ": " + hdf5_error_reason());
+      // and the later mesh blocks (/mesh/K, K >= the kept blocks)
+      for (size_t k = block_points_.size();; ++k) {
+        const std::string group = mesh_group(k);
+        if (H5Lexists(file.id, group.c_str(), H5P_DEFAULT) <= 0) break;
+        if (H5Ldelete(file.id, group.c_str(), H5P_DEFAULT) < 0)
+          throw std::runtime_error("cannot continue " + h5_path() + ": removing " + group + ": " + hdf5_error_reason());
+      }
       write_index();
     } catch (const std::exception& e) {
       error = e.what();
     }
   }
   throw_if_any_failed(comm_, error);
-  file_ready_ = true;
 }
 
 }  // namespace hyperqn

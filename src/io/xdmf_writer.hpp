@@ -15,8 +15,13 @@
 //   with colliders): (points, 3)
 //   /frames/NNNNN/J       per element: det F of a tet, l / L of a segment, the area ratio of a
 //                         triangle; stretch (cloth meshes): the largest principal stretch
-// Each frame's grid has the frame's positions as its geometry. The VTK series' per-cell "rank"
-// field is not written: it would make the output depend on the rank count.
+//   /mesh/K/topology, rest, vertex_id (K = 1, 2, ...): the mesh after a topology change (cuts,
+//                         fracture, snaps, tears: docs/outputs.md#xdmf-output-for-many-ranks), written
+//                         at the first frame that shows it; the same layout, with its own points
+//                         (copies have vertex ids after the input's). Elements keep their rows.
+// Each frame's grid has the frame's positions as its geometry and the topology and vertex_id of
+// the mesh block current at that frame. The VTK series' per-cell "rank" field is not written: it
+// would make the output depend on the rank count.
 //
 // The file is opened and closed for each frame, and the index (written whole, atomically, by
 // rank 0) lists a frame only once its data are in the file and the file is closed.
@@ -40,12 +45,15 @@ class XdmfSeries : public OutputWriter {
   // Throws std::runtime_error if this build's HDF5 cannot write in parallel.
   void begin_run(const DistributedMesh& mesh) override;
   void write_frame(const FrameData& f) override;
-  // After a release: the same elements, with fewer fixed vertices. A mesh with other elements
+  // After a release (the same mesh, fewer fixed vertices) or a topology change (the same elements,
+  // more points: the next frame writes a new mesh block). A mesh with another number of elements
   // cannot go on in the same file (throws std::runtime_error).
   void set_mesh(const DistributedMesh& mesh) override;
-  // The frames listed ("xdmf NAME" then "time frame FIELD... NAME@COMPONENTS[/4]..." lines: point, then
-  // element fields, /4 for one written as floats); resume keeps those up to `frame`,
-  // removes the later frames' data from NAME.h5 and rewrites NAME.xdmf.
+  // The frames listed ("xdmf NAME" then "time frame FIELD... NAME@COMPONENTS[/4]... [mesh=K]" lines:
+  // point, then element fields, /4 for one written as floats, the mesh block if not 0) and, once
+  // the topology changed, the mesh blocks ("mesh K POINTS" lines; a state without them: one block,
+  // the mesh's); resume keeps the frames up to `frame` and their blocks, removes the later frames'
+  // data and blocks from NAME.h5 and rewrites NAME.xdmf.
   static constexpr const char* kRestartKey = "xdmf";
   std::string restart_key() const override { return kRestartKey; }
   std::string restart_state() const override;
@@ -55,7 +63,7 @@ class XdmfSeries : public OutputWriter {
 
  private:
   struct Layout;  // where this rank's vertices and elements go (global_rows.hpp)
-  void write_mesh() const;
+  void write_mesh(size_t block) const;  // block 0 creates NAME.h5
   void write_index() const;
   std::string h5_path() const { return dir_ + "/" + name_ + ".h5"; }
 
@@ -63,7 +71,8 @@ class XdmfSeries : public OutputWriter {
   std::string dir_, name_;
   const DistributedMesh* mesh_ = nullptr;
   std::unique_ptr<Layout> layout_;
-  bool file_ready_ = false;                        // NAME.h5 exists and holds the mesh
+  std::vector<PetscInt> block_points_;  // the mesh blocks in NAME.h5 (/mesh, /mesh/1, ...): their points
+  bool block_current_ = false;          // mesh_ is the last block's mesh (its points are in NAME.h5)
   struct ListedField {  // one of the deck's element fields of a frame
     std::string name;
     int components;
@@ -74,6 +83,7 @@ class XdmfSeries : public OutputWriter {
     int frame;
     std::vector<std::string> fields;  // the terms' point fields the frame has (FrameData::point_fields)
     std::vector<ListedField> element_fields;
+    size_t block;  // its mesh block
   };
   std::vector<Listed> written_;  // the index's frames
 };

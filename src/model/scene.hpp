@@ -134,7 +134,8 @@ class LiveScene {
   // again. The caller has begun the topology log event.
   PetscErrorCode separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
                               const Rebind& rebind);
-  // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers).
+  // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers);
+  // a tet t removed (a blade with remove, docs/removal.md) is (the frame, t, t).
   using SeparatedFace = std::array<int64_t, 3>;
   const std::vector<SeparatedFace>& cut_history() const { return history_; }
   // The faces of each batch of cut_history, in order (a frame may have several: fracture's re-solves).
@@ -164,6 +165,7 @@ class LiveScene {
   // such batch (-1: none), for a deck with both.
   struct CutCounts {
     long long faces = 0, vertices = 0, batches = 0;
+    long long removed = 0;  // tets removed by blades with remove (docs/removal.md)
     long long corrections = 0, refactorizations = 0;
     long long broken = 0, first_broken = -1;
   };

@@ -220,7 +220,6 @@ BAD_DECKS = {
     "inf_strain": (tear(float("inf")), ["cloth.tear.strain"]),
     "missing_strain": (bad(cloth={**CLOTH["cloth"], "tear": {}}), ["strain"]),
     "self_contact": (bad(contact={"self": True}), ["tearing cloth", "self-contact"]),
-    "xdmf": (bad(output={"format": "xdmf"}), ["tear", "xdmf"]),
 }
 
 

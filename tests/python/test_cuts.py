@@ -297,7 +297,6 @@ BAD_CUTS = {
                  "mesh": {"sheet": {"size": [1.0, 1.0], "cells": [4, 4]}},
                  "cloth": {"model": "mass-spring", "stretch_stiffness": 50.0, "areal_density": 0.2}},
                 ["cuts", "no tets"]),
-    "xdmf": ({**bad(), "output": {"format": "xdmf"}}, ["cuts", "xdmf"]),
 }
 
 

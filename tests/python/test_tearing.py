@@ -158,7 +158,6 @@ BAD_DECKS = {
     "inf_strain": (snap(float("inf")), ["strand_material.snap.strain"]),
     "missing_strain": (bad(strand_material={**ROPE["strand_material"], "snap": {}}), ["strain"]),
     "self_contact": (bad(contact={"self": True}), ["snap", "self-contact"]),
-    "xdmf": (bad(output={"format": "xdmf"}), ["snap", "xdmf"]),
 }
 
 
