@@ -67,6 +67,8 @@ struct Scene {
   std::unique_ptr<StepObjective> step;
   // The constant matrices the solvers use, by resolved_h0 (laplacian, rest_stiffness, amg, volumetric).
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
+  // The Poisson ratio solver.h0: auto goes by (SceneOptions::poisson_ratio).
+  double poisson_ratio = 0;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
   // With fracture: its local tets' faces, paired when first asked (model/fracture.hpp).
@@ -76,6 +78,9 @@ struct Scene {
 // How to build a scene beside its description.
 struct SceneOptions {
   std::vector<H0> h0s;                 // the solvers' constant matrices (solver_h0; automatic resolved at setup)
+  // The scene's largest tet Poisson ratio, by which solver.h0: auto resolves (resolved_h0); 0 keeps
+  // auto off the volumetric H0 (scene_options: with h0_contact: woodbury, which needs M + h^2 L).
+  double poisson_ratio = 0;
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   H0Precision h0_precision = H0Precision::double_precision;  // their factors' values (solver.h0_precision)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
