@@ -173,7 +173,8 @@ std::pair<std::vector<int64_t>, PetscInt> number_in_use(MPI_Comm comm, const std
 }  // namespace
 
 // Where this rank's vertices and elements go: points numbered by vertex_id (the ids in use, in
-// order), elements by kind and their index in the input mesh.
+// order), elements by kind and their index in the input mesh (the indices in use, in order, after
+// a removal).
 struct XdmfSeries::Layout {
   PetscInt points = 0;
   std::vector<int64_t> point_of;          // per local vertex (ghosts too): its point
