@@ -75,10 +75,6 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
       r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
              "removing tets with self-contact (contact.self) is not done: a vertex whose star a removal splits starts "
              "coincident with its copy, where the barrier is infinite, and removals open no gap (docs/removal.md)");
-    if (deck.cuts[k].remove && deck.output.vtk && deck.output.format == OutputFormat::xdmf)
-      r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
-             "removing tets with output.format: xdmf is not done: the XDMF file keeps one set of element rows and "
-             "a removal changes them; write vtu frames (docs/removal.md)");
   }
 }
 

@@ -206,7 +206,6 @@ BAD = {  # test_cuts' bad(): its bar for 2 frames, the cut's keys updated
     "remove_a_number": (bad(remove=1.5), ["cuts[0].remove"]),
     "remove_with_self_contact": ({**bad(remove=True), "contact": {"self": True, "distance": 0.01}},
                                  ["cuts[0].remove", "self-contact"]),
-    "remove_with_xdmf": ({**bad(remove=True), "output": {"format": "xdmf"}}, ["cuts[0].remove", "xdmf"]),
 }
 
 
