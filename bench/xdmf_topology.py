@@ -9,7 +9,8 @@ and what it writes.
    build differ in a few bytes: the .h5 must have the same size and differ from BIN's only inside
    4-byte words that read, in both files, as a time of the last day; the .xdmf must be equal byte
    for byte, and each checkpoint's writer_xdmf text too.
-2. The scenes of test_xdmf_topology.py with xdmf (1, 2 ranks; 4 for the cut) and vtu (1 rank):
+2. The scenes of test_xdmf_topology.py with xdmf (1, 2 ranks; 4 for the cut and the sawn bar) and
+   vtu (1 rank):
    mesh blocks, frames with new vertices, the largest |x_xdmf - x_vtu| and |x_1 - x_N| per vertex id
    over all frames (over the rest diagonal), and the .h5's size.
 Needs postprocess/ and tests/python on PYTHONPATH.
@@ -69,11 +70,11 @@ def same_bytes(args, work):
 
 def scenes(args, work):
     import test_xdmf_topology as T
-    for name in ("cut", "rope", "cloth", "fracture"):
+    for name in ("cut", "rope", "cloth", "fracture", "sawn"):
         d = T.scene(name, work)
         d["output"] = {"format": "xdmf", "every": 1}
         path = write_deck(work / f"{name}.yaml", d)
-        ranks = (1, 2, 4) if name == "cut" else (1, 2)
+        ranks = (1, 2, 4) if name in ("cut", "sawn") else (1, 2)
         outs = {r: run(args.binary, path, work / f"{name}_xdmf_{r}", r) for r in ranks}
         d["output"]["format"] = "vtu"
         vtu = read_frames(run(args.binary, write_deck(work / f"{name}_vtu.yaml", d), work / f"{name}_vtu", 1))
@@ -83,8 +84,9 @@ def scenes(args, work):
         with h5py.File(outs[1] / "run.h5", "r") as f:
             blocks = 1 + sum(1 for k in f["mesh"] if k.isdigit())
         changes = len(T.topology_rows(outs[1]))
-        print(f"{name:8s}: {len(vtu)} frames, {blocks} mesh blocks, {changes} frames with new vertices, "
-              f"{len(frames[1][0][1].vertex_id)} -> {len(frames[1][-1][1].vertex_id)} points; "
+        print(f"{name:8s}: {len(vtu)} frames, {blocks} mesh blocks, {changes} frames with new vertices or removed tets, "
+              f"{len(frames[1][0][1].vertex_id)} -> {len(frames[1][-1][1].vertex_id)} points, "
+              f"{frames[1][0][1].num_cells} -> {frames[1][-1][1].num_cells} cells; "
               f"max |x_xdmf - x_vtu| / diagonal {worst(frames[1], vtu):.3g}; "
               + "; ".join(f"1 vs {r} ranks {worst(frames[1], frames[r]):.3g}" for r in ranks[1:])
               + f"; run.h5 {os.path.getsize(outs[1] / 'run.h5')} bytes")

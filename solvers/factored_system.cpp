@@ -521,9 +521,10 @@ PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
       PetscCall(split_->solve(in, out));
     else if (topology_ && topology_row_.empty())
       topology_->solve(3, in, out);
-    else if (topology_) {  // in topology_'s rows and back
+    else if (topology_) {  // in topology_'s rows and back (0 in the rows of vertices that left)
       const size_t rows = topology_row_.size();
-      topology_work_.resize(3 * rows);
+      if (topology_->size() != (int64_t)rows) std::fill(topology_work_.begin(), topology_work_.end(), 0.0);
+      topology_work_.resize(3 * size_t(topology_->size()), 0.0);
       for (size_t r = 0; r < rows; ++r)
         for (int c = 0; c < 3; ++c) topology_work_[3 * topology_row_[r] + c] = in[3 * r + c];
       topology_->solve(3, topology_work_.data(), topology_work_.data());
@@ -606,8 +607,9 @@ PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& s
 // since) and A_ in its rows, B; every entry where B - C is not zero is an edit (rows no element
 // of the cut touched are assembled from the same elements in the same order, so they are equal
 // bit for bit and stay out of T). A vertex of A_ that C does not have is a new vertex (a copy),
-// numbered in the order of A_'s rows. Not corrected: a vertex of C missing from A_, or more rows
-// touched than max_touched (the size trigger: the caller factors A_ anew).
+// numbered in the order of A_'s rows; a vertex of C missing from A_ (it left the mesh: a removed
+// tet's orphan) keeps its row, decoupled (its diagonal only; solves put 0 there). Not corrected:
+// more rows touched than max_touched (the size trigger: the caller factors A_ anew).
 PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const TopologyCheck& check, bool* corrected) {
   PetscFunctionBeginUser;
   std::unique_ptr<TopologyH0> h0 = std::move(before.topology_);
@@ -616,20 +618,21 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
   std::unordered_map<int64_t, int64_t> old_row_of;
   for (int64_t k = 0; k < old_rows; ++k) old_row_of.emplace(ids[k], k);
   std::vector<int64_t> row(rows, -1);
-  int64_t kept = 0;
   for (int64_t r = 0; r < rows; ++r) {
     const auto it = old_row_of.find(row_ids_[r]);
-    if (it != old_row_of.end()) row[r] = it->second, ++kept;
+    if (it != old_row_of.end()) row[r] = it->second;
   }
-  if (kept != old_rows) PetscFunctionReturn(0);  // a vertex left the free rows: factor anew
   const SymmetricCsr C = h0->changed_matrix();
   for (int64_t r = 0; r < rows; ++r)
     if (row[r] < 0) {
       row[r] = h0->add_vertex();
       ids.push_back(row_ids_[r]);
     }
-  // B's rows in h0's order, each merged with C's: the upper triangle's differences.
-  std::vector<int64_t> scene_row(rows);
+  // B's rows in h0's order, each merged with C's: the upper triangle's differences. A row of h0
+  // whose vertex A_ no longer has (a removed tet's orphan, docs/removal.md) is decoupled: B keeps
+  // C's diagonal there and nothing else, and a solve puts 0 in it.
+  const int64_t all_rows = h0->size();
+  std::vector<int64_t> scene_row(all_rows, -1);
   for (int64_t r = 0; r < rows; ++r) scene_row[row[r]] = r;
   struct Edit {
     int64_t i, j;
@@ -637,15 +640,20 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
   };
   std::vector<Edit> edits;
   std::vector<std::pair<int64_t, double>> b;
-  for (int64_t i = 0; i < rows; ++i) {
-    PetscInt nc;
-    const PetscInt* c;
-    const PetscScalar* v;
-    PetscCall(MatGetRow(A_, scene_row[i], &nc, &c, &v));
+  for (int64_t i = 0; i < all_rows; ++i) {
     b.clear();
-    for (PetscInt k = 0; k < nc; ++k)
-      if (row[c[k]] >= i) b.push_back({row[c[k]], v[k]});
-    PetscCall(MatRestoreRow(A_, scene_row[i], &nc, &c, &v));
+    if (scene_row[i] < 0) {
+      for (int64_t p = C.start[i]; p < C.start[i + 1]; ++p)
+        if (C.column[p] == i) b.push_back({i, C.value[p]});
+    } else {
+      PetscInt nc;
+      const PetscInt* c;
+      const PetscScalar* v;
+      PetscCall(MatGetRow(A_, scene_row[i], &nc, &c, &v));
+      for (PetscInt k = 0; k < nc; ++k)
+        if (row[c[k]] >= i) b.push_back({row[c[k]], v[k]});
+      PetscCall(MatRestoreRow(A_, scene_row[i], &nc, &c, &v));
+    }
     std::sort(b.begin(), b.end());
     size_t q = 0;
     int64_t p = i < old_rows ? C.start[i] : 0;

@@ -113,7 +113,8 @@ class FactoredSystem {
   }
   // The scene changed by a cut: this system is set up for `step` (A assembled, row ids as above)
   // and, where `before` holds a TopologyH0, takes it over: the change A' - A, mapped to its rows by
-  // vertex id (a copy is a new vertex), becomes its edits and one commit (*corrected = true).
+  // vertex id (a copy is a new vertex; a vertex that left keeps a decoupled row), becomes its
+  // edits and one commit (*corrected = true).
   // Otherwise (another package, kind or rank count, rollers, or more than TopologyH0::max_touched
   // rows touched since the last factorization) A' is factored as setup would with `package`.
   PetscErrorCode follow(FactoredSystem& before, const Objective& step, FactorPackage package, std::vector<int64_t> row_ids,

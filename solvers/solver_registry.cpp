@@ -67,12 +67,15 @@ bool solver_takes_h0(const std::string& type) {
 
 H0 solver_h0(const SolverSpec& spec) { return solver_takes_h0(spec.type) ? spec.h0 : H0::laplacian; }
 
-H0 resolved_h0(H0 h0, int64_t tets) {
+H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio) {
   if (h0 != H0::automatic) return h0;
   // One V-cycle of M + h^2 L reaches a given accuracy sooner than the factor from this size on,
   // whatever the rank count (the crossover measured in docs/performance.md#distributed-h0). Tets,
   // not vertices: the factor's fill comes from the volume (a strand's or a cloth's vertices add little).
-  return tets >= kAmgFromTets ? H0::amg : H0::laplacian;
+  if (tets >= kAmgFromTets) return H0::amg;
+  // Near incompressibility the weight of L is dominated by lambda, so (M + h^2 L)^-1 barely moves
+  // the bending modes; the volumetric H0 keeps the volume in its own term (docs/method.md).
+  return tets > 0 && poisson_ratio >= kVolumetricFromPoisson - kPoissonSlack ? H0::volumetric : H0::laplacian;
 }
 
 ConstantMatrix constant_matrix_of(H0 h0) {
@@ -89,7 +92,10 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
   PetscCheck(!s->uses_constant_matrix || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL, "solver %s needs its factored constant matrix",
              spec.type.c_str());
   const H0 wanted = solver_h0(spec);
-  PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(wanted), PETSC_COMM_SELF, PETSC_ERR_PLIB,
+  // auto: M + h^2 L, or the volumetric H0 by the material (resolved_h0).
+  PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(wanted) ||
+                 (wanted == H0::automatic && h0->kind() == ConstantMatrix::volumetric),
+             PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
   PetscCheck(!h0 || !s->uses_constant_matrix || wanted == H0::automatic ||
                  (h0->package() == FactorPackage::amg) == (wanted == H0::amg),
@@ -197,8 +203,11 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "solver recovers within the frame ([guardrails.md](guardrails.md#element-blow-up-and-inversion)). `false`: y "
        "itself (the tests of run-aways use it)"},
       enum_key<S>("h0", &S::h0, kH0Names,
-       "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more, else "
-       "`laplacian` (the crossover measured in [performance.md](performance.md#distributed-h0)). `laplacian`: (M + "
+       "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more (the "
+       "crossover measured in [performance.md](performance.md#distributed-h0)), else `volumetric` when a "
+       "hyperelastic tet material's Poisson ratio is 0.499 or more (the largest of the scene's; not with "
+       "`h0_contact: woodbury`; the crossover measured in [method.md](method.md#the-initial-hessian-h0)), else "
+       "`laplacian`. `laplacian`: (M + "
        "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "
        "Hessian at the rest shape (per-element PSD fix), a full 3n × 3n matrix factored once per scene; it sees the "
        "volumetric modes but not rotations, so it wins on stiff, little-deformed scenes and loses on large "

@@ -38,10 +38,20 @@ bool solver_takes_h0(const std::string& type);
 H0 solver_h0(const SolverSpec& spec);
 // solver.h0: auto takes the V-cycle on meshes of at least this many tetrahedra (resolved_h0).
 constexpr int64_t kAmgFromTets = 200000;
-// That matrix on a mesh of `tets` tetrahedra: automatic resolved here, and nowhere else (the V-cycle
-// from kAmgFromTets tets on, else the factor of M + h^2 L).
-H0 resolved_h0(H0 h0, int64_t tets);
-inline H0 resolved_h0(const SolverSpec& spec, int64_t tets) { return resolved_h0(solver_h0(spec), tets); }
+// Below that, solver.h0: auto takes the volumetric H0 when a tetrahedral material's Poisson ratio at
+// rest is at least this (the crossover measured on the stability suite's cantilever:
+// docs/records/2026-12-04-stiff-h0.md). Ratios within kPoissonSlack below it count as it (the
+// ratio comes back from the Lame parameters a deck's E and nu give, to round-off).
+constexpr double kVolumetricFromPoisson = 0.499;
+constexpr double kPoissonSlack = 1e-9;
+// That matrix on a mesh of `tets` tetrahedra whose largest tetrahedral Poisson ratio is
+// poisson_ratio (largest_poisson_ratio; 0 without tets): automatic resolved here, and nowhere else
+// (the V-cycle from kAmgFromTets tets on, else the factor of M + h^2 K_vol from
+// kVolumetricFromPoisson on, else the factor of M + h^2 L).
+H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio);
+inline H0 resolved_h0(const SolverSpec& spec, int64_t tets, double poisson_ratio) {
+  return resolved_h0(solver_h0(spec), tets, poisson_ratio);
+}
 // The matrix itself (the V-cycle applies M + h^2 L).
 ConstantMatrix constant_matrix_of(H0 h0);
 

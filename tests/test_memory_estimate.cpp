@@ -97,19 +97,39 @@ void test_fallback_and_newton() {
   CHECK(memory_plan(spec).h0 == H0Memory::gathered && !memory_plan(spec).amg_allowed);  // pd needs the exact factor
 }
 
-// solver.h0: auto is resolved by the mesh in resolved_h0 alone; the other settings pass through,
-// and pd (which does not take h0) always factors M + h^2 L.
+// solver.h0: auto is resolved by the mesh and the material in resolved_h0 alone (the V-cycle on
+// large meshes whatever the material, the volumetric H0 from kVolumetricFromPoisson on, to
+// round-off); the other settings pass through, and pd (which does not take h0) always factors M + h^2 L.
 void test_resolved_h0() {
-  CHECK(resolved_h0(H0::automatic, kAmgFromTets - 1) == H0::laplacian);
-  CHECK(resolved_h0(H0::automatic, kAmgFromTets) == H0::amg);
-  CHECK(resolved_h0(H0::rest_stiffness, kAmgFromTets) == H0::rest_stiffness);
-  CHECK(resolved_h0(H0::laplacian, kAmgFromTets) == H0::laplacian);
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets - 1, 0.3) == H0::laplacian);
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets, 0.3) == H0::amg);
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets, 0.4999) == H0::amg);
+  CHECK(resolved_h0(H0::automatic, kAmgFromTets - 1, 0.4999) == H0::volumetric);
+  CHECK(resolved_h0(H0::automatic, 24, kVolumetricFromPoisson) == H0::volumetric);
+  CHECK(resolved_h0(H0::automatic, 24, kVolumetricFromPoisson * (1 - 1e-15)) == H0::volumetric);
+  CHECK(resolved_h0(H0::automatic, 24, 0.4988) == H0::laplacian);
+  CHECK(resolved_h0(H0::automatic, 0, 0.4999) == H0::laplacian);  // no tets: nothing volumetric
+  CHECK(resolved_h0(H0::rest_stiffness, kAmgFromTets, 0.3) == H0::rest_stiffness);
+  CHECK(resolved_h0(H0::laplacian, kAmgFromTets, 0.4999) == H0::laplacian);
+  CHECK(resolved_h0(H0::laplacian, 24, 0.4999) == H0::laplacian);
   SolverSpec spec;
   spec.type = "pd";
   spec.h0 = H0::amg;  // (a deck error; pd ignores the setting here)
-  CHECK(resolved_h0(spec, 10 * kAmgFromTets) == H0::laplacian);
+  CHECK(resolved_h0(spec, 10 * kAmgFromTets, 0.3) == H0::laplacian);
+  spec.h0 = H0::automatic;
+  CHECK(resolved_h0(spec, 24, 0.4999) == H0::laplacian);  // pd is defined by M + h^2 L
   spec.type = "lbfgs";
-  CHECK(resolved_h0(spec, 1) == H0::amg);
+  CHECK(resolved_h0(spec, 24, 0.4999) == H0::volumetric);
+  spec.h0 = H0::amg;
+  CHECK(resolved_h0(spec, 1, 0.3) == H0::amg);
+  // The memory estimate counts the volumetric H0's 3n x 3n factor when auto takes it.
+  spec.h0 = H0::automatic;
+  MemoryPlan plan = memory_plan(spec);
+  plan.poisson_ratio = 0.3;
+  CHECK(resolved_plan(plan, 100, 24, 1).components == 1);
+  plan.poisson_ratio = 0.4999;
+  CHECK(resolved_plan(plan, 100, 24, 1).components == 3);
+  CHECK(resolved_plan(plan, 100, kAmgFromTets, 1).h0 == H0Memory::amg);
 }
 
 void test_ways_out() {

@@ -4,7 +4,10 @@
 // distributed mesh must equal the serial one: the same tets on the same vertex numbers and ids,
 // the same rest positions and fixed flags; the copies' count is the section's vertices; lumped
 // masses (a quarter of each tet's rest volume) sum to the uncut total, each vertex's being its own
-// tets' quarters; the cut box falls into exactly two pieces.
+// tets' quarters; the cut box falls into exactly two pieces. Then remove_tets takes out the tets
+// of two cell layers (centroids in 1 < x < 3) the same way: the same mesh at any rank count, the
+// orphans (the vertices at x = 2, and the originals at x = 3 whose copies took the other side)
+// gone from every piece, the mass of the rest.
 #include <mpi.h>
 
 #include <algorithm>
@@ -64,6 +67,7 @@ struct Cut {
   MeshPiece piece;
   std::vector<int32_t> fixed;
   int64_t copies = 0;
+  std::set<TetPair> separated;
 };
 Cut cut(MPI_Comm comm, MeshPiece piece) {
   Cut c;
@@ -78,7 +82,29 @@ Cut cut(MPI_Comm comm, MeshPiece piece) {
     for (int32_t s : r.source) CHECK(s >= 0 && s < before);
   }
   c.piece = std::move(piece);
+  c.separated = separated;
   return c;
+}
+
+// The tets with centroids in 1 < x < 3 (from the whole box: the same list on every rank) removed.
+void remove(MPI_Comm comm, Cut& c) {
+  const MeshPiece whole = box_piece(kSize, kCells, 0, 1);
+  std::vector<int64_t> tets;
+  for (int64_t e = 0; e < whole.mesh.num_tets(); ++e)
+    if (centroid_x(whole, e) > 1 && centroid_x(whole, e) < 3) tets.push_back(whole.element_numbers[e]);
+  std::sort(tets.begin(), tets.end());
+  std::vector<int32_t> per_tet(c.piece.mesh.num_tets());
+  for (size_t e = 0; e < per_tet.size(); ++e) per_tet[e] = (int32_t)c.piece.element_numbers[e];
+  const int64_t before = c.piece.mesh.num_vertices();
+  const SeparationResult r = remove_tets(comm, c.piece, tets, c.separated, 1000, {{&c.fixed, 1}}, {&per_tet});
+  CHECK(r.new_vertices == 0 && (int64_t)r.source.size() == c.piece.mesh.num_vertices());
+  for (int32_t s : r.source) CHECK(s >= 0 && s < before);
+  // the per-tet array followed its tets; every local vertex is a local tet's (no orphan)
+  CHECK((int64_t)per_tet.size() == c.piece.mesh.num_tets());
+  for (size_t e = 0; e < per_tet.size(); ++e) CHECK(per_tet[e] == c.piece.element_numbers[e]);
+  std::vector<char> used(c.piece.mesh.num_vertices(), 0);
+  for (int32_t v : c.piece.mesh.tets) used[v] = 1;
+  CHECK(std::count(used.begin(), used.end(), 0) == 0);
 }
 
 // tet number -> (vertex numbers, ids, rest positions, fixed flags) of its 4 vertices, over all ranks.
@@ -148,6 +174,32 @@ int main(int argc, char** argv) {
   std::set<int64_t> roots;
   for (int64_t i = 0; i < 8 * section; ++i) roots.insert(root(i));
   CHECK(roots.size() == 2);
+
+  // Removal: two cell layers (48 tets) go; the vertices at x = 2 and the originals at x = 3 are orphans.
+  Cut serial_removed = serial, distributed_removed = distributed;
+  remove(MPI_COMM_SELF, serial_removed);
+  remove(MPI_COMM_WORLD, distributed_removed);
+  const auto ra = tets_of(MPI_COMM_SELF, serial_removed), rb = tets_of(MPI_COMM_WORLD, distributed_removed);
+  CHECK(ra.size() == size_t(6 * 24 - 48) && ra == rb);
+  std::set<int64_t> left;
+  for (const auto& [tet, v] : ra) {
+    for (int j = 0; j < 4; ++j) left.insert((int64_t)v[6 * j]);
+    CHECK(v[2] < 1 + 1e-12 || v[2] > 3 - 1e-12);  // no vertex of a remaining tet inside 1 < x < 3
+  }
+  CHECK((int64_t)left.size() == 8 * section - 2 * section);
+  double total_left = 0;  // the remaining tets' volume: the box less the two layers
+  for (const auto& [tet, v] : ra) {
+    double D[3][3];
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d) D[j][d] = v[6 * (j + 1) + 2 + d] - v[2 + d];
+    total_left += std::fabs(D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) - D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
+                            D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0])) / 6;
+  }
+  CHECK_NEAR(total_left, kSize[0] * kSize[1] * kSize[2] - 2 * kSize[1] * kSize[2], 1e-13);
+  // every piece holds only vertices its tets use, and together exactly those of the remaining tets
+  std::vector<int64_t> mine(distributed_removed.piece.vertex_numbers.begin(), distributed_removed.piece.vertex_numbers.end());
+  std::vector<int64_t> held = all_gathered(MPI_COMM_WORLD, mine, MPI_INT64_T);
+  CHECK(std::set<int64_t>(held.begin(), held.end()) == left);
   const int code = check::summary("test_separation");
   MPI_Finalize();
   return code;

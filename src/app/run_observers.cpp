@@ -80,8 +80,11 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
   if (run_.scene.last_change_cut()) {
     const LiveScene::CutCounts& c = run_.scene.cut_counts();
-    PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                          run_.state.time, run_.deck.cuts.empty() ? "fracture" : run_.scene.fracture() ? "cut or fracture" : "cut", c.faces, c.vertices, (long long)summary.dofs,
+    bool removes = false;  // a blade removes tets (docs/removal.md): the line says how many
+    for (const CutSpec& k : run_.deck.cuts) removes = removes || k.remove;
+    const std::string removed = removes ? ", " + std::to_string(c.removed) + " tets removed" : "";
+    PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated%s, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
+                          run_.state.time, run_.deck.cuts.empty() ? "fracture" : run_.scene.fracture() ? "cut or fracture" : "cut", c.faces, removed.c_str(), c.vertices, (long long)summary.dofs,
                           run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
   } else if (run_.scene.last_change_break()) {
     const LiveScene::BreakCounts& c = run_.scene.break_counts();
@@ -261,11 +264,12 @@ bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow
   return have_start && have_at;
 }
 
-const char kTopologyColumns[] = "faces_separated,faces_total,vertices_added,segments_snapped,edges_torn,h0_corrections,refactorizations";
+const char kTopologyColumns[] =
+    "faces_separated,faces_total,vertices_added,segments_snapped,edges_torn,h0_corrections,refactorizations,tets_removed";
 
 // The sums of topology.csv's rows of frames <= `frame` (a restart's); false if it has no row of
-// `frame` itself.
-bool read_topology(const std::string& path, int frame, long long sums[6]) {
+// `frame` itself. A file written before the column tets_removed (9 cells a row) counts 0 there.
+bool read_topology(const std::string& path, int frame, long long sums[7]) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);  // the header
@@ -275,10 +279,10 @@ bool read_topology(const std::string& path, int frame, long long sums[6]) {
     std::string cell;
     std::vector<std::string> cells;
     while (std::getline(row, cell, ',')) cells.push_back(cell);
-    if (cells.size() != 9 || std::atoi(cells[0].c_str()) > frame) continue;
+    if ((cells.size() != 9 && cells.size() != 10) || std::atoi(cells[0].c_str()) > frame) continue;
     have_frame |= std::atoi(cells[0].c_str()) == frame;
-    const int per_frame[6] = {2, 4, 5, 6, 7, 8};  // faces_total is a running sum of faces_separated
-    for (int k = 0; k < 6; ++k) sums[k] += std::atoll(cells[per_frame[k]].c_str());
+    const int per_frame[7] = {2, 4, 5, 6, 7, 8, 9};  // faces_total is a running sum of faces_separated
+    for (int k = 0; k < 7; ++k) sums[k] += per_frame[k] < (int)cells.size() ? std::atoll(cells[per_frame[k]].c_str()) : 0;
   }
   return have_frame;
 }
@@ -305,15 +309,15 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
   if (topology_) {
     const std::string path = outdir + "/topology.csv";
     if (restart) {
-      long long sums[6] = {0, 0, 0, 0, 0, 0};
+      long long sums[7] = {0, 0, 0, 0, 0, 0, 0};
       if (!read_topology(path, restart_frame, sums) && restart_frame > 0)
         throw std::runtime_error(path + " has no row of frame " + std::to_string(restart_frame) +
                                  " to go on from (output.topology_csv: the checkpointed run must have written it)");
-      topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]};
+      topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6]};
       if (earlier)
         topology_earlier_ = {0, 0, 0, 0, earlier->cut_h0_corrections + earlier->break_h0_corrections,
-                             earlier->cut_refactorizations + earlier->break_refactorizations};
-      topology_log_.resume(path, kTopologyColumns, rank, restart_frame);
+                             earlier->cut_refactorizations + earlier->break_refactorizations, 0};
+      topology_log_.resume(path, kTopologyColumns, rank, restart_frame, true);  // an older file's rows padded
     } else {
       topology_log_.open(path, kTopologyColumns, rank);
     }
@@ -425,7 +429,7 @@ RunLogs::TopologyTotals RunLogs::topology_totals() const {
   const LiveScene::CutCounts& c = run_.scene.cut_counts();
   const LiveScene::BreakCounts& b = run_.scene.break_counts();
   return {c.faces, c.vertices + b.vertices, b.segments, b.edges, topology_earlier_.corrections + c.corrections + b.corrections,
-          topology_earlier_.refactorizations + c.refactorizations + b.refactorizations};
+          topology_earlier_.refactorizations + c.refactorizations + b.refactorizations, c.removed};
 }
 
 // topology.csv's row of the frame: what changed since the row before (at a restart, since the
@@ -434,10 +438,10 @@ RunLogs::TopologyTotals RunLogs::topology_totals() const {
 void RunLogs::record_topology(int frame) {
   const TopologyTotals now = topology_totals(), &before = topology_rows_;
   char row[256];
-  std::snprintf(row, sizeof row, "%lld,%lld,%lld,%lld,%lld,%lld,%lld", now.faces - before.faces, now.faces,
+  std::snprintf(row, sizeof row, "%lld,%lld,%lld,%lld,%lld,%lld,%lld,%lld", now.faces - before.faces, now.faces,
                 now.vertices - before.vertices, now.segments - before.segments, now.edges - before.edges,
                 now.corrections - before.corrections,
-                now.refactorizations - before.refactorizations);
+                now.refactorizations - before.refactorizations, now.removed - before.removed);
   topology_log_.append(frame, run_.state.time, {row});
   topology_rows_ = now;
 }

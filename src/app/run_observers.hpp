@@ -88,7 +88,7 @@ class RunLogs : public FrameObserver {
   void append_energy(int frame, double time, const EnergyRow& row);
   // topology.csv's counts, each summed over the run's frames so far as summary.json counts them.
   struct TopologyTotals {
-    long long faces = 0, vertices = 0, segments = 0, edges = 0, corrections = 0, refactorizations = 0;
+    long long faces = 0, vertices = 0, segments = 0, edges = 0, corrections = 0, refactorizations = 0, removed = 0;
   };
   TopologyTotals topology_totals() const;
   void record_topology(int frame);

@@ -5,6 +5,7 @@
 
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
+#include "model/elastic_terms.hpp"
 #include "solvers/solver_registry.hpp"
 #include "terms/nan_injection.hpp"
 
@@ -119,6 +120,10 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionReturn(0);
 }
 
+double h0_poisson_ratio(const Deck& deck) {
+  return deck.solver.h0_contact == H0Contact::woodbury ? 0.0 : largest_poisson_ratio(deck);
+}
+
 SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vector<std::string>& solvers) {
   SceneOptions s;
   for (const std::string& type : solvers) {
@@ -127,6 +132,7 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     spec.type = type;
     s.h0s.push_back(solver_h0(spec));
   }
+  s.poisson_ratio = h0_poisson_ratio(deck);
   s.h0_package = o.h0_package;
   s.h0_precision = deck.solver.h0_precision;
   s.warm_start = deck.solver.warm_start;

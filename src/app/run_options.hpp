@@ -40,9 +40,15 @@ struct RunOptions {
 // naming the deck's line and key when `deck` is given and its petsc: section gave the value.
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options, const Deck* deck = nullptr);
 
+// The Poisson ratio by which solver.h0: auto resolves for this deck (resolved_h0): the scene's
+// largest (largest_poisson_ratio), or 0 with solver.h0_contact: woodbury, which adds the contacts'
+// stiffness to M + h^2 L only (so auto stays there).
+double h0_poisson_ratio(const Deck& deck);
+
 // How the scene of this deck is built for these solvers (with the deck's solver settings): the
 // constant matrices they factor (M + h^2 L, or M + h^2 K(x_rest) for lbfgs with solver.h0:
-// rest-stiffness, or M + h^2 L's V-cycle for h0: amg), the deck's warm start, and the test hooks' term if one is asked for.
+// rest-stiffness, M + h^2 K_vol with volumetric, or M + h^2 L's V-cycle for h0: amg; auto by
+// h0_poisson_ratio and the mesh), the deck's warm start, and the test hooks' term if one is asked for.
 SceneOptions scene_options(const Deck& deck, const RunOptions& options, const std::vector<std::string>& solvers);
 
 }  // namespace hyperqn

@@ -243,8 +243,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   if (read_run_options(comm, &options, &deck)) return 1;
   const std::string config = effective_config(deck, options, outdir);  // OUTDIR/config.yaml
   SceneInput input;
-  if (!load_scene_input_or_report(comm, deck, input, memory_plan(deck.solver, options.h0_package,
-                                                                       std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller)))) return 1;
+  MemoryPlan plan = memory_plan(deck.solver, options.h0_package, std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller));
+  plan.poisson_ratio = h0_poisson_ratio(deck);
+  if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)
     PetscPrintf(comm, "hyperqn: mesh repaired: %lld vertices of no element dropped, %lld tets reoriented to positive volume\n",
@@ -394,6 +395,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.faces_broken = c.broken;  // this run's; a restart's earlier ones are added below
     summary.faces_separated = c.faces;
     summary.cut_vertices = c.vertices;
+    summary.tets_removed = c.removed;
     summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
     summary.cut_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);

@@ -25,6 +25,7 @@ struct CutSpec {
   std::array<double, 2> size{1, 1};       // its side lengths along axis and normal x axis
   Motion motion;                          // a translation in the plane (the reader refuses others)
   CutFrame frame = CutFrame::world;       // positions the blade meets
+  bool remove = false;                    // removes the tets it crosses an edge of, instead of separating faces
   int line = 0;                           // deck line, for messages
 };
 
@@ -44,6 +45,9 @@ inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
                    "which positions the blade meets: `world`, the body's now (where it is); `rest`, its rest shape "
                    "(a cut scripted in the material: the same faces whatever the body does, at any rank count)",
                    "world"),
+      DeckKey<C>{"remove", &C::remove,
+                 "`true`: the blade removes the tets that have an edge its swept patch crossed in a step (a kerf), "
+                 "instead of separating faces ([removal.md](removal.md)); not with self-contact"},
       custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane",
                     "how the blade moves: `translate.velocity` (in its plane) between `start` and `end`, or along a "
                     "`curve`; no `rotate`",

@@ -74,8 +74,8 @@ struct CheckpointHeader {
   double time = 0;       // frame * dt
   double body_time = 0;  // the time of the fixed vertices' prescribed motion (after sub-steps: the last one's)
   std::vector<char> released, released_attachments;
-  // Scripted cuts: every face separated so far, (frame, tet, tet) in order (LiveScene::cut_history;
-  // header key cuts, absent without any), replayed by a restart.
+  // Scripted cuts: every face separated so far, (frame, tet, tet) in order, a removed tet t as
+  // (frame, t, t) (LiveScene::cut_history; header key cuts, absent without any), replayed by a restart.
   std::vector<std::array<int64_t, 3>> cuts;
   // Of them, the batches (steps) in the scene whose constant matrix was last factored (header key
   // cuts_factored; later batches were followed by TopologyH0's corrections, which a restart

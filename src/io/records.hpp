@@ -107,6 +107,7 @@ struct RunSummary {
   // in the topology log event (finding, separating, rebuilding; a restart's replay included).
   bool cuts = false;
   long long faces_separated = 0, cut_vertices = 0, cut_h0_corrections = 0, cut_refactorizations = 0;
+  long long tets_removed = 0;  // by blades with remove (docs/removal.md; a restart's replay included)
   // Fracture (material.fracture; summary.json's "fracture" only with it): the same counts (faces
   // broken, vertices added, H0 corrections and refactorizations), and the frame at whose start faces first broke (-1: none).
   bool fracture = false;

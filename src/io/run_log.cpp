@@ -19,12 +19,18 @@ const char kIterationHeader[] = "frame,iteration,time_s,energy,grad_norm,step,ev
 
 // A restart's CSV: the header and the rows of frames <= frame of the file at path (rows start
 // with their frame; a missing file keeps none).
-std::string rows_up_to(const std::string& path, int frame, const std::string& header) {
+std::string rows_up_to(const std::string& path, int frame, const std::string& header, bool pad = false) {
   std::ifstream in(path);
   std::string kept = header, line;
+  const auto cells = [](const std::string& s) { return std::count(s.begin(), s.end(), ',') + 1; };
+  const auto wanted = cells(header.substr(0, header.find('\n')));
   if (in && std::getline(in, line))  // the header
     while (std::getline(in, line))
-      if (!line.empty() && std::atoi(line.c_str()) <= frame) kept += line + "\n";
+      if (!line.empty() && std::atoi(line.c_str()) <= frame) {
+        if (pad)
+          for (auto k = cells(line); k < wanted; ++k) line += ",0";
+        kept += line + "\n";
+      }
   return kept;
 }
 
@@ -56,8 +62,8 @@ void FrameLog::open(const std::string& path, const std::string& columns, int ran
   file_.flush();
 }
 
-void FrameLog::resume(const std::string& path, const std::string& columns, int rank, int frame) {
-  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, "frame,time," + columns + "\n"));
+void FrameLog::resume(const std::string& path, const std::string& columns, int rank, int frame, bool pad) {
+  if (rank == 0) file_.reopen(path, rows_up_to(path, frame, "frame,time," + columns + "\n", pad));
 }
 
 void FrameLog::append(int frame, double time, const std::vector<std::string>& rows) {
@@ -218,6 +224,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << (std::isnan(s.dissipated_energy) ? "" : "  \"dissipated_energy\": " + number(s.dissipated_energy) + ",\n")
       << (!s.cuts ? "" : "  \"cuts\": {\"faces_separated\": " + std::to_string(s.faces_separated - s.faces_broken) +
                              ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
+                             ", \"tets_removed\": " + std::to_string(s.tets_removed) +
                              ", \"h0_corrections\": " + std::to_string(s.cut_h0_corrections) +
                              ", \"refactorizations\": " + std::to_string(s.cut_refactorizations) +
                              ", \"topology_s\": " + number(s.topology_s) + "},\n")

@@ -31,7 +31,9 @@ class FrameLog {
   void open(const std::string& path, const std::string& columns, int rank);
   // rows: the values after frame,time, one row each.
   void append(int frame, double time, const std::vector<std::string>& rows);
-  void resume(const std::string& path, const std::string& columns, int rank, int frame);  // as IterationLog::resume
+  // As IterationLog::resume; pad: a kept row with fewer cells than the header (a file written before a
+  // column was added at the end) gets 0 in each missing one.
+  void resume(const std::string& path, const std::string& columns, int rank, int frame, bool pad = false);
   void flush() { file_.flush(); }
 
  private:

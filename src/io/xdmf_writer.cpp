@@ -8,6 +8,7 @@
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "io/atomic_file.hpp"
 #include "io/frame_fields.hpp"
@@ -149,10 +150,31 @@ herr_t collect_name(hid_t, const char* name, const H5L_info_t*, void* names) {
 
 std::vector<PetscInt> as_rows(const std::vector<int64_t>& ids) { return std::vector<PetscInt>(ids.begin(), ids.end()); }
 
+// The ids in use (of local items, ghosts too), numbered in order: each local item's number, and
+// how many ids are in use. Every local item marks its id's row; each block counts its marked
+// rows; a prefix sum over the ranks makes the numbers. Collective.
+std::pair<std::vector<int64_t>, PetscInt> number_in_use(MPI_Comm comm, const std::vector<int64_t>& ids) {
+  long long slots = 0;
+  for (int64_t id : ids) slots = std::max<long long>(slots, id + 1);
+  MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+  const GlobalRows by_id(comm, (PetscInt)slots, as_rows(ids));
+  std::vector<int64_t> number = by_id.gather(std::vector<int64_t>(ids.size(), 1), 1);
+  long long used = 0, before = 0;
+  for (int64_t marked : number) used += marked;
+  MPI_Exscan(&used, &before, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  if (rank == 0) before = 0;  // MPI_Exscan leaves rank 0's undefined
+  for (int64_t& n : number) n = n ? before++ : -1;
+  MPI_Allreduce(MPI_IN_PLACE, &used, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  return {by_id.scatter(number), (PetscInt)used};
+}
+
 }  // namespace
 
 // Where this rank's vertices and elements go: points numbered by vertex_id (the ids in use, in
-// order), elements by kind and their index in the input mesh.
+// order), elements by kind and their index in the input mesh (the indices in use, in order, after
+// a removal).
 struct XdmfSeries::Layout {
   PetscInt points = 0;
   std::vector<int64_t> point_of;          // per local vertex (ghosts too): its point
@@ -163,23 +185,8 @@ struct XdmfSeries::Layout {
   std::vector<int64_t> vertex_id;
 
   Layout(MPI_Comm comm, const DistributedMesh& m) {
-    // Points: the ids in use, numbered in order. Every local vertex marks its id's row; each
-    // block counts its marked rows; a prefix sum over the ranks makes the numbers.
-    long long slots = 0;
-    for (int64_t id : m.vertex_ids) slots = std::max<long long>(slots, id + 1);
-    MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
-    const GlobalRows by_id(comm, (PetscInt)slots, as_rows(m.vertex_ids));
-    std::vector<int64_t> number = by_id.gather(std::vector<int64_t>(m.vertex_ids.size(), 1), 1);
-    long long used = 0, before = 0;
-    for (int64_t marked : number) used += marked;
-    MPI_Exscan(&used, &before, 1, MPI_LONG_LONG, MPI_SUM, comm);
-    int rank;
-    MPI_Comm_rank(comm, &rank);
-    if (rank == 0) before = 0;  // MPI_Exscan leaves rank 0's undefined
-    for (int64_t& n : number) n = n ? before++ : -1;
-    point_of = by_id.scatter(number);
-    MPI_Allreduce(&used, &slots, 1, MPI_LONG_LONG, MPI_SUM, comm);
-    points = (PetscInt)slots;
+    // Points: the ids in use, numbered in order.
+    std::tie(point_of, points) = number_in_use(comm, m.vertex_ids);
     std::vector<PetscInt> owned_rows(m.num_vertices, -1);
     for (PetscInt v = 0; v < m.num_vertices; ++v)
       if (m.owned[v]) owned_rows[v] = (PetscInt)point_of[v];
@@ -190,7 +197,13 @@ struct XdmfSeries::Layout {
     const std::vector<int64_t>* ids[kKinds] = {&m.cell_ids, &m.segment_ids, &m.triangle_ids};
     const PetscInt totals[kKinds] = {m.global_cells, m.global_segments, m.global_triangles};
     for (int k = 0; k < kKinds; ++k) {
-      kinds[k] = std::make_unique<GlobalRows>(comm, totals[k], as_rows(*ids[k]));
+      // After a removal (mesh/tet_removal.hpp) the ids in use have gaps: numbered in order too.
+      long long slots = 0;
+      for (int64_t id : *ids[k]) slots = std::max<long long>(slots, id + 1);
+      MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+      const std::vector<PetscInt> rows =
+          slots > totals[k] ? as_rows(number_in_use(comm, *ids[k]).first) : as_rows(*ids[k]);
+      kinds[k] = std::make_unique<GlobalRows>(comm, totals[k], rows);
       count[k] = totals[k];
       if (k > 0) base[k] = base[k - 1] + count[k - 1];
     }
@@ -234,17 +247,21 @@ void XdmfSeries::begin_run(const DistributedMesh& mesh) {
 }
 
 void XdmfSeries::set_mesh(const DistributedMesh& mesh) {
-  auto layout = std::make_unique<Layout>(comm_, mesh);
-  if (layout_)
-    for (int k = 0; k < kKinds; ++k)
-      if (layout->count[k] != layout_->count[k])
-        throw std::runtime_error("the mesh's elements changed: " + dir_ + "/" + name_ +
-                                 ".xdmf holds one set of elements per run (output.format xdmf)");
-  // A topology change (mesh/separation.hpp, snaps, tears) moves elements to copies of vertices,
-  // new points, and nothing else: the same number of points is the same mesh (a release).
-  block_current_ = block_current_ && layout->points == block_points_.back();
-  layout_ = std::move(layout);
+  layout_ = std::make_unique<Layout>(comm_, mesh);
   mesh_ = &mesh;
+  // A topology change (mesh/separation.hpp, snaps, tears) moves elements to copies of vertices,
+  // new points; a removal (mesh/tet_removal.hpp) drops elements, and the points no element uses.
+  // The same number of points and of elements is the same mesh (a release).
+  block_current_ = block_current_ && current_block() == blocks_.back();
+}
+
+XdmfSeries::MeshBlock XdmfSeries::current_block() const {
+  return {layout_->points, {layout_->count[0], layout_->count[1], layout_->count[2]}};
+}
+
+bool XdmfSeries::own_cells(const MeshBlock& b) const {
+  const MeshBlock& first = blocks_.front();
+  return b.cells[0] != first.cells[0] || b.cells[1] != first.cells[1] || b.cells[2] != first.cells[2];
 }
 
 // The topology of the frames of mesh block `block`: each kind's elements with their points, in
@@ -290,17 +307,15 @@ void XdmfSeries::write_mesh(size_t block) const {
   ids.data = L.vertex_id.data();
   file.dataset(group + "/rest", false, (hsize_t)L.points, 3, {rest});
   file.dataset(group + "/vertex_id", true, (hsize_t)L.points, 0, {ids});
-  if (block > 0) {  // each element's body and /frames are the first block's
-    file.close();
-    return;
-  }
-  if (mesh_->num_bodies > 0) {  // each element's body: its index in the deck's bodies list
+  // Each element's body (its index in the deck's bodies list) is the first block's, but for a
+  // block of other elements (after a removal); /frames is the first block's.
+  if (mesh_->num_bodies > 0 && (block == 0 || own_cells(current_block()))) {
     const std::vector<int32_t> tags = element_bodies(*mesh_);
     std::vector<int64_t> body_blocks[kKinds];
-    file.dataset("/mesh/body", true, (hsize_t)L.elements(), 0,
+    file.dataset(group + "/body", true, (hsize_t)L.elements(), 0,
                  L.element_blocks(*mesh_, std::vector<int64_t>(tags.begin(), tags.end()), body_blocks));
   }
-  file.group("/frames");
+  if (block == 0) file.group("/frames");
   file.close();
 }
 
@@ -309,8 +324,8 @@ void XdmfSeries::write_frame(const FrameData& f) {
   std::string error;
   try {
     if (!block_current_) {  // the first frame, or the first after a topology change
-      write_mesh(block_points_.size());
-      block_points_.push_back(L.points);
+      write_mesh(blocks_.size());
+      blocks_.push_back(current_block());
       block_current_ = true;
     }
     // Point fields, in this rank's block of points.
@@ -371,7 +386,7 @@ void XdmfSeries::write_frame(const FrameData& f) {
   for (const auto& field : f.point_fields) fields.push_back(field.first);
   std::vector<ListedField> element_fields;
   for (const FrameElementField& field : f.element_fields) element_fields.push_back({field.name, field.components, field.single});
-  written_.push_back({f.time, f.frame, fields, element_fields, block_points_.size() - 1});
+  written_.push_back({f.time, f.frame, fields, element_fields, blocks_.size() - 1});
   int rank;
   MPI_Comm_rank(comm_, &rank);
   try {
@@ -385,22 +400,20 @@ void XdmfSeries::write_frame(const FrameData& f) {
 
 // XDMF 3: one uniform grid per frame in a temporal collection; all data in NAME.h5.
 void XdmfSeries::write_index() const {
-  const Layout& L = *layout_;
   const std::string h5 = name_ + ".h5:";
   const auto item = [&](const std::string& dims, bool integer, const std::string& path, bool single = false) {
     return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"" + (integer ? "Int" : "Float") + "\" Precision=\"" +
            (single ? "4" : "8") + "\" Format=\"HDF\">" + h5 + path + "</DataItem>";
   };
-  const std::string E = std::to_string(L.elements());
-  const auto topology = [&](const std::string& mesh) {  // mesh block `mesh`'s
-    if (L.kinds_present() > 1) {
+  const auto topology = [&](const std::string& mesh, const PetscInt* count, const std::string& E) {  // a block's
+    if ((count[0] > 0) + (count[1] > 0) + (count[2] > 0) > 1) {
       PetscInt length = 0;
-      for (int k = 0; k < kKinds; ++k) length += L.count[k] * (kVertices[k] + kMixedPrefix[k]);
+      for (int k = 0; k < kKinds; ++k) length += count[k] * (kVertices[k] + kMixedPrefix[k]);
       return "<Topology TopologyType=\"Mixed\" NumberOfElements=\"" + E + "\">" +
              item(std::to_string(length), true, mesh + "/topology") + "</Topology>";
     }
     int k = 0;
-    while (k < kKinds - 1 && L.count[k] == 0) ++k;
+    while (k < kKinds - 1 && count[k] == 0) ++k;
     return std::string("<Topology TopologyType=\"") + kTopology[k] + "\" NumberOfElements=\"" + E + "\"" +
            (k == 1 ? " NodesPerElement=\"2\"" : "") + ">" +
            item(E + " " + std::to_string(kVertices[k]), true, mesh + "/topology") + "</Topology>";
@@ -411,10 +424,12 @@ void XdmfSeries::write_index() const {
       << "<Grid Name=\"" << name_ << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const auto& [t, frame, fields, element_fields, block] : written_) {
     const std::string group = frame_group(frame), mesh = mesh_group(block);
-    const std::string V = std::to_string(block_points_.at(block));
+    const MeshBlock& B = blocks_.at(block);
+    const PetscInt* count = B.cells;
+    const std::string V = std::to_string(B.points), E = std::to_string(count[0] + count[1] + count[2]);
     out << "<Grid Name=\"frame_" << group.substr(group.rfind('/') + 1) << "\" GridType=\"Uniform\">\n<Time Value=\"" << t
         << "\"/>\n"
-        << topology(mesh) << "\n<Geometry GeometryType=\"XYZ\">" << item(V + " 3", false, group + "/positions") << "</Geometry>\n";
+        << topology(mesh, count, E) << "\n<Geometry GeometryType=\"XYZ\">" << item(V + " 3", false, group + "/positions") << "</Geometry>\n";
     const auto attribute = [&](const char* name, const char* type, const char* center, const std::string& data) {
       out << "<Attribute Name=\"" << name << "\" AttributeType=\"" << type << "\" Center=\"" << center << "\">" << data
           << "</Attribute>\n";
@@ -423,8 +438,8 @@ void XdmfSeries::write_index() const {
     attribute("vertex_id", "Scalar", "Node", item(V, true, mesh + "/vertex_id"));
     for (const std::string& name : fields) attribute(name.c_str(), "Vector", "Node", item(V + " 3", false, group + "/" + name));
     attribute("J", "Scalar", "Cell", item(E, false, group + "/J"));
-    if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, "/mesh/body"));
-    if (L.count[2] > 0 && L.count[2] == L.elements()) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
+    if (mesh_->num_bodies > 0) attribute("body", "Scalar", "Cell", item(E, true, (own_cells(B) ? mesh : "/mesh") + "/body"));
+    if (count[2] > 0 && count[0] + count[1] == 0) attribute("stretch", "Scalar", "Cell", item(E, false, group + "/stretch"));
     for (const auto& [name, c, single] : element_fields)  // a symmetric tensor: Tensor6 (a run before it: Tensor, 9 values)
       attribute(name.c_str(), c == 1 ? "Scalar" : c == 3 ? "Vector" : c == 6 ? "Tensor6" : "Tensor", "Cell",
                 item(c == 1 ? E : E + " " + std::to_string(c), false, group + "/" + name, single));
@@ -447,9 +462,15 @@ std::string XdmfSeries::restart_state() const {
     s += "\n";
   }
   // The blocks, once the topology changed (a state without them: one block, the mesh's).
-  if (block_points_.size() > 1 || !block_current_)
-    for (size_t k = 0; k < block_points_.size(); ++k)
-      s += kBlockLine + std::to_string(k) + " " + std::to_string(block_points_[k]) + "\n";
+  // A block's counts of elements follow its points when they are not the mesh's (after a removal).
+  if (blocks_.size() > 1 || !block_current_)
+    for (size_t k = 0; k < blocks_.size(); ++k) {
+      const MeshBlock& b = blocks_[k];
+      s += kBlockLine + std::to_string(k) + " " + std::to_string(b.points);
+      if (b.cells[0] != layout_->count[0] || b.cells[1] != layout_->count[1] || b.cells[2] != layout_->count[2])
+        for (PetscInt c : b.cells) s += " " + std::to_string(c);
+      s += "\n";
+    }
   return s;
 }
 
@@ -464,14 +485,20 @@ void XdmfSeries::resume(const std::string& state, int frame) {
   std::istringstream lines(state);
   std::string line;
   std::getline(lines, line);  // xdmf NAME
-  std::vector<PetscInt> blocks;
+  std::vector<MeshBlock> blocks;
+  const MeshBlock mesh = current_block();
   for (double t; std::getline(lines, line);) {
     std::istringstream words(line);
-    if (line.compare(0, std::strlen(kBlockLine), kBlockLine) == 0) {  // mesh K POINTS
+    if (line.compare(0, std::strlen(kBlockLine), kBlockLine) == 0) {  // mesh K POINTS [TETS SEGMENTS TRIANGLES]
       std::string word;
       size_t k;
-      long long points;
-      if (words >> word >> k >> points && k == blocks.size()) blocks.push_back((PetscInt)points);
+      long long points, cells[3];
+      if (!(words >> word >> k >> points) || k != blocks.size()) continue;
+      MeshBlock b = mesh;  // without counts, the mesh's elements
+      b.points = (PetscInt)points;
+      if (words >> cells[0] >> cells[1] >> cells[2])
+        for (int i = 0; i < 3; ++i) b.cells[i] = (PetscInt)cells[i];
+      blocks.push_back(b);
       continue;
     }
     int k;
@@ -495,11 +522,11 @@ void XdmfSeries::resume(const std::string& state, int frame) {
   // The kept frames' blocks; without blocks listed, the one block is the mesh's (no change since).
   size_t kept = 1;
   for (const Listed& l : written_) kept = std::max(kept, l.block + 1);
-  if (blocks.empty()) blocks.push_back(layout_->points);
+  if (blocks.empty()) blocks.push_back(mesh);
   if (blocks.size() < kept) throw std::runtime_error("cannot continue " + h5_path() + ": the checkpoint lists fewer mesh blocks than its frames use");
   blocks.resize(std::min(blocks.size(), kept));
-  block_points_ = blocks;
-  block_current_ = layout_->points == block_points_.back();
+  blocks_ = blocks;
+  block_current_ = mesh == blocks_.back();
   int rank;
   MPI_Comm_rank(comm_, &rank);
   std::string error;
@@ -518,7 +545,7 @@ void XdmfSeries::resume(const std::string& state, int frame) {
         if (H5Ldelete(frames.id, g.c_str(), H5P_DEFAULT) < 0)
           throw std::runtime_error("cannot continue " + h5_path() + ": removing frame " + g + ": " + hdf5_error_reason());
       // and the later mesh blocks (/mesh/K, K >= the kept blocks)
-      for (size_t k = block_points_.size();; ++k) {
+      for (size_t k = blocks_.size();; ++k) {
         const std::string group = mesh_group(k);
         if (H5Lexists(file.id, group.c_str(), H5P_DEFAULT) <= 0) break;
         if (H5Ldelete(file.id, group.c_str(), H5P_DEFAULT) < 0)

@@ -18,7 +18,9 @@
 //   /mesh/K/topology, rest, vertex_id (K = 1, 2, ...): the mesh after a topology change (cuts,
 //                         fracture, snaps, tears: docs/outputs.md#xdmf-output-for-many-ranks), written
 //                         at the first frame that shows it; the same layout, with its own points
-//                         (copies have vertex ids after the input's). Elements keep their rows.
+//                         (copies have vertex ids after the input's). Elements keep their rows;
+//                         after a removal (cuts[].remove) the block has its own element rows, and
+//                         /mesh/K/body with bodies, and its frames' element fields its rows.
 // Each frame's grid has the frame's positions as its geometry and the topology and vertex_id of
 // the mesh block current at that frame. The VTK series' per-cell "rank" field is not written: it
 // would make the output depend on the rank count.
@@ -45,15 +47,15 @@ class XdmfSeries : public OutputWriter {
   // Throws std::runtime_error if this build's HDF5 cannot write in parallel.
   void begin_run(const DistributedMesh& mesh) override;
   void write_frame(const FrameData& f) override;
-  // After a release (the same mesh, fewer fixed vertices) or a topology change (the same elements,
-  // more points: the next frame writes a new mesh block). A mesh with another number of elements
-  // cannot go on in the same file (throws std::runtime_error).
+  // After a release (the same mesh, fewer fixed vertices) or a topology change (other points, or
+  // other elements after a removal: the next frame writes a new mesh block).
   void set_mesh(const DistributedMesh& mesh) override;
   // The frames listed ("xdmf NAME" then "time frame FIELD... NAME@COMPONENTS[/4]... [mesh=K]" lines:
   // point, then element fields, /4 for one written as floats, the mesh block if not 0) and, once
-  // the topology changed, the mesh blocks ("mesh K POINTS" lines; a state without them: one block,
-  // the mesh's); resume keeps the frames up to `frame` and their blocks, removes the later frames'
-  // data and blocks from NAME.h5 and rewrites NAME.xdmf.
+  // the topology changed, the mesh blocks ("mesh K POINTS [TETS SEGMENTS TRIANGLES]" lines, the
+  // counts of elements when not the mesh's; a state without them: one block, the mesh's); resume
+  // keeps the frames up to `frame` and their blocks, removes the later frames' data and blocks
+  // from NAME.h5 and rewrites NAME.xdmf.
   static constexpr const char* kRestartKey = "xdmf";
   std::string restart_key() const override { return kRestartKey; }
   std::string restart_state() const override;
@@ -71,8 +73,18 @@ class XdmfSeries : public OutputWriter {
   std::string dir_, name_;
   const DistributedMesh* mesh_ = nullptr;
   std::unique_ptr<Layout> layout_;
-  std::vector<PetscInt> block_points_;  // the mesh blocks in NAME.h5 (/mesh, /mesh/1, ...): their points
-  bool block_current_ = false;          // mesh_ is the last block's mesh (its points are in NAME.h5)
+  struct MeshBlock {  // a mesh block in NAME.h5 (/mesh, /mesh/1, ...)
+    PetscInt points;
+    PetscInt cells[3];  // its tets, segments and triangles
+    bool operator==(const MeshBlock& o) const {
+      return points == o.points && cells[0] == o.cells[0] && cells[1] == o.cells[1] && cells[2] == o.cells[2];
+    }
+  };
+  MeshBlock current_block() const;  // mesh_'s
+  // A block whose cells are not the first block's (tets removed) has its own /mesh/K/body.
+  bool own_cells(const MeshBlock& b) const;
+  std::vector<MeshBlock> blocks_;
+  bool block_current_ = false;  // mesh_ is the last block's mesh (its points and cells are in NAME.h5)
   struct ListedField {  // one of the deck's element fields of a frame
     std::string name;
     int components;

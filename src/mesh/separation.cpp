@@ -206,27 +206,17 @@ void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const 
     for (int32_t& v : *kind) v = new_index[v];
 }
 
-SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
-                                const std::set<TetPair>& separated, int64_t id_offset,
-                                const std::vector<VertexArray>& arrays, const CrackOpening& opening) {
+namespace {
+
+// The stars of the vertices `affected` (global numbers), from every rank, split into their
+// components through faces not separated: a copy for each component but the first (see the header),
+// and the vertices no local element uses leave the piece. Collective.
+SeparationResult split_stars(MPI_Comm comm, MeshPiece& piece, const std::set<int64_t>& affected,
+                             const std::set<TetPair>& separated, int64_t id_offset,
+                             const std::vector<VertexArray>& arrays, const CrackOpening& opening) {
   TetMesh& m = piece.mesh;
   const int64_t nt = m.num_tets();
   SeparationResult result;
-
-  // The batch's tets, and the vertices of its faces (the only stars that change).
-  std::set<int64_t> in_batch;
-  for (const TetPair& f : batch) in_batch.insert(f.begin(), f.end());
-  const std::vector<GlobalTet> faced = gather_tets(comm, piece, [&](int64_t n, const auto&) { return in_batch.count(n) > 0; });
-  std::unordered_map<int64_t, const GlobalTet*> by_number;
-  for (const GlobalTet& t : faced) by_number[t.number] = &t;
-  std::set<int64_t> affected;
-  for (const TetPair& f : batch) {
-    const auto a = by_number.find(f[0]), b = by_number.find(f[1]);
-    if (a == by_number.end() || b == by_number.end()) throw std::logic_error("separate_faces: a face's tet is on no rank");
-    for (int64_t x : a->second->v)
-      if (std::count(b->second->v.begin(), b->second->v.end(), x)) affected.insert(x);
-  }
-
   // Their stars, from every rank; each star's components through faces not separated.
   const std::vector<GlobalTet> star_tets = gather_tets(comm, piece, [&](int64_t, const std::array<int64_t, 4>& v) {
     for (int64_t x : v)
@@ -378,4 +368,56 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
   return result;
 }
 
+}  // namespace
+
+SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vector<TetPair>& batch,
+                                const std::set<TetPair>& separated, int64_t id_offset,
+                                const std::vector<VertexArray>& arrays, const CrackOpening& opening) {
+  // The batch's tets, and the vertices of its faces (the only stars that change).
+  std::set<int64_t> in_batch;
+  for (const TetPair& f : batch) in_batch.insert(f.begin(), f.end());
+  const std::vector<GlobalTet> faced = gather_tets(comm, piece, [&](int64_t n, const auto&) { return in_batch.count(n) > 0; });
+  std::unordered_map<int64_t, const GlobalTet*> by_number;
+  for (const GlobalTet& t : faced) by_number[t.number] = &t;
+  std::set<int64_t> affected;
+  for (const TetPair& f : batch) {
+    const auto a = by_number.find(f[0]), b = by_number.find(f[1]);
+    if (a == by_number.end() || b == by_number.end()) throw std::logic_error("separate_faces: a face's tet is on no rank");
+    for (int64_t x : a->second->v)
+      if (std::count(b->second->v.begin(), b->second->v.end(), x)) affected.insert(x);
+  }
+  return split_stars(comm, piece, affected, separated, id_offset, arrays, opening);
+}
+
+SeparationResult remove_tets(MPI_Comm comm, MeshPiece& piece, const std::vector<int64_t>& tets,
+                             const std::set<TetPair>& separated, int64_t id_offset,
+                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays) {
+  TetMesh& m = piece.mesh;
+  const std::set<int64_t> removed(tets.begin(), tets.end());
+  // The removed tets' vertices, from every rank: the only stars that change.
+  const std::vector<GlobalTet> gone = gather_tets(comm, piece, [&](int64_t n, const auto&) { return removed.count(n) > 0; });
+  if (gone.size() != removed.size()) throw std::logic_error("remove_tets: a tet to remove is on no rank (or removed before)");
+  std::set<int64_t> affected;
+  for (const GlobalTet& t : gone) affected.insert(t.v.begin(), t.v.end());
+  // The local tets leave the piece (their tags, numbers and per-tet arrays with them).
+  const int64_t nt = m.num_tets();
+  int64_t kept = 0;
+  for (int64_t e = 0; e < nt; ++e) {
+    if (removed.count(piece.element_numbers[e])) continue;
+    for (int j = 0; j < 4; ++j) m.tets[4 * kept + j] = m.tets[4 * e + j];
+    if (!m.tet_tags.empty()) m.tet_tags[kept] = m.tet_tags[e];
+    piece.element_numbers[kept] = piece.element_numbers[e];
+    for (std::vector<int32_t>* a : tet_arrays)
+      if (!a->empty()) (*a)[kept] = (*a)[e];
+    ++kept;
+  }
+  m.tets.resize(4 * size_t(kept));
+  if (!m.tet_tags.empty()) m.tet_tags.resize(kept);
+  piece.element_numbers.erase(piece.element_numbers.begin() + kept, piece.element_numbers.begin() + nt);
+  for (std::vector<int32_t>* a : tet_arrays)
+    if (!a->empty()) a->resize(kept);
+  return split_stars(comm, piece, affected, separated, id_offset, arrays, {});
+}
+
 }  // namespace hyperqn
+

@@ -70,6 +70,16 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
                                 const std::set<TetPair>& separated, int64_t id_offset,
                                 const std::vector<VertexArray>& arrays, const CrackOpening& opening = {});
 
+// Removes the tets `tets` (global numbers, sorted, the same on every rank; each anywhere) from
+// `piece` (docs/removal.md): the local ones leave it with their tags, numbers and `tet_arrays`
+// (per local tet, e.g. the cell materials); then each vertex of a removed tet whose star of the
+// tets left falls apart (through faces not in `separated`) is split as separate_faces splits it,
+// and the vertices no local element uses any more (a removed tet's orphans among them) leave the
+// piece. Collective.
+SeparationResult remove_tets(MPI_Comm comm, MeshPiece& piece, const std::vector<int64_t>& tets,
+                             const std::set<TetPair>& separated, int64_t id_offset,
+                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays);
+
 // Appends to `piece` a copy of its local vertex `original`, with global number `number` (id
 // number + id_offset), the original's rest position and `arrays` values; `source` gets `original`.
 // Returns the copy's local index.

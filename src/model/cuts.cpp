@@ -85,4 +85,28 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
   return crossed;
 }
 
+std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                  const std::vector<CutSpec>& cuts, double t0, double t1) {
+  const TetMesh& m = piece.mesh;
+  std::vector<BladeSweep> sweeps;
+  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
+  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  // Each tet lies on one rank, which decides it; an edge is tested from its lower-numbered vertex,
+  // so an edge that several tets share gets the same answer in each.
+  std::vector<int64_t> mine;
+  for (int64_t e = 0; e < m.num_tets(); ++e) {
+    bool crossed = false;
+    for (int i = 0; i < 4 && !crossed; ++i)
+      for (int j = i + 1; j < 4 && !crossed; ++j) {
+        int32_t a = m.tets[4 * e + i], b = m.tets[4 * e + j];
+        if (piece.vertex_numbers[b] < piece.vertex_numbers[a]) std::swap(a, b);
+        for (const BladeSweep& s : sweeps) crossed = crossed || s.crosses(at(a), at(b));
+      }
+    if (crossed) mine.push_back(piece.element_numbers[e]);
+  }
+  std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
 }  // namespace hyperqn

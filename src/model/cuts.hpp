@@ -20,4 +20,11 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
                                    const std::vector<CutSpec>& cuts, double t0, double t1,
                                    const std::set<TetPair>& separated);
 
+// The local tets of `piece` that have an edge one of the blades (those with remove) crossed while
+// it swept over [t0, t1] (BladeSweep::crosses, each edge from its lower-numbered vertex), at the
+// positions `pos` (3 per local vertex); their numbers from every rank, sorted: the same list on
+// every rank. Collective.
+std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                  const std::vector<CutSpec>& cuts, double t0, double t1);
+
 }  // namespace hyperqn

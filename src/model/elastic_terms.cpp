@@ -1,5 +1,7 @@
 #include "model/elastic_terms.hpp"
 
+#include <algorithm>
+
 #include "materials/material_factory.hpp"
 #include "materials/material_factory.hpp"
 #include "io/log_events.hpp"
@@ -131,6 +133,23 @@ std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMe
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
   return elastic_terms(mesh, materials, spec.strand_material, spec.cloth);
+}
+
+double largest_poisson_ratio(const SceneSpec& spec) {
+  std::vector<MaterialSpec> materials;  // as scene_elastic_terms takes them
+  if (!spec.bodies.empty()) {
+    materials = body_materials(spec.bodies).materials;
+  } else {
+    materials.push_back(spec.material);
+    for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
+  }
+  double largest = 0;
+  for (const MaterialSpec& m : materials) {
+    const MaterialModel* model = find_material_model(m.model);
+    if (!model || !model->create || find_inelastic_kind(m.inelastic.kind) || !(m.lambda + m.mu > 0)) continue;
+    largest = std::max(largest, m.lambda / (2 * (m.lambda + m.mu)));
+  }
+  return largest;
 }
 
 std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol) {

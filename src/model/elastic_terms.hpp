@@ -31,6 +31,12 @@ std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh,
 // material regions', or body_terms for a scene of bodies.
 std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMesh& mesh, const SceneSpec& spec);
 
+// The largest Poisson ratio lambda / (2 (lambda + mu)) of the scene's hyperelastic tet materials (the
+// default one, the regions' or the bodies'; not mass-spring or inelastic ones, whose tets the
+// volumetric H0 gives their L), from the Lame parameters the deck gives; 0 if none. solver.h0: auto
+// reads it (resolved_h0).
+double largest_poisson_ratio(const SceneSpec& spec);
+
 // The vertices attachment `a` holds on this rank: the free vertices it owns in its box (in_box with
 // tolerance tol, 1e-9 of rest_diagonal(mesh), so the springs do not depend on the rank count).
 std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol);

@@ -59,7 +59,7 @@ PetscErrorCode FallbackChain::level(int halvings, Level** out) {
       // By the package that factored the scene's own (-hyperqn_h0_package), in its precision.
       const FactoredSystem* scene_matrix = scene_.constant_matrix(spec_);
       l.factored = std::make_unique<FactoredSystem>();
-      PetscCall(l.factored->setup(*l.step, constant_matrix_of(solver_h0(spec_)),
+      PetscCall(l.factored->setup(*l.step, scene_matrix ? scene_matrix->kind() : constant_matrix_of(solver_h0(spec_)),
                                   scene_matrix ? scene_matrix->package() : default_factor_package(),
                                   scene_matrix ? scene_matrix->precision() : H0Precision::double_precision));
     }

@@ -30,7 +30,8 @@ struct MemoryPlan {
   bool newton = false;      // Newton factors its 3n x 3n Hessian by MUMPS, whole on every rank
   bool newton_is_fallback = false;  // ... as the fallback chain's stage 3 (solver.newton_fallback)
   bool amg_allowed = false;         // the solver could take solver.h0: amg instead of a factor (lbfgs)
-  bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh (resolved_plan)
+  bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh and material (resolved_plan)
+  double poisson_ratio = 0;  // ... the scene's largest tet Poisson ratio (SceneOptions::poisson_ratio)
   bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)

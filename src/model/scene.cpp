@@ -542,9 +542,10 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscCall(s.step->setup());
   PetscCall(s.body->set_masses(s.step->mass()));
   std::vector<H0> wanted;
+  s.poisson_ratio = options_.poisson_ratio;
   for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric})  // in this order, each once
     if (std::any_of(options_.h0s.begin(), options_.h0s.end(),
-                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells) == h0; }))
+                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells, s.poisson_ratio) == h0; }))
       wanted.push_back(h0);
   // With cuts or breaks, the supernodal factor of M + h^2 L on one rank is a TopologyH0's, and a changed scene
   // follows the one before by a correction: only with one constant matrix, so that every matrix
@@ -574,7 +575,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
 
 const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
   if (!solver_uses_constant_matrix(spec.type)) return nullptr;
-  const auto found = constant_matrices.find(resolved_h0(spec, mesh.global_cells));
+  const auto found = constant_matrices.find(resolved_h0(spec, mesh.global_cells, poisson_ratio));
   return found == constant_matrices.end() ? nullptr : found->second.get();
 }
 

@@ -67,6 +67,8 @@ struct Scene {
   std::unique_ptr<StepObjective> step;
   // The constant matrices the solvers use, by resolved_h0 (laplacian, rest_stiffness, amg, volumetric).
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
+  // The Poisson ratio solver.h0: auto goes by (SceneOptions::poisson_ratio).
+  double poisson_ratio = 0;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
   // With fracture: its local tets' faces, paired when first asked (model/fracture.hpp).
@@ -76,6 +78,9 @@ struct Scene {
 // How to build a scene beside its description.
 struct SceneOptions {
   std::vector<H0> h0s;                 // the solvers' constant matrices (solver_h0; automatic resolved at setup)
+  // The scene's largest tet Poisson ratio, by which solver.h0: auto resolves (resolved_h0); 0 keeps
+  // auto off the volumetric H0 (scene_options: with h0_contact: woodbury, which needs M + h^2 L).
+  double poisson_ratio = 0;
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   H0Precision h0_precision = H0Precision::double_precision;  // their factors' values (solver.h0_precision)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
@@ -129,7 +134,8 @@ class LiveScene {
   // again. The caller has begun the topology log event.
   PetscErrorCode separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
                               const Rebind& rebind);
-  // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers).
+  // Every face separated so far, in order: (the frame at whose start, the face's two tet numbers);
+  // a tet t removed (a blade with remove, docs/removal.md) is (the frame, t, t).
   using SeparatedFace = std::array<int64_t, 3>;
   const std::vector<SeparatedFace>& cut_history() const { return history_; }
   // The faces of each batch of cut_history, in order (a frame may have several: fracture's re-solves).
@@ -159,6 +165,7 @@ class LiveScene {
   // such batch (-1: none), for a deck with both.
   struct CutCounts {
     long long faces = 0, vertices = 0, batches = 0;
+    long long removed = 0;  // tets removed by blades with remove (docs/removal.md)
     long long corrections = 0, refactorizations = 0;
     long long broken = 0, first_broken = -1;
   };

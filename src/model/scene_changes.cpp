@@ -154,13 +154,30 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
 }
 
 SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch, const CrackOpening& opening) {
+  std::vector<TetPair> faces;  // a pair (t, t) is tet t removed (docs/removal.md)
+  std::vector<int64_t> tets;
   for (const TetPair& f : batch) {
-    separated_.insert(f);
     history_.push_back({frame, f[0], f[1]});
+    if (f[0] == f[1]) {
+      tets.push_back(f[0]);
+    } else {
+      separated_.insert(f);
+      faces.push_back(f);
+    }
   }
   std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
-  SeparationResult r = separate_faces(comm_, kept_.piece, batch, separated_, id_offset_, arrays, opening);
-  counts_.faces += (long long)batch.size();
+  SeparationResult r;
+  if (tets.empty() || !faces.empty()) r = separate_faces(comm_, kept_.piece, faces, separated_, id_offset_, arrays, opening);
+  if (!tets.empty()) {  // after the faces (no opening: removals are refused with self-contact)
+    SeparationResult q = remove_tets(comm_, kept_.piece, tets, separated_, id_offset_, arrays, {&kept_.cell_material});
+    if (!faces.empty()) {
+      for (int32_t& v : q.source) v = r.source[v];
+      q.new_vertices += r.new_vertices;
+    }
+    r = std::move(q);
+    counts_.removed += (long long)tets.size();
+  }
+  counts_.faces += (long long)faces.size();
   counts_.vertices += r.new_vertices;
   counts_.batches += 1;
   batch_sizes_.push_back((int64_t)batch.size());
@@ -198,14 +215,17 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   PetscCall(scene_->body->local_positions(main.x, pos));
   PetscCheck(pos.size() == kept_.piece.mesh.coords.size(), PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "the scene's local vertices are not its kept piece's");
-  std::vector<CutSpec> by_frame[2];  // the blades that meet the body now, and its rest shape
-  for (const CutSpec& c : spec_->cuts) by_frame[int(c.frame)].push_back(c);
+  std::vector<CutSpec> by_frame[2], removing[2];  // the blades that meet the body now, and its rest shape
+  for (const CutSpec& c : spec_->cuts) (c.remove ? removing : by_frame)[int(c.frame)].push_back(c);
   std::vector<TetPair> batch;
   for (int f = 0; f < 2; ++f) {
-    if (by_frame[f].empty()) continue;
-    const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords,
-                                                       by_frame[f], t - h, t, separated_);
-    batch.insert(batch.end(), crossed.begin(), crossed.end());
+    const std::vector<double>& at = f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords;
+    if (!by_frame[f].empty()) {
+      const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, at, by_frame[f], t - h, t, separated_);
+      batch.insert(batch.end(), crossed.begin(), crossed.end());
+    }
+    if (!removing[f].empty())  // removed tets as pairs (t, t) (docs/removal.md)
+      for (int64_t tet : tets_crossed(comm_, kept_.piece, at, removing[f], t - h, t)) batch.push_back({tet, tet});
   }
   std::sort(batch.begin(), batch.end());
   batch.erase(std::unique(batch.begin(), batch.end()), batch.end());

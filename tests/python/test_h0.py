@@ -5,7 +5,10 @@ scene is rebuilt and the rest stiffness factored again; pd ignores h0. solver.h0
 same way: Newton's answer at 1 and 2 ranks, the same at both, in fewer iterations than laplacian,
 and a run killed and restarted equals the uninterrupted one bit for bit. solver.h0: amg on
 tests/decks/amg_bar.yaml: the converged answer of the exact solve at 1 and 2 ranks, 2-rank runs
-that repeat, and a study that reaches e <= 1e-3."""
+that repeat, and a study that reaches e <= 1e-3. solver.h0: auto takes volumetric from nu = 0.499
+on (the largest of the scene's materials; not with h0_contact: woodbury), laplacian below, bit for
+bit as if given; the same at 1 and 2 ranks, through the fallback chain's sub-steps, and restarts
+bitwise after a kill."""
 import copy
 import csv
 import re
@@ -15,6 +18,7 @@ import pytest
 from conftest import NO_FALLBACK, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import read_iterations, read_summary
+from test_checkpoint import assert_same_run
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 
 DECK = "tests/decks/h0_box.yaml"
@@ -89,6 +93,69 @@ def test_volumetric_restart_after_a_kill_is_bitwise(tmp_path, ranks):
     deck = load_deck(DECK)
     deck["solver"]["h0"] = "volumetric"
     assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks)
+
+
+def auto_deck(poisson_ratio=0.499, **solver):
+    """h0_box with solver.h0 left to auto."""
+    deck = load_deck(DECK)
+    deck["material"]["poisson_ratio"] = poisson_ratio
+    deck["solver"] = {k: v for k, v in deck["solver"].items() if k != "h0"}
+    deck["solver"].update(solver)
+    return deck
+
+
+def given(deck, h0):
+    return {**deck, "solver": {**deck["solver"], "h0": h0}}
+
+
+@pytest.mark.parametrize("poisson_ratio, region, solver, chosen", [
+    (0.499, None, {}, "volumetric"),           # at the crossover (kVolumetricFromPoisson)
+    (0.4999, None, {}, "volumetric"),
+    (0.4988, None, {}, "laplacian"),           # just below it
+    (0.45, None, {}, "laplacian"),
+    (0.3, 0.4999, {}, "volumetric"),           # the largest of the scene's materials
+    (0.4999, None, {"h0_contact": "woodbury"}, "laplacian"),  # woodbury needs M + h^2 L
+])
+def test_auto_h0_is_chosen_by_the_material(tmp_path, poisson_ratio, region, solver, chosen):
+    # Positions, velocities, iterations and the summary's counts equal those of the run with the
+    # chosen H0 given in the deck, bit for bit.
+    deck = auto_deck(poisson_ratio, **solver)
+    if region is not None:
+        material = {**deck["material"], "poisson_ratio": region}
+        deck["regions"] = [{"box": {"min": [1.0, -1, -1], "max": [3, 1, 1]}, "material": material}]
+    auto, s = run(tmp_path, "auto", deck)
+    explicit, e = run(tmp_path, chosen, given(deck, chosen))
+    assert_same_run(auto, explicit)
+    assert s["h0_factor_nonzeros"] == e["h0_factor_nonzeros"]
+    other = "laplacian" if chosen == "volumetric" else "volumetric"
+    _, o = run(tmp_path, other, given(deck, other))
+    assert s["h0_factor_nonzeros"] != o["h0_factor_nonzeros"]  # the factor tells which was taken
+
+
+def test_auto_volumetric_at_1_and_2_ranks_and_through_substeps(tmp_path):
+    # 1 vs 2 ranks at nu = 0.499: both converge to grad_rtol 1e-10 (tolerance 1e-8 of the largest
+    # displacement, as for volumetric given; at nu = 0.4999 the 2-rank run's last frame stops at
+    # g's round-off, 5.8e-7 of the force scale). Then h = 0.2 s and a budget of 1 iteration without
+    # extensions: the chain tries 2 sub-steps, whose constant matrix (the second factorization) is
+    # the scene's kind (volumetric), bit for bit as given.
+    deck = auto_deck(0.499)
+    one, s1 = run(tmp_path, "np1", deck, ranks=1)
+    two, s2 = run(tmp_path, "np2", deck, ranks=2)
+    assert s1["converged_frames"] == s2["converged_frames"] == 3
+    ranks, _, _ = relative_difference(one, two)
+    print(f"auto (volumetric) 1 vs 2 ranks: {ranks:.2e} of the largest displacement")
+    assert ranks <= 1e-8
+    sub = auto_deck(0.4999, iterations=1, max_iterations=0, max_halvings=1, newton_fallback=False, grad_rtol=1e-6)
+    sub["time"] = {**sub["time"], "dt": 0.2}
+    auto, s = run(tmp_path, "sub_auto", sub)
+    explicit, _ = run(tmp_path, "sub_volumetric", given(sub, "volumetric"))
+    assert s["factorizations"] == 2
+    assert_same_run(auto, explicit)
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_auto_volumetric_restart_after_a_kill_is_bitwise(tmp_path, ranks):
+    assert_restart_after_kill_is_bitwise(tmp_path, auto_deck(0.4999), ranks)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])

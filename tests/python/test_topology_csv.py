@@ -18,7 +18,7 @@ from test_cloth_tear import CLOTH
 from test_tearing import ROPE
 
 COLUMNS = ["frame", "time", "faces_separated", "faces_total", "vertices_added", "segments_snapped", "edges_torn",
-           "h0_corrections", "refactorizations"]
+           "h0_corrections", "refactorizations", "tets_removed"]
 
 
 def rows(out):
@@ -52,7 +52,8 @@ def test_fracture_rows_sum_to_the_summary(tmp_path):
     f, total = s["fracture"], sums(table)
     assert f["faces_broken"] > 0
     assert total == {"faces_separated": f["faces_broken"], "vertices_added": f["vertices_added"], "segments_snapped": 0,
-                     "edges_torn": 0, "h0_corrections": f["h0_corrections"], "refactorizations": f["refactorizations"]}
+                     "edges_torn": 0, "h0_corrections": f["h0_corrections"], "refactorizations": f["refactorizations"],
+                     "tets_removed": 0}
     # faces open at the start of the frame after the one whose state broke them
     first = next(r["frame"] for r in table if r["faces_separated"])
     assert first == f["first_break_frame"] + 1
@@ -66,7 +67,8 @@ def test_cut_rows_sum_to_the_summary(tmp_path):
     assert c["faces_separated"] > 0
     assert sums(table) == {"faces_separated": c["faces_separated"], "vertices_added": c["vertices_added"],
                            "segments_snapped": 0, "edges_torn": 0, "h0_corrections": c["h0_corrections"],
-                           "refactorizations": c["refactorizations"]}
+                           "refactorizations": c["refactorizations"], "tets_removed": 0}
+    assert c["tets_removed"] == 0
     # every frame that separates faces is one step whose H0 followed or was factored again
     assert all((r["h0_corrections"] + r["refactorizations"] == 1) == (r["faces_separated"] > 0) for r in table)
 
@@ -79,7 +81,7 @@ def test_snap_rows_sum_to_the_summary(tmp_path):
     assert b["segments_snapped"] == 2
     assert sums(table) == {"faces_separated": 0, "vertices_added": b["vertices_added"],
                            "segments_snapped": b["segments_snapped"], "edges_torn": 0, "h0_corrections": b["h0_corrections"],
-                           "refactorizations": b["refactorizations"]}
+                           "refactorizations": b["refactorizations"], "tets_removed": 0}
 
 
 # Newton (no H0: every tear counts as a refactorization) and L-BFGS (on one rank every tear's H0
@@ -95,7 +97,7 @@ def test_tear_rows_sum_to_the_summary(tmp_path, solver):
     assert (b["h0_corrections"] == b["edges_torn"]) == (solver == "lbfgs")
     assert sums(table) == {"faces_separated": 0, "vertices_added": b["vertices_added"], "segments_snapped": 0,
                            "edges_torn": b["edges_torn"], "h0_corrections": b["h0_corrections"],
-                           "refactorizations": b["refactorizations"]}
+                           "refactorizations": b["refactorizations"], "tets_removed": 0}
     assert max(r["edges_torn"] for r in table) == 1  # one edge per step
     assert all(r["h0_corrections"] + r["refactorizations"] == r["edges_torn"] for r in table)
 

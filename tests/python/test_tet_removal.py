@@ -1,0 +1,215 @@
+"""Tet removal by a blade with remove: true (deck cuts[].remove, docs/removal.md), end to end: the
+sawn bar loses exactly the removed tets' mass and falls apart; no orphan vertex is left in the VTK
+frames; 1, 2 and 4 ranks remove the same tets (the kerf on the partition boundary) and end within
+1e-8 of the diagonal; a restart after a kill is bitwise at 1 and 2 ranks; H0 follows removals by
+TopologyH0's corrections on one rank (checked against fresh factorizations, and the check fails
+with an edit dropped); topology.csv's column tets_removed, and an older file without it padded at a
+restart; a size trigger that factors again between corrections, and slicing and sawing blades in
+one deck, restarted bitwise; bad decks are refused."""
+import copy
+import re
+
+import numpy as np
+import pytest
+
+from conftest import run_deck, run_hyperqn, write_deck
+from hyperqn_tools.energy import frame_lumped_masses as lumped_masses
+from hyperqn_tools.output import Frame, final_frame, frame_list, read_summary, rest_diagonal
+from test_bad_input import assert_deck_refused
+from test_checkpoint import assert_same_run
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
+from test_cuts import BAR, CHECK_LINE, bad, components
+from test_topology_csv import rows, sums
+
+DENSITY = BAR["material"]["density"]
+
+# test_cuts' bar (8 x 2 x 2 cells, clamped at x = 0, the kerf next to x = 1 where 2 and 4 ranks
+# cut it), its blade a saw.
+SAWN = copy.deepcopy(BAR)
+SAWN["cuts"][0]["remove"] = True
+
+
+def rest_tets(frame):
+    """Each tet of a frame as the sorted tuple of its vertices' rest positions (copies keep their
+    original's), and its rest volume."""
+    X = frame.points - frame.displacement
+    tets = frame.cells["tetra"]
+    keys = [tuple(sorted(tuple(np.round(X[v], 12)) for v in t)) for t in tets]
+    D = np.stack([X[tets[:, j]] - X[tets[:, 0]] for j in (1, 2, 3)], axis=2)
+    return keys, np.abs(np.linalg.det(D)) / 6
+
+
+def assert_no_orphans(frame):
+    used = np.zeros(len(frame.points), dtype=bool)
+    used[np.unique(frame.cells["tetra"])] = True
+    assert used.all(), f"{(~used).sum()} vertices no tet uses"
+
+
+def test_sawn_bar_loses_exactly_the_removed_tets_mass(tmp_path):
+    proc = run_hyperqn([write_deck(tmp_path / "sawn.yaml", SAWN), "-o", tmp_path / "sawn"], ranks=None)
+    out, s = tmp_path / "sawn", read_summary(tmp_path / "sawn")
+    c = s["cuts"]
+    assert c["tets_removed"] > 0 and c["faces_separated"] == 0
+    assert re.search(r"cut: 0 faces separated, \d+ tets removed, \d+ vertices added so far", proc.stdout)
+    first, last = Frame(frame_list(out)[0][2]), final_frame(out)
+    k0, v0 = rest_tets(first)
+    k1, _ = rest_tets(last)
+    kept = set(k1)
+    removed = [i for i, k in enumerate(k0) if k not in kept]
+    assert len(removed) == c["tets_removed"] == len(k0) - len(k1)
+    # Lumped mass from the remaining tets: the total drops by the removed tets' rho V exactly.
+    m0, m1 = lumped_masses(first, DENSITY).sum(), lumped_masses(last, DENSITY).sum()
+    gone = DENSITY * v0[removed].sum()
+    rel = abs((m0 - m1) - gone) / m0
+    print(f"mass {m0} -> {m1}, removed tets' rho V {gone}, relative difference {rel:.2e}")
+    assert rel <= 1e-14
+    # The kerf: every removed tet had an edge across the blade's plane x = 1.02 (at rest here,
+    # where the clamped bar barely sags).
+    X = first.points - first.displacement
+    xs = X[first.cells["tetra"][removed]][:, :, 0]
+    assert (xs.min(axis=1) < 1.02).all() and (xs.max(axis=1) > 1.02).all()
+    assert components(first) == 1 and components(last) == 2
+    # No orphans: every vertex of every written frame is a tet's, and the last counts as the summary
+    for _, _, path in frame_list(out):
+        assert_no_orphans(Frame(path))
+    assert len(last.points) == s["vertices"] < len(first.points) + c["vertices_added"]
+    table = rows(out)
+    assert sums(table)["tets_removed"] == c["tets_removed"] and sums(table)["faces_separated"] == 0
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_remove_the_same_tets(tmp_path, ranks):
+    one, s1 = run_deck(tmp_path, "one", SAWN)
+    many, sn = run_deck(tmp_path, f"np{ranks}", SAWN, ranks=ranks)
+    assert sn["ranks"] == ranks
+    same = ["tets_removed", "vertices_added", "faces_separated"]
+    assert {k: s1["cuts"][k] for k in same} == {k: sn["cuts"][k] for k in same}
+    a, b = final_frame(one), final_frame(many)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    # the same tets left (by their vertices' ids), so the same removed
+    tets = lambda f: sorted(tuple(sorted(f.vertex_id[t])) for t in f.cells["tetra"])
+    assert tets(a) == tets(b)
+    diff = np.abs(a.points - b.points).max() / rest_diagonal(a)
+    print(f"{ranks} ranks: positions within {diff:.1e} of the diagonal")
+    assert diff <= 1e-8
+    # more ranks factor again at every step with removals (the split factor), one rank corrects
+    steps = s1["cuts"]["h0_corrections"] + s1["cuts"]["refactorizations"]
+    assert sn["cuts"]["refactorizations"] == steps and sn["cuts"]["h0_corrections"] == 0 and steps >= 2
+    # the kerf lies on the boundary between ranks
+    x = (b.points - b.displacement)[b.cells["tetra"]].mean(axis=1)[:, 0]
+    assert set(b.ranks[x < 1]) != set(b.ranks[x > 1])
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_kill_after_removals_is_bitwise(tmp_path, ranks):
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, SAWN, ranks, frames=SAWN["time"]["frames"], every=3,
+                                                    kill_after=10)
+    from hyperqn_tools.output import read_checkpoint
+    saved = read_checkpoint(sorted((out / "checkpoints").iterdir())[-1])  # the restarted run's last
+    history = np.array(saved["cuts"].split(), dtype=np.int64).reshape(-1, 3)
+    assert len(history) > 0 and (history[:, 1] == history[:, 2]).all()  # (frame, t, t): removals
+    skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
+    sa, sb = read_summary(ref), read_summary(out)
+    assert skip(sa["cuts"]) == skip(sb["cuts"]) and sa["cuts"]["tets_removed"] > 0
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+    if ranks is None:
+        assert sa["cuts"]["h0_corrections"] >= 2 and sa["cuts"]["refactorizations"] == 0
+
+
+def test_size_trigger_factors_again_and_a_restart_replays_removals(tmp_path):
+    # A size trigger of 10 rows (the 4 steps touch 9, 12, 21, 21 rows since the factorization
+    # without it): some steps with removals factor again, the others correct; a run
+    # killed after them restarts (replaying the corrected batches on the factored scene) bitwise.
+    trigger = ["-hyperqn_test_topology_h0_max_touched", "10"]
+    deck = copy.deepcopy(SAWN)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "sawn.yaml", deck)
+    ref = tmp_path / "ref"
+    proc = run_hyperqn([path, "-o", ref, *trigger], ranks=None)
+    s = read_summary(ref)
+    # the last step (its orphans' rows decoupled) is corrected after the factored ones, and its
+    # batch is the one the restart from checkpoint 9 replays as a correction
+    assert re.findall(r"constant matrix (corrected|factored)", proc.stdout) == ["corrected", "factored", "factored",
+                                                                                 "corrected"]
+    out = tmp_path / "out"
+    killed(path, out, 10, None, trigger)
+    run_hyperqn([path, "-o", out, "--restart", "latest", *trigger], ranks=None)
+    assert_same_run(ref, out)
+    skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
+    assert skip(s["cuts"]) == skip(read_summary(out)["cuts"])
+
+
+# A slicing blade at x = 0.77 and a saw at x = 1.52, both coming down at once: each step's batch
+# holds separated faces and removed tets (faces first, then tets).
+MIXED = copy.deepcopy(BAR)
+MIXED["cuts"] = [dict(BAR["cuts"][0], center=[0.77, 1.0, 0.25]), dict(BAR["cuts"][0], center=[1.52, 1.0, 0.25], remove=True)]
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_slicing_and_sawing_in_one_deck(tmp_path, ranks):
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, MIXED, ranks, frames=MIXED["time"]["frames"], every=3,
+                                                    kill_after=10)
+    s = read_summary(ref)
+    c = s["cuts"]
+    assert c["faces_separated"] > 0 and c["tets_removed"] > 0
+    first, last = Frame(frame_list(ref)[0][2]), final_frame(ref)
+    assert components(last) == 3
+    k0, v0 = rest_tets(first)
+    kept = set(rest_tets(last)[0])
+    removed = [i for i, k in enumerate(k0) if k not in kept]
+    assert len(removed) == c["tets_removed"]
+    m0, m1 = lumped_masses(first, DENSITY).sum(), lumped_masses(last, DENSITY).sum()
+    assert abs((m0 - m1) - DENSITY * v0[removed].sum()) <= 1e-14 * m0
+    assert_no_orphans(last)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
+def checked(tmp_path, name, extra):
+    out = tmp_path / name
+    proc = run_hyperqn([write_deck(tmp_path / f"{name}.yaml", SAWN), "-o", out, "-hyperqn_test_topology_h0_check",
+                        *extra], ranks=None)
+    return [float(d) for _, d in CHECK_LINE.findall(proc.stdout)], read_summary(out)
+
+
+def test_corrected_h0_follows_removals(tmp_path):
+    # One rank: every step with removals corrects H0 (the rows of vertices that left decoupled),
+    # and the corrected H0 equals a fresh factorization of the changed M + h^2 L on random vectors.
+    found, s = checked(tmp_path, "check", [])
+    print(f"corrected vs fresh: {found}")
+    assert len(found) == s["cuts"]["h0_corrections"] >= 2 and s["factorizations"] == 1
+    assert max(found) <= 1e-13
+    dropped, _ = checked(tmp_path, "dropped", ["-hyperqn_test_topology_h0_drop_edit"])
+    print(f"with an edit dropped: {dropped}")
+    assert len(dropped) == len(found) and min(dropped) > 1e-6
+
+
+def test_an_older_topology_csv_is_padded_at_a_restart(tmp_path):
+    # A topology.csv written before the column tets_removed (its rows 9 cells): a restart pads its
+    # rows with 0 and goes on, and ends with the uninterrupted run's file.
+    deck = copy.deepcopy(BAR)
+    deck["checkpoint"] = {"every": 3}
+    path = write_deck(tmp_path / "bar.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=None)
+    out = tmp_path / "out"
+    killed(path, out, 10, None)
+    old = out / "topology.csv"
+    old.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in old.read_text().splitlines()))
+    assert "tets_removed" not in old.read_text()
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=None)
+    assert_same_run(ref, out)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
+BAD = {  # test_cuts' bad(): its bar for 2 frames, the cut's keys updated
+    "remove_not_boolean": (bad(remove="yes"), ["cuts[0].remove"]),
+    "remove_a_number": (bad(remove=1.5), ["cuts[0].remove"]),
+    "remove_with_self_contact": ({**bad(remove=True), "contact": {"self": True, "distance": 0.01}},
+                                 ["cuts[0].remove", "self-contact"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_removal_deck_is_refused(tmp_path, case):
+    deck, fragments = BAD[case]
+    assert_deck_refused(tmp_path, case, deck, fragments)
