@@ -240,27 +240,88 @@ SeparationResult split_stars(MPI_Comm comm, MeshPiece& piece, const std::set<int
         const GlobalTet &a = star_tets[tets[i]], &b = star_tets[tets[j]];
         if (shared_vertices(a, b) == 3 && !separated.count({a.number, b.number})) parent[root(j)] = root(i);
       }
-    // Components in the order of their smallest tet (tets are ascending): the first keeps the vertex.
-    std::map<int, std::vector<int64_t>> components;  // by the first member's index
-    std::vector<int> order;
-    for (int i = 0; i < n; ++i) {
-      const int r = root(i);
-      if (!components.count(r)) order.push_back(r);
-      components[r].push_back(star_tets[tets[i]].number);
+    // Components (star_tets indices, ascending) in the order of their smallest tet.
+    std::vector<std::vector<int>> sides;
+    {
+      std::map<int, size_t> of_root;
+      for (int i = 0; i < n; ++i) {
+        const auto [at, fresh] = of_root.emplace(root(i), sides.size());
+        if (fresh) sides.emplace_back();
+        sides[at->second].push_back(tets[i]);
+      }
     }
-    for (size_t c = 1; c < order.size(); ++c) copies.push_back({vertex, components[order[c]]});
-    if (!(opening.width > 0) || order.size() < 2) continue;
+    std::vector<SideShift> rest_shift;  // with an opening, per side
+    if (opening.width > 0 && sides.size() > 1) {
+      // A side whose boundary faces cannot all recede in the rest shape (margin <= 0: it wraps
+      // around the vertex, a saddle of a jagged crack) falls apart into groups that can, each
+      // with its own copy: a tet's faces at the vertex always recede from a direction into it, so
+      // every side opens (docs/records/2026-12-04-bunny-saddle.md). Decided from the rest shape
+      // alone (a restart replays it), from the stars in their tets' order (any rank count).
+      std::vector<std::vector<int>> split;
+      for (const std::vector<int>& side : sides) {
+        const SideShift s = side_shift(vertex, star_tets, &GlobalTet::rest, side, opening.width);
+        if (s.margin > 0 || side.size() == 1) {
+          split.push_back(side);
+          rest_shift.push_back(s);
+        } else {
+          // Into groups that can recede, grown greedily from the side's smallest tet left through
+          // its faces not separated, tets in ascending order (a single tet always can).
+          std::vector<int> left = side;
+          while (!left.empty()) {
+            std::vector<int> group = {left[0]};
+            left.erase(left.begin());
+            SideShift group_shift = side_shift(vertex, star_tets, &GlobalTet::rest, group, opening.width);
+            for (bool grown = true; grown;) {
+              grown = false;
+              for (size_t k = 0; k < left.size(); ++k) {
+                const GlobalTet& t = star_tets[left[k]];
+                bool joined = false;
+                for (int g : group)
+                  joined |= shared_vertices(t, star_tets[g]) == 3 && !separated.count({std::min(t.number, star_tets[g].number),
+                                                                                        std::max(t.number, star_tets[g].number)});
+                if (!joined) continue;
+                std::vector<int> bigger = group;
+                bigger.insert(std::lower_bound(bigger.begin(), bigger.end(), left[k]), left[k]);
+                const SideShift s2 = side_shift(vertex, star_tets, &GlobalTet::rest, bigger, opening.width);
+                if (!(s2.margin > 0)) continue;
+                group = std::move(bigger);
+                group_shift = s2;
+                left.erase(left.begin() + k);
+                grown = true;
+                break;
+              }
+            }
+            split.push_back(std::move(group));
+            rest_shift.push_back(group_shift);
+          }
+        }
+      }
+      std::vector<size_t> by_first(split.size());
+      std::iota(by_first.begin(), by_first.end(), 0);
+      std::sort(by_first.begin(), by_first.end(), [&](size_t a, size_t b) { return split[a][0] < split[b][0]; });
+      sides.clear();
+      std::vector<SideShift> shifts;
+      for (size_t k : by_first) {
+        sides.push_back(std::move(split[k]));
+        shifts.push_back(rest_shift[k]);
+      }
+      rest_shift = std::move(shifts);
+    }
+    // The first side keeps the vertex; each other gets a copy.
+    for (size_t c = 1; c < sides.size(); ++c) {
+      std::vector<int64_t> numbers;
+      for (int i : sides[c]) numbers.push_back(star_tets[i].number);
+      copies.push_back({vertex, std::move(numbers)});
+    }
+    if (!(opening.width > 0) || sides.size() < 2) continue;
     // Each side's move in the rest shape (the blade's kerf: replayed on a restart from the rest
-    // shape alone) and at the positions. A side whose boundary faces cannot all recede in the
-    // rest shape (margin <= 0: it wraps around the vertex) stays; where two or more stay (a saddle),
-    // they keep one rest position, and self-contact treats them as one vertex.
-    for (size_t c = 0; c < order.size(); ++c) {
-      std::vector<int> side;  // star_tets indices of the component, ascending
-      for (int i = 0; i < n; ++i)
-        if (root(i) == order[c]) side.push_back(tets[i]);
-      const SideShift rest = side_shift(vertex, star_tets, &GlobalTet::rest, side, opening.width);
+    // shape alone) and at the positions. A side that still cannot recede (a degenerate tet) stays;
+    // where two or more stay, they keep one rest position, and self-contact treats them as one
+    // vertex.
+    for (size_t c = 0; c < sides.size(); ++c) {
+      const SideShift& rest = rest_shift[c];
       std::array<Vec3, 2> moves = {rest.shift, Vec3{0, 0, 0}};
-      if (opening.positions) moves[1] = side_shift(vertex, star_tets, &GlobalTet::x, side, opening.width).shift;
+      if (opening.positions) moves[1] = side_shift(vertex, star_tets, &GlobalTet::x, sides[c], opening.width).shift;
       if (!(rest.margin > 0)) moves = {};
       if (c == 0) original_shift[vertex] = moves;
       else copy_shift.push_back(moves);

@@ -50,9 +50,12 @@ struct SeparationResult {
 // the vertex): in the rest shape (a kerf of the blade's width, recomputed from the rest shape
 // alone when a restart replays the cuts) and, with positions, at the positions
 // (SeparationResult::shift). A side whose boundary faces cannot all recede in the rest shape (it
-// wraps around the vertex) stays where it is; where two sides stay (a saddle of the crack), their
-// vertices keep one rest position, which self-contact treats as one vertex
-// (ContactSpec::joined_twins).
+// wraps around the vertex: a saddle of a jagged crack) falls apart into groups that can, grown
+// greedily through its faces from its smallest tet (a single tet always can), each with its own
+// copy and its own move (docs/records/2026-12-04-bunny-saddle.md); the faces between the groups
+// are not in `separated` (their tets no longer share the vertex). Only a degenerate side stays
+// where it is; where two stay, their vertices keep one rest position, which self-contact treats
+// as one vertex (ContactSpec::joined_twins).
 // Computed from the gathered stars in their tets' order: the same bits on every rank holding a
 // vertex, at any rank count.
 struct CrackOpening {

@@ -3,9 +3,16 @@ activation distance, so its two sides, which start coincident, never pass throug
 block on two rails cut in two in its middle: its halves tip towards each other at the top, held
 apart with the barrier (0 intersecting triangle pairs in every frame), through each other without
 self-contact; 1 and 2 ranks agree; a restart after a kill is bitwise; the opening's rest part is
-replayed from the rest shape alone."""
+replayed from the rest shape alone. A jagged crack (a blade at 30 degrees to the block's cells; the
+small shared bunny) opens at its saddle vertices too: a side that cannot recede falls apart into
+groups that can (docs/records/2026-12-04-bunny-saddle.md), so no two vertices keep one rest position
+and no pair crosses."""
 import copy
+import math
+import os
+
 import numpy as np
+import pytest
 
 from conftest import run_deck
 from hyperqn_tools.intersections import check_run
@@ -33,6 +40,44 @@ BLOCK = {
 }
 
 
+# The blade at 30 degrees to the block's cells: the crack is jagged, and at 3 vertices a side wraps
+# around the vertex (its boundary faces have no common receding direction): each falls apart into
+# groups that can recede, with a copy each (46 new vertices; 43 when such sides stayed in place).
+JAGGED = copy.deepcopy(BLOCK)
+JAGGED["cuts"][0]["normal"] = [math.cos(math.radians(30)), 0, math.sin(math.radians(30))]
+JAGGED["time"]["frames"] = 8
+
+SHARED_MESHES = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "meshes")
+
+# The record's small bunny (docs/records/2026-12-04-bunny-saddle.md): 5,891 tets on the ground, cut
+# in the plane x = 0 in three batches (frames 1-3). Main before the split had 12 intersecting pairs
+# in frame 4, at vertices where two sides stayed joined.
+BUNNY = {
+    "mesh": {"file": os.path.join(SHARED_MESHES, "bunny_small.mesh"), "transform": {"scale": 0.04, "translate": [0, 0.002, 0]}},
+    "material": {"model": "neohookean", "youngs_modulus": 2.0e5, "poisson_ratio": 0.4, "density": 1000},
+    "colliders": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "friction": 0.5}],
+    "contact": {"model": "barrier", "self": True, "distance": 8.0e-4},
+    "gravity": [0, -9.81, 0],
+    "cuts": [{"center": [0.0, 0.75, 0.0], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [0.5, 1.0],
+              "motion": {"translate": {"velocity": [0, -6, 0]}, "start": 0.0, "end": 0.2}}],
+    "time": {"dt": 0.0333333333, "frames": 4},
+    "solver": {"type": "lbfgs"},
+}
+
+
+def shared_rest_positions(frame):
+    """How many vertices have another vertex at their rest position (within 1e-9 of the diagonal):
+    the joined twins of sides that stayed in place."""
+    rest = frame.points - frame.displacement
+    tol = 1e-9 * rest_diagonal(frame)
+    close = np.zeros(len(rest), dtype=bool)
+    for i in range(0, len(rest), 512):
+        d = np.linalg.norm(rest[i:i + 512, None, :] - rest[None, :, :], axis=2)
+        d[np.arange(d.shape[0]), np.arange(i, i + d.shape[0])] = np.inf
+        close[i:i + 512] = d.min(axis=1) <= tol
+    return int(close.sum())
+
+
 def intersecting(out):
     return [row["intersecting_pairs"] for row in check_run(out)]
 
@@ -53,8 +98,25 @@ def test_without_self_contact_the_halves_pass_through_each_other(tmp_path):
     assert counts[0] == 0 and max(counts) > 100
 
 
-def test_one_and_two_ranks_agree(tmp_path):
-    deck = copy.deepcopy(BLOCK)
+def test_a_jagged_crack_opens_at_its_saddle_vertices(tmp_path):
+    out, s = run_deck(tmp_path, "jagged", JAGGED)
+    assert components(final_frame(out)) == 2
+    assert s["cuts"]["vertices_added"] == 46  # 43 with the wrapping sides left in place
+    assert shared_rest_positions(final_frame(out)) == 0
+    assert intersecting(out) == [0] * (JAGGED["time"]["frames"] + 1)
+
+
+@pytest.mark.skipif(not os.path.isdir(SHARED_MESHES), reason="needs ../shared/meshes")
+def test_the_small_bunny_cut_in_two_has_no_crossing_pair(tmp_path):
+    out, s = run_deck(tmp_path, "bunny", BUNNY)
+    assert s["cuts"]["faces_separated"] == 170
+    assert shared_rest_positions(final_frame(out)) == 0
+    assert intersecting(out) == [0] * (BUNNY["time"]["frames"] + 1)
+
+
+@pytest.mark.parametrize("scene", ["block", "jagged"])
+def test_one_and_two_ranks_agree(tmp_path, scene):
+    deck = copy.deepcopy(BLOCK if scene == "block" else JAGGED)
     deck["solver"] = TIGHT
     deck["time"]["frames"] = 6
     one, s1 = run_deck(tmp_path, "one", deck)
@@ -67,7 +129,9 @@ def test_one_and_two_ranks_agree(tmp_path):
     assert intersecting(two) == [0] * 7
 
 
-def test_restart_after_a_kill_is_bitwise(tmp_path):
-    # Killed after the cuts (frames 3 and 4): the restart replays them, the opening's rest part
-    # from the rest shape alone, its positions' part from the checkpoint.
-    assert_restart_after_kill_is_bitwise(tmp_path, BLOCK, frames=7, every=5, kill_after=6)
+@pytest.mark.parametrize("scene", ["block", "jagged"])
+def test_restart_after_a_kill_is_bitwise(tmp_path, scene):
+    # Killed after the cuts (frames 3 and 4; the jagged block's 1-3): the restart replays them, the
+    # opening's rest part (and which sides fall apart) from the rest shape alone, its positions'
+    # part from the checkpoint.
+    assert_restart_after_kill_is_bitwise(tmp_path, BLOCK if scene == "block" else JAGGED, frames=7, every=5, kill_after=6)
