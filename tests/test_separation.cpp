@@ -7,7 +7,10 @@
 // tets' quarters; the cut box falls into exactly two pieces. Then remove_tets takes out the tets
 // of two cell layers (centroids in 1 < x < 3) the same way: the same mesh at any rank count, the
 // orphans (the vertices at x = 2, and the originals at x = 3 whose copies took the other side)
-// gone from every piece, the mass of the rest.
+// gone from every piece, the mass of the rest. With a CrackOpening (self-contact's kerf), the rest
+// positions move apart but MeshPiece::unopened keeps every vertex's (a copy's: its original's)
+// position before the opening, so each tet's volume from it, which its mass comes from, is the
+// uncut tet's bit for bit, at any rank count, through a later removal too.
 #include <mpi.h>
 
 #include <algorithm>
@@ -69,14 +72,14 @@ struct Cut {
   int64_t copies = 0;
   std::set<TetPair> separated;
 };
-Cut cut(MPI_Comm comm, MeshPiece piece) {
+Cut cut(MPI_Comm comm, MeshPiece piece, double opening = 0) {
   Cut c;
   for (int64_t v = 0; v < piece.mesh.num_vertices(); ++v) c.fixed.push_back(piece.mesh.coords[3 * size_t(v)] == 0);
   std::set<TetPair> separated;
   for (const std::vector<TetPair>& batch : batches()) {
     separated.insert(batch.begin(), batch.end());
     const int64_t before = piece.mesh.num_vertices();
-    const SeparationResult r = separate_faces(comm, piece, batch, separated, 1000, {{&c.fixed, 1}});
+    const SeparationResult r = separate_faces(comm, piece, batch, separated, 1000, {{&c.fixed, 1}}, {nullptr, opening});
     c.copies += r.new_vertices;
     CHECK((int64_t)r.source.size() == piece.mesh.num_vertices());
     for (int32_t s : r.source) CHECK(s >= 0 && s < before);
@@ -125,6 +128,55 @@ std::map<int64_t, std::vector<double>> tets_of(MPI_Comm comm, const Cut& c) {
   std::map<int64_t, std::vector<double>> out;
   for (size_t i = 0; i < all.size(); i += 25) out[(int64_t)all[i]] = std::vector<double>(all.begin() + i + 1, all.begin() + i + 25);
   return out;
+}
+
+// tet number -> the 12 coordinates of its vertices in `coords` (the piece's or its unopened), over all ranks.
+std::map<int64_t, std::vector<double>> tet_coords(MPI_Comm comm, const MeshPiece& p, const std::vector<double>& coords) {
+  std::vector<double> mine;
+  for (int64_t e = 0; e < p.mesh.num_tets(); ++e) {
+    mine.push_back((double)p.element_numbers[e]);
+    for (int j = 0; j < 4; ++j)
+      for (int d = 0; d < 3; ++d) mine.push_back(coords[3 * size_t(p.mesh.tets[4 * e + j]) + d]);
+  }
+  const std::vector<double> all = all_gathered(comm, mine, MPI_DOUBLE);
+  std::map<int64_t, std::vector<double>> out;
+  for (size_t i = 0; i < all.size(); i += 13) out[(int64_t)all[i]] = std::vector<double>(all.begin() + i + 1, all.begin() + i + 13);
+  return out;
+}
+
+double tet_volume(const std::vector<double>& X) {
+  double D[3][3];
+  for (int j = 0; j < 3; ++j)
+    for (int d = 0; d < 3; ++d) D[j][d] = X[3 * (j + 1) + d] - X[d];
+  return (D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) - D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
+          D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0])) / 6;
+}
+
+// The kerf: opened cuts' pieces keep the rest positions before the opening for the tets' masses.
+void check_opening(int rank, int size) {
+  const MeshPiece whole = box_piece(kSize, kCells, 0, 1);
+  const auto uncut = tet_coords(MPI_COMM_SELF, whole, whole.mesh.coords);
+  for (MPI_Comm comm : {MPI_COMM_SELF, MPI_COMM_WORLD}) {
+    Cut c = cut(comm, comm == MPI_COMM_SELF ? box_piece(kSize, kCells, 0, 1) : box_piece(kSize, kCells, rank, size), 0.1);
+    CHECK(c.piece.unopened.size() == c.piece.mesh.coords.size());
+    const auto opened = tet_coords(comm, c.piece, c.piece.mesh.coords);
+    const auto unopened = tet_coords(comm, c.piece, c.piece.unopened);
+    CHECK(opened.size() == uncut.size() && unopened == uncut);  // the same positions, bit for bit
+    double moved = 0, kerfed = 0, total = 0;
+    for (const auto& [tet, X] : opened) {
+      for (size_t i = 0; i < X.size(); ++i) moved = std::fmax(moved, std::fabs(X[i] - uncut.at(tet)[i]));
+      kerfed += tet_volume(X);
+      total += tet_volume(unopened.at(tet));
+    }
+    CHECK(moved > 0.01 && kerfed < total - 1e-3);  // the rest shape opened and lost volume
+    CHECK_NEAR(total, kSize[0] * kSize[1] * kSize[2], 1e-13);
+    // a removal after the opening: the remaining tets keep their unopened positions
+    remove(comm, c);
+    CHECK(c.piece.unopened.size() == c.piece.mesh.coords.size());
+    const auto left = tet_coords(comm, c.piece, c.piece.unopened);
+    CHECK(left.size() == size_t(6 * 24 - 48));
+    for (const auto& [tet, X] : left) CHECK(X == uncut.at(tet));
+  }
 }
 
 }  // namespace
@@ -200,6 +252,7 @@ int main(int argc, char** argv) {
   std::vector<int64_t> mine(distributed_removed.piece.vertex_numbers.begin(), distributed_removed.piece.vertex_numbers.end());
   std::vector<int64_t> held = all_gathered(MPI_COMM_WORLD, mine, MPI_INT64_T);
   CHECK(std::set<int64_t>(held.begin(), held.end()) == left);
+  check_opening(rank, size);
   const int code = check::summary("test_separation");
   MPI_Finalize();
   return code;

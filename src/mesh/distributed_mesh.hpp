@@ -24,6 +24,9 @@ struct DistributedMesh {
   PetscInt num_triangles = 0;        // local cloth triangles (cells of 3 vertices)
   PetscInt num_hinges = 0;           // local cloth hinges (cells of 4 vertices: an interior edge, the two opposite vertices)
   std::vector<double> rest;          // 3 per local vertex: rest positions
+  // 3 per local vertex: the rest positions before any crack opened (MeshPiece::unopened), which
+  // the tets' masses come from (mass_rest); empty: no crack opened, the same as rest.
+  std::vector<double> unopened_rest;
   std::vector<PetscInt> cells;       // 4 local vertex indices per local tet, positively oriented
   std::vector<PetscInt> segments;    // 2 local vertex indices per local segment
   std::vector<int32_t> segment_tags; // per local segment: the input element tag
@@ -68,6 +71,12 @@ std::vector<PetscInt> body_elements(const DistributedMesh& m, const std::vector<
 // Bounding box of the rest positions over all ranks, and its diagonal.
 void rest_bounding_box(const DistributedMesh& m, double lo[3], double hi[3]);
 double rest_diagonal(const DistributedMesh& m);
+
+// The rest positions the tets' masses come from: before any crack opened (unopened_rest), so a
+// kerf moves the elastic rest shape but not the mass.
+inline const double* mass_rest(const DistributedMesh& m) {
+  return m.unopened_rest.empty() ? m.rest.data() : m.unopened_rest.data();
+}
 
 // Builds the distributed mesh from this rank's piece (collective): a DMPlex of the piece's cells
 // and vertices in the piece's order, shared vertices owned by the lowest rank holding them, and

@@ -27,6 +27,10 @@ struct MeshPiece {
   std::vector<int64_t> element_numbers;  // per local tet, then segment, then triangle: its index
                                          // among the whole mesh's elements of its kind
   int64_t global_vertices = 0;           // vertices of the whole mesh
+  // 3 per local vertex: its rest position before any crack opened (a copy: its original's), from
+  // which the tets' masses come (mesh/separation.hpp CrackOpening); empty until a crack opens on
+  // this piece (then the same as mesh.coords). Made by the cuts a restart replays, so not packed.
+  std::vector<double> unopened;
 };
 
 // Every array of a piece with a name (the partition file's dataset names; MPI packing): the one

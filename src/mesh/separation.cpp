@@ -168,6 +168,8 @@ int32_t append_vertex_copy(MeshPiece& piece, int32_t original, int64_t number, i
   TetMesh& m = piece.mesh;
   const int32_t copy = (int32_t)m.num_vertices();
   for (int d = 0; d < 3; ++d) m.coords.push_back(m.coords[3 * size_t(original) + d]);
+  if (!piece.unopened.empty())
+    for (int d = 0; d < 3; ++d) piece.unopened.push_back(piece.unopened[3 * size_t(original) + d]);
   m.vertex_ids.push_back(number + id_offset);
   piece.vertex_numbers.push_back(number);
   for (const VertexArray& a : arrays)
@@ -188,6 +190,8 @@ void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const 
     if (!used[v]) continue;
     new_index[v] = kept;
     for (int d = 0; d < 3; ++d) m.coords[3 * size_t(kept) + d] = m.coords[3 * size_t(v) + d];
+    if (!piece.unopened.empty())
+      for (int d = 0; d < 3; ++d) piece.unopened[3 * size_t(kept) + d] = piece.unopened[3 * size_t(v) + d];
     m.vertex_ids[kept] = m.vertex_ids[v];
     piece.vertex_numbers[kept] = piece.vertex_numbers[v];
     source[kept] = source[v];
@@ -197,6 +201,7 @@ void drop_unused_vertices(MeshPiece& piece, std::vector<int32_t>& source, const 
     ++kept;
   }
   m.coords.resize(3 * size_t(kept));
+  if (!piece.unopened.empty()) piece.unopened.resize(3 * size_t(kept));
   m.vertex_ids.resize(kept);
   piece.vertex_numbers.resize(kept);
   source.resize(kept);
@@ -354,6 +359,8 @@ SeparationResult split_stars(MPI_Comm comm, MeshPiece& piece, const std::set<int
   drop_unused_vertices(piece, source, arrays);
   result.source = std::move(source);
   if (opening.width > 0) {
+    // The rest positions before the first opening, kept for the tets' masses (MeshPiece::unopened).
+    if (piece.unopened.empty()) piece.unopened = m.coords;
     if (opening.positions) result.shift.assign(3 * piece.vertex_numbers.size(), 0.0);
     for (size_t i = 0; i < piece.vertex_numbers.size(); ++i) {
       const int64_t number = piece.vertex_numbers[i];

@@ -19,12 +19,13 @@
 
 namespace hyperqn {
 
-// The rest volume of the tets of material k (a body's, in a scene of bodies), over all ranks.
+// The rest volume of the tets of material k (a body's, in a scene of bodies), over all ranks, before
+// any crack opened (mass_rest: the total mass stays the deck's).
 static double rest_volume(const DistributedMesh& mesh, int k) {
   double local = 0, volume = 0;
   for (PetscInt c = 0; c < mesh.num_cells; ++c)
     if ((mesh.cell_material.empty() ? 0 : mesh.cell_material[c]) == k)
-      local += edge_matrix(mesh.rest.data(), &mesh.cells[4 * c]).determinant() / 6.0;
+      local += edge_matrix(mass_rest(mesh), &mesh.cells[4 * c]).determinant() / 6.0;
   MPI_Allreduce(&local, &volume, 1, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
   return volume;
 }

@@ -520,6 +520,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscCall(distribute_mesh(comm_, input.piece, input.fixed, input.cell_material, s.mesh));
   s.mesh.num_bodies = (int)spec.bodies.size();
   s.mesh.vertex_body = std::move(input.vertex_body);  // the DMPlex keeps the piece's vertices in order
+  s.mesh.unopened_rest = input.piece.unopened;        // in the same order
   s.mesh.rollers = input.rollers;
   if (s.mesh.rollers) {  // the free vertices' held components
     s.mesh.held.assign(3 * s.mesh.num_vertices, 0);

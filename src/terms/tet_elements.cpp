@@ -20,7 +20,12 @@ TetElements::TetElements(const DistributedMesh& mesh, std::vector<PetscInt> cell
     weight_.push_back(per_volume ? volume_.back() : 1.0);
   }
   weight_.resize(cells_.size() + kBatch, 0.0);  // for the batches' full-width loops
+  if (!mesh.unopened_rest.empty())
+    for (PetscInt c : cells_)
+      mass_volume_.push_back(edge_matrix(mass_rest(mesh), &mesh.cells[4 * c]).determinant() / 6.0);
 }
+
+double TetElements::mass_volume(size_t k) const { return mass_volume_.empty() ? volume_[k] : mass_volume_[k]; }
 
 void TetElements::element_energy_batch(size_t k, int m, StressBatch& b, int n) const {
   per_element(b, n, [&](int e, const Mat3& F, Mat3& P) { return element_energy(static_cast<PetscInt>(k) + e, m, F, &P); });
@@ -202,7 +207,7 @@ PetscErrorCode TetElements::add_laplacian(Mat A, double scale, int components) c
 // Each vertex gets a quarter of the mass of each of its tets.
 void TetElements::add_lumped_mass(PetscScalar* mass) const {
   for (size_t k = 0; k < cells_.size(); ++k) {
-    const double quarter = 0.25 * density_[mesh_.cell_material[cells_[k]]] * volume_[k];
+    const double quarter = 0.25 * density_[mesh_.cell_material[cells_[k]]] * mass_volume(k);
     for (int j = 0; j < 4; ++j) {
       const PetscInt off = mesh_.local_dof[mesh_.cells[4 * cells_[k] + j]];
       if (off < 0) continue;
@@ -213,7 +218,7 @@ void TetElements::add_lumped_mass(PetscScalar* mass) const {
 
 double TetElements::local_mass() const {
   double m = 0;
-  for (size_t k = 0; k < cells_.size(); ++k) m += density_[mesh_.cell_material[cells_[k]]] * volume_[k];
+  for (size_t k = 0; k < cells_.size(); ++k) m += density_[mesh_.cell_material[cells_[k]]] * mass_volume(k);
   return m;
 }
 

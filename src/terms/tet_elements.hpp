@@ -26,6 +26,8 @@ class TetElements : public EnergyTerm {
   void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
 
  protected:
+  // The rest volume of element k before any crack opened (mass_volume_): its mass over density.
+  double mass_volume(size_t k) const;
   // cells: the local tets of this term (indices into mesh.cells), in mesh order; density: mass
   // per rest volume of each material (by mesh.cell_material); per_volume: the element energies
   // are densities (weighted by the rest volume) rather than energies per element (weight 1).
@@ -73,6 +75,9 @@ class TetElements : public EnergyTerm {
   // follow the last element, so a batch's full-width loops stay inside.
   std::array<std::vector<double>, 9> Dm_inv_;
   std::vector<double> volume_;   // per element: rest volume
+  // per element: rest volume before any crack opened (mass_rest), which its mass comes from; a
+  // kerf changes volume_ (the elastic rest shape) but not this. Empty: the same as volume_.
+  std::vector<double> mass_volume_;
   std::vector<double> weight_;   // per element: weight of its energy (rest volume, or 1); kBatch zeros follow
   std::vector<double> density_;  // per material
 };
