@@ -1,6 +1,6 @@
 """Triangle-mesh blades (deck cuts[k].surface, docs/topology.md): a rectangle given as 2 triangles
-separates exactly the faces the rectangle blade does (same counts, same VTK bytes); a V-shaped
-blade cuts the bar into 3 pieces with its mass kept exactly; 1 vs 2 ranks; a restart after a kill
+separates exactly the faces the rectangle blade does (same counts, same VTK bytes); a bent (U)
+blade cuts the bar into 2 pieces with its mass kept exactly; 1 vs 2 ranks; a restart after a kill
 is bitwise; bad surfaces are refused at the deck line with nothing written."""
 import copy
 import os
@@ -26,11 +26,16 @@ def write_obj(path, vertices, triangles):
 # so that their normal is +x: corners at y = 0.7, 1.3 and z = -0.25, 0.75.
 RECTANGLE = ([(1.02, 0.7, -0.25), (1.02, 1.3, -0.25), (1.02, 1.3, 0.75), (1.02, 0.7, 0.75)], [(0, 1, 2), (0, 2, 3)])
 
-# A V in the x-y plane (arms from (0.6, 0.8) and (1.4, 0.8) down to (1.0, -0.3), below the bar),
-# extruded along z over z in [0.6, 1.6] (above the bar), moving down z through it: both arms cross
-# the whole bar, which falls into 3 pieces (the clamped end, the wedge, the free end).
-V_XY = [(0.6, 0.8), (1.0, -0.3), (1.4, 0.8)]
-V_BLADE = ([(x, y, z) for x, y in V_XY for z in (0.6, 1.6)], [(0, 2, 3), (0, 3, 1), (2, 4, 5), (2, 5, 3)])
+# A strip bent twice (a U upside down in the x-y plane: down x = 1.02 from y = 0.8 to 0.27, along
+# y = 0.27 to x = 1.52, up x = 1.52 to y = 0.8), extruded along z over [0.6, 1.6] (above the bar),
+# moving down z through it. Its sides sit between the planes of the mesh's cells (0.25 apart), so
+# no dual edge passes near it: it cuts the block inside the U (1.02 < x < 1.52, y > 0.27) out of the
+# bar (2 pieces; each of its 3 sides is needed: the block stays joined if one misses). It cuts in the
+# rest shape (frame rest): in the world the pieces falling under gravity would meet its arm along
+# y = 0.27 again.
+U_XY = [(1.02, 0.8), (1.02, 0.27), (1.52, 0.27), (1.52, 0.8)]
+U_BLADE = ([(x, y, z) for x, y in U_XY for z in (0.6, 1.6)],
+           [(2 * i, 2 * i + 2, 2 * i + 3) for i in range(3)] + [(2 * i, 2 * i + 3, 2 * i + 1) for i in range(3)])
 
 
 def mesh_deck(tmp_path, blade, name="blade.obj", **cut):
@@ -40,8 +45,8 @@ def mesh_deck(tmp_path, blade, name="blade.obj", **cut):
     return deck
 
 
-def v_deck(tmp_path):
-    deck = mesh_deck(tmp_path, V_BLADE)
+def u_deck(tmp_path):
+    deck = mesh_deck(tmp_path, U_BLADE, frame="rest")
     deck["cuts"][0]["motion"]["translate"]["velocity"] = [0, 0, -8]
     return deck
 
@@ -69,24 +74,42 @@ def test_a_rectangle_as_two_triangles_separates_the_same_faces(tmp_path):
     assert len(a) >= 16 and a == b
 
 
-def test_a_v_blade_cuts_the_bar_into_three_pieces_with_its_mass(tmp_path):
-    out, s = run_deck(tmp_path, "v", v_deck(tmp_path))
+def test_a_bent_blade_cuts_the_bar_into_two_pieces_with_its_mass(tmp_path):
+    out, s = run_deck(tmp_path, "u", u_deck(tmp_path))
     first, last = Frame(frame_list(out)[0][2]), final_frame(out)
-    assert components(first) == 1 and components(last) == 3
+    assert components(first) == 1 and components(last) == 2
     assert len(last.points) == len(first.points) + s["cuts"]["vertices_added"]
     m0, m1 = lumped_masses(first, 1000).sum(), lumped_masses(last, 1000).sum()
     assert m0 == pytest.approx(1000 * 2.0 * 0.5 * 0.5, rel=1e-12) and m1 == pytest.approx(m0, rel=1e-14)
-    # the wedge between the arms: its rest centroids lie between them
+    # the pieces are the tets on each side of the U, by their rest centroids
     tets = last.cells["tetra"]
     rest = (last.points - last.displacement)[tets].mean(axis=1)
     x, y = rest[:, 0], rest[:, 1]
-    left = x < 0.6 + (1.0 - 0.6) * (0.8 - y) / 1.1
-    right = x > 1.4 - (1.4 - 1.0) * (0.8 - y) / 1.1
-    assert left.any() and right.any() and (~left & ~right).any()
+    block = (x > 1.02) & (x < 1.52) & (y > 0.27)
+    label = piece_labels(last)
+    assert block.sum() == 2 * 1 * 2 * (len(tets) // (8 * 2 * 2)) > 0  # 2 x 1 x 2 of the 8 x 2 x 2 cells
+    assert len(set(label[block])) == 1 and len(set(label[~block])) == 1 and set(label[block]) != set(label[~block])
 
 
-def test_ranks_agree_on_a_v_blade(tmp_path):
-    deck = v_deck(tmp_path)
+def piece_labels(frame):
+    """The piece of each tet (tets joined through shared vertices)."""
+    tets = frame.cells["tetra"]
+    parent = np.arange(len(frame.points))
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for t in tets:
+        r = [root(v) for v in t]
+        for v in r[1:]:
+            parent[root(v)] = root(r[0])
+    return np.array([root(t[0]) for t in tets])
+
+
+def test_ranks_agree_on_a_u_blade(tmp_path):
+    deck = u_deck(tmp_path)
     one, s1 = run_deck(tmp_path, "one", deck)
     two, s2 = run_deck(tmp_path, "two", deck, ranks=2)
     assert s2["ranks"] == 2
@@ -98,8 +121,8 @@ def test_ranks_agree_on_a_v_blade(tmp_path):
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
-def test_restart_after_a_kill_with_a_v_blade_is_bitwise(tmp_path, ranks):
-    assert_restart_after_kill_is_bitwise(tmp_path, v_deck(tmp_path), ranks, frames=BAR["time"]["frames"], every=3,
+def test_restart_after_a_kill_with_a_u_blade_is_bitwise(tmp_path, ranks):
+    assert_restart_after_kill_is_bitwise(tmp_path, u_deck(tmp_path), ranks, frames=BAR["time"]["frames"], every=3,
                                          kill_after=10)
 
 
