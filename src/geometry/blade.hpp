@@ -41,17 +41,18 @@ struct CutSpec {
 inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
   using C = CutSpec;
   static const std::vector<DeckKey<C>> keys = {
-      DeckKey<C>{"center", &C::center, "the blade's centre at t = 0 (a rectangle)"},
-      DeckKey<C>{"normal", &C::normal, "the normal of the blade's plane, any length", nonzero_vector()},
+      DeckKey<C>{"center", &C::center, "the blade's centre at t = 0 (a rectangle)", {}, std::vector<std::string>(0), "", "required without `surface`"},
+      DeckKey<C>{"normal", &C::normal, "the normal of the blade's plane, any length", nonzero_vector(), std::vector<std::string>(0), "", "required without `surface`"},
       DeckKey<C>{"axis", &C::axis,
                  "the direction of the rectangle's first side (its part in the plane; not along `normal`)",
-                 nonzero_vector()},
+                 nonzero_vector(), std::vector<std::string>(0), "", "required without `surface`"},
       DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
-                 above(0, "a length")},
+                 above(0, "a length"), std::vector<std::string>(0), "", "required without `surface`"},
       DeckKey<C>{"surface", &C::surface,
                  "a triangle-mesh blade instead of the rectangle: `.obj` or `.mesh` (Medit `Triangles`), relative to "
                  "the deck's directory, as for [colliders](deck-scene.md#colliders); each triangle is a patch of "
-                 "the blade (its normal by its winding); zero-area triangles are ignored"},
+                 "the blade (its normal by its winding); zero-area triangles are ignored",
+                 {}, std::vector<std::string>(0), "", "none (the rectangle)"},
       DeckKey<C>{"surface_scale", &C::surface_scale, "the surface's vertices x become scale x + offset (with `surface`)",
                  above(0, "a scale")},
       DeckKey<C>{"surface_offset", &C::surface_offset, "the offset added after the scale (with `surface`)"},
