@@ -1,7 +1,8 @@
 """Triangle-mesh blades (deck cuts[k].surface, docs/topology.md): a rectangle given as 2 triangles
-separates exactly the faces the rectangle blade does (same counts, same VTK bytes); a bent (U)
-blade cuts the bar into 2 pieces with its mass kept exactly; 1 vs 2 ranks; a restart after a kill
-is bitwise; bad surfaces are refused at the deck line with nothing written."""
+separates exactly the faces the rectangle blade does (same counts, same VTK bytes); a V-shaped
+blade cuts the bar into 3 pieces and a U-shaped one cuts a block out of it, with the mass kept
+exactly; 1 vs 2 ranks; a restart after a kill is bitwise; bad surfaces are refused at the deck
+line with nothing written."""
 import copy
 import os
 
@@ -13,7 +14,7 @@ from hyperqn_tools.energy import frame_lumped_masses as lumped_masses
 from hyperqn_tools.output import Frame, final_frame, frame_list, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
-from test_cuts import BAR, components
+from test_cuts import BAR, components, piece_labels
 
 
 def write_obj(path, vertices, triangles):
@@ -38,6 +39,13 @@ U_BLADE = ([(x, y, z) for x, y in U_XY for z in (0.6, 1.6)],
            [(2 * i, 2 * i + 2, 2 * i + 3) for i in range(3)] + [(2 * i, 2 * i + 3, 2 * i + 1) for i in range(3)])
 
 
+# A V in the x-y plane (arms from (0.6, 0.8) and (1.4, 0.8) down to (1.0, -0.3), below the bar),
+# extruded along z as the U: both arms cross the whole bar, which falls into 3 pieces (the clamped
+# end, the wedge between the arms, the free end).
+V_XY = [(0.6, 0.8), (1.0, -0.3), (1.4, 0.8)]
+V_BLADE = ([(x, y, z) for x, y in V_XY for z in (0.6, 1.6)], [(0, 2, 3), (0, 3, 1), (2, 4, 5), (2, 5, 3)])
+
+
 def mesh_deck(tmp_path, blade, name="blade.obj", **cut):
     write_obj(tmp_path / name, *blade)
     deck = copy.deepcopy(BAR)
@@ -45,14 +53,14 @@ def mesh_deck(tmp_path, blade, name="blade.obj", **cut):
     return deck
 
 
-def u_deck(tmp_path):
-    deck = mesh_deck(tmp_path, U_BLADE, frame="rest")
+def u_deck(tmp_path, blade=U_BLADE):
+    deck = mesh_deck(tmp_path, blade, frame="rest")
     deck["cuts"][0]["motion"]["translate"]["velocity"] = [0, 0, -8]
     return deck
 
 
 def frame_bytes(out):
-    """The bytes of every file of the run's output but summary.json and the logs (timings)."""
+    """The bytes of the run's VTK files (.vtu, .pvd), by their path in the output."""
     found = {}
     for root, _, files in os.walk(out):
         for f in files:
@@ -91,21 +99,18 @@ def test_a_bent_blade_cuts_the_bar_into_two_pieces_with_its_mass(tmp_path):
     assert len(set(label[block])) == 1 and len(set(label[~block])) == 1 and set(label[block]) != set(label[~block])
 
 
-def piece_labels(frame):
-    """The piece of each tet (tets joined through shared vertices)."""
-    tets = frame.cells["tetra"]
-    parent = np.arange(len(frame.points))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-    for t in tets:
-        r = [root(v) for v in t]
-        for v in r[1:]:
-            parent[root(v)] = root(r[0])
-    return np.array([root(t[0]) for t in tets])
+def test_a_v_blade_cuts_the_bar_into_three_pieces_with_its_mass(tmp_path):
+    out, s = run_deck(tmp_path, "v", u_deck(tmp_path, V_BLADE))
+    first, last = Frame(frame_list(out)[0][2]), final_frame(out)
+    m0, m1 = lumped_masses(first, 1000).sum(), lumped_masses(last, 1000).sum()
+    assert m1 == pytest.approx(m0, rel=1e-14)
+    tets = last.cells["tetra"]
+    x, y = (last.points - last.displacement)[tets].mean(axis=1)[:, :2].T
+    arm = 0.4 * (0.8 - y) / 1.1  # each arm's distance from x = 0.6 and 1.4 at height y
+    side = np.where(x < 0.6 + arm, 0, np.where(x > 1.4 - arm, 2, 1))
+    label = piece_labels(last)
+    assert len(set(label)) == 3 and all(len(set(label[side == k])) == 1 for k in range(3))
+    assert len({label[side == k][0] for k in range(3)}) == 3
 
 
 def test_ranks_agree_on_a_u_blade(tmp_path):
