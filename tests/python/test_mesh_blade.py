@@ -70,12 +70,16 @@ def frame_bytes(out):
     return found
 
 
-def test_a_rectangle_as_two_triangles_separates_the_same_faces(tmp_path):
+@pytest.mark.parametrize("remove", [False, True])
+def test_a_rectangle_as_two_triangles_separates_the_same_faces(tmp_path, remove):
+    # (with remove: removes the same tets, docs/removal.md)
     (tmp_path / "rect").mkdir()
     (tmp_path / "mesh").mkdir()
-    rect, sr = run_deck(tmp_path / "rect", "bar", BAR)  # the same name: the same file names inside
-    mesh, sm = run_deck(tmp_path / "mesh", "bar", mesh_deck(tmp_path / "mesh", RECTANGLE))
-    assert sr["cuts"]["faces_separated"] >= 8
+    deck = copy.deepcopy(BAR)
+    deck["cuts"][0]["remove"] = remove
+    rect, sr = run_deck(tmp_path / "rect", "bar", deck)  # the same name: the same file names inside
+    mesh, sm = run_deck(tmp_path / "mesh", "bar", mesh_deck(tmp_path / "mesh", RECTANGLE, remove=remove))
+    assert sr["cuts"]["tets_removed" if remove else "faces_separated"] >= 8
     assert {k: v for k, v in sr["cuts"].items() if k != "topology_s"} == \
         {k: v for k, v in sm["cuts"].items() if k != "topology_s"}
     a, b = frame_bytes(rect), frame_bytes(mesh)
