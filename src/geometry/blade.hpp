@@ -1,4 +1,5 @@
-// A scripted cut (deck cuts:, docs/topology.md): a rectangular blade that moves in its own plane.
+// A scripted cut (deck cuts:, docs/topology.md): a rectangular blade that moves in its own plane, or
+// a triangle-mesh blade (surface) that moves along its triangles.
 // Which interior faces of a tet mesh it separates in a step is decided here, geometrically; the
 // mesh operation that follows is mesh/separation.hpp's. No PETSc.
 #pragma once
