@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 
+#include "geometry/surface_file.hpp"
 #include "io/partition_file.hpp"
 #include "materials/material.hpp"
 #include "materials/material_factory.hpp"
@@ -491,15 +492,44 @@ void read_attachments(const Reader& r, const Value& v, std::vector<AttachmentSpe
   }
 }
 
-// cuts: [{center, normal, axis, size, motion}]: scripted cuts (geometry/blade.hpp, docs/topology.md).
+// A surface blade's file: read (on every rank), transformed, its zero-area triangles dropped; an
+// unreadable file or one with no triangle (with an area) is refused at the deck line.
+static void read_blade_surface(const Reader& r, const Value& file, CutSpec& c) {
+  c.surface = resolve_input_file(r, file, r.deck_dir(), {".obj", ".mesh"}, ".obj (Wavefront) or .mesh (Medit, its Triangles)");
+  TriangleSurface surface;
+  try {
+    surface = read_triangle_surface(c.surface);
+  } catch (const std::exception& e) {
+    r.fail(file, e.what());
+  }
+  const Eigen::Vector3d offset(c.surface_offset[0], c.surface_offset[1], c.surface_offset[2]);
+  for (const Eigen::Vector3d& x : surface.vertices) c.mesh_vertices.push_back(c.surface_scale * x + offset);
+  for (const auto& t : surface.triangles) {
+    const Eigen::Vector3d& p = c.mesh_vertices[t[0]];
+    if ((c.mesh_vertices[t[1]] - p).cross(c.mesh_vertices[t[2]] - p).norm() > 0) c.mesh_triangles.push_back(t);
+  }
+  if (c.mesh_triangles.empty()) r.fail(file, "the surface file '" + c.surface + "' holds no triangle with an area");
+}
+
+// cuts: [{center, normal, axis, size | surface, motion}]: scripted cuts (geometry/blade.hpp, docs/topology.md).
 void read_cuts(const Reader& r, const Value& v, std::vector<CutSpec>& cuts) {
   for (const Value& item : r.items(v)) {
     CutSpec c;
     const Section s = read_keys(r, item, cut_keys(), c);
     c.line = item.line;
-    const Eigen::Vector3d n(c.normal[0], c.normal[1], c.normal[2]), a(c.axis[0], c.axis[1], c.axis[2]);
-    if ((a - a.dot(n.normalized()) * n.normalized()).norm() <= 1e-9 * a.norm())
-      r.fail(*s.find("axis"), "is along normal: the rectangle's first side must lie in the blade's plane");
+    if (const Value* file = s.find("surface")) {
+      for (const char* key : {"center", "normal", "axis", "size"})
+        if (const Value* x = s.find(key)) r.fail(*x, "is a key of the rectangle blade: not with surface (a triangle mesh)");
+      read_blade_surface(r, *file, c);
+    } else {
+      for (const char* key : {"center", "normal", "axis", "size"})
+        if (!s.find(key)) r.fail(item, std::string("missing ") + key + ": give center, normal, axis and size (a rectangle) or surface (a triangle mesh)");
+      for (const char* key : {"surface_scale", "surface_offset"})
+        if (const Value* x = s.find(key)) r.fail(*x, "transforms a surface: give it with surface only");
+      const Eigen::Vector3d n(c.normal[0], c.normal[1], c.normal[2]), a(c.axis[0], c.axis[1], c.axis[2]);
+      if ((a - a.dot(n.normalized()) * n.normalized()).norm() <= 1e-9 * a.norm())
+        r.fail(*s.find("axis"), "is along normal: the rectangle's first side must lie in the blade's plane");
+    }
     if (const Value* x = s.find("motion")) {
       c.motion = read_motion(r, *x);
       if (const std::string problem = blade_motion_problem(c); !problem.empty()) r.fail(*x, problem);

@@ -21,7 +21,21 @@ std::string blade_motion_problem(const CutSpec& c) {
   const Motion& m = c.motion;
   if (!m.active) return "";
   if (m.rate_deg != 0) return "a blade does not turn yet (rotate): it moves in its plane only (translate)";
-  const Eigen::Vector3d v = vec(m.velocity), n = vec(c.normal).normalized();
+  const Eigen::Vector3d v = vec(m.velocity);
+  if (!c.surface.empty()) {
+    // A triangle's plane holds the velocity to 1e-9 of its length (a file's coordinates are rounded).
+    for (size_t k = 0; k < c.mesh_triangles.size(); ++k) {
+      const auto& t = c.mesh_triangles[k];
+      const Eigen::Vector3d& p = c.mesh_vertices[t[0]];
+      const Eigen::Vector3d n = (c.mesh_vertices[t[1]] - p).cross(c.mesh_vertices[t[2]] - p).normalized();
+      if (std::fabs(v.dot(n)) > 1e-9 * v.norm())
+        return "translate.velocity leaves the plane of the surface's triangle " + std::to_string(k + 1) +
+               " (of its triangles with an area): a blade moves along itself (a curved blade is a cylinder along the "
+               "velocity)";
+    }
+    return "";
+  }
+  const Eigen::Vector3d n = vec(c.normal).normalized();
   if (std::fabs(v.dot(n)) > 1e-12 * v.norm())
     return "translate.velocity leaves the blade's plane (its part along normal is not 0): a blade moves in its plane";
   return "";
@@ -32,6 +46,66 @@ BladeSweep::BladeSweep(const CutSpec& c, double t0, double t1) : f_(c) {
   const Eigen::Vector3d d = moved(c.motion, f_.origin, t1) - c0_;
   d_[0] = d.dot(f_.u);
   d_[1] = d.dot(f_.w);
+  if (c.surface.empty()) return;
+  mesh_ = true;
+  lo_ = Eigen::Vector3d::Constant(HUGE_VAL);
+  hi_ = -lo_;
+  for (const auto& tri : c.mesh_triangles) {
+    Tri t;
+    const Eigen::Vector3d& v0 = c.mesh_vertices[tri[0]];
+    t.p = moved(c.motion, v0, t0);
+    const Eigen::Vector3d dt = moved(c.motion, v0, t1) - t.p;
+    const Eigen::Vector3d e1 = c.mesh_vertices[tri[1]] - v0, e2 = c.mesh_vertices[tri[2]] - v0;
+    t.n = e1.cross(e2).normalized();
+    t.u = e1.normalized();
+    t.w = t.n.cross(t.u);
+    t.q[0][0] = e1.dot(t.u), t.q[0][1] = e1.dot(t.w);
+    t.q[1][0] = e2.dot(t.u), t.q[1][1] = e2.dot(t.w);
+    t.d[0] = dt.dot(t.u), t.d[1] = dt.dot(t.w);
+    t.lo = t.hi = t.p;
+    for (const Eigen::Vector3d& x : {t.p, Eigen::Vector3d(t.p + e1), Eigen::Vector3d(t.p + e2)})
+      for (const Eigen::Vector3d& y : {x, Eigen::Vector3d(x + dt)}) {
+        t.lo = t.lo.cwiseMin(y);
+        t.hi = t.hi.cwiseMax(y);
+      }
+    lo_ = lo_.cwiseMin(t.lo);
+    hi_ = hi_.cwiseMax(t.hi);
+    tris_.push_back(t);
+  }
+}
+
+static double cross2(double ax, double ay, double bx, double by) { return ax * by - ay * bx; }
+
+// (x, y) in the closed triangle (0, a, b) of 2D points.
+static bool in_triangle(double x, double y, const double a[2], const double b[2]) {
+  const double s0 = cross2(a[0], a[1], x, y), s1 = cross2(b[0] - a[0], b[1] - a[1], x - a[0], y - a[1]),
+               s2 = cross2(-b[0], -b[1], x - b[0], y - b[1]);
+  return (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+}
+
+// (x, y) in the closed parallelogram e0 + alpha e + beta d, alpha and beta in [0, 1] (none when e
+// and d are parallel: the other pieces of the sweep cover it).
+static bool in_parallelogram(double x, double y, const double e0[2], const double e[2], const double d[2]) {
+  const double det = cross2(e[0], e[1], d[0], d[1]);
+  if (det == 0) return false;
+  const double px = x - e0[0], py = y - e0[1];
+  const double alpha = cross2(px, py, d[0], d[1]) / det, beta = cross2(e[0], e[1], px, py) / det;
+  return alpha >= 0 && alpha <= 1 && beta >= 0 && beta <= 1;
+}
+
+// As the rectangle's test, for one triangle: a and b on opposite sides of its plane (a point on it
+// counts as on the normal's side), and the crossing point in the triangle's sweep, the triangle at
+// t0, at t1, or a parallelogram one of its edges sweeps (their union is the triangle's Minkowski sum
+// with the step's displacement).
+bool BladeSweep::mesh_crosses(const Tri& t, const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
+  const double da = t.n.dot(a - t.p), db = t.n.dot(b - t.p);
+  if ((da >= 0) == (db >= 0)) return false;
+  const Eigen::Vector3d p = a + (da / (da - db)) * (b - a) - t.p;
+  const double x = p.dot(t.u), y = p.dot(t.w);
+  if (in_triangle(x, y, t.q[0], t.q[1]) || in_triangle(x - t.d[0], y - t.d[1], t.q[0], t.q[1])) return true;
+  const double zero[2] = {0, 0}, e2m1[2] = {t.q[1][0] - t.q[0][0], t.q[1][1] - t.q[0][1]}, me2[2] = {-t.q[1][0], -t.q[1][1]};
+  return in_parallelogram(x, y, zero, t.q[0], t.d) || in_parallelogram(x, y, t.q[0], e2m1, t.d) ||
+         in_parallelogram(x, y, t.q[1], me2, t.d);
 }
 
 // (s, r) in the rectangle moved by lambda d for some lambda in [0, 1]: the lambdas each side allows
@@ -54,6 +128,13 @@ bool BladeSweep::inside(double s, double r, double grow) const {
 }
 
 bool BladeSweep::crosses(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
+  if (mesh_) {
+    const Eigen::Vector3d slo = a.cwiseMin(b), shi = a.cwiseMax(b);
+    if ((slo.array() > hi_.array()).any() || (shi.array() < lo_.array()).any()) return false;
+    for (const Tri& t : tris_)
+      if ((slo.array() <= t.hi.array()).all() && (shi.array() >= t.lo.array()).all() && mesh_crosses(t, a, b)) return true;
+    return false;
+  }
   const double da = f_.n.dot(a - c0_), db = f_.n.dot(b - c0_);
   if ((da >= 0) == (db >= 0)) return false;
   const Eigen::Vector3d p = a + (da / (da - db)) * (b - a) - c0_;
@@ -61,11 +142,19 @@ bool BladeSweep::crosses(const Eigen::Vector3d& a, const Eigen::Vector3d& b) con
 }
 
 bool BladeSweep::near(const Eigen::Vector3d& p, double reach) const {
+  if (mesh_) {  // within reach of one triangle's sweep box (first of the whole sweep's)
+    const Eigen::Vector3d r = Eigen::Vector3d::Constant(reach);
+    if (((p + r).array() < lo_.array()).any() || ((p - r).array() > hi_.array()).any()) return false;
+    for (const Tri& t : tris_)
+      if (((p + r).array() >= t.lo.array()).all() && ((p - r).array() <= t.hi.array()).all()) return true;
+    return false;
+  }
   const Eigen::Vector3d q = p - c0_;
   return std::fabs(f_.n.dot(q)) <= reach && inside(q.dot(f_.u), q.dot(f_.w), reach);
 }
 
 bool BladeSweep::may_meet_box(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const {
+  if (mesh_) return (lo_.array() <= hi.array()).all() && (hi_.array() >= lo.array()).all();
   Eigen::Vector3d plo = Eigen::Vector3d::Constant(HUGE_VAL), phi = -plo;
   for (int k = 0; k < 2; ++k)  // the rectangle's corners at both ends of the step
     for (int i = -1; i <= 1; i += 2)

@@ -1,4 +1,5 @@
-// A scripted cut (deck cuts:, docs/topology.md): a rectangular blade that moves in its own plane.
+// A scripted cut (deck cuts:, docs/topology.md): a rectangular blade that moves in its own plane, or
+// a triangle-mesh blade (surface) that moves along its triangles.
 // Which interior faces of a tet mesh it separates in a step is decided here, geometrically; the
 // mesh operation that follows is mesh/separation.hpp's. No PETSc.
 #pragma once
@@ -27,20 +28,35 @@ struct CutSpec {
   CutFrame frame = CutFrame::world;       // positions the blade meets
   bool remove = false;                    // removes the tets it crosses an edge of, instead of separating faces
   int line = 0;                           // deck line, for messages
+  // A triangle-mesh blade instead of the rectangle (surface given: center, normal, axis, size are not).
+  std::string surface;                    // the file, resolved (empty: the rectangle)
+  double surface_scale = 1;               // x -> scale x + offset, applied to the file's vertices
+  std::array<double, 3> surface_offset{0, 0, 0};
+  std::vector<Eigen::Vector3d> mesh_vertices;       // transformed, at t = 0 (the reader fills these)
+  std::vector<std::array<int, 3>> mesh_triangles;   // those of positive area only
 };
 
-// The deck's keys of one cut (params/deck_keys.hpp); the reader checks axis against normal and
-// that the motion keeps the blade in its plane.
+// The deck's keys of one cut (params/deck_keys.hpp); the reader asks for either the rectangle
+// (center, normal, axis, size) or surface, checks axis against normal and that the motion keeps
+// the blade in its plane (each triangle's plane, for a surface).
 inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
   using C = CutSpec;
   static const std::vector<DeckKey<C>> keys = {
-      needed(DeckKey<C>{"center", &C::center, "the blade's centre at t = 0 (a rectangle)"}),
-      needed(DeckKey<C>{"normal", &C::normal, "the normal of the blade's plane, any length", nonzero_vector()}),
-      needed(DeckKey<C>{"axis", &C::axis,
-                        "the direction of the rectangle's first side (its part in the plane; not along `normal`)",
-                        nonzero_vector()}),
-      needed(DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
-                        above(0, "a length")}),
+      DeckKey<C>{"center", &C::center, "the blade's centre at t = 0 (a rectangle)", {}, std::vector<std::string>(0), "", "required without `surface`"},
+      DeckKey<C>{"normal", &C::normal, "the normal of the blade's plane, any length", nonzero_vector(), std::vector<std::string>(0), "", "required without `surface`"},
+      DeckKey<C>{"axis", &C::axis,
+                 "the direction of the rectangle's first side (its part in the plane; not along `normal`)",
+                 nonzero_vector(), std::vector<std::string>(0), "", "required without `surface`"},
+      DeckKey<C>{"size", &C::size, "the rectangle's side lengths along `axis` and along normal × axis",
+                 above(0, "a length"), std::vector<std::string>(0), "", "required without `surface`"},
+      DeckKey<C>{"surface", &C::surface,
+                 "a triangle-mesh blade instead of the rectangle: `.obj` or `.mesh` (Medit `Triangles`), relative to "
+                 "the deck's directory, as for [colliders](deck-scene.md#colliders); each triangle is a patch of "
+                 "the blade (its normal by its winding); zero-area triangles are ignored",
+                 {}, std::vector<std::string>(0), "", "none (the rectangle)"},
+      DeckKey<C>{"surface_scale", &C::surface_scale, "the surface's vertices x become scale x + offset (with `surface`)",
+                 above(0, "a scale")},
+      DeckKey<C>{"surface_offset", &C::surface_offset, "the offset added after the scale (with `surface`)"},
       enum_key<C>("frame", &C::frame, kCutFrameNames,
                    "which positions the blade meets: `world`, the body's now (where it is); `rest`, its rest shape "
                    "(a cut scripted in the material: the same faces whatever the body does, at any rank count)",
@@ -81,12 +97,23 @@ class BladeSweep {
 
  private:
   bool inside(double s, double r, double grow) const;  // in-plane coordinates relative to the t0 centre
+  // A triangle-mesh blade: each triangle at t0 (corner p, unit normal n by its winding, in-plane
+  // unit axes u, w = n x u), its other corners and the step's displacement in (u, w) coordinates;
+  // the bounding box of its sweep.
+  struct Tri {
+    Eigen::Vector3d p, n, u, w, lo, hi;
+    double q[2][2], d[2];
+  };
+  bool mesh_crosses(const Tri& t, const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   BladeFrame f_;
   Eigen::Vector3d c0_;   // the centre at t0
   double d_[2];          // the centre's in-plane displacement over the step
+  bool mesh_ = false;
+  std::vector<Tri> tris_;
+  Eigen::Vector3d lo_, hi_;  // the mesh sweep's bounding box
 };
 
-// A motion that keeps the blade in its plane, or why not ("").
+// A motion that keeps the blade in its plane (every triangle's, for a surface), or why not ("").
 std::string blade_motion_problem(const CutSpec& c);
 
 }  // namespace hyperqn
