@@ -197,7 +197,7 @@ struct XdmfSeries::Layout {
     const std::vector<int64_t>* ids[kKinds] = {&m.cell_ids, &m.segment_ids, &m.triangle_ids};
     const PetscInt totals[kKinds] = {m.global_cells, m.global_segments, m.global_triangles};
     for (int k = 0; k < kKinds; ++k) {
-      // After a removal (mesh/tet_removal.hpp) the ids in use have gaps: numbered in order too.
+      // After a removal (remove_tets, mesh/separation.hpp) the ids in use have gaps: numbered in order too.
       long long slots = 0;
       for (int64_t id : *ids[k]) slots = std::max<long long>(slots, id + 1);
       MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
@@ -250,7 +250,7 @@ void XdmfSeries::set_mesh(const DistributedMesh& mesh) {
   layout_ = std::make_unique<Layout>(comm_, mesh);
   mesh_ = &mesh;
   // A topology change (mesh/separation.hpp, snaps, tears) moves elements to copies of vertices,
-  // new points; a removal (mesh/tet_removal.hpp) drops elements, and the points no element uses.
+  // new points; a removal (remove_tets, mesh/separation.hpp) drops elements, and the points no element uses.
   // The same number of points and of elements is the same mesh (a release).
   block_current_ = block_current_ && current_block() == blocks_.back();
 }

@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "materials/material_factory.hpp"
-#include "materials/material_factory.hpp"
 #include "io/log_events.hpp"
 #include "terms/attachments.hpp"
 #include "terms/cloth_bending.hpp"
