@@ -8,6 +8,8 @@ plain, ...; --rounds rounds), 1 rank, OMP_NUM_THREADS=1:
   plain     the deck without its cloth.tear / strand_material.snap key (nothing breaks),
   tear      the deck as it is (on one rank each break's H0 follows by a TopologyH0 correction),
   refactor  the deck with -hyperqn_topology_h0 false (M + h^2 L factored again at every break).
+--budget fixed runs every mode at solver.budget: fixed (the animation setting: at most solver.iterations
+a frame, no fallback chain) instead of the deck's own budget.
 --before BIN adds a fourth, `before`: the deck as it is run by BIN (a build before a change), right
 after `tear` in each round.
 Per run it reads summary.json: wall ms/frame (wall_s / frames: setup, every break's rebuild and
@@ -60,9 +62,12 @@ def main():
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--out", default="bench_out/cloth_tear")
     ap.add_argument("--before", help="a second binary (a build before a change): mode `before`, the deck as it is")
+    ap.add_argument("--budget", choices=("adaptive", "fixed"), help="solver.budget of every mode (default: the deck's)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     deck = load_deck(args.deck)
+    if args.budget:
+        deck.setdefault("solver", {})["budget"] = args.budget
     plain = json.loads(json.dumps(deck))
     if "tear" in deck.get("cloth", {}):
         del plain["cloth"]["tear"]
@@ -102,7 +107,7 @@ def main():
         print(f"{mode} / plain: wall ms/frame {ratios[mode]['wall_ms_per_frame']:.2f} (bar: at most 1.5), "
               f"cpu ms/frame {ratios[mode]['cpu_ms_per_frame']:.2f}, solve ms/frame {ratios[mode]['solve_ms_per_frame']:.2f}")
     with open(os.path.join(args.out, "cloth_tear.json"), "w") as f:
-        json.dump({"deck": args.deck, "rounds": args.rounds, "medians": medians, "ratios": ratios,
+        json.dump({"deck": args.deck, "budget": args.budget, "rounds": args.rounds, "medians": medians, "ratios": ratios,
                    "wall_ratio": ratios["tear"]["wall_ms_per_frame"], "solve_ratio": ratios["tear"]["solve_ms_per_frame"],
                    "load": os.getloadavg()}, f, indent=1)
 

@@ -49,6 +49,7 @@ PetscErrorCode StepObjective::create_substep(int parts, std::unique_ptr<StepObje
   sub = std::make_unique<StepObjective>(body_, dt_ / parts, gravity_, damping, warm_start_, upright_guess_,
                                        element_limit_, life_.kind(), has_inertia() ? 0.0 : solve_dt_);
   sub->counts_ = counts_;
+  sub->pattern_from_cells_ = pattern_from_cells_;  // a rebuilt scene's sub-steps: no DMPlex preallocation either
   sub->life_.set_substep();
   PetscCall(sub->setup());
   PetscFunctionReturn(0);

@@ -132,6 +132,7 @@ class StepObjective : public Objective {
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   // A scene rebuilt after a cut on one rank: the 1-component constant matrix takes its pattern from
   // the mesh's cells (create_vertex_matrix, the same pattern) instead of the DMPlex's preallocation.
+  // Its sub-step integrators (create_substep) inherit this.
   void pattern_from_cells() { pattern_from_cells_ = true; }
   PetscErrorCode create_hessian(Mat* H) const override;
   PetscErrorCode assemble_hessian(Vec x, Mat H, bool exact = false) override;

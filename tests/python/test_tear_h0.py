@@ -14,7 +14,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import load_deck, run_hyperqn, write_deck
+from conftest import event_count, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import Frame, frame_list, read_checkpoint, read_iterations, read_summary, rest_diagonal
 from test_checkpoint_faults import assert_same_run, killed
 from test_cloth_tear import CLOTH
@@ -72,6 +72,20 @@ def test_every_break_is_followed_by_a_correction_equal_to_a_fresh_factor(checked
     print(f"{name}: {len(diffs)} corrections, worst relative difference {max(diffs):.3e}")
     assert max(diffs) <= 1e-10
     assert stdout.count("constant matrix corrected (TopologyH0)") == batches
+
+
+def test_substep_matrices_of_a_torn_scene_take_their_pattern_from_the_cells(tmp_path):
+    # input/topology/cloth_tear.yaml factors its sub-steps' M + (h/k)^2 L again after tears (34
+    # times in its 90 frames): a rebuilt scene's sub-step integrators take A1's pattern from the
+    # mesh's cells, as its own H0 does, so DMPlex preallocates only the first scene's H0 and
+    # sub-step matrices (at most 1 + max_halvings) and each chain's Newton Hessian (at most one per
+    # Newton frame); before, one preallocation per sub-step factorization (37 in the run)
+    log = tmp_path / "log_view.txt"
+    out, s, _ = run(tmp_path, "tear", load_deck("input/topology/cloth_tear.yaml"), extra=["-log_view", f":{log}"])
+    prealloc = event_count(log.read_text(), "DMPlexPrealloc")
+    print(f"cloth_tear: {s['factorizations']} factorizations, {s['newton_frames']} Newton frames, {prealloc} DMPlex preallocations")
+    assert s["factorizations"] >= 10 and s["breaks"]["h0_corrections"] >= 10
+    assert prealloc <= 1 + 3 + s["newton_frames"]
 
 
 @pytest.mark.parametrize("name", sorted(DECKS))
