@@ -121,6 +121,7 @@ PetscErrorCode RigidModeH0::setup(bool* found, double ratio) {
   if (clusters_.empty()) PetscFunctionReturn(0);
   *found = true;
   PetscCall(PetscOptionsGetReal(nullptr, nullptr, "-hyperqn_rigid_h0_share", &share_, nullptr));
+  PetscCheck(share_ > 0 && share_ <= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-hyperqn_rigid_h0_share must be in (0, 1]");
 
   PetscInt n, N;
   PetscCall(VecGetOwnershipRange(step_.layout(), &lo_, &hi_));
