@@ -35,6 +35,18 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   } else if (h0_) {
     h0_inverse = h0_->inverse_operator();
   }
+  // The stiff clusters' rotations (solvers/rigid_mode_h0.hpp): a correction of L's A, factored (not
+  // amg's V-cycle, which is not A^{-1}), with no held slots; nothing where the scene has no contrast.
+  if (h0_inverse && spec.h0_rigid != H0Rigid::off && (spec.h0_rigid == H0Rigid::on || RigidModeH0::kByDefault) &&
+      h0_->kind() == ConstantMatrix::laplacian && h0_->package() != FactorPackage::amg && !step_.holds_components()) {
+    rigid_h0_ = std::make_unique<RigidModeH0>(step_, h0_inverse);
+    bool found = false;
+    PetscCall(rigid_h0_->setup(&found));
+    if (found)
+      h0_inverse = rigid_h0_->inverse_operator();
+    else
+      rigid_h0_.reset();
+  }
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
   const char* history_option = "-tao_lmvm_mat_lmvm_hist_size";
   PetscCall(set_default_option(history_option, std::to_string(spec.history)));
@@ -69,6 +81,7 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
 PetscErrorCode LbfgsSolver::solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) {
   PetscFunctionBeginUser;
   if (contact_h0_) PetscCall(contact_h0_->update());
+  if (rigid_h0_) PetscCall(rigid_h0_->update());
   PetscCall(GuardedTaoSolver::solve(x, on_iteration, result));
   PetscFunctionReturn(0);
 }

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "solvers/contact_h0.hpp"
+#include "solvers/rigid_mode_h0.hpp"
 #include "solvers/streamed_two_loop.hpp"
 #include "solvers/solver_spec.hpp"
 #include "solvers/factored_system.hpp"
@@ -22,7 +23,8 @@ class LbfgsSolver : public GuardedTaoSolver {
   // h0: the factored M + h^2 L (or its V-cycle), or nullptr for TAO's default H0.
   LbfgsSolver(Objective& step, const FactoredSystem* h0) : GuardedTaoSolver(step), h0_(h0) {}
   PetscErrorCode setup(const SolverSpec& spec);
-  // With solver.h0_contact, H0 takes the contacts' stiffness at the step's start first.
+  // With solver.h0_contact, H0 takes the contacts' stiffness at the step's start first, then with
+  // solver.h0_rigid the stiff clusters' rotations at x_n.
   PetscErrorCode solve(Vec x, const IterationCallback& on_iteration, FrameResult& result) override;
 
  private:
@@ -33,6 +35,7 @@ class LbfgsSolver : public GuardedTaoSolver {
 
   const FactoredSystem* h0_;
   std::unique_ptr<ContactH0> contact_h0_;  // solver.h0_contact other than off
+  std::unique_ptr<RigidModeH0> rigid_h0_;  // solver.h0_rigid, in a scene with a stiff cluster
   std::unique_ptr<StreamedTwoLoop> streamed_;  // solver.two_loop streamed
 };
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "terms/energy_term.hpp"  // VertexStiffness
+#include "terms/energy_term.hpp"  // VertexStiffness, TetLaplacian
 
 namespace hyperqn {
 
@@ -59,6 +59,11 @@ class Objective {
     out.clear();
     return 0;
   }
+
+  // The step's start x_n (null where the objective has none), and this rank's tets' parts of h^2 L
+  // in A (solver.h0_rigid, solvers/rigid_mode_h0.hpp).
+  virtual Vec step_start() const { return nullptr; }
+  virtual void tet_laplacians(std::vector<TetLaplacian>& out) const { out.clear(); }
 
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since
   // A = A1 (x) I3, components = 1 assembles only the vertex matrix A1 = M1 + h^2 L1 (in the

@@ -244,6 +244,17 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "for hundreds; it needs A = A1 ⊗ I3, so with `h0: rest-stiffness` it is `off`). Measured in "
        "[contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop's 60 frames 32.5 → 15.8 iterations "
        "per frame and about half the ms per frame with `refactor`"),
+      enum_key<S>("h0_rigid", &S::h0_rigid, kH0RigidNames,
+       "`lbfgs` only: leave the rigid rotations of the scene's stiff parts out of its initial Hessian. A stiff "
+       "cluster is a connected set of tets whose weight in L is at least 100 times the softest tet's (without a "
+       "fixed vertex); M + h²L charges its rotations the stiff material's stiffness, A' = A − s h²L_q R (RᵀL_q R)⁻¹ "
+       "RᵀL_q (R its 3 rotations about its centroid at the step's start, s = 0.999) about the soft coupling's and "
+       "the mass's only. Applied beside the factor by Woodbury (3 solves of A per cluster per step, no new "
+       "factorization); with `h0: laplacian` (auto's choice of it included), not with `amg` or rollers. `auto`: on "
+       "where a cluster exists; `true` (an error beside another `h0`), `false`: forced. A scene without such a "
+       "contrast runs none of it. The stability suite's 1e4 contrast: degraded, 0.379 of the diagonal from the "
+       "converged reference → ok, 0.0096, at 12.1 → 26.5 iterations per frame "
+       "([method.md](method.md#stiff-parts-rotations-h0_rigid))"),
       enum_key<S>("two_loop", &S::two_loop, kTwoLoopNames,
        "`lbfgs` only: who applies the L-BFGS pairs in each iteration's direction. `petsc`: TAO's BFGS matrix "
        "(PETSc 3.18's two-loop: two reductions per pair). `streamed`: hyperqn's, the pairs in one block, two "

@@ -31,6 +31,9 @@ enum class NewtonMethod { nls, ntr };           // TAO's line search or trust re
 enum class HistoryReset { never, contact_change };
 // lbfgs: what of the contacts' stiffness its initial Hessian holds (solvers/contact_h0.hpp).
 enum class H0Contact { off, woodbury, refactor };
+// lbfgs: the stiff clusters' rigid rotations left out of its H0 (solvers/rigid_mode_h0.hpp): where a
+// tet contrast reaches RigidModeH0::kStiffRatio (automatic), always where one does (on), never (off).
+enum class H0Rigid { automatic, on, off };
 // lbfgs: who applies the (s, y) pairs: PETSc's BFGS matrix, or solvers/streamed_two_loop.hpp.
 enum class TwoLoop { petsc, streamed };
 
@@ -43,6 +46,7 @@ inline const std::vector<std::string> kNewtonHessianNames = {"projected", "exact
 inline const std::vector<std::string> kNewtonMethodNames = {"nls", "ntr"};
 inline const std::vector<std::string> kHistoryResetNames = {"never", "contact-change"};
 inline const std::vector<std::string> kH0ContactNames = {"off", "woodbury", "refactor"};
+inline const std::vector<std::string> kH0RigidNames = {"auto", "true", "false"};
 inline const std::vector<std::string> kTwoLoopNames = {"petsc", "streamed"};
 
 struct SolverSpec {
@@ -57,6 +61,7 @@ struct SolverSpec {
   std::string line_search = "more-thuente";  // TAO line search type: more-thuente | armijo | unit
   H0Contact h0_contact = H0Contact::refactor;  // lbfgs
   TwoLoop two_loop = TwoLoop::petsc;           // lbfgs
+  H0Rigid h0_rigid = H0Rigid::automatic;       // lbfgs
   WarmStart warm_start = WarmStart::inertial;  // (lower: the default with colliders)
   // Pull y back towards x_n until it leaves no tet upright at x_n inverted, nor past the element
   // limit (-hyperqn_element_limit) unless it was (StepObjective::upright_guess; docs/guardrails.md#element-blow-up-and-inversion).

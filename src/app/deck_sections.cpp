@@ -642,6 +642,11 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
       r.fail(*x, "single rounds a factor's values, and h0: amg factors nothing (give double, or leave h0_precision "
                  "out)");
   }
+  // true: a correction of M + h^2 L (solvers/rigid_mode_h0.hpp), which the other matrices are not.
+  if (const Value* x = s.find("h0_rigid");
+      x && sv.h0_rigid == H0Rigid::on && sv.h0 != H0::automatic && sv.h0 != H0::laplacian)
+    r.fail(*x, "true corrects M + h^2 L's rotations of stiff parts, and h0: " + kH0Names[(int)sv.h0] +
+                   " is another matrix (give h0: laplacian or auto, or leave h0_rigid out)");
   // adaptive: the fallback chain as the keys above set it; fixed: none of it, and then
   // those keys would say nothing, so giving one is an error rather than silently overruled.
   if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")

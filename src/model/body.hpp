@@ -131,6 +131,11 @@ class Body {
   double total_mass() const { return total_mass_; }
   // A += scale * L, L the sum of the terms' (see EnergyTerm::add_laplacian for components).
   PetscErrorCode add_laplacian(Mat A, PetscReal scale, int components = 3) const;
+  // This rank's tets' parts of scale * L (EnergyTerm::add_tet_laplacians), in the terms' order.
+  void tet_laplacians(double scale, std::vector<TetLaplacian>& out) const {
+    out.clear();
+    for (const auto& term : terms_) term->add_tet_laplacians(scale, out);
+  }
   // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
   // exact. Adds into H's existing pattern.
   PetscErrorCode add_hessian(Vec x, Mat H, PetscReal scale, bool psd = true) const;

@@ -128,6 +128,8 @@ class StepObjective : public Objective {
   PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
     return body_.vertex_stiffness(life_.x_n(), solve_dt_ * solve_dt_, out);
   }
+  Vec step_start() const override { return life_.x_n(); }
+  void tet_laplacians(std::vector<TetLaplacian>& out) const override { body_.tet_laplacians(solve_dt_ * solve_dt_, out); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   // A scene rebuilt after a cut on one rank: the 1-component constant matrix takes its pattern from

@@ -62,6 +62,16 @@ struct VertexStiffness {
   std::array<double, 9> K{};   // symmetric positive semidefinite, row-major
 };
 
+// One tet's part of L (A = M + h^2 L) as solver.h0_rigid sees it (solvers/rigid_mode_h0.hpp): its
+// vertices (input mesh ids and global x dofs, -1 fixed), its 4 x 4 matrix (scaled, row-major) and
+// its material's weight w in L_e = w V G^T G.
+struct TetLaplacian {
+  std::array<int64_t, 4> vertex{};
+  std::array<PetscInt, 4> dof{};
+  std::array<double, 16> K{};
+  double weight = 0;
+};
+
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -89,6 +99,8 @@ class EnergyTerm {
   // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
   // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
   virtual PetscErrorCode add_laplacian(Mat /*A*/, double /*scale*/, int /*components*/) const { return 0; }
+  // This rank's tets' parts of add_laplacian (scaled by scale), appended to out; terms without tets add none.
+  virtual void add_tet_laplacians(double /*scale*/, std::vector<TetLaplacian>& /*out*/) const {}
   // The term's part of solver.h0: volumetric's matrix, in the dof layout: A += scale * K_t. Terms
   // without a volumetric form (springs, strands, cloth, inelastic tets) add their L.
   virtual PetscErrorCode add_volumetric_h0(Mat A, double scale) const { return add_laplacian(A, scale, 3); }

@@ -204,6 +204,23 @@ PetscErrorCode TetElements::add_laplacian(Mat A, double scale, int components) c
   PetscFunctionReturn(0);
 }
 
+// The weight is element_laplacian's over w = 1's (a diagonal entry of V G^T G is positive).
+void TetElements::add_tet_laplacians(double scale, std::vector<TetLaplacian>& out) const {
+  for (size_t k = 0; k < cells_.size(); ++k) {
+    const int m = mesh_.cell_material[cells_[k]];
+    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> K = element_laplacian(k, m, scale);
+    TetLaplacian t;
+    for (int j = 0; j < 4; ++j) {
+      const PetscInt v = mesh_.cells[4 * cells_[k] + j];
+      t.vertex[j] = mesh_.vertex_ids[v];
+      t.dof[j] = mesh_.global_dof[v];
+    }
+    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(t.K.data()) = K;
+    t.weight = element_laplacian(k, m, 1.0)(0, 0) / weighted_laplacian(k, 1.0)(0, 0);
+    out.push_back(t);
+  }
+}
+
 // Each vertex gets a quarter of the mass of each of its tets.
 void TetElements::add_lumped_mass(PetscScalar* mass) const {
   for (size_t k = 0; k < cells_.size(); ++k) {

@@ -17,6 +17,7 @@ class TetElements : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
+  void add_tet_laplacians(double scale, std::vector<TetLaplacian>& out) const override;
   void add_lumped_mass(PetscScalar* mass) const override;
   double local_mass() const override;
   // Cauchy stress, von Mises stress, principal stretches, Green strain and energy density per rest
