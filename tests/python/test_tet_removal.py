@@ -224,7 +224,8 @@ def removed_share(before, after, per_tet):
     return sum(a[gone].sum(axis=0) for a in per_tet(before)), int(gone.sum())
 
 
-def test_a_removal_never_raises_the_energy(tmp_path):
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_removal_never_raises_the_energy(tmp_path, ranks):
     # A removal keeps x and v (docs/removal.md): the remaining body's kinetic + elastic energy just
     # after it is the frame's E_k less the removed tets' R_k, their lumped quarters' kinetic energy
     # and their elastic energy at x_k, so it never rises (R_k >= 0). The step then changes it by the
@@ -233,7 +234,7 @@ def test_a_removal_never_raises_the_energy(tmp_path):
     # tol twice the largest one-step change |E_k+1 - E_k| / E_k of the run's steps without removals
     # (the midpoint's own error on this nonlinear ringing, about 2.5e-3; the solver's grad_rtol of
     # 1e-12 adds nothing visible). Between removals E stays within 1 % of its value after the last.
-    out, s = run_deck(tmp_path, "ring", RINGING)
+    out, s = run_deck(tmp_path, "ring", RINGING, ranks=ranks)
     frames = [Frame(p) for _, _, p in frame_list(out)]
     material = (MATERIAL["youngs_modulus"], MATERIAL["poisson_ratio"], DENSITY)
     E = [sum(e.sum() for e in frame_tet_energies(f, *material)) for f in frames]
@@ -261,11 +262,12 @@ def test_a_removal_never_raises_the_energy(tmp_path):
     print(f"energy {E[0]:.3f} -> {E[-1]:.3f}, removed {sum(R):.3f} in all")
 
 
-def test_removals_take_their_share_of_momentum(tmp_path):
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_removals_take_their_share_of_momentum(tmp_path, ranks):
     # The free body after its release: linear and angular momentum (about the origin) of the
     # remaining body drop at a step with removals by the removed tets' lumped quarters' momenta at
     # the frame before, and the midpoint keeps them between removals: to 1e-10 relative.
-    out, s = run_deck(tmp_path, "spun", SPUN)
+    out, s = run_deck(tmp_path, "spun", SPUN, ranks=ranks)
     frames = [Frame(p) for _, t, p in frame_list(out) if t > 0.1 + 1e-9]
     momenta = lambda f: frame_tet_momenta(f, DENSITY)
     removed = 0
