@@ -65,17 +65,22 @@ def killed(path, out, frame, ranks=None, extra=()):
     return proc
 
 
-def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None, frames=6, every=2, kill_after=4):
+def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None, frames=6, every=2, kill_after=4, extra=(),
+                                         before_restart=None):
     """deck (a dict) run for `frames` with a checkpoint every `every` frames: a run killed
     (SIGKILL, every rank) after frame `kill_after` and restarted from its latest checkpoint equals
-    the uninterrupted one in positions, velocities, iterations and the .pvd. Returns both outputs."""
+    the uninterrupted one in positions, velocities, iterations and the .pvd. extra: more arguments
+    of every run; before_restart(out): called on the killed run's output before the restart.
+    Returns both outputs."""
     deck = {**deck, "time": {**deck["time"], "frames": frames}, "checkpoint": {"every": every}}
     path = write_deck(tmp_path / "killed.yaml", deck)
     ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref], ranks=ranks)
+    run_hyperqn([path, "-o", ref, *extra], ranks=ranks)
     out = tmp_path / "out"
-    killed(path, out, kill_after, ranks)
-    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    killed(path, out, kill_after, ranks, extra)
+    if before_restart:
+        before_restart(out)
+    run_hyperqn([path, "-o", out, "--restart", "latest", *extra], ranks=ranks)
     assert_same_run(ref, out)
     return ref, out
 

@@ -11,7 +11,7 @@ import pytest
 from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import read_summary
 from test_checkpoint import assert_same_run
-from test_checkpoint_faults import killed
+from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
 from test_cuts import BAR
 from test_fracture import NOTCHED, plate_mesh, pulled_plate
 from test_cloth_tear import CLOTH
@@ -154,15 +154,9 @@ def test_cuts_and_fracture_in_one_deck(tmp_path):
 
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_cuts_and_fracture_restart_after_a_kill(tmp_path, ranks):
-    deck = copy.deepcopy(BOTH)
-    deck["checkpoint"] = {"every": 2}
-    path = write_deck(tmp_path / "both.yaml", deck)
-    ref = tmp_path / "ref"
-    run_hyperqn([path, "-o", ref], ranks=ranks)
-    out = tmp_path / "out"
-    killed(path, out, 14, ranks)  # after cuts and the first breaks (frames 4 to 7 and 13)
-    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
-    assert_same_run(ref, out)
+    # killed after cuts and the first breaks (frames 4 to 7 and 13)
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, BOTH, ranks, frames=BOTH["time"]["frames"], every=2,
+                                                    kill_after=14)
     assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
     skip = lambda f: {k: v for k, v in f.items() if k != "topology_s"}
     a, b = read_summary(ref), read_summary(out)
