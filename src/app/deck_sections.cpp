@@ -509,6 +509,7 @@ static void read_blade_surface(const Reader& r, const Value& file, CutSpec& c) {
     if ((c.mesh_vertices[t[1]] - p).cross(c.mesh_vertices[t[2]] - p).norm() > 0) c.mesh_triangles.push_back(t);
   }
   if (c.mesh_triangles.empty()) r.fail(file, "the surface file '" + c.surface + "' holds no triangle with an area");
+  index_blade_surface(c);
 }
 
 // cuts: [{center, normal, axis, size | surface, motion}]: scripted cuts (geometry/blade.hpp, docs/topology.md).

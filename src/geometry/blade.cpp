@@ -48,30 +48,68 @@ BladeSweep::BladeSweep(const CutSpec& c, double t0, double t1) : f_(c) {
   d_[1] = d.dot(f_.w);
   if (c.surface.empty()) return;
   mesh_ = true;
-  lo_ = Eigen::Vector3d::Constant(HUGE_VAL);
-  hi_ = -lo_;
-  for (const auto& tri : c.mesh_triangles) {
-    Tri t;
-    const Eigen::Vector3d& v0 = c.mesh_vertices[tri[0]];
-    t.p = moved(c.motion, v0, t0);
-    const Eigen::Vector3d dt = moved(c.motion, v0, t1) - t.p;
-    const Eigen::Vector3d e1 = c.mesh_vertices[tri[1]] - v0, e2 = c.mesh_vertices[tri[2]] - v0;
-    t.n = e1.cross(e2).normalized();
-    t.u = e1.normalized();
-    t.w = t.n.cross(t.u);
-    t.q[0][0] = e1.dot(t.u), t.q[0][1] = e1.dot(t.w);
-    t.q[1][0] = e2.dot(t.u), t.q[1][1] = e2.dot(t.w);
-    t.d[0] = dt.dot(t.u), t.d[1] = dt.dot(t.w);
-    t.lo = t.hi = t.p;
-    for (const Eigen::Vector3d& x : {t.p, Eigen::Vector3d(t.p + e1), Eigen::Vector3d(t.p + e2)})
-      for (const Eigen::Vector3d& y : {x, Eigen::Vector3d(x + dt)}) {
-        t.lo = t.lo.cwiseMin(y);
-        t.hi = t.hi.cwiseMax(y);
-      }
-    lo_ = lo_.cwiseMin(t.lo);
-    hi_ = hi_.cwiseMax(t.hi);
-    tris_.push_back(t);
-  }
+  spec_ = &c;
+  t0_ = t0;
+  t1_ = t1;
+  tree_ = c.mesh_tree;
+  const Eigen::Vector3d& v0 = c.mesh_vertices[c.mesh_triangles[0][0]];
+  shift_ = moved(c.motion, v0, t0) - v0;
+  step_ = moved(c.motion, v0, t1) - moved(c.motion, v0, t0);
+  hair_ = 1e-12 * (1 + std::max(tree_->bounds().lo.cwiseAbs().maxCoeff(), tree_->bounds().hi.cwiseAbs().maxCoeff()) +
+                   shift_.cwiseAbs().maxCoeff() + step_.cwiseAbs().maxCoeff());
+  // The whole sweep's box, from the box at t = 0 moved (grown by the hair: a prefilter).
+  lo_ = tree_->bounds().lo + shift_ + step_.cwiseMin(0.0) - Eigen::Vector3d::Constant(hair_);
+  hi_ = tree_->bounds().hi + shift_ + step_.cwiseMax(0.0) + Eigen::Vector3d::Constant(hair_);
+  tris_.resize(c.mesh_triangles.size());
+  made_.assign(c.mesh_triangles.size(), 0);
+}
+
+// Triangle k over the step, made when a query first meets it (a blade of many triangles meets
+// few of them in a step).
+const BladeSweep::Tri& BladeSweep::triangle(int k) const {
+  Tri& t = tris_[k];
+  if (made_[k]) return t;
+  made_[k] = 1;
+  const auto& tri = spec_->mesh_triangles[k];
+  const Eigen::Vector3d& v0 = spec_->mesh_vertices[tri[0]];
+  t.p = moved(spec_->motion, v0, t0_);
+  const Eigen::Vector3d dt = moved(spec_->motion, v0, t1_) - t.p;
+  const Eigen::Vector3d e1 = spec_->mesh_vertices[tri[1]] - v0, e2 = spec_->mesh_vertices[tri[2]] - v0;
+  t.n = e1.cross(e2).normalized();
+  t.u = e1.normalized();
+  t.w = t.n.cross(t.u);
+  t.q[0][0] = e1.dot(t.u), t.q[0][1] = e1.dot(t.w);
+  t.q[1][0] = e2.dot(t.u), t.q[1][1] = e2.dot(t.w);
+  t.d[0] = dt.dot(t.u), t.d[1] = dt.dot(t.w);
+  t.lo = t.hi = t.p;
+  for (const Eigen::Vector3d& x : {t.p, Eigen::Vector3d(t.p + e1), Eigen::Vector3d(t.p + e2)})
+    for (const Eigen::Vector3d& y : {x, Eigen::Vector3d(x + dt)}) {
+      t.lo = t.lo.cwiseMin(y);
+      t.hi = t.hi.cwiseMax(y);
+    }
+  return t;
+}
+
+void index_blade_surface(CutSpec& c) {
+  std::vector<Box> boxes;
+  boxes.reserve(c.mesh_triangles.size());
+  for (const auto& t : c.mesh_triangles)
+    boxes.push_back(Box::around({c.mesh_vertices[t[0]], c.mesh_vertices[t[1]], c.mesh_vertices[t[2]]}, 0));
+  c.mesh_tree = std::make_shared<const BoxTree>(std::move(boxes));
+}
+
+// A triangle's sweep box is its box at t = 0 moved by shift_ and stretched along step_, so it
+// overlaps [lo, hi] when its box at t = 0 overlaps [lo, hi] moved back so. The query grows by a
+// hair (1e-12 of the coordinates' size) so that the translations' round-off cannot drop a
+// triangle; the triangle's own sweep box, then the exact test, decide as for every triangle before.
+template <class Test>
+bool BladeSweep::any_triangle(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Test&& test) const {
+  Box query{lo - shift_ - step_.cwiseMax(0.0), hi - shift_ - step_.cwiseMin(0.0)};
+  query.inflate(hair_);
+  return tree_->any_overlapping(query, [&](int k) {
+    const Tri& t = triangle(k);
+    return (lo.array() <= t.hi.array()).all() && (hi.array() >= t.lo.array()).all() && test(t);
+  });
 }
 
 static double cross2(double ax, double ay, double bx, double by) { return ax * by - ay * bx; }
@@ -129,11 +167,9 @@ bool BladeSweep::inside(double s, double r, double grow) const {
 
 bool BladeSweep::crosses(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   if (mesh_) {
-    const Eigen::Vector3d slo = a.cwiseMin(b), shi = a.cwiseMax(b);
-    if ((slo.array() > hi_.array()).any() || (shi.array() < lo_.array()).any()) return false;
-    for (const Tri& t : tris_)
-      if ((slo.array() <= t.hi.array()).all() && (shi.array() >= t.lo.array()).all() && mesh_crosses(t, a, b)) return true;
-    return false;
+    const Box segment{a.cwiseMin(b), a.cwiseMax(b)};
+    if ((segment.lo.array() > hi_.array()).any() || (segment.hi.array() < lo_.array()).any()) return false;
+    return any_triangle(segment.lo, segment.hi, [&](const Tri& t) { return mesh_crosses(t, a, b); });
   }
   const double da = f_.n.dot(a - c0_), db = f_.n.dot(b - c0_);
   if ((da >= 0) == (db >= 0)) return false;
@@ -145,9 +181,7 @@ bool BladeSweep::near(const Eigen::Vector3d& p, double reach) const {
   if (mesh_) {  // within reach of one triangle's sweep box (first of the whole sweep's)
     const Eigen::Vector3d r = Eigen::Vector3d::Constant(reach);
     if (((p + r).array() < lo_.array()).any() || ((p - r).array() > hi_.array()).any()) return false;
-    for (const Tri& t : tris_)
-      if (((p + r).array() >= t.lo.array()).all() && ((p - r).array() <= t.hi.array()).all()) return true;
-    return false;
+    return any_triangle(p - r, p + r, [](const Tri&) { return true; });
   }
   const Eigen::Vector3d q = p - c0_;
   return std::fabs(f_.n.dot(q)) <= reach && inside(q.dot(f_.u), q.dot(f_.w), reach);

@@ -5,9 +5,11 @@
 #pragma once
 #include <Eigen/Dense>
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "geometry/box_tree.hpp"
 #include "geometry/motion.hpp"
 #include "params/deck_keys.hpp"
 
@@ -34,7 +36,12 @@ struct CutSpec {
   std::array<double, 3> surface_offset{0, 0, 0};
   std::vector<Eigen::Vector3d> mesh_vertices;       // transformed, at t = 0 (the reader fills these)
   std::vector<std::array<int, 3>> mesh_triangles;   // those of positive area only
+  std::shared_ptr<const BoxTree> mesh_tree;         // over their boxes at t = 0 (index_blade_surface)
 };
+
+// Builds c.mesh_tree once (the reader calls it after filling the triangles): a step's sweep moves
+// the blade by a translation, so its queries go to this tree moved back, not to a tree per step.
+void index_blade_surface(CutSpec& c);
 
 // The deck's keys of one cut (params/deck_keys.hpp); the reader asks for either the rectangle
 // (center, normal, axis, size) or surface, checks axis against normal and that the motion keeps
@@ -109,8 +116,18 @@ class BladeSweep {
   Eigen::Vector3d c0_;   // the centre at t0
   double d_[2];          // the centre's in-plane displacement over the step
   bool mesh_ = false;
-  std::vector<Tri> tris_;
-  Eigen::Vector3d lo_, hi_;  // the mesh sweep's bounding box
+  // The triangles a box query meets: those whose sweep box overlaps [lo, hi] (and a few beside it).
+  template <class Test>
+  bool any_triangle(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, Test&& test) const;
+  const Tri& triangle(int k) const;
+  const CutSpec* spec_ = nullptr;  // a surface blade's (the sweep lives within one step's search)
+  double t0_ = 0, t1_ = 0;
+  mutable std::vector<Tri> tris_;   // made on demand (made_)
+  mutable std::vector<char> made_;
+  std::shared_ptr<const BoxTree> tree_;  // CutSpec::mesh_tree: the triangles' boxes at t = 0
+  Eigen::Vector3d shift_, step_;         // the blade's translation from t = 0 to t0, and over the step
+  double hair_ = 0;                      // round-off allowance of the moved-back queries
+  Eigen::Vector3d lo_, hi_;              // the mesh sweep's bounding box (a prefilter)
 };
 
 // A motion that keeps the blade in its plane (every triangle's, for a surface), or why not ("").

@@ -39,10 +39,20 @@ class BoxTree {
     for (size_t i = 0; i < order_.size(); ++i) order_[i] = (int)i;
     if (!boxes_.empty()) build(0, (int)boxes_.size());
   }
+  // The box around all boxes (the tree holds at least one).
+  const Box& bounds() const { return nodes_.front().box; }
   // Calls visit(i) for every box i that overlaps query (closed boxes), in no particular order.
   template <class Visit>
   void overlapping(const Box& query, Visit&& visit) const {
-    if (nodes_.empty()) return;
+    any_overlapping(query, [&](int i) {
+      visit(i);
+      return false;
+    });
+  }
+  // Whether test(i) holds for some box i that overlaps query: stops at the first that does.
+  template <class Test>
+  bool any_overlapping(const Box& query, Test&& test) const {
+    if (nodes_.empty()) return false;
     int stack[128], top = 0;
     stack[top++] = 0;
     while (top > 0) {
@@ -50,12 +60,13 @@ class BoxTree {
       if (!node.box.overlaps(query)) continue;
       if (node.left < 0) {
         for (int k = node.first; k < node.first + node.count; ++k)
-          if (boxes_[order_[k]].overlaps(query)) visit(order_[k]);
+          if (boxes_[order_[k]].overlaps(query) && test(order_[k])) return true;
       } else {
         stack[top++] = node.left;
         stack[top++] = node.right;
       }
     }
+    return false;
   }
 
  private:

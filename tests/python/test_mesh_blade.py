@@ -34,6 +34,29 @@ RECTANGLE = ([(1.02, 0.7, -0.25), (1.02, 1.3, -0.25), (1.02, 1.3, 0.75), (1.02, 
 # bar (2 pieces; each of its 3 sides is needed: the block stays joined if one misses). It cuts in the
 # rest shape (frame rest): in the world the pieces falling under gravity would meet its arm along
 # y = 0.27 again.
+
+def write_medit(path, vertices, triangles):
+    with open(path, "w") as f:
+        f.write(f"MeshVersionFormatted 1\nDimension 3\nVertices\n{len(vertices)}\n")
+        f.writelines(f"{x!r} {y!r} {z!r} 0\n" for x, y, z in vertices)
+        f.write(f"Triangles\n{len(triangles)}\n")
+        f.writelines(f"{a + 1} {b + 1} {c + 1} 0\n" for a, b, c in triangles)
+        f.write("End\n")
+
+
+def subdivided_rectangle(nu, nw):
+    """RECTANGLE cut into nu x nw cells of 2 triangles each (wound as RECTANGLE's), so that the
+    blade's triangles are found through its box tree rather than all tested."""
+    ys, zs = np.linspace(0.7, 1.3, nu + 1), np.linspace(-0.25, 0.75, nw + 1)
+    vertices = [(1.02, float(y), float(z)) for z in zs for y in ys]
+    at = lambda i, j: j * (nu + 1) + i
+    triangles = []
+    for j in range(nw):
+        for i in range(nu):
+            triangles += [(at(i, j), at(i + 1, j), at(i + 1, j + 1)), (at(i, j), at(i + 1, j + 1), at(i, j + 1))]
+    return vertices, triangles
+
+
 U_XY = [(1.02, 0.8), (1.02, 0.27), (1.52, 0.27), (1.52, 0.8)]
 U_BLADE = ([(x, y, z) for x, y in U_XY for z in (0.6, 1.6)],
            [(2 * i, 2 * i + 2, 2 * i + 3) for i in range(3)] + [(2 * i, 2 * i + 3, 2 * i + 1) for i in range(3)])
@@ -47,7 +70,7 @@ V_BLADE = ([(x, y, z) for x, y in V_XY for z in (0.6, 1.6)], [(0, 2, 3), (0, 3, 
 
 
 def mesh_deck(tmp_path, blade, name="blade.obj", **cut):
-    write_obj(tmp_path / name, *blade)
+    (write_medit if name.endswith(".mesh") else write_obj)(tmp_path / name, *blade)
     deck = copy.deepcopy(BAR)
     deck["cuts"] = [{"surface": name, "motion": copy.deepcopy(BAR["cuts"][0]["motion"]), **cut}]
     return deck
@@ -70,15 +93,18 @@ def frame_bytes(out):
     return found
 
 
-@pytest.mark.parametrize("remove", [False, True])
-def test_a_rectangle_as_two_triangles_separates_the_same_faces(tmp_path, remove):
-    # (with remove: removes the same tets, docs/removal.md)
+@pytest.mark.parametrize("remove,cells,name", [(False, (1, 1), "blade.obj"), (True, (1, 1), "blade.obj"),
+                                               (False, (13, 11), "blade.obj"), (False, (13, 11), "blade.mesh")])
+def test_a_rectangle_as_triangles_separates_the_same_faces(tmp_path, remove, cells, name):
+    # (with remove: removes the same tets, docs/removal.md; 13 x 11 cells: 286 triangles, found
+    # through the blade's box tree; .mesh: the same surface in Medit's format)
     (tmp_path / "rect").mkdir()
     (tmp_path / "mesh").mkdir()
     deck = copy.deepcopy(BAR)
     deck["cuts"][0]["remove"] = remove
     rect, sr = run_deck(tmp_path / "rect", "bar", deck)  # the same name: the same file names inside
-    mesh, sm = run_deck(tmp_path / "mesh", "bar", mesh_deck(tmp_path / "mesh", RECTANGLE, remove=remove))
+    blade = RECTANGLE if cells == (1, 1) else subdivided_rectangle(*cells)
+    mesh, sm = run_deck(tmp_path / "mesh", "bar", mesh_deck(tmp_path / "mesh", blade, name, remove=remove))
     assert sr["cuts"]["tets_removed" if remove else "faces_separated"] >= 8
     assert {k: v for k, v in sr["cuts"].items() if k != "topology_s"} == \
         {k: v for k, v in sm["cuts"].items() if k != "topology_s"}
@@ -117,14 +143,16 @@ def test_a_v_blade_cuts_the_bar_into_three_pieces_with_its_mass(tmp_path):
     assert len({label[side == k][0] for k in range(3)}) == 3
 
 
-def test_ranks_agree_on_a_u_blade(tmp_path):
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_agree_on_a_u_blade(tmp_path, ranks):
+    # (4 ranks oversubscribed on a 2-core machine)
     deck = u_deck(tmp_path)
     one, s1 = run_deck(tmp_path, "one", deck)
-    two, s2 = run_deck(tmp_path, "two", deck, ranks=2)
-    assert s2["ranks"] == 2
+    many, s2 = run_deck(tmp_path, "many", deck, ranks=ranks)
+    assert s2["ranks"] == ranks
     same = ["faces_separated", "vertices_added"]
     assert {k: s1["cuts"][k] for k in same} == {k: s2["cuts"][k] for k in same}
-    a, b = final_frame(one), final_frame(two)
+    a, b = final_frame(one), final_frame(many)
     assert np.array_equal(a.vertex_id, b.vertex_id)
     assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
 
