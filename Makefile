@@ -38,8 +38,8 @@ run: build
 	$(MPIEXEC) -n $(NP) $(BUILD)/hyperqn $(DECK) $(ARGS)
 
 # ctest -j: tests run side by side as far as the cores allow; each declares the processors it
-# uses (PROCESSORS in tests/CMakeLists.txt: 2 for the MPI and end-to-end tests, which on 2 cores
-# run one at a time; 1 for those that run one process at a time, which may run side by side).
+# uses (PROCESSORS in tests/CMakeLists.txt: the MPI tests their rank count; the end-to-end tests 1,
+# as most of their runs are of one rank, and 2 for one that times its runs, which then runs alone).
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
