@@ -677,10 +677,12 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
   }
   for (const Edit& e : edits) h0->add_entry(e.i, e.j, e.delta);
   if (h0->pending_touched() > h0->max_touched()) PetscFunctionReturn(0);
+  const double before_commit = event_seconds(log_events().h0_correct);
   PetscCall(event_begin(&LogEvents::h0_correct));
   const TopologyH0::Status status = h0->commit();
   PetscCall(event_end(&LogEvents::h0_correct));
   if (status != TopologyH0::Status::ok) PetscFunctionReturn(0);  // factored anew, which says why
+  factor_s_ = event_seconds(log_events().h0_correct) - before_commit;
   topology_ = std::move(h0);
   topology_ids_ = std::move(ids);
   topology_row_ = std::move(row);

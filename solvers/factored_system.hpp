@@ -140,7 +140,8 @@ class FactoredSystem {
   // TaoLMVMSetH0 takes.
   Mat inverse_operator() const { return shell_; }
 
-  // Time of this system's factorization or AMG setup (the run's totals are the log events hqnH0*).
+  // Time of this system's factorization or AMG setup, or of the TopologyH0 correction that made
+  // it (follow; the run's totals are the log events hqnH0*).
   double factor_seconds() const { return factor_s_; }
   // Entries of the Cholesky factor (the package's count; the same on every rank). For amg: the
   // entries of the multigrid hierarchy's matrices, A1 and its coarse levels (PCMG, e.g. GAMG),

@@ -78,28 +78,7 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   add_step_counters(summary, *old_scene.step);
   summary.dofs = fresh.mesh.global_dofs;
   summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
-  if (run_.scene.last_change_cut()) {
-    const LiveScene::CutCounts& c = run_.scene.cut_counts();
-    bool removes = false;  // a blade removes tets (docs/removal.md): the line says how many
-    for (const CutSpec& k : run_.deck.cuts) removes = removes || k.remove;
-    const std::string removed = removes ? ", " + std::to_string(c.removed) + " tets removed" : "";
-    PetscCall(PetscPrintf(run_.comm, "t = %g: %s: %lld faces separated%s, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                          run_.state.time, run_.deck.cuts.empty() ? "fracture" : run_.scene.fracture() ? "cut or fracture" : "cut", c.faces, removed.c_str(), c.vertices, (long long)summary.dofs,
-                          run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
-  } else if (run_.scene.last_change_break()) {
-    const LiveScene::BreakCounts& c = run_.scene.break_counts();
-    if (c.edges == 0)
-      PetscCall(PetscPrintf(run_.comm, "t = %g: snap: %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                            run_.state.time, c.segments, c.vertices, (long long)summary.dofs,
-                            run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
-    else
-      PetscCall(PetscPrintf(run_.comm, "t = %g: tear: %lld cloth edges torn, %lld strand segments snapped, %lld vertices added so far; %lld dofs now, constant matrix %s\n",
-                            run_.state.time, c.edges, c.segments, c.vertices, (long long)summary.dofs,
-                            run_.scene.last_cut_corrected() ? "corrected (TopologyH0)" : "factored again"));
-  } else {
-    PetscCall(PetscPrintf(run_.comm, "t = %g: fixed region(s) released or attachment(s) gone (from this step on); %lld dofs now, constant matrix factored again\n",
-                          run_.state.time, (long long)summary.dofs));
-  }
+  PetscCall(PetscPrintf(run_.comm, "t = %g: %s\n", run_.state.time, run_.scene.last_change(summary.dofs).c_str()));
   PetscFunctionReturn(0);
 }
 

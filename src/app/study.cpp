@@ -111,8 +111,9 @@ struct Study {
     PetscFunctionReturn(0);
   }
 
-  // After a release: the solvers move to the new scene; a trajectory's time includes the new
-  // factorization its solver needs.
+  // After a release, a cut or a break: the solvers move to the new scene; a trajectory's time
+  // includes what its solver's H0 took to follow (a factorization, or a TopologyH0 correction).
+  // The scene's rebuild is common to every solver and not charged.
   PetscErrorCode rebind(const Scene&, Scene& fresh) {
     PetscFunctionBeginUser;
     for (auto& c : contenders) {
@@ -122,8 +123,7 @@ struct Study {
     }
     reference.reset();
     PetscCall(make_solvers(fresh));
-    PetscCall(PetscPrintf(comm, "study: t = %g: fixed region(s) released or attachment(s) gone; %lld dofs now, constant matrix factored again\n",
-                          ref.time, (long long)fresh.mesh.global_dofs));
+    PetscCall(PetscPrintf(comm, "study: t = %g: %s\n", ref.time, scene.last_change(fresh.mesh.global_dofs).c_str()));
     PetscFunctionReturn(0);
   }
 

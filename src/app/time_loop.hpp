@@ -4,8 +4,9 @@
 // an observer (docs/architecture.md#the-time-loop).
 //
 // The loop steps a lead state and, in lockstep after it, any followers. The lead is the run's one
-// state, or the study's converged reference: its time decides the releases of the scene, and a
-// lead that cannot go on ends the loop. A follower (a study trajectory at a solver's budget) has
+// state, or the study's converged reference: its time decides the releases of the scene, its
+// positions the cuts and breaks (every follower moves to the changed scene with it), and a lead
+// that cannot go on ends the loop. A follower (a study trajectory at a solver's budget) has
 // its own solve; one that cannot go on stops alone. Lockstep rather than one loop per state: the
 // study compares every trajectory with the reference at the same frame, so nothing of the
 // reference has to be stored, and the scene is released once for all of them.
@@ -45,7 +46,8 @@ class FrameObserver {
   // Before the first frame, the lead at its start (frame 0 or a restart's). May end the loop
   // before any frame (control.interrupted).
   virtual PetscErrorCode begin(LoopControl& /*control*/) { return 0; }
-  // A release rebuilt the scene (LiveScene::release_due); the owner's rebind has run.
+  // A release, a cut or a break rebuilt the scene (LiveScene::release_due, cut_due, snap_due); the
+  // owner's rebind has run.
   virtual PetscErrorCode scene_changed(const Scene& /*old_scene*/, Scene& /*fresh*/) { return 0; }
   // Frame `frame` is about to be solved: the lead is at frame - 1, any release is done.
   virtual PetscErrorCode before_frame(int /*frame*/) { return 0; }

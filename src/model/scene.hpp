@@ -175,6 +175,10 @@ class LiveScene {
   bool fracture() const { return !fracture_.empty(); }
   // The last change of the scene was a cut (not a release): for messages.
   bool last_change_cut() const { return last_change_cut_; }
+  // The last change in words, for the console of a run and of a study: what changed (a release, a
+  // cut or fracture, snaps, tears, with the totals so far), the free dofs now (`dofs`), and whether
+  // the constant matrix followed by a correction or was factored again.
+  std::string last_change(long long dofs) const;
   bool last_cut_corrected() const { return last_cut_corrected_; }  // the last cut or break: its H0 followed by a correction
   // The batches separated in the scene whose constant matrix was last factored (a checkpoint's
   // cuts_factored).

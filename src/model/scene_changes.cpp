@@ -249,6 +249,27 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   PetscFunctionReturn(0);
 }
 
+std::string LiveScene::last_change(long long dofs) const {
+  const std::string matrix = "; " + std::to_string(dofs) + " dofs now, constant matrix ";
+  const std::string followed = last_cut_corrected_ ? "corrected (TopologyH0)" : "factored again";
+  if (last_change_cut_) {
+    const bool blades = !spec_->cuts.empty();
+    bool removes = false;  // a blade removes tets (docs/removal.md): the line says how many
+    for (const CutSpec& k : spec_->cuts) removes = removes || k.remove;
+    return std::string(!blades ? "fracture" : fracture() ? "cut or fracture" : "cut") + ": " +
+           std::to_string(counts_.faces) + " faces separated" +
+           (removes ? ", " + std::to_string(counts_.removed) + " tets removed" : "") + ", " +
+           std::to_string(counts_.vertices) + " vertices added so far" + matrix + followed;
+  }
+  if (last_change_break_) {
+    const BreakCounts& c = break_counts_;
+    return (c.edges == 0 ? "snap: " : "tear: " + std::to_string(c.edges) + " cloth edges torn, ") +
+           std::to_string(c.segments) + " strand segments snapped, " + std::to_string(c.vertices) +
+           " vertices added so far" + matrix + followed;
+  }
+  return "fixed region(s) released or attachment(s) gone (from this step on)" + matrix + "factored again";
+}
+
 PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
                                        const Rebind& rebind) {
   PetscFunctionBeginUser;

@@ -84,6 +84,23 @@ def test_report(study):
         assert png.stat().st_size > 10000
 
 
+def plain_runs(tmp_path, deck, ranks=1):
+    """The study deck run plainly, once with its lbfgs and once with the reference's converged
+    Newton: {"lbfgs": OUTDIR, "reference": OUTDIR}. The study's trajectories run without the
+    fallback chain (fixed budgets), so these runs too."""
+    import yaml
+    runs = {}
+    for name, solver in {"lbfgs": {**deck["solver"], **NO_FALLBACK},
+                         "reference": {"type": "newton", "newton_hessian": "exact", "iterations": 100,
+                                       "grad_rtol": 1e-10, **NO_FALLBACK}}.items():
+        d = dict(deck, solver=solver)
+        del d["study"]
+        (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump(d))
+        runs[name] = tmp_path / name
+        run_hyperqn([tmp_path / f"{name}.yaml", "-o", runs[name]], ranks=ranks)
+    return runs
+
+
 def test_study_releases_fixed_regions_like_the_simulation(tmp_path):
     """A twisted bar whose end is released at t = 0.3: the study rebuilds its scene as the
     simulation does. Its lbfgs trajectory's RMS distance to the converged reference must equal the
@@ -109,21 +126,57 @@ def test_study_releases_fixed_regions_like_the_simulation(tmp_path):
     with open(tmp_path / "study" / "trajectory.csv") as f:
         last = {r["solver"]: r for r in csv.DictReader(f) if r["frame"] == "10"}
 
-    runs = {}
-    # The study's trajectories run without the fallback chain (fixed budgets), so these runs too.
-    for name, solver in {"lbfgs": {**deck["solver"], **NO_FALLBACK},
-                         "reference": {"type": "newton", "newton_hessian": "exact", "iterations": 100,
-                                       "grad_rtol": 1e-10, **NO_FALLBACK}}.items():
-        d = dict(deck, solver=solver)
-        del d["study"]
-        (tmp_path / f"{name}.yaml").write_text(yaml.safe_dump(d))
-        runs[name] = tmp_path / name
-        run_hyperqn([tmp_path / f"{name}.yaml", "-o", runs[name]], ranks=2)
+    runs = plain_runs(tmp_path, deck, ranks=2)
     assert read_summary(runs["lbfgs"])["factorizations"] == 2
     a, b = final_frame(runs["lbfgs"]), final_frame(runs["reference"])
     free = read_summary(runs["lbfgs"])["dofs"] // 3
     rms = np.linalg.norm(a.points - b.points) / np.sqrt(free)
     assert rms > 1e-6, "the comparison needs a visible difference"
+    assert float(last["lbfgs"]["rms_error"]) == pytest.approx(rms, rel=1e-6)
+
+
+def test_study_cuts_the_trajectories_like_the_simulation(tmp_path):
+    """test_cuts.py's bar sliced by a blade, with the blade in the rest frame (faces decided by the
+    rest shape, so every solver's run cuts the same faces in the same frames), at one rank, where
+    each cut's H0 follows by a TopologyH0 correction: the study cuts its reference and every
+    trajectory together and says so; the per-frame comparison after cuts starts every solver from
+    the same state; the lbfgs trajectory's RMS distance to the reference equals that of two plain
+    runs (lbfgs, and the reference's Newton), as for a release above."""
+    import copy
+    import yaml
+    from hyperqn_tools.output import final_frame, read_summary
+    from test_cuts import BAR
+    deck = copy.deepcopy(BAR)
+    deck["cuts"][0]["frame"] = "rest"
+    deck["solver"] = {"type": "lbfgs", "iterations": 10}
+    deck["study"] = {"frames": [8], "solvers": ["lbfgs", "newton"], "iterations": 100}
+    path = tmp_path / "cut.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"])
+    cut_lines = [line for line in proc.stdout.splitlines() if line.startswith("study: t = ")]
+    assert cut_lines and all(": cut: " in line and line.endswith("constant matrix corrected (TopologyH0)")
+                             for line in cut_lines), proc.stdout[-3000:]
+    assert float(cut_lines[0].split("t = ")[1].split(":")[0]) < 8 * deck["time"]["dt"]  # cut before frame 8
+    with open(tmp_path / "study" / "study.csv") as f:
+        rows = list(csv.DictReader(f))
+    starts = {float(r["energy"]) for r in rows if r["iteration"] == "0"}
+    assert len(starts) == 1
+    assert min(float(r["rel_error"]) for r in rows if r["solver"] == "lbfgs") <= 1e-6
+    with open(tmp_path / "study" / "trajectory.csv") as f:
+        traj = list(csv.DictReader(f))
+    frames = deck["time"]["frames"]
+    assert [int(r["frame"]) for r in traj if r["solver"] == "lbfgs"] == list(range(1, frames + 1))
+    last = {r["solver"]: r for r in traj if r["frame"] == str(frames)}
+
+    runs = plain_runs(tmp_path, deck)
+    s = read_summary(runs["lbfgs"])
+    assert s["cuts"]["h0_corrections"] == len(cut_lines) and s["cuts"]["refactorizations"] == 0
+    a, b = final_frame(runs["lbfgs"]), final_frame(runs["reference"])
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    rms = np.linalg.norm(a.points - b.points) / np.sqrt(s["dofs"] // 3)
+    assert rms > 1e-6, "the comparison needs a visible difference"
+    print(f"lbfgs against the reference after {len(cut_lines)} cuts: study {float(last['lbfgs']['rms_error']):.9e}, "
+          f"plain runs {rms:.9e}")
     assert float(last["lbfgs"]["rms_error"]) == pytest.approx(rms, rel=1e-6)
 
 
