@@ -5,6 +5,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <array>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -71,9 +72,11 @@ inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
       DeckKey<C>{"remove", &C::remove,
                  "`true`: the blade removes the tets that have an edge its swept patch crossed in a step (a kerf), "
                  "instead of separating faces ([removal.md](removal.md)); not with self-contact"},
-      custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane",
-                    "how the blade moves: `translate.velocity` (in its plane) between `start` and `end`, or along a "
-                    "`curve`; no `rotate`",
+      custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane and, for the rectangle, "
+                    "a turn in it",
+                    "how the blade moves: `translate.velocity` (in its plane) and, for the rectangle, `rotate` about an "
+                    "axis along `normal` (it turns in its plane, about `rotate.center`), between `start` and `end`, or "
+                    "along a `curve`; a triangle-mesh blade does not turn",
                     "none (it cuts where it stands, after the first step)"),
   };
   return keys;
@@ -89,7 +92,12 @@ struct BladeFrame {
 
 // The blade's sweep over one step [t0, t1]: its rectangle moved along the segment from its
 // position at t0 to that at t1 (the blade stays in its plane, so the swept patch is a planar
-// hexagon: the rectangle's Minkowski sum with that segment).
+// hexagon: the rectangle's Minkowski sum with that segment). A rectangle that also turns (rotate
+// about an axis along its normal: it stays in its plane) turns at a constant rate over the step
+// while its centre moves along that segment; a point's path in the blade's own frame is then
+// sampled every kBladeTurnSample radians of the turn (and at t0 and t1) and joined by chords, and
+// the point is swept when that path meets the rectangle.
+inline constexpr double kBladeTurnSample = M_PI / 180;  // 1 degree: a chord strays 3.8e-5 of its radius
 class BladeSweep {
  public:
   BladeSweep(const CutSpec& c, double t0, double t1);
@@ -104,6 +112,10 @@ class BladeSweep {
 
  private:
   bool inside(double s, double r, double grow) const;  // in-plane coordinates relative to the t0 centre
+  // A turning rectangle: whether world point p's path in the blade's frame meets the rectangle
+  // grown by `grow` (and by the chords' largest stray from the path, with grow > 0: near's prefilter
+  // covers what crosses finds).
+  bool turning_inside(const Eigen::Vector3d& p, double grow) const;
   // A triangle-mesh blade: each triangle at t0 (corner p, unit normal n by its winding, in-plane
   // unit axes u, w = n x u), its other corners and the step's displacement in (u, w) coordinates;
   // the bounding box of its sweep.
@@ -115,6 +127,12 @@ class BladeSweep {
   BladeFrame f_;
   Eigen::Vector3d c0_;   // the centre at t0
   double d_[2];          // the centre's in-plane displacement over the step
+  // A turning rectangle (turns_): per sample k = 0..K of the step, the turn since t = 0 as the
+  // cosine and sine of -theta_k, and the centre's in-plane offset from its t = 0 place; the whole
+  // step's turn. Empty for a blade that only moves.
+  bool turns_ = false;
+  std::vector<std::array<double, 2>> unturn_, offset_;
+  double turn_ = 0;
   bool mesh_ = false;
   // The triangles a box query meets: those whose sweep box overlaps [lo, hi] (and a few beside it).
   template <class Test>

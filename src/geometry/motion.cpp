@@ -9,9 +9,15 @@ static double active_time(const Motion& m, double t) { return std::min(std::max(
 // How far the motion has gone at t: tau, or the curve's c(t).
 static double progress(const Motion& m, double t) { return m.curve.given ? m.curve.value(t) : active_time(m, t); }
 
+double motion_progress(const Motion& m, double t) { return m.active ? progress(m, t) : 0.0; }
+
 Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t) {
   if (!m.active) return X;
-  const double tau = progress(m, t);
+  return moved_by(m, X, progress(m, t));
+}
+
+Eigen::Vector3d moved_by(const Motion& m, const Eigen::Vector3d& X, double tau) {
+  if (!m.active) return X;
   const Eigen::Vector3d axis = Eigen::Vector3d(m.axis[0], m.axis[1], m.axis[2]).normalized();
   const Eigen::Vector3d c(m.center[0], m.center[1], m.center[2]);
   const Eigen::AngleAxisd R(m.rate_deg * M_PI / 180.0 * tau, axis);

@@ -53,6 +53,12 @@ struct RigidPose {
 };
 RigidPose pose_at(const Motion& m, double t);
 
+// How far the motion has gone at time t: tau above, or the curve's c(t) (0 if not active).
+double motion_progress(const Motion& m, double t);
+// Position of the point X once the motion has gone tau (moved(m, X, t) is this at tau =
+// motion_progress(m, t)): between two times, a constant rate's poses are those of tau in between.
+Eigen::Vector3d moved_by(const Motion& m, const Eigen::Vector3d& X, double tau);
+
 // Position at time t of the point X (X itself if the motion is not active): pose_at(m, t).apply(X)
 // up to round-off, computed as c + R (X - c) + velocity tau.
 Eigen::Vector3d moved(const Motion& m, const Eigen::Vector3d& X, double t);
