@@ -220,14 +220,17 @@ PetscErrorCode StepObjective::solve_step(TimeStepSolver& solver, State& s, const
 }
 
 PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
-  const PetscInt cells = body_.mesh().num_cells;
+  const DistributedMesh& mesh = body_.mesh();
+  const PetscInt cells = mesh.num_cells;
   PetscFunctionBeginUser;
   *sound = true;
-  if (body_.mesh().global_cells == 0) PetscFunctionReturn(0);  // nothing to invert
+  if (mesh.global_cells == 0 && mesh.global_segments == 0) PetscFunctionReturn(0);  // nothing to invert
   if (!end_x_) PetscCall(VecDuplicate(inertia_.mass(), &end_x_));
   if (!end_v_) PetscCall(VecDuplicate(inertia_.mass(), &end_v_));
   PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
   body_.cell_jacobians(pos_, J_n_);
+  std::vector<double> z;  // z's positions, for the strand segments
+  if (mesh.num_segments > 0) z = pos_;
   PetscCall(VecCopy(s.x, end_x_));
   PetscCall(life_.end_map(end_x_, end_v_));
   const double solve_time = body_.time();
@@ -240,6 +243,14 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
     const bool inverted = J_n_[c] > 0 && !(J_[c] > 0);
     const bool blown = element_limit_ > 0 && !(std::fabs(J_[c]) <= element_limit_) && std::fabs(J_n_[c]) <= element_limit_;
     local = inverted || blown;
+  }
+  // A strand segment's inversion: the end map turns it through 90 degrees or more from z, where
+  // it points the other way (a rope that recoils after a snap overshoots so, gaining energy).
+  for (PetscInt k = 0; k < mesh.num_segments && !local; ++k) {
+    const PetscInt a = 3 * mesh.segments[2 * k], b = 3 * mesh.segments[2 * k + 1];
+    double dot = 0;
+    for (int i = 0; i < 3; ++i) dot += (z[b + i] - z[a + i]) * (pos_[b + i] - pos_[a + i]);
+    local = !(dot > 0);
   }
   PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)s.x)));
   *sound = !any;
