@@ -130,6 +130,10 @@ struct Study {
   PetscErrorCode run(StudyWriter& out);
 };
 
+// How far the converged reference may end above the lowest g any solver reached, as a share of
+// g(x0) - g*, before the study warns: far above its round-off (it converges to reference_rtol).
+constexpr double kReferenceAboveLowest = 1e-6;
+
 // The per-frame comparison (study.csv, study.h5): at each frame of study.frames, before the
 // reference steps, every solver solves the frame from the reference's state; the reference's own
 // solve of the frame gives g*.
@@ -195,6 +199,17 @@ class FrameComparison : public FrameObserver {
     for (const StudyCurve& c : curves_)
       for (const IterationRecord& r : c.iterations) g_star = std::min(g_star, r.energy);
     const double g0 = reference_.iterations.front().energy;
+    // A solver far below the converged reference: on a step that is not convex (a compressed
+    // rope, a buckling shell) Newton with the exact Hessian can converge to a saddle or a higher
+    // minimum. Said, since the trajectory follows the reference there.
+    const double above = (reference_.iterations.back().energy - g_star) / (g0 - g_star);
+    if (above > kReferenceAboveLowest)
+      PetscCall(PetscPrintf(study_.comm,
+                            "study frame %4d  warning: a solver went below the converged reference by %.3e of "
+                            "g(x0) - g*: the reference (Newton, exact Hessian) converged to a stationary point that is "
+                            "not the lowest found (a step that is not convex); errors are measured from the lowest, "
+                            "and the trajectories are compared with the reference's path\n",
+                            outcome.frame, above));
     curves_.push_back(reference_);
     for (StudyCurve& c : curves_) {
       c.g0 = g0;

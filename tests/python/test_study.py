@@ -40,8 +40,10 @@ def test_relative_error_recomputed_from_the_csv(study):
         g0 = float(ref[0]["energy"])
         g_star = min(float(r["energy"]) for r in at)  # the lowest g anyone reached
         assert g_star <= float(ref[-1]["energy"])
-        # The reference converged: its last gradient is tiny compared with its first.
+        # The reference converged: its last gradient is tiny compared with its first, and no solver
+        # went below it but by round-off (the study would warn).
         assert float(ref[-1]["grad_norm"]) <= 1e-8 * float(ref[0]["grad_norm"])
+        assert float(ref[-1]["rel_error"]) <= 1e-6
         for r in at:
             expected = (float(r["energy"]) - g_star) / (g0 - g_star)
             assert float(r["rel_error"]) == pytest.approx(expected, rel=1e-12, abs=1e-15)
@@ -178,6 +180,35 @@ def test_study_cuts_the_trajectories_like_the_simulation(tmp_path):
     print(f"lbfgs against the reference after {len(cut_lines)} cuts: study {float(last['lbfgs']['rms_error']):.9e}, "
           f"plain runs {rms:.9e}")
     assert float(last["lbfgs"]["rms_error"]) == pytest.approx(rms, rel=1e-6)
+
+
+def test_study_through_snaps_and_a_reference_that_is_not_the_lowest(tmp_path):
+    """test_tearing.py's cube on two ropes, studied at frame 30, after the first snap: the study
+    snaps the reference and every trajectory together (the reference's positions decide) and each
+    trajectory runs to the end. Frame 30's step is not convex (a recoiling rope): the reference's
+    exact Newton converges (|grad g| to 1e-13 of its start) to a stationary point above the lowest
+    g that projected Newton finds (measured 3.5e-2 of g(x0) - g*), and the study says so."""
+    import copy
+    import yaml
+    from test_tearing import ROPE
+    deck = copy.deepcopy(ROPE)
+    deck["solver"] = {"type": "lbfgs", "iterations": 20}
+    deck["study"] = {"frames": [30], "solvers": ["lbfgs", "newton"], "iterations": 100}
+    path = tmp_path / "rope.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"])
+    assert "study: t = " in proc.stdout and ": snap: " in proc.stdout
+    with open(tmp_path / "study" / "trajectory.csv") as f:
+        traj = list(csv.DictReader(f))
+    for solver in ("lbfgs", "newton"):
+        assert [int(r["frame"]) for r in traj if r["solver"] == solver] == list(range(1, 41))
+    with open(tmp_path / "study" / "study.csv") as f:
+        rows = [r for r in csv.DictReader(f) if r["frame"] == "30"]
+    reference = [r for r in rows if r["solver"] == "reference"]
+    assert float(reference[-1]["grad_norm"]) <= 1e-10 * float(reference[0]["grad_norm"])
+    above = float(reference[-1]["rel_error"])
+    assert above > 1e-6
+    assert f"study frame   30  warning: a solver went below the converged reference by {above:.3e}" in proc.stdout
 
 
 def test_integrator_axis(tmp_path):
