@@ -235,8 +235,8 @@ PetscErrorCode FactoredSystem::factor(Mat A, CholeskyAnalysis* analysis) {
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
-  PetscMPIInt ranks;
-  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A_), &ranks));
+  PetscMPIInt ranks;  // of A: 1 on one rank and for the copy gathered to rank 0
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A), &ranks));
   const bool supernodal = package_ == FactorPackage::supernodal || package_ == FactorPackage::split;
   if (supernodal && ranks == 1 && components_ == 1 && !row_ids_.empty()) {  // a scene with cuts
     PetscCall(factor_topology(A));
@@ -382,6 +382,20 @@ PetscErrorCode FactoredSystem::add_diagonal(Vec extra_diagonal) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode FactoredSystem::gather_to_zero() {
+  PetscInt N;
+  PetscMPIInt rank;
+  IS all;
+  PetscFunctionBeginUser;
+  if (A0_) PetscFunctionReturn(0);
+  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)A_), &rank));
+  PetscCall(MatGetSize(A_, &N, nullptr));
+  PetscCall(ISCreateStride(PETSC_COMM_SELF, rank == 0 ? N : 0, 0, 1, &all));
+  PetscCall(MatCreateSubMatrices(A_, 1, &all, &all, MAT_INITIAL_MATRIX, &A0_));
+  PetscCall(ISDestroy(&all));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyAnalysis* analysis, bool corrected) {
   PetscInt n, N, m, M;
   const int components = components_;
@@ -404,11 +418,7 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
   } else if (package == FactorPackage::amg) {
     PetscCall(setup_amg());
   } else if (gathered) {  // gathered to rank 0, for reproducible solves (see the header)
-    IS all;
-    PetscCall(MatGetSize(A_, &N, nullptr));
-    PetscCall(ISCreateStride(PETSC_COMM_SELF, rank == 0 ? N : 0, 0, 1, &all));
-    PetscCall(MatCreateSubMatrices(A_, 1, &all, &all, MAT_INITIAL_MATRIX, &A0_));
-    PetscCall(ISDestroy(&all));
+    PetscCall(gather_to_zero());
     factored = A0_[0];
     PetscCall(MatSetOption(factored, MAT_SPD, PETSC_TRUE));  // as A_: MUMPS's LL^T, not LDL^T
   }
@@ -434,6 +444,9 @@ PetscErrorCode FactoredSystem::factor_assembled(FactorPackage package, CholeskyA
   }
   if (supernodal_) factor_nonzeros_ = static_cast<double>(supernodal_->nonzeros());
   if (topology_) factor_nonzeros_ = static_cast<double>(topology_->factor_nonzeros());
+  int follows = topology_ != nullptr;  // gathered: rank 0's
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &follows, 1, MPI_INT, MPI_MAX, comm));
+  follows_topology_ = follows != 0;
   if (split_) factor_nonzeros_ = split_->nonzeros();  // already the sum over the ranks
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &factor_nonzeros_, 1, MPI_DOUBLE, MPI_MAX, comm));  // gathered: rank 0's
 
@@ -592,7 +605,21 @@ PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& s
   PetscCall(event_begin(&LogEvents::h0_assembly));
   PetscCall(step.assemble_constant_matrix(&A_, components_, kind_));
   PetscCall(event_end(&LogEvents::h0_assembly));
-  if (before.topology_ && components_ == 1 && !row_ids_.empty()) PetscCall(correct_from(before, check, corrected));
+  if (before.follows_topology() && components_ == 1 && !row_ids_.empty()) {
+    // On more than one rank before's TopologyH0 is on rank 0, with the gathered factor: A_ is
+    // gathered there too, rank 0 corrects, and every rank learns whether it did.
+    MPI_Comm comm = PetscObjectComm((PetscObject)A_);
+    PetscMPIInt size, rank;
+    PetscCallMPI(MPI_Comm_size(comm, &size));
+    PetscCallMPI(MPI_Comm_rank(comm, &rank));
+    if (size > 1) PetscCall(gather_to_zero());
+    const PetscErrorCode ierr = rank == 0 ? correct_from(before, size > 1 ? A0_[0] : A_, check, corrected) : 0;
+    int outcome[2] = {static_cast<int>(ierr), *corrected ? 1 : 0};
+    PetscCallMPI(MPI_Bcast(outcome, 2, MPI_INT, 0, comm));
+    PetscCall(static_cast<PetscErrorCode>(outcome[0]));
+    PetscCheck(outcome[0] == 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "the correction of the constant matrix failed on rank 0");
+    *corrected = outcome[1] != 0;
+  }
   if (*corrected) {
     package_ = before.package_;
     PetscCall(factor_assembled(package_, nullptr, true));
@@ -610,7 +637,7 @@ PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& s
 // numbered in the order of A_'s rows; a vertex of C missing from A_ (it left the mesh: a removed
 // tet's orphan) keeps its row, decoupled (its diagonal only; solves put 0 there). Not corrected:
 // more rows touched than max_touched (the size trigger: the caller factors A_ anew).
-PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const TopologyCheck& check, bool* corrected) {
+PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, Mat A, const TopologyCheck& check, bool* corrected) {
   PetscFunctionBeginUser;
   std::unique_ptr<TopologyH0> h0 = std::move(before.topology_);
   std::vector<int64_t> ids = before.topology_ids_;
@@ -649,10 +676,10 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
       PetscInt nc;
       const PetscInt* c;
       const PetscScalar* v;
-      PetscCall(MatGetRow(A_, scene_row[i], &nc, &c, &v));
+      PetscCall(MatGetRow(A, scene_row[i], &nc, &c, &v));
       for (PetscInt k = 0; k < nc; ++k)
         if (row[c[k]] >= i) b.push_back({row[c[k]], v[k]});
-      PetscCall(MatRestoreRow(A_, scene_row[i], &nc, &c, &v));
+      PetscCall(MatRestoreRow(A, scene_row[i], &nc, &c, &v));
     }
     std::sort(b.begin(), b.end());
     size_t q = 0;
@@ -695,14 +722,22 @@ PetscErrorCode FactoredSystem::correct_from(FactoredSystem& before, const Topolo
 PetscErrorCode FactoredSystem::check_correction() const {
   SymmetricCsr a;
   SupernodalCholesky fresh;
+  PetscMPIInt rank;
   PetscFunctionBeginUser;
-  PetscCall(rows_of(A_, true, &a));
+  PetscCallMPI(MPI_Comm_rank(PetscObjectComm((PetscObject)A_), &rank));
+  if (A0_ && rank != 0) PetscFunctionReturn(0);  // gathered: the factor and the correction are rank 0's
+  PetscCall(rows_of(A0_ ? A0_[0] : A_, true, &a));
   PetscCheck(fresh.factor(a.n, a.start.data(), a.column.data(), a.value.data()) == SupernodalCholesky::Status::ok,
              PETSC_COMM_SELF, PETSC_ERR_LIB, "the check's factorization of the changed matrix failed");
   std::mt19937_64 random(44);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   Vec b, x;
-  PetscCall(MatCreateVecs(shell_, &b, &x));
+  if (A0_) {
+    PetscCall(VecDuplicate(b0_, &b));
+    PetscCall(VecDuplicate(x0_, &x));
+  } else {
+    PetscCall(MatCreateVecs(shell_, &b, &x));
+  }
   double worst = 0;
   for (int draw = 0; draw < 2; ++draw) {
     PetscScalar* in;

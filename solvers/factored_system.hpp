@@ -104,9 +104,10 @@ class FactoredSystem {
   // and split packages analyse the pattern once (CholeskyAnalysis); the others ignore it.
   PetscErrorCode setup(const FactoredSystem& base, Vec extra_diagonal, CholeskyAnalysis* analysis = nullptr);
   // A scene whose topology may change (deck cuts:, docs/topology.md): before setup, the vertex id
-  // of each row of A1 (one rank; the constant matrix follows vertices by id across a cut). The
-  // supernodal factor of A1 (the Laplacian without rollers) is then held by a TopologyH0, whose
-  // solve with no change is the plain factor's, bit for bit.
+  // of each row of A1 (every row's, on every rank; the constant matrix follows vertices by id
+  // across a cut). The supernodal factor of A1 (the Laplacian without rollers; on one rank, or
+  // gathered to rank 0) is then held by a TopologyH0, whose solve with no change is the plain
+  // factor's, bit for bit.
   void set_row_ids(std::vector<int64_t> row_ids, int64_t max_touched = 0) {
     row_ids_ = std::move(row_ids);
     max_touched_ = max_touched > 0 ? max_touched : TopologyH0::kDefaultMaxTouched;
@@ -115,12 +116,13 @@ class FactoredSystem {
   // and, where `before` holds a TopologyH0, takes it over: the change A' - A, mapped to its rows by
   // vertex id (a copy is a new vertex; a vertex that left keeps a decoupled row), becomes its
   // edits and one commit (*corrected = true).
-  // Otherwise (another package, kind or rank count, rollers, or more than TopologyH0::max_touched
+  // Otherwise (another package (split or amg) or kind, rollers, or more than TopologyH0::max_touched
   // rows touched since the last factorization) A' is factored as setup would with `package`.
   PetscErrorCode follow(FactoredSystem& before, const Objective& step, FactorPackage package, std::vector<int64_t> row_ids,
                         const TopologyCheck& check, bool* corrected);
-  // Whether this system's inverse is a TopologyH0's (a cut can be followed by a correction).
-  bool follows_topology() const { return topology_ != nullptr; }
+  // Whether this system's inverse is a TopologyH0's (a cut can be followed by a correction; the
+  // same on every rank, the TopologyH0 on rank 0 when gathered).
+  bool follows_topology() const { return follows_topology_; }
   // The package that ran (automatic resolved).
   ConstantMatrix kind() const { return kind_; }
   FactorPackage package() const { return package_; }
@@ -158,7 +160,9 @@ class FactoredSystem {
   PetscErrorCode factor_assembled(FactorPackage package, CholeskyAnalysis* analysis = nullptr, bool corrected = false);
   PetscErrorCode factor_topology(Mat A);  // A_ into topology_ (one rank)
   // follow's correction: takes before's TopologyH0 and commits A_ - its matrix (*corrected: it did).
-  PetscErrorCode correct_from(FactoredSystem& before, const TopologyCheck& check, bool* corrected);
+  // A: the assembled A', A_ or (gathered) its copy on rank 0, where this runs.
+  PetscErrorCode correct_from(FactoredSystem& before, Mat A, const TopologyCheck& check, bool* corrected);
+  PetscErrorCode gather_to_zero();  // more than one rank: A_ to A0_ on rank 0 (once)
   PetscErrorCode check_correction() const;  // TopologyCheck::check
   // Cholesky factorization of A (A_, or its copy on rank 0) into factor_ or supernodal_.
   PetscErrorCode factor(Mat A, CholeskyAnalysis* analysis);
@@ -181,7 +185,8 @@ class FactoredSystem {
   Mat A_ = nullptr, factor_ = nullptr, shell_ = nullptr;  // A_: A1 for the Laplacian, else A
   std::unique_ptr<SupernodalCholesky> supernodal_;         // instead of factor_ for supernodal
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
-  std::unique_ptr<TopologyH0> topology_;                   // instead of supernodal_ in a scene with cuts
+  std::unique_ptr<TopologyH0> topology_;                   // instead of supernodal_ in a scene with cuts (rank 0's when gathered)
+  bool follows_topology_ = false;                          // topology_ on this rank or rank 0
   std::vector<int64_t> row_ids_;       // per row of A1: its vertex id (empty: topology_ not used)
   int64_t max_touched_ = TopologyH0::kDefaultMaxTouched;  // topology_'s size trigger
   std::vector<int64_t> topology_ids_;  // per row of topology_: its vertex id (the rows it had, then its new vertices)

@@ -500,16 +500,19 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   PetscFunctionReturn(0);
 }
 
-// Per row of the scene's vertex matrix A1 (a free vertex), its vertex id, on one rank (the rows a
-// TopologyH0 follows across cuts); empty on more.
-static std::vector<int64_t> row_ids(MPI_Comm comm, const DistributedMesh& mesh) {
-  int size;
-  MPI_Comm_size(comm, &size);
-  if (size > 1) return {};
-  std::vector<int64_t> ids(mesh.global_dofs / 3, -1);
+// Per row of the scene's vertex matrix A1 (a free vertex), its vertex id: every row's, the same on
+// every rank (the rows a TopologyH0 follows across cuts; on more than one rank it lives on rank 0,
+// with the gathered factor). A rank knows the ids of its own and its ghost vertices' rows, so the
+// largest of every rank's entries (-1 where it knows none) is each row's id.
+static PetscErrorCode row_ids(MPI_Comm comm, const DistributedMesh& mesh, std::vector<int64_t>* ids) {
+  PetscFunctionBeginUser;
+  ids->assign(mesh.global_dofs / 3, -1);
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
-    if (mesh.global_dof[v] >= 0) ids[mesh.global_dof[v] / 3] = mesh.vertex_ids[v];
-  return ids;
+    if (mesh.global_dof[v] >= 0) (*ids)[mesh.global_dof[v] / 3] = mesh.vertex_ids[v];
+  PetscMPIInt size;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  if (size > 1) PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, ids->data(), (int)ids->size(), MPI_INT64_T, MPI_MAX, comm));
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& released_attachments, Scene& s,
@@ -548,10 +551,12 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     if (std::any_of(options_.h0s.begin(), options_.h0s.end(),
                     [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells, s.poisson_ratio) == h0; }))
       wanted.push_back(h0);
-  // With cuts or breaks, the supernodal factor of M + h^2 L on one rank is a TopologyH0's, and a changed scene
+  // With cuts or breaks, the supernodal factor of M + h^2 L (on one rank, or gathered to rank 0) is a
+  // TopologyH0's, and a changed scene
   // follows the one before by a correction: only with one constant matrix, so that every matrix
   // of a scene was last factored at the same batch (what a restart replays from).
-  const std::vector<int64_t> ids = follow_cuts_ ? row_ids(comm_, s.mesh) : std::vector<int64_t>();
+  std::vector<int64_t> ids;
+  if (follow_cuts_) PetscCall(row_ids(comm_, s.mesh, &ids));
   FactoredSystem* followed = nullptr;
   if (before && wanted.size() == 1 && before->constant_matrices.size() == 1 && before->constant_matrices.count(wanted[0]))
     followed = before->constant_matrices.at(wanted[0]).get();
@@ -561,7 +566,9 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
     matrix = std::make_unique<FactoredSystem>();
     const FactorPackage package = h0 == H0::amg ? FactorPackage::amg : options_.h0_package;
     if (followed && followed->follows_topology() && !ids.empty()) {
-      s.step->pattern_from_cells();  // one rank (ids is not empty)
+      PetscMPIInt size;
+      PetscCallMPI(MPI_Comm_size(comm_, &size));
+      if (size == 1) s.step->pattern_from_cells();  // create_vertex_matrix: one rank
       bool done = false;
       PetscCall(matrix->follow(*followed, *s.step, package, ids, topology_check_, &done));
       if (corrected) *corrected = done;

@@ -345,6 +345,34 @@ def test_corrections_and_refactorizations_give_the_same_run(tmp_path):
     assert abs(sn["iterations"] - so["iterations"]) <= 0.05 * so["iterations"]
 
 
+GATHERED = ["-hyperqn_h0_package", "supernodal"]
+
+
+def test_the_factor_gathered_to_rank_0_is_corrected_at_2_ranks(tmp_path):
+    # -hyperqn_h0_package supernodal on 2 ranks: the factor is gathered to rank 0 and follows the
+    # cuts there as on one rank (auto keeps split, which factors again: test above).
+    one, s1 = run_deck(tmp_path, "one", BAR)
+    out = tmp_path / "np2"
+    proc = run_hyperqn([write_deck(tmp_path / "np2.yaml", BAR), "-o", out, *GATHERED, "-hyperqn_test_topology_h0_check"],
+                       ranks=2)
+    s2 = read_summary(out)
+    assert s2["ranks"] == 2 and s2["factorizations"] == 1
+    assert s2["cuts"]["h0_corrections"] == s1["cuts"]["h0_corrections"] >= 2
+    assert s2["cuts"]["refactorizations"] == s1["cuts"]["refactorizations"] == 0
+    found = [float(d) for _, d in CHECK_LINE.findall(proc.stdout)]
+    assert len(found) == s2["cuts"]["h0_corrections"] and max(found) <= 1e-10
+    a, b = final_frame(one), final_frame(out)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+    # a kill after corrected cuts and a restart: bitwise at 2 ranks (the replay corrects as the run did)
+    (tmp_path / "kill").mkdir()
+    ref, again = assert_restart_after_kill_is_bitwise(tmp_path / "kill", BAR, 2, frames=BAR["time"]["frames"], every=3,
+                                                      kill_after=10, extra=GATHERED)
+    sa, sb = read_summary(ref), read_summary(again)
+    assert sa["cuts"]["h0_corrections"] >= 2
+    assert {k: v for k, v in sa["cuts"].items() if k != "topology_s"} == {k: v for k, v in sb["cuts"].items() if k != "topology_s"}
+
+
 def test_a_single_precision_factor_is_factored_again_at_every_cut(tmp_path):
     # TopologyH0 corrects a factor kept in double: with solver.h0_precision single every step with
     # separations factors again (in single), and the run reaches the double run's answer.
