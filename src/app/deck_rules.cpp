@@ -79,7 +79,7 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as
-// cuts' do, so the same scenes are refused.
+// cuts' do (with self-contact they open as a cut's crack does), so the same scenes are refused.
 void check_fracture(const Reader& r, const Deck& deck) {
   std::vector<const MaterialSpec*> materials{&deck.material};
   for (const MaterialRegion& region : deck.regions) materials.push_back(&region.material);
@@ -92,9 +92,6 @@ void check_fracture(const Reader& r, const Deck& deck) {
     if (others)
       r.fail(line, "material.fracture", "fracture acts on meshes of tets alone for now: the mesh also has strands or a cloth "
                                "(docs/topology.md#fracture)");
-    if (deck.contact.self)
-      r.fail(line, "material.fracture", "fracture with self-contact (contact.self) is not done yet: the new surfaces would not "
-                               "take part in it (docs/topology.md#fracture)");
   }
 }
 

@@ -9,6 +9,8 @@ clamp that moves at constant speed:
 - a run killed after several breaks and restarted equals the uninterrupted one bit for bit;
 - fracture leaves the total mass unchanged; a deck without fracture runs no topology code;
 - fracture in a body of bodies: breaks (with cuts in one deck: test_topology_csv.py);
+- with self-contact the cracks open and the fragments of a struck plate do not pass through each
+  other (they do without it); 1 vs 2 ranks and a restart after a kill, with self-contact;
 - bad fracture blocks are refused, naming the deck line, nothing written."""
 import copy
 import itertools
@@ -16,8 +18,9 @@ import itertools
 import numpy as np
 import pytest
 
-from conftest import run_deck, run_hyperqn, write_deck
+from conftest import load_deck, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import frame_lumped_masses as lumped_masses
+from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint import assert_same_run
@@ -244,6 +247,64 @@ def test_fracture_keeps_the_mass(tmp_path):
     assert len(last.points) == len(first.points) + s["fracture"]["vertices_added"]
     m0, m1 = lumped_masses(first, DENSITY).sum(), lumped_masses(last, DENSITY).sum()
     assert abs(m1 - m0) <= 1e-14 * m0
+
+
+def struck_plate(self_contact):
+    """input/topology/plate_crack.yaml at 10 x 1 x 10 cells for 40 frames: the ball punches through
+    and the fragments fly; with or without self-contact (the barrier, the default distance)."""
+    deck = load_deck("input/topology/plate_crack.yaml")
+    deck["mesh"]["box"]["cells"] = [10, 1, 10]
+    deck["time"]["frames"] = 40
+    deck["output"] = {"every": 4}
+    if self_contact:
+        deck["contact"] = {"model": "barrier", "self": True}
+    return deck
+
+
+def test_fragments_do_not_pass_through_each_other_with_self_contact(tmp_path):
+    crossings = {}
+    for self_contact in (False, True):
+        out, s = run_deck(tmp_path, f"self_{self_contact}", struck_plate(self_contact))
+        assert s["fracture"]["faces_broken"] > 50
+        crossings[self_contact] = [row["intersecting_pairs"] for row in check_run(out)]
+    print("intersecting pairs per written frame, without and with self-contact:", crossings)
+    assert max(crossings[False]) > 0  # the check sees fragments pass through each other
+    assert max(crossings[True]) == 0
+
+
+def notched_with_self_contact(tmp_path):
+    deck = pulled_plate(plate_mesh(tmp_path / "notched.mesh", **NOTCHED), 1.1, frames=40)
+    deck["contact"] = {"model": "barrier", "self": True}
+    # Newton to round-off (as test_cut_contact.py): lbfgs's 400 iterations leave the barrier's
+    # frames 3e-7 of the diagonal apart at 1 and 2 ranks, the solver's tolerance, not the ranks'
+    deck["solver"] = {"type": "newton", "iterations": 60, "budget": "fixed", "grad_rtol": 1e-12, "grad_atol": 0}
+    return deck
+
+
+def test_ranks_agree_with_self_contact(tmp_path):
+    deck = notched_with_self_contact(tmp_path)
+    one, s1 = run_deck(tmp_path, "one", deck)
+    two, _ = run_deck(tmp_path, "two", deck, ranks=2)
+    print("1 vs 2 ranks:", np.abs(final_frame(one).points - final_frame(two).points).max() / rest_diagonal(final_frame(one)))
+    assert s1["fracture"]["faces_broken"] > 0
+    assert crack_history(one) == crack_history(two)
+    a, b = final_frame(one), final_frame(two)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+def test_restart_after_a_kill_is_bitwise_with_self_contact(tmp_path):
+    deck = notched_with_self_contact(tmp_path)
+    deck["checkpoint"] = {"every": 2}
+    path = write_deck(tmp_path / "plate.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref])
+    first = read_summary(ref)["fracture"]["first_break_frame"]
+    assert first is not None and first + 6 < 40
+    out = tmp_path / "out"
+    killed(path, out, first + 6, None)
+    run_hyperqn([path, "-o", out, "--restart", "latest"])
+    assert_same_run(ref, out)
 
 
 def test_a_deck_without_fracture_runs_no_topology_code(tmp_path):
