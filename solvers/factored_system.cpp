@@ -615,8 +615,8 @@ PetscErrorCode FactoredSystem::follow(FactoredSystem& before, const Objective& s
     if (size > 1) PetscCall(gather_to_zero());
     const PetscErrorCode ierr = rank == 0 ? correct_from(before, size > 1 ? A0_[0] : A_, check, corrected) : 0;
     int outcome[2] = {static_cast<int>(ierr), *corrected ? 1 : 0};
-    PetscCallMPI(MPI_Bcast(outcome, 2, MPI_INT, 0, comm));
-    PetscCall(static_cast<PetscErrorCode>(outcome[0]));
+    PetscCallMPI(MPI_Bcast(outcome, 2, MPI_INT, 0, comm));  // before rank 0 returns an error: no rank waits
+    PetscCall(ierr);                                          // rank 0's, with its trace
     PetscCheck(outcome[0] == 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "the correction of the constant matrix failed on rank 0");
     *corrected = outcome[1] != 0;
   }
