@@ -11,7 +11,7 @@ namespace hyperqn {
 // each assembly's own pattern made MUMPS analyse it again at every iteration. So H holds the
 // couplings of the terms' lists (self-contact's candidates: all an assembly may add until the
 // lists are built again) as explicit zeros, which MatZeroEntries keeps, and is preallocated again
-// only when a list built again holds couplings H lacks: for the mesh's pattern and that list's
+// only when a list built again holds other couplings: for the mesh's pattern and that list's
 // couplings (not every coupling it ever had, whose fill-in would slow every factorization). A
 // vertex's three dofs are on one rank and a coupling adds the whole 3 x 3 block, so a vertex pair
 // is in H's pattern iff its first entry is.
@@ -55,19 +55,17 @@ PetscErrorCode HessianPattern::grow(const Body& body, Vec x, Mat H, long long* g
                              recv_counts.data(), recv_offsets.data(), MPIU_INT, comm));
   std::sort(mine.begin(), mine.end());
   mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
-  // How many H lacks.
-  long missing = 0;
-  for (size_t k = 0; k < mine.size();) {
-    const PetscInt row = mine[k][0];
-    PetscInt count;
-    const PetscInt* columns;
-    PetscCheck(row % 3 == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a coupling's dof %" PetscInt_FMT " is not a vertex's x dof", row);
-    PetscCall(MatGetRow(H, row, &count, &columns, nullptr));
-    for (; k < mine.size() && mine[k][0] == row; ++k) missing += !std::binary_search(columns, columns + count, mine[k][1]);
-    PetscCall(MatRestoreRow(H, row, &count, &columns, nullptr));
-  }
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &missing, 1, MPI_LONG, MPI_SUM, comm));
-  if (missing > 0) {
+  // A new H has the mesh's pattern alone (create_hessian). H is made again whenever the list's
+  // couplings are not the ones it was made for, fewer as well as more: its pattern is then a
+  // function of the list, which a step builds from its start alone, so a restart (a new H) factors
+  // the same pattern as the run not stopped, whose explicit zeros would otherwise be those of an
+  // older list (a different fill and ordering: round-off apart).
+  if (id != seen_.id) made_for_.clear();
+  for (const auto& c : mine)
+    PetscCheck(c[0] % 3 == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a coupling's dof %" PetscInt_FMT " is not a vertex's x dof", c[0]);
+  int differ = mine != made_for_;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &differ, 1, MPI_INT, MPI_LOR, comm));
+  if (differ) {
     // The mesh's pattern (a matrix made as create_hessian makes it) and the couplings, row by row.
     PetscBool aij;
     PetscCall(PetscObjectTypeCompareAny((PetscObject)H, &aij, MATSEQAIJ, MATMPIAIJ, ""));
@@ -109,9 +107,10 @@ PetscErrorCode HessianPattern::grow(const Body& body, Vec x, Mat H, long long* g
     PetscCall(MatAssemblyBegin(H, MAT_FINAL_ASSEMBLY));
     PetscCall(MatAssemblyEnd(H, MAT_FINAL_ASSEMBLY));
     ++*grown;
-    PetscCall(PetscInfo(H, "Hessian pattern made again for %ld new vertex couplings (%lld times in the run)\n", missing,
-                        *grown));
+    PetscCall(PetscInfo(H, "Hessian pattern made again for %zu vertex couplings on this rank (%lld times in the run)\n",
+                        mine.size(), *grown));
     PetscCall(MatGetNonzeroState(H, &state));
+    made_for_ = std::move(mine);
   }
   seen_ = {id, state, generation};
   PetscFunctionReturn(0);

@@ -4,6 +4,9 @@
 #pragma once
 #include <petscmat.h>
 
+#include <array>
+#include <vector>
+
 #include "model/body.hpp"
 
 namespace hyperqn {
@@ -11,9 +14,9 @@ namespace hyperqn {
 class HessianPattern {
  public:
   // Makes room in H for the couplings the body's terms may add at x beyond the mesh's pattern
-  // (Body::hessian_couplings): if some are not in H's pattern, H is preallocated again for the
-  // mesh's pattern and the couplings, with explicit zeros at every entry, and *grown counts it
-  // (collective).
+  // (Body::hessian_couplings): if they are not the ones H was made for, H is preallocated again
+  // for the mesh's pattern and exactly these couplings, with explicit zeros at every entry, and
+  // *grown counts it (collective).
   PetscErrorCode grow(const Body& body, Vec x, Mat H, long long* grown);
 
  private:
@@ -24,6 +27,8 @@ class HessianPattern {
     PetscObjectState state = 0;
     unsigned long long generation = 0;
   } seen_;
+  // This rank's rows' vertex couplings (dof pairs, sorted) H was last made for: empty for a new H.
+  std::vector<std::array<PetscInt, 2>> made_for_;
 };
 
 }  // namespace hyperqn
