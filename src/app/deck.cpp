@@ -171,10 +171,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   if (const Value* x = s.find("cuts")) check_cuts(r, *x, deck);
   check_fracture(r, deck);
-  {  // snapping strands: the plain deck's strand_material, or a body's
-    bool snaps = deck.strand_material.snap_strain > 0;
-    for (const BodySpec& b : deck.bodies) snaps = snaps || b.strand_material.snap_strain > 0;
-    if (snaps) check_snap(r, *(s.find("bodies") ? s.find("bodies") : s.find("strand_material")), deck);
+  {  // tearing cloth: the plain deck's cloth, or a body's
     bool tears = deck.cloth.tear_strain > 0;
     for (const BodySpec& b : deck.bodies) tears = tears || b.cloth.tear_strain > 0;
     if (tears) check_tear(r, *(s.find("bodies") ? s.find("bodies") : s.find("cloth")), deck);

@@ -95,12 +95,6 @@ void check_fracture(const Reader& r, const Deck& deck) {
   }
 }
 
-void check_snap(const Reader& r, const Value& where, const Deck& deck) {
-  if (deck.contact.self)
-    r.fail(where, "snapping strands (snap) with self-contact (contact.self) are not done yet: the new ends would not "
-                  "take part in it (docs/topology.md)");
-}
-
 void check_tear(const Reader& r, const Value& where, const Deck& deck) {
   if (deck.contact.self)
     r.fail(where, "tearing cloth (cloth.tear) with self-contact (contact.self) is not done yet: the torn edges would not "
