@@ -398,7 +398,8 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
 
 SeparationResult remove_tets(MPI_Comm comm, MeshPiece& piece, const std::vector<int64_t>& tets,
                              const std::set<TetPair>& separated, int64_t id_offset,
-                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays) {
+                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays,
+                             const CrackOpening& opening) {
   TetMesh& m = piece.mesh;
   const std::set<int64_t> removed(tets.begin(), tets.end());
   // The removed tets' vertices, from every rank: the only stars that change.
@@ -423,7 +424,7 @@ SeparationResult remove_tets(MPI_Comm comm, MeshPiece& piece, const std::vector<
   piece.element_numbers.erase(piece.element_numbers.begin() + kept, piece.element_numbers.begin() + nt);
   for (std::vector<int32_t>* a : tet_arrays)
     if (!a->empty()) a->resize(kept);
-  return split_stars(comm, piece, affected, separated, id_offset, arrays, {});
+  return split_stars(comm, piece, affected, separated, id_offset, arrays, opening);  // the vertices are unchanged so far
 }
 
 }  // namespace hyperqn

@@ -75,10 +75,13 @@ SeparationResult separate_faces(MPI_Comm comm, MeshPiece& piece, const std::vect
 // (per local tet, e.g. the cell materials); then each vertex of a removed tet whose star of the
 // tets left falls apart (through faces not in `separated`) is split as separate_faces splits it,
 // and the vertices no local element uses any more (a removed tet's orphans among them) leave the
-// piece. Collective.
+// piece. With an opening (self-contact), each side of a vertex that splits moves as
+// separate_faces moves it, away from its boundary faces there (the removed tets' among them).
+// Collective.
 SeparationResult remove_tets(MPI_Comm comm, MeshPiece& piece, const std::vector<int64_t>& tets,
                              const std::set<TetPair>& separated, int64_t id_offset,
-                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays);
+                             const std::vector<VertexArray>& arrays, const std::vector<std::vector<int32_t>*>& tet_arrays,
+                             const CrackOpening& opening = {});
 
 // Appends to `piece` a copy of its local vertex `original`, with global number `number` (id
 // number + id_offset), the original's rest position and `arrays` values; `source` gets `original`.

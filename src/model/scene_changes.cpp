@@ -168,9 +168,27 @@ SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& 
   std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
   SeparationResult r;
   if (tets.empty() || !faces.empty()) r = separate_faces(comm_, kept_.piece, faces, separated_, id_offset_, arrays, opening);
-  if (!tets.empty()) {  // after the faces (no opening: removals are refused with self-contact)
-    SeparationResult q = remove_tets(comm_, kept_.piece, tets, separated_, id_offset_, arrays, {&kept_.cell_material});
+  if (!tets.empty()) {  // after the faces: their opening's positions are where the removal starts
+    std::vector<double> between;  // the positions per local vertex after the faces, with an opening's
+    CrackOpening then = opening;
+    if (opening.positions && !faces.empty()) {
+      between.resize(3 * r.source.size());
+      for (size_t i = 0; i < r.source.size(); ++i)
+        for (int d = 0; d < 3; ++d)
+          between[3 * i + d] = (*opening.positions)[3 * size_t(r.source[i]) + d] + (r.shift.empty() ? 0.0 : r.shift[3 * i + d]);
+      then.positions = &between;
+    }
+    SeparationResult q = remove_tets(comm_, kept_.piece, tets, separated_, id_offset_, arrays, {&kept_.cell_material}, then);
     if (!faces.empty()) {
+      // Both moves, each vertex's through the faces' (q.source: a vertex after the faces)
+      if (!q.shift.empty() && !r.shift.empty())
+        for (size_t i = 0; i < q.source.size(); ++i)
+          for (int d = 0; d < 3; ++d) q.shift[3 * i + d] += r.shift[3 * size_t(q.source[i]) + d];
+      else if (!r.shift.empty()) {
+        q.shift.assign(3 * q.source.size(), 0.0);
+        for (size_t i = 0; i < q.source.size(); ++i)
+          for (int d = 0; d < 3; ++d) q.shift[3 * i + d] = r.shift[3 * size_t(q.source[i]) + d];
+      }
       for (int32_t& v : q.source) v = r.source[v];
       q.new_vertices += r.new_vertices;
     }
