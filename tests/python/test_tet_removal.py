@@ -266,6 +266,19 @@ def test_corrected_h0_follows_removals_that_open(tmp_path):
     assert max(found) <= 1e-13
 
 
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_slicing_and_sawing_in_one_deck_with_self_contact(tmp_path, ranks):
+    # Batches with faces and removals (frames 4-6): the faces' sides open first, then the
+    # removal's from there; restarted bitwise, no two vertices at one rest position, no crossing.
+    deck = {**MIXED, "contact": {"model": "barrier", "self": True}}
+    ref, _ = assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks, frames=MIXED["time"]["frames"], every=7,
+                                                  kill_after=10)
+    c = read_summary(ref)["cuts"]
+    assert c["faces_separated"] > 0 and c["tets_removed"] > 0 and c["vertices_added"] > 0
+    assert max(shared_rest_positions(Frame(path)) for _, _, path in frame_list(ref)) == 0
+    assert max(r["intersecting_pairs"] for r in check_run(ref)) == 0
+
+
 def test_restart_after_a_kill_after_removals_is_bitwise_with_self_contact(tmp_path):
     assert_restart_after_kill_is_bitwise(tmp_path, SAWN_SELF, 2, frames=SAWN["time"]["frames"], every=7, kill_after=10)
 
