@@ -171,11 +171,6 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   if (const Value* x = s.find("cuts")) check_cuts(r, *x, deck);
   check_fracture(r, deck);
-  {  // tearing cloth: the plain deck's cloth, or a body's
-    bool tears = deck.cloth.tear_strain > 0;
-    for (const BodySpec& b : deck.bodies) tears = tears || b.cloth.tear_strain > 0;
-    if (tears) check_tear(r, *(s.find("bodies") ? s.find("bodies") : s.find("cloth")), deck);
-  }
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
   if (const Value* x = s.find("study")) {

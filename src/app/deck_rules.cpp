@@ -89,12 +89,6 @@ void check_fracture(const Reader& r, const Deck& deck) {
   }
 }
 
-void check_tear(const Reader& r, const Value& where, const Deck& deck) {
-  if (deck.contact.self)
-    r.fail(where, "tearing cloth (cloth.tear) with self-contact (contact.self) is not done yet: the torn edges would not "
-                  "take part in it (docs/snapping.md#tearing-cloth)");
-}
-
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;

@@ -25,8 +25,6 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
 // cuts: (read) against the mesh.
 void check_cuts(const Reader& r, const Value& cuts, const Deck& deck);
 void check_fracture(const Reader& r, const Deck& deck);
-// Tearing cloth (cloth.tear, a body's or the deck's): refused with self-contact.
-void check_tear(const Reader& r, const Value& where, const Deck& deck);
 void check_study_integrators_take_contact(const Reader& r, const Value& study, const Deck& deck);
 // With contact, the solver keys the deck leaves out take their contact defaults
 // (kContactSolverDefaults, solvers/solver_spec.hpp), read as if the deck wrote them; each is

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include <Eigen/Dense>
+
 #include "parallel/collectives.hpp"
 
 namespace hyperqn {
@@ -15,10 +17,12 @@ namespace {
 
 using Triple = std::array<int64_t, 3>;
 
-// A triangle as every rank sees it: its number and its vertices' numbers.
+// A triangle as every rank sees it: its number and its vertices' numbers; with an opening, its
+// vertices' rest positions and positions (3 each, in the order of v).
 struct GlobalTriangle {
   int64_t number;
   Triple v;
+  std::array<double, 9> rest{}, x{};
 };
 
 Triple sorted(Triple t) {
@@ -26,12 +30,15 @@ Triple sorted(Triple t) {
   return t;
 }
 
-// The local triangles whose vertex numbers `keep` selects, gathered from every rank, by number.
+// The local triangles whose vertex numbers `keep` selects, gathered from every rank, by number
+// (with_rest: with their rest positions; positions: 3 per local vertex, theirs too).
 template <typename Keep>
-std::vector<GlobalTriangle> gather_triangles(MPI_Comm comm, const MeshPiece& piece, Keep&& keep) {
+std::vector<GlobalTriangle> gather_triangles(MPI_Comm comm, const MeshPiece& piece, Keep&& keep, bool with_rest = false,
+                                             const std::vector<double>* positions = nullptr) {
   const TetMesh& m = piece.mesh;
   const int64_t first = m.num_tets() + m.num_segments();
   std::vector<int64_t> mine;
+  std::vector<double> mine_rest, mine_x;
   for (int64_t t = 0; t < m.num_triangles(); ++t) {
     Triple v;
     for (int j = 0; j < 3; ++j) v[j] = piece.vertex_numbers[m.triangles[3 * t + j]];
@@ -39,10 +46,21 @@ std::vector<GlobalTriangle> gather_triangles(MPI_Comm comm, const MeshPiece& pie
     if (!keep(n, v)) continue;
     mine.push_back(n);
     mine.insert(mine.end(), v.begin(), v.end());
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d) {
+        if (with_rest) mine_rest.push_back(m.coords[3 * size_t(m.triangles[3 * t + j]) + d]);
+        if (positions) mine_x.push_back((*positions)[3 * size_t(m.triangles[3 * t + j]) + d]);
+      }
   }
   const std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);
+  const std::vector<double> all_rest = with_rest ? all_gathered(comm, mine_rest, MPI_DOUBLE) : std::vector<double>();
+  const std::vector<double> all_x = positions ? all_gathered(comm, mine_x, MPI_DOUBLE) : std::vector<double>();
   std::vector<GlobalTriangle> triangles(all.size() / 4);
-  for (size_t i = 0; i < triangles.size(); ++i) triangles[i] = {all[4 * i], {all[4 * i + 1], all[4 * i + 2], all[4 * i + 3]}};
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    triangles[i] = {all[4 * i], {all[4 * i + 1], all[4 * i + 2], all[4 * i + 3]}};
+    if (with_rest) std::copy(all_rest.begin() + 9 * i, all_rest.begin() + 9 * (i + 1), triangles[i].rest.begin());
+    if (positions) std::copy(all_x.begin() + 9 * i, all_x.begin() + 9 * (i + 1), triangles[i].x.begin());
+  }
   std::sort(triangles.begin(), triangles.end(), [](const GlobalTriangle& a, const GlobalTriangle& b) { return a.number < b.number; });
   return triangles;
 }
@@ -53,11 +71,39 @@ int shared_vertices(const Triple& a, const Triple& b) {
   return n;
 }
 
+// The move of one side of a torn vertex (CrackOpening) at the positions `at` of the gathered
+// triangles (GlobalTriangle::rest or ::x): `side` indexes fan_triangles. The side is a wedge of
+// triangles at the vertex; it moves along the wedge's bisector (the sum of its triangles' angle
+// bisectors at the vertex, each weighted by its angle), into its own triangles and away from both
+// of its boundary edges there, by width / 2, at most kOpeningHeightFraction of its triangles' least
+// height above the vertex. A wedge without a direction (degenerate triangles) stays.
+Eigen::Vector3d side_move(int64_t vertex, const std::vector<GlobalTriangle>& fan_triangles,
+                          std::array<double, 9> GlobalTriangle::*at, const std::vector<int>& side, double width) {
+  using Vec3 = Eigen::Vector3d;
+  Vec3 u = Vec3::Zero();
+  double reach = width / 2;
+  for (int i : side) {
+    const GlobalTriangle& t = fan_triangles[i];
+    const int j = int(std::find(t.v.begin(), t.v.end(), vertex) - t.v.begin());
+    const double* x = (t.*at).data();
+    const Vec3 p(&x[3 * j]), a(&x[3 * ((j + 1) % 3)]), b(&x[3 * ((j + 2) % 3)]);
+    const double la = (a - p).norm(), lb = (b - p).norm(), lab = (b - a).norm();
+    if (!(la > 0 && lb > 0 && lab > 0)) continue;
+    const Vec3 ea = (a - p) / la, eb = (b - p) / lb;
+    const double angle = std::acos(std::clamp(ea.dot(eb), -1.0, 1.0));
+    const Vec3 bisector = ea + eb;
+    if (bisector.norm() > 0) u += angle * bisector.normalized();
+    reach = std::min(reach, kOpeningHeightFraction * (a - p).cross(b - p).norm() / lab);
+  }
+  if (!(u.norm() > 0) || !(reach > 0)) return Vec3::Zero();
+  return reach * u.normalized();
+}
+
 }  // namespace
 
 SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<std::array<int64_t, 2>>& batch,
                             const std::set<std::array<int64_t, 2>>& torn, int64_t id_offset,
-                            const std::vector<VertexArray>& arrays) {
+                            const std::vector<VertexArray>& arrays, const CrackOpening& opening) {
   TetMesh& m = piece.mesh;
   const int64_t first = m.num_tets() + m.num_segments();
   auto number = [&](int32_t v) { return piece.vertex_numbers[v]; };
@@ -115,7 +161,7 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
     for (int64_t x : v)
       if (affected.count(x)) return true;
     return false;
-  });
+  }, opening.width > 0, opening.positions);
   std::map<Triple, int64_t> triangle_of;  // sorted vertex numbers -> triangle number
   for (const GlobalTriangle& t : fan_triangles) triangle_of[sorted(t.v)] = t.number;
   std::map<int64_t, std::vector<int>> fan;  // vertex -> indices into fan_triangles, ascending triangle number
@@ -124,6 +170,9 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
       if (affected.count(x)) fan[x].push_back(i);
   std::vector<int64_t> copy_vertex;                // per copy of the global list: its original's number
   std::map<std::array<int64_t, 2>, int64_t> moved;  // (vertex, triangle number) -> the copy it moves to
+  using Moves = std::array<Eigen::Vector3d, 2>;     // with an opening: at rest, at the positions
+  std::vector<Moves> copy_shift;                    // per copy
+  std::map<int64_t, Moves> original_shift;          // per vertex that splits, its original's
   for (const auto& [vertex, tris] : fan) {
     const int n = (int)tris.size();
     std::vector<int> parent(n);
@@ -136,8 +185,10 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
       }
     // Components in the order of their smallest triangle (ascending): the first keeps the vertex.
     std::map<int, int64_t> copy_of_root;
+    std::map<int, std::vector<int>> side_of_root;  // each component's fan_triangles indices
     for (int i = 0; i < n; ++i) {
       const int r = root(i);
+      side_of_root[r].push_back(tris[i]);
       if (r == root(0)) continue;
       if (!copy_of_root.count(r)) {
         copy_of_root[r] = (int64_t)copy_vertex.size();
@@ -145,7 +196,17 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
       }
       moved[{vertex, fan_triangles[tris[i]].number}] = copy_of_root[r];
     }
+    if (!(opening.width > 0) || side_of_root.size() < 2) continue;
+    // Each side's move: in the rest shape (replayed on a restart from it alone) and at the positions.
+    copy_shift.resize(copy_vertex.size());
+    for (const auto& [r, side] : side_of_root) {
+      Moves moves = {side_move(vertex, fan_triangles, &GlobalTriangle::rest, side, opening.width), Eigen::Vector3d::Zero()};
+      if (opening.positions) moves[1] = side_move(vertex, fan_triangles, &GlobalTriangle::x, side, opening.width);
+      if (r == root(0)) original_shift[vertex] = moves;
+      else copy_shift[copy_of_root[r]] = moves;
+    }
   }
+  copy_shift.resize(copy_vertex.size(), Moves{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()});
   result.new_vertices = (int64_t)copy_vertex.size();
 
   // The local part: which triangle and hinge corners move to which copy.
@@ -185,10 +246,27 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
     if (triangle_moves[i] >= 0) m.triangles[i] = local_copy[triangle_moves[i]];
   for (size_t i = 0; i < m.hinges.size(); ++i)
     if (hinge_moves[i] >= 0) m.hinges[i] = local_copy[hinge_moves[i]];
+  const int64_t first_copy = piece.global_vertices;
   piece.global_vertices += result.new_vertices;
 
   drop_unused_vertices(piece, source, arrays);
   result.source = std::move(source);
+  if (opening.width > 0 && !copy_vertex.empty()) {
+    // The rest positions before the first opening, kept for the masses (MeshPiece::unopened).
+    if (piece.unopened.empty()) piece.unopened = m.coords;
+    if (opening.positions) result.shift.assign(3 * piece.vertex_numbers.size(), 0.0);
+    for (size_t i = 0; i < piece.vertex_numbers.size(); ++i) {
+      const int64_t number = piece.vertex_numbers[i];
+      const auto original = original_shift.find(number);
+      const Moves* moves = number >= first_copy ? &copy_shift[size_t(number - first_copy)]
+                           : original == original_shift.end() ? nullptr : &original->second;
+      if (!moves) continue;
+      for (int d = 0; d < 3; ++d) {
+        m.coords[3 * i + d] += (*moves)[0][d];
+        if (opening.positions) result.shift[3 * i + d] = (*moves)[1][d];
+      }
+    }
+  }
   return result;
 }
 

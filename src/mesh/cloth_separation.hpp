@@ -28,8 +28,14 @@ namespace hyperqn {
 // Tears the edges of `batch` (pairs of global triangle numbers, first < second, sorted, the same
 // on every rank; each triangle anywhere) in `piece`; `torn` holds every pair torn so far, the
 // batch's included. Collective. Vertices that no local element uses any more leave the piece.
+// With an opening (self-contact: the two sides of a torn edge start coincident, where the barrier
+// is infinite), each side of a vertex that splits (the original's fan and each copy's) moves along
+// its wedge's bisector, into its own triangles, by width / 2 (at most kOpeningHeightFraction of
+// their least height above the vertex), in the rest shape and at the positions
+// (SeparationResult::shift), as mesh/separation.hpp's CrackOpening moves a tet crack's sides; from
+// the gathered fans in their triangles' order, so every rank computes the same bits.
 SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<std::array<int64_t, 2>>& batch,
                             const std::set<std::array<int64_t, 2>>& torn, int64_t id_offset,
-                            const std::vector<VertexArray>& arrays);
+                            const std::vector<VertexArray>& arrays, const CrackOpening& opening = {});
 
 }  // namespace hyperqn

@@ -134,7 +134,7 @@ SideShift side_shift(int64_t vertex, const std::vector<GlobalTet>& star_tets, st
       if (j != v) q[k++] = &x[3 * j];
     const Vec3 opposite = cross(sub(q[1], q[0]), sub(q[2], q[0]));
     const double area2 = std::sqrt(dot(opposite, opposite));
-    if (area2 > 0) reach = std::min(reach, 0.1 * std::abs(dot(opposite, sub(&x[3 * v], q[0]))) / area2);
+    if (area2 > 0) reach = std::min(reach, kOpeningHeightFraction * std::abs(dot(opposite, sub(&x[3 * v], q[0]))) / area2);
     // Its faces at the vertex that no other tet of the side shares: the side's boundary there
     // (the new crack, earlier cracks and the body's surface).
     std::array<bool, 4> inner{};  // by the index of the tet's vertex off the face

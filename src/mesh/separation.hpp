@@ -62,6 +62,10 @@ struct CrackOpening {
   const std::vector<double>* positions = nullptr;  // 3 per local vertex before the batch (or null)
   double width = 0;                                // 0: no opening
 };
+// A side moves by at most this fraction of the least height above the vertex of its elements (tets
+// or, for a torn cloth, triangles): none of them inverts, and none loses more than this share of
+// its rest volume or area (its mass comes from the rest shape before any opening).
+constexpr double kOpeningHeightFraction = 0.1;
 
 // Separates the faces of `batch` (sorted, the same on every rank; each face's tets anywhere) in
 // `piece`; `separated` holds every face separated so far, the batch's included (the same on every

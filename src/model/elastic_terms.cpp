@@ -4,6 +4,7 @@
 
 #include "materials/material_factory.hpp"
 #include "io/log_events.hpp"
+#include "model/tearing.hpp"
 #include "terms/attachments.hpp"
 #include "terms/cloth_bending.hpp"
 #include "terms/cloth_membrane.hpp"
@@ -215,7 +216,8 @@ std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const
   std::vector<int> fixed_lines;
   for (const BoxRegion& r : spec.fixed) fixed_lines.push_back(r.line);
   ContactSpec contact = resolved_contact(spec.contact, rest_diagonal(mesh));
-  contact.joined_twins = !spec.cuts.empty();
+  // Sides of a crack or a torn edge that could not open keep one rest position (mesh/separation.hpp)
+  contact.joined_twins = !spec.cuts.empty() || !tear_strains(spec).empty();
   return std::make_unique<SelfContactTerm>(mesh, contact,
                                            log_events().self_contact, log_events().self_gather, log_events().self_pairs,
                                            std::move(bodies), std::move(fixed_lines));

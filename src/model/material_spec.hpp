@@ -133,7 +133,8 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
        "mid-surface reaches t/2, so a pair of primitives measures its distance less half the thickness of each "
        "(two layers of the cloth rest about t + `contact.distance` apart, the cloth on a solid about t/2 + "
        "`contact.distance`); the continuous collision test keeps that much apart. t + `contact.distance` must stay "
-       "below the mesh's spacing at rest ([self-contact.md](self-contact.md#cloth-thickness))",
+       "below the mesh's spacing at rest ([self-contact.md](self-contact.md#cloth-thickness)); a cloth that tears "
+       "needs t below a tenth of its least triangle height ([snapping.md](snapping.md#tearing-cloth))",
        at_least(0, "a length")},
       map_key<C>("tear", "the cloth tears: after a step, the interior edge most stretched across past the strain "
                          "separates its two triangles ([snapping.md](snapping.md#tearing-cloth))",

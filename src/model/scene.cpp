@@ -497,6 +497,9 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   // With self-contact a fresh crack opens by the activation distance (mesh/separation.hpp,
   // CrackOpening), the input's d whatever the cuts do to the rest shape later.
   if (separates && spec.contact.self) opening_width_ = resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance;
+  // And a torn cloth edge by d and its thickness (mesh/cloth_separation.hpp), or the deck is refused.
+  if (!tear_strains_.empty() && spec.contact.self)
+    tear_opening_ = tear_opening(comm, spec, kept_.piece, resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance);
   PetscFunctionReturn(0);
 }
 

@@ -232,8 +232,10 @@ class LiveScene {
   // `faces` of a batch at the start of `frame` broken by the fracture criterion (counts_.broken).
   void note_broken(int64_t frame, long long faces);
   // One batch of segments snapped, then of cloth edges torn (pairs of triangle numbers), at the start
-  // of `frame` on kept_, as separate.
-  std::vector<int32_t> snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges);
+  // of `frame` on kept_, as separate; with self-contact the torn edges open by tear_opening_
+  // (mesh/cloth_separation.hpp), at `positions` (3 per local vertex before the batch) if given.
+  SeparationResult snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges,
+                        const std::vector<double>* positions = nullptr);
   // A batch of breaks (one frame's) as its snapped segments and torn edges, for snap.
   static void split_breaks(const std::vector<Break>& batch, std::vector<int64_t>& segments,
                            std::vector<std::array<int64_t, 2>>& edges);
@@ -266,6 +268,7 @@ class LiveScene {
   bool follow_cuts_ = false;
   TopologyCheck topology_check_;
   double opening_width_ = 0;  // with self-contact, how far a fresh crack opens (CrackOpening); else 0
+  double tear_opening_ = 0;   // with self-contact, how far a torn cloth edge opens: d + the thickest cloth's thickness
   std::vector<double> snap_strains_;  // per segment tag (model/tearing.hpp); empty: nothing snaps
   std::vector<Break> breaks_;
   std::set<int64_t> snapped_;

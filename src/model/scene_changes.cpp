@@ -334,11 +334,12 @@ PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>
 static int64_t edge_element(const std::array<int64_t, 2>& pair) { return (pair[0] << 32) + pair[1]; }
 static std::array<int64_t, 2> edge_of_element(int64_t element) { return {element >> 32, element & 0xffffffffLL}; }
 
-std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch,
-                                     const std::vector<std::array<int64_t, 2>>& edges) {
+SeparationResult LiveScene::snap(int64_t frame, const std::vector<int64_t>& batch,
+                                 const std::vector<std::array<int64_t, 2>>& edges, const std::vector<double>* positions) {
   std::vector<VertexArray> arrays = {{&kept_.fixed, 1}, {&kept_.held, 3}, {&kept_.vertex_body, 1}};
   std::vector<int32_t> source(kept_.piece.mesh.num_vertices());
   std::iota(source.begin(), source.end(), 0);
+  std::vector<double> shift;
   if (!batch.empty()) {
     for (int64_t s : batch) {
       snapped_.insert(s);
@@ -354,14 +355,25 @@ std::vector<int32_t> LiveScene::snap(int64_t frame, const std::vector<int64_t>& 
       torn_.insert(e);
       breaks_.push_back({frame, 1, edge_element(e)});
     }
-    SeparationResult r = tear_edges(comm_, kept_.piece, edges, torn_, id_offset_, arrays);
+    std::vector<double> between;  // the positions per local vertex after the snaps
+    if (positions) {
+      between.resize(3 * source.size());
+      for (size_t i = 0; i < source.size(); ++i)
+        for (int d = 0; d < 3; ++d) between[3 * i + d] = (*positions)[3 * size_t(source[i]) + d];
+    }
+    SeparationResult r = tear_edges(comm_, kept_.piece, edges, torn_, id_offset_, arrays,
+                                    {positions && tear_opening_ > 0 ? &between : nullptr, tear_opening_});
     break_counts_.edges += (long long)edges.size();
     break_counts_.vertices += r.new_vertices;
     for (int32_t& v : r.source) v = source[v];  // through the snaps before it
     source = std::move(r.source);
+    shift = std::move(r.shift);
   }
   break_counts_.batches += 1;
-  return source;
+  SeparationResult result;
+  result.source = std::move(source);
+  result.shift = std::move(shift);
+  return result;
 }
 
 PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* snapped) {
@@ -382,7 +394,9 @@ PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& other
     last_change_cut_ = false;
     last_change_break_ = true;
     bool corrected = false;  // its constant matrix followed by a TopologyH0 correction (else factored again)
-    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, snap(main.frame, batch, edges), &corrected));
+    // With self-contact a torn edge opens (tear_opening_): the positions' part is carried in the state.
+    const SeparationResult r = snap(main.frame, batch, edges, tear_opening_ > 0 ? &pos : nullptr);
+    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
     if (corrected) {
       ++break_counts_.corrections;
     } else {

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
+#include <string>
 
+#include "mesh/input_error.hpp"
+#include "mesh/separation.hpp"
 #include "parallel/collectives.hpp"
 
 namespace hyperqn {
@@ -29,6 +33,42 @@ std::vector<double> tear_strains(const SceneSpec& spec) {
   }
   if (std::all_of(strains.begin(), strains.end(), [](double s) { return s == 0; })) strains.clear();
   return strains;
+}
+
+double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece, double distance) {
+  const TetMesh& m = piece.mesh;
+  double least = HUGE_VAL;  // of the cloth triangles' heights
+  for (int64_t t = 0; t < m.num_triangles(); ++t) {
+    const double* x[3];
+    for (int j = 0; j < 3; ++j) x[j] = &m.coords[3 * size_t(m.triangles[3 * t + j])];
+    double e[3][3];
+    for (int j = 0; j < 3; ++j)
+      for (int d = 0; d < 3; ++d) e[j][d] = x[(j + 1) % 3][d] - x[j][d];
+    const double c[3] = {e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
+                         e[0][0] * e[1][1] - e[0][1] * e[1][0]};
+    const double area2 = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    for (int j = 0; j < 3; ++j)
+      least = std::min(least, area2 / std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]));
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &least, 1, MPI_DOUBLE, MPI_MIN, comm);
+  std::vector<std::pair<std::string, const ClothSpec*>> cloths;
+  if (spec.bodies.empty()) cloths.push_back({"cloth", &spec.cloth});
+  for (size_t k = 0; k < spec.bodies.size(); ++k) cloths.push_back({"bodies[" + std::to_string(k) + "].cloth", &spec.bodies[k].cloth});
+  double thickest = 0;
+  for (const auto& [key, cloth] : cloths) {
+    if (!(cloth->tear_strain > 0)) continue;
+    thickest = std::max(thickest, cloth->thickness);
+    const double most = kOpeningHeightFraction * least;
+    if (cloth->thickness < most) continue;
+    char what[400];
+    std::snprintf(what, sizeof what,
+                  "%g is too thick for tearing with self-contact: a torn edge opens by at most %g of its triangles' "
+                  "least height on each side (here %.4g m), and its sides must start farther apart than the "
+                  "thickness; use a thickness below %.2g (or a coarser cloth)",
+                  cloth->thickness, kOpeningHeightFraction, least, most);
+    throw InputError(spec.path, cloth->thickness_line, key + ".thickness", what);
+  }
+  return distance + thickest;
 }
 
 namespace {

@@ -30,6 +30,15 @@ std::vector<int64_t> segments_to_snap(MPI_Comm comm, const MeshPiece& piece, con
 // Empty if no cloth of the deck tears.
 std::vector<double> tear_strains(const SceneSpec& spec);
 
+// With self-contact a torn edge opens (mesh/cloth_separation.hpp) by d + the thickest tearing
+// cloth's thickness, each side by at most kOpeningHeightFraction of its triangles' least height
+// above the vertex; the two sides must then start farther apart than the cloth's thickness, where
+// the barrier is finite. So a tearing cloth's thickness must stay below kOpeningHeightFraction of
+// the least height of the scene's cloth triangles (half the smallest full opening, for wedges not
+// straight across): else an InputError names its cloth.thickness. Returns the opening's width.
+// Collective (the least height over every rank's piece).
+double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece, double distance);
+
 // An interior cloth edge, by its two triangles' global numbers (element_numbers), first < second.
 using TrianglePair = std::array<int64_t, 2>;
 

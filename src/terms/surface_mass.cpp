@@ -6,7 +6,8 @@ namespace hyperqn {
 
 SurfaceMass::SurfaceMass(const DistributedMesh& mesh, double areal_density, std::vector<PetscInt> triangles)
     : mesh_(mesh), density_(areal_density), triangles_(std::move(triangles)) {
-  for (PetscInt t : triangles_) area_.push_back(triangle_area(mesh.rest.data(), &mesh.triangles[3 * t]));
+  // From the rest shape before any torn edge opened (mass_rest): the total mass stays the deck's.
+  for (PetscInt t : triangles_) area_.push_back(triangle_area(mass_rest(mesh), &mesh.triangles[3 * t]));
 }
 
 void SurfaceMass::add_lumped_mass(PetscScalar* mass) const {

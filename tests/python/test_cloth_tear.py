@@ -2,17 +2,23 @@
 two opposite edges that move apart tears at the interior edge most stretched past the threshold,
 one edge per step; mass is unchanged exactly; 1, 2 and 4 ranks tear the same edges in the same
 frames (the tear crosses the 2-rank partition boundary); a run killed (kill -9) after tears and
-restarted equals the uninterrupted run bit for bit; bad thresholds are refused; a deck whose cloth
-does not tear runs no topology code."""
+restarted equals the uninterrupted run bit for bit; with self-contact the torn edges open (no two
+vertices at one rest position, no crossing; the mass from the rest shape before the opening
+unchanged), at 1 and 2 ranks alike, restarted bitwise, the corrected H0 a fresh factor's; bad
+thresholds and a cloth too thick to open are refused; a deck whose cloth does not tear runs no
+topology code."""
 import copy
 
 import numpy as np
 import pytest
 
 from conftest import event_count, run_deck, run_hyperqn, write_deck
+from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import Frame, frame_list, read_checkpoint, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
+from test_cut_contact import shared_rest_positions
+from test_cuts import CHECK_LINE
 
 # Newton, converged to round-off: the rank test compares positions to 1e-8 of the diagonal.
 TIGHT = {"type": "newton", "iterations": 50, "grad_rtol": 1e-12, "grad_atol": 0}
@@ -201,6 +207,73 @@ def test_a_membrane_with_dihedral_bending_tears(tmp_path):
     assert len(fs[-1].points) > len(fs[0].points) and abs(m1 - m0) <= 1e-14 * m0
 
 
+# With self-contact (docs/snapping.md#tearing-cloth): each side of a torn vertex opens into its
+# own triangles, so the torn edges take part in self-contact from their first step.
+SELF = {**CLOTH, "contact": {"model": "barrier", "self": True}}
+CELL = SIZE / 10
+
+
+def unopened_masses(frame):
+    """The lumped masses from the rest shape before any opening: the sheet's grid, to which every
+    opened rest position rounds (each opening moves a side by at most a tenth of a triangle's
+    height, 0.07 of a cell; a vertex that splits again moves again: 0.14 of a cell measured)."""
+    rounded = copy.copy(frame)
+    rest = frame.points - frame.displacement
+    grid = np.round(rest / CELL) * CELL
+    assert np.abs(rest - grid).max() < 0.3 * CELL
+    rounded.displacement = frame.points - grid
+    return masses(rounded)
+
+
+@pytest.fixture(scope="module")
+def torn_with_self_contact(tmp_path_factory):
+    return run_deck(tmp_path_factory.mktemp("self"), "self", SELF)
+
+
+def test_with_self_contact_torn_edges_open_and_the_pieces_do_not_cross(cloth, torn_with_self_contact):
+    crossings, twins = {}, {}
+    for name, (out, s) in (("with", torn_with_self_contact), ("without", cloth)):
+        assert s["breaks"]["edges_torn"] >= 10
+        crossings[name] = [r["intersecting_pairs"] for r in check_run(out)]
+        twins[name] = [shared_rest_positions(f) for f in frames(out)]
+    print("intersecting pairs:", crossings, "vertices sharing a rest position:", twins)
+    assert max(crossings["without"]) > 0 and max(twins["without"]) > 0  # the checks see them
+    assert max(crossings["with"]) == 0 and max(twins["with"]) == 0
+    # the opening moved rest positions, not the mass: from the rest shape before it, unchanged
+    fs = frames(torn_with_self_contact[0])
+    m0, m1, opened = unopened_masses(fs[0]).sum(), unopened_masses(fs[-1]).sum(), masses(fs[-1]).sum()
+    print(f"total mass {m0!r} -> {m1!r}; from the opened rest shape {opened!r}")
+    assert abs(m1 - m0) <= 1e-14 * m0 and abs(m0 - DENSITY * SIZE * SIZE) <= 1e-12 * m0
+    assert abs(opened - m0) > 1e-6 * m0
+
+
+def test_ranks_agree_on_tears_with_self_contact(torn_with_self_contact, tmp_path):
+    ref, s1 = torn_with_self_contact
+    out, s2 = run_deck(tmp_path, "two", SELF, ranks=2)
+    assert s1["breaks"] == {**s2["breaks"], "topology_s": s1["breaks"]["topology_s"]}
+    for a, b in zip(frames(ref), frames(out)):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+def test_restart_after_kill_after_tears_is_bitwise_with_self_contact(tmp_path):
+    assert_restart_after_kill_is_bitwise(tmp_path, SELF, 2, frames=36, every=30, kill_after=33)
+
+
+def test_corrected_h0_follows_tears_that_open(tmp_path):
+    # L-BFGS (its H0 the factored M + h^2 L): the opening moves rest positions, and the corrected
+    # H0 is still a fresh factorization's after every tear.
+    deck = {**SELF, "solver": {"type": "lbfgs"}, "time": {"dt": 1 / 60, "frames": 40}}
+    out = tmp_path / "checked"
+    proc = run_hyperqn([write_deck(tmp_path / "checked.yaml", deck), "-o", out, "-hyperqn_test_topology_h0_check"],
+                       ranks=None)
+    found = [float(d) for _, d in CHECK_LINE.findall(proc.stdout)]
+    s = read_summary(out)["breaks"]
+    print("corrected vs fresh:", found)
+    assert s["edges_torn"] >= 5 and len(found) == s["h0_corrections"] == s["edges_torn"]
+    assert max(found) <= 1e-13
+
+
 def bad(**changes):
     deck = copy.deepcopy(CLOTH)
     deck["time"]["frames"] = 2
@@ -219,7 +292,9 @@ BAD_DECKS = {
     "nan_strain": (tear(float("nan")), ["cloth.tear.strain"]),
     "inf_strain": (tear(float("inf")), ["cloth.tear.strain"]),
     "missing_strain": (bad(cloth={**CLOTH["cloth"], "tear": {}}), ["strain"]),
-    "self_contact": (bad(contact={"self": True}), ["tearing cloth", "self-contact"]),
+    # a torn edge opens by at most a tenth of the least triangle height (0.0354 m) per side
+    "too_thick_with_self_contact": (bad(cloth={**CLOTH["cloth"], "thickness": 0.004}, contact={"self": True}),
+                                    ["cloth.thickness", "too thick for tearing with self-contact", "0.0035"]),
 }
 
 
