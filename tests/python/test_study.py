@@ -2,6 +2,7 @@
 HDF5 file holds the same data, the trajectories are compared with converged Newton, and the
 report script turns it all into PNGs and a Markdown table."""
 import csv
+import math
 import os
 import subprocess
 
@@ -271,3 +272,34 @@ def test_a_trajectory_that_diverges_is_stopped_and_said(tmp_path):
     subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(report)],
                    check=True)
     assert f"lbfgs: trajectory stopped at frame {lbfgs[-1]['frame']}" in report.read_text()
+
+
+@pytest.mark.parametrize("scene", ["tear", "fracture"])
+def test_study_through_tears_and_fracture(tmp_path, scene):
+    """The study tears test_cloth_tear.py's sheet (from frame 20, one edge a step) and breaks
+    test_fracture.py's pulled bar (frame 20: 24 faces) as it snaps ropes: the reference and every
+    trajectory together, each trajectory to the end, every solver at the study frame after them."""
+    import copy
+    import yaml
+    if scene == "tear":
+        from test_cloth_tear import CLOTH
+        deck, frames, at, said = copy.deepcopy(CLOTH), 40, 30, ": tear: "
+    else:
+        from test_fracture import plate_mesh, pulled_plate
+        deck, frames, at, said = pulled_plate(plate_mesh(tmp_path / "bar.mesh", (3, 10, 1)), 1.0, frames=30), 30, 25, ": fracture: "
+    deck["time"]["frames"] = frames
+    deck["solver"] = {"type": "lbfgs"}
+    deck["study"] = {"frames": [at], "solvers": ["lbfgs", "newton"], "iterations": 100}
+    path = tmp_path / f"{scene}.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"])
+    changes = [line for line in proc.stdout.splitlines() if line.startswith("study: t = ") and said in line]
+    assert changes and float(changes[0].split("t = ")[1].split(":")[0]) < at * deck["time"]["dt"]
+    with open(tmp_path / "study" / "trajectory.csv") as f:
+        traj = list(csv.DictReader(f))
+    for solver in ("lbfgs", "newton"):
+        assert [int(r["frame"]) for r in traj if r["solver"] == solver] == list(range(1, frames + 1))
+    with open(tmp_path / "study" / "study.csv") as f:
+        rows = [r for r in csv.DictReader(f) if r["frame"] == str(at)]
+    assert {r["solver"] for r in rows} == {"lbfgs", "newton", "reference"}
+    assert all(math.isfinite(float(r["rel_error"])) for r in rows)
