@@ -198,7 +198,7 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
     }
     if (!(opening.width > 0) || side_of_root.size() < 2) continue;
     // Each side's move: in the rest shape (replayed on a restart from it alone) and at the positions.
-    copy_shift.resize(copy_vertex.size());
+    copy_shift.resize(copy_vertex.size(), Moves{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()});
     for (const auto& [r, side] : side_of_root) {
       Moves moves = {side_move(vertex, fan_triangles, &GlobalTriangle::rest, side, opening.width), Eigen::Vector3d::Zero()};
       if (opening.positions) moves[1] = side_move(vertex, fan_triangles, &GlobalTriangle::x, side, opening.width);

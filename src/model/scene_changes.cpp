@@ -153,6 +153,16 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   PetscFunctionReturn(0);
 }
 
+// Positions (3 per local vertex before a change) carried through it: each local vertex after it
+// takes its source's, moved by the change's opening (if any).
+static std::vector<double> carried(const std::vector<double>& positions, const SeparationResult& change) {
+  std::vector<double> out(3 * change.source.size());
+  for (size_t i = 0; i < change.source.size(); ++i)
+    for (int d = 0; d < 3; ++d)
+      out[3 * i + d] = positions[3 * size_t(change.source[i]) + d] + (change.shift.empty() ? 0.0 : change.shift[3 * i + d]);
+  return out;
+}
+
 SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& batch, const CrackOpening& opening) {
   std::vector<TetPair> faces;  // a pair (t, t) is tet t removed (docs/removal.md)
   std::vector<int64_t> tets;
@@ -169,25 +179,19 @@ SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& 
   SeparationResult r;
   if (tets.empty() || !faces.empty()) r = separate_faces(comm_, kept_.piece, faces, separated_, id_offset_, arrays, opening);
   if (!tets.empty()) {  // after the faces: their opening's positions are where the removal starts
-    std::vector<double> between;  // the positions per local vertex after the faces, with an opening's
+    std::vector<double> between;  // the positions per local vertex after the faces
     CrackOpening then = opening;
     if (opening.positions && !faces.empty()) {
-      between.resize(3 * r.source.size());
-      for (size_t i = 0; i < r.source.size(); ++i)
-        for (int d = 0; d < 3; ++d)
-          between[3 * i + d] = (*opening.positions)[3 * size_t(r.source[i]) + d] + (r.shift.empty() ? 0.0 : r.shift[3 * i + d]);
+      between = carried(*opening.positions, r);
       then.positions = &between;
     }
     SeparationResult q = remove_tets(comm_, kept_.piece, tets, separated_, id_offset_, arrays, {&kept_.cell_material}, then);
     if (!faces.empty()) {
-      // Both moves, each vertex's through the faces' (q.source: a vertex after the faces)
-      if (!q.shift.empty() && !r.shift.empty())
+      // Both moves: each vertex's own and, through q.source (a vertex after the faces), the faces'
+      if (!r.shift.empty()) {
+        if (q.shift.empty()) q.shift.assign(3 * q.source.size(), 0.0);
         for (size_t i = 0; i < q.source.size(); ++i)
           for (int d = 0; d < 3; ++d) q.shift[3 * i + d] += r.shift[3 * size_t(q.source[i]) + d];
-      else if (!r.shift.empty()) {
-        q.shift.assign(3 * q.source.size(), 0.0);
-        for (size_t i = 0; i < q.source.size(); ++i)
-          for (int d = 0; d < 3; ++d) q.shift[3 * i + d] = r.shift[3 * size_t(q.source[i]) + d];
       }
       for (int32_t& v : q.source) v = r.source[v];
       q.new_vertices += r.new_vertices;
@@ -355,12 +359,9 @@ SeparationResult LiveScene::snap(int64_t frame, const std::vector<int64_t>& batc
       torn_.insert(e);
       breaks_.push_back({frame, 1, edge_element(e)});
     }
-    std::vector<double> between;  // the positions per local vertex after the snaps
-    if (positions) {
-      between.resize(3 * source.size());
-      for (size_t i = 0; i < source.size(); ++i)
-        for (int d = 0; d < 3; ++d) between[3 * i + d] = (*positions)[3 * size_t(source[i]) + d];
-    }
+    SeparationResult snaps;
+    snaps.source = source;
+    const std::vector<double> between = positions ? carried(*positions, snaps) : std::vector<double>();  // after the snaps
     SeparationResult r = tear_edges(comm_, kept_.piece, edges, torn_, id_offset_, arrays,
                                     {positions && tear_opening_ > 0 ? &between : nullptr, tear_opening_});
     break_counts_.edges += (long long)edges.size();

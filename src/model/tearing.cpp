@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <Eigen/Dense>
+
 #include "mesh/input_error.hpp"
 #include "mesh/separation.hpp"
 #include "parallel/collectives.hpp"
@@ -39,16 +41,10 @@ double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece
   const TetMesh& m = piece.mesh;
   double least = HUGE_VAL;  // of the cloth triangles' heights
   for (int64_t t = 0; t < m.num_triangles(); ++t) {
-    const double* x[3];
-    for (int j = 0; j < 3; ++j) x[j] = &m.coords[3 * size_t(m.triangles[3 * t + j])];
-    double e[3][3];
-    for (int j = 0; j < 3; ++j)
-      for (int d = 0; d < 3; ++d) e[j][d] = x[(j + 1) % 3][d] - x[j][d];
-    const double c[3] = {e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
-                         e[0][0] * e[1][1] - e[0][1] * e[1][0]};
-    const double area2 = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    for (int j = 0; j < 3; ++j)
-      least = std::min(least, area2 / std::sqrt(e[j][0] * e[j][0] + e[j][1] * e[j][1] + e[j][2] * e[j][2]));
+    std::array<Eigen::Vector3d, 3> x;
+    for (int j = 0; j < 3; ++j) x[j] = Eigen::Vector3d(&m.coords[3 * size_t(m.triangles[3 * t + j])]);
+    const double area2 = (x[1] - x[0]).cross(x[2] - x[0]).norm();  // twice the area: height = area2 / base
+    for (int j = 0; j < 3; ++j) least = std::min(least, area2 / (x[(j + 1) % 3] - x[j]).norm());
   }
   MPI_Allreduce(MPI_IN_PLACE, &least, 1, MPI_DOUBLE, MPI_MIN, comm);
   std::vector<std::pair<std::string, const ClothSpec*>> cloths;
