@@ -95,8 +95,9 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
        "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},
       {"energy", &OutputSpec::energy,
-       "write `energy.csv`: per frame, kinetic, stored and dissipated energy against the work of gravity, the loads "
-       "and the supports, and the balance's residual ([inelastic.md](inelastic.md#energy-balance)); not with "
+       "write `energy.csv`: per frame, kinetic, stored and dissipated energy and what topology changes released, "
+       "against the work of gravity, the loads and the supports, and the balance's residual "
+       "([inelastic.md](inelastic.md#energy-balance)); not with "
        "colliders or self-contact"},
       {"topology_csv", &OutputSpec::topology_csv,
        "with cuts, fracture, snapping strands or tearing cloth: write `topology.csv` (per frame, the faces "

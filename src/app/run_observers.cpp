@@ -235,8 +235,8 @@ bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow
     std::string cell;
     std::vector<double> v;
     while (std::getline(row, cell, ',')) v.push_back(std::strtod(cell.c_str(), nullptr));
-    if (v.size() != 9) continue;
-    const EnergyRow r{v[2], v[3], v[4], v[5], v[6], v[7], v[8]};
+    if (v.size() != 10) continue;
+    const EnergyRow r{v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9]};
     if ((int)v[0] == 0) start = r, have_start = true;
     if ((int)v[0] == frame) at = r, have_at = true;
   }
@@ -308,7 +308,8 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
       if (!read_energy(path, restart_frame, start, at))
         throw std::runtime_error(path + " has no rows of frames 0 and " + std::to_string(restart_frame) +
                                  " to go on from (output.energy: the checkpointed run must have written it)");
-      energy_->resume(at, start.kinetic + start.stored + start.dissipated);
+      energy_at_restart_ = at;
+      energy_at_start_ = start.kinetic + start.stored + start.dissipated;
       energy_log_.resume(path, EnergyBalance::columns(), rank, restart_frame);
     } else {
       energy_log_.open(path, EnergyBalance::columns(), rank);
@@ -348,6 +349,20 @@ IterationCallback RunLogs::iterations(int frame) {
   };
 }
 
+PetscErrorCode RunLogs::share_restart(bool restart) {
+  PetscFunctionBeginUser;
+  restarted_ = restart;
+  if (energy_ && restart) {
+    EnergyRow& r = energy_at_restart_;
+    double v[9] = {r.kinetic, r.stored, r.dissipated, r.released, r.gravity_work, r.load_work, r.support_work, r.residual,
+                   energy_at_start_};
+    PetscCallMPI(MPI_Bcast(v, 9, MPI_DOUBLE, 0, run_.comm));
+    r = EnergyRow{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]};
+    energy_->resume(r, v[8]);
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode RunLogs::begin(LoopControl&) {
   PetscFunctionBeginUser;
   if (reactions_) PetscCall(reactions_->bind(*run_.scene.current().body, run_.state));
@@ -366,7 +381,8 @@ PetscErrorCode RunLogs::begin(LoopControl&) {
 PetscErrorCode RunLogs::scene_changed(const Scene&, Scene& fresh) {
   PetscFunctionBeginUser;
   if (reactions_) PetscCall(reactions_->bind(*fresh.body, run_.state));
-  if (energy_) PetscCall(energy_->bind(*fresh.body, run_.state));
+  if (energy_)
+    PetscCall(energy_->rebind(*fresh.body, run_.state, run_.scene.last_change_cut() || run_.scene.last_change_break()));
   PetscFunctionReturn(0);
 }
 
@@ -379,8 +395,8 @@ PetscErrorCode RunLogs::before_frame(int) {
 
 void RunLogs::append_energy(int frame, double time, const EnergyRow& r) {
   char row[512];
-  std::snprintf(row, sizeof row, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", r.kinetic, r.stored, r.dissipated,
-                r.gravity_work, r.load_work, r.support_work, r.residual);
+  std::snprintf(row, sizeof row, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", r.kinetic, r.stored, r.dissipated,
+                r.released, r.gravity_work, r.load_work, r.support_work, r.residual);
   energy_log_.append(frame, time, {row});
 }
 

@@ -72,6 +72,9 @@ class RunLogs : public FrameObserver {
   // from its rows, with `earlier` the checkpoint's summary). Throws std::runtime_error.
   void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1,
             const RunSummary* earlier = nullptr);
+  // On every rank after open (collective): whether the run restarts, and the energy balance's
+  // state read back on rank 0 (every rank evaluates the balance, so every rank resumes it).
+  PetscErrorCode share_restart(bool restart);
   PetscErrorCode begin(LoopControl& control) override;
   PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
   PetscErrorCode before_frame(int frame) override;
@@ -100,6 +103,8 @@ class RunLogs : public FrameObserver {
   std::unique_ptr<EnergyBalance> energy_;  // output.energy only
   FrameLog energy_log_;
   bool restarted_ = false;
+  EnergyRow energy_at_restart_;         // rank 0: energy.csv's row of the restart's frame
+  double energy_at_start_ = 0;          // and its kinetic + stored + dissipated at frame 0
   bool topology_ = false;           // topology.csv is written
   FrameLog topology_log_;
   TopologyTotals topology_rows_;    // the sums of topology.csv's rows so far

@@ -369,6 +369,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
       }
     }
     throw_if_any_failed(comm, error);
+    if (run.logs.share_restart(run.restart)) throw std::runtime_error("the logs' restart could not be shared");
     if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
     add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());
     add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());

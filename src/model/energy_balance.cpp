@@ -8,7 +8,14 @@
 namespace hyperqn {
 
 const char* EnergyBalance::columns() {
-  return "kinetic,stored,dissipated,gravity_work,load_work,support_work,residual";
+  return "kinetic,stored,dissipated,released,gravity_work,load_work,support_work,residual";
+}
+
+// Sums of this rank's parts over the ranks, in place.
+static PetscErrorCode sum_over_ranks(const DistributedMesh& mesh, double* values, int n) {
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm)));
+  PetscFunctionReturn(0);
 }
 
 PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
@@ -33,6 +40,21 @@ PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode EnergyBalance::rebind(const Body& body, const State& s, bool topology_changed) {
+  PetscFunctionBeginUser;
+  PetscCall(bind(body, s));
+  if (topology_changed) {
+    changed_ = true;
+  } else if (!changed_) {
+    double e[2], dissipated = 0;
+    PetscCall(energies(s, &e[0], &e[1]));
+    PetscCall(sum_over_ranks(body.mesh(), e, 2));
+    PetscCall(body.dissipated_energy(&dissipated));
+    last_energy_ = e[0] + e[1] + dissipated;
+  }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode EnergyBalance::energies(const State& s, double* kinetic, double* stored) {
   const PetscInt n = 3 * body_->mesh().num_vertices;
   PetscFunctionBeginUser;
@@ -52,13 +74,6 @@ PetscErrorCode EnergyBalance::energies(const State& s, double* kinetic, double* 
   PetscFunctionReturn(0);
 }
 
-// Sums of this rank's parts over the ranks, in place.
-static PetscErrorCode sum_over_ranks(const DistributedMesh& mesh, double* values, int n) {
-  PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, values, n, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm)));
-  PetscFunctionReturn(0);
-}
-
 PetscErrorCode EnergyBalance::start(const State& s, EnergyRow& out) {
   double e[2];
   PetscFunctionBeginUser;
@@ -69,7 +84,8 @@ PetscErrorCode EnergyBalance::start(const State& s, EnergyRow& out) {
   out.stored = e[1];
   PetscCall(body_->dissipated_energy(&out.dissipated));
   start_energy_ = e[0] + e[1];
-  gravity_work_ = load_work_ = support_work_ = 0;
+  last_energy_ = e[0] + e[1] + out.dissipated;
+  gravity_work_ = load_work_ = support_work_ = released_ = 0;
   PetscFunctionReturn(0);
 }
 
@@ -78,10 +94,23 @@ void EnergyBalance::resume(const EnergyRow& at_restart, double start_energy) {
   gravity_work_ = at_restart.gravity_work;
   load_work_ = at_restart.load_work;
   support_work_ = at_restart.support_work;
+  released_ = at_restart.released;
+  last_energy_ = at_restart.kinetic + at_restart.stored + at_restart.dissipated;
+  changed_ = true;  // the checkpoint may hold the changes of the frame after it (a frame given up)
 }
 
 PetscErrorCode EnergyBalance::begin_frame(const State& s) {
   PetscFunctionBeginUser;
+  if (changed_) {
+    double e[2];
+    PetscCall(energies(s, &e[0], &e[1]));
+    PetscCall(sum_over_ranks(body_->mesh(), e, 2));
+    double dissipated = 0;
+    PetscCall(body_->dissipated_energy(&dissipated));
+    released_ += last_energy_ - (e[0] + e[1] + dissipated);
+    last_energy_ = e[0] + e[1] + dissipated;
+    changed_ = false;
+  }
   PetscCall(body_->local_positions(s.x, pos_n_));
   start_states_ = body_->copy_element_states();
   start_time_ = s.time;
@@ -147,7 +176,10 @@ PetscErrorCode EnergyBalance::end_frame(const State& s, EnergyRow& out) {
   out.gravity_work = gravity_work_;
   out.load_work = load_work_;
   out.support_work = support_work_;
-  out.residual = out.kinetic + out.stored + out.dissipated - (gravity_work_ + load_work_ + support_work_) - start_energy_;
+  out.released = released_;
+  last_energy_ = out.kinetic + out.stored + out.dissipated;
+  out.residual = out.kinetic + out.stored + out.dissipated + out.released - (gravity_work_ + load_work_ + support_work_) -
+                 start_energy_;
   PetscFunctionReturn(0);
 }
 

@@ -12,6 +12,12 @@
 // kinetic energy are not the body's, and the support's work there is (dE/dx - f)(z) . dx, the force
 // that holds it against the elements and the loads. An attachment's is -k (x(z) - p(t_n + c h)) . dx.
 // A frame the fallback chain solves in sub-steps is taken as one step here (its residual is larger).
+// A topology change (a cut, a fracture, a snap, a tear, a removal) happens between frames at a
+// state x, v it keeps: kinetic + stored + dissipated before it (the row of the frame before) less
+// after it (the changed body's, at the next frame's start) is what it released: what the elements
+// it took away (a removed tet, a torn edge's hinge) held, kinetic, stored and dissipated (a cut, a
+// fracture and a snap keep every element: 0 to round-off). Counted in the residual, so the
+// residual does not jump at a change; each change's share is >= 0 if the change adds no energy.
 // The terms are evaluated a second time over a copy of the mesh whose dof map covers every local
 // vertex (as model/reactions.hpp), so the run's evaluation is untouched and a run without
 // output.energy builds nothing of this.
@@ -28,8 +34,9 @@ namespace hyperqn {
 // One frame's row, the same on every rank (J).
 struct EnergyRow {
   double kinetic = 0, stored = 0, dissipated = 0;
+  double released = 0;  // what the topology changes took out of the body, since the run began (see above)
   double gravity_work = 0, load_work = 0, support_work = 0;  // since the run began
-  double residual = 0;  // kinetic + stored + dissipated - the work - (kinetic + stored at frame 0)
+  double residual = 0;  // kinetic + stored + dissipated + released - the work - (kinetic + stored at frame 0)
 };
 
 class EnergyBalance {
@@ -42,7 +49,13 @@ class EnergyBalance {
   PetscErrorCode start(const State& s, EnergyRow& out);
   // A restart: the row of its frame and the start's energy (kinetic + stored at frame 0).
   void resume(const EnergyRow& at_restart, double start_energy);
-  // Before a frame: x_n, v_n and the element states at its start.
+  // The scene was built again at the state s (LiveScene's rebind): bind to its body; after a
+  // topology change the next begin_frame counts what the change released. After another rebuild (a
+  // release of supports or attachments, whose vertices bring their kinetic energy in: the residual
+  // shows it) the energy before a change is taken afresh. Collective.
+  PetscErrorCode rebind(const Body& body, const State& s, bool topology_changed);
+  // Before a frame: x_n, v_n and the element states at its start; after a topology change, the
+  // energy it released. Collective.
   PetscErrorCode begin_frame(const State& s);
   // After it: the row of the frame's end. Collective.
   PetscErrorCode end_frame(const State& s, EnergyRow& out);
@@ -65,6 +78,9 @@ class EnergyBalance {
   std::vector<double> pos_n_, pos_, dx_, vel_, grad_, load_grad_, fixed_vel_;
   double start_time_ = 0;
   double start_energy_ = 0;  // kinetic + stored at frame 0
+  double last_energy_ = 0;   // kinetic + stored + dissipated of the last row
+  double released_ = 0;
+  bool changed_ = false;
   double gravity_work_ = 0, load_work_ = 0, support_work_ = 0;
 };
 

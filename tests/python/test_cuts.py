@@ -207,7 +207,8 @@ def test_spinning_body_keeps_momentum_and_energy_across_cuts(tmp_path, frame):
 
 def check_energy_csv_across_cuts(out, released):
     """energy.csv (output.energy) through the cuts: its kinetic and stored columns are the frames'
-    own energies (the copies' split masses and the new connectivity), and its balance holds. With no
+    own energies (the copies' split masses and the new connectivity), a cut releases nothing (its
+    `released` column stays 0 to round-off), and its balance holds. With no
     loads, gravity or supports after the release, the residual stays where the release left it (a
     released region brings its kinetic energy in, docs/inelastic.md#energy-balance) up to the
     midpoint's error per step: measured 4.2e-4 of the total over the run, cut frames as others
@@ -224,6 +225,7 @@ def check_energy_csv_across_cuts(out, released):
         r = rows[n]
         assert float(r["kinetic"]) == pytest.approx(k, rel=1e-9) and float(r["stored"]) == pytest.approx(e, rel=1e-9)
         assert float(r["gravity_work"]) == float(r["load_work"]) == 0
+        assert abs(float(r["released"])) <= 1e-12 * (k + e)  # a cut keeps x, v, the tets and their masses' sum
         assert abs(float(r["residual"]) - residual0) <= 1e-3 * (k + e), (n, r)
 
 

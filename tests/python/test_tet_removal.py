@@ -11,6 +11,7 @@ restart is bitwise; bad decks are refused. Energy and momentum: at each step wit
 the remaining body's energy (a ringing free bar, implicit midpoint) and momenta (a spinning,
 translating free body) are the frame before's less the removed tets' share."""
 import copy
+import csv
 import re
 
 import numpy as np
@@ -288,7 +289,7 @@ def test_restart_after_a_kill_after_removals_is_bitwise_with_self_contact(tmp_pa
 # (removals at 4 steps: 6, 24, 12 and 6 tets).
 RINGING = {**{k: v for k, v in SAWN.items() if k not in ("fixed", "gravity", "time")}, "gravity": [0, 0, 0],
            "initial": {"squash": {"axis": 0, "factor": 1.05}},
-           "time": {"dt": 0.01, "frames": 32, "integrator": "implicit-midpoint"}}
+           "time": {"dt": 0.01, "frames": 32, "integrator": "implicit-midpoint"}, "output": {"energy": True}}
 # test_cuts' free body spinning about z and translating along x, released at t = 0.1, its blade a
 # saw (removals at 8 steps).
 SPUN = copy.deepcopy(SPINNING)
@@ -314,6 +315,7 @@ def test_a_removal_never_raises_the_energy(tmp_path, ranks):
     # tol twice the largest one-step change |E_k+1 - E_k| / E_k of the run's steps without removals
     # (the midpoint's own error on this nonlinear ringing, about 2.5e-3; the solver's grad_rtol of
     # 1e-12 adds nothing visible). Between removals E stays within 1 % of its value after the last.
+    # energy.csv's `released` grows by R_k in the frame of each removal and by nothing otherwise.
     out, s = run_deck(tmp_path, "ring", RINGING, ranks=ranks)
     frames = [Frame(p) for _, _, p in frame_list(out)]
     material = (MATERIAL["youngs_modulus"], MATERIAL["poisson_ratio"], DENSITY)
@@ -330,6 +332,11 @@ def test_a_removal_never_raises_the_energy(tmp_path, ranks):
             print(f"{k + 1:5d} {n[k]:5d} {E[k]:9.3f} {E[k + 1]:9.3f} {R[k]:9.3f}  {(E[k + 1] - (E[k] - R[k])) / E[k]:.2e}")
             assert E[k + 1] <= E[k]
             assert abs(E[k + 1] - (E[k] - R[k])) <= tol * E[k]
+    with open(out / "energy.csv") as f:
+        released = np.diff([float(r["released"]) for r in csv.DictReader(f)])
+    assert len(released) == len(R)
+    for k in steps:
+        assert abs(released[k] - R[k]) <= 1e-9 * E[k], (k + 1, released[k], R[k])
     # The check can fail: the largest removal takes far more than tol of the energy, so a removal
     # that kept its tets' energy, or lost theirs twice, would be seen.
     assert max(R[k] / E[k] for k in steps) >= 20 * tol
