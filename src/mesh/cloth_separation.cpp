@@ -141,7 +141,8 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
     }
     m.hinges = std::move(kept);
   }
-  // Each side of a torn edge carries its own spring.
+  // Each side of a torn edge carries its own spring, of half the edge's stiffness: the two then
+  // store what the edge's spring stored, so a tear adds no energy (each triangle keeps its share).
   for (int64_t t = 0; t < m.num_triangles(); ++t) {
     const int64_t n = piece.element_numbers[first + t];
     if (!in_batch.count(n)) continue;
@@ -151,7 +152,7 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
       for (int e = 0; e < 3; ++e) {
         const int64_t a = number(m.triangles[3 * t + e]), b = number(m.triangles[3 * t + (e + 1) % 3]);
         if (std::count(other.begin(), other.end(), a) && std::count(other.begin(), other.end(), b))
-          m.triangle_edges[t] = uint8_t(m.triangle_edges[t] | (1u << e));
+          m.triangle_edges[t] = uint8_t(m.triangle_edges[t] | (1u << e) | (1u << (kTornEdgeBit + e)));
       }
     }
   }

@@ -1,7 +1,8 @@
 // Tearing cloth on the distributed pieces (docs/snapping.md#tearing-cloth): a torn interior edge
 // separates its two triangles.
 //  - The hinge across it goes (no bending joins the two sides), and each side carries its own
-//    edge spring (triangle_edges: the triangle that did not carry the edge now does too).
+//    edge spring (triangle_edges: the triangle that did not carry the edge now does too) of half
+//    the edge's stiffness (kTornEdgeBit), so the two store what the one did: a tear adds no energy.
 //  - A vertex whose fan of triangles (joined through edges not torn) falls apart into several
 //    components gets a copy for each component but the one holding the smallest triangle number.
 //  - Numbering follows mesh/separation.hpp: the global list of copies is ordered by (original

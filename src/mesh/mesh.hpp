@@ -33,6 +33,9 @@ struct TaggedFaces {
   void read(const std::vector<int32_t>& wanted, int32_t tag, int64_t a, int64_t b, int64_t c);
 };
 
+// TetMesh::triangle_edges: bit kTornEdgeBit + k marks edge k of a triangle as one side of a torn edge.
+constexpr int kTornEdgeBit = 3;
+
 struct TetMesh {
   std::vector<double> coords;        // 3 per vertex, x y z
   std::vector<int32_t> tets;         // 4 vertex indices (0-based) per tet
@@ -46,7 +49,9 @@ struct TetMesh {
   std::vector<int32_t> hinges;          // 4 per interior edge: its ends a, b; c opposite it in the
                                         // triangle (a, b, c); d opposite it in the other triangle
   std::vector<uint8_t> triangle_edges;  // per triangle: bit k if it carries its edge k = (v_k, v_{k+1 mod 3});
-                                        // every edge is carried by exactly one triangle
+                                        // every edge is carried by exactly one triangle, but a torn
+                                        // one by both: then bit 3 + k too (kTornEdgeBit: each side
+                                        // carries half the edge's spring, mesh/cloth_separation.hpp)
   TaggedFaces tagged_faces;             // read for the deck's face tags only (empty otherwise)
   int64_t num_vertices() const { return (int64_t)coords.size() / 3; }
   int64_t num_tets() const { return (int64_t)tets.size() / 4; }

@@ -11,7 +11,9 @@ ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, const 
     for (int e = 0; e < 3; ++e)
       if (mesh.triangle_edges[t] & (1u << e)) {
         const PetscInt ab[2] = {mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]};
-        springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), stiffness, 3 * mesh.triangle_ids[t] + e);
+        const bool torn = mesh.triangle_edges[t] & (1u << (kTornEdgeBit + e));  // one side of a torn edge: half
+        springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), torn ? 0.5 * stiffness : stiffness,
+                     3 * mesh.triangle_ids[t] + e);
       }
   springs_.arrange();
   if (yield.active()) springs_.set_yield(yield, state);

@@ -1,6 +1,7 @@
 // Mass-spring cloth (Liu, Bao, Ladislav, Kavan 2013): a spring E = k/2 (l - L)^2 on every edge of
 // the surface, L its rest length, the same k for all. Each edge is carried by one of its
-// triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank. Its
+// triangles (DistributedMesh::triangle_edges), so a spring is counted once on one rank; a torn
+// edge's two sides carry k/2 each (kTornEdgeBit, mesh/cloth_separation.hpp). Its
 // weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. Over the
 // triangles its builder hands it (a body's: body_elements). With a yield (cloth.yield_strain) the
 // rest lengths flow (SpringSet::set_yield, docs/yielding-springs.md): the history is
