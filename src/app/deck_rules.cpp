@@ -60,16 +60,26 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
            "energy.csv does not count the work of colliders or self-contact yet (leave out output.energy)");
 }
 
+// A blade separates tets along their faces and a cloth along its edges (docs/snapping.md#a-blade-through-a-cloth):
+// each mesh is tets alone or a cloth alone; strands are not cut, and a blade removes tets only.
 void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
-  bool tets = deck.bodies.empty() ? deck.mesh.has_solid() : false, others = deck.bodies.empty() && (deck.mesh.has_strands() || deck.mesh.has_cloth());
-  for (const BodySpec& b : deck.bodies) {
-    tets = tets || b.mesh.has_solid();
-    others = others || b.mesh.has_strands() || b.mesh.has_cloth();
+  std::vector<const MeshSpec*> meshes;
+  if (deck.bodies.empty()) meshes.push_back(&deck.mesh);
+  for (const BodySpec& b : deck.bodies) meshes.push_back(&b.mesh);
+  bool cuttable = false, cloth = false;
+  for (const MeshSpec* m : meshes) {
+    if (m->has_strands())
+      r.fail(cuts, "a blade cuts tets and cloth, not strands, and a mesh of the deck has strands (docs/topology.md)");
+    if (m->has_solid() && m->has_cloth())
+      r.fail(cuts, "a blade cuts a mesh of tets or a cloth, not one mesh with both (docs/topology.md)");
+    cuttable = cuttable || m->has_solid() || m->has_cloth();
+    cloth = cloth || m->has_cloth();
   }
-  if (!tets) r.fail(cuts, "a cut separates tets along their faces, and the mesh has no tets");
-  if (others)
-    r.fail(cuts, "cuts act on meshes of tets alone for now: the mesh also has strands or a cloth, which a cut does "
-                 "not separate (docs/topology.md)");
+  if (!cuttable) r.fail(cuts, "a cut separates tets along their faces or a cloth along its edges, and the mesh has neither");
+  for (size_t k = 0; cloth && k < deck.cuts.size(); ++k)
+    if (deck.cuts[k].remove)
+      r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
+             "a blade removes tets, and the deck has a cloth, whose triangles it does not remove: leave out remove");
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as

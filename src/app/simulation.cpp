@@ -403,7 +403,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.vertices = run.scene.current().mesh.global_vertices;
     summary.dofs = run.scene.current().mesh.global_dofs;
   }
-  if (!snap_strains(deck).empty() || !tear_strains(deck).empty()) {  // as for cuts
+  if (run.scene.breaks()) {  // as for cuts (a blade's cut through a cloth counts as its torn edges)
     const LiveScene::BreakCounts& c = run.scene.break_counts();
     summary.breaks = true;
     summary.segments_snapped = c.segments;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <stdexcept>
+#include <utility>
 
 #include "parallel/collectives.hpp"
 
@@ -107,6 +109,72 @@ std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const s
   std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);
   std::sort(all.begin(), all.end());
   return all;
+}
+
+std::vector<TrianglePair> cloth_edges_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                              const std::vector<CutSpec>& cuts, double t0, double t1) {
+  const TetMesh& m = piece.mesh;
+  std::vector<BladeSweep> sweeps;
+  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
+  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  auto number = [&](int32_t v) { return piece.vertex_numbers[v]; };
+  // Two triangles that share an edge have centroids a third of their opposite vertices apart, so
+  // within the longest edge of each other: a crossed dual edge's centroids are within it of the patch.
+  double longest2 = 0;
+  for (int64_t t = 0; t < m.num_triangles(); ++t)
+    for (int j = 0; j < 3; ++j)
+      longest2 = std::max(longest2, (at(m.triangles[3 * t + j]) - at(m.triangles[3 * t + (j + 1) % 3])).squaredNorm());
+  double reach = std::sqrt(longest2);
+  MPI_Allreduce(MPI_IN_PLACE, &reach, 1, MPI_DOUBLE, MPI_MAX, comm);
+  // The crossed hinges as (lower end, higher end, lower opposite, higher opposite) vertex numbers.
+  std::vector<int64_t> mine;
+  for (int64_t h = 0; h < m.num_hinges(); ++h) {
+    const int32_t* v = &m.hinges[4 * h];
+    const bool c_first = number(v[2]) < number(v[3]);
+    const Eigen::Vector3d ends = at(v[0]) + at(v[1]);
+    const Eigen::Vector3d ca = (ends + at(v[c_first ? 2 : 3])) / 3, cb = (ends + at(v[c_first ? 3 : 2])) / 3;
+    bool crossed = false;
+    for (const BladeSweep& s : sweeps) crossed = crossed || (s.near(ca, reach) && s.crosses(ca, cb));
+    if (!crossed) continue;
+    const std::array<int64_t, 4> key = {std::min(number(v[0]), number(v[1])), std::max(number(v[0]), number(v[1])),
+                                        std::min(number(v[2]), number(v[3])), std::max(number(v[2]), number(v[3]))};
+    mine.insert(mine.end(), key.begin(), key.end());
+  }
+  const std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);
+  std::vector<std::array<int64_t, 4>> hinges(all.size() / 4);
+  for (size_t i = 0; i < hinges.size(); ++i) hinges[i] = {all[4 * i], all[4 * i + 1], all[4 * i + 2], all[4 * i + 3]};
+  std::sort(hinges.begin(), hinges.end());
+  hinges.erase(std::unique(hinges.begin(), hinges.end()), hinges.end());
+  if (hinges.empty()) return {};
+  // Their triangles (a, b, c) and (a, b, d), from the ranks that hold them: (hinge, triangle number).
+  std::vector<std::pair<std::array<int64_t, 3>, int64_t>> wanted;  // sorted vertex numbers -> hinge
+  for (size_t i = 0; i < hinges.size(); ++i)
+    for (int o = 2; o < 4; ++o) {
+      std::array<int64_t, 3> tri = {hinges[i][0], hinges[i][1], hinges[i][o]};
+      std::sort(tri.begin(), tri.end());
+      wanted.push_back({tri, (int64_t)i});
+    }
+  std::sort(wanted.begin(), wanted.end());
+  std::vector<int64_t> found;
+  const int64_t first = m.num_tets() + m.num_segments();
+  for (int64_t t = 0; t < m.num_triangles(); ++t) {
+    std::array<int64_t, 3> tri = {number(m.triangles[3 * t]), number(m.triangles[3 * t + 1]), number(m.triangles[3 * t + 2])};
+    std::sort(tri.begin(), tri.end());
+    auto it = std::lower_bound(wanted.begin(), wanted.end(), std::make_pair(tri, int64_t(-1)));
+    for (; it != wanted.end() && it->first == tri; ++it) found.insert(found.end(), {it->second, piece.element_numbers[first + t]});
+  }
+  const std::vector<int64_t> all_found = all_gathered(comm, found, MPI_INT64_T);
+  std::vector<std::vector<int64_t>> of(hinges.size());
+  for (size_t k = 0; k + 1 < all_found.size(); k += 2) of[all_found[k]].push_back(all_found[k + 1]);
+  std::vector<TrianglePair> pairs;
+  for (std::vector<int64_t>& t : of) {
+    std::sort(t.begin(), t.end());
+    t.erase(std::unique(t.begin(), t.end()), t.end());
+    if (t.size() != 2) throw std::logic_error("cloth_edges_crossed: a hinge does not have two triangles");
+    pairs.push_back({t[0], t[1]});
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
 }
 
 }  // namespace hyperqn

@@ -8,6 +8,7 @@
 #include "geometry/blade.hpp"
 #include "mesh/mesh_piece.hpp"
 #include "mesh/separation.hpp"
+#include "model/tearing.hpp"
 
 namespace hyperqn {
 
@@ -26,5 +27,14 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
 // every rank. Collective.
 std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                   const std::vector<CutSpec>& cuts, double t0, double t1);
+
+// The interior cloth edges (the piece's hinges: a torn or cut edge has none) whose dual edge, the
+// segment between the centroids of its two triangles at the positions `pos`, one of the blades
+// crossed while it swept over [t0, t1] (BladeSweep::crosses, from the centroid of the triangle
+// whose opposite vertex has the lower number), as pairs of their triangles' numbers; sorted, the
+// same on every rank. A blade cuts a cloth as it cuts tets, and the edge then separates as a torn
+// one does (mesh/cloth_separation.hpp). Collective.
+std::vector<TrianglePair> cloth_edges_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                              const std::vector<CutSpec>& cuts, double t0, double t1);
 
 }  // namespace hyperqn

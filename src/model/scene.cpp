@@ -451,6 +451,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   const bool separates = !spec.cuts.empty() || !fracture_.empty();
   snap_strains_ = snap_strains(spec);
   tear_strains_ = tear_strains(spec);
+  cuts_cloth_ = blades_cut_cloth(spec);
   const bool breaks = separates || !snap_strains_.empty() || !tear_strains_.empty();
   if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
   if (breaks) {  // the H0 that follows cuts, fracture, snaps and tears (docs/topology.md#h0-across-a-cut)
@@ -498,7 +499,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   // CrackOpening), the input's d whatever the cuts do to the rest shape later.
   if (separates && spec.contact.self) opening_width_ = resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance;
   // And a torn cloth edge by d and its thickness (mesh/cloth_separation.hpp), or the deck is refused.
-  if (!tear_strains_.empty() && spec.contact.self)
+  if ((!tear_strains_.empty() || cuts_cloth_) && spec.contact.self)
     tear_opening_ = tear_opening(comm, spec, kept_.piece, resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance);
   PetscFunctionReturn(0);
 }

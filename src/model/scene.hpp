@@ -209,8 +209,9 @@ class LiveScene {
     long long corrections = 0, refactorizations = 0;
   };
   const BreakCounts& break_counts() const { return break_counts_; }
-  // Strand segments of the scene may snap (strand_material.snap) or cloth edges tear (cloth.tear).
-  bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty(); }
+  // Strand segments of the scene may snap (strand_material.snap) or cloth edges tear (cloth.tear),
+  // or blades cut a cloth (cuts on a mesh with cloth: its edges separate as torn ones, and count so).
+  bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty() || cuts_cloth_; }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
   // The break batches in the scene whose constant matrix was last factored (a checkpoint's
@@ -236,6 +237,12 @@ class LiveScene {
   // (mesh/cloth_separation.hpp), at `positions` (3 per local vertex before the batch) if given.
   SeparationResult snap(int64_t frame, const std::vector<int64_t>& batch, const std::vector<std::array<int64_t, 2>>& edges,
                         const std::vector<double>* positions = nullptr);
+  // Snaps `segments` and separates `edges` (snap) at main's positions `pos` (this rank's local
+  // vertices; opened with self-contact), rebuilds the scene and carries the states: a break, or a
+  // blade's cut through a cloth (by_blade: for messages). Collective.
+  PetscErrorCode break_apart(const std::vector<int64_t>& segments, const std::vector<std::array<int64_t, 2>>& edges,
+                             std::vector<double>& pos, State& main, const std::vector<State*>& others, const Rebind& rebind,
+                             bool by_blade);
   // A batch of breaks (one frame's) as its snapped segments and torn edges, for snap.
   static void split_breaks(const std::vector<Break>& batch, std::vector<int64_t>& segments,
                            std::vector<std::array<int64_t, 2>>& edges);
@@ -276,6 +283,8 @@ class LiveScene {
   std::set<std::array<int64_t, 2>> torn_;
   BreakCounts break_counts_;
   bool last_change_break_ = false;
+  bool last_break_by_blade_ = false;  // the last break was a blade's cut through a cloth (messages)
+  bool cuts_cloth_ = false;           // the deck's blades cut a cloth (cloth_edges_crossed)
   long long factored_breaks_ = 0;
   std::vector<std::pair<int64_t, std::vector<Break>>> break_replay_;  // restore_breaks' (frame, batch) for restore_released
   SceneOptions options_;

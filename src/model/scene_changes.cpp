@@ -240,11 +240,16 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   std::vector<CutSpec> by_frame[2], removing[2];  // the blades that meet the body now, and its rest shape
   for (const CutSpec& c : spec_->cuts) (c.remove ? removing : by_frame)[int(c.frame)].push_back(c);
   std::vector<TetPair> batch;
+  std::vector<TrianglePair> cloth_edges;  // a cloth's edges the blades crossed: they separate as torn ones do
   for (int f = 0; f < 2; ++f) {
     const std::vector<double>& at = f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords;
     if (!by_frame[f].empty()) {
       const std::vector<TetPair> crossed = faces_crossed(comm_, kept_.piece, at, by_frame[f], t - h, t, separated_);
       batch.insert(batch.end(), crossed.begin(), crossed.end());
+      if (cuts_cloth_) {
+        const std::vector<TrianglePair> e = cloth_edges_crossed(comm_, kept_.piece, at, by_frame[f], t - h, t);
+        cloth_edges.insert(cloth_edges.end(), e.begin(), e.end());
+      }
     }
     if (!removing[f].empty())  // removed tets as pairs (t, t) (docs/removal.md)
       for (int64_t tet : tets_crossed(comm_, kept_.piece, at, removing[f], t - h, t)) batch.push_back({tet, tet});
@@ -260,13 +265,17 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
     std::sort(batch.begin(), batch.end());
     batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   }
-  if (batch.empty()) {
-    PetscCall(event_end(&LogEvents::topology));
-    PetscFunctionReturn(0);
+  std::sort(cloth_edges.begin(), cloth_edges.end());
+  cloth_edges.erase(std::unique(cloth_edges.begin(), cloth_edges.end()), cloth_edges.end());
+  *cut = !batch.empty() || !cloth_edges.empty();
+  if (!batch.empty()) {
+    note_broken(main.frame, (long long)(batch.size() - by_blades));
+    PetscCall(separate_due(batch, main, others, rebind));
   }
-  *cut = true;
-  note_broken(main.frame, (long long)(batch.size() - by_blades));
-  PetscCall(separate_due(batch, main, others, rebind));
+  if (!cloth_edges.empty()) {  // after the tets' separation (its own rebuild): the positions as they are now
+    PetscCall(scene_->body->local_positions(main.x, pos));
+    PetscCall(break_apart({}, cloth_edges, pos, main, others, rebind, true));
+  }
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
@@ -285,7 +294,9 @@ std::string LiveScene::last_change(long long dofs) const {
   }
   if (last_change_break_) {
     const BreakCounts& c = break_counts_;
-    return (c.edges == 0 ? "snap: " : "tear: " + std::to_string(c.edges) + " cloth edges torn, ") +
+    return (c.edges == 0                ? "snap: "
+            : last_break_by_blade_ ? "cut: " + std::to_string(c.edges) + " cloth edges cut or torn, "
+                                   : "tear: " + std::to_string(c.edges) + " cloth edges torn, ") +
            std::to_string(c.segments) + " strand segments snapped, " + std::to_string(c.vertices) +
            " vertices added so far" + matrix + followed;
   }
@@ -390,22 +401,29 @@ PetscErrorCode LiveScene::snap_due(State& main, const std::vector<State*>& other
   std::vector<TrianglePair> edges;
   if (!snap_strains_.empty()) batch = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
   if (!tear_strains_.empty()) edges = edges_to_tear(comm_, kept_.piece, pos, tear_strains_, kept_.vertex_body);
-  if (!batch.empty() || !edges.empty()) {
-    *snapped = true;
-    last_change_cut_ = false;
-    last_change_break_ = true;
-    bool corrected = false;  // its constant matrix followed by a TopologyH0 correction (else factored again)
-    // With self-contact a torn edge opens (tear_opening_): the positions' part is carried in the state.
-    const SeparationResult r = snap(main.frame, batch, edges, tear_opening_ > 0 ? &pos : nullptr);
-    PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
-    if (corrected) {
-      ++break_counts_.corrections;
-    } else {
-      ++break_counts_.refactorizations;
-      factored_breaks_ = break_counts_.batches;
-    }
-  }
+  *snapped = !batch.empty() || !edges.empty();
+  if (*snapped) PetscCall(break_apart(batch, edges, pos, main, others, rebind, false));
   PetscCall(event_end(&LogEvents::topology));
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode LiveScene::break_apart(const std::vector<int64_t>& segments, const std::vector<TrianglePair>& edges,
+                                      std::vector<double>& pos, State& main, const std::vector<State*>& others,
+                                      const Rebind& rebind, bool by_blade) {
+  PetscFunctionBeginUser;
+  last_change_cut_ = false;
+  last_change_break_ = true;
+  last_break_by_blade_ = by_blade;
+  bool corrected = false;  // its constant matrix followed by a TopologyH0 correction (else factored again)
+  // With self-contact a torn edge opens (tear_opening_): the positions' part is carried in the state.
+  const SeparationResult r = snap(main.frame, segments, edges, tear_opening_ > 0 ? &pos : nullptr);
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
+  if (corrected) {
+    ++break_counts_.corrections;
+  } else {
+    ++break_counts_.refactorizations;
+    factored_breaks_ = break_counts_.batches;
+  }
   PetscFunctionReturn(0);
 }
 
@@ -431,8 +449,8 @@ PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history, long
       PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
       PetscCheck(history[j][1] == 1 || !snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG,
                  "the checkpoint has snapped strands and the deck's strands do not snap");
-      PetscCheck(history[j][1] == 0 || !tear_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG,
-                 "the checkpoint has torn cloth and the deck's cloth does not tear");
+      PetscCheck(history[j][1] == 0 || !tear_strains_.empty() || cuts_cloth_, comm_, PETSC_ERR_ARG_WRONG,
+                 "the checkpoint has torn cloth and the deck's cloth neither tears nor is cut");
     }
     std::vector<Break> batch(history.begin() + i, history.begin() + j);
     if (factored < 0 || batches < factored) {

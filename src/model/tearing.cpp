@@ -37,6 +37,12 @@ std::vector<double> tear_strains(const SceneSpec& spec) {
   return strains;
 }
 
+bool blades_cut_cloth(const SceneSpec& spec) {
+  bool cloth = spec.bodies.empty() && spec.mesh.has_cloth();
+  for (const BodySpec& b : spec.bodies) cloth = cloth || b.mesh.has_cloth();
+  return cloth && !spec.cuts.empty();
+}
+
 double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece, double distance) {
   const TetMesh& m = piece.mesh;
   double least = HUGE_VAL;  // of the cloth triangles' heights
@@ -48,17 +54,19 @@ double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece
   }
   MPI_Allreduce(MPI_IN_PLACE, &least, 1, MPI_DOUBLE, MPI_MIN, comm);
   std::vector<std::pair<std::string, const ClothSpec*>> cloths;
-  if (spec.bodies.empty()) cloths.push_back({"cloth", &spec.cloth});
-  for (size_t k = 0; k < spec.bodies.size(); ++k) cloths.push_back({"bodies[" + std::to_string(k) + "].cloth", &spec.bodies[k].cloth});
+  if (spec.bodies.empty() && spec.mesh.has_cloth()) cloths.push_back({"cloth", &spec.cloth});
+  for (size_t k = 0; k < spec.bodies.size(); ++k)
+    if (spec.bodies[k].mesh.has_cloth()) cloths.push_back({"bodies[" + std::to_string(k) + "].cloth", &spec.bodies[k].cloth});
   double thickest = 0;
+  const bool cut = blades_cut_cloth(spec);
   for (const auto& [key, cloth] : cloths) {
-    if (!(cloth->tear_strain > 0)) continue;
+    if (!(cloth->tear_strain > 0) && !cut) continue;
     thickest = std::max(thickest, cloth->thickness);
     const double most = kOpeningHeightFraction * least;
     if (cloth->thickness < most) continue;
     char what[400];
     std::snprintf(what, sizeof what,
-                  "%g is too thick for tearing with self-contact: a torn edge opens by at most %g of its triangles' "
+                  "%g is too thick for tearing (or cutting) with self-contact: a torn edge opens by at most %g of its triangles' "
                   "least height on each side (here %.4g m), and its sides must start farther apart than the "
                   "thickness; use a thickness below %.2g (or a coarser cloth)",
                   cloth->thickness, kOpeningHeightFraction, least, most);

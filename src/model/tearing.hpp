@@ -30,8 +30,11 @@ std::vector<int64_t> segments_to_snap(MPI_Comm comm, const MeshPiece& piece, con
 // Empty if no cloth of the deck tears.
 std::vector<double> tear_strains(const SceneSpec& spec);
 
+// Whether the deck's blades (cuts) cut a cloth: its edges they cross separate as torn ones do.
+bool blades_cut_cloth(const SceneSpec& spec);
+
 // With self-contact a torn edge opens (mesh/cloth_separation.hpp) by d + the thickest tearing
-// cloth's thickness, each side by at most kOpeningHeightFraction of its triangles' least height
+// (or cut: blades_cut_cloth) cloth's thickness, each side by at most kOpeningHeightFraction of its triangles' least height
 // above the vertex; the two sides must then start farther apart than the cloth's thickness, where
 // the barrier is finite. So a tearing cloth's thickness must stay below kOpeningHeightFraction of
 // the least height of the scene's cloth triangles (half the smallest full opening, for wedges not

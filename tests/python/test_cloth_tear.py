@@ -327,7 +327,7 @@ BAD_DECKS = {
     "yielding_springs": (bad(cloth={**CLOTH["cloth"], "yield_strain": 0.05}), ["cloth.yield_strain", "do not yield"]),
     # a torn edge opens by at most a tenth of the least triangle height (0.0354 m) per side
     "too_thick_with_self_contact": (bad(cloth={**CLOTH["cloth"], "thickness": 0.004}, contact={"self": True}),
-                                    ["cloth.thickness", "too thick for tearing with self-contact", "0.0035"]),
+                                    ["cloth.thickness", "too thick for tearing (or cutting) with self-contact", "0.0035"]),
 }
 
 
