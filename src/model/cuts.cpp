@@ -10,13 +10,19 @@
 
 namespace hyperqn {
 
+// The blades' sweeps over [t0, t1].
+static std::vector<BladeSweep> blade_sweeps(const std::vector<CutSpec>& cuts, double t0, double t1) {
+  std::vector<BladeSweep> sweeps;
+  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
+  return sweeps;
+}
+
 std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                    const std::vector<CutSpec>& cuts, double t0, double t1,
                                    const std::set<TetPair>& separated) {
   const TetMesh& m = piece.mesh;
-  std::vector<BladeSweep> sweeps;
-  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
-  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
+  const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   // The centroids of two tets that share a face differ by a quarter of the difference of their
   // opposite vertices, so by at most half the longest edge: both centroids of a face that is
   // crossed lie within half the longest edge of the patch. Gathered: the tets within the longest
@@ -90,9 +96,8 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
 std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                   const std::vector<CutSpec>& cuts, double t0, double t1) {
   const TetMesh& m = piece.mesh;
-  std::vector<BladeSweep> sweeps;
-  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
-  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
+  const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   // Each tet lies on one rank, which decides it; an edge is tested from its lower-numbered vertex,
   // so an edge that several tets share gets the same answer in each.
   std::vector<int64_t> mine;
@@ -114,9 +119,8 @@ std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const s
 std::vector<TrianglePair> cloth_edges_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                               const std::vector<CutSpec>& cuts, double t0, double t1) {
   const TetMesh& m = piece.mesh;
-  std::vector<BladeSweep> sweeps;
-  for (const CutSpec& c : cuts) sweeps.emplace_back(c, t0, t1);
-  auto at = [&](int32_t v) { return Eigen::Vector3d(pos[3 * size_t(v)], pos[3 * size_t(v) + 1], pos[3 * size_t(v) + 2]); };
+  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
+  const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   auto number = [&](int32_t v) { return piece.vertex_numbers[v]; };
   // Two triangles that share an edge have centroids a third of their opposite vertices apart, so
   // within the longest edge of each other: a crossed dual edge's centroids are within it of the patch.

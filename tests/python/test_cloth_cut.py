@@ -13,14 +13,13 @@ import csv
 import numpy as np
 import pytest
 
-from conftest import run_deck, run_hyperqn, write_deck
+from conftest import run_deck
 from hyperqn_tools.intersections import check_run
-from hyperqn_tools.output import read_summary, rest_diagonal
+from hyperqn_tools.output import rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
-from test_cloth_tear import TIGHT, frames, masses
+from test_cloth_tear import TIGHT, corrected_vs_fresh, frames, masses
 from test_cut_contact import shared_rest_positions
-from test_cuts import CHECK_LINE
 
 SIZE, CELLS = 0.5, 10
 CUT_Z = 0.26  # the blade's height: between the centroids of the rows of triangles above and below z = 0.25
@@ -118,13 +117,7 @@ def test_restart_after_kill_after_cuts_is_bitwise(tmp_path, ranks):
 
 
 def test_corrected_h0_follows_the_cuts(tmp_path):
-    deck = {**CURTAIN, "solver": {"type": "lbfgs"}}
-    out = tmp_path / "checked"
-    proc = run_hyperqn([write_deck(tmp_path / "checked.yaml", deck), "-o", out, "-hyperqn_test_topology_h0_check"],
-                       ranks=None)
-    found = [float(d) for _, d in CHECK_LINE.findall(proc.stdout)]
-    s = read_summary(out)["breaks"]
-    print("corrected vs fresh:", found)
+    found, s = corrected_vs_fresh(tmp_path, {**CURTAIN, "solver": {"type": "lbfgs"}})
     assert s["edges_torn"] == CELLS and len(found) == s["h0_corrections"] == CELLS and s["refactorizations"] == 0
     assert max(found) <= 1e-12  # measured 1.3e-13 at most (the bound: 1e-10)
 

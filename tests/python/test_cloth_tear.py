@@ -292,16 +292,21 @@ def test_restart_after_kill_after_tears_is_bitwise_with_self_contact(tmp_path):
     assert_restart_after_kill_is_bitwise(tmp_path, SELF, 2, frames=36, every=30, kill_after=33)
 
 
-def test_corrected_h0_follows_tears_that_open(tmp_path):
-    # L-BFGS (its H0 the factored M + h^2 L): the opening moves rest positions, and the corrected
-    # H0 is still a fresh factorization's after every tear.
-    deck = {**SELF, "solver": {"type": "lbfgs"}, "time": {"dt": 1 / 60, "frames": 40}}
+def corrected_vs_fresh(tmp_path, deck):
+    """The deck run at 1 rank with -hyperqn_test_topology_h0_check: the relative difference of the
+    corrected H0 from a fresh factor after each change, and summary.json's breaks."""
     out = tmp_path / "checked"
     proc = run_hyperqn([write_deck(tmp_path / "checked.yaml", deck), "-o", out, "-hyperqn_test_topology_h0_check"],
                        ranks=None)
     found = [float(d) for _, d in CHECK_LINE.findall(proc.stdout)]
-    s = read_summary(out)["breaks"]
     print("corrected vs fresh:", found)
+    return found, read_summary(out)["breaks"]
+
+
+def test_corrected_h0_follows_tears_that_open(tmp_path):
+    # L-BFGS (its H0 the factored M + h^2 L): the opening moves rest positions, and the corrected
+    # H0 is still a fresh factorization's after every tear.
+    found, s = corrected_vs_fresh(tmp_path, {**SELF, "solver": {"type": "lbfgs"}, "time": {"dt": 1 / 60, "frames": 40}})
     assert s["edges_torn"] >= 5 and len(found) == s["h0_corrections"] == s["edges_torn"]
     assert max(found) <= 1e-13
 
