@@ -122,13 +122,13 @@ def test_corrected_h0_follows_the_cuts(tmp_path):
     assert max(found) <= 1e-12  # measured 1.3e-13 at most (the issue's bound: 1e-10)
 
 
-def test_with_self_contact_the_cut_opens(tmp_path):
+def test_with_self_contact_the_cut_opens(curtain, tmp_path):
     # the cut edges are surface from their first step: the two sides open (no vertex keeps a twin
     # at its rest position) and nothing crosses in any frame (without self-contact the copies stay
     # on their originals' rest positions)
     deck = {**CURTAIN, "contact": {"model": "barrier", "self": True}}
     out, s = run_deck(tmp_path, "self", deck)
-    plain_last = frames(run_deck(tmp_path, "plain", CURTAIN)[0])[-1]
+    plain_last = frames(curtain[0])[-1]
     assert s["breaks"]["edges_torn"] == CELLS
     last = frames(out)[-1]
     print("vertices sharing a rest position:", shared_rest_positions(last), "without self-contact",
