@@ -58,8 +58,8 @@ def pieces(frame):
 
 
 @pytest.fixture(scope="module")
-def curtain(tmp_path_factory):
-    return run_deck(tmp_path_factory.mktemp("curtain"), "curtain", CURTAIN)
+def curtain(tmp_path_factory):  # with energy.csv: what each cut released
+    return run_deck(tmp_path_factory.mktemp("curtain"), "curtain", {**CURTAIN, "output": {"energy": True}})
 
 
 def test_the_blade_cuts_the_curtain_along_its_path(curtain):
@@ -89,6 +89,14 @@ def test_the_blade_cuts_the_curtain_along_its_path(curtain):
             assert rest[inside, 2].min() >= 0.25 - 1e-12 and last.points[inside, 2].min() > 0.2
     m0, m1 = masses(fs[0]).sum(), masses(last).sum()
     assert abs(m1 - m0) <= 1e-14 * m0
+    # a cut adds no energy: it keeps x and v, halves the cut edges' springs between their sides and
+    # takes their hinges away (energy.csv's released grows, by their bending energy, or stays)
+    with open(out / "energy.csv") as f:
+        rows = list(csv.DictReader(f))
+    steps = np.diff([float(r["released"]) for r in rows], prepend=0.0)
+    stored = max(float(r["stored"]) for r in rows)
+    print(f"released per cut: {steps[cut].min():.3e} to {steps[cut].max():.3e} J (stored up to {stored:.3g} J)")
+    assert steps.min() >= -1e-12 * stored and all(steps[k] == 0 for k in range(len(steps)) if k not in cut)
 
 
 @pytest.mark.parametrize("ranks", [2, 4])
