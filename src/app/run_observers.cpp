@@ -270,7 +270,8 @@ bool read_topology(const std::string& path, int frame, long long sums[7]) {
 
 RunLogs::RunLogs(const RunContext& run) : run_(run) {
   if (run.deck.output.energy)
-    energy_ = std::make_unique<EnergyBalance>(run.deck, make_integrator(run.deck.time.integrator)->time_fraction());
+    energy_ = std::make_unique<EnergyBalance>(run.deck, make_integrator(run.deck.time.integrator)->time_fraction(),
+                                              run.summary.dissipated_removed);
   if (!run.deck.output.reactions) return;
   reactions_ = std::make_unique<Reactions>(run.deck);
   const std::vector<std::string> names = Reactions::names(run.deck);
@@ -378,8 +379,15 @@ PetscErrorCode RunLogs::begin(LoopControl&) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode RunLogs::scene_changed(const Scene&, Scene& fresh) {
+PetscErrorCode RunLogs::scene_changed(const Scene& old_scene, Scene& fresh) {
   PetscFunctionBeginUser;
+  if (run_.scene.last_change_cut() || run_.scene.last_change_break()) {
+    // What the elements the change took away had dissipated stays in the run's total (collective).
+    double before = 0, after = 0;
+    PetscCall(old_scene.body->dissipated_energy(&before));
+    PetscCall(fresh.body->dissipated_energy(&after));
+    run_.summary.dissipated_removed += before - after;
+  }
   if (reactions_) PetscCall(reactions_->bind(*fresh.body, run_.state));
   if (energy_)
     PetscCall(energy_->rebind(*fresh.body, run_.state, run_.scene.last_change_cut() || run_.scene.last_change_break()));
@@ -404,8 +412,10 @@ PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
   PetscFunctionBeginUser;
   if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
   const Body& body = *run_.scene.current().body;
-  if (outcome.lead.stop.empty() && !body.element_states().empty())
+  if (outcome.lead.stop.empty() && !body.element_states().empty()) {
     PetscCall(body.dissipated_energy(&run_.summary.dissipated_energy));
+    run_.summary.dissipated_energy += run_.summary.dissipated_removed;
+  }
   if (outcome.lead.stop.empty() && reactions_) PetscCall(record_reactions(outcome.frame));
   if (outcome.lead.stop.empty() && energy_) {
     EnergyRow row;

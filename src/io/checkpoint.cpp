@@ -76,6 +76,7 @@ const RealField kRealFields[] = {
     {"max_residual", &RunSummary::max_residual, false},
     {"momentum_drift", &RunSummary::momentum_drift, false},
     {"momentum_scale", &RunSummary::momentum_scale, false},
+    {"dissipated_removed", &RunSummary::dissipated_removed, false},
     {"assembly_s", &RunSummary::assembly_s, true},
     {"factor_s", &RunSummary::factor_s, true},
     {"solve_s", &RunSummary::solve_s, true},

@@ -99,8 +99,10 @@ struct RunSummary {
   long long momentum_drift_frame = 0;
   std::vector<SupportReaction> reactions;  // output.reactions only (empty: none, and no entry in summary.json)
   // The energy the materials with history dissipated since the run began (J; NaN: a scene without
-  // them, and no entry in summary.json).
+  // them, and no entry in summary.json), by every element, those a topology change took away
+  // included: dissipated_removed is theirs (kept in the checkpoint).
   double dissipated_energy = std::nan("");
+  double dissipated_removed = 0;
   // Scripted cuts (deck cuts:; summary.json's "cuts" only with them): faces separated, vertices
   // added (a restart's replay included), the steps with separations whose H0 followed by a
   // TopologyH0 correction and those that factored M + h^2 L again (docs/topology.md), and the time

@@ -40,6 +40,13 @@ PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode EnergyBalance::dissipated(const Body& body, double* total) const {
+  PetscFunctionBeginUser;
+  PetscCall(body.dissipated_energy(total));
+  *total += dissipated_removed_;
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode EnergyBalance::rebind(const Body& body, const State& s, bool topology_changed) {
   PetscFunctionBeginUser;
   PetscCall(bind(body, s));
@@ -49,7 +56,7 @@ PetscErrorCode EnergyBalance::rebind(const Body& body, const State& s, bool topo
     double e[2], dissipated = 0;
     PetscCall(energies(s, &e[0], &e[1]));
     PetscCall(sum_over_ranks(body.mesh(), e, 2));
-    PetscCall(body.dissipated_energy(&dissipated));
+    PetscCall(this->dissipated(body, &dissipated));
     last_energy_ = e[0] + e[1] + dissipated;
   }
   PetscFunctionReturn(0);
@@ -82,7 +89,7 @@ PetscErrorCode EnergyBalance::start(const State& s, EnergyRow& out) {
   out = EnergyRow{};
   out.kinetic = e[0];
   out.stored = e[1];
-  PetscCall(body_->dissipated_energy(&out.dissipated));
+  PetscCall(dissipated(*body_, &out.dissipated));
   start_energy_ = e[0] + e[1];
   last_energy_ = e[0] + e[1] + out.dissipated;
   gravity_work_ = load_work_ = support_work_ = released_ = 0;
@@ -106,7 +113,7 @@ PetscErrorCode EnergyBalance::begin_frame(const State& s) {
     PetscCall(energies(s, &e[0], &e[1]));
     PetscCall(sum_over_ranks(body_->mesh(), e, 2));
     double dissipated = 0;
-    PetscCall(body_->dissipated_energy(&dissipated));
+    PetscCall(this->dissipated(*body_, &dissipated));
     released_ += last_energy_ - (e[0] + e[1] + dissipated);
     last_energy_ = e[0] + e[1] + dissipated;
     changed_ = false;
@@ -172,7 +179,7 @@ PetscErrorCode EnergyBalance::end_frame(const State& s, EnergyRow& out) {
   out = EnergyRow{};
   out.kinetic = e[3];
   out.stored = e[4];
-  PetscCall(body_->dissipated_energy(&out.dissipated));
+  PetscCall(dissipated(*body_, &out.dissipated));
   out.gravity_work = gravity_work_;
   out.load_work = load_work_;
   out.support_work = support_work_;

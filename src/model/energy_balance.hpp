@@ -14,10 +14,11 @@
 // A frame the fallback chain solves in sub-steps is taken as one step here (its residual is larger).
 // A topology change (a cut, a fracture, a snap, a tear, a removal) happens between frames at a
 // state x, v it keeps: kinetic + stored + dissipated before it (the row of the frame before) less
-// after it (the changed body's, at the next frame's start) is what it released: what the elements
-// it took away (a removed tet, a torn edge's hinge) held, kinetic, stored and dissipated (a cut, a
-// fracture and a snap keep every element: 0 to round-off). Counted in the residual, so the
-// residual does not jump at a change; each change's share is >= 0 if the change adds no energy.
+// after it (the changed body's, at the next frame's start) is what it released: the kinetic and
+// stored energy of what it took away (a removed tet, a torn edge's hinge; a cut, a fracture and a
+// snap keep every element: 0 to round-off). What those elements had dissipated stays in the
+// dissipated column. Counted in the residual, so the residual does not jump at a change; each
+// change's share is >= 0 if the change adds no energy.
 // The terms are evaluated a second time over a copy of the mesh whose dof map covers every local
 // vertex (as model/reactions.hpp), so the run's evaluation is untouched and a run without
 // output.energy builds nothing of this.
@@ -42,7 +43,10 @@ struct EnergyRow {
 class EnergyBalance {
  public:
   static const char* columns();  // energy.csv's, after frame,time
-  EnergyBalance(const SceneSpec& spec, double time_fraction) : spec_(spec), c_(time_fraction) {}
+  // dissipated_removed: what the elements topology changes took away had dissipated (RunSummary's,
+  // kept up to date by the run; part of the dissipated column).
+  EnergyBalance(const SceneSpec& spec, double time_fraction, const double& dissipated_removed)
+      : spec_(spec), c_(time_fraction), dissipated_removed_(dissipated_removed) {}
   // For the scene's body as built (again after a release; s: its released attachments). Collective.
   PetscErrorCode bind(const Body& body, const State& s);
   // The row of the state s as it stands (frame 0 of a run: its energies, no work); collective.
@@ -64,9 +68,12 @@ class EnergyBalance {
   // Kinetic and stored energy of s (this rank's part: kinetic over the free dofs, stored of the
   // elastic terms with the body's element states as they stand).
   PetscErrorCode energies(const State& s, double* kinetic, double* stored);
+  // The dissipated column: the body's elements' and the removed ones'. Collective.
+  PetscErrorCode dissipated(const Body& body, double* total) const;
 
   const SceneSpec& spec_;
   double c_;  // the solve's time fraction of the step
+  const double& dissipated_removed_;
   const Body* body_ = nullptr;
   std::unique_ptr<DistributedMesh> all_;
   std::vector<std::unique_ptr<EnergyTerm>> terms_;  // the elastic terms over all_
