@@ -381,8 +381,10 @@ PetscErrorCode RunLogs::begin(LoopControl&) {
 
 PetscErrorCode RunLogs::scene_changed(const Scene& old_scene, Scene& fresh) {
   PetscFunctionBeginUser;
-  if (run_.scene.last_change_cut() || run_.scene.last_change_break()) {
-    // What the elements the change took away had dissipated stays in the run's total (collective).
+  const bool topology = run_.scene.last_change_cut() || run_.scene.last_change_break();
+  if (topology && !old_scene.body->element_states().empty()) {
+    // What the elements the change took away had dissipated stays in the run's total (collective:
+    // every rank's body has the same terms with history).
     double before = 0, after = 0;
     PetscCall(old_scene.body->dissipated_energy(&before));
     PetscCall(fresh.body->dissipated_energy(&after));
@@ -390,7 +392,7 @@ PetscErrorCode RunLogs::scene_changed(const Scene& old_scene, Scene& fresh) {
   }
   if (reactions_) PetscCall(reactions_->bind(*fresh.body, run_.state));
   if (energy_)
-    PetscCall(energy_->rebind(*fresh.body, run_.state, run_.scene.last_change_cut() || run_.scene.last_change_break()));
+    PetscCall(energy_->rebind(*fresh.body, run_.state, topology));
   PetscFunctionReturn(0);
 }
 
