@@ -480,9 +480,13 @@ void read_contact(const Reader& r, const Value& v, ContactSpec& c) {
   const Section s = read_keys(r, v, contact_keys(), c);
   c.line = v.line;
   if (const Value* x = s.find("distance")) c.distance_line = x->line;
+  if (const Value* x = s.find("self_distance")) c.self_distance_line = x->line;
   if (const Value* x = s.find("self_friction"); x && !c.self)
     r.fail(*x, "self_friction is the friction between surfaces in self-contact, which is off (self: true turns it on); "
                "each collider has its own friction");
+  if (const Value* x = s.find("self_distance"); x && !c.self)
+    r.fail(*x, "self_distance is the activation distance between surfaces in self-contact, which is off (self: true "
+               "turns it on); the colliders' is distance");
 }
 
 // attachments: [{box, stiffness, motion, release}]: box, motion and release as for fixed regions.

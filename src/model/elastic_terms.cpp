@@ -215,7 +215,7 @@ std::unique_ptr<EnergyTerm> self_contact_term(const DistributedMesh& mesh, const
   }
   std::vector<int> fixed_lines;
   for (const BoxRegion& r : spec.fixed) fixed_lines.push_back(r.line);
-  ContactSpec contact = resolved_contact(spec.contact, rest_diagonal(mesh));
+  ContactSpec contact = self_contact_spec(spec.contact, rest_diagonal(mesh));
   // Sides of a crack or a torn edge that could not open keep one rest position (mesh/separation.hpp)
   contact.joined_twins = !spec.cuts.empty() || !tear_strains(spec).empty();
   return std::make_unique<SelfContactTerm>(mesh, contact,

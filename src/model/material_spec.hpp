@@ -131,8 +131,9 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
       {"thickness", &C::thickness,
        "in self-contact (`contact.self: true`, a deck error without it), the cloth's thickness t: each side of its "
        "mid-surface reaches t/2, so a pair of primitives measures its distance less half the thickness of each "
-       "(two layers of the cloth rest about t + `contact.distance` apart, the cloth on a solid about t/2 + "
-       "`contact.distance`); the continuous collision test keeps that much apart. t + `contact.distance` must stay "
+       "(two layers of the cloth rest about t + d apart, the cloth on a solid about t/2 + d, d the self-contact "
+       "distance: `contact.self_distance`, else `distance`); the continuous collision test keeps that much apart. "
+       "t + d must stay "
        "below the mesh's spacing at rest ([self-contact.md](self-contact.md#cloth-thickness)); a cloth that tears "
        "needs t below a tenth of its least triangle height ([snapping.md](snapping.md#tearing-cloth))",
        at_least(0, "a length")},

@@ -417,12 +417,13 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   check_attachments(comm, mesh, deck.attachments, deck.fixed, in.fixed, deck.path, in.vertex_body);
   // An activation layer thicker than the body would push every vertex near an obstacle at once.
   const double diagonal = mesh_diagonal(comm, mesh);
-  if (deck.contact.distance > diagonal) {
-    char msg[200];
-    std::snprintf(msg, sizeof msg, "%g is larger than the body: its rest bounding-box diagonal is %g (after mesh.transform)",
-                  deck.contact.distance, diagonal);
-    throw InputError(deck.path, deck.contact.distance_line, "contact.distance", msg);
-  }
+  for (const ContactSpec& c : {deck.contact, self_contact_spec(deck.contact, diagonal)})
+    if (c.distance > diagonal) {
+      char msg[200];
+      std::snprintf(msg, sizeof msg, "%g is larger than the body: its rest bounding-box diagonal is %g (after mesh.transform)",
+                    c.distance, diagonal);
+      throw InputError(deck.path, c.distance_line, c.distance_key, msg);
+    }
   // Every rank reads the obstacle files (each holds every collider): a bad one fails on all alike.
   for (size_t c = 0; c < deck.colliders.size(); ++c) make_collider(deck.colliders[c], deck.path, (int)c);
   return in;
@@ -497,10 +498,10 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   PetscCall(build(std::move(input), {}, *scene_));
   // With self-contact a fresh crack opens by the activation distance (mesh/separation.hpp,
   // CrackOpening), the input's d whatever the cuts do to the rest shape later.
-  if (separates && spec.contact.self) opening_width_ = resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance;
+  if (separates && spec.contact.self) opening_width_ = self_contact_spec(spec.contact, rest_diagonal(scene_->mesh)).distance;
   // And a torn cloth edge by d and its thickness (mesh/cloth_separation.hpp), or the deck is refused.
   if ((!tear_strains_.empty() || cuts_cloth_) && spec.contact.self)
-    tear_opening_ = tear_opening(comm, spec, kept_.piece, resolved_contact(spec.contact, rest_diagonal(scene_->mesh)).distance);
+    tear_opening_ = tear_opening(comm, spec, kept_.piece, self_contact_spec(spec.contact, rest_diagonal(scene_->mesh)).distance);
   PetscFunctionReturn(0);
 }
 

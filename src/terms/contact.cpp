@@ -17,6 +17,16 @@ ContactSpec resolved_contact(ContactSpec spec, double diagonal) {
   return spec;
 }
 
+ContactSpec self_contact_spec(ContactSpec spec, double diagonal) {
+  spec = resolved_contact(spec, diagonal);
+  if (spec.self_distance > 0) {
+    spec.distance = spec.self_distance;
+    spec.distance_line = spec.self_distance_line;
+    spec.distance_key = "contact.self_distance";
+  }
+  return spec;
+}
+
 ContactTerm::ContactTerm(const DistributedMesh& mesh, std::vector<std::unique_ptr<Collider>> colliders,
                          const ContactSpec& spec, PetscLogEvent event, std::vector<std::string> bodies)
     : mesh_(mesh), colliders_(std::move(colliders)), spec_(spec), bodies_(std::move(bodies)),

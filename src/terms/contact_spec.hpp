@@ -20,9 +20,13 @@ struct ContactSpec {
   double friction_velocity = 0;     // eps: sliding below eps is sticking; 0: 1e-2 diagonals per second
   bool self = false;                // self-contact: the surfaces of all bodies and cloths against each other
   double self_friction = 0;         // Coulomb coefficient mu between surfaces in self-contact
+  double self_distance = 0;         // activation distance between surfaces in self-contact; 0: distance
   int line = 0;                     // deck line of the section
   int distance_line = 0;            // and of distance, when given
   int self_line = 0;                // and of self, when given
+  int self_distance_line = 0;       // and of self_distance, when given
+  // Not a deck key: the key `distance` came from, for messages (self_contact_spec sets it).
+  const char* distance_key = "contact.distance";
   // Not a deck key: self-contact treats surface vertices of one body at the same rest position as
   // one vertex (a crack's sides that could not open, mesh/separation.hpp CrackOpening); set in
   // scenes with cuts.
@@ -30,6 +34,9 @@ struct ContactSpec {
 };
 // The defaults above, resolved for a body of rest bounding-box diagonal `diagonal`.
 ContactSpec resolved_contact(ContactSpec spec, double diagonal);
+// The same for self-contact: its distance is self_distance where the deck gives it (distance_line and
+// distance_key then name that key).
+ContactSpec self_contact_spec(ContactSpec spec, double diagonal);
 
 // The deck's contact: keys (params/deck_keys.hpp). Its defaults of 0 are resolved for the scene
 // (resolved_contact).
@@ -65,6 +72,12 @@ inline const std::vector<DeckKey<ContactSpec>>& contact_keys() {
        "Coulomb coefficient μ between surfaces in self-contact (`self: true`), lagged and smoothed like the "
        "colliders' `friction` (with the same `friction_velocity`); each collider keeps its own `friction`",
        between(0, 100, "a Coulomb coefficient")},
+      {"self_distance", &C::self_distance,
+       "activation distance between surfaces in self-contact (`self: true`), instead of `distance`, which then "
+       "holds for the colliders alone: a mesh whose surface comes close to itself at rest needs a self-contact "
+       "distance below that gap, while its contact with the ground need not be that thin (a thin layer takes more "
+       "iterations; [self-contact.md](self-contact.md#two-distances)); at most the rest bounding-box diagonal",
+       above(0, "a length; omit it for `distance`"), {}, "", "`distance`"},
   };
   return keys;
 }

@@ -40,11 +40,11 @@ void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, In
     out.key = (b.key.empty() ? "" : b.key + ".") + "cloth.thickness";
     out.what = what;
     if (apart > spec_.distance)
-      std::snprintf(what, sizeof what, "use a thickness below that gap less contact.distance %g, e.g. %g", spec_.distance,
-                    two_digits_below(apart - spec_.distance));
+      std::snprintf(what, sizeof what, "use a thickness below that gap less %s %g, e.g. %g", spec_.distance_key,
+                    spec_.distance, two_digits_below(apart - spec_.distance));
     else
-      std::snprintf(what, sizeof what, "that gap is below contact.distance %g too: a thinner cloth and a smaller distance",
-                    spec_.distance);
+      std::snprintf(what, sizeof what, "that gap is below %s %g too: a thinner cloth and a smaller distance",
+                    spec_.distance_key, spec_.distance);
     out.what += what;
     return;
   }
@@ -59,10 +59,12 @@ void SelfContactTerm::rest_gap_problem(double gap, double xi, int64_t vertex, In
                 spec_.distance_line > 0 ? "" : "the default ", spec_.distance, (long long)vertex, apart,
                 xi > 0 ? beyond : ",");
   out.line = spec_.distance_line > 0 ? spec_.distance_line : spec_.self_line;
-  out.key = "contact.distance";
+  out.key = spec_.distance_key;
   out.what = what;
   if (gap > 0) {
-    std::snprintf(what, sizeof what, "use a distance below that gap, e.g. contact.distance: %g (half of it)", suggested);
+    // The colliders' distance may stay larger: self_distance takes the self-contact's alone.
+    std::snprintf(what, sizeof what, "use a distance below that gap, e.g. %s: %g (half of it)%s", spec_.distance_key,
+                  suggested, spec_.self_distance > 0 ? "" : ", or contact.self_distance for self-contact alone");
     out.what += what;
   } else {
     out.what += "they touch (coincident primitives), which no distance fits";

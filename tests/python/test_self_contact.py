@@ -229,7 +229,8 @@ def test_distance_larger_than_the_mesh_spacing_is_an_input_error(tmp_path, ranks
     assert proc.returncode == 1 and not out.exists()
     assert (f"coarse.yaml:{line}: 'contact.distance': 0.04 is too large for the surface: two of its primitives "
             "in one body that share no vertex") in proc.stdout
-    assert "are 0.03536 apart at rest" in proc.stdout and "e.g. contact.distance: 0.017 (half of it)" in proc.stdout
+    assert "are 0.03536 apart at rest" in proc.stdout and "e.g. contact.distance: 0.017 (half of it), or " \
+        "contact.self_distance for self-contact alone" in proc.stdout
     d["contact"]["distance"] = 0.03
     run(tmp_path, "fits", d, ranks or 1)
 
@@ -489,6 +490,59 @@ def test_a_body_with_a_narrow_slit_lands_without_crossing(tmp_path, ranks):
     a distance 2.5e-5 of its diagonal: every frame written, status ok, 0 intersecting pairs."""
     out, _ = run(tmp_path, f"ring{ranks}", slit_ring_deck(tmp_path, 6), ranks)
     assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 7
+
+
+def lowest_heights(out):
+    """The lowest vertex's height in each written frame."""
+    return [float(frame.points[:, 1].min()) for _, frame in read_frames(out)]
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_the_ground_keeps_its_own_distance_beside_a_slit(tmp_path, ranks):
+    """contact.self_distance: the split ring with the colliders' distance 5e-3 m (140 times the
+    slit's half) and self-contact's the slit's half (a single distance that large is refused,
+    below). 0 intersecting pairs in every frame; from the landing on, the ring rests in the
+    colliders' layer (its lowest vertex between 2.5e-3 and 5e-3 above the ground; measured
+    4.1e-3 to 4.4e-3), where with one distance for both it comes within the slit's half
+    (3.6e-5). The thin layer costs iterations where it is not needed: the 6 frames take fewer
+    iterations with the ground's own distance (measured at 1 rank: 229 against 605)."""
+    d = slit_ring_deck(tmp_path, 6)
+    thin = d["contact"]["distance"]
+    d["contact"].update({"distance": 5e-3, "self_distance": thin})
+    out, _ = run(tmp_path, f"two{ranks}", d, ranks)
+    assert [r["intersecting_pairs"] for r in check_run(out)] == [0] * 7
+    assert all(2.5e-3 < h < 5e-3 for h in lowest_heights(out)[4:])
+    if ranks == 1:
+        one, _ = run(tmp_path, "one", slit_ring_deck(tmp_path, 6))
+        assert 0 < min(lowest_heights(one)[4:]) < thin
+        two_iterations, one_iterations = read_summary(out)["iterations"], read_summary(one)["iterations"]
+        print("iterations: two distances", two_iterations, "one", one_iterations)
+        assert two_iterations < one_iterations / 2
+
+
+@pytest.mark.parametrize("case", ["without_self", "wider_than_the_slit", "larger_than_the_body"])
+def test_a_bad_self_distance_is_an_input_error(tmp_path, case):
+    """contact.self_distance without self-contact; wider than the ring's slit (the message names
+    self_distance and its line, the gap and a distance that fits); larger than the body's rest
+    diagonal. Each: exit 1, nothing written, the deck line of self_distance."""
+    d = slit_ring_deck(tmp_path, 2)
+    d["contact"].update({"distance": 5e-3, "self_distance": {"without_self": 1e-5, "wider_than_the_slit": 1e-4,
+                                                              "larger_than_the_body": 2.0}[case]})
+    if case == "without_self":
+        d["contact"]["self"] = False
+    path = write_deck(tmp_path / f"{case}.yaml", d)
+    line = next(n for n, text in enumerate(open(path).read().splitlines(), 1) if "self_distance:" in text)
+    out = tmp_path / case
+    proc = run_hyperqn([path, "-o", out], ranks=None, check=False)
+    print(proc.stdout)
+    assert proc.returncode == 1 and not out.exists()
+    prefix = f"{case}.yaml:{line}: 'contact.self_distance': "
+    assert prefix + {"without_self": "self_distance is the activation distance between surfaces in self-contact, "
+                                     "which is off",
+                     "wider_than_the_slit": "0.0001 is too large for the surface: two of its primitives in one body",
+                     "larger_than_the_body": "2 is larger than the body"}[case] in proc.stdout
+    if case == "wider_than_the_slit":
+        assert "are 7.141e-05 apart at rest" in proc.stdout and "e.g. contact.self_distance: 3.5e-05 (half of it)" in proc.stdout
 
 
 def test_a_falling_body_keeps_its_candidate_list(tmp_path):
