@@ -61,9 +61,11 @@ class Objective {
   }
 
   // The step's start x_n (null where the objective has none), and this rank's tets' parts of h^2 L
-  // in A (solver.h0_rigid, solvers/rigid_mode_h0.hpp).
+  // in A (solver.h0_rigid, solvers/rigid_mode_h0.hpp) of the tets whose weight is at least
+  // min_weight, and the range of this rank's weights (softest, stiffest; unchanged without tets).
   virtual Vec step_start() const { return nullptr; }
-  virtual void tet_laplacians(std::vector<TetLaplacian>& out) const { out.clear(); }
+  virtual void tet_laplacians(std::vector<TetLaplacian>& out, double /*min_weight*/) const { out.clear(); }
+  virtual void tet_weight_range(double& /*softest*/, double& /*stiffest*/) const {}
 
   // Assembles A = M + h^2 L on the free dofs into a new matrix (once per scene). Since
   // A = A1 (x) I3, components = 1 assembles only the vertex matrix A1 = M1 + h^2 L1 (in the

@@ -46,24 +46,21 @@ PetscErrorCode RigidModeH0::setup(bool* found, double ratio) {
   const MPI_Comm comm = PetscObjectComm((PetscObject)step_.layout());
   PetscFunctionBeginUser;
   *found = false;
-  std::vector<TetLaplacian> local;
-  step_.tet_laplacians(local);
-  double range[2] = {PETSC_MAX_REAL, 0};  // the softest weight, minus the stiffest
-  for (const TetLaplacian& t : local) {
-    range[0] = std::min(range[0], t.weight);
-    range[1] = std::min(range[1], -t.weight);
-  }
+  double softest_here = PETSC_MAX_REAL, stiffest_here = 0;
+  step_.tet_weight_range(softest_here, stiffest_here);
+  double range[2] = {softest_here, -stiffest_here};  // the softest weight, minus the stiffest
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, range, 2, MPI_DOUBLE, MPI_MIN, comm));
   const double softest = range[0], stiffest = -range[1];
   // A relative slack of 1e-9: weights from E and nu are exact ratios only up to round-off.
   const double threshold = ratio * softest * (1 - 1e-9);
   if (!(softest > 0) || !(stiffest >= threshold)) PetscFunctionReturn(0);
+  std::vector<TetLaplacian> local;  // the stiff tets
+  step_.tet_laplacians(local, threshold);
 
   // The stiff tets of every rank: 4 ids, 4 dofs, 16 entries each.
   constexpr int kWidth = 24;
   std::vector<double> mine;
   for (const TetLaplacian& t : local) {
-    if (!(t.weight >= threshold)) continue;
     for (int j = 0; j < 4; ++j) mine.push_back(static_cast<double>(t.vertex[j]));
     for (int j = 0; j < 4; ++j) mine.push_back(static_cast<double>(t.dof[j]));
     mine.insert(mine.end(), t.K.begin(), t.K.end());

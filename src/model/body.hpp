@@ -132,9 +132,12 @@ class Body {
   // A += scale * L, L the sum of the terms' (see EnergyTerm::add_laplacian for components).
   PetscErrorCode add_laplacian(Mat A, PetscReal scale, int components = 3) const;
   // This rank's tets' parts of scale * L (EnergyTerm::add_tet_laplacians), in the terms' order.
-  void tet_laplacians(double scale, std::vector<TetLaplacian>& out) const {
+  void tet_laplacians(double scale, double min_weight, std::vector<TetLaplacian>& out) const {
     out.clear();
-    for (const auto& term : terms_) term->add_tet_laplacians(scale, out);
+    for (const auto& term : terms_) term->add_tet_laplacians(scale, min_weight, out);
+  }
+  void tet_weight_range(double& softest, double& stiffest) const {
+    for (const auto& term : terms_) term->tet_weight_range(softest, stiffest);
   }
   // H += scale * K(x) on the free dofs, K = d2E/dx2 with the terms' definiteness fix (psd) or
   // exact. Adds into H's existing pattern.

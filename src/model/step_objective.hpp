@@ -129,7 +129,10 @@ class StepObjective : public Objective {
     return body_.vertex_stiffness(life_.x_n(), solve_dt_ * solve_dt_, out);
   }
   Vec step_start() const override { return life_.x_n(); }
-  void tet_laplacians(std::vector<TetLaplacian>& out) const override { body_.tet_laplacians(solve_dt_ * solve_dt_, out); }
+  void tet_laplacians(std::vector<TetLaplacian>& out, double min_weight) const override {
+    body_.tet_laplacians(solve_dt_ * solve_dt_, min_weight, out);
+  }
+  void tet_weight_range(double& softest, double& stiffest) const override { body_.tet_weight_range(softest, stiffest); }
   PetscErrorCode assemble_constant_matrix(Mat* A, int components = 3,
                                           ConstantMatrix kind = ConstantMatrix::laplacian) const override;
   // A scene rebuilt after a cut on one rank: the 1-component constant matrix takes its pattern from

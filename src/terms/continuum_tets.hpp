@@ -28,6 +28,7 @@ class ContinuumTets : public TetElements {
   void element_energy_batch(size_t k, int m, StressBatch& b, int n) const override;
   Mat9 element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const override;
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const override;
+  double tet_weight(size_t, int m) const override { return weight_[m]; }
 
   std::vector<std::unique_ptr<Material>> materials_;
   std::vector<double> weight_;

@@ -99,8 +99,11 @@ class EnergyTerm {
   // The term's part of the constant matrix L (A = M + h^2 L): A += scale * L_t, in the dof layout
   // (components = 3) or the vertex layout of mesh.vertex_dm (components = 1, A = A1 (x) I3).
   virtual PetscErrorCode add_laplacian(Mat /*A*/, double /*scale*/, int /*components*/) const { return 0; }
-  // This rank's tets' parts of add_laplacian (scaled by scale), appended to out; terms without tets add none.
-  virtual void add_tet_laplacians(double /*scale*/, std::vector<TetLaplacian>& /*out*/) const {}
+  // This rank's tets' parts of add_laplacian (scaled by scale) whose weight is at least min_weight,
+  // appended to out; and the range of all their weights (softest and stiffest lowered and raised).
+  // Terms without tets add none.
+  virtual void add_tet_laplacians(double /*scale*/, double /*min_weight*/, std::vector<TetLaplacian>& /*out*/) const {}
+  virtual void tet_weight_range(double& /*softest*/, double& /*stiffest*/) const {}
   // The term's part of solver.h0: volumetric's matrix, in the dof layout: A += scale * K_t. Terms
   // without a volumetric form (springs, strands, cloth, inelastic tets) add their L.
   virtual PetscErrorCode add_volumetric_h0(Mat A, double scale) const { return add_laplacian(A, scale, 3); }

@@ -204,20 +204,27 @@ PetscErrorCode TetElements::add_laplacian(Mat A, double scale, int components) c
   PetscFunctionReturn(0);
 }
 
-// The weight is element_laplacian's over w = 1's (a diagonal entry of V G^T G is positive).
-void TetElements::add_tet_laplacians(double scale, std::vector<TetLaplacian>& out) const {
+void TetElements::add_tet_laplacians(double scale, double min_weight, std::vector<TetLaplacian>& out) const {
   for (size_t k = 0; k < cells_.size(); ++k) {
     const int m = mesh_.cell_material[cells_[k]];
-    const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> K = element_laplacian(k, m, scale);
     TetLaplacian t;
+    t.weight = tet_weight(k, m);
+    if (!(t.weight >= min_weight)) continue;
     for (int j = 0; j < 4; ++j) {
       const PetscInt v = mesh_.cells[4 * cells_[k] + j];
       t.vertex[j] = mesh_.vertex_ids[v];
       t.dof[j] = mesh_.global_dof[v];
     }
-    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(t.K.data()) = K;
-    t.weight = element_laplacian(k, m, 1.0)(0, 0) / weighted_laplacian(k, 1.0)(0, 0);
+    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(t.K.data()) = element_laplacian(k, m, scale);
     out.push_back(t);
+  }
+}
+
+void TetElements::tet_weight_range(double& softest, double& stiffest) const {
+  for (size_t k = 0; k < cells_.size(); ++k) {
+    const double w = tet_weight(k, mesh_.cell_material[cells_[k]]);
+    softest = std::min(softest, w);
+    stiffest = std::max(stiffest, w);
   }
 }
 

@@ -17,7 +17,8 @@ class TetElements : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
-  void add_tet_laplacians(double scale, std::vector<TetLaplacian>& out) const override;
+  void add_tet_laplacians(double scale, double min_weight, std::vector<TetLaplacian>& out) const override;
+  void tet_weight_range(double& softest, double& stiffest) const override;
   void add_lumped_mass(PetscScalar* mass) const override;
   double local_mass() const override;
   // Cauchy stress, von Mises stress, principal stretches, Green strain and energy density per rest
@@ -44,6 +45,9 @@ class TetElements : public EnergyTerm {
   // a material with history, its current values and no step's dissipation; else element_energy_batch.
   virtual void stored_energy_batch(size_t k, int m, StressBatch& b, int n) const { element_energy_batch(k, m, b, n); }
   virtual Eigen::Matrix<double, 4, 4, Eigen::RowMajor> element_laplacian(PetscInt k, int m, double scale) const = 0;
+  // Element k's weight w in its L_e = w V G^T G: element_laplacian's over w = 1's (a diagonal entry
+  // of V G^T G is positive); a term whose w is its material's returns that without the matrices.
+  virtual double tet_weight(size_t k, int m) const { return element_laplacian(k, m, 1.0)(0, 0) / weighted_laplacian(k, 1.0)(0, 0); }
 
   // A batch's F = Ds Dm^{-1}, and its forces w P Dm^{-T} (column j: the force on vertex j + 1),
   // for the batch that starts at element k (see add_energy).
