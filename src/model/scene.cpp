@@ -496,12 +496,13 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   }
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
-  // With self-contact a fresh crack opens by the activation distance (mesh/separation.hpp,
+  if (!spec.contact.self) PetscFunctionReturn(0);
+  // With self-contact a fresh crack opens by its activation distance d (mesh/separation.hpp,
   // CrackOpening), the input's d whatever the cuts do to the rest shape later.
-  if (separates && spec.contact.self) opening_width_ = self_contact_spec(spec.contact, rest_diagonal(scene_->mesh)).distance;
+  const double d = self_contact_spec(spec.contact, rest_diagonal(scene_->mesh)).distance;
+  if (separates) opening_width_ = d;
   // And a torn cloth edge by d and its thickness (mesh/cloth_separation.hpp), or the deck is refused.
-  if ((!tear_strains_.empty() || cuts_cloth_) && spec.contact.self)
-    tear_opening_ = tear_opening(comm, spec, kept_.piece, self_contact_spec(spec.contact, rest_diagonal(scene_->mesh)).distance);
+  if (!tear_strains_.empty() || cuts_cloth_) tear_opening_ = tear_opening(comm, spec, kept_.piece, d);
   PetscFunctionReturn(0);
 }
 
