@@ -1,6 +1,7 @@
 #include "mesh/cloth_separation.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <map>
 #include <numeric>
@@ -75,13 +76,19 @@ int shared_vertices(const Triple& a, const Triple& b) {
 // triangles (GlobalTriangle::rest or ::x): `side` indexes fan_triangles. The side is a wedge of
 // triangles at the vertex; it moves along the wedge's bisector (the sum of its triangles' angle
 // bisectors at the vertex, each weighted by its angle), into its own triangles and away from both
-// of its boundary edges there, by width / 2, at most kOpeningHeightFraction of its triangles' least
-// height above the vertex. A wedge without a direction (degenerate triangles) stays.
+// of its boundary edges there, so that it ends width / 2 from them (at most kOpeningHeightFraction
+// of its triangles' least height above the vertex). A wedge narrower than a half turn leans its
+// bisector toward its edges, so the move along it is longer by 1 / sin(wedge / 2): at a sheet's
+// edge a cut splits a half disc into two quarter wedges, whose sides would else start width / √2
+// apart, inside the barrier (docs/snapping.md#a-blade-through-a-cloth). The lean is capped at
+// kMostLean, so a narrow wedge's vertex stays well inside its triangles. A wedge without a
+// direction (degenerate triangles) stays.
+constexpr double kMostLean = 2;
 Eigen::Vector3d side_move(int64_t vertex, const std::vector<GlobalTriangle>& fan_triangles,
                           std::array<double, 9> GlobalTriangle::*at, const std::vector<int>& side, double width) {
   using Vec3 = Eigen::Vector3d;
   Vec3 u = Vec3::Zero();
-  double reach = width / 2;
+  double reach = width / 2, wedge = 0;
   for (int i : side) {
     const GlobalTriangle& t = fan_triangles[i];
     const int j = int(std::find(t.v.begin(), t.v.end(), vertex) - t.v.begin());
@@ -94,9 +101,11 @@ Eigen::Vector3d side_move(int64_t vertex, const std::vector<GlobalTriangle>& fan
     const Vec3 bisector = ea + eb;
     if (bisector.norm() > 0) u += angle * bisector.normalized();
     reach = std::min(reach, kOpeningHeightFraction * (a - p).cross(b - p).norm() / lab);
+    wedge += angle;
   }
   if (!(u.norm() > 0) || !(reach > 0)) return Vec3::Zero();
-  return reach * u.normalized();
+  const double lean = std::min(kMostLean, 1 / std::sin(std::min(wedge, M_PI) / 2));
+  return lean * reach * u.normalized();
 }
 
 }  // namespace

@@ -31,8 +31,9 @@ namespace hyperqn {
 // batch's included. Collective. Vertices that no local element uses any more leave the piece.
 // With an opening (self-contact: the two sides of a torn edge start coincident, where the barrier
 // is infinite), each side of a vertex that splits (the original's fan and each copy's) moves along
-// its wedge's bisector, into its own triangles, by width / 2 (at most kOpeningHeightFraction of
-// their least height above the vertex), in the rest shape and at the positions
+// its wedge's bisector, into its own triangles, until it is width / 2 from the wedge's edges (at
+// most kOpeningHeightFraction of their least height above the vertex, twice that for a narrow
+// wedge), in the rest shape and at the positions
 // (SeparationResult::shift), as mesh/separation.hpp's CrackOpening moves a tet crack's sides; from
 // the gathered fans in their triangles' order, so every rank computes the same bits.
 SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<std::array<int64_t, 2>>& batch,
