@@ -81,9 +81,7 @@ int shared_vertices(const Triple& a, const Triple& b) {
 // bisector toward its edges, so the move along it is longer by 1 / sin(wedge / 2): at a sheet's
 // edge a cut splits a half disc into two quarter wedges, whose sides would else start width / √2
 // apart, inside the barrier (docs/snapping.md#a-blade-through-a-cloth). The lean is capped at
-// kMostLean, so a narrow wedge's vertex stays well inside its triangles. A wedge without a
-// direction (degenerate triangles) stays.
-constexpr double kMostLean = 2;
+// kMostLean (mesh/separation.hpp). A wedge without a direction (degenerate triangles) stays.
 Eigen::Vector3d side_move(int64_t vertex, const std::vector<GlobalTriangle>& fan_triangles,
                           std::array<double, 9> GlobalTriangle::*at, const std::vector<int>& side, double width) {
   using Vec3 = Eigen::Vector3d;

@@ -117,9 +117,11 @@ struct SideShift {
 // The move of one side of a splitting vertex (CrackOpening) at the positions `at` of the gathered
 // tets (GlobalTet::rest or ::x): `side` indexes star_tets (ascending). Its boundary faces at the
 // vertex (faces of its tets there that no other of its tets shares: the new crack, earlier cracks,
-// the body's surface) give the directions: the vertex moves by width / 2 (at most a tenth of the
-// side's least height above the vertex) along the one they all recede most from (most_receding),
-// into the side's own tets, so each crack face moves away from its twin.
+// the body's surface) give the directions: the vertex moves along the one they all recede most
+// from (most_receding), into the side's own tets, so each crack face moves away from its twin, by
+// width / 2 (at most a tenth of the side's least height above the vertex) over the margin (at most
+// kMostLean): each boundary face's plane then recedes by width / 2, where the crack meets the
+// body's surface (a wedge) as inside it.
 SideShift side_shift(int64_t vertex, const std::vector<GlobalTet>& star_tets, std::array<double, 12> GlobalTet::*at,
                      const std::vector<int>& side, double width) {
   std::vector<Vec3> normals;  // unit, out of the side
@@ -158,7 +160,8 @@ SideShift side_shift(int64_t vertex, const std::vector<GlobalTet>& star_tets, st
   const Vec3 u = most_receding(normals);
   double margin = HUGE_VAL;
   for (const Vec3& f : normals) margin = std::min(margin, -dot(u, f));
-  return {{reach * u[0], reach * u[1], reach * u[2]}, margin};
+  const double move = margin > 0 ? reach * std::min(kMostLean, 1 / margin) : reach;
+  return {{move * u[0], move * u[1], move * u[2]}, margin};
 }
 
 }  // namespace

@@ -63,9 +63,16 @@ struct CrackOpening {
   double width = 0;                                // 0: no opening
 };
 // A side moves by at most this fraction of the least height above the vertex of its elements (tets
-// or, for a torn cloth, triangles): none of them inverts, and none loses more than this share of
-// its rest volume or area (its mass comes from the rest shape before any opening).
+// or, for a torn cloth, triangles), times kMostLean where it leans (below): none of them inverts,
+// and none loses more than kMostLean times this share of its rest volume or area (its mass comes
+// from the rest shape before any opening).
 constexpr double kOpeningHeightFraction = 0.1;
+// A side whose boundary faces (edges, for a cloth) at the vertex do not all face one way (where a
+// crack meets the body's surface or the sheet's edge: a wedge) recedes from them by less than its
+// move: 1/√2 of it for a quarter space. So it moves farther, by 1 / (how much they recede per unit
+// of move), at most kMostLean times, so that its crack faces still end width / 2 from their old
+// place and the two sides start out of the barrier's layer.
+constexpr double kMostLean = 2;
 
 // Separates the faces of `batch` (sorted, the same on every rank; each face's tets anywhere) in
 // `piece`; `separated` holds every face separated so far, the batch's included (the same on every

@@ -19,7 +19,7 @@ from hyperqn_tools.output import rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 from test_cloth_tear import TIGHT, corrected_vs_fresh, frames, masses
-from test_cut_contact import shared_rest_positions
+from test_cut_contact import copy_gaps, shared_rest_positions
 
 SIZE, CELLS = 0.5, 10
 CUT_Z = 0.26  # the blade's height: between the centroids of the rows of triangles above and below z = 0.25
@@ -148,13 +148,11 @@ def test_with_self_contact_the_cut_opens(curtain, tmp_path):
     # layer (measured: 7.0699 to 7.0711 mm, the spread from openings in turn moving their neighbours'
     # rest positions; 5 mm at the ends before the wedges leaned, where the corner then folded out of
     # the curtain's plane at once)
-    rest = last.points - last.displacement
-    new = np.where(last.vertex_id >= len(frames(out)[0].points))[0]
-    old = np.setdiff1d(np.arange(len(rest)), new)
-    gaps = [np.linalg.norm(rest[old] - rest[i], axis=1).min() for i in new]
-    ends = [k for k, i in enumerate(new) if rest[i, 0] < 0.01 or rest[i, 0] > SIZE - 0.01]
+    gaps = copy_gaps(last, len(frames(out)[0].points))
+    copies = (last.points - last.displacement)[last.vertex_id >= len(frames(out)[0].points)]
+    ends = [k for k, x in enumerate(copies[:, 0]) if x < 0.01 or x > SIZE - 0.01]
     print(f"a copy's rest distance from its original: {min(gaps):.6g} to {max(gaps):.6g} m; ends", [gaps[k] for k in ends])
-    assert len(new) == CELLS + 1 and len(ends) == 2 and min(gaps) >= 0.999 * max(gaps)
+    assert len(gaps) == CELLS + 1 and len(ends) == 2 and min(gaps) >= 0.999 * max(gaps)
 
 
 def test_a_blade_that_removes_is_refused_on_a_cloth(tmp_path):
