@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <utility>
 
@@ -33,7 +34,10 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
       for (int j = i + 1; j < 4; ++j) longest2 = std::max(longest2, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).squaredNorm());
   double longest = std::sqrt(longest2);
   MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
-  const double reach = longest;
+  // A crumb (below) of up to kCrumbTets tets from a crossed face lies within kCrumbTets / 2 longest
+  // edges of the patch, its neighbours within half an edge more: all gathered, and every gathered
+  // tet within `deep` of the patch has its neighbours gathered too.
+  const double reach = (kCrumbTets + 2) * longest / 2, deep = reach - longest;
   std::vector<int64_t> ints;
   std::vector<double> centroids;
   for (int64_t e = 0; e < m.num_tets(); ++e) {
@@ -73,24 +77,76 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
     }
   std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.v < b.v || (a.v == b.v && a.at < b.at); });
   std::vector<TetPair> crossed;
+  struct Link {
+    size_t other;  // the neighbour's place in order
+    bool crossed;  // its face is in this batch
+  };
+  std::vector<std::vector<Link>> links(n);  // per tet (by its place in order), its faces not separated before
   for (size_t p = 0; p < faces.size();) {
     size_t q = p + 1;
     while (q < faces.size() && faces[q].v == faces[p].v) ++q;
     const bool shared = q - p == 2;
-    const size_t a = order[faces[p].at], b = order[faces[p + (shared ? 1 : 0)].at];
+    const size_t at_a = faces[p].at, at_b = faces[p + (shared ? 1 : 0)].at;
+    const size_t a = order[at_a], b = order[at_b];
     p = q;
     if (!shared) continue;
     const TetPair pair{all_ints[5 * a], all_ints[5 * b]};
     if (separated.count(pair)) continue;
     const Eigen::Vector3d ca(&all_centroids[3 * a]), cb(&all_centroids[3 * b]);
-    for (const BladeSweep& s : sweeps)
-      if (s.crosses(ca, cb)) {
-        crossed.push_back(pair);
-        break;
-      }
+    bool cut = false;
+    for (const BladeSweep& s : sweeps) cut = cut || s.crosses(ca, cb);
+    if (cut) crossed.push_back(pair);
+    links[at_a].push_back({at_b, cut});
+    links[at_b].push_back({at_a, cut});
   }
+  // A crumb: tets the batch would cut loose from the rest on their own, at most kCrumbTets of them
+  // joined by faces it keeps (a jagged crack along the mesh's faces frees single tets where the
+  // centroids of a tet's neighbours all lie across the blade from its own). Its faces in the batch
+  // to tets of no crumb are not cut: it stays with those tets, and the crack goes around it (a body
+  // of a few tets cut in two is two crumbs, and is cut). Decided on the gathered tets in their
+  // numbers' order, the same on every rank.
+  std::vector<char> in_crumb(n, 0);
+  std::vector<size_t> flood(n, n);  // the start of the flood that reached a tet last (n: none)
+  std::vector<std::vector<size_t>> crumbs;
+  const auto is_deep = [&](size_t at) {
+    const Eigen::Vector3d c(&all_centroids[3 * order[at]]);
+    for (const BladeSweep& s : sweeps)
+      if (s.near(c, deep)) return true;
+    return false;
+  };
+  for (size_t start = 0; start < n; ++start) {
+    if (in_crumb[start] || std::none_of(links[start].begin(), links[start].end(), [](const Link& l) { return l.crossed; }))
+      continue;
+    // Its piece through the faces kept, as far as kCrumbTets + 1 tets, or a tet whose neighbours
+    // may not all have been gathered: then it is no crumb.
+    std::vector<size_t> piece{start};
+    flood[start] = start;
+    bool closed = true;
+    for (size_t i = 0; i < piece.size() && closed; ++i) {
+      if (piece.size() > size_t(kCrumbTets) || !is_deep(piece[i])) closed = false;
+      for (const Link& l : links[piece[i]])
+        if (!l.crossed && flood[l.other] != start) {
+          flood[l.other] = start;
+          piece.push_back(l.other);
+        }
+    }
+    if (!closed || piece.size() > size_t(kCrumbTets)) continue;
+    for (size_t at : piece) in_crumb[at] = 1;
+    crumbs.push_back(std::move(piece));
+  }
+  std::vector<TetPair> kept;  // crossed faces from crumbs to the rest
+  for (const std::vector<size_t>& crumb : crumbs)
+    for (size_t at : crumb)
+      for (const Link& l : links[at])
+        if (l.crossed && !in_crumb[l.other]) {
+          const int64_t u = all_ints[5 * order[at]], w = all_ints[5 * order[l.other]];
+          kept.push_back({std::min(u, w), std::max(u, w)});
+        }
   std::sort(crossed.begin(), crossed.end());
-  return crossed;
+  std::sort(kept.begin(), kept.end());
+  std::vector<TetPair> cut;
+  std::set_difference(crossed.begin(), crossed.end(), kept.begin(), kept.end(), std::back_inserter(cut));
+  return cut;
 }
 
 std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,

@@ -16,7 +16,10 @@ namespace hyperqn {
 // its two tets at the positions `pos` (3 per local vertex of `piece`, ghosts included), one of the
 // blades crossed while it swept over [t0, t1] (BladeSweep::crosses, from the lower tet's centroid).
 // Sorted, the same on every rank: the tets near a blade are gathered to every rank, which all
-// decide every face alike. Collective.
+// decide every face alike. Faces that would cut a crumb loose (at most kCrumbTets tets that the
+// other faces of the batch and `separated` leave with no face to the rest) are left out: the crumb
+// stays with the tets across them. Collective.
+constexpr int kCrumbTets = 4;
 std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                    const std::vector<CutSpec>& cuts, double t0, double t1,
                                    const std::set<TetPair>& separated);
