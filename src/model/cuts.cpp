@@ -18,11 +18,28 @@ static std::vector<BladeSweep> blade_sweeps(const std::vector<CutSpec>& cuts, do
   return sweeps;
 }
 
+// faces_crossed's work on the tets gathered within `reach` (in longest edges) of the sweeps: the
+// faces crossed, and with `find_crumbs` those of crumbs left out.
+static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                                 const std::vector<BladeSweep>& sweeps, double reach_edges,
+                                                 const std::set<TetPair>& separated, bool find_crumbs);
+
 std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                    const std::vector<CutSpec>& cuts, double t0, double t1,
                                    const std::set<TetPair>& separated) {
-  const TetMesh& m = piece.mesh;
   const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
+  // The faces crossed need the tets within a longest edge; a crumb (below) of up to kCrumbTets
+  // tets from a crossed face lies within kCrumbTets / 2 longest edges of the patch, its
+  // neighbours within half an edge more. So the wider gather only in a step that cuts (the same
+  // answer on every rank).
+  if (faces_crossed_within(comm, piece, pos, sweeps, 1, separated, false).empty()) return {};
+  return faces_crossed_within(comm, piece, pos, sweeps, (kCrumbTets + 2) / 2.0, separated, true);
+}
+
+static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                                 const std::vector<BladeSweep>& sweeps, double reach_edges,
+                                                 const std::set<TetPair>& separated, bool find_crumbs) {
+  const TetMesh& m = piece.mesh;
   const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   // The centroids of two tets that share a face differ by a quarter of the difference of their
   // opposite vertices, so by at most half the longest edge: both centroids of a face that is
@@ -34,10 +51,8 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
       for (int j = i + 1; j < 4; ++j) longest2 = std::max(longest2, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).squaredNorm());
   double longest = std::sqrt(longest2);
   MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
-  // A crumb (below) of up to kCrumbTets tets from a crossed face lies within kCrumbTets / 2 longest
-  // edges of the patch, its neighbours within half an edge more: all gathered, and every gathered
-  // tet within `deep` of the patch has its neighbours gathered too.
-  const double reach = (kCrumbTets + 2) * longest / 2, deep = reach - longest;
+  // Every gathered tet within `deep` of the patch has its neighbours gathered too.
+  const double reach = reach_edges * longest, deep = reach - longest;
   std::vector<int64_t> ints;
   std::vector<double> centroids;
   for (int64_t e = 0; e < m.num_tets(); ++e) {
@@ -99,6 +114,8 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
     links[at_a].push_back({at_b, cut});
     links[at_b].push_back({at_a, cut});
   }
+  std::sort(crossed.begin(), crossed.end());
+  if (!find_crumbs) return crossed;
   // A crumb: tets the batch would cut loose from the rest on their own, at most kCrumbTets of them
   // joined by faces it keeps (a jagged crack along the mesh's faces frees single tets where the
   // centroids of a tet's neighbours all lie across the blade from its own). Its faces in the batch
@@ -142,7 +159,6 @@ std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const 
           const int64_t u = all_ints[5 * order[at]], w = all_ints[5 * order[l.other]];
           kept.push_back({std::min(u, w), std::max(u, w)});
         }
-  std::sort(crossed.begin(), crossed.end());
   std::sort(kept.begin(), kept.end());
   std::vector<TetPair> cut;
   std::set_difference(crossed.begin(), crossed.end(), kept.begin(), kept.end(), std::back_inserter(cut));
