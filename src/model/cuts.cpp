@@ -18,28 +18,18 @@ static std::vector<BladeSweep> blade_sweeps(const std::vector<CutSpec>& cuts, do
   return sweeps;
 }
 
-// faces_crossed's work on the tets gathered within `reach` (in longest edges) of the sweeps: the
-// faces crossed, and with `find_crumbs` those of crumbs left out.
+// faces_crossed's work on the tets gathered within `reach_edges` longest edges (`longest`, over
+// every rank) of the sweeps: the faces crossed, and with `find_crumbs` those of crumbs left out.
 static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
-                                                 const std::vector<BladeSweep>& sweeps, double reach_edges,
-                                                 const std::set<TetPair>& separated, bool find_crumbs);
+                                                 const std::vector<BladeSweep>& sweeps, double longest,
+                                                 double reach_edges, const std::set<TetPair>& separated,
+                                                 bool find_crumbs);
 
 std::vector<TetPair> faces_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                    const std::vector<CutSpec>& cuts, double t0, double t1,
                                    const std::set<TetPair>& separated) {
-  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
-  // The faces crossed need the tets within a longest edge; a crumb (below) of up to kCrumbTets
-  // tets from a crossed face lies within kCrumbTets / 2 longest edges of the patch, its
-  // neighbours within half an edge more. So the wider gather only in a step that cuts (the same
-  // answer on every rank).
-  if (faces_crossed_within(comm, piece, pos, sweeps, 1, separated, false).empty()) return {};
-  return faces_crossed_within(comm, piece, pos, sweeps, (kCrumbTets + 2) / 2.0, separated, true);
-}
-
-static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
-                                                 const std::vector<BladeSweep>& sweeps, double reach_edges,
-                                                 const std::set<TetPair>& separated, bool find_crumbs) {
   const TetMesh& m = piece.mesh;
+  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
   const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   // The centroids of two tets that share a face differ by a quarter of the difference of their
   // opposite vertices, so by at most half the longest edge: both centroids of a face that is
@@ -51,6 +41,19 @@ static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece&
       for (int j = i + 1; j < 4; ++j) longest2 = std::max(longest2, (at(m.tets[4 * e + i]) - at(m.tets[4 * e + j])).squaredNorm());
   double longest = std::sqrt(longest2);
   MPI_Allreduce(MPI_IN_PLACE, &longest, 1, MPI_DOUBLE, MPI_MAX, comm);
+  // A crumb (below) of up to kCrumbTets tets from a crossed face lies within kCrumbTets / 2 longest
+  // edges of the patch, its neighbours within half an edge more. So the wider gather only in a
+  // step that cuts (the same answer on every rank).
+  if (faces_crossed_within(comm, piece, pos, sweeps, longest, 1, separated, false).empty()) return {};
+  return faces_crossed_within(comm, piece, pos, sweeps, longest, (kCrumbTets + 2) / 2.0, separated, true);
+}
+
+static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                                 const std::vector<BladeSweep>& sweeps, double longest,
+                                                 double reach_edges, const std::set<TetPair>& separated,
+                                                 bool find_crumbs) {
+  const TetMesh& m = piece.mesh;
+  const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
   // Every gathered tet within `deep` of the patch has its neighbours gathered too.
   const double reach = reach_edges * longest, deep = reach - longest;
   std::vector<int64_t> ints;
@@ -96,7 +99,7 @@ static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece&
     size_t other;  // the neighbour's place in order
     bool crossed;  // its face is in this batch
   };
-  std::vector<std::vector<Link>> links(n);  // per tet (by its place in order), its faces not separated before
+  std::vector<std::vector<Link>> links(find_crumbs ? n : 0);  // per tet (by its place in order), its faces not separated before
   for (size_t p = 0; p < faces.size();) {
     size_t q = p + 1;
     while (q < faces.size() && faces[q].v == faces[p].v) ++q;
@@ -111,6 +114,7 @@ static std::vector<TetPair> faces_crossed_within(MPI_Comm comm, const MeshPiece&
     bool cut = false;
     for (const BladeSweep& s : sweeps) cut = cut || s.crosses(ca, cb);
     if (cut) crossed.push_back(pair);
+    if (!find_crumbs) continue;
     links[at_a].push_back({at_b, cut});
     links[at_b].push_back({at_a, cut});
   }
