@@ -39,6 +39,7 @@ PetscErrorCode FallbackChain::judge(const FrameResult& r, Objective& g, Vec x, O
   *o = Outcome{};
   if (Objective::rejected(r.energy) || !std::isfinite(r.grad_norm)) PetscFunctionReturn(0);
   o->finite = true;
+  o->energy = r.energy;
   PetscCall(g.force_scale(x, &scale));
   o->residual = r.grad_norm / scale;
   o->converged_enough = !FrameBudget::far(
@@ -204,14 +205,10 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
         PetscCall(g.lifecycle().undo(s));
         PetscCall(g.begin_step(s));  // the step again, to keep the first solve's x
       }
-      // Neither acceptable: the one that is finite, then sound, then nearer its answer.
+      // Neither acceptable: the one worth more (finite, then sound, then the lower g).
       Outcome newton_outcome;
       if (spec_.newton_fallback) PetscCall(judge(newton.result, g, s.x, &newton_outcome));
-      const auto rank = [](const Outcome& o) { return 4 * o.acceptable() + 2 * o.finite + o.sound; };
-      const bool newton_better =
-          spec_.newton_fallback &&
-          (rank(newton_outcome) > rank(first_outcome) ||
-           (rank(newton_outcome) == rank(first_outcome) && newton.result.grad_norm < first.grad_norm));
+      const bool newton_better = spec_.newton_fallback && worth_more(newton_outcome, first_outcome);
       if (newton_better) {
         out.result = newton.result;
         out.newton = true;

@@ -13,8 +13,8 @@
 // model/substep_memory.hpp says.
 // A result is acceptable if it is finite, not far from converged, and sound: no element with
 // |det F| past the run's element limit, none inverted that was not at x_n. The first stage whose
-// result is acceptable is kept; if none is, the better of 1 and 3 (finite, then sound, then
-// smaller ||grad g||: both minimize the frame's own g), and the caller flags or stops the run.
+// result is acceptable is kept; if none is, the better of 1 and 3 (finite, then sound, then the
+// lower g: model/solve_outcome.hpp), and the caller flags or stops the run.
 // A stop signal (solvers/stop_request.hpp) ends the solve at hand and the chain with it: no stage
 // after it, and the frame is given up as if it had not begun (StepSolve::interrupted).
 #pragma once
@@ -24,6 +24,7 @@
 
 #include "model/step_objective.hpp"
 #include "model/scene.hpp"
+#include "model/solve_outcome.hpp"
 #include "solvers/solver_spec.hpp"
 
 namespace hyperqn {
@@ -59,14 +60,8 @@ class FallbackChain {
     std::unique_ptr<FactoredSystem> factored;
     std::unique_ptr<TimeStepSolver> solver;
   };
-  // What a solve that left x and r is worth. Acceptable: finite, not far from converged
-  // (solvers/frame_budget.hpp), and sound: no element past the limit, none newly inverted.
-  struct Outcome {
-    bool finite = false, converged_enough = false, sound = false;
-    double min_J = 0, max_abs_J = 0;  // of the tets at x
-    double residual = 0;              // ||grad g|| / S at x (StepSolve::residual)
-    bool acceptable() const { return finite && converged_enough && sound; }
-  };
+  using Outcome = SolveOutcome;
+  // What a solve that left x and r is worth.
   PetscErrorCode judge(const FrameResult& r, Objective& g, Vec x, Outcome* o) const;
   PetscErrorCode level(int halvings, Level** out);
   // Redoes the step from x_n in 2^halvings sub-steps, each moving the terms' element state; *ok:
