@@ -248,7 +248,8 @@ def read_checkpoint(path):
     """A checkpoint file (src/io/checkpoint.hpp, docs/outputs.md#checkpoints) as a dict: every
     "key value" line of its header (numbers as int or float, the rest as text), plus "positions",
     "velocities" and, with an integrator's history, "previous_positions" and "previous_velocities"
-    ((slots, 3) arrays in vertex-id order) and its other texts ("physics",
+    ((slots, 3) arrays in vertex-id order), the element states ("elements_<name>": a row per global
+    element id, the ids no element has 0) and its other texts ("physics",
     "flagged_frames", "inverted_frames", "writer_<key>"). h5py checks the datasets' checksums: a
     damaged file raises OSError."""
     import h5py  # only checkpoints need it
@@ -269,7 +270,7 @@ def read_checkpoint(path):
         out = {}
         for name, item in f.items():
             data = item[()]
-            if name in ("positions", "velocities", "previous_positions", "previous_velocities"):
+            if name in ("positions", "velocities", "previous_positions", "previous_velocities") or name.startswith("elements_"):
                 out[name] = data
             elif name == "header":
                 for line in data.tobytes().decode().splitlines():

@@ -145,11 +145,6 @@ void read_cloth(const Reader& r, const Value& v, ClothSpec& c) {
   const Section s = read_keys(r, v, cloth_keys(), c);
   hardening_needs_yield(r, s);
   if (const Value* bending = s.find("bending")) hardening_needs_yield(r, Section(r, *bending, {}));
-  // A torn edge's two sides each carry half its spring (docs/snapping.md#tearing-cloth): a yielding
-  // spring's history would have to be halved between them, which is not built.
-  if (const Value* y = s.find("yield_strain"); y && s.find("tear"))
-    r.fail(*y, "a tearing cloth's edge springs do not yield (a torn edge's two sides would share its history): "
-               "leave out yield_strain or tear");
   if (const Value* x = s.find("thickness")) c.thickness_line = x->line;
   if (c.model == ClothModel::membrane) {
     const double e = c.youngs_modulus, n = c.poisson_ratio;

@@ -25,6 +25,10 @@ struct SpringYield {
 namespace yielding_spring {
 
 constexpr int kValues = 3;  // per spring: eps_p, alpha, the energy it has dissipated (J)
+// What a torn edge's second spring takes from the edge's spring (ElementState::inherited): eps_p
+// and alpha, so each half stores half of what the whole did; the energy dissipated stays with the
+// spring that dissipated it, so the run's total is unchanged.
+constexpr int kInherited = 2;
 
 // The step's return map at strain eps from the history h (eps_p, alpha) at the step's start.
 struct Flow {

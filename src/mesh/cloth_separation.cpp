@@ -132,6 +132,14 @@ SeparationResult tear_edges(MPI_Comm comm, MeshPiece& piece, const std::vector<s
       if (std::count(b->second.begin(), b->second.end(), x)) affected.insert(x);
     const Triple sa = sorted(a->second), sb = sorted(b->second);
     torn_now.insert({std::min(sa, sb), std::max(sa, sb)});
+    // The edge's spring was carried by the first triangle (the lower number: connect_surface);
+    // the second's new half carries on its history.
+    const auto slot = [](const Triple& t, const Triple& other) {
+      for (int e = 0; e < 3; ++e)
+        if (std::count(other.begin(), other.end(), t[e]) && std::count(other.begin(), other.end(), t[(e + 1) % 3])) return e;
+      return -1;
+    };
+    result.inherited.push_back({edge_spring_id(pair[1], slot(b->second, a->second)), edge_spring_id(pair[0], slot(a->second, b->second))});
   }
 
   // The hinges as they are before the batch (vertex numbers), then those across its edges go.

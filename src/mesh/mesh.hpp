@@ -35,6 +35,9 @@ struct TaggedFaces {
 
 // TetMesh::triangle_edges: bit kTornEdgeBit + k marks edge k of a triangle as one side of a torn edge.
 constexpr int kTornEdgeBit = 3;
+// The global id of the spring that triangle number `triangle` carries on its edge `slot` (the
+// history of a cloth's yielding edge springs: terms/cloth_springs.hpp).
+inline int64_t edge_spring_id(int64_t triangle, int slot) { return 3 * triangle + slot; }
 
 struct TetMesh {
   std::vector<double> coords;        // 3 per vertex, x y z

@@ -40,6 +40,10 @@ struct SeparationResult {
   int64_t new_vertices = 0;     // copies made by this batch (global)
   std::vector<int32_t> source;  // per local vertex after the batch: the local vertex before it whose state it takes
   std::vector<double> shift;    // with an opening's positions: 3 per local vertex after the batch, its move
+  // Elements the batch made that carry on an old one's history, the same list on every rank:
+  // (the new element's history id, the old one's). A torn edge's spring on the triangle that did
+  // not carry it takes the carrier's (mesh/cloth_separation.hpp).
+  std::vector<std::array<int64_t, 2>> inherited;
 };
 
 // How a fresh crack opens, for self-contact (docs/records/2026-12-03-cut-contact.md): both sides

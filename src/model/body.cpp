@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "geometry/motion.hpp"
+#include "parallel/collectives.hpp"
 #include "solvers/stop_request.hpp"
 #include "terms/element_kernels.hpp"
 
@@ -361,9 +363,58 @@ void carry_values(ElementState& to, const ElementState& from) {
   to.restore(std::move(values));
 }
 
+// The elements of `to` that carry on one of `from`'s (pairs: new id, old id) take its first
+// to.inherited() values, the rest 0; the old element may be on any rank (a torn edge's two sides
+// on two ranks), so what the ranks hold of the pairs' old elements is gathered. *found: the pairs
+// whose old element this state holds on some rank. Collective.
+static void inherit_values(MPI_Comm comm, ElementState& to, const ElementState& from,
+                           const std::vector<std::array<int64_t, 2>>& pairs, std::vector<bool>* found) {
+  const int n = to.inherited(), w = to.per_element();
+  std::unordered_map<int64_t, size_t> at;  // global id -> from's element
+  for (size_t e = 0; e < from.elements(); ++e) at[from.ids()[e]] = e;
+  std::vector<int64_t> ids;
+  std::vector<double> values;
+  for (const auto& pair : pairs)
+    if (const auto it = at.find(pair[1]); it != at.end()) {
+      ids.push_back(pair[1]);
+      const double* v = &from.current_values()[size_t(w) * it->second];
+      values.insert(values.end(), v, v + n);
+    }
+  const std::vector<int64_t> all_ids = all_gathered(comm, ids, MPI_INT64_T);
+  const std::vector<double> all_values = all_gathered(comm, values, MPI_DOUBLE);
+  std::unordered_map<int64_t, size_t> held;  // old id -> its values in all_values
+  for (size_t i = 0; i < all_ids.size(); ++i)
+    if (!held.emplace(all_ids[i], i).second) throw std::logic_error("carry_element_states: an element is held by two ranks");
+  std::unordered_map<int64_t, size_t> parent;  // new id -> its old one's values
+  for (size_t k = 0; k < pairs.size(); ++k)
+    if (const auto it = held.find(pairs[k][1]); it != held.end()) {
+      parent[pairs[k][0]] = it->second;
+      (*found)[k] = true;
+    }
+  std::vector<double> v = to.current_values();
+  for (size_t e = 0; e < to.elements(); ++e)
+    if (const auto it = parent.find(to.ids()[e]); it != parent.end()) {
+      std::copy_n(&all_values[size_t(n) * it->second], n, &v[size_t(w) * e]);
+      std::fill(&v[size_t(w) * e + n], &v[size_t(w) * (e + 1)], 0.0);
+    }
+  to.restore(std::move(v));
+}
+
 void Body::carry_element_states(const Body& from) {
+  std::vector<bool> found(inherited_elements_.size(), false);
+  bool inherits = false;
   for (ElementState* to : element_states())
-    for (const ElementState* old : from.element_states()) carry_values(*to, *old);
+    for (const ElementState* old : from.element_states()) {
+      carry_values(*to, *old);
+      if (!inherited_elements_.empty() && to->inherited() > 0 && to->name() == old->name() &&
+          to->per_element() == old->per_element()) {
+        inherit_values(PetscObjectComm((PetscObject)mesh_.dm), *to, *old, inherited_elements_, &found);
+        inherits = true;
+      }
+    }
+  // Every rank saw the same gathered lists: all of them throw, or none.
+  if (inherits && std::count(found.begin(), found.end(), false) > 0)
+    throw std::logic_error("carry_element_states: an element carries on one that no rank holds");
 }
 
 

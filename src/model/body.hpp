@@ -5,6 +5,7 @@
 #pragma once
 #include <petscdmplex.h>
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -74,8 +75,13 @@ class Body {
   // dissipated_energy), summed over the ranks (collective).
   PetscErrorCode dissipated_energy(double* total) const;
   // The values of `from`'s element states (a scene before its rebuild) into this body's states of
-  // the same name, element by element through the global ids.
+  // the same name, element by element through the global ids; then, for the elements this body's
+  // change made (set_inherited_elements), their old ones' values (ElementState::inherited), from
+  // whichever rank holds them. Collective when that list is not empty.
   void carry_element_states(const Body& from);
+  // Elements of this body (a scene rebuilt after a change of the mesh) that carry on an element of
+  // the body before it: (new id, old id), the same list on every rank (SeparationResult::inherited).
+  void set_inherited_elements(std::vector<std::array<int64_t, 2>> pairs) { inherited_elements_ = std::move(pairs); }
   // Copies of every element state (start, current and a frame's kept start), and back into this
   // body's (the same terms): a study's trajectories each keep their own (app/time_loop.cpp).
   std::vector<ElementState> copy_element_states() const;
@@ -177,6 +183,7 @@ class Body {
   std::vector<double> rest_measure_;  // per local tet det Dm, then per triangle its rest area: J's denominators
   mutable std::vector<double> zeros_;  // work: 0 at every local vertex (local_values)
   std::vector<double> step_start_, step_positions_;  // begin_step's StepStart::start_positions, positions
+  std::vector<std::array<int64_t, 2>> inherited_elements_;  // set_inherited_elements
   // Rollers: every local held component as its entry 3 v + d of the local arrays (ghosts too), and
   // this rank's held slots as global rows, as indices into its part of a global vector, and as local entries.
   std::vector<PetscInt> held_local_, held_rows_, held_at_, held_entry_;

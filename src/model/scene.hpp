@@ -249,10 +249,12 @@ class LiveScene {
   // main and others (at time t) moved to the scene rebuilt on the changed kept_ (source: the local
   // vertex of the current scene whose state each local vertex takes); *corrected: its constant
   // matrix followed the change by a TopologyH0 correction (else it was factored again). shift:
-  // 3 per local vertex, added to each state's positions (a crack opened), or empty.
+  // 3 per local vertex, added to each state's positions (a crack opened), or empty. inherited:
+  // the new elements that carry on old ones' history (SeparationResult::inherited).
   PetscErrorCode move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind, double t,
                                  const std::vector<int32_t>& source, bool* corrected,
-                                 const std::vector<double>& shift = {});
+                                 const std::vector<double>& shift = {},
+                                 const std::vector<std::array<int64_t, 2>>& inherited = {});
 
   MPI_Comm comm_ = MPI_COMM_NULL;
   const SceneSpec* spec_ = nullptr;

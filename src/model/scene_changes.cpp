@@ -327,12 +327,14 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
 
 PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>& others, const Rebind& rebind,
                                           double t, const std::vector<int32_t>& source, bool* corrected,
-                                          const std::vector<double>& shift) {
+                                          const std::vector<double>& shift,
+                                          const std::vector<std::array<int64_t, 2>>& inherited) {
   PetscFunctionBeginUser;
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
   last_cut_corrected_ = *corrected;  // known now, read by the rebind below
   fresh->body->set_time(t);
+  fresh->body->set_inherited_elements(inherited);
   fresh->body->carry_element_states(*scene_->body);
   PetscCall(carry_state(*scene_, *fresh, t, main, source, shift));
   PetscCall(fresh->body->hold(main.x));
@@ -355,6 +357,7 @@ SeparationResult LiveScene::snap(int64_t frame, const std::vector<int64_t>& batc
   std::vector<int32_t> source(kept_.piece.mesh.num_vertices());
   std::iota(source.begin(), source.end(), 0);
   std::vector<double> shift;
+  std::vector<std::array<int64_t, 2>> inherited;
   if (!batch.empty()) {
     for (int64_t s : batch) {
       snapped_.insert(s);
@@ -380,9 +383,11 @@ SeparationResult LiveScene::snap(int64_t frame, const std::vector<int64_t>& batc
     for (int32_t& v : r.source) v = source[v];  // through the snaps before it
     source = std::move(r.source);
     shift = std::move(r.shift);
+    inherited = std::move(r.inherited);
   }
   break_counts_.batches += 1;
   SeparationResult result;
+  result.inherited = std::move(inherited);
   result.source = std::move(source);
   result.shift = std::move(shift);
   return result;
@@ -417,7 +422,8 @@ PetscErrorCode LiveScene::break_apart(const std::vector<int64_t>& segments, cons
   bool corrected = false;  // its constant matrix followed by a TopologyH0 correction (else factored again)
   // With self-contact a torn edge opens (tear_opening_): the positions' part is carried in the state.
   const SeparationResult r = snap(main.frame, segments, edges, tear_opening_ > 0 ? &pos : nullptr);
-  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift));
+  PetscCall(move_to_rebuilt(main, others, rebind, main.frame * spec_->time.dt, r.source, &corrected, r.shift,
+                            r.inherited));
   if (corrected) {
     ++break_counts_.corrections;
   } else {

@@ -13,10 +13,13 @@ ClothSprings::ClothSprings(const DistributedMesh& mesh, double stiffness, const 
         const PetscInt ab[2] = {mesh.triangles[3 * t + e], mesh.triangles[3 * t + (e + 1) % 3]};
         const bool torn = mesh.triangle_edges[t] & (1u << (kTornEdgeBit + e));  // one side of a torn edge: half
         springs_.add(ab[0], ab[1], segment_edge(mesh.rest.data(), ab).norm(), torn ? 0.5 * stiffness : stiffness,
-                     3 * mesh.triangle_ids[t] + e);
+                     edge_spring_id(mesh.triangle_ids[t], e));
       }
   springs_.arrange();
-  if (yield.active()) springs_.set_yield(yield, state);
+  if (yield.active()) {
+    springs_.set_yield(yield, state);
+    springs_.element_state()->set_inherited(yielding_spring::kInherited);  // a torn edge's second half
+  }
 }
 
 PetscErrorCode ClothSprings::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {

@@ -5,7 +5,9 @@
 // weight in L is k: exact, so Projective Dynamics is the paper's local-global solver. Over the
 // triangles its builder hands it (a body's: body_elements). With a yield (cloth.yield_strain) the
 // rest lengths flow (SpringSet::set_yield, docs/yielding-springs.md): the history is
-// the ElementState `state`, an edge's id 3 t + e (t the global id of the triangle carrying it).
+// the ElementState `state`, an edge's id 3 t + e (t the global id of the triangle carrying it;
+// edge_spring_id); a torn edge's second half, on the other triangle, carries on the edge's flow
+// (yielding_spring::kInherited, Body::carry_element_states).
 #pragma once
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"

@@ -27,6 +27,12 @@ class ElementState {
 
   const std::string& name() const { return name_; }
   int per_element() const { return per_element_; }
+  // An element made by a change of the mesh that carries on an old one's history (a torn edge's
+  // second spring: Body::carry_element_states) takes the old one's first `inherited()` values;
+  // the rest (what the old one has dissipated, which stays with it) start at 0. 0 (the default):
+  // no element of this state carries on another's.
+  int inherited() const { return inherited_; }
+  void set_inherited(int values) { inherited_ = values; }
   size_t elements() const { return ids_.size(); }
   const std::vector<int64_t>& ids() const { return ids_; }
   // Element e's values at the step's start, and its current ones.
@@ -116,6 +122,7 @@ class ElementState {
 
   std::string name_;
   int per_element_;
+  int inherited_ = 0;
   std::vector<int64_t> ids_;
   std::vector<double> start_, current_;
   bool current_is_start_ = false;  // current's values are start's (current_ is stale until written)

@@ -4,9 +4,10 @@ one edge per step; mass is unchanged exactly; no tear adds energy (energy.csv's 
 frames (the tear crosses the 2-rank partition boundary); a run killed (kill -9) after tears and
 restarted equals the uninterrupted run bit for bit, energy.csv too; with self-contact the torn edges open (no two
 vertices at one rest position, no crossing; the mass from the rest shape before the opening
-unchanged), at 1 and 2 ranks alike, restarted bitwise, the corrected H0 a fresh factor's; bad
-thresholds, a cloth too thick to open and yielding springs that tear are refused; a deck whose cloth does not tear runs no
-topology code."""
+unchanged), at 1 and 2 ranks alike, restarted bitwise, the corrected H0 a fresh factor's; edge
+springs that yield tear without adding energy (a torn edge's second half carries on the flow), at
+1, 2 and 4 ranks alike, restarted bitwise; bad thresholds and a cloth too thick to open are
+refused; a deck whose cloth does not tear runs no topology code."""
 import copy
 import csv
 
@@ -163,6 +164,48 @@ def test_no_tear_adds_energy(cloth):
     assert steps.min() >= -1e-12 * stored
     assert all(steps[f] > 1e-9 * stored for f in torn)
     assert all(steps[f] == 0 for f in range(len(steps)) if f not in torn)
+
+
+# Edge springs that yield (docs/yielding-springs.md) on the tearing sheet: a torn edge's second
+# half carries on the edge spring's flow, so each half stores half of what the whole did. With
+# hardening: without it (perfect plasticity) Newton stalls at the yield kink in some frames
+# (|grad g| 1e-8, a line-search failure), and 1 and 2 ranks part there by 3e-6 of the diagonal.
+YIELDING = {**WITH_ENERGY, "cloth": {**CLOTH["cloth"], "yield_strain": 0.02, "hardening": 1.0}}
+
+
+@pytest.fixture(scope="module")
+def yielding(tmp_path_factory):
+    return run_deck(tmp_path_factory.mktemp("yielding"), "yielding", YIELDING)
+
+
+def test_a_yielding_cloth_tears_without_adding_energy(yielding):
+    """The flowed rest length goes with both halves of a torn edge: no tear adds energy. Measured:
+    35 tears; with the second half starting unflowed instead (a trial build) 18 frames added
+    energy, up to 2.2e-4 J of 4.4 J stored."""
+    out, s = yielding
+    steps, stored = released_per_frame(out)
+    assert s["breaks"]["edges_torn"] >= 20 and s["dissipated_energy"] > 0
+    print(f"{s['breaks']['edges_torn']} tears; released per frame {steps.min():.3e} to {steps.max():.3e} J (stored up to {stored:.3g} J)")
+    assert steps.min() >= -1e-12 * stored
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_agree_on_a_yielding_cloth_that_tears(yielding, tmp_path, ranks):
+    ref, s1 = yielding
+    out, s2 = run_deck(tmp_path, "yielding", YIELDING, ranks=ranks)
+    assert s1["breaks"] == {**s2["breaks"], "topology_s": s1["breaks"]["topology_s"]}
+    assert abs(s1["dissipated_energy"] - s2["dissipated_energy"]) <= 1e-8 * s1["dissipated_energy"]
+    for a, b in zip(frames(ref), frames(out)):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_kill_after_tears_of_yielding_springs_is_bitwise(tmp_path, ranks):
+    ref, out = assert_restart_after_kill_is_bitwise(tmp_path, YIELDING, ranks, frames=36, every=30, kill_after=33)
+    assert (ref / "energy.csv").read_bytes() == (out / "energy.csv").read_bytes()
+    flowed = read_checkpoint(out / "checkpoints" / "checkpoint_30.h5")["elements_edge_yield"]
+    assert np.count_nonzero(flowed[:, 0]) > 0  # the checkpoint holds flowed springs
 
 
 def test_a_deck_whose_cloth_does_not_tear_runs_no_topology_code(tmp_path):
@@ -329,7 +372,6 @@ BAD_DECKS = {
     "nan_strain": (tear(float("nan")), ["cloth.tear.strain"]),
     "inf_strain": (tear(float("inf")), ["cloth.tear.strain"]),
     "missing_strain": (bad(cloth={**CLOTH["cloth"], "tear": {}}), ["strain"]),
-    "yielding_springs": (bad(cloth={**CLOTH["cloth"], "yield_strain": 0.05}), ["cloth.yield_strain", "do not yield"]),
     # a torn edge opens by at most a tenth of the least triangle height (0.0354 m) per side
     "too_thick_with_self_contact": (bad(cloth={**CLOTH["cloth"], "thickness": 0.004}, contact={"self": True}),
                                     ["cloth.thickness", "too thick for tearing (or cutting) with self-contact", "0.0035"]),
