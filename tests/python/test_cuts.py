@@ -187,11 +187,13 @@ def test_spinning_body_keeps_momentum_and_energy_across_cuts(tmp_path, frame):
     P0, L0 = momenta(Frame(released[0]), 1000)
     last = final_frame(out)
     # In the rest frame the crack is the plane y = 0.2: two halves. In the world the body turns
-    # under the blade, and the faces decided at different steps free single tets (docs/topology.md).
+    # under the blade and the crack is jagged (measured: 77 faces), but the crumbs it would cut
+    # loose stay attached (docs/topology.md#scripted-cuts): two pieces too (31 before).
+    assert components(last) == 2
     if frame == "rest":
-        assert components(last) == 2 and s["cuts"]["faces_separated"] == 2 * 5 * 4
+        assert s["cuts"]["faces_separated"] == 2 * 5 * 4
     else:
-        assert components(last) >= 2
+        assert s["cuts"]["faces_separated"] > 2 * 5 * 4
     P1, L1 = momenta(last, 1000)
     assert np.linalg.norm(P1 - P0) <= 1e-10 * np.linalg.norm(P0)
     assert np.linalg.norm(L1 - L0) <= 1e-10 * np.linalg.norm(L0)
