@@ -366,9 +366,11 @@ void carry_values(ElementState& to, const ElementState& from) {
 // The elements of `to` that carry on one of `from`'s (pairs: new id, old id) take its first
 // to.inherited() values, the rest 0; the old element may be on any rank (a torn edge's two sides
 // on two ranks), so what the ranks hold of the pairs' old elements is gathered. *found: the pairs
-// whose old element this state holds on some rank. Collective.
+// whose old element this state holds on some rank; *wanted: those whose new element this rank's
+// `to` holds. Collective.
 static void inherit_values(MPI_Comm comm, ElementState& to, const ElementState& from,
-                           const std::vector<std::array<int64_t, 2>>& pairs, std::vector<bool>* found) {
+                           const std::vector<std::array<int64_t, 2>>& pairs, std::vector<bool>* found,
+                           std::vector<int>* wanted) {
   const int n = to.inherited(), w = to.per_element();
   std::unordered_map<int64_t, size_t> at;  // global id -> from's element
   for (size_t e = 0; e < from.elements(); ++e) at[from.ids()[e]] = e;
@@ -391,6 +393,10 @@ static void inherit_values(MPI_Comm comm, ElementState& to, const ElementState& 
       parent[pairs[k][0]] = it->second;
       (*found)[k] = true;
     }
+  std::unordered_map<int64_t, size_t> pair_of;  // new id -> its pair
+  for (size_t k = 0; k < pairs.size(); ++k) pair_of[pairs[k][0]] = k;
+  for (int64_t id : to.ids())
+    if (const auto it = pair_of.find(id); it != pair_of.end()) (*wanted)[it->second] = 1;
   std::vector<double> v = to.current_values();
   for (size_t e = 0; e < to.elements(); ++e)
     if (const auto it = parent.find(to.ids()[e]); it != parent.end()) {
@@ -401,20 +407,25 @@ static void inherit_values(MPI_Comm comm, ElementState& to, const ElementState& 
 }
 
 void Body::carry_element_states(const Body& from) {
+  MPI_Comm comm = PetscObjectComm((PetscObject)mesh_.dm);
   std::vector<bool> found(inherited_elements_.size(), false);
+  std::vector<int> wanted(inherited_elements_.size(), 0);
   bool inherits = false;
   for (ElementState* to : element_states())
     for (const ElementState* old : from.element_states()) {
       carry_values(*to, *old);
       if (!inherited_elements_.empty() && to->inherited() > 0 && to->name() == old->name() &&
           to->per_element() == old->per_element()) {
-        inherit_values(PetscObjectComm((PetscObject)mesh_.dm), *to, *old, inherited_elements_, &found);
+        inherit_values(comm, *to, *old, inherited_elements_, &found, &wanted);
         inherits = true;
       }
     }
-  // Every rank saw the same gathered lists: all of them throw, or none.
-  if (inherits && std::count(found.begin(), found.end(), false) > 0)
-    throw std::logic_error("carry_element_states: an element carries on one that no rank holds");
+  if (!inherits) return;  // no state takes history from another (the same on every rank)
+  // A new element of a state that inherits must have found its old one (a cloth that does not
+  // yield has no such state; its tears' pairs are not wanted). Every rank decides alike.
+  MPI_Allreduce(MPI_IN_PLACE, wanted.data(), (int)wanted.size(), MPI_INT, MPI_MAX, comm);
+  for (size_t k = 0; k < wanted.size(); ++k)
+    if (wanted[k] && !found[k]) throw std::logic_error("carry_element_states: an element carries on one that no rank holds");
 }
 
 
