@@ -387,22 +387,21 @@ static void inherit_values(MPI_Comm comm, ElementState& to, const ElementState& 
   std::unordered_map<int64_t, size_t> held;  // old id -> its values in all_values
   for (size_t i = 0; i < all_ids.size(); ++i)
     if (!held.emplace(all_ids[i], i).second) throw std::logic_error("carry_element_states: an element is held by two ranks");
-  std::unordered_map<int64_t, size_t> parent;  // new id -> its old one's values
-  for (size_t k = 0; k < pairs.size(); ++k)
-    if (const auto it = held.find(pairs[k][1]); it != held.end()) {
-      parent[pairs[k][0]] = it->second;
-      (*found)[k] = true;
-    }
   std::unordered_map<int64_t, size_t> pair_of;  // new id -> its pair
-  for (size_t k = 0; k < pairs.size(); ++k) pair_of[pairs[k][0]] = k;
-  for (int64_t id : to.ids())
-    if (const auto it = pair_of.find(id); it != pair_of.end()) (*wanted)[it->second] = 1;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    pair_of[pairs[k][0]] = k;
+    (*found)[k] = (*found)[k] || held.count(pairs[k][1]);
+  }
   std::vector<double> v = to.current_values();
-  for (size_t e = 0; e < to.elements(); ++e)
-    if (const auto it = parent.find(to.ids()[e]); it != parent.end()) {
+  for (size_t e = 0; e < to.elements(); ++e) {
+    const auto k = pair_of.find(to.ids()[e]);
+    if (k == pair_of.end()) continue;
+    (*wanted)[k->second] = 1;
+    if (const auto it = held.find(pairs[k->second][1]); it != held.end()) {
       std::copy_n(&all_values[size_t(n) * it->second], n, &v[size_t(w) * e]);
       std::fill(&v[size_t(w) * e + n], &v[size_t(w) * (e + 1)], 0.0);
     }
+  }
   to.restore(std::move(v));
 }
 
