@@ -16,6 +16,7 @@ namespace {
 typedef double Row4 __attribute__((vector_size(32), aligned(8), may_alias));
 using Node = SupernodalCholesky::Node;
 using SparseColumn = SupernodalCholesky::SparseColumn;
+using CapacitanceColumns = TopologyH0::CapacitanceColumns;
 
 // out = col^T y for one column of W (a run per node of its path) on the rows y of w: two sums
 // (even and odd entries of each run), so that a multiply-add does not wait on the one before.
@@ -45,28 +46,41 @@ HYPERQN_VECTOR_CLONES void column_subtract4(const Node* nodes, const SparseColum
   }
 }
 
-// z = K s, K row-major t x t, s and z t rows of 4 lanes: four rows of K at a time (independent sums).
-HYPERQN_VECTOR_CLONES void multiply4(const double* K, int64_t t, const double* s, double* z) {
+// u = (I + G E)^{-1} s by its LU (row-major, t x t: L unit lower below the diagonal, U on and
+// above; row `to[i]` of P s is s's row i), s and u t rows of 4 lanes; then z = E u, E by columns.
+// Each row's sum in two halves (even and odd entries), so that a multiply-add does not wait on the
+// one before.
+HYPERQN_VECTOR_CLONES void capacitance_solve4(const double* lu, const int64_t* to, int64_t t,
+                                              const CapacitanceColumns& e, const double* s, double* u, double* z) {
   const Row4* S = reinterpret_cast<const Row4*>(s);
+  Row4* U = reinterpret_cast<Row4*>(u);
   Row4* Z = reinterpret_cast<Row4*>(z);
-  int64_t a = 0;
-  for (; a + 4 <= t; a += 4) {
-    const double *k0 = K + a * t, *k1 = k0 + t, *k2 = k1 + t, *k3 = k2 + t;
-    Row4 z0 = {}, z1 = {}, z2 = {}, z3 = {};
-    for (int64_t b = 0; b < t; ++b) {
-      const Row4 sb = S[b];
-      z0 += k0[b] * sb;
-      z1 += k1[b] * sb;
-      z2 += k2[b] * sb;
-      z3 += k3[b] * sb;
+  for (int64_t i = 0; i < t; ++i) U[to[i]] = S[i];
+  for (int64_t a = 1; a < t; ++a) {
+    const double* row = lu + a * t;
+    Row4 even = {}, odd = {};
+    int64_t b = 0;
+    for (; b + 1 < a; b += 2) {
+      even += row[b] * U[b];
+      odd += row[b + 1] * U[b + 1];
     }
-    Z[a] = z0, Z[a + 1] = z1, Z[a + 2] = z2, Z[a + 3] = z3;
+    if (b < a) even += row[b] * U[b];
+    U[a] -= even + odd;
   }
-  for (; a < t; ++a) {
-    Row4 za = {};
-    for (int64_t b = 0; b < t; ++b) za += K[a * t + b] * S[b];
-    Z[a] = za;
+  for (int64_t a = t - 1; a >= 0; --a) {
+    const double* row = lu + a * t;
+    Row4 even = {}, odd = {};
+    int64_t b = a + 1;
+    for (; b + 1 < t; b += 2) {
+      even += row[b] * U[b];
+      odd += row[b + 1] * U[b + 1];
+    }
+    if (b < t) even += row[b] * U[b];
+    U[a] = (U[a] - (even + odd)) / row[a];
   }
+  for (int64_t a = 0; a < t; ++a) Z[a] = Row4{};
+  for (int64_t b = 0; b < t; ++b)
+    for (int64_t q = e.start[b]; q < e.start[b + 1]; ++q) Z[e.row[q]] += e.value[q] * U[b];
 }
 
 // The same on rows of one lane (k = 1), plainly.
@@ -82,12 +96,22 @@ void column_subtract1(const Node* nodes, const SparseColumn& col, const double* 
   for (int32_t node : col.nodes)
     for (int32_t i = 0; i < nodes[node].width; ++i, ++v) w[nodes[node].column + i] -= *v * *z;
 }
-void multiply1(const double* K, int64_t t, const double* s, double* z) {
-  for (int64_t a = 0; a < t; ++a) {
+void capacitance_solve1(const double* lu, const int64_t* to, int64_t t, const CapacitanceColumns& e, const double* s,
+                        double* u, double* z) {
+  for (int64_t i = 0; i < t; ++i) u[to[i]] = s[i];
+  for (int64_t a = 1; a < t; ++a) {
     double sum = 0;
-    for (int64_t b = 0; b < t; ++b) sum += K[a * t + b] * s[b];
-    z[a] = sum;
+    for (int64_t b = 0; b < a; ++b) sum += lu[a * t + b] * u[b];
+    u[a] -= sum;
   }
+  for (int64_t a = t - 1; a >= 0; --a) {
+    double sum = 0;
+    for (int64_t b = a + 1; b < t; ++b) sum += lu[a * t + b] * u[b];
+    u[a] = (u[a] - sum) / lu[a * t + a];
+  }
+  for (int64_t a = 0; a < t; ++a) z[a] = 0;
+  for (int64_t b = 0; b < t; ++b)
+    for (int64_t q = e.start[b]; q < e.start[b + 1]; ++q) z[e.row[q]] += e.value[q] * u[b];
 }
 
 TopologyH0::Status status_of(SupernodalCholesky::Status s) {
@@ -232,16 +256,23 @@ TopologyH0::Status TopologyH0::commit() {
   for (int64_t b = 0; b < t; ++b)
     for (const auto& [c, e] : e_column[b]) C.col(b) += e * G.col(c);
   const Eigen::PartialPivLU<Eigen::MatrixXd> capacitance(C);
-  // K = E (I + G E)^{-1}, row-major: a solve's correction is then W K W^T y, one dense product
-  // between W's two passes (K^T solved from (I + G E)^T K^T = E^T by the LU).
-  Eigen::MatrixXd Et = Eigen::MatrixXd::Zero(t, t);
-  for (int64_t b = 0; b < t; ++b)
-    for (const auto& [a, e] : e_column[b]) Et(b, a) = e;
-  const Eigen::MatrixXd Kt = capacitance.transpose().solve(Et);
-  k_.resize(t * t);
-  Eigen::Map<Eigen::MatrixXd>(k_.data(), t, t) = Kt;  // column-major K^T: K row-major
-  // A' is positive definite only if det(I + W E W^T) = det(I + G E) > 0: its sign from the LU.
+  // The correction's middle, K = E (I + G E)^{-1}, is applied in each solve from the LU and E's
+  // columns (2 t^2 per right-hand side, as a product with K would be) rather than formed here
+  // (2 t^3: the commit's largest part at t near max_touched, docs/topology-cost.md).
   const Eigen::MatrixXd& lu = capacitance.matrixLU();
+  lu_.resize(t * t);
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lu_.data(), t, t) = lu;
+  const auto& indices = capacitance.permutationP().indices();
+  to_.assign(indices.data(), indices.data() + t);
+  e_ = CapacitanceColumns();
+  for (int64_t b = 0; b < t; ++b) {
+    for (const auto& [a, e] : e_column[b]) {
+      e_.row.push_back(a);
+      e_.value.push_back(e);
+    }
+    e_.start.push_back(static_cast<int64_t>(e_.row.size()));
+  }
+  // A' is positive definite only if det(I + W E W^T) = det(I + G E) > 0: its sign from the LU.
   double sign = capacitance.permutationP().determinant();
   for (int64_t a = 0; a < t; ++a) sign *= lu(a, a) > 0 ? 1.0 : (lu(a, a) < 0 ? -1.0 : 0.0);
   return sign > 0 ? Status::ok : Status::not_positive_definite;
@@ -305,7 +336,9 @@ void TopologyH0::correct(double* w, int) const {
       for (int c = 0; c < k; ++c) s_[lanes * a + c] = extra_[k * j + c] / sqrt_d_[j];
     }
   }
-  four ? multiply4(k_.data(), t, s_.data(), z_.data()) : multiply1(k_.data(), t, s_.data(), z_.data());
+  u_.resize(s_.size());
+  four ? capacitance_solve4(lu_.data(), to_.data(), t, e_, s_.data(), u_.data(), z_.data())
+       : capacitance_solve1(lu_.data(), to_.data(), t, e_, s_.data(), u_.data(), z_.data());
   for (int64_t a = 0; a < t; ++a) {
     if (const SparseColumn* col = column_of_[a]) {
       four ? column_subtract4(nodes, *col, &z_[lanes * a], w) : column_subtract1(nodes, *col, &z_[lanes * a], w);

@@ -15,8 +15,8 @@
 // vertex is L^{-1} P e_i, nonzero only on the supernodes from i's up to the root (a sparse forward
 // solve, SupernodalCholesky::forward_units), computed once per vertex; a new vertex's is a unit
 // column. The correction sits between the forward and backward passes of the one solve with L
-// (SupernodalCholesky::solve_corrected) as y -= W K W^T y, K = E (I + G E)^{-1} formed at the
-// commit: a solve costs the factor's plus O(nnz(W) + t^2).
+// (SupernodalCholesky::solve_corrected) as y -= W K W^T y, K = E (I + G E)^{-1} applied by the LU
+// of I + G E from the commit: a solve costs the factor's plus O(nnz(W) + t^2).
 //
 // Each column of W and each entry of G depends on its vertices alone, and I + G E is factored
 // anew (dense LU) from the whole T at every commit, so the operator is a function of the factor
@@ -48,6 +48,11 @@ struct SymmetricCsr {
 class TopologyH0 {
  public:
   enum class Status { ok, not_positive_definite, failed };
+  // E_TT by columns (rows in T's order), what the correction's middle multiplies by.
+  struct CapacitanceColumns {
+    std::vector<int64_t> start{0}, row;
+    std::vector<double> value;
+  };
   // A commit past this many touched rows refactors (measured: docs/topology-cost.md).
   static constexpr int64_t kDefaultMaxTouched = 200;
 
@@ -108,15 +113,17 @@ class TopologyH0 {
   std::vector<SupernodalCholesky::SparseColumn> column_;
   Eigen::MatrixXd G_;
   int64_t slots_ = 0;
-  // The last commit: T ascending, per row of T its column of W (null: a new vertex's), and
-  // K = E_TT (I + G_TT E_TT)^{-1} row-major (t x t).
+  // The last commit: T ascending, per row of T its column of W (null: a new vertex's), the LU of
+  // I + G_TT E_TT (row-major, t x t; P's rows: `to_`) and E_TT.
   std::vector<int64_t> touched_;
   std::vector<const SupernodalCholesky::SparseColumn*> column_of_;
-  std::vector<double> k_;
+  std::vector<double> lu_;
+  std::vector<int64_t> to_;
+  CapacitanceColumns e_;
   int refactorizations_ = 0;
   int64_t columns_computed_ = 0;
   mutable std::vector<double> extra_;  // the new rows' part of a solve (k per row)
-  mutable std::vector<double> s_, z_;  // a solve's W^T y and K W^T y (lanes per row of T)
+  mutable std::vector<double> s_, u_, z_;  // a solve's W^T y, (I + G E)^{-1} W^T y, K W^T y (lanes per row of T)
 };
 
 }  // namespace hyperqn
