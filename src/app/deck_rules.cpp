@@ -60,26 +60,29 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
            "energy.csv does not count the work of colliders or self-contact yet (leave out output.energy)");
 }
 
-// A blade separates tets along their faces and a cloth along its edges (docs/snapping.md#a-blade-through-a-cloth):
-// each mesh is tets alone or a cloth alone; strands are not cut, and a blade removes tets only.
+// A blade separates tets along their faces, a cloth along its edges (docs/snapping.md#a-blade-through-a-cloth)
+// and strands at the segments it crosses (docs/snapping.md#a-blade-through-strands): a mesh of tets
+// may have strands, not a cloth too; a blade removes tets only.
 void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
   std::vector<const MeshSpec*> meshes;
   if (deck.bodies.empty()) meshes.push_back(&deck.mesh);
   for (const BodySpec& b : deck.bodies) meshes.push_back(&b.mesh);
-  bool cuttable = false, cloth = false;
+  bool cuttable = false, cloth = false, strands = false;
   for (const MeshSpec* m : meshes) {
-    if (m->has_strands())
-      r.fail(cuts, "a blade cuts tets and cloth, not strands, and a mesh of the deck has strands (docs/topology.md)");
     if (m->has_solid() && m->has_cloth())
       r.fail(cuts, "a blade cuts a mesh of tets or a cloth, not one mesh with both (docs/topology.md)");
-    cuttable = cuttable || m->has_solid() || m->has_cloth();
+    cuttable = cuttable || m->has_solid() || m->has_cloth() || m->has_strands();
     cloth = cloth || m->has_cloth();
+    strands = strands || m->has_strands();
   }
-  if (!cuttable) r.fail(cuts, "a cut separates tets along their faces or a cloth along its edges, and the mesh has neither");
-  for (size_t k = 0; cloth && k < deck.cuts.size(); ++k)
+  if (!cuttable)
+    r.fail(cuts, "a cut separates tets along their faces, a cloth along its edges or strands at their segments, and the "
+                 "mesh has none of them");
+  for (size_t k = 0; (cloth || strands) && k < deck.cuts.size(); ++k)
     if (deck.cuts[k].remove)
       r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
-             "a blade removes tets, and the deck has a cloth, whose triangles it does not remove: leave out remove");
+             std::string("a blade removes tets, and the deck has ") + (cloth ? "a cloth, whose triangles" : "strands, whose segments") +
+                 " it does not remove: leave out remove");
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as

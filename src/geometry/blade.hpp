@@ -72,7 +72,7 @@ inline const std::vector<DeckKey<CutSpec>>& cut_keys() {
       DeckKey<C>{"remove", &C::remove,
                  "`true`: the blade removes the tets that have an edge its swept patch crossed in a step (a kerf), "
                  "instead of separating faces ([removal.md](removal.md)); with self-contact the vertices it splits open as "
-                 "a crack does; not in a deck with a cloth"},
+                 "a crack does; not in a deck with a cloth or strands"},
       custom_key<C>("motion", "map: [`motion`](deck-scene.md#motion), a translation in the blade's plane and, for the rectangle, "
                     "a turn in it",
                     "how the blade moves: `translate.velocity` (in its plane) and, for the rectangle, `rotate` about an "

@@ -257,4 +257,26 @@ std::vector<TrianglePair> cloth_edges_crossed(MPI_Comm comm, const MeshPiece& pi
   return pairs;
 }
 
+std::vector<int64_t> segments_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                      const std::vector<CutSpec>& cuts, double t0, double t1,
+                                      const std::set<int64_t>& snapped) {
+  const TetMesh& m = piece.mesh;
+  const std::vector<BladeSweep> sweeps = blade_sweeps(cuts, t0, t1);
+  const auto at = [&](int32_t v) { return Eigen::Vector3d(&pos[3 * size_t(v)]); };
+  std::vector<int64_t> mine;
+  for (int64_t s = 0; s < m.num_segments(); ++s) {
+    const int64_t number = piece.element_numbers[m.num_tets() + s];
+    if (snapped.count(number)) continue;
+    int32_t a = m.segments[2 * s], b = m.segments[2 * s + 1];
+    if (piece.vertex_numbers[b] < piece.vertex_numbers[a]) std::swap(a, b);
+    bool crossed = false;
+    for (const BladeSweep& sweep : sweeps) crossed = crossed || sweep.crosses(at(a), at(b));
+    if (crossed) mine.push_back(number);
+  }
+  std::vector<int64_t> all = all_gathered(comm, mine, MPI_INT64_T);  // a segment on two ranks comes twice
+  std::sort(all.begin(), all.end());
+  all.erase(std::unique(all.begin(), all.end()), all.end());
+  return all;
+}
+
 }  // namespace hyperqn

@@ -40,4 +40,13 @@ std::vector<int64_t> tets_crossed(MPI_Comm comm, const MeshPiece& piece, const s
 std::vector<TrianglePair> cloth_edges_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
                                               const std::vector<CutSpec>& cuts, double t0, double t1);
 
+// The strand segments (not in `snapped`) that one of the blades crossed while it swept over
+// [t0, t1] (BladeSweep::crosses, each segment from its lower-numbered end) at the positions `pos`
+// (3 per local vertex of `piece`), as their global numbers; sorted, the same on every rank. A
+// blade cuts a strand as it cuts a cloth, and the segment then snaps as an overstretched one does
+// (mesh/strand_separation.hpp). Collective.
+std::vector<int64_t> segments_crossed(MPI_Comm comm, const MeshPiece& piece, const std::vector<double>& pos,
+                                      const std::vector<CutSpec>& cuts, double t0, double t1,
+                                      const std::set<int64_t>& snapped);
+
 }  // namespace hyperqn

@@ -453,6 +453,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   snap_strains_ = snap_strains(spec);
   tear_strains_ = tear_strains(spec);
   cuts_cloth_ = blades_cut_cloth(spec);
+  cuts_strands_ = blades_cut_strands(spec);
   const bool breaks = separates || !snap_strains_.empty() || !tear_strains_.empty();
   if (releases || breaks) kept_ = input;  // a release, cut or break rebuilds the scene from this rank's piece
   if (breaks) {  // the H0 that follows cuts, fracture, snaps and tears (docs/topology.md#h0-across-a-cut)

@@ -210,8 +210,9 @@ class LiveScene {
   };
   const BreakCounts& break_counts() const { return break_counts_; }
   // Strand segments of the scene may snap (strand_material.snap) or cloth edges tear (cloth.tear),
-  // or blades cut a cloth (cuts on a mesh with cloth: its edges separate as torn ones, and count so).
-  bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty() || cuts_cloth_; }
+  // or blades cut a cloth or strands (cuts on a mesh with them: its edges separate as torn ones and
+  // its segments as snapped ones, and count so).
+  bool breaks() const { return !snap_strains_.empty() || !tear_strains_.empty() || cuts_cloth_ || cuts_strands_; }
   // The last change of the scene was a break: for messages.
   bool last_change_break() const { return last_change_break_; }
   // The break batches in the scene whose constant matrix was last factored (a checkpoint's
@@ -285,8 +286,9 @@ class LiveScene {
   std::set<std::array<int64_t, 2>> torn_;
   BreakCounts break_counts_;
   bool last_change_break_ = false;
-  bool last_break_by_blade_ = false;  // the last break was a blade's cut through a cloth (messages)
+  bool last_break_by_blade_ = false;  // the last break was a blade's cut through a cloth or strands (messages)
   bool cuts_cloth_ = false;           // the deck's blades cut a cloth (cloth_edges_crossed)
+  bool cuts_strands_ = false;         // the deck's blades cut strands (segments_crossed)
   long long factored_breaks_ = 0;
   std::vector<std::pair<int64_t, std::vector<Break>>> break_replay_;  // restore_breaks' (frame, batch) for restore_released
   SceneOptions options_;

@@ -241,6 +241,7 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   for (const CutSpec& c : spec_->cuts) (c.remove ? removing : by_frame)[int(c.frame)].push_back(c);
   std::vector<TetPair> batch;
   std::vector<TrianglePair> cloth_edges;  // a cloth's edges the blades crossed: they separate as torn ones do
+  std::vector<int64_t> segments;          // strand segments the blades crossed: they snap
   for (int f = 0; f < 2; ++f) {
     const std::vector<double>& at = f == int(CutFrame::world) ? pos : kept_.piece.mesh.coords;
     if (!by_frame[f].empty()) {
@@ -249,6 +250,10 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
       if (cuts_cloth_) {
         const std::vector<TrianglePair> e = cloth_edges_crossed(comm_, kept_.piece, at, by_frame[f], t - h, t);
         cloth_edges.insert(cloth_edges.end(), e.begin(), e.end());
+      }
+      if (cuts_strands_) {
+        const std::vector<int64_t> c = segments_crossed(comm_, kept_.piece, at, by_frame[f], t - h, t, snapped_);
+        segments.insert(segments.end(), c.begin(), c.end());
       }
     }
     if (!removing[f].empty())  // removed tets as pairs (t, t) (docs/removal.md)
@@ -267,14 +272,16 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   }
   std::sort(cloth_edges.begin(), cloth_edges.end());
   cloth_edges.erase(std::unique(cloth_edges.begin(), cloth_edges.end()), cloth_edges.end());
-  *cut = !batch.empty() || !cloth_edges.empty();
+  std::sort(segments.begin(), segments.end());
+  segments.erase(std::unique(segments.begin(), segments.end()), segments.end());
+  *cut = !batch.empty() || !cloth_edges.empty() || !segments.empty();
   if (!batch.empty()) {
     note_broken(main.frame, (long long)(batch.size() - by_blades));
     PetscCall(separate_due(batch, main, others, rebind));
   }
-  if (!cloth_edges.empty()) {  // after the tets' separation (its own rebuild): the positions as they are now
+  if (!cloth_edges.empty() || !segments.empty()) {  // after the tets' separation (its own rebuild): the positions as they are now
     PetscCall(scene_->body->local_positions(main.x, pos));
-    PetscCall(break_apart({}, cloth_edges, pos, main, others, rebind, true));
+    PetscCall(break_apart(segments, cloth_edges, pos, main, others, rebind, true));
   }
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
@@ -294,9 +301,11 @@ std::string LiveScene::last_change(long long dofs) const {
   }
   if (last_change_break_) {
     const BreakCounts& c = break_counts_;
-    return (c.edges == 0                ? "snap: "
-            : last_break_by_blade_ ? "cut: " + std::to_string(c.edges) + " cloth edges cut or torn, "
-                                   : "tear: " + std::to_string(c.edges) + " cloth edges torn, ") +
+    if (last_break_by_blade_)  // what the deck's blades cut: a cloth, strands or both
+      return "cut: " + (cuts_cloth_ ? std::to_string(c.edges) + " cloth edges cut or torn, " : std::string()) +
+             (cuts_strands_ ? std::to_string(c.segments) + " strand segments cut or snapped, " : std::string()) +
+             std::to_string(c.vertices) + " vertices added so far" + matrix + followed;
+    return (c.edges == 0 ? "snap: " : "tear: " + std::to_string(c.edges) + " cloth edges torn, ") +
            std::to_string(c.segments) + " strand segments snapped, " + std::to_string(c.vertices) +
            " vertices added so far" + matrix + followed;
   }
@@ -453,8 +462,8 @@ PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history, long
     size_t j = i;
     for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
       PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
-      PetscCheck(history[j][1] == 1 || !snap_strains_.empty(), comm_, PETSC_ERR_ARG_WRONG,
-                 "the checkpoint has snapped strands and the deck's strands do not snap");
+      PetscCheck(history[j][1] == 1 || !snap_strains_.empty() || cuts_strands_, comm_, PETSC_ERR_ARG_WRONG,
+                 "the checkpoint has snapped strands and the deck's strands neither snap nor are cut");
       PetscCheck(history[j][1] == 0 || !tear_strains_.empty() || cuts_cloth_, comm_, PETSC_ERR_ARG_WRONG,
                  "the checkpoint has torn cloth and the deck's cloth neither tears nor is cut");
     }

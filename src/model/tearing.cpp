@@ -43,6 +43,12 @@ bool blades_cut_cloth(const SceneSpec& spec) {
   return cloth && !spec.cuts.empty();
 }
 
+bool blades_cut_strands(const SceneSpec& spec) {
+  bool strands = spec.bodies.empty() && spec.mesh.has_strands();
+  for (const BodySpec& b : spec.bodies) strands = strands || b.mesh.has_strands();
+  return strands && !spec.cuts.empty();
+}
+
 double tear_opening(MPI_Comm comm, const SceneSpec& spec, const MeshPiece& piece, double distance) {
   const TetMesh& m = piece.mesh;
   double least = HUGE_VAL;  // of the cloth triangles' heights

@@ -32,6 +32,8 @@ std::vector<double> tear_strains(const SceneSpec& spec);
 
 // Whether the deck's blades (cuts) cut a cloth: its edges they cross separate as torn ones do.
 bool blades_cut_cloth(const SceneSpec& spec);
+// Whether the deck's blades cut strands: the segments they cross snap as overstretched ones do.
+bool blades_cut_strands(const SceneSpec& spec);
 
 // With self-contact a torn edge opens (mesh/cloth_separation.hpp) by d + the thickest tearing
 // (or cut: blades_cut_cloth) cloth's thickness, each side by at most kOpeningHeightFraction of its triangles' least height

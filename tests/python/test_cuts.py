@@ -418,11 +418,11 @@ BAD_CUTS = {
                                  ["cuts[0].motion", "rotate.axis is not along the blade's normal"]),
     "leaving_its_plane": (bad(motion={"translate": {"velocity": [1, -1, 0]}}), ["cuts[0].motion", "leaves the blade's plane"]),
     "missing_size": ({**bad(), "cuts": [{k: v for k, v in BAR["cuts"][0].items() if k != "size"}]}, ["size"]),
-    # a blade cuts tets and cloth (test_cloth_cut.py), not strands
-    "strands": ({**{k: v for k, v in bad().items() if k not in ("mesh", "material", "fixed")},
-                 "mesh": {"strands": [{"from": [0, 0, 0], "to": [1, 0, 0], "segments": 4}]},
-                 "strand_material": {"axial_stiffness": 100.0, "linear_density": 0.1}},
-                ["cuts", "not strands"]),
+    # a blade cuts strands (test_strand_cut.py) but removes only tets
+    "removing_strands": ({**{k: v for k, v in bad(remove=True).items() if k not in ("mesh", "material", "fixed")},
+                          "mesh": {"strands": [{"from": [0, 0, 0], "to": [1, 0, 0], "segments": 4}]},
+                          "strand_material": {"axial_stiffness": 100.0, "linear_density": 0.1}},
+                         ["cuts[0].remove", "strands, whose segments", "does not remove"]),
 }
 
 
