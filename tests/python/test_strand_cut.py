@@ -7,6 +7,8 @@ a run killed (kill -9) after the cut and restarted equals the uninterrupted run 
 L-BFGS's corrected H0 is a fresh factor's; a blade that removes is refused on strands
 (test_cuts.py). The ranks and the restart are tested on a rope between two fixed ends, cut where
 the 2-rank partition divides it."""
+import copy
+
 import meshio
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ import pytest
 from conftest import run_deck
 from hyperqn_tools.output import is_empty_piece, piece_files, rest_diagonal
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
+from test_cloth_cut import pieces
 from test_cloth_tear import corrected_vs_fresh
 from test_tearing import ROPE, TIGHT, frames, masses
 
@@ -30,21 +33,12 @@ CUT_ROPE = {**ROPE,
 CUT_FRAME = 4  # the last frame written before the cut (it is made at the start of the next step)
 
 
-def pieces(frame):
-    """Per vertex, the index of its piece (tets and segments joined through vertices)."""
-    n = len(frame.points)
-    parent = list(range(n))
-
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for cell in list(frame.cells["tetra"]) + list(frame.cells["line"]):
-        for v in cell[1:]:
-            parent[root(int(v))] = root(int(cell[0]))
-    return np.unique([root(i) for i in range(n)], return_inverse=True)[1]
+def pieces_with_strands(frame):
+    """test_cloth_cut's pieces() over the frame's tets and strand segments (each as a triangle)."""
+    joined = copy.copy(frame)
+    tets, lines = frame.cells["tetra"], frame.cells["line"]
+    joined.cells = {"triangle": np.concatenate([tets[:, [0, 1, 2]], tets[:, [0, 1, 3]], lines[:, [0, 1, 1]]])}
+    return pieces(joined)
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +60,7 @@ def test_the_blade_cuts_each_rope_once_and_the_cube_falls(rope):
     assert np.sum(copies[:, 0] < CUT_X) == 2 and np.sum(copies[:, 0] > CUT_X) == 2
     # four pieces: the two stubs on the fixed ends, the cube with the rest of the ropes, the two cut
     # segments (each a piece of its own: a snapped segment lets go at both ends)
-    label = pieces(last)
+    label = pieces_with_strands(last)
     fixed_stubs = {label[k] for k in np.flatnonzero(np.linalg.norm(rest[:, [0, 1]], axis=1) < 1e-9)}
     cube = label[np.argmax(rest[:, 0])]
     assert len(np.unique(label)) == 5 and cube not in fixed_stubs and len(fixed_stubs) == 2
