@@ -144,6 +144,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     h.cuts_factored = run_.scene.factored_batches();
     h.breaks_factored = run_.scene.factored_breaks();
     h.cut_batches = run_.scene.cut_batches();
+    h.break_batches = run_.scene.break_batches();
     h.cuts_resolved = run_.scene.resolved_after(state.frame);
   }
   h.started_inverted = setup_.started_inverted;

@@ -269,8 +269,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     PetscErrors errors;
     bool start_ok = true;  // a new run's start is input too (a body inside an obstacle)
     if (run.scene.setup(comm, deck, std::move(input), scene_options(deck, options, {deck.solver.type})) ||
-        (restart && run.scene.restore_cuts(saved.cuts, saved.cuts_factored, saved.cut_batches)) ||
-        (restart && run.scene.restore_breaks(saved.breaks, saved.breaks_factored)) ||
+        (restart && run.scene.restore_changes(saved.cuts, saved.cuts_factored, saved.cut_batches, saved.breaks,
+                                              saved.breaks_factored, saved.break_batches)) ||
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
         (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {

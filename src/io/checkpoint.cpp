@@ -182,6 +182,9 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
       for (int64_t x : b) breaks += (breaks.empty() ? "" : " ") + std::to_string(x);
     head.put("breaks", breaks);
     head.put("breaks_factored", h.breaks_factored);
+    std::string sizes;
+    for (int64_t n : h.break_batches) sizes += (sizes.empty() ? "" : " ") + std::to_string(n);
+    head.put("break_batches", sizes);
   }
   head.put("started_inverted", (long long)h.started_inverted);
   const RunSummary& s = h.summary;
@@ -289,6 +292,12 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     while (in >> b[0] >> b[1] >> b[2]) h.breaks.push_back(b);
     if (!in.eof()) throw std::runtime_error("its header's breaks are malformed");
     h.breaks_factored = head.has("breaks_factored") ? head.get_long("breaks_factored") : -1;
+    if (head.has("break_batches")) {
+      std::istringstream sizes(head.get("break_batches"));
+      int64_t n;
+      while (sizes >> n) h.break_batches.push_back(n);
+      if (!sizes.eof()) throw std::runtime_error("its header's break_batches are malformed");
+    }
   }
   h.started_inverted = (int)head.get_long("started_inverted");
   RunSummary& s = h.summary;

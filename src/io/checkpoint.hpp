@@ -92,6 +92,9 @@ struct CheckpointHeader {
   // Of them, the batches (frames) in the scene whose constant matrix was last factored (header key
   // breaks_factored, as cuts_factored; -1, absent: all).
   long long breaks_factored = -1;
+  // The breaks of each batch (LiveScene::break_batches; header key break_batches; absent: a batch
+  // per frame, as before a frame could hold a blade's batch and a tear's).
+  std::vector<int64_t> break_batches;
   int started_inverted = 0;  // the run started with inverted elements (judged by its last frame only)
   RunSummary summary;        // the counters of frames 1..frame and the work done so far
   std::vector<std::pair<std::string, std::string>> writers;  // output writer's key -> its restart state

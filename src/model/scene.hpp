@@ -150,14 +150,6 @@ class LiveScene {
   // a signal gave up after re-solves: header key cuts_resolved); restore_resolved sets them.
   int resolved_after(int64_t frame) const { return resolved_.first == frame ? resolved_.second : 0; }
   void restore_resolved(int64_t frame, int count) { resolved_ = {frame, count}; }
-  // A restart: the checkpoint's cut history replayed on the kept pieces, batch by batch as the run
-  // made them (so the same vertex numbers), before restore_released, which then rebuilds. The
-  // batches after the first `factored` (those the run followed by corrections, -1: none) are kept
-  // for restore_released, which replays them as the run did: the scene rebuilt after each, its
-  // constant matrix corrected, so the restart starts from the run's operator bit for bit.
-  // batches: the faces of each batch (cut_batches; empty: a batch per frame, as before re-solves).
-  PetscErrorCode restore_cuts(const std::vector<SeparatedFace>& history, long long factored = -1,
-                              const std::vector<int64_t>& batches = {});
   // Totals so far: faces separated, vertices added, batches (each a rebuild of the scene; a
   // restart's replay included); of this run's batches (not replayed), those whose constant matrix
   // followed by a correction and those that factored it again.
@@ -196,11 +188,20 @@ class LiveScene {
   // its two triangles' numbers t1 < t2 as t1 * 2^32 + t2). In a frame, snaps come before tears.
   using Break = std::array<int64_t, 3>;
   const std::vector<Break>& break_history() const { return breaks_; }
-  // A restart: the checkpoint's breaks replayed on the kept pieces batch by batch, after
-  // restore_cuts and before restore_released, which then rebuilds. As restore_cuts: the batches
-  // after the first `factored` (those the run followed by corrections; -1: none) are kept for
-  // restore_released, which replays them as the run did (rebuild, correction).
-  PetscErrorCode restore_breaks(const std::vector<Break>& history, long long factored = -1);
+  // The breaks of each batch of break_history, in order (a frame may have two: a blade's and a tear's).
+  const std::vector<int64_t>& break_batches() const { return break_batch_sizes_; }
+  // A restart: the checkpoint's cuts and breaks replayed on the kept pieces, batch by batch in the
+  // order the run made them (so the same vertex numbers): by frame, and in a frame the cuts' batches
+  // before the breaks' (cut_due separates tets, then breaks a cloth's or strands' edges, then
+  // snap_due). Before restore_released, which then rebuilds. The batches after the first
+  // `cuts_factored` and `breaks_factored` (those the run followed by corrections, -1: none; every
+  // factorization counts both, so they are the run's last batches) are kept for restore_released,
+  // which replays them as the run did: the scene rebuilt after each, its constant matrix corrected,
+  // so the restart starts from the run's operator bit for bit. cut_batches, break_batches: the
+  // size of each batch (empty: a batch per frame, as checkpoints before them).
+  PetscErrorCode restore_changes(const std::vector<SeparatedFace>& cuts, long long cuts_factored,
+                                 const std::vector<int64_t>& cut_batches, const std::vector<Break>& breaks,
+                                 long long breaks_factored, const std::vector<int64_t>& break_batches);
   // Totals so far (a restart's replay included): segments snapped, cloth edges torn, vertices added,
   // batches (each one rebuild of the scene); of this run's batches (not replayed), those whose
   // constant matrix followed by a TopologyH0 correction and those that factored it again.
@@ -267,10 +268,16 @@ class LiveScene {
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
-  bool kept_changed_ = false;  // restore_cuts changed kept_: restore_released rebuilds
+  bool kept_changed_ = false;  // restore_changes changed kept_: restore_released rebuilds
   bool last_change_cut_ = false, last_cut_corrected_ = false;
   long long factored_batches_ = 0;
-  std::vector<std::pair<int64_t, std::vector<TetPair>>> replay_;  // restore_cuts' (frame, batch) for restore_released
+  // restore_changes' batches for restore_released, in the run's order: a cut batch's faces or a break batch.
+  struct Replay {
+    int64_t frame = 0;
+    std::vector<TetPair> faces;
+    std::vector<std::array<int64_t, 3>> breaks;
+  };
+  std::vector<Replay> replay_;
   // In a deck with cuts, fracture, snapping strands or tearing cloth, -hyperqn_topology_h0 (default
   // true: constant matrices follow cuts and breaks by corrections where they can; false: factored
   // again at every change) and its test hooks (TopologyCheck). Without them false: no TopologyH0
@@ -290,7 +297,7 @@ class LiveScene {
   bool cuts_cloth_ = false;           // the deck's blades cut a cloth (cloth_edges_crossed)
   bool cuts_strands_ = false;         // the deck's blades cut strands (segments_crossed)
   long long factored_breaks_ = 0;
-  std::vector<std::pair<int64_t, std::vector<Break>>> break_replay_;  // restore_breaks' (frame, batch) for restore_released
+  std::vector<int64_t> break_batch_sizes_;  // break_batches
   SceneOptions options_;
   SceneInput kept_;  // this rank's input, if a region is released later
   std::unique_ptr<Scene> scene_;

@@ -86,26 +86,23 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   for (char a : attachments) any = any || a;
   if (any) PetscCall(rebuild(regions, attachments, scene_));
   // The batches the run followed by corrections, each as the run did (every release was before
-  // them: a release factors again). Cuts and breaks are not in one deck (deck_rules.cpp).
-  if (replay_.empty() && break_replay_.empty()) PetscFunctionReturn(0);
+  // them: a release factors again), cuts and breaks in the run's order.
+  if (replay_.empty()) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
-  for (const auto& [frame, batch] : replay_) {
-    separate(frame, batch, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
+  for (const Replay& r : replay_) {
+    if (r.breaks.empty()) {
+      separate(r.frame, r.faces, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
+    } else {
+      std::vector<int64_t> segments;
+      std::vector<TrianglePair> edges;
+      split_breaks(r.breaks, segments, edges);
+      snap(r.frame, segments, edges);
+    }
     std::unique_ptr<Scene> fresh;
     PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
     scene_ = std::move(fresh);
   }
   replay_.clear();
-  for (const auto& [frame, batch] : break_replay_) {
-    std::vector<int64_t> segments;
-    std::vector<TrianglePair> edges;
-    split_breaks(batch, segments, edges);
-    snap(frame, segments, edges);
-    std::unique_ptr<Scene> fresh;
-    PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
-    scene_ = std::move(fresh);
-  }
-  break_replay_.clear();
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }
@@ -329,7 +326,8 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
     ++counts_.corrections;
   } else {
     ++counts_.refactorizations;
-    factored_batches_ = counts_.batches;
+    factored_batches_ = counts_.batches;  // the factor holds every break so far too
+    factored_breaks_ = break_counts_.batches;
   }
   PetscFunctionReturn(0);
 }
@@ -395,6 +393,7 @@ SeparationResult LiveScene::snap(int64_t frame, const std::vector<int64_t>& batc
     inherited = std::move(r.inherited);
   }
   break_counts_.batches += 1;
+  break_batch_sizes_.push_back((int64_t)(batch.size() + edges.size()));
   SeparationResult result;
   result.inherited = std::move(inherited);
   result.source = std::move(source);
@@ -437,7 +436,8 @@ PetscErrorCode LiveScene::break_apart(const std::vector<int64_t>& segments, cons
     ++break_counts_.corrections;
   } else {
     ++break_counts_.refactorizations;
-    factored_breaks_ = break_counts_.batches;
+    factored_breaks_ = break_counts_.batches;  // the factor holds every cut so far too
+    factored_batches_ = counts_.batches;
   }
   PetscFunctionReturn(0);
 }
@@ -453,63 +453,77 @@ void LiveScene::split_breaks(const std::vector<Break>& batch, std::vector<int64_
   }
 }
 
-PetscErrorCode LiveScene::restore_breaks(const std::vector<Break>& history, long long factored) {
+PetscErrorCode LiveScene::restore_changes(const std::vector<SeparatedFace>& cuts, long long cuts_factored,
+                                          const std::vector<int64_t>& cut_batches, const std::vector<Break>& breaks,
+                                          long long breaks_factored, const std::vector<int64_t>& break_batches) {
   PetscFunctionBeginUser;
-  if (history.empty()) PetscFunctionReturn(0);
-  PetscCall(event_begin(&LogEvents::topology));
-  long long batches = 0;
-  for (size_t i = 0; i < history.size(); ++batches) {
-    size_t j = i;
-    for (; j < history.size() && history[j][0] == history[i][0]; ++j) {
-      PetscCheck(history[j][1] == 0 || history[j][1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
-      PetscCheck(history[j][1] == 1 || !snap_strains_.empty() || cuts_strands_, comm_, PETSC_ERR_ARG_WRONG,
-                 "the checkpoint has snapped strands and the deck's strands neither snap nor are cut");
-      PetscCheck(history[j][1] == 0 || !tear_strains_.empty() || cuts_cloth_, comm_, PETSC_ERR_ARG_WRONG,
-                 "the checkpoint has torn cloth and the deck's cloth neither tears nor is cut");
+  if (cuts.empty() && breaks.empty()) PetscFunctionReturn(0);
+  PetscCheck(cuts.empty() || !spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
+             "the checkpoint has separated faces and the deck has neither cuts nor fracture");
+  for (const Break& b : breaks) {
+    PetscCheck(b[1] == 0 || b[1] == 1, comm_, PETSC_ERR_ARG_WRONG, "the checkpoint has a break of an unknown kind");
+    PetscCheck(b[1] == 1 || !snap_strains_.empty() || cuts_strands_, comm_, PETSC_ERR_ARG_WRONG,
+               "the checkpoint has snapped strands and the deck's strands neither snap nor are cut");
+    PetscCheck(b[1] == 0 || !tear_strains_.empty() || cuts_cloth_, comm_, PETSC_ERR_ARG_WRONG,
+               "the checkpoint has torn cloth and the deck's cloth neither tears nor is cut");
+  }
+  // Each history cut into its batches: by the sizes, within a frame (no sizes: a batch per frame).
+  auto batches_of = [&](const auto& history, const std::vector<int64_t>& sizes, const char* what) {
+    std::vector<std::pair<size_t, size_t>> ranges;
+    int64_t total = 0;
+    for (int64_t n : sizes) total += n;
+    for (size_t i = 0; i < history.size();) {
+      const size_t end = sizes.empty() ? history.size() : std::min(history.size(), i + (size_t)sizes[ranges.size()]);
+      size_t j = i;
+      while (j < end && history[j][0] == history[i][0]) ++j;
+      ranges.push_back({i, j});
+      i = j;
+      if (!sizes.empty() && ranges.size() == sizes.size()) break;
     }
-    std::vector<Break> batch(history.begin() + i, history.begin() + j);
-    if (factored < 0 || batches < factored) {
+    const bool whole = sizes.empty() || (total == (int64_t)history.size() && ranges.size() == sizes.size() &&
+                                         (ranges.empty() || ranges.back().second == history.size()));
+    return std::make_pair(ranges, whole ? std::string() : std::string("the checkpoint's ") + what +
+                                                              " batches do not add up to its " + what + "es");
+  };
+  const auto [cut_ranges, cut_error] = batches_of(cuts, cut_batches, "cut");
+  const auto [break_ranges, break_error] = batches_of(breaks, break_batches, "break");
+  PetscCheck(cut_error.empty() && break_error.empty(), comm_, PETSC_ERR_ARG_WRONG, "%s",
+             (cut_error + break_error).c_str());
+  PetscCall(event_begin(&LogEvents::topology));
+  // The run's order: by frame, a frame's cut batches before its break batches.
+  size_t c = 0, k = 0;
+  while (c < cut_ranges.size() || k < break_ranges.size()) {
+    const bool cut = k == break_ranges.size() ||
+                     (c < cut_ranges.size() && cuts[cut_ranges[c].first][0] <= breaks[break_ranges[k].first][0]);
+    Replay r;
+    bool factored;
+    if (cut) {
+      for (size_t i = cut_ranges[c].first; i < cut_ranges[c].second; ++i) r.faces.push_back({cuts[i][1], cuts[i][2]});
+      r.frame = cuts[cut_ranges[c].first][0];
+      factored = cuts_factored < 0 || (long long)c < cuts_factored;
+      ++c;
+    } else {
+      r.breaks.assign(breaks.begin() + break_ranges[k].first, breaks.begin() + break_ranges[k].second);
+      r.frame = breaks[break_ranges[k].first][0];
+      factored = breaks_factored < 0 || (long long)k < breaks_factored;
+      ++k;
+    }
+    if (!factored) {
+      replay_.push_back(std::move(r));
+      continue;
+    }
+    if (cut) {
+      separate(r.frame, r.faces, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
+    } else {
       std::vector<int64_t> segments;
       std::vector<TrianglePair> edges;
-      split_breaks(batch, segments, edges);
-      snap(history[i][0], segments, edges);
-      kept_changed_ = true;
-    } else {
-      break_replay_.push_back({history[i][0], std::move(batch)});
+      split_breaks(r.breaks, segments, edges);
+      snap(r.frame, segments, edges);
     }
-    i = j;
+    kept_changed_ = true;
   }
-  factored_breaks_ = factored < 0 ? batches : std::min(factored, batches);
-  PetscCall(event_end(&LogEvents::topology));
-  PetscFunctionReturn(0);
-}
-
-PetscErrorCode LiveScene::restore_cuts(const std::vector<SeparatedFace>& history, long long factored,
-                                       const std::vector<int64_t>& sizes) {
-  PetscFunctionBeginUser;
-  if (history.empty()) PetscFunctionReturn(0);
-  PetscCheck(!spec_->cuts.empty() || !fracture_.empty(), comm_, PETSC_ERR_ARG_WRONG,
-             "the checkpoint has separated faces and the deck has neither cuts nor fracture");
-  int64_t total = 0;
-  for (int64_t n : sizes) total += n;
-  PetscCheck(sizes.empty() || total == (int64_t)history.size(), comm_, PETSC_ERR_ARG_WRONG,
-             "the checkpoint's cut batches do not add up to its separated faces");
-  PetscCall(event_begin(&LogEvents::topology));
-  long long batches = 0;
-  for (size_t i = 0; i < history.size(); ++batches) {
-    size_t j = i;
-    std::vector<TetPair> batch;
-    const size_t end = sizes.empty() ? history.size() : i + (size_t)sizes[batches];
-    for (; j < end && history[j][0] == history[i][0]; ++j) batch.push_back({history[j][1], history[j][2]});
-    if (factored < 0 || batches < factored) {
-      separate(history[i][0], batch, {nullptr, opening_width_});  // as above
-      kept_changed_ = true;
-    } else {
-      replay_.push_back({history[i][0], std::move(batch)});
-    }
-    i = j;
-  }
-  factored_batches_ = factored < 0 ? batches : std::min(factored, batches);
+  factored_batches_ = cuts_factored < 0 ? (long long)c : std::min<long long>(cuts_factored, c);
+  factored_breaks_ = breaks_factored < 0 ? (long long)k : std::min<long long>(breaks_factored, k);
   PetscCall(event_end(&LogEvents::topology));
   PetscFunctionReturn(0);
 }

@@ -15,10 +15,10 @@ import pytest
 
 from conftest import run_deck
 from hyperqn_tools.intersections import check_run
-from hyperqn_tools.output import rest_diagonal
+from hyperqn_tools.output import read_checkpoint, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
-from test_cloth_tear import TIGHT, corrected_vs_fresh, frames, masses
+from test_cloth_tear import CLOTH, TIGHT, corrected_vs_fresh, frames, masses
 from test_cut_contact import copy_gaps, shared_rest_positions
 
 SIZE, CELLS = 0.5, 10
@@ -226,6 +226,33 @@ def test_one_blade_cuts_a_block_and_a_curtain(tmp_path, ranks):
         first = frames(ref)[-1]
         assert np.array_equal(first.vertex_id, last.vertex_id)
         assert np.abs(first.points - last.points).max() <= 1e-8 * rest_diagonal(first)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_cuts_of_a_block_and_a_curtain_is_bitwise(tmp_path, ranks):
+    # each step that cuts separates the block's faces (a cut batch) and the curtain's edges (a break
+    # batch); a restart replays them in that order, frame by frame (before 2026-12-07 all the cuts,
+    # then all the breaks: the curtain's vertices then ended up to 1e-2 m from the uninterrupted run's)
+    assert_restart_after_kill_is_bitwise(tmp_path, BOTH, ranks, frames=20, every=12, kill_after=14)
+
+
+# The tearing sheet of test_cloth_tear.py with a blade across its lower part from t = 0.4 s: from
+# frame 26 on a step may both cut edges (the blade's batch) and tear one (the tear's batch).
+CUT_AND_TORN = {**CLOTH, "time": {"dt": 1 / 60, "frames": 36},
+                "cuts": [{"center": [-0.35, 0.0, 0.13], "normal": [0, 0, 1], "axis": [1, 0, 0], "size": [0.6, 0.2],
+                          "frame": "rest", "motion": {"translate": {"velocity": [3, 0, 0]}, "start": 0.4, "end": 0.8}}]}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_cut_and_a_tear_in_one_step_is_bitwise(tmp_path, ranks):
+    # the checkpoint (break_batches) keeps a frame's two batches apart; merged into one (a batch per
+    # frame, before 2026-12-07) the restart made other copies (147 vertices against 148)
+    ref, _ = assert_restart_after_kill_is_bitwise(tmp_path, CUT_AND_TORN, ranks, frames=36, every=30, kill_after=33)
+    header = read_checkpoint(ref / "checkpoints" / "checkpoint_30.h5")
+    frames_of = [int(x) for x in str(header["breaks"]).split()[::3]]
+    sizes = [int(x) for x in str(header["break_batches"]).split()]
+    print("break batches:", len(sizes), "in", len(set(frames_of)), "frames")
+    assert sum(sizes) == len(frames_of) and len(sizes) > len(set(frames_of))  # a frame with two batches before it
 
 
 def pieces_with_tets(frame):
