@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, cuts and cuts_factored (scripted cuts only), breaks and breaks_factored (snapped strands, torn cloth), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts, cuts_factored, cut_batches and cuts_resolved (scripted cuts, fracture), breaks, breaks_factored and break_batches (snapped strands, torn or cut cloth, cut strands), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
