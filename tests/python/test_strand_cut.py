@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import run_deck
-from hyperqn_tools.output import is_empty_piece, piece_files, rest_diagonal
+from hyperqn_tools.output import is_empty_piece, piece_files, read_summary, rest_diagonal
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 from test_cloth_cut import pieces
 from test_cloth_tear import corrected_vs_fresh
@@ -144,3 +144,22 @@ def test_corrected_h0_follows_the_cut(tmp_path):
     found, s = corrected_vs_fresh(tmp_path, {**CUT_ROPE, "solver": {"type": "lbfgs"}})
     assert s["segments_snapped"] == 2 and len(found) == s["h0_corrections"] == 1 and s["refactorizations"] == 0
     assert max(found) <= 1e-12  # measured 1.1e-13 (the issue's bound: 1e-10)
+
+
+# A blade in the plane z = 0.05 sweeping along x through the whole scene: it separates the cube's
+# faces (cut batches) and snaps the second rope's segment across z = 0.05 (a break batch); a restart
+# replays them in the run's order (docs/topology.md#h0-across-a-cut), with L-BFGS (its H0 corrected
+# at 1 rank) as with Newton.
+THROUGH_ALL = {**CUT_ROPE, "cuts": [{"center": [-0.2, 0.0, 0.05], "normal": [0, 0, 1], "axis": [1, 0, 0], "size": [1.0, 0.6],
+                                     "frame": "rest", "motion": {"translate": {"velocity": [6, 0, 0]}, "start": 0.0, "end": 0.5}}]}
+
+
+@pytest.mark.parametrize("solver", ["newton", "lbfgs"])
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_blade_through_tets_and_a_strand_is_bitwise(tmp_path, ranks, solver):
+    deck = {**THROUGH_ALL, "solver": TIGHT if solver == "newton" else {"type": "lbfgs"}}
+    # the rope's segment snaps at the start of frame 7's step, the cube's faces at frames 9's and 10's
+    # (1 rank, Newton): the checkpoint at 10 holds all three batches, a break before two cuts
+    ref, _ = assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks, frames=16, every=10, kill_after=13)
+    s = read_summary(ref)
+    assert s["cuts"]["faces_separated"] > 0 and s["breaks"]["segments_snapped"] == 1
