@@ -174,8 +174,8 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
     std::string sizes;
     for (int64_t n : h.cut_batches) sizes += (sizes.empty() ? "" : " ") + std::to_string(n);
     head.put("cut_batches", sizes);
-    if (h.cuts_resolved) head.put("cuts_resolved", h.cuts_resolved);
   }
+  if (h.cuts_resolved) head.put("cuts_resolved", h.cuts_resolved);
   if (!h.breaks.empty()) {
     std::string breaks;
     for (const auto& b : h.breaks)
@@ -284,8 +284,8 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
       while (sizes >> n) h.cut_batches.push_back(n);
       if (!sizes.eof()) throw std::runtime_error("its header's cut_batches are malformed");
     }
-    h.cuts_resolved = head.has("cuts_resolved") ? head.get_long("cuts_resolved") : 0;
   }
+  h.cuts_resolved = head.has("cuts_resolved") ? head.get_long("cuts_resolved") : 0;
   if (head.has("breaks")) {
     std::istringstream in(head.get("breaks"));
     std::array<int64_t, 3> b;

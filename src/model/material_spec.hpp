@@ -75,6 +75,7 @@ struct ClothSpec {
   double thickness = 0;              // in self-contact: its mid-surfaces keep this much farther apart
   int thickness_line = 0;            // deck line of thickness, when given
   double tear_strain = 0;            // an interior edge tears past this strain across it (0: never)
+  int tear_resolve = 0;              // a step whose converged state tears an edge is solved again, up to this many times
 };
 
 // The deck's cloth: keys (params/deck_keys.hpp).
@@ -144,6 +145,11 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
                         "an interior edge whose strain across (its two triangles' mean stretch perpendicular to it, "
                         "less 1) exceeds this after a step tears",
                         above(0, "a strain, e.g. 0.2")}),
+      {"tear.resolve", &C::tear_resolve,
+       "how many times a step whose converged state tears an edge is solved again, from its start with that edge "
+       "torn, until none is over (one edge each time; 0: it tears at the next step's start, and a crack grows by one "
+       "edge per step; the scene takes its cloths' largest)",
+       at_least(0)},
   };
   return keys;
 }

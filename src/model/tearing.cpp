@@ -43,6 +43,13 @@ bool blades_cut_cloth(const SceneSpec& spec) {
   return cloth && !spec.cuts.empty();
 }
 
+int tear_resolve(const SceneSpec& spec) {
+  int most = spec.bodies.empty() && spec.cloth.tear_strain > 0 ? spec.cloth.tear_resolve : 0;
+  for (const BodySpec& b : spec.bodies)
+    if (b.cloth.tear_strain > 0) most = std::max(most, b.cloth.tear_resolve);
+  return most;
+}
+
 bool blades_cut_strands(const SceneSpec& spec) {
   bool strands = spec.bodies.empty() && spec.mesh.has_strands();
   for (const BodySpec& b : spec.bodies) strands = strands || b.mesh.has_strands();

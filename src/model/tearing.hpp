@@ -30,6 +30,9 @@ std::vector<int64_t> segments_to_snap(MPI_Comm comm, const MeshPiece& piece, con
 // Empty if no cloth of the deck tears.
 std::vector<double> tear_strains(const SceneSpec& spec);
 
+// The largest cloth.tear.resolve of the deck's tearing cloths (0 without).
+int tear_resolve(const SceneSpec& spec);
+
 // Whether the deck's blades (cuts) cut a cloth: its edges they cross separate as torn ones do.
 bool blades_cut_cloth(const SceneSpec& spec);
 // Whether the deck's blades cut strands: the segments they cross snap as overstretched ones do.

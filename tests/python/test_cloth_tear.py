@@ -354,6 +354,64 @@ def test_corrected_h0_follows_tears_that_open(tmp_path):
     assert max(found) <= 1e-13
 
 
+# With cloth.tear.resolve: a step whose converged state has an edge over the threshold is solved
+# again from its start with that edge torn, up to RESOLVE times, so a rip runs several edges a step.
+# 46 frames: the resolved tears come in frames 20-45; after them the two pieces flap, Newton stops at
+# its iteration cap near 1e-8 (linear convergence, the projected Hessian), and ranks part by up to
+# 1.1e-8 of the diagonal (7.6e-9 m at frame 51 of 60).
+RESOLVE = 10
+RESOLVING = {**WITH_ENERGY, "cloth": {**CLOTH["cloth"], "tear": {"strain": TEAR, "resolve": RESOLVE}},
+             "time": {"dt": 1 / 60, "frames": 46}}
+
+
+def torn_per_frame(out):
+    with open(out / "topology.csv") as f:
+        return {int(r["frame"]): int(r["edges_torn"]) for r in csv.DictReader(f)}
+
+
+@pytest.fixture(scope="module")
+def resolving(tmp_path_factory):
+    return run_deck(tmp_path_factory.mktemp("resolving"), "resolving", RESOLVING)
+
+
+def test_a_resolved_step_tears_until_no_edge_is_over(cloth, resolving):
+    out, s = resolving
+    fs, torn = frames(out), torn_per_frame(out)
+    print("edges torn per frame:", {f: n for f, n in torn.items() if n})
+    # the first tear comes in the step whose converged state first has an edge over the threshold,
+    # one frame before the plain sheet's (which tears it at the next step's start)
+    first = min(f for f, n in torn.items() if n)
+    assert first == min(f for f, n in torn_per_frame(cloth[0]).items() if n) - 1
+    assert max(torn.values()) == RESOLVE  # a rip ran RESOLVE edges in one step
+    assert s["breaks"]["edges_torn"] == sum(torn.values()) > cloth[1]["breaks"]["edges_torn"]
+    # a step solved again fewer than RESOLVE times ends with no edge over the threshold
+    # (frame k's row counts the tear at its step's start and the re-solves' edges)
+    for k, f in enumerate(fs):
+        if k > 0 and torn.get(k, 0) < RESOLVE:
+            assert edge_strains(f)[1].max() <= TEAR * (1 + 1e-12), k
+    assert masses(fs[-1]).sum() == pytest.approx(masses(fs[0]).sum(), rel=1e-14)
+    steps, stored = released_per_frame(out)
+    assert steps.min() >= -1e-12 * stored  # no tear adds energy
+
+
+def test_ranks_agree_on_a_resolved_tear(resolving, tmp_path):
+    ref, s1 = resolving
+    out, s2 = run_deck(tmp_path, "resolving", RESOLVING, ranks=2)
+    assert torn_per_frame(ref) == torn_per_frame(out)
+    worst = 0.0
+    for a, b in zip(frames(ref), frames(out)):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        worst = max(worst, np.abs(a.points - b.points).max() / rest_diagonal(a))
+    print(f"1 and 2 ranks apart by at most {worst:.2e} of the diagonal")
+    assert worst <= 1e-8
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_kill_after_resolved_tears_is_bitwise(tmp_path, ranks):
+    # frames 19-24 tear 10, 8, 0, 7, 2 and 2 edges: the checkpoint at 22 holds steps of several batches
+    assert_restart_after_kill_is_bitwise(tmp_path, RESOLVING, ranks, frames=26, every=22, kill_after=24)
+
+
 def bad(**changes):
     deck = copy.deepcopy(CLOTH)
     deck["time"]["frames"] = 2
@@ -372,6 +430,8 @@ BAD_DECKS = {
     "nan_strain": (tear(float("nan")), ["cloth.tear.strain"]),
     "inf_strain": (tear(float("inf")), ["cloth.tear.strain"]),
     "missing_strain": (bad(cloth={**CLOTH["cloth"], "tear": {}}), ["strain"]),
+    "negative_resolve": (bad(cloth={**CLOTH["cloth"], "tear": {"strain": TEAR, "resolve": -1}}), ["cloth.tear.resolve"]),
+    "fractional_resolve": (bad(cloth={**CLOTH["cloth"], "tear": {"strain": TEAR, "resolve": 1.5}}), ["cloth.tear.resolve"]),
     # a torn edge opens by at most a tenth of the least triangle height (0.0354 m) per side
     "too_thick_with_self_contact": (bad(cloth={**CLOTH["cloth"], "thickness": 0.004}, contact={"self": True}),
                                     ["cloth.thickness", "too thick for tearing (or cutting) with self-contact", "0.0035"]),
