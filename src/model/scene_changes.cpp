@@ -487,7 +487,7 @@ PetscErrorCode LiveScene::restore_changes(const std::vector<SeparatedFace>& cuts
                "the checkpoint has torn cloth and the deck's cloth neither tears nor is cut");
   }
   // Each history cut into its batches: by the sizes, within a frame (no sizes: a batch per frame).
-  auto batches_of = [&](const auto& history, const std::vector<int64_t>& sizes, const char* what) {
+  auto batches_of = [&](const auto& history, const std::vector<int64_t>& sizes, const char* what, const char* whole_of) {
     std::vector<std::pair<size_t, size_t>> ranges;
     int64_t total = 0;
     for (int64_t n : sizes) total += n;
@@ -501,11 +501,11 @@ PetscErrorCode LiveScene::restore_changes(const std::vector<SeparatedFace>& cuts
     }
     const bool whole = sizes.empty() || (total == (int64_t)history.size() && ranges.size() == sizes.size() &&
                                          (ranges.empty() || ranges.back().second == history.size()));
-    return std::make_pair(ranges, whole ? std::string() : std::string("the checkpoint's ") + what +
-                                                              " batches do not add up to its " + what + "es");
+    return std::make_pair(ranges, whole ? std::string()
+                                        : std::string("the checkpoint's ") + what + " batches do not add up to its " + whole_of);
   };
-  const auto [cut_ranges, cut_error] = batches_of(cuts, cut_batches, "cut");
-  const auto [break_ranges, break_error] = batches_of(breaks, break_batches, "break");
+  const auto [cut_ranges, cut_error] = batches_of(cuts, cut_batches, "cut", "separated faces");
+  const auto [break_ranges, break_error] = batches_of(breaks, break_batches, "break", "breaks");
   PetscCheck(cut_error.empty() && break_error.empty(), comm_, PETSC_ERR_ARG_WRONG, "%s",
              (cut_error + break_error).c_str());
   PetscCall(event_begin(&LogEvents::topology));

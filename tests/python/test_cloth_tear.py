@@ -189,7 +189,7 @@ def test_a_yielding_cloth_tears_without_adding_energy(yielding):
     assert steps.min() >= -1e-12 * stored
 
 
-@pytest.mark.parametrize("ranks", [2, 4])
+@pytest.mark.parametrize("ranks", [2])  # 4 ranks: the elastic sheet's test below (the suite's time)
 def test_ranks_agree_on_a_yielding_cloth_that_tears(yielding, tmp_path, ranks):
     ref, s1 = yielding
     out, s2 = run_deck(tmp_path, "yielding", YIELDING, ranks=ranks)
@@ -356,12 +356,12 @@ def test_corrected_h0_follows_tears_that_open(tmp_path):
 
 # With cloth.tear.resolve: a step whose converged state has an edge over the threshold is solved
 # again from its start with that edge torn, up to RESOLVE times, so a rip runs several edges a step.
-# 46 frames: the resolved tears come in frames 20-45; after them the two pieces flap, Newton stops at
-# its iteration cap near 1e-8 (linear convergence, the projected Hessian), and ranks part by up to
-# 1.1e-8 of the diagonal (7.6e-9 m at frame 51 of 60).
+# 34 frames: the rip's re-solves come in frames 20-32 (10, 8, 7, 2, 2, 2 and 9 edges); later the two
+# pieces flap, Newton stops at its iteration cap near 1e-8 (linear convergence, the projected
+# Hessian), and ranks part by up to 1.1e-8 of the diagonal (7.6e-9 m at frame 51 of 60).
 RESOLVE = 10
 RESOLVING = {**WITH_ENERGY, "cloth": {**CLOTH["cloth"], "tear": {"strain": TEAR, "resolve": RESOLVE}},
-             "time": {"dt": 1 / 60, "frames": 46}}
+             "time": {"dt": 1 / 60, "frames": 34}}
 
 
 def torn_per_frame(out):
