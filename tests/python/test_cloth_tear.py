@@ -16,7 +16,7 @@ import pytest
 
 from conftest import event_count, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.intersections import check_run
-from hyperqn_tools.output import Frame, frame_list, read_checkpoint, read_summary, rest_diagonal
+from hyperqn_tools.output import Frame, final_frame, frame_list, read_checkpoint, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 from test_cut_contact import shared_rest_positions
@@ -410,6 +410,36 @@ def test_ranks_agree_on_a_resolved_tear(resolving, tmp_path):
 def test_restart_after_kill_after_resolved_tears_is_bitwise(tmp_path, ranks):
     # frames 19-24 tear 10, 8, 0, 7, 2 and 2 edges: the checkpoint at 22 holds steps of several batches
     assert_restart_after_kill_is_bitwise(tmp_path, RESOLVING, ranks, frames=26, every=22, kill_after=24)
+
+
+def test_restart_after_a_signal_during_a_tear_re_solve(tmp_path):
+    # As fracture's (test_fracture_resolve.py): a signal in the last re-solve of a step that used up
+    # its re-solves; the checkpoint of the frame before holds the tears so far and the re-solves made
+    # (cuts_resolved), and the restart redoes that solve: the same positions, velocities and topology.csv.
+    from test_fracture_resolve import solve_lengths  # here: test_topology_csv, which it imports, imports this module
+
+    # L-BFGS: its solves end at their own counts (Newton's here all run to the 50-iteration cap), so
+    # the last one can be told from the others by its length
+    path = write_deck(tmp_path / "resolving.yaml", {**RESOLVING, "solver": {"type": "lbfgs"}})
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=None)
+    torn = torn_per_frame(ref)
+    frame = min(f for f, n in torn.items() if n == RESOLVE)  # RESOLVE re-solves: RESOLVE + 1 solves
+    lengths = solve_lengths(ref, frame)
+    # the signal fires in the first solve that reaches its iteration: the latest re-solve longer than
+    # every solve before it (a restart that counted the re-solves anew would make more than RESOLVE)
+    k = max(j for j in range(1, len(lengths)) if lengths[j] > max(lengths[:j]))
+    print("solves of frame", frame, lengths, "signal in solve", k)
+    assert len(lengths) == RESOLVE + 1 and k >= 2, lengths
+    out = tmp_path / "out"
+    done = run_hyperqn([path, "-o", out, "-hyperqn_test_signal_in_frame", frame,
+                        "-hyperqn_test_signal_at_iteration", max(lengths[:k]) + 1], ranks=None, check=False)
+    assert done.returncode == 3, done.stdout[-2000:]
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=None)
+    a, b = final_frame(ref), final_frame(out)
+    assert np.array_equal(a.vertex_id, b.vertex_id)
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.velocity, b.velocity)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
 
 
 def bad(**changes):
