@@ -284,6 +284,7 @@ class LiveScene {
     std::vector<std::array<int64_t, 3>> breaks;
   };
   std::vector<Replay> replay_;
+  void replay(const Replay& r);  // one batch on the kept pieces, as the run made it
   // In a deck with cuts, fracture, snapping strands or tearing cloth, -hyperqn_topology_h0 (default
   // true: constant matrices follow cuts and breaks by corrections where they can; false: factored
   // again at every change) and its test hooks (TopologyCheck). Without them false: no TopologyH0

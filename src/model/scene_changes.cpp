@@ -90,14 +90,7 @@ PetscErrorCode LiveScene::restore_released(const std::vector<char>& regions, con
   if (replay_.empty()) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   for (const Replay& r : replay_) {
-    if (r.breaks.empty()) {
-      separate(r.frame, r.faces, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
-    } else {
-      std::vector<int64_t> segments;
-      std::vector<TrianglePair> edges;
-      split_breaks(r.breaks, segments, edges);
-      snap(r.frame, segments, edges);
-    }
+    replay(r);
     std::unique_ptr<Scene> fresh;
     PetscCall(rebuild(regions, attachments, fresh, scene_.get()));
     scene_ = std::move(fresh);
@@ -472,6 +465,19 @@ void LiveScene::split_breaks(const std::vector<Break>& batch, std::vector<int64_
   }
 }
 
+// A batch of a checkpoint's history on the kept pieces: a cut's faces (the opening's rest part; its
+// positions are the checkpoint's) or a break batch.
+void LiveScene::replay(const Replay& r) {
+  if (r.breaks.empty()) {
+    separate(r.frame, r.faces, {nullptr, opening_width_});
+    return;
+  }
+  std::vector<int64_t> segments;
+  std::vector<TrianglePair> edges;
+  split_breaks(r.breaks, segments, edges);
+  snap(r.frame, segments, edges);
+}
+
 PetscErrorCode LiveScene::restore_changes(const std::vector<SeparatedFace>& cuts, long long cuts_factored,
                                           const std::vector<int64_t>& cut_batches, const std::vector<Break>& breaks,
                                           long long breaks_factored, const std::vector<int64_t>& break_batches) {
@@ -531,14 +537,7 @@ PetscErrorCode LiveScene::restore_changes(const std::vector<SeparatedFace>& cuts
       replay_.push_back(std::move(r));
       continue;
     }
-    if (cut) {
-      separate(r.frame, r.faces, {nullptr, opening_width_});  // the opening's rest part; its positions are the checkpoint's
-    } else {
-      std::vector<int64_t> segments;
-      std::vector<TrianglePair> edges;
-      split_breaks(r.breaks, segments, edges);
-      snap(r.frame, segments, edges);
-    }
+    replay(r);
     kept_changed_ = true;
   }
   factored_batches_ = cuts_factored < 0 ? (long long)c : std::min<long long>(cuts_factored, c);
