@@ -106,25 +106,26 @@ PetscErrorCode TimeLoop::run(int last_frame) {
   PetscFunctionReturn(0);
 }
 
-// Re-solves (docs/topology.md#fracture, docs/snapping.md#tearing-cloth): while the step's converged
-// state breaks faces or tears an edge (LiveScene::resolve_breaks, at most material.fracture.resolve
-// or cloth.tear.resolve times), the step is undone, they separate at its start and it is solved again; the frame's solve counts every solve's
-// iterations, evaluations and time.
+// Re-solves (docs/topology.md#fracture, docs/snapping.md): while the step's converged state breaks
+// faces, snaps a segment or tears an edge (LiveScene::resolve_breaks, at most material.fracture.resolve,
+// strand_material.snap.resolve or cloth.tear.resolve times), the step is undone, they separate at its
+// start and it is solved again; the frame's solve counts every solve's iterations, evaluations and time.
 PetscErrorCode TimeLoop::resolve_after_breaks(int frame, double time, const std::vector<State*>& carried,
                                               const LiveScene::Rebind& rebind, FrameStep& lead) {
   PetscFunctionBeginUser;
   if (scene_.resolves() == 0) PetscFunctionReturn(0);
   std::vector<TetPair> batch;
+  std::vector<int64_t> segments;
   std::vector<std::array<int64_t, 2>> edges;
   while (lead.stop.empty() && !lead.solve.interrupted) {
-    PetscCall(scene_.resolve_breaks(lead_, batch, edges));
-    if (batch.empty() && edges.empty()) break;
+    PetscCall(scene_.resolve_breaks(lead_, batch, segments, edges));
+    if (batch.empty() && segments.empty() && edges.empty()) break;
     lead_.frame = frame - 1;  // back at the step's start
     lead_.time = time;
     PetscCall(scene_.current().step->lifecycle().undo(lead_));
     PetscCall(event_begin(&LogEvents::topology));
     if (!batch.empty()) PetscCall(scene_.separate_due(batch, lead_, carried, rebind));
-    if (!edges.empty()) PetscCall(scene_.tear_due(edges, lead_, carried, rebind));
+    if (!segments.empty() || !edges.empty()) PetscCall(scene_.break_due(segments, edges, lead_, carried, rebind));
     PetscCall(event_end(&LogEvents::topology));
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
     const StepSolve before = lead.solve;

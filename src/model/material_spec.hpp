@@ -21,6 +21,7 @@ struct StrandMaterial {
   double laplacian_weight = 0;       // 0: EA builds L (exact); > 0: this value in its place
   SpringYield yield;                 // the segments' rest lengths flow past it (strain 0: elastic)
   double snap_strain = 0;            // a segment snaps past this strain l/L - 1 (0: never)
+  int snap_resolve = 0;              // a step whose converged state snaps a segment is solved again, up to this many times
 };
 
 // The deck's strand_material: keys (params/deck_keys.hpp).
@@ -49,6 +50,11 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
       needed(DeckKey<S>{"snap.strain", &S::snap_strain,
                         "a segment whose strain l/L − 1 (L its rest length) exceeds this after a step snaps",
                         above(0, "a strain, e.g. 0.2")}),
+      {"snap.resolve", &S::snap_resolve,
+       "how many times a step whose converged state snaps a segment is solved again, from its start with that segment "
+       "snapped, until none is over (one segment each time; 0: it snaps at the next step's start; the scene takes its "
+       "strands' largest)",
+       at_least(0)},
   };
   return keys;
 }

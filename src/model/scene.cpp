@@ -453,6 +453,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   snap_strains_ = snap_strains(spec);
   tear_strains_ = tear_strains(spec);
   tear_resolve_ = tear_resolve(spec);
+  snap_resolve_ = snap_resolve(spec);
   cuts_cloth_ = blades_cut_cloth(spec);
   cuts_strands_ = blades_cut_strands(spec);
   const bool breaks = separates || !snap_strains_.empty() || !tear_strains_.empty();

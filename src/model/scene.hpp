@@ -2,6 +2,7 @@
 // energy terms, the integrator and (when a solver needs it) the factored M + h^2 L. Shared by the
 // simulation and the study.
 #pragma once
+#include <algorithm>
 #include <functional>
 #include <array>
 #include <map>
@@ -140,17 +141,19 @@ class LiveScene {
   const std::vector<SeparatedFace>& cut_history() const { return history_; }
   // The faces of each batch of cut_history, in order (a frame may have several: fracture's re-solves).
   const std::vector<int64_t>& cut_batches() const { return batch_sizes_; }
-  // Re-solves (material.fracture.resolve, docs/topology.md#fracture; cloth.tear.resolve,
-  // docs/snapping.md#tearing-cloth): called after main's step to frame n + 1 has ended, the faces its
-  // converged state breaks and the edge it tears (none once the step has been solved again that
-  // many times), which the caller separates (separate_due, tear_due, at the step's start) before it
-  // solves the step again. Collective.
-  int resolves() const { return std::max(fracture_resolve_, tear_resolve_); }
-  PetscErrorCode resolve_breaks(const State& main, std::vector<TetPair>& batch, std::vector<std::array<int64_t, 2>>& edges);
-  // The cloth edges `edges` tear at main's positions (a break batch, as snap_due's), the scene
-  // rebuilt and the states carried. The caller has begun the topology log event. Collective.
-  PetscErrorCode tear_due(const std::vector<std::array<int64_t, 2>>& edges, State& main, const std::vector<State*>& others,
-                          const Rebind& rebind);
+  // Re-solves (material.fracture.resolve, docs/topology.md#fracture; cloth.tear.resolve and
+  // strand_material.snap.resolve, docs/snapping.md): called after main's step to frame n + 1 has
+  // ended, the faces its converged state breaks, the segment it snaps and the edge it tears (none
+  // once the step has been solved again that many times), which the caller separates (separate_due,
+  // break_due, at the step's start) before it solves the step again. Collective.
+  int resolves() const { return std::max({fracture_resolve_, tear_resolve_, snap_resolve_}); }
+  PetscErrorCode resolve_breaks(const State& main, std::vector<TetPair>& batch, std::vector<int64_t>& segments,
+                                std::vector<std::array<int64_t, 2>>& edges);
+  // The strand segments `segments` snap and the cloth edges `edges` tear at main's positions (one
+  // break batch, as snap_due's), the scene rebuilt and the states carried. The caller has begun the
+  // topology log event. Collective.
+  PetscErrorCode break_due(const std::vector<int64_t>& segments, const std::vector<std::array<int64_t, 2>>& edges,
+                           State& main, const std::vector<State*>& others, const Rebind& rebind);
   // The re-solves of the step after frame `frame` so far (a checkpoint of `frame` whose next frame
   // a signal gave up after re-solves: header key cuts_resolved); restore_resolved sets them.
   int resolved_after(int64_t frame) const { return resolved_.first == frame ? resolved_.second : 0; }
@@ -269,6 +272,7 @@ class LiveScene {
   std::vector<int64_t> batch_sizes_;  // of history_'s batches
   int fracture_resolve_ = 0;          // the largest material.fracture.resolve
   int tear_resolve_ = 0;              // the largest cloth.tear.resolve
+  int snap_resolve_ = 0;              // the largest strand_material.snap.resolve
   std::pair<int64_t, int> resolved_{-1, 0};  // (frame n, the step to n + 1's re-solves so far)
   std::set<TetPair> separated_;
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture

@@ -196,36 +196,39 @@ SeparationResult LiveScene::separate(int64_t frame, const std::vector<TetPair>& 
   return r;
 }
 
-PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch,
+PetscErrorCode LiveScene::resolve_breaks(const State& main, std::vector<TetPair>& batch, std::vector<int64_t>& segments,
                                          std::vector<std::array<int64_t, 2>>& edges) {
   PetscFunctionBeginUser;
   batch.clear();
+  segments.clear();
   edges.clear();
   if (resolved_.first != main.frame - 1) resolved_ = {main.frame - 1, 0};
-  const bool faces = resolved_.second < fracture_resolve_, tears = resolved_.second < tear_resolve_;
-  if (!faces && !tears) PetscFunctionReturn(0);
+  const bool faces = resolved_.second < fracture_resolve_, tears = resolved_.second < tear_resolve_,
+             snaps = resolved_.second < snap_resolve_;
+  if (!faces && !tears && !snaps) PetscFunctionReturn(0);
   PetscCall(event_begin(&LogEvents::topology));
   if (faces) {
     if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));
     PetscCall(overloaded_faces(comm_, scene_->mesh, *scene_->fracture_faces, *scene_->body, main.x, fracture_, separated_, batch));
   }
-  if (tears) {  // the edge most over its threshold, as snap_due would tear at the next step's start
+  if (tears || snaps) {  // the segment and the edge most over their thresholds, as snap_due would break at the next step's start
     std::vector<double> pos;
     PetscCall(scene_->body->local_positions(main.x, pos));
-    edges = edges_to_tear(comm_, kept_.piece, pos, tear_strains_, kept_.vertex_body);
+    if (snaps) segments = segments_to_snap(comm_, kept_.piece, pos, snap_strains_, snapped_);
+    if (tears) edges = edges_to_tear(comm_, kept_.piece, pos, tear_strains_, kept_.vertex_body);
   }
   PetscCall(event_end(&LogEvents::topology));
-  if (!batch.empty() || !edges.empty()) ++resolved_.second;
+  if (!batch.empty() || !segments.empty() || !edges.empty()) ++resolved_.second;
   note_broken(main.frame - 1, (long long)batch.size());
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode LiveScene::tear_due(const std::vector<std::array<int64_t, 2>>& edges, State& main,
-                                   const std::vector<State*>& others, const Rebind& rebind) {
+PetscErrorCode LiveScene::break_due(const std::vector<int64_t>& segments, const std::vector<std::array<int64_t, 2>>& edges,
+                                    State& main, const std::vector<State*>& others, const Rebind& rebind) {
   PetscFunctionBeginUser;
   std::vector<double> pos;
   PetscCall(scene_->body->local_positions(main.x, pos));
-  PetscCall(break_apart({}, edges, pos, main, others, rebind, false));
+  PetscCall(break_apart(segments, edges, pos, main, others, rebind, false));
   PetscFunctionReturn(0);
 }
 

@@ -50,6 +50,13 @@ int tear_resolve(const SceneSpec& spec) {
   return most;
 }
 
+int snap_resolve(const SceneSpec& spec) {
+  int most = spec.bodies.empty() && spec.strand_material.snap_strain > 0 ? spec.strand_material.snap_resolve : 0;
+  for (const BodySpec& b : spec.bodies)
+    if (b.strand_material.snap_strain > 0) most = std::max(most, b.strand_material.snap_resolve);
+  return most;
+}
+
 bool blades_cut_strands(const SceneSpec& spec) {
   bool strands = spec.bodies.empty() && spec.mesh.has_strands();
   for (const BodySpec& b : spec.bodies) strands = strands || b.mesh.has_strands();

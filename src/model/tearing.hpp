@@ -32,6 +32,8 @@ std::vector<double> tear_strains(const SceneSpec& spec);
 
 // The largest cloth.tear.resolve of the deck's tearing cloths (0 without).
 int tear_resolve(const SceneSpec& spec);
+// The largest strand_material.snap.resolve of the deck's snapping strands (0 without).
+int snap_resolve(const SceneSpec& spec);
 
 // Whether the deck's blades (cuts) cut a cloth: its edges they cross separate as torn ones do.
 bool blades_cut_cloth(const SceneSpec& spec);

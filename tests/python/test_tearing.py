@@ -267,6 +267,10 @@ BAD_DECKS = {
     "nan_strain": (snap(float("nan")), ["strand_material.snap.strain"]),
     "inf_strain": (snap(float("inf")), ["strand_material.snap.strain"]),
     "missing_strain": (bad(strand_material={**ROPE["strand_material"], "snap": {}}), ["strain"]),
+    "negative_resolve": (bad(strand_material={**ROPE["strand_material"], "snap": {"strain": SNAP, "resolve": -1}}),
+                         ["strand_material.snap.resolve"]),
+    "fractional_resolve": (bad(strand_material={**ROPE["strand_material"], "snap": {"strain": SNAP, "resolve": 0.5}}),
+                           ["strand_material.snap.resolve"]),
 }
 
 
@@ -274,3 +278,72 @@ BAD_DECKS = {
 def test_bad_snap_deck_is_refused(tmp_path, case):
     deck, fragments = BAD_DECKS[case]
     assert_deck_refused(tmp_path, case, deck, fragments)
+
+
+# strand_material.snap.resolve: a step whose converged state has a segment over the threshold is
+# solved again from its start with that segment snapped, up to N times. A cube (8.8 kg) hanging from
+# two vertical ropes, released at their rest length: the first stretch overshoots the static strain
+# (0.043 each) towards twice it; the ropes are symmetric, so both pass 0.06 in one step, and once one
+# has snapped the other holds the whole weight (0.086 statically): over again.
+PAIR = {**ROPE,
+        "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [2, 2, 2]}, "transform": {"translate": [-0.1, -1.2, -0.1]},
+                 "strands": [{"from": [-0.1, 0, 0], "to": [-0.1, -1, 0], "segments": 10},
+                             {"from": [0.1, 0, 0], "to": [0.1, -1, 0], "segments": 10}]},
+        "fixed": [{"box": {"min": [-0.11, -0.01, -0.01], "max": [-0.09, 0.01, 0.01]}},
+                  {"box": {"min": [0.09, -0.01, -0.01], "max": [0.11, 0.01, 0.01]}}],
+        "time": {"dt": 1 / 60, "frames": 14}}
+PAIR_SNAP = 0.06
+
+
+def pair(resolve):
+    return {**PAIR, "strand_material": {**ROPE["strand_material"], "snap": {"strain": PAIR_SNAP, "resolve": resolve}}}
+
+
+def added_per_frame(out):
+    counts = [len(f.points) for f in frames(out)]
+    return [c - counts[0] for c in counts]
+
+
+@pytest.fixture(scope="module")
+def resolving_pair(tmp_path_factory):
+    return run_deck(tmp_path_factory.mktemp("pair"), "pair", pair(2))
+
+
+def test_a_resolved_step_snaps_until_no_segment_is_over(resolving_pair, tmp_path):
+    out, s = resolving_pair
+    plain, _ = run_deck(tmp_path, "plain", pair(0))
+    once, _ = run_deck(tmp_path, "once", pair(1))
+    over = [strains(f).max() > PAIR_SNAP for f in frames(plain)]
+    first = over.index(True)  # the plain run's first frame with a segment over: it snaps at the next step's start
+    print("vertices added per frame, resolve 0/1/2:", added_per_frame(plain), added_per_frame(once), added_per_frame(out))
+    assert added_per_frame(plain)[first] == 0 and added_per_frame(plain)[first + 1] == 1
+    assert added_per_frame(plain)[first + 2] == 2  # the other rope, one step later
+    # resolve 2: both ropes snap in the step that first went over, one segment per re-solve
+    assert added_per_frame(out)[first - 1] == 0 and added_per_frame(out)[first] == 2
+    assert s["breaks"]["segments_snapped"] == 2 and s["breaks"]["refactorizations"] + s["breaks"]["h0_corrections"] == 2
+    # after a step with fewer re-solves than allowed no segment is over; resolve 1 leaves the second
+    # rope over at the end of that step (written), and it snaps at the next step's start
+    assert all(strains(f).max() <= PAIR_SNAP for f in frames(out))
+    assert added_per_frame(once)[first] == 1 and added_per_frame(once)[first + 1] == 2
+    assert strains(frames(once)[first]).max() > PAIR_SNAP
+    # the frame's solve counts every solve's iterations
+    rows = [r for r in read_iterations(out) if int(r["frame"]) == first]
+    assert len({int(r["iteration"]) for r in rows}) < len(rows)  # the step solved three times over
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_ranks_agree_on_a_resolved_snap(resolving_pair, tmp_path, ranks):
+    ref, s1 = resolving_pair
+    out, s2 = run_deck(tmp_path, "pair", pair(2), ranks=ranks)
+    assert added_per_frame(ref) == added_per_frame(out)
+    for a, b in zip(frames(ref), frames(out)):
+        assert np.array_equal(a.vertex_id, b.vertex_id)
+        assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_kill_after_resolved_snaps_is_bitwise(tmp_path, ranks):
+    from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
+
+    # frame 9's step snaps both ropes (two batches); the checkpoint of 10 holds them, the kill comes after 12
+    assert_restart_after_kill_is_bitwise(tmp_path, pair(2), ranks, frames=14, every=10, kill_after=12)
