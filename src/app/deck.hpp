@@ -86,7 +86,7 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
       {"fields", &OutputSpec::fields,
        "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
        "elements a field is of ([outputs.md](outputs.md#element-fields))",
-       {}, element_field_names()},
+       {}, element_field_names(), "", "none (leave the key out)"},
       enum_key<OutputSpec>("field_precision", &OutputSpec::field_precision, kFieldPrecisionNames,
        "how the values of `fields` are written: `double` as computed, `single` rounded to 32-bit floats (half the "
        "bytes, about 7 significant digits; the frames' positions and other arrays stay double; "

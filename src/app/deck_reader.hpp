@@ -94,10 +94,13 @@ class Reader {
       fail(v, "expected an integer, got " + describe(v.node));
     return x;
   }
+  // YAML 1.2's booleans (true, True, TRUE, false, ...): not 1.1's y, yes, on, no, off, which yaml-cpp
+  // would take too (docs/decks.md: a bool is true or false).
   bool boolean(const Value& v) const {
     bool b = false;
-    if (!plain_scalar(v.node) || !YAML::convert<bool>::decode(v.node, b))
-      fail(v, "expected true or false, got " + describe(v.node));
+    const std::string s = plain_scalar(v.node) ? v.node.Scalar() : std::string();
+    const bool word = s == "true" || s == "True" || s == "TRUE" || s == "false" || s == "False" || s == "FALSE";
+    if (!word || !YAML::convert<bool>::decode(v.node, b)) fail(v, "expected true or false, got " + describe(v.node));
     return b;
   }
   std::string text(const Value& v) const {

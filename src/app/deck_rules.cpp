@@ -3,6 +3,12 @@
 // sections have been read.
 #include "app/deck_rules.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "geometry/motion.hpp"
+
 namespace hyperqn::deck_reading {
 
 bool has_contact(const Deck& deck) { return !deck.colliders.empty() || deck.contact.self; }
@@ -83,22 +89,53 @@ void check_cuts(const Reader& r, const Value& cuts, const Deck& deck) {
       r.fail(deck.cuts[k].line, "cuts[" + std::to_string(k) + "].remove",
              std::string("a blade removes tets, and the deck has ") + (cloth ? "a cloth, whose triangles" : "strands, whose segments") +
                  " it does not remove: leave out remove");
+  // A turning blade's sweep is sampled every degree of its turn in a step (geometry/blade.hpp): past
+  // a whole turn a step it sweeps its full circle whatever the rate, in millions of samples.
+  const std::vector<Value> items = r.items(cuts);
+  for (size_t k = 0; k < deck.cuts.size() && k < items.size(); ++k) {
+    const Motion& m = deck.cuts[k].motion;
+    if (!m.active || m.rate_deg == 0) continue;
+    const double h = deck.time.dt, rate = std::fabs(m.rate_deg);
+    double most = rate * std::min(h, m.end - m.start);  // degrees in one step
+    if (m.curve.given) {
+      most = 0;
+      for (int f = 0; f < deck.time.frames && most <= 360; ++f)
+        most = std::max(most, rate * std::fabs(motion_progress(m, (f + 1) * h) - motion_progress(m, f * h)));
+    }
+    if (most <= 360) continue;
+    int line = deck.cuts[k].line;  // the rate's own line (its Sections alive while read)
+    const Section cut(r, items[k], {});
+    if (const Value* motion = cut.find("motion")) {
+      const Section moves(r, *motion, {});
+      if (const Value* rotate = moves.find("rotate")) {
+        const Section turn(r, *rotate, {});
+        if (const Value* rate = turn.find("rate")) line = rate->line;
+      }
+    }
+    char degrees[32];
+    std::snprintf(degrees, sizeof degrees, "%.4g", most);
+    r.fail(line, "cuts[" + std::to_string(k) + "].motion.rotate.rate",
+           std::string("the blade turns up to ") + degrees + " degrees in one step of time.dt; at most 360 (a whole turn a "
+           "step sweeps the blade's full circle): a smaller rate or time.dt");
+  }
 }
 
 // Materials with fracture (material.fracture, docs/topology.md#fracture): their faces separate as
 // cuts' do (with self-contact they open as a cut's crack does), so the same scenes are refused.
 void check_fracture(const Reader& r, const Deck& deck) {
-  std::vector<const MaterialSpec*> materials{&deck.material};
-  for (const MaterialRegion& region : deck.regions) materials.push_back(&region.material);
-  for (const BodySpec& b : deck.bodies) materials.push_back(&b.material);
-  for (const MaterialSpec* m : materials) {
+  std::vector<std::pair<const MaterialSpec*, std::string>> materials;
+  if (deck.bodies.empty()) materials.push_back({&deck.material, "material.fracture"});
+  for (size_t k = 0; k < deck.regions.size(); ++k)
+    materials.push_back({&deck.regions[k].material, "regions[" + std::to_string(k) + "].material.fracture"});
+  for (size_t k = 0; k < deck.bodies.size(); ++k)
+    materials.push_back({&deck.bodies[k].material, "bodies[" + std::to_string(k) + "].material.fracture"});
+  for (const auto& [m, key] : materials) {
     if (!m->fracture.given) continue;
-    const int line = m->fracture.line;
     bool others = deck.bodies.empty() && (deck.mesh.has_strands() || deck.mesh.has_cloth());
     for (const BodySpec& b : deck.bodies) others = others || b.mesh.has_strands() || b.mesh.has_cloth();
     if (others)
-      r.fail(line, "material.fracture", "fracture acts on meshes of tets alone for now: the mesh also has strands or a cloth "
-                               "(docs/topology.md#fracture)");
+      r.fail(m->fracture.line, key, "fracture acts on meshes of tets alone for now: the deck also has strands or a cloth "
+                                    "(docs/topology.md#fracture)");
   }
 }
 

@@ -121,11 +121,19 @@ CommandLine parse_command_line(int argc, char** argv) {
       cl.help = true;
     } else if (a == "-o") {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs a directory");
+      if (!cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "given twice (" + cl.outdir + ", " + argv[i + 1] + ")");
       cl.outdir = argv[++i];
     } else if (a == "--restart") {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
+      if (!cl.restart.empty())
+        throw hyperqn::InputError("", 0, "--restart", "given twice (" + cl.restart + ", " + argv[i + 1] + ")");
       cl.restart = argv[++i];
-    } else if (a[0] != '-' && cl.deck.empty() && (i == first || argv[i - 1][0] != '-' || std::strcmp(argv[i - 1], "-o") == 0)) {
+    } else if (a.empty() || a[0] != '-') {
+      // The deck, or the value of the PETSc option before it; any other word would be dropped unsaid.
+      if (i > first && argv[i - 1][0] == '-' && argv[i - 1][1] != '\0') continue;
+      if (!cl.deck.empty())
+        throw hyperqn::InputError("", 0, "", "unexpected argument '" + a + "': the deck is " + cl.deck +
+                                                 " (one deck a run; options start with -)\n" + std::string(usage));
       cl.deck = a;
     }
   }

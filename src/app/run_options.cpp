@@ -31,8 +31,21 @@ static constexpr int kH0PackageCount = 5;
   throw InputError(std::string("option ") + name + " " + value + ": " + why);
 }
 
+// The options parse_run_options reads as numbers: given without a value, PETSc would keep the
+// default and say nothing.
+static const char* const kNumericOptions[] = {
+    "-hyperqn_divergence_limit",         "-hyperqn_element_limit",           "-hyperqn_test_nan_energy_beyond",
+    "-hyperqn_test_nan_energy_from_step", "-hyperqn_test_kill_after_frame",  "-hyperqn_test_signal_after_frame",
+    "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds"};
+
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
+  for (const char* name : kNumericOptions) {
+    char value[8] = "";
+    PetscBool set = PETSC_FALSE;
+    PetscCall(PetscOptionsGetString(nullptr, nullptr, name, value, sizeof value, &set));
+    if (set && value[0] == '\0') refuse(deck, name, "needs a value (a number)");
+  }
   {  // checked first, for a message that names the choices (PETSc's would not)
     char value[64] = "";
     PetscBool set = PETSC_FALSE, known = PETSC_FALSE;
@@ -74,32 +87,32 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
 PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, nullptr, "hyperqn options", "hyperqn");
-  PetscCall(PetscOptionsReal("-hyperqn_divergence_limit",
+  PetscCall(PetscOptionsReal(kNumericOptions[0],
                              "Stop the run when an element edge is longer than this many rest bounding-box diagonals "
                              "(<= 0: never)", "docs/guardrails.md", o->divergence_limit, &o->divergence_limit, nullptr));
-  PetscCall(PetscOptionsReal("-hyperqn_element_limit",
+  PetscCall(PetscOptionsReal(kNumericOptions[1],
                              "Stop the run when an element's |det F| exceeds this (<= 0: never)", "docs/guardrails.md",
                              o->element_limit, &o->element_limit, nullptr));
-  PetscCall(PetscOptionsReal("-hyperqn_test_nan_energy_beyond",
+  PetscCall(PetscOptionsReal(kNumericOptions[2],
                              "Tests only: g = NaN where ||x - y||_inf exceeds this distance (< 0: off)",
                              "terms/nan_injection.hpp", o->nan_beyond, &o->nan_beyond, nullptr));
-  PetscCall(PetscOptionsInt("-hyperqn_test_nan_energy_from_step",
+  PetscCall(PetscOptionsInt(kNumericOptions[3],
                             "Tests only: g = NaN everywhere from this time step of a scene on (< 0: off)",
                             "terms/nan_injection.hpp", o->nan_from_step, &o->nan_from_step, nullptr));
-  PetscCall(PetscOptionsInt("-hyperqn_test_kill_after_frame",
+  PetscCall(PetscOptionsInt(kNumericOptions[4],
                             "Tests only: every rank kills itself (SIGKILL) once this frame is done (< 0: off)",
                             "docs/outputs.md", o->kill_after_frame, &o->kill_after_frame, nullptr));
-  PetscCall(PetscOptionsInt("-hyperqn_test_signal_after_frame",
+  PetscCall(PetscOptionsInt(kNumericOptions[5],
                             "Tests only: every rank sends itself SIGTERM after this frame (0: during setup; < 0: off)",
                             "docs/outputs.md", o->signal_after_frame, &o->signal_after_frame, nullptr));
-  PetscCall(PetscOptionsInt("-hyperqn_test_signal_in_frame",
+  PetscCall(PetscOptionsInt(kNumericOptions[6],
                             "Tests only: the last rank sends itself SIGTERM during this frame's solve (< 0: off)",
                             "docs/outputs.md", o->signal_in_frame, &o->signal_in_frame, nullptr));
-  PetscCall(PetscOptionsInt("-hyperqn_test_signal_at_iteration",
+  PetscCall(PetscOptionsInt(kNumericOptions[7],
                             "Tests only: with -hyperqn_test_signal_in_frame, after this many iterations of that frame "
                             "(every stage of the fallback chain counted)",
                             "docs/outputs.md", o->signal_at_iteration, &o->signal_at_iteration, nullptr));
-  PetscCall(PetscOptionsReal("-hyperqn_progress_seconds",
+  PetscCall(PetscOptionsReal(kNumericOptions[8],
                              "A frame whose solve has run this many seconds prints a progress line (iteration, g, "
                              "|grad g|), and again every as many seconds (<= 0: never)",
                              "docs/outputs.md", o->progress_seconds, &o->progress_seconds, nullptr));

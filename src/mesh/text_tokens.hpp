@@ -15,7 +15,15 @@ struct Token {
   const char* begin = nullptr;
   const char* end = nullptr;
   int line = 0;
-  std::string str() const { return std::string(begin, end); }
+  // The token as messages quote it: a control character as '?', and past 64 characters cut with "...",
+  // so that a binary or hostile file cannot write escapes or megabytes to the terminal.
+  std::string str() const {
+    constexpr std::ptrdiff_t kShown = 64;
+    std::string s(begin, end - begin > kShown ? begin + kShown : end);
+    for (char& c : s)
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    return end - begin > kShown ? s + "..." : s;
+  }
   bool is(const char* s) const {
     const size_t n = std::strlen(s);
     return size_t(end - begin) == n && std::memcmp(begin, s, n) == 0;

@@ -4,6 +4,7 @@ import copy
 import os
 
 import pytest
+from pathlib import Path
 
 from conftest import run_hyperqn, write_deck
 
@@ -44,6 +45,11 @@ BAD_MESHES = {
     "triangle_index": (TWELVE + "Triangles\n2\n1 2 3 0\n1 2 999 0\nEnd\n",
                        ["triangle_index.mesh:23: 'Triangles'", "index 999", "1..12"]),
     "edge_index": (TWELVE + "Edges\n1\n13 1 0\nEnd\n", ["edge_index.mesh:22: 'Edges'", "index 13", "1..12"]),
+    # a file's bytes are quoted without control characters (a terminal's escapes) and cut at 64
+    "escape_keyword": ("MeshVersionFormatted 1\nDimension 3\n\x1b[31mRED\x1b[0m\n",
+                       ["escape_keyword.mesh:3", "unknown keyword '?[31mRED?[0m'"]),
+    "long_keyword": ("MeshVersionFormatted 1\nDimension 3\n" + "A" * 200000 + "\n",
+                     ["long_keyword.mesh:3", "unknown keyword '" + "A" * 64 + "...'"]),
 }
 
 
@@ -429,3 +435,38 @@ def test_missing_mesh_file_gives_the_resolved_path(tmp_path, monkeypatch):
     full = os.path.join(os.getcwd(), "meshes", "bar.mesh")
     assert_clean_failure(proc, tmp_path / "out", [f"sub/deck.yaml:1: 'mesh.file': file not found: '{full}' "
                                                   "(the deck's '../meshes/bar.mesh', relative to the deck's directory)"])
+
+
+@pytest.mark.parametrize("word", ["yes", "on", "no", "off", "y"])
+def test_yaml_1_1_booleans_are_refused(tmp_path, word):
+    # docs/decks.md: a bool is true or false (True, FALSE too); yaml-cpp alone would take these
+    path = Path(write_deck(tmp_path / f"{word}.yaml", deck_with(**{"output.reactions": "BOOLEAN_WORD"})))
+    path.write_text(path.read_text().replace("BOOLEAN_WORD", word))
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, [f"{word}.yaml:", "'output.reactions'", "expected true or false"])
+    path.write_text(path.read_text().replace(f"reactions: {word}", "reactions: True"))
+    run_hyperqn([path, "-o", outdir], ranks=None)
+
+
+@pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value"])
+def test_bad_command_lines_are_refused(tmp_path, case):
+    # every argument is used or refused: a word that is neither the deck nor an option's value, a
+    # second -o, or a numeric option without its number (PETSc alone would keep the default, unsaid)
+    path = write_deck(tmp_path / "good.yaml", GOOD)
+    outdir = tmp_path / "out"
+    args, fragments = {
+        "stray_word": ([path, "-o", outdir, "stray"], ["unexpected argument 'stray'", "the deck is"]),
+        "second_deck": ([path, path, "-o", outdir], ["unexpected argument", "one deck a run"]),
+        "two_outdirs": ([path, "-o", outdir, "-o", tmp_path / "other"], ["-o", "given twice"]),
+        "option_without_value": ([path, "-o", outdir, "-hyperqn_divergence_limit"],
+                                 ["-hyperqn_divergence_limit", "needs a value"]),
+        "deck_option_without_value": (None, ["good.yaml:", "hyperqn_progress_seconds", "needs a value"]),
+    }[case]
+    if args is None:
+        path = write_deck(tmp_path / "good.yaml", {**GOOD, "petsc": {"hyperqn_progress_seconds": None}})
+        args = [path, "-o", outdir]
+    proc = run_hyperqn(args, ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, fragments)
+    assert not (tmp_path / "other").exists()
+    assert proc.returncode == 1

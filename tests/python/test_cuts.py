@@ -417,6 +417,9 @@ BAD_CUTS = {
     "turning_out_of_its_plane": (bad(motion={"rotate": {"axis": [0, 0, 1], "rate": 10}}),
                                  ["cuts[0].motion", "rotate.axis is not along the blade's normal"]),
     "leaving_its_plane": (bad(motion={"translate": {"velocity": [1, -1, 0]}}), ["cuts[0].motion", "leaves the blade's plane"]),
+    # 1e9 degrees/s: 3.3e7 degrees a step, each sampled (it took 1.9 GB and 9 s for 3 frames before)
+    "turning_too_fast": (bad(motion={"rotate": {"axis": [1, 0, 0], "center": [1.0, 0.5, 0.25], "rate": 1e9}}),
+                         ["cuts[0].motion.rotate.rate", "degrees in one step", "at most 360"]),
     "missing_size": ({**bad(), "cuts": [{k: v for k, v in BAR["cuts"][0].items() if k != "size"}]}, ["size"]),
     # a blade cuts strands (test_strand_cut.py) but removes only tets
     "removing_strands": ({**{k: v for k, v in bad(remove=True).items() if k not in ("mesh", "material", "fixed")},

@@ -381,3 +381,10 @@ def test_fracture_in_bodies(tmp_path):
 
 def test_bad_fracture_in_bodies_is_refused(tmp_path):
     assert_deck_refused(tmp_path, "bodies", bodies_deck(-2.0), ["bodies[0].material.fracture.threshold", "> 0"])
+
+
+def test_fracture_in_a_deck_of_bodies_with_strands_is_refused_naming_its_body(tmp_path):
+    deck = bodies_deck(2.0e3)
+    deck["bodies"].insert(0, {"name": "rope", "mesh": {"strands": [{"from": [2, 0, 0], "to": [3, 0, 0], "segments": 4}]},
+                              "strand_material": {"axial_stiffness": 1.0e3, "linear_density": 0.05}})
+    assert_deck_refused(tmp_path, "with_strands", deck, ["bodies[1].material.fracture", "strands or a cloth"])
