@@ -280,19 +280,36 @@ RunLogs::RunLogs(const RunContext& run) : run_(run) {
   for (size_t k = 0; k < names.size(); ++k) run_.summary.reactions.push_back({names[k], lines[k]});
 }
 
+bool RunLogs::writes_topology() const {
+  return run_.deck.output.topology_csv && (!run_.deck.cuts.empty() || run_.scene.fracture() || run_.scene.breaks());
+}
+
+void RunLogs::check_restart(const std::string& outdir, int restart_frame) const {
+  const std::string from = " to go on from (output.";
+  const std::string written = ": the checkpointed run must have written it)";
+  long long sums[7] = {0, 0, 0, 0, 0, 0, 0};
+  if (writes_topology() && restart_frame > 0 && !read_topology(outdir + "/topology.csv", restart_frame, sums))
+    throw std::runtime_error(outdir + "/topology.csv has no row of frame " + std::to_string(restart_frame) + from +
+                             "topology_csv" + written);
+  EnergyRow start, at;
+  if (energy_ && !read_energy(outdir + "/energy.csv", restart_frame, start, at))
+    throw std::runtime_error(outdir + "/energy.csv has no rows of frames 0 and " + std::to_string(restart_frame) + from +
+                             "energy" + written);
+  if (reactions_ && !std::ifstream(outdir + "/reactions.csv"))
+    throw std::runtime_error(outdir + "/reactions.csv is missing: no rows" + from + "reactions" + written);
+}
+
 void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame,
                    const RunSummary* earlier) {
   const OutputSpec& output = run_.deck.output;
   const bool restart = restart_frame >= 0;
   restarted_ = restart;
-  topology_ = output.topology_csv && (!run_.deck.cuts.empty() || run_.scene.fracture() || run_.scene.breaks());
+  topology_ = writes_topology();
   if (topology_) {
     const std::string path = outdir + "/topology.csv";
-    if (restart) {
+    if (restart) {  // check_restart found what it needs
       long long sums[7] = {0, 0, 0, 0, 0, 0, 0};
-      if (!read_topology(path, restart_frame, sums) && restart_frame > 0)
-        throw std::runtime_error(path + " has no row of frame " + std::to_string(restart_frame) +
-                                 " to go on from (output.topology_csv: the checkpointed run must have written it)");
+      read_topology(path, restart_frame, sums);
       topology_rows_ = {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6]};
       if (earlier)
         topology_earlier_ = {0, 0, 0, 0, earlier->cut_h0_corrections + earlier->break_h0_corrections,
@@ -306,9 +323,7 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
     const std::string path = outdir + "/energy.csv";
     if (restart) {
       EnergyRow start, at;
-      if (!read_energy(path, restart_frame, start, at))
-        throw std::runtime_error(path + " has no rows of frames 0 and " + std::to_string(restart_frame) +
-                                 " to go on from (output.energy: the checkpointed run must have written it)");
+      read_energy(path, restart_frame, start, at);
       energy_at_restart_ = at;
       energy_at_start_ = start.kinetic + start.stored + start.dissipated;
       energy_log_.resume(path, EnergyBalance::columns(), rank, restart_frame);

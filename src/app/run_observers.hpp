@@ -72,6 +72,9 @@ class RunLogs : public FrameObserver {
   // from its rows, with `earlier` the checkpoint's summary). Throws std::runtime_error.
   void open(const std::string& outdir, int rank, const Scene& scene, int restart_frame = -1,
             const RunSummary* earlier = nullptr);
+  // At a restart, before anything is written (rank 0): throws std::runtime_error if a log the deck
+  // asks for cannot go on from the checkpoint's frame (the checkpointed run did not write it).
+  void check_restart(const std::string& outdir, int restart_frame) const;
   // On every rank after open (collective): whether the run restarts, and the energy balance's
   // state read back on rank 0 (every rank evaluates the balance, so every rank resumes it).
   PetscErrorCode share_restart(bool restart);
@@ -95,6 +98,7 @@ class RunLogs : public FrameObserver {
   };
   TopologyTotals topology_totals() const;
   void record_topology(int frame);
+  bool writes_topology() const;  // topology.csv: asked for, in a scene whose topology changes
 
   RunContext run_;
   IterationLog log_;

@@ -293,7 +293,16 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     std::string why = checkpoint_mismatch(saved, identity);
     if (why.empty() && saved.dofs != scene.mesh.global_dofs)
       why = "the scene has " + std::to_string(scene.mesh.global_dofs) + " dofs, the checkpoint's " + std::to_string(saved.dofs);
-    if (!why.empty()) {
+    if (why.empty() && rank == 0) {  // the logs the deck asks for must go on from the checkpoint's frame
+      try {
+        run.logs.check_restart(outdir, saved.frame);
+      } catch (const std::exception& e) {
+        why = e.what();
+      }
+    }
+    int refused = !why.empty();
+    MPI_Allreduce(MPI_IN_PLACE, &refused, 1, MPI_INT, MPI_MAX, comm);
+    if (refused) {  // before anything is written
       PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", restart_path.c_str(), why.c_str());
       return 1;
     }
@@ -400,8 +409,6 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.cut_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
     summary.cut_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);
-    summary.vertices = run.scene.current().mesh.global_vertices;
-    summary.dofs = run.scene.current().mesh.global_dofs;
   }
   if (run.scene.breaks()) {  // as for cuts (a blade's cut through a cloth counts as its torn edges)
     const LiveScene::BreakCounts& c = run.scene.break_counts();
@@ -412,8 +419,14 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.break_h0_corrections = c.corrections;  // this run's; a restart's earlier ones are added below
     summary.break_refactorizations = c.refactorizations;
     summary.topology_s = event_seconds(log_events().topology);
-    summary.vertices = run.scene.current().mesh.global_vertices;
-    summary.dofs = run.scene.current().mesh.global_dofs;
+  }
+  if (summary.cuts || summary.fracture || summary.breaks) {  // the mesh the changes made (tets: a blade with remove)
+    const DistributedMesh& end = run.scene.current().mesh;
+    summary.vertices = end.global_vertices;
+    summary.tets = end.global_cells;
+    summary.segments = end.global_segments;
+    summary.triangles = end.global_triangles;
+    summary.dofs = end.global_dofs;
   }
   add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;

@@ -473,6 +473,11 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
     PetscCall(PetscOptionsGetInt(nullptr, nullptr, "-hyperqn_test_topology_h0_max_touched", &max_touched, nullptr));
     topology_check_.max_touched = max_touched;
   }
+  if ((!snap_strains_.empty() || !tear_strains_.empty()) && spec.time.integrator == TimeIntegrator::implicit_midpoint)
+    PetscCall(PetscPrintf(comm, "hyperqn: warning: %s: time.integrator: implicit-midpoint does not damp what a snap or a "
+                                "tear sets ringing (stiff modes far above 1/h): the stored energy can grow many times "
+                                "over; implicit-euler or bdf2 damp it (docs/snapping.md)\n",
+                          spec.path.c_str()));
   if (breaks) {  // copies' ids come after every id of the input
     long long slots = 0;
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);

@@ -280,6 +280,7 @@ class LiveScene {
   CutCounts counts_;
   bool kept_changed_ = false;  // restore_changes changed kept_: restore_released rebuilds
   bool last_change_cut_ = false, last_cut_corrected_ = false;
+  bool last_change_factored_ = false;  // the last change's scene factored a constant matrix anew (not with newton)
   long long factored_batches_ = 0;
   // restore_changes' batches for restore_released, in the run's order: a cut batch's faces or a break batch.
   struct Replay {

@@ -136,6 +136,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   }
   last_change_cut_ = false;
   last_change_break_ = false;
+  last_change_factored_ = !fresh->constant_matrices.empty();
   factored_batches_ = counts_.batches;
   factored_breaks_ = break_counts_.batches;
   PetscCall(rebind(*scene_, *fresh));
@@ -300,8 +301,11 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
 }
 
 std::string LiveScene::last_change(long long dofs) const {
-  const std::string matrix = "; " + std::to_string(dofs) + " dofs now, constant matrix ";
-  const std::string followed = last_cut_corrected_ ? "corrected (TopologyH0)" : "factored again";
+  const std::string dofs_now = "; " + std::to_string(dofs) + " dofs now, ";
+  const std::string matrix = dofs_now + (last_cut_corrected_ || last_change_factored_ ? "constant matrix " : "");
+  const std::string followed = last_cut_corrected_     ? "corrected (TopologyH0)"
+                               : last_change_factored_ ? "factored again"
+                                                       : "no constant matrix (the solver factors none)";
   if (last_change_cut_) {
     const bool blades = !spec_->cuts.empty();
     bool removes = false;  // a blade removes tets (docs/removal.md): the line says how many
@@ -321,7 +325,7 @@ std::string LiveScene::last_change(long long dofs) const {
            std::to_string(c.segments) + " strand segments snapped, " + std::to_string(c.vertices) +
            " vertices added so far" + matrix + followed;
   }
-  return "fixed region(s) released or attachment(s) gone (from this step on)" + matrix + "factored again";
+  return "fixed region(s) released or attachment(s) gone (from this step on)" + matrix + followed;
 }
 
 PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State& main, const std::vector<State*>& others,
@@ -340,7 +344,7 @@ PetscErrorCode LiveScene::separate_due(const std::vector<TetPair>& batch, State&
   if (corrected) {
     ++counts_.corrections;
   } else {
-    ++counts_.refactorizations;
+    if (last_change_factored_) ++counts_.refactorizations;
     factored_batches_ = counts_.batches;  // the factor holds every break so far too
     factored_breaks_ = break_counts_.batches;
   }
@@ -355,6 +359,7 @@ PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>
   std::unique_ptr<Scene> fresh;
   PetscCall(rebuild(main.released, main.released_attachments, fresh, scene_.get(), corrected));
   last_cut_corrected_ = *corrected;  // known now, read by the rebind below
+  last_change_factored_ = !*corrected && !fresh->constant_matrices.empty();  // newton's scenes hold none
   fresh->body->set_time(t);
   fresh->body->set_inherited_elements(inherited);
   fresh->body->carry_element_states(*scene_->body);
@@ -450,7 +455,7 @@ PetscErrorCode LiveScene::break_apart(const std::vector<int64_t>& segments, cons
   if (corrected) {
     ++break_counts_.corrections;
   } else {
-    ++break_counts_.refactorizations;
+    if (last_change_factored_) ++break_counts_.refactorizations;
     factored_breaks_ = break_counts_.batches;  // the factor holds every cut so far too
     factored_batches_ = counts_.batches;
   }

@@ -171,6 +171,21 @@ def test_restart_with_other_physics_is_refused(tmp_path):
     run(tmp_path, "same", deck_with(base, 6, solver={"iterations": 40}), out, extra=["--restart", "latest"])
 
 
+@pytest.mark.parametrize("log", ["energy", "reactions"])
+def test_restart_asking_for_a_log_the_run_did_not_write_is_refused_and_writes_nothing(tmp_path, log):
+    # output.energy and output.reactions go on from the checkpoint's frame: a checkpointed run without
+    # them has no rows to go on from. Refused before summary.json and config.yaml are written.
+    base = dict(MOTION, name="run")
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 4, {"every": 2}), out)
+    before = tree_digest(out)
+    more = dict(deck_with(base, 6), output={log: True})
+    done = run(tmp_path, "more", more, out, extra=["--restart", "latest"], check=False)
+    assert done.returncode == 1
+    assert f"{log}.csv" in done.stdout and f"output.{log}: the checkpointed run must have written it" in done.stdout
+    assert tree_digest(out) == before
+
+
 def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path):
     frames = 300  # a few seconds: the signal comes long before the end
     base = dict(MOTION, name="run", time={"dt": 0.05, "frames": frames}, output={"every": 10})

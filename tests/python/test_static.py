@@ -251,3 +251,22 @@ def test_bad_static_deck(tmp_path, case):
     proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert proc.returncode == 1
     assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
+
+
+def test_a_piece_a_cut_sets_free_stops_a_static_run_saying_why(tmp_path):
+    # A bar held at one end, cut through by a blade: the piece beyond the cut has no equilibrium
+    # under gravity, the static step diverges, and the message says what a static analysis needs.
+    deck = {"mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
+            "material": {"model": "neohookean", "youngs_modulus": 5.0e6, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.51, 0.51]}}],
+            "gravity": [0, -9.81, 0],
+            "cuts": [{"center": [1.27, 1.0, 0.25], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [0.6, 1.0],
+                      "frame": "rest", "motion": {"translate": {"velocity": [0, -3, 0]}, "start": 0.1, "end": 0.6}}],
+            "time": {"dt": 1 / 30, "frames": 16, "integrator": "static"},
+            "solver": {"type": "lbfgs"}}
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "freed.yaml", deck), "-o", out], ranks=None, check=False, timeout=300)
+    assert proc.returncode == 1
+    assert "diverged" in proc.stdout and "static: a piece that nothing holds" in proc.stdout
+    assert "use a dynamic time.integrator" in proc.stdout
+    assert read_summary(out)["cuts"]["faces_separated"] > 0
