@@ -47,15 +47,27 @@ def write_deck(path, deck, header=None):
 
 
 def portable_copy(deck, deck_path):
-    """A deep copy of `deck`, read from deck_path, that runs from any directory: relative
-    `mesh.file` and `colliders[].file` (relative to the deck's directory) made absolute, and no
+    """A deep copy of `deck`, read from deck_path, that runs from any directory: every file it names
+    relative to the deck's directory made absolute (a `file` anywhere: a mesh's, a body's mesh's, a
+    collider's, a curve table's; a blade's `surface`; the top-level `partition`), and no
     `output.directory` (the caller's -o says where results go)."""
     d = copy.deepcopy(deck)
     base = os.path.dirname(os.path.abspath(deck_path))
-    holders = [d.get("mesh")] + (d["colliders"] if isinstance(d.get("colliders"), list) else [])
-    for h in holders:
-        if isinstance(h, dict) and isinstance(h.get("file"), str):
-            h["file"] = absolute_path(h["file"], base)
+
+    def walk(node, inside_cuts=False):
+        if isinstance(node, list):
+            for item in node:
+                walk(item, inside_cuts)
+        elif isinstance(node, dict):
+            for key, value in node.items():
+                if isinstance(value, str) and (key == "file" or (inside_cuts and key == "surface")):
+                    node[key] = absolute_path(value, base)
+                else:
+                    walk(value, inside_cuts or key == "cuts")
+
+    walk({k: v for k, v in d.items() if k not in ("output", "petsc", "partition")})
+    if isinstance(d.get("partition"), str):
+        d["partition"] = absolute_path(d["partition"], base)
     if isinstance(d.get("output"), dict):
         d["output"].pop("directory", None)
     return d

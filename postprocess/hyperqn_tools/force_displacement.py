@@ -34,6 +34,8 @@ def box_centre(outdir, support):
 
 def curve(outdir, support, axis):
     """(travel, force) arrays of one support along axis ('x', 'y' or 'z'), one entry per frame."""
+    if not os.path.isfile(os.path.join(outdir, "reactions.csv")):
+        raise SystemExit(f"{outdir}/reactions.csv: no such file (the run must have output.reactions: true)")
     supports = read_reactions(outdir)
     if support not in supports:
         raise SystemExit(f"{outdir}/reactions.csv has no support {support!r}; it has {', '.join(supports)}")

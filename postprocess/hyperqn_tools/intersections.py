@@ -220,6 +220,8 @@ def main(argv=None):
     p.add_argument("--json", help="also write the counts to this JSON file")
     p.add_argument("--rtol", type=float, default=RTOL, help="tolerance relative to the frame's bounding-box diagonal")
     a = p.parse_args(argv)
+    if not 0 <= a.rtol < 1:  # nan too: a tolerance is a small fraction of the diagonal
+        p.error(f"--rtol {a.rtol}: must be a number in [0, 1)")
     try:
         rows = check_run(a.outdir, a.frames, a.rtol)
     except ValueError as e:

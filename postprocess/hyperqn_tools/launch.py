@@ -16,7 +16,7 @@ from hyperqn_tools.paths import REPO
 
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMPI_MCA_odls_base_sigkill_timeout": "0"}
-STOP_GRACE_S = 10  # after SIGTERM on a timeout, how long mpiexec gets to stop its ranks
+STOP_GRACE_S = 10  # after SIGUSR1 on a timeout, how long the ranks get to write a checkpoint and stop
 
 
 def default_binary():
@@ -73,9 +73,11 @@ def solver_names(binary=None):
 
 
 def stop(proc):
-    """SIGTERM (mpiexec forwards it to its ranks), then SIGKILL to whatever is left of the process
-    group, so that no rank keeps running or holds the output pipe open."""
-    proc.terminate()
+    """SIGUSR1, then SIGKILL to whatever is left of the process group, so that no rank keeps running
+    or holds the output pipe open. mpiexec forwards SIGUSR1 to its ranks, which stop with a
+    checkpoint (docs/cluster.md); a SIGTERM it would follow with SIGKILL (MPI_ENV's wait of 0)
+    before they had written anything."""
+    proc.send_signal(signal.SIGUSR1)
     try:
         proc.wait(timeout=STOP_GRACE_S)
     except subprocess.TimeoutExpired:

@@ -48,10 +48,14 @@ def read_csv(path):
 def load_study(directory):
     """{'meta', 'curves': {frame: {solver: [(t, e, grad, it, g)]}}, 'trajectory': {solver: [(frame, t, err)]}}"""
     curves = defaultdict(lambda: defaultdict(list))
-    for r in read_csv(os.path.join(directory, "study.csv")):
-        curves[int(r["frame"])][r["solver"]].append(
-            (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"]),
-             float(r["energy"])))
+    path = os.path.join(directory, "study.csv")
+    for line, r in enumerate(read_csv(path), start=2):
+        try:
+            curves[int(r["frame"])][r["solver"]].append(
+                (float(r["time_s"]), float(r["rel_error"]), float(r["grad_norm"]), int(r["iteration"]),
+                 float(r["energy"])))
+        except (KeyError, TypeError, ValueError) as e:  # a file cut short or edited: said, not a traceback
+            sys.exit(f"{path}:{line}: not a row of a study ({type(e).__name__}: {e})")
     trajectory = defaultdict(list)
     stopped = {}  # solver: (frame, why its trajectory stopped)
     tpath = os.path.join(directory, "trajectory.csv")
@@ -64,7 +68,10 @@ def load_study(directory):
     meta = {}
     if os.path.exists(os.path.join(directory, "study.json")):
         with open(os.path.join(directory, "study.json")) as f:
-            meta = json.load(f)
+            try:
+                meta = json.load(f)
+            except json.JSONDecodeError as e:
+                sys.exit(f"{os.path.join(directory, 'study.json')}: not JSON ({e})")
     meta.setdefault("title", os.path.basename(os.path.normpath(directory)))
     return {"dir": directory, "meta": meta, "curves": curves, "trajectory": trajectory, "stopped": stopped}
 

@@ -202,3 +202,43 @@ def test_tagged_base_deck(tmp_path):
 def test_missing_sweep_file(tmp_path):
     proc = sweep(tmp_path / "absent.yaml", "--out", tmp_path / "out", check_rc=1)
     assert "absent.yaml" in proc.stderr and not (tmp_path / "out").exists()
+
+
+def test_a_case_stopped_by_its_timeout_at_two_ranks_stops_with_a_checkpoint(tmp_path):
+    # --timeout sends SIGUSR1, which mpiexec forwards: the ranks write a checkpoint and summary.json
+    # (a SIGTERM mpiexec would follow by SIGKILL before they had, docs/cluster.md)
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  solver.type: [lbfgs]\n",
+                      {**BASE, "time": {"dt": 0.01, "frames": 10000000}, "output": {"vtk": False}})
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.sweep", path, "--out", out, "--np", "2",
+                           "--bin", HYPERQN, "--mpiexec", MPIEXEC, "--timeout", "4"],
+                          capture_output=True, text=True, timeout=120)
+    [row] = read_table(out)
+    assert row["status"].startswith("interrupted: SIGUSR1"), (row, proc.stdout, proc.stderr)
+    assert int(row["frames"]) > 0
+    assert any(p.name.startswith("checkpoint_") for p in (out / row["case"] / "checkpoints").iterdir())
+
+
+def test_portable_copies_name_every_file_absolutely(tmp_path):
+    from hyperqn_tools.decks import portable_copy
+
+    deck = {"bodies": [{"mesh": {"file": "m/a.mesh"}, "fixed": [{"box": {}, "motion": {"curve": {"file": "c.csv"}}}]}],
+            "partition": "p.h5", "cuts": [{"surface": "blade.obj"}], "colliders": [{"file": "../o.obj"}],
+            "loads": [{"curve": {"type": "table", "file": "l.csv"}}], "output": {"directory": "x"}}
+    d = portable_copy(deck, tmp_path / "decks" / "deck.yaml")
+    base = tmp_path / "decks"
+    assert d["bodies"][0]["mesh"]["file"] == str(base / "m/a.mesh")
+    assert d["bodies"][0]["fixed"][0]["motion"]["curve"]["file"] == str(base / "c.csv")
+    assert d["partition"] == str(base / "p.h5") and d["cuts"][0]["surface"] == str(base / "blade.obj")
+    assert d["colliders"][0]["file"] == str(tmp_path / "o.obj") and d["loads"][0]["curve"]["file"] == str(base / "l.csv")
+    assert "directory" not in d["output"] and deck["partition"] == "p.h5"  # a copy
+
+
+def test_a_deck_with_a_curve_table_file_sweeps(tmp_path):
+    # input/bar_curves.yaml reads its clamp's motion from bar_curves_pull.csv beside it
+    path = tmp_path / "sweep.yaml"
+    path.write_text(f"deck: {REPO}/input/bar_curves.yaml\nsweep:\n  material.youngs_modulus: [1e6, 2e6]\n"
+                    "set:\n  time.frames: 2\n  output.vtk: false\n")
+    out = tmp_path / "out"
+    sweep(path, "--out", out, check_rc=0)
+    assert [r["status"] for r in read_table(out)] == ["ok", "ok"]
