@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit
+from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number
 
 
 def ball(radius, cells):
@@ -37,7 +37,7 @@ def ball(radius, cells):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
-    p.add_argument("--radius", type=float, default=1.0, help="the ball's radius (m)")
+    p.add_argument("--radius", type=positive_number, default=1.0, help="the ball's radius (m)")
     p.add_argument("--cells", type=int, default=6, help="cells along each side of the mapped cube")
     a = p.parse_args(argv)
     if a.radius <= 0 or a.cells < 1:

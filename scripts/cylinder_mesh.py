@@ -16,7 +16,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
 
 
 def quarter_cylinder(inner, outer, thickness, cells, layers):
@@ -38,9 +38,9 @@ def quarter_cylinder(inner, outer, thickness, cells, layers):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
-    p.add_argument("--inner", type=float, default=1.0, help="inner radius (m)")
-    p.add_argument("--outer", type=float, default=2.0, help="outer radius (m)")
-    p.add_argument("--thickness", type=float, default=0.25, help="the slab's thickness along z (m)")
+    p.add_argument("--inner", type=positive_number, default=1.0, help="inner radius (m)")
+    p.add_argument("--outer", type=positive_number, default=2.0, help="outer radius (m)")
+    p.add_argument("--thickness", type=positive_number, default=0.25, help="the slab's thickness along z (m)")
     p.add_argument("--cells", type=int, default=4, help="cells through the wall (twice as many around)")
     p.add_argument("--layers", type=int, default=1, help="cells through the thickness")
     a = p.parse_args(argv)

@@ -18,7 +18,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
 
 # The specimen's shape (m): 100 mm long, 4 mm thick; 20 mm wide grips 20 mm long, 15 mm fillets,
 # a 10 mm wide gauge 30 mm long.
@@ -64,7 +64,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     for key, value in DEFAULTS.items():
-        p.add_argument("--" + key.replace("_", "-"), type=float, default=value, help=f"(m, default {value:g})")
+        p.add_argument("--" + key.replace("_", "-"), type=positive_number, default=value, help=f"(m, default {value:g})")
     p.add_argument("--cells", type=int, nargs=3, default=[40, 4, 2], metavar=("NX", "NY", "NZ"))
     a = p.parse_args(argv)
     profile = Profile(**{key: getattr(a, key) for key in DEFAULTS})

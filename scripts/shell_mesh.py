@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import write_medit
+from tet_grid import write_medit, positive_number
 
 # The cube's faces: (axis, sign); a face's grid runs over the two other axes.
 FACES = [(axis, sign) for axis in range(3) for sign in (-1, 1)]
@@ -108,11 +108,11 @@ def boundary_triangles(X, T, inner, outer):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
-    p.add_argument("--inner", type=float, default=1.0, help="inner radius (m)")
-    p.add_argument("--outer", type=float, default=2.0, help="outer radius (m)")
+    p.add_argument("--inner", type=positive_number, default=1.0, help="inner radius (m)")
+    p.add_argument("--outer", type=positive_number, default=2.0, help="outer radius (m)")
     p.add_argument("--cells", type=int, default=4, help="cells along each edge of a cube face")
     p.add_argument("--layers", type=int, default=2, help="cells through the thickness")
-    p.add_argument("--grading", type=float, default=1.0,
+    p.add_argument("--grading", type=positive_number, default=1.0,
                    help="the outermost layer's thickness over the innermost's (1: even)")
     p.add_argument("--tags", action="store_true",
                    help="also write the boundary triangles: reference 1 the cavity's wall, 2 the outer surface")

@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
 
 
 def split_ring(outer, inner, depth, gap, cells):
@@ -51,10 +51,10 @@ def split_ring(outer, inner, depth, gap, cells):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
-    p.add_argument("--outer", type=float, default=0.5, help="outer radius (m)")
-    p.add_argument("--inner", type=float, default=0.3, help="inner radius (m)")
-    p.add_argument("--depth", type=float, default=0.2, help="extent in z (m)")
-    p.add_argument("--gap-fraction", type=float, default=5e-5,
+    p.add_argument("--outer", type=positive_number, default=0.5, help="outer radius (m)")
+    p.add_argument("--inner", type=positive_number, default=0.3, help="inner radius (m)")
+    p.add_argument("--depth", type=positive_number, default=0.2, help="extent in z (m)")
+    p.add_argument("--gap-fraction", type=positive_number, default=5e-5,
                    help="the slit's width as a fraction of the bounding-box diagonal")
     p.add_argument("--cells", type=int, nargs=3, default=[48, 4, 4], metavar=("AROUND", "RADIAL", "DEPTH"))
     a = p.parse_args(argv)

@@ -39,10 +39,30 @@ def orient_positive(X, T):
     return T
 
 
+def positive_number(text):
+    """argparse type of the mesh scripts' sizes and ratios: a finite number > 0 (nan, inf and 0
+    would write a mesh hyperqn refuses, or none)."""
+    import argparse
+    import math
+
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return x
+
+
 def write_medit(path, X, T, triangles=None, references=None):
     """X, T (0-based) as a Medit .mesh; with triangles (0-based rows) and their references, a
-    Triangles section after the tets (boundary faces tagged for a region)."""
-    with open(path, "w") as f:
+    Triangles section after the tets (boundary faces tagged for a region). A path that cannot be
+    written ends the script with a message naming it."""
+    try:
+        f = open(path, "w")
+    except OSError as e:
+        raise SystemExit(f"{path}: cannot write it ({e.strerror})") from None
+    with f:
         f.write("MeshVersionFormatted 1\nDimension 3\nVertices\n%d\n" % len(X))
         for p in X:
             f.write("%.17g %.17g %.17g 0\n" % tuple(p))

@@ -104,6 +104,9 @@ def set_dotted(deck, dotted, value, where):
         elif isinstance(node, dict):
             key = part
             if not last and node.get(key) is None:
+                if re.fullmatch(r"\d+", parts[i + 1]):  # 'colliders.0.friction' on a deck without colliders
+                    raise SweepError(f"{where}: '{'.'.join(parts[:i + 1])}' is not in the deck: an index "
+                                     f"('{parts[i + 1]}') needs an existing list")
                 node[key] = {}
         else:
             raise SweepError(f"{where}: '{here}' is {format_value(node)!r}, not a map")
@@ -255,7 +258,7 @@ def case_row(case, out):
         if os.path.isfile(os.path.join(cdir, "run.log")):
             with open(os.path.join(cdir, "run.log")) as f:
                 log = f.read()
-        msg = last_error(log)
+        msg = last_error(log) or (re.search(r"sweep: (cannot start .*)", log) or [None, None])[1]
         if msg is None:
             msg = "timeout" if "stopped after the timeout" in log else "no summary.json and no hyperqn error message"
         # The message names OUT/<case>/deck.yaml (whose lines are not the base deck's): shortened

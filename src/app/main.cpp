@@ -66,6 +66,7 @@ CommandLine parse_partition_command(int argc, char** argv) {
       cl.help = true;
     } else if (a == "-n") {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-n", "needs the number of parts: " + form);
+      if (parts_given) throw hyperqn::InputError("", 0, "-n", "given twice: " + form);
       const char* text = argv[++i];
       char* end = nullptr;
       errno = 0;
@@ -76,6 +77,7 @@ CommandLine parse_partition_command(int argc, char** argv) {
       parts_given = true;
     } else if (a == "-o") {
       if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs the partition file to write: " + form);
+      if (!cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "given twice: " + form);
       cl.outdir = argv[++i];
     } else if (a[0] != '-' && cl.deck.empty()) {
       cl.deck = a;
@@ -107,12 +109,9 @@ CommandLine parse_command_line(int argc, char** argv) {
     first = 2;
   }
   if (argc > 1 && std::strcmp(argv[1], "partition") == 0) return parse_partition_command(argc, argv);
-  if (argc > 1 && std::strcmp(argv[1], "registry") == 0) {
-    cl.registry = true;
-    return cl;
-  }
-  if (argc > 1 && std::strcmp(argv[1], "--help-deck") == 0) {
-    cl.help_deck = true;
+  if (argc > 1 && (std::strcmp(argv[1], "registry") == 0 || std::strcmp(argv[1], "--help-deck") == 0)) {
+    if (argc > 2) throw hyperqn::InputError("", 0, argv[1], "takes no argument, got '" + std::string(argv[2]) + "'");
+    (std::strcmp(argv[1], "registry") == 0 ? cl.registry : cl.help_deck) = true;
     return cl;
   }
   for (int i = first; i < argc; ++i) {

@@ -20,6 +20,19 @@ namespace hyperqn {
 
 namespace {
 
+// What study.json's "material" says: the mesh's model, or each body's ("ball: neohookean, bar: hencky").
+std::string material_label(const Deck& deck) {
+  const auto of = [](const MeshSpec& mesh, const ClothSpec& cloth, bool has_material, const MaterialSpec& material) {
+    if (mesh.has_cloth()) return "cloth " + kClothModelNames[size_t(cloth.model)];
+    return has_material || !mesh.has_strands() ? material.model : std::string("strands");
+  };
+  if (deck.bodies.empty()) return of(deck.mesh, deck.cloth, true, deck.material);
+  std::string label;
+  for (const BodySpec& b : deck.bodies)
+    label += (label.empty() ? "" : ", ") + b.name + ": " + of(b.mesh, b.cloth, b.has_material, b.material);
+  return label;
+}
+
 // A solver under study: one instance for the per-frame comparison, one at its trajectory
 // budget with its own state.
 struct Contender {
@@ -67,8 +80,7 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
   out << "{\n  \"title\": \"" << deck.name << (deck.study.integrators.empty() ? "" : std::string(", ") + integrator)
       << " (" << size << (size == 1 ? " rank" : " ranks") << ")\",\n"
       << "  \"integrator\": \"" << integrator << "\",\n"
-      << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \""
-      << (deck.mesh.has_cloth() ? "cloth " + kClothModelNames[size_t(deck.cloth.model)] : deck.material.model) << "\",\n"
+      << "  \"deck\": \"" << deck.path << "\",\n  \"material\": \"" << material_label(deck) << "\",\n"
       << "  \"ranks\": " << size << ",\n  \"vertices\": " << scene.mesh.global_vertices << ",\n"
       << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"segments\": " << scene.mesh.global_segments << ",\n"
       << "  \"triangles\": " << scene.mesh.global_triangles << ",\n"
@@ -104,7 +116,8 @@ struct Study {
       auto budget = st.trajectory_iterations.find(c->type);
       const int traj_its = budget != st.trajectory_iterations.end() ? budget->second : deck.solver.iterations;
       const SolverSpec per_frame = spec_for(deck, c->type, st.iterations, st.reference_rtol);
-      const SolverSpec trajectory = spec_for(deck, c->type, traj_its, deck.solver.grad_rtol);
+      SolverSpec trajectory = spec_for(deck, c->type, traj_its, deck.solver.grad_rtol);
+      trajectory.quiet = true;  // the same solver as per_frame's, which has said what it runs
       PetscCall(create_solver(per_frame, *s.step, s.constant_matrix(per_frame), c->per_frame));
       PetscCall(create_solver(trajectory, *s.step, s.constant_matrix(trajectory), c->trajectory));
     }

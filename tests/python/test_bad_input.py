@@ -449,6 +449,12 @@ def test_yaml_1_1_booleans_are_refused(tmp_path, word):
     run_hyperqn([path, "-o", outdir], ranks=None)
 
 
+@pytest.mark.parametrize("command", ["registry", "--help-deck"])
+def test_commands_without_arguments_refuse_one(tmp_path, command):
+    proc = run_hyperqn([command, "extra"], ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1 and f"'{command}': takes no argument, got 'extra'" in proc.stdout, proc.stdout
+
+
 @pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value"])
 def test_bad_command_lines_are_refused(tmp_path, case):
     # every argument is used or refused: a word that is neither the deck nor an option's value, a

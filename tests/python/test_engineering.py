@@ -25,6 +25,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from conftest import load_deck, run_hyperqn
 from hyperqn_tools.force_displacement import curve
@@ -150,6 +151,19 @@ def test_dogbone(tmp_path):
     subprocess.run([sys.executable, "-m", "hyperqn_tools.force_displacement", str(outs[1]), "--support", "fixed[1]",
                     "--axis", "x", "--png", str(png)], check=True, stdout=subprocess.DEVNULL)
     assert png.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("script,args,said", [
+    ("dogbone_mesh.py", ["--thickness", "nan"], "--thickness: 'nan': must be a finite number > 0"),
+    ("ball_mesh.py", ["--radius", "inf"], "--radius: 'inf': must be a finite number > 0"),
+    ("ball_mesh.py", [], "cannot write it"),  # into a directory that does not exist
+])
+def test_mesh_scripts_refuse_bad_sizes_and_paths(tmp_path, script, args, said):
+    out = tmp_path / ("x.mesh" if args else "no/such/dir/x.mesh")
+    done = subprocess.run([sys.executable, os.path.join(REPO, "scripts", script), str(out), *args],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and said in done.stderr and "Traceback" not in done.stderr, done.stderr
+    assert not out.exists()
 
 
 def test_block_compression(tmp_path):

@@ -87,6 +87,8 @@ def test_bad_arguments(bar_file):
         "not_h5": ([deck, "-n", 2, "-o", tmp / "not_h5.mesh"], "ends in .h5"),
         "from_h5": ([h5_deck, "-n", 2, "-o", tmp / "from_h5.h5"], "'mesh.file'"),
         "no_deck": ([tmp / "none.yaml", "-n", 2, "-o", tmp / "no_deck.h5"], "none.yaml"),
+        "two_o": ([deck, "-n", 2, "-o", tmp / "two_o.h5", "-o", tmp / "two_o_again.h5"], "'-o': given twice"),
+        "two_n": ([deck, "-n", 2, "-n", 3, "-o", tmp / "two_n.h5"], "'-n': given twice"),
     }
     for name, (args, expected) in cases.items():
         proc = partition(args)

@@ -4,6 +4,7 @@ report script turns it all into PNGs and a Markdown table."""
 import csv
 import math
 import os
+import re
 import subprocess
 
 import h5py
@@ -20,6 +21,7 @@ def study(tmp_path_factory):
     out = tmp_path_factory.mktemp("study") / "small"
     proc = run_hyperqn(["study", os.path.join(REPO, "tests/decks/study_small.yaml"), "-o", out], ranks=2)
     assert "study written" in proc.stdout
+    assert len(re.findall(r"^pd: ", proc.stdout, re.M)) == 1  # what pd runs, said once (not again for its trajectory)
     with open(out / "study.csv") as f:
         rows = list(csv.DictReader(f))
     with open(out / "trajectory.csv") as f:
@@ -303,3 +305,18 @@ def test_study_through_tears_and_fracture(tmp_path, scene):
         rows = [r for r in csv.DictReader(f) if r["frame"] == str(at)]
     assert {r["solver"] for r in rows} == {"lbfgs", "newton", "reference"}
     assert all(math.isfinite(float(r["rel_error"])) for r in rows)
+
+
+def test_a_study_of_bodies_names_each_body_s_material(tmp_path):
+    import json
+    import yaml
+    block = lambda x, model: {"mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [1, 1, 1]}, "transform": {"translate": [x, 0, 0]}},
+                              "material": {"model": model, "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+                              "fixed": [{"box": {"min": [x - 0.01, -0.01, -0.01], "max": [x + 0.01, 0.21, 0.21]}}]}
+    deck = {"bodies": [{"name": "soft", **block(0.0, "neohookean")}, {"name": "hard", **block(1.0, "stvk")}],
+            "gravity": [0, -9.81, 0], "time": {"dt": 0.02, "frames": 2},
+            "study": {"frames": [1], "solvers": ["lbfgs"], "iterations": 20}}
+    path = tmp_path / "bodies.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
+    assert json.loads((tmp_path / "study" / "study.json").read_text())["material"] == "soft: neohookean, hard: stvk"

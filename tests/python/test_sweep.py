@@ -172,6 +172,8 @@ BAD_SWEEPS = {
     "path_not_a_map": ("deck: decks/base.yaml\nsweep: {time.dt.x: [1]}\n", ["sweep.time.dt.x", "'time.dt'", "not a map"]),
     "index_out_of_range": ("deck: decks/base.yaml\nset: {fixed.3.box.min: [0, 0, 0]}\n", ["set.fixed.3.box.min", "'3'"]),
     "no_deck": ("sweep: {solver.type: [lbfgs]}\n", ["'deck' or 'decks'"]),
+    "index_into_nothing": ("deck: decks/base.yaml\nsweep: {colliders.0.friction: [0.1]}\n",
+                           ["sweep.colliders.0.friction", "'colliders' is not in the deck", "existing list"]),
     "not_yaml": ("deck: decks/base.yaml\nsweep: {solver.type: [lbfgs\n", ["not a valid YAML"]),
     # hyperqn refuses tags; a sweep must not turn !!float "1e5" into a plain number for it
     "tagged_value": ("deck: decks/base.yaml\nsweep: {material.youngs_modulus: [!!float '1e5']}\n",
