@@ -167,6 +167,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("output")) {
     read_output(r, *x, deck.output);
     check_energy_output(r, *x, deck);
+    check_fields_have_frames(r, *x, deck);
   }
   if (const Value* x = s.find("checkpoint")) read_checkpoint(r, *x, deck.checkpoint);
   if (const Value* x = s.find("cuts")) check_cuts(r, *x, deck);

@@ -85,7 +85,7 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "`self-contact.csv` (per frame, the surface triangle pairs that cross; [outputs.md](outputs.md))"},
       {"fields", &OutputSpec::fields,
        "per-element fields of the frames, each computed at output frames only, each once; the scene must have the "
-       "elements a field is of ([outputs.md](outputs.md#element-fields))",
+       "elements a field is of, and frames to hold them (not with `vtk: false`) ([outputs.md](outputs.md#element-fields))",
        {}, element_field_names(), "", "none (leave the key out)"},
       enum_key<OutputSpec>("field_precision", &OutputSpec::field_precision, kFieldPrecisionNames,
        "how the values of `fields` are written: `double` as computed, `single` rounded to 32-bit floats (half the "
@@ -93,7 +93,8 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "[outputs.md](outputs.md#element-fields))"),
       {"reactions", &OutputSpec::reactions,
        "write `reactions.csv`: per frame, the force and moment each fixed region and attachment exerts on the body, "
-       "and their last and largest in `summary.json` ([outputs.md](outputs.md#reactionscsv))"},
+       "and their last and largest in `summary.json`; a scene with neither is warned of "
+       "([outputs.md](outputs.md#reactionscsv))"},
       {"energy", &OutputSpec::energy,
        "write `energy.csv`: per frame, kinetic, stored and dissipated energy and what topology changes released, "
        "against the work of gravity, the loads and the supports, and the balance's residual "

@@ -38,7 +38,8 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
   if (!fs::is_regular_file(resolved, ec)) {
     // The full path, whatever the working directory, and the deck's own spelling if it differs.
     const fs::path full = fs::absolute(resolved, ec).lexically_normal();
-    r.fail(v, "file not found: '" + full.string() + "'" +
+    const bool there = fs::exists(resolved, ec);  // a directory, a FIFO: not a file to read
+    r.fail(v, std::string(there ? "not a regular file: '" : "file not found: '") + full.string() + "'" +
                   (full == file ? "" : " (the deck's '" + file.string() + "'" +
                                            (file.is_absolute() ? "" : ", relative to the deck's directory") + ")"));
   }

@@ -66,6 +66,13 @@ void check_energy_output(const Reader& r, const Value& output, const Deck& deck)
            "energy.csv does not count the work of colliders or self-contact yet (leave out output.energy)");
 }
 
+// Element fields are arrays of the frames: with output.vtk false there are none to hold them.
+void check_fields_have_frames(const Reader& r, const Value& output, const Deck& deck) {
+  if (!deck.output.fields.empty() && !deck.output.vtk)
+    r.fail(*Section(r, output, {}).find("fields"),
+           "are written into the frames, and output.vtk is false: no frame is written (leave out fields, or vtk)");
+}
+
 // A blade separates tets along their faces, a cloth along its edges (docs/snapping.md#a-blade-through-a-cloth)
 // and strands at the segments it crosses (docs/snapping.md#a-blade-through-strands): a mesh of tets
 // may have strands, not a cloth too; a blade removes tets only.

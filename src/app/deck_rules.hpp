@@ -22,6 +22,7 @@ void check_integrator_takes_contact(const Reader& r, const Value& time, const De
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck);
 // output.energy: not with contact, whose work energy.csv does not count yet.
 void check_energy_output(const Reader& r, const Value& output, const Deck& deck);
+void check_fields_have_frames(const Reader& r, const Value& output, const Deck& deck);
 // cuts: (read) against the mesh.
 void check_cuts(const Reader& r, const Value& cuts, const Deck& deck);
 void check_fracture(const Reader& r, const Deck& deck);

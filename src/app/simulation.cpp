@@ -340,6 +340,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
   for (const auto& term : scene.body->terms())
     if (const std::string line = term->describe(); !line.empty()) PetscPrintf(comm, "hyperqn: %s\n", line.c_str());
+  if (deck.output.reactions && Reactions::names(deck).empty())
+    PetscPrintf(comm, "hyperqn: warning: output.reactions: the scene has no fixed region or attachment, so reactions.csv "
+                      "has no rows\n");
   if (!scene.step->has_inertia())
     PetscPrintf(comm, "hyperqn: static: load steps of %g, pseudo step s = %.6g (%s)\n", deck.time.dt,
                 scene.step->solve_dt(), deck.time.pseudo_step > 0 ? "time.pseudo_step" : "automatic");

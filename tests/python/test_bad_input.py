@@ -120,6 +120,8 @@ BAD_DECKS = {
     "bad_output_format": (deck_with(**{"output.format": "vtk"}), ["'output.format'", "unknown value 'vtk'", "vtu, xdmf"]),
     "bad_field_precision": (deck_with(**{"output.fields": ["von_mises"], "output.field_precision": "half"}),
                             [".yaml:13: 'output.field_precision'", "unknown value 'half'", "double, single"]),
+    "fields_without_frames": (deck_with(**{"output.fields": ["von_mises"], "output.vtk": False}),
+                              [".yaml:", "'output.fields'", "output.vtk is false"]),
     "bad_vtu_encoding": (deck_with(**{"output.vtu_encoding": "ascii"}),
                          [".yaml:11: 'output.vtu_encoding'", "unknown value 'ascii'", "base64, raw"]),
     "vtu_encoding_of_xdmf": (deck_with(**{"output.format": "xdmf", "output.vtu_encoding": "raw"}),
@@ -476,3 +478,11 @@ def test_bad_command_lines_are_refused(tmp_path, case):
     assert_clean_failure(proc, outdir, fragments)
     assert not (tmp_path / "other").exists()
     assert proc.returncode == 1
+
+
+def test_a_directory_as_the_mesh_file_is_said_to_be_one(tmp_path):
+    (tmp_path / "dir.mesh").mkdir()
+    path = write_deck(tmp_path / "dir.yaml", deck_with(mesh={"file": "dir.mesh"}))
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, ["dir.yaml:", "'mesh.file'", "not a regular file", "dir.mesh"])

@@ -240,6 +240,16 @@ def test_no_reactions_unless_asked(tmp_path):
     assert "reactions" not in json.loads((out / "summary.json").read_text())
 
 
+def test_reactions_of_a_scene_without_supports_are_warned_of(tmp_path):
+    deck = bar()
+    del deck["fixed"]
+    deck["time"]["frames"] = 1
+    done = run_hyperqn([write_deck(tmp_path / "free.yaml", deck), "-o", tmp_path / "free"])
+    assert "warning: output.reactions: the scene has no fixed region or attachment" in done.stdout
+    assert "warning" not in run_hyperqn([write_deck(tmp_path / "held.yaml", {**deck, "fixed": [{"box": CLAMP}]}),
+                                         "-o", tmp_path / "held"]).stdout
+
+
 def test_a_bad_value_is_an_input_error(tmp_path):
     deck = bar()
     deck["output"] = {"reactions": "sometimes"}
