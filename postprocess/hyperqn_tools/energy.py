@@ -5,7 +5,7 @@ momentum and energy checks (tests/python/test_integrators.py, test_cuts.py, test
 and bench/integrator_energy.py; 1-rank frames."""
 import numpy as np
 
-from hyperqn_tools.output import frame_meshes
+from hyperqn_tools.output import Frame
 
 
 def tet_volumes(rest, tets):
@@ -63,12 +63,10 @@ def frame_tet_momenta(frame, density):
 def neohookean_energies(path, youngs_modulus, poisson_ratio, density, gravity):
     """(kinetic, elastic, gravitational) energy of the frame at path: psi = mu/2 (|F|^2 - 3) -
     mu log J + lambda/2 log^2 J, and -sum m g.u (0 at rest) for gravity g = (0, -gravity, 0)."""
-    (m,) = frame_meshes(path)
-    x = m.points
-    u = m.point_data["displacement"]
+    f = Frame(path)  # merged over the ranks' pieces (a .pvtu of several) and over XDMF alike
+    x, u, v = f.points, f.displacement, f.velocity
     X = x - u
-    v = m.point_data["velocity"]
-    tets = np.concatenate([c.data for c in m.cells if c.type == "tetra"])
+    tets = f.cells["tetra"]
     _, elastic = tet_energies(x, X, v, tets, youngs_modulus, poisson_ratio, density)
     mass = lumped_masses(X, tets, density)
     kinetic = 0.5 * np.sum(mass * np.sum(v * v, axis=1))

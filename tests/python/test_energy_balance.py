@@ -183,3 +183,13 @@ BAD = {
 def test_bad_input(tmp_path, case):
     deck, fragments = BAD[case]
     assert_deck_refused(tmp_path, case, deck, fragments)
+
+
+def test_the_frames_energies_at_two_ranks_are_the_energy_csv_s(tmp_path):
+    # hyperqn_tools.energy reads a frame of several pieces (a .pvtu of 2 ranks) merged
+    out, _ = run_deck(tmp_path, "two", cantilever(ELASTIC, frames=3), ranks=2)
+    e = read_energy(out)
+    for frame, _, path in frame_list(out):
+        kinetic, stored, gravity = neohookean_energies(path, E, NU, RHO, G)
+        assert abs(e["stored"][frame] - stored) <= 1e-9 * e["gravity_work"].max()
+        assert abs(e["kinetic"][frame] - kinetic) <= 1e-9 * e["gravity_work"].max()
