@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number
+from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number, fraction
 
 
 def box_mesh(size, element):
@@ -138,7 +138,7 @@ def main(argv=None):
                     help="box size: one number (a cube) or three (x y z); default 1")
     ap.add_argument("--element", type=positive_number, default=0.05, help="cube edge (element size); default 0.05")
     ap.add_argument("--worst", type=positive_number, default=1e-5, help="worst tet quality; default 1e-5")
-    ap.add_argument("--fraction", type=positive_number, default=0.01, help="fraction of tets made slivers; default 0.01")
+    ap.add_argument("--fraction", type=fraction, default=0.01, help="fraction of tets made slivers; default 0.01")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
     size = args.size * 3 if len(args.size) == 1 else args.size

@@ -54,6 +54,19 @@ def positive_number(text):
     return x
 
 
+def fraction(text):
+    """argparse type of a share: a number in [0, 1]."""
+    import argparse
+
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= x <= 1:  # nan too
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a number in [0, 1]")
+    return x
+
+
 def write_medit(path, X, T, triangles=None, references=None):
     """X, T (0-based) as a Medit .mesh; with triangles (0-based rows) and their references, a
     Triangles section after the tets (boundary faces tagged for a region). A path that cannot be

@@ -332,9 +332,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   }
   read_log_events(summary);
   summary.setup_s = MPI_Wtime() - t_start;
-  std::string elements = summary.triangles ? "" : std::to_string(summary.tets) + " tets";
-  if (summary.segments) elements += ", " + std::to_string(summary.segments) + " strand segments";
-  if (summary.triangles) elements += std::to_string(summary.triangles) + " cloth triangles";
+  std::string elements;  // what the mesh (or the bodies) has, each kind named once (a cloth alone has no tets)
+  const auto list = [&elements](long long count, const char* what) {
+    elements += (elements.empty() ? "" : ", ") + std::to_string(count) + " " + what;
+  };
+  if (summary.tets || (!summary.triangles && !summary.segments)) list(summary.tets, "tets");
+  if (summary.segments) list(summary.segments, "strand segments");
+  if (summary.triangles) list(summary.triangles, "cloth triangles");
   PetscPrintf(comm, "hyperqn: %s: %lld vertices (%lld fixed), %s, %lld dofs on %d rank(s); solver %s; setup %.3f s (factor %.3f s)\n",
               deck.name.c_str(), summary.vertices, summary.fixed_vertices, elements.c_str(), summary.dofs, size,
               summary.solver.c_str(), summary.setup_s, summary.factor_s);

@@ -504,7 +504,7 @@ PetscErrorCode Body::vertex_stiffness(Vec x, PetscReal scale, std::vector<Vertex
 
 PetscErrorCode Body::add_rest_hessian(Mat H, PetscReal scale) const {
   PetscFunctionBeginUser;
-  for (const auto& term : terms_) PetscCall(term->add_hessian(mesh_.rest, H, scale, true));
+  for (const auto& term : terms_) PetscCall(term->add_rest_stiffness(mesh_.rest, H, scale));
   PetscFunctionReturn(0);
 }
 

@@ -89,6 +89,11 @@ PetscErrorCode ClothBending::add_energy(Vec, const std::vector<double>& pos, dou
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode ClothBending::add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const {
+  if (model_ == BendingModel::springs) return springs_.add_hessian(rest.data(), H, scale, true, true);
+  return add_hessian(rest, H, scale, true);
+}
+
 PetscErrorCode ClothBending::add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const {
   PetscFunctionBeginUser;
   if (model_ == BendingModel::springs) {

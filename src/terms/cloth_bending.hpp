@@ -29,6 +29,8 @@ class ClothBending : public EnergyTerm {
   std::string name() const override;
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  // The springs' unflowed (their history at its start); the hinges' have none.
+  PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override;
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
   bool projective_dynamics_exact() const override { return model_ != BendingModel::dihedral && !springs_.yields(); }
   ElementState* element_state() override { return springs_.element_state(); }

@@ -22,6 +22,9 @@ class ClothSprings : public EnergyTerm {
   std::string name() const override { return "cloth springs"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override {
+    return springs_.add_hessian(rest.data(), H, scale, true, true);  // unflowed
+  }
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
   bool projective_dynamics_exact() const override { return !springs_.yields(); }
   ElementState* element_state() override { return springs_.element_state(); }

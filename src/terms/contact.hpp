@@ -63,6 +63,8 @@ class ContactTerm : public EnergyTerm {
   std::string name() const override { return "contact"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  // Contact is a step's state, not the rest's stiffness (EnergyTerm::add_rest_stiffness).
+  PetscErrorCode add_rest_stiffness(const std::vector<double>&, Mat, double) const override { return 0; }
   // Its whole Hessian (psd): every block is a single vertex's.
   PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
   bool has_vertex_stiffness() const override { return true; }

@@ -87,6 +87,14 @@ class EnergyTerm {
   // H += scale * d2E/dx2 at pos on the free dofs (global indices), with the per-element
   // definiteness fix (psd, Newton) or exact (possibly indefinite; tests, the study's reference).
   virtual PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const = 0;
+  // Its part of the rest stiffness K(x_rest) (solver.h0: rest-stiffness), PSD: a function of the
+  // scene alone, so that a matrix built from it is the same whenever it is built (a sub-step's at
+  // the first sub-step, a restart's at its frame). add_hessian at the rest positions, but with no
+  // step state: a history at its start (inelastic, yielding springs) and no contact (the
+  // obstacles' positions now, the lagged friction), which overrides say.
+  virtual PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const {
+    return add_hessian(rest, H, scale, true);
+  }
   // The 3 x 3 diagonal blocks of add_hessian (psd) at pos, per owned free vertex that has one
   // (appended to out; a vertex may appear more than once); blocks between two vertices are left
   // out. Collective (a term that couples vertices of several ranks sends each block to its owner).

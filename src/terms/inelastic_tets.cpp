@@ -39,6 +39,12 @@ InelasticTets::InelasticTets(const DistributedMesh& mesh, const std::string& sta
   for (size_t k = 0; k < cells_.size(); ++k)
     models_[mesh.cell_material[cells_[k]]]->rest(&rest[k * state_.per_element()]);
   state_.restore(std::move(rest));
+  virgin_.resize(models_.size());
+  for (size_t m = 0; m < models_.size(); ++m)
+    if (models_[m]) {
+      virgin_[m].assign(state_.per_element(), 0.0);
+      models_[m]->rest(virgin_[m].data());
+    }
 }
 
 std::string InelasticTets::name() const {
@@ -110,8 +116,15 @@ void InelasticTets::stored_energy_batch(size_t k, int m, StressBatch& b, int n) 
   });
 }
 
+PetscErrorCode InelasticTets::add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const {
+  at_rest_ = true;
+  const PetscErrorCode ierr = add_hessian(rest, H, scale, true);
+  at_rest_ = false;
+  return ierr;
+}
+
 Mat9 InelasticTets::element_stress_derivative(PetscInt k, int m, const Mat3& F, bool psd) const {
-  Mat9 C = models_[m]->stress_derivative(F, state_.start(k), dt_);
+  Mat9 C = at_rest_ ? models_[m]->stress_derivative(F, virgin_[m].data(), 0.0) : models_[m]->stress_derivative(F, state_.start(k), dt_);
   if (materials_[m]) C = materials_[m]->stress_derivative(F) + C;
   return psd ? project_psd(C) : C;
 }

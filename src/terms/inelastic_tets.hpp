@@ -32,6 +32,8 @@ class InelasticTets : public TetElements {
   // and the energy balance's copies of the terms).
   PetscErrorCode begin_step(const StepStart& step) override;
   ElementState* element_state() override { return &state_; }
+  // With the history at its start (zeros) and dt 0: the stored energy's Hessian, as at setup.
+  PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override;
   PetscErrorCode update_state(const std::vector<double>& pos) override;
   double dissipated_energy() const override;
   double step_length() const { return dt_; }
@@ -57,6 +59,8 @@ class InelasticTets : public TetElements {
   // Per element its models' history, then the energy dissipated since the run began per rest
   // volume (the last value: the step's dissipation added at each accept).
   ElementState state_;
+  mutable bool at_rest_ = false;            // add_rest_stiffness is running: element_stress_derivative's history is virgin_
+  std::vector<std::vector<double>> virgin_;  // per material, an element's history at its start (InelasticModel::rest)
   int dissipated_ = 0;  // that value's index in an element's values
   double dt_ = 0;
   // The models' step values (InelasticModel::step_width) per element, for the step of dt_ from the

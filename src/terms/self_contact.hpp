@@ -126,6 +126,8 @@ class SelfContactTerm : public EnergyTerm {
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   // The pairs' 12 x 12 blocks (psd: each projected to positive semidefinite); collective.
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  // Contact is a step's state, not the rest's stiffness (EnergyTerm::add_rest_stiffness).
+  PetscErrorCode add_rest_stiffness(const std::vector<double>&, Mat, double) const override { return 0; }
   // The 3 x 3 diagonal blocks of add_hessian (psd) at the free points of the pairs within d and of
   // the frozen friction pairs, at each vertex's owner (collective).
   PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;

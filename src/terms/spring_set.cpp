@@ -139,13 +139,13 @@ double SpringSet::dissipated_energy() const {
   return e;
 }
 
-PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bool psd) const {
+PetscErrorCode SpringSet::add_hessian(const double* pos, Mat H, double scale, bool psd, bool elastic) const {
   Eigen::Matrix<double, 6, 6> Ks;  // d2E/dx2 for x = (x_a, x_b): [K -K; -K K]
   PetscFunctionBeginUser;
   for (size_t s = 0; s < count_; ++s) {
     const PetscInt ab[2] = {a_[s], b_[s]};
     Mat3 K;
-    if (state_) {  // as spring::stiffness, with dW/dl and d2W/dl2 of the return map
+    if (state_ && !elastic) {  // as spring::stiffness, with dW/dl and d2W/dl2 of the return map
       const Vec3 u = segment_edge(pos, ab);
       const double l = spring::length(u, rest_[s]);
       const yielding_spring::Flow f = flow(s, l);

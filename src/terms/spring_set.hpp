@@ -50,7 +50,8 @@ class SpringSet {
   // is added into `gradient` (the mesh's local dof array), unless it is null.
   void add_energy(const double* pos, double* energy, PetscScalar* gradient) const;
   // H += scale * d2E/dx2 at pos (psd: the transverse terms of compressed springs clamped at 0).
-  PetscErrorCode add_hessian(const double* pos, Mat H, double scale, bool psd) const;
+  // elastic: as springs that never flowed (a yielding set's history at its start: the rest stiffness).
+  PetscErrorCode add_hessian(const double* pos, Mat H, double scale, bool psd, bool elastic = false) const;
   // A += scale * (each spring's stiffness) * [1 -1; -1 1] on its ends (EnergyTerm::add_laplacian).
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const;
 

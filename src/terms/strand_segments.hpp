@@ -21,6 +21,9 @@ class StrandSegments : public EnergyTerm {
   std::string name() const override { return "strand"; }
   PetscErrorCode add_energy(Vec x, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const override;
   PetscErrorCode add_hessian(const std::vector<double>& pos, Mat H, double scale, bool psd) const override;
+  PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override {
+    return springs_.add_hessian(rest.data(), H, scale, true, true);  // unflowed
+  }
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const override;
   void add_lumped_mass(PetscScalar* mass) const override;
   double local_mass() const override;
