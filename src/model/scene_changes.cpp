@@ -136,6 +136,7 @@ PetscErrorCode LiveScene::release_due(State& main, const std::vector<State*>& ot
   }
   last_change_cut_ = false;
   last_change_break_ = false;
+  last_cut_corrected_ = false;  // a release factors again (or, with newton, factors nothing)
   last_change_factored_ = !fresh->constant_matrices.empty();
   factored_batches_ = counts_.batches;
   factored_breaks_ = break_counts_.batches;

@@ -32,7 +32,7 @@ class InelasticTets : public TetElements {
   // and the energy balance's copies of the terms).
   PetscErrorCode begin_step(const StepStart& step) override;
   ElementState* element_state() override { return &state_; }
-  // With the history at its start (zeros) and dt 0: the stored energy's Hessian, as at setup.
+  // With the history at its start (InelasticModel::rest) and dt 0: the stored energy's Hessian, as at setup.
   PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override;
   PetscErrorCode update_state(const std::vector<double>& pos) override;
   double dissipated_energy() const override;

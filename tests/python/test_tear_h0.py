@@ -180,4 +180,9 @@ def test_restart_across_a_release_between_corrected_tears_is_bitwise(tmp_path):
     assert 0 < int(saved["breaks_factored"]) < batches
     b = read_summary(ref)["breaks"]
     assert b["h0_corrections"] == b["edges_torn"] and b["refactorizations"] == 0  # the release factors, not a tear
+    # and says so, after corrected tears (it said "corrected", the last tear's word, before)
+    done = run_hyperqn([write_deck(tmp_path / "to_release.yaml", {**deck, "time": {**deck["time"], "frames": 28}}),
+                        "-o", tmp_path / "to_release"], ranks=None)
+    [line] = [l for l in done.stdout.splitlines() if "released or attachment(s) gone" in l]
+    assert line.endswith("constant matrix factored again"), line
 
