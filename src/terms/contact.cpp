@@ -342,7 +342,8 @@ PetscErrorCode ContactTerm::report(const std::vector<double>& pos, TermReport& o
     std::string text;
     for (size_t c = 0; c < held.size(); ++c)
       if (held[c].count > 0) text += (text.empty() ? "" : "; ") + held_sentence(c, held[c], too_deep_words());
-    if (!text.empty()) out.flags.emplace_back("collider_intrusions", text + ": it moved into the body faster than contact pushed back");
+    if (!text.empty()) out.flags.emplace_back("collider_intrusions", text + ": it moved into the body faster than contact pushed back, or (once it stops) contact "
+                                                           "is too soft to push the body out (contact.stiffness)");
   }
   PetscFunctionReturn(0);
 }
