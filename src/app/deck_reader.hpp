@@ -77,11 +77,15 @@ class Reader {
     return "[" + s + "]";
   }
 
-  double number(const Value& v) const {
+  // zero_allowed: the key takes 0 (a key whose range does not: a tiny value's message must not offer it).
+  double number(const Value& v, bool zero_allowed = true) const {
     double x = 0;
     if (!plain_scalar(v.node) || !YAML::convert<double>::decode(v.node, x) || !std::isfinite(x))
       fail(v, "expected a number, got " + describe(v.node));
-    if (const std::string rule = number_limits_problem(x); !rule.empty()) fail(v, "must be " + rule + ", got " + v.node.Scalar());
+    if (std::string rule = number_limits_problem(x); !rule.empty()) {
+      if (!zero_allowed && rule.rfind("0 or ", 0) == 0) rule.erase(0, 5);
+      fail(v, "must be " + rule + ", got " + v.node.Scalar());
+    }
     return x;
   }
   // Decimal only: yaml-cpp's own conversion would read "010" as octal 8.
@@ -223,7 +227,7 @@ void read_value(const Reader& r, const DeckKey<Spec>& k, const Value& x, Spec& s
   const auto one = [&](auto type, const Value& item) {
     using T = decltype(type);
     if constexpr (std::is_same_v<T, double> || std::is_same_v<T, int>) {
-      const T value = std::is_same_v<T, double> ? T(r.number(item)) : T(r.integer(item));
+      const T value = std::is_same_v<T, double> ? T(r.number(item, k.range.contains(0.0))) : T(r.integer(item));
       if (!k.range.rule().empty()) r.check(k.range.contains(value), item, k.range.rule());
       return value;
     } else if constexpr (std::is_same_v<T, bool>) {

@@ -32,9 +32,10 @@ BAD_DECKS = {
     "youngs_modulus_1e308": (deck_with(**{"material.youngs_modulus": 1.0e308}), ["material.youngs_modulus", "1e100"]),
     "density_1e308": (deck_with(**{"material.density": 1.0e308}), ["material.density"]),
     "dt_denormal": (deck_with(**{"time.dt": 1e-320}), ["time.dt", "underflow"]),
-    # every number: 0 or at least 1e-100 in magnitude (before: 1e-320, a subnormal, was accepted)
+    # every number: 0 or at least 1e-100 in magnitude (before: 1e-320, a subnormal, was accepted); a key
+    # that refuses 0 does not offer it
     "youngs_modulus_denormal": (deck_with(**{"material.youngs_modulus": 1e-320}),
-                                [".yaml:5: 'material.youngs_modulus': must be 0 or at least 1e-100 in magnitude", "subnormal",
+                                [".yaml:5: 'material.youngs_modulus': must be at least 1e-100 in magnitude", "subnormal",
                                  "got 1.0e-320"]),
     "gravity_tiny": (deck_with(gravity=[0, -1e-200, 0]), ["'gravity[1]': must be 0 or at least 1e-100", "got -1.0e-200"]),
     "name_long": (deck_with(name="a" * 5000), ["'name'"]),
