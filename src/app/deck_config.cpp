@@ -11,6 +11,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "app/run_options.hpp"
 #include "model/load_kinds.hpp"
 #include "solvers/solver_registry.hpp"
 
@@ -190,23 +191,6 @@ class Config {
   std::ostringstream out_;
   std::set<std::string> shown_;
 };
-
-// The options database as (name, value) in its order (PetscOptionsGetAll: "-a 1 -b -c x"; a
-// value may be a negative number, "-x -1"). Read this way, not by PetscOptionsGetString, which
-// would mark every option used and silence the run's warning of the options nothing read.
-std::vector<std::pair<std::string, std::string>> all_options() {
-  char* all = nullptr;
-  PetscOptionsGetAll(nullptr, &all);
-  std::vector<std::pair<std::string, std::string>> options;
-  std::istringstream words(all ? all : "");
-  for (std::string w; words >> w;) {
-    const bool name = w.size() > 1 && w[0] == '-' && !std::isdigit((unsigned char)w[1]) && w[1] != '.';
-    if (name) options.push_back({w, ""});
-    else if (!options.empty()) options.back().second += (options.back().second.empty() ? "" : " ") + w;
-  }
-  PetscFree(all);
-  return options;
-}
 
 // Where an option's value came from: the deck's petsc: section (same value) or the command line.
 std::string option_source(const Deck& deck, const std::string& name, const std::string& value) {

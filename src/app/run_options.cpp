@@ -1,6 +1,10 @@
 #include "app/run_options.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <iterator>
+#include <sstream>
 #include <string>
 
 #include "app/petsc_errors.hpp"
@@ -28,7 +32,27 @@ static constexpr int kH0PackageCount = 5;
   PetscOptionsGetString(nullptr, nullptr, name, value, sizeof value, &set);
   if (const Deck::OptionPlace* place = deck ? deck_option_place(*deck, name, value) : nullptr)
     throw InputError(deck->path, place->line, place->key, why + ", got " + value);
-  throw InputError(std::string("option ") + name + " " + value + ": " + why);
+  throw InputError(std::string("option ") + name + (value[0] ? std::string(" ") + value : std::string()) + ": " + why);
+}
+
+// The options database as (name, value) in its order (PetscOptionsGetAll: "-a 1 -b -c x"; a
+// value may be a negative number, "-x -1", "-x -inf"). Read this way, not by PetscOptionsGetString, which
+// would mark every option used and silence the run's warning of the options nothing read.
+std::vector<std::pair<std::string, std::string>> all_options() {
+  char* all = nullptr;
+  PetscOptionsGetAll(nullptr, &all);
+  std::vector<std::pair<std::string, std::string>> options;
+  std::istringstream words(all ? all : "");
+  for (std::string w; words >> w;) {
+    std::string lower = w;
+    for (char& c : lower) c = static_cast<char>(std::tolower((unsigned char)c));
+    const bool number = lower == "-inf" || lower == "-infinity" || lower == "-nan";
+    const bool name = w.size() > 1 && w[0] == '-' && !std::isdigit((unsigned char)w[1]) && w[1] != '.' && !number;
+    if (name) options.push_back({w, ""});
+    else if (!options.empty()) options.back().second += (options.back().second.empty() ? "" : " ") + w;
+  }
+  PetscFree(all);
+  return options;
 }
 
 // The options parse_run_options reads as numbers: given without a value, PETSc would keep the
@@ -40,11 +64,12 @@ static const char* const kNumericOptions[] = {
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
-  for (const char* name : kNumericOptions) {
-    char value[8] = "";
-    PetscBool set = PETSC_FALSE;
-    PetscCall(PetscOptionsGetString(nullptr, nullptr, name, value, sizeof value, &set));
-    if (set && value[0] == '\0') refuse(deck, name, "needs a value (a number)");
+  // A value-taking option given without one: hyperqn's numbers and every PETSc *_type (PETSc would
+  // keep the default unsaid, or fail later without naming the option).
+  for (const auto& [name, value] : all_options()) {
+    const bool number = std::find(std::begin(kNumericOptions), std::end(kNumericOptions), name) != std::end(kNumericOptions);
+    const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
+    if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
   }
   {  // checked first, for a message that names the choices (PETSc's would not)
     char value[64] = "";

@@ -4,6 +4,10 @@
 #pragma once
 #include <petscsys.h>
 
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "app/deck.hpp"
 #include "model/scene.hpp"
 
@@ -39,6 +43,10 @@ struct RunOptions {
 // that makes no sense (not finite, not one of the choices, a package this PETSc does not have),
 // naming the deck's line and key when `deck` is given and its petsc: section gave the value.
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options, const Deck* deck = nullptr);
+
+// The options database as (name, value) in its order (names with their '-'; a flag's value ""),
+// read without marking any used.
+std::vector<std::pair<std::string, std::string>> all_options();
 
 // The Poisson ratio by which solver.h0: auto resolves for this deck (resolved_h0): the scene's
 // largest (largest_poisson_ratio), or 0 with solver.h0_contact: woodbury, which adds the contacts'

@@ -457,7 +457,8 @@ def test_commands_without_arguments_refuse_one(tmp_path, command):
     assert proc.returncode == 1 and f"'{command}': takes no argument, got 'extra'" in proc.stdout, proc.stdout
 
 
-@pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value"])
+@pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value",
+                                  "type_without_value"])
 def test_bad_command_lines_are_refused(tmp_path, case):
     # every argument is used or refused: a word that is neither the deck nor an option's value, a
     # second -o, or a numeric option without its number (PETSc alone would keep the default, unsaid)
@@ -469,6 +470,8 @@ def test_bad_command_lines_are_refused(tmp_path, case):
         "two_outdirs": ([path, "-o", outdir, "-o", tmp_path / "other"], ["-o", "given twice"]),
         "option_without_value": ([path, "-o", outdir, "-hyperqn_divergence_limit"],
                                  ["-hyperqn_divergence_limit", "needs a value"]),
+        # PETSc would fail at setup without naming it ("Unable to find requested TaoLineSearch type")
+        "type_without_value": ([path, "-o", outdir, "-tao_ls_type"], ["option -tao_ls_type: needs a value"]),
         "deck_option_without_value": (None, ["good.yaml:", "hyperqn_progress_seconds", "needs a value"]),
     }[case]
     if args is None:
