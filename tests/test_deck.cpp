@@ -569,9 +569,10 @@ void test_attachments() {
   expect_error("attach_stiffness_negative", kHead + box + "    stiffness: -1\n", "attachments[0].stiffness", 5, "> 0");
   expect_error("attach_stiffness_nan", kHead + box + "    stiffness: .nan\n", "attachments[0].stiffness", 5, "number");
   expect_error("attach_stiffness_huge", kHead + box + "    stiffness: 1e300\n", "attachments[0].stiffness", 5, "1e100");
-  // Every number 0 or at least 1e-100 in magnitude: a subnormal is named at its key.
+  // Every number 0 or at least 1e-100 in magnitude: a subnormal is named at its key (a key that refuses 0,
+  // as the stiffness, is not told it may be 0).
   expect_error("attach_stiffness_subnormal", kHead + box + "    stiffness: 1e-320\n", "attachments[0].stiffness", 5,
-               "0 or at least 1e-100");
+               "must be at least 1e-100");
   expect_error("youngs_modulus_subnormal", kMesh + "material: {youngs_modulus: 1e-320, poisson_ratio: 0.3, density: 1000}\n",
                "material.youngs_modulus", 2, "subnormal");
   // A generated box or sheet of flat cells (M + h^2 L would not be positive definite).
