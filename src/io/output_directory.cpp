@@ -1,5 +1,6 @@
 #include "io/output_directory.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <functional>
 #include <fstream>
@@ -77,6 +78,9 @@ int remove_files(const std::string& dir, const std::function<bool(const std::str
     if (it->is_regular_file(type_ec) && ours(it->path().filename().string())) old.push_back(it->path());
   }
   if (ec) throw std::runtime_error("cannot list the output directory " + dir + ": " + ec.message());
+  std::stable_sort(old.begin(), old.end(), [](const fs::path& a, const fs::path& b) {
+    return removal_order(a.filename().string()) < removal_order(b.filename().string());
+  });
   for (const fs::path& p : old) {
     std::error_code rm;
     fs::remove(p, rm);

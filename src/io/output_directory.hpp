@@ -17,6 +17,17 @@ void create_output_directory(MPI_Comm comm, const std::string& dir);
 // interrupted write of any of these.
 bool is_run_output(const std::string& dir, const std::string& name);
 
+// Where a run's file comes in clearing an earlier run (lower first): a series' index before what it
+// lists (a .pvd its frames, a .xdmf its .h5, a .pvtu its pieces), so that a run killed while it
+// clears leaves no index listing a file already gone.
+inline int removal_order(const std::string& name) {
+  const auto ends = [&](const char* e) {
+    const std::string s(e);
+    return name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0;
+  };
+  return ends(".pvd") ? 0 : ends(".xdmf") ? 1 : ends(".pvtu") ? 2 : 3;
+}
+
 // What clear_previous_run removed.
 struct Cleared {
   int files = 0, checkpoints = 0;

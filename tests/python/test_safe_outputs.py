@@ -243,3 +243,4 @@ def test_full_disk_during_a_study(tmp_path, ranks):
                            ranks=ranks, check=False, timeout=120)
         assert proc.returncode == 1, proc.stdout[-3000:]
         assert f"hyperqn: error: cannot write {out}/" in proc.stdout and "No space left on device" in proc.stdout
+

@@ -1,0 +1,26 @@
+// Clearing an earlier run's output (io/output_directory.hpp): a series' index goes before what it
+// lists, so that a run killed while it clears leaves no index of files already gone (the fault
+// suite's reuse trial found a .pvd listing frames removed before it).
+#include "io/output_directory.hpp"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "check.hpp"
+
+using hyperqn::removal_order;
+
+int main() {
+  for (const char* index : {"bar.pvd", "bar.xdmf", "bar_00003.pvtu"})
+    for (const char* listed : {"bar_00003.vtu", "bar_00003_1.vtu", "bar.h5", "iterations.csv", "config.yaml"})
+      CHECK(removal_order(index) < removal_order(listed));
+  CHECK(removal_order("bar.pvd") < removal_order("bar_00003.pvtu"));  // the .pvd lists the .pvtu
+  CHECK(removal_order("bar.xdmf") < removal_order("bar.h5"));
+  // As clear_previous_run sorts a directory's listing: every index first, whatever the listing's order.
+  std::vector<std::string> names{"bar_00001.vtu", "bar_00000.pvtu", "bar.pvd", "run.h5", "run.xdmf", "summary.json"};
+  std::stable_sort(names.begin(), names.end(),
+                   [](const std::string& a, const std::string& b) { return removal_order(a) < removal_order(b); });
+  CHECK(names[0] == "bar.pvd" && names[1] == "run.xdmf" && names[2] == "bar_00000.pvtu");
+  return check::summary("test_output_directory");
+}
