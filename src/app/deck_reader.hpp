@@ -82,10 +82,8 @@ class Reader {
     double x = 0;
     if (!plain_scalar(v.node) || !YAML::convert<double>::decode(v.node, x) || !std::isfinite(x))
       fail(v, "expected a number, got " + describe(v.node));
-    if (std::string rule = number_limits_problem(x); !rule.empty()) {
-      if (!zero_allowed && rule.rfind("0 or ", 0) == 0) rule.erase(0, 5);
+    if (const std::string rule = number_limits_problem(x, zero_allowed); !rule.empty())
       fail(v, "must be " + rule + ", got " + v.node.Scalar());
-    }
     return x;
   }
   // Decimal only: yaml-cpp's own conversion would read "010" as octal 8.

@@ -43,18 +43,21 @@ bool blades_cut_cloth(const SceneSpec& spec) {
   return cloth && !spec.cuts.empty();
 }
 
-int tear_resolve(const SceneSpec& spec) {
-  int most = spec.bodies.empty() && spec.cloth.tear_strain > 0 ? spec.cloth.tear_resolve : 0;
-  for (const BodySpec& b : spec.bodies)
-    if (b.cloth.tear_strain > 0) most = std::max(most, b.cloth.tear_resolve);
+// The largest of `of` (a part's cloth and strand material) over the deck's parts: its own or its bodies'.
+template <typename Of>
+static int largest_of_parts(const SceneSpec& spec, Of of) {
+  if (spec.bodies.empty()) return of(spec.cloth, spec.strand_material);
+  int most = 0;
+  for (const BodySpec& b : spec.bodies) most = std::max(most, of(b.cloth, b.strand_material));
   return most;
 }
 
+int tear_resolve(const SceneSpec& spec) {
+  return largest_of_parts(spec, [](const ClothSpec& c, const StrandMaterial&) { return c.tear_strain > 0 ? c.tear_resolve : 0; });
+}
+
 int snap_resolve(const SceneSpec& spec) {
-  int most = spec.bodies.empty() && spec.strand_material.snap_strain > 0 ? spec.strand_material.snap_resolve : 0;
-  for (const BodySpec& b : spec.bodies)
-    if (b.strand_material.snap_strain > 0) most = std::max(most, b.strand_material.snap_resolve);
-  return most;
+  return largest_of_parts(spec, [](const ClothSpec&, const StrandMaterial& s) { return s.snap_strain > 0 ? s.snap_resolve : 0; });
 }
 
 bool blades_cut_strands(const SceneSpec& spec) {

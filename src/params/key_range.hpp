@@ -15,11 +15,13 @@ namespace hyperqn {
 // ones among them) underflow as they are multiplied. "" if x is one, else what it must be, to
 // follow "must be" in a message.
 constexpr double kLargestNumber = 1e100, kSmallestNumber = 1e-100;
-inline std::string number_limits_problem(double x) {
+// zero_allowed false: a key that refuses 0, whose message must not offer it.
+inline std::string number_limits_problem(double x, bool zero_allowed = true) {
   if (!std::isfinite(x)) return "finite";
   if (std::fabs(x) > kLargestNumber) return "at most 1e100 in magnitude (larger values overflow the energies)";
   if (x != 0 && std::fabs(x) < kSmallestNumber)
-    return "0 or at least 1e-100 in magnitude (smaller values, subnormal ones among them, underflow)";
+    return std::string(zero_allowed ? "0 or " : "") +
+           "at least 1e-100 in magnitude (smaller values, subnormal ones among them, underflow)";
   return "";
 }
 
