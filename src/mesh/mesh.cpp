@@ -52,7 +52,7 @@ class MeditReader {
         if (have_triangles) throw InputError(path_, t.line, "Triangles", "second Triangles section");
         if (!have_vertices)
           throw InputError(path_, t.line, "Triangles", "Triangles section comes before the Vertices section");
-        read_elements(t, 3, "triangle", mesh.num_vertices(), mesh.triangles, mesh.triangle_tags);
+        read_elements(t, 3, "triangle", mesh.num_vertices(), mesh.triangles, mesh.triangle_tags, mesh.triangle_lines);
         have_triangles = true;
       } else if (t.is("Triangles") && !face_tags_.empty()) {
         if (have_triangles) throw InputError(path_, t.line, "Triangles", "second Triangles section");
@@ -64,12 +64,12 @@ class MeditReader {
         if (have_tets) throw InputError(path_, t.line, "Tetrahedra", "second Tetrahedra section");
         if (!have_vertices)
           throw InputError(path_, t.line, "Tetrahedra", "Tetrahedra section comes before the Vertices section");
-        read_elements(t, 4, "tet", mesh.num_vertices(), mesh.tets, mesh.tet_tags);
+        read_elements(t, 4, "tet", mesh.num_vertices(), mesh.tets, mesh.tet_tags, mesh.tet_lines);
         have_tets = true;
       } else if (t.is("Edges") && edges_as_strands_) {
         if (have_edges) throw InputError(path_, t.line, "Edges", "second Edges section");
         if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
-        read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags);
+        read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags, mesh.segment_lines);
         have_edges = true;
       } else if (const MeditRecord record = medit_record(t); record.size) {
         Section s = open_section(t);
@@ -183,7 +183,7 @@ class MeditReader {
 
   // A section of elements of n vertices each plus a reference tag ("tet", "edge" in messages).
   void read_elements(const Token& key, int n, const char* what, long long nv, std::vector<int32_t>& vertices,
-                     std::vector<int32_t>& tags) {
+                     std::vector<int32_t>& tags, RecordLines& lines) {
     Section s = open_section(key);
     vertices.reserve(n * capacity(s, n + 1));
     tags.reserve(capacity(s, n + 1));
@@ -192,6 +192,7 @@ class MeditReader {
       for (int k = 0; k < n; ++k) {
         long long v;
         Token t = integer(s, i, v);
+        if (k == 0) lines.add(i, t.line);
         if (v < 1 || v > nv)
           throw InputError(path_, t.line, s.name, element + ": vertex index " + t.str() + " is out of range 1.." + std::to_string(nv));
         vertices.push_back(int32_t(v - 1));
@@ -311,6 +312,24 @@ TetMesh generate_sheet(const std::array<double, 2>& size, const std::array<int, 
 
 // ---------------------------------------------------------------------------------------------
 
+void RecordLines::add(int64_t record, int line) {
+  if (!runs_.empty()) {
+    Run& last = runs_.back();
+    if (record == last.first + last.count && line == last.line + last.count) {
+      ++last.count;
+      return;
+    }
+  }
+  runs_.push_back({record, 1, line});
+}
+
+int RecordLines::line_of(int64_t record) const {
+  auto run = std::upper_bound(runs_.begin(), runs_.end(), record, [](int64_t r, const Run& p) { return r < p.first; });
+  if (run == runs_.begin()) return 0;
+  --run;
+  return record < run->first + run->count ? run->line + int(record - run->first) : 0;
+}
+
 void bounding_box(const std::vector<double>& coords, double lo[3], double hi[3]) {
   for (int d = 0; d < 3; ++d) {
     lo[d] = HUGE_VAL;
@@ -398,8 +417,8 @@ void apply_transform(TetMesh& mesh, const MeshTransform& t) {
 // holds two copies of it), are almost surely mistakes: an InputError naming both (1-based).
 // Two elements on the same vertex set (sorted), by the kind's name: an InputError naming both.
 template <int N>
-static void reject_same_vertices(const std::vector<int32_t>& elements, const char* section, const char* what,
-                                 const std::string& source) {
+static void reject_same_vertices(const std::vector<int32_t>& elements, const RecordLines& lines, const char* section,
+                                 const char* what, const std::string& source) {
   const int64_t n = (int64_t)elements.size() / N;
   std::vector<std::pair<std::array<int32_t, N>, int64_t>> sorted(static_cast<size_t>(n));
   for (int64_t e = 0; e < n; ++e) {
@@ -411,14 +430,15 @@ static void reject_same_vertices(const std::vector<int32_t>& elements, const cha
   std::sort(sorted.begin(), sorted.end());
   for (size_t k = 1; k < sorted.size(); ++k)
     if (sorted[k].first == sorted[k - 1].first)
-      throw InputError(source, 0, section, std::string(what) + "s " + std::to_string(sorted[k - 1].second + 1) + " and " +
+      throw InputError(source, lines.line_of(sorted[k].second), section,
+                       std::string(what) + "s " + std::to_string(sorted[k - 1].second + 1) + " and " +
                                                std::to_string(sorted[k].second + 1) + " have the same " +
                                                std::to_string(N) + " vertices (a duplicated element)");
 }
 
 static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used, const std::string& source) {
-  reject_same_vertices<4>(mesh.tets, "Tetrahedra", "tet", source);
-  reject_same_vertices<3>(mesh.triangles, "Triangles", "triangle", source);
+  reject_same_vertices<4>(mesh.tets, mesh.tet_lines, "Tetrahedra", "tet", source);
+  reject_same_vertices<3>(mesh.triangles, mesh.triangle_lines, "Triangles", "triangle", source);
   std::vector<int64_t> points;
   for (int64_t v = 0; v < mesh.num_vertices(); ++v)
     if (used[v]) points.push_back(v);
@@ -493,7 +513,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* t = &mesh.tets[4 * e];
     for (int k = 0; k < 4; ++k) {
       if (t[k] < 0 || t[k] >= nv)
-        throw InputError(source, 0, "Tetrahedra", "tet " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.tet_lines.line_of(e), "Tetrahedra", "tet " + std::to_string(e + 1) + " has vertex index " +
                                                       std::to_string(t[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[t[k]] = 1;
     }
@@ -506,7 +526,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "tet %lld (1-based, as in the input) is degenerate: volume %.3g, mean edge length %.3g",
                     (long long)(e + 1), det / 6, h);
-      throw InputError(source, 0, "Tetrahedra", msg);
+      throw InputError(source, mesh.tet_lines.line_of(e), "Tetrahedra", msg);
     }
     flip[e] = det < 0;
   }
@@ -515,7 +535,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* seg = &mesh.segments[2 * e];
     for (int k = 0; k < 2; ++k) {
       if (seg[k] < 0 || seg[k] >= nv)
-        throw InputError(source, 0, "Edges", "segment " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.segment_lines.line_of(e), "Edges", "segment " + std::to_string(e + 1) + " has vertex index " +
                                                  std::to_string(seg[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[seg[k]] = 1;
     }
@@ -524,7 +544,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "segment %lld (1-based, as in the input) is degenerate: length %.3g",
                     (long long)(e + 1), length);
-      throw InputError(source, 0, "Edges", msg);
+      throw InputError(source, mesh.segment_lines.line_of(e), "Edges", msg);
     }
   }
 
@@ -532,7 +552,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* f = &mesh.triangles[3 * e];
     for (int k = 0; k < 3; ++k) {
       if (f[k] < 0 || f[k] >= nv)
-        throw InputError(source, 0, "Triangles", "triangle " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.triangle_lines.line_of(e), "Triangles", "triangle " + std::to_string(e + 1) + " has vertex index " +
                                                      std::to_string(f[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[f[k]] = 1;
     }
@@ -545,7 +565,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "triangle %lld (1-based, as in the input) is degenerate: area %.3g, mean edge length %.3g",
                     (long long)(e + 1), area, h);
-      throw InputError(source, 0, "Triangles", msg);
+      throw InputError(source, mesh.triangle_lines.line_of(e), "Triangles", msg);
     }
   }
 

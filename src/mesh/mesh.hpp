@@ -39,6 +39,21 @@ constexpr int kTornEdgeBit = 3;
 // history of a cloth's yielding edge springs: terms/cloth_springs.hpp).
 inline int64_t edge_spring_id(int64_t triangle, int slot) { return 3 * triangle + slot; }
 
+// The file line of each record of one element kind, as runs of records on consecutive lines (one
+// run for a file with one record per line): what lets clean_mesh's errors name the line.
+class RecordLines {
+ public:
+  void add(int64_t record, int line);   // records in increasing order, from 0
+  int line_of(int64_t record) const;    // 0 if unknown (a generated element, or none recorded)
+
+ private:
+  struct Run {
+    int64_t first, count;  // records first .. first + count - 1,
+    int line;              // the first at this line, record r at line + r - first
+  };
+  std::vector<Run> runs_;
+};
+
 struct TetMesh {
   std::vector<double> coords;        // 3 per vertex, x y z
   std::vector<int32_t> tets;         // 4 vertex indices (0-based) per tet
@@ -56,6 +71,8 @@ struct TetMesh {
                                         // one by both: then bit 3 + k too (kTornEdgeBit: each side
                                         // carries half the edge's spring, mesh/cloth_separation.hpp)
   TaggedFaces tagged_faces;             // read for the deck's face tags only (empty otherwise)
+  // Filled by the file readers (empty for generated meshes), for clean_mesh's messages.
+  RecordLines tet_lines, segment_lines, triangle_lines;
   int64_t num_vertices() const { return (int64_t)coords.size() / 3; }
   int64_t num_tets() const { return (int64_t)tets.size() / 4; }
   int64_t num_segments() const { return (int64_t)segments.size() / 2; }

@@ -317,9 +317,11 @@ class GmshReader {
                           const std::vector<int32_t>* groups = nullptr) {
     const bool face = groups && type == kTriangle && kept_type_ == kTet;
     int32_t v[4];
+    int first_line = 0;
     for (int k = 0; k < nodes; ++k) {
       int line;
       const long long node = integer(s, what + ": a node tag", &line);
+      if (k == 0) first_line = line;
       auto it = node_index_.find(node);
       if (it == node_index_.end())
         throw InputError(path_, line, s.name, what + ": node " + std::to_string(node) + " is not in $Nodes");
@@ -329,9 +331,11 @@ class GmshReader {
       for (int32_t group : *groups) mesh.tagged_faces.read(face_tags_, group, v[0], v[1], v[2]);
     if (type != kept_type_) return;
     if (type == kTet) {
+      mesh.tet_lines.add(mesh.num_tets(), first_line);
       mesh.tets.insert(mesh.tets.end(), v, v + 4);
       mesh.tet_tags.push_back(tag);
     } else {
+      mesh.triangle_lines.add(mesh.num_triangles(), first_line);
       mesh.triangles.insert(mesh.triangles.end(), v, v + 3);
       mesh.triangle_tags.push_back(tag);
     }

@@ -23,7 +23,10 @@ BAD_MESHES = {
     # name: (file text, expected fragments of the message)
     "truncated": ("MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n", ["truncated.mesh", "Vertices"]),
     "out_of_range": (TET_HEADER + "Tetrahedra\n1\n1 2 3 9 0\nEnd\n", ["out_of_range.mesh", "tet 1"]),
-    "degenerate": (TET_HEADER + "Tetrahedra\n1\n1 2 3 3 0\nEnd\n", ["degenerate.mesh", "degenerate"]),
+    # errors found once the file is read still name the element's line
+    "degenerate": (TET_HEADER + "Tetrahedra\n1\n1 2 3 3 0\nEnd\n", ["degenerate.mesh:11: 'Tetrahedra'", "tet 1 ", "degenerate"]),
+    "duplicated_tet": (TET_HEADER + "Tetrahedra\n3\n1 2 3 4 0\n\n1 2 4 3 7\n4 3 2 1 0\nEnd\n",
+                       ["duplicated_tet.mesh:13: 'Tetrahedra'", "tets 1 and 2 have the same 4 vertices"]),
     "not_a_number": (TET_HEADER.replace("1 0 0 0", "1 zero 0 0") + "Tetrahedra\n1\n1 2 3 4 0\nEnd\n",
                      ["not_a_number.mesh", ":6"]),
     # strtod reads these, but numbers in mesh files are plain decimals
