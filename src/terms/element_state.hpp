@@ -50,31 +50,33 @@ class ElementState {
     return &current_[per_element_ * e];
   }
   // Changes whenever the start values may have (each call below but extrapolate): what a term
-  // computes once per step from them (InelasticTets' step values) is kept under it.
+  // computes once per step from them (InelasticTets' step values) is kept under it. Unique to one
+  // set of start values across every ElementState, so that a copy put back (a study's trajectory,
+  // Body::set_element_states) does not take another history's revision.
   uint64_t revision() const { return revision_; }
 
   // A frame's step: its start, and back to it (after sub-steps too).
   void begin() {
-    ++revision_;
+    touch();
     take_current_as_start();
     frame_kept_ = advanced_ = false;
   }
   void undo() {
-    ++revision_;
+    touch();
     back_from_advance();
     if (frame_kept_) start_ = frame_start_;
     current_is_start_ = true;
   }
   // A sub-step of the frame: its start (the frame's kept at the first), and back to it.
   void begin_substep() {
-    ++revision_;
+    touch();
     if (!frame_kept_) frame_start_ = start_;
     frame_kept_ = true;
     advanced_ = false;
     take_current_as_start();
   }
   void undo_substep() {
-    ++revision_;
+    touch();
     back_from_advance();
     current_is_start_ = true;
   }
@@ -87,7 +89,7 @@ class ElementState {
   // A midpoint step completed by implicit Euler: its second half starts from the values at z
   // (current, as updated there); undo and undo_substep still go back to the step's start.
   void advance() {
-    ++revision_;
+    touch();
     if (!advanced_) step_start_ = start_;
     advanced_ = true;
     take_current_as_start();
@@ -95,7 +97,7 @@ class ElementState {
   // Values saved by a checkpoint or kept by the scene before a rebuild (in ids' order): both the
   // start and the current ones, as after an accepted step.
   void restore(std::vector<double> values) {
-    ++revision_;
+    touch();
     start_ = std::move(values);
     current_is_start_ = true;
     frame_kept_ = advanced_ = false;
@@ -115,6 +117,7 @@ class ElementState {
     current_ = start_;
     current_is_start_ = false;
   }
+  void touch() { revision_ = ++last_revision_; }
   void back_from_advance() {
     if (advanced_) start_ = step_start_;
     advanced_ = false;
@@ -130,7 +133,8 @@ class ElementState {
   bool frame_kept_ = false;
   std::vector<double> step_start_;  // the step's start while advance() moved start_ to its z
   bool advanced_ = false;
-  uint64_t revision_ = 0;
+  inline static uint64_t last_revision_ = 0;  // of all ElementStates
+  uint64_t revision_ = ++last_revision_;
 };
 
 // from's current values into to's (both as after an accepted step), element by element through the
