@@ -32,6 +32,13 @@ PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
   }
   mass_.assign(3 * mesh.num_vertices, 0.0);
   for (const auto& t : terms_) t->add_lumped_mass(mass_.data());
+  {  // a load that scales with the mass (body_force) takes it as the scene's does (Scene: Body::set_masses)
+    Vec mass;
+    PetscCall(DMCreateGlobalVector(mesh.dm, &mass));
+    PetscCall(body.lumped_mass(mass));
+    for (const auto& load : loads_) PetscCall(load->set_masses(mass));
+    PetscCall(VecDestroy(&mass));
+  }
   free_.assign(3 * mesh.num_vertices, 1);
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     for (int d = 0; d < 3; ++d)

@@ -30,7 +30,7 @@ LoadRegion select_tagged_region(const DistributedMesh& mesh, const LoadSpec& spe
   if (target == LoadTarget::vertices) {
     const std::vector<int64_t> ids = tagged.vertex_ids_of(spec.face_tag);
     for (PetscInt v = 0; v < mesh.num_vertices; ++v)
-      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && std::binary_search(ids.begin(), ids.end(), mesh.vertex_ids[v]) &&
+      if (mesh.owned[v] && mesh.global_dof[v] >= 0 && std::binary_search(ids.begin(), ids.end(), mesh.vertex_ids[v]) &&
           (!spec.has_box || in_box(spec, &mesh.rest[3 * v], tol)))
         region.vertices.push_back(v);
     long long mine = (long long)region.vertices.size();
@@ -92,7 +92,9 @@ LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec,
   region.target = target;
   if (target == LoadTarget::vertices) {
     for (PetscInt v = 0; v < mesh.num_vertices; ++v)
-      if (mesh.owned[v] && mesh.local_dof[v] >= 0 && in_box(spec, &mesh.rest[3 * v], tol)) region.vertices.push_back(v);
+      // A fixed vertex takes no share: global_dof, not local_dof, which a mesh of every vertex
+      // (the energy balance's, model/reactions.hpp) gives every vertex.
+      if (mesh.owned[v] && mesh.global_dof[v] >= 0 && in_box(spec, &mesh.rest[3 * v], tol)) region.vertices.push_back(v);
     long long mine = (long long)region.vertices.size();
     MPI_Allreduce(&mine, &region.global_count, 1, MPI_LONG_LONG, MPI_SUM, comm);
     return region;

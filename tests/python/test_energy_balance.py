@@ -6,7 +6,8 @@ implicit midpoint with inelastic materials (docs/inelastic.md#the-midpoint).
   stays within 1e-3 of the work of gravity (the residual over the run's largest energy or work).
 - The elastic cantilever's kinetic, stored and gravity columns against the frames' positions and
   velocities (hyperqn_tools.energy, Neo-Hookean), and a bar whose clamp moves at a constant
-  velocity under a traction on a ramp: the loads' and the support's work close the balance too.
+  velocity under a traction on a ramp: the loads' and the support's work close the balance too; a
+  body force, and a force whose box holds the clamp, alone (the balance's load terms as the solve's).
 - Dissipation is never negative: no tet's dissipated_energy falls from one frame (one step) to the
   next, and the plastic bar's root dissipates.
 - 1 and 2 ranks write the same energy.csv to round-off; a restart of the plastic bar from a frame
@@ -123,6 +124,24 @@ def test_loads_and_moving_support_close_the_balance(tmp_path):
     measured = relative_residual(e)
     print(f"loads and a moving clamp: |K + S - W| / scale at most {measured:.3e}; load work {e['load_work'][-1]:.4e} J, "
           f"support work {e['support_work'][-1]:.4e} J")
+    assert measured <= 1e-3
+
+
+@pytest.mark.parametrize("load", [
+    # a body force acts through the masses (EnergyTerm::set_masses), which the balance's own terms must take too
+    {"type": "body_force", "box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "acceleration": [0, -4.0, 2.0]},
+    # a force's box that holds the clamp: the clamped vertices take no share of it in the balance either
+    {"type": "force", "box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "force": [0, -60, 20]}])
+def test_vertex_loads_over_the_clamp_close_the_balance(tmp_path, load):
+    deck = cantilever(ELASTIC)
+    deck["gravity"] = [0, 0, 0]
+    deck["loads"] = [load]
+    out, _ = run_deck(tmp_path, load["type"], deck)
+    e = read_energy(out)
+    assert e["load_work"].max() > 0
+    measured = relative_residual(e)
+    print(f"{load['type']} over the whole cantilever: |K + S - W| / scale at most {measured:.3e}; "
+          f"load work {e['load_work'][-1]:.4e} J")
     assert measured <= 1e-3
 
 
