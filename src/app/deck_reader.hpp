@@ -134,10 +134,10 @@ class Reader {
     return items(v);
   }
   template <size_t N>
-  std::array<double, N> numbers(const Value& v) const {
+  std::array<double, N> numbers(const Value& v, bool zero_allowed = true) const {
     std::array<double, N> out;
     auto it = fixed_list(v, N, "numbers");
-    for (size_t i = 0; i < N; ++i) out[i] = number(it[i]);
+    for (size_t i = 0; i < N; ++i) out[i] = number(it[i], zero_allowed);
     return out;
   }
   template <size_t N>
@@ -233,7 +233,8 @@ void read_value(const Reader& r, const DeckKey<Spec>& k, const Value& x, Spec& s
     } else if constexpr (is_array<T>::value) {  // a vec3, 2 numbers, 2 or 3 integers
       constexpr size_t N = std::tuple_size_v<T>;
       T value;
-      if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item);
+      // A range per number that refuses 0 (not a nonzero vector's, whose numbers may be 0).
+      if constexpr (std::is_same_v<typename T::value_type, double>) value = r.numbers<N>(item, k.range.nonzero || k.range.contains(0.0));
       else value = r.integers<N>(item);
       if constexpr (std::is_same_v<T, Array3>)
         if (k.range.nonzero) r.check(is_nonzero(value), item, k.range.rule());

@@ -201,7 +201,7 @@ static FunctionSpec read_function(const Reader& r, const Value& v) {
 
 // A number of an inelastic block, with its declared range.
 static double inelastic_number(const Reader& r, const Value& x, const MaterialKey& key) {
-  const double value = r.number(x);
+  const double value = r.number(x, key.range.contains(0.0));
   if (!key.range.rule().empty()) r.check(key.range.contains(value), x, key.range.rule());
   return value;
 }
