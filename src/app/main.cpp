@@ -22,6 +22,7 @@
 #include "app/study.hpp"
 #include "materials/material_factory.hpp"
 #include "solvers/solver_registry.hpp"
+#include "io/console.hpp"
 
 static const char usage[] =
     "usage: hyperqn DECK.yaml [-o OUTDIR] [--restart PATH|latest|auto] [PETSc options...]\n"
@@ -270,7 +271,7 @@ int main(int argc, char** argv) {
       if (!cl.config && (status == 0 || status == hyperqn::kExitInverted || status == hyperqn::kExitInterrupted)) PetscCall(warn_unused_options());  // after a failure they may just not be reached
     }
   } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
-    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "hyperqn: error: %s\n", e.what()));
+    PetscCall(hyperqn::print_error(PETSC_COMM_WORLD, e.what()));
     status = 1;
   } catch (const std::exception& e) {  // maybe on one rank only: the others must not wait for it
     std::fprintf(stderr, "hyperqn: error: %s\n", e.what());

@@ -11,6 +11,7 @@
 #include "io/log_events.hpp"
 #include "model/time_integrator.hpp"
 #include "mesh/input_error.hpp"
+#include "io/console.hpp"
 
 namespace hyperqn {
 
@@ -543,7 +544,7 @@ bool check_element_fields(MPI_Comm comm, const Deck& deck, const Scene& scene) {
     if (given.at(f)) continue;
     const InputError error(deck.path, deck.output.field_lines.at(i), "output.fields[" + std::to_string(i) + "]",
                            asked[i] + " is a field of " + element_field_infos()[f].elements + ", and the scene has none");
-    PetscPrintf(comm, "hyperqn: error: %s\n", error.what());
+    print_error(comm, error.what());
     return false;
   }
   return true;

@@ -23,6 +23,7 @@
 #include "solvers/solver_registry.hpp"
 #include "io/vtk_writer.hpp"
 #include "io/xdmf_writer.hpp"
+#include "io/console.hpp"
 
 namespace hyperqn {
 
@@ -214,7 +215,7 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
                          const CheckpointHeader& identity, int deck_frames, std::string& path, CheckpointHeader& saved) {
   const RestartChoice choice = choose_restart(comm, restart, outdir);
   if (!choice.error.empty()) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", choice.error.c_str());
+    print_error(comm, choice.error);
     return false;
   }
   path = choice.path;
@@ -228,7 +229,7 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
   if (why.empty() && saved.frame > deck_frames)  // a checkpoint of a longer run than this deck's
     why = "its frame " + std::to_string(saved.frame) + " is past the deck's time.frames " + std::to_string(deck_frames);
   if (why.empty()) return true;
-  PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", path.c_str(), why.c_str());
+  print_error(comm, "cannot restart from " + path + ": " + why);
   return false;
 }
 
@@ -274,7 +275,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
         (restart && run.scene.restore_released(saved.released, saved.released_attachments)) ||
         create_solver(deck.solver, *run.scene.current().step, run.scene.current().constant_matrix(deck.solver), run.solver) ||
         (!restart && (run.scene.initial_state(run.state) || run.scene.check_start(run.state, &start_ok)))) {
-      PetscPrintf(comm, "hyperqn: error: setting up the scene failed: %s\n", errors.describe(deck).c_str());
+      print_error(comm, "setting up the scene failed: " + errors.describe(deck));
       return 1;
     }
     if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
@@ -303,7 +304,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     int refused = !why.empty();
     MPI_Allreduce(MPI_IN_PLACE, &refused, 1, MPI_INT, MPI_MAX, comm);
     if (refused) {  // before anything is written
-      PetscPrintf(comm, "hyperqn: error: cannot restart from %s: %s\n", restart_path.c_str(), why.c_str());
+      print_error(comm, "cannot restart from " + restart_path + ": " + why);
       return 1;
     }
     run.restart = &saved;
@@ -484,7 +485,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   try {
     throw_if_any_failed(comm, error);  // every rank exits with 1, rank 0 names the path
   } catch (const std::exception& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+    print_error(comm, e.what());
     ok = false;
   }
   if (!ok) return 1;

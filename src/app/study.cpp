@@ -15,6 +15,7 @@
 #include "io/atomic_file.hpp"
 #include "io/output_directory.hpp"
 #include "io/study_writer.hpp"
+#include "io/console.hpp"
 
 namespace hyperqn {
 
@@ -364,7 +365,7 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     if (study.scene.setup(comm, deck, std::move(input), scene_options(deck, options, st.solvers)) ||
         study.make_solvers(study.scene.current()) || study.scene.initial_state(study.ref) ||
         study.scene.check_start(study.ref, &start_ok)) {
-      PetscPrintf(comm, "hyperqn: error: setting up the study failed: %s\n", errors.describe(deck).c_str());
+      print_error(comm, "setting up the study failed: " + errors.describe(deck));
       return 1;
     }
     if (!start_ok) return 1;
@@ -385,18 +386,18 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     PetscErrors errors;
     study.limits = Guardrails::of(options, study.scene.current());
     if (study.run(out)) {
-      PetscPrintf(comm, "hyperqn: error: the study failed: %s\n", errors.describe(deck).c_str());
+      print_error(comm, "the study failed: " + errors.describe(deck));
       return 1;
     }
     if (!study.failure.empty()) {
       out.finish();  // what it compared so far
-      PetscPrintf(comm, "hyperqn: error: the study stopped at %s\n", study.failure.c_str());
+      print_error(comm, "the study stopped at " + study.failure);
       return 1;
     }
     out.finish();
     out.check(comm);
   } catch (const std::exception& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+    print_error(comm, e.what());
     return 1;
   }
   PetscPrintf(comm, "hyperqn: study written to %s (study.csv, trajectory.csv, study.h5)\n", outdir.c_str());

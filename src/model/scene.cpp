@@ -22,6 +22,7 @@
 #include "mesh/mesh_gmsh.hpp"
 #include "model/memory_estimate.hpp"
 #include "solvers/solver_registry.hpp"
+#include "io/console.hpp"
 
 namespace hyperqn {
 
@@ -434,7 +435,7 @@ bool load_scene_input_or_report(MPI_Comm comm, const SceneSpec& deck, SceneInput
     input = load_scene_input(comm, deck, plan);
     return true;
   } catch (const InputError& e) {
-    PetscPrintf(comm, "hyperqn: error: %s\n", e.what());
+    print_error(comm, e.what());
     return false;
   }
 }
@@ -630,7 +631,7 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
     InputProblem problem;
     PetscCall(term->check_start(pos, problem));
     if (!problem.what.empty()) {
-      PetscCall(PetscPrintf(comm_, "hyperqn: error: %s\n", InputError(spec_->path, problem.line, problem.key, problem.what).what()));
+      PetscCall(print_error(comm_, InputError(spec_->path, problem.line, problem.key, problem.what).what()));
       *ok = false;
       break;
     }

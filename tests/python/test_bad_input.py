@@ -2,11 +2,13 @@
 and no output directory left behind."""
 import copy
 import os
+import subprocess
 
 import pytest
 from pathlib import Path
 
-from conftest import run_hyperqn, write_deck
+from conftest import HYPERQN, MPIEXEC, run_hyperqn, write_deck
+from hyperqn_tools import launch
 
 GOOD = {
     "mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
@@ -234,6 +236,16 @@ def test_bad_deck(tmp_path, case):
     outdir = tmp_path / "out"
     proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_the_error_goes_to_standard_error(tmp_path, ranks):
+    """The error alone on standard error (a run's progress and summary on standard output), at 1 and 2 ranks."""
+    path = write_deck(tmp_path / "deck.yaml", deck_with(**{"time.dt": -1}))
+    proc = launch.run([path, "-o", tmp_path / "out"], ranks, HYPERQN, MPIEXEC, timeout=60, stderr=subprocess.PIPE)
+    assert proc.returncode == 1
+    assert "hyperqn: error: " not in proc.stdout
+    assert proc.stderr.count("hyperqn: error: ") == 1 and "'time.dt'" in proc.stderr
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
