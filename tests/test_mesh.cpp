@@ -412,7 +412,7 @@ void test_errors(const fs::path& dir) {
                                      "Tetrahedra\n2\n1 2 3 4 0\n1 2 3 5 0\n");
   TetMesh flat = read_medit(p);
   const TetMesh flat_copy = flat;
-  expect_input_error("degenerate tet", [&] { clean_mesh(flat, p); }, {p, "tet 2 ", "degenerate"});
+  expect_input_error("degenerate tet", [&] { clean_mesh(flat, p); }, {p + ":13:", "tet 2 ", "degenerate"});
   CHECK(flat.coords == flat_copy.coords && flat.tets == flat_copy.tets);  // untouched on error
   // A tiny but well-shaped tet is not degenerate: the test is relative to its size.
   TetMesh tiny = read_medit((fs::path(HYPERQN_SOURCE_DIR) / "input" / "meshes" / "tet.mesh").string());
@@ -620,9 +620,24 @@ void test_tagged_faces(const fs::path& dir) {
 
 }  // namespace
 
+// RecordLines: runs of records on consecutive lines; a record on another line starts a run; a
+// record past the runs (a strand the deck added) has no line.
+void test_record_lines() {
+  RecordLines lines;
+  CHECK(lines.line_of(0) == 0);
+  for (int64_t r = 0; r < 3; ++r) lines.add(r, 10 + int(r));  // lines 10, 11, 12
+  lines.add(3, 14);                                             // a blank line before it
+  lines.add(4, 14);                                             // two records on one line
+  lines.add(5, 15);
+  const int expected[] = {10, 11, 12, 14, 14, 15};
+  for (int64_t r = 0; r < 6; ++r) CHECK_MSG(lines.line_of(r) == expected[r], "record " + std::to_string(r));
+  CHECK(lines.line_of(6) == 0 && lines.line_of(-1) == 0);
+}
+
 int main() {
   test_boxes();
   test_transform();
+  test_record_lines();
   test_project_meshes();
   test_shared_meshes();
 
