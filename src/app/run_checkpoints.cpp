@@ -146,6 +146,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
     h.cut_batches = run_.scene.cut_batches();
     h.break_batches = run_.scene.break_batches();
     h.cuts_resolved = run_.scene.resolved_after(state.frame);
+    h.changes_decided = run_.scene.changes_decided_after(state.frame);
   }
   h.started_inverted = setup_.started_inverted;
   h.summary = run_.summary;

@@ -281,6 +281,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
   }
   if (restart) run.scene.restore_resolved(saved.frame, (int)saved.cuts_resolved);
+  if (restart && saved.changes_decided) run.scene.decide_changes_after(saved.frame);
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);
   const Scene& scene = run.scene.current();
   {  // the vertex counts complete the scene's identity (vertex ids are those of the mesh file)

@@ -55,10 +55,15 @@ PetscErrorCode TimeLoop::run(int last_frame) {
     const double time = lead_.time;
     bool released;
     PetscCall(scene_.release_due(lead_, carried, rebind, &released));
-    bool cut;  // after the step before: its faces crossed by a blade separate (scripted cuts)
-    PetscCall(scene_.cut_due(lead_, carried, rebind, &cut));
-    bool snapped;  // after the step before: its segments stretched past their snapping strain snap
-    PetscCall(scene_.snap_due(lead_, carried, rebind, &snapped));
+    // After the step before, once: its faces crossed by a blade (or overloaded) separate, its
+    // segments and edges past their strains snap and tear. Not again after a restart from a
+    // checkpoint that a signal wrote once they had (LiveScene::changes_decided_after).
+    if (!scene_.changes_decided_after(lead_.frame)) {
+      bool cut, snapped;
+      PetscCall(scene_.cut_due(lead_, carried, rebind, &cut));
+      PetscCall(scene_.snap_due(lead_, carried, rebind, &snapped));
+      scene_.decide_changes_after(lead_.frame);
+    }
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
 
     FrameOutcome outcome;

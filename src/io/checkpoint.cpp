@@ -176,6 +176,7 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
     head.put("cut_batches", sizes);
   }
   if (h.cuts_resolved) head.put("cuts_resolved", h.cuts_resolved);
+  if (h.changes_decided) head.put("changes_decided", 1LL);
   if (!h.breaks.empty()) {
     std::string breaks;
     for (const auto& b : h.breaks)
@@ -286,6 +287,7 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     }
   }
   h.cuts_resolved = head.has("cuts_resolved") ? head.get_long("cuts_resolved") : 0;
+  h.changes_decided = head.has("changes_decided") && head.get_long("changes_decided") != 0;
   if (head.has("breaks")) {
     std::istringstream in(head.get("breaks"));
     std::array<int64_t, 3> b;

@@ -14,7 +14,7 @@
 //    ranks restarts at M.
 //  - "header": text, one "key value" line each: format_version, run_id, run_started, deck,
 //    mesh_hash, vertices, dofs, vertex_slots, ranks, frame, time, body_time, released,
-//    released_attachments, cuts, cuts_factored, cut_batches and cuts_resolved (scripted cuts, fracture), breaks, breaks_factored and break_batches (snapped strands, torn or cut cloth, cut strands), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
+//    released_attachments, cuts, cuts_factored, cut_batches, cuts_resolved and changes_decided (scripted cuts, fracture), breaks, breaks_factored and break_batches (snapped strands, torn or cut cloth, cut strands), started_inverted, writers, history, substep_halvings, substep_kept, substep_hold and
 //    substep_trying (State's SubstepMemory), each dataset's checksum
 //    (<name>_hash), and the run's counters so far (summary_*).
 //  - "elements_<name>" for each term's per-element state (terms/element_state.hpp), as the header
@@ -86,6 +86,9 @@ struct CheckpointHeader {
   // signal gave up (LiveScene::resolved_after; header key cuts_resolved, absent: 0).
   std::vector<int64_t> cut_batches;
   long long cuts_resolved = 0;
+  // The changes after `frame` (cut_due, snap_due) are in, decided (a signal gave up the next frame:
+  // LiveScene::changes_decided_after; header key changes_decided, absent: not).
+  bool changes_decided = false;
   // Breaks: every strand segment snapped so far, (frame, kind, element) in order
   // (LiveScene::break_history; header key breaks, absent without any), replayed by a restart.
   std::vector<std::array<int64_t, 3>> breaks;

@@ -158,6 +158,12 @@ class LiveScene {
   // a signal gave up after re-solves: header key cuts_resolved); restore_resolved sets them.
   int resolved_after(int64_t frame) const { return resolved_.first == frame ? resolved_.second : 0; }
   void restore_resolved(int64_t frame, int count) { resolved_ = {frame, count}; }
+  // Whether cut_due and snap_due have run for the step after frame `frame` (TimeLoop asks before
+  // each step): a checkpoint of `frame` that a signal wrote in the next frame holds their changes,
+  // which its restart replays and must not decide again (a snap or a tear would take the next
+  // segment or edge: header key changes_decided).
+  bool changes_decided_after(int64_t frame) const { return decided_after_ == frame; }
+  void decide_changes_after(int64_t frame) { decided_after_ = frame; }
   // Totals so far: faces separated, vertices added, batches (each a rebuild of the scene; a
   // restart's replay included); of this run's batches (not replayed), those whose constant matrix
   // followed by a correction and those that factored it again.
@@ -274,6 +280,7 @@ class LiveScene {
   int tear_resolve_ = 0;              // the largest cloth.tear.resolve
   int snap_resolve_ = 0;              // the largest strand_material.snap.resolve
   std::pair<int64_t, int> resolved_{-1, 0};  // (frame n, the step to n + 1's re-solves so far)
+  int64_t decided_after_ = -1;               // changes_decided_after
   std::set<TetPair> separated_;
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)

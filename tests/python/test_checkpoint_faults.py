@@ -85,6 +85,28 @@ def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None, frames=6, e
     return ref, out
 
 
+def assert_restart_after_signal_in_a_changing_frame_is_bitwise(tmp_path, deck, ranks=None, column="segments_snapped"):
+    """deck (a dict) with snaps or tears at a step's start: a signal (SIGUSR1, the test hook) in the
+    first frame whose start changed the mesh (topology.csv's `column`), at its first iteration; the
+    checkpoint of the frame before holds that change, and the restart must not decide it again (it
+    took the next segment or edge: LiveScene::changes_decided_after). The restart equals the
+    uninterrupted run in positions, velocities, iterations, the .pvd and topology.csv."""
+    import csv
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    ref = tmp_path / "ref"
+    run_hyperqn([path, "-o", ref], ranks=ranks)
+    with open(ref / "topology.csv") as f:
+        frame = min(int(r["frame"]) for r in csv.DictReader(f) if int(r[column]) > 0)
+    out = tmp_path / "out"
+    done = run_hyperqn([path, "-o", out, "-hyperqn_test_signal_in_frame", frame, "-hyperqn_test_signal_at_iteration", 1],
+                       ranks=ranks, check=False)
+    assert done.returncode == 3, done.stdout[-2000:]
+    assert read_checkpoint(out / "checkpoints" / f"checkpoint_{frame - 1}.h5").get("changes_decided") == 1
+    run_hyperqn([path, "-o", out, "--restart", "latest"], ranks=ranks)
+    assert_same_run(ref, out)
+    assert (out / "topology.csv").read_bytes() == (ref / "topology.csv").read_bytes()
+
+
 def checkpoints(out):
     return sorted(os.listdir(out / "checkpoints"))
 

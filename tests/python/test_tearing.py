@@ -16,7 +16,7 @@ from hyperqn_tools.energy import lumped_masses
 from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import Frame, final_frame, frame_list, read_checkpoint, read_iterations, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
-from test_checkpoint_faults import killed
+from test_checkpoint_faults import assert_restart_after_signal_in_a_changing_frame_is_bitwise, killed
 
 # Newton, converged to round-off: the rank test compares positions to 1e-8 of the diagonal.
 TIGHT = {"type": "newton", "iterations": 50, "grad_rtol": 1e-12, "grad_atol": 0}
@@ -185,6 +185,13 @@ def test_restart_after_kill_after_snaps_is_bitwise(tmp_path, ranks):
     assert strip(read_iterations(ref)) == strip(read_iterations(out))
     sb = read_summary(out)
     assert {k: v for k, v in s["breaks"].items() if k != "topology_s"} == {k: v for k, v in sb["breaks"].items() if k != "topology_s"}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_restart_after_a_signal_in_a_frame_that_began_with_a_snap_is_bitwise(tmp_path, ranks):
+    """Before, the restart snapped the segment again from the same state: the next one (2 snapped, 2
+    vertices added in that frame against 1)."""
+    assert_restart_after_signal_in_a_changing_frame_is_bitwise(tmp_path, ROPE, ranks, "segments_snapped")
 
 
 # A cube (8.8 kg) hanging from a rope of 5 segments, released at the rope's rest length above a
