@@ -155,7 +155,7 @@ PetscErrorCode GuardedTaoSolver::convergence_test(Tao tao, void* ctx) {
   if (!self->bad_point_ && (reason == TAO_CONTINUE_ITERATING || reason == TAO_DIVERGED_MAXITS) &&
       self->reported_ >= budget.budget) {
     if (scale < 0) PetscCall(self->step_.force_scale(x, &scale));
-    PetscCall(TaoSetConvergedReason(tao, budget.spent(self->progress(), scale, self->step_.length_scale()) ? TAO_DIVERGED_MAXITS
+    PetscCall(TaoSetConvergedReason(tao, budget.spent(self->progress(), scale, self->step_.length_scale(), self->step_.seeks_equilibrium()) ? TAO_DIVERGED_MAXITS
                                                                                : TAO_CONTINUE_ITERATING));
   }
   if (self->history_reset_requested_ && reason == TAO_CONTINUE_ITERATING)
@@ -242,7 +242,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
     if (reported_ >= budget_.budget) {
       double scale;
       PetscCall(step_.force_scale(x, &scale));
-      if (budget_.spent(progress(), scale, step_.length_scale())) {
+      if (budget_.spent(progress(), scale, step_.length_scale(), step_.seeks_equilibrium())) {
         reason = TAO_DIVERGED_MAXITS;
         break;
       }

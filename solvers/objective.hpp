@@ -43,6 +43,9 @@ class Objective {
   virtual PetscErrorCode force_scale(Vec x, double* scale) = 0;
   // The rest bounding-box diagonal D of the body: the length scale of the same tests.
   virtual double length_scale() const = 0;
+  // A static step's answer is the equilibrium itself: its frame is judged by its residual alone
+  // (FrameBudget::far), not by how little its last iterations changed.
+  virtual bool seeks_equilibrium() const { return false; }
 
   // Largest alpha <= *alpha such that x + alpha dir is admissible (energy terms that bound steps,
   // e.g. contact); bounds_steps() is false when no term does, and then nothing need be asked.

@@ -109,7 +109,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
       result.reason = "STOPPED_BY_CALLER";
       break;
     }
-    if (k >= budget.budget && budget.spent(progress, scale, step_.length_scale())) {
+    if (k >= budget.budget && budget.spent(progress, scale, step_.length_scale(), step_.seeks_equilibrium())) {
       result.reason = "MAX_ITERATIONS";
       break;
     }

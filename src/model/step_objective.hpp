@@ -121,6 +121,7 @@ class StepObjective : public Objective {
   // reduction; collective).
   PetscErrorCode momentum(Vec v, std::array<double, 3>& P, double* mass_speed) const;
   double length_scale() const override { return diagonal_; }
+  bool seeks_equilibrium() const override { return !has_inertia(); }
   bool bounds_steps() const override { return body_.any_term(&EnergyTerm::bounds_steps); }
   unsigned long long active_set() const override { return body_.active_set(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
