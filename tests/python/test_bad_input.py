@@ -238,6 +238,16 @@ def test_bad_deck(tmp_path, case):
     assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
 
 
+def test_a_deck_over_1_mb_is_refused_before_it_is_parsed(tmp_path):
+    """A deck's parse takes some 250 bytes per byte on every rank: 10 MB of cuts took 2.6 GB a rank."""
+    path = write_deck(tmp_path / "big.yaml", GOOD)
+    with open(path, "a") as f:
+        f.write(("# " + "x" * 98 + "\n") * 10500)  # 1.05 MB of comments
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, outdir, ["big.yaml", "larger than 1 MB", "a file of its own"])
+
+
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_the_error_goes_to_standard_error(tmp_path, ranks):
     """The error alone on standard error (a run's progress and summary on standard output), at 1 and 2 ranks."""
