@@ -85,18 +85,23 @@ def assert_restart_after_kill_is_bitwise(tmp_path, deck, ranks=None, frames=6, e
     return ref, out
 
 
-def assert_restart_after_signal_in_a_changing_frame_is_bitwise(tmp_path, deck, ranks=None, column="segments_snapped"):
-    """deck (a dict) with snaps or tears at a step's start: a signal (SIGUSR1, the test hook) in the
-    first frame whose start changed the mesh (topology.csv's `column`), at its first iteration; the
-    checkpoint of the frame before holds that change, and the restart must not decide it again (it
-    took the next segment or edge: LiveScene::changes_decided_after). The restart equals the
-    uninterrupted run in positions, velocities, iterations, the .pvd and topology.csv."""
+def first_changing_frame(out, column):
+    """The first frame whose row in out's topology.csv has `column` > 0."""
     import csv
+    with open(out / "topology.csv") as f:
+        return min(int(r["frame"]) for r in csv.DictReader(f) if int(r[column]) > 0)
+
+
+def assert_restart_after_signal_in_a_changing_frame_is_bitwise(tmp_path, deck, frame, ranks=None):
+    """deck (a dict) whose frame `frame` begins with a snap or a tear (first_changing_frame), run to
+    frame + 2: a signal (SIGUSR1, the test hook) at that frame's first iteration; the checkpoint of
+    the frame before holds the change, and the restart must not decide it again (it took the next
+    segment or edge: LiveScene::changes_decided_after). The restart equals the uninterrupted run in
+    positions, velocities, iterations, the .pvd and topology.csv."""
+    deck = {**deck, "time": {**deck["time"], "frames": frame + 2}}
     path = write_deck(tmp_path / "deck.yaml", deck)
     ref = tmp_path / "ref"
     run_hyperqn([path, "-o", ref], ranks=ranks)
-    with open(ref / "topology.csv") as f:
-        frame = min(int(r["frame"]) for r in csv.DictReader(f) if int(r[column]) > 0)
     out = tmp_path / "out"
     done = run_hyperqn([path, "-o", out, "-hyperqn_test_signal_in_frame", frame, "-hyperqn_test_signal_at_iteration", 1],
                        ranks=ranks, check=False)
