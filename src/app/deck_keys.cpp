@@ -66,8 +66,8 @@ const std::vector<DeckKey<StudySpec>>& study_keys() {
   using S = StudySpec;
   static const std::vector<DeckKey<S>> keys = {
       // (the range depends on time.frames: read_study checks it)
-      {"frames", &S::frames, "frames at which every solver starts from the same state, each in [1, `time.frames`]"},
-      {"solvers", &S::solvers, "the solvers compared", {}, solver_names(), "",
+      {"frames", &S::frames, "frames at which every solver starts from the same state, each in [1, `time.frames`] and once"},
+      {"solvers", &S::solvers, "the solvers compared, each once", {}, solver_names(), "",
        "every solver (`hyperqn registry`)"},
       {"iterations", &S::iterations, "iteration cap per solver and frame in the per-frame comparison", between(1, 1e6)},
       {"time_limit", &S::time_limit, "per solver and frame", above(0), {}, "s"},
@@ -75,7 +75,7 @@ const std::vector<DeckKey<StudySpec>>& study_keys() {
        "the reference Newton (exact Hessian) stops at ‖∇g‖ ≤ reference_rtol·‖∇g(x₀)‖", {0, 1, true, true}},
       {"trajectory", &S::trajectory, "also run every solver over all frames against the converged trajectory"},
       custom_key<S>("trajectory_iterations", "map solver → integer ≥ 1",
-                    "per-frame budget of each solver in the trajectory mode", "`solver.iterations`"),
+                    "per-frame budget of each solver in the trajectory mode (solvers among `study.solvers`)", "`solver.iterations`"),
       custom_key<S>("integrators", "list of `time.integrator` names, each once",
                     "the integrator axis: the whole study once per integrator (its own factor and converged "
                     "reference), into `OUTDIR/<integrator>/`; the report script takes `OUTDIR` for all of them. Not "

@@ -663,9 +663,22 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
 
 void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st) {
   const Section s = read_keys(r, v, study_keys(), st);
-  if (const Value* x = s.find("frames"))
-    for (const Value& item : r.items(*x))
+  if (const Value* x = s.find("frames")) {
+    std::vector<int> seen;
+    for (const Value& item : r.items(*x)) {
       r.check(r.integer(item) >= 1 && r.integer(item) <= scene_frames, item, "a frame in [1, time.frames = " + std::to_string(scene_frames) + "]");
+      r.check(std::find(seen.begin(), seen.end(), r.integer(item)) == seen.end(), item, "a frame not listed before");
+      seen.push_back(r.integer(item));
+    }
+  }
+  // Each solver once: its rows are keyed by its name (study.csv, trajectory.csv, study.h5's groups).
+  if (const Value* x = s.find("solvers")) {
+    std::vector<std::string> seen;
+    for (const Value& item : r.items(*x)) {
+      r.check(std::find(seen.begin(), seen.end(), item.node.Scalar()) == seen.end(), item, "a solver not listed before");
+      seen.push_back(item.node.Scalar());
+    }
+  }
   if (const Value* x = s.find("integrators")) {
     for (const Value& item : r.items(*x)) {
       const TimeIntegrator kind = read_integrator(r, item);
@@ -680,6 +693,8 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
     for (const auto& [name, item] : t.entries()) {
       st.trajectory_iterations[name] = r.integer(item);
       r.check(st.trajectory_iterations[name] >= 1, item, ">= 1");
+      if (std::find(st.solvers.begin(), st.solvers.end(), name) == st.solvers.end())
+        r.fail(item, name + " is not among study.solvers (" + join(st.solvers) + "): a budget for no trajectory");
     }
   }
 }

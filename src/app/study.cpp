@@ -104,13 +104,17 @@ struct Study {
 
   Study(MPI_Comm c, const Deck& d) : comm(c), deck(d) {}
 
+  // The reference's cap: study.iterations, at least 100 (Newton with the exact Hessian converges
+  // in far fewer; the cap is met only where it cannot reach reference_rtol).
+  int reference_iterations() const { return std::max(deck.study.iterations, 100); }
+
   // The reference solver and every contender's two solvers, on scene s.
   PetscErrorCode make_solvers(Scene& s) {
     const StudySpec& st = deck.study;
     PetscFunctionBeginUser;
     // The reference: Newton with the exact Hessian converges quadratically (the PSD fix would
     // make it linear wherever it is active near the solution).
-    SolverSpec spec = spec_for(deck, "newton", std::max(st.iterations, 100), st.reference_rtol);
+    SolverSpec spec = spec_for(deck, "newton", reference_iterations(), st.reference_rtol);
     spec.newton_hessian = NewtonHessian::exact;
     PetscCall(create_solver(spec, *s.step, nullptr, reference));
     for (auto& c : contenders) {
@@ -224,6 +228,20 @@ class FrameComparison : public FrameObserver {
                             "not the lowest found (a step that is not convex); errors are measured from the lowest, "
                             "and the trajectories are compared with the reference's path\n",
                             outcome.frame, above));
+    if (!(g0 > g_star))
+      PetscCall(PetscPrintf(study_.comm, "study frame %4d  note: the frame starts at its answer (g(x0) = g*, nothing to "
+                                         "solve): every error is 0\n", outcome.frame));
+    // The reference stopped by its cap or the time limit, not by reference_rtol: errors below
+    // where it stopped are not measured.
+    const IterationRecord& end = reference_.iterations.back();
+    if (end.iteration >= study_.reference_iterations() || end.time_s > study_.deck.study.time_limit)
+      PetscCall(PetscPrintf(study_.comm,
+                            "study frame %4d  warning: the reference stopped at %s (%d iterations, %.3g s) with "
+                            "||grad g|| / ||grad g(x0)|| = %.3e, not at study.reference_rtol = %.3g: errors smaller "
+                            "than its own are not measured\n",
+                            outcome.frame, end.iteration >= study_.reference_iterations() ? "its iteration cap" : "study.time_limit",
+                            (int)end.iteration, end.time_s, end.grad_norm / reference_.iterations.front().grad_norm,
+                            study_.deck.study.reference_rtol));
     curves_.push_back(reference_);
     for (StudyCurve& c : curves_) {
       c.g0 = g0;

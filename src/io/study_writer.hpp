@@ -20,7 +20,8 @@ struct StudyCurve {
   int frame = 0;
   std::vector<IterationRecord> iterations;
   double g0 = 0, g_star = 0;  // g at the common start, reference minimum
-  double rel_error(const IterationRecord& r) const { return (r.energy - g_star) / (g0 - g_star); }
+  // 0 where the frame starts at its answer (g0 = g*: every iterate is, and e would be 0/0).
+  double rel_error(const IterationRecord& r) const { return g0 > g_star ? (r.energy - g_star) / (g0 - g_star) : 0.0; }
 };
 
 struct TrajectoryPoint {

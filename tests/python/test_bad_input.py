@@ -206,6 +206,15 @@ BAD_DECKS = {
                                         ["'cloth.bending.yield_strain'", "springs"]),
     "cloth_bending_negative_yield_strain": (with_keys(CLOTH_SPRINGS_BENDING, "cloth.bending", yield_strain=-0.05),
                                             ["'cloth.bending.yield_strain'", "> 0"]),
+    # study: a frame or a solver twice would write two sets of rows under one key (study.csv,
+    # study.h5's groups); a trajectory budget for a solver that is not studied would do nothing
+    "study_frame_twice": (deck_with(study={"frames": [1, 2, 1], "solvers": ["lbfgs"]}),
+                          ["'study.frames[2]'", "a frame not listed before"]),
+    "study_solver_twice": (deck_with(study={"frames": [1], "solvers": ["lbfgs", "newton", "lbfgs"]}),
+                           ["'study.solvers[2]'", "a solver not listed before"]),
+    "study_budget_for_no_solver": (deck_with(study={"frames": [1], "solvers": ["lbfgs"],
+                                                    "trajectory_iterations": {"pd": 10}}),
+                                   ["'study.trajectory_iterations.pd'", "pd is not among study.solvers (lbfgs)"]),
     "cloth_bending_hardening_without_yield": (with_keys(CLOTH_SPRINGS_BENDING, "cloth.bending", hardening=0.1),
                                               ["'cloth.bending.hardening'", "give yield_strain too"]),
 }

@@ -320,3 +320,41 @@ def test_a_study_of_bodies_names_each_body_s_material(tmp_path):
     path.write_text(yaml.safe_dump(deck))
     run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
     assert json.loads((tmp_path / "study" / "study.json").read_text())["material"] == "soft: neohookean, hard: stvk"
+
+
+BAR_AT_REST = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
+               "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+               "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+               "time": {"dt": 0.01, "frames": 2}}
+
+
+def test_a_frame_that_starts_at_its_answer_has_error_0(tmp_path):
+    """A bar at rest without gravity: g(x0) = g*, and e = (g - g*)/(g(x0) - g*) would be 0/0 (the
+    CSV held -nan before). Every error is 0, and the study says why."""
+    import yaml
+    deck = dict(BAR_AT_REST, gravity=[0, 0, 0], study={"frames": [1], "solvers": ["lbfgs", "newton"], "trajectory": False})
+    path = tmp_path / "rest.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
+    assert "study frame    1  note: the frame starts at its answer" in proc.stdout
+    with open(tmp_path / "study" / "study.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert {r["solver"] for r in rows} == {"lbfgs", "newton", "reference"}
+    assert all(float(r["rel_error"]) == 0.0 for r in rows)
+
+
+def test_a_reference_that_stops_short_of_reference_rtol_is_said(tmp_path):
+    """reference_rtol 1e-15 is below what Newton's round-off reaches on the bar (about 7e-13): the
+    reference stops at its cap, and the study warns that smaller errors are not measured."""
+    import yaml
+    deck = dict(BAR_AT_REST, study={"frames": [1], "solvers": ["lbfgs"], "trajectory": False, "reference_rtol": 1.0e-15})
+    path = tmp_path / "tight.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
+    assert re.search(r"study frame    1  warning: the reference stopped at its iteration cap \(\d+ iterations", proc.stdout)
+    assert "not at study.reference_rtol = 1e-15" in proc.stdout
+    # the default reference_rtol is reached: no warning
+    deck["study"].pop("reference_rtol")
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study2"], ranks=None)
+    assert "warning: the reference stopped" not in proc.stdout
