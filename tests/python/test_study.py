@@ -345,7 +345,7 @@ def test_a_frame_that_starts_at_its_answer_has_error_0(tmp_path):
 
 def test_a_reference_that_stops_short_of_reference_rtol_is_said(tmp_path):
     """reference_rtol 1e-15 is below what Newton's round-off reaches on the bar (about 7e-13): the
-    reference stops at its cap, and the study warns that smaller errors are not measured."""
+    reference stops at its cap, and the study warns that smaller errors are not resolved."""
     import yaml
     deck = dict(BAR_AT_REST, study={"frames": [1], "solvers": ["lbfgs"], "trajectory": False, "reference_rtol": 1.0e-15})
     path = tmp_path / "tight.yaml"
