@@ -3,8 +3,10 @@
 // Rules between sections are in app/deck_rules.cpp.
 #include "app/deck_sections.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <iterator>
 
 #include "geometry/surface_file.hpp"
 #include "io/partition_file.hpp"
@@ -736,8 +738,16 @@ void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck
     std::string value;
     if (x.node.IsScalar()) {
       value = x.node.Scalar();
-      bool b = false;
-      if (x.node.Tag() != "!" && YAML::convert<bool>::decode(x.node, b)) value = b ? "true" : "false";
+      if (x.node.Tag() != "!") {  // plain, not quoted
+        // true: the option alone, which PETSc reads as true, and a viewer option (log_view, tao_view)
+        // as its default viewer; "-log_view true" would be a viewer named true.
+        if (value == "true" || value == "True" || value == "TRUE") value.clear();
+        if (value == "False" || value == "FALSE") value = "false";
+        static const char* const yaml11[] = {"y", "Y", "yes", "Yes", "YES", "n", "N", "no", "No", "NO",
+                                             "on", "On", "ON", "off", "Off", "OFF"};
+        if (std::find(std::begin(yaml11), std::end(yaml11), value) != std::end(yaml11))
+          r.fail(x, "expected true or false, got " + value + " (a deck's booleans are YAML 1.2's; quote it to pass the word)");
+      }
       // PETSc splits a value at whitespace: "unit -tao_type x" would set a second option.
       if (std::any_of(value.begin(), value.end(), [](char c) { return std::isspace((unsigned char)c) || std::iscntrl((unsigned char)c); }))
         r.fail(x, "a PETSc option value is one word: no spaces or control characters, got " + describe(x.node));

@@ -8,6 +8,7 @@
 #include <petscsys.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -237,6 +238,9 @@ int main(int argc, char** argv) {
       std::strcmp(argv[1], "partition") != 0 && std::strcmp(argv[1], "config") != 0)
     hyperqn::catch_stop_signals();
   PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
+  // A closed pipe (`hyperqn registry | head`) ends the program quietly, as it does any other
+  // command's, instead of PETSc's handler reporting a crash and aborting MPI.
+  std::signal(SIGPIPE, SIG_DFL);
   int status = 0;
   try {
     const CommandLine cl = parse_command_line(argc, argv);

@@ -20,6 +20,7 @@ class PetscErrors {
   // e.g. "option -tao_ls_type (deck.yaml:12): PETSc: Unable to find requested TaoLineSearch type x"
   std::string describe(const Deck& deck) const;
   std::string describe() const;  // no deck (yet): every option counts as the command line's
+  const std::string& message() const { return message_; }  // PETSc's, of the first error recorded
 
  private:
   static PetscErrorCode record(MPI_Comm, int, const char* function, const char*, PetscErrorCode, PetscErrorType type,

@@ -71,6 +71,43 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
     if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
   }
+  // -mat_type would retype every matrix PETSc makes for hyperqn (the constant matrix, Newton's
+  // Hessian) through DMCreateMatrix; several types crash in its preallocation (dense, is).
+  for (const char* name : {"-mat_type", "-dm_mat_type"}) {
+    PetscBool set;
+    PetscCall(PetscOptionsHasName(nullptr, nullptr, name, &set));
+    if (set)
+      refuse(deck, name, "is not an option of hyperqn: the matrices' formats are its own (the constant matrix's is "
+                         "chosen by solver.h0 and linear_solver, docs/deck-run.md); leave it out");
+  }
+  // Viewer options (-log_view, -tao_view, ...): opened here once, so that a value PETSc cannot
+  // open ("true", a file in a missing directory) is an input error before anything is written,
+  // not a PETSc error after the run (-log_view is read at PetscFinalize).
+  for (const auto& [name, value] : all_options()) {
+    const bool viewer = name.size() > 5 && name.compare(name.size() - 5, 5, "_view") == 0;
+    if (!viewer) continue;
+    PetscViewer v = nullptr;
+    PetscViewerFormat format;
+    PetscBool set = PETSC_FALSE;
+    std::string failure;
+    {
+      PetscErrors errors;
+      if (PetscOptionsGetViewer(comm, nullptr, nullptr, name.c_str(), &v, &format, &set)) failure = errors.message();
+    }
+    if (v) PetscCall(PetscViewerDestroy(&v));
+    if (!failure.empty()) {
+      try {
+        refuse(deck, name.c_str(), "not a viewer PETSc can open (PETSc: " + failure + "); give the option alone "
+                                   "(true in a deck) for the screen, or ascii:FILE");
+      } catch (const InputError&) {
+        PetscOptionsClearValue(nullptr, name.c_str());  // PetscFinalize would fail on -log_view again
+        throw;
+      }
+    }
+    // Set again, unread: an option nothing else reads is still warned of.
+    PetscCall(PetscOptionsClearValue(nullptr, name.c_str()));
+    PetscCall(PetscOptionsSetValue(nullptr, name.c_str(), value.empty() ? nullptr : value.c_str()));
+  }
   {  // checked first, for a message that names the choices (PETSc's would not)
     char value[64] = "";
     PetscBool set = PETSC_FALSE, known = PETSC_FALSE;

@@ -351,6 +351,56 @@ def test_unknown_petsc_line_search_option(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+
+@pytest.mark.parametrize("where", ["command_line", "deck"])
+def test_mat_type_is_refused(tmp_path, where):
+    # -mat_type retypes the matrices DMCreateMatrix makes; dense and is crashed (SEGV) in PETSc's
+    # preallocation, sbaij failed at setup naming nothing of the deck
+    deck = GOOD if where == "command_line" else {**GOOD, "petsc": {"mat_type": "dense"}}
+    path = write_deck(tmp_path / "deck.yaml", deck)
+    args = [path, "-o", tmp_path / "out"] + (["-mat_type", "dense"] if where == "command_line" else [])
+    proc = run_hyperqn(args, ranks=None, check=False, timeout=60)
+    where_said = "option -mat_type dense:" if where == "command_line" else "deck.yaml:11: 'petsc.mat_type':"
+    assert_clean_failure(proc, tmp_path / "out", [where_said, "is not an option of hyperqn", "leave it out"])
+    assert proc.returncode == 1
+
+
+VIEWERS = {
+    # read at PetscFinalize: the run wrote everything, said "ok", then PETSc failed (exit 56, 65)
+    "log_view_false": (["-log_view", "false"], None, ["option -log_view false:", "Unsupported viewer false"]),
+    "log_view_missing_directory": (["-log_view", ":/nonexistent/dir/x.txt"], None,
+                                   ["option -log_view :/nonexistent/dir/x.txt:", "Cannot open PetscViewer file"]),
+    "deck_tao_view_0": ([], {"tao_view": 0}, ["deck.yaml:11: 'petsc.tao_view':", "not a viewer PETSc can open", "got 0"]),
+    # YAML 1.1's booleans are refused here as in the rest of the deck (yes became true, a viewer true)
+    "deck_tao_view_yes": ([], {"tao_view": "yes"}, ["deck.yaml:11: 'petsc.tao_view':", "expected true or false, got yes"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(VIEWERS))
+def test_viewer_options_that_petsc_cannot_open_are_refused_before_the_run(tmp_path, case):
+    args, petsc, fragments = VIEWERS[case]
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, "petsc": petsc} if petsc else GOOD)
+    # the plain word yes, as a user writes it (the writer quotes it)
+    Path(path).write_text(Path(path).read_text().replace("'yes'", "yes"))
+    proc = run_hyperqn([path, "-o", tmp_path / "out"] + args, ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", fragments)
+    assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout
+
+
+def test_a_deck_s_true_passes_a_viewer_option_alone(tmp_path):
+    # log_view: true is -log_view (PETSc's summary on the screen), not "-log_view true"
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, "petsc": {"log_view": True}})
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, timeout=60)
+    assert "PETSc Performance Summary" in proc.stdout and "PETSC ERROR" not in proc.stdout
+
+
+def test_a_closed_pipe_ends_the_program_quietly():
+    # `hyperqn registry | head`: before, PETSc's handler said "Caught signal number 13 Broken Pipe"
+    # and aborted MPI
+    proc = subprocess.run(f"'{HYPERQN}' registry | head -c 10", shell=True, capture_output=True, text=True, timeout=60)
+    assert proc.stdout == '{\n  "mater'
+    assert "PETSC ERROR" not in proc.stderr and "MPI_ABORT" not in proc.stderr, proc.stderr
+
 # A body that starts inside an obstacle (docs/contact.md#a-start-inside-an-obstacle): an input
 # error naming the collider's deck line and index, how many free vertices it holds and the
 # deepest one. The sheet lies in y = 0 (15 vertices, 3 fixed); the bar's vertices at y = 0 are
