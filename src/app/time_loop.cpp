@@ -64,6 +64,14 @@ PetscErrorCode TimeLoop::run(int last_frame) {
       PetscCall(scene_.snap_due(lead_, carried, rebind, &snapped));
       scene_.decide_changes_after(lead_.frame);
     }
+    if (!scene_.nothing_left().empty()) {  // the blades would remove the whole body: the run ends here
+      FrameOutcome outcome;
+      outcome.frame = frame;
+      stop_ = scene_.nothing_left();
+      stop_frame_ = frame;
+      for (FrameObserver* o : observers_) PetscCall(o->stopped(outcome, stop_));
+      break;
+    }
     for (FrameObserver* o : observers_) PetscCall(o->before_frame(frame));
 
     FrameOutcome outcome;

@@ -127,6 +127,9 @@ class LiveScene {
   // at main's positions x(t) (model/cuts.hpp), are separated by separate_due. Nothing happens, and
   // the topology log event is not begun, in a scene without cuts. *cut: it happened.
   PetscErrorCode cut_due(State& main, const std::vector<State*>& others, const Rebind& rebind, bool* cut);
+  // Not empty once cut_due found that the blades with remove would take every tet of a scene of
+  // tets alone (nothing would be left to simulate): why, for the run's stop. Nothing was changed.
+  const std::string& nothing_left() const { return nothing_left_; }
   // Whatever decided them (blades, a fracture criterion): the interior faces `batch` (tet pairs,
   // sorted, none separated before) separate on the kept pieces at the start of main's frame
   // (mesh/separation.hpp), the scene is rebuilt on them and main and every state in others move to
@@ -285,6 +288,7 @@ class LiveScene {
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
+  std::string nothing_left_;  // cut_due's
   bool kept_changed_ = false;  // restore_changes changed kept_: restore_released rebuilds
   bool last_change_cut_ = false, last_cut_corrected_ = false;
   bool last_change_factored_ = false;  // the last change's scene factored a constant matrix anew (not with newton)

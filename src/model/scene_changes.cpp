@@ -2,6 +2,7 @@
 // cuts and fracture, strand segments snapped and cloth edges torn. Each change builds the scene
 // again from its kept input (LiveScene::rebuild) and carries the state over (carry_state); the
 // restore_* functions replay a checkpoint's changes so a restart builds the same scene.
+#include <cstdio>
 #include "model/scene.hpp"
 
 #include <algorithm>
@@ -276,6 +277,16 @@ PetscErrorCode LiveScene::cut_due(State& main, const std::vector<State*>& others
   std::sort(batch.begin(), batch.end());
   batch.erase(std::unique(batch.begin(), batch.end()), batch.end());
   const size_t by_blades = batch.size();  // (a face also overloaded counts as cut)
+  const auto removed = std::count_if(batch.begin(), batch.end(), [](const TetPair& f) { return f[0] == f[1]; });
+  const DistributedMesh& m = scene_->mesh;
+  if (removed > 0 && removed >= (long long)m.global_cells && m.global_triangles == 0 && m.global_segments == 0) {
+    char when[64];
+    std::snprintf(when, sizeof when, "%g", t);
+    nothing_left_ = "the blades with remove: true would take every tet left (" + std::to_string(removed) +
+                    ", crossed over the step to t = " + when + " s): nothing would be left to simulate";
+    PetscCall(event_end(&LogEvents::topology));
+    PetscFunctionReturn(0);
+  }
   if (!fracture_.empty()) {  // the faces the step before overloaded (model/fracture.hpp)
     std::vector<TetPair> broken;
     if (!scene_->fracture_faces) scene_->fracture_faces = std::make_shared<TetFaces>(tet_faces(scene_->mesh));

@@ -213,6 +213,44 @@ def test_bad_removal_deck_is_refused(tmp_path, case):
 SAWN_SELF = {**SAWN, "contact": {"model": "barrier", "self": True}}
 
 
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_blade_that_would_remove_every_tet_ends_the_run_and_says_so(tmp_path, ranks):
+    """A blade as large as the body sweeps through all of it: nothing would be left, and the run
+    stops before the change (before: the factorization of an empty matrix failed at 1 rank, and at
+    2 "the local vertices changed when fixed regions were released", both as PETSc errors)."""
+    deck = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [2, 1, 1]}},
+            "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+            "time": {"dt": 0.01, "frames": 3},
+            "cuts": [{"center": [0.5, 1.1, 0.1], "normal": [0, 0, 1], "axis": [1, 0, 0], "size": [5, 5], "remove": True,
+                      "motion": {"translate": {"velocity": [0, -200, 0]}}}]}
+    out = tmp_path / "all"
+    proc = run_hyperqn([write_deck(tmp_path / "all.yaml", deck), "-o", out], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode == 1
+    status = read_summary(out)["status"]
+    assert status.startswith("error: frame 2: the blades with remove: true would take every tet left (12, crossed over "
+                             "the step to t = 0.01 s): nothing would be left to simulate"), status
+    assert "PETSc" not in status and "PETSC ERROR" not in proc.stdout
+    assert [f for f, _, _ in frame_list(out)] == [0, 1]
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_body_of_several_may_lose_all_its_tets(tmp_path, ranks):
+    """Of two bodies, the blade takes the whole first (6 tets); the second goes on."""
+    body = lambda name, x, cells: {
+        "name": name, "mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": cells}, "transform": {"translate": [x, 0, 0]}},
+        "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+        "fixed": [{"box": {"min": [x - 0.01, -0.01, -0.01], "max": [x + 0.01, 0.21, 0.21]}}]}
+    deck = {"bodies": [body("a", 0.0, [1, 1, 1]), body("b", 1.0, [2, 2, 2])], "time": {"dt": 0.01, "frames": 3},
+            "cuts": [{"center": [0.1, 0.5, 0.1], "normal": [0, 0, 1], "axis": [1, 0, 0], "size": [0.5, 0.5],
+                      "remove": True, "motion": {"translate": {"velocity": [0, -200, 0]}}}]}
+    out = tmp_path / "two"
+    proc = run_hyperqn([write_deck(tmp_path / "two.yaml", deck), "-o", out], ranks=ranks, timeout=60)
+    assert "cut: 0 faces separated, 6 tets removed" in proc.stdout
+    assert read_summary(out)["status"] == "ok"
+    assert final_frame(out).num_cells == 48
+
 def test_with_self_contact_the_vertices_a_removal_splits_open(tmp_path):
     twins = {}
     for self_contact in (True, False):
