@@ -26,6 +26,8 @@ struct LoadRegion {
   // A face_tag's faces: how many of the tag's triangles are not boundary faces of the tets (interior
   // faces, or no face of a tet), which the region leaves out (-1: no face_tag).
   long long tag_not_boundary = -1;
+  // Faces: how many have a free vertex (a face of fixed vertices only takes nothing of the load).
+  long long global_free_faces = 0;
 };
 // Collective. With a face_tag, the tag's boundary faces (vertices) in the box if there is one too.
 LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target);

@@ -82,10 +82,7 @@ LoadRegion select_tagged_region(const DistributedMesh& mesh, const LoadSpec& spe
   return region;
 }
 
-}  // namespace
-
-LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target) {
-  if (spec.has_face_tag) return select_tagged_region(mesh, spec, target);
+LoadRegion select_region_in_box(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target) {
   MPI_Comm comm = PetscObjectComm((PetscObject)mesh.dm);
   const double tol = 1e-9 * rest_diagonal(mesh);
   LoadRegion region;
@@ -135,6 +132,17 @@ LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec,
   return region;
 }
 
+}  // namespace
+
+LoadRegion select_load_region(const DistributedMesh& mesh, const LoadSpec& spec, LoadTarget target) {
+  LoadRegion region = spec.has_face_tag ? select_tagged_region(mesh, spec, target) : select_region_in_box(mesh, spec, target);
+  long long free = 0;
+  for (const auto& f : region.faces)
+    free += mesh.global_dof[f[0]] >= 0 || mesh.global_dof[f[1]] >= 0 || mesh.global_dof[f[2]] >= 0;
+  MPI_Allreduce(&free, &region.global_free_faces, 1, MPI_LONG_LONG, MPI_SUM, PetscObjectComm((PetscObject)mesh.dm));
+  return region;
+}
+
 PetscErrorCode LoadTerm::add_energy(Vec, const std::vector<double>& pos, double* energy, PetscScalar* gradient) const {
   double e = *energy;
   for (size_t k = 0; k < dead_vertices_.size(); ++k) {
@@ -159,7 +167,11 @@ std::string LoadTerm::describe() const {
 
 PetscErrorCode LoadTerm::check_start(const std::vector<double>&, InputProblem& out) const {
   const bool faces = region_.target == LoadTarget::faces;
-  if (region_.global_count == 0 && spec_.has_face_tag) {
+  if (faces && mesh_.global_cells == 0)
+    out = {spec_.line, "loads[" + std::to_string(index_) + "].type",
+           spec_.type + " acts on the boundary faces of tets, and the scene has none (a cloth's or strands': give "
+                        "them a force or body_force)"};
+  else if (region_.global_count == 0 && spec_.has_face_tag) {
     const bool narrowed = spec_.has_box || Vec3(spec_.normal.data()).squaredNorm() > 0;
     const std::string tag = "tag " + std::to_string(spec_.face_tag);
     out = {spec_.face_tag_line, "loads[" + std::to_string(index_) + "].face_tag",
@@ -173,6 +185,11 @@ PetscErrorCode LoadTerm::check_start(const std::vector<double>&, InputProblem& o
     out = {spec_.line, "loads[" + std::to_string(index_) + "].box",
            std::string("selects no ") + (faces ? "boundary face of the tets" : "free vertex") + " (loads[" +
                std::to_string(index_) + "], " + spec_.type + "): widen the box" + (faces ? " or `angle`" : "")};
+  else if (faces && region_.global_free_faces == 0)
+    out = {spec_.has_face_tag ? spec_.face_tag_line : spec_.line,
+           "loads[" + std::to_string(index_) + "]." + (spec_.has_face_tag ? "face_tag" : "box"),
+           "selects only boundary faces whose vertices are all fixed (loads[" + std::to_string(index_) + "], " +
+               spec_.type + "): the load would act on nothing (a fixed region's reaction takes it)"};
   return 0;
 }
 

@@ -119,6 +119,19 @@ BAD_LOADS = {
                                        "curve": {"type": "table", "points": [[0, 1]]}}), ["'loads[0].curve", "point"]),
     "no_free_vertex": (with_loads({"type": "force", "box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]},
                                    "force": [0, 1, 0]}), ["'loads[0].box'", "selects no free vertex"]),
+    # the clamped end's faces: a traction there acted on nothing (the run said "on 2 boundary faces", ok)
+    "traction_on_fixed_faces": (with_loads({"type": "traction", "box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]},
+                                            "traction": [1, 0, 0]}),
+                                ["'loads[0].box'", "selects only boundary faces whose vertices are all fixed", "act on nothing"]),
+    "pressure_on_fixed_faces": (with_loads({"type": "pressure", "box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]},
+                                            "pressure": 1.0}), ["'loads[0].box'", "vertices are all fixed"]),
+    # a cloth has no tets' faces: widening the box (the message before) could not help
+    "traction_on_a_cloth": ({"mesh": {"sheet": {"size": [1.0, 0.5], "cells": [4, 2]}},
+                             "cloth": {"model": "mass-spring", "stretch_stiffness": 100.0, "areal_density": 0.2},
+                             "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.51]}}],
+                             "time": {"dt": 0.01, "frames": 2},
+                             "loads": [{"type": "traction", "box": {"min": [-1, -1, -1], "max": [2, 2, 2]}, "traction": [0, 1, 0]}]},
+                            ["'loads[0].type'", "traction acts on the boundary faces of tets, and the scene has none"]),
 }
 
 
