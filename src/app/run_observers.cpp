@@ -79,6 +79,11 @@ PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) 
   add_step_counters(summary, *old_scene.step);
   summary.dofs = fresh.mesh.global_dofs;
   summary.fixed_vertices = fresh.mesh.global_fixed_vertices;
+  // The factor in use from here on (followed or factored again), as a restart from here sets up.
+  if (const FactoredSystem* h0 = fresh.constant_matrix(run_.deck.solver)) {
+    summary.h0_factor_nonzeros = h0->factor_nonzeros();
+    summary.h0_interface = h0->interface_size();
+  }
   PetscCall(PetscPrintf(run_.comm, "t = %g: %s\n", run_.state.time, run_.scene.last_change(summary.dofs).c_str()));
   PetscFunctionReturn(0);
 }
