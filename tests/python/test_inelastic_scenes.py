@@ -7,7 +7,7 @@
   damping is the same for both).
 - bar_bend.yaml: a plastic bar clamped at its middle over a rigid ball, its ends pushed down around
   the ball (static load steps) and let go. On 30 x 2 x 2 cells and load steps of 0.1 s: it keeps a bend
-  of 81.29 degrees (measured; asserted within 5) between its end faces, the same bar without `plastic:`
+  of 81.61 degrees (measured; asserted within 5) between its end faces, the same bar without `plastic:`
   springs back straight (under 0.1 degree).
 - indent_creep.yaml: a soft block indented by a rigid ball, held, and released (static load steps).
   On 6 x 3 x 6 cells and load steps of 0.1 s: the top's centre is down by the indentation while
@@ -146,9 +146,9 @@ def test_bar_bent_around_a_ball_keeps_its_bend(tmp_path):
         bends[name] = held, kept
         print(f"{name}: bent {held:.2f} deg (arms {held_arms[0]:.2f}, {held_arms[1]:.2f}) while held, "
               f"{kept:.2f} deg (arms {kept_arms[0]:.2f}, {kept_arms[1]:.2f}) after release")
-    # Measured (lbfgs): plastic 134.37 deg held, 81.29 kept; elastic 137.79 held, 0.00 kept.
+    # Measured (lbfgs, 41cd786): plastic 134.09 deg held, 81.61 kept; elastic 137.79 held, 0.00 kept.
     held, kept = bends["plastic"]
     assert held > 100 and bends["elastic"][0] > 100, "both wrapped down around the ball"
-    assert 81.29 - 5 < kept < 81.29 + 5, "the plastic bar keeps its bend (measured 81.29 deg, +-5)"
+    assert 81.61 - 5 < kept < 81.61 + 5, "the plastic bar keeps its bend (measured 81.61 deg, +-5)"
     assert kept < held - 10, "and springs back some of it"
     assert abs(bends["elastic"][1]) < 0.1, "the elastic bar springs back straight (measured 0.00 deg)"
