@@ -10,6 +10,7 @@
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
 #include "model/elastic_terms.hpp"
+#include "solvers/rigid_mode_h0.hpp"
 #include "solvers/solver_registry.hpp"
 #include "terms/nan_injection.hpp"
 
@@ -191,6 +192,34 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
   PetscCall(PetscOptionsEList("-hyperqn_h0_package", help.c_str(), "docs/performance.md", kH0Packages,
                               kH0PackageCount, kH0Packages[package], &package, nullptr));
   o->h0_package = kH0PackageOf[package];
+  // Options read where they act, listed here for -help only (so that a run's warning of options
+  // nothing read still sees them unread). test_log_view.py checks that -help lists every
+  // -hyperqn_ option of the source.
+  PetscBool listing = PETSC_FALSE;
+  PetscCall(PetscOptionsHasHelp(nullptr, &listing));
+  if (listing) {
+    PetscBool b = PETSC_TRUE;
+    PetscReal share = RigidModeH0::kRemovedShare;
+    PetscInt touched = 0;
+    PetscCall(PetscOptionsBool("-hyperqn_topology_h0", "Cuts, fracture, snaps and tears correct the constant matrix's "
+                               "factor (TopologyH0) where they can; false factors it again at every change",
+                               "docs/topology.md", b, &b, nullptr));
+    PetscCall(PetscOptionsName("-hyperqn_memory_report", "Print every rank's memory estimate by parts, and its limit",
+                               "docs/guardrails.md", &b));
+    PetscCall(PetscOptionsName("-hyperqn_h0_matrix_view", "View the constant matrix as factored (a PETSc viewer: "
+                               "binary:A1.bin)", "docs/performance.md", &b));
+    PetscCall(PetscOptionsReal("-hyperqn_rigid_h0_share", "solver.h0_rigid: the share of the stiff clusters' charge on "
+                               "their rotations removed from H0, in (0, 1]", "docs/method.md", share, &share, nullptr));
+    PetscCall(PetscOptionsName("-hyperqn_test_topology_h0_check", "Tests only: after each change, the corrected H0 "
+                               "against a fresh factorization", "docs/topology.md", &b));
+    PetscCall(PetscOptionsName("-hyperqn_test_topology_h0_drop_edit", "Tests only: drop one edit of the correction "
+                               "(the check must see it)", "docs/topology.md", &b));
+    PetscCall(PetscOptionsInt("-hyperqn_test_topology_h0_max_touched", "Tests only: the correction's size trigger "
+                              "(vertices touched before the factor is made again; 0: the default)", "docs/topology.md",
+                              touched, &touched, nullptr));
+    PetscCall(PetscOptionsName("-hyperqn_test_rigid_h0_check", "Tests only: the rigid-mode H0 against a dense solve "
+                               "on random vectors (small scenes)", "docs/method.md", &b));
+  }
   PetscOptionsEnd();
   PetscFunctionReturn(0);
 }

@@ -2,8 +2,12 @@
 - glued columns ("%5.4e%4.1f", "%2.1e%3d") and both generations of the summary's names parse;
 - a 2-rank run of the split factor: its one MPI_Allreduce per solve counts as one reduction per
   rank and solve with no message, and a gradient evaluation sends one message per rank (the ghost
-  exchange between the two parts)."""
-from conftest import run_hyperqn, write_deck
+  exchange between the two parts);
+- `hyperqn -help` lists every -hyperqn_ option of the source."""
+import os
+import re
+
+from conftest import REPO, run_hyperqn, write_deck
 from hyperqn_tools import log_view
 from hyperqn_tools.output import read_summary
 
@@ -47,3 +51,17 @@ def test_counts_of_a_split_run(tmp_path):
     assert solve["count"] == s["h0_solves"] and solve["messages"] == 0 and solve["reductions"] == solve["count"]
     assert grad["messages"] == 2 * grad["count"] and grad["avg_bytes"] > 0
     assert log_view.summary(text)["messages"]["total"] > 0
+
+
+def test_help_lists_every_hyperqn_option_of_the_source():
+    """Every -hyperqn_ option that the source reads (src/, solvers/) is in `hyperqn -help`, with the
+    options read where they act (before: -hyperqn_topology_h0, -hyperqn_memory_report and
+    -hyperqn_h0_matrix_view, documented, were missing)."""
+    import glob
+    names = set()
+    for path in glob.glob(os.path.join(REPO, "src", "**", "*.cpp"), recursive=True) + \
+            glob.glob(os.path.join(REPO, "solvers", "*.cpp")):
+        names |= set(re.findall(r'"(-hyperqn_[a-z0-9_]+)"', open(path).read()))
+    assert "-hyperqn_topology_h0" in names and len(names) >= 15
+    listed = set(re.findall(r"^  (-hyperqn_[a-z0-9_]+)", run_hyperqn(["-help"], ranks=None).stdout, re.M))
+    assert names <= listed, sorted(names - listed)
