@@ -7,10 +7,25 @@ import yaml
 
 
 class Loader(yaml.SafeLoader):
-    """yaml.SafeLoader reading numbers as hyperqn does: PyYAML (YAML 1.1) takes `1e5` for a string,
-    which write_deck would then quote and hyperqn refuse; yaml-cpp reads it as a number. Explicit
-    tags (`!!str 0.05`, `!foo`) are refused, as hyperqn refuses them: `!!float "0.05"` would
-    otherwise become a plain number in a sweep's copy of a deck that hyperqn itself rejects."""
+    """yaml.SafeLoader reading a deck as hyperqn does (YAML 1.2's scalars), so that a sweep's copy of
+    a deck means what the deck means:
+    - `1e5` is a number (PyYAML, YAML 1.1, takes it for a string, which write_deck would quote);
+    - `010` is 10 (YAML 1.1: octal 8), and `0x1f`, `1_000` or `1:20` stay words, as hyperqn refuses them;
+    - only true/false (True, TRUE, ...) are booleans: YAML 1.1's yes, no, on, off stay words, which
+      hyperqn refuses where it wants a boolean;
+    - a key given twice in a map is refused, as hyperqn refuses it (PyYAML keeps the last);
+    - explicit tags (`!!str 0.05`, `!foo`) are refused, as hyperqn refuses them: `!!float "0.05"`
+      would otherwise become a plain number in a copy of a deck that hyperqn itself rejects."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(None, None, f"key '{key}' given twice in a map",
+                                                        key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
 
     def compose_node(self, parent, index):
         event = self.peek_event()
@@ -22,6 +37,14 @@ class Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
+# YAML 1.1's int and bool resolvers out (octal, sexagesimal, underscores; yes/no/on/off), 1.2's in.
+Loader.yaml_implicit_resolvers = {
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:bool")]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+Loader.add_implicit_resolver("tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
+                             list("tTfF"))
+Loader.add_implicit_resolver("tag:yaml.org,2002:int", re.compile(r"^[-+]?[0-9]+$"), list("-+0123456789"))
+Loader.add_constructor("tag:yaml.org,2002:int", lambda loader, node: int(loader.construct_scalar(node), 10))
 Loader.add_implicit_resolver("tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$"),
                              list("-+0123456789."))
 

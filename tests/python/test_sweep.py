@@ -178,6 +178,9 @@ BAD_SWEEPS = {
     # hyperqn refuses tags; a sweep must not turn !!float "1e5" into a plain number for it
     "tagged_value": ("deck: decks/base.yaml\nsweep: {material.youngs_modulus: [!!float '1e5']}\n",
                      ["YAML tags are not accepted, found !!float", "line 2"]),
+    # PyYAML kept the last of the two (hyperqn refuses a key given twice)
+    "key_twice": ("deck: decks/base.yaml\nsweep: {time.dt: [0.01]}\nsweep: {time.dt: [0.02]}\n",
+                  ["key 'sweep' given twice in a map", "line 3"]),
 }
 
 
@@ -199,6 +202,25 @@ def test_tagged_base_deck(tmp_path):
     proc = sweep(path, "--out", tmp_path / "out", check_rc=1)
     assert "tagged.yaml" in proc.stderr and "YAML tags are not accepted, found !!float" in proc.stderr, proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_base_deck_is_read_as_hyperqn_reads_it(tmp_path):
+    """YAML 1.2's scalars, as hyperqn's: frames: 010 is 10 (PyYAML's YAML 1.1: octal 8, and the
+    case ran 8 frames), yes is a word that hyperqn refuses (PyYAML's true), and a key twice in
+    the base deck is refused (PyYAML kept the last)."""
+    path = make_sweep(tmp_path, "deck: decks/odd.yaml\nsweep: {time.dt: [0.01]}\n")
+    odd = (tmp_path / "decks" / "base.yaml").read_text().replace("frames: 3", "frames: 010")
+    (tmp_path / "decks" / "odd.yaml").write_text(odd)
+    sweep(path, "--out", tmp_path / "out", check_rc=0)
+    case = next(p for p in (tmp_path / "out").iterdir() if p.is_dir())
+    assert load_deck(case / "deck.yaml")["time"]["frames"] == 10
+    assert json.load(open(case / "summary.json"))["frames"] == 10
+    (tmp_path / "decks" / "odd.yaml").write_text(odd + "output: {reactions: yes}\n")
+    proc = sweep(path, "--out", tmp_path / "out2", check_rc=2)
+    assert "'output.reactions': expected true or false" in proc.stdout, proc.stdout
+    (tmp_path / "decks" / "odd.yaml").write_text(odd + "time: {dt: 0.02, frames: 3}\n")
+    proc = sweep(path, "--out", tmp_path / "out3", check_rc=1)
+    assert "odd.yaml" in proc.stderr and "key 'time' given twice in a map" in proc.stderr, proc.stderr
 
 
 def test_missing_sweep_file(tmp_path):
