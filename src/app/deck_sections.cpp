@@ -628,6 +628,7 @@ void read_time(const Reader& r, const Value& v, TimeSpec& t) {
   const bool quasi_static = t.integrator == TimeIntegrator::quasi_static;
   if (const Value* x = s.find("pseudo_step"); x && !quasi_static)
     r.fail(*x, "pseudo_step is the static integrator's (integrator: static): leave it out");
+  if (const Value* x = s.find("pseudo_step")) t.pseudo_step_line = x->line;  // its range needs the mesh (LiveScene::build)
   // A static step has no velocity to damp.
   if (const Value* x = s.find("damping"); x && quasi_static)
     r.fail(*x, "integrator: static has no velocities to damp (each frame is an equilibrium): leave damping out");

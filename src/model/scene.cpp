@@ -559,6 +559,20 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
                                                  options_.warm_start, options_.upright_guess,
                                                  options_.element_limit, spec.time.integrator, spec.time.pseudo_step);
   PetscCall(s.step->setup());
+  if (!before && spec.time.pseudo_step > 0) {
+    // A pseudo step far from the automatic one: g = s^2 (E - W) underflows (a step "converged" at
+    // 0 iterations where nothing moved) or overflows, or M or s^2 L is lost in H0.
+    double automatic;
+    PetscCall(s.step->automatic_pseudo_step(&automatic));
+    const double ratio = spec.time.pseudo_step / automatic;
+    if (!(ratio >= StepObjective::kPseudoStepRange[0] && ratio <= StepObjective::kPseudoStepRange[1])) {
+      char text[256];
+      std::snprintf(text, sizeof text, "%g is %.3g times the automatic pseudo step of this mesh (%g s): give one "
+                    "within [%g, %g] times it, or leave the key out", spec.time.pseudo_step, ratio, automatic,
+                    StepObjective::kPseudoStepRange[0], StepObjective::kPseudoStepRange[1]);
+      throw InputError(spec.path, spec.time.pseudo_step_line, "time.pseudo_step", text);
+    }
+  }
   PetscCall(s.body->set_masses(s.step->mass()));
   std::vector<H0> wanted;
   s.poisson_ratio = options_.poisson_ratio;

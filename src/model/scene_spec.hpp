@@ -26,6 +26,7 @@ struct TimeSpec {
   double damping = 0;                // v <- (1 - damping) v after each step
   TimeIntegrator integrator = TimeIntegrator::implicit_euler;
   double pseudo_step = 0;            // static: s of H0 = (M + s^2 L)^-1 (0: automatic)
+  int pseudo_step_line = 0;          // its deck line
 };
 
 // The deck's time: keys (params/deck_keys.hpp).
@@ -49,7 +50,8 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
        [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
       {"pseudo_step", &TimeSpec::pseudo_step,
        "`static` only: the pseudo step s of L-BFGS's H0 = (M + s²L)⁻¹ (and Newton's M + s²K), where M only "
-       "regularizes what the supports leave free",
+       "regularizes what the supports leave free; within 1e-4 to 1e4 times the automatic one (else g underflows or "
+       "overflows)",
        above(0), {}, "s", "auto: s² = 10⁸ N^(2/3) max m_i / L_ii over the N free vertices"},
   };
   return keys;

@@ -77,6 +77,9 @@ class StepObjective : public Objective {
   // over the N free vertices (collective): M is at most 1/kPseudoStepFactor of s^2 L on the
   // diagonal, and of the body's slowest modes too (docs/method.md#time-integrators).
   static constexpr double kPseudoStepFactor = 1e8;
+  // The range of a deck's time.pseudo_step, as a factor of the automatic one (LiveScene::build
+  // refuses others): s^2 at 2e-8 to 1e2 of the automatic s^2 measured (docs/method.md).
+  static constexpr double kPseudoStepRange[2] = {1e-4, 1e4};
   PetscErrorCode automatic_pseudo_step(double* s) const;
   const Integrator& integrator() const { return life_.integrator(); }
   // The step's x_n, v_n, x^, v^ and its end: accept, undo, keep and restore are the caller's.

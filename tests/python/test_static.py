@@ -246,6 +246,12 @@ BAD = {
     "pseudo_step_of_dynamics": (lambda d: d["time"].update(integrator="implicit-euler", pseudo_step=1.0),
                                 ["'time.pseudo_step'", "integrator: static"]),
     "zero_pseudo_step": (lambda d: d["time"].update(pseudo_step=0.0), ["'time.pseudo_step'"]),
+    # g = s^2 (E - W) underflowed: 0 iterations, "ok", nothing moved under gravity; or overflowed
+    # ("Inf or NaN" in TAO's line search, not naming the key)
+    "tiny_pseudo_step": (lambda d: d["time"].update(pseudo_step=1e-90),
+                         ["'time.pseudo_step': 1e-90 is", "times the automatic pseudo step of this mesh",
+                          "within [0.0001, 10000] times it"]),
+    "huge_pseudo_step": (lambda d: d["time"].update(pseudo_step=1e100), ["'time.pseudo_step': 1e+100 is"]),
 }
 
 
