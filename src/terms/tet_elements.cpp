@@ -99,6 +99,12 @@ static void batch_cauchy(const StressBatch& b, const Lanes& per_volume, int n, L
     const int i = kSymmetricRow[c], j = kSymmetricCol[c];
     sigma[c] = 0.5 * (A[i + 3 * j] + A[j + 3 * i]);
   }
+  // A flat or inverted tet (J <= 0) has no Cauchy stress (force per deformed area): NaN, as an
+  // element without the field (inverted_frames counts it), not P F^T / J's inf or sign-flipped
+  // value; nor does it break a fracture criterion.
+  for (int e = 0; e < n; ++e)
+    if (!(J[e] > 0))
+      for (int c = 0; c < 6; ++c) sigma[c][e] = NAN;
 }
 
 // In add_energy's batches (the same kernels, psi and P of a batch at once), one pass for all the

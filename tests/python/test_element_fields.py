@@ -381,3 +381,29 @@ def test_vtu_frames_after_a_release_and_a_restart(tmp_path, ranks):
         assert len(cells) == 8 * 2 * 2 * 6
         cells0 = cells0 or cells
         assert cells == cells0, path
+
+
+@pytest.mark.parametrize("start", [{"collapse": True}, {"invert": {"axis": 0}}])
+def test_a_flat_or_inverted_tet_has_no_cauchy_stress(tmp_path, start):
+    """Frame 0 of a collapsed or inverted start: a tet with J <= 0 holds NaN in cauchy_stress and
+    von_mises, as an element without the field (before: inf, and 3e21 or sign-flipped values from
+    P F^T / J); a tet with J > 0 a finite value."""
+    deck = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
+            "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+            "time": {"dt": 0.01, "frames": 1}, "initial": start,
+            "output": {"every": 1, "fields": ["cauchy_stress", "von_mises"]}}
+    first = frames(run(tmp_path, deck, "start", 1))[0]
+    flat = 0
+    for key, ids in first["cells"].items():
+        x = np.array([first["points"][v] for v in ids])
+        X = np.array([first["rest"][v] for v in ids])
+        J = np.linalg.det((x[1:] - x[0]).T) / np.linalg.det((X[1:] - X[0]).T)
+        sigma, vm = first["cauchy_stress"][key], first["von_mises"][key]
+        assert not np.isinf(sigma).any() and not np.isinf(vm).any()
+        if J < -1e-9 or (J <= 1e-9 and np.isnan(vm).all()):
+            assert np.isnan(sigma).all() and np.isnan(vm).all(), (J, sigma)
+            flat += 1
+        else:
+            assert np.isfinite(sigma).all() and np.isfinite(vm).all(), (J, sigma)
+    assert flat >= len(first["cells"]) // 2
