@@ -42,12 +42,6 @@ const ElementType* element_type(long long type) {
 constexpr long long kTet = 4;
 constexpr long long kTriangle = 2;
 
-// A token as shown in a message: printable and short (a corrupt file may hold anything).
-std::string shown(const Token& t) {
-  std::string s;
-  for (const char* p = t.begin; p != t.end && s.size() < 40; ++p) s += (*p >= 32 && *p < 127) ? *p : '?';
-  return t.end - t.begin > 40 ? s + "..." : s;
-}
 
 class GmshReader {
  public:
@@ -81,7 +75,7 @@ class GmshReader {
       } else if (*t.begin == '$' && t.end - t.begin > 1 && t.str().compare(0, 4, "$End") != 0) {
         skip_section(t);  // $PhysicalNames, $NodeData, $Periodic, ...: not needed
       } else {
-        throw InputError(path_, t.line, "", "unexpected '" + shown(t) + "' outside any section (does a section's count match its records?)");
+        throw InputError(path_, t.line, "", "unexpected '" + t.str() + "' outside any section (does a section's count match its records?)");
       }
     }
     if (!nodes_line) throw InputError(path_, 0, "$Nodes", "no $Nodes section in the Gmsh file");
@@ -109,14 +103,14 @@ class GmshReader {
       throw InputError(path_, tok_.last_line(), s.name, "the file ends inside the section (line " + std::to_string(s.line) +
                                                             ") where " + what + " was expected");
     if (*t.begin == '$')
-      throw InputError(path_, t.line, s.name, "section (line " + std::to_string(s.line) + ") ends at '" + shown(t) +
+      throw InputError(path_, t.line, s.name, "section (line " + std::to_string(s.line) + ") ends at '" + t.str() +
                                                   "' where " + what + " was expected (a count larger than its records?)");
     return t;
   }
   long long integer(const Section& s, const std::string& what, int* line = nullptr) {
     Token t = next(s, what);
     long long v;
-    if (!parse_int(t, v)) throw InputError(path_, t.line, s.name, "expected " + what + " (an integer), found '" + shown(t) + "'");
+    if (!parse_int(t, v)) throw InputError(path_, t.line, s.name, "expected " + what + " (an integer), found '" + t.str() + "'");
     if (line) *line = t.line;
     return v;
   }
@@ -133,8 +127,8 @@ class GmshReader {
     Token t = next(s, what);
     double v;
     if (!parse_double(t, v))
-      throw InputError(path_, t.line, s.name, "expected " + what + " (a number), found '" + shown(t) + "'" + number_note(t));
-    if (!std::isfinite(v)) throw InputError(path_, t.line, s.name, what + " is not finite: '" + shown(t) + "'");
+      throw InputError(path_, t.line, s.name, "expected " + what + " (a number), found '" + t.str() + "'" + number_note(t));
+    if (!std::isfinite(v)) throw InputError(path_, t.line, s.name, what + " is not finite: '" + t.str() + "'");
     if (coordinate) check_coordinate(path_, s.name, t, v, what);
     return v;
   }
@@ -144,7 +138,7 @@ class GmshReader {
     if (!tok_.next(t))
       throw InputError(path_, tok_.last_line(), s.name, "no " + end + ": the file ends inside the section (line " + std::to_string(s.line) + ")");
     if (!t.is(end.c_str()))
-      throw InputError(path_, t.line, s.name, "expected " + end + " after " + after + ", found '" + shown(t) +
+      throw InputError(path_, t.line, s.name, "expected " + end + " after " + after + ", found '" + t.str() +
                                                   "' (more records than the section declares?)");
   }
   void skip_section(const Token& key) {
@@ -161,15 +155,15 @@ class GmshReader {
     if (!tok_.next(t)) throw InputError(path_, 1, "$MeshFormat", "the Gmsh file is empty");
     if (t.is("$NOD") || t.is("$NOE"))
       throw InputError(path_, t.line, "$MeshFormat", "MSH version 1 files are not supported: save the mesh as MSH 4.1 or 2.2 (ASCII)");
-    if (!t.is("$MeshFormat")) throw InputError(path_, t.line, "$MeshFormat", "not a Gmsh file: it must begin with $MeshFormat, found '" + shown(t) + "'");
+    if (!t.is("$MeshFormat")) throw InputError(path_, t.line, "$MeshFormat", "not a Gmsh file: it must begin with $MeshFormat, found '" + t.str() + "'");
     const Section s{"$MeshFormat", t.line};
     Token v = next(s, "the format version");
     double version;
-    if (!parse_double(v, version)) throw InputError(path_, v.line, s.name, "expected the format version (a number), found '" + shown(v) + "'");
+    if (!parse_double(v, version)) throw InputError(path_, v.line, s.name, "expected the format version (a number), found '" + v.str() + "'");
     if (v.is("4.1")) {
       version4_ = true;
     } else if (!(version >= 2 && version < 3)) {
-      throw InputError(path_, v.line, s.name, "MSH format version " + shown(v) + " is not supported: save the mesh as MSH 4.1 or 2.2 (ASCII)");
+      throw InputError(path_, v.line, s.name, "MSH format version " + v.str() + " is not supported: save the mesh as MSH 4.1 or 2.2 (ASCII)");
     }
     int line;
     const long long file_type = integer(s, "the file type (0 ASCII, 1 binary)", &line);

@@ -5,6 +5,8 @@
 #include <string>
 #include <utility>
 
+#include "io/shown_text.hpp"
+
 namespace hyperqn {
 
 // Whole file in memory: real meshes are a few MB, and scanning a buffer is much faster than
@@ -15,15 +17,8 @@ struct Token {
   const char* begin = nullptr;
   const char* end = nullptr;
   int line = 0;
-  // The token as messages quote it: a control character as '?', and past 64 characters cut with "...",
-  // so that a binary or hostile file cannot write escapes or megabytes to the terminal.
-  std::string str() const {
-    constexpr std::ptrdiff_t kShown = 64;
-    std::string s(begin, end - begin > kShown ? begin + kShown : end);
-    for (char& c : s)
-      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
-    return end - begin > kShown ? s + "..." : s;
-  }
+  // The token as messages quote it (shown_text).
+  std::string str() const { return shown_text(begin, end); }
   bool is(const char* s) const {
     const size_t n = std::strlen(s);
     return size_t(end - begin) == n && std::memcmp(begin, s, n) == 0;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "io/shown_text.hpp"
 #include "params/key_range.hpp"
 
 namespace hyperqn {
@@ -128,13 +129,13 @@ std::vector<std::array<double, 2>> read_curve_table(const std::string& path) {
         first = false;
         continue;
       }
-      fail(line, "expected a row 't, v' of two numbers, got '" + text + "'");
+      fail(line, "expected a row 't, v' of two numbers, got '" + shown_text(text) + "'");
     }
     first = false;
     for (int i = 0; i < 2; ++i)
       if (const std::string rule = number_limits_problem(p[i]); !rule.empty())
         fail(line, std::string(i ? "the value" : "the time") + " must be " + rule + ", got '" +
-                       trim(i ? text.substr(comma + 1) : text.substr(0, comma)) + "'");
+                       shown_text(trim(i ? text.substr(comma + 1) : text.substr(0, comma))) + "'");
     if (points.size() == kMaxCurveRows) fail(line, "more than " + std::to_string(kMaxCurveRows) + " rows");
     points.push_back(p);
     lines.push_back(line);

@@ -176,6 +176,11 @@ FIXED = "fixed[1].motion"
      "back.csv' line 4: the row has the time 1, not after the previous point's 1"),
     ("file_not_finite", {"type": "table", "file": "nan.csv"}, "curve.file", "nan.csv' line 3: the value must be finite"),
     ("file_one_point", {"type": "table", "file": "one.csv"}, "curve.file", "one.csv' is a table of 1 point"),
+    # a row is quoted as the mesh readers quote a token: control bytes as '?', cut at 64 characters
+    # (before: the escapes reached the terminal, a 200 kB row the whole message)
+    ("file_escape", {"type": "table", "file": "escape.csv"}, "curve.file",
+     "escape.csv' line 3: expected a row 't, v' of two numbers, got '?[31mRED?[0m,1'"),
+    ("file_long_row", {"type": "table", "file": "long.csv"}, "curve.file", "got '1," + "1" * 62 + "...'"),
     ("ramp_backwards", {"type": "ramp", "start": 1, "end": 0.5}, "curve.end", "must be > start (1), got 0.5"),
     ("not_zero_at_0", {"type": "sine", "amplitude": 1, "frequency": 1, "phase": 90}, "curve",
      "is 1 at t = 0, and a motion's curve starts at 0"),
@@ -185,6 +190,8 @@ def test_bad_curve_is_a_deck_error(tmp_path, name, curve, key, message):
     (tmp_path / "back.csv").write_text("t,v\n0,0\n1,1\n1,2\n")
     (tmp_path / "nan.csv").write_text("t,v\n0,0\n1,nan\n")
     (tmp_path / "one.csv").write_text("t,v\n0,0\n")
+    (tmp_path / "escape.csv").write_text("t,v\n0,0\n\x1b[31mRED\x1b[0m,1\n")
+    (tmp_path / "long.csv").write_text("t,v\n0,0\n1," + "1" * 200000 + "x\n")
     deck = copy.deepcopy(BAR)
     motion = {"translate": {"velocity": [0.1, 0, 0]}, "curve": curve}
     if name == "end_beside_curve":
