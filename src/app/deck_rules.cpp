@@ -148,6 +148,21 @@ void check_fracture(const Reader& r, const Deck& deck) {
 
 void check_static_has_support(const Reader& r, const Value& time, const Deck& deck) {
   if (deck.time.integrator != TimeIntegrator::quasi_static) return;
+  for (size_t k = 0; k < deck.bodies.size(); ++k) {
+    const BodySpec& b = deck.bodies[k];
+    const std::string key = "bodies[" + std::to_string(k) + "]";
+    if (b.velocity_line)
+      r.fail(b.velocity_line, key + ".velocity", "integrator: static has no velocities (each frame is an equilibrium): "
+                                                 "leave velocity out");
+    // Held by a region of its own or of any body, or resting on a collider or on another body.
+    bool held = has_contact(deck);
+    for (const BoxRegion& f : deck.fixed) held = held || f.body == (int)k || f.body < 0;
+    for (const AttachmentSpec& a : deck.attachments) held = held || a.region.body == (int)k || a.region.body < 0;
+    if (!held)
+      r.fail(b.line, key, "static finds an equilibrium, and nothing holds body " + b.name + ": give it a fixed region or "
+                          "an attachment (" + key + ".fixed, .attachments), or a collider or contact: {self: true} to "
+                          "rest on");
+  }
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;
   r.fail(*Section(r, time, {}).find("integrator"),
          "static finds an equilibrium, and nothing holds the body: add a fixed region (fixed:), an attachment "

@@ -431,6 +431,7 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     }
     if (const Value* x = s.find("cloth")) read_cloth(r, *x, b.cloth);
     if (const Value* x = s.find("strand_material")) read_strand_material(r, *x, b.strand_material);
+    if (const Value* x = s.find("velocity")) b.velocity_line = x->line;
     if (const Value* x = s.find("fixed")) regions.fixed.emplace_back(k, *x);
     if (const Value* x = s.find("attachments")) regions.attachments.emplace_back(k, *x);
     deck.bodies.push_back(b);

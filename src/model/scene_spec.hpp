@@ -44,7 +44,8 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
        "`summary.json`), so it fails no stability case, but it is best in calm scenes (7 of the 21 cases degraded); "
        "not with `colliders` (a deck error); `static`: each frame a load step to equilibrium at the loads and fixed "
        "regions of its end, no inertia, velocities 0 ([method.md](method.md#time-integrators)); needs a `fixed` region, "
-       "an attachment or a collider, and takes no `damping`",
+       "an attachment or a collider (with `bodies`, each body a region of its own or the deck's, unless contact may "
+       "hold it), and takes no `damping` nor a body's `velocity`",
        {}, integrator_names(), "", "",
        [](TimeSpec& t, const std::string& name) { t.integrator = integrator_named(name)->kind; },
        [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
@@ -162,6 +163,7 @@ struct BodySpec {
   StrandMaterial strand_material;        // of its strand segments (if mesh.has_strands())
   std::array<double, 3> velocity{0, 0, 0};
   int line = 0;                          // deck line of bodies[k]
+  int velocity_line = 0;                 // of its velocity (0: not given)
 };
 
 // The keys of one of the deck's bodies (params/deck_keys.hpp). Its reader reads the mesh and the
@@ -188,7 +190,7 @@ inline const std::vector<DeckKey<BodySpec>>& body_keys() {
       custom_key<B>("strand_material", "as [`strand_material`](#strand_material-required-when-the-mesh-has-strands)",
                     "the material of the body's strand segments (a deck error for a mesh without strands)",
                     "required if the mesh has strands"),
-      {"velocity", &B::velocity, "every free vertex's velocity at frame 0"},
+      {"velocity", &B::velocity, "every free vertex's velocity at frame 0 (not with `integrator: static`)"},
       custom_key<B>("fixed", "as [`fixed`](#fixed)",
                     "regions of this body only: a box selects the body's vertices in it (coordinates after the body's "
                     "transform), none of the others'; listed after the deck's own `fixed`",

@@ -255,6 +255,38 @@ BAD = {
 }
 
 
+def static_bodies(second):
+    block = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [2, 1, 1]}},
+             "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100}}
+    held = dict(block, name="a", fixed=[{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}])
+    other = dict(copy.deepcopy(block), name="b", **second)
+    other["mesh"]["transform"] = {"translate": [0, 3, 0]}
+    return {"bodies": [held, other], "time": {"dt": 1, "frames": 2, "integrator": "static"}}
+
+
+@pytest.mark.parametrize("case,second,fragments", [
+    # before: the velocity was ignored, and the unheld body diverged at frame 1 (exit 1, output left)
+    ("body_velocity", {"velocity": [1, 0, 0], "fixed": [{"box": {"min": [-0.01, 2, -1], "max": [0.01, 4, 1]}}]},
+     [".yaml:", "'bodies[1].velocity': integrator: static has no velocities"]),
+    ("body_unheld", {}, [".yaml:", "'bodies[1]': static finds an equilibrium, and nothing holds body b"]),
+])
+def test_bad_static_bodies(tmp_path, case, second, fragments):
+    path = write_deck(tmp_path / f"{case}.yaml", static_bodies(second))
+    outdir = tmp_path / "out"
+    proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1
+    assert_clean_failure(proc, outdir, [f"{case}.yaml"] + fragments)
+
+
+def test_a_static_body_may_rest_on_another(tmp_path):
+    """With self-contact (or a collider) a body without a region of its own may be held by contact:
+    not refused at input."""
+    deck = static_bodies({})
+    deck["contact"] = {"self": True}
+    proc = run_hyperqn(["config", write_deck(tmp_path / "rest.yaml", deck)], ranks=None, timeout=60)
+    assert proc.returncode == 0
+
+
 def test_static_reactions_do_not_depend_on_the_time_scale(tmp_path):
     """A static step has no inertia, so its reactions are the same whatever time the load path takes:
     tensile_bar.yaml's ramp over 10 s and over 10 ms give the same clamp forces (before: the clamp's
