@@ -370,7 +370,13 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
       if (!deck.bodies.empty() && !std::filesystem::exists(partition))
         throw InputError(deck.path, deck.partition_line, "partition",
                          "file not found: '" + partition + "' (write it with hyperqn partition " + deck.path + " -n N)");
-      const PartitionFileInfo info = read_partition_info(partition);
+      PartitionFileInfo info;
+      try {
+        info = read_partition_info(partition);
+      } catch (const InputError& e) {  // a file that is not one: named by the deck's key (as mesh.file's is)
+        if (deck.bodies.empty()) throw;
+        throw InputError(deck.path, deck.partition_line, "partition", e.what());
+      }
       if (!deck.bodies.empty()) check_bodies_partition(deck, info);
       check_memory(deck, info.vertices, info.tets, own_pieces, limits);
       if (deck.bodies.empty() && info.tets > 0 && !deck.has_material)

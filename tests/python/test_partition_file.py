@@ -219,6 +219,8 @@ def test_stale_or_mismatched_bodies_files_are_refused(bodies_file, bar_file):
     refused(tmp, "fewer", fewer, ["'partition'", "holds 2 bodies and the deck has 1"])
     refused(tmp, "missing", dict(BODIES, partition="none.h5"), ["'partition'", "none.h5", "not found", "hyperqn partition"])
     refused(tmp, "one_mesh", dict(BODIES, partition=str(bar_h5)), ["'partition'", "holds one mesh"])
+    (tmp / "garbage.h5").write_bytes(b"not an HDF5 file\n" * 10)  # before: no deck line, no key
+    refused(tmp, "garbage", dict(BODIES, partition="garbage.h5"), ["garbage.yaml:", "'partition'", "garbage.h5"])
     refused(tmp, "not_h5", dict(BODIES, partition="bodies.mesh"), ["not_h5.yaml", "'partition'", "ends in .h5"])
     as_mesh = copy.deepcopy(BAR)
     as_mesh["mesh"] = {"file": str(with_bodies)}
