@@ -142,7 +142,8 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   if (const Value* x = s.find("fixed")) read_fixed(r, *x, deck.fixed);
   if (const Value* x = s.find("colliders")) read_colliders(r, *x, fs::path(path).parent_path(), deck.colliders);
   if (const Value* x = s.find("contact")) {
-    const Value* self = Section(r, *x, {}).find("self");
+    const Section keys(r, *x, {});  // (kept: find points into it)
+    const Value* self = keys.find("self");
     check_contact_has_surfaces(r, *x, deck);
     read_contact(r, *x, deck.contact);
     if (self) deck.contact.self_line = self->line;

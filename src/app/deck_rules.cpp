@@ -14,7 +14,8 @@ namespace hyperqn::deck_reading {
 bool has_contact(const Deck& deck) { return !deck.colliders.empty() || deck.contact.self; }
 
 void check_contact_has_surfaces(const Reader& r, const Value& contact, const Deck& deck) {
-  const Value* self = Section(r, contact, {}).find("self");
+  const Section keys(r, contact, {});  // (kept: find points into it)
+  const Value* self = keys.find("self");
   if (deck.colliders.empty() && !(self && r.boolean(*self)))
     r.fail(contact, "contact describes how the body touches colliders, and there are none (or self-contact: self: true)");
 }
@@ -71,6 +72,9 @@ void check_fields_have_frames(const Reader& r, const Value& output, const Deck& 
   if (!deck.output.fields.empty() && !deck.output.vtk)
     r.fail(*Section(r, output, {}).find("fields"),
            "are written into the frames, and output.vtk is false: no frame is written (leave out fields, or vtk)");
+  const Section keys(r, output, {});
+  if (const Value* x = keys.find("field_precision"); x && deck.output.fields.empty())
+    r.fail(*x, "is the precision of output.fields, and the deck asks for none (leave it out, or give fields)");
 }
 
 // A blade separates tets along their faces, a cloth along its edges (docs/snapping.md#a-blade-through-a-cloth)
@@ -174,6 +178,9 @@ void check_study_integrators_take_contact(const Reader& r, const Value& study, c
     if (kind == TimeIntegrator::quasi_static && deck.fixed.empty() && deck.attachments.empty() && deck.colliders.empty())
       r.fail(*Section(r, study, {}).find("integrators"),
              "static finds an equilibrium, and nothing holds the body (see time.integrator)");
+    if (kind == TimeIntegrator::quasi_static && deck.time.damping > 0)
+      r.fail(*Section(r, study, {}).find("integrators"),
+             "static has no velocities to damp, and time.damping is given (see time.integrator)");
     if (!integrator_info(kind).with_colliders && has_contact(deck))
       r.fail(*Section(r, study, {}).find("integrators"),
              std::string(integrator_info(kind).name) + " does not take colliders yet (see time.integrator)");

@@ -693,6 +693,7 @@ void read_study(const Reader& r, const Value& v, int scene_frames, StudySpec& st
     r.check(!st.integrators.empty(), *x, "a non-empty list");
   }
   if (const Value* x = s.find("trajectory_iterations")) {
+    if (!st.trajectory) r.fail(*x, "budgets the trajectories, and study.trajectory is false (leave it out)");
     Section t(r, *x, kSolverTypes);
     for (const auto& [name, item] : t.entries()) {
       st.trajectory_iterations[name] = r.integer(item);

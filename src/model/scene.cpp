@@ -509,6 +509,18 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
                               spec.path.c_str(), spec.cuts[k].line, k, spec.time.frames));
     }
   }
+  // A release after the last step's start never happens in this run: said, not refused (a restart
+  // with more frames may reach it).
+  const double last_start = (spec.time.frames - 1) * spec.time.dt;
+  const auto never_released = [&](const BoxRegion& b, const char* what) {
+    if (!(b.release >= 0 && b.release > last_start * (1 + 1e-12))) return PetscErrorCode(0);
+    char text[512];
+    std::snprintf(text, sizeof text, "%s:%d: %s's release at t = %g s comes after the run's last step starts (t = %g s): "
+                  "it is not released in this run", spec.path.c_str(), b.line, what, b.release, last_start);
+    return PetscPrintf(comm, "hyperqn: warning: %s\n", text);
+  };
+  for (const BoxRegion& b : spec.fixed) PetscCall(never_released(b, "a fixed region"));
+  for (const AttachmentSpec& a : spec.attachments) PetscCall(never_released(a.region, "an attachment"));
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
   if (!spec.contact.self) PetscFunctionReturn(0);

@@ -134,7 +134,8 @@ std::unique_ptr<EnergyTerm> build(const DistributedMesh& mesh, const LoadSpec& s
 LoadKind pressure_kind() {
   const DeckKey<LoadSpec> pressure{
       "pressure", number_field("pressure"),
-      "force per deformed area (Pa in SI); positive pushes the surface into the body (a cavity inflates)", at_least(0)};
+      "force per deformed area (Pa in SI); positive pushes the surface into the body (a cavity inflates)",
+      above(0, "0 acts on nothing")};
   return {"pressure", "a pressure on boundary faces that follows the deformed normal (follower load)", LoadTarget::faces,
           {pressure}, build};
 }

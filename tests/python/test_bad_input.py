@@ -212,6 +212,15 @@ BAD_DECKS = {
                           ["'study.frames[2]'", "a frame not listed before"]),
     "study_solver_twice": (deck_with(study={"frames": [1], "solvers": ["lbfgs", "newton", "lbfgs"]}),
                            ["'study.solvers[2]'", "a solver not listed before"]),
+    "study_budget_without_trajectories": (deck_with(study={"frames": [1], "solvers": ["lbfgs"], "trajectory": False,
+                                                           "trajectory_iterations": {"lbfgs": 10}}),
+                                          ["'study.trajectory_iterations'", "study.trajectory is false"]),
+    "study_static_with_damping": (deck_with(**{"time.damping": 0.1},
+                                            study={"frames": [1], "solvers": ["lbfgs"], "integrators": ["implicit-euler", "static"]}),
+                                  ["'study.integrators'", "static has no velocities to damp"]),
+    # keys that said nothing where they were given
+    "field_precision_without_fields": (deck_with(**{"output.field_precision": "single"}),
+                                       ["'output.field_precision'", "the deck asks for none"]),
     "study_budget_for_no_solver": (deck_with(study={"frames": [1], "solvers": ["lbfgs"],
                                                     "trajectory_iterations": {"pd": 10}}),
                                    ["'study.trajectory_iterations.pd'", "pd is not among study.solvers (lbfgs)"]),
@@ -256,6 +265,17 @@ def test_a_deck_over_1_mb_is_refused_before_it_is_parsed(tmp_path):
     proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, outdir, ["big.yaml", "larger than 1 MB", "a file of its own"])
 
+
+def test_a_release_after_the_last_step_is_said(tmp_path):
+    # before: a release at t = 1000 s in a run of 2 frames said nothing (a blade that never comes
+    # near the body is said)
+    deck = deck_with(fixed=[dict(GOOD["fixed"][0], release=1000.0)])
+    proc = run_hyperqn([write_deck(tmp_path / "late.yaml", deck), "-o", tmp_path / "out"], ranks=None, timeout=60)
+    assert "late.yaml:" in proc.stdout and ("a fixed region's release at t = 1000 s comes after the run's last step "
+                                            "starts (t = 0.01 s): it is not released in this run") in proc.stdout
+    proc = run_hyperqn([write_deck(tmp_path / "due.yaml", deck_with(fixed=[dict(GOOD["fixed"][0], release=0.01)])),
+                        "-o", tmp_path / "out2"], ranks=None, timeout=60, check=False)
+    assert "not released in this run" not in proc.stdout
 
 @pytest.mark.parametrize("ranks", [None, 2])
 def test_the_error_goes_to_standard_error(tmp_path, ranks):

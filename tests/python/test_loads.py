@@ -100,7 +100,8 @@ def with_loads(*loads):
 BAD_LOADS = {
     "unknown_type": (with_loads({"type": "gravity", "box": END}), ["'loads[0].type'", "traction", "pressure", "force"]),
     "no_traction": (with_loads({"type": "traction", "box": END}), ["'loads[0].traction'", "required"]),
-    "negative_pressure": (with_loads({"type": "pressure", "box": END, "pressure": -1.0}), ["'loads[0].pressure'", ">= 0"]),
+    "negative_pressure": (with_loads({"type": "pressure", "box": END, "pressure": -1.0}), ["'loads[0].pressure'", "> 0"]),
+    "zero_pressure": (with_loads({"type": "pressure", "box": END, "pressure": 0.0}), ["'loads[0].pressure'", "> 0"]),
     "infinite_pressure": (with_loads({"type": "pressure", "box": END, "pressure": float("inf")}), ["'loads[0].pressure'"]),
     "zero_force": (with_loads({"type": "force", "box": END, "force": [0, 0, 0]}), ["'loads[0].force'", "nonzero"]),
     "key_of_another_type": (with_loads({"type": "force", "box": END, "force": [0, 1, 0], "pressure": 3.0}),
