@@ -228,14 +228,13 @@ class FrameComparison : public FrameObserver {
                             "not the lowest found (a step that is not convex); errors are measured from the lowest, "
                             "and the trajectories are compared with the reference's path\n",
                             outcome.frame, above));
-    if (!(g0 > g_star))
-      PetscCall(PetscPrintf(study_.comm, "study frame %4d  note: the frame starts at its answer (g(x0) = g*, nothing to "
-                                         "solve): every error is 0\n", outcome.frame));
     // The reference stopped short of reference_rtol (its cap, the time limit, or a line search
-    // that found no descent): errors below its own are not resolved.
+    // that found no descent): errors below its own are not resolved. Else a frame with g(x0) = g*
+    // starts at its answer.
     const IterationRecord& end = reference_.iterations.back();
     const double reached = end.grad_norm / reference_.iterations.front().grad_norm;
-    if (g0 > g_star && !(reached <= study_.deck.study.reference_rtol)) {
+    const bool capped = end.iteration >= study_.reference_iterations() || end.time_s > study_.deck.study.time_limit;
+    if (!(reached <= study_.deck.study.reference_rtol) && (g0 > g_star || capped)) {
       const char* why = end.iteration >= study_.reference_iterations() ? "its iteration cap"
                         : end.time_s > study_.deck.study.time_limit     ? "study.time_limit"
                                                                         : "a line search that found no descent";
@@ -244,6 +243,9 @@ class FrameComparison : public FrameObserver {
                             "||grad g|| / ||grad g(x0)|| = %.3e, not at study.reference_rtol = %.3g: errors smaller "
                             "than its own are not resolved\n",
                             outcome.frame, why, (int)end.iteration, end.time_s, reached, study_.deck.study.reference_rtol));
+    } else if (!(g0 > g_star)) {
+      PetscCall(PetscPrintf(study_.comm, "study frame %4d  note: the frame starts at its answer (g(x0) = g*, nothing to "
+                                         "solve): every error is 0\n", outcome.frame));
     }
     curves_.push_back(reference_);
     for (StudyCurve& c : curves_) {

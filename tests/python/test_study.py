@@ -353,6 +353,14 @@ def test_a_reference_that_stops_short_of_reference_rtol_is_said(tmp_path):
     proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
     assert re.search(r"study frame    1  warning: the reference stopped at its iteration cap \(\d+ iterations", proc.stdout)
     assert "not at study.reference_rtol = 1e-15" in proc.stdout
+    # a time limit that stops the reference before its first iteration: said (not the note of a
+    # frame that starts at its answer, which a bar at rest without gravity gets)
+    rest = dict(BAR_AT_REST, gravity=[0, 0, 0], study={"frames": [1], "solvers": ["lbfgs"], "trajectory": False,
+                                                       "time_limit": 1e-90})
+    path.write_text(yaml.safe_dump(rest))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study_rest"], ranks=None)
+    assert "warning: the reference stopped at study.time_limit (0 iterations" in proc.stdout
+    assert "note: the frame starts at its answer" not in proc.stdout
     # the default reference_rtol is reached: no warning
     deck["study"].pop("reference_rtol")
     path.write_text(yaml.safe_dump(deck))
