@@ -1,6 +1,7 @@
 #include "solvers/guarded_tao_solver.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 #include "solvers/line_search.hpp"
 #include "solvers/stop_request.hpp"
@@ -45,6 +46,18 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   }
   PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
   PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
+  // From the options, TAO takes any number: nan and negative tolerances would never stop a frame,
+  // inf would stop each at once, and a negative budget TAO turns into its own default (0 is a
+  // budget: the fallback chain iterates on, docs/guardrails.md).
+  const MPI_Comm comm = PetscObjectComm((PetscObject)tao_);
+  const std::pair<const char*, PetscReal> tolerances[] = {{"-tao_gatol", gatol_}, {"-tao_grtol", grtol_}, {"-tao_gttol", gttol_}};
+  for (const auto& [name, value] : tolerances) {
+    char got[32];
+    std::snprintf(got, sizeof got, "%g", (double)value);  // (PETSc's %g writes 1 as "1.")
+    PetscCheck(std::isfinite(value) && value >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE,
+               "%s must be a finite number >= 0 (the solver's tolerance), got %s", name, got);
+  }
+  PetscCheck(max_it_ >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-tao_max_it must be at least 0, got %" PetscInt_FMT, max_it_);
   budget_ = FrameBudget((int)max_it_, max_iterations_, gttol_);
   PetscFunctionReturn(0);
 }

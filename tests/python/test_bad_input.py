@@ -266,6 +266,18 @@ def test_a_deck_over_1_mb_is_refused_before_it_is_parsed(tmp_path):
     assert_clean_failure(proc, outdir, ["big.yaml", "larger than 1 MB", "a file of its own"])
 
 
+@pytest.mark.parametrize("option,value,said", [
+    ("-tao_gatol", "nan", "-tao_gatol must be a finite number >= 0 (the solver's tolerance), got nan"),
+    ("-tao_grtol", "-1", "-tao_grtol must be a finite number >= 0"),
+    ("-tao_gttol", "1e999", "got inf"),  # every frame "converged" at 0 iterations
+    ("-tao_max_it", "-3", "-tao_max_it must be at least 0, got -3"),  # TAO ran its own default
+])
+def test_tao_tolerances_and_budget_from_the_options_are_checked(tmp_path, option, value, said):
+    path = write_deck(tmp_path / "good.yaml", GOOD)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", option, value], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [said])
+    assert proc.returncode == 1
+
 def test_a_release_after_the_last_step_is_said(tmp_path):
     # before: a release at t = 1000 s in a run of 2 frames said nothing (a blade that never comes
     # near the body is said)
