@@ -5,7 +5,7 @@
 #include <string>
 #include <utility>
 
-#include "io/shown_text.hpp"
+#include "params/shown_text.hpp"
 
 namespace hyperqn {
 

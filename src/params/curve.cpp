@@ -8,7 +8,7 @@
 #include <fstream>
 #include <stdexcept>
 
-#include "io/shown_text.hpp"
+#include "params/shown_text.hpp"
 #include "params/key_range.hpp"
 
 namespace hyperqn {
