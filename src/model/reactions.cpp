@@ -71,6 +71,7 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   terms_.clear();
   PetscCall(mesh_with_every_vertex(mesh, all_));
   terms_ = scene_elastic_terms(*all_, spec_);
+  first_load_ = terms_.size();
   // The loads on faces, whose share at a fixed vertex goes into its support (the solver's terms
   // drop it there). A load on vertices acts on free ones only: none of it reaches a support.
   for (size_t k = 0; k < spec_.loads.size(); ++k) {
@@ -87,19 +88,23 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
 PetscErrorCode Reactions::begin_frame(const State& s) {
   PetscFunctionBeginUser;
   PetscCall(body_->local_velocities(s.v, vel_start_));
-  // A term that takes its directions from the step's start (a pressure on an open surface), as
-  // Body::begin_step gives them: x_n, the fixed vertices where they are at t_n.
+  // The face loads at the step's end time (their curves' factor c(t_{n+1}), as Body::begin_step
+  // gives the solve's), and a term that takes its directions from the step's start (a pressure on
+  // an open surface): x_n, the fixed vertices where they are at t_n.
   StepStart step;
   step.t_start = s.time;
   step.dt = spec_.time.dt;
   step.t = s.time + spec_.time.dt;
   step.x_start = s.x;
-  for (const auto& term : terms_)
-    if (term->needs_step_positions()) {
-      if (!step.start_positions) PetscCall(body_->local_positions(s.x, pos_));
+  for (size_t k = 0; k < terms_.size(); ++k) {
+    EnergyTerm& term = *terms_[k];
+    if (k < first_load_ && !term.needs_step_positions()) continue;
+    if (term.needs_step_positions() && !step.start_positions) {
+      PetscCall(body_->local_positions(s.x, pos_));
       step.start_positions = step.positions = &pos_;
-      PetscCall(term->begin_step(step));
     }
+    PetscCall(term.begin_step(step));
+  }
   PetscFunctionReturn(0);
 }
 

@@ -62,6 +62,7 @@ class Reactions {
   const Body* body_ = nullptr;
   std::unique_ptr<DistributedMesh> all_;             // the body's mesh with a dof for every local vertex
   std::vector<std::unique_ptr<EnergyTerm>> terms_;   // the elastic terms and face loads over all_
+  size_t first_load_ = 0;                            // terms_[first_load_...]: the face loads
   std::vector<double> mass_;                         // 3 per local vertex: this rank's elements' lumped mass
   std::vector<std::vector<PetscInt>> attached_;      // per attachment: its vertices here (none if released)
   std::vector<double> vel_start_, pos_, vel_, grad_;  // work: local arrays

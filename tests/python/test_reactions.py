@@ -282,3 +282,20 @@ def test_bodies_own_supports_are_named_as_the_deck_names_them(tmp_path):
         F = last[name][1]
         print(f"{name}: {F}, weight {mass * 9.81}")
         assert np.linalg.norm(F - [0, mass * 9.81, 0]) < 1e-8 * mass * 9.81
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_face_load_on_a_curve_reaches_the_support(tmp_path, ranks):
+    """A traction on a ramp whose faces touch the clamp: its share at the clamped vertices reaches
+    the clamp at the curve's value (before: the reactions' copy of the load stayed at c(0) = 0, so
+    fixed[0] carried 750 N of the 1000 N, at every frame; without the curve 1000 N)."""
+    deck = {"mesh": {"box": {"size": [1.0, 1.0, 1.0], "cells": [2, 2, 2]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]}}],
+            "loads": [{"type": "traction", "box": {"min": [-0.01, 0.99, -0.01], "max": [1.01, 1.01, 1.01]},
+                       "traction": [0, -1.0e3, 0], "curve": {"type": "ramp", "start": 0, "end": 2}}],
+            "gravity": [0, 0, 0], "time": {"dt": 1, "frames": 2, "integrator": "static"},
+            "solver": {"type": "lbfgs", "iterations": 400, "grad_rtol": 1.0e-10}, "output": {"reactions": True}}
+    out = run(tmp_path, "ramp", deck, ranks)
+    fy = [reactions(out)[frame]["fixed[0]"][1][1] for frame in (1, 2)]
+    assert fy == pytest.approx([500.0, 1000.0], rel=1e-7), fy  # (the solve to grad_rtol 1e-10: 1.3e-8)
