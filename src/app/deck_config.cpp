@@ -133,7 +133,11 @@ class Config {
           k.member.field);
       if (!has_value) continue;
       const auto rule = rules.find(name);
-      const std::string fallback = *k.default_text && value != k.default_text ? "default (" + std::string(k.default_text) + ")" : "default";
+      // A key whose default is none, left out: none (not its member's zero or [], which the key refuses).
+      const bool none = !given(path) && rule == rules.end() && std::string(k.default_text).rfind("none", 0) == 0;
+      if (none) value = "none";
+      const std::string fallback =
+          *k.default_text && value != k.default_text && !none ? "default (" + std::string(k.default_text) + ")" : "default";
       line(path, value, rule != rules.end() && !given(path) ? "rule: " + rule->second : source(path, fallback));
     }
   }

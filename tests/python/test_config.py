@@ -156,3 +156,12 @@ def test_bad_option_names_it(tmp_path):
     })
     proc = run_hyperqn(["config", deck, "-hyperqn_h0_package", "nope"], ranks=None, check=False, timeout=120)
     assert proc.returncode == 1 and "-hyperqn_h0_package" in proc.stdout, proc.stdout
+
+
+def test_a_key_whose_default_is_none_shows_none():
+    """Left out, a key declared with the default none shows none, not its member's zero or [] (a
+    load's normal showed [0, 0, 0], a value the deck refuses; output.fields showed [])."""
+    settings = config([os.path.join(REPO, "input", "engineering", "bar_tip_load.yaml")])
+    assert settings["loads[0].normal"] == ("none", "default")
+    assert settings["output.fields"] == ("none", "default")
+    assert settings["loads[1].normal"] == ("[0, 1, 0]", "deck line 15")
