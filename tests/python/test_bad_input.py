@@ -419,6 +419,23 @@ def test_viewer_options_that_petsc_cannot_open_are_refused_before_the_run(tmp_pa
     assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout
 
 
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("case", ["missing_options_file", "unknown_log_view_format"])
+def test_options_petsc_reads_as_it_starts_are_input_errors(tmp_path, case, ranks):
+    # PETSc reads these in PetscInitialize: before, its stack trace and exit codes 83 and 56
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    args, said = {
+        "missing_options_file": (["-options_file", str(tmp_path / "none.txt")],
+                                 f"Unable to open options file {tmp_path / 'none.txt'}"),
+        "unknown_log_view_format": (["-log_view", f":{tmp_path / 'log.txt'}:bogus"], "Unknown viewer format bogus"),
+    }[case]
+    proc = run_hyperqn([path, "-o", tmp_path / "out"] + args, ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["hyperqn: error: command line: PETSc could not start: " + said])
+    assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout
+    assert proc.stdout.count("hyperqn: error") == 1  # rank 0 says it
+    assert not (tmp_path / "log.txt").exists()
+
+
 def test_a_deck_s_true_passes_a_viewer_option_alone(tmp_path):
     # log_view: true is -log_view (PETSc's summary on the screen), not "-log_view true"
     path = write_deck(tmp_path / "deck.yaml", {**GOOD, "petsc": {"log_view": True}})
