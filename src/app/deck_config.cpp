@@ -256,7 +256,14 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     std::map<std::string, std::string> rules;
     if (const KeyPlace* p = c.place("solver.budget"); p && p->written == "fixed")
       for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"}) rules[key] = "budget: fixed";
-    c.keys("solver.", solver_keys(), deck.solver, rules);
+    // TAO's option, given, sets the history (LbfgsSolver reads it over the deck's key).
+    const char* history_option = "-tao_lmvm_mat_lmvm_hist_size";
+    char history[64] = "";
+    PetscBool history_set = PETSC_FALSE;
+    PetscOptionsGetString(nullptr, nullptr, history_option, history, sizeof history, &history_set);
+    c.keys("solver.", solver_keys(), deck.solver, rules, history_set ? std::set<std::string>{"history"} : std::set<std::string>{});
+    if (history_set)
+      c.line("solver.history", history, std::string("option ") + history_option + ", " + option_source(deck, history_option, history));
   }
   {
     OutputSpec output = deck.output;

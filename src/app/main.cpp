@@ -8,17 +8,14 @@
 #include <petscsys.h>
 
 #include <cerrno>
-#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
-#include <thread>
 
 #include "app/deck.hpp"
 #include "app/deck_config.hpp"
-#include "app/petsc_errors.hpp"
 #include "app/run_options.hpp"
 #include "mesh/input_error.hpp"
 #include "app/partition_command.hpp"
@@ -233,36 +230,28 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
   PetscFunctionReturn(0);
 }
 
-// The command line's options files: PETSc opens them on rank 0 alone, so one it cannot open
-// would leave the other ranks waiting for its contents.
-std::string unopenable_options_file(int argc, char** argv) {
+// What PETSc reads as it starts and would fail on with its stack trace (and, for an options file
+// it opens on rank 0 alone, with the other ranks left waiting): the command line's options files,
+// and -log_view's format (hyperqn::log_view_problem). "" if none.
+std::string start_option_problem(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; ++i) {
-    if (std::strcmp(argv[i], "-options_file") != 0 && std::strcmp(argv[i], "-options_file_yaml") != 0) continue;
-    FILE* f = std::fopen(argv[i + 1], "r");
-    if (!f) return std::string("Unable to open options file ") + argv[i + 1];
-    std::fclose(f);
+    const std::string name = argv[i], value = argv[i + 1];
+    if (name == "-options_file" || name == "-options_file_yaml") {
+      FILE* f = std::fopen(value.c_str(), "r");
+      if (!f) return "option " + name + " " + value + ": cannot open the file";
+      std::fclose(f);
+    }
+    if (name == "-log_view" && !value.empty() && value[0] != '-')
+      if (const std::string problem = hyperqn::log_view_problem(value); !problem.empty()) return "option -log_view " + value + ": " + problem;
   }
   return "";
 }
 
-// PETSc could not start: said once, exit 1. The ranks end together if they all failed (they read
-// the same options); one left inside PETSc's start, waiting for the others, is ended by an abort.
-int refuse_start(const std::string& message) {
-  int started = 0, rank = 0;
-  MPI_Initialized(&started);
-  if (started) MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  if (rank == 0)
-    std::fprintf(stderr, "hyperqn: error: command line: PETSc could not start: %s (an option of the command line, "
-                         "an -options_file, or PETSC_OPTIONS)\n", message.empty() ? "no message" : message.c_str());
-  if (!started) return 1;
-  MPI_Request all_here;
-  MPI_Ibarrier(MPI_COMM_WORLD, &all_here);
-  int done = 0;
-  for (int waited_ms = 0; !done && waited_ms < 10000; waited_ms += 10) {
-    MPI_Test(&all_here, &done, MPI_STATUS_IGNORE);
-    if (!done) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  if (!done) MPI_Abort(MPI_COMM_WORLD, 1);
+// Said once, before PETSc starts; every rank reads the same command line and refuses it alike.
+int refuse_start(const std::string& problem) {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank == 0) std::fprintf(stderr, "hyperqn: error: command line: %s\n", problem.c_str());
   MPI_Finalize();
   return 1;
 }
@@ -274,17 +263,11 @@ int main(int argc, char** argv) {
   if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0 &&
       std::strcmp(argv[1], "partition") != 0 && std::strcmp(argv[1], "config") != 0)
     hyperqn::catch_stop_signals();
-  {
-    // An option PETSc reads while it starts (-options_file, -log_view's format) said as an input
-    // error, exit 1, instead of PETSc's stack trace and abort.
-    const std::string unopenable = unopenable_options_file(argc, argv);
-    if (!unopenable.empty()) {
-      MPI_Init(&argc, &argv);
-      return refuse_start(unopenable);
-    }
-    hyperqn::PetscErrors errors;
-    if (PetscInitialize(&argc, &argv, nullptr, nullptr)) return refuse_start(errors.message());
+  if (const std::string problem = start_option_problem(argc, argv); !problem.empty()) {
+    MPI_Init(&argc, &argv);
+    return refuse_start(problem);
   }
+  PetscCall(PetscInitialize(&argc, &argv, nullptr, nullptr));
   // A closed pipe (`hyperqn registry | head`) ends the program quietly, as it does any other
   // command's, instead of PETSc's handler reporting a crash and aborting MPI.
   std::signal(SIGPIPE, SIG_DFL);

@@ -1,11 +1,14 @@
 #include "app/run_options.hpp"
 
+#include <petscviewer.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <iterator>
 #include <sstream>
 #include <string>
+#include <strings.h>
 
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
@@ -24,6 +27,20 @@ static const char* const kH0Packages[] = {"auto", "mumps", "cholmod", "supernoda
 static const FactorPackage kH0PackageOf[] = {default_factor_package(), FactorPackage::mumps, FactorPackage::cholmod,
                                              FactorPackage::supernodal, FactorPackage::split};
 static constexpr int kH0PackageCount = 5;
+
+std::string log_view_problem(const std::string& value) {
+  const size_t first = value.find(':'), second = first == std::string::npos ? first : value.find(':', first + 1);
+  if (second == std::string::npos) return "";
+  const std::string format = value.substr(second + 1, value.find(':', second + 1) - second - 1);
+  if (format.empty()) return "";
+  for (int k = 0; PetscViewerFormats[k + 2]; ++k)  // the list ends with the enum's name, its prefix, null
+    if (strcasecmp(format.c_str(), PetscViewerFormats[k]) == 0)
+      return k == PETSC_VIEWER_ASCII_XML || k == PETSC_VIEWER_ASCII_FLAMEGRAPH
+                 ? "the format " + format + " is PETSc's nested log, which hyperqn does not support (summary.json reads "
+                   "the default log): use the default format or ascii_info_detail"
+                 : "";
+  return "unknown viewer format '" + format + "' (e.g. ascii_info_detail)";
+}
 
 // A refused value of option `name`: named with its deck line and key when the deck's petsc:
 // section gave it (and the command line did not override it), else as the command line's.
@@ -87,6 +104,15 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
   for (const auto& [name, value] : all_options()) {
     const bool viewer = name.size() > 5 && name.compare(name.size() - 5, 5, "_view") == 0;
     if (!viewer) continue;
+    if (name == "-log_view")
+      if (const std::string problem = log_view_problem(value); !problem.empty()) {
+        try {
+          refuse(deck, name.c_str(), problem);
+        } catch (const InputError&) {
+          PetscOptionsClearValue(nullptr, name.c_str());  // PetscFinalize would view it
+          throw;
+        }
+      }
     PetscViewer v = nullptr;
     PetscViewerFormat format;
     PetscBool set = PETSC_FALSE;

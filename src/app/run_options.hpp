@@ -44,6 +44,12 @@ struct RunOptions {
 // naming the deck's line and key when `deck` is given and its petsc: section gave the value.
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* options, const Deck* deck = nullptr);
 
+// What -log_view's value (type:file:format:mode) asks that hyperqn cannot give, "" if nothing: an
+// unknown format (PETSc would fail as it starts), or a nested log (ascii_xml, ascii_flamegraph:
+// its handlers are replaced by the default log that summary.json reads, and PETSc failed or
+// crashed as the program ended). Read before PETSc starts, and from the deck.
+std::string log_view_problem(const std::string& value);
+
 // The options database as (name, value) in its order (names with their '-'; a flag's value ""),
 // read without marking any used.
 std::vector<std::pair<std::string, std::string>> all_options();

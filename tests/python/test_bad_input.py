@@ -420,20 +420,34 @@ def test_viewer_options_that_petsc_cannot_open_are_refused_before_the_run(tmp_pa
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
-@pytest.mark.parametrize("case", ["missing_options_file", "unknown_log_view_format"])
+@pytest.mark.parametrize("case", ["missing_options_file", "unknown_log_view_format", "nested_log_view"])
 def test_options_petsc_reads_as_it_starts_are_input_errors(tmp_path, case, ranks):
-    # PETSc reads these in PetscInitialize: before, its stack trace and exit codes 83 and 56
+    # PETSc reads these in PetscInitialize: before, its stack trace and exit codes 83 and 56 (a
+    # missing options file at 2 ranks: rank 0 alone opens it); a nested log (ascii_xml,
+    # ascii_flamegraph) failed as the program ended, after "ok" (exit 77)
     path = write_deck(tmp_path / "deck.yaml", GOOD)
+    log = tmp_path / "log.txt"
     args, said = {
         "missing_options_file": (["-options_file", str(tmp_path / "none.txt")],
-                                 f"Unable to open options file {tmp_path / 'none.txt'}"),
-        "unknown_log_view_format": (["-log_view", f":{tmp_path / 'log.txt'}:bogus"], "Unknown viewer format bogus"),
+                                 f"option -options_file {tmp_path / 'none.txt'}: cannot open the file"),
+        "unknown_log_view_format": (["-log_view", f":{log}:bogus"], f"option -log_view :{log}:bogus: unknown viewer format 'bogus'"),
+        "nested_log_view": (["-log_view", f":{log}:ascii_flamegraph"],
+                            f"option -log_view :{log}:ascii_flamegraph: the format ascii_flamegraph is PETSc's nested log"),
     }[case]
     proc = run_hyperqn([path, "-o", tmp_path / "out"] + args, ranks=ranks, check=False, timeout=60)
-    assert_clean_failure(proc, tmp_path / "out", ["hyperqn: error: command line: PETSc could not start: " + said])
+    assert_clean_failure(proc, tmp_path / "out", ["hyperqn: error: command line: " + said])
     assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout
     assert proc.stdout.count("hyperqn: error") == 1  # rank 0 says it
-    assert not (tmp_path / "log.txt").exists()
+    assert not log.exists()
+
+
+def test_a_nested_log_in_the_deck_is_refused(tmp_path):
+    # it crashed (SEGV) after the run had written everything and said ok
+    log = tmp_path / "log.xml"
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, "petsc": {"log_view": f":{log}:ascii_xml"}})
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["deck.yaml:11: 'petsc.log_view': the format ascii_xml is PETSc's nested log"])
+    assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout and not log.exists()
 
 
 def test_a_deck_s_true_passes_a_viewer_option_alone(tmp_path):

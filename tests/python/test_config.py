@@ -165,3 +165,20 @@ def test_a_key_whose_default_is_none_shows_none():
     assert settings["loads[0].normal"] == ("none", "default")
     assert settings["output.fields"] == ("none", "default")
     assert settings["loads[1].normal"] == ("[0, 1, 0]", "deck line 15")
+
+
+def test_tao_s_history_option_shows_as_the_history_it_sets(tmp_path):
+    """-tao_lmvm_mat_lmvm_hist_size is read over solver.history (solvers/lbfgs_solver.cpp): config
+    showed the deck's history with its deck line, and the option only among the options."""
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+        "material": {"model": "corotated", "youngs_modulus": 1e5, "poisson_ratio": 0.25, "density": 1000},
+        "time": {"dt": 0.01, "frames": 1},
+        "solver": {"history": 7},
+    })
+    assert config([deck])["solver.history"][0] == "7"
+    settings = config([deck, "-tao_lmvm_mat_lmvm_hist_size", "12"])
+    assert settings["solver.history"] == ("12", "option -tao_lmvm_mat_lmvm_hist_size, command line")
+    with_option = write_deck(tmp_path / "e.yaml", {**yaml.safe_load(open(deck)), "petsc": {"tao_lmvm_mat_lmvm_hist_size": 9}})
+    value, source = config([with_option])["solver.history"]
+    assert value == "9" and source.startswith("option -tao_lmvm_mat_lmvm_hist_size, deck line "), source
