@@ -121,14 +121,22 @@ CommandLine parse_command_line(int argc, char** argv) {
     if (a == "-h" || a == "--help" || a == "-help") {
       cl.help = true;
     } else if (a == "-o") {
-      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "-o", "needs a directory");
+      if (i + 1 >= argc || !*argv[i + 1]) throw hyperqn::InputError("", 0, "-o", "needs a directory");
       if (!cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "given twice (" + cl.outdir + ", " + argv[i + 1] + ")");
       cl.outdir = argv[++i];
     } else if (a == "--restart") {
-      if (i + 1 >= argc) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
+      // An empty value would start afresh, removing the run it was meant to continue.
+      if (i + 1 >= argc || !*argv[i + 1]) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
       if (!cl.restart.empty())
         throw hyperqn::InputError("", 0, "--restart", "given twice (" + cl.restart + ", " + argv[i + 1] + ")");
       cl.restart = argv[++i];
+    } else if (a == "-restart" || a.rfind("--restart=", 0) == 0 || a.rfind("-o=", 0) == 0) {
+      // PETSc would take these as options nothing reads: the run would start afresh.
+      const std::string ours = a.rfind("-o", 0) == 0 ? "-o" : "--restart";
+      throw hyperqn::InputError("", 0, a, "not an option: write " + ours + " VALUE (" + ours + ", a space, its value)");
+    } else if (a.size() > 2 && a[0] == '-' && a[1] == '-') {
+      throw hyperqn::InputError("", 0, a, "not an option of hyperqn (its long options are --restart, --help, --help-deck; "
+                                          "PETSc's start with one -)");
     } else if (a.empty() || a[0] != '-') {
       // The deck, or the value of the PETSc option before it; any other word would be dropped unsaid.
       if (i > first && argv[i - 1][0] == '-' && argv[i - 1][1] != '\0') continue;

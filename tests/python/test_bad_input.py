@@ -608,7 +608,8 @@ def test_commands_without_arguments_refuse_one(tmp_path, command):
 
 
 @pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value",
-                                  "type_without_value"])
+                                  "type_without_value", "restart_empty", "restart_with_equals", "restart_one_dash",
+                                  "outdir_empty", "unknown_long_option"])
 def test_bad_command_lines_are_refused(tmp_path, case):
     # every argument is used or refused: a word that is neither the deck nor an option's value, a
     # second -o, or a numeric option without its number (PETSc alone would keep the default, unsaid)
@@ -622,6 +623,13 @@ def test_bad_command_lines_are_refused(tmp_path, case):
                                  ["-hyperqn_divergence_limit", "needs a value"]),
         # PETSc would fail at setup without naming it ("Unable to find requested TaoLineSearch type")
         "type_without_value": ([path, "-o", outdir, "-tao_ls_type"], ["option -tao_ls_type: needs a value"]),
+        # these started afresh and removed the run they were meant to continue (PETSc took the
+        # misspelt forms as options nothing reads, said after the run)
+        "restart_empty": ([path, "-o", outdir, "--restart", ""], ["'--restart': needs a checkpoint file"]),
+        "restart_with_equals": ([path, "-o", outdir, "--restart=latest"], ["'--restart=latest': not an option: write --restart VALUE"]),
+        "restart_one_dash": ([path, "-o", outdir, "-restart", "latest"], ["'-restart': not an option: write --restart VALUE"]),
+        "outdir_empty": ([path, "-o", ""], ["'-o': needs a directory"]),
+        "unknown_long_option": ([path, "-o", outdir, "--frames", "3"], ["'--frames': not an option of hyperqn"]),
         "deck_option_without_value": (None, ["good.yaml:", "hyperqn_progress_seconds", "needs a value"]),
     }[case]
     if args is None:
@@ -631,6 +639,19 @@ def test_bad_command_lines_are_refused(tmp_path, case):
     assert_clean_failure(proc, outdir, fragments)
     assert not (tmp_path / "other").exists()
     assert proc.returncode == 1
+
+
+@pytest.mark.parametrize("restart", [["--restart", ""], ["--restart=latest"], ["-restart", "latest"]])
+def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, restart):
+    # each started afresh and removed the earlier run's files and checkpoints (exit 0)
+    path = write_deck(tmp_path / "good.yaml", {**GOOD, "checkpoint": {"every": 1}})
+    outdir = tmp_path / "out"
+    run_hyperqn([path, "-o", outdir], ranks=None, timeout=60)
+    before = {p: p.stat().st_mtime_ns for p in outdir.rglob("*")}
+    assert any("checkpoint" in str(p) for p in before)
+    proc = run_hyperqn([path, "-o", outdir] + restart, ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1 and "hyperqn: error: command line:" in proc.stdout, proc.stdout
+    assert {p: p.stat().st_mtime_ns for p in outdir.rglob("*")} == before
 
 
 def test_a_directory_as_the_mesh_file_is_said_to_be_one(tmp_path):
