@@ -162,6 +162,7 @@ PetscErrorCode Checkpointer::write_checkpoint() {
   if (h.summary.first_break_frame < 0) h.summary.first_break_frame = run_.scene.cut_counts().first_broken;
   for (const auto& w : setup_.frames.writers())
     if (!w->restart_key().empty()) h.writers.emplace_back(w->restart_key(), w->restart_state());
+  for (const auto& kept : setup_.frames.kept_series()) h.writers.push_back(kept);
   h.history = state.x_prev ? 1 : 0;
   h.substep_halvings = state.substeps.halvings;
   h.substep_kept = state.substeps.kept;

@@ -230,23 +230,37 @@ void read_reactions(const std::string& path, std::vector<SupportReaction>& react
   }
 }
 
-// energy.csv's rows of frame 0 and of `frame` (a restart's), if it holds them.
-bool read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow& at) {
+// energy.csv's rows of frame 0 and of `frame` (a restart's): "" if it holds both, each of ten
+// numbers; else what it lacks, or the line that is not such a row.
+std::string read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow& at) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);  // the header
   bool have_start = false, have_at = false;
-  while (std::getline(in, line)) {
+  for (int number = 2; std::getline(in, line); ++number) {
     std::istringstream row(line);
     std::string cell;
-    std::vector<double> v;
-    while (std::getline(row, cell, ',')) v.push_back(std::strtod(cell.c_str(), nullptr));
-    if (v.size() != 10) continue;
+    std::vector<std::string> cells;
+    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    const int row_frame = cells.empty() ? -1 : std::atoi(cells[0].c_str());
+    if (row_frame != 0 && row_frame != frame) continue;
+    const std::string where = path + ":" + std::to_string(number) + ": ";
+    if (cells.size() != 10) return where + "a row of " + std::to_string(cells.size()) + " cells, not 10";
+    double v[10];
+    for (int k = 0; k < 10; ++k) {
+      char* end = nullptr;
+      v[k] = std::strtod(cells[k].c_str(), &end);
+      if (end == cells[k].c_str() || *end != '\0' || !std::isfinite(v[k]))
+        return where + "'" + cells[k] + "' is not a finite number";
+    }
     const EnergyRow r{v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9]};
-    if ((int)v[0] == 0) start = r, have_start = true;
-    if ((int)v[0] == frame) at = r, have_at = true;
+    if (row_frame == 0) start = r, have_start = true;
+    if (row_frame == frame) at = r, have_at = true;
   }
-  return have_start && have_at;
+  if (have_start && have_at) return "";
+  const std::string missing = !have_start && !have_at && frame != 0 ? "frames 0 and " + std::to_string(frame)
+                              : "frame " + std::to_string(have_start ? frame : 0);
+  return path + " has no row of " + missing;
 }
 
 const char kTopologyColumns[] =
@@ -298,9 +312,9 @@ void RunLogs::check_restart(const std::string& outdir, int restart_frame) const 
     throw std::runtime_error(outdir + "/topology.csv has no row of frame " + std::to_string(restart_frame) + from +
                              "topology_csv" + written);
   EnergyRow start, at;
-  if (energy_ && !read_energy(outdir + "/energy.csv", restart_frame, start, at))
-    throw std::runtime_error(outdir + "/energy.csv has no rows of frames 0 and " + std::to_string(restart_frame) + from +
-                             "energy" + written);
+  if (energy_)
+    if (const std::string why = read_energy(outdir + "/energy.csv", restart_frame, start, at); !why.empty())
+      throw std::runtime_error(why + from + "energy" + written);
   if (reactions_ && !std::ifstream(outdir + "/reactions.csv"))
     throw std::runtime_error(outdir + "/reactions.csv is missing: no rows" + from + "reactions" + written);
 }
@@ -351,6 +365,19 @@ void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int 
       log_.resume(outdir + "/iterations.csv", rank, restart_frame);
     else
       log_.open(outdir + "/iterations.csv", rank);
+  }
+  // The logs an earlier part of the run wrote and this one does not: cut back to the checkpoint's
+  // frame, so that none holds rows of the abandoned trajectory (nor a later part, writing it
+  // again, goes on from them).
+  if (restart) {
+    std::vector<std::string> unwritten;
+    if (!topology_) unwritten.push_back("topology.csv");
+    if (!energy_) unwritten.push_back("energy.csv");
+    if (!reactions_) unwritten.push_back("reactions.csv");
+    if (!output.iterations_csv) unwritten.push_back("iterations.csv");
+    for (const auto& term : scene.body->terms())
+      if (!term->log().file.empty() && !output.contact_csv) unwritten.push_back(term->log().file);
+    for (const std::string& file : unwritten) cut_log_back(outdir + "/" + file, restart_frame, rank);
   }
   for (const auto& term : scene.body->terms()) {
     const TermLog l = term->log();

@@ -130,6 +130,10 @@ class FrameWriters : public FrameObserver {
   FrameWriters(const RunContext& run, bool restarted) : run_(run), restarted_(restarted) {}
   ~FrameWriters() override { VecDestroy(&field_); }
   std::vector<std::unique_ptr<OutputWriter>>& writers() { return writers_; }
+  // A restart's series the deck no longer writes (frames off, or the other format): its state, cut
+  // back to the checkpoint's frame, goes into every later checkpoint, so that a restart that
+  // writes it again continues it instead of starting it afresh over its earlier frames.
+  std::vector<std::pair<std::string, std::string>>& kept_series() { return kept_series_; }
   // Frame 0 of a new run; at a restart, its frame counts as written if it was an output frame.
   PetscErrorCode begin(LoopControl& control) override;
   PetscErrorCode scene_changed(const Scene& old_scene, Scene& fresh) override;
@@ -143,6 +147,7 @@ class FrameWriters : public FrameObserver {
 
   RunContext run_;
   std::vector<std::unique_ptr<OutputWriter>> writers_;
+  std::vector<std::pair<std::string, std::string>> kept_series_;  // (restart key, state)
   bool restarted_;
   int last_written_ = -1;
   std::vector<double> pos_, vel_, J_;                // work: local arrays of a frame

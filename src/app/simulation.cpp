@@ -165,11 +165,10 @@ static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const Sc
 // (output.vtk). A restart (saved: its checkpoint) continues the series the run started, under the
 // name it started with, cut back to the checkpoint's frame; a series the deck no longer asks for
 // (frames off, or the other format) is still cut back, so that its index never lists the
-// abandoned frames. Collective.
+// abandoned frames, and kept for later checkpoints (FrameWriters::kept_series). Collective.
 template <typename Series>
 static void add_series(MPI_Comm comm, const Deck& deck, const char* format, const std::string& outdir,
-                       const CheckpointHeader* saved, const DistributedMesh& mesh,
-                       std::vector<std::unique_ptr<OutputWriter>>& writers) {
+                       const CheckpointHeader* saved, const DistributedMesh& mesh, FrameWriters& frames) {
   const std::string* state = nullptr;
   if (saved)
     for (const auto& [key, value] : saved->writers)
@@ -205,7 +204,10 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
       PetscPrintf(comm, "hyperqn: the %s series goes on as %s, the name it started with (the deck now says %s)\n", format,
                   kept_name.c_str(), deck.name.c_str());
   }
-  if (wanted) writers.push_back(std::move(series));
+  if (wanted)
+    frames.writers().push_back(std::move(series));
+  else
+    frames.kept_series().emplace_back(series->restart_key(), series->restart_state());
 }
 
 // The checkpoint a restart continues from (restart: a path, "latest" or "auto"), chosen and
@@ -389,8 +391,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     throw_if_any_failed(comm, error);
     if (run.logs.share_restart(run.restart)) throw std::runtime_error("the logs' restart could not be shared");
     if (run.restart) run.checkpoints->resume(saved.run_id, saved.frame);
-    add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());
-    add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames.writers());
+    add_series<VtkSeries>(comm, deck, "vtu", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames);
+    add_series<XdmfSeries>(comm, deck, "xdmf", outdir, run.restart ? &saved : nullptr, scene.mesh, run.frames);
     PetscErrors errors;
     if (run.time_loop(ok)) {
       summary.status = "error: PETSc error during the time loop: " + errors.describe(deck);

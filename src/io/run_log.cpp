@@ -73,6 +73,15 @@ void FrameLog::append(int frame, double time, const std::vector<std::string>& ro
   for (const std::string& row : rows) file_.add(head + row + "\n");
 }
 
+void cut_log_back(const std::string& path, int frame, int rank) {
+  if (rank != 0) return;
+  std::ifstream in(path);
+  std::string header;
+  if (!in || !std::getline(in, header)) return;
+  in.close();
+  write_file_atomically(path, rows_up_to(path, frame, header + "\n"));
+}
+
 void raise_summary_maximum(RunSummary& s, const std::string& name, double value) {
   if (name == "max_penetration") {
     s.max_penetration = std::fmax(s.max_penetration, value);

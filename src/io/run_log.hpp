@@ -40,6 +40,11 @@ class FrameLog {
   LineFile file_;
 };
 
+// A restart whose deck no longer writes the log at path: its rows of frames after `frame` (of the
+// trajectory the restart leaves) are removed, the header and the others kept as they are; no file,
+// nothing done. Rank 0 (other ranks: no-op). Throws std::runtime_error.
+void cut_log_back(const std::string& path, int frame, int rank);
+
 // Raises the summary's field `name` (a maximum over the run's frames that a term reports:
 // max_penetration, max_active_contacts, max_self_crossings) to value if it is larger. Throws std::logic_error for a
 // name summary.json does not have.

@@ -29,7 +29,7 @@ import pytest
 from test_safe_outputs import check_complete, run_and_kill, slow_deck
 from conftest import HYPERQN, run_hyperqn, write_deck
 from hyperqn_tools import launch
-from hyperqn_tools.output import final_frame, read_checkpoint, read_iterations, read_pvd, read_summary, rest_diagonal
+from hyperqn_tools.output import final_frame, read_checkpoint, read_iterations, read_pvd, read_summary, read_xdmf, rest_diagonal
 
 FRAMES = 8
 BAR = {
@@ -261,3 +261,53 @@ def test_killed_and_restarted_run_equals_the_uninterrupted_one(tmp_path, ranks):
     run_hyperqn(args, ranks=ranks)
     check_complete(out)
     assert_same_run(ref, out)
+
+
+def frames_listed(out, index):
+    if index.endswith(".pvd"):
+        return [int(os.path.basename(f).split("_")[-1].split(".")[0]) for _, f in read_pvd(out / index)]
+    return [number for _, number, _ in read_xdmf(out / index)]
+
+
+@pytest.mark.parametrize("fmt", ["vtu", "xdmf"])
+def test_output_left_off_for_a_part_keeps_the_earlier_parts_output(tmp_path, fmt):
+    # Found from outside: a part of the run with frames off (or the other format) did not carry the
+    # series into its checkpoints, so the next part that wrote it again started it afresh (the .pvd
+    # listed only its own frames; XDMF's .h5 was made anew, frames 0-2 deleted). A log left off kept
+    # the rows of the abandoned trajectory past the checkpoint, and a later part went on from them.
+    base = dict(MOTION, name="run", output={"format": fmt, "energy": True})
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 3, {"every": 2}), out)  # frames 0-3, a checkpoint at 2
+    index = "run.pvd" if fmt == "vtu" else "run.xdmf"
+    assert frames_listed(out, index) == [0, 1, 2, 3]
+    off = dict(deck_with(base, 5, {"every": 2}), output={"format": fmt, "vtk": False})
+    run(tmp_path, "off", off, out, extra=["--restart", "latest"])  # from 2 to 5, a checkpoint at 4
+    assert frames_listed(out, index) == [0, 1, 2]
+    assert sorted({int(r.split(",")[0]) for r in (out / "energy.csv").read_text().splitlines()[1:]}) == [0, 1, 2]
+    # energy.csv has no row of the checkpoint's frame 4: refused, nothing changed
+    before = tree_digest(out)
+    refused = run(tmp_path, "on", deck_with(base, 6), out, extra=["--restart", "latest"], check=False)
+    assert refused.returncode == 1 and "energy.csv has no row of frame 4" in refused.stdout, refused.stdout
+    assert tree_digest(out) == before
+    on = dict(deck_with(base, 6), output={"format": fmt})
+    run(tmp_path, "on", on, out, extra=["--restart", "latest"])
+    assert frames_listed(out, index) == [0, 1, 2, 5, 6]
+    if fmt == "xdmf":
+        import h5py
+        with h5py.File(out / "run.h5") as h5:
+            assert sorted(h5["frames"].keys()) == ["00000", "00001", "00002", "00005", "00006"]
+
+
+def test_a_damaged_energy_row_is_refused_at_a_restart(tmp_path):
+    # a cell that is not a number was read as 0, and the restart went on from it (exit 0)
+    base = dict(MOTION, name="run", output={"energy": True})
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 2, {"every": 2}), out)
+    lines = (out / "energy.csv").read_text().splitlines()
+    number = next(k for k, line in enumerate(lines) if line.startswith("2,"))
+    cells = lines[number].split(",")
+    cells[6] = "x"
+    lines[number] = ",".join(cells)
+    (out / "energy.csv").write_text("\n".join(lines) + "\n")
+    done = run(tmp_path, "then", deck_with(base, 4), out, extra=["--restart", "latest"], check=False)
+    assert done.returncode == 1 and f"energy.csv:{number + 1}: 'x' is not a finite number" in done.stdout, done.stdout
