@@ -22,5 +22,9 @@ int main() {
   std::stable_sort(names.begin(), names.end(),
                    [](const std::string& a, const std::string& b) { return removal_order(a) < removal_order(b); });
   CHECK(names[0] == "bar.pvd" && names[1] == "run.xdmf" && names[2] == "bar_00000.pvtu");
+  // Frames of 100000 and on (time.frames goes to 1e8) are frames too: a rerun left them behind.
+  for (const char* frame : {"bar_00007.vtu", "bar_100000.vtu", "bar_100000000.pvtu", "bar_123456_1.vtu"})
+    CHECK(hyperqn::is_run_output(".", frame));
+  for (const char* other : {"bar_1234.vtu", "bar_1000000000.vtu", "bar.vtu", "notes.csv"}) CHECK(!hyperqn::is_run_output(".", other));
   return check::summary("test_output_directory");
 }

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <type_traits>
 
@@ -24,6 +25,7 @@
 #include "io/vtk_writer.hpp"
 #include "io/xdmf_writer.hpp"
 #include "io/console.hpp"
+#include "mesh/input_error.hpp"
 
 namespace hyperqn {
 
@@ -235,6 +237,25 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
   return false;
 }
 
+// An input file that the run would overwrite or remove as its own output (io/output_directory.hpp's
+// is_run_output): a deck named config.yaml in OUTDIR was replaced by the run's config, a mesh
+// NAME.h5 beside a NAME.xdmf would be removed. Throws InputError naming the deck's key.
+static void check_inputs_are_not_outputs(const Deck& deck, const std::string& outdir) {
+  const auto check = [&](const std::string& file, int line, const std::string& key) {
+    if (file.empty()) return;
+    std::error_code ec;
+    const std::filesystem::path path(file), dir = path.has_parent_path() ? path.parent_path() : ".";
+    if (!std::filesystem::equivalent(dir, outdir, ec) || ec || !is_run_output(outdir, path.filename().string())) return;
+    throw InputError(deck.path, line, key, (key.empty() ? "the deck " : file + " ") + "is a file that the run writes in "
+                     "its output directory " + outdir + ": rename it, move it, or choose another -o");
+  };
+  check(deck.path, 0, "");
+  check(deck.mesh.file, deck.mesh.line, "mesh.file");
+  for (size_t k = 0; k < deck.bodies.size(); ++k)
+    check(deck.bodies[k].mesh.file, deck.bodies[k].mesh.line, "bodies[" + std::to_string(k) + "].mesh.file");
+  check(deck.partition_file, 0, "partition");
+}
+
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart_arg) {
   const double t_start = MPI_Wtime();
   int rank, size;
@@ -244,6 +265,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   // 1. Everything that can be wrong with the input is checked before any output exists.
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
+  check_inputs_are_not_outputs(deck, outdir);
   const std::string config = effective_config(deck, options, outdir);  // OUTDIR/config.yaml
   SceneInput input;
   MemoryPlan plan = memory_plan(deck.solver, options.h0_package, std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller));

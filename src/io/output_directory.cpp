@@ -35,8 +35,9 @@ bool is_run_output(const std::string& dir, const std::string& name) {
       name == "reactions.csv" || name == "energy.csv" || name == "topology.csv" ||
       name == "config.yaml")
     return true;
-  // Frames: the five-digit frame number (and the rank of a piece) is what marks them as ours.
-  static const std::regex frame(R"(.+_\d{5}(\.p?vtu|_\d+\.vtu))");
+  // Frames: the frame number of at least five digits (%05d; time.frames goes to 1e8), and the
+  // rank of a piece, is what marks them as ours.
+  static const std::regex frame(R"(.+_\d{5,9}(\.p?vtu|_\d+\.vtu))");
   if (std::regex_match(name, frame)) return true;
   // A .pvd only if it lists frames of its own name: a user's collection of other files stays.
   if (name.size() > 4 && name.compare(name.size() - 4, 4, ".pvd") == 0) {

@@ -654,6 +654,20 @@ def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, restart):
     assert {p: p.stat().st_mtime_ns for p in outdir.rglob("*")} == before
 
 
+def test_a_deck_the_run_would_overwrite_is_refused(tmp_path):
+    # a deck named config.yaml in OUTDIR was replaced by the run's config.yaml (exit 0; the next
+    # run of it then failed on its first key)
+    outdir = tmp_path / "out"
+    outdir.mkdir()
+    path = write_deck(outdir / "config.yaml", GOOD)
+    text = Path(path).read_text()
+    for args in ([path, "-o", outdir], ["config.yaml", "-o", "."]):
+        proc = subprocess.run([HYPERQN] + [str(a) for a in args], cwd=outdir, capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 1, proc.stdout + proc.stderr
+        assert "is a file that the run writes in its output directory" in proc.stderr, proc.stderr
+        assert sorted(os.listdir(outdir)) == ["config.yaml"] and Path(path).read_text() == text
+
+
 def test_a_directory_as_the_mesh_file_is_said_to_be_one(tmp_path):
     (tmp_path / "dir.mesh").mkdir()
     path = write_deck(tmp_path / "dir.yaml", deck_with(mesh={"file": "dir.mesh"}))
