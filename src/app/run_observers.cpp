@@ -414,6 +414,7 @@ PetscErrorCode RunLogs::share_restart(bool restart) {
 
 PetscErrorCode RunLogs::begin(LoopControl&) {
   PetscFunctionBeginUser;
+  if (restarted_) PetscCall(note_dissipated());  // a restart at the run's last frame computes no frame
   if (reactions_) PetscCall(reactions_->bind(*run_.scene.current().body, run_.state));
   if (energy_) {
     PetscCall(energy_->bind(*run_.scene.current().body, run_.state));
@@ -458,14 +459,20 @@ void RunLogs::append_energy(int frame, double time, const EnergyRow& r) {
   energy_log_.append(frame, time, {row});
 }
 
-PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
+PetscErrorCode RunLogs::note_dissipated() {
   PetscFunctionBeginUser;
-  if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
   const Body& body = *run_.scene.current().body;
-  if (outcome.lead.stop.empty() && !body.element_states().empty()) {
+  if (!body.element_states().empty()) {
     PetscCall(body.dissipated_energy(&run_.summary.dissipated_energy));
     run_.summary.dissipated_energy += run_.summary.dissipated_removed;
   }
+  PetscFunctionReturn(0);
+}
+
+PetscErrorCode RunLogs::after_frame(const FrameOutcome& outcome, LoopControl&) {
+  PetscFunctionBeginUser;
+  if (outcome.lead.stop.empty()) PetscCall(record_terms(outcome.frame));
+  if (outcome.lead.stop.empty()) PetscCall(note_dissipated());
   if (outcome.lead.stop.empty() && reactions_) PetscCall(record_reactions(outcome.frame));
   if (outcome.lead.stop.empty() && energy_) {
     EnergyRow row;

@@ -89,6 +89,9 @@ class RunLogs : public FrameObserver {
   void write_rows();
 
  private:
+  // The summary's dissipated_energy: the elements' sum now (inelastic materials), and what the
+  // elements topology changes removed had dissipated. Collective.
+  PetscErrorCode note_dissipated();
   PetscErrorCode record_terms(int frame);
   PetscErrorCode record_reactions(int frame);
   void append_energy(int frame, double time, const EnergyRow& row);

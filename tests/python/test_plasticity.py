@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from conftest import run_deck, run_hyperqn, twisted_bar_study, write_deck
-from hyperqn_tools.output import final_frame, frame_list, frame_meshes, tensors
+from hyperqn_tools.output import final_frame, frame_list, frame_meshes, read_summary, tensors
 from test_bad_input import assert_deck_refused
 
 MU, LAMBDA = 8.0e4, 1.2e5
@@ -172,6 +172,14 @@ def test_two_ranks_and_restart(tmp_path):
     assert np.array_equal(final_frame(one).points, final_frame(restarted).points)
     sa, sb = axial(one)[-1][1], axial(restarted)[-1][1]
     assert np.array_equal(np.sort(sa), np.sort(sb)), "the restarted stresses bit for bit"
+    assert read_summary(restarted)["dissipated_energy"] == read_summary(one)["dissipated_energy"]
+    # A restart from the checkpoint of the last frame computes no frame: its summary still says
+    # what was dissipated (it left the key out)
+    last = dict(deck, checkpoint={"every": deck["time"]["frames"]})
+    ended = tmp_path / "ended"
+    run_hyperqn([write_deck(tmp_path / "last.yaml", last), "-o", ended], ranks=1)
+    run_hyperqn([write_deck(tmp_path / "last.yaml", last), "-o", ended, "--restart", "latest"], ranks=1)
+    assert read_summary(ended)["dissipated_energy"] == read_summary(one)["dissipated_energy"] > 0
     restarted2 = tmp_path / "restarted2"
     run_hyperqn([write_deck(tmp_path / "first2.yaml", first), "-o", restarted2], ranks=2)
     run_hyperqn([write_deck(tmp_path / "then2.yaml", deck), "-o", restarted2, "--restart", "latest"], ranks=2)
