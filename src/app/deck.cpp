@@ -9,7 +9,9 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <algorithm>
 #include <fstream>
+#include <iterator>
 
 #include "app/deck_reader.hpp"
 #include "app/deck_rules.hpp"
@@ -68,6 +70,27 @@ std::string curve_file_tables(const Deck& deck) {
     add("attachments " + std::to_string(k), deck.attachments[k].region.motion.curve);
   for (size_t k = 0; k < deck.colliders.size(); ++k) add("colliders " + std::to_string(k), deck.colliders[k].motion.curve);
   for (size_t k = 0; k < deck.loads.size(); ++k) add("loads " + std::to_string(k), deck.loads[k].curve);
+  for (size_t k = 0; k < deck.cuts.size(); ++k) add("cuts " + std::to_string(k), deck.cuts[k].motion.curve);
+  return text;
+}
+
+// The contents of the other files the physics reads beside the mesh's elements: a blade's
+// surface, a collider's mesh, and the mesh file when a load selects its tagged faces (the mesh's
+// hash covers its elements, not its faces). A restart with one changed is refused. "" without one.
+std::string physics_file_contents(const Deck& deck) {
+  std::string text;
+  const auto add = [&](const std::string& key, const std::string& file) {
+    if (file.empty()) return;
+    std::ifstream in(file, std::ios::binary);
+    text += key + " " + file + "\n" + std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()) + "\n";
+  };
+  for (size_t k = 0; k < deck.cuts.size(); ++k) add("cuts " + std::to_string(k), deck.cuts[k].surface);
+  for (size_t k = 0; k < deck.colliders.size(); ++k)
+    if (deck.colliders[k].type == ColliderType::mesh) add("colliders " + std::to_string(k), deck.colliders[k].file);
+  if (std::any_of(deck.loads.begin(), deck.loads.end(), [](const LoadSpec& l) { return l.has_face_tag; })) {
+    add("mesh", deck.mesh.file);
+    for (size_t k = 0; k < deck.bodies.size(); ++k) add("bodies " + std::to_string(k), deck.bodies[k].mesh.file);
+  }
   return text;
 }
 
@@ -177,6 +200,7 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   check_fracture(r, deck);
   deck.physics = physics_sections(root);
   if (const std::string tables = curve_file_tables(deck); !tables.empty()) deck.physics.emplace_back("curve_tables", tables);
+  if (const std::string files = physics_file_contents(deck); !files.empty()) deck.physics.emplace_back("files", files);
   if (const Value* x = s.find("study")) {
     read_study(r, *x, deck.time.frames, deck.study);
     check_study_integrators_take_contact(r, *x, deck);

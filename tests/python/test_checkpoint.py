@@ -311,3 +311,29 @@ def test_a_damaged_energy_row_is_refused_at_a_restart(tmp_path):
     (out / "energy.csv").write_text("\n".join(lines) + "\n")
     done = run(tmp_path, "then", deck_with(base, 4), out, extra=["--restart", "latest"], check=False)
     assert done.returncode == 1 and f"energy.csv:{number + 1}: 'x' is not a finite number" in done.stdout, done.stdout
+
+
+@pytest.mark.parametrize("changed", ["collider_mesh", "cut_curve_table"])
+def test_restart_with_a_changed_physics_file_is_refused(tmp_path, changed):
+    # Found from outside: a collider's mesh file, a blade's curve table (and a blade's surface, the
+    # mesh's tagged faces) were not part of the checkpoint's physics: the restart went on with them
+    # changed (the blade then no longer cut), exit 0
+    (tmp_path / "c.csv").write_text("t, v\n0, 0\n1, 1\n")
+    (tmp_path / "ob.obj").write_text("v -1 -0.6 -1\nv 1 -0.6 -1\nv 0 -0.6 1\nf 1 3 2\n")
+    base = dict(BAR, name="run", fixed=[CLAMP])
+    if changed == "collider_mesh":
+        base["colliders"] = [{"type": "mesh", "file": "ob.obj"}]
+    else:
+        base["cuts"] = [{"center": [1.0, 0.9, 0.25], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [0.2, 1.0],
+                         "motion": {"translate": {"velocity": [0, -1, 0]}, "curve": {"type": "table", "file": "c.csv"}}}]
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 2, {"every": 2}), out)
+    if changed == "collider_mesh":
+        (tmp_path / "ob.obj").write_text("v -1 -0.7 -1\nv 1 -0.7 -1\nv 0 -0.7 1\nf 1 3 2\n")
+    else:
+        (tmp_path / "c.csv").write_text("t, v\n0, 0\n1, 0\n")
+    before = tree_digest(out)
+    done = run(tmp_path, "then", deck_with(base, 4), out, extra=["--restart", "latest"], check=False)
+    section = "files" if changed == "collider_mesh" else "curve_tables"
+    assert done.returncode == 1 and f"section(s) {section}" in done.stdout, done.stdout
+    assert tree_digest(out) == before
