@@ -256,14 +256,22 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     std::map<std::string, std::string> rules;
     if (const KeyPlace* p = c.place("solver.budget"); p && p->written == "fixed")
       for (const char* key : {"max_iterations", "max_halvings", "newton_fallback"}) rules[key] = "budget: fixed";
-    // TAO's option, given, sets the history (LbfgsSolver reads it over the deck's key).
-    const char* history_option = "-tao_lmvm_mat_lmvm_hist_size";
-    char history[64] = "";
-    PetscBool history_set = PETSC_FALSE;
-    PetscOptionsGetString(nullptr, nullptr, history_option, history, sizeof history, &history_set);
-    c.keys("solver.", solver_keys(), deck.solver, rules, history_set ? std::set<std::string>{"history"} : std::set<std::string>{});
-    if (history_set)
-      c.line("solver.history", history, std::string("option ") + history_option + ", " + option_source(deck, history_option, history));
+    // TAO's options, given, set these keys' values (the solvers set the deck's, then TAO reads its options).
+    std::vector<std::pair<std::string, std::string>> overridden;  // key, option
+    for (const auto& [key, option] : {std::pair<const char*, const char*>{"history", "-tao_lmvm_mat_lmvm_hist_size"},
+                                      {"line_search", "-tao_ls_type"}}) {
+      PetscBool set = PETSC_FALSE;
+      PetscOptionsHasName(nullptr, nullptr, option, &set);
+      if (set) overridden.emplace_back(key, option);
+    }
+    std::set<std::string> skip;
+    for (const auto& o : overridden) skip.insert(o.first);
+    c.keys("solver.", solver_keys(), deck.solver, rules, skip);
+    for (const auto& [key, option] : overridden) {
+      char value[256] = "";
+      PetscOptionsGetString(nullptr, nullptr, option.c_str(), value, sizeof value, nullptr);
+      c.line("solver." + key, value, "option " + option + ", " + option_source(deck, option, value));
+    }
   }
   {
     OutputSpec output = deck.output;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <iterator>
 #include <sstream>
 #include <string>
@@ -78,7 +79,8 @@ std::vector<std::pair<std::string, std::string>> all_options() {
 static const char* const kNumericOptions[] = {
     "-hyperqn_divergence_limit",         "-hyperqn_element_limit",           "-hyperqn_test_nan_energy_beyond",
     "-hyperqn_test_nan_energy_from_step", "-hyperqn_test_kill_after_frame",  "-hyperqn_test_signal_after_frame",
-    "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds"};
+    "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds",
+    "-hyperqn_rigid_h0_share",           "-hyperqn_test_topology_h0_max_touched"};
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
@@ -88,6 +90,14 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     const bool number = std::find(std::begin(kNumericOptions), std::end(kNumericOptions), name) != std::end(kNumericOptions);
     const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
     if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
+  }
+  // Read by the rigid-mode H0 when a scene has one: checked here, so that config and every run refuse it alike.
+  for (const auto& [name, value] : all_options()) {
+    if (name != "-hyperqn_rigid_h0_share") continue;
+    char* end = nullptr;
+    const double share = std::strtod(value.c_str(), &end);
+    if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1))
+      refuse(deck, name.c_str(), "must be a number in (0, 1]");
   }
   // -mat_type would retype every matrix PETSc makes for hyperqn (the constant matrix, Newton's
   // Hessian) through DMCreateMatrix; several types crash in its preallocation (dense, is).

@@ -609,7 +609,8 @@ def test_commands_without_arguments_refuse_one(tmp_path, command):
 
 @pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value",
                                   "type_without_value", "restart_empty", "restart_with_equals", "restart_one_dash",
-                                  "outdir_empty", "unknown_long_option"])
+                                  "outdir_empty", "unknown_long_option", "rigid_share_without_value",
+                                  "rigid_share_out_of_range"])
 def test_bad_command_lines_are_refused(tmp_path, case):
     # every argument is used or refused: a word that is neither the deck nor an option's value, a
     # second -o, or a numeric option without its number (PETSc alone would keep the default, unsaid)
@@ -630,6 +631,9 @@ def test_bad_command_lines_are_refused(tmp_path, case):
         "restart_one_dash": ([path, "-o", outdir, "-restart", "latest"], ["'-restart': not an option: write --restart VALUE"]),
         "outdir_empty": ([path, "-o", ""], ["'-o': needs a directory"]),
         "unknown_long_option": ([path, "-o", outdir, "--frames", "3"], ["'--frames': not an option of hyperqn"]),
+        # taken without a value (the default), or refused only by a scene with stiff clusters, in its setup
+        "rigid_share_without_value": ([path, "-o", outdir, "-hyperqn_rigid_h0_share"], ["option -hyperqn_rigid_h0_share: needs a value"]),
+        "rigid_share_out_of_range": ([path, "-o", outdir, "-hyperqn_rigid_h0_share", "5"], ["option -hyperqn_rigid_h0_share 5: must be a number in (0, 1]"]),
         "deck_option_without_value": (None, ["good.yaml:", "hyperqn_progress_seconds", "needs a value"]),
     }[case]
     if args is None:

@@ -167,7 +167,7 @@ def test_a_key_whose_default_is_none_shows_none():
     assert settings["loads[1].normal"] == ("[0, 1, 0]", "deck line 15")
 
 
-def test_tao_s_history_option_shows_as_the_history_it_sets(tmp_path):
+def test_tao_s_options_show_as_the_keys_they_set(tmp_path):
     """-tao_lmvm_mat_lmvm_hist_size is read over solver.history (solvers/lbfgs_solver.cpp): config
     showed the deck's history with its deck line, and the option only among the options."""
     deck = write_deck(tmp_path / "d.yaml", {
@@ -182,3 +182,5 @@ def test_tao_s_history_option_shows_as_the_history_it_sets(tmp_path):
     with_option = write_deck(tmp_path / "e.yaml", {**yaml.safe_load(open(deck)), "petsc": {"tao_lmvm_mat_lmvm_hist_size": 9}})
     value, source = config([with_option])["solver.history"]
     assert value == "9" and source.startswith("option -tao_lmvm_mat_lmvm_hist_size, deck line "), source
+    # the same for the line search (TAO's -tao_ls_type over solver.line_search)
+    assert config([deck, "-tao_ls_type", "armijo"])["solver.line_search"] == ("armijo", "option -tao_ls_type, command line")
