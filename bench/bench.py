@@ -10,6 +10,7 @@ import argparse, csv, datetime, json, math, os, platform, subprocess, sys, time
 import yaml
 
 from hyperqn_tools import launch
+from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO, SHARED_MESHES as MESHES
 
@@ -162,10 +163,11 @@ def run_case(args, name, deck, ranks, rundir):
             return None, f"failed: timeout after {args.timeout:g} s"
         out.seek(0)
         err.seek(0)
-        # hyperqn prints its errors on stdout (PetscPrintf); Open MPI adds its own banner on
-        # stderr, so prefer hyperqn's message and skip the "-----" rules.
-        errors = [l[len("hyperqn: error:"):].strip() for l in out if l.startswith("hyperqn: error:")]
-        lines = errors or [l.strip() for l in err if any(c.isalnum() for c in l)]
+        out_lines, err_lines = out.read().splitlines(), err.read().splitlines()
+        # hyperqn prints its errors on stderr (builds before: stdout), and under mpiexec Open MPI's
+        # banner follows on stderr ("Exit code: 1"): prefer hyperqn's message, skip the "-----" rules.
+        errors = [l[len("hyperqn: error:"):].strip() for l in out_lines + err_lines if l.startswith("hyperqn: error:")]
+        lines = errors or [l.strip() for l in err_lines if any(c.isalnum() for c in l)]
     s = None
     if os.path.exists(summ):
         with open(summ) as f:
@@ -248,18 +250,19 @@ def print_table(rows):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = ArgumentParser(prog="bench/bench.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench"))
     ap.add_argument("--cases", help="comma list of case names (default: all)")
-    ap.add_argument("--ranks", default="1,2", help="comma list of rank counts")
-    ap.add_argument("--frames", type=int, default=10)
+    ap.add_argument("--ranks", default="1,2", type=lambda text: [positive_int(r) for r in text.split(",")],
+                    help="comma list of rank counts")
+    ap.add_argument("--frames", type=positive_int, default=10)
     ap.add_argument("--min-solve-s", type=float, default=0.5,
                     help="a case whose first run at the first rank count solves in less time runs with more "
                          "frames (at most 100 x --frames), so that its first frames do not decide its ms/frame; "
                          "0: always --frames")
     ap.add_argument("--quick", action="store_true", help="only " + ",".join(QUICK))
-    ap.add_argument("--repeat", type=int, default=1, help="runs per case; the fastest is reported")
-    ap.add_argument("--timeout", type=float, default=1800, help="seconds per run")
+    ap.add_argument("--repeat", type=positive_int, default=1, help="runs per case; the fastest is reported")
+    ap.add_argument("--timeout", type=positive_float, default=1800, help="seconds per run")
     ap.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
     ap.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
     ap.add_argument("--material", default="neohookean", choices=MATERIALS,
@@ -280,10 +283,13 @@ def main():
         if bad:
             ap.error(f"unknown case(s) {bad}; known: {','.join(CASES)}")
         names = [n for n in names if n in want]
-    ranks = [int(r) for r in args.ranks.split(",")]
+    ranks = args.ranks
     if args.list:
         print(",".join(names))
         return
+    why = unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
 
     machine = machine_info()                       # before the runs, so loadavg is the idle load
     machine["bandwidth_GBps"] = round(stream_bandwidth() / 1e9, 2)

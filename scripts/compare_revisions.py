@@ -35,6 +35,7 @@ import time
 import numpy as np
 
 from hyperqn_tools import launch
+from hyperqn_tools.cli import ArgumentParser, unwritable_file
 from hyperqn_tools.compare import final_frames
 from hyperqn_tools.decks import load_deck, portable_copy, write_deck
 from hyperqn_tools.output import frames_of_iterations, read_iterations, rest_diagonal
@@ -188,7 +189,8 @@ def compare_binaries(base_bin, new_bin, names, tol, workdir):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="scripts/compare_revisions.py", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     base = p.add_mutually_exclusive_group(required=True)
     base.add_argument("--base-bin", help="hyperqn binary of the base")
     base.add_argument("--base-rev", help="git revision to build and use as the base")
@@ -203,6 +205,9 @@ def main():
     unknown = set(names) - {c[0] for c in CASES}
     if unknown:
         p.error(f"unknown case(s) {sorted(unknown)}")
+    why = unwritable_file(args.out)
+    if why:  # said now, not after every run has finished
+        p.error(f"--out {why}")
     workdir = os.path.dirname(os.path.abspath(args.out))
 
     with contextlib.ExitStack() as stack:

@@ -17,9 +17,11 @@ documentation is relative to the page its table is on. tests/python/test_deck_ta
 """
 import argparse
 import os
+import subprocess
 import sys
 
 from hyperqn_tools import launch
+from hyperqn_tools.cli import ArgumentParser
 
 # The pages of the deck's reference, from the repository root: the one place that lists them.
 DOCS = ("docs/decks.md", "docs/deck-scene.md", "docs/deck-run.md", "docs/loads.md", "docs/topology.md")
@@ -74,24 +76,34 @@ def page_of(pages, section):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = ArgumentParser(prog="scripts/deck_tables.py", description=__doc__,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--check", metavar="DOC", nargs="*", help="the pages to check (default: DOCS)")
     ap.add_argument("--write", metavar="DOC", nargs="*", help="the pages to rewrite (default: DOCS)")
     ap.add_argument("--bin", default=launch.default_binary())
     args = ap.parse_args()
     if args.check is not None and args.write is not None:
         ap.error("give --check or --write, not both")
-    generated = tables(launch.registry(args.bin)["deck_keys"])
     paths = args.check if args.check is not None else args.write
+    if paths is not None:
+        paths = paths or [os.path.join(REPO, doc) for doc in DOCS]
+    pages = {}
+    for path in paths or []:  # read before the binary runs: a mistyped page is said first
+        try:
+            with open(path) as f:
+                pages[path] = f.read().split("\n")
+        except (OSError, UnicodeDecodeError) as e:
+            ap.error(f"{path}: cannot be read ({getattr(e, 'strerror', None) or e})")
+    if not (os.path.isfile(args.bin) and os.access(args.bin, os.X_OK)):
+        ap.error(f"--bin {args.bin}: not an executable file")
+    try:
+        generated = tables(launch.registry(args.bin)["deck_keys"])
+    except (OSError, subprocess.SubprocessError, ValueError, KeyError) as e:  # it ran but said no registry
+        ap.error(f"--bin {args.bin}: `hyperqn registry` failed ({e})")
     if paths is None:
         for section, lines in generated.items():
             print(f"### `{section}`\n\n" + "\n".join(lines) + "\n")
         return 0
-    paths = paths or [os.path.join(REPO, doc) for doc in DOCS]
-    pages = {}
-    for path in paths:
-        with open(path) as f:
-            pages[path] = f.read().split("\n")
     differ = {}
     for section, table in generated.items():
         path = page_of(pages, section)

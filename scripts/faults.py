@@ -278,7 +278,7 @@ def problems(out):
                     if piece.name.startswith("."):
                         found.append(f"{pvd.name} lists a temporary {piece.name}")
                     ET.parse(piece)
-        except (OSError, ET.ParseError) as e:
+        except (OSError, ValueError, ET.ParseError) as e:  # ValueError: read_pvd's for a partial .pvd
             found.append(f"{pvd.name} lists a missing or partial file: {e}")
     csv_path = out / "iterations.csv"
     if csv_path.is_file():

@@ -2,6 +2,7 @@
 Makefile and the ctest Python tests do).
 
     paths         where the repository and the shared meshes are
+    cli           the tools' bad-argument rule: one line, exit 1, output paths checked before writing
     launch        runs hyperqn (the one place that knows the binary, mpiexec and Open MPI's environment)
     decks         reads and writes decks
     output        reads an output directory: VTK frames, iterations.csv, summary.json

@@ -11,6 +11,7 @@ import sys
 
 import numpy as np
 
+from hyperqn_tools.cli import ArgumentParser
 from hyperqn_tools.output import final_frame
 
 
@@ -34,7 +35,7 @@ def relative_difference(dir_a, dir_b):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="python3 -m hyperqn_tools.compare", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_a")
     p.add_argument("run_b")
     p.add_argument("--rtol", type=float, default=1e-8)

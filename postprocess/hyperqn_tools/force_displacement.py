@@ -17,6 +17,7 @@ import os
 import numpy as np
 import yaml
 
+from hyperqn_tools.cli import ArgumentParser, unwritable_file
 from hyperqn_tools.output import read_reactions
 
 AXES = "xyz"
@@ -24,19 +25,33 @@ AXES = "xyz"
 
 def box_centre(outdir, support):
     """The centre of a support's box at rest, from the run's config.yaml (its box.min and box.max)."""
-    with open(os.path.join(outdir, "config.yaml")) as f:
-        config = yaml.safe_load(f)
+    path = os.path.join(outdir, "config.yaml")
+    try:
+        with open(path) as f:
+            config = yaml.safe_load(f)
+    except OSError as e:
+        raise SystemExit(f"{path}: cannot be read ({e.strerror}); the run writes it at its start") from None
+    except (yaml.YAMLError, ValueError) as e:
+        raise SystemExit(f"{path}: not valid YAML ({' '.join(str(e).split())})") from None
+    if not isinstance(config, dict):
+        raise SystemExit(f"{path}: not a map of the run's keys")
     lo, hi = config.get(f"{support}.box.min"), config.get(f"{support}.box.max")
     if lo is None or hi is None:
-        raise SystemExit(f"{outdir}/config.yaml has no {support}.box.min and .max")
-    return (np.array(lo, dtype=float) + np.array(hi, dtype=float)) / 2
+        raise SystemExit(f"{path} has no {support}.box.min and .max")
+    try:
+        return (np.array(lo, dtype=float) + np.array(hi, dtype=float)) / 2
+    except (TypeError, ValueError):
+        raise SystemExit(f"{path}: {support}.box.min and .max are not 3 numbers each") from None
 
 
 def curve(outdir, support, axis):
     """(travel, force) arrays of one support along axis ('x', 'y' or 'z'), one entry per frame."""
     if not os.path.isfile(os.path.join(outdir, "reactions.csv")):
         raise SystemExit(f"{outdir}/reactions.csv: no such file (the run must have output.reactions: true)")
-    supports = read_reactions(outdir)
+    try:
+        supports = read_reactions(outdir)
+    except ValueError as e:
+        raise SystemExit(str(e)) from None
     if support not in supports:
         raise SystemExit(f"{outdir}/reactions.csv has no support {support!r}; it has {', '.join(supports)}")
     rows = supports[support]
@@ -45,17 +60,31 @@ def curve(outdir, support, axis):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = ArgumentParser(prog="python3 -m hyperqn_tools.force_displacement", description=__doc__,
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("outdir", help="a run's output directory (with reactions.csv)")
     ap.add_argument("--support", required=True, help="the support's name as reactions.csv gives it, e.g. 'fixed[1]'")
     ap.add_argument("--axis", choices=list(AXES), default="x")
     ap.add_argument("--png", help="draw the curve into this PNG file")
     ap.add_argument("--csv", help="write the curve into this CSV file")
     a = ap.parse_args(argv)
+    for option, path in (("--csv", a.csv), ("--png", a.png)):
+        why = path and unwritable_file(path, parents=False)
+        if why:  # found before the curve is read and printed
+            ap.error(f"{option} {why}")
     travel, force = curve(a.outdir, a.support, a.axis)
     print(f"travel_{a.axis} force_{a.axis}")
     for u, f in zip(travel, force):
         print(f"{u:.9g} {f:.9g}")
+    try:
+        write_curve(a, travel, force)
+    except OSError as e:  # what unwritable_file cannot see (root on a read-only file system)
+        ap.error(f"cannot write {e.filename}: {e.strerror}")
+    return 0
+
+
+def write_curve(a, travel, force):
+    """The curve into a.csv and a.png, those given."""
     if a.csv:
         with open(a.csv, "w", newline="") as out:
             w = csv.writer(out)
@@ -72,7 +101,6 @@ def main(argv=None):
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
         fig.savefig(a.png, dpi=120)
-    return 0
 
 
 if __name__ == "__main__":

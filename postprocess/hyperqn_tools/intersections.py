@@ -23,6 +23,7 @@ import sys
 
 import numpy as np
 
+from hyperqn_tools.cli import ArgumentParser, unwritable_file
 from hyperqn_tools.output import Frame, frame_list
 
 RTOL = 1e-8
@@ -207,14 +208,15 @@ def check_run(outdir, frames=None, rtol=RTOL):
         except SystemExit:  # meshio prints why and exits on a file it cannot parse
             raise ValueError(f"{path}: cannot read frame {number}: not a readable VTK file") from None
         except Exception as e:  # meshio, h5py and XML raise many kinds
-            raise ValueError(f"{path}: cannot read frame {number}: {e}") from e
+            why = str(e).removeprefix(f"{path}: ")  # output's own errors name the file already
+            raise ValueError(f"{path}: cannot read frame {number}: {why}") from e
         rows.append({"frame": number, "time": time, **check_frame(frame, rtol)})
     return rows
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.intersections", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="python3 -m hyperqn_tools.intersections", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("outdir", help="a run's output directory")
     p.add_argument("--frames", type=int, nargs="+", help="frame numbers to check (default: all)")
     p.add_argument("--json", help="also write the counts to this JSON file")
@@ -222,6 +224,9 @@ def main(argv=None):
     a = p.parse_args(argv)
     if not 0 <= a.rtol < 1:  # nan too: a tolerance is a small fraction of the diagonal
         p.error(f"--rtol {a.rtol}: must be a number in [0, 1)")
+    why = a.json and unwritable_file(a.json)
+    if why:  # found before the frames are read and the counts printed
+        p.error(f"--json {why}")
     try:
         rows = check_run(a.outdir, a.frames, a.rtol)
     except ValueError as e:
@@ -235,9 +240,12 @@ def main(argv=None):
     print(f"largest: {worst['intersecting_pairs']} intersecting pairs (frame {worst['frame']}); "
           f"tolerance {a.rtol:g} x the bounding-box diagonal")
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump({"outdir": a.outdir, "rtol": a.rtol, "frames": rows,
-                       "largest": {"frame": worst["frame"], "intersecting_pairs": worst["intersecting_pairs"]}}, f, indent=1)
+        try:
+            with open(a.json, "w") as f:
+                json.dump({"outdir": a.outdir, "rtol": a.rtol, "frames": rows,
+                           "largest": {"frame": worst["frame"], "intersecting_pairs": worst["intersecting_pairs"]}}, f, indent=1)
+        except OSError as e:  # what unwritable_file cannot see (root on a read-only file system)
+            p.error(f"--json {a.json}: {e.strerror}")
     return 0
 
 

@@ -45,12 +45,16 @@ def read_contact(outdir):
 def read_reactions(outdir):
     """reactions.csv as {support name: {column: numpy array over its frames}} (docs/outputs.md)."""
     supports = {}
-    with open(os.path.join(outdir, "reactions.csv")) as f:
-        for row in csv.DictReader(f):
-            columns = supports.setdefault(row["region"], {})
-            for k, v in row.items():
-                if k != "region":
-                    columns.setdefault(k, []).append(float(v))
+    path = os.path.join(outdir, "reactions.csv")
+    with open(path) as f:
+        for line, row in enumerate(csv.DictReader(f), start=2):
+            try:
+                columns = supports.setdefault(row["region"], {})
+                for k, v in row.items():
+                    if k != "region":
+                        columns.setdefault(k, []).append(float(v))
+            except (KeyError, TypeError, ValueError) as e:  # a row cut short (a crash): None, or not a number
+                raise ValueError(f"{path}:{line}: not a row of reactions ({type(e).__name__}: {e})") from None
     return {name: {k: np.array(v) for k, v in columns.items()} for name, columns in supports.items()}
 
 
@@ -62,20 +66,35 @@ def frames_of_iterations(rows):
     return frames
 
 
+def xml_root(path):
+    """The root element of an XML file (.pvd, .pvtu, .xdmf); ValueError naming the file when it is
+    not XML (a file cut short by a crash), as for every damaged file read here."""
+    try:
+        return ET.parse(path).getroot()
+    except ET.ParseError as e:
+        raise ValueError(f"{path}: not a readable XML file ({e})") from None
+
+
 def read_pvd(path):
     """[(time, absolute file path)] in the order written."""
-    root = ET.parse(path).getroot()
+    root = xml_root(path)
     base = os.path.dirname(path)
-    return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    try:
+        return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    except (TypeError, ValueError):  # an attribute missing or not a number
+        raise ValueError(f"{path}: not a .pvd index (a DataSet without a timestep or file)") from None
 
 
 def read_xdmf(path):
     """[(time, frame number, path of the frame "PATH#K")] of an XDMF index, in the order written."""
-    collection = ET.parse(path).getroot().find("Domain").find("Grid")
-    out = []
-    for k, grid in enumerate(collection.findall("Grid")):
-        number = re.search(r"(\d+)$", grid.get("Name"))
-        out.append((float(grid.find("Time").get("Value")), int(number.group(1)) if number else k, f"{path}#{k}"))
+    root, out = xml_root(path), []
+    try:
+        collection = root.find("Domain").find("Grid")
+        for k, grid in enumerate(collection.findall("Grid")):
+            number = re.search(r"(\d+)$", grid.get("Name"))
+            out.append((float(grid.find("Time").get("Value")), int(number.group(1)) if number else k, f"{path}#{k}"))
+    except (AttributeError, TypeError, ValueError):  # an element or attribute missing (find gave None), a time not a number
+        raise ValueError(f"{path}: not an XDMF index of frames (Domain/Grid/Grid with Time and Name)") from None
     return out
 
 
@@ -89,7 +108,10 @@ def piece_files(path):
         raise ValueError(f"{path}: an XDMF frame has no pieces; read it with frame_meshes")
     if path.endswith(".pvtu"):
         base = os.path.dirname(path)
-        return [os.path.join(base, p.get("Source")) for p in ET.parse(path).getroot().iter("Piece")]
+        pieces = [p.get("Source") for p in xml_root(path).iter("Piece")]
+        if not pieces or None in pieces:
+            raise ValueError(f"{path}: not a .pvtu (no Piece with a Source)")
+        return [os.path.join(base, p) for p in pieces]
     return [path]
 
 

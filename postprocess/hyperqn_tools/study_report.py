@@ -28,6 +28,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from hyperqn_tools.cli import ArgumentParser, unwritable_file
 from hyperqn_tools.style import solver_style
 
 LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
@@ -60,11 +61,14 @@ def load_study(directory):
     stopped = {}  # solver: (frame, why its trajectory stopped)
     tpath = os.path.join(directory, "trajectory.csv")
     if os.path.exists(tpath):
-        for r in read_csv(tpath):
-            if r.get("status", "ok") != "ok":  # stopped by a guardrail there: no error to plot
-                stopped[r["solver"]] = (int(r["frame"]), r["status"])
-                continue
-            trajectory[r["solver"]].append((int(r["frame"]), float(r["time_s"]), float(r["rel_rms_error"])))
+        for line, r in enumerate(read_csv(tpath), start=2):
+            try:
+                if r.get("status", "ok") != "ok":  # stopped by a guardrail there: no error to plot
+                    stopped[r["solver"]] = (int(r["frame"]), r["status"])
+                    continue
+                trajectory[r["solver"]].append((int(r["frame"]), float(r["time_s"]), float(r["rel_rms_error"])))
+            except (KeyError, TypeError, ValueError) as e:  # as study.csv's rows
+                sys.exit(f"{tpath}:{line}: not a row of a trajectory ({type(e).__name__}: {e})")
     meta = {}
     if os.path.exists(os.path.join(directory, "study.json")):
         with open(os.path.join(directory, "study.json")) as f:
@@ -72,6 +76,8 @@ def load_study(directory):
                 meta = json.load(f)
             except json.JSONDecodeError as e:
                 sys.exit(f"{os.path.join(directory, 'study.json')}: not JSON ({e})")
+    if not curves:  # empty, or its header alone: a study killed before its first row
+        sys.exit(f"{path}: no rows (a study cut short?)")
     meta.setdefault("title", os.path.basename(os.path.normpath(directory)))
     return {"dir": directory, "meta": meta, "curves": curves, "trajectory": trajectory, "stopped": stopped}
 
@@ -224,19 +230,31 @@ def study_directories(paths):
 
 
 def main():
-    p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.study_report", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="python3 -m hyperqn_tools.study_report", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("studies", nargs="+", help="study output directories")
     p.add_argument("--out", help="Markdown report path (default: <parent of first>/report.md)")
     args = p.parse_args()
-    studies = [load_study(d) for d in study_directories(args.studies)]
     out = args.out or os.path.join(os.path.dirname(os.path.normpath(args.studies[0])), "report.md")
+    # Checked before the figures are written: they would be left beside a report never written.
+    why = unwritable_file(out) or unwritable_file(os.path.join(os.path.dirname(out), "overview.png"))
+    if why:
+        p.error(f"--out {why}")
+    studies = [load_study(d) for d in study_directories(args.studies)]
     lines = ["# Error against time", "",
              "e = (g − g*)/(g(x₀) − g*), g* from Newton converged to ‖∇g‖ ≤ reference_rtol·‖∇g(x₀)‖ "
              "(or the lowest g any solver reached). Times are wall-clock ms from the frame's start; "
              "speed-up = Newton's time / the solver's time to reach the same e. In the figures each curve "
              "ends at its first iterate at round-off (e ≤ max(1e-13, 100 ε|g*|/(g(x₀) − g*)), the dashed "
              "line) or else at its lowest e; circles mark the first iterate with e ≤ 1e-3.", ""]
+    try:
+        write_report(studies, out, lines)
+    except OSError as e:  # what the checks above cannot see (root on a read-only file system)
+        p.error(f"cannot write {e.filename}: {e.strerror}")
+
+
+def write_report(studies, out, lines):
+    """The figures of every study, the overview and the report at out, after lines."""
     for study in studies:
         study_figures(study)
         m = study["meta"]

@@ -16,7 +16,6 @@ Case k's deck is OUT/<case>/deck.yaml, hyperqn's results go next to it, with run
 output) and run.json (exit code, seconds); OUT/sweep.csv and OUT/sweep.md are built from those
 files only, so --table-only after a Slurm array gives the same table as a sweep run in one go.
 """
-import argparse
 import copy
 import csv
 import itertools
@@ -29,6 +28,7 @@ import sys
 import time
 
 from hyperqn_tools import launch
+from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
 from hyperqn_tools.decks import absolute_path, load_deck, load_yaml, portable_copy, write_deck
 
 TOP_KEYS = ("deck", "decks", "sweep", "set")
@@ -237,23 +237,37 @@ def last_error(log_text):
     return errors[-1].strip() if errors else None
 
 
+def json_map(path):
+    """(the JSON object in path, None if there is no such file; why it cannot be read, else None)."""
+    if not os.path.isfile(path):
+        return None, None
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except (OSError, ValueError) as e:  # ValueError: JSON's errors and undecodable bytes
+        return None, f"{os.path.basename(path)} damaged ({e})"
+    if not isinstance(data, dict):
+        return None, f"{os.path.basename(path)} damaged (not a JSON object)"
+    return data, None
+
+
 def case_row(case, out):
     """One table row from the files of OUT/<case>/."""
     cdir = os.path.join(out, case.name)
     row = {"case": case.name, "status": "not run", "frames": "", "mean_iterations": "", "ms_per_frame": "",
            "wall_s": "", "exit_code": ""}
-    run = None
-    if os.path.isfile(os.path.join(cdir, "run.json")):
-        with open(os.path.join(cdir, "run.json")) as f:
-            run = json.load(f)
-        row["exit_code"] = "none" if run["exit_code"] is None else run["exit_code"]
-    if os.path.isfile(os.path.join(cdir, "summary.json")):
-        with open(os.path.join(cdir, "summary.json")) as f:
-            s = json.load(f)
+    run, run_damaged = json_map(os.path.join(cdir, "run.json"))
+    if run is not None:
+        row["exit_code"] = "none" if run.get("exit_code") is None else run["exit_code"]
+    s, summary_damaged = json_map(os.path.join(cdir, "summary.json"))
+    if s is not None:
         row.update(status=s.get("status", ""), frames=s.get("frames", ""),
                    mean_iterations=s.get("mean_iterations", ""), ms_per_frame=s.get("ms_per_frame", ""),
                    wall_s=s.get("wall_s", ""))
-    elif run is not None:
+    if summary_damaged or run_damaged:
+        # A Slurm array task killed while writing: its row says so and the other cases' rows stand.
+        row["status"] = "failed: " + (summary_damaged or run_damaged)
+    elif s is None and run is not None:
         log = ""
         if os.path.isfile(os.path.join(cdir, "run.log")):
             with open(os.path.join(cdir, "run.log")) as f:
@@ -308,19 +322,17 @@ def write_tables(cases, out):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.sweep", description=__doc__.split("\n\n")[0])
+    ap = ArgumentParser(prog="python3 -m hyperqn_tools.sweep", description=__doc__.split("\n\n")[0])
     ap.add_argument("sweep", help="the sweep file (YAML)")
     ap.add_argument("--out", help="output directory (default output/sweep/<sweep file name>)")
-    ap.add_argument("--np", type=int, default=1, help="MPI ranks per case (1: the binary alone)")
+    ap.add_argument("--np", type=positive_int, default=1, help="MPI ranks per case (1: the binary alone)")
     ap.add_argument("--case", type=int, help="run only case K (0-based), e.g. $SLURM_ARRAY_TASK_ID; no table")
     ap.add_argument("--list", action="store_true", help="print the cases and their count, run nothing")
     ap.add_argument("--table-only", action="store_true", help="build the table from the case directories")
     ap.add_argument("--bin", default=None, help="the hyperqn binary (default $HYPERQN_BIN or build/hyperqn)")
     ap.add_argument("--mpiexec", default=None, help="the MPI launcher (default $MPIEXEC or mpiexec)")
-    ap.add_argument("--timeout", type=float, default=None, help="seconds per case before it is stopped")
+    ap.add_argument("--timeout", type=positive_float, default=None, help="seconds per case before it is stopped")
     a = ap.parse_args(argv)
-    if a.np < 1:
-        ap.error("--np must be at least 1")
     try:
         cases = load_sweep(a.sweep)
     except SweepError as e:
@@ -342,7 +354,13 @@ def main(argv=None):
             print(f"sweep: error: {out}: no such directory (run the sweep first)", file=sys.stderr)
             return 1
     else:
-        os.makedirs(out, exist_ok=True)
+        why = unwritable_dir(out)
+        if why:
+            ap.error(f"--out {why}")
+        try:
+            os.makedirs(out, exist_ok=True)
+        except OSError as e:  # what unwritable_dir cannot see (root on a read-only file system)
+            ap.error(f"--out {out}: cannot create it: {e.strerror}")
         todo = cases if a.case is None else [cases[a.case]]
         codes = []
         for c in todo:

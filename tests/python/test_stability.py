@@ -21,6 +21,8 @@ import csv
 import math
 import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -397,3 +399,36 @@ def test_perfectly_plastic_lbfgs_matches_converged_newton(tmp_path):
     assert ref["summary"]["dissipated_energy"] > 100  # it flowed (195 J; an elastic bar: 0)
     assert a["summary"]["dissipated_energy"] == pytest.approx(ref["summary"]["dissipated_energy"], rel=1e-2)
     assert distance < S.REF_TOL
+
+
+def suite(*args):
+    return subprocess.run([sys.executable, "-m", "hyperqn_tools.stability", *map(str, args), "--bin", HYPERQN],
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_bad_decks_and_arguments_are_refused_before_anything_is_written(tmp_path):
+    """A missing deck, a directory, a YAML error, --np 0, and two runs that would share a
+    runs/<case>/<solver>/ directory (a deck or solver given twice, two decks of one file name):
+    one line naming it, exit 1, and no --out (the binary was copied into it first)."""
+    deck = os.path.join(REPO, "tests", "decks", "stability_stiff_x1e4.yaml")
+    (tmp_path / "other").mkdir()
+    namesake = tmp_path / "other" / "stability_stiff_x1e4.yaml"
+    namesake.write_text(open(deck).read())
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("time: {dt: 0.01\n")
+    out = tmp_path / "suite"
+    for args, fragments in [([tmp_path / "absent.yaml"], ["absent.yaml", "no such deck"]),
+                            ([tmp_path / "other"], ["other", "a directory"]),
+                            ([broken], ["broken.yaml", "not a valid deck", "line"]),
+                            ([deck, "--np", "0"], ["--np", "'0'"]),
+                            ([deck, "--timeout", "-1"], ["--timeout"]),
+                            ([deck, deck], ["stability_stiff_x1e4.yaml: given twice"]),
+                            ([deck, namesake], [str(namesake), "two decks named stability_stiff_x1e4"]),
+                            ([deck, "--solvers", "lbfgs", "lbfgs"], ["--solvers: lbfgs given twice"]),
+                            ([deck, "--out", broken], ["--out", "broken.yaml: not a directory"])]:
+        proc = suite(*args, *([] if "--out" in args else ["--out", out]))
+        assert proc.returncode == 1 and "Traceback" not in proc.stderr, (args, proc.stderr)
+        assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        for f in fragments:
+            assert f in proc.stderr, (f, proc.stderr)
+        assert not out.exists(), args

@@ -266,3 +266,44 @@ def test_a_deck_with_a_curve_table_file_sweeps(tmp_path):
     out = tmp_path / "out"
     sweep(path, "--out", out, check_rc=0)
     assert [r["status"] for r in read_table(out)] == ["ok", "ok"]
+
+
+@pytest.mark.parametrize("where", ["a_file", "under_a_file", "not_creatable"])
+def test_an_output_directory_that_cannot_be_made_is_refused_before_running(tmp_path, where):
+    path = make_sweep(tmp_path, GRID)
+    (tmp_path / "a_file").write_text("")
+    out = {"a_file": tmp_path / "a_file", "under_a_file": tmp_path / "a_file" / "out",
+           "not_creatable": "/sys/hyperqn-sweep-test/out"}[where]  # /sys: not even root makes one
+    for extra in ([], ["--case", 0]):
+        proc = sweep(path, "--out", out, *extra, check_rc=1)
+        assert "error: --out" in proc.stderr and str(out) in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+        assert "==" not in proc.stdout  # no case ran
+    assert (tmp_path / "a_file").read_text() == ""
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "x"])
+def test_a_timeout_that_is_not_positive_is_refused(tmp_path, value):
+    path = make_sweep(tmp_path, GRID)
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.sweep", path, "--out", tmp_path / "out",
+                           "--bin", HYPERQN, "--timeout", value], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1 and "--timeout" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_table_only_shows_a_case_with_a_damaged_json_file_as_failed(tmp_path):
+    """A Slurm array task killed while writing leaves run.json or summary.json cut short: its row
+    says which file is damaged, the other cases' rows stand."""
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  solver.type: [lbfgs, pd]\n")
+    out = tmp_path / "out"
+    sweep(path, "--out", out, check_rc=0)
+    damaged = out / "case-000_type-lbfgs"
+    good = {name: (damaged / name).read_text() for name in ("run.json", "summary.json")}
+    for name, text in [("summary.json", '{"status": '), ("summary.json", "[1,2]"), ("run.json", "{"),
+                       ("run.json", "[]")]:
+        (damaged / name).write_text(text)
+        proc = sweep(path, "--out", out, "--table-only", check_rc=0)
+        assert "Traceback" not in proc.stderr, proc.stderr
+        rows = read_table(out)
+        assert rows[0]["status"].startswith(f"failed: {name} damaged ("), rows[0]
+        assert rows[1]["status"] == "ok" and rows[1]["exit_code"] == "0", rows[1]
+        (damaged / name).write_text(good[name])

@@ -2,14 +2,17 @@
 of other meshes, a run without reactions.csv, a damaged study, a meaningless tolerance: each a
 message naming what is wrong and a non-zero exit, never a Python traceback. And `compare` on two
 equal runs of a body at rest: 0 apart, not nan."""
+import argparse
 import copy
+import importlib.util
+import os
 import shutil
 import subprocess
 import sys
 
 import pytest
 
-from conftest import run_deck
+from conftest import HYPERQN, MPIEXEC, REPO, run_deck, write_deck
 
 BAR = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
        "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
@@ -32,7 +35,7 @@ def runs(tmp_path_factory):
 
 
 def assert_said(proc, *fragments):
-    assert proc.returncode != 0, proc.stdout
+    assert proc.returncode == 1, (proc.returncode, proc.stdout, proc.stderr)
     assert "Traceback" not in proc.stderr, proc.stderr
     for f in fragments:
         assert f in proc.stdout + proc.stderr, proc.stdout + proc.stderr
@@ -67,3 +70,115 @@ def test_study_report_of_a_damaged_study(runs, tmp_path):
     (study / "study.csv").write_text("frame,solver,iteration,time_s,energy,grad_norm,rel_error\n")
     (study / "study.json").write_text("{bad")
     assert_said(tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md"), "study.json", "not JSON")
+
+
+def test_study_report_of_an_empty_study_a_damaged_trajectory_and_a_directory_as_out(tmp_path):
+    study = tmp_path / "study"
+    study.mkdir()
+    header = "frame,solver,iteration,time_s,energy,grad_norm,rel_error\n"
+    for text in ("", header):  # a study killed before its first row
+        (study / "study.csv").write_text(text)
+        assert_said(tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md"), "study.csv", "no rows")
+    (study / "study.csv").write_text(header + "1,lbfgs,0,0.0,1.0,1.0,1.0\n1,lbfgs,1,0.1,0.5,0.5,0.1\n")
+    (study / "trajectory.csv").write_text("solver,frame\nlbfgs,x\n")
+    assert_said(tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md"), "trajectory.csv:2",
+                "not a row")
+    (study / "trajectory.csv").unlink()
+    (tmp_path / "d").mkdir()
+    assert_said(tool("hyperqn_tools.study_report", study, "--out", tmp_path / "d"), "--out", "is a directory")
+    assert sorted(p.name for p in study.iterdir()) == ["study.csv"]  # no figures left behind
+    assert not (tmp_path / "r.md").exists()
+
+
+DAMAGED = {"pvd": ("bar.pvd", "<VTKFile"), "pvtu": ("bar_00002.pvtu", "<VTKFile"),
+           "xdmf": ("bar.xdmf", "<Xdmf"), "xdmf_without_grids": ("bar.xdmf", "<Xdmf/>")}
+
+
+@pytest.mark.parametrize("damage", sorted(DAMAGED))
+def test_compare_and_intersections_of_a_damaged_index_or_frame(runs, tmp_path, damage):
+    """docs/outputs.md: a frame that cannot be read is `intersections: error:` naming the file."""
+    _, bar, _, _ = runs
+    name, text = DAMAGED[damage]
+    run = tmp_path / "run"
+    shutil.copytree(bar, run)
+    if damage == "pvtu":  # the last frame a .pvtu (as at 2 ranks), cut short
+        (run / "bar.pvd").write_text((run / "bar.pvd").read_text().replace("bar_00002.vtu", name))
+    elif damage.startswith("xdmf"):  # an XDMF run's only index
+        (run / "bar.pvd").unlink()
+    (run / name).write_text(text)
+    assert_said(tool("hyperqn_tools.compare", bar, run), "compare:", name)
+    assert_said(tool("hyperqn_tools.intersections", run), "intersections: error:", name)
+
+
+def test_intersections_with_a_directory_as_json(runs, tmp_path):
+    _, bar, _, _ = runs
+    proc = tool("hyperqn_tools.intersections", bar, "--json", tmp_path)
+    assert_said(proc, "--json", "is a directory")
+    assert "largest" not in proc.stdout  # refused before the frames were read
+
+
+@pytest.fixture(scope="module")
+def reactions_run(tmp_path_factory):
+    out, _ = run_deck(tmp_path_factory.mktemp("reactions"), "bar", {**BAR, "output": {"reactions": True}})
+    return out
+
+
+def test_force_displacement_of_damaged_files_and_unwritable_outputs(reactions_run, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(reactions_run, run)
+    support = ("--support", "fixed[0]")
+    reactions = (run / "reactions.csv").read_text()
+    (run / "reactions.csv").write_text(reactions[:reactions.index("\n", reactions.index("\n") + 1) + 20])
+    assert_said(tool("hyperqn_tools.force_displacement", run, *support), "reactions.csv:3", "not a row")
+    (run / "reactions.csv").write_text(reactions)
+    # hyperqn wrote a curve's points as a block list that is not YAML (being fixed in C++): said
+    (run / "config.yaml").write_text("fixed[0].box.min: [1\n")
+    assert_said(tool("hyperqn_tools.force_displacement", run, *support), "config.yaml: not valid YAML", "line")
+    (run / "config.yaml").unlink()
+    assert_said(tool("hyperqn_tools.force_displacement", run, *support), "config.yaml: cannot be read")
+    shutil.copy(reactions_run / "config.yaml", run)
+    for option, path, said in [("--csv", tmp_path, "is a directory"),
+                               ("--png", tmp_path / "nowhere" / "x.png", "no such directory")]:
+        proc = tool("hyperqn_tools.force_displacement", run, *support, option, path)
+        assert_said(proc, option, said)
+        assert "travel_x" not in proc.stdout  # refused before the curve was printed
+    assert tool("hyperqn_tools.force_displacement", run, *support, "--csv", tmp_path / "c.csv").returncode == 0
+
+
+@pytest.mark.parametrize("args, said", [(["--ranks", "abc"], "--ranks"), (["--ranks", "0"], "--ranks"),
+                                        (["--frames", "0"], "--frames"), (["--out", "FILE"], "not a directory")])
+def test_bench_refuses_bad_arguments_before_measuring(tmp_path, args, said):
+    (tmp_path / "file").write_text("")
+    args = [str(tmp_path / "file") if a == "FILE" else a for a in args]
+    proc = subprocess.run([sys.executable, os.path.join(REPO, "bench", "bench.py"), "--quick", *args],
+                          capture_output=True, text=True, timeout=60)
+    assert_said(proc, "bench/bench.py: error:", said)
+    assert "memory bandwidth" not in proc.stderr  # refused before anything ran
+    assert (tmp_path / "file").read_text() == ""
+
+
+def test_bench_shows_hyperqn_s_error_not_mpiexec_s(tmp_path):
+    """At 2 ranks mpiexec's banner ends stderr ('Exit code: 1'); the row shows hyperqn's line."""
+    spec = importlib.util.spec_from_file_location("bench", os.path.join(REPO, "bench", "bench.py"))
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    deck = write_deck(tmp_path / "bad.yaml", {**BAR, "material": {**BAR["material"], "poisson_ratio": 0.6}})
+    args = argparse.Namespace(hyperqn=HYPERQN, mpiexec=MPIEXEC, timeout=60)
+    for ranks in (1, 2):
+        _, status = bench.run_case(args, "bad", deck, ranks, str(tmp_path / f"np{ranks}"))
+        assert status.startswith("failed: ") and "'material.poisson_ratio': must be in (-1, 0.5)" in status, status
+
+
+def script(name, *args):
+    return subprocess.run([sys.executable, os.path.join(REPO, "scripts", name), *map(str, args)],
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_scripts_refuse_a_missing_page_or_binary_and_a_directory_as_out(tmp_path):
+    assert_said(script("deck_tables.py", "--check", tmp_path / "nonexist.md"), "nonexist.md", "cannot be read")
+    for args in (["--bin", "/nonexist"], ["--check", "--bin", "/nonexist"]):
+        assert_said(script("deck_tables.py", *args), "--bin /nonexist", "not an executable")
+    # before any run (they took minutes, then the result was lost to IsADirectoryError)
+    proc = script("compare_revisions.py", "--base-bin", HYPERQN, "--new-bin", HYPERQN, "--out", tmp_path)
+    assert_said(proc, "--out", "is a directory")
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "decks").exists()

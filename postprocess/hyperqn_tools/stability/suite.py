@@ -20,14 +20,15 @@ Verdicts: ok / degraded / failed / not run (judge.verdict).
 Writes stability.csv, stability.md, verdicts.png and one grad_<case>.png per case into --out,
 and the copy of the binary every run used (--out/hyperqn, taken at the start).
 """
-import argparse
 import concurrent.futures
 import glob
 import os
 import shutil
-import sys
 import time
 
+import yaml
+
+from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
 from hyperqn_tools.decks import load_deck
 from hyperqn_tools.launch import default_binary, default_mpiexec, solver_names
 from hyperqn_tools.paths import REPO
@@ -37,39 +38,71 @@ from hyperqn_tools.stability.run import (REFERENCE_SOLVER, case_name, case_order
                                          expectation, rejection, run_deck)
 
 
+def load_decks(p, paths):
+    """{case name: (path, deck)} of the decks; p.error (one line, exit 1, nothing written yet) on a
+    deck that is missing, unreadable or not a map of sections, and on two decks of one case name
+    (a deck given twice, or two files of one name: they would run into one runs/<case>/ and give
+    one case's rows, the other's lost)."""
+    loaded = {}
+    for path in paths:
+        if not os.path.isfile(path):
+            p.error(f"{path}: {'a directory, not a deck' if os.path.isdir(path) else 'no such deck'}")
+        try:
+            deck = load_deck(path)
+        except (OSError, ValueError, yaml.YAMLError) as e:
+            p.error(f"{path}: not a valid deck: {' '.join(str(e).split())}")  # yaml's message spans lines
+        if not isinstance(deck, dict):
+            p.error(f"{path}: not a map of deck sections")
+        c = case_name(path)
+        if c in loaded:
+            other = loaded[c][0]
+            p.error(f"{path}: given twice" if os.path.realpath(other) == os.path.realpath(path) else
+                    f"{other} and {path}: two decks named {c} (a case is named by its file name: rename one)")
+        loaded[c] = (path, deck)
+    return loaded
+
+
 def main(argv=None):
-    p = argparse.ArgumentParser(prog="python3 -m hyperqn_tools.stability",
-                                description=__doc__.split("\n")[0])
+    p = ArgumentParser(prog="python3 -m hyperqn_tools.stability", description=__doc__.split("\n")[0])
     p.add_argument("decks", nargs="*", help="decks (default: input/stability/*.yaml)")
     p.add_argument("--out", default=os.path.join(REPO, "output", "stability"))
     p.add_argument("--solvers", nargs="+", help="default: every solver the binary registers (hyperqn registry)")
     p.add_argument("--integrator", help="time.integrator of every run, the references' too (default: each deck's)")
     p.add_argument("--bin", default=default_binary(), help="hyperqn (default: $HYPERQN_BIN, else build/hyperqn)")
-    p.add_argument("--np", type=int, default=1, help="MPI ranks per run (1: the binary alone, without mpiexec)")
+    p.add_argument("--np", type=positive_int, default=1, help="MPI ranks per run (1: the binary alone, without mpiexec)")
     p.add_argument("--mpiexec", default=default_mpiexec(),
                    help="MPI launcher, used when --np > 1 (default: $MPIEXEC, else mpiexec)")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runs at once")
-    p.add_argument("--timeout", type=float, default=600, help="seconds per run")
+    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, help="runs at once")
+    p.add_argument("--timeout", type=positive_float, default=600, help="seconds per run")
     p.add_argument("--no-reference", action="store_true", help="skip the converged reference runs")
     args = p.parse_args(argv)
 
     decks = sorted(args.decks or glob.glob(os.path.join(REPO, "input", "stability", "*.yaml")), key=case_order)
     if not decks:
-        sys.exit("no decks")
+        p.error("no decks")
+    loaded = load_decks(p, decks)
     if not os.access(args.bin, os.X_OK):
-        sys.exit(f"{args.bin}: not an executable (build first: make build)")
+        p.error(f"{args.bin}: not an executable (build first: make build)")
     known = solver_names(args.bin)
     args.solvers = args.solvers or known
     unknown = [s for s in args.solvers if s not in known]
     if unknown:
-        sys.exit(f"--solvers: unknown {', '.join(unknown)}; the binary has {', '.join(known)}")
+        p.error(f"--solvers: unknown {', '.join(unknown)}; the binary has {', '.join(known)}")
+    twice = sorted({s for s in args.solvers if args.solvers.count(s) > 1})
+    if twice:  # its runs would share runs/<case>/<solver>/
+        p.error(f"--solvers: {', '.join(twice)} given twice")
+    why = unwritable_dir(args.out)
+    if why:
+        p.error(f"--out {why}")
     # Every run uses a copy of the binary taken now, so a rebuild during the suite changes nothing.
-    os.makedirs(args.out, exist_ok=True)
     binary = os.path.join(args.out, "hyperqn")
-    shutil.copy2(args.bin, binary)
+    try:
+        os.makedirs(args.out, exist_ok=True)
+        shutil.copy2(args.bin, binary)
+    except OSError as e:  # what unwritable_dir cannot see (root on a read-only file system)
+        p.error(f"--out {args.out}: cannot write {binary}: {e.strerror}")
     t_start = time.time()
     cases = [case_name(d) for d in decks]
-    loaded = {case_name(d): (d, load_deck(d)) for d in decks}
     if args.integrator:
         for _, deck in loaded.values():
             deck["time"] = {**(deck.get("time") or {}), "integrator": args.integrator}

@@ -1,0 +1,69 @@
+"""The tools' command lines and the project's rule for bad input: a bad argument, or an output path
+that cannot be written, is one line naming it, exit code 1, and nothing written. So arguments and
+output paths are checked before a tool writes anything, with the helpers here.
+
+    ArgumentParser   argparse's parser whose errors are that one line and exit 1
+    positive_int, positive_float
+                     argparse types for counts and times that must be > 0
+    unwritable_file(path), unwritable_dir(path)
+                     why a file or directory could not be written there, or None
+"""
+import argparse
+import math
+import os
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser, but a bad argument is one line and exit 1 (argparse prints its usage
+    and exits 2)."""
+
+    def error(self, message):
+        self.exit(1, f"{self.prog}: error: {message}\n")
+
+
+def positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 1")
+    return value
+
+
+def positive_float(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):  # nan and inf too: 'never' is leaving it out
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def unwritable_dir(path, named=None):
+    """Why the directory path could not be made or written in, else None; the message names
+    `named` (default: path). Permissions are read with os.access, which root passes: the write
+    itself must still catch OSError."""
+    named = named or path
+    here = os.path.abspath(path)
+    while not os.path.exists(here):  # the nearest part that exists: the rest is made in it
+        here = os.path.dirname(here)
+    if not os.path.isdir(here):
+        return f"{named}: not a directory" if here == os.path.abspath(named) else f"{named}: {here} is not a directory"
+    if not os.access(here, os.W_OK | os.X_OK):
+        return f"{named}: cannot write in {here}"
+    return None
+
+
+def unwritable_file(path, parents=True):
+    """Why the file path could not be written, else None (see unwritable_dir); parents=False: its
+    directory must exist (a tool that does not make it)."""
+    if os.path.isdir(path):
+        return f"{path}: is a directory"
+    if os.path.exists(path) and not os.access(path, os.W_OK):
+        return f"{path}: not writable"
+    parent = os.path.dirname(os.path.abspath(path))
+    if not parents and not os.path.isdir(parent):
+        return f"{path}: no such directory {parent}"
+    return unwritable_dir(parent, path)
