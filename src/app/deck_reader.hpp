@@ -53,9 +53,18 @@ class Reader {
     bool leaf = !entry.node.IsMap();
     if (entry.node.IsSequence())
       for (const YAML::Node& item : entry.node) leaf = leaf && !item.IsMap();
+    // On one line (config.yaml's `key: value  # source`): a list the deck wrote as a block
+    // keeps its block style in the node, which the emitter would follow.
+    YAML::Node flow = YAML::Clone(entry.node);
+    set_flow_style(flow);
     YAML::Emitter text;
-    text << YAML::Flow << entry.node;
+    text << YAML::Flow << flow;
     (*places_)[entry.key] = {entry.line, entry.node.IsNull() ? "" : text.c_str(), leaf};
+  }
+  static void set_flow_style(YAML::Node n) {
+    if (!n.IsSequence() && !n.IsMap()) return;
+    n.SetStyle(YAML::EmitterStyle::Flow);
+    for (auto it = n.begin(); it != n.end(); ++it) set_flow_style(n.IsMap() ? it->second : *it);
   }
 
   // Relative paths of input files are relative to this (resolve_input_file).

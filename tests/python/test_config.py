@@ -184,3 +184,32 @@ def test_tao_s_options_show_as_the_keys_they_set(tmp_path):
     assert value == "9" and source.startswith("option -tao_lmvm_mat_lmvm_hist_size, deck line "), source
     # the same for the line search (TAO's -tao_ls_type over solver.line_search)
     assert config([deck, "-tao_ls_type", "armijo"])["solver.line_search"] == ("armijo", "option -tao_ls_type, command line")
+
+
+def test_config_is_yaml_whatever_the_deck_s_list_style(tmp_path):
+    """A list the deck writes as a block (a curve's points, a strand's end) was echoed as written
+    among the keys a section's own reader reads: config.yaml was not YAML (and force_displacement,
+    which reads it, failed)."""
+    deck = tmp_path / "d.yaml"
+    deck.write_text("""mesh: {box: {size: [1, 0.2, 0.2], cells: [4, 1, 1]}}
+material: {model: corotated, youngs_modulus: 1.0e5, poisson_ratio: 0.3, density: 1000}
+fixed:
+  - box: {min: [-0.01, -1, -1], max: [0.01, 1, 1]}
+  - box: {min: [0.99, -1, -1], max: [1.01, 1, 1]}
+    motion:
+      translate:
+        velocity:
+          - 0.1
+          - 0
+          - 0
+      curve:
+        type: table
+        points:
+          - [0, 0]
+          - [1, 1]
+time: {dt: 0.01, frames: 1}
+""")
+    proc = run_hyperqn(["config", deck], ranks=None, timeout=120)
+    settings = yaml.safe_load(proc.stdout)
+    assert settings["fixed[1].motion.curve.points"] == [[0, 0], [1, 1]]
+    assert settings["fixed[1].motion.translate.velocity"] == [0.1, 0, 0]
