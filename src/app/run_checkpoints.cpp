@@ -51,6 +51,11 @@ PetscErrorCode Checkpointer::after_frame(const FrameOutcome& outcome, LoopContro
   MPI_Comm_rank(run_.comm, &rank);
   const CheckpointSpec& c = run_.deck.checkpoint;
   if (frame == setup_.options.signal_after_frame) raise(SIGTERM);  // test hook
+  if (frame == setup_.options.rank_error_after_frame) {  // test hook
+    int size;
+    MPI_Comm_size(run_.comm, &size);
+    PetscCheck(rank != size - 1, PETSC_COMM_SELF, PETSC_ERR_LIB, "-hyperqn_test_rank_error_after_frame %d", frame);
+  }
   int local[2] = {stop_signal(), 0}, global[2];
   if (rank == 0) local[1] = c.seconds > 0 && MPI_Wtime() - last_checkpoint_wtime_ >= c.seconds;  // one clock decides
   PetscCallMPI(MPI_Allreduce(local, global, 2, MPI_INT, MPI_MAX, run_.comm));

@@ -80,7 +80,7 @@ static const char* const kNumericOptions[] = {
     "-hyperqn_divergence_limit",         "-hyperqn_element_limit",           "-hyperqn_test_nan_energy_beyond",
     "-hyperqn_test_nan_energy_from_step", "-hyperqn_test_kill_after_frame",  "-hyperqn_test_signal_after_frame",
     "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds",
-    "-hyperqn_rigid_h0_share",           "-hyperqn_test_topology_h0_max_touched"};
+    "-hyperqn_rigid_h0_share",           "-hyperqn_test_topology_h0_max_touched", "-hyperqn_test_rank_error_after_frame"};
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
@@ -215,6 +215,9 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
                              "A frame whose solve has run this many seconds prints a progress line (iteration, g, "
                              "|grad g|), and again every as many seconds (<= 0: never)",
                              "docs/outputs.md", o->progress_seconds, &o->progress_seconds, nullptr));
+  PetscCall(PetscOptionsInt(kNumericOptions[11],
+                            "Tests only: the last rank alone fails (a PETSc error) after this frame (< 0: off)",
+                            "docs/guardrails.md", o->rank_error_after_frame, &o->rank_error_after_frame, nullptr));
   PetscInt package = 0;  // auto
   for (int k = 1; k < kH0PackageCount; ++k)
     if (o->h0_package == kH0PackageOf[k] && o->h0_package != default_factor_package()) package = k;

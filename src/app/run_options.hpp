@@ -30,6 +30,9 @@ struct RunOptions {
   // signal_at_iteration iterations of frame signal_in_frame's solve, every stage of the fallback
   // chain counted, as a batch system's signal that reaches one rank first (< 0: off).
   PetscInt signal_in_frame = -1, signal_at_iteration = 1;
+  // Test hook (tests/python/test_interrupt.py): the last rank alone fails (a PETSc error) after
+  // this frame, as an error one rank's check finds; the others are left in a collective (< 0: off).
+  PetscInt rank_error_after_frame = -1;
   // A frame whose solve has run this long prints a progress line (rank 0), and again each time
   // this much more has passed (<= 0: never). Fast frames print nothing.
   PetscReal progress_seconds = 2.0;

@@ -26,6 +26,7 @@
 #include "io/xdmf_writer.hpp"
 #include "io/console.hpp"
 #include "mesh/input_error.hpp"
+#include "parallel/collectives.hpp"
 
 namespace hyperqn {
 
@@ -237,6 +238,9 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
   return false;
 }
 
+// How long ranks that failed wait for the others before the run is aborted (all_ranks_arrive).
+constexpr double kErrorMeetingSeconds = 60;
+
 // An input file that the run would overwrite or remove as its own output (io/output_directory.hpp's
 // is_run_output): a deck named config.yaml in OUTDIR was replaced by the run's config, a mesh
 // NAME.h5 beside a NAME.xdmf would be removed. Throws InputError naming the deck's key.
@@ -423,6 +427,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   } catch (const std::exception& e) {
     summary.status = std::string("error: ") + e.what();
     ok = false;
+  }
+  // An error of this rank alone leaves the others in a collective it left: said, then aborted
+  // (before, the run hung). One of every rank (a guardrail, a full disk) meets here at once.
+  const double meeting = options.rank_error_after_frame >= 0 ? 2.0 : kErrorMeetingSeconds;  // its test waits less
+  if (summary.status.rfind("error: ", 0) == 0 && !all_ranks_arrive(comm, meeting)) {
+    std::fprintf(stderr, "hyperqn: error on rank %d, which the other ranks did not share: %s\n", rank, summary.status.c_str() + 7);
+    MPI_Abort(comm, 1);
   }
 
   // 4. Summary.

@@ -20,17 +20,17 @@ namespace hyperqn {
 // x, v of scene `from` at time t as new vectors of scene `to` (same local vertices): every vertex
 // keeps its position and velocity; a vertex freed in `to` the prescribed ones at t (Body::
 // prescribed_state: the motion's velocity at t, not the mean over the last step that set_time holds).
-// source (a cut): per local vertex of `to`, the local vertex of `from` whose state it takes; empty:
-// the same local vertices. shift (a crack opened for self-contact): 3 per local vertex of `to`,
+// source (a cut): per local vertex of `to`, the local vertex of `from` whose state it takes (none on
+// a rank the change left without vertices); null: the same local vertices. shift (a crack opened for self-contact): 3 per local vertex of `to`,
 // added to its position.
 static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, State& s,
-                                  const std::vector<int32_t>& source = {}, const std::vector<double>& shift = {}) {
+                                  const std::vector<int32_t>* source = nullptr, const std::vector<double>& shift = {}) {
   std::vector<double> pos, vel;
   Vec xl, vl, x_to, v_to;
   PetscScalar *a, *b;
   PetscFunctionBeginUser;
   // The partition is the same, so the local vertices are too; check rather than assume.
-  PetscCheck(source.empty() ? to.mesh.vertex_ids == from.mesh.vertex_ids : (PetscInt)source.size() == to.mesh.num_vertices,
+  PetscCheck(!source ? to.mesh.vertex_ids == from.mesh.vertex_ids : (PetscInt)source->size() == to.mesh.num_vertices,
              PETSC_COMM_SELF, PETSC_ERR_PLIB, "the local vertices changed when fixed regions were released");
   PetscCall(from.body->local_positions(s.x, pos));
   PetscCall(from.body->local_velocities(s.v, vel));
@@ -42,7 +42,7 @@ static PetscErrorCode carry_state(const Scene& from, const Scene& to, double t, 
   for (PetscInt i = 0; i < to.mesh.num_vertices; ++i) {
     const PetscInt off = to.mesh.local_dof[i];
     if (off < 0) continue;
-    const size_t j = source.empty() ? size_t(i) : size_t(source[i]);
+    const size_t j = !source ? size_t(i) : size_t((*source)[i]);
     for (int d = 0; d < 3; ++d) {
       a[off + d] = shift.empty() ? pos[3 * j + d] : pos[3 * j + d] + shift[3 * size_t(i) + d];
       b[off + d] = vel[3 * j + d];
@@ -375,10 +375,10 @@ PetscErrorCode LiveScene::move_to_rebuilt(State& main, const std::vector<State*>
   fresh->body->set_time(t);
   fresh->body->set_inherited_elements(inherited);
   fresh->body->carry_element_states(*scene_->body);
-  PetscCall(carry_state(*scene_, *fresh, t, main, source, shift));
+  PetscCall(carry_state(*scene_, *fresh, t, main, &source, shift));
   PetscCall(fresh->body->hold(main.x));
   for (State* s : others) {
-    PetscCall(carry_state(*scene_, *fresh, t, *s, source, shift));
+    PetscCall(carry_state(*scene_, *fresh, t, *s, &source, shift));
     PetscCall(fresh->body->hold(s->x));
   }
   PetscCall(rebind(*scene_, *fresh));

@@ -1,7 +1,9 @@
 // Collectives over vectors whose length differs from rank to rank: the exchange of counts and the
-// matching MPI "v" call, spelled out once.
+// matching MPI "v" call, spelled out once; and the ranks' meeting after an error.
 #pragma once
 #include <mpi.h>
+
+#include <ctime>
 
 #include <vector>
 
@@ -37,6 +39,25 @@ inline std::vector<int> all_to_all(MPI_Comm comm, const std::vector<int>& mine, 
                 MPI_INT, comm);
   if (counts_out) *counts_out = in_counts;
   return in;
+}
+
+// After an error that may be one rank's alone (a check on PETSC_COMM_SELF, an exception): whether
+// every rank came here within `seconds`. If not, the others wait in a collective this rank left,
+// and the run can only be aborted (else it would hang). Collective if all ranks call it.
+inline bool all_ranks_arrive(MPI_Comm comm, double seconds) {
+  MPI_Request all_here;
+  MPI_Ibarrier(comm, &all_here);
+  const double until = MPI_Wtime() + seconds;
+  int done = 0;
+  while (!done) {
+    MPI_Test(&all_here, &done, MPI_STATUS_IGNORE);
+    if (!done && MPI_Wtime() > until) return false;  // the request is left: the caller aborts
+    if (!done) {
+      timespec nap{0, 1000000};  // 1 ms
+      nanosleep(&nap, nullptr);
+    }
+  }
+  return true;
 }
 
 }  // namespace hyperqn

@@ -217,3 +217,22 @@ def test_sigterm_during_a_long_frame(tmp_path, ranks):
     one = dict(deck, time=dict(LONG["time"], frames=1), checkpoint={"every": 1})
     run_hyperqn([write_deck(tmp_path / "ref.yaml", one), "-o", ref], ranks=ranks)
     assert_same_checkpoint(out / "checkpoints" / "checkpoint_1.h5", ref / "checkpoints" / "checkpoint_1.h5")
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_an_error_of_one_rank_ends_the_run(tmp_path, ranks):
+    # An error one rank's check finds leaves the others in a collective it left: before, the run
+    # hung (found from outside, a blade that emptied a rank). The test hook
+    # -hyperqn_test_rank_error_after_frame N fails the last rank after frame N: at 2 ranks the run
+    # is aborted with that rank's message (its waiting shortened to 2 s for the hook); at 1 rank the
+    # error ends the run as any other, with a summary.
+    path = write_deck(tmp_path / "d.yaml", dict(MOTION, name="run"))
+    out = tmp_path / "out"
+    start = time.monotonic()
+    proc = run_hyperqn([path, "-o", out, "-hyperqn_test_rank_error_after_frame", "2"], ranks=ranks, check=False, timeout=60)
+    assert proc.returncode != 0 and time.monotonic() - start < 30
+    if ranks == 2:
+        assert "hyperqn: error on rank 1, which the other ranks did not share: PETSc error during the time loop" in proc.stdout
+    else:
+        assert read_summary(out)["status"].startswith("error: PETSc error during the time loop")
+        assert "-hyperqn_test_rank_error_after_frame 2" in proc.stdout

@@ -20,7 +20,7 @@ import pytest
 from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import frame_lumped_masses as lumped_masses, frame_tet_energies, frame_tet_momenta
 from hyperqn_tools.intersections import check_run
-from hyperqn_tools.output import Frame, final_frame, frame_list, frame_meshes, read_summary, rest_diagonal
+from hyperqn_tools.output import Frame, final_frame, frame_list, frame_meshes, read_frames, read_summary, rest_diagonal
 from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 from test_cut_contact import BLOCK as CUT_BLOCK, shared_rest_positions
@@ -454,3 +454,26 @@ def test_a_removal_keeps_what_its_tets_dissipated(tmp_path, ranks):
         ref, out = assert_restart_after_kill_is_bitwise(tmp_path / "restart", PLASTIC_RINGING, ranks, frames=16, every=10,
                                                          kill_after=12)
         assert (ref / "energy.csv").read_bytes() == (out / "energy.csv").read_bytes()
+
+
+def test_a_rank_may_lose_all_its_tets(tmp_path):
+    """Found from outside: at 2 ranks a blade that took every tet of rank 1 (the bar's far half)
+    hung the run: rank 1's state could not be carried to its empty piece (an empty list of source
+    vertices was read as "the same vertices"), it failed alone, and rank 0 waited for it."""
+    deck = {"mesh": {"box": {"size": [4.0, 0.5, 0.5], "cells": [16, 1, 1]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.51, 0.51]}}],
+            "gravity": [0, -9.81, 0],
+            "cuts": [{"center": [3.1, 0.25, 0.25], "normal": [0, 1, 0], "axis": [1, 0, 0], "size": [2.2, 2.0],
+                      "frame": "rest", "remove": True,
+                      "motion": {"translate": {"velocity": [-1, 0, 0]}, "start": 0.0, "end": 0.1}}],
+            "time": {"dt": 0.0333333333, "frames": 5}}
+    one, s1 = run_deck(tmp_path, "one", deck)
+    two, s2 = run_deck(tmp_path, "two", deck, ranks=2)
+    assert s1["cuts"]["tets_removed"] == s2["cuts"]["tets_removed"] == 51
+    frames = [frame for _, frame in read_frames(two)]
+    last = frames[-1]
+    assert set(frames[0].ranks) == {0, 1} and set(last.ranks) == {0}, "rank 1 holds no tet at the end"
+    a = final_frame(one)
+    assert np.array_equal(a.vertex_id, last.vertex_id)
+    assert np.abs(a.points - last.points).max() <= 1e-8 * rest_diagonal(a)
