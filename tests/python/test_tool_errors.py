@@ -6,6 +6,7 @@ import argparse
 import copy
 import importlib.util
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -47,6 +48,11 @@ def test_compare(runs):
     assert_said(tool("hyperqn_tools.compare", bar, other), "compare:", "different vertex sets")
     same = tool("hyperqn_tools.compare", rest, rest)
     assert same.returncode == 0 and "relative 0.000e+00" in same.stdout and "Warning" not in same.stderr
+    # the docs quote differences "of the diagonal": the tool says that figure too (it gave only the
+    # one relative to the largest displacement, which the docs had called "over the rest diagonal")
+    moved = tool("hyperqn_tools.compare", bar, rest)
+    m = re.search(r"max \|x_a - x_b\| = (\S+), .*; (\S+) of the rest diagonal (\S+)$", moved.stdout.strip())
+    assert m and float(m.group(2)) == pytest.approx(float(m.group(1)) / float(m.group(3)), rel=1e-3), moved.stdout
 
 
 def test_force_displacement_without_reactions(runs):
