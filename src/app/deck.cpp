@@ -223,6 +223,9 @@ Deck load_deck(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, 0, "", "deck file not found");
   if (fs::is_directory(path, ec)) throw InputError(path, 0, "", "is a directory, not a deck file");
+  // A pipe or a device (/dev/stdin, a FIFO, whose opening waits for a writer) has no size to check.
+  if (!fs::is_regular_file(path, ec))
+    throw InputError(path, 0, "", "not a regular file: a deck is a file (its size is checked before it is read)");
   std::ifstream in(path);
   if (!in) throw InputError(path, 0, "", "cannot read the deck file");
   if (fs::file_size(path, ec) > kMaxDeckBytes) throw InputError(path, 0, "", "larger than 1 MB: not a deck (parsing takes some 250 times its size in memory on every "

@@ -371,6 +371,20 @@ def test_missing_deck(tmp_path):
     assert_clean_failure(proc, tmp_path / "out", ["absent.yaml"])
 
 
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_a_deck_that_is_not_a_regular_file(tmp_path, kind):
+    # a FIFO hung the run (opening it waits for a writer); /dev/null and /dev/stdin were said to be
+    # "larger than 1 MB"
+    path = tmp_path / "deck.yaml"
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path = Path("/dev/null")
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=30)
+    assert_clean_failure(proc, tmp_path / "out", [f"{path}: not a regular file"])
+    assert proc.returncode == 1
+
+
 def test_no_deck_given(tmp_path):
     proc = run_hyperqn([], ranks=None, check=False, timeout=60)
     assert proc.returncode != 0 and "usage" in proc.stdout
