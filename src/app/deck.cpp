@@ -103,16 +103,22 @@ Deck parse(const Reader& r, const YAML::Node& root, const std::string& path) {
   Section s(r, Value{root, "", line_of(root)},
             {"name", "mesh", "bodies", "partition", "material", "strand_material", "cloth", "regions", "fixed", "attachments",
              "loads", "cuts", "colliders", "contact", "initial", "gravity", "time", "solver", "guardrails", "output", "checkpoint", "study", "petsc"});
+  // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
+  const auto safe_name = [](const std::string& name) {
+    return !name.empty() && name.size() <= kMaxNameLength && name[0] != '.' && name[0] != '-' &&
+           std::all_of(name.begin(), name.end(), [](char c) {
+             return std::isalnum((unsigned char)c) || c == '_' || c == '-' || c == '.' || c == '+';
+           });
+  };
+  const char* rule = "a file name of at most 100 letters, digits and _ - . + (not starting with . or -)";
   if (const Value* x = s.find("name")) {
     deck.name = r.text(*x);
-    // The name becomes a directory and file names (output/<name>/<name>_00001.vtu).
     if (deck.name.empty() || deck.name.find_first_of("/\\") != std::string::npos)
       r.fail(*x, "must be a non-empty name without '/' or '\\'");
-    const bool safe = std::all_of(deck.name.begin(), deck.name.end(), [](char c) {
-      return std::isalnum((unsigned char)c) || c == '_' || c == '-' || c == '.' || c == '+';
-    });
-    if (!safe || deck.name.size() > kMaxNameLength || deck.name[0] == '.' || deck.name[0] == '-')
-      r.fail(*x, "must be a file name of at most 100 letters, digits and _ - . + (not starting with . or -)");
+    if (!safe_name(deck.name)) r.fail(*x, std::string("must be ") + rule);
+  } else if (!safe_name(deck.name)) {  // the default, the deck file's name
+    r.fail(line_of(root), "name", "left out, is the deck file's name '" + deck.name + "', which is not " + rule +
+                                      ": give name, or rename the file");
   }
   BodyRegions body_regions;  // read after the scene's own fixed regions and attachments
   if (const Value* x = s.find("bodies")) {

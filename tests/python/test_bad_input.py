@@ -692,3 +692,16 @@ def test_a_directory_as_the_mesh_file_is_said_to_be_one(tmp_path):
     outdir = tmp_path / "out"
     proc = run_hyperqn([path, "-o", outdir], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, outdir, ["dir.yaml:", "'mesh.file'", "not a regular file", "dir.mesh"])
+
+
+@pytest.mark.parametrize("file_name", ["my deck.yaml", ".yaml", "-dash.yaml"])
+def test_the_deck_file_s_name_as_the_run_s_name_keeps_the_name_rule(tmp_path, file_name):
+    # `name: "my deck"` is refused, the same name from the file was not (nor '.yaml', whose files
+    # were hidden: .yaml.pvd, .yaml_00000.vtu)
+    path = write_deck(tmp_path / file_name, GOOD)
+    proc = subprocess.run([HYPERQN, "./" + file_name, "-o", str(tmp_path / "out")], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1 and f"'name': left out, is the deck file's name" in proc.stderr, proc.stderr
+    assert not (tmp_path / "out").exists()
+    with_name = write_deck(tmp_path / file_name, {**GOOD, "name": "bar"})
+    run_hyperqn([with_name, "-o", tmp_path / "out"], ranks=None, timeout=60)
