@@ -1,6 +1,7 @@
 #include "app/study.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <cmath>
 #include <sstream>
 #include <functional>
@@ -363,7 +364,25 @@ PetscErrorCode Study::run(StudyWriter& out) {
 }
 
 // The study of one integrator (deck.time.integrator) into outdir.
-int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
+// The files of a study written into `root` before (in it, and in its integrators' directories),
+// which the report would otherwise read beside this study's (a plain study's study.csv was left
+// beside the integrators' studies, and the report showed it alone). Rank 0; how many removed.
+int clear_earlier_study(const std::string& root) {
+  int removed = 0;
+  std::vector<std::string> dirs{root};
+  for (const std::string& name : integrator_names()) dirs.push_back(root + "/" + name);
+  for (const std::string& dir : dirs)
+    for (const char* file : {"study.csv", "trajectory.csv", "study.h5", "study.json"}) {
+      std::error_code ec;
+      if (std::filesystem::remove(dir + "/" + file, ec)) ++removed;
+      if (ec) throw std::runtime_error("cannot remove " + dir + "/" + file + " (an earlier study's): " + ec.message());
+    }
+  return removed;
+}
+
+// root: the directory of the whole study (outdir, or its parent for one integrator's), cleared of
+// an earlier study once this one's checks have passed (clear).
+int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& root, bool clear) {
   int rank;
   MPI_Comm_rank(comm, &rank);
   const StudySpec& st = deck.study;
@@ -399,6 +418,9 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     std::unique_ptr<StudyWriter> writer;
     std::string error;
     try {
+      if (clear && rank == 0)
+        if (const int removed = clear_earlier_study(root))
+          PetscPrintf(PETSC_COMM_SELF, "hyperqn: %s held an earlier study: %d file(s) removed\n", root.c_str(), removed);
       writer = std::make_unique<StudyWriter>(outdir, rank);
       if (rank == 0) write_study_meta(outdir, deck, study.scene.current());
     } catch (const std::exception& e) {
@@ -428,13 +450,13 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
 }
 
 int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
-  if (deck.study.integrators.empty()) return run_one_study(comm, deck, outdir);
+  if (deck.study.integrators.empty()) return run_one_study(comm, deck, outdir, outdir, true);
   for (TimeIntegrator kind : deck.study.integrators) {
     Deck one = deck;
     one.time.integrator = kind;
     const std::string name = integrator_info(kind).name;
     PetscPrintf(comm, "hyperqn: study with %s\n", name.c_str());
-    if (run_one_study(comm, one, outdir + "/" + name)) return 1;
+    if (run_one_study(comm, one, outdir + "/" + name, outdir, kind == deck.study.integrators.front())) return 1;
   }
   return 0;
 }

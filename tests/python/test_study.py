@@ -224,7 +224,15 @@ def test_integrator_axis(tmp_path):
     path = tmp_path / "axis.yaml"
     path.write_text(text)
     out = tmp_path / "axis"
+    # A plain study in the same directory first: its files were left beside the integrators'
+    # studies, and the report showed it alone (found from outside)
+    plain = tmp_path / "plain.yaml"
+    plain.write_text(text.replace("\n  integrators: [implicit-euler, bdf2, implicit-midpoint]", ""))
+    run_hyperqn(["study", plain, "-o", out], ranks=1)
+    assert (out / "study.csv").exists()
     proc = run_hyperqn(["study", path, "-o", out], ranks=1)
+    assert f"{out} held an earlier study: 4 file(s) removed" in proc.stdout
+    assert not any((out / f).exists() for f in ("study.csv", "trajectory.csv", "study.h5", "study.json"))
     integrators = ["implicit-euler", "bdf2", "implicit-midpoint"]
     for name in integrators:
         assert f"study written to {out / name}" in proc.stdout
