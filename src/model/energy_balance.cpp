@@ -26,19 +26,9 @@ PetscErrorCode EnergyBalance::bind(const Body& body, const State& s) {
   loads_.clear();
   PetscCall(mesh_with_every_vertex(mesh, all_));
   terms_ = scene_elastic_terms(*all_, spec_);
-  for (size_t k = 0; k < spec_.loads.size(); ++k) {
-    const LoadKind& kind = *find_load_kind(spec_.loads[k].type);
-    loads_.push_back(kind.build(*all_, spec_.loads[k], (int)k, select_load_region(*all_, spec_.loads[k], kind.target)));
-  }
+  PetscCall(loads_over_every_vertex(*all_, spec_, body, loads_));
   mass_.assign(3 * mesh.num_vertices, 0.0);
   for (const auto& t : terms_) t->add_lumped_mass(mass_.data());
-  {  // a load that scales with the mass (body_force) takes it as the scene's does (Scene: Body::set_masses)
-    Vec mass;
-    PetscCall(DMCreateGlobalVector(mesh.dm, &mass));
-    PetscCall(body.lumped_mass(mass));
-    for (const auto& load : loads_) PetscCall(load->set_masses(mass));
-    PetscCall(VecDestroy(&mass));
-  }
   free_.assign(3 * mesh.num_vertices, 1);
   for (PetscInt v = 0; v < mesh.num_vertices; ++v)
     for (int d = 0; d < 3; ++d)

@@ -64,6 +64,21 @@ PetscErrorCode mesh_with_every_vertex(const DistributedMesh& mesh, std::unique_p
   PetscFunctionReturn(0);
 }
 
+PetscErrorCode loads_over_every_vertex(const DistributedMesh& all, const SceneSpec& spec, const Body& body,
+                                       std::vector<std::unique_ptr<EnergyTerm>>& out) {
+  PetscFunctionBeginUser;
+  for (size_t k = 0; k < spec.loads.size(); ++k) {
+    const LoadKind& kind = *find_load_kind(spec.loads[k].type);
+    out.push_back(kind.build(all, spec.loads[k], (int)k, select_load_region(all, spec.loads[k], kind.target)));
+  }
+  Vec mass;
+  PetscCall(DMCreateGlobalVector(body.mesh().dm, &mass));
+  PetscCall(body.lumped_mass(mass));
+  for (size_t k = out.size() - spec.loads.size(); k < out.size(); ++k) PetscCall(out[k]->set_masses(mass));
+  PetscCall(VecDestroy(&mass));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   const DistributedMesh& mesh = body.mesh();
   PetscFunctionBeginUser;
@@ -72,13 +87,10 @@ PetscErrorCode Reactions::bind(const Body& body, const State& s) {
   PetscCall(mesh_with_every_vertex(mesh, all_));
   terms_ = scene_elastic_terms(*all_, spec_);
   first_load_ = terms_.size();
-  // The loads on faces, whose share at a fixed vertex goes into its support (the solver's terms
-  // drop it there). A load on vertices acts on free ones only: none of it reaches a support.
-  for (size_t k = 0; k < spec_.loads.size(); ++k) {
-    const LoadKind& kind = *find_load_kind(spec_.loads[k].type);
-    if (kind.target == LoadTarget::faces)
-      terms_.push_back(kind.build(*all_, spec_.loads[k], (int)k, select_load_region(*all_, spec_.loads[k], kind.target)));
-  }
+  // The loads, whose share at a fixed vertex or a roller's held component goes into its support
+  // (the solver's terms drop it there). A load on vertices selects free vertices only (rollers'
+  // among them): its share reaches a support through the rollers' held components alone.
+  PetscCall(loads_over_every_vertex(*all_, spec_, body, terms_));
   mass_.assign(3 * mesh.num_vertices, 0.0);
   for (const auto& t : terms_) t->add_lumped_mass(mass_.data());
   attached_ = attached_vertex_sets(mesh, spec_.attachments, s.released_attachments);  // as attachment_term

@@ -11,12 +11,13 @@
 // The terms add their gradients at free dofs only; the reactions evaluate the scene's elastic terms
 // a second time, built over a copy of the mesh whose dof map covers every local vertex, so the
 // normal evaluation is untouched and a run without reactions builds nothing of this.
-// The loads on faces are evaluated there too (their share at a fixed vertex is a force on the
-// support: r_i takes -f_i); loads on vertices act on free vertices only. An attachment's force is
+// The loads are evaluated there too (their share at a fixed vertex is a force on the support: r_i
+// takes -f_i); loads on vertices select free vertices only. An attachment's force is
 // -k (x_i - p_i(t)) summed over its springs.
 // A roller's vertex (a fixed region with `components`) is free but for its held components, whose
-// slots the solvers leave alone: r_i is the same residual in those components and 0 in the others.
-// Not yet: a vertex load, an attachment or contact acting at a held component is not counted.
+// slots the solvers leave alone: r_i is the same residual in those components (a load's share
+// there included) and 0 in the others. Not yet: an attachment or contact acting at a held
+// component is not counted.
 // A term with an ElementState (a viscoelastic material) takes the body's values at each frame's
 // end (carry_values), as the accepted step left them: its stored stress, the step's own at x_{n+1}.
 #pragma once
@@ -34,6 +35,12 @@ namespace hyperqn {
 // The same mesh (its DM shared, for its communicator) with x dof 3 v for every local vertex v: the
 // terms built over it add their gradients and masses at fixed vertices too (also model/energy_balance.hpp).
 PetscErrorCode mesh_with_every_vertex(const DistributedMesh& mesh, std::unique_ptr<DistributedMesh>& out);
+
+// The scene's loads built over such a mesh (every vertex a dof; the regions as the solver's terms
+// select them), a load that scales with the mass (body_force) given the body's lumped masses as the
+// scene gives its own (Body::set_masses). Collective.
+PetscErrorCode loads_over_every_vertex(const DistributedMesh& all, const SceneSpec& spec, const Body& body,
+                                       std::vector<std::unique_ptr<EnergyTerm>>& out);
 
 // One support's force on the body at the end of a frame, the same on every rank.
 struct SupportForce {

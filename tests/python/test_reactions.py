@@ -299,3 +299,25 @@ def test_a_face_load_on_a_curve_reaches_the_support(tmp_path, ranks):
     out = run(tmp_path, "ramp", deck, ranks)
     fy = [reactions(out)[frame]["fixed[0]"][1][1] for frame in (1, 2)]
     assert fy == pytest.approx([500.0, 1000.0], rel=1e-7), fy  # (the solve to grad_rtol 1e-10: 1.3e-8)
+
+
+@pytest.mark.parametrize("load", ["force", "body_force"])
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_vertex_load_on_rollers_reaches_them(tmp_path, load, ranks):
+    # Found from outside: a cube on three roller planes, a force of 90 N on its x = 1 face (or a
+    # body force of g): the floor's reaction was 60 N (the face's 3 vertices on the floor dropped
+    # their 10 N each) and 7357.5 N of the weight's 9810 N; a traction, or gravity, gave the whole
+    roller = lambda axis: {"box": {"min": [-0.01 if a != axis else -0.01 for a in range(3)],
+                                   "max": [1.01 if a != axis else 0.01 for a in range(3)]}, "components": ["xyz"[axis]]}
+    loaded = ({"type": "force", "box": {"min": [0.99, -0.01, -0.01], "max": [1.01, 1.01, 1.01]}, "force": [0, 0, -90.0]}
+              if load == "force" else
+              {"type": "body_force", "box": {"min": [-0.01] * 3, "max": [1.01] * 3}, "acceleration": [0, 0, -9.81]})
+    deck = {"mesh": {"box": {"size": [1, 1, 1], "cells": [2, 2, 2]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [roller(0), roller(1), roller(2)], "loads": [loaded], "gravity": [0, 0, 0],
+            "time": {"dt": 1, "frames": 1, "integrator": "static"},
+            "solver": {"type": "newton", "iterations": 50, "grad_rtol": 1e-12}, "output": {"reactions": True}}
+    out = run(tmp_path, "rollers", deck, ranks)
+    total = sum(f for _, f, _, _ in reactions(out)[1].values())
+    applied = 90.0 if load == "force" else 1000 * 9.81
+    assert total == pytest.approx([0, 0, applied], abs=1e-6 * applied)
