@@ -133,11 +133,18 @@ class Config {
           k.member.field);
       if (!has_value) continue;
       const auto rule = rules.find(name);
-      // A key whose default is none, left out: none (not its member's zero or [], which the key refuses).
-      const bool none = !given(path) && rule == rules.end() && std::string(k.default_text).rfind("none", 0) == 0;
-      if (none) value = "none";
-      const std::string fallback =
-          *k.default_text && value != k.default_text && !none ? "default (" + std::string(k.default_text) + ")" : "default";
+      // A key left out whose default is a word (none, never, auto) or a list: that, not its member's
+      // stand-in (0, -1, 1e300 or [], which the key refuses or reads otherwise).
+      const std::string text = k.default_text;
+      std::string word;
+      if (!text.empty() && text[0] == '[' && text.find(']') != std::string::npos) {
+        word = text.substr(0, text.find(']') + 1);
+      } else {
+        const std::string w = text.substr(0, text.find_first_of(" :;,("));
+        if (w == "none" || w == "never" || w == "auto") word = w;
+      }
+      if (!given(path) && rule == rules.end() && !word.empty()) value = word;
+      const std::string fallback = text.empty() || value == text || word == "none" ? "default" : "default (" + text + ")";
       line(path, value, rule != rules.end() && !given(path) ? "rule: " + rule->second : source(path, fallback));
     }
   }

@@ -213,3 +213,15 @@ time: {dt: 0.01, frames: 1}
     settings = yaml.safe_load(proc.stdout)
     assert settings["fixed[1].motion.curve.points"] == [[0, 0], [1, 1]]
     assert settings["fixed[1].motion.translate.velocity"] == [0.1, 0, 0]
+
+
+def test_a_left_out_key_shows_its_default_not_a_stand_in():
+    """Found from outside: config showed the members' stand-ins, which the run does not use as such
+    and the keys refuse: components [] (all three held), release -1 (never), pseudo_step 0 (auto),
+    motion.end 1e300 (never)."""
+    settings = config([os.path.join(REPO, "input", "engineering", "static_cantilever.yaml")])
+    assert settings["fixed[0].components"] == ("[x, y, z]", "default")
+    assert settings["fixed[0].release"] == ("never", "default")
+    assert settings["time.pseudo_step"][0] == "auto"
+    settings = config([os.path.join(REPO, "input", "contact", "twist.yaml")])
+    assert settings["fixed[0].motion.end"] == ("never", "default")
