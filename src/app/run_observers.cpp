@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "io/atomic_file.hpp"
@@ -230,6 +231,36 @@ void read_reactions(const std::string& path, std::vector<SupportReaction>& react
   }
 }
 
+// reactions.csv's rows of frames <= `frame` (a restart's, > 0): "" if each is 12 cells of numbers
+// after the support's name and every support has one at `frame`; else the line that is not, or
+// the support that has none.
+std::string check_reactions(const std::string& path, int frame, const std::vector<std::string>& supports) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // the header
+  std::set<std::string> at_frame;
+  for (int number = 2; std::getline(in, line); ++number) {
+    std::istringstream row(line);
+    std::string cell;
+    std::vector<std::string> cells;
+    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    if (cells.empty() || std::atoi(cells[0].c_str()) > frame) continue;
+    const std::string where = path + ":" + std::to_string(number) + ": ";
+    if (cells.size() != 12) return where + "a row of " + std::to_string(cells.size()) + " cells, not 12";
+    for (size_t k = 0; k < cells.size(); ++k) {
+      if (k == 2) continue;  // the support's name
+      char* end = nullptr;
+      const double v = std::strtod(cells[k].c_str(), &end);
+      if (end == cells[k].c_str() || *end != '\0' || !std::isfinite(v)) return where + "'" + cells[k] + "' is not a finite number";
+    }
+    if (std::atoi(cells[0].c_str()) == frame) at_frame.insert(cells[2]);
+  }
+  if (frame > 0)
+    for (const std::string& name : supports)
+      if (!at_frame.count(name)) return path + " has no row of " + name + " at frame " + std::to_string(frame);
+  return "";
+}
+
 // energy.csv's rows of frame 0 and of `frame` (a restart's): "" if it holds both, each of ten
 // numbers; else what it lacks, or the line that is not such a row.
 std::string read_energy(const std::string& path, int frame, EnergyRow& start, EnergyRow& at) {
@@ -317,6 +348,10 @@ void RunLogs::check_restart(const std::string& outdir, int restart_frame) const 
       throw std::runtime_error(why + from + "energy" + written);
   if (reactions_ && !std::ifstream(outdir + "/reactions.csv"))
     throw std::runtime_error(outdir + "/reactions.csv is missing: no rows" + from + "reactions" + written);
+  if (reactions_)
+    if (const std::string why = check_reactions(outdir + "/reactions.csv", restart_frame, Reactions::names(run_.deck));
+        !why.empty())
+      throw std::runtime_error(why + from + "reactions" + written);
 }
 
 void RunLogs::open(const std::string& outdir, int rank, const Scene& scene, int restart_frame,

@@ -337,3 +337,25 @@ def test_restart_with_a_changed_physics_file_is_refused(tmp_path, changed):
     section = "files" if changed == "collider_mesh" else "curve_tables"
     assert done.returncode == 1 and f"section(s) {section}" in done.stdout, done.stdout
     assert tree_digest(out) == before
+
+
+@pytest.mark.parametrize("damage", ["row_removed", "not_a_number"])
+def test_a_damaged_reactions_log_is_refused_at_a_restart(tmp_path, damage):
+    # a deleted row of the checkpoint's frame was taken, leaving a gap in the log (exit 0)
+    base = dict(MOTION, name="run", output={"reactions": True})
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 2, {"every": 2}), out)
+    lines = (out / "reactions.csv").read_text().splitlines()
+    number = next(k for k, line in enumerate(lines) if line.startswith("2,") and ",fixed[1]," in line)
+    if damage == "row_removed":
+        del lines[number]
+        said = "reactions.csv has no row of fixed[1] at frame 2"
+    else:
+        cells = lines[number].split(",")
+        cells[4] = "nan"
+        lines[number] = ",".join(cells)
+        said = f"reactions.csv:{number + 1}: 'nan' is not a finite number"
+    (out / "reactions.csv").write_text("\n".join(lines) + "\n")
+    done = run(tmp_path, "then", dict(deck_with(base, 4), output={"reactions": True}), out,
+               extra=["--restart", "latest"], check=False)
+    assert done.returncode == 1 and said in done.stdout, done.stdout
