@@ -82,7 +82,9 @@ std::string physics_file_contents(const Deck& deck) {
   const auto add = [&](const std::string& key, const std::string& file) {
     if (file.empty()) return;
     std::ifstream in(file, std::ios::binary);
-    text += key + " " + file + "\n" + std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()) + "\n";
+    // The contents alone: the same deck named by another path (absolute, or from another directory)
+    // resolves the file to another path, and must still restart.
+    text += key + "\n" + std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()) + "\n";
   };
   for (size_t k = 0; k < deck.cuts.size(); ++k) add("cuts " + std::to_string(k), deck.cuts[k].surface);
   for (size_t k = 0; k < deck.colliders.size(); ++k)

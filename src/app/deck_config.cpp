@@ -143,6 +143,13 @@ class Config {
         const std::string w = text.substr(0, text.find_first_of(" :;,("));
         if (w == "none" || w == "never" || w == "auto") word = w;
       }
+      // A default worked out as the scene is built (contact.distance, a laplacian_weight): its
+      // member holds 0 until then, which the key refuses.
+      if (word.empty() && value == "0" && !text.empty()) {
+        char* end = nullptr;
+        const double number = std::strtod(text.c_str(), &end);
+        if (end == text.c_str() || number != 0) word = "auto";  // "0 (never ...)" is the value itself
+      }
       if (!given(path) && rule == rules.end() && !word.empty()) value = word;
       const std::string fallback = text.empty() || value == text || word == "none" ? "default" : "default (" + text + ")";
       line(path, value, rule != rules.end() && !given(path) ? "rule: " + rule->second : source(path, fallback));

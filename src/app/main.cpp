@@ -120,13 +120,19 @@ CommandLine parse_command_line(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help" || a == "-help") {
       cl.help = true;
+    } else if (a == "--help-deck") {
+      cl.help_deck = true;
     } else if (a == "-o") {
       if (i + 1 >= argc || !*argv[i + 1]) throw hyperqn::InputError("", 0, "-o", "needs a directory");
+      if (argv[i + 1][0] == '-')  // another option: the run would write into a directory of that name
+        throw hyperqn::InputError("", 0, "-o", "needs a directory, got the option '" + std::string(argv[i + 1]) +
+                                               "' (a directory whose name starts with - is written ./-name)");
       if (!cl.outdir.empty()) throw hyperqn::InputError("", 0, "-o", "given twice (" + cl.outdir + ", " + argv[i + 1] + ")");
       cl.outdir = argv[++i];
     } else if (a == "--restart") {
       // An empty value would start afresh, removing the run it was meant to continue.
-      if (i + 1 >= argc || !*argv[i + 1]) throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
+      if (i + 1 >= argc || !*argv[i + 1] || argv[i + 1][0] == '-')
+        throw hyperqn::InputError("", 0, "--restart", "needs a checkpoint file, 'latest' or 'auto'");
       if (!cl.restart.empty())
         throw hyperqn::InputError("", 0, "--restart", "given twice (" + cl.restart + ", " + argv[i + 1] + ")");
       cl.restart = argv[++i];
@@ -148,7 +154,7 @@ CommandLine parse_command_line(int argc, char** argv) {
   }
   if (cl.config && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run; config only reads the deck");
   if (cl.study && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run, not a study");
-  if (!cl.help && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
+  if (!cl.help && !cl.help_deck && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
 }
 

@@ -99,6 +99,12 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1))
       refuse(deck, name.c_str(), "must be a number in (0, 1]");
   }
+  // -restart (one -) from an options file, PETSC_OPTIONS or the deck: nothing reads it, and the
+  // run would start afresh, removing the run it was meant to continue (--restart is the command
+  // line's, which PETSc lists as the option --restart).
+  for (const auto& [name, value] : all_options())
+    if (name == "-restart")
+      refuse(deck, name.c_str(), "is not an option: a restart is the command line's --restart VALUE");
   // -mat_type would retype every matrix PETSc makes for hyperqn (the constant matrix, Newton's
   // Hessian) through DMCreateMatrix; several types crash in its preallocation (dense, is).
   for (const char* name : {"-mat_type", "-dm_mat_type"}) {

@@ -7,7 +7,7 @@ import subprocess
 import pytest
 from pathlib import Path
 
-from conftest import HYPERQN, MPIEXEC, run_hyperqn, write_deck
+from conftest import HYPERQN, MPIEXEC, REPO, run_hyperqn, write_deck
 from hyperqn_tools import launch
 
 GOOD = {
@@ -624,6 +624,7 @@ def test_commands_without_arguments_refuse_one(tmp_path, command):
 @pytest.mark.parametrize("case", ["stray_word", "second_deck", "two_outdirs", "option_without_value", "deck_option_without_value",
                                   "type_without_value", "restart_empty", "restart_with_equals", "restart_one_dash",
                                   "outdir_empty", "unknown_long_option", "rigid_share_without_value",
+                                  "outdir_an_option", "restart_an_option",
                                   "rigid_share_out_of_range"])
 def test_bad_command_lines_are_refused(tmp_path, case):
     # every argument is used or refused: a word that is neither the deck nor an option's value, a
@@ -645,6 +646,9 @@ def test_bad_command_lines_are_refused(tmp_path, case):
         "restart_one_dash": ([path, "-o", outdir, "-restart", "latest"], ["'-restart': not an option: write --restart VALUE"]),
         "outdir_empty": ([path, "-o", ""], ["'-o': needs a directory"]),
         "unknown_long_option": ([path, "-o", outdir, "--frames", "3"], ["'--frames': not an option of hyperqn"]),
+        # the option after -o became the directory ('-o', '-tao_monitor'), the word after it dropped
+        "outdir_an_option": ([path, "-o", "-tao_monitor", outdir], ["'-o': needs a directory, got the option '-tao_monitor'"]),
+        "restart_an_option": ([path, "-o", outdir, "--restart", "-o"], ["'--restart': needs a checkpoint file"]),
         # taken without a value (the default), or refused only by a scene with stiff clusters, in its setup
         "rigid_share_without_value": ([path, "-o", outdir, "-hyperqn_rigid_h0_share"], ["option -hyperqn_rigid_h0_share: needs a value"]),
         "rigid_share_out_of_range": ([path, "-o", outdir, "-hyperqn_rigid_h0_share", "5"], ["option -hyperqn_rigid_h0_share 5: must be a number in (0, 1]"]),
@@ -659,16 +663,23 @@ def test_bad_command_lines_are_refused(tmp_path, case):
     assert proc.returncode == 1
 
 
-@pytest.mark.parametrize("restart", [["--restart", ""], ["--restart=latest"], ["-restart", "latest"]])
+@pytest.mark.parametrize("restart", [["--restart", ""], ["--restart=latest"], ["-restart", "latest"], "options_file", "deck"])
 def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, restart):
-    # each started afresh and removed the earlier run's files and checkpoints (exit 0)
+    # each started afresh and removed the earlier run's files and checkpoints (exit 0); -restart
+    # from an options file or the deck's petsc: too
     path = write_deck(tmp_path / "good.yaml", {**GOOD, "checkpoint": {"every": 1}})
     outdir = tmp_path / "out"
     run_hyperqn([path, "-o", outdir], ranks=None, timeout=60)
     before = {p: p.stat().st_mtime_ns for p in outdir.rglob("*")}
     assert any("checkpoint" in str(p) for p in before)
+    if restart == "options_file":
+        (tmp_path / "opts").write_text("-restart latest\n")
+        restart = ["-options_file", str(tmp_path / "opts")]
+    elif restart == "deck":
+        path = write_deck(tmp_path / "good.yaml", {**GOOD, "checkpoint": {"every": 1}, "petsc": {"restart": "latest"}})
+        restart = []
     proc = run_hyperqn([path, "-o", outdir] + restart, ranks=None, check=False, timeout=60)
-    assert proc.returncode == 1 and "hyperqn: error: command line:" in proc.stdout, proc.stdout
+    assert proc.returncode == 1 and "hyperqn: error:" in proc.stdout and "restart" in proc.stdout, proc.stdout
     assert {p: p.stat().st_mtime_ns for p in outdir.rglob("*")} == before
 
 
@@ -705,3 +716,10 @@ def test_the_deck_file_s_name_as_the_run_s_name_keeps_the_name_rule(tmp_path, fi
     assert not (tmp_path / "out").exists()
     with_name = write_deck(tmp_path / file_name, {**GOOD, "name": "bar"})
     run_hyperqn([with_name, "-o", tmp_path / "out"], ranks=None, timeout=60)
+
+
+def test_help_deck_after_the_deck():
+    # `hyperqn DECK --help-deck` was refused as "not an option of hyperqn", naming --help-deck among them
+    proc = subprocess.run([HYPERQN, os.path.join(REPO, "input", "bar.yaml"), "--help-deck"], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0 and "Deck keys declared" in proc.stdout, proc.stdout + proc.stderr

@@ -328,6 +328,13 @@ def test_restart_with_a_changed_physics_file_is_refused(tmp_path, changed):
                          "motion": {"translate": {"velocity": [0, -1, 0]}, "curve": {"type": "table", "file": "c.csv"}}}]
     out = tmp_path / "out"
     run(tmp_path, "first", deck_with(base, 2, {"every": 2}), out)
+    # unchanged files, the deck named by a relative path from another directory: accepted (the
+    # files' resolved paths were hashed with their contents, and such a restart was refused)
+    same = write_deck(tmp_path / "same.yaml", deck_with(base, 3))
+    (tmp_path / "elsewhere").mkdir()
+    proc = subprocess.run([HYPERQN, os.path.relpath(same, tmp_path / "elsewhere"), "-o", str(out), "--restart", "latest"],
+                          cwd=tmp_path / "elsewhere", capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
     if changed == "collider_mesh":
         (tmp_path / "ob.obj").write_text("v -1 -0.7 -1\nv 1 -0.7 -1\nv 0 -0.7 1\nf 1 3 2\n")
     else:
