@@ -180,6 +180,18 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
   const std::string name = started_as.empty() ? deck.name : started_as;
   const std::string& deck_format = kOutputFormatNames[size_t(deck.output.format)];
   const bool wanted = deck.output.vtk && deck_format == format;
+  if (saved && !state) {  // a series of this format here began after the checkpoint: it goes
+    std::string error;
+    int rank;
+    MPI_Comm_rank(comm, &rank);
+    if (rank == 0) try {
+        if (const int removed = remove_series_begun_later(outdir, format))
+          PetscPrintf(PETSC_COMM_SELF, "hyperqn: %d file(s) of a %s series begun after the checkpoint removed\n", removed, format);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    throw_if_any_failed(comm, error);
+  }
   if (!wanted && started_as.empty()) return;
   std::unique_ptr<Series> series;
   if constexpr (std::is_same_v<Series, VtkSeries>)

@@ -105,6 +105,18 @@ Cleared clear_previous_run(const std::string& dir) {
   return cleared;
 }
 
+int remove_series_begun_later(const std::string& dir, const std::string& format) {
+  const std::vector<std::string> ends = format == "vtu" ? std::vector<std::string>{".pvd", ".vtu", ".pvtu"}
+                                                        : std::vector<std::string>{".xdmf", ".h5"};
+  return remove_files(dir, [&](const std::string& name) {
+    const std::string base = is_atomic_temporary(name) ? temporary_target(name) : name;
+    const bool of_format = std::any_of(ends.begin(), ends.end(), [&](const std::string& e) {
+      return base.size() > e.size() && base.compare(base.size() - e.size(), e.size(), e) == 0;
+    });
+    return of_format && is_run_output(dir, name);
+  });
+}
+
 int remove_interrupted_writes(const std::string& dir) {
   return remove_files(dir, [&](const std::string& name) { return is_atomic_temporary(name) && is_run_output(dir, name); });
 }

@@ -41,6 +41,11 @@ struct Cleared {
 // Throws std::runtime_error naming a file that cannot be removed.
 Cleared clear_previous_run(const std::string& dir);
 
+// A restart from a checkpoint that holds no state of the frame series of `format` ("vtu" or
+// "xdmf"): such a series in dir began after the checkpoint, on the trajectory the restart leaves,
+// and its files go (its index first). Call on one rank; returns how many. Throws std::runtime_error.
+int remove_series_begun_later(const std::string& dir, const std::string& format);
+
 // A restart: removes the temporaries that interrupted writes of run outputs left in dir (a
 // killed run's .NAME_00010.vtu.tmp-PID). Call on one rank; returns how many.
 int remove_interrupted_writes(const std::string& dir);

@@ -29,7 +29,7 @@ import pytest
 from test_safe_outputs import check_complete, run_and_kill, slow_deck
 from conftest import HYPERQN, run_hyperqn, write_deck
 from hyperqn_tools import launch
-from hyperqn_tools.output import final_frame, read_checkpoint, read_iterations, read_pvd, read_summary, read_xdmf, rest_diagonal
+from hyperqn_tools.output import final_frame, frame_list, read_checkpoint, read_iterations, read_pvd, read_summary, read_xdmf, rest_diagonal
 
 FRAMES = 8
 BAR = {
@@ -366,3 +366,19 @@ def test_a_damaged_reactions_log_is_refused_at_a_restart(tmp_path, damage):
     done = run(tmp_path, "then", dict(deck_with(base, 4), output={"reactions": True}), out,
                extra=["--restart", "latest"], check=False)
     assert done.returncode == 1 and said in done.stdout, done.stdout
+
+
+def test_a_series_begun_after_the_checkpoint_goes_at_a_restart(tmp_path):
+    # Found from outside: frames in vtu to 3, then XDMF from 3 to 6, then a restart from checkpoint 3
+    # in vtu: the XDMF series of the abandoned frames 4-6 stayed, and frame_list took its frames
+    base = dict(MOTION, name="run")
+    out = tmp_path / "out"
+    run(tmp_path, "first", deck_with(base, 3, {"every": 1, "keep": 10}), out)
+    run(tmp_path, "xdmf", dict(deck_with(base, 6, {"every": 1, "keep": 10}), output={"format": "xdmf"}), out,
+        extra=["--restart", "latest"])
+    assert (out / "run.xdmf").exists()
+    done = run(tmp_path, "again", deck_with(base, 6), out, extra=["--restart", str(out / "checkpoints" / "checkpoint_3.h5")])
+    assert "file(s) of a xdmf series begun after the checkpoint removed" in done.stdout
+    assert not (out / "run.xdmf").exists() and not (out / "run.h5").exists()
+    assert [n for n, _, _ in frame_list(out)] == list(range(7))
+    assert all(path.endswith(".vtu") for _, _, path in frame_list(out))
