@@ -235,6 +235,10 @@ PetscErrorCode FactoredSystem::factor(Mat A, CholeskyAnalysis* analysis) {
   MatFactorError failed = MAT_FACTOR_NOERROR;
   const char* name = factor_package_name(package_);
   PetscFunctionBeginUser;
+  PetscInt rows;
+  PetscCall(MatGetSize(A, &rows, nullptr));
+  empty_ = rows == 0;  // the packages fail on a matrix of no rows (split alone took it)
+  if (empty_) PetscFunctionReturn(0);
   PetscMPIInt ranks;  // of A: 1 on one rank and for the copy gathered to rank 0
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)A), &ranks));
   const bool supernodal = package_ == FactorPackage::supernodal || package_ == FactorPackage::split;
@@ -525,6 +529,7 @@ PetscErrorCode FactoredSystem::by_columns(Vec x, Vec y, const std::function<Pets
 // x = A^{-1} b with the factor on this rank (b and x: all of A's rows), or x = B b by the V-cycle.
 PetscErrorCode FactoredSystem::solve_here(Vec b, Vec x) const {
   PetscFunctionBeginUser;
+  if (empty_) PetscFunctionReturn(0);
   if (split_ || supernodal_ || topology_) {  // the dof layout is the interleaved one: no copies
     const PetscScalar* in;
     PetscScalar* out;

@@ -187,6 +187,7 @@ class FactoredSystem {
   std::unique_ptr<SplitCholesky> split_;                   // instead of factor_ for split on > 1 rank
   std::unique_ptr<TopologyH0> topology_;                   // instead of supernodal_ in a scene with cuts (rank 0's when gathered)
   bool follows_topology_ = false;                          // topology_ on this rank or rank 0
+  bool empty_ = false;  // a scene with no free dof (every vertex left fixed by a removal): nothing to factor or solve
   std::vector<int64_t> row_ids_;       // per row of A1: its vertex id (empty: topology_ not used)
   int64_t max_touched_ = TopologyH0::kDefaultMaxTouched;  // topology_'s size trigger
   std::vector<int64_t> topology_ids_;  // per row of topology_: its vertex id (the rows it had, then its new vertices)

@@ -11,13 +11,14 @@ restart is bitwise; bad decks are refused. Energy and momentum: at each step wit
 the remaining body's energy (a ringing free bar, implicit midpoint) and momenta (a spinning,
 translating free body) are the frame before's less the removed tets' share."""
 import copy
+import os
 import csv
 import re
 
 import numpy as np
 import pytest
 
-from conftest import run_deck, run_hyperqn, write_deck
+from conftest import REPO, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.energy import frame_lumped_masses as lumped_masses, frame_tet_energies, frame_tet_momenta
 from hyperqn_tools.intersections import check_run
 from hyperqn_tools.output import Frame, final_frame, frame_list, frame_meshes, read_frames, read_summary, rest_diagonal
@@ -477,3 +478,23 @@ def test_a_rank_may_lose_all_its_tets(tmp_path):
     a = final_frame(one)
     assert np.array_equal(a.vertex_id, last.vertex_id)
     assert np.abs(a.points - last.points).max() <= 1e-8 * rest_diagonal(a)
+
+
+@pytest.mark.parametrize("ranks, package", [(None, None), (2, "supernodal"), (2, "mumps")])
+def test_a_removal_that_leaves_no_free_vertex(tmp_path, ranks, package):
+    """Found from outside: a saw that took the only tet with free vertices (two tets, the other
+    clamped) left 0 dofs; at 1 rank (and at 2 with the gathered packages) the run stopped on the
+    factorization of the empty constant matrix, at 2 ranks with split it went on. Now every rank
+    count and package goes on, the clamped tet at rest."""
+    deck = {"mesh": {"file": os.path.join(REPO, "input", "meshes", "two_tets.mesh")},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 500},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [1.01, 1.01, 1.01]}}],
+            "cuts": [{"center": [0.2, 2.0, -0.5], "normal": [0, 0, 1], "axis": [0, 1, 0], "size": [2.0, 2.0],
+                      "frame": "rest", "remove": True,
+                      "motion": {"translate": {"velocity": [0, -20, 0]}, "start": 0.0, "end": 0.3}}],
+            "gravity": [0, -9.81, 0], "time": {"dt": 0.01, "frames": 6}}
+    extra = ["-hyperqn_h0_package", package] if package else []
+    out, summary = run_deck(tmp_path, "w", deck, ranks=ranks, extra=extra)
+    assert summary["cuts"]["tets_removed"] == 1 and summary["dofs"] == 0
+    last = final_frame(out)
+    assert np.abs(last.displacement).max() == 0
