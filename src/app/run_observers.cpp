@@ -209,16 +209,28 @@ void note_reaction(SupportReaction& r, int frame, const SupportForce& f) {
   }
 }
 
+// A log's row as its cells (the logs hold no quoted commas).
+std::vector<std::string> csv_cells(const std::string& line) {
+  std::istringstream row(line);
+  std::vector<std::string> cells;
+  for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+  return cells;
+}
+
+// A cell read back at a restart: true with *value if it is a finite number, nothing more.
+bool finite_cell(const std::string& cell, double* value) {
+  char* end = nullptr;
+  *value = std::strtod(cell.c_str(), &end);
+  return end != cell.c_str() && *end == '\0' && std::isfinite(*value);
+}
+
 // The summary's reactions of the frames reactions.csv holds (a restart's, cut at its frame).
 void read_reactions(const std::string& path, std::vector<SupportReaction>& reactions) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);  // the header
   while (std::getline(in, line)) {
-    std::istringstream row(line);
-    std::string cell;
-    std::vector<std::string> cells;
-    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = csv_cells(line);
     if (cells.size() != 12) continue;
     SupportForce f;
     for (int d = 0; d < 3; ++d) {
@@ -240,19 +252,13 @@ std::string check_reactions(const std::string& path, int frame, const std::vecto
   std::getline(in, line);  // the header
   std::set<std::string> at_frame;
   for (int number = 2; std::getline(in, line); ++number) {
-    std::istringstream row(line);
-    std::string cell;
-    std::vector<std::string> cells;
-    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = csv_cells(line);
     if (cells.empty() || std::atoi(cells[0].c_str()) > frame) continue;
     const std::string where = path + ":" + std::to_string(number) + ": ";
     if (cells.size() != 12) return where + "a row of " + std::to_string(cells.size()) + " cells, not 12";
-    for (size_t k = 0; k < cells.size(); ++k) {
-      if (k == 2) continue;  // the support's name
-      char* end = nullptr;
-      const double v = std::strtod(cells[k].c_str(), &end);
-      if (end == cells[k].c_str() || *end != '\0' || !std::isfinite(v)) return where + "'" + cells[k] + "' is not a finite number";
-    }
+    double v;
+    for (size_t k = 0; k < cells.size(); ++k)
+      if (k != 2 && !finite_cell(cells[k], &v)) return where + "'" + cells[k] + "' is not a finite number";  // 2: the name
     if (std::atoi(cells[0].c_str()) == frame) at_frame.insert(cells[2]);
   }
   if (frame > 0)
@@ -269,21 +275,14 @@ std::string read_energy(const std::string& path, int frame, EnergyRow& start, En
   std::getline(in, line);  // the header
   bool have_start = false, have_at = false;
   for (int number = 2; std::getline(in, line); ++number) {
-    std::istringstream row(line);
-    std::string cell;
-    std::vector<std::string> cells;
-    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = csv_cells(line);
     const int row_frame = cells.empty() ? -1 : std::atoi(cells[0].c_str());
     if (row_frame != 0 && row_frame != frame) continue;
     const std::string where = path + ":" + std::to_string(number) + ": ";
     if (cells.size() != 10) return where + "a row of " + std::to_string(cells.size()) + " cells, not 10";
     double v[10];
-    for (int k = 0; k < 10; ++k) {
-      char* end = nullptr;
-      v[k] = std::strtod(cells[k].c_str(), &end);
-      if (end == cells[k].c_str() || *end != '\0' || !std::isfinite(v[k]))
-        return where + "'" + cells[k] + "' is not a finite number";
-    }
+    for (int k = 0; k < 10; ++k)
+      if (!finite_cell(cells[k], &v[k])) return where + "'" + cells[k] + "' is not a finite number";
     const EnergyRow r{v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9]};
     if (row_frame == 0) start = r, have_start = true;
     if (row_frame == frame) at = r, have_at = true;
@@ -305,10 +304,7 @@ bool read_topology(const std::string& path, int frame, long long sums[7]) {
   std::getline(in, line);  // the header
   bool have_frame = false;
   while (std::getline(in, line)) {
-    std::istringstream row(line);
-    std::string cell;
-    std::vector<std::string> cells;
-    while (std::getline(row, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = csv_cells(line);
     if ((cells.size() != 9 && cells.size() != 10) || std::atoi(cells[0].c_str()) > frame) continue;
     have_frame |= std::atoi(cells[0].c_str()) == frame;
     const int per_frame[7] = {2, 4, 5, 6, 7, 8, 9};  // faces_total is a running sum of faces_separated

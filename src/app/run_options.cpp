@@ -84,27 +84,23 @@ static const char* const kNumericOptions[] = {
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
-  // A value-taking option given without one: hyperqn's numbers and every PETSc *_type (PETSc would
-  // keep the default unsaid, or fail later without naming the option).
   for (const auto& [name, value] : all_options()) {
+    // A value-taking option given without one: hyperqn's numbers and every PETSc *_type (PETSc would
+    // keep the default unsaid, or fail later without naming the option).
     const bool number = std::find(std::begin(kNumericOptions), std::end(kNumericOptions), name) != std::end(kNumericOptions);
     const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
     if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
+    // Read by the rigid-mode H0 when a scene has one: checked here, so that config and every run refuse it alike.
+    if (name == "-hyperqn_rigid_h0_share") {
+      char* end = nullptr;
+      const double share = std::strtod(value.c_str(), &end);
+      if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1)) refuse(deck, name.c_str(), "must be a number in (0, 1]");
+    }
+    // -restart (one -) from an options file, PETSC_OPTIONS or the deck: nothing reads it, and the
+    // run would start afresh, removing the run it was meant to continue (--restart is the command
+    // line's, which PETSc lists as the option --restart).
+    if (name == "-restart") refuse(deck, name.c_str(), "is not an option: a restart is the command line's --restart VALUE");
   }
-  // Read by the rigid-mode H0 when a scene has one: checked here, so that config and every run refuse it alike.
-  for (const auto& [name, value] : all_options()) {
-    if (name != "-hyperqn_rigid_h0_share") continue;
-    char* end = nullptr;
-    const double share = std::strtod(value.c_str(), &end);
-    if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1))
-      refuse(deck, name.c_str(), "must be a number in (0, 1]");
-  }
-  // -restart (one -) from an options file, PETSC_OPTIONS or the deck: nothing reads it, and the
-  // run would start afresh, removing the run it was meant to continue (--restart is the command
-  // line's, which PETSc lists as the option --restart).
-  for (const auto& [name, value] : all_options())
-    if (name == "-restart")
-      refuse(deck, name.c_str(), "is not an option: a restart is the command line's --restart VALUE");
   // -mat_type would retype every matrix PETSc makes for hyperqn (the constant matrix, Newton's
   // Hessian) through DMCreateMatrix; several types crash in its preallocation (dense, is).
   for (const char* name : {"-mat_type", "-dm_mat_type"}) {
