@@ -734,6 +734,8 @@ void read_petsc(const Reader& r, const Value& v, const std::string& prefix, Deck
     if (!plain || (prefix.empty() && !std::isalpha((unsigned char)name[0])))
       r.fail(x, "not a PETSc option name: letters, digits and '_' only, starting with a letter");
     std::string option = prefix.empty() ? name : prefix + "_" + name;
+    if (option == "options_file" || option == "options_file_yaml")  // set now, it would be read by nothing
+      r.fail(x, "PETSc reads options files only as it starts: give -" + option + " FILE on the command line");
     if (x.node.IsMap()) {
       read_petsc(r, x, option, deck, depth + 1);
       continue;

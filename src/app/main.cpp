@@ -12,7 +12,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "app/deck.hpp"
 #include "app/deck_config.hpp"
@@ -116,6 +120,7 @@ CommandLine parse_command_line(int argc, char** argv) {
     (std::strcmp(argv[1], "registry") == 0 ? cl.registry : cl.help_deck) = true;
     return cl;
   }
+  std::pair<std::string, std::string> taken_deck;  // a PETSc option and the deck-like word it takes as its value
   for (int i = first; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "-h" || a == "--help" || a == "-help") {
@@ -140,12 +145,18 @@ CommandLine parse_command_line(int argc, char** argv) {
       // PETSc would take these as options nothing reads: the run would start afresh.
       const std::string ours = a.rfind("-o", 0) == 0 ? "-o" : "--restart";
       throw hyperqn::InputError("", 0, a, "not an option: write " + ours + " VALUE (" + ours + ", a space, its value)");
+    } else if (a == "-" || a == "--") {
+      throw hyperqn::InputError("", 0, a, "not an option (hyperqn reads no standard input and has no '--')");
     } else if (a.size() > 2 && a[0] == '-' && a[1] == '-') {
       throw hyperqn::InputError("", 0, a, "not an option of hyperqn (its long options are --restart, --help, --help-deck; "
                                           "PETSc's start with one -)");
     } else if (a.empty() || a[0] != '-') {
       // The deck, or the value of the PETSc option before it; any other word would be dropped unsaid.
-      if (i > first && argv[i - 1][0] == '-' && argv[i - 1][1] != '\0') continue;
+      if (i > first && argv[i - 1][0] == '-' && argv[i - 1][1] != '\0') {
+        if (a.size() > 5 && (a.compare(a.size() - 5, 5, ".yaml") == 0 || a.compare(a.size() - 4, 4, ".yml") == 0))
+          taken_deck = {argv[i - 1], a};
+        continue;
+      }
       if (!cl.deck.empty())
         throw hyperqn::InputError("", 0, "", "unexpected argument '" + a + "': the deck is " + cl.deck +
                                                  " (one deck a run; options start with -)\n" + std::string(usage));
@@ -154,6 +165,10 @@ CommandLine parse_command_line(int argc, char** argv) {
   }
   if (cl.config && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run; config only reads the deck");
   if (cl.study && !cl.restart.empty()) throw hyperqn::InputError("", 0, "--restart", "continues a run, not a study");
+  if (!cl.help && !cl.help_deck && cl.deck.empty() && !taken_deck.first.empty())
+    throw hyperqn::InputError("", 0, "", "no deck given: PETSc takes " + taken_deck.second + " as the value of " +
+                                             taken_deck.first + "; give the deck first (hyperqn " + taken_deck.second +
+                                             " " + taken_deck.first + " ...)");
   if (!cl.help && !cl.help_deck && cl.deck.empty()) throw hyperqn::InputError("", 0, "", "no deck given\n" + std::string(usage));
   return cl;
 }
@@ -244,20 +259,59 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
   PetscFunctionReturn(0);
 }
 
-// What PETSc reads as it starts and would fail on with its stack trace (and, for an options file
-// it opens on rank 0 alone, with the other ranks left waiting): the command line's options files,
-// and -log_view's format (hyperqn::log_view_problem). "" if none.
-std::string start_option_problem(int argc, char** argv) {
-  for (int i = 1; i + 1 < argc; ++i) {
-    const std::string name = argv[i], value = argv[i + 1];
-    if (name == "-options_file" || name == "-options_file_yaml") {
-      FILE* f = std::fopen(value.c_str(), "r");
-      if (!f) return "option " + name + " " + value + ": cannot open the file";
-      std::fclose(f);
-    }
-    if (name == "-log_view" && !value.empty() && value[0] != '-')
-      if (const std::string problem = hyperqn::log_view_problem(value); !problem.empty()) return "option -log_view " + value + ": " + problem;
+// The options PETSc reads as it starts, as (name, value) pairs in its order: the command line,
+// PETSC_OPTIONS, and every options file these name (nested ones too; '#' starts a comment). A
+// file that cannot be opened is a problem of its own: PETSc would stop on it with its stack trace
+// (and open it on rank 0 alone, the other ranks left waiting).
+using OptionWords = std::vector<std::pair<std::string, std::string>>;
+
+void add_option_words(const std::vector<std::string>& words, const std::string& where, int depth, OptionWords& out,
+                      std::string& problem);
+
+void add_options_file(const std::string& name, const std::string& path, const std::string& where, int depth,
+                      OptionWords& out, std::string& problem) {
+  std::ifstream file(path);
+  if (!file) {
+    problem = "option " + name + " " + path + where + ": cannot open the file";
+    return;
   }
+  if (name != "-options_file" || depth > 10) return;  // YAML files are PETSc's to read; a loop of files stops
+  std::vector<std::string> words;
+  for (std::string line; std::getline(file, line);) {
+    std::istringstream in(line.substr(0, line.find('#')));
+    for (std::string w; in >> w;) words.push_back(w);
+  }
+  add_option_words(words, " (named in " + path + ")", depth + 1, out, problem);
+}
+
+void add_option_words(const std::vector<std::string>& words, const std::string& where, int depth, OptionWords& out,
+                      std::string& problem) {
+  for (size_t i = 0; i < words.size() && problem.empty(); ++i) {
+    const std::string& name = words[i];
+    if (name.size() < 2 || name[0] != '-') continue;
+    const std::string value = i + 1 < words.size() ? words[i + 1] : "";
+    out.push_back({name, value});
+    if ((name == "-options_file" || name == "-options_file_yaml") && !value.empty())
+      add_options_file(name, value, where, depth, out, problem);
+  }
+}
+
+// What PETSc reads as it starts and would fail on with its stack trace: options files that cannot
+// be opened, and -log_view's format (hyperqn::log_view_problem). "" if none.
+std::string start_option_problem(int argc, char** argv) {
+  std::string problem;
+  OptionWords options;
+  add_option_words(std::vector<std::string>(argv + 1, argv + argc), "", 0, options, problem);
+  if (const char* env = std::getenv("PETSC_OPTIONS"); env && problem.empty()) {
+    std::istringstream in(env);
+    std::vector<std::string> words;
+    for (std::string w; in >> w;) words.push_back(w);
+    add_option_words(words, " (in PETSC_OPTIONS)", 0, options, problem);
+  }
+  if (!problem.empty()) return problem;
+  for (const auto& [name, value] : options)
+    if (name == "-log_view" && !value.empty() && value[0] != '-')
+      if (const std::string why = hyperqn::log_view_problem(value); !why.empty()) return "option -log_view " + value + ": " + why;
   return "";
 }
 
@@ -320,6 +374,7 @@ int main(int argc, char** argv) {
     }
   } catch (const hyperqn::InputError& e) {  // thrown on every rank alike
     PetscCall(hyperqn::print_error(PETSC_COMM_WORLD, e.what()));
+    PetscCall(PetscOptionsClearValue(nullptr, "-log_view"));  // nothing ran: no log to write, or to fail on
     status = 1;
   } catch (const std::exception& e) {  // maybe on one rank only: the others must not wait for it
     std::fprintf(stderr, "hyperqn: error: %s\n", e.what());

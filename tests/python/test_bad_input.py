@@ -455,6 +455,50 @@ def test_options_petsc_reads_as_it_starts_are_input_errors(tmp_path, case, ranks
     assert not log.exists()
 
 
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("where", ["options_file", "PETSC_OPTIONS"])
+def test_a_missing_options_file_named_elsewhere_is_an_input_error(tmp_path, monkeypatch, where, ranks):
+    # named in another options file or in PETSC_OPTIONS: PETSc's stack trace, exit 83
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    missing = tmp_path / "none.txt"
+    args = []
+    if where == "options_file":
+        (tmp_path / "opts").write_text(f"# options\n-tao_max_it 5 -options_file {missing} # nested\n")
+        args, said = ["-options_file", tmp_path / "opts"], f"(named in {tmp_path / 'opts'})"
+    else:
+        monkeypatch.setenv("PETSC_OPTIONS", f"-options_file {missing}")
+        said = "(in PETSC_OPTIONS)"
+    proc = run_hyperqn([path, "-o", tmp_path / "out"] + args, ranks=ranks, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out",
+                         [f"hyperqn: error: command line: option -options_file {missing} {said}: cannot open the file"])
+    assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout and proc.stdout.count("hyperqn: error") == 1
+
+
+def test_options_file_in_the_deck_is_refused(tmp_path):
+    # PETSc reads options files only as it starts: the deck's was read by nothing (a warning)
+    (tmp_path / "opts").write_text("-tao_max_it 3\n")
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, "petsc": {"options_file": str(tmp_path / "opts")}})
+    proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out",
+                         ["deck.yaml:", "'petsc.options_file': PETSc reads options files only as it starts"])
+
+
+@pytest.mark.parametrize("args, said", [
+    (["-log_view", "DECK"], "no deck given: PETSc takes DECK as the value of -log_view; give the deck first"),
+    (["-log_view", "word"], "no deck given"),
+    (["DECK", "-"], "'-': not an option"),
+    (["DECK", "--", "-tao_max_it", "3"], "'--': not an option"),
+])
+def test_a_deck_taken_as_an_option_s_value_and_bare_dashes(tmp_path, args, said):
+    # -log_view DECK: "no deck given", then PETSc's stack trace on a viewer named DECK (exit 56);
+    # a bare - or -- was passed to PETSc unsaid
+    path = str(write_deck(tmp_path / "deck.yaml", GOOD))
+    args = [path if a == "DECK" else a for a in args] + ["-o", tmp_path / "out"]
+    proc = run_hyperqn(args, ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", [said.replace("DECK", path)])
+    assert proc.returncode == 1 and "PETSC ERROR" not in proc.stdout
+
+
 def test_a_nested_log_in_the_deck_is_refused(tmp_path):
     # it crashed (SEGV) after the run had written everything and said ok
     log = tmp_path / "log.xml"
