@@ -164,6 +164,20 @@ static CheckpointHeader scene_identity(MPI_Comm comm, const Deck& deck, const Sc
   return id;
 }
 
+// The index file of the series the deck's format writes to: under the name that series started
+// with when the checkpoint carries it (a restart whose deck changed its name and its format).
+static std::string deck_format_index(const Deck& deck, const CheckpointHeader* saved, const std::string& outdir) {
+  const bool vtu = deck.output.format == OutputFormat::vtu;
+  std::string name = deck.name;
+  if (saved)
+    for (const auto& [key, value] : saved->writers)
+      if (key == (vtu ? VtkSeries::kRestartKey : XdmfSeries::kRestartKey)) {
+        const std::string started_as = vtu ? VtkSeries::series_name(value) : XdmfSeries::series_name(value);
+        if (!started_as.empty()) name = started_as;
+      }
+  return outdir + "/" + name + (vtu ? ".pvd" : ".xdmf");
+}
+
 // The frame series of a run: VTK (output.format vtu) or XDMF, if the deck asks for frames
 // (output.vtk). A restart (saved: its checkpoint) continues the series the run started, under the
 // name it started with, cut back to the checkpoint's frame; a series the deck no longer asks for
@@ -198,7 +212,6 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
     series = std::make_unique<Series>(comm, outdir, name, deck.output.vtu_encoding == VtuEncoding::raw);
   else
     series = std::make_unique<Series>(comm, outdir, name);
-  const std::string index = outdir + "/" + deck.name + (deck.output.format == OutputFormat::vtu ? ".pvd" : ".xdmf");
   std::string error;
   try {
     series->begin_run(mesh);
@@ -214,7 +227,7 @@ static void add_series(MPI_Comm comm, const Deck& deck, const char* format, cons
       PetscPrintf(comm, "hyperqn: output.vtk is false: %s stays as it was at frame %d\n", kept.c_str(), saved->frame);
     else if (!wanted)
       PetscPrintf(comm, "hyperqn: output.format is now %s: %s stays as it was at frame %d; later frames go to %s\n",
-                  deck_format.c_str(), kept.c_str(), saved->frame, index.c_str());
+                  deck_format.c_str(), kept.c_str(), saved->frame, deck_format_index(deck, saved, outdir).c_str());
     else if (name != deck.name)
       PetscPrintf(comm, "hyperqn: the %s series goes on as %s, the name it started with (the deck now says %s)\n", format,
                   kept_name.c_str(), deck.name.c_str());

@@ -404,6 +404,20 @@ def test_restart_with_another_name_or_without_vtk(tmp_path, change):
     check_complete(out)
 
 
+def test_restart_with_another_name_and_format_names_the_index_it_writes(tmp_path):
+    # vtu as run, then xdmf as run, then vtu as renamed: the vtu series goes on as run.pvd, but
+    # the console said "later frames go to out/renamed.pvd"
+    out = tmp_path / "out"
+    killed(deck(tmp_path), out, 8)  # checkpoint 5: the vtu series
+    killed(deck(tmp_path, "xdmf", output={"format": "xdmf"}), out, 13, extra=["--restart", "latest"])  # checkpoint 10: both
+    done = run_hyperqn([deck(tmp_path, "renamed", name="renamed"), "-o", out, "--restart", "latest"])
+    assert f"output.format is now vtu: {out}/run.xdmf stays as it was at frame 10; later frames go to {out}/run.pvd" \
+        in done.stdout, done.stdout
+    frames = [*range(6), *range(11, 21)]  # frames 6-10 are in run.xdmf
+    assert [os.path.basename(f) for _, f in read_pvd(out / "run.pvd")] == [f"run_{k:05d}.vtu" for k in frames]
+    assert not [n for n in os.listdir(out) if n.startswith("renamed")]
+
+
 def test_signal_during_setup_stops_before_the_first_frame(tmp_path):
     path = deck(tmp_path)
     out = tmp_path / "out"
