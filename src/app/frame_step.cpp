@@ -95,9 +95,10 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
       PetscCall(scene.body->local_positions(state.x, pos_));
       out.stop = divergence(longest_edge(comm, scene.mesh, pos_) / limits_.diagonal, limits_.divergence_limit);
       if (!out.stop.empty() && !scene.step->has_inertia())  // what a load step cannot have
-        out.stop += "; static: a piece that nothing holds (no vertex fixed or attached, none on a collider: e.g. one "
-                    "that a cut, fracture, tear or snap or a released support set free) has no equilibrium: use a "
-                    "dynamic time.integrator for such a scene";
+        out.stop += "; static: either the load step is more than the body carries from the last equilibrium (more, "
+                    "smaller load steps: more frames), or a piece that nothing holds (no vertex fixed or attached, none "
+                    "on a collider: e.g. one that a cut, fracture, tear or snap or a released support set free) has no "
+                    "equilibrium (use a dynamic time.integrator for such a scene)";
     }
     if (out.stop.empty()) out.stop = exploded(out.max_abs_J, limits_.element_limit);
     out.inverted = degenerate(out.min_J);

@@ -326,6 +326,20 @@ def test_a_piece_a_cut_sets_free_stops_a_static_run_saying_why(tmp_path):
     out = tmp_path / "out"
     proc = run_hyperqn([write_deck(tmp_path / "freed.yaml", deck), "-o", out], ranks=None, check=False, timeout=300)
     assert proc.returncode == 1
-    assert "diverged" in proc.stdout and "static: a piece that nothing holds" in proc.stdout
+    assert "diverged" in proc.stdout and "or a piece that nothing holds" in proc.stdout
     assert "use a dynamic time.integrator" in proc.stdout
     assert read_summary(out)["cuts"]["faces_separated"] > 0
+
+
+def test_a_held_body_s_divergence_names_the_load_step_first(tmp_path):
+    # The clamped cantilever under a traction it cannot carry in one step: the message blamed only
+    # "a piece that nothing holds", which sent the user to the supports
+    deck = copy.deepcopy(CANTILEVER)
+    deck["mesh"]["box"]["cells"] = [4, 1, 1]
+    deck["loads"][0]["traction"] = [0, -2.0e9, 0]
+    deck["time"]["frames"] = 1
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "over.yaml", deck), "-o", out], ranks=None, check=False, timeout=120)
+    assert proc.returncode == 1 and "diverged" in proc.stdout, proc.stdout
+    assert "static: either the load step is more than the body carries from the last equilibrium (more, smaller " \
+           "load steps: more frames)" in proc.stdout
