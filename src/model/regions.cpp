@@ -30,16 +30,6 @@ static int64_t global_count(MPI_Comm comm, int64_t count) {
   return count;
 }
 
-// The deck key of boxes[b]: "<section>[b].box", or for a body's own region (listed after the
-// scene's, body by body) "bodies[k].<section>[j].box".
-static std::string box_key(const std::vector<BoxRegion>& boxes, size_t b, const std::string& section) {
-  const int body = boxes[b].body;
-  if (body < 0) return section + "[" + std::to_string(b) + "].box";
-  size_t first = b;
-  while (first > 0 && boxes[first - 1].body == body) --first;
-  return "bodies[" + std::to_string(body) + "]." + section + "[" + std::to_string(b - first) + "].box";
-}
-
 std::vector<int32_t> vertex_bodies(MPI_Comm comm, const MeshPiece& piece, int bodies) {
   if (bodies == 0) return {};
   const TetMesh& m = piece.mesh;
@@ -98,7 +88,7 @@ std::vector<int32_t> select_vertices(MPI_Comm comm, const TetMesh& mesh, const s
       throw InputError(deck_path, region.face_tag_line, section + "[" + std::to_string(b) + "].face_tag",
                        "selects no vertex of the mesh: tag " + std::to_string(region.face_tag) + "'s triangles have " +
                            (region.has_box ? "no vertex in the box" : "no vertex of a tet"));
-    throw InputError(deck_path, region.line, box_key(boxes, b, section),
+    throw InputError(deck_path, region.line, region_key(boxes, b, section) + ".box",
                      region.body >= 0 ? "selects no vertex of its body (boxes are in coordinates after the body's mesh.transform)"
                                       : "selects no vertex of the mesh (boxes are in coordinates after mesh.transform)");
   }
@@ -154,7 +144,7 @@ void check_attachments(MPI_Comm comm, const TetMesh& mesh, const std::vector<Att
       acts = selects(boxes[k], &mesh.coords[3 * v], v, vertex_body, tol) && (f == 0 || fixed[f - 1].release > 0);
     }
     if (global_count(comm, acts) == 0)
-      throw InputError(deck_path, boxes[k].line, box_key(boxes, k, "attachments"),
+      throw InputError(deck_path, boxes[k].line, region_key(boxes, k, "attachments") + ".box",
                        "selects only vertices that are fixed (and never released): the attachment would do nothing");
   }
 }

@@ -38,6 +38,16 @@ struct BoxRegion {
   int face_tag_line = 0;
 };
 
+// The deck key of regions[k] of a section: "<section>[k]", or for a body's own region (listed
+// after the scene's, body by body) "bodies[b].<section>[j]".
+inline std::string region_key(const std::vector<BoxRegion>& regions, size_t k, const std::string& section) {
+  const int body = regions[k].body;
+  if (body < 0) return section + "[" + std::to_string(k) + "]";
+  size_t first = k;
+  while (first > 0 && regions[first - 1].body == body) --first;
+  return "bodies[" + std::to_string(body) + "]." + section + "[" + std::to_string(k - first) + "]";
+}
+
 // The components a fixed region holds as bits (1: x, 2: y, 4: z); 7 for all three (no `components`).
 int held_components(const BoxRegion& region);
 // Whether a fixed region holds only some components (a roller, a symmetry plane).

@@ -252,7 +252,7 @@ struct SceneSpec {
   std::vector<NamedFaceTag> named_face_tags() const {
     std::vector<NamedFaceTag> named;
     for (size_t k = 0; k < fixed.size(); ++k)
-      if (fixed[k].has_face_tag) named.push_back({"fixed[" + std::to_string(k) + "].face_tag", fixed[k].face_tag_line, fixed[k].face_tag});
+      if (fixed[k].has_face_tag) named.push_back({region_key(fixed, k, "fixed") + ".face_tag", fixed[k].face_tag_line, fixed[k].face_tag});
     for (size_t k = 0; k < loads.size(); ++k)
       if (loads[k].has_face_tag) named.push_back({"loads[" + std::to_string(k) + "].face_tag", loads[k].face_tag_line, loads[k].face_tag});
     return named;

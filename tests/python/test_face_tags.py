@@ -234,6 +234,11 @@ def test_tag_on_meshes_without_faces(tmp_path, meshes):
     del rope["material"]
     rope["strand_material"] = {"axial_stiffness": 100.0, "linear_density": 0.05}
     bad(tmp_path, "strand_mesh", rope, ["face_tag'", "no tetrahedra"])
+    # A body's own fixed region is named as the body's (it was 'fixed[1].face_tag')
+    body = {k: v for k, v in deck_for(meshes["bar.mesh"], {"face_tag": CLAMP}, {}).items() if k in ("mesh", "material", "fixed")}
+    body["fixed"] = [{"box": CLAMP_BOX}, {"box": CLAMP_BOX, "face_tag": CLAMP}]
+    bad(tmp_path, "bodies", {"bodies": [body], "time": {"dt": 0.01, "frames": 1}},
+        [":9: 'bodies[0].fixed[1].face_tag'", "a scene of bodies has several"])
 
 
 SHARED_BAR = "/work/shared/meshes/bar990.mesh"
