@@ -58,6 +58,24 @@ std::vector<int32_t> metis_partition(const TetMesh& mesh, int nparts) {
                          epart.data(), npart.data()) != METIS_OK)
     throw std::runtime_error("METIS could not partition the mesh");
   std::copy(epart.begin(), epart.end(), part.begin());
+  // A hinge goes with the triangle that carries its edge (connect_surface's triangle_edges): a
+  // yielding bending spring keeps its state under that edge's id, which its rank must hold.
+  const int64_t first_triangle = (int64_t)(mesh.tets.size() / 4 + mesh.segments.size() / 2);
+  const int64_t first_hinge = first_triangle + mesh.num_triangles();
+  std::vector<std::pair<std::pair<int32_t, int32_t>, int64_t>> carried;  // (edge, its triangle), sorted by edge
+  for (int64_t t = 0; t < mesh.num_triangles(); ++t)
+    for (int e = 0; e < 3; ++e)
+      if (mesh.triangle_edges[t] & (1u << e)) {
+        const int32_t a = mesh.triangles[3 * t + e], b = mesh.triangles[3 * t + (e + 1) % 3];
+        carried.push_back({{std::min(a, b), std::max(a, b)}, t});
+      }
+  std::sort(carried.begin(), carried.end());
+  for (int64_t h = 0; h < mesh.num_hinges(); ++h) {
+    const int32_t a = mesh.hinges[4 * h], b = mesh.hinges[4 * h + 1];
+    const std::pair<int32_t, int32_t> edge{std::min(a, b), std::max(a, b)};
+    const auto it = std::lower_bound(carried.begin(), carried.end(), std::make_pair(edge, int64_t(-1)));
+    if (it != carried.end() && it->first == edge) part[first_hinge + h] = part[first_triangle + it->second];
+  }
   return part;
 }
 
