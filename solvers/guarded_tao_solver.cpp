@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <set>
+#include <string>
 
 #include "solvers/line_search.hpp"
 #include "solvers/stop_request.hpp"
@@ -41,6 +43,22 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   TaoType used;
   PetscCall(TaoGetType(tao_, &used));
   if (requested_type_ != used) {
+    // Another TAO type from the options runs on what this solver gives it: the objective and
+    // gradient, and (Newton) the Hessian; not constraints, residuals or bounds. Refused before the
+    // first frame otherwise (TAO stopped in the time loop: "TaoSetHessian() not called").
+    static const std::set<std::string> gradient_only = {"lmvm", "blmvm", "bqnls", "bqnkls", "bqnktr", "bqnktl",
+                                                        "cg", "bncg", "nm"};
+    static const std::set<std::string> with_hessian = {"nls", "ntr", "ntl", "tron", "bnls", "bntr", "bntl"};
+    Mat hessian = nullptr;
+    PetscCall(TaoGetHessian(tao_, &hessian, nullptr, nullptr, nullptr));
+    const bool runs = gradient_only.count(used) || (hessian && with_hessian.count(used));
+    std::string choices;
+    for (const auto* list : {&gradient_only, &with_hessian})
+      if (list == &gradient_only || hessian)
+        for (const std::string& t : *list) choices += (choices.empty() ? "" : ", ") + t;
+    PetscCheck(runs, PetscObjectComm((PetscObject)tao_), PETSC_ERR_ARG_WRONG,
+               "-tao_type %s: TAO %s needs what this solver does not give it (%s); it runs one of %s", used, used,
+               hessian ? "constraints, residuals or bounds" : "a Hessian, or constraints, residuals or bounds", choices.c_str());
     overridden_ = std::string("TAO ") + used + " from the options, not " + requested_type_;
     PetscCall(PetscPrintf(PetscObjectComm((PetscObject)tao_), "hyperqn: warning: the solver runs %s\n", overridden_.c_str()));
   }

@@ -93,8 +93,12 @@ PetscErrorCode NewtonSolver::retry(Vec x, PetscReal* g, double* alpha, bool* rec
   PetscReal length;
   std::string along;
   PetscFunctionBeginUser;
-  PetscCall(hessian(tao_, x, H_, H_, this));
   PetscCall(TaoGetKSP(tao_, &ksp));
+  if (!ksp) {  // a TAO type from the options without a linear solver (-tao_type lmvm): no Newton step to retry
+    *recovered = false;
+    PetscFunctionReturn(0);
+  }
+  PetscCall(hessian(tao_, x, H_, H_, this));
   PetscCall(KSPSetOperators(ksp, H_, H_));
   PetscCall(KSPSolve(ksp, grad_, dir_));
   PetscCall(VecScale(dir_, -1.0));

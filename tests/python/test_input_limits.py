@@ -202,6 +202,21 @@ def test_an_overridden_solver_is_said(tmp_path):
         assert json.load(f)["solver"] == "lbfgs (TAO bqnls from the options, not lmvm)"
 
 
+def test_newton_with_a_gradient_only_tao_type_runs(tmp_path):
+    # -tao_type lmvm under solver.type newton: SIGSEGV when the frame's line search failed (the
+    # Newton retry asked TAO's KSP, which lmvm has none of)
+    deck = {"mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+            "time": {"dt": 1 / 30, "frames": 2},
+            "solver": {"type": "newton", "grad_rtol": 1e-12, "iterations": 2000}}
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", tmp_path / "out", "-tao_type", "lmvm"],
+                       ranks=None, check=False, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:]
+    with open(tmp_path / "out" / "summary.json") as f:
+        assert json.load(f)["solver"] == "newton (TAO lmvm from the options, not nls)"
+
+
 def test_log_view_in_the_deck(tmp_path):
     path = write_deck(tmp_path / "deck.yaml", deck_with(petsc={"log_view": None}))
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, timeout=60)
@@ -224,6 +239,13 @@ OPTION_ERRORS = {
     "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
     "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
     "divergence_limit_text": (None, ["-hyperqn_divergence_limit", "unit"], ["option -hyperqn_divergence_limit unit"]),
+    # a TAO type that needs what lbfgs does not give it: TAO stopped in the first frame ("TaoSetHessian()
+    # not called"), frame 0 and the logs written
+    "tao_type_needs_a_hessian": (None, ["-tao_type", "nls"], [
+        "option -tao_type nls (command line)", "TAO nls needs what this solver does not give it (a Hessian",
+        "it runs one of blmvm, bncg"]),
+    "tao_type_needs_bounds": ({"tao_type": "gpcg"}, [], ["option -tao_type gpcg", "tao_type_needs_bounds.yaml:",
+                                                         "TAO gpcg needs what this solver does not give it"]),
 }
 
 
