@@ -141,6 +141,13 @@ PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl
   summary.failed_frames += r.failed;
   summary.ls_failures += r.ls_failures;
   if (r.failed) summary.flagged_frames.emplace_back(frame, r.reason);
+  const bool unresolved = step.unresolved && !r.failed;  // (a failure is flagged as such)
+  if (unresolved) {
+    char residual[32];
+    std::snprintf(residual, sizeof residual, "%.3g", step.residual);
+    summary.flagged_frames.emplace_back(frame, std::string(kFarFromConverged) + " (" + r.reason + ", |grad g| " +
+                                                   residual + " of the force scale)");
+  }
   // A solver that was given no iteration (e.g. -tao_max_it 0) did not solve the frame.
   if (!r.failed && !r.converged && r.iterations == 0) {
     ++summary.failed_frames;
@@ -164,6 +171,7 @@ PetscErrorCode ProgressLog::after_frame(const FrameOutcome& outcome, LoopControl
   if (step.iterations != r.iterations) note += "  [" + std::to_string(step.iterations) + " iterations in all]";
   if (r.ls_failures > 0) note += "  [" + std::to_string(r.ls_failures) + " line-search failure(s)]";
   if (r.failed && why.empty()) note += "  FLAGGED: g could not be decreased further";
+  if (unresolved && why.empty()) note += std::string("  FLAGGED: ") + kFarFromConverged;
   if (finite_g)
     PetscCall(PetscPrintf(comm, "frame %5d  it %3d  g %+.9e  |grad| %.3e  %8.2f ms  %s%s\n", frame,
                           (int)r.iterations, r.energy, r.grad_norm, ms, r.reason.c_str(), note.c_str()));

@@ -46,10 +46,12 @@ std::string completed_status(const RunSummary& summary, bool started_inverted, b
              (inverted_at_end ? ", and the last" : "") + "; min det F " + min_J + ")";
   }
   const auto& flagged = summary.flagged_frames;
+  const bool far = std::any_of(flagged.begin(), flagged.end(),
+                               [](const auto& f) { return f.second.rfind(kFarFromConverged, 0) == 0; });
   if (!flagged.empty())
     status += (status.empty() ? "" : "; ") + std::string("flagged: ") + std::to_string(flagged.size()) + " of " +
-              std::to_string(summary.frames) + " frames could not decrease g (first: frame " +
-              std::to_string(flagged.front().first) + ")";
+              std::to_string(summary.frames) + " frames could not decrease g" +
+              (far ? " or stayed far from converged" : "") + " (first: frame " + std::to_string(flagged.front().first) + ")";
   return status.empty() ? "ok" : status;
 }
 

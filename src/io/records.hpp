@@ -30,11 +30,16 @@ struct SupportReaction {
   long long max_force_frame = 0;
 };
 
+// The reason a frame is flagged with when no stage of the fallback chain made it acceptable
+// (docs/guardrails.md#fallback); the status then says so.
+inline constexpr const char* kFarFromConverged = "far from converged after the fallback chain";
+
 struct RunSummary {
   std::string deck, solver;
   // The run's id (io/checkpoint_store.hpp): which run wrote this directory; a restart keeps it.
   std::string run_id;
-  // "ok"; "flagged: N of M frames could not decrease g (first: frame K)" (completed, exit 0); or
+  // "ok"; "flagged: N of M frames could not decrease g[ or stayed far from converged] (first: frame K)"
+  // (completed, exit 0); or
   // "error: ..." (the run stopped, exit 1).
   std::string status = "ok";
   // The stop signal the run received (SIGTERM or SIGUSR1), "" if none: a run that completed
@@ -57,8 +62,8 @@ struct RunSummary {
   double hessian_s = 0;                       // newton: time assembling M + h^2 K
   long long converged_frames = 0, failed_frames = 0;
   // Guardrails: line searches that failed (each followed by a retry), evaluations rejected for a
-  // non-finite g or grad g, and the frames that could not decrease g (or stopped the run), with
-  // the solver's reason.
+  // non-finite g or grad g, and the frames that could not decrease g, stayed far from converged
+  // after the fallback chain (kFarFromConverged) or stopped the run, with the reason.
   long long ls_failures = 0, rejected_evaluations = 0;
   // Steps whose initial guess was pulled back from y so as not to invert or blow up elements
   // (StepObjective::upright_guess; the frame-size steps, not the fallback chain's sub-steps).

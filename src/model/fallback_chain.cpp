@@ -158,6 +158,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   out.max_abs_J = outcome_.max_abs_J;
   out.residual = outcome_.residual;
   out.measured = true;
+  out.unresolved = accepted < 0 && !outcome_.acceptable() && (spec_.max_halvings > 0 || spec_.newton_fallback);
   start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
   for (const IterationRecord& r : records_) on_iteration(r);
   PetscFunctionReturn(0);

@@ -44,6 +44,7 @@ struct StepSolve {
   int substeps = 1;              // solved in this many sub-steps
   bool kept_substeps = false;    // started at the sub-step size of the frames before
   bool newton = false;           // solved by the Newton fallback
+  bool unresolved = false;       // the chain's stages ran and none made the frame acceptable: flagged
   // A stop signal ended the solve (solvers/stop_request.hpp): the frame is given up, and the
   // caller undoes the step; iterations and seconds are then those of every stage so far.
   bool interrupted = false;

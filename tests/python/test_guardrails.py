@@ -125,8 +125,40 @@ def check_status(s):
     if not flagged:
         assert s["status"] == "ok", s["status"]
     else:
+        far = any(f["reason"].startswith("far from converged after the fallback chain") for f in flagged)
         assert s["status"] == (f"flagged: {len(flagged)} of {s['frames']} frames could not decrease g "
-                               f"(first: frame {flagged[0]['frame']})")
+                               + ("or stayed far from converged " if far else "")
+                               + f"(first: frame {flagged[0]['frame']})")
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_frames_no_stage_makes_acceptable_are_flagged(tmp_path, ranks):
+    # h = 1 s with no iteration past the budget: every stage of the chain (sub-steps, Newton) ends
+    # far from converged from frame 2 on, and the better of them is kept. They were kept as "ok"
+    # with no flag (summary.json's max_residual 6.0); a static step too (the same with the
+    # tensile bar's first load step, Newton fallback off).
+    deck = load_deck(DIVERGING_DECK)
+    deck["solver"] = {"type": "lbfgs", "max_iterations": 0}
+    deck["time"]["frames"] = 6
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "far.yaml", deck), "-o", out], ranks=ranks)
+    s = read_summary(out)
+    flagged = s["flagged_frames"]
+    assert [f["frame"] for f in flagged] == [2, 3, 4, 5, 6], flagged
+    assert all(f["reason"].startswith("far from converged after the fallback chain (MAX_ITERATIONS, |grad g| ")
+               for f in flagged)
+    check_status(s)
+    assert proc.stdout.count("FLAGGED: far from converged after the fallback chain") == 5
+    static = load_deck("input/engineering/tensile_bar.yaml")
+    static["time"]["frames"] = 1
+    static["solver"] = {"type": "lbfgs", "iterations": 10, "max_iterations": 10, "grad_rtol": 1e-8, "newton_fallback": False}
+    run_hyperqn([write_deck(tmp_path / "static.yaml", static), "-o", tmp_path / "static"], ranks=ranks)
+    s = read_summary(tmp_path / "static")
+    assert [f["frame"] for f in s["flagged_frames"]] == [1] and s["status"].startswith("flagged: 1 of 1 frames")
+    # the default chain resolves it: nothing flagged
+    del static["solver"]
+    run_hyperqn([write_deck(tmp_path / "resolved.yaml", static), "-o", tmp_path / "resolved"], ranks=ranks)
+    assert read_summary(tmp_path / "resolved")["status"] == "ok"
 
 
 def longest_edge(path):
