@@ -72,6 +72,12 @@ def solver_names(binary=None):
     return [s["name"] for s in registry(binary)["solvers"]]
 
 
+def deck_choices(section, name, reg):
+    """The names a deck may give `section.name` (a key of type choice, e.g. time integrator), from
+    the deck_keys of `reg`, a `registry()`; [] when the binary declares no such key."""
+    return next((k["choices"] for k in reg["deck_keys"] if (k["section"], k["name"]) == (section, name)), [])
+
+
 def stop(proc):
     """SIGUSR1, then SIGKILL to whatever is left of the process group, so that no rank keeps running
     or holds the output pipe open. mpiexec forwards SIGUSR1 to its ranks, which stop with a

@@ -408,7 +408,8 @@ def suite(*args):
 
 def test_bad_decks_and_arguments_are_refused_before_anything_is_written(tmp_path):
     """A missing deck, a directory, a YAML error, --np 0, and two runs that would share a
-    runs/<case>/<solver>/ directory (a deck or solver given twice, two decks of one file name):
+    runs/<case>/<solver>/ directory (a deck or solver given twice, two decks of one file name), an
+    --integrator that is no time.integrator choice of the binary (it ran every case as "not run"):
     one line naming it, exit 1, and no --out (the binary was copied into it first)."""
     deck = os.path.join(REPO, "tests", "decks", "stability_stiff_x1e4.yaml")
     (tmp_path / "other").mkdir()
@@ -425,6 +426,7 @@ def test_bad_decks_and_arguments_are_refused_before_anything_is_written(tmp_path
                             ([deck, deck], ["stability_stiff_x1e4.yaml: given twice"]),
                             ([deck, namesake], [str(namesake), "two decks named stability_stiff_x1e4"]),
                             ([deck, "--solvers", "lbfgs", "lbfgs"], ["--solvers: lbfgs given twice"]),
+                            ([deck, "--integrator", "foo"], ["--integrator: unknown 'foo'", "implicit-euler", "bdf2"]),
                             ([deck, "--out", broken], ["--out", "broken.yaml: not a directory"])]:
         proc = suite(*args, *([] if "--out" in args else ["--out", out]))
         assert proc.returncode == 1 and "Traceback" not in proc.stderr, (args, proc.stderr)

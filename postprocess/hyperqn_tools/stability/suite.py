@@ -30,7 +30,7 @@ import yaml
 
 from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
 from hyperqn_tools.decks import load_deck
-from hyperqn_tools.launch import default_binary, default_mpiexec, solver_names
+from hyperqn_tools.launch import deck_choices, default_binary, default_mpiexec, registry
 from hyperqn_tools.paths import REPO
 from hyperqn_tools.stability.judge import analyse_run, reference_ok, rest_distance
 from hyperqn_tools.stability.report import case_figure, fmt, make_row, verdict_figure, write_csv, write_markdown
@@ -83,7 +83,8 @@ def main(argv=None):
     loaded = load_decks(p, decks)
     if not os.access(args.bin, os.X_OK):
         p.error(f"{args.bin}: not an executable (build first: make build)")
-    known = solver_names(args.bin)
+    reg = registry(args.bin)
+    known = [s["name"] for s in reg["solvers"]]
     args.solvers = args.solvers or known
     unknown = [s for s in args.solvers if s not in known]
     if unknown:
@@ -91,6 +92,9 @@ def main(argv=None):
     twice = sorted({s for s in args.solvers if args.solvers.count(s) > 1})
     if twice:  # its runs would share runs/<case>/<solver>/
         p.error(f"--solvers: {', '.join(twice)} given twice")
+    integrators = deck_choices("time", "integrator", reg)
+    if args.integrator is not None and args.integrator not in integrators:
+        p.error(f"--integrator: unknown {args.integrator!r}; the binary has {', '.join(integrators)}")
     why = unwritable_dir(args.out)
     if why:
         p.error(f"--out {why}")
