@@ -2,7 +2,7 @@
 cuts, fracture and snapping strands; a run killed after changes, or stopped by a signal in a frame
 that began with a change, and restarted writes the same file as the uninterrupted run; cuts and
 fracture in one deck, counted apart, restarted bitwise; a deck without a topology trigger, or
-with output.topology_csv: false, writes none."""
+with output.topology_csv: false, writes none; turned on at a restart, it is refused."""
 import copy
 import csv
 
@@ -10,7 +10,7 @@ import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
 from hyperqn_tools.output import read_summary
-from test_checkpoint import assert_same_run
+from test_checkpoint import assert_same_run, tree_digest
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
 from test_cuts import BAR
 from test_fracture import NOTCHED, plate_mesh, pulled_plate
@@ -173,3 +173,23 @@ def test_no_file_without_a_trigger_or_when_turned_off(tmp_path):
     deck["output"] = {"topology_csv": False}
     out, s = run_deck(tmp_path, "off", deck)
     assert "fracture" in s and not (out / "topology.csv").exists()
+
+
+def test_turned_on_at_a_restart_is_refused_and_writes_nothing(tmp_path):
+    # Like energy.csv and reactions.csv (test_checkpoint.py), topology.csv goes on from the
+    # checkpoint's row: a checkpointed run with output.topology_csv: false has none to go on from.
+    # iterations.csv, which sums nothing, may be turned on.
+    off = dict(copy.deepcopy(BAR), time={**BAR["time"], "frames": 8}, checkpoint={"every": 8},
+               output={"topology_csv": False, "iterations_csv": False})
+    out, _ = run_deck(tmp_path, "off", off)
+    before = tree_digest(out)
+    on = dict(off, time={**BAR["time"], "frames": 10}, output={"topology_csv": True, "iterations_csv": False})
+    done = run_hyperqn([write_deck(tmp_path / "on.yaml", on), "-o", out, "--restart", "latest"], check=False)
+    assert done.returncode == 1
+    assert ("topology.csv has no row of frame 8 to go on from (output.topology_csv: the checkpointed run must "
+            "have written it)") in done.stdout, done.stdout[-2000:]
+    assert tree_digest(out) == before
+    iterations = dict(off, time={**BAR["time"], "frames": 10}, output={"topology_csv": False})
+    run_hyperqn([write_deck(tmp_path / "iterations.yaml", iterations), "-o", out, "--restart", "latest"])
+    with open(out / "iterations.csv") as f:
+        assert int(next(csv.DictReader(f))["frame"]) == 9
