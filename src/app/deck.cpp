@@ -12,6 +12,8 @@
 #include <algorithm>
 #include <fstream>
 #include <iterator>
+#include <set>
+#include <vector>
 
 #include "app/deck_reader.hpp"
 #include "app/deck_rules.hpp"
@@ -227,6 +229,29 @@ const Deck::OptionPlace* deck_option_place(const Deck& deck, const std::string& 
   return nullptr;
 }
 
+// A YAML alias inside the node it names (`gravity: &g [0, *g, 0]`) makes that node its own
+// descendant: every walk over it would recurse without end (a stack overflow). Refused, naming
+// the anchored node's line; a node reached again by another alias is walked once (`done`, by its
+// place in the file), so that an alias bomb's repetitions cost nothing here.
+static void check_no_cycle(const Reader& r, const YAML::Node& node, std::vector<YAML::Node>& path, std::set<size_t>& done) {
+  if (!node.IsMap() && !node.IsSequence()) return;
+  const YAML::Mark mark = node.Mark();
+  if (mark.pos >= 0 && done.count(size_t(mark.pos))) return;
+  for (const YAML::Node& above : path)
+    if (above.is(node))
+      r.fail(mark.line + 1, "", "a YAML alias refers to the node it is in (a node that contains itself)");
+  path.push_back(node);
+  if (node.IsMap())
+    for (const auto& item : node) {
+      check_no_cycle(r, item.first, path, done);
+      check_no_cycle(r, item.second, path, done);
+    }
+  else
+    for (const YAML::Node& item : node) check_no_cycle(r, item, path, done);
+  path.pop_back();
+  if (mark.pos >= 0) done.insert(size_t(mark.pos));
+}
+
 Deck load_deck(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(path, 0, "", "deck file not found");
@@ -244,6 +269,11 @@ Deck load_deck(const std::string& path) {
   try {
     std::vector<YAML::Node> docs = YAML::LoadAll(in);
     if (docs.size() > 1) r.fail(line_of(docs[1]), "", "a deck holds one YAML document (found a second one)");
+    if (!docs.empty()) {
+      std::vector<YAML::Node> path_to;
+      std::set<size_t> done;
+      check_no_cycle(r, docs[0], path_to, done);
+    }
     Deck deck = parse(r, docs.empty() ? YAML::Node() : docs[0], path);
     deck.key_places = std::move(places);
     return deck;

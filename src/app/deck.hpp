@@ -193,7 +193,7 @@ struct Deck : SceneSpec {
 };
 
 // Bounds of the petsc: section (a YAML alias bomb expands past them).
-constexpr int kMaxPetscOptions = 1000;
+constexpr int kMaxPetscOptions = 256;  // of PETSc 3.18's 512 in all (MAXOPTIONS), the command line's and its own among them
 constexpr int kMaxPetscDepth = 8;
 
 // The deck's petsc: keys (params/deck_keys.hpp): a free map, any option name, read by read_petsc.

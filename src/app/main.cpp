@@ -251,6 +251,12 @@ PetscErrorCode warn_unused_options() {
 // The deck's petsc: options, unless the command line already set them.
 PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
   PetscFunctionBeginUser;
+  // PETSc 3.18 holds at most 512 options (MAXOPTIONS) and fails with its stack trace past them;
+  // 64 are left for those hyperqn and PETSc set as the run goes.
+  const size_t given = hyperqn::all_options().size();
+  if (given + deck.petsc_options.size() > 448)
+    throw hyperqn::InputError(deck.path, 0, "petsc", "the command line (" + std::to_string(given) + " options) and this "
+                              "section (" + std::to_string(deck.petsc_options.size()) + ") give more than 448 PETSc options");
   for (const auto& [name, value] : deck.petsc_options) {
     PetscBool set;
     PetscCall(PetscOptionsHasName(nullptr, nullptr, name.c_str(), &set));

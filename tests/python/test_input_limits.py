@@ -58,7 +58,41 @@ def test_yaml_alias_bomb_is_refused_quickly(tmp_path):
     path = tmp_path / "bomb.yaml"
     path.write_text(ALIAS_BOMB)
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=30)
-    assert_clean_failure(proc, tmp_path / "out", ["bomb.yaml", "petsc", "more than 1000"])
+    assert_clean_failure(proc, tmp_path / "out", ["bomb.yaml", "petsc", "more than 256"])
+
+
+@pytest.mark.parametrize("case, text, line", [
+    ("sequence", "gravity: &g [0, *g, 0]\n", 4),
+    ("map", "petsc: &p {a: *p}\n", 4),
+    ("mesh", "mesh: &m {box: {size: [1, 1, 1], cells: [1, 1, 1]}, x: *m}\n", 1),
+])
+def test_a_yaml_alias_inside_its_own_node_is_refused(tmp_path, case, text, line):
+    # a node that contains itself: SIGSEGV (exit 139, no message) in a run and in config
+    lines = ["material: {model: corotated, youngs_modulus: 1.0e5, poisson_ratio: 0.3, density: 100}\n",
+             "time: {frames: 1}\n"]
+    body = (text + "".join(lines)) if case == "mesh" else ("mesh: {box: {size: [1, 1, 1], cells: [1, 1, 1]}}\n" +
+                                                            "".join(lines) + text)
+    path = tmp_path / "cycle.yaml"
+    path.write_text(body)
+    for command in ([path, "-o", tmp_path / "out"], ["config", path]):
+        proc = run_hyperqn(command, ranks=None, check=False, timeout=30)
+        assert proc.returncode == 1, proc.stdout[-2000:]
+        assert f"cycle.yaml:{line}: a YAML alias refers to the node it is in" in proc.stdout, proc.stdout[-2000:]
+    assert not (tmp_path / "out").exists()
+
+
+def test_petsc_options_past_petsc_s_own_limit_are_refused(tmp_path):
+    # PETSc 3.18 holds 512 options: a deck of 512 ended in its stack trace (exit 55)
+    many = {f"opt{k}": 1 for k in range(300)}
+    proc = run_hyperqn([write_deck(tmp_path / "many.yaml", deck_with(petsc=many)), "-o", tmp_path / "out"],
+                       ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["many.yaml:", "more than 256 PETSc options"])
+    deck = write_deck(tmp_path / "some.yaml", deck_with(petsc={f"opt{k}": 1 for k in range(250)}))
+    command_line = [w for k in range(250) for w in (f"-cl{k}", "1")]
+    proc = run_hyperqn([deck, "-o", tmp_path / "out"] + command_line, ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["some.yaml", "'petsc': the command line (",
+                                                  "options) and this section (250) give more than 448 PETSc options"])
+    assert "PETSC ERROR" not in proc.stdout
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
