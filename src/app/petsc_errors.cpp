@@ -1,5 +1,6 @@
 #include "app/petsc_errors.hpp"
 
+#include <cctype>
 #include <sstream>
 
 namespace hyperqn {
@@ -28,19 +29,32 @@ std::string PetscErrors::describe(const Deck& deck) const {
   if (PetscOptionsGetAll(nullptr, &all) || !all) return text;
   std::istringstream words(all);
   PetscFree(all);
-  std::string word, name;
+  // Quoted as a whole word ("2.5", not the "5" in it): a value the message holds whole; of several,
+  // the longest.
+  const auto quoted_whole = [&](const std::string& value) {
+    const auto part_of_word = [](char c) { return std::isalnum((unsigned char)c) || c == '.' || c == '-' || c == '+' || c == '_'; };
+    for (size_t at = message_.find(value); at != std::string::npos; at = message_.find(value, at + 1))
+      if ((at == 0 || !part_of_word(message_[at - 1])) &&
+          (at + value.size() == message_.size() || !part_of_word(message_[at + value.size()])))
+        return true;
+    return false;
+  };
+  std::string word, name, best_name, best_value;
   while (words >> word) {
     PetscBool key = PETSC_FALSE;  // PETSc's own rule: "-inf" and "-1e5" are values, "-info" a name
     PetscOptionsValidKey(word.c_str(), &key);
-    if (key) {
+    if (key)
       name = word;
-    } else if (!name.empty() && message_.find(word) != std::string::npos) {
-      // From the deck only if the deck gave this value (the command line wins over the deck).
-      const Deck::OptionPlace* place = deck_option_place(deck, name, word);
-      const std::string where = place ? deck.path + ":" + std::to_string(place->line) + ", petsc: section"
-                                      : "command line";
-      return "option " + name + " " + word + " (" + where + "): " + text;
+    else if (!name.empty() && word.size() > best_value.size() && quoted_whole(word)) {
+      best_name = name;
+      best_value = word;
     }
+  }
+  if (!best_name.empty()) {
+    // From the deck only if the deck gave this value (the command line wins over the deck).
+    const Deck::OptionPlace* place = deck_option_place(deck, best_name, best_value);
+    const std::string where = place ? deck.path + ":" + std::to_string(place->line) + ", petsc: section" : "command line";
+    return "option " + best_name + " " + best_value + " (" + where + "): " + text;
   }
   return text;
 }
