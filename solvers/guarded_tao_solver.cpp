@@ -1,7 +1,6 @@
 #include "solvers/guarded_tao_solver.hpp"
 
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
 #include <set>
 #include <string>
@@ -65,30 +64,7 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
   }
   PetscCall(TaoGetTolerances(tao_, &gatol_, &grtol_, &gttol_));
   PetscCall(TaoGetMaximumIterations(tao_, &max_it_));
-  // From the options, TAO takes any number: nan and negative tolerances would never stop a frame,
-  // inf would stop each at once, and a negative budget TAO turns into its own default (0 is a
-  // budget: the fallback chain iterates on, docs/guardrails.md).
-  const MPI_Comm comm = PetscObjectComm((PetscObject)tao_);
-  // The value as given, which the message quotes (app/petsc_errors.cpp names its option and deck
-  // line by it): 1e400 is read as inf, 2147483648 wraps to a negative budget and 4294967297 to 1.
-  const auto given = [&](const char* name, const std::string& read) {
-    char raw[256] = "";
-    PetscBool set = PETSC_FALSE;
-    PetscOptionsGetString(nullptr, nullptr, name, raw, sizeof raw, &set);
-    return set && raw[0] ? std::string(raw) : read;
-  };
-  const std::pair<const char*, PetscReal> tolerances[] = {{"-tao_gatol", gatol_}, {"-tao_grtol", grtol_}, {"-tao_gttol", gttol_}};
-  for (const auto& [name, value] : tolerances) {
-    char got[32];
-    std::snprintf(got, sizeof got, "%g", (double)value);  // (PETSc's %g writes 1 as "1.")
-    PetscCheck(std::isfinite(value) && value >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE,
-               "%s must be a finite number >= 0 (the solver's tolerance), got %s", name, given(name, got).c_str());
-  }
-  const std::string max_it = given("-tao_max_it", std::to_string(max_it_));
-  char* end = nullptr;
-  const double budget = std::strtod(max_it.c_str(), &end);
-  PetscCheck(max_it_ >= 0 && budget >= 0 && budget <= 2147483647.0, comm, PETSC_ERR_ARG_OUTOFRANGE,
-             "-tao_max_it must be a whole number from 0 to 2147483647, got %s", max_it.c_str());
+  // (Their values from the options are checked as given: app/run_options.cpp.)
   budget_ = FrameBudget((int)max_it_, max_iterations_, gttol_);
   PetscFunctionReturn(0);
 }

@@ -50,12 +50,10 @@ PetscErrorCode LbfgsSolver::setup(const SolverSpec& spec) {
   // TAOLMVM's history size is only reachable as an option (no setter for its matrix in 3.18).
   const char* history_option = "-tao_lmvm_mat_lmvm_hist_size";
   PetscCall(set_default_option(history_option, std::to_string(spec.history)));
-  // The option may come from the user too: PETSc crashes on a negative size and allocates
-  // without bound on a huge one, so check it before TAO reads it.
+  // The option may come from the user too (checked as given in app/run_options.cpp: PETSc crashes
+  // on a negative size and allocates without bound on a huge one).
   PetscInt history = spec.history;
   PetscCall(PetscOptionsGetInt(nullptr, nullptr, history_option, &history, nullptr));
-  PetscCheck(history >= 0 && history <= kMaxHistory, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE,
-             "the L-BFGS history %" PetscInt_FMT " must be in [0, %d]", history, kMaxHistory);
   reset_on_contact_change_ = spec.history_reset == HistoryReset::contact_change;
   // solver.two_loop streamed: the pairs and H0 are one operator, TAO's H0, and TAO's own BFGS keeps
   // none (it then copies g and applies its H0). The option is TAO's only for finish_setup's read.

@@ -273,7 +273,8 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     // TAO's options, given, set these keys' values (the solvers set the deck's, then TAO reads its options).
     std::vector<std::pair<std::string, std::string>> overridden;  // key, option
     for (const auto& [key, option] : {std::pair<const char*, const char*>{"history", "-tao_lmvm_mat_lmvm_hist_size"},
-                                      {"line_search", "-tao_ls_type"}}) {
+                                      {"line_search", "-tao_ls_type"}, {"iterations", "-tao_max_it"},
+                                      {"grad_atol", "-tao_gatol"}, {"grad_rtol", "-tao_grtol"}}) {
       PetscBool set = PETSC_FALSE;
       PetscOptionsHasName(nullptr, nullptr, option, &set);
       if (set) overridden.emplace_back(key, option);

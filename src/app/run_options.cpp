@@ -96,6 +96,25 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
       const double share = std::strtod(value.c_str(), &end);
       if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1)) refuse(deck, name.c_str(), "must be a number in (0, 1]");
     }
+    // TAO's tolerances and budget, and the L-BFGS history, as given: TAO takes any number (nan and
+    // negative tolerances never stop a frame, inf stops each at once; 2147483648 wraps to a
+    // negative budget, 4294967297 to 1) and PETSc crashes on a negative history. Checked here, so
+    // that config and every run refuse them alike, quoting the value as written.
+    const auto whole_in = [&](double hi) {
+      char* end = nullptr;
+      const double x = std::strtod(value.c_str(), &end);
+      return end != value.c_str() && *end == '\0' && x >= 0 && x <= hi && x == std::floor(x);
+    };
+    if ((name == "-tao_gatol" || name == "-tao_grtol" || name == "-tao_gttol") && !value.empty()) {
+      char* end = nullptr;
+      const double x = std::strtod(value.c_str(), &end);
+      if (end == value.c_str() || *end != '\0' || !std::isfinite(x) || x < 0)
+        refuse(deck, name.c_str(), "must be a finite number >= 0 (the solver's tolerance)");
+    }
+    if (name == "-tao_max_it" && !value.empty() && !whole_in(2147483647.0))
+      refuse(deck, name.c_str(), "must be a whole number from 0 to 2147483647 (0: the fallback chain's stages alone iterate)");
+    if (name == "-tao_lmvm_mat_lmvm_hist_size" && !value.empty() && !whole_in(kMaxHistory))
+      refuse(deck, name.c_str(), "the L-BFGS history must be a whole number in [0, " + std::to_string(kMaxHistory) + "]");
     // -restart (one -) from an options file, PETSC_OPTIONS or the deck: nothing reads it, and the
     // run would start afresh, removing the run it was meant to continue (--restart is the command
     // line's, which PETSc lists as the option --restart).

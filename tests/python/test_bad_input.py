@@ -267,10 +267,10 @@ def test_a_deck_over_1_mb_is_refused_before_it_is_parsed(tmp_path):
 
 
 @pytest.mark.parametrize("option,value,said", [
-    ("-tao_gatol", "nan", "-tao_gatol must be a finite number >= 0 (the solver's tolerance), got nan"),
-    ("-tao_grtol", "-1", "-tao_grtol must be a finite number >= 0"),
-    ("-tao_gttol", "1e999", "got 1e999"),  # every frame "converged" at 0 iterations
-    ("-tao_max_it", "-3", "-tao_max_it must be a whole number from 0 to 2147483647, got -3"),  # TAO ran its own default
+    ("-tao_gatol", "nan", "option -tao_gatol nan: must be a finite number >= 0 (the solver's tolerance)"),
+    ("-tao_grtol", "-1", "option -tao_grtol -1: must be a finite number >= 0"),
+    ("-tao_gttol", "1e999", "option -tao_gttol 1e999: must be a finite"),  # every frame "converged" at 0 iterations
+    ("-tao_max_it", "-3", "option -tao_max_it -3: must be a whole number from 0 to 2147483647"),  # TAO ran its own default
 ])
 def test_tao_tolerances_and_budget_from_the_options_are_checked(tmp_path, option, value, said):
     path = write_deck(tmp_path / "good.yaml", GOOD)

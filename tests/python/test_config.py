@@ -177,6 +177,16 @@ def test_tao_s_options_show_as_the_keys_they_set(tmp_path):
         "solver": {"history": 7},
     })
     assert config([deck])["solver.history"][0] == "7"
+    # the budget and tolerances likewise (config said iterations: 2000 while -tao_max_it 7 ran)
+    settings = config([deck, "-tao_max_it", "7", "-tao_gatol", "1e-9", "-tao_grtol", "0"])
+    assert settings["solver.iterations"] == ("7", "option -tao_max_it, command line")
+    assert settings["solver.grad_atol"] == ("1e-9", "option -tao_gatol, command line")
+    assert settings["solver.grad_rtol"] == ("0", "option -tao_grtol, command line")
+    # and refuses what a run refuses (config printed 'solver.history: abc' and exited 0)
+    for bad in (["-tao_max_it", "-1"], ["-tao_gatol", "-1"], ["-tao_lmvm_mat_lmvm_hist_size", "abc"],
+                ["-tao_lmvm_mat_lmvm_hist_size", "1001"]):
+        proc = run_hyperqn(["config", deck] + bad, ranks=None, check=False, timeout=60)
+        assert proc.returncode == 1 and f"option {bad[0]} {bad[1]}: " in proc.stdout, proc.stdout
     settings = config([deck, "-tao_lmvm_mat_lmvm_hist_size", "12"])
     assert settings["solver.history"] == ("12", "option -tao_lmvm_mat_lmvm_hist_size, command line")
     with_option = write_deck(tmp_path / "e.yaml", {**yaml.safe_load(open(deck)), "petsc": {"tao_lmvm_mat_lmvm_hist_size": 9}})

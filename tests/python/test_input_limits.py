@@ -273,15 +273,14 @@ OPTION_ERRORS = {
     "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
     "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
     "divergence_limit_text": (None, ["-hyperqn_divergence_limit", "unit"], ["option -hyperqn_divergence_limit unit"]),
-    # the value PETSc quotes, as a whole word ("2.5" was matched to the "5" of -tao_lmvm_mat_lmvm_hist_size)
-    "tao_max_it_fraction": ({"tao_max_it": 2.5}, [], ["option -tao_max_it 2.5 (", "tao_max_it_fraction.yaml:11, petsc: section)",
-                                                     "no integer value"]),
-    # values PETSc reads out of range: the message quoted what it read (-1, -2147483648, inf), without the deck line;
-    # 4294967297 wrapped to a budget of 1
-    "tao_max_it_wraps": ({"tao_max_it": 4294967297}, [], ["option -tao_max_it 4294967297 (", "tao_max_it_wraps.yaml:11",
-                                                         "a whole number from 0 to 2147483647, got 4294967297"]),
-    "tao_gttol_overflows": ({"tao_gttol": "1e400"}, [], ["option -tao_gttol 1e400 (", "tao_gttol_overflows.yaml:11",
-                                                        "finite number >= 0 (the solver's tolerance), got 1e400"]),
+    # the value as given, with its deck line: 2.5 was blamed on the "5" of -tao_lmvm_mat_lmvm_hist_size;
+    # 99999999999999999999 and 2147483648 said "got -1" and "got -2147483648" without the deck line,
+    # 4294967297 ran as a budget of 1, 1e400 said "got inf" without the line
+    "tao_max_it_fraction": ({"tao_max_it": 2.5}, [], ["tao_max_it_fraction.yaml:11: 'petsc.tao_max_it': must be a whole "
+                                                     "number from 0 to 2147483647", "got 2.5"]),
+    "tao_max_it_wraps": ({"tao_max_it": 4294967297}, [], ["tao_max_it_wraps.yaml:11: 'petsc.tao_max_it'", "got 4294967297"]),
+    "tao_gttol_overflows": ({"tao_gttol": "1e400"}, [], ["tao_gttol_overflows.yaml:11: 'petsc.tao_gttol': must be a finite "
+                                                        "number >= 0", "got 1e400"]),
     # a TAO type that needs what lbfgs does not give it: TAO stopped in the first frame ("TaoSetHessian()
     # not called"), frame 0 and the logs written
     "tao_type_needs_a_hessian": (None, ["-tao_type", "nls"], [
