@@ -15,6 +15,7 @@
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
+#include "terms/load_kind.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
 #include "mesh/input_error.hpp"
@@ -654,6 +655,27 @@ PetscErrorCode LiveScene::initial_state(State& s) const {
   PetscFunctionReturn(0);
 }
 
+// Whether the load whose check_start names `key` selects something once every fixed region with a
+// release is released (the scene as it will be then, built once; only for a load refused now).
+PetscErrorCode LiveScene::load_acts_after_releases(const std::string& key, bool* acts) const {
+  PetscFunctionBeginUser;
+  *acts = false;
+  std::vector<char> released(spec_->fixed.size(), 0);
+  bool any = false;
+  for (size_t k = 0; k < spec_->fixed.size(); ++k) any = any || (released[k] = spec_->fixed[k].release > 0);
+  if (!any) PetscFunctionReturn(0);
+  std::unique_ptr<Scene> later;
+  PetscCall(rebuild(released, std::vector<char>(spec_->attachments.size(), 0), later));
+  *acts = true;
+  for (const auto& term : later->body->terms())
+    if (dynamic_cast<const LoadTerm*>(term.get())) {
+      InputProblem problem;
+      PetscCall(term->check_start({}, problem));  // (a load's check reads no positions)
+      if (problem.key == key) *acts = false;
+    }
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
   std::vector<double> pos;
   PetscFunctionBeginUser;
@@ -662,6 +684,11 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
   for (const auto& term : scene_->body->terms()) {
     InputProblem problem;
     PetscCall(term->check_start(pos, problem));
+    if (!problem.what.empty() && dynamic_cast<const LoadTerm*>(term.get())) {
+      bool later = false;  // a load on vertices a support holds until its release acts from then
+      PetscCall(load_acts_after_releases(problem.key, &later));
+      if (later) continue;
+    }
     if (!problem.what.empty()) {
       PetscCall(print_error(comm_, InputError(spec_->path, problem.line, problem.key, problem.what).what()));
       *ok = false;

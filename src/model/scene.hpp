@@ -109,6 +109,7 @@ class LiveScene {
   // ("hyperqn: error: ..."). Collective. A restart is not checked: it goes on from a state the
   // run reached.
   PetscErrorCode check_start(const State& s, bool* ok) const;
+  PetscErrorCode load_acts_after_releases(const std::string& key, bool* acts) const;
 
   // Called before the step from main (frame n to n + 1, starting at t = n h). If a region or
   // attachment is due (release time <= t) that main has not released yet, the scene is rebuilt

@@ -201,6 +201,33 @@ def test_a_release_rebuilds_the_reactions(tmp_path, ranks):
     assert max(errors) < 1e-11
 
 
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("kind", ["traction", "force"])
+def test_a_load_on_a_support_released_later_acts_from_the_release(tmp_path, kind, ranks):
+    """A static bar clamped at both ends, a load on the tip's clamp released at t = 2: refused
+    before ("selects only boundary faces whose vertices are all fixed", "selects no free vertex":
+    the load would act on nothing), though from the release it acts. The clamps carry the weight
+    and the load before, the left one alone after."""
+    deck = bar(time={"dt": 1.0, "frames": 4, "integrator": "static"})
+    deck["fixed"].append({"box": TIP, "release": 2})
+    load = {"type": kind, "box": TIP}
+    load.update({"traction": [0.0, -500.0, 0.0]} if kind == "traction" else {"force": [0.0, -5.0, 0.0]})
+    deck["loads"] = [load]
+    out = run(tmp_path, f"{kind}_np{ranks}", deck, ranks=ranks)
+    rows = reactions(out)
+    for n, r in rows.items():
+        # a traction's share on held vertices is their support's; a force takes free vertices only
+        applied = 500.0 * SIZE[1] * SIZE[2] if kind == "traction" else 5.0 * (n > 2)
+        total = r["fixed[0]"][1] + r["fixed[1]"][1]
+        assert abs(total[1] - (-weight()[1] + applied)) < 1e-8 * -weight()[1], (n, total)
+        assert (np.linalg.norm(r["fixed[1]"][1]) > 0) == (n <= 2), (n, r["fixed[1]"])
+    # a load on a support never released is still refused
+    del deck["fixed"][1]["release"]
+    proc = run_hyperqn([write_deck(tmp_path / "held.yaml", deck), "-o", tmp_path / "held"], ranks=None, check=False)
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert ("the load would act on nothing" if kind == "traction" else "selects no free vertex") in proc.stdout
+
+
 def test_attachment_at_rest_carries_the_weight(tmp_path):
     deck = bar(time={"dt": 1.0, "frames": 16})
     deck.pop("fixed")
