@@ -126,6 +126,9 @@ PetscErrorCode FactoredSystem::setup_amg() {
   PetscCheck(preonly, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG,
              "solver.h0: amg is one V-cycle, a fixed linear operator: -h0_ksp_type must stay preonly");
   PetscCall(KSPSetUp(ksp_));
+  // Read by the products of that setup, if GAMG ran them: ours, not the user's to be warned of
+  // as unused (-h0_pc_type hypre makes none).
+  if (!chosen && size > 1) PetscCall(PetscOptionsClearValue(nullptr, "-matptap_via"));
   PetscBool supported;
   PetscCall(InterleavedVCycle::supported(pc, &supported));
   if (supported) {
