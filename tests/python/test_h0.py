@@ -147,8 +147,9 @@ def test_auto_volumetric_at_1_and_2_ranks_and_through_substeps(tmp_path):
     assert ranks <= 1e-8
     sub = auto_deck(0.4999, iterations=1, max_iterations=0, max_halvings=1, newton_fallback=False, grad_rtol=1e-6)
     sub["time"] = {**sub["time"], "dt": 0.2}
-    auto, s = run(tmp_path, "sub_auto", sub)
-    explicit, _ = run(tmp_path, "sub_volumetric", given(sub, "volumetric"))
+    far = "flagged: 3 of 3 frames could not decrease g or stayed far from converged"  # (1 iteration: by design)
+    auto, s = run(tmp_path, "sub_auto", sub, status=far)
+    explicit, _ = run(tmp_path, "sub_volumetric", given(sub, "volumetric"), status=far)
     assert s["factorizations"] == 2
     assert_same_run(auto, explicit)
 
