@@ -151,7 +151,7 @@ def test_auto_volumetric_at_1_and_2_ranks_and_through_substeps(tmp_path):
     auto, s = run(tmp_path, "sub_auto", sub, status=far)
     explicit, _ = run(tmp_path, "sub_volumetric", given(sub, "volumetric"), status=far)
     assert s["factorizations"] == 2
-    assert_same_run(auto, explicit)
+    assert_same_run(auto, explicit, status=far)
 
 
 @pytest.mark.parametrize("ranks", [1, 2])
