@@ -1,7 +1,7 @@
 """The force-displacement curve of a support from a run's reactions.csv (`output: {reactions: true}`,
 docs/outputs.md#reactionscsv): the force the support exerts on the body along an axis, against the
-support's travel along it: its moment point p (the centre of its box moved by its motion) minus the
-box's centre at rest, read from the run's config.yaml.
+support's travel along it: its moment point p (the centre of its box moved by its motion; the origin
+moved so for a support of a face tag alone) minus that point at rest, read from the run's config.yaml.
 
     /usr/bin/python3 -m hyperqn_tools.force_displacement OUTDIR --support 'fixed[1]' --axis x \\
         --png curve.png --csv curve.csv
@@ -36,6 +36,8 @@ def box_centre(outdir, support):
     if not isinstance(config, dict):
         raise SystemExit(f"{path}: not a map of the run's keys")
     lo, hi = config.get(f"{support}.box.min"), config.get(f"{support}.box.max")
+    if lo is None and hi is None and config.get(f"{support}.face_tag") is not None:
+        return np.zeros(3)  # a support of a face tag alone: its moment point is the origin, moved by its motion
     if lo is None or hi is None:
         raise SystemExit(f"{path} has no {support}.box.min and .max")
     try:

@@ -263,3 +263,19 @@ def test_shared_mesh_references(tmp_path):
     assert "on 700 boundary faces of face_tag 0" in procs["tag"].stdout, procs["tag"].stdout[-2000:]
     assert "not boundary faces" not in procs["tag"].stdout
     assert np.array_equal(frames["tag"].points, frames["box"].points)
+
+
+def test_force_displacement_of_a_support_of_a_tag_alone(tmp_path, meshes):
+    """A clamp given by face_tag alone pulled 0.05 per frame: its moment point is the origin moved by
+    its motion (outputs.md#reactionscsv), and hyperqn_tools.force_displacement reads its travel from it
+    (before: 'config.yaml has no fixed[1].box.min and .max', exit 1)."""
+    from hyperqn_tools.force_displacement import curve
+    deck = deck_for(meshes["bar.mesh"], {"face_tag": CLAMP}, {"face_tag": LOAD})
+    del deck["loads"]
+    deck["fixed"].append({"face_tag": LOAD, "motion": {"translate": {"velocity": [0.1, 0, 0]}, "curve": {"type": "ramp", "end": 2}}})
+    deck["time"] = {"dt": 1, "frames": 2, "integrator": "static"}
+    deck["output"] = {"reactions": True}
+    out = tmp_path / "pull"
+    run_hyperqn([write_deck(tmp_path / "pull.yaml", deck), "-o", out], ranks=None)
+    travel, force = curve(out, "fixed[1]", "x")
+    assert np.allclose(travel, [0.05, 0.1]) and np.all(force > 0), (travel, force)
