@@ -127,7 +127,8 @@ def test_signal_during_a_frame(tmp_path, case, ranks):
     assert_same_checkpoint(out / "checkpoints" / name, ref / "checkpoints" / name,
                            released=deck.get("fixed") == MOTION["fixed"] and frame == RELEASE)
     run_hyperqn([path, "-o", out, "--restart", "latest", *extra], ranks=ranks)
-    assert_same_run(ref, out)
+    # (1 iteration per attempt leaves some frames far from converged after the chain: flagged, alike)
+    assert_same_run(ref, out, status="flagged" if case == "substeps" else "ok")
 
 
 def test_no_second_checkpoint_of_the_same_frame(tmp_path):
