@@ -15,7 +15,6 @@
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
 #include "terms/contact.hpp"
-#include "terms/load_kind.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
 #include "mesh/input_error.hpp"
@@ -667,12 +666,11 @@ PetscErrorCode LiveScene::load_acts_after_releases(const std::string& key, bool*
   std::unique_ptr<Scene> later;
   PetscCall(rebuild(released, std::vector<char>(spec_->attachments.size(), 0), later));
   *acts = true;
-  for (const auto& term : later->body->terms())
-    if (dynamic_cast<const LoadTerm*>(term.get())) {
-      InputProblem problem;
-      PetscCall(term->check_start({}, problem));  // (a load's check reads no positions)
-      if (problem.key == key) *acts = false;
-    }
+  for (const auto& term : later->body->terms()) {
+    InputProblem problem;
+    PetscCall(term->check_start(later->mesh.rest, problem));  // (at rest: the local vertices' rest positions)
+    if (problem.key == key) *acts = false;
+  }
   PetscFunctionReturn(0);
 }
 
@@ -684,7 +682,7 @@ PetscErrorCode LiveScene::check_start(const State& s, bool* ok) const {
   for (const auto& term : scene_->body->terms()) {
     InputProblem problem;
     PetscCall(term->check_start(pos, problem));
-    if (!problem.what.empty() && dynamic_cast<const LoadTerm*>(term.get())) {
+    if (problem.key.rfind("loads[", 0) == 0) {
       bool later = false;  // a load on vertices a support holds until its release acts from then
       PetscCall(load_acts_after_releases(problem.key, &later));
       if (later) continue;
