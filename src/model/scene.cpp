@@ -86,7 +86,7 @@ std::vector<MemoryLimit> gather_memory_limits(MPI_Comm comm) {
 // size, the rank, what it holds and the ways out. -hyperqn_memory_report prints every rank's
 // estimate (bench/memory_per_rank.py reads it).
 void check_memory(const SceneSpec& deck, int64_t vertices, int64_t tets, const MemoryPlan& run_plan,
-                  const std::vector<MemoryLimit>& limits) {
+                  const std::vector<MemoryLimit>& limits, int line = 0, const std::string& key = "") {
   const int ranks = (int)limits.size();
   const MemoryPlan plan = resolved_plan(run_plan, vertices, tets, ranks);
   PetscBool report = PETSC_FALSE;
@@ -114,7 +114,8 @@ void check_memory(const SceneSpec& deck, int64_t vertices, int64_t tets, const M
                 "but %.0f MB are available to it (%s). ",
                 worst, ranks, m.total() / 1048576.0, (long long)vertices, limits[worst].bytes / 1048576.0,
                 describe_limit(limits[worst]).c_str());
-  throw InputError(deck.path, deck.mesh.line, deck.mesh.is_box ? "mesh.box.cells" : deck.mesh.is_sheet ? "mesh.sheet.cells" : "mesh.file",
+  throw InputError(deck.path, line ? line : deck.mesh.line,
+                   !key.empty() ? key : deck.mesh.is_box ? "mesh.box.cells" : deck.mesh.is_sheet ? "mesh.sheet.cells" : "mesh.file",
                    head + ("It would hold " + describe_rank_memory(m, worst, plan)) + ". Ways out: " +
                        ways_out(vertices, ranks, plan, bytes));
 }
@@ -279,6 +280,9 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
       const auto& n = spec.sheet_cells;
       check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
     }
+    for (size_t k = 0; k < spec.strands.size(); ++k)  // each strand's vertices, before they are made
+      check_memory(deck, spec.strands[k].segments + int64_t(1), 0, plan, limits, spec.strands[k].line,
+                   "mesh.strands[" + std::to_string(k) + "].segments");
     mesh = read_serial_mesh(deck, repaired);
     check_face_tags_in_file(deck, mesh);
     if (!spec.file.empty() || !deck.bodies.empty())  // before distributing and factoring it

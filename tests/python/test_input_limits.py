@@ -377,3 +377,15 @@ def test_memory_limit_from_the_environment(tmp_path, monkeypatch):
     monkeypatch.setenv("HYPERQN_MEMORY_LIMIT_MB", "lots")
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, tmp_path / "out", ["HYPERQN_MEMORY_LIMIT_MB", "'lots'"])
+
+
+def test_a_strand_of_more_segments_than_memory_is_refused(tmp_path):
+    # 2e9 segments were generated until the machine ran out (exit 137); under a limit, "out of
+    # memory while reading the mesh on rank 0", naming no key
+    deck = {"mesh": {"strands": [{"from": [1, 0, 0], "to": [2, 0, 0], "segments": 2000000000}]},
+            "strand_material": {"axial_stiffness": 100, "linear_density": 0.5},
+            "fixed": [{"box": {"min": [0.99, -0.01, -0.01], "max": [1.01, 0.01, 0.01]}}],
+            "time": {"dt": 0.01, "frames": 1}}
+    proc = run_hyperqn([write_deck(tmp_path / "rope.yaml", deck), "-o", tmp_path / "out"], ranks=None, check=False,
+                       timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["rope.yaml:", "'mesh.strands[0].segments'", "rank 0 of 1 would need about"])
