@@ -406,6 +406,12 @@ SceneInput load_scene_input(MPI_Comm comm, const SceneSpec& deck, const MemoryPl
   in.piece = load_scene_piece(comm, deck, &in.repaired, plan);
   const TetMesh& mesh = in.piece.mesh;
   if (!deck.bodies.empty()) check_body_materials(comm, deck, in.piece);
+  if (deck.bodies.empty() && deck.has_material) {  // a Medit file read for its edges may hold none
+    int64_t tets = mesh.num_tets();
+    MPI_Allreduce(MPI_IN_PLACE, &tets, 1, MPI_INT64_T, MPI_SUM, comm);
+    if (tets == 0)
+      throw InputError(deck.path, 0, "material", "the mesh " + deck.mesh.file + " has no tetrahedra for it to describe");
+  }
   in.vertex_body = vertex_bodies(comm, in.piece, (int)deck.bodies.size());
   in.fixed = select_fixed_vertices(comm, mesh, deck.fixed, deck.path, in.vertex_body);
   in.rollers = std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller);

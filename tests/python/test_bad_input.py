@@ -741,6 +741,20 @@ def test_a_deck_the_run_would_overwrite_is_refused(tmp_path):
         assert sorted(os.listdir(outdir)) == ["config.yaml"] and Path(path).read_text() == text
 
 
+def test_a_material_beside_a_mesh_without_tets_is_refused(tmp_path):
+    # a Medit file of edges read as strands, with a material: accepted and unused (as a body's it was refused)
+    (tmp_path / "rope.mesh").write_text("MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n0.1 0 0 0\n0.2 0 0 0\n"
+                                        "Edges\n2\n1 2 0\n2 3 0\nEnd\n")
+    deck = {"mesh": {"file": "rope.mesh", "edges": "strands"},
+            "strand_material": {"axial_stiffness": 100, "linear_density": 0.5},
+            "material": {"model": "corotated", "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.01]}}],
+            "time": {"dt": 0.01, "frames": 1}}
+    proc = run_hyperqn([write_deck(tmp_path / "rope.yaml", deck), "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "out", ["rope.yaml: 'material': the mesh rope.mesh has no tetrahedra"])
+    assert proc.returncode == 1
+
+
 def test_a_directory_as_the_mesh_file_is_said_to_be_one(tmp_path):
     (tmp_path / "dir.mesh").mkdir()
     path = write_deck(tmp_path / "dir.yaml", deck_with(mesh={"file": "dir.mesh"}))
