@@ -401,9 +401,12 @@ void read_bodies(const Reader& r, const Value& v, const fs::path& deck_dir, Deck
     b.line = item.line;
     b.name = "body" + std::to_string(k);
     const Section s = read_keys(r, item, body_keys(), b);
-    if (const Value* x = s.find("name"))
-      for (const BodySpec& other : deck.bodies)
-        if (other.name == b.name) r.fail(*x, "another body is named " + b.name + " (line " + std::to_string(other.line) + ")");
+    for (const BodySpec& other : deck.bodies)  // a given name, or the default bodyK another body took
+      if (other.name == b.name) {
+        const std::string where = " (line " + std::to_string(other.line) + ")";
+        if (const Value* x = s.find("name")) r.fail(*x, "another body is named " + b.name + where);
+        r.fail(item, "this body's default name " + b.name + " is another body's" + where + ": give it a name");
+      }
     const Value& mesh = *s.find("mesh");
     read_mesh(r, mesh, deck_dir, b.mesh);
     const MeshSpec& m = b.mesh;

@@ -219,6 +219,9 @@ def test_a_list_of_one_body_is_the_plain_deck(tmp_path, run_once):
     (lambda d: d.update(mesh={"box": {"size": [1, 1, 1], "cells": [1, 1, 1]}}), "mesh", "each body has its own mesh"),
     (lambda d: d["bodies"][1].pop("material"), "bodies[1]", "material"),
     (lambda d: d["bodies"][1].update(name="soft"), "bodies[1].name", "another body is named soft"),
+    # an unnamed body's default, bodyK, taken by another's name (accepted: two bodies named body1)
+    (lambda d: (d["bodies"][0].update(name="body1"), d["bodies"][1].pop("name", None)), "bodies[1]",
+     "this body's default name body1 is another body's"),
     (lambda d: d["bodies"].__setitem__(0, {"mesh": CLOTH["mesh"]}), "bodies[0].cloth", "missing"),
     (lambda d: d["bodies"][0].update(mesh=CLOTH["mesh"], cloth=CLOTH["cloth"]), "bodies[0].material",
      "material describes tetrahedra"),
