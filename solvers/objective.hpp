@@ -90,6 +90,8 @@ class Objective {
   virtual bool projective_dynamics_exact() const = 0;
   // The energy terms' names, for messages, e.g. "corotated, strand".
   virtual std::string energy_names() const = 0;
+  // Those of them that are not (projective_dynamics_exact), for pd's message.
+  virtual std::string inexact_energy_names() const { return energy_names(); }
 };
 
 }  // namespace hyperqn

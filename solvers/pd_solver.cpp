@@ -37,10 +37,10 @@ PetscErrorCode PdSolver::setup(const SolverSpec& spec) {
                                 "steps x <- x - A^{-1} grad g (alpha = 1, no line search)\n",
                           step_.energy_names().c_str()));
   } else {
-    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (%s; exact needs ARAP or "
-                                "springs, each with its own laplacian_weight); running its quasi-Newton step "
+    PetscCall(PetscPrintf(comm, "pd: Projective Dynamics is not exact for this material (not: %s; exact needs ARAP or "
+                                "springs without yield_strain, each with its own laplacian_weight); running its quasi-Newton step "
                                 "x <- x - alpha A^{-1} grad g with a backtracking Armijo line search (L-BFGS with m = 0)\n",
-                          step_.energy_names().c_str()));
+                          step_.inexact_energy_names().c_str()));
   }
   PetscCall(VecDuplicate(step_.layout(), &grad_));
   PetscCall(VecDuplicate(step_.layout(), &dir_));

@@ -47,6 +47,13 @@ bool Body::projective_dynamics_exact() const {
   return true;
 }
 
+std::string Body::inexact_names() const {
+  std::string s;
+  for (const auto& t : terms_)
+    if (!t->projective_dynamics_exact()) s += (s.empty() ? "" : ", ") + t->name();
+  return s;
+}
+
 std::string Body::material_names() const {
   std::string s;
   for (const auto& t : terms_) s += (s.empty() ? "" : ", ") + t->name();

@@ -26,6 +26,7 @@ class Body {
   const DistributedMesh& mesh() const { return mesh_; }
   // True if every term is exactly a Projective Dynamics energy with its own L.
   bool projective_dynamics_exact() const;
+  std::string inexact_names() const;  // the terms that are not (EnergyTerm::projective_dynamics_exact)
   std::string material_names() const;  // the terms' names, e.g. "corotated, neohookean, strand"
 
   // Prescribed motion of the fixed regions (fixed[k] moves the vertices fixed by region k).

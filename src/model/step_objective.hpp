@@ -153,6 +153,7 @@ class StepObjective : public Objective {
   bool projective_dynamics_exact() const override { return body_.projective_dynamics_exact(); }
   bool holds_components() const override { return body_.holds_components(); }
   std::string energy_names() const override { return body_.material_names(); }
+  std::string inexact_energy_names() const override { return body_.inexact_names(); }
 
  private:
   // x = x_n + t (y - x_n), t the largest of 1, 1/2, 1/4, ... that leaves no tet upright at x_n

@@ -117,6 +117,19 @@ def test_pd_says_which_mode_runs(tmp_path, material, exact):
     assert_energy_never_increases(read_iterations(tmp_path / "out"))
 
 
+def test_pd_names_the_terms_that_are_not_exact(tmp_path):
+    # a cloth whose edge springs yield: the message listed every term ("cloth mass, cloth springs,
+    # bending springs") and the rule "ARAP or springs", never the yield
+    deck = {"mesh": {"sheet": {"size": [0.2, 0.2], "cells": [4, 4]}},
+            "cloth": {"model": "mass-spring", "stretch_stiffness": 10.0, "areal_density": 0.2, "yield_strain": 0.01,
+                      "bending": {"model": "springs", "stiffness": 1.0}},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.21]}}],
+            "time": {"dt": 0.01, "frames": 1}, "solver": {"type": "pd"}, "output": {"vtk": False}}
+    proc = run_hyperqn([write_deck(tmp_path / "d.yaml", deck), "-o", tmp_path / "out"], ranks=None)
+    assert NOT_EXACT_LINE + " (not: cloth springs; exact needs ARAP or springs without yield_strain" in proc.stdout, \
+        proc.stdout
+
+
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_neohookean_pd_uses_the_line_search(tmp_path, ranks):
     proc = run_hyperqn([NEOHOOKEAN_DECK, "-o", tmp_path / "out"], ranks=ranks)
