@@ -374,3 +374,20 @@ def test_a_reference_that_stops_short_of_reference_rtol_is_said(tmp_path):
     path.write_text(yaml.safe_dump(deck))
     proc = run_hyperqn(["study", path, "-o", tmp_path / "study2"], ranks=None)
     assert "warning: the reference stopped" not in proc.stdout
+
+
+def test_a_reference_stopped_by_the_time_limit_is_not_called_a_higher_stationary_point(tmp_path):
+    # Newton stopped after an iteration or two by study.time_limit, lbfgs below it: the study said
+    # both "the reference ... converged to a stationary point that is not the lowest found" and
+    # "the reference stopped at study.time_limit"; only the second is true
+    import yaml
+    deck = {"mesh": {"box": {"size": [2.0, 0.5, 0.5], "cells": [8, 2, 2]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+            "gravity": [0, -9.81, 0], "time": {"dt": 1 / 30, "frames": 3},
+            "study": {"frames": [2], "solvers": ["lbfgs"], "iterations": 60, "time_limit": 2e-4, "trajectory": False}}
+    path = tmp_path / "limited.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
+    assert "warning: the reference stopped at study.time_limit" in proc.stdout, proc.stdout[-3000:]
+    assert "not the lowest found" not in proc.stdout
