@@ -502,8 +502,10 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
     id_offset_ = slots - input.piece.global_vertices;
   }
   if (!spec.cuts.empty()) {
-    // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal, as
-    // the body may move) over the run's frames cuts nothing: said, not refused.
+    // A blade whose sweep never comes near the body's rest bounding box (grown by its diagonal)
+    // over the run's frames: said, not refused. A rest-frame blade meets the rest shape, so it cuts
+    // nothing; a world-frame blade meets the body where it is, and a body that falls, is pushed or
+    // is moved may still reach it: it cuts only if the body moves there (whether it does is the solve's).
     double lo[3], hi[3];
     bounding_box(input.piece.mesh.coords, lo, hi);
     MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPI_DOUBLE, MPI_MIN, comm);
@@ -514,9 +516,11 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
       for (int f = 0; f < spec.time.frames && !meets; ++f)
         meets = BladeSweep(spec.cuts[k], f * spec.time.dt, (f + 1) * spec.time.dt).may_meet_box(blo - grow, bhi + grow);
       if (!meets)
-        PetscCall(PetscPrintf(comm, "hyperqn: warning: %s:%d: cuts[%zu]: the blade never comes near the body in the run's "
-                                    "%d frames (it stays farther than the body's size from its rest bounding box): it cuts nothing\n",
-                              spec.path.c_str(), spec.cuts[k].line, k, spec.time.frames));
+        PetscCall(PetscPrintf(comm, "hyperqn: warning: %s:%d: cuts[%zu]: the blade never comes near the body's rest position in "
+                                    "the run's %d frames (it stays farther than the body's size from its rest bounding box): %s\n",
+                              spec.path.c_str(), spec.cuts[k].line, k, spec.time.frames,
+                              spec.cuts[k].frame == CutFrame::rest ? "it cuts nothing (frame: rest)"
+                                                                   : "it cuts only if the body moves there (frame: world)"));
     }
   }
   // A release after the last step's start never happens in this run: said, not refused (a restart

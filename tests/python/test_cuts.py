@@ -391,14 +391,31 @@ def test_a_single_precision_factor_is_factored_again_at_every_cut(tmp_path):
     assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
 
 
-def test_a_blade_that_never_meets_the_body_is_a_warning(tmp_path):
+@pytest.mark.parametrize("frame", ["rest", "world"])
+def test_a_blade_that_never_meets_the_body_is_a_warning(tmp_path, frame):
+    # A rest-frame blade far from the rest shape cuts nothing; a world-frame one only if the body moves there.
     deck = copy.deepcopy(BAR)
     deck["time"]["frames"] = 2
     deck["cuts"][0]["center"] = [1.02, 50.0, 0.25]
+    deck["cuts"][0]["frame"] = frame
     out, s = run_deck(tmp_path, "far", deck)
     proc = run_hyperqn([write_deck(tmp_path / "far.yaml", deck), "-o", out], ranks=None)
+    said = "it cuts nothing (frame: rest)" if frame == "rest" else "it cuts only if the body moves there (frame: world)"
     assert "warning: " in proc.stdout and "far.yaml:" in proc.stdout and "cuts[0]: the blade never comes near" in proc.stdout
+    assert said in proc.stdout
     assert s["cuts"]["faces_separated"] == 0
+
+
+def test_a_world_blade_far_from_the_rest_position_cuts_a_body_that_falls_onto_it(tmp_path):
+    # A free bar falls under gravity onto a still world-frame blade 2.8 m below it: the warning says it
+    # cuts only if the body moves there, and it does (at t = 0.7 s).
+    deck = {"mesh": BAR["mesh"], "material": {**MATERIAL, "youngs_modulus": 5.0e6}, "gravity": [0, -9.81, 0],
+            "cuts": [{"center": [1.0, -2.8, 0.25], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [1.0, 2.0]}],
+            "time": {"dt": 1 / 30, "frames": 30}, "solver": {"type": "lbfgs"}}
+    out = tmp_path / "fall"
+    proc = run_hyperqn([write_deck(tmp_path / "fall.yaml", deck), "-o", out], ranks=None)
+    assert "it cuts only if the body moves there" in proc.stdout and "it cuts nothing" not in proc.stdout
+    assert read_summary(out)["cuts"]["faces_separated"] == 8
 
 
 def bad(**cut):
