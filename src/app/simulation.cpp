@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <type_traits>
 
 #include "app/deck_config.hpp"
@@ -55,6 +56,40 @@ std::string completed_status(const RunSummary& summary, bool started_inverted, b
   return status.empty() ? "ok" : status;
 }
 
+// What summary.json says of the changes of topology and the mesh they made: the scene's as the
+// last frame that stood left it (a frame that began with a cut and then could not stand is not
+// written, nor in topology.csv: docs/outputs.md).
+struct SceneTotals {
+  LiveScene::CutCounts cuts;
+  LiveScene::BreakCounts breaks;
+  long long vertices = 0, tets = 0, segments = 0, triangles = 0, dofs = 0;  // the mesh's
+};
+
+static SceneTotals scene_totals(LiveScene& scene) {
+  const DistributedMesh& m = scene.current().mesh;
+  return {scene.cut_counts(), scene.break_counts(), m.global_vertices, m.global_cells, m.global_segments,
+          m.global_triangles, m.global_dofs};
+}
+
+// Takes the totals at the loop's start and after each frame that stands (the last observer: an
+// earlier one may find the frame cannot stand).
+class AcceptedTotals : public FrameObserver {
+ public:
+  AcceptedTotals(LiveScene& scene, std::optional<SceneTotals>& out) : scene_(scene), out_(out) {}
+  PetscErrorCode begin(LoopControl&) override {
+    out_ = scene_totals(scene_);
+    return 0;
+  }
+  PetscErrorCode after_frame(const FrameOutcome&, LoopControl& control) override {
+    if (control.stop.empty()) out_ = scene_totals(scene_);
+    return 0;
+  }
+
+ private:
+  LiveScene& scene_;
+  std::optional<SceneTotals>& out_;
+};
+
 // Everything one simulation run holds while its frames are computed. What it does with a frame
 // is its observers' (app/run_observers.hpp, app/run_checkpoints.hpp) of one TimeLoop.
 struct Run {
@@ -78,6 +113,7 @@ struct Run {
   std::string restart_path;
   RunSummary earlier;                // the work (times, factorizations) before the restart
   bool interrupted = false;          // stopped by a signal with a checkpoint (kExitInterrupted)
+  std::optional<SceneTotals> accepted;  // the scene's totals at the last frame that stood (AcceptedTotals)
 
   Run(MPI_Comm c, const Deck& d, const RunOptions& o, bool restarted)
       : comm(c), deck(d), options(o), frames(context, restarted) {}
@@ -140,6 +176,8 @@ PetscErrorCode Run::time_loop(bool& ok) {
   loop.observe(logs);
   loop.observe(frames);
   loop.observe(checkpointer);
+  AcceptedTotals accepted_totals(scene, accepted);
+  loop.observe(accepted_totals);
   PetscCall(loop.run(deck.time.frames));
   interrupted = checkpointer.interrupted();
   if (!loop.stop().empty()) {
@@ -465,12 +503,13 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
 
   // 4. Summary.
   read_log_events(summary);
+  const SceneTotals totals = run.accepted ? *run.accepted : scene_totals(run.scene);
   if (!deck.cuts.empty() || run.scene.fracture()) {  // the counts so far (a restart's replay included) and the mesh they made
-    const LiveScene::CutCounts& c = run.scene.cut_counts();
+    const LiveScene::CutCounts& c = totals.cuts;
     summary.cuts = !deck.cuts.empty();  // a deck has cuts or fracture (deck_rules.cpp)
     summary.fracture = run.scene.fracture();
     if (deck.cuts.empty())  // every face is the criterion's: the first of the history (a replay's included)
-      summary.first_break_frame = run.scene.cut_history().empty() ? -1 : run.scene.cut_history().front()[0];
+      summary.first_break_frame = c.batches == 0 || run.scene.cut_history().empty() ? -1 : run.scene.cut_history().front()[0];
     else if (summary.first_break_frame < 0)  // with cuts: the checkpoint's, else this run's
       summary.first_break_frame = c.first_broken;
     summary.faces_broken = c.broken;  // this run's; a restart's earlier ones are added below
@@ -482,7 +521,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.topology_s = event_seconds(log_events().topology);
   }
   if (run.scene.breaks()) {  // as for cuts (a blade's cut through a cloth counts as its torn edges)
-    const LiveScene::BreakCounts& c = run.scene.break_counts();
+    const LiveScene::BreakCounts& c = totals.breaks;
     summary.breaks = true;
     summary.segments_snapped = c.segments;
     summary.edges_torn = c.edges;
@@ -492,12 +531,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     summary.topology_s = event_seconds(log_events().topology);
   }
   if (summary.cuts || summary.fracture || summary.breaks) {  // the mesh the changes made (tets: a blade with remove)
-    const DistributedMesh& end = run.scene.current().mesh;
-    summary.vertices = end.global_vertices;
-    summary.tets = end.global_cells;
-    summary.segments = end.global_segments;
-    summary.triangles = end.global_triangles;
-    summary.dofs = end.global_dofs;
+    summary.vertices = totals.vertices;
+    summary.tets = totals.tets;
+    summary.segments = totals.segments;
+    summary.triangles = totals.triangles;
+    summary.dofs = totals.dofs;
   }
   add_step_counters(summary, *run.scene.current().step);  // the scene in use at the end
   summary.wall_s = MPI_Wtime() - t_start;

@@ -9,7 +9,7 @@ import csv
 import pytest
 
 from conftest import run_deck, run_hyperqn, write_deck
-from hyperqn_tools.output import read_summary
+from hyperqn_tools.output import final_frame, read_summary
 from test_checkpoint import assert_same_run, tree_digest
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise, killed
 from test_cuts import BAR
@@ -101,6 +101,29 @@ def test_tear_rows_sum_to_the_summary(tmp_path, solver):
     assert max(r["edges_torn"] for r in table) == 1  # one edge per step
     steps = lambda r: r["edges_torn"] if solver == "lbfgs" else 0
     assert all(r["h0_corrections"] + r["refactorizations"] == steps(r) for r in table)
+
+
+def test_a_run_that_stops_in_a_frame_that_began_with_a_cut(tmp_path):
+    # Static, the blade (rest frame) frees the bar's end at the start of frame 10, which then has no
+    # equilibrium and diverges: summary.json counts what topology.csv and the frames hold (frame 9's
+    # scene), not the cut of the frame that did not stand.
+    deck = copy.deepcopy(BAR)
+    deck["material"]["youngs_modulus"] = 5.0e6
+    deck["solver"] = {"type": "lbfgs"}
+    deck["time"] = {"dt": 1 / 30, "frames": 10, "integrator": "static"}
+    deck["cuts"][0].update({"center": [1.27, 1.0, 0.25], "frame": "rest",
+                            "motion": {"translate": {"velocity": [0, -3, 0]}, "start": 0.1, "end": 0.6}})
+    out = tmp_path / "static"
+    done = run_hyperqn([write_deck(tmp_path / "static.yaml", deck), "-o", out], check=False)
+    s = read_summary(out)
+    assert done.returncode == 1 and s["status"].startswith("error: frame 10: diverged")
+    table, c = rows(out), s["cuts"]
+    assert table[-1]["frame"] == 9 and c["faces_separated"] > 0
+    assert sums(table) == {"faces_separated": c["faces_separated"], "vertices_added": c["vertices_added"],
+                           "segments_snapped": 0, "edges_torn": 0, "h0_corrections": c["h0_corrections"],
+                           "refactorizations": c["refactorizations"], "tets_removed": 0}
+    last = final_frame(out)
+    assert s["vertices"] == len(last.points) and s["tets"] == len(last.cells["tetra"])
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
