@@ -262,6 +262,14 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     c.keys(prefix, collider_keys(), deck.colliders[k]);
     c.motion(prefix, deck.colliders[k].motion);
   }
+  for (size_t k = 0; k < deck.cuts.size(); ++k) {  // the rectangle's keys or the surface's, whichever it is
+    const std::string prefix = "cuts[" + std::to_string(k) + "].";
+    const CutSpec& cut = deck.cuts[k];
+    c.keys(prefix, cut_keys(), cut, {},
+           cut.surface.empty() ? std::set<std::string>{"surface", "surface_scale", "surface_offset"}
+                               : std::set<std::string>{"center", "normal", "axis", "size"});
+    c.motion(prefix, cut.motion);
+  }
   if (!deck.colliders.empty() || deck.contact.self) c.keys("contact.", contact_keys(), deck.contact);
   c.keys("", gravity_keys(), static_cast<const SceneSpec&>(deck));
   c.keys("time.", time_keys(), deck.time);

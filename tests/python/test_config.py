@@ -239,3 +239,27 @@ def test_a_left_out_key_shows_its_default_not_a_stand_in():
     settings = config([os.path.join(REPO, "input", "contact", "bunny_drop.yaml")])
     for key in ("contact.friction_velocity", "material.laplacian_weight"):
         assert settings[key][0] == "auto", (key, settings[key])
+
+
+def test_a_cut_lists_its_defaults(tmp_path):
+    """Found from outside: a blade's keys were listed only as the deck wrote them, among the keys a
+    section's own reader reads: frame, remove, motion.start and motion.end left out at their defaults
+    were missing, and a surface blade's surface_scale and surface_offset."""
+    settings = config([os.path.join(REPO, "input", "topology", "bar_sliced.yaml")])
+    assert settings["cuts[0].frame"] == ("world", "default")
+    assert settings["cuts[0].remove"] == ("false", "default")
+    assert settings["cuts[0].center"][1].startswith("deck line ")
+    assert "cuts[0].surface" not in settings and "cuts[0].surface_scale" not in settings  # the rectangle's
+    (tmp_path / "blade.obj").write_text("v 1 -1 -1\nv 1 2 -1\nv 1 -1 2\nf 1 2 3\n")
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [2, 0.5, 0.5], "cells": [4, 1, 1]}},
+        "material": {"model": "neohookean", "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000},
+        "cuts": [{"surface": "blade.obj", "motion": {"translate": {"velocity": [0, -1, 0]}}}],
+        "time": {"dt": 0.01, "frames": 1},
+    })
+    settings = config([deck])
+    assert settings["cuts[0].surface_scale"] == ("1", "default")
+    assert settings["cuts[0].surface_offset"] == ("[0, 0, 0]", "default")
+    assert settings["cuts[0].motion.start"] == ("0", "default")
+    assert settings["cuts[0].motion.end"] == ("never", "default")
+    assert "cuts[0].center" not in settings and "cuts[0].size" not in settings  # the surface's
