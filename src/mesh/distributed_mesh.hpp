@@ -7,6 +7,7 @@
 #include <petscdmplex.h>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "mesh/mesh_spec.hpp"
@@ -40,6 +41,10 @@ struct DistributedMesh {
   // Per local tet, segment, triangle: its index among the serial mesh's elements of its kind (the
   // same at every rank count: output in a global order, io/xdmf_writer.hpp).
   std::vector<int64_t> cell_ids, segment_ids, triangle_ids;
+  // The input mesh's boundary faces on this rank's tets, each as 4 × cell_id + its index in the tet,
+  // sorted: the faces a load's box may select once cuts or fracture changed the mesh (a crack's or
+  // a kerf's faces are none of them: docs/loads.md). Null: the input's mesh, all of them.
+  std::shared_ptr<const std::vector<int64_t>> original_boundary;
   std::vector<int32_t> cell_tags;    // per local tet: the input element tag (with bodies: its body, as the
                                      // segment and triangle tags)
   int num_bodies = 0;                // a scene of bodies (deck bodies:); 0: one body

@@ -14,6 +14,7 @@
 #include "model/tearing.hpp"
 #include "model/elastic_terms.hpp"
 #include "model/load_kinds.hpp"
+#include "terms/boundary_faces.hpp"
 #include "terms/contact.hpp"
 #include "model/initial_state.hpp"
 #include "model/regions.hpp"
@@ -537,6 +538,7 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
   for (const AttachmentSpec& a : spec.attachments) PetscCall(never_released(a.region, "an attachment"));
   scene_ = std::make_unique<Scene>();
   PetscCall(build(std::move(input), {}, *scene_));
+  if (separates) original_boundary_ = std::make_shared<const std::vector<int64_t>>(boundary_tet_faces(scene_->mesh));  // which loads keep to after cuts (docs/loads.md)
   if (!spec.contact.self) PetscFunctionReturn(0);
   // With self-contact a fresh crack opens by its activation distance d (mesh/separation.hpp,
   // CrackOpening), the input's d whatever the cuts do to the rest shape later.
@@ -571,6 +573,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   s.mesh.num_bodies = (int)spec.bodies.size();
   s.mesh.vertex_body = std::move(input.vertex_body);  // the DMPlex keeps the piece's vertices in order
   s.mesh.unopened_rest = input.piece.unopened;        // in the same order
+  s.mesh.original_boundary = original_boundary_;     // (null at the first build: the input's mesh)
   s.mesh.rollers = input.rollers;
   if (s.mesh.rollers) {  // the free vertices' held components
     s.mesh.held.assign(3 * s.mesh.num_vertices, 0);

@@ -287,6 +287,7 @@ class LiveScene {
   int64_t decided_after_ = -1;               // changes_decided_after
   std::set<TetPair> separated_;
   std::vector<FractureSpec> fracture_;  // per material (model/fracture.hpp); empty: no fracture
+  std::shared_ptr<const std::vector<int64_t>> original_boundary_;  // the input's boundary faces (DistributedMesh::original_boundary)
   int64_t id_offset_ = 0;  // a copy's vertex id minus its vertex number (ids after the input's)
   CutCounts counts_;
   std::string nothing_left_;  // cut_due's

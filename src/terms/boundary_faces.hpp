@@ -9,7 +9,13 @@
 
 namespace hyperqn {
 
-// In the order of their sorted input vertex ids (the same at any rank count).
-std::vector<std::array<PetscInt, 3>> local_boundary_faces(const DistributedMesh& mesh);
+// In the order of their sorted input vertex ids (the same at any rank count). tet_faces, if given,
+// gets each face's 4 × its tet's cell_id + its index in the tet (0-3), which cuts do not change.
+std::vector<std::array<PetscInt, 3>> local_boundary_faces(const DistributedMesh& mesh,
+                                                          std::vector<int64_t>* tet_faces = nullptr);
+
+// The body's boundary faces on this rank's tets (a face between two ranks' tets is none), as
+// tet_faces above, sorted. Collective.
+std::vector<int64_t> boundary_tet_faces(const DistributedMesh& mesh);
 
 }  // namespace hyperqn

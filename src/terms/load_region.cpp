@@ -108,9 +108,16 @@ LoadRegion select_region_in_box(const DistributedMesh& mesh, const LoadSpec& spe
     const Vec3 normal = (Vec3(&mesh.rest[3 * f[1]]) - a).cross(Vec3(&mesh.rest[3 * f[2]]) - a);
     return normal.dot(n) >= cos_angle * normal.norm() * n.norm();
   };
+  // After cuts or fracture only the input's boundary faces (mesh.original_boundary): a crack's faces
+  // take no load (a face_tag cannot select them either).
+  const std::vector<int64_t>* original = mesh.original_boundary.get();
+  std::vector<int64_t> tet_faces;
+  const std::vector<std::array<PetscInt, 3>> boundary = local_boundary_faces(mesh, &tet_faces);
   std::vector<std::array<PetscInt, 3>> candidates;
   std::vector<int64_t> keys;
-  for (const auto& f : local_boundary_faces(mesh)) {
+  for (size_t b = 0; b < boundary.size(); ++b) {
+    const auto& f = boundary[b];
+    if (original && !std::binary_search(original->begin(), original->end(), tet_faces[b])) continue;
     if (!in_box(spec, &mesh.rest[3 * f[0]], tol) || !in_box(spec, &mesh.rest[3 * f[1]], tol) ||
         !in_box(spec, &mesh.rest[3 * f[2]], tol))
       continue;

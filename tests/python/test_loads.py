@@ -3,6 +3,7 @@
 - Momentum: a free body (nothing fixed, no gravity) under a force and a traction gains, per
   implicit-Euler step, h times the loads' total: sum m v = t F to the solver's tolerance; under a
   ramp curve, h F sum_k c(t_k).
+- A cut opens faces that take no traction: the momentum is the same through it.
 - input/engineering/bar_tip_load.yaml (a traction and an open pressure) gives the same frames at 1
   and 2 ranks (1e-10 of the sag) and bends the bar down.
 - Bad loads stop the run before anything is written, naming the deck line and key.
@@ -53,6 +54,25 @@ def test_momentum_of_a_free_body(tmp_path, ranks):
     expected = 10 * 0.02 * (FORCE + 0.25 * TRACTION)
     print(f"{ranks} rank(s): momentum {momentum}, t F = {expected}")
     # The solves stop at grad_rtol 1e-12, each frame's error in the momentum is that of its residual.
+    assert np.abs(momentum - expected).max() <= 1e-6 * np.abs(expected).max()
+
+
+@pytest.mark.parametrize("ranks", [1, 2])  # at 2 ranks the crack is on the partition boundary
+def test_a_cut_adds_no_traction(tmp_path, ranks):
+    """Found from outside: a traction whose box holds the whole body took the faces a cut opens too
+    (both crack sides pushed the same way: a net force the cut created). A box keeps to the input's
+    boundary faces: a free bar's momentum grows by h t A_surface per step, A_surface = 2.5 m², through
+    a cut (a rest-frame blade at x = 0.5 from the second frame) that splits it in 2."""
+    deck = copy.deepcopy(FREE)
+    deck["loads"] = [{"type": "traction", "box": EVERYWHERE, "traction": TRACTION.tolist()}]
+    deck["cuts"] = [{"center": [0.5, 0.25, 0.25], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [2, 2], "frame": "rest"}]
+    out = tmp_path / "out"
+    run_hyperqn([write_deck(tmp_path / "cut.yaml", deck), "-o", out], ranks=ranks)
+    assert read_summary(out)["cuts"]["faces_separated"] == 8
+    frame = final_frame(out)
+    momentum = lumped_masses(frame) @ frame.velocity
+    expected = 10 * 0.02 * 2.5 * TRACTION
+    print(f"momentum {momentum}, 10 h A t = {expected}")
     assert np.abs(momentum - expected).max() <= 1e-6 * np.abs(expected).max()
 
 
