@@ -38,9 +38,8 @@ std::vector<std::array<PetscInt, 3>> local_boundary_faces(const DistributedMesh&
   return out;
 }
 
-std::vector<int64_t> boundary_tet_faces(const DistributedMesh& m) {
-  std::vector<int64_t> tet_faces, keys;
-  const std::vector<std::array<PetscInt, 3>> faces = local_boundary_faces(m, &tet_faces);
+std::vector<char> held_by_one_rank(const DistributedMesh& m, const std::vector<std::array<PetscInt, 3>>& faces) {
+  std::vector<int64_t> keys;
   for (const auto& f : faces) {
     std::array<int64_t, 3> key{m.vertex_ids[f[0]], m.vertex_ids[f[1]], m.vertex_ids[f[2]]};
     std::sort(key.begin(), key.end());
@@ -49,9 +48,17 @@ std::vector<int64_t> boundary_tet_faces(const DistributedMesh& m) {
   std::map<std::array<int64_t, 3>, int> holders;  // ranks holding each face
   const std::vector<int64_t> all = all_gathered(PetscObjectComm((PetscObject)m.dm), keys, MPI_INT64_T);
   for (size_t k = 0; k < all.size(); k += 3) ++holders[{all[k], all[k + 1], all[k + 2]}];
-  std::vector<int64_t> out;
+  std::vector<char> one(faces.size());
+  for (size_t f = 0; f < faces.size(); ++f) one[f] = holders[{keys[3 * f], keys[3 * f + 1], keys[3 * f + 2]}] == 1;
+  return one;
+}
+
+std::vector<int64_t> boundary_tet_faces(const DistributedMesh& m) {
+  std::vector<int64_t> tet_faces, out;
+  const std::vector<std::array<PetscInt, 3>> faces = local_boundary_faces(m, &tet_faces);
+  const std::vector<char> body = held_by_one_rank(m, faces);
   for (size_t f = 0; f < faces.size(); ++f)
-    if (holders[{keys[3 * f], keys[3 * f + 1], keys[3 * f + 2]}] == 1) out.push_back(tet_faces[f]);
+    if (body[f]) out.push_back(tet_faces[f]);
   std::sort(out.begin(), out.end());
   return out;
 }

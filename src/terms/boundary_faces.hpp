@@ -14,6 +14,10 @@ namespace hyperqn {
 std::vector<std::array<PetscInt, 3>> local_boundary_faces(const DistributedMesh& mesh,
                                                           std::vector<int64_t>* tet_faces = nullptr);
 
+// Of faces (local vertex numbers), which one rank alone holds: a face between two ranks' tets is a
+// boundary face of each rank's piece and of neither's body. Collective.
+std::vector<char> held_by_one_rank(const DistributedMesh& mesh, const std::vector<std::array<PetscInt, 3>>& faces);
+
 // The body's boundary faces on this rank's tets (a face between two ranks' tets is none), as
 // tet_faces above, sorted. Collective.
 std::vector<int64_t> boundary_tet_faces(const DistributedMesh& mesh);

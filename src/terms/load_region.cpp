@@ -114,24 +114,18 @@ LoadRegion select_region_in_box(const DistributedMesh& mesh, const LoadSpec& spe
   std::vector<int64_t> tet_faces;
   const std::vector<std::array<PetscInt, 3>> boundary = local_boundary_faces(mesh, &tet_faces);
   std::vector<std::array<PetscInt, 3>> candidates;
-  std::vector<int64_t> keys;
   for (size_t b = 0; b < boundary.size(); ++b) {
     const auto& f = boundary[b];
     if (original && !std::binary_search(original->begin(), original->end(), tet_faces[b])) continue;
     if (!in_box(spec, &mesh.rest[3 * f[0]], tol) || !in_box(spec, &mesh.rest[3 * f[1]], tol) ||
         !in_box(spec, &mesh.rest[3 * f[2]], tol))
       continue;
-    std::array<int64_t, 3> key{mesh.vertex_ids[f[0]], mesh.vertex_ids[f[1]], mesh.vertex_ids[f[2]]};
-    std::sort(key.begin(), key.end());
     candidates.push_back(f);
-    keys.insert(keys.end(), key.begin(), key.end());
   }
-  std::map<std::array<int64_t, 3>, int> holders;
-  const std::vector<int64_t> all = all_gathered(comm, keys, MPI_INT64_T);
-  for (size_t k = 0; k < all.size(); k += 3) ++holders[{all[k], all[k + 1], all[k + 2]}];
+  const std::vector<char> body = held_by_one_rank(mesh, candidates);
   long long mine = 0;
   for (size_t f = 0; f < candidates.size(); ++f)
-    if (holders[{keys[3 * f], keys[3 * f + 1], keys[3 * f + 2]}] == 1 && in_cone(candidates[f])) {
+    if (body[f] && in_cone(candidates[f])) {
       region.faces.push_back(candidates[f]);
       ++mine;
     }
