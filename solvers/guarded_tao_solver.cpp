@@ -53,9 +53,9 @@ PetscErrorCode GuardedTaoSolver::finish_setup() {
     PetscCall(TaoGetHessian(tao_, &hessian, nullptr, nullptr, nullptr));
     const bool runs = gradient_only.count(used) || (hessian && with_hessian.count(used));
     std::string choices;
-    for (const auto* list : {&gradient_only, &with_hessian})
-      if (list == &gradient_only || hessian)
-        for (const std::string& t : *list) choices += (choices.empty() ? "" : ", ") + t;
+    for (const std::string& t : gradient_only) choices += (choices.empty() ? "" : ", ") + t;
+    if (hessian)
+      for (const std::string& t : with_hessian) choices += ", " + t;
     PetscCheck(runs, PetscObjectComm((PetscObject)tao_), PETSC_ERR_ARG_WRONG,
                "-tao_type %s: TAO %s needs what this solver does not give it (%s); it runs one of %s", used, used,
                hessian ? "constraints, residuals or bounds" : "a Hessian, or constraints, residuals or bounds", choices.c_str());

@@ -274,6 +274,14 @@ using OptionWords = std::vector<std::pair<std::string, std::string>>;
 void add_option_words(const std::vector<std::string>& words, const std::string& where, int depth, OptionWords& out,
                       std::string& problem);
 
+// text split at whitespace, as PETSc splits options.
+std::vector<std::string> words_of(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::string> words;
+  for (std::string w; in >> w;) words.push_back(w);
+  return words;
+}
+
 void add_options_file(const std::string& name, const std::string& path, const std::string& where, int depth,
                       OptionWords& out, std::string& problem) {
   std::ifstream file(path);
@@ -283,10 +291,8 @@ void add_options_file(const std::string& name, const std::string& path, const st
   }
   if (name != "-options_file" || depth > 10) return;  // YAML files are PETSc's to read; a loop of files stops
   std::vector<std::string> words;
-  for (std::string line; std::getline(file, line);) {
-    std::istringstream in(line.substr(0, line.find('#')));
-    for (std::string w; in >> w;) words.push_back(w);
-  }
+  for (std::string line; std::getline(file, line);)
+    for (const std::string& w : words_of(line.substr(0, line.find('#')))) words.push_back(w);
   add_option_words(words, " (named in " + path + ")", depth + 1, out, problem);
 }
 
@@ -308,12 +314,8 @@ std::string start_option_problem(int argc, char** argv) {
   std::string problem;
   OptionWords options;
   add_option_words(std::vector<std::string>(argv + 1, argv + argc), "", 0, options, problem);
-  if (const char* env = std::getenv("PETSC_OPTIONS"); env && problem.empty()) {
-    std::istringstream in(env);
-    std::vector<std::string> words;
-    for (std::string w; in >> w;) words.push_back(w);
-    add_option_words(words, " (in PETSC_OPTIONS)", 0, options, problem);
-  }
+  if (const char* env = std::getenv("PETSC_OPTIONS"); env && problem.empty())
+    add_option_words(words_of(env), " (in PETSC_OPTIONS)", 0, options, problem);
   if (!problem.empty()) return problem;
   for (const auto& [name, value] : options)
     if (name == "-log_view" && !value.empty() && value[0] != '-')

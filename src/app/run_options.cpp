@@ -82,6 +82,13 @@ static const char* const kNumericOptions[] = {
     "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds",
     "-hyperqn_rigid_h0_share",           "-hyperqn_test_topology_h0_max_touched", "-hyperqn_test_rank_error_after_frame"};
 
+// value as a whole number (strtod over all of it); false if it is not one.
+static bool number_in(const std::string& value, double* x) {
+  char* end = nullptr;
+  *x = std::strtod(value.c_str(), &end);
+  return end != value.c_str() && *end == '\0';
+}
+
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
   for (const auto& [name, value] : all_options()) {
@@ -91,26 +98,17 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
     if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
     // Read by the rigid-mode H0 when a scene has one: checked here, so that config and every run refuse it alike.
-    if (name == "-hyperqn_rigid_h0_share") {
-      char* end = nullptr;
-      const double share = std::strtod(value.c_str(), &end);
-      if (end == value.c_str() || *end != '\0' || !(share > 0 && share <= 1)) refuse(deck, name.c_str(), "must be a number in (0, 1]");
-    }
+    double x = 0;
+    if (name == "-hyperqn_rigid_h0_share" && !(number_in(value, &x) && x > 0 && x <= 1))
+      refuse(deck, name.c_str(), "must be a number in (0, 1]");
     // TAO's tolerances and budget, and the L-BFGS history, as given: TAO takes any number (nan and
     // negative tolerances never stop a frame, inf stops each at once; 2147483648 wraps to a
     // negative budget, 4294967297 to 1) and PETSc crashes on a negative history. Checked here, so
     // that config and every run refuse them alike, quoting the value as written.
-    const auto whole_in = [&](double hi) {
-      char* end = nullptr;
-      const double x = std::strtod(value.c_str(), &end);
-      return end != value.c_str() && *end == '\0' && x >= 0 && x <= hi && x == std::floor(x);
-    };
-    if ((name == "-tao_gatol" || name == "-tao_grtol" || name == "-tao_gttol") && !value.empty()) {
-      char* end = nullptr;
-      const double x = std::strtod(value.c_str(), &end);
-      if (end == value.c_str() || *end != '\0' || !std::isfinite(x) || x < 0)
-        refuse(deck, name.c_str(), "must be a finite number >= 0 (the solver's tolerance)");
-    }
+    const auto whole_in = [&](double hi) { return number_in(value, &x) && x >= 0 && x <= hi && x == std::floor(x); };
+    if ((name == "-tao_gatol" || name == "-tao_grtol" || name == "-tao_gttol") && !value.empty() &&
+        !(number_in(value, &x) && std::isfinite(x) && x >= 0))
+      refuse(deck, name.c_str(), "must be a finite number >= 0 (the solver's tolerance)");
     if (name == "-tao_max_it" && !value.empty() && !whole_in(2147483647.0))
       refuse(deck, name.c_str(), "must be a whole number from 0 to 2147483647 (0: the fallback chain's stages alone iterate)");
     if (name == "-tao_lmvm_mat_lmvm_hist_size" && !value.empty() && !whole_in(kMaxHistory))
