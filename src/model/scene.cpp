@@ -2,6 +2,8 @@
 
 #include <cstdio>
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <numeric>
@@ -138,10 +140,49 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
+// A body between a nanometre and a million kilometres across (its rest bounding box's diagonal):
+// outside these, its mass (density x size^3) and energies (E x size^3) leave the number limits of
+// params/key_range.hpp for values of density and E within them, and the run would end in an
+// overflow or in a gradient that underflows to 0 (a body that never moves).
+constexpr double kSmallestBody = 1e-9, kLargestBody = 1e9;
+
+// The corners of a mesh's bounding box, lo then hi (lo > hi for a mesh without vertices).
+static std::array<double, 6> bounding_box(const TetMesh& mesh) {
+  std::array<double, 6> box{HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v)
+    for (int d = 0; d < 3; ++d) {
+      box[d] = std::min(box[d], mesh.coords[3 * v + d]);
+      box[3 + d] = std::max(box[3 + d], mesh.coords[3 * v + d]);
+    }
+  return box;
+}
+
+// An InputError naming the mesh's size key (key_prefix "mesh" or "bodies[k].mesh") when the mesh,
+// whose bounding box (after its transform) is `box`, is not within kSmallestBody .. kLargestBody across.
+static void check_body_size(const std::array<double, 6>& box, const MeshSpec& spec, const std::string& deck_path,
+                            const std::string& key_prefix) {
+  if (box[0] > box[3]) return;
+  const double diagonal = std::hypot(box[3] - box[0], box[4] - box[1], box[5] - box[2]);
+  if (diagonal >= kSmallestBody && diagonal <= kLargestBody) return;
+  const std::string key = key_prefix + (spec.transform.scale != 1.0 ? ".transform.scale"
+                                        : spec.is_box                 ? ".box.size"
+                                        : spec.is_sheet               ? ".sheet.size"
+                                        : !spec.file.empty()          ? ".file"
+                                                                      : ".strands");
+  char msg[400];
+  std::snprintf(msg, sizeof msg,
+                "the body's rest bounding-box diagonal would be %.3g m (after mesh.transform); hyperqn takes bodies "
+                "from %g to %g m across, where their masses and energies stay within the numbers it can "
+                "represent. Check the size, the scale and their units",
+                diagonal, kSmallestBody, kLargestBody);
+  throw InputError(deck_path, spec.line, key, msg);
+}
+
 // One mesh as a MeshSpec describes it: made or read (with the triangles of face_tags: TetMesh::tagged_faces),
-// transformed, its strands added, cleaned (errors name `deck_path` for a generated mesh).
+// transformed, its strands added, cleaned (errors name `deck_path` for a generated mesh), its size
+// checked (check_body_size; key_prefix names its deck key).
 static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path, CleanReport* repaired,
-                              const std::vector<int32_t>& face_tags = {}) {
+                              const std::string& key_prefix, const std::vector<int32_t>& face_tags = {}) {
   TetMesh mesh;
   if (spec.is_box) {
     mesh = generate_box(spec.box_size, spec.box_cells);
@@ -158,6 +199,7 @@ static TetMesh read_mesh_spec(const MeshSpec& spec, const std::string& deck_path
   for (const StrandLine& strand : spec.strands) add_strand(mesh, strand);
   const CleanReport report = clean_mesh(mesh, spec.file.empty() ? deck_path : spec.file);
   if (repaired) *repaired = report;
+  check_body_size(bounding_box(mesh), spec, deck_path, key_prefix);
   return mesh;
 }
 
@@ -170,7 +212,7 @@ static TetMesh read_bodies_mesh(const SceneSpec& deck, CleanReport* repaired) {
   CleanReport total;
   for (size_t k = 0; k < deck.bodies.size(); ++k) {
     CleanReport report;
-    const TetMesh mesh = read_mesh_spec(deck.bodies[k].mesh, deck.path, &report);
+    const TetMesh mesh = read_mesh_spec(deck.bodies[k].mesh, deck.path, &report, "bodies[" + std::to_string(k) + "].mesh");
     total.dropped_vertices += report.dropped_vertices;
     total.reoriented_tets += report.reoriented_tets;
     const int32_t first_vertex = (int32_t)all.num_vertices();
@@ -241,7 +283,7 @@ static void check_bodies_partition(const SceneSpec& deck, const PartitionFileInf
 TetMesh read_serial_mesh(const SceneSpec& deck, CleanReport* repaired) {
   if (!deck.bodies.empty()) return read_bodies_mesh(deck, repaired);
   const MeshSpec& spec = deck.mesh;
-  TetMesh mesh = read_mesh_spec(spec, deck.path, repaired, deck.face_tags());
+  TetMesh mesh = read_mesh_spec(spec, deck.path, repaired, "mesh", deck.face_tags());
   if (mesh.num_tets() > 0 && !deck.has_material)
     throw InputError(deck.path, 0, "material", "missing: the mesh file " + spec.file + " has " +
                                                    std::to_string(mesh.num_tets()) + " tetrahedra");
@@ -364,6 +406,11 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
       throw InputError(e.what());
     }
     apply_transform(piece.mesh, spec.transform);
+    std::array<double, 6> box = bounding_box(piece.mesh);
+    for (int d = 0; d < 3; ++d) box[3 + d] = -box[3 + d];  // one MIN reduction for both corners
+    MPI_Allreduce(MPI_IN_PLACE, box.data(), 6, MPI_DOUBLE, MPI_MIN, comm);
+    for (int d = 0; d < 3; ++d) box[3 + d] = -box[3 + d];
+    check_body_size(box, spec, deck.path, "mesh");  // the same on every rank
     if (repaired) *repaired = CleanReport();  // a generated mesh needs no repair
     return piece;
   }

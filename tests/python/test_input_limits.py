@@ -43,6 +43,13 @@ BAD_DECKS = {
     "name_dotdot": (deck_with(name=".."), ["'name'"]),
     "release_nan": (deck_with(fixed=[{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}, "release": float("nan")}]),
                     ["fixed[0].release"]),
+    # a body whose mass and energies leave the number limits though each key is within them (before:
+    # scale 1e100 ended in PETSc's "Inf or NaN" in the first frame, a box of 1e-100 m never moved under
+    # gravity, its gradient 0)
+    "body_scaled_past_1e9_m": (deck_with(**{"mesh.transform": {"scale": 1.0e100}}),
+                               ["'mesh.transform.scale'", "diagonal would be 1.04e+100 m", "from 1e-09 to 1e+09 m"]),
+    "body_smaller_than_1e-9_m": (deck_with(**{"mesh.box.size": [1.0e-10, 5.0e-11, 5.0e-11]}),
+                                 ["'mesh.box.size'", "from 1e-09 to 1e+09 m"]),
 }
 
 
@@ -52,6 +59,20 @@ def test_deck_beyond_limits(tmp_path, case):
     path = write_deck(tmp_path / f"{case}.yaml", deck)
     proc = run_hyperqn([path, "-o", tmp_path / "out"], ranks=None, check=False, timeout=60)
     assert_clean_failure(proc, tmp_path / "out", [f"{case}.yaml"] + fragments)
+
+
+@pytest.mark.parametrize("ranks", [2, 4])
+def test_a_body_too_large_is_refused_on_every_rank(tmp_path, ranks):
+    """A box made in blocks by every rank (mesh.box at 2 and 4 ranks) and a body of a bodies: deck."""
+    box = deck_with(**{"mesh.box.cells": [8, 2, 2], "mesh.transform": {"translate": [1, 0, 0], "scale": 1.0e10}})
+    solid = {"mesh": GOOD["mesh"], "material": GOOD["material"]}
+    small = copy.deepcopy(solid)
+    small["mesh"] = {**small["mesh"], "transform": {"scale": 1.0e-12}}
+    bodies = {"bodies": [solid, small], "time": GOOD["time"]}
+    for name, deck, key in [("box", box, "'mesh.transform.scale'"), ("bodies", bodies, "'bodies[1].mesh.transform.scale'")]:
+        path = write_deck(tmp_path / f"{name}.yaml", deck)
+        proc = run_hyperqn([path, "-o", tmp_path / name], ranks=ranks, check=False, timeout=60)
+        assert_clean_failure(proc, tmp_path / name, [f"{name}.yaml", key, "from 1e-09 to 1e+09 m"])
 
 
 def test_yaml_alias_bomb_is_refused_quickly(tmp_path):
