@@ -67,6 +67,24 @@ bool solver_takes_h0(const std::string& type) {
 
 H0 solver_h0(const SolverSpec& spec) { return solver_takes_h0(spec.type) ? spec.h0 : H0::laplacian; }
 
+std::vector<std::string> solver_keys_ignored(const SolverSpec& spec) {
+  const SolverSpec defaults;
+  std::vector<std::string> ignored;
+  const auto check = [&](const char* key, int value, int default_value, const std::vector<std::string>& names) {
+    if (value != default_value) ignored.push_back(std::string(key) + ": " + names[value]);
+  };
+  if (!solver_takes_h0(spec.type)) {
+    check("h0", (int)spec.h0, (int)defaults.h0, kH0Names);
+    check("h0_precision", (int)spec.h0_precision, (int)defaults.h0_precision, kH0PrecisionNames);
+    check("h0_contact", (int)spec.h0_contact, (int)defaults.h0_contact, kH0ContactNames);
+    check("h0_rigid", (int)spec.h0_rigid, (int)defaults.h0_rigid, kH0RigidNames);
+    check("two_loop", (int)spec.two_loop, (int)defaults.two_loop, kTwoLoopNames);
+  }
+  if (spec.type != "lbfgs" && spec.type != "lbfgs-identity")
+    check("history_reset", (int)spec.history_reset, (int)defaults.history_reset, kHistoryResetNames);
+  return ignored;
+}
+
 H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio) {
   if (h0 != H0::automatic) return h0;
   // One V-cycle of M + h^2 L reaches a given accuracy sooner than the factor from this size on,

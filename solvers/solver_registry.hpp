@@ -52,6 +52,10 @@ H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio);
 inline H0 resolved_h0(const SolverSpec& spec, int64_t tets, double poisson_ratio) {
   return resolved_h0(solver_h0(spec), tets, poisson_ratio);
 }
+// The keys of `solver:` that spec.type does not read, each as "key: value", where the deck set them
+// to other than their default (a run warns of each): the H0 keys but with lbfgs (solver_takes_h0),
+// history_reset but with lbfgs and lbfgs-identity. A study reads them all (its lbfgs contender).
+std::vector<std::string> solver_keys_ignored(const SolverSpec& spec);
 // The matrix itself (the V-cycle applies M + h^2 L).
 ConstantMatrix constant_matrix_of(H0 h0);
 

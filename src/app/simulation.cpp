@@ -439,6 +439,9 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
   for (const auto& term : scene.body->terms())
     if (const std::string line = term->describe(); !line.empty()) PetscPrintf(comm, "hyperqn: %s\n", line.c_str());
+  for (const std::string& key : solver_keys_ignored(deck.solver))
+    PetscPrintf(comm, "hyperqn: warning: solver.type %s does not read solver.%s (a key of L-BFGS's, "
+                      "docs/deck-run.md#solver)\n", deck.solver.type.c_str(), key.c_str());
   if (deck.output.reactions && Reactions::names(deck).empty())
     PetscPrintf(comm, "hyperqn: warning: output.reactions: the scene has no fixed region or attachment, so reactions.csv "
                       "has no rows\n");

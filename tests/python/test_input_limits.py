@@ -257,6 +257,18 @@ def test_an_overridden_solver_is_said(tmp_path):
         assert json.load(f)["solver"] == "lbfgs (TAO bqnls from the options, not lmvm)"
 
 
+@pytest.mark.parametrize("solver", ["newton", "pd", "lbfgs-identity", "lbfgs"])
+def test_l_bfgs_keys_another_solver_ignores_are_said(tmp_path, solver):
+    """solver.h0_rigid, two_loop, history_reset, ... set beside a solver that does not read them: one
+    warning each naming the key and its value (before: silently ignored); lbfgs reads them all."""
+    keys = {"h0_rigid": "false", "two_loop": "streamed", "h0_contact": "off", "history_reset": "contact-change"}
+    deck = deck_with(**{"solver": {"type": solver, **keys}})
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", tmp_path / "out"], ranks=None, timeout=60)
+    said = re.findall(r"warning: solver.type (\S+) does not read solver\.(\w+): (\S+) ", proc.stdout)
+    read_by = {"lbfgs": set(keys), "lbfgs-identity": {"history_reset"}}.get(solver, set())
+    assert sorted(said) == sorted((solver, k, v) for k, v in keys.items() if k not in read_by), proc.stdout[-3000:]
+
+
 def test_newton_with_a_gradient_only_tao_type_runs(tmp_path):
     # -tao_type lmvm under solver.type newton: SIGSEGV when the frame's line search failed (the
     # Newton retry asked TAO's KSP, which lmvm has none of)
