@@ -64,7 +64,8 @@ struct OutputSpec {
 inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
   static const std::vector<DeckKey<OutputSpec>> keys = {
       {"directory", &OutputSpec::directory,
-       "where results are written; a run first removes the files an earlier run wrote there, and only those "
+       "where results are written, a relative path (the default's too) from the directory hyperqn runs in, not "
+       "the deck's (`-o DIR` overrides it); a run first removes the files an earlier run wrote there, and only those "
        "([outputs.md](outputs.md#a-directory-that-holds-an-earlier-run))",
        {}, {}, "", "`\"\"`, which means `output/<name>`"},
       {"every", &OutputSpec::every,
