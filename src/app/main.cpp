@@ -335,8 +335,9 @@ int refuse_start(const std::string& problem) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // A simulation (not a study, not the registry) turns stop signals into a checkpoint from the start.
-  if (argc > 1 && std::strcmp(argv[1], "study") != 0 && std::strcmp(argv[1], "registry") != 0 &&
+  // A simulation turns stop signals into a checkpoint from the start, a study into its files of the
+  // frames it finished (not the registry, partition or config).
+  if (argc > 1 && std::strcmp(argv[1], "registry") != 0 &&
       std::strcmp(argv[1], "partition") != 0 && std::strcmp(argv[1], "config") != 0)
     hyperqn::catch_stop_signals();
   if (const std::string problem = start_option_problem(argc, argv); !problem.empty()) {

@@ -1,6 +1,7 @@
 #include "app/study.hpp"
 
 #include <algorithm>
+#include <csignal>
 #include <filesystem>
 #include <cmath>
 #include <sstream>
@@ -8,11 +9,13 @@
 #include <memory>
 
 #include "app/frame_step.hpp"
+#include "app/simulation.hpp"
 #include "app/time_loop.hpp"
 #include "app/run_options.hpp"
 #include "app/petsc_errors.hpp"
 #include "model/scene.hpp"
 #include "solvers/solver_registry.hpp"
+#include "solvers/stop_request.hpp"
 #include "io/atomic_file.hpp"
 #include "io/output_directory.hpp"
 #include "io/study_writer.hpp"
@@ -70,8 +73,9 @@ SolverSpec spec_for(const Deck& deck, const std::string& type, int iterations, d
   return s;
 }
 
-// study.json: what the report needs to label the study.
-void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& scene) {
+// study.json: what the report needs to label the study; `stopped` (if not empty) says that a signal
+// ended it early and after which frame its files end.
+void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& scene, const std::string& stopped = "") {
   int size;
   MPI_Comm_size(PetscObjectComm((PetscObject)scene.mesh.dm), &size);
   std::ostringstream out;
@@ -87,6 +91,7 @@ void write_study_meta(const std::string& outdir, const Deck& deck, const Scene& 
       << "  \"tets\": " << scene.mesh.global_cells << ",\n  \"segments\": " << scene.mesh.global_segments << ",\n"
       << "  \"triangles\": " << scene.mesh.global_triangles << ",\n"
       << "  \"dt\": " << deck.time.dt << ",\n"
+      << (stopped.empty() ? std::string() : "  \"stopped\": \"" + stopped + "\",\n")
       << "  \"factor_s\": "
       << factor_s << "\n}\n";
   write_file_atomically(outdir + "/study.json", out.str());
@@ -102,6 +107,9 @@ struct Study {
   State ref, probe;  // the converged trajectory; a per-frame start copied from it
   Guardrails limits;
   std::string failure;  // why the converged reference could not go on ("": it could)
+  std::string signal;   // the stop signal that ended the study early ("": none)
+  int last_frame = 0;   // the last frame whose rows the files hold
+  int signal_after_frame = -1;  // test hook: -hyperqn_test_signal_after_frame raises SIGTERM after it
 
   Study(MPI_Comm c, const Deck& d) : comm(c), deck(d) {}
 
@@ -211,7 +219,8 @@ class FrameComparison : public FrameObserver {
 
   PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl&) override {
     PetscFunctionBeginUser;
-    if (!compare_here_ || !outcome.lead.stop.empty()) PetscFunctionReturn(0);
+    // A signal cut a solve of this frame short (a follower's): the frame is not written (StudyStop).
+    if (!compare_here_ || !outcome.lead.stop.empty() || stop_agreed()) PetscFunctionReturn(0);
     // g* is the lowest g anyone reached (the reference's, unless another solver went below it
     // by round-off); g0 is the common starting value.
     double g_star = reference_.iterations.back().energy;
@@ -292,6 +301,7 @@ class TrajectoryErrors : public FrameObserver {
     const PetscInt free_vertices = study_.scene.current().mesh.global_dofs / 3;
     PetscFunctionBeginUser;
     if (!outcome.lead.stop.empty()) PetscFunctionReturn(0);  // nothing stepped
+    if (stop_agreed()) PetscFunctionReturn(0);  // a signal cut a solve short: not written (StudyStop)
     for (size_t k = 0; k < outcome.followers.size(); ++k) {
       const FollowerStep& f = outcome.followers[k];
       if (!f.stepped) continue;  // stopped before
@@ -327,6 +337,41 @@ class TrajectoryErrors : public FrameObserver {
   double diagonal_;  // the rest bounding-box diagonal
 };
 
+// A stop signal (SIGTERM, SIGUSR1) ends the study after the last frame all of whose solves it did not
+// cut short; the files hold the frames up to it (Study::signal, last_frame). Observes last.
+class StudyStop : public FrameObserver {
+ public:
+  explicit StudyStop(Study& study) : study_(study) {}
+
+  PetscErrorCode begin(LoopControl& control) override { return check(0, control); }
+
+  PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl& control) override {
+    // A solve of this frame cut short (stop_agreed): the frame is not written, the files end before it.
+    if (outcome.frame == study_.signal_after_frame) raise(SIGTERM);  // test hook
+    return check(stop_agreed() ? outcome.frame - 1 : outcome.frame, control);
+  }
+
+  PetscErrorCode interrupted(const FrameOutcome& outcome) override {
+    LoopControl control;
+    return check(outcome.frame - 1, control);
+  }
+
+ private:
+  PetscErrorCode check(int whole_frame, LoopControl& control) {
+    int sig = stop_signal(), any;
+    PetscFunctionBeginUser;
+    study_.last_frame = whole_frame;
+    PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, study_.comm));
+    if (any) {
+      study_.signal = any == SIGTERM ? "SIGTERM" : "SIGUSR1";
+      control.interrupted = true;
+    }
+    PetscFunctionReturn(0);
+  }
+
+  Study& study_;
+};
+
 }  // namespace
 
 PetscErrorCode Study::run(StudyWriter& out) {
@@ -356,8 +401,10 @@ PetscErrorCode Study::run(StudyWriter& out) {
     }
   FrameComparison comparison(*this, out);
   TrajectoryErrors trajectories(*this, out);
+  StudyStop stop(*this);
   loop.observe(comparison);
   if (st.trajectory) loop.observe(trajectories);
+  loop.observe(stop);
   PetscCall(loop.run(last_frame));
   if (!loop.stop().empty())
     failure = "frame " + std::to_string(loop.stop_frame()) + ": the converged reference cannot go on: " + loop.stop();
@@ -372,12 +419,22 @@ int clear_earlier_study(const std::string& root) {
   int removed = 0;
   std::vector<std::string> dirs{root};
   for (const std::string& name : integrator_names()) dirs.push_back(root + "/" + name);
-  for (const std::string& dir : dirs)
-    for (const char* file : {"study.csv", "trajectory.csv", "study.h5", "study.json"}) {
-      std::error_code ec;
-      if (std::filesystem::remove(dir + "/" + file, ec)) ++removed;
-      if (ec) throw std::runtime_error("cannot remove " + dir + "/" + file + " (an earlier study's): " + ec.message());
+  const std::vector<std::string> files{"study.csv", "trajectory.csv", "study.h5", "study.json"};
+  const auto remove = [&removed](const std::string& path) {
+    std::error_code ec;
+    if (std::filesystem::remove(path, ec)) ++removed;
+    if (ec) throw std::runtime_error("cannot remove " + path + " (an earlier study's): " + ec.message());
+  };
+  for (const std::string& dir : dirs) {
+    for (const std::string& file : files) remove(dir + "/" + file);
+    // and their temporaries, which a study killed while writing left (io/atomic_file.hpp)
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (is_atomic_temporary(name) && std::count(files.begin(), files.end(), temporary_target(name)))
+        remove(entry.path().string());
     }
+  }
   return removed;
 }
 
@@ -398,6 +455,7 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
   if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
 
   Study study(comm, deck);
+  study.signal_after_frame = options.signal_after_frame;
   for (const std::string& type : st.solvers) {
     study.contenders.push_back(std::make_unique<Contender>());
     study.contenders.back()->type = type;
@@ -440,6 +498,15 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
       print_error(comm, "the study stopped at " + study.failure);
       return 1;
     }
+    if (!study.signal.empty()) {  // what it compared up to the last whole frame, and study.json says so
+      out.finish();
+      out.check(comm);
+      const std::string stopped = study.signal + " after frame " + std::to_string(study.last_frame);
+      if (rank == 0) write_study_meta(outdir, deck, study.scene.current(), stopped);
+      PetscPrintf(comm, "hyperqn: study stopped by %s: %s (study.csv, trajectory.csv, study.h5) holds the frames up "
+                        "to %d (study.json's \"stopped\")\n", study.signal.c_str(), outdir.c_str(), study.last_frame);
+      return kExitInterrupted;
+    }
     out.finish();
     out.check(comm);
   } catch (const std::exception& e) {
@@ -457,7 +524,8 @@ int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
     one.time.integrator = kind;
     const std::string name = integrator_info(kind).name;
     PetscPrintf(comm, "hyperqn: study with %s\n", name.c_str());
-    if (run_one_study(comm, one, outdir + "/" + name, outdir, kind == deck.study.integrators.front())) return 1;
+    if (const int status = run_one_study(comm, one, outdir + "/" + name, outdir, kind == deck.study.integrators.front()))
+      return status;
   }
   return 0;
 }

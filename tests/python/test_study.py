@@ -391,3 +391,29 @@ def test_a_reference_stopped_by_the_time_limit_is_not_called_a_higher_stationary
     proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
     assert "warning: the reference stopped at study.time_limit" in proc.stdout, proc.stdout[-3000:]
     assert "not the lowest found" not in proc.stdout
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_study_stopped_by_a_signal_keeps_its_whole_frames(tmp_path, ranks):
+    """SIGTERM after frame 2 (the test hook): the study ends with exit 3, its files hold frames 1
+    and 2 and no more, study.json says so, and no temporary is left (before: killed by the signal,
+    exit 143, with .study.h5.tmp-PID left behind, which the next study into the directory kept)."""
+    import json
+    import yaml
+    deck = dict(BAR_AT_REST, time={"dt": 0.01, "frames": 4},
+                study={"frames": [1, 2, 3], "solvers": ["lbfgs", "newton"], "trajectory": True})
+    path = tmp_path / "stopped.yaml"
+    path.write_text(yaml.safe_dump(deck))
+    out = tmp_path / "study"
+    out.mkdir()
+    (out / ".study.h5.tmp-99999").write_text("an earlier study killed while writing")
+    proc = run_hyperqn(["study", path, "-o", out, "-hyperqn_test_signal_after_frame", "2"], ranks=ranks, check=False)
+    assert proc.returncode == 3, proc.stdout[-2000:]
+    assert "study stopped by SIGTERM" in proc.stdout and "holds the frames up to 2" in proc.stdout
+    with open(out / "study.json") as f:
+        assert json.load(f)["stopped"] == "SIGTERM after frame 2"
+    with open(out / "study.csv") as f:
+        assert {int(r["frame"]) for r in csv.DictReader(f)} == {1, 2}
+    with open(out / "trajectory.csv") as f:
+        assert {int(r["frame"]) for r in csv.DictReader(f)} == {1, 2}
+    assert sorted(p.name for p in out.iterdir()) == ["study.csv", "study.h5", "study.json", "trajectory.csv"]
