@@ -140,11 +140,16 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 
 }  // namespace
 
-// A body between a nanometre and a million kilometres across (its rest bounding box's diagonal):
-// outside these, its mass (density x size^3) and energies (E x size^3) leave the number limits of
-// params/key_range.hpp for values of density and E within them, and the run would end in an
-// overflow or in a gradient that underflows to 0 (a body that never moves).
-constexpr double kSmallestBody = 1e-9, kLargestBody = 1e9;
+// A body between a micrometre and a million kilometres across (its rest bounding box's diagonal).
+// Far above, its mass (density x size^3) and energies (E x size^3) leave the number limits of
+// params/key_range.hpp for values of density and E within them, and the run ends in an overflow;
+// far below, its gradient underflows to 0 (a body that never moves), and already at 1e-8 m the
+// inertial guess of a clamped cube under gravity (h^2 g = 9e-3 m: 1e6 times its size) stretched it
+// past what the solvers brought back (diverged at 1e-8 and 1e-9 m, ran at 1e-7 and 1e-6 m).
+constexpr double kSmallestBody = 1e-6, kLargestBody = 1e9;
+// ... and at most this many times its size from the origin (a box moved 1e16 m away collapsed to
+// points: non-finite energies in the first frame).
+constexpr double kFarthestBody = 1e6;
 
 // The corners of a mesh's bounding box, lo then hi (lo > hi for a mesh without vertices).
 static std::array<double, 6> bounding_box(const TetMesh& mesh) {
@@ -163,6 +168,19 @@ static void check_body_size(const std::array<double, 6>& box, const MeshSpec& sp
                             const std::string& key_prefix) {
   if (box[0] > box[3]) return;
   const double diagonal = std::hypot(box[3] - box[0], box[4] - box[1], box[5] - box[2]);
+  const double farthest = std::hypot(std::max(std::fabs(box[0]), std::fabs(box[3])),
+                                     std::max(std::fabs(box[1]), std::fabs(box[4])),
+                                     std::max(std::fabs(box[2]), std::fabs(box[5])));
+  if (diagonal >= kSmallestBody && diagonal <= kLargestBody && farthest > kFarthestBody * diagonal) {
+    const bool moved = spec.transform.translate != std::array<double, 3>{0, 0, 0};
+    char msg[400];
+    std::snprintf(msg, sizeof msg,
+                  "the body lies up to %.3g m from the origin, more than %g times its size (%.3g m across, after "
+                  "mesh.transform): its coordinates would keep fewer than 10 of their 16 digits for its shape. Move "
+                  "the scene nearer the origin",
+                  farthest, kFarthestBody, diagonal);
+    throw InputError(deck_path, spec.line, key_prefix + (moved ? ".transform.translate" : spec.file.empty() ? ".strands" : ".file"), msg);
+  }
   if (diagonal >= kSmallestBody && diagonal <= kLargestBody) return;
   const std::string key = key_prefix + (spec.transform.scale != 1.0 ? ".transform.scale"
                                         : spec.is_box                 ? ".box.size"

@@ -47,9 +47,12 @@ BAD_DECKS = {
     # scale 1e100 ended in PETSc's "Inf or NaN" in the first frame, a box of 1e-100 m never moved under
     # gravity, its gradient 0)
     "body_scaled_past_1e9_m": (deck_with(**{"mesh.transform": {"scale": 1.0e100}}),
-                               ["'mesh.transform.scale'", "diagonal would be 1.04e+100 m", "from 1e-09 to 1e+09 m"]),
-    "body_smaller_than_1e-9_m": (deck_with(**{"mesh.box.size": [1.0e-10, 5.0e-11, 5.0e-11]}),
-                                 ["'mesh.box.size'", "from 1e-09 to 1e+09 m"]),
+                               ["'mesh.transform.scale'", "diagonal would be 1.04e+100 m", "from 1e-06 to 1e+09 m"]),
+    # a box moved 1e16 m away collapsed to points (non-finite energies in the first frame, files written)
+    "body_far_from_the_origin": (deck_with(**{"mesh.transform": {"translate": [1.0e16, 0, 0]}}),
+                                 ["'mesh.transform.translate'", "more than 1e+06 times its size"]),
+    "body_smaller_than_1e-6_m": (deck_with(**{"mesh.box.size": [1.0e-10, 5.0e-11, 5.0e-11]}),
+                                 ["'mesh.box.size'", "from 1e-06 to 1e+09 m"]),
 }
 
 
@@ -72,7 +75,7 @@ def test_a_body_too_large_is_refused_on_every_rank(tmp_path, ranks):
     for name, deck, key in [("box", box, "'mesh.transform.scale'"), ("bodies", bodies, "'bodies[1].mesh.transform.scale'")]:
         path = write_deck(tmp_path / f"{name}.yaml", deck)
         proc = run_hyperqn([path, "-o", tmp_path / name], ranks=ranks, check=False, timeout=60)
-        assert_clean_failure(proc, tmp_path / name, [f"{name}.yaml", key, "from 1e-09 to 1e+09 m"])
+        assert_clean_failure(proc, tmp_path / name, [f"{name}.yaml", key, "from 1e-06 to 1e+09 m"])
 
 
 def test_yaml_alias_bomb_is_refused_quickly(tmp_path):
