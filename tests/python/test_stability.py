@@ -434,3 +434,50 @@ def test_bad_decks_and_arguments_are_refused_before_anything_is_written(tmp_path
         for f in fragments:
             assert f in proc.stderr, (f, proc.stderr)
         assert not out.exists(), args
+
+
+SMALL_BOX = {"box": {"size": [0.4, 0.1, 0.1], "cells": [4, 1, 1]}}
+SMALL_SOLID = {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000}
+CLAMP = [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}]
+
+
+def suite_rows(tmp_path, decks, *args):
+    """Writes decks ({case: deck}) into tmp_path, runs the suite on them with lbfgs (and args) into
+    tmp_path/suite; returns (exit code, {case: its stability.csv row})."""
+    from conftest import write_deck
+    paths = [write_deck(tmp_path / f"{case}.yaml", deck) for case, deck in decks.items()]
+    out = tmp_path / "suite"
+    code = S.main(paths + ["--out", str(out), "--bin", HYPERQN, "--solvers", "lbfgs", "--jobs", "1", *args])
+    with open(out / "stability.csv") as f:
+        return code, {r["case"]: r for r in csv.DictReader(f)}
+
+
+def test_decks_without_a_top_level_material_are_judged(tmp_path):
+    """A scene of `bodies`, a cloth sheet and strands alone have no top-level `material:`: the suite
+    ran every case, then stopped on KeyError 'material' (judge.energy_roundoff) before writing
+    anything. Now each gets its verdict, its round-off floor from the stiffness of its parts, and a
+    strands-only run's null min_J (it has no tets or triangles to measure) is not taken for a NaN."""
+    time = {"dt": 1.0 / 30, "frames": 3}
+    decks = {
+        "bodies": {"bodies": [{"name": "a", "mesh": {**SMALL_BOX, "transform": {"translate": [0, 0, 0]}},
+                               "material": SMALL_SOLID},
+                              {"name": "b", "mesh": {**SMALL_BOX, "transform": {"translate": [0, 0.5, 0]}},
+                               "material": {**SMALL_SOLID, "total_mass": 2.0, "density": None}}],
+                   "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}], "time": time},
+        "sheet": {"mesh": {"sheet": {"size": [0.5, 0.5], "cells": [3, 3]}},
+                  "cloth": {"model": "mass-spring", "stretch_stiffness": 2.0e2, "areal_density": 0.15},
+                  "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 1.01]}}], "time": time},
+        "rope": {"mesh": {"strands": [{"from": [0, 0, 0], "to": [1, 0, 0], "segments": 6}]},
+                 "strand_material": {"axial_stiffness": 2.0e4, "linear_density": 0.05},
+                 "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 0.01, 0.01]}}], "time": time},
+    }
+    del decks["bodies"]["bodies"][1]["material"]["density"]
+    code, rows = suite_rows(tmp_path, decks, "--no-reference")
+    assert code == 0 and sorted(rows) == ["bodies", "rope", "sheet"]
+    for case, r in rows.items():
+        assert r["verdict"] == "ok" and r["nan"] == "no" and r["monotone"] == "yes", r
+    from hyperqn_tools.stability.judge import energy_roundoff
+    rest = np.array([[0.0, 0, 0], [1.0, 0.5, 0.25]])
+    for case, deck in decks.items():
+        assert energy_roundoff(deck, rest) > 0, case
+

@@ -18,7 +18,10 @@ BLOWUP_TOL = 10.0   # any case: farther than this from rest at the last frame = 
 # g may rise by round-off between iterates. g = 1/2 |x - y|_M^2 + h^2 E sums per-element energies of
 # size (mu + lambda) V_e h^2 with cancellation (tr F^T F - 3, log J), so its round-off is about
 # eps h^2 (mu + lambda) V even where g itself is much smaller. An increase counts when it exceeds
-#   MONOTONE_RTOL |g| + MONOTONE_FLOOR * eps * h^2 * max(mu + lambda) * (rest bounding-box volume).
+#   MONOTONE_RTOL |g| + MONOTONE_FLOOR * eps * h^2 * S,
+# S the largest stiffness times the measure it acts on (energy_scale): of tets max(mu + lambda) times
+# the rest bounding-box volume; of a cloth its stiffness (N/m) times the box's largest face; of
+# strands axial_stiffness (N) times the box's diagonal.
 MONOTONE_RTOL = 1.0e-12
 MONOTONE_FLOOR = 100.0
 
@@ -31,13 +34,44 @@ def lame(material):
     return E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
 
 
+def bodies_of(deck):
+    """The deck's bodies as sections holding their parts (`material` with `regions`, `cloth`,
+    `strand_material`): its `bodies`, or the deck itself (one body of `mesh`)."""
+    return [b for b in deck.get("bodies") or [] if isinstance(b, dict)] or [deck]
+
+
+def tet_materials(deck):
+    """The material sections of the deck's tets: each body's material and its regions' materials."""
+    return [m for body in bodies_of(deck)
+            for m in [body.get("material")] + [r.get("material") for r in body.get("regions") or []]
+            if isinstance(m, dict)]
+
+
+def energy_scale(deck, rest_points):
+    """S of MONOTONE_FLOOR: the largest stiffness of the deck's parts times the measure it acts on
+    (J): tets' mu + lambda times the rest bounding-box volume, a cloth's stiffness (N/m; a membrane's
+    plane-stress mu + lambda) times the box's largest face, strands' axial_stiffness times its diagonal."""
+    extent = np.sort(rest_points.max(axis=0) - rest_points.min(axis=0))
+    volume, face, diagonal = float(np.prod(extent)), float(extent[1] * extent[2]), float(np.linalg.norm(extent))
+    scales = [sum(lame(m)) * volume for m in tet_materials(deck)]
+    for body in bodies_of(deck):
+        cloth, strands = body.get("cloth"), body.get("strand_material")
+        if isinstance(cloth, dict):
+            if "stretch_stiffness" in cloth:
+                k = float(cloth["stretch_stiffness"])
+            else:  # a membrane: plane stress's mu + lambda of its stretching modulus E (N/m)
+                E, nu = float(cloth["youngs_modulus"]), float(cloth["poisson_ratio"])
+                k = E / (2 * (1 + nu)) + E * nu / (1 - nu * nu)
+            scales.append(k * face)
+        if isinstance(strands, dict):
+            scales.append(float(strands["axial_stiffness"]) * diagonal)
+    return max(scales, default=0.0)
+
+
 def energy_roundoff(deck, rest_points):
-    """Round-off scale of g for this deck: eps h^2 max(mu + lambda) V_bbox (see MONOTONE_FLOOR)."""
-    materials = [deck["material"]] + [r["material"] for r in deck.get("regions") or []]
-    stiffness = max(sum(lame(m)) for m in materials)
+    """Round-off scale of g for this deck: eps h^2 S (see MONOTONE_FLOOR)."""
     h = float((deck.get("time") or {}).get("dt", 1.0 / 30.0))
-    volume = float(np.prod(rest_points.max(axis=0) - rest_points.min(axis=0)))
-    return np.finfo(float).eps * h * h * stiffness * volume
+    return np.finfo(float).eps * h * h * energy_scale(deck, rest_points)
 
 
 def monotone_violations(rows, floor=0.0, rtol=MONOTONE_RTOL):
@@ -107,7 +141,7 @@ def min_vertex_mass_bound(frame_path, deck):
                                             p[:, 3] - p[:, 0])) / 6.0)
     if not volumes:
         return None
-    materials = [deck["material"]] + [r["material"] for r in deck.get("regions") or []]
+    materials = tet_materials(deck)
     rest_all = None
     densities = []
     for mat in materials:
@@ -115,8 +149,8 @@ def min_vertex_mass_bound(frame_path, deck):
             densities.append(float(mat["density"]))
         else:  # total_mass over the body's volume
             rest_all = np.concatenate(volumes).sum() if rest_all is None else rest_all
-            densities.append(float(mat["total_mass"]) / rest_all)
-    return min(densities) * float(np.concatenate(volumes).min()) / 4.0
+            densities.append(float(mat["total_mass"]) / rest_all)  # over every body's tets: a lower bound
+    return min(densities) * float(np.concatenate(volumes).min()) / 4.0 if densities else None
 
 
 def analyse_run(outdir, deck, log_text=None):
@@ -138,8 +172,9 @@ def analyse_run(outdir, deck, log_text=None):
     if any(not (math.isfinite(r["energy"]) and math.isfinite(r["grad_norm"]) and math.isfinite(r["step"]))
            for r in rows):
         nan.append("iterations.csv")
-    if s is not None and s.get("frames", 0) > 0 and any(
-            s.get(k, 0) is None for k in ("final_energy", "final_grad_norm", "min_J")):
+    # min_J is over tets and cloth triangles: a scene of strands alone has none (+inf, written null)
+    measured = ("final_energy", "final_grad_norm") + (("min_J",) if s and (s.get("tets") or s.get("triangles")) else ())
+    if s is not None and s.get("frames", 0) > 0 and any(s.get(k, 0) is None for k in measured):
         nan.append("summary.json")
     if any(not (np.isfinite(f.points).all() and np.isfinite(f.displacement).all()
                 and np.isfinite(f.velocity).all() and np.isfinite(f.J).all()) for _, f in frames):

@@ -253,7 +253,8 @@ def write_markdown(rows, cases, solvers, meta, path):
           f"- **monotone**: in every frame, g (iterations.csv `energy`) never rises from one iterate to the next by "
           f"more than its round-off, {MONOTONE_RTOL:g}·|g| + {MONOTONE_FLOOR:g}·ε·h²·max(μ + λ)·V (V: volume of the "
           "rest bounding box; g sums element energies of size (μ + λ)V_e h² with cancellation, so its round-off "
-          "is of that size even when g itself is much smaller). Rises below that are counted in the CSV "
+          "is of that size even when g itself is much smaller; a cloth's stiffness times the box's largest face "
+          "and strands' axial_stiffness times its diagonal count likewise). Rises below that are counted in the CSV "
           "(`roundoff_increase_frames`), not judged.",
           "- **LS fail.**: summary.json `ls_failures` when present, else `failed_frames`. In parentheses: frames "
           "with failed line searches that ended *at round-off* (their failures are not judged), whether the "
