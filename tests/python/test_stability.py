@@ -481,3 +481,16 @@ def test_decks_without_a_top_level_material_are_judged(tmp_path):
     for case, deck in decks.items():
         assert energy_roundoff(deck, rest) > 0, case
 
+
+def test_a_deck_without_frame_output_is_judged_by_its_frames(tmp_path):
+    """`output: {vtk: false}` in a case's deck left its runs without frames: no rest or reference
+    error, no final min J, and the verdict ok. The suite's copy of a deck writes the frames and
+    iterations.csv it judges by (run.JUDGED_OUTPUT), whatever the deck says."""
+    deck = {"mesh": SMALL_BOX, "material": SMALL_SOLID, "fixed": CLAMP, "gravity": [0, 0, 0],
+            "time": {"dt": 1.0 / 30, "frames": 3}, "output": {"vtk": False, "iterations_csv": False, "every": 2}}
+    code, rows = suite_rows(tmp_path, {"novtk": deck}, "--no-reference")
+    r = rows["novtk"]
+    assert code == 0 and r["verdict"] == "ok", r
+    assert r["rest_error"] != "" and float(r["rest_error"]) < S.REST_TOL and r["final_min_J"] != "", r
+    assert r["monotone"] == "yes", r
+    assert (tmp_path / "suite" / "runs" / "novtk" / "lbfgs" / "novtk.pvd").exists()

@@ -14,6 +14,9 @@ from hyperqn_tools.decks import portable_copy, write_deck
 REFERENCE_SOLVER = {"type": "newton", "newton_hessian": "exact", "iterations": 100, "grad_rtol": 1.0e-10,
                     "grad_atol": 0.0, "max_halvings": 0, "newton_fallback": False}
 
+# The output keys every run of the suite is given (run_deck): what judge.analyse_run reads.
+JUDGED_OUTPUT = {"vtk": True, "iterations_csv": True}
+
 # A deck may state its expectation in a comment line "# stability: expect rest" (or "reference"),
 # overriding the automatic rule (rest when there is no gravity and no moving support): e.g.
 # spin_one_turn, whose support turns a full turn and stops where it started.
@@ -67,13 +70,18 @@ def expectation(deck_path, deck):
 
 
 def run_deck(deck, deck_path, solver_section, outdir, binary, np_ranks, mpiexec, timeout):
-    """Writes a copy of the deck with `solver_section` merged into `solver`, runs hyperqn on it
+    """Writes a copy of the deck with `solver_section` merged into `solver` (and JUDGED_OUTPUT into
+    `output`), runs hyperqn on it
     into outdir (np_ranks = 1: the binary alone, without mpiexec); returns {'returncode',
     'output', 'timed_out', 'seconds'}."""
     os.makedirs(outdir, exist_ok=True)
     d = portable_copy(deck, deck_path)
     d.setdefault("name", case_name(deck_path))
     d["solver"] = {**(d.get("solver") or {}), **solver_section}
+    # What the judgement reads, whatever the deck says: the frames (output.vtk: false left a run
+    # with nothing to judge its end state by, judged ok) and iterations.csv (g monotone).
+    if isinstance(d.get("output"), dict) or d.get("output") is None:  # anything else: hyperqn says so
+        d["output"] = {**(d.get("output") or {}), **JUDGED_OUTPUT}
     copy_path = write_deck(os.path.join(outdir, "deck.yaml"), d)
     for old in glob.glob(os.path.join(outdir, "*")):  # results of an earlier run would mislead
         if os.path.basename(old) not in ("deck.yaml",) and os.path.isfile(old):

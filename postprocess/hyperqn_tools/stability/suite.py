@@ -4,7 +4,8 @@
         [--out output/stability] [--solvers ...] [--integrator NAME] [--bin build/hyperqn] [--np 1] ...
 
 (`make stability` runs it on input/stability/*.yaml.) For each case (deck) and solver, the deck is
-copied with `solver.type` replaced (and `time.integrator`, with --integrator; nothing else changes: every solver gets the deck's budget,
+copied with `solver.type` replaced (and `time.integrator`, with --integrator; `output.vtk` and
+`output.iterations_csv` set true, run.JUDGED_OUTPUT, as the judgement reads them; nothing else changes: every solver gets the deck's budget,
 the project default of 10 iterations and grad_rtol 1e-6 unless the deck says otherwise) and run
 under output/stability/runs/<case>/<solver>/. Every case also gets a converged reference run
 (Newton with the exact Hessian, up to 100 iterations per frame, grad_rtol 1e-10) in
