@@ -6,7 +6,8 @@ moved so for a support of a face tag alone) minus that point at rest, read from 
     /usr/bin/python3 -m hyperqn_tools.force_displacement OUTDIR --support 'fixed[1]' --axis x \\
         --png curve.png --csv curve.csv
 
-Prints the curve's table; --png draws it (matplotlib), --csv writes it.
+Prints the curve's table; --png draws it (matplotlib: without it, --png is refused before anything
+is printed or written), --csv writes it.
 """
 import argparse
 import csv
@@ -19,6 +20,7 @@ import yaml
 
 from hyperqn_tools.cli import ArgumentParser, unwritable_file
 from hyperqn_tools.output import read_reactions
+from hyperqn_tools.style import NO_MATPLOTLIB, pyplot
 
 AXES = "xyz"
 
@@ -74,6 +76,8 @@ def main(argv=None):
         why = path and unwritable_file(path, parents=False)
         if why:  # found before the curve is read and printed
             ap.error(f"{option} {why}")
+    if a.png and pyplot() is None:  # the figure asked for cannot be drawn: refused, as an unwritable path
+        ap.error(f"--png {a.png}: cannot draw it: {NO_MATPLOTLIB}; leave out --png for the table and --csv")
     travel, force = curve(a.outdir, a.support, a.axis)
     print(f"travel_{a.axis} force_{a.axis}")
     for u, f in zip(travel, force):
@@ -93,9 +97,7 @@ def write_curve(a, travel, force):
             w.writerow([f"travel_{a.axis}", f"force_{a.axis}"])
             w.writerows(zip(travel, force))
     if a.png:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        plt = pyplot()
         fig, ax = plt.subplots(figsize=(5, 3.5))
         ax.plot(np.concatenate([[0], travel]), np.concatenate([[0], force]), marker=".")
         ax.set_xlabel(f"travel of {a.support} along {a.axis}")

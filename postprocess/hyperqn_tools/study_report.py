@@ -12,7 +12,8 @@ a study with `study.integrators` holds one such directory per integrator, and st
 Then one Markdown report (--out, default: report.md beside the first directory's parent) with,
 per study and frame, each solver's time to reach e <= 1e-1, 1e-2, 1e-3, 1e-4, 1e-6 and the
 speed-up over Newton at each level, plus the trajectory errors and times, and an overview figure
-(one panel per study).
+(one panel per study). The figures need matplotlib: without it the report is written with its
+tables alone, and one line says the figures were skipped (exit 0).
 
     PYTHONPATH=postprocess /usr/bin/python3 -m hyperqn_tools.study_report OUTDIR... --out report.md
 """
@@ -24,12 +25,8 @@ import os
 import sys
 from collections import defaultdict
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 from hyperqn_tools.cli import ArgumentParser, unwritable_file
-from hyperqn_tools.style import solver_style
+from hyperqn_tools.style import NO_MATPLOTLIB, pyplot, solver_style
 
 LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
 MARKED_LEVEL = 1e-3  # error_vs_time.png marks where each solver first reaches it
@@ -149,7 +146,7 @@ def plot_curves(ax, by_solver, title):
     ax.legend(fontsize=8, loc="lower left", title=f"time to e ≤ {MARKED_LEVEL:g} (○)", title_fontsize=8)
 
 
-def study_figures(study):
+def study_figures(plt, study):
     frames = sorted(study["curves"])
     fig, axes = plt.subplots(1, len(frames), figsize=(5 * len(frames), 4), squeeze=False)
     for ax, frame in zip(axes[0], frames):
@@ -198,7 +195,7 @@ def trajectory_table(traj):
     return lines
 
 
-def overview_figure(studies, path):
+def overview_figure(plt, studies, path):
     n = len(studies)
     cols = min(n, 4)
     rows = math.ceil(n / cols)
@@ -254,9 +251,14 @@ def main():
 
 
 def write_report(studies, out, lines):
-    """The figures of every study, the overview and the report at out, after lines."""
+    """The figures of every study (without matplotlib: none, said), the overview and the report at
+    out, after lines."""
+    plt = pyplot()
+    if plt is None:
+        lines += [f"Figures skipped: {NO_MATPLOTLIB}.", ""]
     for study in studies:
-        study_figures(study)
+        if plt:
+            study_figures(plt, study)
         m = study["meta"]
         lines += [f"## {m['title']}", ""]
         desc = ", ".join(f"{k} {m[k]}" for k in ("material", "ranks", "vertices", "tets", "dt") if k in m)
@@ -265,19 +267,24 @@ def write_report(studies, out, lines):
         rel = os.path.relpath(study["dir"], os.path.dirname(out))
         for frame in sorted(study["curves"]):
             lines += [f"### frame {frame}", ""] + frame_table(study["curves"][frame]) + [""]
-        lines += [f"![error vs time]({rel}/error_vs_time.png)", ""]
+        lines += [f"![error vs time]({rel}/error_vs_time.png)", ""] if plt else []
         if study["trajectory"]:
             lines += ["### trajectory against converged Newton", ""] + trajectory_table(study["trajectory"]) + \
-                     ["", f"![trajectory]({rel}/trajectory.png)", ""]
+                     ([""] + ([f"![trajectory]({rel}/trajectory.png)", ""] if plt else []))
         for solver, (frame, why) in sorted(study["stopped"].items()):
             lines += [f"**{solver}: trajectory stopped at frame {frame}** by a guardrail: {why}", ""]
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
     overview = os.path.join(os.path.dirname(out), "overview.png")
-    overview_figure(studies, overview)
-    lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]
+    if plt:
+        overview_figure(plt, studies, overview)
+        lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]
     with open(out, "w") as f:
         f.write("\n".join(lines))
-    print(f"wrote {out} and {overview}")
+    if plt:
+        print(f"wrote {out} and {overview}")
+    else:
+        print(f"wrote {out}")
+        print(f"study_report: figures skipped: {NO_MATPLOTLIB}", file=sys.stderr)
 
 
 if __name__ == "__main__":

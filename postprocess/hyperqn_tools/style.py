@@ -7,3 +7,19 @@ SOLVER_STYLE = {"lbfgs": ("C0", "-"), "newton": ("C3", "-"), "pd": ("C2", "--"),
 def solver_style(name):
     """(colour, line style) of a solver's curves."""
     return SOLVER_STYLE.get(name, (None, "-"))
+
+
+# Plots are optional (tables, CSV and Markdown are the tools' results): without matplotlib a tool
+# writes those, says this, and skips its figures; a figure asked for by name (--png) is refused.
+NO_MATPLOTLIB = "matplotlib is not installed (Debian: apt-get install python3-matplotlib)"
+
+
+def pyplot():
+    """matplotlib.pyplot drawing into files (the Agg backend), or None without matplotlib."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    return plt

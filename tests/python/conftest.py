@@ -119,3 +119,13 @@ def twisted_bar_study(tmp_path, material, ranks):
         row = next(r for r in rows if r["solver"] == "lbfgs" and int(r["frame"]) == frame)
         worst = max(worst, abs(float(row["rms_error"]) - rms) / rms)
     return worst
+
+
+def env_without_matplotlib(tmp_path):
+    """The environment of a tool run as if matplotlib were not installed: a `matplotlib` package
+    first on PYTHONPATH whose import raises ImportError."""
+    fake = tmp_path / "no_matplotlib" / "matplotlib"
+    fake.mkdir(parents=True, exist_ok=True)
+    (fake / "__init__.py").write_text('raise ImportError("No module named matplotlib (simulated)")\n')
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(fake.parent), os.path.join(REPO, "postprocess"),
+                                                         os.environ.get("PYTHONPATH", "")])}

@@ -27,7 +27,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import FROM_Y, HYPERQN, MPIEXEC, NO_FALLBACK, REPO
+from conftest import FROM_Y, HYPERQN, MPIEXEC, NO_FALLBACK, REPO, env_without_matplotlib
 import hyperqn_tools.stability as S
 from hyperqn_tools.output import rest_diagonal
 
@@ -494,3 +494,24 @@ def test_a_deck_without_frame_output_is_judged_by_its_frames(tmp_path):
     assert r["rest_error"] != "" and float(r["rest_error"]) < S.REST_TOL and r["final_min_J"] != "", r
     assert r["monotone"] == "yes", r
     assert (tmp_path / "suite" / "runs" / "novtk" / "lbfgs" / "novtk.pvd").exists()
+
+
+def test_suite_without_matplotlib_writes_its_tables(tmp_path):
+    """Without matplotlib the suite ran every case, then ended in an ImportError traceback before
+    writing stability.csv or stability.md. Now it writes both (stability.md without the figures'
+    links, saying they were skipped), no PNG, one line on stderr saying why, and exits 0."""
+    from conftest import write_deck
+    deck = write_deck(tmp_path / "bar.yaml", {"mesh": SMALL_BOX, "material": SMALL_SOLID, "fixed": CLAMP,
+                                              "time": {"dt": 1.0 / 30, "frames": 2}})
+    out = tmp_path / "suite"
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.stability", deck, "--out", out, "--bin", HYPERQN,
+                           "--solvers", "lbfgs", "--no-reference", "--jobs", "1"],
+                          capture_output=True, text=True, timeout=120, env=env_without_matplotlib(tmp_path))
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == ("stability: figures skipped: matplotlib is not installed "
+                                   "(Debian: apt-get install python3-matplotlib)"), proc.stderr
+    with open(out / "stability.csv") as f:
+        assert [r["verdict"] for r in csv.DictReader(f)] == ["ok"]
+    text = (out / "stability.md").read_text()
+    assert "| bar | lbfgs |" in text and "Figures skipped" in text and ".png" not in text
+    assert not list(out.glob("*.png"))

@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from conftest import HYPERQN, MPIEXEC, REPO, run_deck, write_deck
+from conftest import HYPERQN, MPIEXEC, REPO, env_without_matplotlib, run_deck, write_deck
 
 BAR = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
        "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
@@ -22,8 +22,9 @@ BAR = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
        "time": {"dt": 0.01, "frames": 2}}
 
 
-def tool(*args):
-    return subprocess.run([sys.executable, "-m", *map(str, args)], capture_output=True, text=True, timeout=120)
+def tool(*args, env=None):
+    return subprocess.run([sys.executable, "-m", *map(str, args)], capture_output=True, text=True, timeout=120,
+                          env=env)
 
 
 @pytest.fixture(scope="module")
@@ -188,3 +189,33 @@ def test_scripts_refuse_a_missing_page_or_binary_and_a_directory_as_out(tmp_path
     proc = script("compare_revisions.py", "--base-bin", HYPERQN, "--new-bin", HYPERQN, "--out", tmp_path)
     assert_said(proc, "--out", "is a directory")
     assert not (tmp_path / "runs").exists() and not (tmp_path / "decks").exists()
+
+
+STUDY_HEADER = "frame,solver,iteration,time_s,energy,grad_norm,rel_error\n"
+
+
+def test_tools_without_matplotlib(reactions_run, tmp_path):
+    """Without matplotlib (docs/study.md, docs/outputs.md#reactionscsv): study_report ended in an
+    ImportError traceback; now it writes its report's tables and says in one line that the figures
+    were skipped (exit 0). force_displacement --png, a figure asked for, is refused in one line
+    before anything is printed or written (exit 1); without --png it prints and writes the curve."""
+    env = env_without_matplotlib(tmp_path)
+    study = tmp_path / "study"
+    study.mkdir()
+    (study / "study.csv").write_text(STUDY_HEADER + "1,lbfgs,0,0.0,1.0,1.0,1.0\n1,lbfgs,1,0.1,0.5,0.5,0.1\n"
+                                     "1,newton,0,0.0,1.0,1.0,1.0\n1,newton,1,0.2,0.5,0.5,0.01\n")
+    proc = tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md", env=env)
+    assert proc.returncode == 0 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == ("study_report: figures skipped: matplotlib is not installed "
+                                   "(Debian: apt-get install python3-matplotlib)"), proc.stderr
+    report = (tmp_path / "r.md").read_text()
+    assert "| lbfgs |" in report and "Figures skipped" in report and ".png" not in report
+    assert not list(tmp_path.rglob("*.png"))
+    support = ("--support", "fixed[0]")
+    proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, "--png", tmp_path / "c.png",
+                "--csv", tmp_path / "c.csv", env=env)
+    assert_said(proc, "--png", "matplotlib is not installed", "python3-matplotlib")
+    assert len(proc.stderr.strip().splitlines()) == 1 and "travel_x" not in proc.stdout
+    assert not (tmp_path / "c.csv").exists() and not (tmp_path / "c.png").exists()
+    proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, "--csv", tmp_path / "c.csv", env=env)
+    assert proc.returncode == 0 and "travel_x" in proc.stdout and (tmp_path / "c.csv").exists(), proc.stderr

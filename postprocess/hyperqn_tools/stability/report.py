@@ -8,7 +8,7 @@ import numpy as np
 from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_RTOL, REF_TOL, REST_TOL,
                                            largest_reference_distance, last_frame, reference_ok, rest_distance,
                                            verdict)
-from hyperqn_tools.style import solver_style
+from hyperqn_tools.style import NO_MATPLOTLIB, pyplot, solver_style
 
 # What the decks input/stability/initial_*.yaml assume of the top-level `initial:` key (written
 # before it existed; src/model/initial_state.cpp now implements it so). A hyperqn that rejects the key
@@ -94,10 +94,9 @@ VERDICT_COLOUR = {"ok": "#4caf50", "degraded": "#ffb300", "failed": "#e53935", "
 
 def case_figure(case, analyses, verdicts, align, path):
     """Three panels per case: final |grad g| per frame, min J per frame, RMS distance from the rest
-    shape per frame; one curve per solver (legend: its verdict) and the reference."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    shape per frame; one curve per solver (legend: its verdict) and the reference. Needs matplotlib
+    (the suite skips its figures without it)."""
+    plt = pyplot()
     fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(16, 4.2))
     drawn = False
     lowest_J = 0.0
@@ -157,9 +156,7 @@ def short_reason(reason):
 
 
 def verdict_figure(rows, cases, solvers, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.patches import Patch
     by = {(r["case"], r["solver"]): r for r in rows}
     fig, ax = plt.subplots(figsize=(2.3 * len(solvers) + 2.5, 0.5 * len(cases) + 1.4))
@@ -195,6 +192,8 @@ def verdict_figure(rows, cases, solvers, path):
 
 
 def write_markdown(rows, cases, solvers, meta, path):
+    """stability.md; meta["figures"] false: written without matplotlib, the figures' links left out."""
+    figures = meta.get("figures", True)
     by = {(r["case"], r["solver"]): r for r in rows}
     L = ["# Stability suite", "",
          f"{len(cases)} cases x {len(solvers)} solvers, run by `make stability` "
@@ -202,7 +201,7 @@ def write_markdown(rows, cases, solvers, meta, path):
          "Each case is a deck in `input/stability/`; every solver runs a copy with only `solver.type` replaced, "
          "so all get the deck's iteration budget (the project defaults: 10 iterations per frame, grad_rtol 1e-6; "
          "Newton too, with its default projected Hessian). Runs: `output/stability/runs/<case>/<solver>/`.",
-         "", "![verdicts](verdicts.png)", "", "## Verdicts", "",
+         "", "![verdicts](verdicts.png)" if figures else f"Figures skipped: {NO_MATPLOTLIB}.", "", "## Verdicts", "",
          "| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
     for case in cases:
         cells = []
@@ -302,8 +301,8 @@ def write_markdown(rows, cases, solvers, meta, path):
           "", "Release of a twisted bar is not supported: a fixed region stays fixed; its `motion` holds "
           "its last pose after `end`.",
           "", "## Assumed semantics of `initial:` (decks `initial_*.yaml`)", "", INITIAL_SEMANTICS, "",
-          "## Figures", ""]
-    for case in cases:
+          "## Figures", ""] + ([] if figures else [f"Skipped: {NO_MATPLOTLIB}."])
+    for case in cases if figures else []:
         L.append(f"- [{case}](grad_{case}.png): final ‖∇g‖, min J and distance from rest per frame, every solver"
                  + (" and the reference" if case in refs and refs[case] != "–" else ""))
     with open(path, "w") as f:

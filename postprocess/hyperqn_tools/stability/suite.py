@@ -19,12 +19,14 @@ rest shape, and for cases with a reference the distance from the reference's las
 Verdicts: ok / degraded / failed / not run (judge.verdict).
 
 Writes stability.csv, stability.md, verdicts.png and one grad_<case>.png per case into --out,
-and the copy of the binary every run used (--out/hyperqn, taken at the start).
+and the copy of the binary every run used (--out/hyperqn, taken at the start). Without matplotlib
+the figures are skipped, which stability.md and one line at the end say (exit 0).
 """
 import concurrent.futures
 import glob
 import os
 import shutil
+import sys
 import time
 
 import yaml
@@ -37,6 +39,7 @@ from hyperqn_tools.stability.judge import analyse_run, reference_ok, rest_distan
 from hyperqn_tools.stability.report import case_figure, fmt, make_row, verdict_figure, write_csv, write_markdown
 from hyperqn_tools.stability.run import (REFERENCE_SOLVER, case_name, case_order, description,
                                          expectation, rejection, run_deck)
+from hyperqn_tools.style import NO_MATPLOTLIB, pyplot
 
 
 def load_decks(p, paths):
@@ -135,6 +138,7 @@ def main(argv=None):
             print(f"  {c:>18s} {s:<15s} {r['seconds']:6.1f} s  {state}", flush=True)
 
     rows, meta_refs = [], {}
+    figures = pyplot() is not None  # optional: without matplotlib the tables alone
     for c in cases:
         deck_path, deck = loaded[c]
         expected = int((deck.get("time") or {}).get("frames", 100))
@@ -158,20 +162,24 @@ def main(argv=None):
         if ref is not None:
             analyses["reference"] = ref
         verdicts = {r["solver"]: r["verdict"] for r in rows if r["case"] == c}
-        case_figure(c, analyses, verdicts, align, os.path.join(args.out, f"grad_{c}.png"))
+        if figures:
+            case_figure(c, analyses, verdicts, align, os.path.join(args.out, f"grad_{c}.png"))
 
     os.makedirs(args.out, exist_ok=True)
     write_csv(rows, os.path.join(args.out, "stability.csv"))
-    verdict_figure(rows, cases, args.solvers, os.path.join(args.out, "verdicts.png"))
-    meta = {"ranks": args.np, "date": time.strftime("%Y-%m-%d %H:%M"), "seconds": time.time() - t_start,
+    meta = {"figures": figures, "ranks": args.np, "date": time.strftime("%Y-%m-%d %H:%M"), "seconds": time.time() - t_start,
             "expect": expect, "descriptions": {c: description(loaded[c][0]) for c in cases}, "references": meta_refs}
     write_markdown(rows, cases, args.solvers, meta, os.path.join(args.out, "stability.md"))
+    if figures:
+        verdict_figure(rows, cases, args.solvers, os.path.join(args.out, "verdicts.png"))
 
     width = max(len(c) for c in cases)
     print(f"\n{'case':<{width}s} " + " ".join(f"{s:>15s}" for s in args.solvers))
     by = {(r["case"], r["solver"]): r["verdict"] for r in rows}
     for c in cases:
         print(f"{c:<{width}s} " + " ".join(f"{by[(c, s)]:>15s}" for s in args.solvers))
-    print(f"\nwrote {os.path.join(args.out, 'stability.md')}, stability.csv, verdicts.png, grad_<case>.png "
-          f"({time.time() - t_start:.0f} s)")
+    print(f"\nwrote {os.path.join(args.out, 'stability.md')}, stability.csv"
+          + (", verdicts.png, grad_<case>.png" if figures else "") + f" ({time.time() - t_start:.0f} s)")
+    if not figures:
+        print(f"stability: figures skipped: {NO_MATPLOTLIB}", file=sys.stderr)
     return 0
