@@ -231,26 +231,58 @@ def cells_by_type(blocks):
     return {kind: np.concatenate(rows) for kind, rows in out.items()}
 
 
+def file_head(path, size=4096):
+    with open(path, "rb") as f:
+        return f.read(size).decode("utf-8", "replace")
+
+
+def written_by_a_run(path):
+    """Whether an index is one hyperqn writes, by its own rule (is_run_output,
+    src/io/output_directory.cpp; docs/outputs.md#a-directory-that-holds-an-earlier-run): a
+    NAME.pvd that lists files named NAME_..., a NAME.xdmf whose data are in NAME.h5."""
+    name, kind = os.path.splitext(os.path.basename(path))
+    return (f'file="{name}_' if kind == ".pvd" else f">{name}.h5:/") in file_head(path)
+
+
+def series_indexes(outdir):
+    """The .pvd and .xdmf indexes of a run's frame series (both if output.format changed at a
+    restart). In a run's directory (it holds summary.json) the indexes the run wrote, by
+    written_by_a_run: a user's other .pvd beside them is not the run's; elsewhere (frames copied
+    without it) the only .pvd and the only .xdmf. ValueError naming them for two of a kind."""
+    run = os.path.exists(os.path.join(outdir, "summary.json"))
+    indexes = []
+    for kind in ("pvd", "xdmf"):
+        found = sorted(glob.glob(os.path.join(outdir, f"*.{kind}")))
+        if run:
+            found = [path for path in found if written_by_a_run(path)]
+        if len(found) > 1:
+            names = ", ".join(os.path.basename(path) for path in found)
+            raise ValueError(f"{outdir}: more than one .{kind} series ({names}): "
+                             + ("each lists frames of its own name, as a run's does" if run else
+                                "which is the run's? (no summary.json to tell)"))
+        indexes += found
+    return indexes
+
+
 def frame_list(outdir):
-    """[(frame number, time, path)] of the frames the run's index lists: its one .pvd and/or its
-    one .xdmf (both if output.format changed at a restart), by frame number; [] if there is none."""
+    """[(frame number, time, path)] of the frames the run's indexes list (series_indexes), by frame
+    number; [] if there is none."""
     listed = {}
-    pvd = glob.glob(os.path.join(outdir, "*.pvd"))
-    if len(pvd) == 1:
-        for t, path in read_pvd(pvd[0]):
-            m = re.search(r"_(\d+)\.p?vtu$", path)
-            listed[int(m.group(1)) if m else len(listed)] = (t, path)
-    xdmf = glob.glob(os.path.join(outdir, "*.xdmf"))
-    if len(xdmf) == 1:
-        for t, number, path in read_xdmf(xdmf[0]):
-            listed[number] = (t, path)
+    for index in series_indexes(outdir):
+        if index.endswith(".pvd"):
+            for t, path in read_pvd(index):
+                m = re.search(r"_(\d+)\.p?vtu$", path)
+                listed[int(m.group(1)) if m else len(listed)] = (t, path)
+        else:
+            for t, number, path in read_xdmf(index):
+                listed[number] = (t, path)
     return [(n, t, path) for n, (t, path) in sorted(listed.items())]
 
 
 def final_frame(outdir):
     listed = frame_list(outdir)
     if not listed:
-        raise FileNotFoundError(f"{outdir}: expected one .pvd or one .xdmf file listing frames")
+        raise FileNotFoundError(f"{outdir}: no .pvd or .xdmf listing the run's frames")
     return Frame(listed[-1][2])
 
 

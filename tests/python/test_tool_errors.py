@@ -219,3 +219,23 @@ def test_tools_without_matplotlib(reactions_run, tmp_path):
     assert not (tmp_path / "c.csv").exists() and not (tmp_path / "c.png").exists()
     proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, "--csv", tmp_path / "c.csv", env=env)
     assert proc.returncode == 0 and "travel_x" in proc.stdout and (tmp_path / "c.csv").exists(), proc.stderr
+
+
+def test_compare_and_intersections_pass_over_a_user_s_other_pvd(runs, tmp_path):
+    """docs/outputs.md: a run leaves a user's other files alone, a .pvd of other files too; compare
+    and intersections refused such a directory ("expected one .pvd or one .xdmf"). In a run's
+    directory (summary.json) they read the series the run wrote (a NAME.pvd listing NAME_... files,
+    hyperqn's own rule); without summary.json two .pvd are refused naming both."""
+    _, bar, _, _ = runs
+    run = tmp_path / "run"
+    shutil.copytree(bar, run)
+    (run / "notes.pvd").write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>'
+                                   '<DataSet timestep="0" part="0" file="bar_00000.vtu"/></Collection></VTKFile>\n')
+    proc = tool("hyperqn_tools.compare", run, bar)
+    assert proc.returncode == 0 and "relative 0.000e+00" in proc.stdout, proc.stdout + proc.stderr
+    proc = tool("hyperqn_tools.intersections", run)
+    assert proc.returncode == 0 and "frame     2" in proc.stdout, proc.stdout + proc.stderr
+    (run / "summary.json").unlink()
+    assert_said(tool("hyperqn_tools.intersections", run), "intersections: error:", "bar.pvd, notes.pvd",
+                "no summary.json")
+    assert_said(tool("hyperqn_tools.compare", run, bar), "compare:", "bar.pvd, notes.pvd")
