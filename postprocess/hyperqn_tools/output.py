@@ -246,14 +246,14 @@ def written_by_a_run(path):
 
 def series_indexes(outdir):
     """The .pvd and .xdmf indexes of a run's frame series (both if output.format changed at a
-    restart). In a run's directory (it holds summary.json) the indexes the run wrote, by
-    written_by_a_run: a user's other .pvd beside them is not the run's; elsewhere (frames copied
-    without it) the only .pvd and the only .xdmf. ValueError naming them for two of a kind."""
+    restart): the only .pvd and the only .xdmf; of two or more in a run's directory (it holds
+    summary.json) those the run wrote, by written_by_a_run (a user's other .pvd beside them is not
+    the run's). ValueError naming them for two of a kind left."""
     run = os.path.exists(os.path.join(outdir, "summary.json"))
     indexes = []
     for kind in ("pvd", "xdmf"):
         found = sorted(glob.glob(os.path.join(outdir, f"*.{kind}")))
-        if run:
+        if run and len(found) > 1:  # one alone is read as it is (a damaged index is said, not passed over)
             found = [path for path in found if written_by_a_run(path)]
         if len(found) > 1:
             names = ", ".join(os.path.basename(path) for path in found)
