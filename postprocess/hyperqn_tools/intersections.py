@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 from hyperqn_tools.cli import ArgumentParser, unwritable_file
-from hyperqn_tools.output import Frame, frame_list
+from hyperqn_tools.output import frame_list, read_frame
 
 RTOL = 1e-8
 TET_FACES = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
@@ -203,14 +203,7 @@ def check_run(outdir, frames=None, rtol=RTOL):
         listed = [entry for entry in listed if entry[0] in wanted]
     rows = []
     for number, time, path in listed:
-        try:
-            frame = Frame(path)
-        except SystemExit:  # meshio prints why and exits on a file it cannot parse
-            raise ValueError(f"{path}: cannot read frame {number}: not a readable VTK file") from None
-        except Exception as e:  # meshio, h5py and XML raise many kinds
-            why = str(e).removeprefix(f"{path}: ")  # output's own errors name the file already
-            raise ValueError(f"{path}: cannot read frame {number}: {why}") from e
-        rows.append({"frame": number, "time": time, **check_frame(frame, rtol)})
+        rows.append({"frame": number, "time": time, **check_frame(read_frame(path, number), rtol)})
     return rows
 
 

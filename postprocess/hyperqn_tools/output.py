@@ -115,6 +115,16 @@ def piece_files(path):
     return [path]
 
 
+def read_piece(path):
+    """A .vtu piece read with meshio's VTU reader; ValueError naming the piece for one it cannot
+    read (meshio.read would print its own message and exit)."""
+    try:
+        return meshio.vtu.read(path)
+    except Exception as e:  # noqa: BLE001 - meshio's ReadError (often without a message), XML, zlib, base64
+        why = str(e).strip()
+        raise ValueError(f"{path}: not a readable VTK file" + (f" ({why})" if why else "")) from None
+
+
 def is_empty_piece(path):
     with open(path, "rb") as f:
         head = f.read(400)
@@ -161,7 +171,7 @@ def frame_meshes(path):
     XDMF frame."""
     if is_xdmf_frame(path):
         return [xdmf_grid(path)[0]]
-    return [meshio.read(piece) for piece in piece_files(path) if not is_empty_piece(piece)]
+    return [read_piece(piece) for piece in piece_files(path) if not is_empty_piece(piece)]
 
 
 class Frame:
@@ -183,7 +193,7 @@ class Frame:
         for piece in piece_files(path):
             if is_empty_piece(piece):  # a rank without cells (tiny meshes); meshio cannot read it
                 continue
-            m = meshio.read(piece)
+            m = read_piece(piece)
             ids.append(np.asarray(m.point_data["vertex_id"]).reshape(-1))
             points.append(m.points)
             disp.append(m.point_data["displacement"])
@@ -279,11 +289,25 @@ def frame_list(outdir):
     return [(n, t, path) for n, (t, path) in sorted(listed.items())]
 
 
+def read_frame(path, number):
+    """Frame(path), frame `number` of its run; ValueError naming the file (an XDMF frame's index and
+    its data file) for one that cannot be read: cut short by a crash, damaged, not a frame."""
+    try:
+        return Frame(path)
+    except Exception as e:  # noqa: BLE001 - meshio, h5py and XML raise many kinds
+        why = str(e).removeprefix(f"{path}: ")  # output's own errors name the file already
+    where = str(path)
+    if is_xdmf_frame(path):  # h5py's messages name no file: the run's data file (written_by_a_run)
+        where += f" (data in {os.path.splitext(where.rsplit('#', 1)[0])[0]}.h5)"
+    raise ValueError(f"{where}: cannot read frame {number}: {why}") from None
+
+
 def final_frame(outdir):
+    """The last frame the run's indexes list (read_frame); FileNotFoundError if there is none."""
     listed = frame_list(outdir)
     if not listed:
         raise FileNotFoundError(f"{outdir}: no .pvd or .xdmf listing the run's frames")
-    return Frame(listed[-1][2])
+    return read_frame(listed[-1][2], listed[-1][0])
 
 
 def rest_diagonal(frame):
@@ -294,8 +318,8 @@ def rest_diagonal(frame):
 
 def read_frames(outdir):
     """[(frame number, Frame)] of every frame written (VTK or XDMF), or [] if there is none.
-    Raises on unreadable files (a crash in the middle of writing)."""
-    return [(n, Frame(path)) for n, _, path in frame_list(outdir)]
+    ValueError naming an unreadable file (a crash in the middle of writing: read_frame)."""
+    return [(n, read_frame(path, n)) for n, _, path in frame_list(outdir)]
 
 
 def read_checkpoint(path):

@@ -239,3 +239,28 @@ def test_compare_and_intersections_pass_over_a_user_s_other_pvd(runs, tmp_path):
     assert_said(tool("hyperqn_tools.intersections", run), "intersections: error:", "bar.pvd, notes.pvd",
                 "no summary.json")
     assert_said(tool("hyperqn_tools.compare", run, bar), "compare:", "bar.pvd, notes.pvd")
+
+
+@pytest.fixture(scope="module")
+def xdmf_run(tmp_path_factory):
+    out, _ = run_deck(tmp_path_factory.mktemp("xdmf"), "bar", {**BAR, "output": {"format": "xdmf"}})
+    return out
+
+
+@pytest.mark.parametrize("damage", ["vtu", "h5"])
+def test_compare_of_a_frame_cut_short_names_the_file(runs, xdmf_run, tmp_path, damage):
+    """A frame's data cut short (a .vtu piece, an XDMF run's .h5): compare printed meshio's
+    "Error: Couldn't read file ..." without its prefix, or h5py's "Unable to open file (truncated
+    file ...)" naming no file. Now compare and intersections say it alike (output.read_frame), one
+    line `compare: ...` naming the file."""
+    _, bar, _, _ = runs
+    source, name = (bar, "bar_00002.vtu") if damage == "vtu" else (xdmf_run, "bar.h5")
+    run = tmp_path / "run"
+    shutil.copytree(source, run)
+    data = (run / name).read_bytes()
+    (run / name).write_bytes(data[:len(data) // 2])
+    for proc, prefix in ((tool("hyperqn_tools.compare", run, source), "compare: "),
+                         (tool("hyperqn_tools.intersections", run), "intersections: error: ")):
+        assert_said(proc, name, "cannot read frame")
+        lines = (proc.stdout + proc.stderr).strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(prefix), lines
