@@ -5,6 +5,7 @@ output paths are checked before a tool writes anything, with the helpers here.
     ArgumentParser   argparse's parser whose errors are that one line and exit 1
     positive_int, positive_float
                      argparse types for counts and times that must be > 0
+    fraction         argparse type for a relative tolerance, in [0, 1)
     unwritable_file(path), unwritable_dir(path)
                      why a file or directory could not be written there, or None
 """
@@ -38,6 +39,18 @@ def positive_float(text):
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (math.isfinite(value) and value > 0):  # nan and inf too: 'never' is leaving it out
         raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def fraction(text):
+    """A relative tolerance (a fraction of a length or displacement): a number in [0, 1); nan, a
+    negative number or 1 and above are not (with nan every comparison would fail or pass)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0 <= value < 1:  # nan too
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a number in [0, 1)")
     return value
 
 

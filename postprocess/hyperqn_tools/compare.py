@@ -2,23 +2,31 @@
 """Compares the final positions of two hyperqn runs vertex by vertex (e.g. 1 rank vs 2 ranks).
 
 Prints the largest position difference relative to the largest displacement of the first run
-(which --rtol bounds: exit 1 if it is larger) and relative to the rest shape's bounding-box
-diagonal (the measure the docs mostly quote, "of the diagonal").
+(which --rtol, in [0, 1), bounds: exit 1 if it is larger) and relative to the rest shape's
+bounding-box diagonal (the measure the docs mostly quote, "of the diagonal"). The two runs must
+end at the same frame and time (a run killed early, or of another time step, is not compared:
+exit 1 naming both), whatever frames each wrote before it.
 
     python3 -m hyperqn_tools.compare RUN_A RUN_B [--rtol 1e-8]
 """
 import argparse
+import math
 import sys
 
 import numpy as np
 
-from hyperqn_tools.cli import ArgumentParser
-from hyperqn_tools.output import final_frame, rest_diagonal
+from hyperqn_tools.cli import ArgumentParser, fraction
+from hyperqn_tools.output import last_listed, read_frame, rest_diagonal
 
 
 def final_frames(dir_a, dir_b):
-    """The last frames of two runs of the same mesh (raises if their vertex sets differ)."""
-    a, b = final_frame(dir_a), final_frame(dir_b)
+    """The last frames of two runs of the same mesh, which end at the same frame and time (raises
+    ValueError naming both if they do not, or if their vertex sets differ)."""
+    (na, ta, pa), (nb, tb, pb) = last_listed(dir_a), last_listed(dir_b)
+    if na != nb or not math.isclose(ta, tb, rel_tol=1e-9):
+        raise ValueError(f"the runs end at different frames: {dir_a} at frame {na} (t = {ta:.9g}), {dir_b} at "
+                         f"frame {nb} (t = {tb:.9g}); a run stopped early, or a run of other time steps?")
+    a, b = read_frame(pa, na), read_frame(pb, nb)
     if not np.array_equal(a.vertex_id, b.vertex_id):
         raise ValueError("the runs have different vertex sets")
     return a, b
@@ -43,7 +51,8 @@ def main():
     p = ArgumentParser(prog="python3 -m hyperqn_tools.compare", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_a")
     p.add_argument("run_b")
-    p.add_argument("--rtol", type=float, default=1e-8)
+    p.add_argument("--rtol", type=fraction, default=1e-8,
+                   help="bound of the difference relative to the largest displacement, in [0, 1)")
     args = p.parse_args()
     try:
         a, b = final_frames(args.run_a, args.run_b)

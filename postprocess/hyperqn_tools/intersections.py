@@ -23,7 +23,7 @@ import sys
 
 import numpy as np
 
-from hyperqn_tools.cli import ArgumentParser, unwritable_file
+from hyperqn_tools.cli import ArgumentParser, fraction, unwritable_file
 from hyperqn_tools.output import frame_list, read_frame
 
 RTOL = 1e-8
@@ -213,10 +213,9 @@ def main(argv=None):
     p.add_argument("outdir", help="a run's output directory")
     p.add_argument("--frames", type=int, nargs="+", help="frame numbers to check (default: all)")
     p.add_argument("--json", help="also write the counts to this JSON file")
-    p.add_argument("--rtol", type=float, default=RTOL, help="tolerance relative to the frame's bounding-box diagonal")
+    p.add_argument("--rtol", type=fraction, default=RTOL,
+                   help="tolerance relative to the frame's bounding-box diagonal, in [0, 1)")
     a = p.parse_args(argv)
-    if not 0 <= a.rtol < 1:  # nan too: a tolerance is a small fraction of the diagonal
-        p.error(f"--rtol {a.rtol}: must be a number in [0, 1)")
     why = a.json and unwritable_file(a.json)
     if why:  # found before the frames are read and the counts printed
         p.error(f"--json {why}")

@@ -302,12 +302,19 @@ def read_frame(path, number):
     raise ValueError(f"{where}: cannot read frame {number}: {why}") from None
 
 
-def final_frame(outdir):
-    """The last frame the run's indexes list (read_frame); FileNotFoundError if there is none."""
+def last_listed(outdir):
+    """(frame number, time, path) of the last frame the run's indexes list; FileNotFoundError if
+    there is none."""
     listed = frame_list(outdir)
     if not listed:
         raise FileNotFoundError(f"{outdir}: no .pvd or .xdmf listing the run's frames")
-    return read_frame(listed[-1][2], listed[-1][0])
+    return listed[-1]
+
+
+def final_frame(outdir):
+    """The last frame the run's indexes list (read_frame)."""
+    number, _, path = last_listed(outdir)
+    return read_frame(path, number)
 
 
 def rest_diagonal(frame):

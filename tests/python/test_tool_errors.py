@@ -264,3 +264,20 @@ def test_compare_of_a_frame_cut_short_names_the_file(runs, xdmf_run, tmp_path, d
         assert_said(proc, name, "cannot read frame")
         lines = (proc.stdout + proc.stderr).strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(prefix), lines
+
+
+def test_compare_refuses_a_meaningless_tolerance_and_runs_ending_at_other_frames(runs, tmp_path):
+    """compare took --rtol nan (two equal runs then 'differed', exit 1) or a negative one; it now
+    refuses them as intersections does (cli.fraction, [0, 1)). And a run stopped after frame 1 was
+    compared with a complete one's frame 2 without a word; now: exit 1 naming both last frames."""
+    _, bar, _, _ = runs
+    for rtol in ("nan", "-1", "2"):
+        assert_said(tool("hyperqn_tools.compare", bar, bar, "--rtol", rtol), "--rtol", "[0, 1)")
+    stopped = tmp_path / "stopped"
+    shutil.copytree(bar, stopped)
+    pvd = (stopped / "bar.pvd").read_text()
+    (stopped / "bar.pvd").write_text(re.sub(r'<DataSet [^>]*file="bar_00002.vtu"/>\s*', "", pvd))
+    (stopped / "bar_00002.vtu").unlink()  # what a kill after frame 1 leaves
+    for a, b in ((stopped, bar), (bar, stopped)):
+        assert_said(tool("hyperqn_tools.compare", a, b), "compare: the runs end at different frames",
+                    f"{stopped} at frame 1", f"{bar} at frame 2")
