@@ -69,7 +69,7 @@ inline const std::vector<DeckKey<OutputSpec>>& output_keys() {
        "([outputs.md](outputs.md#a-directory-that-holds-an-earlier-run))",
        {}, {}, "", "`\"\"`, which means `output/<name>`"},
       {"every", &OutputSpec::every,
-       "write frames every N frames. Frame 0 (the rest state) and the last frame are always written.", at_least(1)},
+       "write frames every N frames. Frame 0 (the rest state) and the last frame are always written (also by a restart at its last frame, from a checkpoint of a run that went on past it).", at_least(1)},
       {"vtk", &OutputSpec::vtk, "write frames at all (in the `format` below; false: none)"},
       enum_key<OutputSpec>("format", &OutputSpec::format, kOutputFormatNames,
        "`vtu`: VTK files, one `.vtu` piece per rank and frame, a `.pvtu` and a `.pvd`; `xdmf`: one HDF5 file per run, "

@@ -633,6 +633,12 @@ PetscErrorCode FrameWriters::begin(LoopControl&) {
   PetscFunctionBeginUser;
   if (restarted_) {  // as if the run had not stopped
     last_written_ = state.frame % run_.deck.output.every == 0 ? state.frame : -1;
+    // A restart at its last frame steps none, and the last frame is always written: where the
+    // run that wrote the checkpoint did not write it (it went on past it), it is written now.
+    if (state.frame == run_.deck.time.frames) {
+      bool written;
+      PetscCall(write_frame(state.frame, &written, true));
+    }
   } else {
     bool written;
     PetscCall(write_frame(0, &written));
@@ -667,7 +673,7 @@ PetscErrorCode FrameWriters::stopped(const FrameOutcome& outcome, const std::str
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
+PetscErrorCode FrameWriters::write_frame(int frame, bool* written, bool unlisted_only) {
   const Scene& s = run_.scene.current();
   const State& state = run_.state;
   const MPI_Comm comm = run_.comm;
@@ -710,7 +716,8 @@ PetscErrorCode FrameWriters::write_frame(int frame, bool* written) {
       f.element_fields.push_back({asked[i], field_info(element_values_[i].field).components, &element_values_[i].values,
                                   run_.deck.output.field_precision == FieldPrecision::single_precision});
   }
-  for (auto& w : writers_) w->write_frame(f);
+  for (auto& w : writers_)
+    if (!unlisted_only || !w->lists_frame(frame)) w->write_frame(f);
   PetscCall(event_end(&LogEvents::output));
   last_written_ = frame;
   PetscFunctionReturn(0);

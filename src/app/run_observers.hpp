@@ -146,7 +146,8 @@ class FrameWriters : public FrameObserver {
 
  private:
   // Writes frame `frame` from the state, unless a position, velocity or J is not finite.
-  PetscErrorCode write_frame(int frame, bool* written);
+  // unlisted_only: only to the writers whose series does not list the frame yet.
+  PetscErrorCode write_frame(int frame, bool* written, bool unlisted_only = false);
 
   RunContext run_;
   std::vector<std::unique_ptr<OutputWriter>> writers_;

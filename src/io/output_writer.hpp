@@ -63,6 +63,8 @@ class OutputWriter {
   virtual std::string restart_key() const { return ""; }
   virtual std::string restart_state() const { return ""; }
   virtual void resume(const std::string& /*state*/, int /*frame*/) {}
+  // Whether the series' index lists `frame` (a restart at the run's last frame writes it if not).
+  virtual bool lists_frame(int /*frame*/) const { return false; }
 };
 
 }  // namespace hyperqn

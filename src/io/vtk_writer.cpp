@@ -289,6 +289,13 @@ void VtkSeries::write_frame(const FrameData& f) {
   throw_if_any_failed(comm_, error);
 }
 
+bool VtkSeries::lists_frame(int frame) const {
+  const std::string stem = frame_stem(name_, frame);
+  for (const auto& entry : written_)
+    if (entry.second.compare(0, stem.size() + 1, stem + ".") == 0) return true;
+  return false;
+}
+
 std::string VtkSeries::restart_state() const {
   std::string s;
   char time[40];

@@ -37,6 +37,7 @@ class VtkSeries : public OutputWriter {
   std::string restart_key() const override { return kRestartKey; }
   std::string restart_state() const override;
   void resume(const std::string& state, int frame) override;
+  bool lists_frame(int frame) const override;
   // The name of the series a restart state lists (its files are NAME_NNNNN...), "" if it lists none.
   static std::string series_name(const std::string& state);
 

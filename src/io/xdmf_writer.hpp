@@ -60,6 +60,11 @@ class XdmfSeries : public OutputWriter {
   std::string restart_key() const override { return kRestartKey; }
   std::string restart_state() const override;
   void resume(const std::string& state, int frame) override;
+  bool lists_frame(int frame) const override {
+    for (const Listed& l : written_)
+      if (l.frame == frame) return true;
+    return false;
+  }
   // The name of the series a restart state names, "" if none.
   static std::string series_name(const std::string& state);
 

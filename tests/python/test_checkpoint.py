@@ -383,3 +383,23 @@ def test_a_series_begun_after_the_checkpoint_goes_at_a_restart(tmp_path):
     assert not (out / "run.xdmf").exists() and not (out / "run.h5").exists()
     assert [n for n, _, _ in frame_list(out)] == list(range(7))
     assert all(path.endswith(".vtu") for _, _, path in frame_list(out))
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+@pytest.mark.parametrize("fmt", ["vtu", "xdmf"])
+def test_a_restart_at_its_last_frame_writes_that_frame(tmp_path, fmt, ranks):
+    """Found from outside: a run of 7 frames (output every 3, a checkpoint every 4) restarted from
+    its checkpoint at frame 4 as a run of 4 frames steps none, and never wrote its last frame,
+    which the uninterrupted 4-frame run writes (the .pvd or .xdmf ended at frame 3). A restart of
+    a finished run at its last frame, which wrote it, lists it once."""
+    base = dict(BAR, name="run", output={"format": fmt, "every": 3})
+    index = "run.pvd" if fmt == "vtu" else "run.xdmf"
+    whole, out = tmp_path / "whole", tmp_path / "out"
+    run(tmp_path, "whole", deck_with(base, 4), whole, ranks)
+    run(tmp_path, "first", deck_with(base, 7, {"every": 4}), out, ranks)
+    run(tmp_path, "then", deck_with(base, 4), out, ranks, ["--restart", str(out / "checkpoints" / "checkpoint_4.h5")])
+    assert frames_listed(out, index) == frames_listed(whole, index) == [0, 3, 4]
+    assert np.array_equal(final_frame(whole).points, final_frame(out).points)
+    run(tmp_path, "again", deck_with(base, 4, {"every": 4}), whole, ranks)
+    run(tmp_path, "again", deck_with(base, 4, {"every": 4}), whole, ranks, ["--restart", "latest"])
+    assert frames_listed(whole, index) == [0, 3, 4]
