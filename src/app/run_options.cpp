@@ -13,6 +13,7 @@
 
 #include "app/petsc_errors.hpp"
 #include "mesh/input_error.hpp"
+#include "mesh/text_tokens.hpp"
 #include "model/elastic_terms.hpp"
 #include "solvers/rigid_mode_h0.hpp"
 #include "solvers/solver_registry.hpp"
@@ -82,12 +83,25 @@ static const char* const kNumericOptions[] = {
     "-hyperqn_test_signal_in_frame",     "-hyperqn_test_signal_at_iteration", "-hyperqn_progress_seconds",
     "-hyperqn_rigid_h0_share",           "-hyperqn_test_topology_h0_max_touched", "-hyperqn_test_rank_error_after_frame"};
 
-// value as a whole number (strtod over all of it); false if it is not one.
-static bool number_in(const std::string& value, double* x) {
+// strtod reads all of value (inf and nan among what it reads).
+static bool strtod_reads(const std::string& value, double* x) {
   char* end = nullptr;
   *x = std::strtod(value.c_str(), &end);
   return end != value.c_str() && *end == '\0';
 }
+
+// value is a number strtod reads, and PETSc's PetscOptionsReal with it, but not a plain decimal
+// nor inf or nan: hexadecimal (0x10 read as 16, 0x1p3 as 8). Plain decimals as in mesh files
+// (parse_double, mesh/text_tokens.hpp).
+static bool hexadecimal(const std::string& value) {
+  double x;
+  const Token t{value.data(), value.data() + value.size(), 0};
+  return strtod_reads(value, &x) && std::isfinite(x) && !parse_double(t, x);
+}
+
+// value as a whole number: a plain decimal, or inf or nan (which the callers refuse as not
+// finite); false for anything else, hexadecimal among it.
+static bool number_in(const std::string& value, double* x) { return strtod_reads(value, x) && !hexadecimal(value); }
 
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
@@ -97,6 +111,12 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     const bool number = std::find(std::begin(kNumericOptions), std::end(kNumericOptions), name) != std::end(kNumericOptions);
     const bool type = name.size() > 5 && name.compare(name.size() - 5, 5, "_type") == 0;
     if (value.empty() && (number || type)) refuse(deck, name.c_str(), number ? "needs a value (a number)" : "needs a value (a type's name)");
+    // Hexadecimal: PETSc's reals take it (strtod: -hyperqn_divergence_limit 0x10 ran with 16), its
+    // integers do not; refused alike for every number option hyperqn reads or checks.
+    const bool checked = name == "-tao_gatol" || name == "-tao_grtol" || name == "-tao_gttol" || name == "-tao_max_it" ||
+                         name == "-tao_lmvm_mat_lmvm_hist_size";
+    if ((number || checked) && hexadecimal(value))
+      refuse(deck, name.c_str(), "hexadecimal is not taken: a number is a plain decimal (16, 1.5e-3)");
     // Read by the rigid-mode H0 when a scene has one: checked here, so that config and every run refuse it alike.
     double x = 0;
     if (name == "-hyperqn_rigid_h0_share" && !(number_in(value, &x) && x > 0 && x <= 1))

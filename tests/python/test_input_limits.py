@@ -309,6 +309,16 @@ OPTION_ERRORS = {
     "history_option_negative": (None, ["-tao_lmvm_mat_lmvm_hist_size", "-1"], ["-tao_lmvm_mat_lmvm_hist_size -1", "[0, 1000]"]),
     "history_option_huge": (None, ["-tao_lmvm_mat_lmvm_hist_size", "99999999999"], ["[0, 1000]"]),
     "divergence_limit_text": (None, ["-hyperqn_divergence_limit", "unit"], ["option -hyperqn_divergence_limit unit"]),
+    # hexadecimal: PETSc's reals take it (strtod), and -hyperqn_divergence_limit 0x10 ran with 16 (from
+    # the command line and the deck); its integers (-tao_max_it 0x10) do not
+    "divergence_limit_hex": (None, ["-hyperqn_divergence_limit", "0x10"],
+                             ["option -hyperqn_divergence_limit 0x10: hexadecimal is not taken"]),
+    "divergence_limit_hex_in_deck": ({"hyperqn_divergence_limit": "0x10"}, [],
+                                     ["divergence_limit_hex_in_deck.yaml:11: 'petsc.hyperqn_divergence_limit': "
+                                      "hexadecimal is not taken", "got 0x10"]),
+    "progress_seconds_hex_float": (None, ["-hyperqn_progress_seconds", "0x1p3"],
+                                   ["option -hyperqn_progress_seconds 0x1p3: hexadecimal"]),
+    "tao_gatol_hex": (None, ["-tao_gatol", "0x10"], ["option -tao_gatol 0x10: hexadecimal is not taken"]),
     # the value as given, with its deck line: 2.5 was blamed on the "5" of -tao_lmvm_mat_lmvm_hist_size;
     # 99999999999999999999 and 2147483648 said "got -1" and "got -2147483648" without the deck line,
     # 4294967297 ran as a budget of 1, 1e400 said "got inf" without the line
