@@ -71,6 +71,15 @@ class MeditReader {
         if (!have_vertices) throw InputError(path_, t.line, "Edges", "Edges section comes before the Vertices section");
         read_elements(t, 2, "edge", mesh.num_vertices(), mesh.segments, mesh.segment_tags, mesh.segment_lines);
         have_edges = true;
+      } else if (t.is("Hexahedra") || t.is("Prisms") || t.is("Pyramids")) {
+        // Other 3-D elements are not skipped: the body would lose them (its vertices dropped as
+        // unused). An error, as Gmsh's (mesh_gmsh.cpp), when the section holds records.
+        const Section s = open_section(t);
+        const int vertices = t.is("Hexahedra") ? 8 : t.is("Prisms") ? 6 : 5;
+        if (s.count > 0)
+          throw InputError(path_, s.line, s.name, s.name + " (" + std::to_string(vertices) + "-vertex elements, " +
+                                                      std::to_string(s.count) + " in this section) are not supported: the "
+                                                      "body must be made of 4-vertex tetrahedra (a Tetrahedra section)");
       } else if (const MeditRecord record = medit_record(t); record.size) {
         Section s = open_section(t);
         for (long long i = 0; i < s.count; ++i)

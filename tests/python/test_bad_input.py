@@ -50,6 +50,11 @@ BAD_MESHES = {
     "triangle_index": (TWELVE + "Triangles\n2\n1 2 3 0\n1 2 999 0\nEnd\n",
                        ["triangle_index.mesh:23: 'Triangles'", "index 999", "1..12"]),
     "edge_index": (TWELVE + "Edges\n1\n13 1 0\nEnd\n", ["edge_index.mesh:22: 'Edges'", "index 13", "1..12"]),
+    # other 3-D elements are not skipped (the body lost them, their vertices dropped as unused), as in Gmsh files
+    "hexahedra": (TWELVE + "Hexahedra\n1\n5 6 7 8 9 10 11 12 0\nEnd\n",
+                  ["hexahedra.mesh:20: 'Hexahedra': Hexahedra (8-vertex elements, 1 in this section) are not "
+                   "supported: the body must be made of 4-vertex tetrahedra"]),
+    "prisms": (TWELVE + "Prisms\n1\n5 6 7 8 9 10 0\nEnd\n", ["prisms.mesh:20: 'Prisms'", "6-vertex elements"]),
     # a file's bytes are quoted without control characters (a terminal's escapes) and cut at 64
     "escape_keyword": ("MeshVersionFormatted 1\nDimension 3\n\x1b[31mRED\x1b[0m\n",
                        ["escape_keyword.mesh:3", "unknown keyword '?[31mRED?[0m'"]),
