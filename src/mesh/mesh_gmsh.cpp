@@ -70,10 +70,12 @@ class GmshReader {
         if (nodes_line) throw InputError(path_, t.line, "$Entities", "$Entities comes after $Nodes");
         read_entities(t);
         have_entities_ = true;
+      } else if (t.is("$PhysicalNames")) {
+        read_physical_names(t);
       } else if (t.is("$PartitionedEntities")) {
         throw InputError(path_, t.line, "$PartitionedEntities", "partitioned Gmsh files are not supported: save the mesh unpartitioned");
       } else if (*t.begin == '$' && t.end - t.begin > 1 && t.str().compare(0, 4, "$End") != 0) {
-        skip_section(t);  // $PhysicalNames, $NodeData, $Periodic, ...: not needed
+        skip_section(t);  // $NodeData, $Periodic, ...: not needed
       } else {
         throw InputError(path_, t.line, "", "unexpected '" + t.str() + "' outside any section (does a section's count match its records?)");
       }
@@ -172,6 +174,28 @@ class GmshReader {
     if (file_type != 0) throw InputError(path_, line, s.name, "file type is " + std::to_string(file_type) + ", expected 0 (ASCII)");
     integer(s, "the data size");  // of binary files only
     expect_end(s, "the version, file type and data size");
+  }
+
+  // $PhysicalNames: not used (a tag is the group's number), but checked as declared: a count, then
+  // per line a dimension, a tag and a name in double quotes (it may hold spaces).
+  void read_physical_names(const Token& key) {
+    const Section s{key.str(), key.line};
+    const long long n = integer(s, "the number of physical names", 0, std::numeric_limits<int32_t>::max());
+    for (long long i = 0; i < n; ++i) {
+      const std::string what = "physical name " + std::to_string(i + 1) + " of " + std::to_string(n);
+      integer(s, what + ": its dimension", 0, 3);
+      integer(s, what + ": its tag");
+      Token t = next(s, what + ": its name");
+      if (*t.begin != '"')
+        throw InputError(path_, t.line, s.name, what + ": expected its name in double quotes, found '" + t.str() + "'");
+      const int line = t.line;
+      const char* open = t.begin;
+      while (!(t.end[-1] == '"' && t.end - 1 != open)) {  // the closing quote ends a token of the same line
+        if (!tok_.next(t) || t.line != line)
+          throw InputError(path_, line, s.name, what + ": its name's double quote is not closed on its line");
+      }
+    }
+    expect_end(s, "the " + std::to_string(n) + " physical names it declares");
   }
 
   // $Entities (4.1): the first physical tag of each volume (0 for none) becomes its tets' tag.

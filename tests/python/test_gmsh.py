@@ -154,7 +154,12 @@ BAD = {
     "duplicate_node": (changed(MSH22, "5 1 1 1", "4 1 1 1"), "$Nodes", 15, "appears twice"),
     "missing_end_nodes": (changed(MSH22, "$EndNodes\n", ""), "$Nodes", 16, "expected $EndNodes"),
     "missing_end_elements": (changed(MSH22, "$EndElements\n", ""), "$Elements", 22, "no $EndElements"),
-    "missing_end_names": (changed(MSH22, "$EndPhysicalNames\n", ""), "$PhysicalNames", 22, "no $EndPhysicalNames"),
+    "missing_end_names": (changed(MSH22, "$EndPhysicalNames\n", ""), "$PhysicalNames", 8,
+                          "expected $EndPhysicalNames after the 2 physical names it declares, found '$Nodes'"),
+    # $PhysicalNames is read as declared (before: skipped to its end)
+    "names_count_large": (changed(MSH22, "$PhysicalNames\n2\n", "$PhysicalNames\n5\n"), "$PhysicalNames", 8,
+                          "ends at '$EndPhysicalNames' where physical name 3 of 5"),
+    "name_unterminated": (changed(MSH22, '3 2 "hard"', '3 2 "hard'), "$PhysicalNames", 7, "double quote is not closed"),
     "elements_count_large": (changed(MSH22, "$Elements\n4\n", "$Elements\n5\n"), "$Elements", 23, "'$EndElements'"),
     "unknown_type": (changed(MSH22, "2 2 2 0 1 1 2 3", "2 99 2 0 1 1 2 3"), "$Elements", 20, "unknown element type 99"),
     "hexahedron": (changed(MSH22, "3 4 2 1 1 1 2 3 4", "3 5 2 1 1 1 2 3 4 5 1 2 3"), "$Elements", 21, "hexahedron"),
