@@ -74,12 +74,23 @@ class ObjReader {
   }
 
   // "i", "i/t", "i//n" or "i/t/n"; 1-based, or negative: counted back from the last vertex read.
+  // The texture and normal indices t and n are not used, but must be indices too.
   int vertex_index(const Token& t) {
     Token head = t;
     head.end = std::find(t.begin, t.end, '/');
     long long i;
     if (!parse_int(head, i) || i == 0)
       throw InputError(path_, t.line, "f", "expected a vertex index, found '" + t.str() + "'");
+    int parts = 1;
+    for (Token part = head; part.end != t.end; ++parts) {
+      part.begin = part.end + 1;
+      part.end = std::find(part.begin, t.end, '/');
+      long long j;
+      const bool empty_texture = parts == 1 && part.begin == part.end && part.end != t.end;  // i//n
+      if (parts == 3 || (!empty_texture && (!parse_int(part, j) || j == 0)))
+        throw InputError(path_, t.line, "f", "expected a vertex as i, i/t, i//n or i/t/n (nonzero integers), found '" +
+                                                 t.str() + "'");
+    }
     const long long nv = (long long)surface_.vertices.size();
     if (i < 0) {
       if (-i > nv)

@@ -320,6 +320,9 @@ BAD_OBSTACLES = {
     # name: (file name, text, expected fragments)
     "obj_bad_index": ("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n", ["bad.obj:4"]),
     "obj_bad_number": ("num.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n", ["num.obj:2"]),
+    # a texture or normal index that is not one (before: read as "f 1 2 3")
+    "obj_bad_texture_index": ("slash.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n",
+                              ["slash.obj:4: 'f'", "i, i/t, i//n or i/t/n", "'1/x'"]),
     "obj_no_triangles": ("empty.obj", "v 0 0 0\n", ["empty.obj", "colliders[0].file"]),
     "medit_truncated": ("cut.mesh", "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 0\n", ["cut.mesh"]),
     "obj_subnormal": ("tiny.obj", "v 0 0 0\nv 1 0 0\nv 0 1e-320 0\nf 1 2 3\n", ["tiny.obj:3: 'v'", "'1e-320' must be 0 or"]),
