@@ -42,7 +42,7 @@ class ObjReader {
     for (size_t f = 0; f < surface_.triangles.size(); ++f)
       for (int k = 0; k < 3; ++k)
         if (surface_.triangles[f][k] >= nv)
-          throw InputError(path_, face_lines_[f], "f",
+          throw InputError(path_, surface_.triangle_lines[f], "f",
                            "vertex index " + std::to_string(surface_.triangles[f][k] + 1) + " is out of range 1.." +
                                std::to_string(nv));
     return std::move(surface_);
@@ -67,7 +67,7 @@ class ObjReader {
       // Fan triangulation keeps the polygon's orientation.
       for (size_t k = 1; k + 1 < ids.size(); ++k) {
         surface_.triangles.push_back({ids[0], ids[k], ids[k + 1]});
-        face_lines_.push_back(line[0].line);
+        surface_.triangle_lines.push_back(line[0].line);
       }
     }
     // Anything else (vt, vn, o, g, s, usemtl, mtllib, l, ...) does not shape the obstacle.
@@ -105,7 +105,6 @@ class ObjReader {
   std::string path_;
   Tokenizer tok_;
   TriangleSurface surface_;
-  std::vector<int> face_lines_;
 };
 
 class MeditSurfaceReader {
@@ -178,6 +177,7 @@ class MeditSurfaceReader {
           throw InputError(path_, where[f][k].line, "Triangles",
                            "vertex index " + where[f][k].str() + " is out of range 1.." + std::to_string(nv));
       surface_.triangles.push_back({int(raw[f][0] - 1), int(raw[f][1] - 1), int(raw[f][2] - 1)});
+      surface_.triangle_lines.push_back(where[f][0].line);
     }
     return std::move(surface_);
   }

@@ -11,6 +11,7 @@ namespace hyperqn {
 struct TriangleSurface {
   std::vector<Eigen::Vector3d> vertices;
   std::vector<std::array<int, 3>> triangles;  // 0-based, counter-clockwise seen from outside
+  std::vector<int> triangle_lines;            // per triangle: its line in the file (a polygon's fan: the f line)
 };
 
 // Reads the surface; the format is chosen by the extension (case-insensitive). Throws

@@ -262,6 +262,22 @@ double distance(const double* p, const double* q) {
   return std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
 }
 
+// The sections clean_mesh's messages name, those of source's format (by its extension): a Gmsh
+// file's elements are in $Elements, an OBJ's faces on its f lines; Medit's (or a generated
+// mesh's) otherwise.
+struct SectionNames {
+  const char *tets, *segments, *triangles, *vertices;
+};
+SectionNames section_names(const std::string& source) {
+  const auto ends_with = [&](const char* ext) {
+    const size_t n = std::strlen(ext);
+    return source.size() >= n && source.compare(source.size() - n, n, ext) == 0;
+  };
+  if (ends_with(".msh")) return {"$Elements", "$Elements", "$Elements", "$Nodes"};
+  if (ends_with(".obj")) return {"f", "f", "f", "v"};
+  return {"Tetrahedra", "Edges", "Triangles", "Vertices"};
+}
+
 }  // namespace
 
 TetMesh read_medit(const std::string& path, bool edges_as_strands, bool triangles_as_cloth,
@@ -446,8 +462,9 @@ static void reject_same_vertices(const std::vector<int32_t>& elements, const Rec
 }
 
 static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used, const std::string& source) {
-  reject_same_vertices<4>(mesh.tets, mesh.tet_lines, "Tetrahedra", "tet", source);
-  reject_same_vertices<3>(mesh.triangles, mesh.triangle_lines, "Triangles", "triangle", source);
+  const SectionNames names = section_names(source);
+  reject_same_vertices<4>(mesh.tets, mesh.tet_lines, names.tets, "tet", source);
+  reject_same_vertices<3>(mesh.triangles, mesh.triangle_lines, names.triangles, "triangle", source);
   std::vector<int64_t> points;
   for (int64_t v = 0; v < mesh.num_vertices(); ++v)
     if (used[v]) points.push_back(v);
@@ -456,7 +473,7 @@ static void reject_duplicates(const TetMesh& mesh, const std::vector<char>& used
   for (size_t k = 1; k < points.size(); ++k)
     if (at(points[k]) == at(points[k - 1])) {
       const int64_t a = std::min(points[k - 1], points[k]), b = std::max(points[k - 1], points[k]);
-      throw InputError(source, 0, "Vertices", "vertices " + std::to_string(mesh.vertex_ids[a] + 1) + " and " +
+      throw InputError(source, 0, names.vertices, "vertices " + std::to_string(mesh.vertex_ids[a] + 1) + " and " +
                                                   std::to_string(mesh.vertex_ids[b] + 1) +
                                                   " are at the same point: the body is split there, or the mesh holds two "
                                                   "copies of it (merge them)");
@@ -484,7 +501,7 @@ void connect_surface(TetMesh& mesh, const std::string& source, std::vector<int64
     size_t j = i + 1;
     while (j < edges.size() && edges[j][0] == edges[i][0] && edges[j][1] == edges[i][1]) ++j;
     if (j - i > 2)
-      throw InputError(source, 0, "Triangles", "the edge between vertices " + std::to_string(mesh.vertex_ids[edges[i][0]] + 1) +
+      throw InputError(source, 0, section_names(source).triangles, "the edge between vertices " + std::to_string(mesh.vertex_ids[edges[i][0]] + 1) +
                                                    " and " + std::to_string(mesh.vertex_ids[edges[i][1]] + 1) + " is shared by " +
                                                    std::to_string(j - i) + " triangles: a cloth must be a manifold surface");
     mesh.triangle_edges[edges[i][2]] |= uint8_t(1u << edges[i][3]);
@@ -502,10 +519,13 @@ void connect_surface(TetMesh& mesh, const std::string& source, std::vector<int64
 
 CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
   const int64_t nv = mesh.num_vertices(), nt = mesh.num_tets(), ns = mesh.num_segments(), nf = mesh.num_triangles();
+  const SectionNames names = section_names(source);
+  if (nt == 0 && ns == 0 && nf == 0 && names.triangles == std::string("f"))
+    throw InputError(source, 0, "f", "the file has no faces (f lines of 3 or more vertices): a cloth needs triangles");
   if (nt == 0 && ns == 0 && nf == 0)
-    throw InputError(source, 0, "Tetrahedra", "the mesh has no tetrahedra (and no strand segments or cloth triangles)");
+    throw InputError(source, 0, names.tets, "the mesh has no tetrahedra (and no strand segments or cloth triangles)");
   if (nf > 0 && nt + ns > 0)
-    throw InputError(source, 0, "Triangles", "a cloth surface cannot share a mesh with tetrahedra or strands");
+    throw InputError(source, 0, names.triangles, "a cloth surface cannot share a mesh with tetrahedra or strands");
   if ((int64_t)mesh.vertex_ids.size() != nv) {  // e.g. hand-built meshes: ids are the indices
     mesh.vertex_ids.resize(size_t(nv));
     for (int64_t v = 0; v < nv; ++v) mesh.vertex_ids[v] = v;
@@ -522,7 +542,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* t = &mesh.tets[4 * e];
     for (int k = 0; k < 4; ++k) {
       if (t[k] < 0 || t[k] >= nv)
-        throw InputError(source, mesh.tet_lines.line_of(e), "Tetrahedra", "tet " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.tet_lines.line_of(e), names.tets, "tet " + std::to_string(e + 1) + " has vertex index " +
                                                       std::to_string(t[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[t[k]] = 1;
     }
@@ -535,7 +555,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "tet %lld (1-based, as in the input) is degenerate: volume %.3g, mean edge length %.3g",
                     (long long)(e + 1), det / 6, h);
-      throw InputError(source, mesh.tet_lines.line_of(e), "Tetrahedra", msg);
+      throw InputError(source, mesh.tet_lines.line_of(e), names.tets, msg);
     }
     flip[e] = det < 0;
   }
@@ -544,7 +564,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* seg = &mesh.segments[2 * e];
     for (int k = 0; k < 2; ++k) {
       if (seg[k] < 0 || seg[k] >= nv)
-        throw InputError(source, mesh.segment_lines.line_of(e), "Edges", "segment " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.segment_lines.line_of(e), names.segments, "segment " + std::to_string(e + 1) + " has vertex index " +
                                                  std::to_string(seg[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[seg[k]] = 1;
     }
@@ -553,7 +573,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "segment %lld (1-based, as in the input) is degenerate: length %.3g",
                     (long long)(e + 1), length);
-      throw InputError(source, mesh.segment_lines.line_of(e), "Edges", msg);
+      throw InputError(source, mesh.segment_lines.line_of(e), names.segments, msg);
     }
   }
 
@@ -561,7 +581,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
     const int32_t* f = &mesh.triangles[3 * e];
     for (int k = 0; k < 3; ++k) {
       if (f[k] < 0 || f[k] >= nv)
-        throw InputError(source, mesh.triangle_lines.line_of(e), "Triangles", "triangle " + std::to_string(e + 1) + " has vertex index " +
+        throw InputError(source, mesh.triangle_lines.line_of(e), names.triangles, "triangle " + std::to_string(e + 1) + " has vertex index " +
                                                      std::to_string(f[k] + 1) + " out of range 1.." + std::to_string(nv));
       used[f[k]] = 1;
     }
@@ -574,7 +594,7 @@ CleanReport clean_mesh(TetMesh& mesh, const std::string& source) {
       char msg[160];
       std::snprintf(msg, sizeof msg, "triangle %lld (1-based, as in the input) is degenerate: area %.3g, mean edge length %.3g",
                     (long long)(e + 1), area, h);
-      throw InputError(source, mesh.triangle_lines.line_of(e), "Triangles", msg);
+      throw InputError(source, mesh.triangle_lines.line_of(e), names.triangles, msg);
     }
   }
 

@@ -129,6 +129,7 @@ TetMesh surface_mesh(const TriangleSurface& surface) {
   for (const Eigen::Vector3d& x : surface.vertices) mesh.coords.insert(mesh.coords.end(), x.data(), x.data() + 3);
   for (const auto& t : surface.triangles) mesh.triangles.insert(mesh.triangles.end(), t.begin(), t.end());
   mesh.triangle_tags.assign(surface.triangles.size(), 0);
+  for (size_t f = 0; f < surface.triangle_lines.size(); ++f) mesh.triangle_lines.add(int64_t(f), surface.triangle_lines[f]);
   mesh.vertex_ids.resize(surface.vertices.size());
   for (size_t v = 0; v < surface.vertices.size(); ++v) mesh.vertex_ids[v] = int64_t(v);
   return mesh;

@@ -209,7 +209,8 @@ def test_bad_cloth_meshes_are_refused(tmp_path):
     cases = {
         "fan.obj": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\nf 1 2 4\nf 2 1 5\n", "shared by 3 triangles"),
         "flat.obj": ("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n", "triangle 2"),
-        "none.obj": ("v 0 0 0\nv 1 0 0\n", "no tetrahedra"),
+        # before: "'Tetrahedra': the mesh has no tetrahedra"
+        "none.obj": ("v 0 0 0\nv 1 0 0\n", "none.obj: 'f': the file has no faces"),
         "slash.obj": ("v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1/x 2 3\nf 1 3 4\n", "slash.obj:5: 'f': expected a vertex as"),
     }
     for file, (text, message) in cases.items():

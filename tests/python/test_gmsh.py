@@ -160,6 +160,8 @@ BAD = {
     "names_count_large": (changed(MSH22, "$PhysicalNames\n2\n", "$PhysicalNames\n5\n"), "$PhysicalNames", 8,
                           "ends at '$EndPhysicalNames' where physical name 3 of 5"),
     "name_unterminated": (changed(MSH22, '3 2 "hard"', '3 2 "hard'), "$PhysicalNames", 7, "double quote is not closed"),
+    # a flat tet is the file's $Elements' (before: 'Tetrahedra', Medit's section)
+    "flat_tet": (changed(MSH22, "4 0 0 1\n", "4 1 1 0\n"), "$Elements", 21, "tet 1 (1-based, as in the input) is degenerate"),
     "elements_count_large": (changed(MSH22, "$Elements\n4\n", "$Elements\n5\n"), "$Elements", 23, "'$EndElements'"),
     "unknown_type": (changed(MSH22, "2 2 2 0 1 1 2 3", "2 99 2 0 1 1 2 3"), "$Elements", 20, "unknown element type 99"),
     "hexahedron": (changed(MSH22, "3 4 2 1 1 1 2 3 4", "3 5 2 1 1 1 2 3 4 5 1 2 3"), "$Elements", 21, "hexahedron"),
