@@ -455,7 +455,12 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
                                                        std::to_string(info.tets) + " tetrahedra");
     });
     if (repaired) *repaired = CleanReport();  // repaired when the file was written
-    return read_partition_piece(comm, partition);
+    try {
+      return read_partition_piece(comm, partition);
+    } catch (const InputError& e) {  // a damaged part (the same message on every rank): named by the deck's key too
+      if (deck.bodies.empty()) throw InputError(deck.path, spec.line, "mesh.file", e.what());
+      throw InputError(deck.path, deck.partition_line, "partition", e.what());
+    }
   }
   const TetMesh serial = load_scene_mesh(comm, deck, repaired, plan);
   MeshPiece piece;

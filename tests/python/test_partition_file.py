@@ -138,6 +138,34 @@ def test_decks_refused(bar_file, ranks):
         assert not outdir.exists(), name
 
 
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_damaged_parts_name_the_deck_key(bar_file, ranks):
+    """A part that HDF5 reads but whose values do not match its checksum, or an array of another type,
+    is found as the ranks read their parts: named with the deck's mesh.file and line too, as the
+    header's errors (before: the file alone, 'FILE: part 1: its arrays do not match their checksum'
+    and 'cannot read FILE: coords does not hold float64 values')."""
+    tmp, _, out, _ = bar_file
+    changed, retyped = tmp / "changed.h5", tmp / "retyped.h5"
+    changed.write_bytes(out.read_bytes())
+    with h5py.File(changed, "r+") as f:  # a vertex of part 1 (HDF5's own checksum rewritten)
+        f["coords"][-1, 0] = f["coords"][-1, 0] + 0.5
+    retyped.write_bytes(out.read_bytes())
+    with h5py.File(retyped, "r+") as f:
+        coords = f["coords"][()]
+        del f["coords"]
+        f["coords"] = coords.astype(np.int64)
+    cases = {"changed": (changed, "part 1: its arrays do not match their checksum"),
+             "retyped": (retyped, "coords does not hold float64 values")}
+    for name, (file, said) in cases.items():
+        deck = bad_deck(tmp, f"{name}_np{ranks}", file)
+        outdir = tmp / f"out_{name}_np{ranks}"
+        proc = run_hyperqn([deck, "-o", outdir], ranks=ranks, check=False)
+        assert proc.returncode == 1, (name, proc.stdout)
+        assert re.search(rf"{name}_np{ranks}\.yaml:\d+: 'mesh\.file': .*{file.name}.*{said}", proc.stdout), (name, proc.stdout)
+        assert proc.stdout.count("hyperqn: error:") == 1, (name, proc.stdout)
+        assert not outdir.exists(), name
+
+
 ONE_TET = """MeshVersionFormatted 1
 Dimension 3
 Vertices
