@@ -11,10 +11,41 @@ NewtonSolver::~NewtonSolver() {
   VecDestroy(&coords_);
 }
 
+// PETSc 3.18's MUMPS interface keeps a failed numeric factorization's INFOG(1) < 0 (-10, a singular
+// Hessian) and then skips every later numeric factorization of that factor ("MatFactorNumeric is
+// called after analysis phase fails"), while PCSetUp clears the factor's error: the next solve
+// failed in MUMPS's solve phase (INFOG(1) = -3) and stopped the run. After a failed factorization
+// the PC is reset, so that the next one analyses the Hessian afresh (TAO took the failed step's
+// fallback, as for any failed factorization). Unused with CG + AMG.
+static PetscErrorCode reset_after_failed_factor(KSP ksp, Mat H) {
+  PC pc, factoring;
+  PetscBool redundant, cholesky;
+  PCFailedReason reason;
+  PetscFunctionBeginUser;
+  PetscCall(KSPGetPC(ksp, &pc));
+  factoring = pc;
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCREDUNDANT, &redundant));
+  if (redundant) {
+    KSP inner;
+    PetscCall(PCRedundantGetKSP(pc, &inner));
+    PetscCall(KSPGetPC(inner, &factoring));
+  }
+  PetscCall(PetscObjectTypeCompare((PetscObject)factoring, PCCHOLESKY, &cholesky));
+  if (!cholesky) PetscFunctionReturn(0);
+  PetscCall(PCGetFailedReason(factoring, &reason));
+  if (reason == PC_NOERROR) PetscFunctionReturn(0);
+  PetscCall(PCReset(pc));
+  PetscCall(KSPSetOperators(ksp, H, H));
+  PetscFunctionReturn(0);
+}
+
 PetscErrorCode NewtonSolver::hessian(Tao, Vec x, Mat, Mat Hpre, void* ctx) {
   auto* self = static_cast<NewtonSolver*>(ctx);
+  KSP ksp;
   PetscFunctionBeginUser;
   PetscCall(self->step_.assemble_hessian(x, Hpre, self->exact_));
+  PetscCall(TaoGetKSP(self->tao_, &ksp));
+  if (ksp) PetscCall(reset_after_failed_factor(ksp, self->H_));
   if (self->coords_) {
     // The rigid-body motions about the current positions (x itself: the unknowns are positions)
     // span K(x)'s near-null space. GAMG uses them as given; BoomerAMG only with

@@ -161,6 +161,31 @@ def test_frames_no_stage_makes_acceptable_are_flagged(tmp_path, ranks):
     assert read_summary(tmp_path / "resolved")["status"] == "ok"
 
 
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_failed_newton_factorization_is_a_failed_stage(tmp_path, ranks):
+    # A force of 1e90 N on the free end of a clamped bar: the chain's Newton steps ~1e86 m, where the
+    # Hessian's entries reach ~1e177 beside the mass matrix's ~10 and MUMPS finds it numerically
+    # singular (INFOG(1) = -10). PETSc 3.18 then skipped every later numeric factorization of that
+    # factor, and at 1 rank the run stopped in frame 2 with "Error reported by MUMPS in solve phase:
+    # INFOG(1)=-3", frames written, exit 1 (2 ranks: flagged, exit 0). Now the factor is made afresh
+    # and, at 1 and 2 ranks alike, every frame is flagged: g could not be decreased.
+    deck = {
+        "mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 2, 2]}},
+        "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
+        "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+        "loads": [{"type": "force", "box": {"min": [0.7, -1, -1], "max": [1.1, 1, 1]}, "force": [0, 1e90, 0]}],
+        "time": {"dt": 0.03, "frames": 2},
+        "solver": {"type": "lbfgs", "iterations": 10, "history": 5},
+    }
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "huge_load.yaml", deck), "-o", out], ranks=ranks, check=False)
+    assert proc.returncode == 0, proc.stdout[-2000:]
+    assert "MUMPS" not in proc.stdout and "PETSc" not in proc.stdout, proc.stdout[-2000:]
+    s = read_summary(out)
+    assert s["status"].startswith("flagged: 2 of 2 frames could not decrease g"), s["status"]
+    assert s["frames"] == 2
+
+
 def longest_edge(path):
     """Longest tet edge of a VTK frame (.vtu or .pvtu) over its rest bounding-box diagonal."""
     edge, rest = 0.0, []
