@@ -250,6 +250,12 @@ def test_stale_or_mismatched_bodies_files_are_refused(bodies_file, bar_file):
     (tmp / "garbage.h5").write_bytes(b"not an HDF5 file\n" * 10)  # before: no deck line, no key
     refused(tmp, "garbage", dict(BODIES, partition="garbage.h5"), ["garbage.yaml:", "'partition'", "garbage.h5"])
     refused(tmp, "not_h5", dict(BODIES, partition="bodies.mesh"), ["not_h5.yaml", "'partition'", "ends in .h5"])
+    damaged = tmp / "damaged.h5"  # a part's values changed behind HDF5's checksums (before: the file alone)
+    damaged.write_bytes(with_bodies.read_bytes())
+    with h5py.File(damaged, "r+") as f:
+        f["coords"][-1, 0] = f["coords"][-1, 0] + 0.5
+    refused(tmp, "damaged", dict(BODIES, partition="damaged.h5"),
+            ["damaged.yaml:", "'partition': ", "damaged.h5: part 1: its arrays do not match their checksum"])
     as_mesh = copy.deepcopy(BAR)
     as_mesh["mesh"] = {"file": str(with_bodies)}
     refused(tmp, "as_mesh", as_mesh, ["'mesh.file'", "holds the 2 bodies", "partition:"])
