@@ -85,12 +85,16 @@ std::vector<std::string> solver_keys_ignored(const SolverSpec& spec) {
   return ignored;
 }
 
-H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio) {
+H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio, double weight_deflection) {
   if (h0 != H0::automatic) return h0;
   // One V-cycle of M + h^2 L reaches a given accuracy sooner than the factor from this size on,
   // whatever the rank count (the crossover measured in docs/performance.md#distributed-h0). Tets,
   // not vertices: the factor's fill comes from the volume (a strand's or a cloth's vertices add little).
   if (tets >= kAmgFromTets) return H0::amg;
+  // A stiff scene held still bends little: K(x_rest) is then nearly its Hessian all along, while
+  // L (I_3 on each vertex, no rotation-free bending) leaves its bending mode far behind
+  // (docs/method.md, the record of kRestStiffnessBelowDeflection).
+  if (tets > 0 && weight_deflection > 0 && weight_deflection < kRestStiffnessBelowDeflection) return H0::rest_stiffness;
   // Near incompressibility the weight of L is dominated by lambda, so (M + h^2 L)^-1 barely moves
   // the bending modes; the volumetric H0 keeps the volume in its own term (docs/method.md).
   return tets > 0 && poisson_ratio >= kVolumetricFromPoisson - kPoissonSlack ? H0::volumetric : H0::laplacian;
@@ -110,9 +114,10 @@ PetscErrorCode create_solver(const SolverSpec& spec, Objective& objective, const
   PetscCheck(!s->uses_constant_matrix || h0, PETSC_COMM_SELF, PETSC_ERR_ARG_NULL, "solver %s needs its factored constant matrix",
              spec.type.c_str());
   const H0 wanted = solver_h0(spec);
-  // auto: M + h^2 L, or the volumetric H0 by the material (resolved_h0).
+  // auto: M + h^2 L, or the rest stiffness or the volumetric H0 by the scene (resolved_h0).
   PetscCheck(!h0 || !s->uses_constant_matrix || h0->kind() == constant_matrix_of(wanted) ||
-                 (wanted == H0::automatic && h0->kind() == ConstantMatrix::volumetric),
+                 (wanted == H0::automatic &&
+                  (h0->kind() == ConstantMatrix::volumetric || h0->kind() == ConstantMatrix::rest_stiffness)),
              PETSC_COMM_SELF, PETSC_ERR_PLIB,
              "solver %s was given the wrong constant matrix", spec.type.c_str());
   PetscCheck(!h0 || !s->uses_constant_matrix || wanted == H0::automatic ||
@@ -223,8 +228,13 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "itself (the tests of run-aways use it)"},
       enum_key<S>("h0", &S::h0, kH0Names,
        "`lbfgs` only: its initial inverse Hessian. `auto`: `amg` on meshes of 200,000 tetrahedra or more (the "
-       "crossover measured in [performance.md](performance.md#distributed-h0)), else `volumetric` when a "
-       "hyperelastic tet material's Poisson ratio is 0.499 or more (the largest of the scene's; not with "
+       "crossover measured in [performance.md](performance.md#distributed-h0)), else `rest-stiffness` for a stiff "
+       "scene held still: one body of plain hyperelastic tets under gravity, held by fixed regions that do not move "
+       "or let go, nothing else acting (no loads, attachments, colliders, self-contact, cuts, `initial`, strands, "
+       "cloth; not `static`), whose self-weight deflection scale ρ|g|D³/(E w²) is below 0.1 (D the rest bounding "
+       "box's diagonal, w its smallest side, ρ/E the largest of its materials'; steel bars and plates; the "
+       "crossover measured in [method.md](method.md#the-initial-hessian-h0); the log says so), else `volumetric` "
+       "when a hyperelastic tet material's Poisson ratio is 0.499 or more (the largest of the scene's; not with "
        "`h0_contact: woodbury`; the crossover measured in [method.md](method.md#the-initial-hessian-h0)), else "
        "`laplacian`. `laplacian`: (M + "
        "h²L)⁻¹, L the weighted Laplacian (the paper's). `rest-stiffness`: (M + h²K(x_rest))⁻¹, K the energy's "

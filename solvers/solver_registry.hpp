@@ -44,13 +44,22 @@ constexpr int64_t kAmgFromTets = 200000;
 // ratio comes back from the Lame parameters a deck's E and nu give, to round-off).
 constexpr double kVolumetricFromPoisson = 0.499;
 constexpr double kPoissonSlack = 1e-9;
+// Below that, solver.h0: auto takes the rest stiffness for a scene held still whose self-weight
+// deflection scale (self_weight_deflection: rho |g| D^3 / (E w^2), D the rest bounding box's
+// diagonal and w its smallest side, rho the densest and E the softest tet material) is below this:
+// a stiff scene that bends little, where M + h^2 L leaves its bending mode behind (the crossover
+// measured on cantilevers of two shapes: docs/records/2026-12-07-stiff-auto-h0.md). 0: not such a
+// scene (held_still_weight, SceneOptions::weight_per_length).
+constexpr double kRestStiffnessBelowDeflection = 0.1;
 // That matrix on a mesh of `tets` tetrahedra whose largest tetrahedral Poisson ratio is
-// poisson_ratio (largest_poisson_ratio; 0 without tets): automatic resolved here, and nowhere else
-// (the V-cycle from kAmgFromTets tets on, else the factor of M + h^2 K_vol from
-// kVolumetricFromPoisson on, else the factor of M + h^2 L).
-H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio);
-inline H0 resolved_h0(const SolverSpec& spec, int64_t tets, double poisson_ratio) {
-  return resolved_h0(solver_h0(spec), tets, poisson_ratio);
+// poisson_ratio (largest_poisson_ratio; 0 without tets) and whose self-weight deflection scale is
+// weight_deflection (0: not a scene held still): automatic resolved here, and nowhere else (the
+// V-cycle from kAmgFromTets tets on, else the factor of M + h^2 K(x_rest) below
+// kRestStiffnessBelowDeflection, else the factor of M + h^2 K_vol from kVolumetricFromPoisson on,
+// else the factor of M + h^2 L).
+H0 resolved_h0(H0 h0, int64_t tets, double poisson_ratio, double weight_deflection = 0);
+inline H0 resolved_h0(const SolverSpec& spec, int64_t tets, double poisson_ratio, double weight_deflection = 0) {
+  return resolved_h0(solver_h0(spec), tets, poisson_ratio, weight_deflection);
 }
 // The keys of `solver:` that spec.type does not read, each as "key: value", where the deck set them
 // to other than their default (a run warns of each): the H0 keys but with lbfgs (solver_takes_h0),

@@ -306,6 +306,17 @@ double h0_poisson_ratio(const Deck& deck) {
   return deck.solver.h0_contact == H0Contact::woodbury ? 0.0 : largest_poisson_ratio(deck);
 }
 
+double held_still_weight(const Deck& deck) {
+  const double g = std::hypot(deck.gravity[0], deck.gravity[1], deck.gravity[2]);
+  if (!(g > 0) || deck.fixed.empty() || !deck.bodies.empty() || !deck.loads.empty() || !deck.attachments.empty() ||
+      !deck.colliders.empty() || deck.contact.self || !deck.cuts.empty() || deck.initial.kind != InitialKind::rest ||
+      deck.time.integrator == TimeIntegrator::quasi_static)
+    return 0;
+  for (const BoxRegion& f : deck.fixed)
+    if (f.motion.active || f.release >= 0 || is_roller(f)) return 0;
+  return g * largest_density_over_modulus(deck);
+}
+
 SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vector<std::string>& solvers) {
   SceneOptions s;
   for (const std::string& type : solvers) {
@@ -315,6 +326,7 @@ SceneOptions scene_options(const Deck& deck, const RunOptions& o, const std::vec
     s.h0s.push_back(solver_h0(spec));
   }
   s.poisson_ratio = h0_poisson_ratio(deck);
+  s.held_weight = held_still_weight(deck);
   s.h0_package = o.h0_package;
   s.h0_precision = deck.solver.h0_precision;
   s.warm_start = deck.solver.warm_start;

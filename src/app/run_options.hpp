@@ -62,6 +62,14 @@ std::vector<std::pair<std::string, std::string>> all_options();
 // stiffness to M + h^2 L only (so auto stays there).
 double h0_poisson_ratio(const Deck& deck);
 
+// For a scene held still, |g| rho / E (1/m; largest_density_over_modulus), by which solver.h0:
+// auto takes the rest stiffness once the mesh gives its size (resolved_h0); 0 for any other scene.
+// Held still: gravity, one body of plain hyperelastic tet materials, held by fixed regions that
+// neither move, nor let go, nor hold only some components; nothing else on it (no loads,
+// attachments, colliders, self-contact, cuts, initial state) and a dynamic integrator. Such a
+// scene cannot turn far: a small self-weight deflection keeps it near its rest shape.
+double held_still_weight(const Deck& deck);
+
 // How the scene of this deck is built for these solvers (with the deck's solver settings): the
 // constant matrices they factor (M + h^2 L, or M + h^2 K(x_rest) for lbfgs with solver.h0:
 // rest-stiffness, M + h^2 K_vol with volumetric, or M + h^2 L's V-cycle for h0: amg; auto by

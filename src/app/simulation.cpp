@@ -339,6 +339,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   SceneInput input;
   MemoryPlan plan = memory_plan(deck.solver, options.h0_package, std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller));
   plan.poisson_ratio = h0_poisson_ratio(deck);
+  plan.held_still = held_still_weight(deck) > 0;
   if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)
@@ -373,6 +374,12 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
     }
     if (!start_ok || !check_element_fields(comm, deck, run.scene.current())) return 1;
   }
+  if (const Scene& s = run.scene.current(); solver_h0(deck.solver) == H0::automatic &&
+                                            resolved_h0(deck.solver, s.mesh.global_cells, s.poisson_ratio,
+                                                        s.weight_deflection) == H0::rest_stiffness)
+    PetscPrintf(comm, "hyperqn: solver.h0: auto takes rest-stiffness: a stiff scene held still (self-weight deflection "
+                "scale %.2g < %g, docs/method.md#the-initial-hessian-h0)\n", s.weight_deflection,
+                kRestStiffnessBelowDeflection);
   if (restart) run.scene.restore_resolved(saved.frame, (int)saved.cuts_resolved);
   if (restart && saved.changes_decided) run.scene.decide_changes_after(saved.frame);
   run.chain = std::make_unique<FallbackChain>(run.scene.current(), deck.solver, *run.solver, options.element_limit);

@@ -153,6 +153,23 @@ double largest_poisson_ratio(const SceneSpec& spec) {
   return largest;
 }
 
+double largest_density_over_modulus(const SceneSpec& spec) {
+  if (!spec.bodies.empty() || !spec.has_material) return 0;
+  std::vector<MaterialSpec> materials{spec.material};
+  for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
+  double largest = 0;
+  for (const MaterialSpec& m : materials) {
+    const MaterialModel* model = find_material_model(m.model);
+    if (!model || !model->create || find_inelastic_kind(m.inelastic.kind) || m.fracture.given || !m.has_density ||
+        !(m.mu > 0) || !(m.lambda + m.mu > 0) || !(m.density > 0))
+      return 0;
+    const double E = m.mu * (3 * m.lambda + 2 * m.mu) / (m.lambda + m.mu);
+    if (!(E > 0)) return 0;
+    largest = std::max(largest, m.density / E);
+  }
+  return largest;
+}
+
 std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol) {
   std::vector<PetscInt> vertices;
   // Fixed vertices are left to their fixed region; ghosts to the rank that owns them.

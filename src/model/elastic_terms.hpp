@@ -37,6 +37,13 @@ std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMe
 // reads it (resolved_h0).
 double largest_poisson_ratio(const SceneSpec& spec);
 
+// The largest density over Young's modulus rho / E (s^2/m^2) of the scene's tet materials (without
+// bodies: the default one and the regions'), E = mu (3 lambda + 2 mu) / (lambda + mu) from the Lame
+// parameters; 0 when a material is not a plain hyperelastic one with a density (springs, an
+// inelastic block, fracture, a total_mass), or the mesh may hold strands or a cloth: solver.h0:
+// auto reads it through held_still_weight (resolved_h0).
+double largest_density_over_modulus(const SceneSpec& spec);
+
 // The vertices attachment `a` holds on this rank: the free vertices it owns in its box (in_box with
 // tolerance tol, 1e-9 of rest_diagonal(mesh), so the springs do not depend on the rank count).
 std::vector<PetscInt> attached_vertices(const DistributedMesh& mesh, const AttachmentSpec& a, double tol);

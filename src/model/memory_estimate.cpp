@@ -82,6 +82,8 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package, bool rolle
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {
   if (plan.h0_auto && resolved_h0(H0::automatic, tets, plan.poisson_ratio) == H0::amg) plan.h0 = H0Memory::amg;
   if (plan.h0_auto && resolved_h0(H0::automatic, tets, plan.poisson_ratio) == H0::volumetric) plan.components = 3;
+  if (plan.h0_auto && plan.held_still && resolved_h0(H0::automatic, tets, plan.poisson_ratio) != H0::amg)
+    plan.components = 3;  // the rest stiffness, if the mesh's self-weight deflection is small (resolved_h0)
   if (plan.newton_auto && newton_uses_amg(LinearSolver::automatic, vertices)) plan.newton = false;
   if (plan.h0 == H0Memory::gathered && plan.split && ranks > 1 &&
       plan.components * interface_vertices(vertices, ranks) <= double(kMaxSplitInterface))

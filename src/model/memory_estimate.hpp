@@ -32,6 +32,9 @@ struct MemoryPlan {
   bool amg_allowed = false;         // the solver could take solver.h0: amg instead of a factor (lbfgs)
   bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh and material (resolved_plan)
   double poisson_ratio = 0;  // ... the scene's largest tet Poisson ratio (SceneOptions::poisson_ratio)
+  // ... and a scene held still (SceneOptions::held_weight > 0): auto may take the 3n x 3n rest
+  // stiffness, by the mesh's size which the estimate does not know: counted as if it did
+  bool held_still = false;
   bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)

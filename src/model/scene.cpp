@@ -682,9 +682,18 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   PetscCall(s.body->set_masses(s.step->mass()));
   std::vector<H0> wanted;
   s.poisson_ratio = options_.poisson_ratio;
+  s.weight_deflection = 0;
+  if (options_.held_weight > 0 && s.mesh.global_segments == 0 && s.mesh.global_triangles == 0) {
+    double lo[3], hi[3];  // over all ranks: the same at every rank count
+    rest_bounding_box(s.mesh, lo, hi);
+    const double D = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    const double w = std::min({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    if (w > 0) s.weight_deflection = options_.held_weight * D * D * D / (w * w);
+  }
   for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric})  // in this order, each once
-    if (std::any_of(options_.h0s.begin(), options_.h0s.end(),
-                    [&](H0 setting) { return resolved_h0(setting, s.mesh.global_cells, s.poisson_ratio) == h0; }))
+    if (std::any_of(options_.h0s.begin(), options_.h0s.end(), [&](H0 setting) {
+          return resolved_h0(setting, s.mesh.global_cells, s.poisson_ratio, s.weight_deflection) == h0;
+        }))
       wanted.push_back(h0);
   // With cuts or breaks, the supernodal factor of M + h^2 L (on one rank, or gathered to rank 0) is a
   // TopologyH0's, and a changed scene
@@ -718,7 +727,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
 
 const FactoredSystem* Scene::constant_matrix(const SolverSpec& spec) const {
   if (!solver_uses_constant_matrix(spec.type)) return nullptr;
-  const auto found = constant_matrices.find(resolved_h0(spec, mesh.global_cells, poisson_ratio));
+  const auto found = constant_matrices.find(resolved_h0(spec, mesh.global_cells, poisson_ratio, weight_deflection));
   return found == constant_matrices.end() ? nullptr : found->second.get();
 }
 

@@ -70,6 +70,9 @@ struct Scene {
   std::map<H0, std::unique_ptr<FactoredSystem>> constant_matrices;
   // The Poisson ratio solver.h0: auto goes by (SceneOptions::poisson_ratio).
   double poisson_ratio = 0;
+  // And the self-weight deflection scale (SceneOptions::held_weight times D^3 / w^2 of the rest
+  // bounding box; 0: not a scene held still, or one with strands or a cloth).
+  double weight_deflection = 0;
   // The factored constant matrix a solver with these settings uses (null if the scene has none).
   const FactoredSystem* constant_matrix(const SolverSpec& spec) const;
   // With fracture: its local tets' faces, paired when first asked (model/fracture.hpp).
@@ -82,6 +85,10 @@ struct SceneOptions {
   // The scene's largest tet Poisson ratio, by which solver.h0: auto resolves (resolved_h0); 0 keeps
   // auto off the volumetric H0 (scene_options: with h0_contact: woodbury, which needs M + h^2 L).
   double poisson_ratio = 0;
+  // For a scene held still (held_still_weight), |g| rho / E (1/m), else 0: solver.h0: auto takes
+  // the rest stiffness when held_weight D^3 / w^2 (D the rest bounding box's diagonal, w its
+  // smallest side) is below kRestStiffnessBelowDeflection (resolved_h0).
+  double held_weight = 0;
   FactorPackage h0_package = default_factor_package();  // who factors them (-hyperqn_h0_package)
   H0Precision h0_precision = H0Precision::double_precision;  // their factors' values (solver.h0_precision)
   WarmStart warm_start = WarmStart::inertial;  // where each step's solve starts
