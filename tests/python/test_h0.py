@@ -8,7 +8,10 @@ tests/decks/amg_bar.yaml: the converged answer of the exact solve at 1 and 2 ran
 that repeat, and a study that reaches e <= 1e-3. solver.h0: auto takes volumetric from nu = 0.499
 on (the largest of the scene's materials; not with h0_contact: woodbury), laplacian below, bit for
 bit as if given; the same at 1 and 2 ranks, through the fallback chain's sub-steps, and restarts
-bitwise after a kill."""
+bitwise after a kill. solver.h0: auto takes rest-stiffness for a stiff scene held still
+(tests/decks/steel_bar.yaml: the steel bar's tip at Newton's with the default deck), bit for bit as
+given, before volumetric, at 1 and 2 ranks; laplacian for a softer bar, a fixed region that moves or
+lets go, or a load."""
 import copy
 import csv
 import re
@@ -17,7 +20,7 @@ import pytest
 
 from conftest import NO_FALLBACK, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
-from hyperqn_tools.output import read_iterations, read_summary
+from hyperqn_tools.output import final_frame, read_iterations, read_summary
 from test_checkpoint import assert_same_run
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 
@@ -298,3 +301,76 @@ def test_rest_stiffness_of_a_yielding_cloth_restarts_bitwise(tmp_path):
             "cloth": {**DRAPE["cloth"], "yield_strain": 0.002}}
     ref, _ = assert_restart_after_kill_is_bitwise(tmp_path, deck, 1, frames=40, every=15, kill_after=20)
     assert read_summary(ref)["substepped_frames"] > 0
+
+
+STEEL_BAR = "tests/decks/steel_bar.yaml"
+# The steel bar's tip against Newton's: measured 1.6e-7 of it with auto (rest-stiffness, 1.9 it.
+# per frame); M + h^2 L at the same budget ended 287 times Newton's deflection, status ok.
+STEEL_TIP_TOLERANCE = 1e-3
+
+
+def tip_deflection(out):
+    """The mean y-displacement of the vertices at x = max of the final frame."""
+    f = final_frame(out)
+    x = f.points[:, 0]
+    return float(f.displacement[x >= x.max() - 1e-9, 1].mean())
+
+
+def test_steel_bar_tip_is_newtons_with_the_default_deck(tmp_path):
+    # input/bar.yaml in steel (E = 2e11), 8 x 2 x 2 cubes, 10 frames, the default solver settings:
+    # auto takes the rest stiffness (the log says so) and the tip ends at Newton's.
+    deck = load_deck(STEEL_BAR)
+    newton = copy.deepcopy(deck)
+    newton["solver"] = {"type": "newton", "newton_hessian": "exact", "iterations": 100, "grad_rtol": 1e-10,
+                        "max_halvings": 0, "newton_fallback": False}
+    ref = tmp_path / "newton"
+    run_hyperqn([write_deck(tmp_path / "newton.yaml", newton), "-o", ref])
+    assert read_summary(ref)["frames"] == 10  # (its status may flag frames that stop at g's round-off)
+    out = tmp_path / "auto"
+    proc = run_hyperqn([write_deck(tmp_path / "auto.yaml", deck), "-o", out])
+    s = read_summary(out)
+    assert s["status"] == "ok", s["status"]
+    tip, expected = tip_deflection(out), tip_deflection(ref)
+    print(f"steel bar tip: auto {tip:.6e}, newton {expected:.6e}; {s['mean_iterations']} it. per frame")
+    assert abs(tip - expected) <= STEEL_TIP_TOLERANCE * abs(expected)
+    assert "solver.h0: auto takes rest-stiffness" in proc.stdout
+
+
+@pytest.mark.parametrize("change, chosen", [
+    ({}, "rest-stiffness"),
+    ({"material": {"youngs_modulus": 5.0e6}}, "laplacian"),  # self-weight deflection scale 0.15 > 0.1
+    ({"release": 0.2}, "laplacian"),                          # a fixed region that lets go
+    ({"motion": {"translate": {"velocity": [0, 0.1, 0]}}}, "laplacian"),  # or moves
+    ({"loads": [{"type": "traction", "box": {"min": [3.99, -0.01, -0.01], "max": [4.01, 1.01, 1.01]},
+                 "traction": [0, -1.0, 0]}]}, "laplacian"),  # anything else acting on it
+    ({"material": {"poisson_ratio": 0.4999}}, "rest-stiffness"),  # before volumetric
+])
+def test_auto_h0_takes_rest_stiffness_for_a_stiff_scene_held_still(tmp_path, change, chosen):
+    # Bit for bit as the chosen H0 given in the deck; the factor tells which was taken.
+    deck = load_deck(STEEL_BAR)
+    deck["time"]["frames"] = 3
+    deck["material"].update(change.get("material", {}))
+    for key in ("release", "motion"):
+        if key in change:
+            deck["fixed"][0][key] = change[key]
+    if "loads" in change:
+        deck["loads"] = change["loads"]
+    auto, s = run(tmp_path, "auto", deck, status="")
+    explicit, e = run(tmp_path, chosen, given(deck, chosen), status="")
+    assert_same_run(auto, explicit, status="")
+    assert s["h0_factor_nonzeros"] == e["h0_factor_nonzeros"]
+    other = "laplacian" if chosen == "rest-stiffness" else "rest-stiffness"
+    _, o = run(tmp_path, other, given(deck, other), status="")
+    assert s["h0_factor_nonzeros"] != o["h0_factor_nonzeros"]
+
+
+def test_auto_rest_stiffness_at_2_ranks(tmp_path):
+    # The choice is the same at 2 ranks (the rest bounding box is reduced over them) and the
+    # answer that of 1 rank.
+    deck = load_deck(STEEL_BAR)
+    deck["time"]["frames"] = 3
+    one, s1 = run(tmp_path, "np1", deck)
+    two, s2 = run(tmp_path, "np2", deck, ranks=2)
+    explicit, e2 = run(tmp_path, "given_np2", given(deck, "rest-stiffness"), ranks=2)
+    assert_same_run(two, explicit)
+    assert relative_difference(one, two)[0] <= 1e-6
