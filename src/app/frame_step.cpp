@@ -59,6 +59,18 @@ PetscErrorCode all_finite(MPI_Comm comm, Vec x, bool* finite) {
 
 }  // namespace
 
+// No fixed vertex and no attachment: what holds the body (the deck rules asked for something) is
+// contact with colliders (or with another body) alone.
+static bool held_by_colliders_alone(const Scene& scene) {
+  if (scene.mesh.global_fixed_vertices > 0 || scene.mesh.rollers) return false;
+  bool contact = false;
+  for (const auto& term : scene.body->terms()) {
+    if (term->name() == "attachments") return false;
+    contact = contact || term->name() == "contact";
+  }
+  return contact;
+}
+
 Guardrails Guardrails::of(const RunOptions& o, const Scene& s) {
   return {o.divergence_limit, o.element_limit, rest_diagonal(s.mesh)};
 }
@@ -99,6 +111,12 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
                     "smaller load steps: more frames), or a piece that nothing holds (no vertex fixed or attached, none "
                     "on a collider: e.g. one that a cut, fracture, tear or snap or a released support set free) has no "
                     "equilibrium (use a dynamic time.integrator for such a scene)";
+      if (!out.stop.empty() && !scene.step->has_inertia() && held_by_colliders_alone(scene))
+        out.stop += "; here only colliders hold the body (no vertex fixed or attached), and a static step can lose it "
+                    "to them: g has no inertia, so nothing but contact bounds a step along the body's rigid modes; "
+                    "past a finite obstacle gravity's work has no lower bound, and on a ball or capsule the solvers "
+                    "slide the body off it (known, docs/method.md#time-integrators: a block on a ball of radius "
+                    "<= 0.5 m): let it settle with a dynamic time.integrator and damping, or fix or attach a vertex";
     }
     if (out.stop.empty()) out.stop = exploded(out.max_abs_J, limits_.element_limit);
     out.inverted = degenerate(out.min_J);
