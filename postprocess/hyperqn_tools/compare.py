@@ -5,9 +5,10 @@ Prints the largest position difference relative to the largest displacement of t
 (which --rtol, in [0, 1), bounds: exit 1 if it is larger) and relative to the rest shape's
 bounding-box diagonal (the measure the docs mostly quote, "of the diagonal"). The two runs must
 end at the same frame and time (a run killed early, or of another time step, is not compared:
-exit 1 naming both), whatever frames each wrote before it.
+exit 1 naming both), whatever frames each wrote before it; --any-end compares their last frames
+wherever they end (a static answer against a settled dynamic run).
 
-    python3 -m hyperqn_tools.compare RUN_A RUN_B [--rtol 1e-8]
+    python3 -m hyperqn_tools.compare RUN_A RUN_B [--rtol 1e-8] [--any-end]
 """
 import argparse
 import math
@@ -19,11 +20,11 @@ from hyperqn_tools.cli import ArgumentParser, fraction
 from hyperqn_tools.output import last_listed, read_frame, rest_diagonal
 
 
-def final_frames(dir_a, dir_b):
-    """The last frames of two runs of the same mesh, which end at the same frame and time (raises
-    ValueError naming both if they do not, or if their vertex sets differ)."""
+def final_frames(dir_a, dir_b, same_end=True):
+    """The last frames of two runs of the same mesh, which end at the same frame and time unless not
+    same_end (raises ValueError naming both if they do not, or if their vertex sets differ)."""
     (na, ta, pa), (nb, tb, pb) = last_listed(dir_a), last_listed(dir_b)
-    if na != nb or not math.isclose(ta, tb, rel_tol=1e-9):
+    if same_end and (na != nb or not math.isclose(ta, tb, rel_tol=1e-9)):
         raise ValueError(f"the runs end at different frames: {dir_a} at frame {na} (t = {ta:.9g}), {dir_b} at "
                          f"frame {nb} (t = {tb:.9g}); a run stopped early, or a run of other time steps?")
     a, b = read_frame(pa, na), read_frame(pb, nb)
@@ -32,10 +33,11 @@ def final_frames(dir_a, dir_b):
     return a, b
 
 
-def relative_difference(dir_a, dir_b):
+def relative_difference(dir_a, dir_b, same_end=True):
     """(max |x_a - x_b| / max |u_a|, max |x_a - x_b|, max |u_a|) over the vertices of the last frames
-    (equal positions are 0 apart even where nothing moved; different ones of a body at rest inf)."""
-    return frame_difference(*final_frames(dir_a, dir_b))
+    (equal positions are 0 apart even where nothing moved; different ones of a body at rest inf);
+    same_end as for final_frames."""
+    return frame_difference(*final_frames(dir_a, dir_b, same_end))
 
 
 def frame_difference(a, b):
@@ -53,9 +55,11 @@ def main():
     p.add_argument("run_b")
     p.add_argument("--rtol", type=fraction, default=1e-8,
                    help="bound of the difference relative to the largest displacement, in [0, 1)")
+    p.add_argument("--any-end", action="store_true",
+                   help="compare the last frames of runs that end at other frames or times")
     args = p.parse_args()
     try:
-        a, b = final_frames(args.run_a, args.run_b)
+        a, b = final_frames(args.run_a, args.run_b, same_end=not args.any_end)
     except (OSError, ValueError) as e:  # no run there, a damaged frame, other meshes: said, not a traceback
         sys.exit(f"compare: {e}")
     rel, diff, scale = frame_difference(a, b)

@@ -264,6 +264,9 @@ def write_report(studies, out, lines):
         desc = ", ".join(f"{k} {m[k]}" for k in ("material", "ranks", "vertices", "tets", "dt") if k in m)
         if desc:
             lines += [desc, ""]
+        if "stopped" in m:  # a signal ended the study early (docs/study.md, "Signals")
+            lines += [f"**Cut short: {m['stopped']}**: the frames and trajectories end there.", ""]
+            print(f"study_report: {study['dir']}: the study was cut short ({m['stopped']})", file=sys.stderr)
         rel = os.path.relpath(study["dir"], os.path.dirname(out))
         for frame in sorted(study["curves"]):
             lines += [f"### frame {frame}", ""] + frame_table(study["curves"][frame]) + [""]

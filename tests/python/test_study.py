@@ -417,3 +417,8 @@ def test_a_study_stopped_by_a_signal_keeps_its_whole_frames(tmp_path, ranks):
     with open(out / "trajectory.csv") as f:
         assert {int(r["frame"]) for r in csv.DictReader(f)} == {1, 2}
     assert sorted(p.name for p in out.iterdir()) == ["study.csv", "study.h5", "study.json", "trajectory.csv"]
+    report = tmp_path / "report.md"
+    proc = subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(report)],
+                          capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=os.path.join(REPO, "postprocess")))
+    assert proc.returncode == 0 and "cut short (SIGTERM after frame 2)" in proc.stderr, proc.stderr
+    assert "**Cut short: SIGTERM after frame 2**" in report.read_text()

@@ -281,3 +281,6 @@ def test_compare_refuses_a_meaningless_tolerance_and_runs_ending_at_other_frames
     for a, b in ((stopped, bar), (bar, stopped)):
         assert_said(tool("hyperqn_tools.compare", a, b), "compare: the runs end at different frames",
                     f"{stopped} at frame 1", f"{bar} at frame 2")
+    # --any-end compares the last frames wherever the runs end (a static answer against a settled run)
+    proc = tool("hyperqn_tools.compare", stopped, bar, "--any-end")
+    assert proc.returncode == 1 and re.search(r"relative 2\.\d+e\+00", proc.stdout), proc.stdout + proc.stderr
