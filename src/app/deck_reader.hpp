@@ -53,14 +53,31 @@ class Reader {
     bool leaf = !entry.node.IsMap();
     if (entry.node.IsSequence())
       for (const YAML::Node& item : entry.node) leaf = leaf && !item.IsMap();
-    // On one line (config.yaml's `key: value  # source`): a list the deck wrote as a block
-    // keeps its block style in the node, which the emitter would follow.
-    YAML::Node flow = YAML::Clone(entry.node);
-    set_flow_style(flow);
-    YAML::Emitter text;
-    text << YAML::Flow << flow;
-    (*places_)[entry.key] = {entry.line, entry.node.IsNull() ? "" : text.c_str(), leaf};
+    // As written, for a leaf only (config.yaml lists no map): a map's text would expand every alias
+    // in it (an alias bomb's 9^7 nodes took 15 s to copy), and a leaf too large for any key is
+    // refused by its reader anyway.
+    std::string written;
+    if (leaf && !entry.node.IsNull() && nodes_within(entry.node, kMaxWrittenNodes)) {
+      // On one line (config.yaml's `key: value  # source`): a list the deck wrote as a block
+      // keeps its block style in the node, which the emitter would follow.
+      YAML::Node flow = YAML::Clone(entry.node);
+      set_flow_style(flow);
+      YAML::Emitter text;
+      text << YAML::Flow << flow;
+      written = text.c_str();
+    }
+    (*places_)[entry.key] = {entry.line, written, leaf};
   }
+  // Whether n holds at most `budget` nodes (counting stops past it).
+  static bool nodes_within(const YAML::Node& n, int budget) { return count_nodes(n, budget) <= budget; }
+  static int count_nodes(const YAML::Node& n, int budget) {
+    int count = 1;
+    if (n.IsSequence() || n.IsMap())
+      for (auto it = n.begin(); it != n.end() && count <= budget; ++it)
+        count += count_nodes(n.IsMap() ? it->second : *it, budget - count);
+    return count;
+  }
+  static constexpr int kMaxWrittenNodes = 100000;
   static void set_flow_style(YAML::Node n) {
     if (!n.IsSequence() && !n.IsMap()) return;
     n.SetStyle(YAML::EmitterStyle::Flow);
