@@ -16,4 +16,11 @@ double stop_vote() { return g_signal != 0 ? 1.0 : 0.0; }
 void count_stop_votes(double sum) { g_agreed = g_agreed || sum > 0; }
 bool stop_agreed() { return g_agreed; }
 
+int stop_signal_on_any_rank(MPI_Comm comm) {
+  int sig = stop_signal(), any = 0;
+  MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, comm);
+  return any;
+}
+const char* stop_signal_name(int sig) { return sig == SIGTERM ? "SIGTERM" : "SIGUSR1"; }
+
 }  // namespace hyperqn

@@ -9,6 +9,7 @@
 // test it anywhere: each ends its solve at the end of the iteration at hand (or at the next trial
 // of a line-search retry), and the fallback chain gives the frame up.
 #pragma once
+#include <mpi.h>
 
 namespace hyperqn {
 
@@ -23,5 +24,9 @@ double stop_vote();
 void count_stop_votes(double sum);
 // Whether the ranks agreed on a stop in an evaluation so far (then for the rest of the process).
 bool stop_agreed();
+
+// Between frames: the stop signal any rank of comm received (collective; 0: none), and its name.
+int stop_signal_on_any_rank(MPI_Comm comm);
+const char* stop_signal_name(int sig);  // "SIGTERM" or "SIGUSR1"
 
 }  // namespace hyperqn

@@ -22,8 +22,6 @@ void catch_stop_signals() {
   sigaction(SIGUSR1, &action, nullptr);
 }
 
-static const char* signal_name(int sig) { return sig == SIGTERM ? "SIGTERM" : "SIGUSR1"; }
-
 Checkpointer::Checkpointer(const RunContext& run, const Setup& setup) : run_(run), setup_(setup) {
   if (setup.restarted) {
     last_checkpoint_wtime_ = MPI_Wtime();
@@ -36,9 +34,7 @@ PetscErrorCode Checkpointer::begin(LoopControl& control) {
   const int frame = run_.state.frame;
   PetscFunctionBeginUser;
   if (frame == setup_.options.signal_after_frame) raise(SIGTERM);  // test hook
-  int sig = stop_signal(), any;
-  PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, run_.comm));
-  PetscCall(stop_for_signal(any, frame));
+  PetscCall(stop_for_signal(stop_signal_on_any_rank(run_.comm), frame));
   control.interrupted = interrupted_;
   PetscFunctionReturn(0);
 }
@@ -73,7 +69,7 @@ PetscErrorCode Checkpointer::stop_for_signal(int sig, int frame) {
   if (sig == 0 || frame >= run_.deck.time.frames) PetscFunctionReturn(0);
   if (last_checkpoint_frame_ != frame) PetscCall(write_checkpoint());
   interrupted_ = true;
-  run_.summary.status = std::string("interrupted: ") + signal_name(sig) + " after frame " + std::to_string(frame) +
+  run_.summary.status = std::string("interrupted: ") + stop_signal_name(sig) + " after frame " + std::to_string(frame) +
                         " of " + std::to_string(run_.deck.time.frames) +
                         "; a checkpoint was written: continue with --restart latest";
   PetscFunctionReturn(0);
@@ -99,15 +95,14 @@ void Checkpointer::watch(const IterationRecord& r) {
 // checkpoint is written unless there is one.
 PetscErrorCode Checkpointer::interrupted(const FrameOutcome& outcome) {
   const int frame = outcome.frame, done = run_.state.frame;
-  int sig = stop_signal(), any;
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, run_.comm));  // which signal: once, at the end
+  const int any = stop_signal_on_any_rank(run_.comm);  // which signal: once, at the end
   if (last_checkpoint_frame_ != done) PetscCall(write_checkpoint());
   interrupted_ = true;
   char text[200];
   std::snprintf(text, sizeof text,
                 "interrupted: %s during frame %d of %d (its solve stopped after %lld iterations, %.3g s, and was undone); ",
-                signal_name(any), frame, run_.deck.time.frames, (long long)outcome.lead.solve.iterations,
+                stop_signal_name(any), frame, run_.deck.time.frames, (long long)outcome.lead.solve.iterations,
                 outcome.lead.solve.seconds);
   run_.summary.status = text + std::string("frame ") + std::to_string(done) +
                         " is the last done and checkpointed: continue with --restart latest";

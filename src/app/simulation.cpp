@@ -561,9 +561,8 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   MPI_Allreduce(&rss, &summary.peak_rss_mb_total, 1, MPI_DOUBLE, MPI_SUM, comm);
   summary.peak_rss_mb_by_rank.resize(size);
   MPI_Allgather(&rss, 1, MPI_DOUBLE, summary.peak_rss_mb_by_rank.data(), 1, MPI_DOUBLE, comm);
-  int sig = stop_signal(), any_sig;
-  MPI_Allreduce(&sig, &any_sig, 1, MPI_INT, MPI_MAX, comm);
-  if (any_sig) summary.signal = any_sig == SIGTERM ? "SIGTERM" : "SIGUSR1";
+  const int any_sig = stop_signal_on_any_rank(comm);
+  if (any_sig) summary.signal = stop_signal_name(any_sig);
   if (any_sig && ok && !run.interrupted)  // mpiexec (Open MPI) exits 1 after a SIGTERM, whatever the ranks' codes
     PetscPrintf(comm, "hyperqn: %s arrived after the last frame had begun: the run is complete (status below)\n",
                 summary.signal.c_str());

@@ -358,12 +358,10 @@ class StudyStop : public FrameObserver {
 
  private:
   PetscErrorCode check(int whole_frame, LoopControl& control) {
-    int sig = stop_signal(), any;
     PetscFunctionBeginUser;
     study_.last_frame = whole_frame;
-    PetscCallMPI(MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, study_.comm));
-    if (any) {
-      study_.signal = any == SIGTERM ? "SIGTERM" : "SIGUSR1";
+    if (const int any = stop_signal_on_any_rank(study_.comm)) {
+      study_.signal = stop_signal_name(any);
       control.interrupted = true;
     }
     PetscFunctionReturn(0);
