@@ -129,25 +129,30 @@ std::vector<std::unique_ptr<EnergyTerm>> body_terms(const DistributedMesh& mesh,
   return terms;
 }
 
-std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMesh& mesh, const SceneSpec& spec) {
-  if (!spec.bodies.empty()) return body_terms(mesh, spec.bodies);
+// A deck without bodies: its tet materials as scene_elastic_terms takes them, the default one and
+// then the regions'.
+static std::vector<MaterialSpec> mesh_materials(const SceneSpec& spec) {
   std::vector<MaterialSpec> materials{spec.material};
   for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
-  return elastic_terms(mesh, materials, spec.strand_material, spec.cloth);
+  return materials;
+}
+
+// A hyperelastic tet material with no history: what the constant matrices' choice reads.
+static bool plain_hyperelastic(const MaterialSpec& m) {
+  const MaterialModel* model = find_material_model(m.model);
+  return model && model->create && !find_inelastic_kind(m.inelastic.kind);
+}
+
+std::vector<std::unique_ptr<EnergyTerm>> scene_elastic_terms(const DistributedMesh& mesh, const SceneSpec& spec) {
+  if (!spec.bodies.empty()) return body_terms(mesh, spec.bodies);
+  return elastic_terms(mesh, mesh_materials(spec), spec.strand_material, spec.cloth);
 }
 
 double largest_poisson_ratio(const SceneSpec& spec) {
-  std::vector<MaterialSpec> materials;  // as scene_elastic_terms takes them
-  if (!spec.bodies.empty()) {
-    materials = body_materials(spec.bodies).materials;
-  } else {
-    materials.push_back(spec.material);
-    for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
-  }
+  const std::vector<MaterialSpec> materials = spec.bodies.empty() ? mesh_materials(spec) : body_materials(spec.bodies).materials;
   double largest = 0;
   for (const MaterialSpec& m : materials) {
-    const MaterialModel* model = find_material_model(m.model);
-    if (!model || !model->create || find_inelastic_kind(m.inelastic.kind) || !(m.lambda + m.mu > 0)) continue;
+    if (!plain_hyperelastic(m) || !(m.lambda + m.mu > 0)) continue;
     largest = std::max(largest, m.lambda / (2 * (m.lambda + m.mu)));
   }
   return largest;
@@ -155,13 +160,10 @@ double largest_poisson_ratio(const SceneSpec& spec) {
 
 double largest_density_over_modulus(const SceneSpec& spec) {
   if (!spec.bodies.empty() || !spec.has_material) return 0;
-  std::vector<MaterialSpec> materials{spec.material};
-  for (const MaterialRegion& r : spec.regions) materials.push_back(r.material);
   double largest = 0;
-  for (const MaterialSpec& m : materials) {
-    const MaterialModel* model = find_material_model(m.model);
-    if (!model || !model->create || find_inelastic_kind(m.inelastic.kind) || m.fracture.given || !m.has_density ||
-        !(m.mu > 0) || !(m.lambda + m.mu > 0) || !(m.density > 0))
+  for (const MaterialSpec& m : mesh_materials(spec)) {
+    if (!plain_hyperelastic(m) || m.fracture.given || !m.has_density || !(m.mu > 0) || !(m.lambda + m.mu > 0) ||
+        !(m.density > 0))
       return 0;
     const double E = m.mu * (3 * m.lambda + 2 * m.mu) / (m.lambda + m.mu);
     if (!(E > 0)) return 0;
