@@ -23,8 +23,11 @@ from test_checkpoint_faults import (assert_restart_after_kill_is_bitwise, assert
 from test_cut_contact import shared_rest_positions
 from test_cuts import CHECK_LINE
 
-# Newton, converged to round-off: the rank test compares positions to 1e-8 of the diagonal.
-TIGHT = {"type": "newton", "iterations": 50, "grad_rtol": 1e-12, "grad_atol": 0}
+# Newton at a fixed 20 iterations. On this sheet (its free sides squeezed, whose springs' negative
+# curvature the PSD fix drops) Newton converges linearly, by about 0.77 an iteration, so no budget
+# reaches round-off (50 iterations end 3 mm from 20's, at 2.5x the time); the rank and restart tests
+# compare the same iterations, whose ranks agree to 2e-15 m (bound: 1e-8 of the diagonal).
+TIGHT = {"type": "newton", "iterations": 20, "grad_rtol": 1e-12, "grad_atol": 0}
 TEAR = 0.15
 DENSITY = 0.2
 SIZE = 0.5
