@@ -109,6 +109,7 @@ PetscErrorCode GuardedTaoSolver::report(PetscInt iteration, Vec x, PetscReal f, 
     PetscCall(VecNorm(step_work_, NORM_INFINITY, &last_step_));
   }
   PetscCall(VecCopy(x, last_x_));
+  previous_decrease_ = iteration <= 1 ? 0.0 : last_decrease_;
   last_decrease_ = iteration == 0 ? 0.0 : last_f_ - f;
   last_f_ = f;
   last_gnorm_ = gnorm;
@@ -282,6 +283,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
   result.grad_norm0 = gnorm0_;
   result.energy0 = f0_;
   result.last_decrease = last_decrease_;
+  result.previous_decrease = previous_decrease_;
   result.last_step = last_step_;
   result.extended = reported_ > budget_.budget;
   result.converged = reason > 0 && reason != TAO_CONVERGED_USER && reason != TAO_CONVERGED_STEPTOL;

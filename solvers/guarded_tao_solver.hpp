@@ -43,7 +43,7 @@ class GuardedTaoSolver : public TimeStepSolver {
   PetscErrorCode report(PetscInt iteration, Vec x, PetscReal f, PetscReal gnorm, double step, bool* stop);
   // The frame so far, at the last iterate reported.
   FrameProgress progress() const {
-    return {(int)reported_, f0_, last_f_, last_decrease_, gnorm0_, last_gnorm_, false, last_step_};
+    return {(int)reported_, f0_, last_f_, last_decrease_, gnorm0_, last_gnorm_, false, last_step_, previous_decrease_};
   }
 
   std::string requested_type_, overridden_;  // TAO type asked for; what the options made of it
@@ -62,7 +62,7 @@ class GuardedTaoSolver : public TimeStepSolver {
   // which solve() backtracks when TAO's line search stops at it (More-Thuente does).
   Vec last_x_ = nullptr, rejected_trial_ = nullptr;
   bool have_rejected_trial_ = false;
-  PetscReal last_f_ = 0, last_gnorm_ = 0, gnorm0_ = 0, f0_ = 0, last_decrease_ = 0, last_step_ = 0;
+  PetscReal last_f_ = 0, last_gnorm_ = 0, gnorm0_ = 0, f0_ = 0, last_decrease_ = 0, last_step_ = 0, previous_decrease_ = 0;
   Vec step_work_ = nullptr;
   PetscInt offset_ = 0;     // this frame's iterations before the current TaoSolve (after a recovery)
   PetscInt reported_ = -1;  // index of the last iteration reported in this frame

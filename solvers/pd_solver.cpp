@@ -58,6 +58,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   step_.reset_evaluations();
   const double start = MPI_Wtime();
   const auto report = [&]() {
+    progress.previous_decrease = k <= 1 ? 0.0 : progress.last_decrease;
     progress.last_decrease = k == 0 ? 0.0 : progress.g - g;
     progress.iterations = (int)k;
     progress.g = g;
@@ -178,6 +179,7 @@ PetscErrorCode PdSolver::solve(Vec x, const IterationCallback& on_iteration, Fra
   result.grad_norm0 = gnorm0;
   result.energy0 = progress.g0;
   result.last_decrease = progress.last_decrease;
+  result.previous_decrease = progress.previous_decrease;
   result.last_step = progress.last_step;
   result.extended = k > budget.budget;
   PetscFunctionReturn(0);

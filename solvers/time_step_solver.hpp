@@ -15,8 +15,8 @@ struct FrameResult {
   PetscInt iterations = 0;
   double energy = 0, grad_norm = 0;
   // How it got there (solvers/frame_budget.hpp): g and ||grad g|| at the initial guess, the
-  // last iteration's decrease of g, and whether it iterated past the budget.
-  double energy0 = 0, grad_norm0 = 0, last_decrease = 0, last_step = 0;
+  // last two iterations' decreases of g, and whether it iterated past the budget.
+  double energy0 = 0, grad_norm0 = 0, last_decrease = 0, last_step = 0, previous_decrease = 0;
   bool extended = false;
   bool converged = false;    // met the gradient tolerance (otherwise: iteration budget, or failure)
   bool failed = false;       // the solver could not decrease g (line search failure, NaN, ...)

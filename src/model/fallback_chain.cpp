@@ -43,7 +43,8 @@ PetscErrorCode FallbackChain::judge(const FrameResult& r, Objective& g, Vec x, O
   PetscCall(g.force_scale(x, &scale));
   o->residual = r.grad_norm / scale;
   o->converged_enough = !FrameBudget::far(
-      {(int)r.iterations, r.energy0, r.energy, r.last_decrease, r.grad_norm0, r.grad_norm, r.failed, r.last_step},
+      {(int)r.iterations, r.energy0, r.energy, r.last_decrease, r.grad_norm0, r.grad_norm, r.failed, r.last_step,
+       r.previous_decrease},
       scale, g.length_scale(), g.seeks_equilibrium());
   PetscCall(scene_.body->volume_ratios(x, &o->min_J, &o->max_abs_J));
   o->sound = !(element_limit_ > 0 && o->max_abs_J > element_limit_) && !(o->min_J < 0 && start_min_J_ >= 0);
