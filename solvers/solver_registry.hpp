@@ -2,6 +2,8 @@
 // the deck reader, the study, --help and `hyperqn registry` (which the Python tools read).
 // docs/architecture.md, "Add a solver".
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -51,6 +53,13 @@ constexpr double kPoissonSlack = 1e-9;
 // measured on cantilevers of two shapes: docs/records/2026-12-07-stiff-auto-h0.md). 0: not such a
 // scene (held_still_weight, SceneOptions::weight_per_length).
 constexpr double kRestStiffnessBelowDeflection = 0.1;
+// That scale of a scene held still, held_weight = |g| rho / E (held_still_weight; 0: not such a
+// scene, which gives 0), whose rest bounding box is lo..hi.
+inline double self_weight_deflection(double held_weight, const double lo[3], const double hi[3]) {
+  const double a = hi[0] - lo[0], b = hi[1] - lo[1], c = hi[2] - lo[2];
+  const double D = std::sqrt(a * a + b * b + c * c), w = std::min(a, std::min(b, c));
+  return held_weight > 0 && w > 0 ? held_weight * D * D * D / (w * w) : 0;
+}
 // That matrix on a mesh of `tets` tetrahedra whose largest tetrahedral Poisson ratio is
 // poisson_ratio (largest_poisson_ratio; 0 without tets) and whose self-weight deflection scale is
 // weight_deflection (0: not a scene held still): automatic resolved here, and nowhere else (the

@@ -339,7 +339,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   SceneInput input;
   MemoryPlan plan = memory_plan(deck.solver, options.h0_package, std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller));
   plan.poisson_ratio = h0_poisson_ratio(deck);
-  plan.held_still = held_still_weight(deck) > 0;
+  plan.held_weight = held_still_weight(deck);
   if (!load_scene_input_or_report(comm, deck, input, plan)) return 1;
   const CleanReport repaired = input.repaired;
   if (repaired.dropped_vertices || repaired.reoriented_tets)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -79,11 +80,20 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package, bool rolle
   return plan;
 }
 
+MemoryPlan with_rest_box(MemoryPlan plan, const double lo[3], const double hi[3]) {
+  plan.weight_deflection = self_weight_deflection(plan.held_weight, lo, hi);
+  return plan;
+}
+
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks) {
-  if (plan.h0_auto && resolved_h0(H0::automatic, tets, plan.poisson_ratio) == H0::amg) plan.h0 = H0Memory::amg;
-  if (plan.h0_auto && resolved_h0(H0::automatic, tets, plan.poisson_ratio) == H0::volumetric) plan.components = 3;
-  if (plan.h0_auto && plan.held_still && resolved_h0(H0::automatic, tets, plan.poisson_ratio) != H0::amg)
-    plan.components = 3;  // the rest stiffness, if the mesh's self-weight deflection is small (resolved_h0)
+  if (plan.h0_auto) {  // an unknown deflection scale of a scene held still: as small as can be (stiff)
+    const double deflection = plan.weight_deflection >= 0 ? plan.weight_deflection
+                              : plan.held_weight > 0      ? std::numeric_limits<double>::min()
+                                                          : 0.0;
+    const H0 h0 = resolved_h0(H0::automatic, tets, plan.poisson_ratio, deflection);
+    if (h0 == H0::amg) plan.h0 = H0Memory::amg;
+    if (h0 == H0::volumetric || h0 == H0::rest_stiffness) plan.components = 3;
+  }
   if (plan.newton_auto && newton_uses_amg(LinearSolver::automatic, vertices)) plan.newton = false;
   if (plan.h0 == H0Memory::gathered && plan.split && ranks > 1 &&
       plan.components * interface_vertices(vertices, ranks) <= double(kMaxSplitInterface))

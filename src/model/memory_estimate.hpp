@@ -32,9 +32,12 @@ struct MemoryPlan {
   bool amg_allowed = false;         // the solver could take solver.h0: amg instead of a factor (lbfgs)
   bool h0_auto = false;  // solver.h0: auto: amg or the factor by the mesh and material (resolved_plan)
   double poisson_ratio = 0;  // ... the scene's largest tet Poisson ratio (SceneOptions::poisson_ratio)
-  // ... and a scene held still (SceneOptions::held_weight > 0): auto may take the 3n x 3n rest
-  // stiffness, by the mesh's size which the estimate does not know: counted as if it did
-  bool held_still = false;
+  // ... and a scene held still: its SceneOptions::held_weight (0: not such a scene), and the
+  // self-weight deflection scale that auto goes by (self_weight_deflection), from the mesh's rest
+  // bounding box where the estimate knows it (with_rest_box); unknown (a partition file's mesh):
+  // counted as a stiff scene's, the 3n x 3n rest stiffness
+  double held_weight = 0;
+  double weight_deflection = -1;  // < 0: unknown
   bool newton_auto = false;  // solver.linear_solver: auto: MUMPS or CG + AMG by the mesh (resolved_plan)
   bool split = false;    // on more than one rank the factor is split, not gathered (-hyperqn_h0_package
                          // auto while the interface is small, or split; resolved_plan)
@@ -53,6 +56,9 @@ MemoryPlan memory_plan(const SolverSpec& spec, FactorPackage package = default_f
 // the run will (resolved_h0, choose_factor_package with the interface of interface_vertices,
 // newton_uses_amg).
 MemoryPlan resolved_plan(MemoryPlan plan, int64_t vertices, int64_t tets, int ranks);
+// The plan for a mesh whose rest bounding box (after mesh.transform) is lo..hi, as the scene will
+// measure it: solver.h0: auto's self-weight deflection scale known.
+MemoryPlan with_rest_box(MemoryPlan plan, const double lo[3], const double hi[3]);
 
 // One rank's estimated peak resident memory by parts, in bytes.
 struct RankMemory {

@@ -163,6 +163,18 @@ static std::array<double, 6> bounding_box(const TetMesh& mesh) {
   return box;
 }
 
+// The plan for the deck's box mesh ([0, box.size] after mesh.transform: its corners' bounding box;
+// with strands auto goes by no deflection scale, Scene::weight_deflection).
+static MemoryPlan with_box_mesh(MemoryPlan plan, const MeshSpec& spec) {
+  if (!spec.strands.empty()) plan.held_weight = 0;
+  TetMesh corners;
+  for (int c = 0; c < 8; ++c)
+    for (int d = 0; d < 3; ++d) corners.coords.push_back(c >> d & 1 ? spec.box_size[d] : 0.0);
+  apply_transform(corners, spec.transform);
+  const std::array<double, 6> box = bounding_box(corners);
+  return with_rest_box(plan, box.data(), box.data() + 3);
+}
+
 // An InputError naming the mesh's size key (key_prefix "mesh" or "bodies[k].mesh") when the mesh,
 // whose bounding box (after its transform) is `box`, is not within kSmallestBody .. kLargestBody across.
 static void check_body_size(const std::array<double, 6>& box, const MeshSpec& spec, const std::string& deck_path,
@@ -337,7 +349,7 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
     const MeshSpec& spec = deck.mesh;
     if (spec.is_box) {  // before generating it
       const auto& n = spec.box_cells;
-      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), box_tets(n), plan, limits);
+      check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1), box_tets(n), with_box_mesh(plan, spec), limits);
     } else if (spec.is_sheet) {
       const auto& n = spec.sheet_cells;
       check_memory(deck, int64_t(n[0] + 1) * (n[1] + 1), 0, plan, limits);
@@ -347,8 +359,12 @@ TetMesh load_scene_mesh(MPI_Comm comm, const SceneSpec& deck, CleanReport* repai
                    "mesh.strands[" + std::to_string(k) + "].segments");
     mesh = read_serial_mesh(deck, repaired);
     check_face_tags_in_file(deck, mesh);
-    if (!spec.file.empty() || !deck.bodies.empty())  // before distributing and factoring it
-      check_memory(deck, mesh.num_vertices(), mesh.num_tets(), plan, limits);
+    if (!spec.file.empty() || !deck.bodies.empty()) {  // before distributing and factoring it
+      MemoryPlan known = plan;  // with strands or a cloth auto goes by no deflection scale (Scene::weight_deflection)
+      if (!mesh.segments.empty() || !mesh.triangles.empty()) known.held_weight = 0;
+      const std::array<double, 6> box = bounding_box(mesh);
+      check_memory(deck, mesh.num_vertices(), mesh.num_tets(), with_rest_box(known, box.data(), box.data() + 3), limits);
+    }
   });
   return mesh;
 }
@@ -405,7 +421,8 @@ static MeshPiece load_scene_piece(MPI_Comm comm, const SceneSpec& deck, CleanRep
     const std::vector<MemoryLimit> limits = gather_memory_limits(comm);
     on_root(comm, [&] {
       if (spec.is_box) {
-        check_memory(deck, int64_t(box[0] + 1) * (box[1] + 1) * (box[2] + 1), box_tets(box), own_pieces, limits);
+        check_memory(deck, int64_t(box[0] + 1) * (box[1] + 1) * (box[2] + 1), box_tets(box), with_box_mesh(own_pieces, spec),
+                     limits);
         if (!deck.has_material)
           throw InputError(deck.path, 0, "material", "missing: the box has " + std::to_string(box_tets(box)) + " tetrahedra");
       } else {
@@ -686,9 +703,7 @@ PetscErrorCode LiveScene::build(SceneInput input, const std::vector<char>& relea
   if (options_.held_weight > 0 && s.mesh.global_segments == 0 && s.mesh.global_triangles == 0) {
     double lo[3], hi[3];  // over all ranks: the same at every rank count
     rest_bounding_box(s.mesh, lo, hi);
-    const double D = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-    const double w = std::min({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
-    if (w > 0) s.weight_deflection = options_.held_weight * D * D * D / (w * w);
+    s.weight_deflection = self_weight_deflection(options_.held_weight, lo, hi);
   }
   for (H0 h0 : {H0::laplacian, H0::rest_stiffness, H0::amg, H0::volumetric})  // in this order, each once
     if (std::any_of(options_.h0s.begin(), options_.h0s.end(), [&](H0 setting) {

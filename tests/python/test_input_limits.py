@@ -382,6 +382,24 @@ def test_memory_estimate_counts_what_the_solver_factors(tmp_path, monkeypatch):
             assert part not in proc.stdout, (name, part, proc.stdout[-2000:])
 
 
+@pytest.mark.parametrize("modulus, factor", [(1.0e4, "the factor of M + h^2 L"), (1.0e9, "the factor of M + h^2 K(x_rest)")])
+def test_memory_estimate_resolves_auto_as_the_run_does(tmp_path, modulus, factor):
+    # A cube held at x = 0 under gravity, solver.h0: auto: the soft one (self-weight deflection
+    # scale 5.1, above 0.1) takes M + h^2 L, the stiff one (5.1e-5) the rest stiffness (3n x 3n); the
+    # estimate counted the rest stiffness for both (16 MB instead of 2 MB at 8^3 cells, and it
+    # refused the soft 30^3 cube at 2 ranks under 300 MB, which peaks at 171 MB).
+    deck = {"mesh": {"box": {"size": [1.0, 1.0, 1.0], "cells": [8, 8, 8]}},
+            "material": {"model": "neohookean", "youngs_modulus": modulus, "poisson_ratio": 0.3, "density": 1000},
+            "fixed": [{"box": {"min": [-0.01, -0.01, -0.01], "max": [0.01, 1.01, 1.01]}}],
+            "gravity": [0, -9.81, 0], "time": {"dt": 1 / 30, "frames": 1},
+            "solver": {"max_halvings": 0, "newton_fallback": False}}
+    path = write_deck(tmp_path / "cube.yaml", deck)
+    proc = run_hyperqn([path, "-o", tmp_path / "out", "-hyperqn_memory_report"], ranks=None, timeout=120)
+    report = next(line for line in proc.stdout.splitlines() if "memory estimate rank 0" in line)
+    assert factor in report, report
+    assert ("auto takes rest-stiffness" in proc.stdout) == (modulus > 1e6), proc.stdout[-2000:]
+
+
 def test_memory_is_checked_per_rank(tmp_path, monkeypatch):
     # 30^3 cells (29,791 vertices) at 2 ranks under 200 MB per rank, the factor gathered to rank 0
     # (-hyperqn_h0_package supernodal): rank 1's share fits (~100 MB), rank 0 with the whole factor
