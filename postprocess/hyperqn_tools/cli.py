@@ -8,8 +8,11 @@ output paths are checked before a tool writes anything, with the helpers here.
     fraction         argparse type for a relative tolerance, in [0, 1)
     unwritable_file(path), unwritable_dir(path)
                      why a file or directory could not be written there, or None
+    writing(path)    a context for writing path: on an OSError (a full disk, which the checks
+                     cannot see) the file is removed and the OSError names path
 """
 import argparse
+import contextlib
 import math
 import os
 
@@ -80,3 +83,23 @@ def unwritable_file(path, parents=True):
     if not parents and not os.path.isdir(parent):
         return f"{path}: no such directory {parent}"
     return unwritable_dir(parent, path)
+
+
+class WriteFailed(OSError):
+    """An OSError raised by `writing`: its filename is the file that could not be written."""
+
+
+@contextlib.contextmanager
+def writing(path):
+    """Writes to path inside the block; an OSError there (a full disk: the checks above cannot see
+    one, and an error on closing names no file) removes what was written of path and is raised
+    again as a WriteFailed (an OSError) whose filename is path, for a message naming it."""
+    try:
+        yield
+    except OSError as e:
+        try:
+            if os.path.isfile(path):
+                os.remove(path)
+        except OSError:
+            pass
+        raise WriteFailed(e.errno, e.strerror or str(e), str(path)) from None

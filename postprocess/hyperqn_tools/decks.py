@@ -1,9 +1,10 @@
 """Reading and writing decks (YAML) and making copies of a deck that run from another directory."""
-import copy
 import os
 import re
 
 import yaml
+
+from hyperqn_tools.cli import writing
 
 
 class Loader(yaml.SafeLoader):
@@ -60,21 +61,61 @@ def load_deck(path):
     return load_yaml(path) or {}
 
 
+class Dumper(yaml.SafeDumper):
+    """yaml.SafeDumper writing every entry in full: no `&id001` anchors and `*id001` aliases where
+    two entries are one object (a deck's copy has none, see plain_copy; any other is written out)."""
+
+    def ignore_aliases(self, data):
+        return True
+
+
 def write_deck(path, deck, header=None):
-    """Writes `deck` (keys in their order) to path, after `header` as a comment; returns str(path)."""
-    with open(path, "w") as f:
+    """Writes `deck` (keys in their order, no YAML aliases) to path, after `header` as a comment;
+    returns str(path). On an OSError (a full disk) the file is removed, not left cut short, and a
+    cli.WriteFailed naming path is raised."""
+    with writing(path), open(path, "w") as f:
         if header:
             f.write("".join(f"# {line}\n" for line in header.splitlines()))
-        yaml.safe_dump(deck, f, sort_keys=False, default_flow_style=None)  # short lists on one line
+        yaml.dump(deck, f, Dumper=Dumper, sort_keys=False, default_flow_style=None)  # short lists on one line
     return str(path)
+
+
+PLAIN_COPY_MAX_NODES = 1_000_000  # a YAML alias bomb expands past any memory (docs/decks.md, input limits)
+
+
+def plain_copy(deck):
+    """A deep copy of a loaded deck in which no two entries are one object: a YAML alias
+    (`material: *mat`) loads as the anchored entry itself, so that setting a key in one would set it
+    in every entry that shares the anchor (copy.deepcopy keeps such sharing). ValueError for an
+    alias inside the node it names, or a deck whose aliases expand past PLAIN_COPY_MAX_NODES."""
+    count = 0
+    inside = set()  # ids of the maps and lists being copied: an alias to one of them is a cycle
+
+    def copy_of(node):
+        nonlocal count
+        count += 1
+        if count > PLAIN_COPY_MAX_NODES:
+            raise ValueError(f"its YAML aliases expand to more than {PLAIN_COPY_MAX_NODES} entries")
+        if not isinstance(node, (dict, list)):
+            return node
+        if id(node) in inside:
+            raise ValueError("a YAML alias refers to the node it is in")
+        inside.add(id(node))
+        done = ({k: copy_of(v) for k, v in node.items()} if isinstance(node, dict) else
+                [copy_of(v) for v in node])
+        inside.discard(id(node))
+        return done
+
+    return copy_of(deck)
 
 
 def portable_copy(deck, deck_path):
     """A deep copy of `deck`, read from deck_path, that runs from any directory: every file it names
     relative to the deck's directory made absolute (a `file` anywhere: a mesh's, a body's mesh's, a
     collider's, a curve table's; a blade's `surface`; the top-level `partition`), and no
-    `output.directory` (the caller's -o says where results go)."""
-    d = copy.deepcopy(deck)
+    `output.directory` (the caller's -o says where results go). Entries that share a YAML anchor are
+    separate in the copy (plain_copy)."""
+    d = plain_copy(deck)
     base = os.path.dirname(os.path.abspath(deck_path))
 
     def walk(node, inside_cuts=False):

@@ -6,8 +6,8 @@ moved so for a support of a face tag alone) minus that point at rest, read from 
     /usr/bin/python3 -m hyperqn_tools.force_displacement OUTDIR --support 'fixed[1]' --axis x \\
         --png curve.png --csv curve.csv
 
-Prints the curve's table; --png draws it (matplotlib: without it, --png is refused before anything
-is printed or written), --csv writes it.
+Prints the curve's table; --png draws it (a name ending in .png; matplotlib: without it, --png is
+refused before anything is printed or written), --csv writes it.
 """
 import argparse
 import csv
@@ -18,7 +18,7 @@ import os
 import numpy as np
 import yaml
 
-from hyperqn_tools.cli import ArgumentParser, unwritable_file
+from hyperqn_tools.cli import ArgumentParser, unwritable_file, writing
 from hyperqn_tools.output import read_reactions
 from hyperqn_tools.style import NO_MATPLOTLIB, pyplot
 
@@ -72,6 +72,8 @@ def main(argv=None):
     ap.add_argument("--png", help="draw the curve into this PNG file")
     ap.add_argument("--csv", help="write the curve into this CSV file")
     a = ap.parse_args(argv)
+    if a.png and not a.png.lower().endswith(".png"):  # matplotlib would take the name's end for a format
+        ap.error(f"--png {a.png}: the figure's name must end in .png")
     for option, path in (("--csv", a.csv), ("--png", a.png)):
         why = path and unwritable_file(path, parents=False)
         if why:  # found before the curve is read and printed
@@ -82,29 +84,42 @@ def main(argv=None):
     print(f"travel_{a.axis} force_{a.axis}")
     for u, f in zip(travel, force):
         print(f"{u:.9g} {f:.9g}")
-    try:
-        write_curve(a, travel, force)
-    except OSError as e:  # what unwritable_file cannot see (root on a read-only file system)
-        ap.error(f"cannot write {e.filename}: {e.strerror}")
+    write_curve(a, travel, force, ap)
     return 0
 
 
-def write_curve(a, travel, force):
-    """The curve into a.csv and a.png, those given."""
-    if a.csv:
-        with open(a.csv, "w", newline="") as out:
-            w = csv.writer(out)
-            w.writerow([f"travel_{a.axis}", f"force_{a.axis}"])
-            w.writerows(zip(travel, force))
-    if a.png:
-        plt = pyplot()
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        ax.plot(np.concatenate([[0], travel]), np.concatenate([[0], force]), marker=".")
-        ax.set_xlabel(f"travel of {a.support} along {a.axis}")
-        ax.set_ylabel(f"force of {a.support} on the body along {a.axis}")
-        ax.grid(True, alpha=0.3)
-        fig.tight_layout()
-        fig.savefig(a.png, dpi=120)
+def write_curve(a, travel, force, ap):
+    """The curve into a.csv and a.png, those given; a write that fails (a full disk: what
+    unwritable_file cannot see) is ap's one-line error naming the file, which is removed."""
+    for path, write in ((a.csv, write_csv), (a.png, draw_curve)):
+        if not path:
+            continue
+        try:
+            with writing(path):
+                write(a, travel, force)
+        except OSError as e:
+            ap.error(f"cannot write {e.filename}: {e.strerror}")
+
+
+def write_csv(a, travel, force):
+    """The curve into a.csv."""
+    with open(a.csv, "w", newline="") as out:
+        w = csv.writer(out)
+        w.writerow([f"travel_{a.axis}", f"force_{a.axis}"])
+        w.writerows(zip(travel, force))
+
+
+def draw_curve(a, travel, force):
+    """The curve drawn into a.png (a PNG whatever matplotlib's default format)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    ax.plot(np.concatenate([[0], travel]), np.concatenate([[0], force]), marker=".")
+    ax.set_xlabel(f"travel of {a.support} along {a.axis}")
+    ax.set_ylabel(f"force of {a.support} on the body along {a.axis}")
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(a.png, dpi=120, format="png")
+    plt.close(fig)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ import os
 import sys
 from collections import defaultdict
 
-from hyperqn_tools.cli import ArgumentParser, unwritable_file
+from hyperqn_tools.cli import ArgumentParser, unwritable_file, writing
 from hyperqn_tools.style import NO_MATPLOTLIB, pyplot, solver_style
 
 LEVELS = [1e-1, 1e-2, 1e-3, 1e-4, 1e-6]
@@ -152,7 +152,9 @@ def study_figures(plt, study):
     for ax, frame in zip(axes[0], frames):
         plot_curves(ax, study["curves"][frame], f"{study['meta']['title']}, frame {frame}")
     fig.tight_layout()
-    fig.savefig(os.path.join(study["dir"], "error_vs_time.png"), dpi=120)
+    path = os.path.join(study["dir"], "error_vs_time.png")
+    with writing(path):
+        fig.savefig(path, dpi=120)
     plt.close(fig)
     if study["trajectory"]:
         fig, ax = plt.subplots(figsize=(5, 4))
@@ -165,7 +167,9 @@ def study_figures(plt, study):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
         fig.tight_layout()
-        fig.savefig(os.path.join(study["dir"], "trajectory.png"), dpi=120)
+        path = os.path.join(study["dir"], "trajectory.png")
+        with writing(path):
+            fig.savefig(path, dpi=120)
         plt.close(fig)
 
 
@@ -206,7 +210,8 @@ def overview_figure(plt, studies, path):
     for ax in list(axes.flat)[n:]:
         ax.axis("off")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with writing(path):
+        fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -281,7 +286,7 @@ def write_report(studies, out, lines):
     if plt:
         overview_figure(plt, studies, overview)
         lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]
-    with open(out, "w") as f:
+    with writing(out), open(out, "w") as f:
         f.write("\n".join(lines))
     if plt:
         print(f"wrote {out} and {overview}")

@@ -284,3 +284,52 @@ def test_compare_refuses_a_meaningless_tolerance_and_runs_ending_at_other_frames
     # --any-end compares the last frames wherever the runs end (a static answer against a settled run)
     proc = tool("hyperqn_tools.compare", stopped, bar, "--any-end")
     assert proc.returncode == 1 and re.search(r"relative 2\.\d+e\+00", proc.stdout), proc.stdout + proc.stderr
+
+
+def test_force_displacement_refuses_a_figure_not_named_png_and_names_a_file_it_cannot_write(reactions_run, tmp_path):
+    """--png z.txt ended in matplotlib's "Format 'txt' is not supported" traceback after the table
+    was printed and the CSV written, and --png curve wrote curve.png: a name not ending in .png is
+    refused before anything is printed or written. A write that fails (a full disk, /dev/full in the
+    file's place) is one line naming the file."""
+    support = ("--support", "fixed[0]")
+    for name in ("z.txt", "curve", "z.pdf"):
+        proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, "--png", tmp_path / name,
+                    "--csv", tmp_path / "z.csv")
+        assert_said(proc, f"--png {tmp_path / name}: the figure's name must end in .png")
+        assert len(proc.stderr.strip().splitlines()) == 1 and "travel_x" not in proc.stdout
+        assert not os.listdir(tmp_path), os.listdir(tmp_path)
+    (tmp_path / "full.png").symlink_to("/dev/full")
+    for option in ("--csv", "--png"):
+        proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, option, tmp_path / "full.png")
+        assert_said(proc, f"cannot write {tmp_path / 'full.png'}: No space left on device")
+        assert len(proc.stderr.strip().splitlines()) == 1
+    proc = tool("hyperqn_tools.force_displacement", reactions_run, *support, "--png", tmp_path / "c.PNG")
+    assert proc.returncode == 0 and (tmp_path / "c.PNG").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", proc.stderr
+
+
+def test_study_report_names_a_file_it_cannot_write(tmp_path):
+    """study_report on a full disk (/dev/full in the report's place) said 'cannot write None'; each
+    file it writes, the study's figure, the overview and the report, is named."""
+    study = tmp_path / "study"
+    study.mkdir()
+    (study / "study.csv").write_text(STUDY_HEADER + "1,lbfgs,0,0.0,1.0,1.0,1.0\n1,lbfgs,1,0.1,0.5,0.5,0.1\n"
+                                     "1,newton,0,0.0,1.0,1.0,1.0\n1,newton,1,0.2,0.5,0.5,0.01\n")
+    for full in (study / "error_vs_time.png", tmp_path / "overview.png", tmp_path / "r.md"):
+        full.symlink_to("/dev/full")
+        proc = tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md")
+        assert_said(proc, f"study_report: error: cannot write {full}: No space left on device")
+        full.unlink()
+
+
+def test_stability_suite_names_a_file_it_cannot_write(tmp_path):
+    """The stability suite on a full disk (/dev/full in a run's deck.yaml) ended in an OSError
+    traceback from its worker thread; now one line naming the file, exit 1, before any table."""
+    deck = write_deck(tmp_path / "bar.yaml", BAR)
+    run = tmp_path / "out" / "runs" / "bar" / "lbfgs"
+    run.mkdir(parents=True)
+    (run / "deck.yaml").symlink_to("/dev/full")
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.stability", deck, "--out", tmp_path / "out",
+                           "--solvers", "lbfgs", "--no-reference", "--bin", HYPERQN, "--jobs", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert_said(proc, f"error: cannot write {run / 'deck.yaml'}: No space left on device")
+    assert not (tmp_path / "out" / "stability.csv").exists()

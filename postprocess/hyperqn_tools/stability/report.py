@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from hyperqn_tools.cli import writing
+
 from hyperqn_tools.stability.judge import (BLOWUP_TOL, MONOTONE_FLOOR, MONOTONE_RTOL, REF_TOL, REST_TOL,
                                            largest_reference_distance, last_frame, reference_ok, rest_distance,
                                            verdict)
@@ -81,7 +83,7 @@ def fmt(x, digits=3):
 
 
 def write_csv(rows, path):
-    with open(path, "w", newline="") as f:
+    with writing(path), open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS)
         w.writeheader()
         for r in rows:
@@ -139,7 +141,8 @@ def case_figure(case, analyses, verdicts, align, path):
         for x in (ax, bx, cx):
             x.text(0.5, 0.5, "not run", ha="center", va="center", transform=x.transAxes)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with writing(path):
+        fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -187,7 +190,8 @@ def verdict_figure(rows, cases, solvers, path):
     ax.set_title("stability verdicts (cell: verdict, distance from rest or from the converged reference)",
                  fontsize=9, pad=22)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with writing(path):
+        fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
@@ -305,7 +309,7 @@ def write_markdown(rows, cases, solvers, meta, path):
     for case in cases if figures else []:
         L.append(f"- [{case}](grad_{case}.png): final ‖∇g‖, min J and distance from rest per frame, every solver"
                  + (" and the reference" if case in refs and refs[case] != "–" else ""))
-    with open(path, "w") as f:
+    with writing(path), open(path, "w") as f:
         f.write("\n".join(L) + "\n")
 
 

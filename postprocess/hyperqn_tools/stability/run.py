@@ -7,6 +7,7 @@ import subprocess
 import time
 
 from hyperqn_tools import launch
+from hyperqn_tools.cli import writing
 from hyperqn_tools.decks import portable_copy, write_deck
 
 # The converged reference: full steps only (sub-steps of the fallback chain would change the time
@@ -74,7 +75,8 @@ def run_deck(deck, deck_path, solver_section, outdir, binary, np_ranks, mpiexec,
     `output`), runs hyperqn on it
     into outdir (np_ranks = 1: the binary alone, without mpiexec); returns {'returncode',
     'output', 'timed_out', 'seconds'}."""
-    os.makedirs(outdir, exist_ok=True)
+    with writing(outdir):
+        os.makedirs(outdir, exist_ok=True)
     d = portable_copy(deck, deck_path)
     d.setdefault("name", case_name(deck_path))
     d["solver"] = {**(d.get("solver") or {}), **solver_section}
@@ -82,7 +84,7 @@ def run_deck(deck, deck_path, solver_section, outdir, binary, np_ranks, mpiexec,
     # with nothing to judge its end state by, judged ok) and iterations.csv (g monotone).
     if isinstance(d.get("output"), dict) or d.get("output") is None:  # anything else: hyperqn says so
         d["output"] = {**(d.get("output") or {}), **JUDGED_OUTPUT}
-    copy_path = write_deck(os.path.join(outdir, "deck.yaml"), d)
+    copy_path = write_deck(os.path.join(outdir, "deck.yaml"), d)  # a cli.WriteFailed on a full disk
     for old in glob.glob(os.path.join(outdir, "*")):  # results of an earlier run would mislead
         if os.path.basename(old) not in ("deck.yaml",) and os.path.isfile(old):
             os.remove(old)
@@ -98,7 +100,7 @@ def run_deck(deck, deck_path, solver_section, outdir, binary, np_ranks, mpiexec,
     except OSError as e:  # the binary could not be started: a crash of this run, not of the suite
         result = {"returncode": None, "output": f"cannot start {cmd[0]}: {e}", "timed_out": False}
     result["seconds"] = time.time() - t0
-    with open(os.path.join(outdir, "run.log"), "w") as f:
+    with writing(os.path.join(outdir, "run.log")), open(os.path.join(outdir, "run.log"), "w") as f:
         f.write(" ".join(cmd) + "\n" + result["output"])
     return result
 

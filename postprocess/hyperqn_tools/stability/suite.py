@@ -31,7 +31,7 @@ import time
 
 import yaml
 
-from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
+from hyperqn_tools.cli import ArgumentParser, WriteFailed, positive_float, positive_int, unwritable_dir
 from hyperqn_tools.decks import load_deck
 from hyperqn_tools.launch import deck_choices, default_binary, default_mpiexec, registry
 from hyperqn_tools.paths import REPO
@@ -67,6 +67,14 @@ def load_decks(p, paths):
 
 
 def main(argv=None):
+    try:
+        return run_suite(argv)
+    except WriteFailed as e:  # a full disk, which the check of --out cannot see: one line, not a traceback
+        print(f"python3 -m hyperqn_tools.stability: error: cannot write {e.filename}: {e.strerror}", file=sys.stderr)
+        return 1
+
+
+def run_suite(argv=None):
     p = ArgumentParser(prog="python3 -m hyperqn_tools.stability", description=__doc__.split("\n")[0])
     p.add_argument("decks", nargs="*", help="decks (default: input/stability/*.yaml)")
     p.add_argument("--out", default=os.path.join(REPO, "output", "stability"))
@@ -129,7 +137,11 @@ def main(argv=None):
                                binary, args.np, args.mpiexec, args.timeout): (c, s) for c, s, section in jobs}
         for fut in concurrent.futures.as_completed(futures):
             c, s = futures[fut]
-            r = fut.result()
+            try:
+                r = fut.result()
+            except WriteFailed:  # the runs not started yet would fail alike
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
             r["rejected"] = rejection(r["output"]) if r["returncode"] == 1 and not os.path.exists(
                 os.path.join(runs_dir, c, s, "summary.json")) else None
             results[(c, s)] = r
