@@ -11,12 +11,25 @@ import json
 import os
 import signal
 import subprocess
+import time
 
 from hyperqn_tools.paths import REPO
 
 MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMPI_MCA_odls_base_sigkill_timeout": "0"}
+WAIT_S = 1.0  # run's longest wait for the run in one call, so that a signal to the caller is taken
 STOP_GRACE_S = 10  # after SIGUSR1 on a timeout, how long the ranks get to write a checkpoint and stop
+
+
+class Interrupted(KeyboardInterrupt):
+    """The caller was interrupted while a run went on (Ctrl-C: KeyboardInterrupt; a caller's own
+    handler may raise one with a `signal_name`, e.g. for SIGTERM). The run, in a session of its own,
+    does not see the terminal's SIGINT: `run` stops it as on a timeout (SIGUSR1: a checkpoint; a
+    second Ctrl-C meanwhile: SIGKILL) and raises this, with the run's exit code and output so far."""
+
+    def __init__(self, cmd, returncode, output, signal_name="SIGINT"):
+        super().__init__(f"{signal_name} while running {' '.join(cmd)}")
+        self.cmd, self.returncode, self.output, self.signal_name = cmd, returncode, output, signal_name
 
 
 def default_binary():
@@ -41,17 +54,35 @@ def run(args, ranks=1, binary=None, mpiexec=None, timeout=None, stdout=subproces
 
     After `timeout` seconds the run is stopped, mpiexec and its ranks with it, and
     subprocess.TimeoutExpired is raised with the output so far. check=True raises
-    CalledProcessError on a non-zero exit code. OSError when the binary cannot be started."""
+    CalledProcessError on a non-zero exit code. OSError when the binary cannot be started.
+    Interrupted (a KeyboardInterrupt) when the caller is interrupted meanwhile: the run is stopped
+    first, not left running."""
     cmd = command(args, ranks, binary, mpiexec)
     # Own session, so a hung run can be killed as one process group.
     proc = subprocess.Popen(cmd, stdout=stdout, stderr=stderr, text=True,
                             env={**os.environ, **MPI_ENV}, start_new_session=True)
+    deadline = None if timeout is None else time.monotonic() + timeout
     try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        stop(proc)
-        out, err = proc.communicate()
-        raise subprocess.TimeoutExpired(cmd, timeout, output=out, stderr=err) from None
+        while True:
+            # Waits of a second at most: without a timeout, communicate() reads the output in one
+            # blocking read, where a signal that comes just before it (Ctrl-C) is not seen until
+            # the run ends; between short waits Python takes it.
+            wait = WAIT_S if deadline is None else max(0.0, min(WAIT_S, deadline - time.monotonic()))
+            try:
+                out, err = proc.communicate(timeout=wait)
+                break
+            except subprocess.TimeoutExpired:
+                if deadline is not None and time.monotonic() >= deadline:
+                    out, err = stop(proc)
+                    raise subprocess.TimeoutExpired(cmd, timeout, output=out, stderr=err) from None
+    except KeyboardInterrupt as e:  # not passed on to the run by the terminal (its own session)
+        try:
+            out, err = stop(proc)
+        except KeyboardInterrupt:  # a second one while it stops: no grace
+            kill(proc)
+            out, err = proc.communicate()
+        raise Interrupted(cmd, proc.returncode, out if isinstance(out, str) else None,
+                          getattr(e, "signal_name", "SIGINT")) from None
     done = subprocess.CompletedProcess(cmd, proc.returncode, out, err)
     if check:
         done.check_returncode()
@@ -80,14 +111,21 @@ def deck_choices(section, name, reg):
 
 def stop(proc):
     """SIGUSR1, then SIGKILL to whatever is left of the process group, so that no rank keeps running
-    or holds the output pipe open. mpiexec forwards SIGUSR1 to its ranks, which stop with a
-    checkpoint (docs/cluster.md); a SIGTERM it would follow with SIGKILL (MPI_ENV's wait of 0)
-    before they had written anything."""
+    or holds the output pipe open; returns the rest of the run's output, as communicate() does.
+    mpiexec forwards SIGUSR1 to its ranks, which stop with a checkpoint (docs/cluster.md); a SIGTERM
+    it would follow with SIGKILL (MPI_ENV's wait of 0) before they had written anything. The output
+    is read while the run stops: a run writing fast blocks on a full pipe and would never stop."""
     proc.send_signal(signal.SIGUSR1)
     try:
-        proc.wait(timeout=STOP_GRACE_S)
+        return proc.communicate(timeout=STOP_GRACE_S)
     except subprocess.TimeoutExpired:
         pass
+    kill(proc)
+    return proc.communicate()
+
+
+def kill(proc):
+    """SIGKILL to the run's process group (mpiexec and its ranks, or the binary alone); waits for it."""
     try:
         os.killpg(proc.pid, signal.SIGKILL)
     except ProcessLookupError:  # the group is gone already

@@ -18,18 +18,20 @@ files only, so --table-only after a Slurm array gives the same table as a sweep 
 """
 import copy
 import csv
+import io
 import itertools
 import json
 import math
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
 
 from hyperqn_tools import launch
-from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
-from hyperqn_tools.decks import absolute_path, load_deck, load_yaml, portable_copy, write_deck
+from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir, writing
+from hyperqn_tools.decks import absolute_path, load_deck, load_yaml, plain_copy, portable_copy, write_deck
 
 TOP_KEYS = ("deck", "decks", "sweep", "set")
 NAME_MAX = 100  # hyperqn's limit on a deck name (docs/decks.md), which each case's name becomes
@@ -179,6 +181,10 @@ def load_sweep(path):
             raise SweepError(f"{path}: key '{where}': cannot read {deck_path}: {e}") from None
         if not isinstance(deck, dict):
             raise SweepError(f"{path}: key '{where}': {deck_path} is not a map of deck sections")
+        try:
+            deck = portable_copy(deck, deck_path)  # mesh and obstacle files stay found from OUT/<case>/
+        except ValueError as e:  # an alias bomb or cycle, which hyperqn refuses too
+            raise SweepError(f"{path}: key '{where}': {deck_path}: {e}") from None
         loaded.append((deck_path, deck))
 
     # A base's label in case names only when there are several bases.
@@ -188,7 +194,7 @@ def load_sweep(path):
     for (deck_path, deck), stem in zip(loaded, stems):
         for combo in itertools.product(*grid.values()):
             values = dict(zip(grid, combo))
-            d = portable_copy(deck, deck_path)  # mesh and obstacle files stay found from OUT/<case>/
+            d = plain_copy(deck)  # every case its own; no entry shared by a YAML alias, so a key sets one
             for k, v in fixed.items():
                 set_dotted(d, k, resolve_file_value(k, copy.deepcopy(v), sweep_dir), f"{path}: key 'set.{k}'")
             for k, v in values.items():
@@ -199,22 +205,53 @@ def load_sweep(path):
     return cases
 
 
+class WriteError(Exception):
+    """A file of the sweep's own (a case's deck.yaml, run.log, run.json; the table) could not be
+    written: the sweep stops, said in one line naming the file (docs/sweeps.md)."""
+
+
+class CaseInterrupted(Exception):
+    """The sweep was interrupted (Ctrl-C, SIGTERM) during a case; the case is stopped and recorded."""
+
+    def __init__(self, case, signal_name):
+        super().__init__(signal_name)
+        self.case, self.signal_name = case, signal_name
+
+
+def write_file(path, text):
+    """text into path; WriteError naming path (the file removed, not left cut short) on an OSError."""
+    try:
+        with writing(path), open(path, "w", newline="") as f:
+            f.write(text)
+    except OSError as e:
+        raise WriteError(f"{path}: cannot write it: {e.strerror}") from None
+
+
 def run_case(case, out, np_ranks, binary, mpiexec, timeout):
     """Runs one case in OUT/<case>/ (emptied first: results of an earlier run would mislead the
     table); writes deck.yaml, run.log and run.json; returns hyperqn's exit code (None: it did not
-    finish)."""
+    finish). WriteError when those files cannot be written; CaseInterrupted, after they are, when
+    the sweep was interrupted during the run (the run stopped with a checkpoint)."""
     cdir = os.path.join(out, case.name)
-    os.makedirs(cdir, exist_ok=True)
-    for old in os.listdir(cdir):
-        p = os.path.join(cdir, old)
-        if os.path.isfile(p):
-            os.remove(p)
-    deck_path = write_deck(os.path.join(cdir, "deck.yaml"), case.deck,
-                           header=f"sweep case {case.index}: {case.name}\nbase deck: {case.base}")
+    try:
+        os.makedirs(cdir, exist_ok=True)
+        for old in os.listdir(cdir):
+            p = os.path.join(cdir, old)
+            if os.path.isfile(p):
+                os.remove(p)
+    except OSError as e:
+        raise WriteError(f"{e.filename or cdir}: cannot make or empty it: {e.strerror or e}") from None
+    deck_file = os.path.join(cdir, "deck.yaml")
+    try:
+        deck_path = write_deck(deck_file, case.deck,
+                               header=f"sweep case {case.index}: {case.name}\nbase deck: {case.base}")
+    except OSError as e:  # write_deck removed it: no deck cut short is left to be run by hand
+        raise WriteError(f"{deck_file}: cannot write it: {e.strerror or e}") from None
     args = [deck_path, "-o", cdir]
     ranks = None if np_ranks == 1 else np_ranks  # alone: a singleton MPI process starts faster
     cmd = launch.command(args, ranks, binary, mpiexec)
     t0 = time.time()
+    interrupted = None
     try:
         proc = launch.run(args, ranks, binary, mpiexec, timeout=timeout)
         code, output = proc.returncode, proc.stdout
@@ -222,12 +259,17 @@ def run_case(case, out, np_ranks, binary, mpiexec, timeout):
         code, output = None, (e.stdout or "") + f"\nsweep: stopped after the timeout of {timeout} s\n"
     except OSError as e:  # the binary could not be started: this case fails, the sweep goes on
         code, output = None, f"sweep: cannot start {cmd[0]}: {e}\n"
+    except launch.Interrupted as e:  # stopped with a checkpoint (SIGUSR1), as on a timeout
+        interrupted = e.signal_name
+        code, output = e.returncode, (e.output or "") + f"\nsweep: interrupted by {interrupted}: the case was stopped\n"
     seconds = time.time() - t0
-    with open(os.path.join(cdir, "run.log"), "w") as f:
-        f.write(" ".join(cmd) + "\n" + output)
-    with open(os.path.join(cdir, "run.json"), "w") as f:
-        json.dump({"case": case.name, "index": case.index, "exit_code": code, "seconds": seconds,
-                   "command": cmd}, f, indent=1)
+    record = {"case": case.name, "index": case.index, "exit_code": code, "seconds": seconds, "command": cmd}
+    if interrupted:
+        record["interrupted"] = interrupted
+    write_file(os.path.join(cdir, "run.log"), " ".join(cmd) + "\n" + output)
+    write_file(os.path.join(cdir, "run.json"), json.dumps(record, indent=1))
+    if interrupted:
+        raise CaseInterrupted(case, interrupted)
     return code
 
 
@@ -293,7 +335,8 @@ def columns(cases):
 
 
 def write_tables(cases, out):
-    """OUT/sweep.csv (summary numbers at full precision) and OUT/sweep.md; returns the rows."""
+    """OUT/sweep.csv (summary numbers at full precision) and OUT/sweep.md; returns the rows.
+    WriteError when they cannot be written."""
     cols, keys, several = columns(cases)
     rows = table_rows(cases, out)
     full = []
@@ -304,24 +347,23 @@ def write_tables(cases, out):
         for k in keys:
             r[k] = format_value(c.values[k]) if k in c.values else ""
         full.append(r)
-    with open(os.path.join(out, "sweep.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=cols)
-        w.writeheader()
-        w.writerows(full)
+    text = io.StringIO()
+    w = csv.DictWriter(text, fieldnames=cols)
+    w.writeheader()
+    w.writerows(full)
+    write_file(os.path.join(out, "sweep.csv"), text.getvalue())
 
     def cell(col, v):
         if isinstance(v, float):
             v = f"{v:.3g}" if col == "wall_s" else f"{v:.2f}" if col == "mean_iterations" else f"{v:.1f}"
         return str(v).replace("|", "\\|")
 
-    with open(os.path.join(out, "sweep.md"), "w") as f:
-        f.write("| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n")
-        for r in full:
-            f.write("| " + " | ".join(cell(c, r[c]) for c in cols) + " |\n")
+    write_file(os.path.join(out, "sweep.md"), "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
+               + "".join("| " + " | ".join(cell(c, r[c]) for c in cols) + " |\n" for r in full))
     return full
 
 
-def main(argv=None):
+def sweep_main(argv=None):
     ap = ArgumentParser(prog="python3 -m hyperqn_tools.sweep", description=__doc__.split("\n\n")[0])
     ap.add_argument("sweep", help="the sweep file (YAML)")
     ap.add_argument("--out", help="output directory (default output/sweep/<sweep file name>)")
@@ -363,20 +405,67 @@ def main(argv=None):
             ap.error(f"--out {out}: cannot create it: {e.strerror}")
         todo = cases if a.case is None else [cases[a.case]]
         codes = []
-        for c in todo:
-            print(f"== {c.index + 1}/{len(cases)} {c.name}", flush=True)
-            code = run_case(c, out, a.np, a.bin, a.mpiexec, a.timeout)
-            row = case_row(c, out)
-            print(f"   exit {code}: {row['status']}", flush=True)
-            codes.append(code)
+        try:
+            for c in todo:
+                print(f"== {c.index + 1}/{len(cases)} {c.name}", flush=True)
+                code = run_case(c, out, a.np, a.bin, a.mpiexec, a.timeout)
+                row = case_row(c, out)
+                print(f"   exit {code}: {row['status']}", flush=True)
+                codes.append(code)
+        except WriteError as e:  # a full disk: the next cases would fail alike, the table too
+            print(f"sweep: error: {e}; the sweep stopped at case {c.index} ({c.name})", file=sys.stderr)
+            return 1
+        except CaseInterrupted as e:
+            row = case_row(e.case, out)
+            table = ""
+            if a.case is None:
+                try:
+                    write_tables(cases, out)
+                    table = f"; {os.path.join(out, 'sweep.csv')} lists the cases run, the rest 'not run'"
+                except WriteError as w:
+                    table = f"; no table ({w})"
+            print(f"sweep: interrupted by {e.signal_name} during case {e.case.index} ({e.case.name}): "
+                  f"stopped ({row['status']}), recorded in {os.path.join(out, e.case.name, 'run.json')}{table}",
+                  file=sys.stderr)
+            return interrupted_exit(e.signal_name)
         if a.case is not None:  # an array task: the table is built by --table-only at the end
             return 0 if codes[0] == 0 else SWEEP_EXIT_CASE_FAILED
-    rows = write_tables(cases, out)
+    try:
+        rows = write_tables(cases, out)
+    except WriteError as e:
+        print(f"sweep: error: {e}", file=sys.stderr)
+        return 1
     print(f"{os.path.join(out, 'sweep.csv')}, {os.path.join(out, 'sweep.md')}: {len(rows)} cases, "
           f"{sum(r['exit_code'] == 0 for r in rows)} exited 0")
     if a.table_only:
         return 0
     return 0 if all(code == 0 for code in codes) else SWEEP_EXIT_CASE_FAILED
+
+
+def interrupted_exit(signal_name):
+    """The exit code of a sweep ended by a signal: 128 + its number (130 for Ctrl-C, 143 for
+    SIGTERM), as a shell gives a command the signal ended."""
+    return 128 + int(getattr(signal, signal_name))
+
+
+def on_sigterm(signum, frame):
+    """SIGTERM (a scheduler's, `kill`) ends the sweep as Ctrl-C does: the running case is stopped
+    with a checkpoint and recorded."""
+    e = KeyboardInterrupt()
+    e.signal_name = "SIGTERM"
+    raise e
+
+
+def main(argv=None):
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        return sweep_main(argv)
+    except KeyboardInterrupt as e:  # outside a case's run (reading the sweep, between cases, --table-only)
+        name = getattr(e, "signal_name", "SIGINT")
+        print(f"sweep: interrupted by {name}", file=sys.stderr)
+        return interrupted_exit(name)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

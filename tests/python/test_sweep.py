@@ -7,8 +7,10 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -307,3 +309,122 @@ def test_table_only_shows_a_case_with_a_damaged_json_file_as_failed(tmp_path):
         assert rows[0]["status"].startswith(f"failed: {name} damaged ("), rows[0]
         assert rows[1]["status"] == "ok" and rows[1]["exit_code"] == "0", rows[1]
         (damaged / name).write_text(good[name])
+
+
+def test_a_write_that_fails_is_one_line_naming_the_file(tmp_path):
+    """A full disk (simulated by /dev/full in the file's place: root writes anywhere else) while
+    the sweep writes its own files: a case's deck.yaml (it left a 0-byte deck and an OSError
+    traceback), its run.json, or --table-only's table. One line naming the file, exit 1, no deck cut
+    short left, and the cases after it not run."""
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  solver.type: [lbfgs, pd]\n"
+                                "set:\n  time.frames: 2\n  output.vtk: false\n")
+    out = tmp_path / "out"
+    first = out / "case-000_type-lbfgs"
+    first.mkdir(parents=True)
+    for name in ("deck.yaml", "run.json"):
+        (first / name).symlink_to("/dev/full")
+        proc = sweep(path, "--out", out, check_rc=1)
+        assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+        assert proc.stderr.startswith(f"sweep: error: {first / name}: cannot write it: No space left on device"), \
+            proc.stderr
+        assert "2/2" not in proc.stdout and not (out / "case-001_type-pd").exists() and not (out / "sweep.csv").exists()
+        assert not os.path.lexists(first / name) or (first / name).is_symlink()  # nothing cut short left
+        if (first / name).is_symlink():
+            (first / name).unlink()
+    sweep(path, "--out", out, check_rc=0)
+    for name in ("sweep.csv", "sweep.md"):
+        os.remove(out / name)
+        (out / name).symlink_to("/dev/full")
+        proc = sweep(path, "--out", out, "--table-only", check_rc=1)
+        assert proc.stderr.strip() == f"sweep: error: {out / name}: cannot write it: No space left on device", \
+            proc.stderr
+        (out / name).unlink()
+
+
+ALIASED = """name: aliased
+bodies:
+  - name: a
+    mesh: {box: {size: [1.0, 1.0, 1.0], cells: [1, 1, 1]}}
+    material: &mat {model: neohookean, youngs_modulus: 1.0e6, poisson_ratio: 0.3, density: 1000}
+    fixed: &fix [{box: {min: [-0.01, -0.01, -0.01], max: [0.01, 1.01, 1.01]}}]
+  - name: b
+    mesh: {box: {size: [1.0, 1.0, 1.0], cells: [1, 1, 1]}, transform: {translate: [3, 0, 0]}}
+    material: *mat
+    fixed: [{box: {min: [2.99, -0.01, -0.01], max: [3.01, 1.01, 1.01]}}]
+time: {dt: 0.01, frames: 1}
+"""
+
+
+def test_a_key_sets_one_entry_of_a_deck_that_shares_it_by_an_alias(tmp_path):
+    """Two bodies sharing `material: &mat` / `*mat`: a swept or set key naming one body's changed
+    both (and the case deck was written with &id001 / *id001 anchors); now only the named one."""
+    (tmp_path / "decks").mkdir()
+    (tmp_path / "decks" / "base.yaml").write_text(ALIASED)
+    path = tmp_path / "sweep.yaml"
+    path.write_text("deck: decks/base.yaml\nsweep:\n  bodies.0.material.youngs_modulus: [1e3]\n"
+                    "set:\n  bodies.1.material.density: 5000\n  output.vtk: false\n")
+    out = tmp_path / "out"
+    sweep(path, "--out", out, check_rc=0)
+    text = (out / "case-000_youngs_modulus-1e3" / "deck.yaml").read_text()
+    assert "&" not in text and "*" not in text, text
+    a, b = load_deck(out / "case-000_youngs_modulus-1e3" / "deck.yaml")["bodies"]
+    assert (a["material"]["youngs_modulus"], a["material"]["density"]) == (1e3, 1000)
+    assert (b["material"]["youngs_modulus"], b["material"]["density"]) == (1e6, 5000)
+    assert a["material"]["model"] == b["material"]["model"] == "neohookean"
+    # an alias inside the node it names: refused as hyperqn refuses it, not a RecursionError
+    (tmp_path / "decks" / "base.yaml").write_text(ALIASED + "gravity: &g [0, *g, 0]\n")
+    proc = sweep(path, "--out", tmp_path / "out2", check_rc=1)
+    assert "a YAML alias refers to the node it is in" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+    assert not (tmp_path / "out2").exists()
+
+
+def sweep_process_running(out):
+    """The sweep's runs still alive: processes whose command line names OUT."""
+    alive = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmdline = f.read().decode(errors="replace")
+        except OSError:
+            continue
+        if str(out) in cmdline and "hyperqn_tools.sweep" not in cmdline:
+            alive.append(cmdline.replace("\0", " "))
+    return alive
+
+
+@pytest.mark.parametrize("ranks, signame", [(1, "SIGINT"), (2, "SIGINT"), (1, "SIGTERM")])
+def test_ctrl_c_stops_the_running_case_and_records_it(tmp_path, ranks, signame):
+    """Ctrl-C (SIGINT to the sweep, not to the run in its own session) ended in a KeyboardInterrupt
+    traceback, the case without run.json or run.log and its run left going. Now the run stops with a
+    checkpoint, run.json says interrupted, the table lists the cases not run, one line, exit 128 +
+    the signal's number (130; SIGTERM, a scheduler's, 143)."""
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  solver.type: [lbfgs, pd]\n"
+                                "set:\n  time.frames: 1000000\n  output.vtk: false\n")
+    out = tmp_path / "out"
+    first = out / "case-000_type-lbfgs"
+    # A shell's background job ignores SIGINT, and Python then takes none: the default back, as a terminal's.
+    proc = subprocess.Popen([sys.executable, "-m", "hyperqn_tools.sweep", path, "--out", out, "--np", str(ranks),
+                             "--bin", HYPERQN, "--mpiexec", MPIEXEC], text=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.time() + 60
+        while not (first / "iterations.csv").exists() or len((first / "iterations.csv").read_text()) < 2000:
+            assert time.time() < deadline and proc.poll() is None, "the first case did not start"
+            time.sleep(0.1)
+        proc.send_signal(getattr(signal, signame))
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 128 + getattr(signal, signame), (proc.returncode, stdout, stderr)
+    assert "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1, stderr
+    assert stderr.startswith(f"sweep: interrupted by {signame} during case 0 (case-000_type-lbfgs): stopped"), stderr
+    run = json.loads((first / "run.json").read_text())
+    assert run["interrupted"] == signame and run["exit_code"] == 3, run
+    assert f"sweep: interrupted by {signame}" in (first / "run.log").read_text()
+    summary = json.loads((first / "summary.json").read_text())
+    assert summary["status"].startswith("interrupted: SIGUSR1 "), summary["status"]
+    rows = read_table(out)
+    assert rows[0]["status"] == summary["status"] and rows[0]["exit_code"] == "3"
+    assert rows[1]["status"] == "not run" and not (out / "case-001_type-pd").exists()
+    assert not sweep_process_running(out)
