@@ -15,6 +15,8 @@ A sweep file (paths relative to it):
 Case k's deck is OUT/<case>/deck.yaml, hyperqn's results go next to it, with run.log (its
 output) and run.json (exit code, seconds); OUT/sweep.csv and OUT/sweep.md are built from those
 files only, so --table-only after a Slurm array gives the same table as a sweep run in one go.
+A file of its own it cannot write stops the sweep (one line, exit 1); Ctrl-C or SIGTERM stops the
+running case with a checkpoint, records it, writes the table and exits 130 or 143.
 """
 import copy
 import csv
@@ -27,6 +29,7 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 from hyperqn_tools import launch
@@ -457,7 +460,8 @@ def on_sigterm(signum, frame):
 
 
 def main(argv=None):
-    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    here = threading.current_thread() is threading.main_thread()  # only there may Python set a handler
+    previous = signal.signal(signal.SIGTERM, on_sigterm) if here else None
     try:
         return sweep_main(argv)
     except KeyboardInterrupt as e:  # outside a case's run (reading the sweep, between cases, --table-only)
@@ -465,7 +469,8 @@ def main(argv=None):
         print(f"sweep: interrupted by {name}", file=sys.stderr)
         return interrupted_exit(name)
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if here:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
