@@ -122,6 +122,8 @@ class Config {
               } else if (const KeyPlace* p = place(path)) {  // a custom key: as written, if a leaf
                 has_value = p->leaf;
                 value = p->written;
+              } else if (std::string(k.type_text) == "number" && *k.default_text && !k.required) {
+                value = k.default_text;  // a custom number left out (a plastic map's hardening moduli)
               } else {  // a map, a part or a list the deck leaves out: nothing to list
                 has_value = false;
               }
@@ -254,7 +256,9 @@ std::string effective_config(const Deck& deck, const RunOptions& options, const 
     }
   for (size_t k = 0; k < deck.loads.size(); ++k) {
     const std::string prefix = "loads[" + std::to_string(k) + "].";
-    c.keys(prefix, load_keys(), deck.loads[k]);
+    // normal and angle choose among faces: a load on vertices refuses them (read_loads)
+    const bool on_faces = find_load_kind(deck.loads[k].type)->target == LoadTarget::faces;
+    c.keys(prefix, load_keys(), deck.loads[k], {}, on_faces ? std::set<std::string>{} : std::set<std::string>{"normal", "angle"});
     c.curve(prefix, deck.loads[k].curve);
   }
   for (size_t k = 0; k < deck.colliders.size(); ++k) {

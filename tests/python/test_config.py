@@ -263,3 +263,22 @@ def test_a_cut_lists_its_defaults(tmp_path):
     assert settings["cuts[0].motion.start"] == ("0", "default")
     assert settings["cuts[0].motion.end"] == ("never", "default")
     assert "cuts[0].center" not in settings and "cuts[0].size" not in settings  # the surface's
+
+
+def test_plastic_hardening_and_loads_list_what_applies(tmp_path):
+    """Found from outside: a plastic map without its hardening moduli listed neither (they default
+    to 0); a force or body_force load listed `normal: none` and `angle: 30`, which it refuses."""
+    deck = write_deck(tmp_path / "d.yaml", {
+        "mesh": {"box": {"size": [1, 0.2, 0.2], "cells": [4, 1, 1]}},
+        "material": {"model": "hencky", "youngs_modulus": 1e5, "poisson_ratio": 0.3, "density": 1000,
+                     "plastic": {"yield_stress": 5}},
+        "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}],
+        "loads": [{"type": "force", "box": {"min": [0.99, -1, -1], "max": [1.01, 1, 1]}, "force": [0, -1, 0]},
+                  {"type": "traction", "box": {"min": [0.99, -1, -1], "max": [1.01, 1, 1]}, "traction": [0, -1, 0]}],
+        "time": {"dt": 0.01, "frames": 1},
+    })
+    settings = config([deck])
+    assert settings["material.plastic.isotropic_hardening"] == ("0", "default")
+    assert settings["material.plastic.kinematic_hardening"] == ("0", "default")
+    assert "loads[0].normal" not in settings and "loads[0].angle" not in settings
+    assert settings["loads[1].normal"] == ("none", "default") and "loads[1].angle" in settings
