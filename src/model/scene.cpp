@@ -584,10 +584,12 @@ PetscErrorCode LiveScene::setup(MPI_Comm comm, const SceneSpec& spec, SceneInput
                                 "tear sets ringing (stiff modes far above 1/h): the stored energy can grow many times "
                                 "over; implicit-euler or bdf2 damp it (docs/snapping.md)\n",
                           spec.path.c_str()));
-  if (breaks) {  // copies' ids come after every id of the input
-    long long slots = 0;
+  if (breaks) {  // copies' ids come after every id of the input, the vertices cleaning dropped too
+    long long slots = 0, dropped = input.repaired.dropped_vertices;  // (rank 0's)
     for (int64_t id : input.piece.mesh.vertex_ids) slots = std::max<long long>(slots, id + 1);
     MPI_Allreduce(MPI_IN_PLACE, &slots, 1, MPI_LONG_LONG, MPI_MAX, comm);
+    MPI_Bcast(&dropped, 1, MPI_LONG_LONG, 0, comm);
+    slots = std::max<long long>(slots, input.piece.global_vertices + dropped);  // (the last may be dropped)
     id_offset_ = slots - input.piece.global_vertices;
   }
   if (!spec.cuts.empty()) {

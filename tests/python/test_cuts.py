@@ -391,6 +391,33 @@ def test_a_single_precision_factor_is_factored_again_at_every_cut(tmp_path):
     assert np.abs(a.points - b.points).max() <= 1e-8 * rest_diagonal(a)
 
 
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_copies_take_ids_past_the_vertices_cleaning_dropped(tmp_path, ranks):
+    # A Medit bar of 4 x 1 x 1 cubes (20 vertices) with a vertex of no element first and last (22 in
+    # the file, ids 0 to 21: outputs.md's vertex_id is the index in the input mesh), cut across
+    # x = 0.5: the copies' ids were 21.. (21 the dropped last vertex's), now 22..
+    coords = [(x * 0.25, y * 0.25, z * 0.25) for x in range(5) for y in range(2) for z in range(2)]
+    points = [(9.0, 9.0, 9.0)] + coords + [(-9.0, -9.0, -9.0)]
+    index = {c: k + 2 for k, c in enumerate(coords)}  # 1-based Medit numbers of the cube corners
+    tets = []
+    for x in range(4):
+        c = [index[((x + i) * 0.25, j * 0.25, k * 0.25)] for i in (0, 1) for j in (0, 1) for k in (0, 1)]
+        for t in ((0, 1, 3, 7), (0, 3, 2, 7), (0, 2, 6, 7), (0, 6, 4, 7), (0, 4, 5, 7), (0, 5, 1, 7)):
+            tets.append([c[v] for v in t])
+    mesh = tmp_path / "gap.mesh"
+    mesh.write_text("MeshVersionFormatted 1\nDimension 3\nVertices\n%d\n%s\nTetrahedra\n%d\n%s\nEnd\n" % (
+        len(points), "\n".join("%g %g %g 0" % p for p in points), len(tets), "\n".join("%d %d %d %d 1" % tuple(t) for t in tets)))
+    deck = {"mesh": {"file": str(mesh)}, "material": MATERIAL,
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}], "gravity": [0, -9.81, 0],
+            "cuts": [{"center": [0.5, 0.125, 0.125], "normal": [1, 0, 0], "axis": [0, 1, 0], "size": [1, 1], "frame": "rest"}],
+            "time": {"dt": 0.02, "frames": 2}, "solver": {"type": "lbfgs"}}
+    out, s = run_deck(tmp_path, "gap", deck, ranks=ranks)
+    assert s["dropped_vertices"] == 2 and s["cuts"]["vertices_added"] > 0
+    ids = np.sort(final_frame(out).vertex_id)
+    assert list(ids[:20]) == list(range(1, 21)), ids  # the input's, by their index in the file
+    assert list(ids[20:]) == list(range(22, 22 + s["cuts"]["vertices_added"])), ids
+
+
 @pytest.mark.parametrize("frame", ["rest", "world"])
 def test_a_blade_that_never_meets_the_body_is_a_warning(tmp_path, frame):
     # A rest-frame blade far from the rest shape cuts nothing; a world-frame one only if the body moves there.
