@@ -53,8 +53,10 @@ void add_step_counters(RunSummary& summary, const StepObjective& step) {
 // A new run's P_0 (at frame 0: also a restart from a checkpoint written during setup, whose state
 // is frame 0's); a restart's comes from its checkpoint.
 PetscErrorCode ProgressLog::begin(LoopControl&) {
+  double mass_speed;
   PetscFunctionBeginUser;
   if (run_.summary.free_scene && run_.state.frame == 0) PetscCall(measure_momentum(0));
+  else if (run_.summary.free_scene) PetscCall(run_.scene.current().step->momentum(run_.state.v, momentum_now_, &mass_speed));
   PetscFunctionReturn(0);
 }
 
@@ -64,6 +66,7 @@ PetscErrorCode ProgressLog::measure_momentum(int frame) {
   double mass_speed;
   PetscFunctionBeginUser;
   PetscCall(run_.scene.current().step->momentum(run_.state.v, P, &mass_speed));
+  momentum_now_ = P;
   if (frame == 0) summary.momentum0 = P;
   const double drift = std::hypot(P[0] - summary.momentum0[0], P[1] - summary.momentum0[1], P[2] - summary.momentum0[2]);
   if (drift > summary.momentum_drift) {  // (false once unknown: NaN)
@@ -77,6 +80,13 @@ PetscErrorCode ProgressLog::measure_momentum(int frame) {
 PetscErrorCode ProgressLog::scene_changed(const Scene& old_scene, Scene& fresh) {
   RunSummary& summary = run_.summary;
   PetscFunctionBeginUser;
+  if (summary.free_scene) {  // what the change took away (a kerf's tets, with their momentum) is no solve's error
+    std::array<double, 3> P;
+    double mass_speed;
+    PetscCall(fresh.step->momentum(run_.state.v, P, &mass_speed));
+    for (int d = 0; d < 3; ++d) summary.momentum0[d] += P[d] - momentum_now_[d];
+    momentum_now_ = P;
+  }
   add_step_counters(summary, *old_scene.step);
   summary.dofs = fresh.mesh.global_dofs;
   summary.fixed_vertices = fresh.mesh.global_fixed_vertices;

@@ -2,6 +2,7 @@
 // the console's frame lines and the summary's counters, the logs (iterations.csv and the terms'
 // own), the frame series (VTK, XDMF). Checkpoints and signals are in app/run_checkpoints.hpp.
 #pragma once
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -51,6 +52,9 @@ class ProgressLog : public FrameObserver {
  private:
   // A free scene's momentum at the end of the frame done (summary.momentum_drift).
   PetscErrorCode measure_momentum(int frame);
+
+  // A free scene's momentum at the state the loop holds now (the last frame's end, or a restart's).
+  std::array<double, 3> momentum_now_{0, 0, 0};
 
   RunContext run_;
   bool inverted_now_;
