@@ -37,7 +37,7 @@ inline const std::vector<DeckKey<StrandMaterial>>& strand_material_keys() {
        "the EA used to build L (each segment adds weight/L). Omit it for the strands' own, exact weight.",
        above(0, "omit the key for the strands' own weight, axial_stiffness"), {}, "N", "`axial_stiffness`"},
       {"yield_strain", Field<S, double>([](S& s) -> double& { return s.yield.strain; }),
-       "the segments yield: past this elastic strain, l/L_p − 1 in size, a segment's rest length L_p flows, so a stretched "
+       "the segments yield: past this elastic strain (|ε − ε_p| with ε = l/L − 1 and L_p = L(1 + ε_p)), a segment's rest length L_p flows, so a stretched "
        "strand keeps part of its stretch ([yielding-springs.md](yielding-springs.md))",
        above(0, "an elastic strain, e.g. 0.01; omit the key for elastic strands"), {}, "", "none (elastic)"},
       {"hardening", Field<S, double>([](S& s) -> double& { return s.yield.hardening; }),
@@ -94,7 +94,7 @@ inline const std::vector<DeckKey<ClothSpec>>& cloth_keys() {
                            above(0), {}, "N/m"},
                 "model", {"mass-spring"}, true),
       only_with(DeckKey<C>{"yield_strain", Field<C, double>([](C& c) -> double& { return c.yield.strain; }),
-                           "the edge springs yield: past this elastic strain, l/L_p − 1 in size, a spring's rest length L_p "
+                           "the edge springs yield: past this elastic strain (|ε − ε_p| with ε = l/L − 1 and L_p = L(1 + ε_p)), a spring's rest length L_p "
                            "flows ([yielding-springs.md](yielding-springs.md))",
                            above(0, "an elastic strain, e.g. 0.01; omit the key for elastic springs"), {}, "",
                            "none (elastic)"},
