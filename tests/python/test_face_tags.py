@@ -236,9 +236,9 @@ def test_tag_on_meshes_without_faces(tmp_path, meshes):
     bad(tmp_path, "strand_mesh", rope, ["face_tag'", "no tetrahedra"])
     # A body's own fixed region is named as the body's (it was 'fixed[1].face_tag')
     body = {k: v for k, v in deck_for(meshes["bar.mesh"], {"face_tag": CLAMP}, {}).items() if k in ("mesh", "material", "fixed")}
-    body["fixed"] = [{"box": CLAMP_BOX}, {"box": CLAMP_BOX, "face_tag": CLAMP}]
+    body["fixed"] = [{"box": CLAMP_BOX}, {"box": CLAMP_BOX, "face_tag": CLAMP}]  # (written out twice: line 11)
     bad(tmp_path, "bodies", {"bodies": [body], "time": {"dt": 0.01, "frames": 1}},
-        [":9: 'bodies[0].fixed[1].face_tag'", "a scene of bodies has several"])
+        [":11: 'bodies[0].fixed[1].face_tag'", "a scene of bodies has several"])
 
 
 SHARED_BAR = "/work/shared/meshes/bar990.mesh"
