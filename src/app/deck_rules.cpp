@@ -164,8 +164,9 @@ void check_static_has_support(const Reader& r, const Value& time, const Deck& de
     for (const AttachmentSpec& a : deck.attachments) held = held || a.region.body == (int)k || a.region.body < 0;
     if (!held)
       r.fail(b.line, key, "static finds an equilibrium, and nothing holds body " + b.name + ": give it a fixed region or "
-                          "an attachment (" + key + ".fixed, .attachments), or a collider or contact: {self: true} to "
-                          "rest on");
+                          "an attachment (" + key + ".fixed, .attachments), or a collider or contact: {self: true, model: "
+                          "barrier} to rest on (penalty self-contact, the default model, cannot hold a body in a "
+                          "static step)");
   }
   if (!deck.fixed.empty() || !deck.attachments.empty() || !deck.colliders.empty()) return;
   r.fail(*Section(r, time, {}).find("integrator"),

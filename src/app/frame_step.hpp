@@ -18,7 +18,14 @@ struct Guardrails {
   double divergence_limit = 0;  // longest element edge, in rest bounding-box diagonals (<= 0: off)
   double element_limit = 0;     // largest |det F| (<= 0: off)
   double diagonal = 0;          // the rest bounding-box diagonal
-  static Guardrails of(const RunOptions& o, const Scene& s);
+  // What a static step's stop names (SceneSpec): the deck keys of the fixed regions and
+  // attachments (State::released says which are gone), and whether penalty self-contact is on.
+  std::vector<std::string> fixed_keys, attachment_keys;
+  bool penalty_self_contact = false;
+  static Guardrails of(const RunOptions& o, const Scene& s, const SceneSpec& spec);
+  // What a static step's stop adds: why a load step finds no equilibrium, what state has released,
+  // and what holds a body by contact there ("; static: ...").
+  std::string static_hint(const Scene& scene, const State& state) const;
 };
 
 struct FrameStep {
@@ -34,15 +41,17 @@ using FrameSolve = std::function<PetscErrorCode(State&, const IterationCallback&
 class FrameStepper {
  public:
   explicit FrameStepper(const Guardrails& limits) : limits_(limits) {}
-  // solve, then the guardrails, in order: g and grad g finite, positions finite, no edge longer
-  // than divergence_limit diagonals, no |det F| above element_limit; then StepLifecycle::accept. A solve that
-  // a stop signal ended (out.solve.interrupted) is neither judged nor ended.
+  // solve, then the guardrails, in order: g and grad g finite, positions finite, (a static step)
+  // no vertex moved by more than divergence_limit diagonals beyond the held vertices' largest move,
+  // no edge longer than divergence_limit diagonals, no |det F| above element_limit, (a static step)
+  // not left unresolved by the fallback chain with its Newton run away; then StepLifecycle::accept.
+  // A solve that a stop signal ended (out.solve.interrupted) is neither judged nor ended.
   PetscErrorCode step(const Scene& scene, const FrameSolve& solve, State& state, const IterationCallback& on_iteration,
                       FrameStep& out);
 
  private:
   Guardrails limits_;
-  std::vector<double> pos_;  // work: local positions
+  std::vector<double> pos_, before_;  // work: local positions (at the end; a static step's at its start)
 };
 
 // Inverted or flat: an element with det F <= 0. A flat one (a body collapsed onto a plane or a

@@ -165,7 +165,7 @@ PetscErrorCode Run::time_loop(bool& ok) {
     checkpointer.watch(r);
   };
   TimeLoop loop(
-      scene, Guardrails::of(options, scene.current()), state,
+      scene, Guardrails::of(options, scene.current(), deck), state,
       [this, &watch](State& st, const IterationCallback& cb, StepSolve& out) {
         return chain->solve_frame(st, cb, out, watch);
       },

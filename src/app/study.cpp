@@ -486,7 +486,7 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
     throw_if_any_failed(comm, error);
     StudyWriter& out = *writer;
     PetscErrors errors;
-    study.limits = Guardrails::of(options, study.scene.current());
+    study.limits = Guardrails::of(options, study.scene.current(), deck);
     if (study.run(out)) {
       print_error(comm, "the study failed: " + errors.describe(deck));
       return 1;

@@ -160,6 +160,7 @@ PetscErrorCode FallbackChain::solve_frame(State& s, const IterationCallback& on_
   out.residual = outcome_.residual;
   out.measured = true;
   out.unresolved = accepted < 0 && !outcome_.acceptable() && (spec_.max_halvings > 0 || spec_.newton_fallback);
+  out.newton_ran_away = out.unresolved && out.newton_ran_away;
   start_min_J_ = out.min_J;  // the next frame starts here (the caller stops the run otherwise)
   for (const IterationRecord& r : records_) on_iteration(r);
   PetscFunctionReturn(0);
@@ -211,6 +212,7 @@ PetscErrorCode FallbackChain::solve_from_full_step(State& s, int finest, StepSol
       Outcome newton_outcome;
       if (spec_.newton_fallback) PetscCall(judge(newton.result, g, s.x, &newton_outcome));
       const bool newton_better = spec_.newton_fallback && worth_more(newton_outcome, first_outcome);
+      out.newton_ran_away = spec_.newton_fallback && !(newton_outcome.finite && newton_outcome.sound);
       if (newton_better) {
         out.result = newton.result;
         out.newton = true;

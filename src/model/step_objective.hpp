@@ -45,6 +45,9 @@ struct StepSolve {
   bool kept_substeps = false;    // started at the sub-step size of the frames before
   bool newton = false;           // solved by the Newton fallback
   bool unresolved = false;       // the chain's stages ran and none made the frame acceptable: flagged
+  // And of those, the Newton fallback ended non-finite or unsound (an element past the element
+  // limit, or inverted where x_n had none): in a static step, no equilibrium near (app/frame_step.cpp).
+  bool newton_ran_away = false;
   // A stop signal ended the solve (solvers/stop_request.hpp): the frame is given up, and the
   // caller undoes the step; iterations and seconds are then those of every stage so far.
   bool interrupted = false;

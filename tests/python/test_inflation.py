@@ -281,6 +281,25 @@ def test_pressure_control_stops_at_the_limit_point(tmp_path):
     assert read_summary(out)["status"].startswith("error")
 
 
+def test_pd_stops_at_the_limit_point_as_lbfgs_does(tmp_path):
+    """The same steps with pd (100 iterations): its fourth step (1.2 times the limit) ended far from
+    converged after every stage of the fallback chain (Newton's run away), and the run went on:
+    frames 4 and 5 written flagged, exit 0. A static step is an equilibrium: now the run stops there
+    as lbfgs's does, exit 1, the three frames of equilibria written."""
+    p_limit, _ = limit_point(MU, LAMBDA)
+    deck = inflation_deck(mesh_file(tmp_path, *MESHES[0]), float(1.5 * p_limit))
+    deck["time"]["frames"] = 5
+    deck["loads"][0]["curve"]["end"] = 5
+    deck["solver"] = {"type": "pd", "iterations": 100}
+    out = tmp_path / "past"
+    proc = run_hyperqn([write_deck(tmp_path / "past.yaml", deck), "-o", out], ranks=1, check=False)
+    print(proc.stdout[-600:])
+    assert proc.returncode == 1
+    assert "error: frame 4: no equilibrium found" in proc.stdout
+    assert [n for n, _ in read_frames(out)] == [0, 1, 2, 3]
+    assert read_summary(out)["status"].startswith("error: frame 4")
+
+
 THIN = Shell(A, 1.1, 1.0, True)  # H/a = 0.1
 THIN_MESH = (16, 2)  # measured: 8, 12, 16 cells (2 layers) 1.94%, 0.99%, 0.61% (inner stretch)
 

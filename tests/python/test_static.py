@@ -22,7 +22,7 @@ import pytest
 
 from conftest import load_deck, run_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
-from hyperqn_tools.output import final_frame, read_contact, read_reactions, read_summary
+from hyperqn_tools.output import final_frame, read_contact, read_frames, read_reactions, read_summary
 from hyperqn_tools.paths import REPO
 from test_bad_input import assert_clean_failure
 
@@ -268,7 +268,10 @@ def static_bodies(second):
     # before: the velocity was ignored, and the unheld body diverged at frame 1 (exit 1, output left)
     ("body_velocity", {"velocity": [1, 0, 0], "fixed": [{"box": {"min": [-0.01, 2, -1], "max": [0.01, 4, 1]}}]},
      [".yaml:", "'bodies[1].velocity': integrator: static has no velocities"]),
-    ("body_unheld", {}, [".yaml:", "'bodies[1]': static finds an equilibrium, and nothing holds body b"]),
+    ("body_unheld", {}, [".yaml:", "'bodies[1]': static finds an equilibrium, and nothing holds body b",
+                         # (before: it offered penalty self-contact, which holds no static body)
+                         "contact: {self: true, model: barrier} to rest on (penalty self-contact, the default "
+                         "model, cannot hold a body in a static step)"]),
 ])
 def test_bad_static_bodies(tmp_path, case, second, fragments):
     path = write_deck(tmp_path / f"{case}.yaml", static_bodies(second))
@@ -383,3 +386,84 @@ def test_the_block_on_a_ball_settles_dynamically(tmp_path):
     normal = read_contact(out)["normal_force"][-1]
     print(f"normal force {normal:.4f} N, weight {weight:.4f} N")
     assert abs(normal / weight - 1) < 0.01
+
+
+RELEASED = {
+    "mesh": {"box": {"size": [2.0, 1.0, 1.0], "cells": [4, 2, 2]}},
+    "material": {"model": "neohookean", "youngs_modulus": 1.0e6, "poisson_ratio": 0.3, "density": 1000},
+    "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 2, 2]}, "release": 2}],
+    "loads": [{"type": "traction", "box": {"min": [1.99, -1, -1], "max": [2.01, 2, 2]}, "traction": [0, -1.0e3, 0]}],
+    "gravity": [0, 0, 0],
+    "time": {"dt": 1, "frames": 4, "integrator": "static"},
+    "solver": {"type": "lbfgs", "iterations": 200},
+    "output": {"every": 1, "reactions": True},
+}
+STATIC_HINT = ("static: either the load step is more than the body carries from the last equilibrium (more, smaller "
+               "load steps: more frames), or a piece that nothing holds")
+
+
+@pytest.mark.parametrize("load,ranks", [("traction", None), ("traction", 2), ("gravity", 2)])
+def test_a_support_released_in_a_static_run_stops_it_alike_at_any_rank_count(tmp_path, load, ranks):
+    """The bar's only clamp released at t = 2: the load step after it has no equilibrium. Before, the
+    run ended three ways: 1 rank exit 1 "elements exploded" without the static hint; 2 ranks wrote
+    frames 3 and 4 with the bar flown off rigidly by 1.7e7 m (no edge longer, no element past the
+    limit: status inverted, exit 2); 4 ranks the diverged message (gravity instead of the traction:
+    2 ranks without the hint). Now every rank count stops at frame 3 on the static step's travel
+    beyond its supports (an allreduce), naming the release."""
+    deck = copy.deepcopy(RELEASED)
+    if load == "gravity":
+        del deck["loads"]
+        deck["gravity"] = [0, -9.81, 0]
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "released.yaml", deck), "-o", out], ranks=ranks, check=False,
+                       timeout=120)
+    assert proc.returncode == 1, proc.stdout[-3000:]
+    assert "error: frame 3: diverged: the load step moved a vertex" in proc.stdout
+    assert "rest bounding-box diagonals farther than any held vertex moved (limit 10)" in proc.stdout
+    assert STATIC_HINT in proc.stdout
+    assert "released before this step: fixed[0]" in proc.stdout
+    assert [n for n, _ in read_frames(out)] == [0, 1, 2]
+    assert read_summary(out)["status"].startswith("error: frame 3: diverged")
+
+
+def stacked_blocks(model):
+    """Block a clamped at its base, block b 0.03 above it on rollers (x at its x = 0 face, z at its
+    z = 0 face), self-contact, 20 Pa down on b's top in one static load step."""
+    block = {"mesh": {"box": {"size": [1.0, 0.5, 1.0], "cells": [2, 1, 2]}},
+             "material": {"model": "neohookean", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100}}
+    a = dict(copy.deepcopy(block), name="a", fixed=[{"box": {"min": [-1, -0.01, -1], "max": [2, 0.01, 2]}}])
+    b = dict(copy.deepcopy(block), name="b",
+             fixed=[{"box": {"min": [-0.01, 0.52, -1], "max": [0.01, 1.04, 2]}, "components": ["x"]},
+                    {"box": {"min": [-1, 0.52, -0.01], "max": [2, 1.04, 0.01]}, "components": ["z"]}])
+    b["mesh"]["transform"] = {"translate": [0, 0.53, 0]}
+    return {"bodies": [a, b], "contact": {"self": True, "model": model},
+            "loads": [{"type": "traction", "box": {"min": [-1, 1.02, -1], "max": [2, 1.04, 2]},
+                       "traction": [0, -20, 0]}],
+            "gravity": [0, 0, 0],
+            "time": {"dt": 1, "frames": 1, "integrator": "static"},
+            "solver": {"type": "lbfgs", "iterations": 100, "budget": "fixed"},
+            "output": {"every": 1, "reactions": True}}
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_penalty_self_contact_holds_no_static_body(tmp_path, ranks):
+    """Block b pressed onto block a through penalty self-contact (the default model): the load step
+    carries b through the contact layer and on without bound. Before, 2 ranks wrote frame 1 with b
+    some 1e8 m down and 0 N at a's clamp (exit 2: inverted) and 1 rank stopped on an edge without
+    saying that the penalty cannot hold it. Now both stop at frame 1 on its travel, saying what holds."""
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "penalty.yaml", stacked_blocks("penalty")), "-o", out], ranks=ranks,
+                       check=False, timeout=120)
+    assert proc.returncode == 1, proc.stdout[-3000:]
+    assert "error: frame 1: diverged" in proc.stdout and STATIC_HINT in proc.stdout
+    assert "penalty self-contact (contact.model: penalty, the default) cannot hold a body in a static step" in proc.stdout
+    assert "contact: {self: true, model: barrier}" in proc.stdout
+    assert [n for n, _ in read_frames(out)] == [0]
+
+
+def test_barrier_self_contact_holds_a_static_body(tmp_path):
+    """The same blocks with the barrier: b rests on a, and a's clamp carries the 20 N on b's top."""
+    out = run(tmp_path, "barrier", stacked_blocks("barrier"))
+    clamp = read_reactions(out)["bodies[0].fixed[0]"]
+    assert read_summary(out)["status"] == "ok"
+    assert abs(clamp["fy"][-1] - 20.0) < 1e-3 * 20
