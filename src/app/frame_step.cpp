@@ -45,7 +45,8 @@ double static_travel(MPI_Comm comm, const DistributedMesh& mesh, const std::vect
                      const std::vector<double>& after, double diagonal) {
   double local[2] = {0, 0}, global[2];  // squared: the largest free move, the largest held one
   const bool rollers = !mesh.held.empty();
-  for (PetscInt v = 0; v < mesh.num_vertices; ++v) {
+  const PetscInt n = before.size() == after.size() ? mesh.num_vertices : 0;  // (always the same, within a step)
+  for (PetscInt v = 0; v < n; ++v) {
     double moved = 0, held = 0;
     for (int d = 0; d < 3; ++d) {
       const double m = after[3 * v + d] - before[3 * v + d];
@@ -184,7 +185,7 @@ PetscErrorCode FrameStepper::step(const Scene& scene, const FrameSolve& solve, S
     }
     if (limits_.divergence_limit > 0) {
       PetscCall(scene.body->local_positions(state.x, pos_));
-      if (load_step && before_.size() == pos_.size())  // (the same local vertices: always, within a step)
+      if (load_step)
         out.stop = static_runaway(static_travel(comm, scene.mesh, before_, pos_, limits_.diagonal),
                                   limits_.divergence_limit);
       if (out.stop.empty())
