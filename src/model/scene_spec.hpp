@@ -45,7 +45,7 @@ inline const std::vector<DeckKey<TimeSpec>>& time_keys() {
        "not with `colliders` (a deck error); `static`: each frame a load step to equilibrium at the loads and fixed "
        "regions of its end, no inertia, velocities 0 ([method.md](method.md#time-integrators)); needs a `fixed` region, "
        "an attachment or a collider (with `bodies`, each body a region of its own or the deck's, unless contact may "
-       "hold it), and takes no `damping` nor a body's `velocity`",
+       "hold it: a collider, or self-contact with `model: barrier`; the penalty holds no static body), and takes no `damping` nor a body's `velocity`",
        {}, integrator_names(), "", "",
        [](TimeSpec& t, const std::string& name) { t.integrator = integrator_named(name)->kind; },
        [](const TimeSpec& t) { return std::string(integrator_info(t.integrator).name); }},
