@@ -184,7 +184,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"dt\": " << number(s.dt) << ",\n"
       << "  \"factorizations\": " << s.factorizations << ",\n"
       << "  \"h0_package\": " << (s.h0_package.empty() ? std::string("null") : quoted(s.h0_package)) << ",\n"
-      << "  \"h0_factor_nonzeros\": " << s.h0_factor_nonzeros << ",\n"
+      << "  \"h0_factor_nonzeros\": " << number(s.h0_factor_nonzeros) << ",\n"
       << "  \"h0_interface\": " << s.h0_interface << ",\n"
       << "  \"setup_s\": " << number(s.setup_s) << ",\n"
       << "  \"assembly_s\": " << number(s.assembly_s) << ",\n"
