@@ -103,6 +103,13 @@ static bool hexadecimal(const std::string& value) {
 // finite); false for anything else, hexadecimal among it.
 static bool number_in(const std::string& value, double* x) { return strtod_reads(value, x) && !hexadecimal(value); }
 
+// A word PETSc's PetscOptionsGetBool reads (true/false, yes/no, on/off, 1/0, any case).
+static bool bool_word(const std::string& value) {
+  for (const char* w : {"true", "false", "yes", "no", "on", "off", "1", "0"})
+    if (strcasecmp(value.c_str(), w) == 0) return true;
+  return false;
+}
+
 PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) {
   PetscFunctionBeginUser;
   for (const auto& [name, value] : all_options()) {
@@ -137,6 +144,9 @@ PetscErrorCode read_run_options(MPI_Comm comm, RunOptions* o, const Deck* deck) 
     // run would start afresh, removing the run it was meant to continue (--restart is the command
     // line's, which PETSc lists as the option --restart).
     if (name == "-restart") refuse(deck, name.c_str(), "is not an option: a restart is the command line's --restart VALUE");
+    // Flags read as bools: a word PETSc does not read as one would stop the run with PETSc's error.
+    if (name == "-hyperqn_memory_report" && !value.empty() && !bool_word(value))
+      refuse(deck, name.c_str(), "must be true or false (or given alone, meaning true)");
   }
   // -mat_type would retype every matrix PETSc makes for hyperqn (the constant matrix, Newton's
   // Hessian) through DMCreateMatrix; several types crash in its preallocation (dense, is).
@@ -282,8 +292,8 @@ PetscErrorCode parse_run_options(MPI_Comm comm, RunOptions* o) {
     PetscCall(PetscOptionsBool("-hyperqn_topology_h0", "Cuts, fracture, snaps and tears correct the constant matrix's "
                                "factor (TopologyH0) where they can; false factors it again at every change",
                                "docs/topology.md", b, &b, nullptr));
-    PetscCall(PetscOptionsName("-hyperqn_memory_report", "Print every rank's memory estimate by parts, and its limit",
-                               "docs/guardrails.md", &b));
+    PetscCall(PetscOptionsBool("-hyperqn_memory_report", "Print every rank's memory estimate by parts, and its limit",
+                               "docs/guardrails.md", PETSC_FALSE, &b, nullptr));
     PetscCall(PetscOptionsName("-hyperqn_h0_matrix_view", "View the constant matrix as factored (a PETSc viewer: "
                                "binary:A1.bin)", "docs/performance.md", &b));
     PetscCall(PetscOptionsReal("-hyperqn_rigid_h0_share", "solver.h0_rigid: the share of the stiff clusters' charge on "

@@ -92,8 +92,10 @@ void check_memory(const SceneSpec& deck, int64_t vertices, int64_t tets, const M
                   const std::vector<MemoryLimit>& limits, int line = 0, const std::string& key = "") {
   const int ranks = (int)limits.size();
   const MemoryPlan plan = resolved_plan(run_plan, vertices, tets, ranks);
+  // A flag, or a bool (-hyperqn_memory_report false, petsc: {hyperqn_memory_report: false}): its
+  // value is checked by read_run_options.
   PetscBool report = PETSC_FALSE;
-  PetscOptionsHasName(nullptr, nullptr, "-hyperqn_memory_report", &report);
+  PetscOptionsGetBool(nullptr, nullptr, "-hyperqn_memory_report", &report, nullptr);
   std::vector<double> bytes(ranks);
   int worst = -1;
   double worst_ratio = 1;

@@ -453,3 +453,17 @@ def test_a_strand_of_more_segments_than_memory_is_refused(tmp_path):
     proc = run_hyperqn([write_deck(tmp_path / "rope.yaml", deck), "-o", tmp_path / "out"], ranks=None, check=False,
                        timeout=60)
     assert_clean_failure(proc, tmp_path / "out", ["rope.yaml:", "'mesh.strands[0].segments'", "rank 0 of 1 would need about"])
+
+
+@pytest.mark.parametrize("where", ["command_line", "deck"])
+def test_memory_report_false_prints_none(tmp_path, where):
+    # -hyperqn_memory_report false (petsc: {hyperqn_memory_report: false}) printed the report: read by name only
+    flag = {"command_line": ["-hyperqn_memory_report", "false"], "deck": []}[where]
+    petsc = {"petsc": {"hyperqn_memory_report": False}} if where == "deck" else {}
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, **petsc, "time": {"dt": 0.01, "frames": 1}})
+    proc = run_hyperqn([path, "-o", tmp_path / "off"] + flag, ranks=None, timeout=60)
+    assert "memory estimate" not in proc.stdout and "never used" not in proc.stdout, proc.stdout
+    proc = run_hyperqn([path, "-o", tmp_path / "on", "-hyperqn_memory_report"], ranks=None, timeout=60)
+    assert "hyperqn: memory estimate rank 0: about" in proc.stdout, proc.stdout
+    proc = run_hyperqn([path, "-o", tmp_path / "bad", "-hyperqn_memory_report", "maybe"], ranks=None, check=False, timeout=60)
+    assert_clean_failure(proc, tmp_path / "bad", ["option -hyperqn_memory_report maybe: must be true or false"])
