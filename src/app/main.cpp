@@ -12,7 +12,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <cctype>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -248,13 +250,15 @@ PetscErrorCode warn_unused_options() {
   PetscFunctionReturn(0);
 }
 
+// The most options PETSc 3.18 holds is 512 (MAXOPTIONS; past them its stack trace, exit 55); 64 are
+// left for those hyperqn and PETSc set as the run goes (insert_deck_options counts the deck's too).
+constexpr size_t kMaxGivenOptions = 448;
+
 // The deck's petsc: options, unless the command line already set them.
 PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
   PetscFunctionBeginUser;
-  // PETSc 3.18 holds at most 512 options (MAXOPTIONS) and fails with its stack trace past them;
-  // 64 are left for those hyperqn and PETSc set as the run goes.
   const size_t given = hyperqn::all_options().size();
-  if (given + deck.petsc_options.size() > 448)
+  if (given + deck.petsc_options.size() > kMaxGivenOptions)
     throw hyperqn::InputError(deck.path, 0, "petsc", "the command line (" + std::to_string(given) + " options) and this "
                               "section (" + std::to_string(deck.petsc_options.size()) + ") give more than 448 PETSc options");
   for (const auto& [name, value] : deck.petsc_options) {
@@ -269,7 +273,11 @@ PetscErrorCode insert_deck_options(const hyperqn::Deck& deck) {
 // PETSC_OPTIONS, and every options file these name (nested ones too; '#' starts a comment). A
 // file that cannot be opened is a problem of its own: PETSc would stop on it with its stack trace
 // (and open it on rank 0 alone, the other ranks left waiting).
-using OptionWords = std::vector<std::pair<std::string, std::string>>;
+struct OptionWord {
+  std::string name, value;
+  std::string where;  // "" on the command line, else " (in PETSC_OPTIONS)" or " (named in FILE)"
+};
+using OptionWords = std::vector<OptionWord>;
 
 void add_option_words(const std::vector<std::string>& words, const std::string& where, int depth, OptionWords& out,
                       std::string& problem);
@@ -302,14 +310,31 @@ void add_option_words(const std::vector<std::string>& words, const std::string& 
     const std::string& name = words[i];
     if (name.size() < 2 || name[0] != '-') continue;
     const std::string value = i + 1 < words.size() ? words[i + 1] : "";
-    out.push_back({name, value});
+    out.push_back({name, value, where});
     if ((name == "-options_file" || name == "-options_file_yaml") && !value.empty())
       add_options_file(name, value, where, depth, out, problem);
   }
 }
 
+// hyperqn's own words -o and --restart, and their misspellings (-o=DIR, -restart, --restart=latest):
+// read from the command line alone. From an options file or PETSC_OPTIONS nothing would read them:
+// the run would start afresh, removing the run --restart names, or write elsewhere than -o says.
+bool run_word(const std::string& name) {
+  return name == "-o" || name == "--restart" || name == "-restart" || name.rfind("-o=", 0) == 0 ||
+         name.rfind("--restart=", 0) == 0 || name.rfind("-restart=", 0) == 0;
+}
+
+std::string run_word_problem(const std::string& name, const std::string& value, const std::string& where) {
+  const bool takes_value = name == "-o" || name == "--restart" || name == "-restart";
+  return "option " + name + (takes_value && !value.empty() ? " " + value : "") + where + ": " +
+         (name.rfind("-o", 0) == 0 ? "-o OUTDIR" : "--restart VALUE") + " is read from the command line only (from "
+         "an options file or PETSC_OPTIONS the run would ignore it: start afresh and remove the run it names, or "
+         "write into another directory); give it on the command line";
+}
+
 // What PETSc reads as it starts and would fail on with its stack trace: options files that cannot
-// be opened, and -log_view's format (hyperqn::log_view_problem). "" if none.
+// be opened, more options than it holds, and -log_view's format (hyperqn::log_view_problem); and
+// hyperqn's own words where only the command line is read (run_word). "" if none.
 std::string start_option_problem(int argc, char** argv) {
   std::string problem;
   OptionWords options;
@@ -317,9 +342,36 @@ std::string start_option_problem(int argc, char** argv) {
   if (const char* env = std::getenv("PETSC_OPTIONS"); env && problem.empty())
     add_option_words(words_of(env), " (in PETSC_OPTIONS)", 0, options, problem);
   if (!problem.empty()) return problem;
-  for (const auto& [name, value] : options)
-    if (name == "-log_view" && !value.empty() && value[0] != '-')
-      if (const std::string why = hyperqn::log_view_problem(value); !why.empty()) return "option -log_view " + value + ": " + why;
+  for (const OptionWord& o : options)
+    if (!o.where.empty() && run_word(o.name)) return run_word_problem(o.name, o.value, o.where);
+  // Counted as PETSc holds them: each name once (a name given again replaces its value; names are
+  // not case-sensitive). A value that looks like an option (-x -1) is counted too: at most over.
+  std::set<std::string> names;
+  for (const OptionWord& o : options) {
+    if (o.name == "-options_file" || o.name == "-options_file_yaml") continue;  // read, not held
+    std::string lower = o.name;
+    for (char& c : lower) c = static_cast<char>(std::tolower((unsigned char)c));
+    names.insert(lower);
+  }
+  if (names.size() > kMaxGivenOptions)
+    return "more than " + std::to_string(kMaxGivenOptions) + " PETSc options (" + std::to_string(names.size()) +
+           " names on the command line, in PETSC_OPTIONS and in the options files they name; PETSc holds 512, and "
+           "hyperqn and PETSc set some as the run goes)";
+  for (const OptionWord& o : options)
+    if (o.name == "-log_view" && !o.value.empty() && o.value[0] != '-')
+      if (const std::string why = hyperqn::log_view_problem(o.value); !why.empty())
+        return "option -log_view " + o.value + ": " + why;
+  return "";
+}
+
+// After PetscInitialize: -o or --restart in the options database that the command line did not
+// give came from where start_option_problem does not look (a YAML options file, a .petscrc).
+std::string run_words_not_on_the_command_line(const CommandLine& cl) {
+  for (const auto& [name, value] : hyperqn::all_options()) {
+    if (!run_word(name)) continue;
+    if ((name == "-o" && !cl.outdir.empty()) || (name == "--restart" && !cl.restart.empty())) continue;
+    return run_word_problem(name, value, " (not on the command line: from a YAML options file or a .petscrc)");
+  }
   return "";
 }
 
@@ -351,6 +403,9 @@ int main(int argc, char** argv) {
   int status = 0;
   try {
     const CommandLine cl = parse_command_line(argc, argv);
+    if (const std::string problem = run_words_not_on_the_command_line(cl); !problem.empty() &&
+        !cl.partition && !cl.registry && !cl.help_deck && !cl.help)
+      throw hyperqn::InputError("", 0, "", problem);
     if (cl.registry) {
       PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s", registry_json().c_str()));
     } else if (cl.help_deck) {

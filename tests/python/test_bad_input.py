@@ -715,10 +715,12 @@ def test_bad_command_lines_are_refused(tmp_path, case):
     assert proc.returncode == 1
 
 
-@pytest.mark.parametrize("restart", [["--restart", ""], ["--restart=latest"], ["-restart", "latest"], "options_file", "deck"])
-def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, restart):
+@pytest.mark.parametrize("restart", [["--restart", ""], ["--restart=latest"], ["-restart", "latest"], "options_file", "deck",
+                                     "options_file_restart", "options_file_restart=", "PETSC_OPTIONS_restart"])
+def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, monkeypatch, restart):
     # each started afresh and removed the earlier run's files and checkpoints (exit 0); -restart
-    # from an options file or the deck's petsc: too
+    # from an options file or the deck's petsc: too, and --restart latest (or --restart=latest) from
+    # an options file or PETSC_OPTIONS, which nothing read: refused before PETSc starts, naming them
     path = write_deck(tmp_path / "good.yaml", {**GOOD, "checkpoint": {"every": 1}})
     outdir = tmp_path / "out"
     run_hyperqn([path, "-o", outdir], ranks=None, timeout=60)
@@ -730,9 +732,43 @@ def test_a_misspelt_restart_leaves_the_run_it_names(tmp_path, restart):
     elif restart == "deck":
         path = write_deck(tmp_path / "good.yaml", {**GOOD, "checkpoint": {"every": 1}, "petsc": {"restart": "latest"}})
         restart = []
+    said = None
+    if restart in ("options_file_restart", "options_file_restart="):
+        word = "--restart latest" if restart == "options_file_restart" else "--restart=latest"
+        (tmp_path / "opts").write_text(f"-tao_max_it 5\n{word}\n")
+        restart = ["-options_file", str(tmp_path / "opts")]
+        said = f"hyperqn: error: command line: option {word} (named in {tmp_path / 'opts'}): --restart VALUE is read from the command line only"
+    elif restart == "PETSC_OPTIONS_restart":
+        monkeypatch.setenv("PETSC_OPTIONS", "--restart latest")
+        restart = []
+        said = "hyperqn: error: command line: option --restart latest (in PETSC_OPTIONS): --restart VALUE is read from the command line only"
     proc = run_hyperqn([path, "-o", outdir] + restart, ranks=None, check=False, timeout=60)
     assert proc.returncode == 1 and "hyperqn: error:" in proc.stdout and "restart" in proc.stdout, proc.stdout
+    assert said is None or (said in proc.stdout and proc.stdout.count("hyperqn: error") == 1), proc.stdout
+    assert "removed" not in proc.stdout and "never used" not in proc.stdout
     assert {p: p.stat().st_mtime_ns for p in outdir.rglob("*")} == before
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("where", ["options_file", "PETSC_OPTIONS"])
+def test_an_output_directory_outside_the_command_line_is_refused(tmp_path, monkeypatch, where, ranks):
+    # -o DIR from an options file or PETSC_OPTIONS was dropped unsaid: the run wrote to
+    # output/<name>, replacing an earlier run there
+    path = write_deck(tmp_path / "deck.yaml", {**GOOD, "name": "elsewhere_test"})
+    wanted = tmp_path / "wanted"
+    if where == "options_file":
+        (tmp_path / "opts").write_text(f"-o {wanted}\n")
+        args, said = ["-options_file", str(tmp_path / "opts")], f"(named in {tmp_path / 'opts'})"
+    else:
+        monkeypatch.setenv("PETSC_OPTIONS", f"-o {wanted}")
+        args, said = [], "(in PETSC_OPTIONS)"
+    proc = subprocess.run(launch.command([path] + args, None if ranks == 1 else ranks, HYPERQN, MPIEXEC), cwd=tmp_path,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60,
+                          env={**os.environ, **launch.MPI_ENV})
+    assert proc.returncode == 1, proc.stdout
+    assert f"hyperqn: error: command line: option -o {wanted} {said}: -o OUTDIR is read from the command line only" in proc.stdout, proc.stdout
+    assert proc.stdout.count("hyperqn: error") == 1 and "PETSC ERROR" not in proc.stdout
+    assert not wanted.exists() and not (tmp_path / "output").exists()
 
 
 def test_a_deck_the_run_would_overwrite_is_refused(tmp_path):

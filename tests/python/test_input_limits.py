@@ -455,6 +455,23 @@ def test_a_strand_of_more_segments_than_memory_is_refused(tmp_path):
     assert_clean_failure(proc, tmp_path / "out", ["rope.yaml:", "'mesh.strands[0].segments'", "rank 0 of 1 would need about"])
 
 
+@pytest.mark.parametrize("where", ["options_file", "command_line"])
+def test_petsc_options_past_512_are_refused_before_petsc_starts(tmp_path, where):
+    # 512 or more options (an options file of 600, or 512 on the command line) filled PETSc's table
+    # as it started: over 1000 PETSC ERROR lines ("Number of options 512"), exit 55
+    path = write_deck(tmp_path / "deck.yaml", GOOD)
+    many = [w for k in range(600 if where == "options_file" else 512) for w in (f"-zz_opt{k}", "1")]
+    if where == "options_file":
+        (tmp_path / "opts.txt").write_text("".join(f"{many[i]} {many[i + 1]}\n" for i in range(0, len(many), 2)))
+        args = ["-options_file", tmp_path / "opts.txt"]
+    else:
+        args = many
+    proc = run_hyperqn([path, "-o", tmp_path / "out"] + args, ranks=None, check=False, timeout=60)
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert_clean_failure(proc, tmp_path / "out", ["hyperqn: error: command line: more than 448 PETSc options ("])
+    assert "PETSC ERROR" not in proc.stdout and proc.stdout.count("\n") < 5, proc.stdout[-2000:]
+
+
 @pytest.mark.parametrize("where", ["command_line", "deck"])
 def test_memory_report_false_prints_none(tmp_path, where):
     # -hyperqn_memory_report false (petsc: {hyperqn_memory_report: false}) printed the report: read by name only
