@@ -265,7 +265,8 @@ Deck load_deck(const std::string& path) {
                                                "rank; a curve's long table goes in a file of its own, docs/deck-scene.md#curve)");
 
   std::map<std::string, KeyPlace> places;
-  Reader r(path, &places);
+  std::vector<Deck::InputFile> inputs;
+  Reader r(path, &places, &inputs);
   try {
     std::vector<YAML::Node> docs = YAML::LoadAll(in);
     if (docs.size() > 1) r.fail(line_of(docs[1]), "", "a deck holds one YAML document (found a second one)");
@@ -276,6 +277,7 @@ Deck load_deck(const std::string& path) {
     }
     Deck deck = parse(r, docs.empty() ? YAML::Node() : docs[0], path);
     deck.key_places = std::move(places);
+    deck.input_files = std::move(inputs);
     return deck;
   } catch (const YAML::ParserException& e) {
     throw InputError(path, e.mark.line + 1, "", "YAML syntax error: " + e.msg);

@@ -191,6 +191,15 @@ struct Deck : SceneSpec {
   // rule, app/deck_rules.hpp).
   std::map<std::string, KeyPlace> key_places;
   std::map<std::string, std::string> rule_sources;
+  // Every file the deck names (meshes, partition files, curve tables, obstacles' and blades'
+  // surfaces), as resolved, with the line and key that name it: a run refuses one that it would
+  // write or remove in its output directory.
+  struct InputFile {
+    std::string path;
+    int line = 0;
+    std::string key;
+  };
+  std::vector<InputFile> input_files;
 };
 
 // Bounds of the petsc: section (a YAML alias bomb expands past them).

@@ -43,6 +43,7 @@ std::string resolve_input_file(const Reader& r, const Value& v, const fs::path& 
                   (full == file ? "" : " (the deck's '" + file.string() + "'" +
                                            (file.is_absolute() ? "" : ", relative to the deck's directory") + ")"));
   }
+  r.note_input(resolved.string(), v);
   return resolved.string();
 }
 

@@ -45,8 +45,14 @@ struct Value {
 class Reader {
  public:
   // places: where every key the deck gives is noted (Deck::key_places), or null.
-  explicit Reader(std::string file, std::map<std::string, KeyPlace>* places = nullptr)
-      : file_(std::move(file)), places_(places) {}
+  // inputs: where every file the deck names is noted (Deck::input_files, by resolve_input_file), or null.
+  explicit Reader(std::string file, std::map<std::string, KeyPlace>* places = nullptr,
+                  std::vector<Deck::InputFile>* inputs = nullptr)
+      : file_(std::move(file)), places_(places), inputs_(inputs) {}
+  // Notes a file the deck names (resolved), at v's line and key.
+  void note_input(const std::string& path, const Value& v) const {
+    if (inputs_) inputs_->push_back({path, v.line, v.key});
+  }
   // Notes a map's entry (Section does, for each key it holds).
   void note(const Value& entry) const {
     if (!places_) return;
@@ -190,6 +196,7 @@ class Reader {
   static bool plain_scalar(const YAML::Node& n) { return n.IsScalar() && n.Tag() != "!"; }
   std::string file_;
   std::map<std::string, KeyPlace>* places_;
+  std::vector<Deck::InputFile>* inputs_;
 };
 
 // One YAML map of the deck. Construction rejects non-maps, unknown and duplicate keys

@@ -457,6 +457,7 @@ void read_bodies_partition(const Reader& r, const Value& v, const fs::path& deck
     r.fail(v, "'" + file.string() + "': a partition file's name ends in .h5 (hyperqn partition DECK -n N writes it)");
   deck.partition_file = (file.is_absolute() ? file : (deck_dir / file).lexically_normal()).string();
   deck.partition_line = v.line;
+  r.note_input(deck.partition_file, v);  // need not exist yet
 }
 
 // colliders: a list of obstacles, each of one type with that type's keys (collider_keys()).

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <type_traits>
 
 #include "app/deck_config.hpp"
@@ -18,6 +19,7 @@
 #include "app/time_loop.hpp"
 #include "io/log_events.hpp"
 #include "io/atomic_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/output_directory.hpp"
 #include "model/fallback_chain.hpp"
 #include "model/scene.hpp"
@@ -306,23 +308,34 @@ static bool open_restart(MPI_Comm comm, const std::string& restart, const std::s
 // How long ranks that failed wait for the others before the run is aborted (all_ranks_arrive).
 constexpr double kErrorMeetingSeconds = 60;
 
-// An input file that the run would overwrite or remove as its own output (io/output_directory.hpp's
-// is_run_output): a deck named config.yaml in OUTDIR was replaced by the run's config, a mesh
-// NAME.h5 beside a NAME.xdmf would be removed. Throws InputError naming the deck's key.
+// An input file that the run would overwrite or remove as its own output: one of the names it
+// writes in OUTDIR (io/output_directory.hpp's is_run_output, and the deck's own series: NAME.pvd,
+// or NAME.xdmf and NAME.h5, before either exists), an earlier run's file there that it removes, or a
+// checkpoint's name in OUTDIR/checkpoints. A deck named config.yaml in OUTDIR was replaced by the
+// run's config; a partition file OUTDIR/NAME.h5 became the XDMF data of the run reading it.
+// Throws InputError naming the deck's key.
 static void check_inputs_are_not_outputs(const Deck& deck, const std::string& outdir) {
+  const bool xdmf = deck.output.format == OutputFormat::xdmf;
+  const std::set<std::string> series =
+      !deck.output.vtk ? std::set<std::string>{}
+      : xdmf           ? std::set<std::string>{deck.name + ".xdmf", deck.name + ".h5"}
+                       : std::set<std::string>{deck.name + ".pvd"};
   const auto check = [&](const std::string& file, int line, const std::string& key) {
     if (file.empty()) return;
     std::error_code ec;
     const std::filesystem::path path(file), dir = path.has_parent_path() ? path.parent_path() : ".";
-    if (!std::filesystem::equivalent(dir, outdir, ec) || ec || !is_run_output(outdir, path.filename().string())) return;
+    const std::string name = path.filename().string();
+    const bool in_outdir = std::filesystem::equivalent(dir, outdir, ec) && !ec;
+    std::error_code ec2;
+    const bool in_checkpoints = !in_outdir && std::filesystem::equivalent(dir, outdir + "/checkpoints", ec2) && !ec2;
+    const bool written = (in_outdir && (series.count(name) || is_run_output(outdir, name))) ||
+                         (in_checkpoints && checkpoint_frame(name) >= 0);
+    if (!written) return;
     throw InputError(deck.path, line, key, (key.empty() ? "the deck " : file + " ") + "is a file that the run writes in "
                      "its output directory " + outdir + ": rename it, move it, or choose another -o");
   };
   check(deck.path, 0, "");
-  check(deck.mesh.file, deck.mesh.line, "mesh.file");
-  for (size_t k = 0; k < deck.bodies.size(); ++k)
-    check(deck.bodies[k].mesh.file, deck.bodies[k].mesh.line, "bodies[" + std::to_string(k) + "].mesh.file");
-  check(deck.partition_file, 0, "partition");
+  for (const Deck::InputFile& f : deck.input_files) check(f.path, f.line, f.key);
 }
 
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart_arg) {

@@ -264,3 +264,35 @@ def test_stale_or_mismatched_bodies_files_are_refused(bodies_file, bar_file):
     body_h5 = copy.deepcopy(BODIES)
     body_h5["bodies"][0]["mesh"] = {"file": str(bar_h5)}
     refused(tmp, "body_h5", body_h5, ["'bodies[0].mesh'", "partition:"])
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_partition_file_the_run_would_write_is_refused(tmp_path, bar_file, bodies_file, ranks):
+    # OUTDIR/NAME.h5 as the mesh of a run that writes XDMF into OUTDIR under NAME: the run wrote its
+    # frames into it (exit 0) and the next run failed "not a partition file"; so did a deck of bodies
+    # naming it as partition:. Refused on the first run, before anything is written.
+    _, _, bar_h5, _ = bar_file
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "px.h5").write_bytes(bar_h5.read_bytes())
+    deck = copy.deepcopy(BAR)
+    deck.update(name="px", mesh={"file": str(out / "px.h5")}, output={"format": "xdmf"})
+    deck["time"]["frames"] = 1
+    proc = run_hyperqn([write_deck(tmp_path / "px.yaml", deck), "-o", out], ranks=ranks, check=False)
+    assert proc.returncode == 1, proc.stdout
+    assert "px.yaml:" in proc.stdout and proc.stdout.count("hyperqn: error") == 1, proc.stdout
+    assert f"'mesh.file': {out / 'px.h5'} is a file that the run writes in its output directory" in proc.stdout, proc.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["px.h5"] and (out / "px.h5").read_bytes() == bar_h5.read_bytes()
+    # A deck of bodies whose partition: is OUTDIR/NAME.h5 (the file the command wrote there).
+    tmp, _, _ = bodies_file
+    bodies = dict(BODIES, name="joined", partition=str(out / "joined.h5"), output={"format": "xdmf"})
+    bodies_deck = write_deck(tmp / "joined.yaml", bodies)
+    assert partition([bodies_deck, "-n", 2]).returncode == 0
+    written = (out / "joined.h5").read_bytes()
+    proc = run_hyperqn([bodies_deck, "-o", out], ranks=ranks, check=False)
+    assert proc.returncode == 1, proc.stdout
+    assert "joined.yaml:" in proc.stdout and "'partition': " in proc.stdout, proc.stdout
+    assert "joined.h5 is a file that the run writes in its output directory" in proc.stdout, proc.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["joined.h5", "px.h5"] and (out / "joined.h5").read_bytes() == written
+    # Elsewhere the same files are read as before.
+    run_hyperqn([bodies_deck, "-o", tmp_path / "other"], ranks=ranks)
