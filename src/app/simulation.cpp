@@ -348,6 +348,11 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
   check_inputs_are_not_outputs(deck, outdir);
+  // Another run writing OUTDIR now: said before the setup (taken for good in step 3).
+  if (const std::string busy = output_directory_in_use(comm, outdir); !busy.empty()) {
+    print_error(comm, busy);
+    return 1;
+  }
   const std::string config = effective_config(deck, options, outdir);  // OUTDIR/config.yaml
   SceneInput input;
   MemoryPlan plan = memory_plan(deck.solver, options.h0_package, std::any_of(deck.fixed.begin(), deck.fixed.end(), is_roller));
@@ -473,8 +478,20 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   // collective check, so a failure (unwritable directory, full disk) ends the run on every rank.
   bool ok = true;
   bool have_dir = false;  // summary.json can be written
+  OutputLock lock;        // OUTDIR is this run's until it returns
   try {
     create_output_directory(comm, outdir);
+    // One run at a time: another that started into OUTDIR since step 1 is refused here, before
+    // anything is written; and a restart continues only the run it read its checkpoint of.
+    std::string busy = lock.take(comm, outdir, "deck " + deck.path);
+    if (busy.empty() && run.restart && rank == 0 && summary_run_id(outdir + "/summary.json") != saved.run_id)
+      busy = "cannot restart from " + restart_path + ": another run (" + summary_run_id(outdir + "/summary.json") +
+             ") wrote " + outdir + " while this one was set up";
+    busy = broadcast_text(comm, busy);
+    if (!busy.empty()) {
+      print_error(comm, busy);
+      return 1;
+    }
     have_dir = true;
     std::string error;
     if (rank == 0) {

@@ -1,6 +1,17 @@
 #include "io/output_directory.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <thread>
+#include <ctime>
 #include <filesystem>
 #include <functional>
 #include <fstream>
@@ -27,6 +38,99 @@ void create_output_directory(MPI_Comm comm, const std::string& dir) {
     else if (!fs::is_directory(dir, ec)) error = "cannot create the output directory " + dir + ": not a directory";
   }
   throw_if_any_failed(comm, error);
+}
+
+namespace {
+
+// The refusal for a lock held by another process, from what its file says (fd open on it).
+std::string held_by(int fd, const std::string& dir) {
+  std::string text(512, '\0');
+  const ssize_t n = pread(fd, &text[0], text.size(), 0);
+  text.resize(n > 0 ? size_t(n) : 0);
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ' || text.back() == '\0')) text.pop_back();
+  for (char& c : text)
+    if (c == '\n' || (unsigned char)c < 32) c = ' ';
+  return "the output directory " + dir + " is in use by another run (" +
+         (text.empty() ? std::string("its lock file ") + OutputLock::kFileName + " says nothing yet" : text) +
+         "): two runs in one directory would remove and mix each other's files; wait for it to end, or choose "
+         "another -o";
+}
+
+// The lock's text: who holds it.
+std::string holder_text(const std::string& what) {
+  char host[256] = "";
+  gethostname(host, sizeof host - 1);
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  char when[32] = "";
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return "pid " + std::to_string((long long)getpid()) + " on host " + host + ", started " + when +
+         (what.empty() ? std::string() : ", " + what) + "\n";
+}
+
+}  // namespace
+
+OutputLock::~OutputLock() {
+  if (fd_ < 0) return;
+  unlink(path_.c_str());  // while held: a run that opened it before must find it gone (take)
+  close(fd_);             // releases the flock
+}
+
+std::string OutputLock::take(MPI_Comm comm, const std::string& dir, const std::string& what) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string refusal;
+  const std::string path = dir + "/" + kFileName;
+  for (int attempt = 0; rank == 0 && fd_ < 0 && refusal.empty() && attempt < 20; ++attempt) {
+    const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+    if (fd < 0) break;  // a directory where the file cannot be made: the run's first write fails there, naming it
+    // A starting run's look (output_directory_in_use) holds a shared lock for a moment: a few tries.
+    int locked = -1;
+    for (int wait = 0; wait < 5; ++wait) {
+      if ((locked = flock(fd, LOCK_EX | LOCK_NB)) == 0 || errno != EWOULDBLOCK) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (locked != 0 && errno == EWOULDBLOCK) {
+      refusal = held_by(fd, dir);
+      close(fd);
+      break;
+    }
+    if (locked != 0) {
+      std::fprintf(stderr, "hyperqn: warning: cannot lock the output directory %s (%s: %s): another run writing "
+                           "into it at once would not be noticed\n", dir.c_str(), path.c_str(), std::strerror(errno));
+      close(fd);
+      break;
+    }
+    // The file locked must still be the one named: a run that ended unlinked it after this one opened it.
+    struct stat held {}, named {};
+    if (fstat(fd, &held) != 0 || stat(path.c_str(), &named) != 0 || held.st_dev != named.st_dev ||
+        held.st_ino != named.st_ino) {
+      close(fd);
+      continue;
+    }
+    fd_ = fd;
+    path_ = path;
+    const std::string text = holder_text(what);
+    if (ftruncate(fd_, 0) != 0 || pwrite(fd_, text.data(), text.size(), 0) != (ssize_t)text.size()) {
+      // A full disk: the lock holds all the same, only its note is missing.
+    }
+  }
+  return broadcast_text(comm, refusal);
+}
+
+std::string output_directory_in_use(MPI_Comm comm, const std::string& dir) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string refusal;
+  if (rank == 0) {
+    const int fd = open((dir + "/" + OutputLock::kFileName).c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+    if (fd >= 0) {
+      if (flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK) refusal = held_by(fd, dir);
+      close(fd);  // a shared lock taken here goes with it
+    }
+  }
+  return broadcast_text(comm, refusal);
 }
 
 bool is_run_output(const std::string& dir, const std::string& name) {

@@ -11,6 +11,36 @@ namespace hyperqn {
 // std::runtime_error naming the directory.
 void create_output_directory(MPI_Comm comm, const std::string& dir);
 
+// An advisory lock on an output directory, held by rank 0 for the run's life, so that
+// two runs never write one directory at once: flock(2) on DIR/.hyperqn.lock, which says who holds it
+// (pid, host, start time, deck). The kernel releases it when the process ends, however it ends
+// (kill -9 included): nothing stale is left, and a restart of a dead run takes it again. The file
+// is removed as the lock is released (a run that opened it just before locks it, sees it unlinked and
+// opens the next); after a kill it stays, unlocked, and the next run takes it.
+// On NFS, flock is carried by the server's lock manager (NLM, or NFSv4's own locks) and holds between
+// hosts; a mount with `nolock` or `local_lock=flock`, or Lustre's `localflock`, makes it hold on one
+// host only; where the file system refuses locks (ENOLCK, EOPNOTSUPP) the run warns and goes on
+// unlocked. docs/outputs.md, "One run at a time".
+class OutputLock {
+ public:
+  static constexpr const char* kFileName = ".hyperqn.lock";
+  OutputLock() = default;
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+  ~OutputLock();  // releases it, and removes its file
+  // Collective; dir exists. Takes the lock and notes in it who holds it (`what`: "deck D"); "" on
+  // every rank, or on every rank the refusal, naming dir and the run that holds it.
+  std::string take(MPI_Comm comm, const std::string& dir, const std::string& what);
+
+ private:
+  int fd_ = -1;
+  std::string path_;
+};
+
+// Collective: "" if no other process holds dir's lock now, else the refusal take() would give. Reads
+// only (creates nothing): for a check before a run's setup, which can take minutes.
+std::string output_directory_in_use(MPI_Comm comm, const std::string& dir);
+
 // Whether the file `name` in `dir` is one a run writes: summary.json, iterations.csv,
 // contact.csv, config.yaml, NAME_NNNNN.vtu, NAME_NNNNN.pvtu, NAME_NNNNN_RANK.vtu, a NAME.pvd that lists
 // NAME_ frames, a NAME.xdmf whose data are in NAME.h5 and that NAME.h5, and the temporaries of an

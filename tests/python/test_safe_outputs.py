@@ -244,3 +244,53 @@ def test_full_disk_during_a_study(tmp_path, ranks):
         assert proc.returncode == 1, proc.stdout[-3000:]
         assert f"hyperqn: error: cannot write {out}/" in proc.stdout and "No space left on device" in proc.stdout
 
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_second_run_into_a_directory_in_use_is_refused(tmp_path, ranks):
+    # Two runs into one directory at once: the second removed the first's files and both exited 0,
+    # the .pvd listing missing frames, summary.json of one run beside iterations.csv of the other.
+    # Now the second is refused (exit 1, naming the directory and the first's pid and host) while
+    # the first holds the directory's lock; the first ends whole; a kill -9 leaves nothing stale.
+    out = tmp_path / "out"
+    deck = slow_deck("first")
+    deck["time"]["frames"] = 15  # some 0.6 s at 1 rank; stopped (SIGSTOP) while the second tries
+    first = write_deck(tmp_path / "first.yaml", deck)
+    second = write_deck(tmp_path / "second.yaml", small_deck("second", 2))
+    cmd = launch.command([first, "-o", out], ranks, HYPERQN, MPIEXEC)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+    try:
+        deadline = time.time() + 60
+        while not (out / "first.pvd").exists() and time.time() < deadline and proc.poll() is None:
+            time.sleep(0.05)
+        assert proc.poll() is None, "the first run ended before the second started: make it slower"
+        pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
+        sessions.send(pids, signal.SIGSTOP)  # it holds the directory, whatever the machine's speed
+        try:
+            refused = run_hyperqn([second, "-o", out], ranks=ranks, check=False, timeout=60)
+        finally:
+            sessions.send(pids, signal.SIGCONT)
+        assert refused.returncode == 1, refused.stdout[-2000:]
+        said = f"hyperqn: error: the output directory {out} is in use by another run (pid "
+        assert said in refused.stdout, refused.stdout[-2000:]
+        assert any(f"(pid {pid} on host " in refused.stdout for pid in pids), (pids, refused.stdout[-2000:])
+        assert "first.yaml" in refused.stdout and refused.stdout.count("hyperqn: error") == 1
+        assert not list(out.glob("second*"))
+        stdout, _ = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            sessions.send([proc.pid] + hyperqn_pids(proc.pid), signal.SIGKILL)
+            proc.wait(timeout=10)
+    assert proc.returncode == 0, stdout[-2000:]
+    summary = check_complete(out)
+    assert summary["status"] == "ok" and summary["frames"] == 15
+    assert len(read_pvd(out / "first.pvd")) == 16
+    assert {int(r["frame"]) for r in csv.DictReader(open(out / "iterations.csv"))} == set(range(1, 16))
+    assert not (out / ".hyperqn.lock").exists()  # released and removed at the end
+    # A run killed -9 holds nothing: the next run into the directory goes ahead.
+    first = write_deck(tmp_path / "first.yaml", slow_deck("first"))
+    run_and_kill([first, "-o", out], ranks, lambda: (out / ".hyperqn.lock").exists(), random.Random(1))
+    assert (out / ".hyperqn.lock").exists()  # left by the kill, unlocked
+    run_hyperqn([second, "-o", out], ranks=ranks, timeout=120)
+    assert check_complete(out)["status"] == "ok" and not (out / ".hyperqn.lock").exists()
