@@ -17,7 +17,7 @@ StepObjective::StepObjective(Body& body, double dt, const std::array<double, 3>&
       gravity_(gravity), warm_start_(warm_start), upright_guess_(upright_guess), element_limit_(element_limit) {}
 
 StepObjective::~StepObjective() {
-  for (Vec* v : {&work_, &end_x_, &end_v_, &rest_, &rest_grad_}) VecDestroy(v);
+  for (Vec* v : {&work_, &end_x_, &end_v_, &kinetic_, &rest_, &rest_grad_}) VecDestroy(v);
 }
 
 PetscErrorCode StepObjective::setup() {
@@ -224,13 +224,15 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
   const PetscInt cells = mesh.num_cells;
   PetscFunctionBeginUser;
   *sound = true;
-  if (mesh.global_cells == 0 && mesh.global_segments == 0) PetscFunctionReturn(0);  // nothing to invert
+  bool any_springs = false;  // springs_keep_energy's
+  for (const auto& term : body_.terms()) any_springs = any_springs || term->has_midpoint_defect();
+  if (mesh.global_cells == 0 && mesh.global_segments == 0 && !any_springs) PetscFunctionReturn(0);  // nothing to check
   if (!end_x_) PetscCall(VecDuplicate(inertia_.mass(), &end_x_));
   if (!end_v_) PetscCall(VecDuplicate(inertia_.mass(), &end_v_));
   PetscCall(body_.local_positions(s.x, pos_));  // z, the fixed vertices at the solve's time
   body_.cell_jacobians(pos_, J_n_);
-  std::vector<double> z;  // z's positions, for the strand segments
-  if (mesh.num_segments > 0) z = pos_;
+  std::vector<double> z;  // z's positions, for the strand segments and the springs
+  if (mesh.num_segments > 0 || any_springs) z = pos_;
   PetscCall(VecCopy(s.x, end_x_));
   PetscCall(life_.end_map(end_x_, end_v_));
   const double solve_time = body_.time();
@@ -254,6 +256,41 @@ PetscErrorCode StepObjective::end_is_sound(State& s, bool* sound) {
   }
   PetscCallMPI(MPI_Allreduce(&local, &any, 1, MPI_INT, MPI_LOR, PetscObjectComm((PetscObject)s.x)));
   *sound = !any;
+  if (*sound && any_springs) PetscCall(springs_keep_energy(s, z, sound));
+  PetscFunctionReturn(0);
+}
+
+// The energy test of the springs and cloth (strands, cloth edges, membranes and bending: the terms
+// with has_midpoint_defect): the midpoint keeps a quadratic energy, but a spring's k/2 (l - L)^2 is
+// not quadratic in x where it turns (nor a membrane's where it folds), and where
+// the step resolves none of its stiffness (h sqrt(k/m) >> 1) the end map 2z - x_n doubles a sag or
+// a buckle that z took over half a step: a string between its supports that sags by d at z ends
+// at 2d with its stretch energy 16 times z's (quartic in d), twice the work the forces at z did
+// (EnergyTerm::add_midpoint_defect). The defect summed over the springs is what the step adds to
+// the energy beyond the work of its forces (M(v_{n+1} - v_n) = h f(z) makes the kinetic energy's
+// change exactly that work); the step ends by Euler where it exceeds kMidpointDefect of the springs'
+// energies and works plus the kinetic energy at both ends. A sum over the ranks: its last bits,
+// not the decision, depend on the rank count (a tie at the threshold aside).
+PetscErrorCode StepObjective::springs_keep_energy(State& s, const std::vector<double>& z, bool* sound) {
+  constexpr double kMidpointDefect = 1e-2;
+  PetscFunctionBeginUser;
+  // pos_ holds the end (end_is_sound); the start with the fixed vertices at t_n.
+  const double solve_time = body_.time();
+  body_.set_time(s.frame * dt_);
+  PetscCall(body_.local_positions(life_.x_n(), start_pos_));
+  body_.set_time(solve_time);
+  double local[2] = {0, 0}, sum[2];
+  for (const auto& term : body_.terms()) term->add_midpoint_defect(start_pos_, z, pos_, &local[0], &local[1]);
+  PetscCallMPI(MPI_Allreduce(local, sum, 2, MPI_DOUBLE, MPI_SUM, PetscObjectComm((PetscObject)s.x)));
+  // kinetic energies at both ends: 1/2 v.Mv over the free dofs
+  if (!kinetic_) PetscCall(VecDuplicate(end_v_, &kinetic_));
+  PetscReal Kn, Ke;
+  PetscCall(VecPointwiseMult(kinetic_, inertia_.mass(), life_.v_n()));
+  PetscCall(VecDot(kinetic_, life_.v_n(), &Kn));
+  PetscCall(VecPointwiseMult(kinetic_, inertia_.mass(), end_v_));
+  PetscCall(VecDot(kinetic_, end_v_, &Ke));
+  const double scale = sum[1] + 0.5 * (Kn + Ke);
+  *sound = std::isfinite(sum[0]) && !(sum[0] > kMidpointDefect * scale);  // an end of infinite energy: not sound
   PetscFunctionReturn(0);
 }
 

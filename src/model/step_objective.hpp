@@ -170,6 +170,7 @@ class StepObjective : public Objective {
   // For an integrator whose end map extrapolates past z: false if x_{n+1} would invert a tet that
   // is upright at z, or blow one past the element limit that is within it at z.
   PetscErrorCode end_is_sound(State& s, bool* sound);
+  PetscErrorCode springs_keep_energy(State& s, const std::vector<double>& z, bool* sound);
   // Ends such a step by a second implicit Euler step of h' from z instead (docs/method.md#time-integrators).
   PetscErrorCode complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,
                                    StepSolve& out);
@@ -188,6 +189,8 @@ class StepObjective : public Objective {
   InertiaTerm inertia_;  // 1/2 (x - y)^T M (x - y): M, y
   Vec work_ = nullptr;    // the initial guess's step from x_n
   Vec end_x_ = nullptr, end_v_ = nullptr;  // end_is_sound's x_{n+1}, v_{n+1}
+  Vec kinetic_ = nullptr;                  // springs_keep_energy's M v
+  std::vector<double> start_pos_;          // springs_keep_energy's x_n (local, fixed vertices at t_n)
   Vec rest_ = nullptr, rest_grad_ = nullptr;  // static: the rest positions and grad g there (load_scale_)
   PetscInt evaluations_ = 0;
   std::shared_ptr<RunCounts> counts_ = std::make_shared<RunCounts>();

@@ -17,6 +17,7 @@
 #include "materials/hinge_bending.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
+#include "terms/midpoint_defect.hpp"
 #include "terms/spring_set.hpp"
 
 namespace hyperqn {
@@ -39,6 +40,15 @@ class ClothBending : public EnergyTerm {
     return 0;
   }
   double dissipated_energy() const override { return springs_.dissipated_energy(); }
+  // The springs' in closed form, the hinges' from their energy (terms/midpoint_defect.hpp).
+  bool has_midpoint_defect() const override { return true; }
+  void add_midpoint_defect(const std::vector<double>& start, const std::vector<double>& z, const std::vector<double>& end,
+                           double* defect, double* scale) const override {
+    if (model_ == BendingModel::springs)
+      springs_.add_midpoint_defect(start.data(), z.data(), end.data(), defect, scale);
+    else
+      midpoint_defect_by_energy(*this, start, z, end, defect, scale);
+  }
 
  private:
   const DistributedMesh& mesh_;

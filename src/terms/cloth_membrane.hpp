@@ -10,6 +10,7 @@
 #include "materials/membrane.hpp"
 #include "mesh/distributed_mesh.hpp"
 #include "terms/energy_term.hpp"
+#include "terms/midpoint_defect.hpp"
 
 namespace hyperqn {
 
@@ -24,6 +25,12 @@ class ClothMembrane : public EnergyTerm {
   // membrane_stress: each triangle's Cauchy stress (membrane::cauchy_stress), a force per length.
   std::vector<ElementField> element_fields() const override { return {ElementField::membrane_stress}; }
   void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
+  // The implicit midpoint's energy test, from its energy (terms/midpoint_defect.hpp).
+  bool has_midpoint_defect() const override { return true; }
+  void add_midpoint_defect(const std::vector<double>& start, const std::vector<double>& z, const std::vector<double>& end,
+                           double* defect, double* scale) const override {
+    midpoint_defect_by_energy(*this, start, z, end, defect, scale);
+  }
 
  private:
   const DistributedMesh& mesh_;

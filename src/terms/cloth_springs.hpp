@@ -33,6 +33,11 @@ class ClothSprings : public EnergyTerm {
     return 0;
   }
   double dissipated_energy() const override { return springs_.dissipated_energy(); }
+  bool has_midpoint_defect() const override { return true; }
+  void add_midpoint_defect(const std::vector<double>& start, const std::vector<double>& z, const std::vector<double>& end,
+                           double* defect, double* scale) const override {
+    springs_.add_midpoint_defect(start.data(), z.data(), end.data(), defect, scale);
+  }
 
  private:
   const DistributedMesh& mesh_;

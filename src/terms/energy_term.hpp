@@ -194,6 +194,17 @@ class EnergyTerm {
   virtual std::vector<ElementField> element_fields() const { return {}; }
   virtual void fill_element_fields(const std::vector<double>& /*pos*/, std::vector<ElementFieldValues>& /*fields*/) const {}
   virtual PetscErrorCode limit_step(Vec /*x*/, Vec /*dir*/, double* /*alpha*/) const { return 0; }
+
+  // The implicit midpoint's energy check (StepObjective::springs_keep_energy): over this
+  // rank's elements, adds to *defect the sum of E_e(end) - E_e(start) - dE_e/dx(z) . (end - start),
+  // the energy the step's end map makes beyond the work of the forces at z (0 for an energy
+  // quadratic along the step), and to *scale the sum of E_e(start) + E_e(end) + |that work|; local
+  // positions, each at its time (fixed vertices at t_n, t_n + h/2, t_{n+1}). Only terms with
+  // has_midpoint_defect add anything: strands and cloth (edge and bending springs in closed form,
+  // membranes and hinges from their energy, terms/midpoint_defect.hpp).
+  virtual bool has_midpoint_defect() const { return false; }
+  virtual void add_midpoint_defect(const std::vector<double>& /*start*/, const std::vector<double>& /*z*/,
+                                   const std::vector<double>& /*end*/, double* /*defect*/, double* /*scale*/) const {}
 };
 
 }  // namespace hyperqn

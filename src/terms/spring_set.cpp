@@ -197,4 +197,26 @@ void SpringSet::add_energy(const double* pos, double* energy, PetscScalar* gradi
                             pos, gradient);
 }
 
+// Per spring, with d the edge at start, z and end and W = dE/dx(z) . (end - start) = k (l_z - L)
+// d_z . (d_e - d_n) / l_z the work of its forces at z over the step: E(end) - E(start) - W, which is
+// 0 for a spring that only stretches (E is then quadratic along the step) and k L (l_e - l_n)
+// ((l_e + l_n) / (2 l_z) - 1) where z is the mean: > 0 where it lengthens while it turns or buckles
+// (its chord at z is short of both ends), the midpoint's energy out of nothing.
+void SpringSet::add_midpoint_defect(const double* start, const double* z, const double* end, double* defect,
+                                    double* scale) const {
+  double sum = 0, size = 0;
+  for (size_t s = 0; s < count_; ++s) {
+    const PetscInt ab[2] = {a_[s], b_[s]};
+    const Vec3 dn = segment_edge(start, ab), dz = segment_edge(z, ab), de = segment_edge(end, ab);
+    const double L = rest_[s], k = k_[s];
+    const double ln = spring::length(dn, L), lz = spring::length(dz, L), le = spring::length(de, L);
+    const double En = 0.5 * k * (ln - L) * (ln - L), Ee = 0.5 * k * (le - L) * (le - L);
+    const double W = k * (lz - L) * dz.dot(de - dn) / lz;
+    sum += Ee - En - W;
+    size += En + Ee + std::fabs(W);
+  }
+  *defect += sum;
+  *scale += size;
+}
+
 }  // namespace hyperqn

@@ -54,6 +54,10 @@ class SpringSet {
   PetscErrorCode add_hessian(const double* pos, Mat H, double scale, bool psd, bool elastic = false) const;
   // A += scale * (each spring's stiffness) * [1 -1; -1 1] on its ends (EnergyTerm::add_laplacian).
   PetscErrorCode add_laplacian(Mat A, double scale, int components) const;
+  // The implicit midpoint's energy check (EnergyTerm::add_midpoint_defect) over the springs, each
+  // as the elastic spring k/2 (l - L)^2 of its rest length (a yielding one's flow left out).
+  void add_midpoint_defect(const double* start, const double* z, const double* end, double* defect,
+                           double* scale) const;
 
  private:
   static constexpr size_t kArrangeRun = 256;

@@ -34,6 +34,11 @@ class StrandSegments : public EnergyTerm {
     return 0;
   }
   double dissipated_energy() const override { return springs_.dissipated_energy(); }
+  bool has_midpoint_defect() const override { return true; }
+  void add_midpoint_defect(const std::vector<double>& start, const std::vector<double>& z, const std::vector<double>& end,
+                           double* defect, double* scale) const override {
+    springs_.add_midpoint_defect(start.data(), z.data(), end.data(), defect, scale);
+  }
   // axial_force: each segment's tension EA (l/L - 1) (yielding: EA (l/L - 1 - eps_p)).
   std::vector<ElementField> element_fields() const override { return {ElementField::axial_force}; }
   void fill_element_fields(const std::vector<double>& pos, std::vector<ElementFieldValues>& fields) const override;
