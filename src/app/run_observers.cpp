@@ -514,6 +514,24 @@ PetscErrorCode RunLogs::note_dissipated() {
   if (!body.element_states().empty()) {
     PetscCall(body.dissipated_energy(&run_.summary.dissipated_energy));
     run_.summary.dissipated_energy += run_.summary.dissipated_removed;
+    // viscoelastic_prony's small-strain measures: the largest strain reached, and a warning the first
+    // time it passes kSmallStrain (docs/viscoelastic-prony.md#dissipation-and-energy).
+    constexpr double kSmallStrain = 0.05;
+    double reach = -1;
+    for (const auto& t : body.terms()) reach = std::max(reach, t->small_strain_reach());
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &reach, 1, MPI_DOUBLE, MPI_MAX, run_.comm));
+    if (reach >= 0) {
+      double& kept = run_.summary.small_strain_reach;  // a restart's from its checkpoint
+      const double before = std::isnan(kept) ? 0.0 : kept;
+      kept = std::max(before, reach);
+      if (before < kSmallStrain && kept >= kSmallStrain)
+        PetscCall(PetscPrintf(run_.comm,
+                              "WARNING: viscoelastic_prony tets reached a strain |E| of %.3g: their dissipated_energy "
+                              "(summary.json, energy.csv) and the branches' stored energy are small-strain measures, "
+                              "not the energy lost; at this strain they may be off by more than %.0f %% of the work "
+                              "(summary.json's prony_largest_strain; docs/viscoelastic-prony.md#dissipation-and-energy)\n",
+                              kept, 100 * kSmallStrain));
+    }
   }
   PetscFunctionReturn(0);
 }

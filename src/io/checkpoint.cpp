@@ -192,6 +192,8 @@ std::map<std::string, std::string> texts_of(const CheckpointHeader& h) {
   for (const auto& f : kLongFields) head.put(std::string("summary_") + f.name, s.*f.member);
   for (const auto& f : kIntFields) head.put(std::string("summary_") + f.name, (long long)(s.*f.member));
   for (const auto& f : kRealFields) head.put(std::string("summary_") + f.name, s.*f.member);
+  // NaN (no viscoelastic_prony tets) kept as -1: a header's values compare equal.
+  head.put("summary_small_strain_reach", std::isnan(s.small_strain_reach) ? -1.0 : s.small_strain_reach);
   head.put("summary_first_intrusion", s.first_intrusion);
   head.put("summary_first_self_crossing", s.first_self_crossing);
   char momentum0[80];
@@ -315,6 +317,8 @@ CheckpointHeader header_of(const std::function<std::string(const std::string&)>&
     const std::string key = std::string("summary_") + f.name;
     s.*f.member = head.has(key) ? head.get_real(key) : 0;
   }
+  s.small_strain_reach = head.has("summary_small_strain_reach") ? head.get_real("summary_small_strain_reach") : -1.0;
+  if (s.small_strain_reach < 0) s.small_strain_reach = NAN;
   if (head.has("summary_first_intrusion")) s.first_intrusion = head.get("summary_first_intrusion");
   if (head.has("summary_first_self_crossing")) s.first_self_crossing = head.get("summary_first_self_crossing");
   if (head.has("summary_momentum0")) {
@@ -811,6 +815,7 @@ void restore_frame_counters(RunSummary& s, const RunSummary& saved) {
   s.first_intrusion = saved.first_intrusion;
   s.first_self_crossing = saved.first_self_crossing;
   s.momentum0 = saved.momentum0;
+  s.small_strain_reach = saved.small_strain_reach;
 }
 
 void add_earlier_work(RunSummary& s, const RunSummary& earlier) {

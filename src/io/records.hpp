@@ -107,6 +107,10 @@ struct RunSummary {
   // them, and no entry in summary.json), by every element, those a topology change took away
   // included: dissipated_removed is theirs (kept in the checkpoint).
   double dissipated_energy = std::nan("");
+  // viscoelastic_prony's tets: the largest strain |E| its updates saw (NaN: a scene without them,
+  // and no entry in summary.json). Its dissipation and stored energy are small-strain measures,
+  // not the energy lost past a few percent (docs/viscoelastic-prony.md#dissipation-and-energy).
+  double small_strain_reach = std::nan("");
   double dissipated_removed = 0;
   // Scripted cuts (deck cuts:; summary.json's "cuts" only with them): faces separated, vertices
   // added (a restart's replay included), the steps with separations whose H0 followed by a

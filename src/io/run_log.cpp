@@ -231,6 +231,7 @@ void write_summary(const std::string& path, const RunSummary& s) {
       << "  \"contact_evaluations\": " << s.contact_evaluations << ",\n"
       << reactions_entry(s.reactions)
       << (std::isnan(s.dissipated_energy) ? "" : "  \"dissipated_energy\": " + number(s.dissipated_energy) + ",\n")
+      << (std::isnan(s.small_strain_reach) ? "" : "  \"prony_largest_strain\": " + number(s.small_strain_reach) + ",\n")
       << (!s.cuts ? "" : "  \"cuts\": {\"faces_separated\": " + std::to_string(s.faces_separated - s.faces_broken) +
                              ", \"vertices_added\": " + std::to_string(s.cut_vertices) +
                              ", \"tets_removed\": " + std::to_string(s.tets_removed) +

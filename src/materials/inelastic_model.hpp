@@ -59,6 +59,10 @@ class InelasticModel {
   virtual double dissipation(const Mat3& F, const double* start, double dt, const double* end) const = 0;
   // Its weight in L (the instantaneous stiffness it adds near rest, as a fibre adds k).
   virtual double laplacian_weight() const = 0;
+  // A model whose stored energy and dissipation are small-strain measures (viscoelastic_prony):
+  // the largest strain |E| (Frobenius, E = (F^T F - I)/2) any update on this rank has seen since
+  // the scene was built; -1 for the others, whose measures hold at every strain.
+  virtual double small_strain_reach() const { return -1; }
   // Whether its history has measure m, and m's value for a history (the output fields).
   virtual bool has_measure(HistoryMeasure /*m*/) const { return false; }
   virtual double measure(HistoryMeasure /*m*/, const double* /*history*/) const { return 0; }

@@ -19,6 +19,7 @@
 // isotropic rest tangent (mu, lambda; a fibre's share left out), and dissipates H_i : D0^{-1} : H_i /
 // (gt_i tau_i), integrated exactly over the step along the same S0 linear in time (>= 0).
 // Registered as one InelasticKind (viscoelastic_prony_kind, listed in material_factory.cpp).
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -154,7 +155,9 @@ class PronyViscoelastic : public InelasticModel {
     for (int i = 0; i < count(); ++i)
       for (int c = 0; c < 6; ++c) end[6 * i + c] = k.q[i] * start[6 * i + c] + k.gamma[i] * (s0[c] - s0n[c]);
     for (int c = 0; c < 6; ++c) end[6 * count() + c] = s0[c];
+    reach_ = std::max(reach_, (0.5 * (F.transpose() * F - Mat3::Identity())).norm());
   }
+  double small_strain_reach() const override { return reach_; }
   // Per branch the integral over the step of H : D0^{-1} : H / (gt tau), H(s) = e^{-s/tau} H_n +
   // phi(s) R, phi(s) = tau/dt (1 - e^{-s/tau}), R = gt (S0 end - S0 start): the Gram form of
   // e^{-s/tau} and phi over [0, dt] (positive semidefinite; its round-off below 0 clamped).
@@ -223,6 +226,7 @@ class PronyViscoelastic : public InelasticModel {
   std::vector<PronyBranch> branches_;
   double mu_, lambda_;
   mutable StepCoefficients last_;  // one rank, one thread per model
+  mutable double reach_ = 0;       // small_strain_reach
 };
 
 std::unique_ptr<InelasticModel> create_prony(const MaterialSpec& spec) {

@@ -164,6 +164,9 @@ class EnergyTerm {
   // The energy its elements on this rank have dissipated since the run began (J, in the state as
   // it stands; a material with history: docs/inelastic.md#what-a-run-reports), 0 for an elastic term.
   virtual double dissipated_energy() const { return 0; }
+  // The largest strain at which its elements' dissipation is a small-strain measure
+  // (InelasticModel::small_strain_reach: viscoelastic_prony), -1 where none is.
+  virtual double small_strain_reach() const { return -1; }
   // The lumped mass per free dof (global layout, Body::lumped_mass) once the scene knows it, for
   // a term whose parameters scale with the mass (the contact penalty).
   virtual PetscErrorCode set_masses(Vec /*mass*/) { return 0; }

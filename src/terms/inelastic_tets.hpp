@@ -9,6 +9,7 @@
 // (or the deck's laplacian_weight) plus the model's. One term per inelastic kind
 // (model/elastic_terms.cpp); a scene without inelastic materials has none.
 #pragma once
+#include <algorithm>
 #include <memory>
 
 #include "materials/inelastic_model.hpp"
@@ -36,6 +37,11 @@ class InelasticTets : public TetElements {
   PetscErrorCode add_rest_stiffness(const std::vector<double>& rest, Mat H, double scale) const override;
   PetscErrorCode update_state(const std::vector<double>& pos) override;
   double dissipated_energy() const override;
+  double small_strain_reach() const override {
+    double reach = -1;
+    for (const auto& m : models_) reach = std::max(reach, m->small_strain_reach());
+    return reach;
+  }
   double step_length() const { return dt_; }
   // The tets' fields and dissipated_energy, and those of its models' histories (viscous_strain,
   // equivalent_plastic_strain), each where a model has it (NaN in the others' tets).
