@@ -378,7 +378,7 @@ def test_auto_rest_stiffness_at_2_ranks(tmp_path):
 
 def test_factor_nonzeros_are_written_whole(tmp_path):
     # summary.json's h0_factor_nonzeros was streamed at 6 significant digits: 1.4211e+06 for this
-    # box's 1,421,1xx entries (the other numbers are written at full precision)
+    # box's 1,421,100 entries (the other numbers are written at full precision)
     deck = {"mesh": {"box": {"size": [1.0, 1.0, 1.0], "cells": [12, 12, 12]}},
             "material": {"model": "corotated", "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 100},
             "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 2, 2]}}],
