@@ -39,7 +39,8 @@ class InelasticTets : public TetElements {
   double dissipated_energy() const override;
   double small_strain_reach() const override {
     double reach = -1;
-    for (const auto& m : models_) reach = std::max(reach, m->small_strain_reach());
+    for (const auto& m : models_)  // (none for a material of no inelastic model: models_ is by material)
+      if (m) reach = std::max(reach, m->small_strain_reach());
     return reach;
   }
   double step_length() const { return dt_; }
