@@ -59,10 +59,15 @@ StudyWriter::StudyWriter(const std::string& outdir, int rank) {
   open_csv(study_csv_, outdir + "/study.csv", "solver,frame,iteration,time_s,energy,grad_norm,rel_error,evaluations");
   open_csv(trajectory_csv_, outdir + "/trajectory.csv", "solver,frame,time_s,iterations,rms_error,rel_rms_error,status");
   h5_path_ = outdir + "/study.h5";
-  h5_tmp_ = atomic_temporary(h5_path_);
   g_h5_path = h5_path_;
   silence_hdf5();
-  h5_ = H5Fcreate(h5_tmp_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  // In memory until finish() writes its image (as Hdf5File does): a full disk fails our write, not
+  // HDF5's, which left a file it could not close, and crashed at MPI_Finalize closing it again.
+  const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  // STRONG: closing the file closes the groups an interrupted add left open.
+  if (fapl >= 0 && H5Pset_fapl_core(fapl, 1 << 20, false) >= 0 && H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG) >= 0)
+    h5_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  if (fapl >= 0) H5Pclose(fapl);
   if (h5_ < 0) throw std::runtime_error("cannot write " + h5_path_ + ": " + hdf5_error_reason());
 }
 
@@ -157,18 +162,20 @@ void StudyWriter::finish_file() {
     }
     H5Gclose(traj);
   }
-  const herr_t closed = H5Fclose(h5_);
+  std::string image;
+  const ssize_t size = H5Fflush(h5_, H5F_SCOPE_GLOBAL) < 0 ? -1 : H5Fget_file_image(h5_, nullptr, 0);
+  if (size > 0) image.resize((size_t)size);
+  const bool imaged = size > 0 && H5Fget_file_image(h5_, &image[0], image.size()) == size;
+  const std::string reason = imaged ? "" : hdf5_error_reason();
+  const herr_t closed = H5Fclose(h5_);  // in memory: it cannot fail for want of space
   h5_ = -1;
   active_ = false;
-  if (closed < 0) throw std::runtime_error("cannot write " + h5_path_ + ": " + hdf5_error_reason());
-  commit_temporary(h5_tmp_, h5_path_);
+  if (!imaged || closed < 0) throw std::runtime_error("cannot write " + h5_path_ + ": " + reason);
+  write_file_atomically(h5_path_, image);
 }
 
 StudyWriter::~StudyWriter() {
-  if (h5_ >= 0) {  // finish() was not reached: the unfinished file never takes the name study.h5
-    H5Fclose(h5_);
-    std::remove(h5_tmp_.c_str());
-  }
+  if (h5_ >= 0) H5Fclose(h5_);  // finish() was not reached: nothing of study.h5 is written
 }
 
 }  // namespace hyperqn

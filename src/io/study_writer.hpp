@@ -60,7 +60,7 @@ class StudyWriter {
   bool active_ = false;
   LineFile study_csv_, trajectory_csv_;
   hid_t h5_ = -1;
-  std::string h5_path_, h5_tmp_;  // study.h5 and the temporary it is written under
+  std::string h5_path_;  // study.h5, held in memory until finish()
   std::vector<TrajectoryPoint> trajectory_;
 };
 
