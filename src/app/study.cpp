@@ -437,14 +437,21 @@ int clear_earlier_study(const std::string& root) {
 }
 
 // root: the directory of the whole study (outdir, or its parent for one integrator's), cleared of
-// an earlier study once this one's checks have passed (clear).
-int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& root, bool clear) {
+// an earlier study once this one's checks have passed (clear: the first integrator's), when the
+// study takes root's lock (held by run_study until its last integrator ends).
+int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& root, bool clear,
+                  OutputLock& lock) {
   int rank;
   MPI_Comm_rank(comm, &rank);
   const StudySpec& st = deck.study;
 
   RunOptions options;
   if (read_run_options(comm, &options, &deck)) return 1;
+  if (clear)  // a study running into root now: refused before the minutes of setup
+    if (const std::string busy = output_directory_in_use(comm, root); !busy.empty()) {
+      print_error(comm, busy);
+      return 1;
+    }
   SceneInput input;
   MemoryPlan plan;  // M + h^2 L factored for the contenders, and the reference's Newton
   plan.split = splits_on_many_ranks(options.h0_package);
@@ -471,6 +478,13 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
   }
   try {
     create_output_directory(comm, outdir);
+    if (clear) {  // one run or study at a time in root, as a run's OUTDIR (docs/outputs.md)
+      const std::string busy = lock.take(comm, root, "study of deck " + deck.path);
+      if (!busy.empty()) {
+        print_error(comm, busy);
+        return 1;
+      }
+    }
     // Rank 0 writes alone: its failure must end the study on every rank.
     std::unique_ptr<StudyWriter> writer;
     std::string error;
@@ -516,13 +530,14 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
 }
 
 int run_study(MPI_Comm comm, const Deck& deck, const std::string& outdir) {
-  if (deck.study.integrators.empty()) return run_one_study(comm, deck, outdir, outdir, true);
+  OutputLock lock;  // outdir is this study's until it returns
+  if (deck.study.integrators.empty()) return run_one_study(comm, deck, outdir, outdir, true, lock);
   for (TimeIntegrator kind : deck.study.integrators) {
     Deck one = deck;
     one.time.integrator = kind;
     const std::string name = integrator_info(kind).name;
     PetscPrintf(comm, "hyperqn: study with %s\n", name.c_str());
-    if (const int status = run_one_study(comm, one, outdir + "/" + name, outdir, kind == deck.study.integrators.front()))
+    if (const int status = run_one_study(comm, one, outdir + "/" + name, outdir, kind == deck.study.integrators.front(), lock))
       return status;
   }
   return 0;

@@ -294,3 +294,43 @@ def test_a_second_run_into_a_directory_in_use_is_refused(tmp_path, ranks):
     assert (out / ".hyperqn.lock").exists()  # left by the kill, unlocked
     run_hyperqn([second, "-o", out], ranks=ranks, timeout=120)
     assert check_complete(out)["status"] == "ok" and not (out / ".hyperqn.lock").exists()
+
+
+@pytest.mark.parametrize("ranks", [None, 2])
+def test_a_study_takes_the_directory_lock(tmp_path, ranks):
+    # A study took no lock: a second study (or a run) into its directory meanwhile removed its files
+    # and wrote beside them. Now a study holds OUTDIR's lock as a run does, refuses a directory held,
+    # and releases it (removing the file) at its end.
+    import fcntl
+    study = os.path.join(REPO, "tests", "decks", "study_small.yaml")
+    out = tmp_path / "study"
+    out.mkdir()
+    with open(out / ".hyperqn.lock", "w") as held:  # another process holds the directory
+        fcntl.flock(held, fcntl.LOCK_EX)
+        held.write("pid 4242 on host elsewhere, started now, deck other.yaml\n")
+        held.flush()
+        refused = run_hyperqn(["study", study, "-o", out], ranks=ranks, check=False, timeout=120)
+        assert refused.returncode == 1, refused.stdout[-2000:]
+        assert f"hyperqn: error: the output directory {out} is in use by another run" in refused.stdout
+        assert "other.yaml" in refused.stdout and refused.stdout.count("hyperqn: error") == 1
+        assert sorted(p.name for p in out.iterdir()) == [".hyperqn.lock"]
+    (out / ".hyperqn.lock").unlink()
+    # While the study runs, the directory is locked; the study ends whole and leaves no lock file.
+    cmd = launch.command(["study", study, "-o", out], ranks, HYPERQN, MPIEXEC)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+    try:
+        deadline = time.time() + 60
+        while not (out / "study.json").exists() and time.time() < deadline and proc.poll() is None:
+            time.sleep(0.02)
+        assert proc.poll() is None, "the study ended before its lock was tried: make it slower"
+        with open(out / ".hyperqn.lock") as probe:
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(probe, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        stdout, _ = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            sessions.send([proc.pid] + hyperqn_pids(proc.pid), signal.SIGKILL)
+            proc.wait(timeout=10)
+    assert proc.returncode == 0, stdout[-2000:]
+    assert (out / "study.csv").exists() and not (out / ".hyperqn.lock").exists()
