@@ -21,6 +21,6 @@ int stop_signal_on_any_rank(MPI_Comm comm) {
   MPI_Allreduce(&sig, &any, 1, MPI_INT, MPI_MAX, comm);
   return any;
 }
-const char* stop_signal_name(int sig) { return sig == SIGTERM ? "SIGTERM" : "SIGUSR1"; }
+const char* stop_signal_name(int sig) { return sig == SIGTERM ? "SIGTERM" : sig == SIGINT ? "SIGINT" : "SIGUSR1"; }
 
 }  // namespace hyperqn

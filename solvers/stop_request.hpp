@@ -1,4 +1,4 @@
-// A stop asked of a run by a signal (SIGTERM, SIGUSR1: app/run_checkpoints.cpp catches them and
+// A stop asked of a run by a signal (SIGTERM, SIGUSR1, SIGINT: app/run_checkpoints.cpp catches them and
 // records them here) while a frame is being solved (docs/outputs.md#checkpoints).
 //
 // A signal reaches one rank, or each rank at a moment of its own, but the ranks must give up their
@@ -27,6 +27,6 @@ bool stop_agreed();
 
 // Between frames: the stop signal any rank of comm received (collective; 0: none), and its name.
 int stop_signal_on_any_rank(MPI_Comm comm);
-const char* stop_signal_name(int sig);  // "SIGTERM" or "SIGUSR1"
+const char* stop_signal_name(int sig);  // "SIGTERM", "SIGINT" or "SIGUSR1"
 
 }  // namespace hyperqn

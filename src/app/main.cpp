@@ -44,7 +44,7 @@ static const char usage[] =
     "              for a study output/study/<deck name>)\n"
     "  --restart PATH|latest|auto   continue the run that last wrote OUTDIR: from a checkpoint file of\n"
     "              it, or from its newest whole one in OUTDIR/checkpoints; auto: that, or the deck afresh\n"
-    "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM or\n"
+    "              if it has none (docs/outputs.md#checkpoints); exit code 3: stopped by SIGTERM, SIGINT or\n"
     "              SIGUSR1 after writing a checkpoint\n"
     "  config: prints every setting of the run with its value and source (deck line, default, a rule, or\n"
     "              the command line); a run writes the same to OUTDIR/config.yaml (docs/deck-run.md)\n"

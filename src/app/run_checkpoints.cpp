@@ -8,8 +8,9 @@
 
 namespace hyperqn {
 
-// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm) ask the run to stop with a
-// checkpoint of its last whole frame. The handler only records the signal (async-signal-safe,
+// SIGTERM and SIGUSR1 (a batch system's notice, docker/hyperqn.slurm), and SIGINT (Ctrl-C at a
+// terminal) ask the run to stop with a checkpoint of its last whole frame; a second SIGINT ends the
+// process at once (the system's default, restored by the first). The handler only records the signal (async-signal-safe,
 // solvers/stop_request.hpp); the ranks agree on it at the next evaluation of g during a frame's
 // solve (which then ends), or between frames once per frame (Checkpointer::after_frame).
 extern "C" void on_stop_signal(int sig) { record_stop_signal(sig); }
@@ -20,6 +21,8 @@ void catch_stop_signals() {
   action.sa_flags = SA_RESTART;  // blocking calls (MPI, file writes) go on
   sigaction(SIGTERM, &action, nullptr);
   sigaction(SIGUSR1, &action, nullptr);
+  action.sa_flags |= SA_RESETHAND;
+  sigaction(SIGINT, &action, nullptr);
 }
 
 Checkpointer::Checkpointer(const RunContext& run, const Setup& setup) : run_(run), setup_(setup) {

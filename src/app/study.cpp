@@ -337,7 +337,7 @@ class TrajectoryErrors : public FrameObserver {
   double diagonal_;  // the rest bounding-box diagonal
 };
 
-// A stop signal (SIGTERM, SIGUSR1) ends the study after the last frame all of whose solves it did not
+// A stop signal (SIGTERM, SIGUSR1, SIGINT) ends the study after the last frame all of whose solves it did not
 // cut short; the files hold the frames up to it (Study::signal, last_frame). Observes last.
 class StudyStop : public FrameObserver {
  public:

@@ -190,7 +190,10 @@ def test_restart_asking_for_a_log_the_run_did_not_write_is_refused_and_writes_no
     assert tree_digest(out) == before
 
 
-def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path):
+# SIGINT: Ctrl-C at a terminal to a run without mpiexec (which turns it into SIGTERM to the ranks);
+# it ended the process with no checkpoint and summary.json "incomplete".
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path, sig):
     frames = 300  # a few seconds: the signal comes long before the end
     base = dict(MOTION, name="run", time={"dt": 0.05, "frames": frames}, output={"every": 10})
     base["fixed"] = [CLAMP, dict(MOTION["fixed"][1], release=4.0)]
@@ -203,15 +206,16 @@ def test_sigterm_writes_a_checkpoint_and_the_restart_finishes_the_run(tmp_path):
     deadline = time.time() + 60
     while not (out / "run_00010.vtu").exists() and proc.poll() is None and time.time() < deadline:
         time.sleep(0.01)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     text, _ = proc.communicate(timeout=120)
     assert proc.returncode == 3, text[-2000:]
     summary = read_summary(out)
     stopped = summary["frames"]
     # Between two frames, or during one (given up: the checkpoint is of the frame before).
-    assert summary["status"].startswith((f"interrupted: SIGTERM after frame {stopped} of",
-                                         f"interrupted: SIGTERM during frame {stopped + 1} of")), summary["status"]
-    assert 10 <= stopped < frames
+    name = signal.Signals(sig).name
+    assert summary["status"].startswith((f"interrupted: {name} after frame {stopped} of",
+                                         f"interrupted: {name} during frame {stopped + 1} of")), summary["status"]
+    assert summary["signal"] == name and 10 <= stopped < frames
     assert os.listdir(out / "checkpoints") == [f"checkpoint_{stopped}.h5"]
     run_hyperqn([path, "-o", out, "--restart", "latest"])
     assert_same_run(ref, out)
