@@ -23,7 +23,7 @@ import sys
 
 import numpy as np
 
-from hyperqn_tools.cli import ArgumentParser, fraction, unwritable_file
+from hyperqn_tools.cli import ArgumentParser, fraction, unwritable_file, writing
 from hyperqn_tools.output import frame_list, read_frame
 
 RTOL = 1e-8
@@ -232,11 +232,11 @@ def main(argv=None):
     print(f"largest: {worst['intersecting_pairs']} intersecting pairs (frame {worst['frame']}); "
           f"tolerance {a.rtol:g} x the bounding-box diagonal")
     if a.json:
-        try:
-            with open(a.json, "w") as f:
+        try:  # writing: a full disk leaves no partial file
+            with writing(a.json), open(a.json, "w") as f:
                 json.dump({"outdir": a.outdir, "rtol": a.rtol, "frames": rows,
                            "largest": {"frame": worst["frame"], "intersecting_pairs": worst["intersecting_pairs"]}}, f, indent=1)
-        except OSError as e:  # what unwritable_file cannot see (root on a read-only file system)
+        except OSError as e:  # what unwritable_file cannot see (root on a read-only file system, a full disk)
             p.error(f"--json {a.json}: {e.strerror}")
     return 0
 

@@ -333,3 +333,23 @@ def test_stability_suite_names_a_file_it_cannot_write(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert_said(proc, f"error: cannot write {run / 'deck.yaml'}: No space left on device")
     assert not (tmp_path / "out" / "stability.csv").exists()
+
+
+def test_intersections_json_on_a_full_disk(runs, tmp_path):
+    """A full disk while --json is written: the error names the file and no partial JSON is left
+    (before: `--json F: No space left on device` beside F cut short)."""
+    from test_safe_outputs import small_disk
+    _, bar, _, _ = runs
+    with small_disk(tmp_path / "disk", "40k") as mnt:
+        filler = mnt / "filler"
+        with open(filler, "wb", buffering=0) as f:  # fill it: the JSON gets no block
+            try:
+                while True:
+                    f.write(b"x" * 512)
+            except OSError:
+                pass
+        target = mnt / "counts.json"
+        proc = tool("hyperqn_tools.intersections", bar, "--json", target)
+        assert_said(proc, "--json", str(target))
+        assert "No space left on device" in proc.stderr
+        assert not target.exists()
