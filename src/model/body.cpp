@@ -254,7 +254,7 @@ PetscErrorCode Body::local_velocities(Vec v, std::vector<double>& vel) const {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
+PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad, bool with_contact) const {
   PetscScalar *array = nullptr, *gl = nullptr, no_dofs = 0;
   PetscFunctionBeginUser;
   PetscCall(local_positions(x, pos_));
@@ -268,7 +268,8 @@ PetscErrorCode Body::energy_gradient(Vec x, PetscReal* energy, Vec grad) const {
   // The energies and the ranks' stop votes in one reduction (solvers/stop_request.hpp): a signal
   // that reached any rank is known to all at this evaluation, at no cost of its own.
   double local[2] = {0, stop_vote()}, global[2];
-  for (const auto& term : terms_) PetscCall(term->add_energy(x, pos_, &local[0], gl));
+  for (const auto& term : terms_)
+    if (with_contact || !term->is_contact()) PetscCall(term->add_energy(x, pos_, &local[0], gl));
   PetscCallMPI(MPI_Allreduce(local, global, 2, MPIU_REAL, MPI_SUM, PetscObjectComm((PetscObject)mesh_.dm)));
   *energy = global[0];
   count_stop_votes(global[1]);

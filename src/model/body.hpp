@@ -114,8 +114,9 @@ class Body {
   PetscErrorCode local_values(Vec global, std::vector<double>& out) const;
   // Local values of a global velocity vector (fixed vertices: their prescribed velocity).
   PetscErrorCode local_velocities(Vec v, std::vector<double>& vel) const;
-  // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs.
-  PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad) const;
+  // E(x) summed over all ranks; if grad is not null, also dE/dx on the free dofs. Without contact:
+  // the terms that are not EnergyTerm::is_contact only.
+  PetscErrorCode energy_gradient(Vec x, PetscReal* energy, Vec grad, bool with_contact = true) const;
   // det F per local tet at the given local positions.
   void cell_jacobians(const std::vector<double>& pos, std::vector<double>& J) const;
   // The smallest det F and the largest |det F| of all tets at x, over all ranks (collective).

@@ -170,6 +170,8 @@ class StepObjective : public Objective {
   // For an integrator whose end map extrapolates past z: false if x_{n+1} would invert a tet that
   // is upright at z, or blow one past the element limit that is within it at z.
   PetscErrorCode end_is_sound(State& s, bool* sound);
+  // objective(), with or without the contact terms (Body::energy_gradient).
+  PetscErrorCode evaluate(Vec x, PetscReal* g, Vec grad, bool with_contact);
   PetscErrorCode springs_keep_energy(State& s, const std::vector<double>& z, bool* sound);
   // Ends such a step by a second implicit Euler step of h' from z instead (docs/method.md#time-integrators).
   PetscErrorCode complete_by_euler(TimeStepSolver& solver, State& s, const IterationCallback& on_iteration,

@@ -68,6 +68,7 @@ class ContactTerm : public EnergyTerm {
   // Its whole Hessian (psd): every block is a single vertex's.
   PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
   bool has_vertex_stiffness() const override { return true; }
+  bool is_contact() const override { return true; }
   bool projective_dynamics_exact() const override { return false; }
   // The barrier bounds steps (no vertex may reach an obstacle); the penalty does not.
   bool bounds_steps() const override { return barrier_; }

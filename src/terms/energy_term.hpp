@@ -137,6 +137,9 @@ class EnergyTerm {
   // primitives that passed through each other are apart again, so their energy alone would not
   // refuse the guess, unlike a vertex inside an obstacle).
   virtual bool couples_surfaces() const { return false; }
+  // True for contact (obstacles, self-contact): its forces are the reactions of surfaces, not
+  // loads, so a static step's force scale leaves them out (StepObjective::begin_step).
+  virtual bool is_contact() const { return false; }
   // True if begin_step needs the step's local positions (StepStart::start_positions, positions):
   // a term that couples surfaces, or one that takes its directions from the step's start (a
   // pressure on an open surface).

@@ -132,6 +132,7 @@ class SelfContactTerm : public EnergyTerm {
   // the frozen friction pairs, at each vertex's owner (collective).
   PetscErrorCode add_vertex_stiffness(const std::vector<double>& pos, std::vector<VertexStiffness>& out) const override;
   bool has_vertex_stiffness() const override { return true; }
+  bool is_contact() const override { return true; }
   bool projective_dynamics_exact() const override { return false; }
   bool bounds_steps() const override { return barrier_; }
   bool couples_surfaces() const override { return true; }

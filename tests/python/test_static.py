@@ -14,6 +14,7 @@
 - Bad input: a static deck with nothing that holds the body, damping, pseudo_step without static.
 """
 import copy
+import csv
 import math
 import os
 
@@ -467,3 +468,36 @@ def test_barrier_self_contact_holds_a_static_body(tmp_path):
     clamp = read_reactions(out)["bodies[0].fixed[0]"]
     assert read_summary(out)["status"] == "ok"
     assert abs(clamp["fy"][-1] - 20.0) < 1e-3 * 20
+
+
+@pytest.mark.parametrize("model", ["penalty", "barrier"])
+def test_a_static_body_started_inside_the_contact_layer_ends_at_equilibrium(tmp_path, model):
+    """Block b 0.01 above a, inside the contact layer (d = 0.0174): the contact pushes b out at the
+    start with forces no load balances. The force scale S of the stopping tests counted them (4e4
+    times the 20 N load), so after 10 iterations the penalty's frame was converged, status ok, with
+    a's clamp carrying 722 N of 20 N (the barrier's: 186 N of 29.4 N in the probe's scene). S now
+    leaves contact out: the frame goes on (here to the Newton fallback) to equilibrium."""
+    deck = stacked_blocks(model)
+    deck["bodies"][1]["mesh"]["transform"] = {"translate": [0, 0.51, 0]}
+    deck["loads"][0]["box"] = {"min": [-1, 1.0, -1], "max": [2, 1.02, 2]}
+    deck["contact"]["distance"] = 0.0174
+    deck["solver"] = {"type": "lbfgs"}
+    out = run(tmp_path, model, deck)
+    assert read_summary(out)["status"] == "ok"
+    assert abs(read_reactions(out)["bodies[0].fixed[0]"]["fy"][-1] - 20.0) < 1e-3 * 20
+
+
+def test_a_static_body_started_inside_a_colliders_layer_ends_at_equilibrium(tmp_path):
+    """A cube 0.5 mm above a barrier plane (d = 1.7 mm, the default): the plane carries its weight
+    to the static step's tolerance (measured 1.5e-3 in frame 1; before: 0.88 N of 2.94 N, status ok)."""
+    deck = {"mesh": {"box": {"size": [0.1, 0.1, 0.1], "cells": [2, 2, 2]}, "transform": {"translate": [0.1, 0.5005, 0.1]}},
+            "material": {"model": "neohookean", "youngs_modulus": 1.0e4, "poisson_ratio": 0.3, "density": 300},
+            "gravity": [0, -9.81, 0],
+            "colliders": [{"type": "plane", "point": [0, 0.5, 0], "normal": [0, 1, 0]}],
+            "contact": {"model": "barrier"},
+            "time": {"dt": 0.02, "frames": 2, "integrator": "static"}}
+    out = run(tmp_path, "cube", deck)
+    rows = list(csv.DictReader(open(out / "contact.csv")))
+    weight = 300 * 1e-3 * 9.81
+    assert read_summary(out)["status"] == "ok"
+    assert all(abs(float(r["normal_force"]) - weight) < 1e-2 * weight for r in rows), rows
