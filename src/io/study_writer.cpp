@@ -116,11 +116,12 @@ void StudyWriter::add_curve(const StudyCurve& c) {
 void StudyWriter::add(const TrajectoryPoint& p) {
   if (!active_ || !error_.empty()) return;
   std::string status = p.status;
-  std::replace(status.begin(), status.end(), ',', ';');  // one CSV field
-  char line[768];
-  std::snprintf(line, sizeof line, "%s,%d,%.9e,%lld,%.17g,%.17g,%s\n", p.solver.c_str(), p.frame, p.time_s,
-                p.iterations, p.rms_error, p.rel_rms_error, status.c_str());
-  trajectory_csv_.add(line);
+  std::replace(status.begin(), status.end(), ',', ';');  // one CSV field, on one line
+  std::replace(status.begin(), status.end(), '\n', ' ');
+  char numbers[256];  // the status after them at any length (a guardrail's reason runs to 800 characters)
+  std::snprintf(numbers, sizeof numbers, "%s,%d,%.9e,%lld,%.17g,%.17g,", p.solver.c_str(), p.frame, p.time_s,
+                p.iterations, p.rms_error, p.rel_rms_error);
+  trajectory_csv_.add(numbers + status + "\n");
   try {
     trajectory_csv_.flush();
   } catch (const std::exception& e) {
