@@ -19,6 +19,7 @@ MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMPI_MCA_odls_base_sigkill_timeout": "0"}
 WAIT_S = 1.0  # run's longest wait for the run in one call, so that a signal to the caller is taken
 STOP_GRACE_S = 10  # after SIGUSR1 on a timeout, how long the ranks get to write a checkpoint and stop
+EXIT_INTERRUPTED = 3  # hyperqn's exit code when a signal stopped it with a checkpoint (kExitInterrupted)
 
 
 class Interrupted(KeyboardInterrupt):
@@ -30,6 +31,21 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, cmd, returncode, output, signal_name="SIGINT"):
         super().__init__(f"{signal_name} while running {' '.join(cmd)}")
         self.cmd, self.returncode, self.output, self.signal_name = cmd, returncode, output, signal_name
+
+
+class Timeout(subprocess.TimeoutExpired):
+    """The run outlived its `timeout` and was stopped (`stop`: SIGUSR1, SIGKILL after STOP_GRACE_S),
+    with its exit code then: EXIT_INTERRUPTED when it stopped with a checkpoint, negative when
+    SIGKILL ended it, or the code of a run that the signal reached once its last frame's solve had
+    ended, which completes (docs/outputs.md#checkpoints)."""
+
+    def __init__(self, cmd, timeout, returncode, output=None, stderr=None):
+        super().__init__(cmd, timeout, output=output, stderr=stderr)
+        self.returncode = returncode
+
+    def completed(self):
+        """Whether the run ended by itself, not stopped by the signal (hyperqn's exit 3) or killed."""
+        return self.returncode is not None and self.returncode >= 0 and self.returncode != EXIT_INTERRUPTED
 
 
 def default_binary():
@@ -52,8 +68,8 @@ def run(args, ranks=1, binary=None, mpiexec=None, timeout=None, stdout=subproces
     """Runs hyperqn (see `command`) and returns the CompletedProcess; by default its stdout and
     stderr are one text in .stdout. stdout/stderr may also be open files or DEVNULL.
 
-    After `timeout` seconds the run is stopped, mpiexec and its ranks with it, and
-    subprocess.TimeoutExpired is raised with the output so far. check=True raises
+    After `timeout` seconds the run is stopped, mpiexec and its ranks with it, and Timeout (a
+    subprocess.TimeoutExpired) is raised with the output and the exit code. check=True raises
     CalledProcessError on a non-zero exit code. OSError when the binary cannot be started.
     Interrupted (a KeyboardInterrupt) when the caller is interrupted meanwhile: the run is stopped
     first, not left running."""
@@ -74,7 +90,7 @@ def run(args, ranks=1, binary=None, mpiexec=None, timeout=None, stdout=subproces
             except subprocess.TimeoutExpired:
                 if deadline is not None and time.monotonic() >= deadline:
                     out, err = stop(proc)
-                    raise subprocess.TimeoutExpired(cmd, timeout, output=out, stderr=err) from None
+                    raise Timeout(cmd, timeout, proc.returncode, output=out, stderr=err) from None
     except KeyboardInterrupt as e:  # not passed on to the run by the terminal (its own session)
         try:
             out, err = stop(proc)

@@ -27,7 +27,6 @@ import math
 import os
 import re
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -254,12 +253,18 @@ def run_case(case, out, np_ranks, binary, mpiexec, timeout):
     ranks = None if np_ranks == 1 else np_ranks  # alone: a singleton MPI process starts faster
     cmd = launch.command(args, ranks, binary, mpiexec)
     t0 = time.time()
-    interrupted = None
+    interrupted = late_signal = None
     try:
         proc = launch.run(args, ranks, binary, mpiexec, timeout=timeout)
         code, output = proc.returncode, proc.stdout
-    except subprocess.TimeoutExpired as e:
-        code, output = None, (e.stdout or "") + f"\nsweep: stopped after the timeout of {timeout} s\n"
+    except launch.Timeout as e:
+        if e.completed():  # the signal came once the last frame's solve had ended: the run is whole
+            code = e.returncode
+            late_signal = (f"SIGUSR1 after the timeout of {timeout} s came once the last frame's solve had "
+                           f"ended: the run completed")
+            output = (e.stdout or "") + f"\nsweep: {late_signal} (exit {code})\n"
+        else:
+            code, output = None, (e.stdout or "") + f"\nsweep: stopped after the timeout of {timeout} s\n"
     except OSError as e:  # the binary could not be started: this case fails, the sweep goes on
         code, output = None, f"sweep: cannot start {cmd[0]}: {e}\n"
     except launch.Interrupted as e:  # stopped with a checkpoint (SIGUSR1), as on a timeout
@@ -269,6 +274,8 @@ def run_case(case, out, np_ranks, binary, mpiexec, timeout):
     record = {"case": case.name, "index": case.index, "exit_code": code, "seconds": seconds, "command": cmd}
     if interrupted:
         record["interrupted"] = interrupted
+    if late_signal:
+        record["timeout"] = late_signal
     write_file(os.path.join(cdir, "run.log"), " ".join(cmd) + "\n" + output)
     write_file(os.path.join(cdir, "run.json"), json.dumps(record, indent=1))
     if interrupted:

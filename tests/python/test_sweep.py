@@ -241,8 +241,56 @@ def test_a_case_stopped_by_its_timeout_at_two_ranks_stops_with_a_checkpoint(tmp_
                           capture_output=True, text=True, timeout=120)
     [row] = read_table(out)
     assert row["status"].startswith("interrupted: SIGUSR1"), (row, proc.stdout, proc.stderr)
-    assert int(row["frames"]) > 0
+    assert int(row["frames"]) > 0 and row["exit_code"] == "none" and proc.returncode == 2
+    run = json.loads((out / row["case"] / "run.json").read_text())
+    assert run["exit_code"] is None and "timeout" not in run, run
     assert any(p.name.startswith("checkpoint_") for p in (out / row["case"] / "checkpoints").iterdir())
+
+
+# Stands for hyperqn in a sweep whose timeout comes once the run's last frame's solve has ended,
+# on any machine: it runs hyperqn to its end, passing its output on, and exits with its code only
+# when SIGUSR1 has come (the sweep's, or mpiexec's forwarded to each rank). That a run the signal
+# reaches then completes with exit 0 is hyperqn's (test_checkpoint_faults.py); this is the sweep's side.
+HOLD_EXIT = """
+import signal, subprocess, sys
+got = []
+signal.signal(signal.SIGUSR1, lambda *_: got.append(1))
+code = subprocess.Popen(sys.argv[1:], start_new_session=True).wait()  # the signal is this script's alone
+while not got:
+    signal.pause()
+print("(the timeout's SIGUSR1 came)", flush=True)
+sys.exit(code)
+"""
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_timeout_after_the_last_frames_solve_leaves_the_run_complete(tmp_path, ranks):
+    """The timeout's SIGUSR1 reaching a run once its last frame's solve had ended: the run completed
+    (summary.json ok, exit 0), but run.json said exit_code null, the row `none`,
+    the sweep '0 exited 0' and exit 2. Now run.json has the exit code 0 and says why in `timeout`."""
+    path = make_sweep(tmp_path, "deck: decks/base.yaml\nsweep:\n  solver.type: [lbfgs]\n",
+                      {**BASE, "output": {"vtk": False}})
+    wrapper = tmp_path / "hold_exit"
+    wrapper.write_text(f"#!/bin/sh\nexec {sys.executable} {tmp_path / 'hold.py'} {HYPERQN} \"$@\"\n")
+    wrapper.chmod(0o755)
+    (tmp_path / "hold.py").write_text(HOLD_EXIT)
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.sweep", path, "--out", out, "--np", str(ranks),
+                           "--bin", wrapper, "--mpiexec", MPIEXEC, "--timeout", "1"],
+                          capture_output=True, text=True, timeout=120)
+    [row] = read_table(out)
+    cdir = out / row["case"]
+    summary = json.loads((cdir / "summary.json").read_text())
+    assert (summary["status"], summary["frames"], summary["ranks"]) == ("ok", 3, ranks)
+    run = json.loads((cdir / "run.json").read_text())
+    assert run["exit_code"] == 0 and "interrupted" not in run, run
+    assert run["timeout"] == ("SIGUSR1 after the timeout of 1.0 s came once the last frame's solve had ended: "
+                              "the run completed"), run
+    assert (row["status"], row["frames"], row["exit_code"]) == ("ok", "3", "0"), row
+    log = (cdir / "run.log").read_text()
+    assert "(the timeout's SIGUSR1 came)" in log, log
+    assert "stopped after the timeout" not in log and "sweep: SIGUSR1 after the timeout" in log, log
+    assert proc.returncode == 0 and "1 cases, 1 exited 0" in proc.stdout, (proc.returncode, proc.stdout, proc.stderr)
 
 
 def test_portable_copies_name_every_file_absolutely(tmp_path):
