@@ -184,9 +184,10 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "exactly `iterations`), with no stage of the chain: no more iterations, no sub-steps, no Newton (and none of "
        "their factorizations). Giving `max_iterations`, `max_halvings`, `newton_fallback` or `keep_substeps` beside `fixed` is an "
        "error. Without it, `max_iterations: 10` alone still leaves stages 2 and 3 on: the 81 × 81 sheet of "
-       "`input/cloth/sheet_corners.yaml` then took 67 iterations per frame over 20 frames (5 sub-stepped, 13 by "
-       "Newton, 889 ms per frame; 1 rank, 246487b, the deck with `frames: 20` and `solver: {type: lbfgs, iterations: "
-       "10, max_iterations: 10}`) against 10 and 17 ms with `budget: fixed`",
+       "`input/cloth/sheet_corners.yaml` then took 60 iterations per frame over 20 frames (5 frames sub-stepped, 15 "
+       "by Newton) and still ended `flagged: 11 of 20 frames could not decrease g or stayed far from converged`; "
+       "with `budget: fixed`, 10 and `ok` (1 rank, 214cdf4, 2026-12-08, the deck with `frames: 20` and `solver: "
+       "{type: lbfgs, iterations: 10, max_iterations: 10}`)",
        {}, {"adaptive", "fixed"}, "", "",
        [](S& s, const std::string& name) {
          if (name == "fixed") use_fixed_budget(s);
