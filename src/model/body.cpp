@@ -438,10 +438,15 @@ void Body::carry_element_states(const Body& from) {
 
 PetscErrorCode Body::limit_step(Vec x, Vec dir, double* alpha) const {
   PetscFunctionBeginUser;
-  double local = *alpha;
+  // Each term bounds the step the ranks agreed on so far: self-contact tests the path alpha dir
+  // between the ranks' surfaces, so an alpha that a collider had cut on some ranks only made the
+  // bound depend on the rank count. One reduction per bounding term (one without contact).
   for (const auto& t : terms_)
-    if (t->bounds_steps()) PetscCall(t->limit_step(x, dir, &local));
-  PetscCallMPI(MPI_Allreduce(&local, alpha, 1, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)mesh_.dm)));
+    if (t->bounds_steps()) {
+      double local = *alpha;
+      PetscCall(t->limit_step(x, dir, &local));
+      PetscCallMPI(MPI_Allreduce(&local, alpha, 1, MPI_DOUBLE, MPI_MIN, PetscObjectComm((PetscObject)mesh_.dm)));
+    }
   PetscFunctionReturn(0);
 }
 
