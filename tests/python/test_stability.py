@@ -515,3 +515,28 @@ def test_suite_without_matplotlib_writes_its_tables(tmp_path):
     text = (out / "stability.md").read_text()
     assert "| bar | lbfgs |" in text and "Figures skipped" in text and ".png" not in text
     assert not list(out.glob("*.png"))
+
+
+def test_a_loaded_or_changing_deck_is_judged_against_the_reference(tmp_path):
+    """Without gravity a deck was expected back at rest unless a support moved: a tip force, a plastic
+    set, a cut never return to the rest shape, and both lbfgs and Newton (3e-8 of the diagonal from
+    the converged reference) were judged degraded, 'not back at rest'. Now loads, motions (of
+    supports, attachments, colliders, blades), plasticity and topology changes, in any body or
+    region, make it 'reference'."""
+    from hyperqn_tools.stability.run import expectation
+    base = {"mesh": {**SMALL_BOX}, "material": dict(SMALL_SOLID), "gravity": [0, 0, 0],
+            "fixed": [{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}}]}
+    driven = {
+        "force": {"loads": [{"type": "force", "box": {"min": [0.99, -1, -1], "max": [1.01, 1, 1]}, "force": [0, -1, 0]}]},
+        "plastic": {"material": {**SMALL_SOLID, "plastic": {"yield_stress": 100}}},
+        "body_load": {"bodies": [{"name": "a", "mesh": SMALL_BOX, "material": SMALL_SOLID,
+                                  "loads": [{"type": "body_force", "force": [0, 1, 0]}]}]},
+        "blade": {"cuts": [{"center": [0.5, 0, 0], "normal": [1, 0, 0]}]},
+        "collider": {"colliders": [{"type": "sphere", "center": [0, 2, 0], "radius": 0.1,
+                                    "motion": {"translate": {"velocity": [0, -1, 0]}}}]},
+    }
+    path = tmp_path / "deck.yaml"
+    path.write_text("mesh: {}\n")
+    assert expectation(str(path), base) == "rest"
+    for name, extra in driven.items():
+        assert expectation(str(path), {**base, **extra}) == "reference", name

@@ -19,8 +19,9 @@ REFERENCE_SOLVER = {"type": "newton", "newton_hessian": "exact", "iterations": 1
 JUDGED_OUTPUT = {"vtk": True, "iterations_csv": True}
 
 # A deck may state its expectation in a comment line "# stability: expect rest" (or "reference"),
-# overriding the automatic rule (rest when there is no gravity and no moving support): e.g.
-# spin_one_turn, whose support turns a full turn and stops where it started.
+# overriding the automatic rule (rest when there is no gravity and nothing else drives the body or
+# changes its rest shape: DRIVERS): e.g. spin_one_turn, whose support turns a full turn and stops
+# where it started.
 EXPECT_MARK = re.compile(r"^#\s*stability:\s*expect\s+(rest|reference)\b")
 
 
@@ -53,21 +54,32 @@ def description(deck_path):
     return re.sub(r"\s*(Needs|Uses) the top-level deck key 'initial'.*$", "", text)
 
 
-def has_motion(deck):
-    return any(isinstance(f, dict) and f.get("motion") for f in deck.get("fixed") or [])
+# Keys that, set anywhere in a deck (its bodies and regions included), keep a body from settling at
+# its rest shape: loads, moving supports, attachments and colliders, plastic flow (a permanent set),
+# cuts and the other topology changes.
+DRIVERS = ("loads", "motion", "plastic", "yield_strain", "cuts", "fracture", "tear", "snap")
+
+
+def is_driven(node):
+    if isinstance(node, dict):
+        return any(k in DRIVERS and v not in (None, False, [], {}) for k, v in node.items()) or \
+            any(is_driven(v) for v in node.values())
+    if isinstance(node, list):
+        return any(is_driven(v) for v in node)
+    return False
 
 
 def expectation(deck_path, deck):
     """'rest' when the body must settle at its rest shape, else 'reference' (judged against a
     converged run): the deck's "# stability: expect ..." comment, else rest when there is no
-    gravity and no moving support."""
+    gravity and nothing drives the body (is_driven)."""
     with open(deck_path) as f:
         for line in f:
             m = EXPECT_MARK.match(line.strip())
             if m:
                 return m.group(1)
     gravity = deck.get("gravity", [0, -9.81, 0])
-    return "rest" if all(g == 0 for g in gravity) and not has_motion(deck) else "reference"
+    return "rest" if all(g == 0 for g in gravity) and not is_driven(deck) else "reference"
 
 
 def run_deck(deck, deck_path, solver_section, outdir, binary, np_ranks, mpiexec, timeout):
