@@ -220,7 +220,13 @@ class FrameComparison : public FrameObserver {
   PetscErrorCode after_frame(const FrameOutcome& outcome, LoopControl&) override {
     PetscFunctionBeginUser;
     // A signal cut a solve of this frame short (a follower's): the frame is not written (StudyStop).
-    if (!compare_here_ || !outcome.lead.stop.empty() || stop_agreed()) PetscFunctionReturn(0);
+    if (!outcome.lead.stop.empty() || stop_agreed()) PetscFunctionReturn(0);
+    if (!compare_here_) {  // the trajectories' path: a reference stopped short there is said too
+      const IterationRecord& end = reference_.iterations.back();
+      PetscCall(warn_if_reference_short(outcome.frame, end.grad_norm / reference_.iterations.front().grad_norm,
+                                        reference_.iterations.front().energy > end.energy));
+      PetscFunctionReturn(0);
+    }
     // g* is the lowest g anyone reached (the reference's, unless another solver went below it
     // by round-off); g0 is the common starting value.
     double g_star = reference_.iterations.back().energy;
@@ -241,20 +247,10 @@ class FrameComparison : public FrameObserver {
                             "not the lowest found (a step that is not convex); errors are measured from the lowest, "
                             "and the trajectories are compared with the reference's path\n",
                             outcome.frame, above));
-    // The reference stopped short of reference_rtol (its cap, the time limit, or a line search
-    // that found no descent): errors below its own are not resolved. Else a frame with g(x0) = g*
-    // starts at its answer.
-    const bool capped = end.iteration >= study_.reference_iterations() || end.time_s > study_.deck.study.time_limit;
-    if (!(reached <= study_.deck.study.reference_rtol) && (g0 > g_star || capped)) {
-      const char* why = end.iteration >= study_.reference_iterations() ? "its iteration cap"
-                        : end.time_s > study_.deck.study.time_limit     ? "study.time_limit"
-                                                                        : "a line search that found no descent";
-      PetscCall(PetscPrintf(study_.comm,
-                            "study frame %4d  warning: the reference stopped at %s (%d iterations, %.3g s) with "
-                            "||grad g|| / ||grad g(x0)|| = %.3e, not at study.reference_rtol = %.3g: errors smaller "
-                            "than its own are not resolved\n",
-                            outcome.frame, why, (int)end.iteration, end.time_s, reached, study_.deck.study.reference_rtol));
-    } else if (!(g0 > g_star)) {
+    // Else a frame with g(x0) = g* starts at its answer.
+    bool short_of_rtol = false;
+    PetscCall(warn_if_reference_short(outcome.frame, reached, g0 > g_star, &short_of_rtol));
+    if (!short_of_rtol && !(g0 > g_star)) {
       PetscCall(PetscPrintf(study_.comm, "study frame %4d  note: the frame starts at its answer (g(x0) = g*, nothing to "
                                          "solve): every error is 0\n", outcome.frame));
     }
@@ -272,6 +268,29 @@ class FrameComparison : public FrameObserver {
   }
 
  private:
+  // The reference stopped short of reference_rtol (its cap, the time limit, or a line search that
+  // found no descent): errors below its own are not resolved, and at a frame of the trajectories
+  // only, their path is not the converged one. Said on the console (*said: whether it was).
+  PetscErrorCode warn_if_reference_short(int frame, double reached, bool decreased, bool* said = nullptr) const {
+    const IterationRecord& end = reference_.iterations.back();
+    const bool capped = end.iteration >= study_.reference_iterations() || end.time_s > study_.deck.study.time_limit;
+    const bool short_of_rtol = !(reached <= study_.deck.study.reference_rtol) && (decreased || capped);
+    PetscFunctionBeginUser;
+    if (said) *said = short_of_rtol;
+    if (!short_of_rtol) PetscFunctionReturn(0);
+    const char* why = end.iteration >= study_.reference_iterations() ? "its iteration cap"
+                      : end.time_s > study_.deck.study.time_limit     ? "study.time_limit"
+                                                                      : "a line search that found no descent";
+    PetscCall(PetscPrintf(study_.comm,
+                          "study frame %4d  warning: the reference stopped at %s (%d iterations, %.3g s) with "
+                          "||grad g|| / ||grad g(x0)|| = %.3e, not at study.reference_rtol = %.3g: %s\n",
+                          frame, why, (int)end.iteration, end.time_s, reached, study_.deck.study.reference_rtol,
+                          compare_here_ ? "errors smaller than its own are not resolved"
+                                        : "the scene goes on from a point not converged (the trajectories' path, the "
+                                          "next frames' start)"));
+    PetscFunctionReturn(0);
+  }
+
   IterationCallback recorder(StudyCurve& curve) const {
     const double limit = study_.deck.study.time_limit;
     return [&curve, limit](const IterationRecord& r) {

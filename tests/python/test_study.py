@@ -426,6 +426,11 @@ def test_a_reference_stopped_by_the_time_limit_is_not_called_a_higher_stationary
     proc = run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
     assert "warning: the reference stopped at study.time_limit" in proc.stdout, proc.stdout[-3000:]
     assert "not the lowest found" not in proc.stdout
+    # and at the frames the study does not compare, where the scene goes on along the reference's
+    # path (the trajectories' too): said there as well (before: only at the compared frames)
+    for frame in (1,):
+        assert re.search(rf"study frame +{frame}  warning: the reference stopped at study.time_limit .*the scene goes "
+                         r"on from a point not converged", proc.stdout), proc.stdout[-3000:]
 
 
 @pytest.mark.parametrize("ranks", [None, 2])
