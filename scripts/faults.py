@@ -14,7 +14,9 @@ Trial k has class CLASSES[k % n] (of --classes), --ranks[(k // n) % len(ranks)] 
 numbers from (--seed, k), so a campaign and any one trial can be rerun; the moments at which kills
 land still depend on the machine's speed. Prints a table of outcomes per class and writes
 faults.json and faults.csv to --out; a failed trial's decks, commands, outputs and directories stay
-in --out/failures/. Exits 1 on any hang, wrong resume, undetected corruption or other failure.
+in --out/failures/. A rerun removes what an earlier one wrote in --out (failures/, trials/,
+references/, faults.json, faults.csv) and nothing else there. Exits 1 on any hang, wrong resume,
+undetected corruption or other failure.
 Full-disk trials mount a tmpfs (root) and count as skipped where that is not permitted.
 """
 import argparse
@@ -37,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hyperqn_tools import decks, launch, sessions
+from hyperqn_tools import cli, decks, launch, sessions
 from hyperqn_tools.output import final_frame, read_pvd, read_summary
 from hyperqn_tools.paths import REPO
 
@@ -757,26 +759,36 @@ def write_results(out, counts, tags, results, summary):
             w.writerow([kind, row["trials"]] + [row[c] for c in OUTCOMES])
 
 
+OWN = ["failures", "trials", "references", "faults.json", "faults.csv"]  # what a run writes in --out: a rerun removes these only
+
+
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--trials", type=int, default=240)
-    p.add_argument("--budget", type=float, default=0,
+    p = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--trials", type=cli.count, default=240)
+    p.add_argument("--budget", type=cli.seconds_or_0, default=0,
                    help="seconds: start no trial that would end later than this, by the longest of its kind so far (0: no limit)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--ranks", default="1,2", help="rank counts, comma-separated")
+    p.add_argument("--ranks", default="1,2", type=lambda text: [cli.positive_int(r) for r in text.split(",")],
+                   help="rank counts, comma-separated")
     p.add_argument("--classes", default=",".join(CLASSES), help="comma-separated, of: " + ", ".join(CLASSES))
-    p.add_argument("--trial", type=int, help="run only this trial number (as numbered in a campaign with the same options)")
-    p.add_argument("--timeout", type=float, default=60, help="seconds a run may take before it counts as a hang")
+    p.add_argument("--trial", type=cli.count,
+                   help="run only this trial number (as numbered in a campaign with the same options), below --trials")
+    p.add_argument("--timeout", type=cli.positive_float, default=60, help="seconds a run may take before it counts as a hang")
     p.add_argument("--out", default=os.path.join(REPO, "output", "faults"))
-    p.add_argument("--bin", default=launch.default_binary())
-    p.add_argument("--mpiexec", default=launch.default_mpiexec())
+    p.add_argument("--bin", type=cli.program, default=launch.default_binary())
+    p.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec())
     args = p.parse_args()
     kinds = args.classes.split(",")
     if any(k not in CLASSES for k in kinds):
         p.error(f"unknown class in {kinds}; known: {', '.join(CLASSES)}")
-    rank_counts = [int(r) for r in args.ranks.split(",")]
+    if args.trial is not None and args.trial >= args.trials:
+        p.error(f"--trial {args.trial}: a campaign of --trials {args.trials} numbers them 0 to {args.trials - 1}")
+    rank_counts = args.ranks
+    why = cli.unwritable_dir(args.out)
+    if why:
+        p.error(f"--out {why}")
     out = Path(args.out).absolute()
-    shutil.rmtree(out, ignore_errors=True)
+    cli.remove_own(out, OWN)
     (out / "failures").mkdir(parents=True)
     start = time.time()
     results = campaign(args, kinds, rank_counts, out)

@@ -17,8 +17,9 @@ scene. Every run must end cleanly:
     PYTHONPATH=$PWD/postprocess /usr/bin/python3 scripts/fuzz.py --cases 60 --budget 50
 
 Cases are drawn from --seed, so a run is reproducible; a failing case's deck, mesh and command
-are kept in --out/failures/ and listed. Prints counts per outcome and writes fuzz.json; exits 1
-if any case failed.
+are kept in --out/cases/ and listed. Prints counts per outcome and writes fuzz.json; exits 1
+if any case failed. A rerun removes what an earlier one wrote in --out (cases/, fuzz.json) and
+nothing else there.
 """
 import argparse
 import copy
@@ -33,7 +34,7 @@ import time
 
 import yaml
 
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.paths import REPO
 
 BASE = {
@@ -405,16 +406,22 @@ def judge_run(proc, outdir, timed_out):
     return "rejected input wrote output"
 
 
+OWN = ["cases", "fuzz.json"]  # what a run writes in --out: a rerun removes these, and only these
+
+
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--cases", type=int, default=1000)
+    p = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--cases", type=cli.count, default=1000)
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--timeout", type=float, default=30, help="seconds per run")
-    p.add_argument("--budget", type=float, default=0, help="stop after this many seconds (0: no limit)")
+    p.add_argument("--timeout", type=cli.positive_float, default=30, help="seconds per run")
+    p.add_argument("--budget", type=cli.seconds_or_0, default=0, help="stop after this many seconds (0: no limit)")
     p.add_argument("--out", default=os.path.join(REPO, "output", "fuzz"))
-    p.add_argument("--bin", default=launch.default_binary())
+    p.add_argument("--bin", type=cli.program, default=launch.default_binary())
     args = p.parse_args()
-    shutil.rmtree(args.out, ignore_errors=True)
+    why = cli.unwritable_dir(args.out)
+    if why:
+        p.error(f"--out {why}")
+    cli.remove_own(args.out, OWN)
     rng = random.Random(args.seed)
     counts, classes, failures, start = {}, {}, [], time.time()
     run_cases = 0

@@ -5,9 +5,15 @@ output paths are checked before a tool writes anything, with the helpers here.
     ArgumentParser   argparse's parser whose errors are that one line and exit 1
     positive_int, positive_float
                      argparse types for counts and times that must be > 0
+    count            argparse type for a number of things to do that may be 0
+    seconds_or_0     argparse type for a time limit where 0 is none
+    program          argparse type for a binary or mpiexec: a path or a name on PATH that can be run
     fraction         argparse type for a relative tolerance, in [0, 1)
     unwritable_file(path), unwritable_dir(path)
                      why a file or directory could not be written there, or None
+    remove_own(directory, names)
+                     removes what a tool wrote in its output directory on an earlier run, by
+                     name, and nothing else of it
     writing(path)    a context for writing path: on an OSError (a full disk, which the checks
                      cannot see) the file is removed and the OSError names path
 """
@@ -15,6 +21,7 @@ import argparse
 import contextlib
 import math
 import os
+import shutil
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -43,6 +50,32 @@ def positive_float(text):
     if not (math.isfinite(value) and value > 0):  # nan and inf too: 'never' is leaving it out
         raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
     return value
+
+
+def count(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 0")
+    return value
+
+
+def seconds_or_0(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0):  # nan too
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0 (0: no limit)")
+    return value
+
+
+def program(text):
+    if not shutil.which(text):
+        raise argparse.ArgumentTypeError(f"{text}: not an executable file")
+    return text
 
 
 def fraction(text):
@@ -83,6 +116,17 @@ def unwritable_file(path, parents=True):
     if not parents and not os.path.isdir(parent):
         return f"{path}: no such directory {parent}"
     return unwritable_dir(parent, path)
+
+
+def remove_own(directory, names):
+    """Removes the entries `names` of directory (files or directories a tool writes there, left by
+    an earlier run: they would mislead), if there; the rest of directory is the user's and stays."""
+    for name in names:
+        path = os.path.join(directory, name)
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path)
+        elif os.path.lexists(path):
+            os.remove(path)
 
 
 class WriteFailed(OSError):

@@ -5,6 +5,7 @@ equal runs of a body at rest: 0 apart, not nan."""
 import argparse
 import copy
 import importlib.util
+import json
 import os
 import re
 import shutil
@@ -124,6 +125,15 @@ def test_intersections_with_a_directory_as_json(runs, tmp_path):
     assert "largest" not in proc.stdout  # refused before the frames were read
 
 
+def test_intersections_refuses_a_json_in_a_missing_directory_first(runs, tmp_path):
+    """It does not make --json's directory (as force_displacement's --csv): refused before the
+    frames are read (before: every frame counted, then `No such file or directory`)."""
+    _, bar, _, _ = runs
+    proc = tool("hyperqn_tools.intersections", bar, "--json", tmp_path / "nodir" / "x.json")
+    assert_said(proc, "--json", "no such directory")
+    assert proc.stdout == "" and not (tmp_path / "nodir").exists()
+
+
 @pytest.fixture(scope="module")
 def reactions_run(tmp_path_factory):
     out, _ = run_deck(tmp_path_factory.mktemp("reactions"), "bar", {**BAR, "output": {"reactions": True}})
@@ -189,6 +199,30 @@ def test_scripts_refuse_a_missing_page_or_binary_and_a_directory_as_out(tmp_path
     proc = script("compare_revisions.py", "--base-bin", HYPERQN, "--new-bin", HYPERQN, "--out", tmp_path)
     assert_said(proc, "--out", "is a directory")
     assert not (tmp_path / "runs").exists() and not (tmp_path / "decks").exists()
+
+
+@pytest.mark.parametrize("name, args, own, written", [
+    ("fuzz.py", ["--cases", "0"], ["cases/00003/deck.yaml"], {"fuzz.json"}),
+    ("faults.py", ["--trials", "0", "--classes", "kill", "--mpiexec", MPIEXEC],
+     ["trials/0001-kill-np1/x", "references/r/deck.yaml", "failures/0002-kill-np2/trial.txt"],
+     {"faults.json", "faults.csv", "failures"})])
+def test_fuzz_and_faults_keep_a_user_s_files_in_out(tmp_path, name, args, own, written):
+    """A rerun removes what an earlier run wrote in --out, and nothing else (before: the whole
+    directory, a user's files with it, was removed)."""
+    out = tmp_path / "precious"
+    (out / "notes").mkdir(parents=True)
+    (out / "thesis.txt").write_text("t\n")
+    (out / "notes" / "n.txt").write_text("n\n")
+    for path in own:  # an earlier run's
+        (out / path).parent.mkdir(parents=True, exist_ok=True)
+        (out / path).write_text("old\n")
+    proc = script(name, *args, "--out", out, "--bin", HYPERQN)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert (out / "thesis.txt").read_text() == "t\n" and (out / "notes" / "n.txt").read_text() == "n\n"
+    assert {p.name for p in out.iterdir()} == {"thesis.txt", "notes"} | written
+    assert not any((out / "failures").iterdir()) if (out / "failures").exists() else True
+    results = json.loads((out / name.replace(".py", ".json")).read_text())
+    assert results.get("cases", len(results.get("trials", []))) == 0
 
 
 STUDY_HEADER = "frame,solver,iteration,time_s,energy,grad_norm,rel_error\n"
