@@ -216,7 +216,7 @@ def main(argv=None):
     p.add_argument("--rtol", type=fraction, default=RTOL,
                    help="tolerance relative to the frame's bounding-box diagonal, in [0, 1)")
     a = p.parse_args(argv)
-    why = a.json and unwritable_file(a.json)
+    why = a.json and unwritable_file(a.json, parents=False)  # its directory is not made, as force_displacement's files
     if why:  # found before the frames are read and the counts printed
         p.error(f"--json {why}")
     try:
