@@ -9,12 +9,11 @@ the cube's corners are the flattest. Every tet is positively oriented. Standard 
 
     /usr/bin/python3 scripts/ball_mesh.py ball.mesh --radius 0.1 --cells 6
 """
-import argparse
 import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number
+from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number, ArgumentParser, positive_int
 
 
 def ball(radius, cells):
@@ -30,19 +29,23 @@ def ball(radius, cells):
         return (i * (cells + 1) + j) * (cells + 1) + k
 
     T = orient_positive(X, kuhn_tets(vid, (cells, cells, cells)))
-    assert signed_volumes(X, T).min() > 0, "a degenerate tet"
+    if not signed_volumes(X, T).min() > 0:  # a radius whose cube underflows double precision
+        raise ValueError("its tets' volumes are 0 in double precision")
     return X, T
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     p.add_argument("--radius", type=positive_number, default=1.0, help="the ball's radius (m)")
-    p.add_argument("--cells", type=int, default=6, help="cells along each side of the mapped cube")
+    p.add_argument("--cells", type=positive_int, default=6, help="cells along each side of the mapped cube")
     a = p.parse_args(argv)
     if a.radius <= 0 or a.cells < 1:
         p.error("need radius > 0 and cells >= 1")
-    X, T = ball(a.radius, a.cells)
+    try:
+        X, T = ball(a.radius, a.cells)
+    except ValueError as e:
+        p.error(f"--radius {a.radius:g}: {e}")
     write_medit(a.out, X, T)
     print("ball: %d vertices, %d tets" % (len(X), len(T)))
     return 0

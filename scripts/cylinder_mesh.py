@@ -11,12 +11,11 @@ positively oriented. Standard library and numpy.
 
     /usr/bin/python3 scripts/cylinder_mesh.py cylinder.mesh --inner 1 --outer 2 --cells 8
 """
-import argparse
 import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number, ArgumentParser, positive_int
 
 
 def quarter_cylinder(inner, outer, thickness, cells, layers):
@@ -36,13 +35,13 @@ def quarter_cylinder(inner, outer, thickness, cells, layers):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     p.add_argument("--inner", type=positive_number, default=1.0, help="inner radius (m)")
     p.add_argument("--outer", type=positive_number, default=2.0, help="outer radius (m)")
     p.add_argument("--thickness", type=positive_number, default=0.25, help="the slab's thickness along z (m)")
-    p.add_argument("--cells", type=int, default=4, help="cells through the wall (twice as many around)")
-    p.add_argument("--layers", type=int, default=1, help="cells through the thickness")
+    p.add_argument("--cells", type=positive_int, default=4, help="cells through the wall (twice as many around)")
+    p.add_argument("--layers", type=positive_int, default=1, help="cells through the thickness")
     a = p.parse_args(argv)
     if not (0 < a.inner < a.outer) or a.thickness <= 0 or a.cells < 1 or a.layers < 1:
         p.error("need 0 < inner < outer, thickness > 0, cells >= 1 and layers >= 1")

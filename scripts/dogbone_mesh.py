@@ -13,12 +13,11 @@ and numpy.
 
     /usr/bin/python3 scripts/dogbone_mesh.py dogbone.mesh --cells 40 4 2
 """
-import argparse
 import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number, ArgumentParser, positive_int
 
 # The specimen's shape (m): 100 mm long, 4 mm thick; 20 mm wide grips 20 mm long, 15 mm fillets,
 # a 10 mm wide gauge 30 mm long.
@@ -61,11 +60,11 @@ def dogbone(profile, cells):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     for key, value in DEFAULTS.items():
         p.add_argument("--" + key.replace("_", "-"), type=positive_number, default=value, help=f"(m, default {value:g})")
-    p.add_argument("--cells", type=int, nargs=3, default=[40, 4, 2], metavar=("NX", "NY", "NZ"))
+    p.add_argument("--cells", type=positive_int, nargs=3, default=[40, 4, 2], metavar=("NX", "NY", "NZ"))
     a = p.parse_args(argv)
     profile = Profile(**{key: getattr(a, key) for key in DEFAULTS})
     if min(getattr(a, k) for k in DEFAULTS) <= 0 or a.gauge_width > a.grip_width or min(a.cells) < 1:

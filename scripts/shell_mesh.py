@@ -15,12 +15,11 @@ positively oriented. Standard library and numpy.
 
     /usr/bin/python3 scripts/shell_mesh.py shell.mesh --inner 1 --outer 2 --cells 8 --layers 4
 """
-import argparse
 import sys
 
 import numpy as np
 
-from tet_grid import write_medit, positive_number
+from tet_grid import write_medit, positive_number, ArgumentParser, positive_int
 
 # The cube's faces: (axis, sign); a face's grid runs over the two other axes.
 FACES = [(axis, sign) for axis in range(3) for sign in (-1, 1)]
@@ -106,12 +105,12 @@ def boundary_triangles(X, T, inner, outer):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     p.add_argument("--inner", type=positive_number, default=1.0, help="inner radius (m)")
     p.add_argument("--outer", type=positive_number, default=2.0, help="outer radius (m)")
-    p.add_argument("--cells", type=int, default=4, help="cells along each edge of a cube face")
-    p.add_argument("--layers", type=int, default=2, help="cells through the thickness")
+    p.add_argument("--cells", type=positive_int, default=4, help="cells along each edge of a cube face")
+    p.add_argument("--layers", type=positive_int, default=2, help="cells through the thickness")
     p.add_argument("--grading", type=positive_number, default=1.0,
                    help="the outermost layer's thickness over the innermost's (1: even)")
     p.add_argument("--tags", action="store_true",

@@ -19,13 +19,12 @@ numpy.
     /usr/bin/python3 scripts/slit_mesh.py ring.mesh --outer 0.5 --inner 0.3 --depth 0.2 \
         --gap-fraction 5e-5 --cells 48 4 4
 """
-import argparse
 import math
 import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number
+from tet_grid import kuhn_tets, orient_positive, write_medit, positive_number, ArgumentParser, positive_int
 
 
 def split_ring(outer, inner, depth, gap, cells):
@@ -49,19 +48,21 @@ def split_ring(outer, inner, depth, gap, cells):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("out", help="the .mesh file to write")
     p.add_argument("--outer", type=positive_number, default=0.5, help="outer radius (m)")
     p.add_argument("--inner", type=positive_number, default=0.3, help="inner radius (m)")
     p.add_argument("--depth", type=positive_number, default=0.2, help="extent in z (m)")
     p.add_argument("--gap-fraction", type=positive_number, default=5e-5,
                    help="the slit's width as a fraction of the bounding-box diagonal")
-    p.add_argument("--cells", type=int, nargs=3, default=[48, 4, 4], metavar=("AROUND", "RADIAL", "DEPTH"))
+    p.add_argument("--cells", type=positive_int, nargs=3, default=[48, 4, 4], metavar=("AROUND", "RADIAL", "DEPTH"))
     a = p.parse_args(argv)
     if not (0 < a.inner < a.outer) or a.depth <= 0 or min(a.cells) < 1 or not (0 < a.gap_fraction < 0.1):
         p.error("need 0 < inner < outer, depth > 0, cells >= 1 and 0 < gap-fraction < 0.1")
     diagonal = math.sqrt(4 * a.outer ** 2 + 4 * a.outer ** 2 + a.depth ** 2)  # the ring's box, gap aside
     gap = a.gap_fraction * diagonal
+    if gap >= 2 * a.inner:  # the slit would cut the ring in two
+        p.error(f"--gap-fraction {a.gap_fraction:g}: the slit, {gap:g} m wide, must be narrower than 2 x --inner")
     X, T = split_ring(a.outer, a.inner, a.depth, gap, a.cells)
     write_medit(a.out, X, T)
     extent = X.max(axis=0) - X.min(axis=0)

@@ -25,7 +25,7 @@ import sys
 
 import numpy as np
 
-from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number, fraction
+from tet_grid import kuhn_tets, orient_positive, signed_volumes, write_medit, positive_number, fraction, ArgumentParser, positive_int
 
 
 def box_mesh(size, element):
@@ -132,7 +132,7 @@ def histogram(q):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("output", help="the .mesh file to write")
     ap.add_argument("--size", type=positive_number, nargs="+", default=[1.0],
                     help="box size: one number (a cube) or three (x y z); default 1")

@@ -2,8 +2,15 @@
 Kuhn subdivision of a grid of hexahedra, positive orientation, and the Medit writer."""
 
 import itertools
+import os
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "postprocess"))
+# The mesh scripts' command lines follow the tools' rule (a bad argument: one line, exit 1).
+from hyperqn_tools.cli import ArgumentParser, positive_int  # noqa: E402,F401
+from hyperqn_tools.cli import positive_float as positive_number  # noqa: E402,F401  sizes and ratios: finite, > 0
 
 
 def kuhn_tets(vid, cells, i_fastest=False):
@@ -37,21 +44,6 @@ def orient_positive(X, T):
     negative = signed_volumes(X, T) < 0
     T[negative, 2], T[negative, 3] = T[negative, 3].copy(), T[negative, 2].copy()
     return T
-
-
-def positive_number(text):
-    """argparse type of the mesh scripts' sizes and ratios: a finite number > 0 (nan, inf and 0
-    would write a mesh hyperqn refuses, or none)."""
-    import argparse
-    import math
-
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
-    return x
 
 
 def fraction(text):
