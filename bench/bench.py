@@ -10,7 +10,7 @@ import argparse, csv, datetime, json, math, os, platform, subprocess, sys, time
 import yaml
 
 from hyperqn_tools import launch
-from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, unwritable_dir
+from hyperqn_tools.cli import ArgumentParser, positive_float, positive_int, program, seconds_or_0, unwritable_dir
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO, SHARED_MESHES as MESHES
 
@@ -249,22 +249,31 @@ def print_table(rows):
         print(line(lambda c: cell(r, c)))
 
 
+def case_list(text):
+    """argparse type of --cases: a comma list of CASES' names."""
+    names = [c.strip() for c in text.split(",") if c.strip()]
+    bad = [c for c in names if c not in CASES]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"unknown case(s) {bad or repr(text)}; known: {','.join(CASES)}")
+    return names
+
+
 def main():
     ap = ArgumentParser(prog="bench/bench.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench"))
-    ap.add_argument("--cases", help="comma list of case names (default: all)")
+    ap.add_argument("--cases", type=case_list, help="comma list of case names (default: all)")
     ap.add_argument("--ranks", default="1,2", type=lambda text: [positive_int(r) for r in text.split(",")],
                     help="comma list of rank counts")
     ap.add_argument("--frames", type=positive_int, default=10)
-    ap.add_argument("--min-solve-s", type=float, default=0.5,
+    ap.add_argument("--min-solve-s", type=seconds_or_0, default=0.5,
                     help="a case whose first run at the first rank count solves in less time runs with more "
                          "frames (at most 100 x --frames), so that its first frames do not decide its ms/frame; "
                          "0: always --frames")
     ap.add_argument("--quick", action="store_true", help="only " + ",".join(QUICK))
     ap.add_argument("--repeat", type=positive_int, default=1, help="runs per case; the fastest is reported")
     ap.add_argument("--timeout", type=positive_float, default=1800, help="seconds per run")
-    ap.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
-    ap.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
+    ap.add_argument("--hyperqn", type=program, default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
+    ap.add_argument("--mpiexec", type=program, default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
     ap.add_argument("--material", default="neohookean", choices=MATERIALS,
                     help="the solids' material model (cloth sheets keep their springs)")
     ap.add_argument("--solver", action="append", default=[], metavar="KEY=VALUE",
@@ -278,11 +287,7 @@ def main():
     args.hyperqn = os.path.abspath(args.hyperqn)
     names = QUICK if args.quick else list(CASES)
     if args.cases:
-        want = [c.strip() for c in args.cases.split(",") if c.strip()]
-        bad = [c for c in want if c not in CASES]
-        if bad:
-            ap.error(f"unknown case(s) {bad}; known: {','.join(CASES)}")
-        names = [n for n in names if n in want]
+        names = [n for n in names if n in args.cases]
     ranks = args.ranks
     if args.list:
         print(",".join(names))

@@ -27,7 +27,7 @@ import time
 
 import yaml
 
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO
 
@@ -65,22 +65,25 @@ def checkpoint_event_ms(log):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("builds", nargs="+", help="LABEL=PATH of a hyperqn binary")
-    ap.add_argument("--cases", default="box130k,box480k")
-    ap.add_argument("--ranks", default="1,2")
-    ap.add_argument("--frames", type=int, default=16)
-    ap.add_argument("--rounds", type=int, default=3)
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("builds", nargs="+", type=cli.labelled_program, help="LABEL=PATH of a hyperqn binary")
+    ap.add_argument("--cases", type=bench.case_list, default="box130k,box480k")
+    ap.add_argument("--ranks", type=cli.positive_ints, default="1,2")
+    ap.add_argument("--frames", type=cli.positive_int, default=16)
+    ap.add_argument("--rounds", type=cli.positive_int, default=3)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-checkpoint"))
     args = ap.parse_args()
-    builds = dict(b.split("=", 1) for b in args.builds)
-    ranks_list = [int(r) for r in args.ranks.split(",")]
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
+    builds = dict(args.builds)
+    ranks_list = args.ranks
     deckdir = os.path.join(args.out, "decks")
     os.makedirs(deckdir, exist_ok=True)
     best = {}  # (case, ranks, build, kind) -> fastest wall_s
     sizes = {}
     for k in range(args.rounds):
-        for case in args.cases.split(","):
+        for case in args.cases:
             base = bench.write_deck(case, deckdir, args.frames)
             if base is None:
                 continue

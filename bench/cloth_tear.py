@@ -22,8 +22,10 @@ Prints a table of medians (with the range) and issue 44's bar: wall ms/frame of 
 """
 import argparse, csv, json, os, resource, statistics, subprocess, sys
 
+from hyperqn_tools import cli, launch
 from hyperqn_tools.decks import load_deck, write_deck
 from hyperqn_tools.output import read_summary
+from hyperqn_tools.paths import REPO
 
 METRICS = ["wall_ms_per_frame", "cpu_ms_per_frame", "solve_ms_per_frame", "iterations_per_frame", "topology_s"]
 FLAGS = {"plain": [], "tear": [], "refactor": ["-hyperqn_topology_h0", "false"], "before": []}
@@ -56,25 +58,28 @@ def one_run(binary, mode, deck_path, outdir):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--binary", default="build/hyperqn")
-    ap.add_argument("--deck", default="input/topology/cloth_tear.yaml")
-    ap.add_argument("--rounds", type=int, default=5)
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--binary", type=cli.program, default=launch.default_binary())
+    ap.add_argument("--deck", type=cli.input_file, default=os.path.join(REPO, "input", "topology", "cloth_tear.yaml"))
+    ap.add_argument("--rounds", type=cli.positive_int, default=5)
     ap.add_argument("--out", default="bench_out/cloth_tear")
-    ap.add_argument("--before", help="a second binary (a build before a change): mode `before`, the deck as it is")
+    ap.add_argument("--before", type=cli.program, help="a second binary (a build before a change): mode `before`, the deck as it is")
     ap.add_argument("--budget", choices=("adaptive", "fixed"), help="solver.budget of every mode (default: the deck's)")
     args = ap.parse_args()
-    os.makedirs(args.out, exist_ok=True)
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
     deck = load_deck(args.deck)
     if args.budget:
         deck.setdefault("solver", {})["budget"] = args.budget
     plain = json.loads(json.dumps(deck))
-    if "tear" in deck.get("cloth", {}):
+    if "tear" in (deck.get("cloth") or {}):
         del plain["cloth"]["tear"]
-    elif "snap" in deck.get("strand_material", {}):
+    elif "snap" in (deck.get("strand_material") or {}):
         del plain["strand_material"]["snap"]
     else:
-        sys.exit(f"{args.deck}: neither its cloth tears nor its strands snap")
+        ap.error(f"--deck {args.deck}: neither its cloth tears nor its strands snap")
+    os.makedirs(args.out, exist_ok=True)
     paths = {"tear": write_deck(os.path.join(args.out, "tear.yaml"), deck),
              "plain": write_deck(os.path.join(args.out, "plain.yaml"), plain)}
     paths["refactor"] = paths["before"] = paths["tear"]

@@ -20,16 +20,17 @@ import os
 import subprocess
 import sys
 
+from hyperqn_tools import cli
 from hyperqn_tools.paths import REPO
 
 BENCH = os.path.join(REPO, "bench", "bench.py")
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("old")
-    ap.add_argument("new")
-    ap.add_argument("--rounds", type=int, default=3)
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("old", type=cli.program)
+    ap.add_argument("new", type=cli.program)
+    ap.add_argument("--rounds", type=cli.positive_int, default=3)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-compare"))
     ap.add_argument("--old-solver", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--new-solver", action="append", default=[], metavar="KEY=VALUE")
@@ -37,7 +38,14 @@ def main():
     solver = {"old": [a for kv in args.old_solver for a in ("--solver", kv)],
               "new": [a for kv in args.new_solver for a in ("--solver", kv)]}
     builds = {"old": os.path.abspath(args.old), "new": os.path.abspath(args.new)}
-    listed = subprocess.run([sys.executable, BENCH, "--list"] + bench_args, check=True, stdout=subprocess.PIPE, text=True)
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
+    # bench.py's own arguments, checked by it before any run: its one-line error is ours
+    listed = subprocess.run([sys.executable, BENCH, "--list"] + bench_args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    if listed.returncode != 0:
+        ap.error((listed.stderr.strip().splitlines() or [f"bench.py --list: exit {listed.returncode}"])[-1])
     names = listed.stdout.strip().split(",")
     others = [a for i, a in enumerate(bench_args)  # --cases/--quick are replaced by one case per call
               if a not in ("--quick", "--cases") and not (i > 0 and bench_args[i - 1] == "--cases")]

@@ -13,7 +13,7 @@ Needs postprocess/ on PYTHONPATH (`make bench` sets it).
 import argparse, csv, json, os, sys, time
 
 from bench import machine_info, run_case
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.decks import load_deck, write_deck
 from hyperqn_tools.paths import REPO, SHARED_MESHES
 
@@ -85,17 +85,17 @@ def decks(args, outdir):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-contact"))
     ap.add_argument("--cases", default=",".join(CASES), help="comma list of " + ", ".join(CASES))
     ap.add_argument("--models", default=",".join(MODELS), help="comma list of " + ", ".join(MODELS) + " (off: no collider)")
-    ap.add_argument("--ranks", default="1,2")
-    ap.add_argument("--frames", type=int, default=30, help="frames per run (1 s: the fall, the impact, the rest)")
-    ap.add_argument("--repeat", type=int, default=1, help="rounds of runs; each row reports its fastest")
-    ap.add_argument("--timeout", type=float, default=3600)
-    ap.add_argument("--hyperqn", default=launch.default_binary())
-    ap.add_argument("--mpiexec", default=launch.default_mpiexec())
-    ap.add_argument("--h0-contact", help="solver.h0_contact of every deck (off, refactor, woodbury; default: the deck's)")
+    ap.add_argument("--ranks", type=cli.positive_ints, default="1,2")
+    ap.add_argument("--frames", type=cli.positive_int, default=30, help="frames per run (1 s: the fall, the impact, the rest)")
+    ap.add_argument("--repeat", type=cli.positive_int, default=1, help="rounds of runs; each row reports its fastest")
+    ap.add_argument("--timeout", type=cli.positive_float, default=3600)
+    ap.add_argument("--hyperqn", type=cli.program, default=launch.default_binary())
+    ap.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec())
+    ap.add_argument("--h0-contact", choices=("off", "refactor", "woodbury"), help="solver.h0_contact of every deck (off, refactor, woodbury; default: the deck's)")
     args = ap.parse_args()
     args.hyperqn = os.path.abspath(args.hyperqn)
     for name in [c.strip() for c in args.cases.split(",") if c.strip()]:
@@ -104,8 +104,11 @@ def main():
     for model in [m.strip() for m in args.models.split(",") if m.strip()]:
         if model not in MODELS:
             ap.error(f"unknown model {model}; known: {', '.join(MODELS)}")
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
     machine = machine_info()
-    runs = [(name, contact, path, int(r)) for name, contact, path in decks(args, args.out) for r in args.ranks.split(",")]
+    runs = [(name, contact, path, int(r)) for name, contact, path in decks(args, args.out) for r in args.ranks]
     best = {}  # (case, contact, ranks) -> (summary, status, ms per frame of every good round)
     for k in range(args.repeat):
         for name, contact, path, r in runs:

@@ -34,7 +34,7 @@ import sys
 
 import yaml
 
-from hyperqn_tools import launch, log_view
+from hyperqn_tools import cli, launch, log_view
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO
 
@@ -87,28 +87,39 @@ def keep(runs, how):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--case", default="box130k")
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--case", default="box130k", choices=list(bench.CASES), metavar="CASE", help="one of bench.py's cases")
     ap.add_argument("--sets", default=f"none;von_mises;cauchy_stress;principal_stretches;{TETS}",
                     help="';'-separated sets, each a comma list of fields or none")
     ap.add_argument("--format", default="vtu", choices=["vtu", "xdmf"])
-    ap.add_argument("--frames", type=int, default=4)
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--ranks", type=int, default=1)
+    ap.add_argument("--frames", type=cli.positive_int, default=4)
+    ap.add_argument("--repeat", type=cli.positive_int, default=3)
+    ap.add_argument("--ranks", type=cli.positive_int, default=1)
     ap.add_argument("--keep", default="median", choices=["median", "best"])
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-element-fields"))
-    ap.add_argument("--hyperqn", default=os.environ.get("HYPERQN_BIN", os.path.join(REPO, "build", "hyperqn")))
+    ap.add_argument("--hyperqn", default=launch.default_binary())
     ap.add_argument("--binaries", help="LABEL=PATH,LABEL=PATH: builds to compare, their runs interleaved "
                     "(instead of --hyperqn)")
-    ap.add_argument("--mpiexec", default=os.environ.get("MPIEXEC", "mpiexec"))
-    ap.add_argument("--timeout", type=float, default=1800)
+    ap.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec())
+    ap.add_argument("--timeout", type=cli.positive_float, default=1800)
     args = ap.parse_args()
-    binaries = dict(b.split("=", 1) for b in args.binaries.split(",")) if args.binaries else {"": args.hyperqn}
+    given_builds = args.binaries.split(",") if args.binaries else [f"={args.hyperqn}"]
+    if any("=" not in b for b in given_builds):
+        ap.error(f"--binaries {args.binaries}: not LABEL=PATH,LABEL=PATH")
+    binaries = dict(b.split("=", 1) for b in given_builds)
     keys = {}  # label -> its output keys (LABEL=PATH:KEY=VALUE...)
     for label, spec in binaries.items():
         path, *given = spec.split(":")
-        binaries[label] = path
+        if any("=" not in g for g in given):
+            ap.error(f"--binaries {label}={spec}: its output keys are KEY=VALUE")
+        try:
+            binaries[label] = cli.program(path)
+        except argparse.ArgumentTypeError as e:
+            ap.error(f"{'--binaries' if args.binaries else '--hyperqn'} {e}")
         keys[label] = {k: yaml.safe_load(v) for k, v in (g.split("=", 1) for g in given)}
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
     deckdir = os.path.join(args.out, "decks")
     os.makedirs(deckdir, exist_ok=True)
     base = bench.write_deck(args.case, deckdir, args.frames)

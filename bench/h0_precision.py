@@ -21,7 +21,7 @@ import sys
 
 import yaml
 
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.paths import REPO
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -29,20 +29,22 @@ import bench  # noqa: E402  (bench.py beside this script)
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--cases", default="bar66792,box130k")
-    ap.add_argument("--ranks", default="1")
-    ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--frames", type=int, default=10)
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cases", type=bench.case_list, default="bar66792,box130k")
+    ap.add_argument("--ranks", type=cli.positive_ints, default="1")
+    ap.add_argument("--rounds", type=cli.positive_int, default=3)
+    ap.add_argument("--frames", type=cli.positive_int, default=10)
     ap.add_argument("--h0", help="solver.h0 for every case (default: the deck's auto)")
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-h0-precision"))
-    ap.add_argument("--hyperqn", default=launch.default_binary())
-    ap.add_argument("--mpiexec", default=launch.default_mpiexec())
-    ap.add_argument("--timeout", type=float, default=1800)
+    ap.add_argument("--hyperqn", type=cli.program, default=launch.default_binary())
+    ap.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec())
+    ap.add_argument("--timeout", type=cli.positive_float, default=1800)
     args = ap.parse_args()
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
     args.hyperqn = os.path.abspath(args.hyperqn)
-    names = [c.strip() for c in args.cases.split(",") if c.strip()]
-    ranks = [int(r) for r in args.ranks.split(",")]
+    names, ranks = args.cases, args.ranks
     precisions = ["double", "single"]
     bandwidth = bench.stream_bandwidth()
     print(f"memory bandwidth (STREAM add, one core): {bandwidth / 1e9:.2f} GB/s; load {os.getloadavg()}",

@@ -31,7 +31,7 @@ import sys
 
 import yaml
 
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.decks import write_deck as write_yaml
 from hyperqn_tools.paths import REPO
 
@@ -79,28 +79,31 @@ def run(args, binary, deck, rundir):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--cases", default="bar66792,bunny", help="bench.py's cases (a missing mesh is skipped)")
-    ap.add_argument("--binaries", default=f"new={os.path.join(REPO, 'build', 'hyperqn')}",
+    ap = cli.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--cases", type=bench.case_list, default="bar66792,bunny", help="bench.py's cases (a missing mesh is skipped)")
+    ap.add_argument("--binaries", type=cli.labelled_programs, default=f"new={os.path.join(REPO, 'build', 'hyperqn')}",
                     help="LABEL=PATH,LABEL=PATH: the builds, their runs interleaved")
     ap.add_argument("--variants", default=",".join(VARIANTS),
                     help="a comma-separated subset of VARIANTS (each with the elastic one it is compared with)")
-    ap.add_argument("--frames", type=int, default=5)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--frames", type=cli.positive_int, default=5)
+    ap.add_argument("--repeat", type=cli.positive_int, default=3)
     ap.add_argument("--out", default=os.path.join(REPO, "output", "bench-inelastic"))
-    ap.add_argument("--mpiexec", default=launch.default_mpiexec())
-    ap.add_argument("--timeout", type=float, default=1800)
+    ap.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec())
+    ap.add_argument("--timeout", type=cli.positive_float, default=1800)
     args = ap.parse_args()
     chosen = set(args.variants.split(","))
     unknown = chosen - set(VARIANTS)
     if unknown:
-        raise SystemExit(f"unknown variants {sorted(unknown)} (expected {', '.join(VARIANTS)})")
+        ap.error(f"--variants: unknown {sorted(unknown)} (expected {', '.join(VARIANTS)})")
+    why = cli.unwritable_dir(args.out)
+    if why:
+        ap.error(f"--out {why}")
     chosen |= {VARIANTS[v][0] for v in chosen}
-    binaries = {label: os.path.abspath(path) for label, path in (b.split("=", 1) for b in args.binaries.split(","))}
+    binaries = {label: os.path.abspath(path) for label, path in args.binaries.items()}
     deckdir = os.path.join(args.out, "decks")
     os.makedirs(deckdir, exist_ok=True)
     decks, converged = {}, {}
-    for case in args.cases.split(","):
+    for case in args.cases:
         base = bench.write_deck(case, deckdir, args.frames)
         if base is None:
             continue

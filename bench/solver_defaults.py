@@ -11,7 +11,7 @@ import csv
 import os
 import subprocess
 
-from hyperqn_tools import launch
+from hyperqn_tools import cli, launch
 from hyperqn_tools.decks import load_deck, portable_copy, write_deck
 from hyperqn_tools.output import read_iterations, read_summary
 from hyperqn_tools.paths import REPO
@@ -32,15 +32,18 @@ def mean_final_grad(rows):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--deck", default=os.path.join(REPO, "input/bar.yaml"))
-    p.add_argument("--frames", type=int, default=50)
-    p.add_argument("--ranks", type=int, default=1)
-    p.add_argument("--atol", type=float, default=1e-6)
+    p = cli.ArgumentParser(description=__doc__)
+    p.add_argument("--deck", type=cli.input_file, default=os.path.join(REPO, "input/bar.yaml"))
+    p.add_argument("--frames", type=cli.positive_int, default=50)
+    p.add_argument("--ranks", type=cli.positive_int, default=1)
+    p.add_argument("--atol", type=cli.positive_float, default=1e-6)
     p.add_argument("--out", default=os.path.join(REPO, "output/solver_defaults"))
-    p.add_argument("--hyperqn", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
-    p.add_argument("--mpiexec", default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
+    p.add_argument("--hyperqn", type=cli.program, default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
+    p.add_argument("--mpiexec", type=cli.program, default=launch.default_mpiexec(), help="default: $MPIEXEC, else mpiexec")
     args = p.parse_args()
+    why = cli.unwritable_dir(args.out)
+    if why:
+        p.error(f"--out {why}")
     base = portable_copy(load_deck(args.deck), args.deck)
     base["time"]["frames"] = args.frames
     base["output"] = {"vtk": False}

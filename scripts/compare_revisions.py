@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from hyperqn_tools import launch
-from hyperqn_tools.cli import ArgumentParser, unwritable_file
+from hyperqn_tools.cli import ArgumentParser, fraction, positive_int, program, unwritable_file
 from hyperqn_tools.compare import final_frames
 from hyperqn_tools.decks import load_deck, portable_copy, write_deck
 from hyperqn_tools.output import frames_of_iterations, read_iterations, rest_diagonal
@@ -192,14 +192,14 @@ def main():
     p = ArgumentParser(prog="scripts/compare_revisions.py", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     base = p.add_mutually_exclusive_group(required=True)
-    base.add_argument("--base-bin", help="hyperqn binary of the base")
+    base.add_argument("--base-bin", type=program, help="hyperqn binary of the base")
     base.add_argument("--base-rev", help="git revision to build and use as the base")
-    p.add_argument("--new-bin", default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
+    p.add_argument("--new-bin", type=program, default=launch.default_binary(), help="default: $HYPERQN_BIN, else build/hyperqn")
     p.add_argument("--out", default=os.path.join(REPO, "output", "compare_revisions", "result.json"),
                    help="JSON result; the decks and runs go into its directory")
     p.add_argument("--cases", help="comma list of deck names (default: all): " + ",".join(c[0] for c in CASES))
-    p.add_argument("--tol", type=float, default=1e-10, help="max |x_new - x_base| / rest diagonal")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="build jobs for --base-rev")
+    p.add_argument("--tol", type=fraction, default=1e-10, help="max |x_new - x_base| / rest diagonal")
+    p.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1, help="build jobs for --base-rev")
     args = p.parse_args()
     names = [n.strip() for n in args.cases.split(",")] if args.cases else []
     unknown = set(names) - {c[0] for c in CASES}

@@ -5,9 +5,13 @@ output paths are checked before a tool writes anything, with the helpers here.
     ArgumentParser   argparse's parser whose errors are that one line and exit 1
     positive_int, positive_float
                      argparse types for counts and times that must be > 0
+    positive_ints    argparse type for a comma list of counts (rank counts): each > 0
     count            argparse type for a number of things to do that may be 0
     seconds_or_0     argparse type for a time limit where 0 is none
+    input_file       argparse type for a file to read: one that exists and can be read
     program          argparse type for a binary or mpiexec: a path or a name on PATH that can be run
+    labelled_program argparse type for LABEL=PATH of a binary; labelled_programs for a comma list
+                     of them ({label: path})
     fraction         argparse type for a relative tolerance, in [0, 1)
     unwritable_file(path), unwritable_dir(path)
                      why a file or directory could not be written there, or None
@@ -52,6 +56,10 @@ def positive_float(text):
     return value
 
 
+def positive_ints(text):
+    return [positive_int(t) for t in text.split(",")]
+
+
 def count(text):
     try:
         value = int(text)
@@ -68,14 +76,33 @@ def seconds_or_0(text):
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (math.isfinite(value) and value >= 0):  # nan too
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0 (0: no limit)")
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0")
     return value
+
+
+def input_file(text):
+    if not os.path.isfile(text):
+        raise argparse.ArgumentTypeError(f"{text}: no such file")
+    if not os.access(text, os.R_OK):
+        raise argparse.ArgumentTypeError(f"{text}: cannot be read")
+    return text
 
 
 def program(text):
     if not shutil.which(text):
         raise argparse.ArgumentTypeError(f"{text}: not an executable file")
     return text
+
+
+def labelled_program(text):
+    label, sep, path = text.partition("=")
+    if not (sep and label and path):
+        raise argparse.ArgumentTypeError(f"{text!r}: not LABEL=PATH")
+    return label, program(path)
+
+
+def labelled_programs(text):
+    return dict(labelled_program(t) for t in text.split(","))
 
 
 def fraction(text):

@@ -225,6 +225,61 @@ def test_fuzz_and_faults_keep_a_user_s_files_in_out(tmp_path, name, args, own, w
     assert results.get("cases", len(results.get("trials", []))) == 0
 
 
+# A representative bad argument of every script, each refused in one line, exit 1, before anything
+# is written (before: argparse's usage and exit 2, a traceback, or a run that failed later).
+# OUT: a directory not yet made in the test's directory; FILE: a file there; BIN: the binary.
+BAD_ARGUMENTS = [
+    ("scripts/ball_mesh.py", ["OUT/y.mesh", "--radius", "1e-120"], "--radius 1e-120"),
+    ("scripts/cylinder_mesh.py", ["OUT/x.mesh", "--cells", "0"], "--cells"),
+    ("scripts/dogbone_mesh.py", ["OUT/d.mesh", "--cells", "4", "0", "2"], "--cells"),
+    ("scripts/shell_mesh.py", ["OUT/s.mesh", "--layers", "-1"], "--layers"),
+    ("scripts/slit_mesh.py", ["OUT/z.mesh", "--inner", "0.01", "--outer", "1", "--gap-fraction", "0.05"],
+     "--gap-fraction"),
+    ("scripts/sliver_mesh.py", ["OUT/v.mesh", "--element", "nan"], "--element"),
+    ("scripts/compare_revisions.py", ["--base-bin", "BIN", "--new-bin", "BIN", "--tol", "nan", "--out", "OUT/r.json"],
+     "--tol"),
+    ("scripts/compare_revisions.py", ["--base-bin", "BIN", "--new-bin", "BIN", "--tol", "-1", "--out", "OUT/r.json"],
+     "--tol"),
+    ("scripts/fuzz.py", ["--cases", "-5", "--out", "OUT", "--bin", "BIN"], "--cases"),
+    ("scripts/fuzz.py", ["--budget", "-1", "--out", "OUT", "--bin", "BIN"], "--budget"),
+    ("scripts/fuzz.py", ["--timeout", "0", "--out", "OUT", "--bin", "BIN"], "--timeout"),
+    ("scripts/fuzz.py", ["--cases", "1", "--out", "FILE", "--bin", "BIN"], "not a directory"),
+    ("scripts/fuzz.py", ["--out", "OUT", "--bin", "/nonexist"], "/nonexist"),
+    ("scripts/faults.py", ["--ranks", "0", "--out", "OUT", "--bin", "BIN"], "--ranks"),
+    ("scripts/faults.py", ["--ranks", "a", "--out", "OUT", "--bin", "BIN"], "--ranks"),
+    ("scripts/faults.py", ["--trials", "2", "--trial", "7", "--out", "OUT", "--bin", "BIN"], "--trial 7"),
+    ("bench/bench.py", ["--min-solve-s", "nan", "--out", "OUT"], "--min-solve-s"),
+    ("bench/bench.py", ["--min-solve-s", "-1", "--out", "OUT"], "--min-solve-s"),
+    ("bench/bench.py", ["--mpiexec", "/nonexist/mpiexec", "--out", "OUT"], "--mpiexec"),
+    ("bench/compare_builds.py", ["BIN", "BIN", "--cases", "nosuch", "--out", "OUT"], "nosuch"),
+    ("bench/topology_cuts.py", ["--rounds", "0", "--out", "OUT", "--binary", "BIN"], "--rounds"),
+    ("bench/topology_cuts.py", ["--out", "FILE", "--binary", "BIN"], "not a directory"),  # its --deck found
+    ("bench/cloth_tear.py", ["--out", "FILE", "--binary", "BIN"], "not a directory"),  # from outside the repository
+    ("bench/inelastic_cost.py", ["--cases", "nosuch", "--out", "OUT"], "nosuch"),
+    ("bench/element_fields.py", ["--frames", "0", "--out", "OUT"], "--frames"),
+    ("bench/h0_precision.py", ["--ranks", "1,x", "--out", "OUT"], "--ranks"),
+    ("bench/checkpoint.py", ["new=/nonexist", "--out", "OUT"], "/nonexist"),
+    ("bench/solver_defaults.py", ["--atol", "nan", "--out", "OUT"], "--atol"),
+    ("bench/contact.py", ["--timeout", "-1", "--out", "OUT"], "--timeout"),
+]
+
+
+@pytest.mark.parametrize("name, args, said", BAD_ARGUMENTS, ids=[f"{n}-{a[-3] if len(a) > 2 else a[0]}-{k}"
+                                                                  for k, (n, a, _) in enumerate(BAD_ARGUMENTS)])
+def test_scripts_refuse_a_bad_argument_in_one_line(tmp_path, name, args, said):
+    (tmp_path / "FILE").write_text("mine\n")
+    subst = {"OUT": str(tmp_path / "out"), "FILE": str(tmp_path / "FILE"), "BIN": HYPERQN}
+    args = [subst.get(a, a.replace("OUT/", subst["OUT"] + "/")) for a in args]
+    env = {**os.environ, "PYTHONPATH": os.path.join(REPO, "postprocess")}
+    proc = subprocess.run([sys.executable, os.path.join(REPO, name), *args], capture_output=True, text=True,
+                          timeout=60, cwd=tmp_path, env=env)
+    assert proc.returncode == 1, (proc.returncode, proc.stdout, proc.stderr)
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "error:" in proc.stderr and said in proc.stderr, proc.stderr
+    assert proc.stdout == "" and sorted(p.name for p in tmp_path.iterdir()) == ["FILE"]
+    assert (tmp_path / "FILE").read_text() == "mine\n"
+
+
 STUDY_HEADER = "frame,solver,iteration,time_s,energy,grad_norm,rel_error\n"
 
 
