@@ -42,7 +42,7 @@ def main():
     if why:
         ap.error(f"--out {why}")
     # bench.py's own arguments, checked by it before any run: its one-line error is ours
-    listed = subprocess.run([sys.executable, BENCH, "--list"] + bench_args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    listed = subprocess.run([sys.executable, BENCH, "--list", "--hyperqn", args.new] + bench_args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
     if listed.returncode != 0:
         ap.error((listed.stderr.strip().splitlines() or [f"bench.py --list: exit {listed.returncode}"])[-1])
