@@ -272,6 +272,11 @@ def write_report(studies, out, lines):
         if "stopped" in m:  # a signal ended the study early (docs/study.md, "Signals")
             lines += [f"**Cut short: {m['stopped']}**: the frames and trajectories end there.", ""]
             print(f"study_report: {study['dir']}: the study was cut short ({m['stopped']})", file=sys.stderr)
+        elif not os.path.exists(os.path.join(study["dir"], "study.h5")):  # written last, at its end
+            lines += ["**Incomplete: the study did not end** (killed, or still running; no study.h5): "
+                      "its frames and trajectories end where it was.", ""]
+            print(f"study_report: {study['dir']}: the study did not end (no study.h5: killed, or still running)",
+                  file=sys.stderr)
         rel = os.path.relpath(study["dir"], os.path.dirname(out))
         for frame in sorted(study["curves"]):
             lines += [f"### frame {frame}", ""] + frame_table(study["curves"][frame]) + [""]

@@ -87,6 +87,22 @@ def test_report(study):
     assert "| lbfgs |" in text and "speed-up@0.001" in text
     for png in (out / "error_vs_time.png", out / "trajectory.png", out.parent / "overview.png"):
         assert png.stat().st_size > 10000
+    assert "Incomplete" not in text
+
+
+def test_report_of_a_killed_study_says_it_did_not_end(study, tmp_path):
+    """A study killed (SIGKILL) leaves its CSVs and study.json but not study.h5, written at its end:
+    the report showed its partial trajectory as a finished study. Now it says it did not end."""
+    import shutil
+    out, _, _ = study
+    killed = tmp_path / "killed"
+    shutil.copytree(out, killed)
+    (killed / "study.h5").unlink()
+    proc = subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(killed), "--out",
+                           str(tmp_path / "report.md")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "**Incomplete: the study did not end**" in (tmp_path / "report.md").read_text()
+    assert "the study did not end (no study.h5" in proc.stderr
 
 
 def plain_runs(tmp_path, deck, ranks=1):
