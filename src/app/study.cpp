@@ -504,6 +504,15 @@ int run_one_study(MPI_Comm comm, const Deck& deck, const std::string& outdir, co
         return 1;
       }
     }
+    // An integrator's directory is this study's too while it runs there: a study or run into it is refused.
+    OutputLock own;
+    if (outdir != root) {
+      const std::string busy = own.take(comm, outdir, "study of deck " + deck.path);
+      if (!busy.empty()) {
+        print_error(comm, busy);
+        return 1;
+      }
+    }
     // Rank 0 writes alone: its failure must end the study on every rank.
     std::unique_ptr<StudyWriter> writer;
     std::string error;

@@ -334,3 +334,26 @@ def test_a_study_takes_the_directory_lock(tmp_path, ranks):
             proc.wait(timeout=10)
     assert proc.returncode == 0, stdout[-2000:]
     assert (out / "study.csv").exists() and not (out / ".hyperqn.lock").exists()
+
+
+def test_a_study_holds_each_integrator_s_directory_it_runs_in(tmp_path):
+    # A study of several integrators held only OUTDIR: a second study into OUTDIR/bdf2 meanwhile
+    # removed the first's partial files there and both exited 0, bdf2/ then holding one's CSVs and
+    # the other's study.h5. Now each integrator's directory is locked while the study runs in it.
+    import fcntl
+    deck = open(os.path.join(REPO, "tests", "decks", "study_small.yaml")).read()
+    deck = deck.replace("time: {dt: 0.0333333333, frames: 20}", "time: {dt: 0.0333333333, frames: 6}")
+    deck = deck.replace("  frames: [5, 15]", "  frames: [2]\n  integrators: [implicit-euler, bdf2]")
+    path = tmp_path / "axis.yaml"
+    path.write_text(deck)
+    out = tmp_path / "axis"
+    (out / "bdf2").mkdir(parents=True)
+    with open(out / "bdf2" / ".hyperqn.lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        held.write("pid 4242 on host elsewhere, started now, deck other.yaml\n")
+        held.flush()
+        proc = run_hyperqn(["study", path, "-o", out], check=False, timeout=300)
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert f"the output directory {out}/bdf2 is in use by another run" in proc.stdout, proc.stdout[-2000:]
+    assert (out / "implicit-euler" / "study.h5").exists()  # the first integrator's study is whole
+    assert not (out / "bdf2" / "study.csv").exists() and not (out / ".hyperqn.lock").exists()
