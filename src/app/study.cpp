@@ -29,7 +29,9 @@ namespace {
 std::string material_label(const Deck& deck) {
   const auto of = [](const MeshSpec& mesh, const ClothSpec& cloth, bool has_material, const MaterialSpec& material) {
     if (mesh.has_cloth()) return "cloth " + kClothModelNames[size_t(cloth.model)];
-    return has_material || !mesh.has_strands() ? material.model : std::string("strands");
+    if (!has_material && mesh.has_strands()) return std::string("strands");
+    // with its inelastic block ("hencky + plastic"): the report tells it from the elastic model
+    return material.model + (material.inelastic.kind.empty() ? "" : " + " + material.inelastic.kind);
   };
   if (deck.bodies.empty()) return of(deck.mesh, deck.cloth, true, deck.material);
   std::string label;

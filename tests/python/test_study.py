@@ -372,13 +372,17 @@ def test_a_study_of_bodies_names_each_body_s_material(tmp_path):
     block = lambda x, model: {"mesh": {"box": {"size": [0.2, 0.2, 0.2], "cells": [1, 1, 1]}, "transform": {"translate": [x, 0, 0]}},
                               "material": {"model": model, "youngs_modulus": 1.0e5, "poisson_ratio": 0.3, "density": 1000},
                               "fixed": [{"box": {"min": [x - 0.01, -0.01, -0.01], "max": [x + 0.01, 0.21, 0.21]}}]}
-    deck = {"bodies": [{"name": "soft", **block(0.0, "neohookean")}, {"name": "hard", **block(1.0, "stvk")}],
+    deck = {"bodies": [{"name": "soft", **block(0.0, "neohookean")}, {"name": "hard", **block(1.0, "stvk")},
+                       {"name": "yielding", **block(2.0, "hencky")}],
             "gravity": [0, -9.81, 0], "time": {"dt": 0.02, "frames": 2},
             "study": {"frames": [1], "solvers": ["lbfgs"], "iterations": 20}}
+    # an inelastic block is named with its model (before: "hencky", like the elastic one)
+    deck["bodies"][2]["material"]["plastic"] = {"yield_stress": 1.0e3}
     path = tmp_path / "bodies.yaml"
     path.write_text(yaml.safe_dump(deck))
     run_hyperqn(["study", path, "-o", tmp_path / "study"], ranks=None)
-    assert json.loads((tmp_path / "study" / "study.json").read_text())["material"] == "soft: neohookean, hard: stvk"
+    assert json.loads((tmp_path / "study" / "study.json").read_text())["material"] == \
+        "soft: neohookean, hard: stvk, yielding: hencky + plastic"
 
 
 BAR_AT_REST = {"mesh": {"box": {"size": [1.0, 0.2, 0.2], "cells": [4, 1, 1]}},
