@@ -338,6 +338,37 @@ static void check_inputs_are_not_outputs(const Deck& deck, const std::string& ou
   for (const Deck::InputFile& f : deck.input_files) check(f.path, f.line, f.key);
 }
 
+// A file in OUTDIR under a name the run's new frame series takes (the deck's format's: NAME.pvd, or
+// NAME.xdmf and NAME.h5; a restart's series that its checkpoint carries goes on, and is that run's)
+// that is not a run's output (is_run_output: a NAME.h5 without a NAME.xdmf beside it that uses it, a
+// NAME.pvd that lists no NAME_ frames): clearing the directory leaves it, and the series would
+// overwrite it. The refusal naming it, "" if there is none. Collective (rank 0 looks).
+static std::string foreign_series_file(MPI_Comm comm, const Deck& deck, const CheckpointHeader* saved,
+                                       const std::string& outdir) {
+  const bool vtu = deck.output.format == OutputFormat::vtu;
+  if (!deck.output.vtk) return "";
+  if (saved)
+    for (const auto& [key, value] : saved->writers)
+      if (key == (vtu ? VtkSeries::kRestartKey : XdmfSeries::kRestartKey)) return "";
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string refusal;
+  for (const std::string& name : vtu ? std::vector<std::string>{deck.name + ".pvd"}
+                                     : std::vector<std::string>{deck.name + ".xdmf", deck.name + ".h5"}) {
+    std::error_code ec;
+    if (rank != 0 || !refusal.empty() || !std::filesystem::exists(std::filesystem::symlink_status(outdir + "/" + name, ec)) ||
+        is_run_output(outdir, name))
+      continue;
+    const std::string why = name == deck.name + ".h5"   ? "no " + deck.name + ".xdmf beside it uses it"
+                            : name == deck.name + ".pvd" ? "it lists no " + deck.name + "_ frames"
+                                                          : "its data are not in " + deck.name + ".h5";
+    refusal = outdir + "/" + name + " is not a run's output (" + why + "), and this run would write its " +
+              kOutputFormatNames[size_t(deck.output.format)] + " frames over it (name: " + deck.name +
+              "): choose another -o or another name, or move or remove the file";
+  }
+  return broadcast_text(comm, refusal);
+}
+
 int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, const std::string& restart_arg) {
   const double t_start = MPI_Wtime();
   int rank, size;
@@ -368,6 +399,10 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
   std::string restart_path;
   if (!restart_arg.empty() && !open_restart(comm, restart_arg, outdir, identity, deck.time.frames, restart_path, saved)) return 1;
   const bool restart = !restart_path.empty();  // else a new run (also --restart auto without a checkpoint)
+  if (const std::string foreign = foreign_series_file(comm, deck, restart ? &saved : nullptr, outdir); !foreign.empty()) {
+    print_error(comm, foreign);
+    return 1;
+  }
   identity.run_id = restart ? saved.run_id : new_run_id(comm);
   identity.run_started = restart ? saved.run_started : utc_now(comm);
   identity.deck = restart ? saved.deck : deck.path;

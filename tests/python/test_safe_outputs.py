@@ -114,6 +114,48 @@ def test_rerun_replaces_the_earlier_run(tmp_path, first_ranks, second_ranks, sam
     assert {int(r["frame"]) for r in rows} == {1, 2, 3}
 
 
+@pytest.mark.parametrize("fmt,ranks", [("xdmf", None), ("xdmf", 2), ("vtu", None), ("vtu", 2)])
+def test_a_users_file_under_the_series_name_is_refused(tmp_path, fmt, ranks):
+    """A user's file under the name the run's series takes, which is not a run's output (docs/outputs.md):
+    a tb.h5 with no tb.xdmf beside it, a tb.pvd that lists other/run_00000.vtu. The run refuses before
+    it writes anything, naming it (before: exit 0, the file replaced, the user's dataset gone); once it
+    is moved, the run and a rerun (which clears the first run's tb.h5 or tb.pvd) go on."""
+    import h5py
+    out = tmp_path / "D"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    if fmt == "xdmf":
+        mine = "tb.h5"
+        with h5py.File(out / mine, "w") as f:
+            f["my_results"] = [1.5, 2.5, 3.5]
+    else:
+        mine = "tb.pvd"
+        (out / mine).write_text('<VTKFile type="Collection"><Collection>'
+                                '<DataSet file="other/run_00000.vtu"/></Collection></VTKFile>\n')
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    deck = small_deck("tb", 2)
+    deck["output"] = {"format": fmt}
+    path = write_deck(tmp_path / "tb.yaml", deck)
+    proc = run_hyperqn([path, "-o", out], ranks=ranks, check=False, timeout=120)
+    assert proc.returncode == 1, proc.stdout[-2000:]
+    assert f"hyperqn: error: {out}/{mine} is not a run's output" in proc.stdout, proc.stdout[-2000:]
+    assert "choose another -o or another name, or move or remove the file" in proc.stdout
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing written, nothing removed
+    if fmt == "xdmf":
+        with h5py.File(out / mine, "r") as f:
+            assert list(f) == ["my_results"] and list(f["my_results"][()]) == [1.5, 2.5, 3.5]
+    (out / mine).rename(tmp_path / mine)
+    for _ in range(2):
+        proc = run_hyperqn([path, "-o", out], ranks=ranks, timeout=120)
+    assert "held an earlier run's output" in proc.stdout, proc.stdout[-2000:]
+    assert read_summary(out)["status"] == "ok" and (out / "notes.txt").read_text() == "mine\n"
+    if fmt == "xdmf":
+        with h5py.File(out / "tb.h5", "r") as f:
+            assert sorted(f) == ["frames", "mesh"] and sorted(f["frames"]) == ["00000", "00001", "00002"]
+    else:
+        assert len(read_pvd(out / "tb.pvd")) == 3
+
+
 def hyperqn_pids(session):
     """The hyperqn processes of a session (mpiexec started with start_new_session)."""
     return sessions.members(session, "hyperqn")
