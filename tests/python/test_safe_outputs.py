@@ -156,6 +156,30 @@ def test_a_users_file_under_the_series_name_is_refused(tmp_path, fmt, ranks):
         assert len(read_pvd(out / "tb.pvd")) == 3
 
 
+def test_a_users_file_under_a_restarts_new_series_name_is_refused(tmp_path):
+    """A restart that switches output.format from vtu to xdmf starts an XDMF series: a user's tb.h5
+    there is refused as for a new run, nothing changed (before: overwritten); moved, the restart goes on."""
+    import h5py
+    out = tmp_path / "D"
+    deck = small_deck("tb", 3)
+    deck["checkpoint"] = {"every": 2}
+    run_hyperqn([write_deck(tmp_path / "tb.yaml", deck), "-o", out], timeout=120)
+    with h5py.File(out / "tb.h5", "w") as f:
+        f["my_results"] = [1.5]
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    deck["output"] = {"format": "xdmf"}
+    path = write_deck(tmp_path / "tbx.yaml", deck)
+    proc = run_hyperqn([path, "-o", out, "--restart", "latest"], check=False, timeout=120)
+    assert proc.returncode == 1 and f"{out}/tb.h5 is not a run's output" in proc.stdout, proc.stdout[-2000:]
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    (out / "tb.h5").rename(tmp_path / "tb.h5")
+    proc = run_hyperqn([path, "-o", out, "--restart", "latest"], timeout=120)
+    assert "output.format is now xdmf" in proc.stdout, proc.stdout[-2000:]
+    with h5py.File(out / "tb.h5", "r") as f:
+        assert sorted(f["frames"]) == ["00003"]
+    assert len(read_pvd(out / "tb.pvd")) == 3  # frames 0-2, as at the checkpoint
+
+
 def hyperqn_pids(session):
     """The hyperqn processes of a session (mpiexec started with start_new_session)."""
     return sessions.members(session, "hyperqn")
