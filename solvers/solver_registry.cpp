@@ -67,11 +67,12 @@ bool solver_takes_h0(const std::string& type) {
 
 H0 solver_h0(const SolverSpec& spec) { return solver_takes_h0(spec.type) ? spec.h0 : H0::laplacian; }
 
-std::vector<std::string> solver_keys_ignored(const SolverSpec& spec) {
+std::vector<std::string> solver_keys_ignored(const SolverSpec& spec, const std::map<std::string, std::string>& rule_sources) {
   const SolverSpec defaults;
   std::vector<std::string> ignored;
+  const auto by_rule = [&](const char* key) { return rule_sources.count(std::string("solver.") + key) > 0; };
   const auto check = [&](const char* key, int value, int default_value, const std::vector<std::string>& names) {
-    if (value != default_value) ignored.push_back(std::string(key) + ": " + names[value]);
+    if (value != default_value && !by_rule(key)) ignored.push_back(std::string(key) + ": " + names[value]);
   };
   if (!solver_takes_h0(spec.type)) {
     check("h0", (int)spec.h0, (int)defaults.h0, kH0Names);
@@ -80,8 +81,10 @@ std::vector<std::string> solver_keys_ignored(const SolverSpec& spec) {
     check("h0_rigid", (int)spec.h0_rigid, (int)defaults.h0_rigid, kH0RigidNames);
     check("two_loop", (int)spec.two_loop, (int)defaults.two_loop, kTwoLoopNames);
   }
-  if (spec.type != "lbfgs" && spec.type != "lbfgs-identity")
+  if (spec.type != "lbfgs" && spec.type != "lbfgs-identity") {
+    if (spec.history != defaults.history && !by_rule("history")) ignored.push_back("history: " + std::to_string(spec.history));
     check("history_reset", (int)spec.history_reset, (int)defaults.history_reset, kHistoryResetNames);
+  }
   return ignored;
 }
 
@@ -203,7 +206,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "[guardrails.md](guardrails.md#fallback))",
        at_least(0)},
       {"history", &S::history,
-       "number of L-BFGS correction pairs (`lbfgs`, `lbfgs-identity`); with 0 and an ARAP material, `lbfgs` takes the "
+       "number of L-BFGS correction pairs (`lbfgs`, `lbfgs-identity`; `newton` and `pd` ignore it); with 0 and an ARAP material, `lbfgs` takes the "
        "same steps as `pd`. With colliders or self-contact the default is larger: contact and friction stiffness are "
        "not in M + h²L and L-BFGS learns them from its pairs ([contact.md](contact.md#defaults))",
        between(0, kMaxHistory, "each pair holds two vectors of all unknowns; the paper uses 5")},

@@ -4,6 +4,7 @@
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -72,8 +73,10 @@ inline H0 resolved_h0(const SolverSpec& spec, int64_t tets, double poisson_ratio
 }
 // The keys of `solver:` that spec.type does not read, each as "key: value", where the deck set them
 // to other than their default (a run warns of each): the H0 keys but with lbfgs (solver_takes_h0),
-// history_reset but with lbfgs and lbfgs-identity. A study reads them all (its lbfgs contender).
-std::vector<std::string> solver_keys_ignored(const SolverSpec& spec);
+// history and history_reset but with lbfgs and lbfgs-identity. Not a key that a rule of the scene
+// set (rule_sources: Deck::rule_sources, "solver.h0" -> the rule): the deck did not. A study reads
+// them all (its lbfgs contender).
+std::vector<std::string> solver_keys_ignored(const SolverSpec& spec, const std::map<std::string, std::string>& rule_sources);
 // The matrix itself (the V-cycle applies M + h^2 L).
 ConstantMatrix constant_matrix_of(H0 h0);
 

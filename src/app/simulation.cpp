@@ -499,7 +499,7 @@ int run_simulation(MPI_Comm comm, const Deck& deck, const std::string& outdir, c
               summary.solver.c_str(), summary.setup_s, summary.factor_s);
   for (const auto& term : scene.body->terms())
     if (const std::string line = term->describe(); !line.empty()) PetscPrintf(comm, "hyperqn: %s\n", line.c_str());
-  for (const std::string& key : solver_keys_ignored(deck.solver))
+  for (const std::string& key : solver_keys_ignored(deck.solver, deck.rule_sources))
     PetscPrintf(comm, "hyperqn: warning: solver.type %s does not read solver.%s (a key of L-BFGS's, "
                       "docs/deck-run.md#solver)\n", deck.solver.type.c_str(), key.c_str());
   if (deck.output.reactions && Reactions::names(deck).empty())

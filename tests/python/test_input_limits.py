@@ -262,14 +262,37 @@ def test_an_overridden_solver_is_said(tmp_path):
 
 @pytest.mark.parametrize("solver", ["newton", "pd", "lbfgs-identity", "lbfgs"])
 def test_l_bfgs_keys_another_solver_ignores_are_said(tmp_path, solver):
-    """solver.h0_rigid, two_loop, history_reset, ... set beside a solver that does not read them: one
-    warning each naming the key and its value (before: silently ignored); lbfgs reads them all."""
-    keys = {"h0_rigid": "false", "two_loop": "streamed", "h0_contact": "off", "history_reset": "contact-change"}
+    """solver.h0_rigid, two_loop, history_reset, history, ... set beside a solver that does not read them:
+    one warning each naming the key and its value (before: silently ignored; history with pd and newton
+    until 2026-12-08); lbfgs reads them all."""
+    keys = {"h0_rigid": "false", "two_loop": "streamed", "h0_contact": "off", "history_reset": "contact-change",
+            "history": 7}
     deck = deck_with(**{"solver": {"type": solver, **keys}})
     proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", tmp_path / "out"], ranks=None, timeout=60)
     said = re.findall(r"warning: solver.type (\S+) does not read solver\.(\w+): (\S+) ", proc.stdout)
-    read_by = {"lbfgs": set(keys), "lbfgs-identity": {"history_reset"}}.get(solver, set())
-    assert sorted(said) == sorted((solver, k, v) for k, v in keys.items() if k not in read_by), proc.stdout[-3000:]
+    read_by = {"lbfgs": set(keys), "lbfgs-identity": {"history_reset", "history"}}.get(solver, set())
+    assert sorted(said) == sorted((solver, k, str(v)) for k, v in keys.items() if k not in read_by), proc.stdout[-3000:]
+
+
+@pytest.mark.parametrize("solver", ["newton", "pd"])
+def test_solver_keys_a_rule_set_are_not_warned_of(tmp_path, solver):
+    """A roller (a fixed region with components) sets solver.h0 to laplacian, self-contact sets
+    solver.history to 20: rules, not the deck, so a solver that reads neither is not warned of them
+    (before: newton and pd were warned of solver.h0: laplacian), and config.yaml names the rules."""
+    deck = deck_with(solver={"type": solver},
+                     fixed=[{"box": {"min": [-0.01, -1, -1], "max": [0.01, 1, 1]}},
+                            {"box": {"min": [0.99, -1, -1], "max": [1.01, 1, 1]}, "components": ["y"]}],
+                     contact={"self": True})
+    out = tmp_path / "out"
+    proc = run_hyperqn([write_deck(tmp_path / "deck.yaml", deck), "-o", out], ranks=None, timeout=60)
+    assert "does not read" not in proc.stdout, proc.stdout[-3000:]
+    config = (out / "config.yaml").read_text()
+    assert "solver.h0: laplacian  # rule: rollers (fixed: components)" in config, config
+    assert "solver.history: 20  # rule: contact (colliders or self-contact)" in config, config
+    deck["solver"]["h0"] = "laplacian"  # given: warned of
+    proc = run_hyperqn([write_deck(tmp_path / "given.yaml", deck), "-o", tmp_path / "given"], ranks=None, timeout=60)
+    assert re.findall(r"warning: solver.type (\S+) does not read solver\.(\w+): (\S+) ", proc.stdout) == \
+        [(solver, "h0", "laplacian")], proc.stdout[-3000:]
 
 
 def test_newton_with_a_gradient_only_tao_type_runs(tmp_path):
