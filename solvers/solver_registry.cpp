@@ -275,7 +275,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "restarts stay bitwise, ranks agree as with `off`). `woodbury`: (M + h²L + h²K_c)⁻¹ with the "
        "blocks themselves, by a Sherman–Morrison–Woodbury correction of the scene's factor (one A⁻¹ solve per 3 new "
        "vertices in contact, a dense system of up to 3 rows per vertex per step: fast for a few dozen vertices, slow "
-       "for hundreds; it needs A = A1 ⊗ I3, so with `h0: rest-stiffness` it is `off`). Measured in "
+       "for hundreds; it needs A = A1 ⊗ I3: beside `h0: rest-stiffness` or `volumetric` it is an error). Measured in "
        "[contact.md](contact.md#what-l-bfgs-does-with-contact): the bunny drop's 60 frames 32.5 → 15.8 iterations "
        "per frame and about half the ms per frame with `refactor`"),
       enum_key<S>("h0_rigid", &S::h0_rigid, kH0RigidNames,

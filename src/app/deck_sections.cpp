@@ -660,6 +660,12 @@ void read_solver(const Reader& r, const Value& v, SolverSpec& sv) {
       x && sv.h0_rigid == H0Rigid::on && sv.h0 != H0::automatic && sv.h0 != H0::laplacian)
     r.fail(*x, "true corrects M + h^2 L's rotations of stiff parts, and h0: " + kH0Names[(int)sv.h0] +
                    " is another matrix (give h0: laplacian or auto, or leave h0_rigid out)");
+  // woodbury: a correction of the factor of A = A1 (x) I3 (solvers/contact_h0.hpp), which the full 3n x 3n
+  // matrices are not (before, silently off).
+  if (const Value* x = s.find("h0_contact");
+      x && sv.h0_contact == H0Contact::woodbury && (sv.h0 == H0::rest_stiffness || sv.h0 == H0::volumetric))
+    r.fail(*x, "woodbury corrects the factor of M + h^2 L (A1 (x) I3), and h0: " + kH0Names[(int)sv.h0] +
+                   " is a full 3n x 3n matrix (give refactor, which takes any, or h0: laplacian or auto)");
   // adaptive: the fallback chain as the keys above set it; fixed: none of it, and then
   // those keys would say nothing, so giving one is an error rather than silently overruled.
   if (const Value* x = s.find("budget"); x && x->node.Scalar() == "fixed")

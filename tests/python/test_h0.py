@@ -11,7 +11,7 @@ bit as if given; the same at 1 and 2 ranks, through the fallback chain's sub-ste
 bitwise after a kill. solver.h0: auto takes rest-stiffness for a stiff scene held still
 (tests/decks/steel_bar.yaml: the steel bar's tip at Newton's with the default deck), bit for bit as
 given, before volumetric, at 1 and 2 ranks; laplacian for a softer bar, a fixed region that moves or
-lets go, or a load."""
+lets go, or a load. h0_contact: woodbury beside rest-stiffness or volumetric is refused."""
 import copy
 import csv
 import re
@@ -22,6 +22,7 @@ from conftest import NO_FALLBACK, load_deck, run_hyperqn, write_deck
 from hyperqn_tools.compare import relative_difference
 from hyperqn_tools.output import final_frame, read_iterations, read_summary
 from test_checkpoint import assert_same_run
+from test_bad_input import assert_deck_refused
 from test_checkpoint_faults import assert_restart_after_kill_is_bitwise
 
 DECK = "tests/decks/h0_box.yaml"
@@ -131,7 +132,9 @@ def test_auto_h0_is_chosen_by_the_material(tmp_path, poisson_ratio, region, solv
     assert_same_run(auto, explicit)
     assert s["h0_factor_nonzeros"] == e["h0_factor_nonzeros"]
     other = "laplacian" if chosen == "volumetric" else "volumetric"
-    _, o = run(tmp_path, other, given(deck, other))
+    other_deck = given(deck, other)
+    other_deck["solver"].pop("h0_contact", None)  # woodbury beside volumetric is refused; no contact here
+    _, o = run(tmp_path, other, other_deck)
     assert s["h0_factor_nonzeros"] != o["h0_factor_nonzeros"]  # the factor tells which was taken
 
 
@@ -188,6 +191,16 @@ def test_other_solvers_ignore_h0(tmp_path):
     def steps(out):
         return [{k: v for k, v in r.items() if k != "time_s"} for r in read_iterations(out)]
     assert steps(plain) == steps(with_h0)
+
+
+@pytest.mark.parametrize("h0", ["volumetric", "rest-stiffness"])
+def test_woodbury_beside_a_full_matrix_is_refused(tmp_path, h0):
+    # h0_contact: woodbury corrects the factor of A1 (x) I3; beside these 3n x 3n matrices it did
+    # nothing (before: a self-contact run's frames byte for byte those of off, config.yaml saying woodbury).
+    deck = load_deck(DECK)
+    deck["solver"] = {"h0": h0, "h0_contact": "woodbury"}
+    assert_deck_refused(tmp_path, "woodbury", deck, ["solver.h0_contact", "woodbury corrects the factor of M + h^2 L",
+                                                     f"h0: {h0} is a full 3n x 3n matrix"])
 
 
 # solver.h0: amg (tests/decks/amg_bar.yaml): M + h^2 L applied by one GAMG V-cycle, distributed.
