@@ -359,6 +359,8 @@ static std::string foreign_series_file(MPI_Comm comm, const Deck& deck, const Ch
     if (rank != 0 || !refusal.empty() || !std::filesystem::exists(std::filesystem::symlink_status(outdir + "/" + name, ec)) ||
         is_run_output(outdir, name))
       continue;
+    // a run killed in its first frame leaves NAME.h5 before NAME.xdmf: the next run writes over it
+    if (name == deck.name + ".h5" && XdmfSeries::holds_a_series_alone(outdir + "/" + name)) continue;
     const std::string why = name == deck.name + ".h5"   ? "no " + deck.name + ".xdmf beside it uses it"
                             : name == deck.name + ".pvd" ? "it lists no " + deck.name + "_ frames"
                                                           : "its data are not in " + deck.name + ".h5";

@@ -399,6 +399,21 @@ void XdmfSeries::write_frame(const FrameData& f) {
 }
 
 // XDMF 3: one uniform grid per frame in a temporal collection; all data in NAME.h5.
+bool XdmfSeries::holds_a_series_alone(const std::string& path) {
+  silence_hdf5();
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file < 0) return false;
+  hsize_t count = 0;
+  bool only_ours = H5Gget_num_objs(file, &count) >= 0 && count > 0;
+  for (hsize_t i = 0; only_ours && i < count; ++i) {
+    char name[16] = {};
+    const ssize_t n = H5Gget_objname_by_idx(file, i, name, sizeof name);
+    only_ours = n > 0 && n < (ssize_t)sizeof name && (std::strcmp(name, "mesh") == 0 || std::strcmp(name, "frames") == 0);
+  }
+  H5Fclose(file);
+  return only_ours;
+}
+
 void XdmfSeries::write_index() const {
   const std::string h5 = name_ + ".h5:";
   const auto item = [&](const std::string& dims, bool integer, const std::string& path, bool single = false) {

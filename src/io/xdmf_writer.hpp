@@ -67,6 +67,10 @@ class XdmfSeries : public OutputWriter {
   }
   // The name of the series a restart state names, "" if none.
   static std::string series_name(const std::string& state);
+  // Whether the HDF5 file at path holds a series' data alone (its root only the groups "mesh" and
+  // "frames"): the NAME.h5 a run killed before its first index was written leaves, which the next
+  // run may write over, unlike a user's file of that name.
+  static bool holds_a_series_alone(const std::string& path);
 
  private:
   struct Layout;  // where this rank's vertices and elements go (global_rows.hpp)

@@ -154,6 +154,10 @@ def test_a_users_file_under_the_series_name_is_refused(tmp_path, fmt, ranks):
             assert sorted(f) == ["frames", "mesh"] and sorted(f["frames"]) == ["00000", "00001", "00002"]
     else:
         assert len(read_pvd(out / "tb.pvd")) == 3
+    if fmt == "xdmf":  # a run's tb.h5 without its tb.xdmf (a run killed in its first frame leaves one)
+        (out / "tb.xdmf").unlink()
+        proc = run_hyperqn([path, "-o", out], ranks=ranks, timeout=120)
+        assert read_summary(out)["status"] == "ok" and (out / "tb.xdmf").exists()
 
 
 def test_a_users_file_under_a_restarts_new_series_name_is_refused(tmp_path):
