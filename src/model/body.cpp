@@ -100,6 +100,13 @@ PetscErrorCode Body::identity_at_held(Mat M) const {
   PetscFunctionReturn(0);
 }
 
+Vec3 Body::placed(const Motion& motion, const Vec3& X, double t) const {
+  const auto [t0, t1] = step_;
+  if (!(t0 < t && t < t1)) return moved(motion, X, t);
+  const Vec3 p0 = moved(motion, X, t0);
+  return p0 + (t - t0) / (t1 - t0) * (moved(motion, X, t1) - p0);
+}
+
 void Body::set_time(double t) {
   if (t == time_) return;  // the velocities stay those of the step that reached t
   const double dt = t - time_;
@@ -107,7 +114,7 @@ void Body::set_time(double t) {
     const Motion* motion = prescribed_motion(v);
     if (!motion) continue;
     const Vec3 X(&mesh_.rest[3 * v]);
-    const Vec3 p = moved(*motion, X, t);
+    const Vec3 p = placed(*motion, X, t);
     for (int d = 0; d < 3; ++d) {
       fixed_vel_[3 * v + d] = dt > 0 ? (p[d] - fixed_pos_[3 * v + d]) / dt : 0.0;
       fixed_pos_[3 * v + d] = p[d];
@@ -116,7 +123,7 @@ void Body::set_time(double t) {
   for (PetscInt e : held_local_) {  // a roller's held components follow its motion
     const Motion* motion = region_motion(mesh_.held[e]);
     if (!motion) continue;
-    const double p = moved(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), t)[e % 3];
+    const double p = placed(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), t)[e % 3];
     fixed_vel_[e] = dt > 0 ? (p - fixed_pos_[e]) / dt : 0.0;
     fixed_pos_[e] = p;
   }
@@ -205,12 +212,12 @@ PetscErrorCode Body::begin_step(const StepStart& step) {
     step_start_ = step_positions_;
     for (PetscInt v = 0; v < mesh_.num_vertices; ++v)
       if (const Motion* motion = prescribed_motion(v)) {
-        const Vec3 p = moved(*motion, Vec3(&mesh_.rest[3 * v]), step.t_start);
+        const Vec3 p = placed(*motion, Vec3(&mesh_.rest[3 * v]), step.t_start);
         for (int d = 0; d < 3; ++d) step_start_[3 * v + d] = p[d];
       }
     for (PetscInt e : held_local_)
       if (const Motion* motion = region_motion(mesh_.held[e]))
-        step_start_[e] = moved(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), step.t_start)[e % 3];
+        step_start_[e] = placed(*motion, Vec3(&mesh_.rest[3 * (e / 3)]), step.t_start)[e % 3];
     full.start_positions = &step_start_;
     full.positions = &step_positions_;
   }

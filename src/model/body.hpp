@@ -36,6 +36,11 @@ class Body {
   // nothing changes (the study steps several states to the same t).
   void set_time(double t);
   double time() const { return time_; }
+  // The step from t0 to t1 that set_time serves next (StepLifecycle::begin): at a time strictly
+  // between them the fixed vertices (and the rollers' held components) stand on the step's chord,
+  // p(t0) + (t - t0) / (t1 - t0) (p(t1) - p(t0)), where the midpoint rule has every vertex at z =
+  // (x_n + x_{n+1}) / 2 (its solve at t_n + h/2); at t0, t1 and outside the step: at p(t).
+  void set_step(double t0, double t1) { step_ = {t0, t1}; }
   // The fixed vertices' motion as it stands (its time, their velocities), and back to it: a step
   // that is undone leaves them as they were at its start (set_time back to that time alone would
   // leave their velocities 0, and a checkpoint or an output frame then says so).
@@ -169,6 +174,8 @@ class Body {
   const Motion* prescribed_motion(PetscInt v) const;
   // The motion of fixed region `region` (k + 1) if it moves, else null.
   const Motion* region_motion(int32_t region) const;
+  // Where motion puts the rest point X at time t: on the step's chord inside it (set_step).
+  Vec3 placed(const Motion& motion, const Vec3& X, double t) const;
   // out = fixed_values, then the free vertices' entries overwritten from the global vector.
   PetscErrorCode scatter_to_local(Vec global, const std::vector<double>& fixed_values, std::vector<double>& out) const;
 
@@ -179,6 +186,7 @@ class Body {
   std::vector<double> fixed_pos_;    // 3 per local vertex: prescribed positions (free: unused)
   std::vector<double> fixed_vel_;    // 3 per local vertex: prescribed velocities (free: 0)
   double time_ = 0;
+  std::array<double, 2> step_{0, 0};  // set_step's t0, t1
   mutable Vec local_ = nullptr;      // work: local (ghosted) vector
   mutable std::vector<double> pos_;  // work: local positions
   mutable std::vector<double> J_;    // work: det F per local tet

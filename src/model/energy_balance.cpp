@@ -127,15 +127,16 @@ PetscErrorCode EnergyBalance::end_frame(const State& s, EnergyRow& out) {
   const double h = s.time - start_time_, tz = start_time_ + c_ * h;
   const Vec3 g(spec_.gravity.data());
   PetscFunctionBeginUser;
-  // The frame's displacement and z: the free vertices at x_n + c dx, the fixed ones (and a roller's
-  // held components) where their supports are at t_n + c h.
+  // The frame's displacement and z = x_n + c dx, the fixed vertices (and a roller's held components)
+  // too, on the step's chord as the solve had them (Body::set_step); with c = 1 where their supports
+  // are at t_{n+1}.
   PetscCall(body_->local_positions(s.x, pos_));
   dx_.resize(n);
   for (PetscInt i = 0; i < n; ++i) dx_[i] = pos_[i] - pos_n_[i];
   std::vector<double> z(n);
   for (PetscInt i = 0; i < n; ++i) z[i] = pos_n_[i] + c_ * dx_[i];
   fixed_vel_.resize(n);
-  body_->prescribed_state(tz, z, fixed_vel_);
+  if (c_ == 1) body_->prescribed_state(tz, z, fixed_vel_);
   // The solve's forces at z: the elastic terms from the frame's start with the history it began with
   // (the inelastic ones' condensed stress over c h), the loads at their curves' t_n + c h.
   // A load that takes its directions from the step's start (a pressure on an open surface): x_n.

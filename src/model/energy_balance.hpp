@@ -2,8 +2,9 @@
 // kinetic + stored + dissipated against the work of gravity, the loads and the supports.
 //
 // Each frame's work is the forces of the frame's solve times the frame's displacement, the
-// integrator's own quadrature: the forces at z = x_n + c (x_{n+1} - x_n) with the fixed vertices, the
-// loads' curves and the attachments' targets at t_n + c h (c = 1/2 for the midpoint, 1 otherwise),
+// integrator's own quadrature: the forces at z = x_n + c (x_{n+1} - x_n), every vertex's (a fixed one's on
+// its support's chord, as the solve has it: Body::set_step), with the loads' curves and the attachments'
+// targets at t_n + c h (c = 1/2 for the midpoint, 1 otherwise),
 // the inelastic materials' condensed stress from the history at the frame's start over c h. For the
 // midpoint, M (v_{n+1} - v_n) = h F(z) and x_{n+1} - x_n = h (v_n + v_{n+1}) / 2 make the kinetic
 // energy's change exactly F(z) . (x_{n+1} - x_n) on the free dofs, so the residual is what the

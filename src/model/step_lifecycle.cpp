@@ -31,7 +31,9 @@ PetscErrorCode StepLifecycle::begin(const State& s) {
   body_.begin_element_states(substep_);
   history_at_z_ = false;
   without_history_ = integrator_->keeps_history() && !s.x_prev;
-  body_.set_time(solve_time(s));  // prescribed positions of the fixed vertices at the solve's time
+  // The fixed vertices at the solve's time on the step's chord: the midpoint's at (p(t_n) + p(t_{n+1})) / 2.
+  body_.set_step(s.frame * dt_, (s.frame + 1) * dt_);
+  body_.set_time(solve_time(s));
   PetscCall(integrator_->start({s.x, s.v, s.x_prev, s.v_prev}, dt_, x_hat_, v_hat_));
   PetscCall(VecCopy(s.x, x_n_));
   PetscCall(VecCopy(s.v, v_n_));

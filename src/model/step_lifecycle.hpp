@@ -13,7 +13,8 @@
 //   x_hat(), v_hat()  x^, v^ (the integrator's start; y = x^ + h' v^ + h'^2 a_gravity);
 //                 after complete_by_euler: z and (z - x_n) / h'
 //
-// The fixed vertices move with the step: begin puts them at the solve's time t_n + c h, accept at
+// The fixed vertices move with the step: begin puts them at the solve's time t_n + c h on the step's
+// chord (Body::set_step: the midpoint's at (p(t_n) + p(t_{n+1})) / 2, as its z has every vertex), accept at
 // t_{n+1}, undo back at t_n with the velocities they had there (Body::keep_motion). So does the
 // terms' per-element state (terms/element_state.hpp), once per accepted step: begin takes it as
 // the start, accept updates it (EnergyTerm::update_state), undo puts the start back, even after
@@ -46,11 +47,11 @@ class StepLifecycle {
   double dt() const { return dt_; }              // a frame's step h
   double solve_dt() const { return solve_dt_; }  // h' of the minimization
   double damping() const { return damping_; }
-  // The fixed vertices' time during the solve of the step from s.
+  // The fixed vertices' time during the solve of the step from s (on the step's chord: Body::set_step).
   double solve_time(const State& s) const { return (s.frame + integrator_->time_fraction()) * dt_; }
 
   // Starts the step from s: x_n, v_n kept (and the fixed vertices' motion if the body is at t_n),
-  // the fixed vertices moved to the solve's time, x^ and v^ formed. An integrator that keeps a
+  // the fixed vertices moved to the solve's time on the step's chord, x^ and v^ formed. An integrator that keeps a
   // history and finds none in s (the first step, after a release, a sub-step's first) takes its
   // starting step.
   PetscErrorCode begin(const State& s);

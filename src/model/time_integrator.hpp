@@ -2,7 +2,8 @@
 //
 // Each one is a single minimization per step (StepObjective, model/step_objective.hpp):
 //   z = argmin 1/2 ||z - y||_M^2 + h'^2 E(z),   y = x^ + h' v^ + h'^2 a_gravity,
-// with the fixed vertices at their prescribed positions of t_n + c h, followed by an end map
+// with the fixed vertices at t_n + c h on the chord of their prescribed positions of t_n and t_{n+1}
+// (Body::set_step; for c = 1 their positions of t_{n+1}), followed by an end map
 // that gives x_{n+1} and v_{n+1} from z. An integrator says only what differs: h'/h, c, how x^
 // and v^ come from x_n, v_n (and the history x_{n-1}, v_{n-1} if it keeps one), and the end map.
 // The constant matrix of every solver is M + h'^2 L. Adding one: docs/architecture.md.
@@ -47,7 +48,7 @@ class Integrator {
  public:
   virtual ~Integrator() = default;
   virtual double solve_fraction() const = 0;          // h' / h
-  virtual double time_fraction() const { return 1; }  // c: the fixed vertices' time during the solve
+  virtual double time_fraction() const { return 1; }  // c: the solve's time (fixed vertices, loads)
   // False for the static integrator: g has no inertia, only gravity's work (InertiaTerm), and h'
   // is the pseudo step s, not a fraction of h (StepObjective).
   virtual bool has_inertia() const { return true; }

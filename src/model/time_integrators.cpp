@@ -19,8 +19,8 @@ class ImplicitEuler : public Integrator {
   }
 };
 
-// z is the midpoint (x_n + x_{n+1}) / 2: one implicit Euler half step (h' = h/2, the fixed vertices
-// at t_n + h/2), then x_{n+1} = 2 z - x_n and v_{n+1} = 2 (x_{n+1} - x_n) / h - v_n. Second order
+// z is the midpoint (x_n + x_{n+1}) / 2: one implicit Euler half step (h' = h/2, the loads at
+// t_n + h/2, the fixed vertices at (p(t_n) + p(t_{n+1})) / 2 as every vertex is), then x_{n+1} = 2 z - x_n and v_{n+1} = 2 (x_{n+1} - x_n) / h - v_n. Second order
 // and symplectic; keeps the energy of a quadratic E.
 class ImplicitMidpoint : public Integrator {
  public:
