@@ -272,7 +272,8 @@ def write_report(studies, out, lines):
         if "stopped" in m:  # a signal ended the study early (docs/study.md, "Signals")
             lines += [f"**Cut short: {m['stopped']}**: the frames and trajectories end there.", ""]
             print(f"study_report: {study['dir']}: the study was cut short ({m['stopped']})", file=sys.stderr)
-        elif not os.path.exists(os.path.join(study["dir"], "study.h5")):  # written last, at its end
+        elif os.path.exists(os.path.join(study["dir"], "study.json")) and \
+                not os.path.exists(os.path.join(study["dir"], "study.h5")):  # hyperqn's: study.h5 written last
             lines += ["**Incomplete: the study did not end** (killed, or still running; no study.h5): "
                       "its frames and trajectories end where it was.", ""]
             print(f"study_report: {study['dir']}: the study did not end (no study.h5: killed, or still running)",
