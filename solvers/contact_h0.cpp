@@ -71,10 +71,10 @@ PetscErrorCode ContactH0::gather(const std::vector<VertexStiffness>& local) {
   PetscFunctionReturn(0);
 }
 
-PetscErrorCode ContactH0::update() {
+PetscErrorCode ContactH0::update(Vec at) {
   std::vector<VertexStiffness> local;
   PetscFunctionBeginUser;
-  PetscCall(step_.vertex_stiffness(local));
+  PetscCall(step_.vertex_stiffness(local, at));
   if (mode_ == H0Contact::refactor) {  // each rank its own vertices' diagonal: nothing gathered
     PetscCall(update_refactor(local));
     PetscFunctionReturn(0);

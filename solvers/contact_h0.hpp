@@ -43,8 +43,8 @@ class ContactH0 {
   ContactH0(const ContactH0&) = delete;
   ContactH0& operator=(const ContactH0&) = delete;
   PetscErrorCode setup();  // the shell matrix
-  // Takes K_c at the step's start (collective).
-  PetscErrorCode update();
+  // Takes K_c at the step's start, or at `at` (a static step's resumed iterate; collective).
+  PetscErrorCode update(Vec at = nullptr);
   // x = (A + K_c)^{-1} b; y = (A + K_c) x.
   PetscErrorCode solve(Vec b, Vec x) const;
   PetscErrorCode mult(Vec x, Vec y) const;

@@ -235,6 +235,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
     const bool reset_history = history_reset_requested_ && reason == TAO_CONVERGED_USER && !stop_requested_;
     history_reset_requested_ = false;
     if (reset_history) {  // a new TaoSolve from this iterate: TAOLMVM starts it with no (s, y) pairs
+      PetscCall(before_resume(x));
       PetscCall(resume_from_last());
       continue;
     }
@@ -268,6 +269,7 @@ PetscErrorCode GuardedTaoSolver::solve(Vec x, const IterationCallback& on_iterat
         break;
       }
     }
+    PetscCall(before_resume(x));
     PetscCall(resume_from_last());
   }
   on_iteration_ = nullptr;

@@ -28,6 +28,8 @@ class GuardedTaoSolver : public TimeStepSolver {
   virtual PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) = 0;
   // Called at every accepted iterate (after it is reported); may set history_reset_requested_.
   virtual PetscErrorCode after_iterate(PetscInt /*iteration*/) { return 0; }
+  // Called before a new TaoSolve resumes the frame from the iterate x.
+  virtual PetscErrorCode before_resume(Vec /*x*/) { return 0; }
   bool history_reset_requested_ = false;  // end this TaoSolve and resume from the iterate
 
   Objective& step_;

@@ -30,6 +30,7 @@ class LbfgsSolver : public GuardedTaoSolver {
  private:
   PetscErrorCode retry(Vec x, PetscReal* g, double* alpha, bool* recovered) override;
   PetscErrorCode after_iterate(PetscInt iteration) override;
+  PetscErrorCode before_resume(Vec x) override;
   bool reset_on_contact_change_ = false;  // SolverSpec::history_reset
   unsigned long long active_set_ = 0;     // of the last iterate
 

@@ -55,10 +55,11 @@ class Objective {
   virtual unsigned long long active_set() const { return 0; }
   virtual PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const = 0;
   // h'^2 times the 3 x 3 diagonal blocks of d2E/dx2 at free vertices (contact, self-contact and
-  // their friction) at the step's start x_n: this rank's vertices, by global dof (solver.h0_contact;
-  // collective).
+  // their friction) at the step's start x_n (or at `at`): this rank's vertices, by global dof
+  // (solver.h0_contact; collective).
   virtual bool has_vertex_stiffness() const { return false; }  // false: vertex_stiffness is always empty
-  virtual PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const {
+  virtual PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out, Vec at = nullptr) const {
+    (void)at;
     out.clear();
     return 0;
   }

@@ -267,7 +267,7 @@ const std::vector<DeckKey<SolverSpec>>& solver_keys() {
        "`single` is an error"),
       enum_key<S>("h0_contact", &S::h0_contact, kH0ContactNames,
        "`lbfgs` only: the stiffness of obstacle contact, self-contact and their friction in its initial Hessian, "
-       "taken at each step's start x_n (the 3 × 3 diagonal blocks h²K_v of the vertices within the activation "
+       "taken at each step's start x_n, and in a static step at each iterate its frame resumes from (the 3 × 3 diagonal blocks h²K_v of the vertices within the activation "
        "distance; a self-contact pair's blocks between two vertices are left out); a scene without contact has none "
        "and runs none of it. `off`: (M + h²L)⁻¹ alone. `refactor`: (M + h²L + h²D_c)⁻¹, D_c the blocks' mean "
        "eigenvalues rounded to powers of 2 on the diagonal (a vertex below 1/64 of A's diagonal there left out), "

@@ -440,7 +440,7 @@ class GivenVertexStiffness : public ForwardingObjective {
   double c() const { return c_; }
   void set_c(double c) { c_ = c; }
   bool has_vertex_stiffness() const override { return true; }
-  PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
+  PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out, Vec = nullptr) const override {
     PetscInt lo, hi, n;
     PetscFunctionBeginUser;
     PetscCall(VecGetOwnershipRange(o_.layout(), &lo, &hi));

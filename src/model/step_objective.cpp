@@ -61,7 +61,9 @@ PetscErrorCode StepObjective::begin_step(State& s) {
   PetscCall(inertia_.set_target(life_.x_hat(), life_.v_hat()));
   PetscCall(body_.hold(inertia_.target()));  // rollers: y's held slots where their supports are
   // A static step spans h (contact's colliders and friction take the step's length from it).
-  PetscCall(body_.begin_step({life_.solve_time(s), has_inertia() ? solve_dt_ : dt_, s.x, inertia_.target(), s.frame * dt_}));
+  StepStart start{life_.solve_time(s), has_inertia() ? solve_dt_ : dt_, s.x, inertia_.target(), s.frame * dt_};
+  start.quasi_static = !has_inertia();
+  PetscCall(body_.begin_step(start));
   if (!has_inertia()) {
     PetscReal g;
     const PetscInt rejected_before = counts_->rejected;

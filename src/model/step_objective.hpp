@@ -134,8 +134,8 @@ class StepObjective : public Objective {
   unsigned long long active_set() const override { return body_.active_set(); }
   PetscErrorCode limit_step(Vec x, Vec dir, double* alpha) const override { return body_.limit_step(x, dir, alpha); }
   bool has_vertex_stiffness() const override { return body_.any_term(&EnergyTerm::has_vertex_stiffness); }
-  PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out) const override {
-    return body_.vertex_stiffness(life_.x_n(), solve_dt_ * solve_dt_, out);
+  PetscErrorCode vertex_stiffness(std::vector<VertexStiffness>& out, Vec at = nullptr) const override {
+    return body_.vertex_stiffness(at ? at : life_.x_n(), solve_dt_ * solve_dt_, out);
   }
   Vec step_start() const override { return life_.x_n(); }
   void tet_laplacians(std::vector<TetLaplacian>& out, double min_weight) const override {

@@ -31,6 +31,7 @@ struct StepStart {
   // t_start) and where the solve starts from (x_n, fixed vertices already at t).
   const std::vector<double>* start_positions = nullptr;
   const std::vector<double>* positions = nullptr;
+  bool quasi_static = false;  // a static load step: no inertia bounds a free body's steps
 };
 
 // A log file of a term's own (a CSV: "frame,time," then its columns), e.g. contact.csv.

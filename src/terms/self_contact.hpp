@@ -368,6 +368,7 @@ class SelfContactTerm : public EnergyTerm {
   mutable double built_margin_ = 0;
   mutable double step_margin_ = 0;
   double mean_edge_ = 0;  // the surface's mean edge length at rest (caps the margin)
+  bool quasi_static_ = false;  // this step's StepStart::quasi_static (bound_step's sweep cap)
   // The largest margin: half the surface's mean edge, and at most kMarginPerDistance d (at least d).
   double margin_cap() const { return std::max(spec_.distance, std::min(mean_edge_ / 2, kMarginPerDistance * spec_.distance)); }
   mutable bool stale_ = true;
