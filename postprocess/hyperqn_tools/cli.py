@@ -36,24 +36,34 @@ class ArgumentParser(argparse.ArgumentParser):
         self.exit(1, f"{self.prog}: error: {message}\n")
 
 
-def positive_int(text):
+def whole_number(text, least):
+    """argparse's value of a whole number >= least, else an ArgumentTypeError naming it."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 1")
+    if value < least:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be at least {least}")
     return value
 
 
-def positive_float(text):
+def finite_number(text, zero_allowed):
+    """argparse's value of a finite number > 0 (>= 0 if zero_allowed); nan and inf refused."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):  # nan and inf too: 'never' is leaving it out
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    if not (math.isfinite(value) and (value >= 0 if zero_allowed else value > 0)):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number {'>=' if zero_allowed else '>'} 0")
     return value
+
+
+def positive_int(text):
+    return whole_number(text, 1)
+
+
+def positive_float(text):  # nan and inf too: 'never' is leaving the option out
+    return finite_number(text, False)
 
 
 def positive_ints(text):
@@ -61,23 +71,11 @@ def positive_ints(text):
 
 
 def count(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be at least 0")
-    return value
+    return whole_number(text, 0)
 
 
 def seconds_or_0(text):
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value >= 0):  # nan too
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0")
-    return value
+    return finite_number(text, True)
 
 
 def input_file(text):
