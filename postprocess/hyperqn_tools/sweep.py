@@ -26,6 +26,7 @@ import json
 import math
 import os
 import re
+import shutil
 import signal
 import sys
 import threading
@@ -406,6 +407,11 @@ def sweep_main(argv=None):
             print(f"sweep: error: {out}: no such directory (run the sweep first)", file=sys.stderr)
             return 1
     else:
+        # the binary and the launcher before any case (each case failed "cannot start" and left its directory)
+        if not shutil.which(a.bin or launch.default_binary()):
+            ap.error(f"--bin {a.bin or launch.default_binary()}: not an executable file (build it, or give --bin)")
+        if a.np > 1 and not shutil.which(a.mpiexec or launch.default_mpiexec()):
+            ap.error(f"--mpiexec {a.mpiexec or launch.default_mpiexec()}: not an executable file")
         why = unwritable_dir(out)
         if why:
             ap.error(f"--out {why}")

@@ -476,3 +476,18 @@ def test_ctrl_c_stops_the_running_case_and_records_it(tmp_path, ranks, signame):
     assert rows[0]["status"] == summary["status"] and rows[0]["exit_code"] == "3"
     assert rows[1]["status"] == "not run" and not (out / "case-001_type-pd").exists()
     assert not sweep_process_running(out)
+
+
+@pytest.mark.parametrize("flag", ["--bin", "--mpiexec"])
+def test_a_missing_binary_or_launcher_is_refused_before_any_case(tmp_path, flag):
+    """--bin /nonexist ran every case, each failing "cannot start" with its directory written, and
+    the sweep exited 2; now one line, exit 1, nothing written (the launcher only where --np > 1)."""
+    path = make_sweep(tmp_path, GRID)
+    out = tmp_path / "out"
+    args = {"--bin": HYPERQN, "--mpiexec": MPIEXEC}
+    args[flag] = str(tmp_path / "nonexist")
+    proc = subprocess.run([sys.executable, "-m", "hyperqn_tools.sweep", str(path), "--out", str(out), "--np", "2",
+                           *[x for kv in args.items() for x in kv]], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1, (proc.stdout, proc.stderr)
+    assert proc.stderr.count("\n") == 1 and f"{flag} {tmp_path / 'nonexist'}: not an executable file" in proc.stderr
+    assert proc.stdout == "" and not out.exists()
