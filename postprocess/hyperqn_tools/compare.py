@@ -29,7 +29,8 @@ def final_frames(dir_a, dir_b, same_end=True):
                          f"frame {nb} (t = {tb:.9g}); a run stopped early, or a run of other time steps?")
     a, b = read_frame(pa, na), read_frame(pb, nb)
     if not np.array_equal(a.vertex_id, b.vertex_id):
-        raise ValueError("the runs have different vertex sets")
+        raise ValueError(f"the runs have different vertex sets: {dir_a} ({len(a.vertex_id)} vertices at frame {na}), "
+                         f"{dir_b} ({len(b.vertex_id)} at frame {nb}); runs of other meshes?")
     return a, b
 
 

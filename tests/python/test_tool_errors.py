@@ -47,7 +47,7 @@ def assert_said(proc, *fragments):
 def test_compare(runs):
     base, bar, other, rest = runs
     assert_said(tool("hyperqn_tools.compare", base / "nowhere", bar), "compare:", "nowhere")
-    assert_said(tool("hyperqn_tools.compare", bar, other), "compare:", "different vertex sets")
+    assert_said(tool("hyperqn_tools.compare", bar, other), "compare:", "different vertex sets", str(bar), str(other))
     same = tool("hyperqn_tools.compare", rest, rest)
     assert same.returncode == 0 and "relative 0.000e+00" in same.stdout and "Warning" not in same.stderr
     # the docs quote differences "of the diagonal": the tool says that figure too (it gave only the
