@@ -231,6 +231,12 @@ def study_directories(paths):
     return out
 
 
+def overview_path(out):
+    """The report's overview figure, named after it (REPORT_overview.png beside REPORT.md): two
+    reports in one directory each keep their own."""
+    return os.path.splitext(out)[0] + "_overview.png"
+
+
 def main():
     p = ArgumentParser(prog="python3 -m hyperqn_tools.study_report", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -239,7 +245,7 @@ def main():
     args = p.parse_args()
     out = args.out or os.path.join(os.path.dirname(os.path.normpath(args.studies[0])), "report.md")
     # Checked before the figures are written: they would be left beside a report never written.
-    why = unwritable_file(out) or unwritable_file(os.path.join(os.path.dirname(out), "overview.png"))
+    why = unwritable_file(out) or unwritable_file(overview_path(out))
     if why:
         p.error(f"--out {why}")
     studies = [load_study(d) for d in study_directories(args.studies)]
@@ -288,7 +294,7 @@ def write_report(studies, out, lines):
         for solver, (frame, why) in sorted(study["stopped"].items()):
             lines += [f"**{solver}: trajectory stopped at frame {frame}** by a guardrail: {why}", ""]
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    overview = os.path.join(os.path.dirname(out), "overview.png")
+    overview = overview_path(out)
     if plt:
         overview_figure(plt, studies, overview)
         lines += ["## Overview", "", f"![overview]({os.path.basename(overview)})", ""]

@@ -85,7 +85,7 @@ def test_report(study):
                    check=True)
     text = report.read_text()
     assert "| lbfgs |" in text and "speed-up@0.001" in text
-    for png in (out / "error_vs_time.png", out / "trajectory.png", out.parent / "overview.png"):
+    for png in (out / "error_vs_time.png", out / "trajectory.png", out.parent / "report_overview.png"):
         assert png.stat().st_size > 10000
     assert "Incomplete" not in text
 
@@ -482,3 +482,15 @@ def test_a_study_stopped_by_a_signal_keeps_its_whole_frames(tmp_path, ranks):
                           capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=os.path.join(REPO, "postprocess")))
     assert proc.returncode == 0 and "cut short (SIGTERM after frame 2)" in proc.stderr, proc.stderr
     assert "**Cut short: SIGTERM after frame 2**" in report.read_text()
+
+
+def test_two_reports_in_one_directory_keep_their_own_overview(study, tmp_path):
+    """study_report wrote overview.png beside every report: a second report in the directory replaced
+    the figure the first links to. Each report now links REPORT_overview.png, its own."""
+    out, _, _ = study
+    for name in ("a.md", "b.md"):
+        subprocess.run(["/usr/bin/python3", "-m", "hyperqn_tools.study_report", str(out), "--out", str(tmp_path / name)],
+                       check=True, capture_output=True)
+    for stem in ("a", "b"):
+        assert f"![overview]({stem}_overview.png)" in (tmp_path / f"{stem}.md").read_text()
+        assert (tmp_path / f"{stem}_overview.png").stat().st_size > 10000

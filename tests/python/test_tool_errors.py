@@ -403,7 +403,7 @@ def test_study_report_names_a_file_it_cannot_write(tmp_path):
     study.mkdir()
     (study / "study.csv").write_text(STUDY_HEADER + "1,lbfgs,0,0.0,1.0,1.0,1.0\n1,lbfgs,1,0.1,0.5,0.5,0.1\n"
                                      "1,newton,0,0.0,1.0,1.0,1.0\n1,newton,1,0.2,0.5,0.5,0.01\n")
-    for full in (study / "error_vs_time.png", tmp_path / "overview.png", tmp_path / "r.md"):
+    for full in (study / "error_vs_time.png", tmp_path / "r_overview.png", tmp_path / "r.md"):
         full.symlink_to("/dev/full")
         proc = tool("hyperqn_tools.study_report", study, "--out", tmp_path / "r.md")
         assert_said(proc, f"study_report: error: cannot write {full}: No space left on device")
