@@ -266,6 +266,28 @@ def test_unwritable_output_directory(tmp_path, ranks):
 
 
 @contextlib.contextmanager
+def held_by_another(directory):
+    """directory's lock held, as another run (of other.yaml) would hold it, while in the context."""
+    import fcntl
+    with open(directory / ".hyperqn.lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        held.write("pid 4242 on host elsewhere, started now, deck other.yaml\n")
+        held.flush()
+        yield
+
+
+def started(args, ranks, until):
+    """hyperqn args launched in a session of its own, once until() holds (it must still run then)."""
+    proc = subprocess.Popen(launch.command(args, ranks, HYPERQN, MPIEXEC), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, env={**os.environ, **launch.MPI_ENV},
+                            start_new_session=True)
+    deadline = time.time() + 60
+    while not until() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    return proc
+
+
+@contextlib.contextmanager
 def small_disk(mnt, size):
     """A tmpfs of `size` (e.g. "200k") mounted at mnt while in the context; skips the test if this
     machine does not let us mount one."""
@@ -327,13 +349,8 @@ def test_a_second_run_into_a_directory_in_use_is_refused(tmp_path, ranks):
     deck["time"]["frames"] = 15  # some 0.6 s at 1 rank; stopped (SIGSTOP) while the second tries
     first = write_deck(tmp_path / "first.yaml", deck)
     second = write_deck(tmp_path / "second.yaml", small_deck("second", 2))
-    cmd = launch.command([first, "-o", out], ranks, HYPERQN, MPIEXEC)
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+    proc = started([first, "-o", out], ranks, lambda: (out / "first.pvd").exists())
     try:
-        deadline = time.time() + 60
-        while not (out / "first.pvd").exists() and time.time() < deadline and proc.poll() is None:
-            time.sleep(0.05)
         assert proc.poll() is None, "the first run ended before the second started: make it slower"
         pids = [proc.pid] if ranks is None else hyperqn_pids(proc.pid)
         sessions.send(pids, signal.SIGSTOP)  # it holds the directory, whatever the machine's speed
@@ -375,10 +392,7 @@ def test_a_study_takes_the_directory_lock(tmp_path, ranks):
     study = os.path.join(REPO, "tests", "decks", "study_small.yaml")
     out = tmp_path / "study"
     out.mkdir()
-    with open(out / ".hyperqn.lock", "w") as held:  # another process holds the directory
-        fcntl.flock(held, fcntl.LOCK_EX)
-        held.write("pid 4242 on host elsewhere, started now, deck other.yaml\n")
-        held.flush()
+    with held_by_another(out):
         refused = run_hyperqn(["study", study, "-o", out], ranks=ranks, check=False, timeout=120)
         assert refused.returncode == 1, refused.stdout[-2000:]
         assert f"hyperqn: error: the output directory {out} is in use by another run" in refused.stdout
@@ -386,13 +400,8 @@ def test_a_study_takes_the_directory_lock(tmp_path, ranks):
         assert sorted(p.name for p in out.iterdir()) == [".hyperqn.lock"]
     (out / ".hyperqn.lock").unlink()
     # While the study runs, the directory is locked; the study ends whole and leaves no lock file.
-    cmd = launch.command(["study", study, "-o", out], ranks, HYPERQN, MPIEXEC)
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env={**os.environ, **launch.MPI_ENV}, start_new_session=True)
+    proc = started(["study", study, "-o", out], ranks, lambda: (out / "study.json").exists())
     try:
-        deadline = time.time() + 60
-        while not (out / "study.json").exists() and time.time() < deadline and proc.poll() is None:
-            time.sleep(0.02)
         assert proc.poll() is None, "the study ended before its lock was tried: make it slower"
         with open(out / ".hyperqn.lock") as probe:
             with pytest.raises(BlockingIOError):
@@ -410,7 +419,6 @@ def test_a_study_holds_each_integrator_s_directory_it_runs_in(tmp_path):
     # A study of several integrators held only OUTDIR: a second study into OUTDIR/bdf2 meanwhile
     # removed the first's partial files there and both exited 0, bdf2/ then holding one's CSVs and
     # the other's study.h5. Now each integrator's directory is locked while the study runs in it.
-    import fcntl
     deck = open(os.path.join(REPO, "tests", "decks", "study_small.yaml")).read()
     deck = deck.replace("time: {dt: 0.0333333333, frames: 20}", "time: {dt: 0.0333333333, frames: 6}")
     deck = deck.replace("  frames: [5, 15]", "  frames: [2]\n  integrators: [implicit-euler, bdf2]")
@@ -418,10 +426,7 @@ def test_a_study_holds_each_integrator_s_directory_it_runs_in(tmp_path):
     path.write_text(deck)
     out = tmp_path / "axis"
     (out / "bdf2").mkdir(parents=True)
-    with open(out / "bdf2" / ".hyperqn.lock", "w") as held:
-        fcntl.flock(held, fcntl.LOCK_EX)
-        held.write("pid 4242 on host elsewhere, started now, deck other.yaml\n")
-        held.flush()
+    with held_by_another(out / "bdf2"):
         proc = run_hyperqn(["study", path, "-o", out], check=False, timeout=300)
     assert proc.returncode == 1, proc.stdout[-2000:]
     assert f"the output directory {out}/bdf2 is in use by another run" in proc.stdout, proc.stdout[-2000:]
